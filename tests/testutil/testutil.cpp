@@ -1,0 +1,44 @@
+#include "testutil.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <sstream>
+
+namespace dentar::test {
+
+std::filesystem::path shared_data_dir() {
+  namespace fs = std::filesystem;
+  const fs::path p = fs::path(DENTAR_SOURCE_DIR) / ".." / "shared" / "data";
+  std::error_code ec;
+  if (fs::is_directory(p, ec)) return fs::weakly_canonical(p, ec);
+  return {};
+}
+
+std::filesystem::path temp_dir(const std::string& name) {
+  namespace fs = std::filesystem;
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string tag = name;
+  if (info) tag = std::string(info->test_suite_name()) + "_" + info->name() + "_" + name;
+  for (char& c : tag)
+    if (c == '/') c = '_';
+  fs::path p = fs::temp_directory_path() / ("dentar_test_" + std::to_string(::getpid())) / tag;
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+std::string read_file(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+void write_file(const std::filesystem::path& p, const std::string& bytes) {
+  std::ofstream f(p, std::ios::binary);
+  f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+}  // namespace dentar::test

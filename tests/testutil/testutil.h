@@ -1,0 +1,21 @@
+// Test utilities shared by all modules' tests.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+namespace dentar::test {
+
+// ../shared/data beside the project root, or empty when absent. Tests that
+// need it call GTEST_SKIP() with a message when this is empty.
+std::filesystem::path shared_data_dir();
+
+// A fresh, empty temporary directory unique to the calling test; removed by
+// the caller or left for inspection on failure.
+std::filesystem::path temp_dir(const std::string& name);
+
+// Whole file as bytes/text (empty on failure).
+std::string read_file(const std::filesystem::path& p);
+void write_file(const std::filesystem::path& p, const std::string& bytes);
+
+}  // namespace dentar::test

@@ -1,0 +1,31 @@
+// The built-in procedural molar: the default tooth of every demo and test.
+// Deterministic from its parameters (no random numbers, no files).
+#pragma once
+
+#include "dentar/volume/result.h"
+#include "dentar/volume/voxel_volume.h"
+
+namespace dentar::volume {
+
+// A maxillary first molar, sizes in millimetres (user boundary).
+struct MolarParams {
+  double voxel_mm = 0.08;          // isotropic voxel size, 0.02..0.5
+  double crown_mesiodistal_mm = 10.0;
+  double crown_buccolingual_mm = 11.0;
+  double crown_height_mm = 7.0;    // cervical line to cusp tips
+  double enamel_mm = 1.5;          // occlusal enamel thickness (thinner at the cervix)
+  double root_length_mm = 12.5;    // cervical line to apex
+  double cusp_height_mm = 1.6;     // cusp tips above the central fossa
+  double pulp_horn_mm = 1.5;       // height of the pulp horns above the chamber roof
+  double canal_radius_mm = 0.25;
+  double margin_mm = 0.5;          // air around the tooth inside the volume
+
+  std::string validate() const;
+};
+
+// Tooth frame: origin at the volume's voxel (0,0,0); +z from the root apices
+// toward the occlusal surface; x mesio-distal, y bucco-lingual. The crown
+// centre sits at the centre of the x/y extent.
+Result<VoxelVolume> make_molar(const MolarParams& p = {});
+
+}  // namespace dentar::volume
