@@ -148,7 +148,7 @@ bool VoxelVolume::is_dirty(int id) const noexcept {
   return (dirty_[u >> 6].load(std::memory_order_acquire) >> (u & 63)) & 1u;
 }
 
-void VoxelVolume::drain_dirty(std::vector<int>& out) {
+void VoxelVolume::drain_dirty(std::vector<int>& out) const {
   for (std::size_t w = 0; w < dirty_words_; ++w) {
     std::uint64_t bits = dirty_[w].exchange(0, std::memory_order_acq_rel);
     while (bits) {

@@ -91,6 +91,10 @@ class VoxelVolume {
   Chunk* chunk(int id) { return chunks_[static_cast<std::size_t>(id)].get(); }
   const Chunk* chunk(int id) const { return chunks_[static_cast<std::size_t>(id)].get(); }
   int allocated_chunks() const;
+  // Installs a whole chunk (setup only, e.g. asset builders); nullptr frees it.
+  void adopt_chunk(int id, std::unique_ptr<Chunk> c) {
+    chunks_[static_cast<std::size_t>(id)] = std::move(c);
+  }
   // Frees chunks whose voxels are all air with density 0. Setup/graphics side
   // only: never while a writer thread runs.
   int release_empty_chunks();
@@ -107,7 +111,8 @@ class VoxelVolume {
   void mark_dirty_box(const Eigen::Vector3i& lo, const Eigen::Vector3i& hi) noexcept;
   void mark_all_dirty() noexcept;
   // Appends the ids of dirty chunks (ascending) to out and clears them.
-  void drain_dirty(std::vector<int>& out);
+  // const: dirty bits are a side channel, not voxel content.
+  void drain_dirty(std::vector<int>& out) const;
   bool is_dirty(int chunk_id) const noexcept;
 
   // 64-bit hash of geometry and all voxel contents. Independent of which

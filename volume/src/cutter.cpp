@@ -1,0 +1,133 @@
+#include "dentar/volume/cutter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace dentar::volume {
+
+std::string CutParams::validate() const {
+  std::ostringstream os;
+  if (!std::isfinite(base_rate_per_s) || base_rate_per_s < 0)
+    os << "base_rate_per_s = " << base_rate_per_s << " must be finite and >= 0";
+  else if (!std::isfinite(reference_force_N) || reference_force_N <= 0)
+    os << "reference_force_N = " << reference_force_N << " must be > 0";
+  else if (!std::isfinite(max_effective_force_N) || max_effective_force_N <= 0)
+    os << "max_effective_force_N = " << max_effective_force_N << " must be > 0";
+  else if (!std::isfinite(min_force_N) || min_force_N < 0 || min_force_N > max_effective_force_N)
+    os << "min_force_N = " << min_force_N << " must be in [0, max_effective_force_N]";
+  return os.str();
+}
+
+std::uint64_t CutResult::total_removed() const {
+  std::uint64_t s = 0;
+  for (auto r : removed) s += r;
+  return s;
+}
+
+namespace {
+// Volume fraction of a voxel represented by `units` of density of material m.
+double units_to_voxels(std::uint64_t units, int m) {
+  const double full = material_info(m).full_density;
+  return full > 0 ? static_cast<double>(units) / full : 0.0;
+}
+}  // namespace
+
+Cutter::Cutter(VoxelVolume& volume, const CutParams& params) : vol_(&volume), params_(params) {
+  const auto sums = volume.density_sum_by_material();
+  for (int m = 1; m < kMaxMaterials; ++m) original_units_ += units_to_voxels(sums[static_cast<std::size_t>(m)], m);
+}
+
+CutResult Cutter::step(const BurSamples& bur, const Eigen::Isometry3d& T_tooth_tip,
+                       double force_N, double dt_s) noexcept {
+  CutResult res;
+  const std::uint64_t step_index = step_++;
+  if (!std::isfinite(force_N) || !std::isfinite(dt_s) || dt_s <= 0 ||
+      !T_tooth_tip.matrix().allFinite())
+    return res;
+
+  const VolumeGeometry& g = vol_->geometry();
+  // Map tip-frame metres straight to continuous voxel coordinates:
+  // v = diag(1/spacing) * (R p + t - origin).
+  const Eigen::Vector3d inv_s = g.spacing.cwiseInverse();
+  const Eigen::Matrix3f M = (inv_s.asDiagonal() * T_tooth_tip.linear()).cast<float>();
+  // +0.5 so that floor() rounds to the nearest voxel centre.
+  const Eigen::Vector3f b =
+      (inv_s.cwiseProduct(T_tooth_tip.translation() - g.origin) + Eigen::Vector3d::Constant(0.5))
+          .cast<float>();
+
+  // Density units each sample removes per material this step. A sample
+  // stands for sample_volume of bur, so the per-voxel rate does not depend on
+  // the sample count.
+  const double f = std::min(force_N, params_.max_effective_force_N);
+  const bool cutting = f >= params_.min_force_N && f > 0;
+  const double per_sample = cutting ? params_.base_rate_per_s * (f / params_.reference_force_N) *
+                                          dt_s * (bur.sample_volume_m3 / vol_->voxel_volume_m3())
+                                    : 0.0;
+  // Fixed point, 16 fractional bits; ordered dithering turns the fraction into
+  // whole units deterministically (a sample index / step index sequence).
+  std::array<std::uint32_t, kMaxMaterials> amount_fx{};
+  for (int m = 1; m < kMaxMaterials; ++m) {
+    const double a = per_sample * material_info(m).removal_rate * 65536.0;
+    amount_fx[static_cast<std::size_t>(m)] =
+        static_cast<std::uint32_t>(std::clamp(a, 0.0, 255.0 * 65536.0));
+  }
+
+  const int nx = g.dims.x(), ny = g.dims.y(), nz = g.dims.z();
+  Eigen::Vector3i lo(nx, ny, nz), hi(-1, -1, -1);
+  const std::uint32_t step_phase = static_cast<std::uint32_t>(step_index) * 0x632BE5ABu;
+  const std::size_t n = bur.points_m.size();
+  for (std::size_t s = 0; s < n; ++s) {
+    const Eigen::Vector3f v = M * bur.points_m[s] + b;
+    const int i = static_cast<int>(std::floor(v.x()));
+    const int j = static_cast<int>(std::floor(v.y()));
+    const int k = static_cast<int>(std::floor(v.z()));
+    if (i < 0 || j < 0 || k < 0 || i >= nx || j >= ny || k >= nz) continue;
+    VoxelVolume::Chunk* c = vol_->chunk(vol_->chunk_id(i >> 4, j >> 4, k >> 4));
+    if (!c) continue;  // absent chunk: all air
+    const auto li = static_cast<std::size_t>(chunk_local_index(i & 15, j & 15, k & 15));
+    const std::uint8_t mat = c->material[li];
+    std::uint8_t& d = c->density[li];
+    if (mat == 0 || d == 0) continue;
+    ++res.samples_in_solid;
+    if (mat == static_cast<std::uint8_t>(Material::kPulp)) {
+      res.touched_pulp = true;
+      if (cutting && !exposure_)
+        exposure_ = PulpExposure{step_index, vol_->voxel_center(i, j, k)};
+    }
+    const std::uint32_t dither = (static_cast<std::uint32_t>(s) * 0x9E3779B9u + step_phase) >> 16;
+    const std::uint32_t units = (amount_fx[mat & (kMaxMaterials - 1)] + dither) >> 16;
+    if (units == 0) continue;
+    const std::uint8_t removed = static_cast<std::uint8_t>(std::min<std::uint32_t>(units, d));
+    d = static_cast<std::uint8_t>(d - removed);
+    if (d == 0) c->material[li] = 0;  // fully removed: becomes air
+    res.removed[mat & (kMaxMaterials - 1)] += removed;
+    lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+    hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+  }
+  if (hi.x() >= 0) {
+    // A changed voxel moves vertices of cells down to lo-1 and, through the
+    // gradient, normals of cells down to lo-2 and up to hi+1.
+    vol_->mark_dirty_box(lo - Eigen::Vector3i::Constant(2), hi + Eigen::Vector3i::Constant(1));
+    for (int m = 0; m < kMaxMaterials; ++m)
+      removed_total_[static_cast<std::size_t>(m)] += res.removed[static_cast<std::size_t>(m)];
+  }
+  return res;
+}
+
+CutMetrics Cutter::metrics() const {
+  CutMetrics out;
+  const double voxel_mm3 = vol_->voxel_volume_m3() * 1e9;
+  for (int m = 1; m < kMaxMaterials; ++m) {
+    const double v = units_to_voxels(removed_total_[static_cast<std::size_t>(m)], m) * voxel_mm3;
+    out.removed_mm3[static_cast<std::size_t>(m)] = v;
+    out.removed_total_mm3 += v;
+  }
+  out.original_tooth_mm3 = original_units_ * voxel_mm3;
+  out.removed_percent =
+      out.original_tooth_mm3 > 0 ? 100.0 * out.removed_total_mm3 / out.original_tooth_mm3 : 0.0;
+  out.pulp_exposure = exposure_;
+  return out;
+}
+
+}  // namespace dentar::volume
