@@ -1,9 +1,30 @@
 // dentar: the command line. Each subcommand is a thin layer over the libraries.
-#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "commands.h"
+
+namespace dentar::tools {
+void print_error(const std::string& cmd, const std::string& message) {
+  std::cerr << "dentar " << cmd << ": " << message << "\n";
+}
+}  // namespace dentar::tools
 
 int main(int argc, char** argv) {
-  CLI::App app{"DentAR: augmented-reality dental drilling trainer"};
-  app.require_subcommand(1);
-  CLI11_PARSE(app, argc, argv);
-  return 0;
+  CLI::App app{
+      "DentAR: augmented-reality dental drilling trainer.\n"
+      "Run `dentar <subcommand> --help` for the options of each job."};
+  app.footer("Example:\n  dentar demo --out out/demo");
+  app.require_subcommand(1, 1);
+  app.set_version_flag("--version", "dentar 0.1.0");
+  int exit_code = 0;
+  dentar::tools::add_demo(app, exit_code);
+  dentar::tools::add_tooth(app, exit_code);
+  dentar::tools::add_ct(app, exit_code);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;  // --help is not an error; bad arguments are
+  }
+  return exit_code;
 }

@@ -205,8 +205,9 @@ Result<VoxelVolume> make_molar(const MolarParams& p) {
                 if (i >= g.dims.x() || j >= g.dims.y() || k >= g.dims.z()) continue;
                 const V3 q = lo + h * V3(i, j, k);
                 const double d_out = m.outer(q);
-                // Occupancy over one voxel: 1 inside, 0 outside, linear across.
-                const double occ = std::clamp(0.5 - d_out / h, 0.0, 1.0);
+                // Occupancy: 1 inside, 0 outside, linear across a 2-voxel band so the
+                // density gradient (surface normals) is smooth.
+                const double occ = std::clamp(0.5 - d_out / (2 * h), 0.0, 1.0);
                 if (occ <= 0) continue;
                 Material mat = Material::kDentin;
                 double full = dentin;
@@ -215,9 +216,9 @@ Result<VoxelVolume> make_molar(const MolarParams& p) {
                   full = enamel;
                 } else {
                   const double d_p = m.pulp(q);
-                  if (d_p < h) {
+                  if (d_p < 2 * h) {  // within the 2-voxel blend band
                     // Blend dentin -> pulp density across the chamber wall.
-                    const double w = std::clamp(0.5 - d_p / h, 0.0, 1.0);
+                    const double w = std::clamp(0.5 - d_p / (2 * h), 0.0, 1.0);
                     full = dentin + (pulp - dentin) * w;
                     if (d_p < 0) mat = Material::kPulp;
                   }

@@ -1,0 +1,18 @@
+// Subcommand registration for the `dentar` command line. Each add_* function
+// adds one subcommand with its options and callback; the callback sets
+// `exit_code` (0 ok, 1 failure of the job, 2 bad input).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+namespace dentar::tools {
+
+void add_demo(CLI::App& app, int& exit_code);
+void add_tooth(CLI::App& app, int& exit_code);
+void add_ct(CLI::App& app, int& exit_code);
+
+// Prints "dentar <cmd>: <message>" to stderr.
+void print_error(const std::string& cmd, const std::string& message);
+
+}  // namespace dentar::tools
