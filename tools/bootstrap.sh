@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# One-command set-up for a fresh Debian 12 machine: installs the missing
+# Debian packages, configures and builds DentAR (Release), then runs a job.
+#
+#   tools/bootstrap.sh demo    # build, then run the trainer's main job (dentar demo)
+#   tools/bootstrap.sh test    # build, then run the whole test suite (what CI runs)
+#   tools/bootstrap.sh bench   # also installs VTK (comparison only), runs the benchmarks
+#
+# Environment: BUILD_DIR (default build), JOBS (default: number of cores).
+set -euo pipefail
+
+job="${1:-demo}"
+case "$job" in demo|test|bench) ;; *)
+  echo "usage: tools/bootstrap.sh demo|test|bench (got '$job')" >&2; exit 2 ;;
+esac
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${BUILD_DIR:-$root/build}"
+jobs="${JOBS:-$(nproc)}"
+
+# Debian 12 packages. Runtime EGL needs Mesa (libegl-mesa0 + the llvmpipe
+# driver in libgl1-mesa-dri) for headless rendering.
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev libopencv-dev libapriltag-dev libvisp-dev
+  libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libusb-1.0-0-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev zlib1g-dev libsqlite3-dev
+)
+if [[ "$job" == bench ]]; then packages+=(libvtk9-dev); fi
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if ((${#missing[@]})); then
+  echo "== installing ${#missing[@]} Debian packages: ${missing[*]}"
+  sudo_cmd=()
+  if [[ $(id -u) -ne 0 ]]; then sudo_cmd=(sudo); fi
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo_cmd[@]}" apt-get update -qq
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+echo "== configuring and building in $build"
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
+cmake --build "$build" -j "$jobs"
+
+cd "$root"
+case "$job" in
+  demo)
+    "$build/dentar" demo --out "$root/out/demo"
+    ;;
+  test)
+    # Hardware tests (label hw) need a device and are excluded.
+    ctest --test-dir "$build" --output-on-failure -j "$jobs" -LE hw
+    ;;
+  bench)
+    for b in "$build"/volume/volume_*_bench; do
+      echo "== $b"
+      "$b" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+    done
+    ;;
+esac
