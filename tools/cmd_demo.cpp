@@ -1,17 +1,24 @@
-// dentar demo: the volume demo. Builds the default procedural molar, drives a
-// scripted sequence of bur strokes through the cutter at 1 kHz simulated
-// time, re-meshes dirty chunks at 30 Hz as the display would, writes the cut
-// mesh (PLY) and prints the removed volume per material.
-#include <algorithm>
+// dentar demo: the trainer's main job on its built-in default (until the
+// offline AR pipeline lands). A scripted drilling session on the procedural
+// molar runs through the 1 kHz haptic engine in real time (simulated hand and
+// device, foot pedal scripted), while this thread re-meshes dirty chunks at
+// 30 Hz as the display would. The session log is then replayed in simulated
+// time and the volume hashes compared. Prints removed volume per material,
+// step-time percentiles and whether real-time priority was granted; writes
+// the cut mesh (PLY) and the session log.
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
-#include <vector>
+#include <nlohmann/json.hpp>
+#include <thread>
 
 #include "commands.h"
-#include "dentar/volume/cutter.h"
+#include "dentar/haptics/engine.h"
+#include "dentar/haptics/replay.h"
+#include "dentar/haptics/scripts.h"
+#include "dentar/haptics/simulated_device.h"
 #include "dentar/volume/procedural_tooth.h"
 #include "dentar/volume/surface.h"
 
@@ -19,6 +26,7 @@ namespace dentar::tools {
 namespace {
 
 using namespace dentar::volume;
+using namespace dentar::haptics;
 using Clock = std::chrono::steady_clock;
 
 struct DemoOptions {
@@ -27,57 +35,68 @@ struct DemoOptions {
   double bur_radius_mm = 0.5;
   double bur_length_mm = 3.0;
   int samples = 10000;
-  double force_N = 2.0;
+  std::string model = "proxy";
+  double force_N = 2.5;
+  double seconds = 0;  // 0: the script's own length (~15 s)
+  bool simulated = false;
   std::string out = "out/demo";
   bool obj = false;
 };
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+std::string hex(std::uint64_t h) {
+  std::ostringstream os;
+  os << std::hex << std::setw(16) << std::setfill('0') << h;
+  return os.str();
 }
 
-// Scripted strokes of an occlusal access preparation (tooth frame, metres):
-// passes along the central groove, each 0.5 mm deeper, then a plunge toward
-// the chamber roof that exposes the pulp (what an instructor wants flagged).
-struct Stroke {
-  Eigen::Vector3d from, to;
-  double seconds;
-};
-std::vector<Stroke> script() {
-  std::vector<Stroke> s;
-  double z = 6.6e-3;
-  for (int pass = 0; pass < 6; ++pass, z -= 0.5e-3) {
-    const double x0 = pass % 2 ? 2.2e-3 : -2.2e-3;
-    s.push_back({{x0, 0.3e-3, z}, {-x0, 0.3e-3, z}, 1.0});
-    s.push_back({{-x0, -0.3e-3, z}, {x0, -0.3e-3, z}, 1.0});
+Result<BurParams> bur_params(const DemoOptions& o) {
+  auto shape = parse_bur_shape(o.bur);
+  if (!shape) return Error{"--bur: " + shape.error()};
+  switch (*shape) {
+    case BurShape::kSphere: return BurParams::sphere(o.bur_radius_mm);
+    case BurShape::kCylinder: return BurParams::cylinder(o.bur_radius_mm, o.bur_length_mm);
+    case BurShape::kCapsule: return BurParams::capsule(o.bur_radius_mm, o.bur_length_mm);
+    case BurShape::kCone:
+      return BurParams::cone(0.5 * o.bur_radius_mm, o.bur_radius_mm, o.bur_length_mm);
   }
-  s.push_back({{0, 0, z}, {0, 0, 2.6e-3}, 1.5});
-  return s;
+  return Error{"--bur: unknown shape"};
+}
+
+void print_metrics(const CutMetrics& m) {
+  std::cout << std::fixed << std::setprecision(3) << "removed volume per material (mm^3):\n";
+  for (int mat = 1; mat < kNumMaterials; ++mat)
+    std::cout << "  " << std::setw(12) << std::left << material_name(static_cast<Material>(mat))
+              << std::right << std::setw(10) << m.removed_mm3[static_cast<std::size_t>(mat)] << "\n";
+  std::cout << "  " << std::setw(12) << std::left << "total" << std::right << std::setw(10)
+            << m.removed_total_mm3 << "  (" << m.removed_percent << " % of "
+            << m.original_tooth_mm3 << " mm^3)\n";
+  if (m.pulp_exposure)
+    std::cout << "pulp exposed at step " << m.pulp_exposure->step << " (t = "
+              << m.pulp_exposure->step / 1000.0 << " s), tooth-frame position ("
+              << m.pulp_exposure->position_m.x() * 1e3 << ", "
+              << m.pulp_exposure->position_m.y() * 1e3 << ", "
+              << m.pulp_exposure->position_m.z() * 1e3 << ") mm\n";
+  else
+    std::cout << "pulp not exposed\n";
 }
 
 int run_demo(const DemoOptions& o) {
   namespace fs = std::filesystem;
   MolarParams mp;
   mp.voxel_mm = o.voxel_mm;
-  const auto t0 = Clock::now();
   auto tooth = make_molar(mp);
   if (!tooth) {
     print_error("demo", tooth.error());
     return 2;
   }
   VoxelVolume& vol = *tooth;
-  auto shape = parse_bur_shape(o.bur);
-  if (!shape) {
-    print_error("demo", "--bur: " + shape.error());
+  const std::uint64_t start_hash = vol.content_hash();
+  auto bp = bur_params(o);
+  if (!bp) {
+    print_error("demo", bp.error());
     return 2;
   }
-  BurParams bp = BurParams::cylinder(o.bur_radius_mm, o.bur_length_mm);
-  bp.shape = *shape;
-  if (*shape == BurShape::kSphere) bp = BurParams::sphere(o.bur_radius_mm);
-  if (*shape == BurShape::kCone) bp = BurParams::cone(0.5 * o.bur_radius_mm, o.bur_radius_mm, o.bur_length_mm);
-  auto bur = sample_bur(bp, o.samples);
+  auto bur = sample_bur(*bp, o.samples);
   if (!bur) {
     print_error("demo", bur.error() + " (check --bur-radius-mm, --bur-length-mm, --samples)");
     return 2;
@@ -88,70 +107,98 @@ int run_demo(const DemoOptions& o) {
     print_error("demo", "cannot create output folder '" + o.out + "': " + ec.message());
     return 1;
   }
-  const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
   std::cout << "tooth: procedural maxillary molar, " << vol.dims().x() << "x" << vol.dims().y()
             << "x" << vol.dims().z() << " voxels of " << o.voxel_mm << " mm, "
             << vol.allocated_chunks() << "/" << vol.num_chunks() << " chunks allocated ("
-            << vol.memory_bytes() / 1000000.0 << " MB vs " << vol.dense_bytes() / 1000000.0
-            << " MB dense), built in " << build_s << " s\n";
-  std::cout << "bur: " << bur_shape_name(bp.shape) << " r=" << bp.radius_m * 1e3
-            << " mm L=" << bp.length_m * 1e3 << " mm, " << bur->size() << " samples\n";
+            << vol.memory_bytes() / 1e6 << " MB vs " << vol.dense_bytes() / 1e6 << " MB dense)\n";
+  std::cout << "bur: " << bur_shape_name(bp->shape) << " r=" << bp->radius_m * 1e3
+            << " mm L=" << bp->length_m * 1e3 << " mm, " << bur->size() << " samples; model "
+            << o.model << "\n";
+
+  const Station station = default_station();
+  DeviceLimits limits;
+  auto device = SimulatedDevice::create(
+      to_hand_script(tip_script("access", o.force_N, o.seconds), station), limits);
+  if (!device) {
+    print_error("demo", device.error());
+    return 1;
+  }
+  EngineConfig cfg;
+  cfg.model = o.model;
+  cfg.T_tooth_dev = station.T_tooth_dev;
+  cfg.T_sty_tip = station.T_sty_tip;
+  // The header is written before the engine runs; a throwaway engine on the
+  // same inputs produces it (the configuration, not the state, goes in it).
+  nlohmann::json tooth_desc = {{"kind", "molar"}, {"voxel_mm", o.voxel_mm}};
+  std::string header;
+  {
+    auto probe = Engine::create(cfg, **device, vol, *bur, nullptr);
+    if (!probe) {
+      print_error("demo", probe.error());
+      return 2;
+    }
+    header = (*probe)->header_json(tooth_desc.dump());
+  }
+  const std::string log_path = (fs::path(o.out) / "session.dlog").string();
+  auto log = SessionLogWriter::open(log_path, header);
+  if (!log) {
+    print_error("demo", log.error());
+    return 1;
+  }
+  auto engine = Engine::create(cfg, **device, vol, *bur, log->get());
+  if (!engine) {
+    print_error("demo", engine.error());
+    return 2;
+  }
 
   Surface surface(vol);
-  auto t1 = Clock::now();
   const std::size_t tris0 = surface.extract_all();
-  const double full_ms = std::chrono::duration<double, std::milli>(Clock::now() - t1).count();
-  std::cout << "surface: " << tris0 << " triangles, full extraction " << full_ms << " ms\n";
-
-  Cutter cutter(vol);
-  std::vector<double> cut_us, mesh_ms;
-  std::size_t chunks_remeshed = 0;
-  std::uint64_t step = 0;
-  bool announced = false;
-  Eigen::Isometry3d T_tooth_tip = Eigen::Isometry3d::Identity();
-  // Bur pointing down into the occlusal surface (tip +z = tooth -z).
-  T_tooth_tip.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  for (const Stroke& s : script()) {
-    const int n = static_cast<int>(std::lround(s.seconds * 1000));
-    for (int i = 0; i < n; ++i, ++step) {
-      T_tooth_tip.translation() = s.from + (s.to - s.from) * (static_cast<double>(i) / n);
-      const auto c0 = Clock::now();
-      const CutResult r = cutter.step(*bur, T_tooth_tip, o.force_N, 1e-3);
-      cut_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - c0).count());
-      if (r.touched_pulp && !announced) {
-        announced = true;
-        std::cout << "EVENT pulp exposure at t=" << step / 1000.0 << " s\n";
-      }
-      if (step % 33 == 0) {  // ~30 Hz display: re-mesh dirty chunks only
-        const auto m0 = Clock::now();
-        chunks_remeshed += surface.update().size();
-        mesh_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - m0).count());
-      }
+  std::cout << "surface: " << tris0 << " triangles\n";
+  const double script_s = (*device)->script_end_s();
+  std::size_t remeshed = 0;
+  const auto t0 = Clock::now();
+  if (o.simulated) {
+    for (std::uint64_t s = 0; s * 1e-3 < script_s; s += 33) {
+      (*engine)->run_steps(33);
+      remeshed += surface.update().size();
     }
+  } else {
+    std::cout << "running " << script_s << " s of scripted drilling in real time (1 kHz thread)\n";
+    if (Status st = (*engine)->start(); !st) {
+      print_error("demo", st.error());
+      return 1;
+    }
+    // Display side: re-mesh dirty chunks at ~30 Hz while the haptic thread cuts.
+    while ((*engine)->snapshot().time_s < script_s) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(33));
+      remeshed += surface.update().size();
+    }
+    (*engine)->stop();
   }
-  chunks_remeshed += surface.update().size();
+  remeshed += surface.update().size();
+  const double wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (Status st = (*log)->close(); !st) {
+    print_error("demo", st.error());
+    return 1;
+  }
 
-  const CutMetrics m = cutter.metrics();
-  std::cout << std::fixed << std::setprecision(3);
-  std::cout << "strokes: " << script().size() << ", " << step << " steps at 1 kHz ("
-            << step / 1000.0 << " s simulated)\n";
-  std::cout << "removed volume per material (mm^3):\n";
-  for (int mat = 1; mat < kNumMaterials; ++mat)
-    std::cout << "  " << std::setw(12) << std::left << material_name(static_cast<Material>(mat))
-              << std::right << std::setw(10) << m.removed_mm3[static_cast<std::size_t>(mat)] << "\n";
-  std::cout << "  " << std::setw(12) << std::left << "total" << std::right << std::setw(10)
-            << m.removed_total_mm3 << "  (" << m.removed_percent << " % of "
-            << m.original_tooth_mm3 << " mm^3)\n";
-  if (m.pulp_exposure)
-    std::cout << "pulp exposed at step " << m.pulp_exposure->step << ", tooth-frame position ("
-              << m.pulp_exposure->position_m.x() * 1e3 << ", " << m.pulp_exposure->position_m.y() * 1e3
-              << ", " << m.pulp_exposure->position_m.z() * 1e3 << ") mm\n";
-  else
-    std::cout << "pulp not exposed\n";
-  std::cout << "cut step: p50 " << percentile(cut_us, 0.5) << " us, p99 " << percentile(cut_us, 0.99)
-            << " us; re-mesh per display frame: p50 " << percentile(mesh_ms, 0.5) << " ms, p99 "
-            << percentile(mesh_ms, 0.99) << " ms (" << chunks_remeshed << " chunk re-meshes)\n";
-  std::cout << "volume hash: " << std::hex << vol.content_hash() << std::dec << "\n";
+  const EngineStats s = (*engine)->stats();
+  const CutMetrics m = (*engine)->cutter().metrics();
+  print_metrics(m);
+  std::cout << std::setprecision(1) << "haptic steps: " << s.steps << " in " << wall_s
+            << " s wall; step compute p50 " << s.compute.percentile_s(0.5) * 1e6 << " us, p99 "
+            << s.compute.percentile_s(0.99) * 1e6 << " us, p99.9 "
+            << s.compute.percentile_s(0.999) * 1e6 << " us, max " << s.compute.max_s() * 1e6
+            << " us\n";
+  if (!o.simulated) {
+    std::cout << "period jitter p50 " << s.jitter.percentile_s(0.5) * 1e6 << " us, p99 "
+              << s.jitter.percentile_s(0.99) * 1e6 << " us; missed deadlines "
+              << s.missed_deadlines << ", watchdog trips " << s.watchdog_trips << "\n";
+    std::cout << "real-time priority (SCHED_FIFO): "
+              << (s.realtime_granted ? "granted" : "not granted — " + s.realtime_note) << "\n";
+  }
+  std::cout << "re-meshed " << remeshed << " chunks; log " << log_path << " ("
+            << (*log)->written() << " records, " << s.log_dropped << " dropped)\n";
 
   const TriangleMesh mesh = merge_chunks(surface.chunks());
   const std::string ply = (fs::path(o.out) / "cut_tooth.ply").string();
@@ -159,17 +206,39 @@ int run_demo(const DemoOptions& o) {
     print_error("demo", st.error());
     return 1;
   }
-  std::cout << "wrote " << ply << " (" << mesh.triangle_count() << " triangles, "
-            << mesh.vertices.size() << " vertices)\n";
+  std::cout << "wrote " << ply << " (" << mesh.triangle_count() << " triangles)\n";
   if (o.obj) {
     const std::string obj = (fs::path(o.out) / "cut_tooth.obj").string();
     if (Status st = write_obj(mesh, obj); !st) {
       print_error("demo", st.error());
       return 1;
     }
-    std::cout << "wrote " << obj << "\n";
   }
-  return 0;
+
+  // Replay the log on a fresh tooth in simulated time.
+  const std::uint64_t live_hash = vol.content_hash();
+  auto rec = read_session_log(log_path);
+  if (!rec) {
+    print_error("demo", rec.error());
+    return 1;
+  }
+  if (!rec->warning.empty()) std::cout << "warning: " << rec->warning << "\n";
+  auto fresh = make_molar(mp);
+  const auto r0 = Clock::now();
+  auto rep = replay_session(*rec, *fresh);
+  const double rep_s = std::chrono::duration<double>(Clock::now() - r0).count();
+  if (!rep) {
+    print_error("demo", rep.error());
+    return 1;
+  }
+  const bool match = rep->volume_hash == live_hash;
+  std::cout << "volume hash: start " << hex(start_hash) << ", live " << hex(live_hash)
+            << ", replay " << hex(rep->volume_hash) << (match ? "  (match)" : "  (MISMATCH)")
+            << "\n";
+  std::cout << std::setprecision(2) << "replay: " << rep->steps << " steps in " << rep_s << " s ("
+            << rep->steps * 1e-3 / std::max(rep_s, 1e-9) << "x real time), max force difference "
+            << rep->max_force_difference_N << " N\n";
+  return match ? 0 : 1;
 }
 
 }  // namespace
@@ -178,9 +247,10 @@ void add_demo(CLI::App& app, int& exit_code) {
   auto o = std::make_shared<DemoOptions>();
   CLI::App* c = app.add_subcommand(
       "demo",
-      "Cut the built-in molar with a scripted sequence of bur strokes; write the cut mesh\n"
-      "as PLY and print the removed volume per material.\n"
-      "Synopsis: dentar demo [--voxel-mm MM] [--bur SHAPE] [--samples N] [--out DIR]");
+      "Drill the built-in molar through the 1 kHz haptic engine (simulated hand, scripted\n"
+      "pedal), write the session log and the cut mesh, replay the log and check the hash.\n"
+      "Synopsis: dentar demo [--model proxy|seed] [--bur SHAPE] [--samples N] [--seconds S]\n"
+      "                      [--simulated] [--out DIR]");
   c->add_option("--voxel-mm", o->voxel_mm, "Voxel size of the procedural molar (mm)")
       ->check(CLI::Range(0.02, 0.5))
       ->capture_default_str();
@@ -196,12 +266,19 @@ void add_demo(CLI::App& app, int& exit_code) {
   c->add_option("--samples", o->samples, "Volumetric bur samples (1000..30000)")
       ->check(CLI::Range(1000, 30000))
       ->capture_default_str();
-  c->add_option("--force", o->force_N, "Pressing force during the strokes (N)")
-      ->check(CLI::Range(0.0, 10.0))
+  c->add_option("--model", o->model, "Force model: proxy (ours) or seed (the 2012 model)")
+      ->check(CLI::IsMember({"proxy", "seed"}))
       ->capture_default_str();
+  c->add_option("--force", o->force_N, "Pressing force the scripted hand asks for (N)")
+      ->check(CLI::Range(0.1, 3.0))
+      ->capture_default_str();
+  c->add_option("--seconds", o->seconds, "Length of the drilling passes (s); 0 = default 12 s")
+      ->check(CLI::Range(0.0, 600.0))
+      ->capture_default_str();
+  c->add_flag("--simulated", o->simulated, "Run in simulated time (as fast as possible)");
   c->add_option("--out", o->out, "Output folder")->capture_default_str();
   c->add_flag("--obj", o->obj, "Also write cut_tooth.obj");
-  c->footer("Example:\n  dentar demo --voxel-mm 0.08 --bur capsule --samples 10000 --out out/demo");
+  c->footer("Example:\n  dentar demo --model proxy --bur capsule --samples 10000 --out out/demo");
   c->callback([o, &exit_code] { exit_code = run_demo(*o); });
 }
 

@@ -30,6 +30,9 @@ class ForceGuard {
   // treated as a fault too.
   Eigen::Vector3d apply(const Eigen::Vector3d& requested_N, double dt_s) noexcept;
   void reset() noexcept;
+  // Sends zero at once (watchdog): no ramp down; the next apply() ramps up
+  // from zero. Does not clear a latched fault.
+  Eigen::Vector3d zero() noexcept { return last_ = Eigen::Vector3d::Zero(); }
 
   GuardFault fault() const { return fault_; }
   std::uint64_t clamped_steps() const { return clamped_; }     // magnitude clamps

@@ -1,0 +1,139 @@
+// The shared 1 kHz haptic engine: reads the device, computes the force in
+// the tooth frame, cuts while the pedal is down, guards and sends the force,
+// publishes a snapshot for graphics and records every step.
+//
+// Two ways to run the same step():
+//  - start(): a dedicated thread paced by absolute deadlines
+//    (clock_nanosleep TIMER_ABSTIME), SCHED_FIFO when the system grants it;
+//  - run_steps(n): inline, in simulated time, as fast as the CPU allows
+//    (tests, offline replay). Deterministic.
+// The step never allocates, locks, does I/O, or waits for graphics/camera.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "dentar/haptics/device.h"
+#include "dentar/haptics/force_guard.h"
+#include "dentar/haptics/force_model.h"
+#include "dentar/haptics/seqlock.h"
+#include "dentar/haptics/session_log.h"
+#include "dentar/haptics/timing.h"
+#include "dentar/volume/cutter.h"
+
+namespace dentar::haptics {
+
+struct EngineConfig {
+  double rate_hz = 1000.0;
+  std::string model = "proxy";  // "seed" or "proxy"
+  ForceModelParams model_params;
+  volume::CutParams cut;
+  Eigen::Isometry3d T_tooth_dev = Eigen::Isometry3d::Identity();  // static, station calibration
+  Eigen::Isometry3d T_sty_tip = Eigen::Isometry3d::Identity();    // static, pivot calibration
+  std::uint8_t bur_id = 0;
+  // Watchdog: zero force after this many consecutive missed deadlines; force
+  // returns (ramped by the guard) after `watchdog_rearm_steps` good steps.
+  int watchdog_missed_deadlines = 3;
+  int watchdog_rearm_steps = 50;
+  double max_force_rate_N_per_s = 2000.0;  // spike limit for the guard
+  bool try_realtime = true;                // ask for SCHED_FIFO
+  int realtime_priority = 80;
+  std::string validate() const;  // empty when valid, else names the field
+};
+
+// What graphics reads (lock-free). Plain data.
+struct HapticSnapshot {
+  std::uint64_t step = 0;
+  double time_s = 0;
+  double T_tooth_tip_display[16] = {};  // column-major 4x4: where to draw the bur
+  double T_dev_sty[16] = {};            // column-major 4x4: measured stylus
+  double force_dev_N[3] = {0, 0, 0};    // sent to the device
+  std::uint32_t contacts = 0;
+  std::uint8_t pedal = 0, in_contact = 0, fault = 0, watchdog = 0;
+  std::uint8_t pulp_exposed = 0;
+  double removed_mm3[8] = {};  // cumulative, per material label
+};
+
+struct EngineStats {
+  std::uint64_t steps = 0;
+  std::uint64_t missed_deadlines = 0;   // steps that started more than one period late
+  std::uint64_t watchdog_trips = 0;
+  std::uint64_t device_faults = 0;
+  std::uint64_t guard_clamped = 0, guard_rate_limited = 0;
+  std::uint64_t log_dropped = 0;
+  bool realtime_granted = false;  // SCHED_FIFO obtained (real-time mode only)
+  std::string realtime_note;      // why not, when not
+  TimingHistogram compute;        // time inside step()
+  TimingHistogram jitter;         // wake-up time minus deadline (real-time mode)
+};
+
+class Engine {
+ public:
+  // Validates the config; builds the force model and cutter. Nothing is
+  // owned: device, volume, bur and log (nullable) must outlive the engine.
+  static Result<std::unique_ptr<Engine>> create(const EngineConfig& cfg, HapticDevice& device,
+                                                volume::VoxelVolume& volume,
+                                                const volume::BurSamples& bur,
+                                                SessionLogWriter* log = nullptr);
+  ~Engine();  // stops the thread
+  Engine(const Engine&) = delete;
+  Engine& operator=(const Engine&) = delete;
+
+  // Real time. start() fails if already running.
+  Status start();
+  void stop();
+  bool running() const { return running_.load(std::memory_order_acquire); }
+  // True when the device source ended (replay) and the thread stopped itself.
+  bool finished() const { return finished_.load(std::memory_order_acquire); }
+
+  // Simulated time: runs up to n steps inline; returns how many ran (fewer
+  // when a replayed source ends). Not while the thread runs. `late_s`
+  // pretends each step woke that late (to test the deadline watchdog).
+  std::uint64_t run_steps(std::uint64_t n, double late_s = 0.0);
+
+  HapticSnapshot snapshot() const { return snapshot_.load(); }
+  // Copy of the statistics. While the thread runs only `steps` is filled
+  // (the rest belongs to the haptic thread); call after stop() for all.
+  EngineStats stats() const;
+  const volume::Cutter& cutter() const { return cutter_; }
+  const EngineConfig& config() const { return cfg_; }
+  // Engine configuration as JSON: the session log header (docs/formats.md).
+  std::string header_json(const std::string& tooth_description_json) const;
+
+ private:
+  Engine(const EngineConfig& cfg, HapticDevice& device, volume::VoxelVolume& volume,
+         const volume::BurSamples& bur, SessionLogWriter* log,
+         std::unique_ptr<ForceModel> model);
+  // One haptic step; false when the device source has ended.
+  bool step(double late_s) noexcept;
+  void thread_main();
+
+  EngineConfig cfg_;
+  HapticDevice* device_;
+  volume::VoxelVolume* volume_;
+  const volume::BurSamples* bur_;
+  SessionLogWriter* log_;
+  std::unique_ptr<ForceModel> model_;
+  volume::Cutter cutter_;
+  ForceGuard guard_;
+  double dt_s_;
+
+  // Haptic-thread state.
+  std::uint64_t step_index_ = 0;
+  int consecutive_missed_ = 0;
+  int good_since_trip_ = 0;
+  bool watchdog_tripped_ = false;
+  bool pulp_exposed_ = false;
+  EngineStats stats_;
+
+  SeqLock<HapticSnapshot> snapshot_;
+  std::atomic<std::uint64_t> steps_published_{0};
+  std::atomic<bool> running_{false}, stop_{false}, finished_{false};
+  std::thread thread_;
+};
+
+}  // namespace dentar::haptics

@@ -1,0 +1,323 @@
+#include "dentar/haptics/engine.h"
+
+#include <pthread.h>
+#include <sched.h>
+#include <time.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace dentar::haptics {
+namespace {
+
+double now_s() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+void to_array(const Eigen::Isometry3d& T, double out[16]) {
+  Eigen::Map<Eigen::Matrix4d> m(out);
+  m = T.matrix();
+}
+
+// Row-major 4x4, full double precision (nlohmann prints round-trip digits).
+nlohmann::json iso_json(const Eigen::Isometry3d& T) {
+  nlohmann::json j = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) j.push_back(T.matrix()(r, c));
+  return j;
+}
+
+}  // namespace
+
+std::string EngineConfig::validate() const {
+  std::ostringstream os;
+  if (!std::isfinite(rate_hz) || rate_hz < 100 || rate_hz > 10000)
+    os << "rate_hz = " << rate_hz << " must be in [100, 10000]";
+  else if (model != "seed" && model != "proxy")
+    os << "model = '" << model << "' must be 'seed' or 'proxy'";
+  else if (watchdog_missed_deadlines < 1)
+    os << "watchdog_missed_deadlines = " << watchdog_missed_deadlines << " must be >= 1";
+  else if (watchdog_rearm_steps < 0)
+    os << "watchdog_rearm_steps = " << watchdog_rearm_steps << " must be >= 0";
+  else if (!std::isfinite(max_force_rate_N_per_s) || max_force_rate_N_per_s <= 0)
+    os << "max_force_rate_N_per_s = " << max_force_rate_N_per_s << " must be > 0";
+  else if (!T_tooth_dev.matrix().allFinite())
+    os << "T_tooth_dev has non-finite entries";
+  else if (!T_sty_tip.matrix().allFinite())
+    os << "T_sty_tip has non-finite entries";
+  else if (std::string c = cut.validate(); !c.empty())
+    os << "cut." << c;
+  return os.str();
+}
+
+Result<std::unique_ptr<Engine>> Engine::create(const EngineConfig& cfg, HapticDevice& device,
+                                               volume::VoxelVolume& volume,
+                                               const volume::BurSamples& bur,
+                                               SessionLogWriter* log) {
+  if (std::string e = cfg.validate(); !e.empty()) return Error{"engine config: " + e};
+  if (std::string e = device.limits().validate(); !e.empty())
+    return Error{"device '" + device.name() + "' limits: " + e};
+  if (bur.size() == 0) return Error{"engine: the bur has no sample points"};
+  auto model = make_force_model(cfg.model, cfg.model_params, device.limits(), bur.size());
+  if (!model) return Error{"engine: " + model.error()};
+  return std::unique_ptr<Engine>(
+      new Engine(cfg, device, volume, bur, log, std::move(model).value()));
+}
+
+Engine::Engine(const EngineConfig& cfg, HapticDevice& device, volume::VoxelVolume& volume,
+               const volume::BurSamples& bur, SessionLogWriter* log,
+               std::unique_ptr<ForceModel> model)
+    : cfg_(cfg),
+      device_(&device),
+      volume_(&volume),
+      bur_(&bur),
+      log_(log),
+      model_(std::move(model)),
+      cutter_(volume, cfg.cut),
+      guard_({device.limits().max_force_N, cfg.max_force_rate_N_per_s}),
+      dt_s_(1.0 / cfg.rate_hz) {}
+
+Engine::~Engine() { stop(); }
+
+bool Engine::step(double late_s) noexcept {
+  const double t0 = now_s();
+  DeviceState st;
+  const bool ok = device_->read(st);
+  if (!ok && !st.fault) return false;  // replayed source ended
+
+  std::uint8_t flags = 0;
+  // Watchdog on deadlines (real-time mode passes how late this step is).
+  if (late_s > dt_s_) {
+    ++stats_.missed_deadlines;
+    if (++consecutive_missed_ >= cfg_.watchdog_missed_deadlines && !watchdog_tripped_) {
+      watchdog_tripped_ = true;
+      ++stats_.watchdog_trips;
+    }
+  } else {
+    consecutive_missed_ = 0;
+  }
+  if (watchdog_tripped_ && consecutive_missed_ == 0 && ++good_since_trip_ > cfg_.watchdog_rearm_steps) {
+    watchdog_tripped_ = false;
+    good_since_trip_ = 0;
+  }
+
+  const bool finite = st.T_dev_sty.matrix().allFinite() && st.velocity_m_per_s.allFinite() &&
+                      std::isfinite(st.time_s);
+  const bool fault = st.fault || !ok || !finite;
+  if (fault) {
+    ++stats_.device_faults;
+    flags |= kFlagDeviceFault;
+  }
+
+  ForceOutput out;
+  volume::CutResult cut;
+  Eigen::Vector3d f_dev = Eigen::Vector3d::Zero();
+  const Eigen::Isometry3d T_tooth_sty = cfg_.T_tooth_dev * st.T_dev_sty;
+  const Eigen::Isometry3d T_tooth_tip = T_tooth_sty * cfg_.T_sty_tip;
+  if (!fault) {
+    ForceInput in;
+    in.volume = volume_;
+    in.bur = bur_;
+    in.T_tooth_tip = T_tooth_tip;
+    in.velocity_m_per_s = cfg_.T_tooth_dev.linear() * st.velocity_m_per_s;
+    in.dt_s = dt_s_;
+    out = model_->compute(in);
+    if (st.pedal) {
+      cut = cutter_.step(*bur_, out.T_tooth_tip_cut, out.force_N.norm(), dt_s_);
+      if (cut.touched_pulp) flags |= kFlagPulpTouched;
+    }
+    f_dev = cfg_.T_tooth_dev.linear().transpose() * out.force_N;
+    if (out.in_contact) flags |= kFlagContact;
+  }
+
+  Eigen::Vector3d sent;
+  if (fault || watchdog_tripped_) {
+    sent = guard_.zero();
+    if (watchdog_tripped_) flags |= kFlagWatchdog;
+  } else {
+    const auto clamped0 = guard_.clamped_steps() + guard_.rate_limited_steps();
+    sent = guard_.apply(f_dev, dt_s_);
+    if (guard_.clamped_steps() + guard_.rate_limited_steps() != clamped0) flags |= kFlagClamped;
+    if (guard_.fault() != GuardFault::kNone) flags |= kFlagDeviceFault;
+  }
+  device_->write_force(sent);
+
+  // Publish for graphics.
+  HapticSnapshot snap;
+  snap.step = step_index_;
+  snap.time_s = st.time_s;
+  to_array(fault ? T_tooth_tip : out.T_tooth_tip_display, snap.T_tooth_tip_display);
+  to_array(st.T_dev_sty, snap.T_dev_sty);
+  for (int a = 0; a < 3; ++a) snap.force_dev_N[a] = sent[a];
+  snap.contacts = out.contacts;
+  snap.pedal = st.pedal;
+  snap.in_contact = out.in_contact;
+  snap.fault = fault;
+  snap.watchdog = watchdog_tripped_;
+  if (cut.touched_pulp && st.pedal) pulp_exposed_ = true;
+  snap.pulp_exposed = pulp_exposed_;
+  const volume::CutMetrics m = cutter_.metrics();
+  for (int i = 0; i < 8; ++i) snap.removed_mm3[i] = m.removed_mm3[static_cast<std::size_t>(i)];
+  snapshot_.store(snap);
+
+  // Record.
+  if (log_) {
+    StepRecord r;
+    r.step = step_index_;
+    r.time_s = st.time_s;
+    for (int a = 0; a < 3; ++a) {
+      r.position_m[a] = st.T_dev_sty.translation()[a];
+      r.velocity_m_per_s[a] = st.velocity_m_per_s[a];
+      r.force_dev_N[a] = sent[a];
+    }
+    for (int rr = 0; rr < 3; ++rr)
+      for (int c = 0; c < 3; ++c) r.rotation[rr * 3 + c] = st.T_dev_sty.linear()(rr, c);
+    r.buttons = st.buttons;
+    r.contacts = out.contacts;
+    for (int i = 0; i < 8; ++i) r.removed[i] = cut.removed[static_cast<std::size_t>(i)];
+    r.pedal = st.pedal;
+    r.bur_id = cfg_.bur_id;
+    r.flags = flags;
+    log_->push(r);
+  }
+  ++step_index_;
+  ++stats_.steps;
+  steps_published_.store(stats_.steps, std::memory_order_relaxed);
+  stats_.compute.record(now_s() - t0);
+  return true;
+}
+
+std::uint64_t Engine::run_steps(std::uint64_t n, double late_s) {
+  if (running()) return 0;
+  std::uint64_t done = 0;
+  while (done < n && step(late_s)) ++done;
+  return done;
+}
+
+Status Engine::start() {
+  if (running()) return Error{"engine: already running"};
+  if (thread_.joinable()) thread_.join();
+  stop_.store(false);
+  finished_.store(false);
+  running_.store(true, std::memory_order_release);
+  thread_ = std::thread([this] { thread_main(); });
+  return {};
+}
+
+void Engine::stop() {
+  stop_.store(true, std::memory_order_release);
+  if (thread_.joinable()) thread_.join();
+  running_.store(false, std::memory_order_release);
+}
+
+void Engine::thread_main() {
+  if (cfg_.try_realtime) {
+    sched_param sp{};
+    sp.sched_priority = cfg_.realtime_priority;
+    const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    stats_.realtime_granted = rc == 0;
+    if (rc != 0)
+      stats_.realtime_note = std::string("SCHED_FIFO refused: ") + std::strerror(rc) +
+                             " (run as root or grant CAP_SYS_NICE / an rtprio limit)";
+  } else {
+    stats_.realtime_note = "real-time priority not requested";
+  }
+  const auto period_ns = static_cast<std::int64_t>(std::llround(1e9 / cfg_.rate_hz));
+  timespec next;
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  auto advance = [&](timespec& t) {
+    t.tv_nsec += period_ns;
+    while (t.tv_nsec >= 1000000000L) {
+      t.tv_nsec -= 1000000000L;
+      ++t.tv_sec;
+    }
+  };
+  advance(next);
+  while (!stop_.load(std::memory_order_acquire)) {
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR) {
+    }
+    timespec woke;
+    clock_gettime(CLOCK_MONOTONIC, &woke);
+    const double late = static_cast<double>(woke.tv_sec - next.tv_sec) +
+                        1e-9 * static_cast<double>(woke.tv_nsec - next.tv_nsec);
+    stats_.jitter.record(late);
+    if (!step(late)) {
+      finished_.store(true, std::memory_order_release);
+      break;
+    }
+    advance(next);
+    // After a long stall, skip the missed periods instead of bursting to
+    // catch up (a burst would replay stale device states back to back).
+    if (late > 10 * 1e-9 * static_cast<double>(period_ns)) {
+      clock_gettime(CLOCK_MONOTONIC, &next);
+      advance(next);
+    }
+  }
+  device_->write_force(guard_.zero());  // leave the device at zero force
+  running_.store(false, std::memory_order_release);
+}
+
+EngineStats Engine::stats() const {
+  if (running()) {
+    EngineStats s;
+    s.steps = steps_published_.load(std::memory_order_relaxed);
+    return s;
+  }
+  EngineStats s = stats_;
+  s.guard_clamped = guard_.clamped_steps();
+  s.guard_rate_limited = guard_.rate_limited_steps();
+  s.log_dropped = log_ ? log_->dropped() : 0;
+  return s;
+}
+
+std::string Engine::header_json(const std::string& tooth_description_json) const {
+  nlohmann::json j;
+  j["format"] = "dentar-session";
+  j["rate_hz"] = cfg_.rate_hz;
+  j["model"] = cfg_.model;
+  const auto& sp = cfg_.model_params.seed;
+  j["seed"] = {{"density_scale_N", sp.density_scale_N},
+               {"c1_N", sp.c1_N},
+               {"c2_N_s_per_m", sp.c2_N_s_per_m},
+               {"history", sp.history}};
+  const auto& pp = cfg_.model_params.proxy;
+  j["proxy"] = {{"stiffness_N_per_m", pp.stiffness_N_per_m},
+                {"damping_N_s_per_m", pp.damping_N_s_per_m},
+                {"max_cut_depth_m", pp.max_cut_depth_m}};
+  j["cut"] = {{"base_rate_per_s", cfg_.cut.base_rate_per_s},
+              {"reference_force_N", cfg_.cut.reference_force_N},
+              {"max_effective_force_N", cfg_.cut.max_effective_force_N},
+              {"min_force_N", cfg_.cut.min_force_N}};
+  const auto& b = bur_->params;
+  j["bur"] = {{"id", cfg_.bur_id},
+              {"shape", std::string(volume::bur_shape_name(b.shape))},
+              {"radius_m", b.radius_m},
+              {"length_m", b.length_m},
+              {"tip_radius_m", b.tip_radius_m},
+              {"samples", bur_->size()}};
+  j["T_tooth_dev"] = iso_json(cfg_.T_tooth_dev);
+  j["T_sty_tip"] = iso_json(cfg_.T_sty_tip);
+  j["watchdog_missed_deadlines"] = cfg_.watchdog_missed_deadlines;
+  j["watchdog_rearm_steps"] = cfg_.watchdog_rearm_steps;
+  j["max_force_rate_N_per_s"] = cfg_.max_force_rate_N_per_s;
+  const auto& L = device_->limits();
+  j["device"] = {{"name", device_->name()},
+                 {"max_force_N", L.max_force_N},
+                 {"max_stiffness_N_per_m", L.max_stiffness_N_per_m},
+                 {"workspace_min_m", {L.workspace_min_m.x(), L.workspace_min_m.y(), L.workspace_min_m.z()}},
+                 {"workspace_max_m", {L.workspace_max_m.x(), L.workspace_max_m.y(), L.workspace_max_m.z()}}};
+  j["tooth"] = nlohmann::json::parse(tooth_description_json, nullptr, false);
+  char hash[17];
+  std::snprintf(hash, sizeof hash, "%016llx",
+                static_cast<unsigned long long>(volume_->content_hash()));
+  j["volume_hash_start"] = hash;  // hex: JSON numbers lose 64-bit precision
+  return j.dump();
+}
+
+}  // namespace dentar::haptics

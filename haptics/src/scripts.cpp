@@ -1,0 +1,104 @@
+#include "dentar/haptics/scripts.h"
+
+#include <cmath>
+
+namespace dentar::haptics {
+
+Station default_station() {
+  Station s;
+  // Device y up -> tooth +z; device z toward the student -> tooth -y.
+  s.T_tooth_dev = Eigen::Isometry3d::Identity();
+  s.T_tooth_dev.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  s.T_tooth_dev.translation() = Eigen::Vector3d(0.0, -0.15, -0.12);
+  s.T_sty_tip = Eigen::Isometry3d::Identity();
+  s.T_sty_tip.translation() = Eigen::Vector3d(0, 0, 0.022);
+  return s;
+}
+
+std::vector<HandWaypoint> to_hand_script(const std::vector<TipWaypoint>& tips, const Station& s) {
+  std::vector<HandWaypoint> out;
+  out.reserve(tips.size());
+  const Eigen::Isometry3d T_dev_tooth = s.T_tooth_dev.inverse();
+  const Eigen::Isometry3d T_tip_sty = s.T_sty_tip.inverse();
+  for (const auto& t : tips) {
+    Eigen::Isometry3d T_tooth_tip = Eigen::Isometry3d::Identity();
+    T_tooth_tip.linear() =
+        Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), t.axis_tooth.normalized())
+            .toRotationMatrix();
+    T_tooth_tip.translation() = t.tip_tooth_m;
+    const Eigen::Isometry3d T_dev_sty = T_dev_tooth * T_tooth_tip * T_tip_sty;
+    HandWaypoint w;
+    w.time_s = t.time_s;
+    w.position_m = T_dev_sty.translation();
+    w.orientation = Eigen::Quaterniond(T_dev_sty.linear());
+    w.pedal = t.pedal;
+    out.push_back(w);
+  }
+  return out;
+}
+
+std::vector<TipWaypoint> tip_script(const std::string& name, double press_force_N,
+                                    double seconds) {
+  const Eigen::Vector3d down(0, 0, -1);
+  // The hand spring is 400 N/m by default: a target this far below the
+  // surface asks for the wanted force once the bur rests on it.
+  // The hand spring (400 N/m) and the proxy coupling (0.8 x 2000 N/m) act in
+  // series: a target this far below the surface asks for the wanted force.
+  const double offset = press_force_N / 400.0 + press_force_N / 1600.0;
+  std::vector<TipWaypoint> s;
+  if (name == "press") {
+    // Central fossa: a local minimum of the occlusal surface (~5.8 mm), so a
+    // frictionless bur pressed straight down stays put instead of sliding
+    // off a cusp slope.
+    const Eigen::Vector3d cusp(0.0, 0.0, 0);
+    s.push_back({0.0, cusp + Eigen::Vector3d(0, 0, 9e-3), down, false});
+    s.push_back({0.3, cusp + Eigen::Vector3d(0, 0, 6.2e-3), down, false});
+    s.push_back({0.5, cusp + Eigen::Vector3d(0, 0, 5.9e-3 - offset), down, false});
+    s.push_back({seconds > 0 ? 0.5 + seconds : 1.5, cusp + Eigen::Vector3d(0, 0, 5.9e-3 - offset),
+                 down, false});
+  } else if (name == "slide") {
+    const double T = seconds > 0 ? seconds : 2.0;
+    const double off = 1.5 / 400.0 + 1.5 / 1600.0;
+    // Along the central groove (a valley between the buccal and palatal
+    // cusps), so a frictionless bur stays on the occlusal table.
+    // (The molar has no marginal ridges: past the cusps, |x| > 2 mm, the
+    // groove runs downhill off the crown.)
+    s.push_back({0.0, {-1.4e-3, 0, 9e-3}, down, false});
+    s.push_back({0.3, {-1.4e-3, 0, 6.0e-3 - off}, down, false});
+    s.push_back({0.3 + T, {1.4e-3, 0, 6.0e-3 - off}, down, false});
+    s.push_back({0.5 + T, {1.4e-3, 0, 9e-3}, down, false});
+  } else if (name == "probe") {
+    const Eigen::Vector3d p(0.0, -0.5e-3, 0);
+    const double off = 1.0 / 400.0 + 1.0 / 1600.0;
+    s.push_back({0.0, p + Eigen::Vector3d(0, 0, 9e-3), down, false});
+    s.push_back({0.3, p + Eigen::Vector3d(0, 0, 6.3e-3 - off), down, false});
+    // Tilt from vertical (tip contact) to 80 degrees (side contact) while pressing.
+    for (int i = 1; i <= 8; ++i) {
+      const double a = i * 10.0 * M_PI / 180.0;
+      s.push_back({0.3 + 0.25 * i, p + Eigen::Vector3d(0, 0, 6.3e-3 - off),
+                   Eigen::Vector3d(std::sin(a), 0, -std::cos(a)), false});
+    }
+    s.push_back({2.6, p + Eigen::Vector3d(0, 0, 9e-3), down, false});
+  } else {  // "access"
+    const double pass_s = seconds > 0 ? seconds / 14.0 : 1.0;
+    double t = 0, z = 7.0e-3;
+    s.push_back({t, {-2.0e-3, 0, 9e-3}, down, false});
+    t += 0.3;
+    s.push_back({t, {-2.0e-3, 0, z}, down, true});
+    for (int pass = 0; pass < 6; ++pass) {
+      z -= 0.4e-3;
+      const double x = pass % 2 ? -2.0e-3 : 2.0e-3;
+      t += 2 * pass_s;
+      s.push_back({t, {x, 0, z - offset}, down, true});
+    }
+    t += 0.5;
+    s.push_back({t, {0, 0, z - offset}, down, true});
+    t += 1.5;
+    s.push_back({t, {0, 0, 2.6e-3 - offset}, down, true});  // plunge toward the chamber
+    t += 0.5;
+    s.push_back({t, {0, 0, 9e-3}, down, false});
+  }
+  return s;
+}
+
+}  // namespace dentar::haptics
