@@ -117,8 +117,10 @@ int run_demo(const DemoOptions& o) {
 
   const Station station = default_station();
   DeviceLimits limits;
+  HandParams hand;
+  hand.stiffness_N_per_m = kFingerRestStiffness_N_per_m;
   auto device = SimulatedDevice::create(
-      to_hand_script(tip_script("access", o.force_N, o.seconds), station), limits);
+      to_hand_script(tip_script("access", o.force_N, o.seconds), station), limits, hand);
   if (!device) {
     print_error("demo", device.error());
     return 1;

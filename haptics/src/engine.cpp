@@ -137,9 +137,10 @@ bool Engine::step(double late_s) noexcept {
   }
 
   Eigen::Vector3d sent;
-  if (fault || watchdog_tripped_) {
+  const bool watchdog = watchdog_tripped_ || device_->recorded_watchdog();
+  if (fault || watchdog) {
     sent = guard_.zero();
-    if (watchdog_tripped_) flags |= kFlagWatchdog;
+    if (watchdog) flags |= kFlagWatchdog;
   } else {
     const auto clamped0 = guard_.clamped_steps() + guard_.rate_limited_steps();
     sent = guard_.apply(f_dev, dt_s_);

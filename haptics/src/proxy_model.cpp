@@ -119,6 +119,7 @@ class ProxyModel final : public ForceModel {
     // at 0.4 voxel per step (32 mm/s at 0.08 mm voxels).
     const double probe_max = std::min(step_max, 0.05 * h);
     bool contact = false;  // a move was projected out of the solid this step
+    int evals = 0;         // constraint evaluations this step (bounded: 1 kHz budget)
     Eval last{};
     Eigen::Matrix3d R_try = Rd;
     for (int s = 0; s < p_.max_substeps; ++s) {
@@ -129,9 +130,11 @@ class ProxyModel final : public ForceModel {
       if (len > step_max) d *= step_max / len;
       const bool rotating = R_try != R_;
       if (d.norm() < tiny && !rotating) break;  // at the goal, or pressed and not sliding
+      if (contact && evals + 1 > kMaxEvaluationsPerStep) break;  // budget spent: go on next step
       Eigen::Vector3d cand = x_ + d;
       Eval e = evaluate(vol, R_try, cand, true);
-      for (int t = 0; t < 2 && e.penetrating > 0; ++t) {
+      ++evals;
+      for (int t = 0; t < 2 && e.penetrating > 0 && evals < kMaxEvaluationsPerStep; ++t) {
         contact = true;
         add_plane(e.normal);
         normal_ = e.normal;
@@ -139,6 +142,7 @@ class ProxyModel final : public ForceModel {
         last = e;
         cand += e.normal * (std::min(e.depth_m, step_max) + margin);
         e = evaluate(vol, R_try, cand, true);
+        ++evals;
       }
       if (e.penetrating > 0) {
         last = e;
@@ -159,7 +163,7 @@ class ProxyModel final : public ForceModel {
     // the surface has receded (it was cut); a rejected probe changes
     // nothing, so a proxy resting in a crease stays exactly put instead of
     // being re-projected from a different point every step.
-    if (n_planes_ > 0 && probe_max > 0) {
+    if (n_planes_ > 0 && probe_max > 0 && evals < kMaxEvaluationsPerStep) {
       Eigen::Vector3d nsum = Eigen::Vector3d::Zero();
       for (int i = 0; i < n_planes_; ++i) nsum += planes_[i].n;
       if (nsum.norm() > 1e-9 && (xd - x_).dot(nsum) < 0) {
@@ -211,6 +215,11 @@ class ProxyModel final : public ForceModel {
 
  private:
   static constexpr double kHardnessTau_s = 0.02;
+  // Each evaluation reads the trilinear density under the active constraint
+  // samples (up to a few thousand in a cavity). Capping them bounds the step
+  // time; motion left over is taken in the next step (the proxy may lag a
+  // fast-sliding device by a fraction of a voxel, never penetrate).
+  static constexpr int kMaxEvaluationsPerStep = 6;
   static constexpr double kActiveReach = 0.2;  // voxels; see the header comment
   static constexpr float kIso = volume::kIsoDensity;
 

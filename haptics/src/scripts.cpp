@@ -80,21 +80,26 @@ std::vector<TipWaypoint> tip_script(const std::string& name, double press_force_
     }
     s.push_back({2.6, p + Eigen::Vector3d(0, 0, 9e-3), down, false});
   } else {  // "access"
+    // Depth control as a dentist does it, with a finger rest on the next
+    // teeth (a stiff hand, kFingerRestStiffness): the hand aims just below the
+    // pass depth, so the pressing force and with it the cutting rate fall
+    // off as the bur reaches it.
+    const double lead = press_force_N / 3000.0;
     const double pass_s = seconds > 0 ? seconds / 14.0 : 1.0;
-    double t = 0, z = 7.0e-3;
-    s.push_back({t, {-2.0e-3, 0, 9e-3}, down, false});
+    double t = 0, z = 6.4e-3;
+    s.push_back({t, {-1.2e-3, 0, 9e-3}, down, false});
     t += 0.3;
-    s.push_back({t, {-2.0e-3, 0, z}, down, true});
+    s.push_back({t, {-1.2e-3, 0, z}, down, true});
     for (int pass = 0; pass < 6; ++pass) {
-      z -= 0.4e-3;
-      const double x = pass % 2 ? -2.0e-3 : 2.0e-3;
+      z -= 0.3e-3;
+      const double x = pass % 2 ? -1.2e-3 : 1.2e-3;
       t += 2 * pass_s;
-      s.push_back({t, {x, 0, z - offset}, down, true});
+      s.push_back({t, {x, 0, z - lead}, down, true});
     }
     t += 0.5;
-    s.push_back({t, {0, 0, z - offset}, down, true});
+    s.push_back({t, {0, 0, z - lead}, down, true});
     t += 1.5;
-    s.push_back({t, {0, 0, 2.6e-3 - offset}, down, true});  // plunge toward the chamber
+    s.push_back({t, {0, 0, 2.9e-3 - lead}, down, true});  // plunge toward the chamber roof
     t += 0.5;
     s.push_back({t, {0, 0, 9e-3}, down, false});
   }

@@ -38,8 +38,10 @@ struct Rig {
       double press_N = 3.0, double seconds = 0.0) {
     bur = std::move(volume::sample_bur(volume::BurParams::capsule(0.5, 3.0), 4000)).value();
     DeviceLimits limits;
+    HandParams hand;
+    if (script == "access") hand.stiffness_N_per_m = kFingerRestStiffness_N_per_m;
     auto d = SimulatedDevice::create(to_hand_script(tip_script(script, press_N, seconds), station),
-                                     limits);
+                                     limits, hand);
     EXPECT_TRUE(d.ok()) << d.error();
     device = std::move(d).value();
     EngineConfig cfg;
@@ -184,7 +186,9 @@ TEST(Engine, RealTimeThreadRunsAtOneKilohertzAndStops) {
   EXPECT_GE(s.steps, mid.step);
   EXPECT_EQ(s.compute.count(), s.steps);
   EXPECT_EQ(s.jitter.count(), s.steps);
-  if (!s.realtime_granted) EXPECT_NE(s.realtime_note, "");
+  if (!s.realtime_granted) {
+    EXPECT_NE(s.realtime_note, "");
+  }
   EXPECT_EQ(rig.device->last_force(), Eigen::Vector3d::Zero());  // left at zero
 }
 

@@ -30,7 +30,11 @@ Eigen::Isometry3d pose_down(const Eigen::Vector3d& p) {
 }
 
 std::uint64_t drill(VoxelVolume& v, const BurSamples& bur, double force, int steps) {
-  Cutter c(v);
+  // A low rate keeps every voxel far from fully removed, so removal stays
+  // proportional to rate x force (what these tests check).
+  CutParams slow;
+  slow.base_rate_per_s = 1000.0;
+  Cutter c(v, slow);
   std::uint64_t total = 0;
   // Tip 0.5 mm into the surface, bur body above it.
   for (int s = 0; s < steps; ++s)

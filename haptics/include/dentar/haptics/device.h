@@ -45,6 +45,9 @@ class HapticDevice {
   // Force on the stylus (N, device frame), already checked by ForceGuard.
   // Simulated devices advance their simulated time by one step here.
   virtual void write_force(const Eigen::Vector3d& force_dev_N) noexcept = 0;
+  // Replayed sources: whether the live engine's watchdog zeroed the force
+  // at the step just read, so a replay sends the same forces. Live devices: false.
+  virtual bool recorded_watchdog() const noexcept { return false; }
 };
 
 }  // namespace dentar::haptics

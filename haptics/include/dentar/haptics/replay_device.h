@@ -21,6 +21,9 @@ class ReplayDevice final : public HapticDevice {
   // A record flagged with a device fault replays as a fault.
   bool read(DeviceState& out) noexcept override;
   void write_force(const Eigen::Vector3d& f) noexcept override;
+  bool recorded_watchdog() const noexcept override {
+    return next_ < records_.size() && (records_[next_].flags & kFlagWatchdog) != 0;
+  }
 
   std::size_t position() const { return next_; }
   std::size_t size() const { return records_.size(); }

@@ -28,6 +28,10 @@ struct TipWaypoint {
 };
 std::vector<HandWaypoint> to_hand_script(const std::vector<TipWaypoint>& tips, const Station& s);
 
+// Hand stiffness with a finger rest on the neighbouring teeth (N/m), as the
+// "access" script assumes; the other scripts use the default free hand.
+inline constexpr double kFingerRestStiffness_N_per_m = 3000.0;
+
 // Scripts, all for the default procedural molar:
 //  "access": an occlusal access preparation (passes along the central
 //     groove, 0.4 mm deeper each time, then a plunge that exposes the pulp);

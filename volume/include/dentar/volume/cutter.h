@@ -19,7 +19,7 @@ namespace dentar::volume {
 struct CutParams {
   // Density units (0..255) removed per second from a voxel fully under the
   // bur, for a material of removal_rate 1 (dentin) at the reference force.
-  double base_rate_per_s = 1500.0;
+  double base_rate_per_s = 6000.0;
   double reference_force_N = 1.0;
   // Removal scales linearly with force up to this force, then saturates.
   double max_effective_force_N = 4.0;
