@@ -148,6 +148,9 @@ bool Engine::step(double late_s) noexcept {
     if (guard_.fault() != GuardFault::kNone) flags |= kFlagDeviceFault;
   }
   device_->write_force(sent);
+  // The seed model smooths over the forces actually rendered (after the
+  // guard); tell it what was sent, in the tooth frame.
+  if (!fault) model_->set_rendered_force(cfg_.T_tooth_dev.linear() * sent);
 
   // Publish for graphics.
   HapticSnapshot snap;

@@ -219,7 +219,7 @@ class ProxyModel final : public ForceModel {
   // samples (up to a few thousand in a cavity). Capping them bounds the step
   // time; motion left over is taken in the next step (the proxy may lag a
   // fast-sliding device by a fraction of a voxel, never penetrate).
-  static constexpr int kMaxEvaluationsPerStep = 6;
+  static constexpr int kMaxEvaluationsPerStep = 3;
   static constexpr double kActiveReach = 0.2;  // voxels; see the header comment
   static constexpr float kIso = volume::kIsoDensity;
 

@@ -98,6 +98,8 @@ class Engine {
   HapticSnapshot snapshot() const { return snapshot_.load(); }
   // Copy of the statistics. While the thread runs only `steps` is filled
   // (the rest belongs to the haptic thread); call after stop() for all.
+  // Other threads may call it between start() and stop(), not concurrently
+  // with them.
   EngineStats stats() const;
   const volume::Cutter& cutter() const { return cutter_; }
   const EngineConfig& config() const { return cfg_; }
