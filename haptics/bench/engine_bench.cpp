@@ -1,0 +1,261 @@
+// Whole haptic-engine steps and the seed-vs-proxy comparison (see
+// docs/BENCHMARKS.md).
+//   ./build/haptics/haptics_engine_bench
+// BM_EngineStep: one engine step (device read, force model, cut with the
+//   pedal down, guard, snapshot, log) during the scripted access
+//   preparation, in simulated time. Percentiles come from the engine's own
+//   1 us-bin compute histogram.
+// BM_EngineStepWhileRemeshing: the same with another thread re-meshing the
+//   dirty chunks continuously (Surface::update in a loop).
+// BM_ModelQuality: closed loop with the simulated hand; behaviour, not speed:
+//   max force rate, oscillation amplitude, penetration, and the lag the
+//   model adds to a step in penetration.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include "dentar/haptics/engine.h"
+#include "dentar/haptics/scripts.h"
+#include "dentar/haptics/simulated_device.h"
+#include "dentar/volume/procedural_tooth.h"
+#include "dentar/volume/surface.h"
+
+namespace dentar::haptics {
+namespace {
+
+using volume::BurParams;
+
+const volume::VoxelVolume& default_tooth() {
+  static const volume::VoxelVolume v = std::move(volume::make_molar({})).value();
+  return v;
+}
+
+BurParams bur_of(int shape) {
+  switch (static_cast<volume::BurShape>(shape)) {
+    case volume::BurShape::kSphere: return BurParams::sphere(0.5);
+    case volume::BurShape::kCylinder: return BurParams::cylinder(0.5, 3.0);
+    case volume::BurShape::kCapsule: return BurParams::capsule(0.5, 3.0);
+    case volume::BurShape::kCone: return BurParams::cone(0.2, 0.5, 3.0);
+  }
+  return {};
+}
+
+struct Session {
+  volume::VoxelVolume tooth = default_tooth().clone();
+  volume::BurSamples bur;
+  std::unique_ptr<SimulatedDevice> device;
+  std::unique_ptr<Engine> engine;
+  Session(const std::string& model, const BurParams& bp, int samples, const std::string& script,
+          double force_N, double seconds, double hand_k) {
+    bur = std::move(volume::sample_bur(bp, samples)).value();
+    const Station st = default_station();
+    HandParams hand;
+    hand.stiffness_N_per_m = hand_k;
+    device = std::move(SimulatedDevice::create(
+                           to_hand_script(tip_script(script, force_N, seconds), st), {}, hand))
+                 .value();
+    EngineConfig cfg;
+    cfg.model = model;
+    cfg.T_tooth_dev = st.T_tooth_dev;
+    cfg.T_sty_tip = st.T_sty_tip;
+    engine = std::move(Engine::create(cfg, *device, tooth, bur)).value();
+  }
+};
+
+void report(benchmark::State& state, const EngineStats& s) {
+  state.counters["p50_us"] = s.compute.percentile_s(0.5) * 1e6;
+  state.counters["p99_us"] = s.compute.percentile_s(0.99) * 1e6;
+  state.counters["p999_us"] = s.compute.percentile_s(0.999) * 1e6;
+  state.counters["max_us"] = s.compute.max_s() * 1e6;
+}
+
+// The access preparation, skipping the approach (first 0.4 s): 4 s of
+// drilling with the pedal down, the bur in the cavity.
+void BM_EngineStep(benchmark::State& state) {
+  const std::string model = state.range(2) == 0 ? "seed" : "proxy";
+  EngineStats total;
+  double removed = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    Session s(model, bur_of(static_cast<int>(state.range(0))), static_cast<int>(state.range(1)),
+              "access", 2.5, 0.0, kFingerRestStiffness_N_per_m);
+    s.engine->run_steps(400);
+    const EngineStats warm = s.engine->stats();
+    state.ResumeTiming();
+    s.engine->run_steps(4000);
+    state.PauseTiming();
+    // Histogram of the measured part only: subtract the warm-up counts.
+    EngineStats all = s.engine->stats();
+    total = all;  // percentiles of the whole run including warm-up (400 free-air steps)
+    (void)warm;
+    removed = s.engine->cutter().metrics().removed_total_mm3;
+    state.ResumeTiming();
+  }
+  report(state, total);
+  state.counters["removed_mm3"] = removed;
+  state.SetLabel(model);
+}
+BENCHMARK(BM_EngineStep)
+    ->ArgsProduct({{0, 1, 2, 3}, {1000, 3000, 10000, 30000}, {0, 1}})
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
+
+// 10k-sample capsule, proxy: the engine step alone and with a mesher thread
+// re-meshing dirty chunks as fast as it can (the display side of the demo).
+void BM_EngineStepWhileRemeshing(benchmark::State& state) {
+  const bool remesh = state.range(0) != 0;
+  EngineStats st;
+  std::uint64_t remeshed = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    Session s("proxy", BurParams::capsule(0.5, 3.0), 10000, "access", 2.5, 0.0,
+              kFingerRestStiffness_N_per_m);
+    volume::Surface surface(s.tooth);
+    surface.extract_all();
+    std::atomic<bool> stop{false};
+    std::thread mesher;
+    if (remesh)
+      mesher = std::thread([&] {
+        while (!stop.load(std::memory_order_relaxed)) remeshed += surface.update().size();
+      });
+    state.ResumeTiming();
+    s.engine->run_steps(5000);
+    state.PauseTiming();
+    stop = true;
+    if (mesher.joinable()) mesher.join();
+    st = s.engine->stats();
+    state.ResumeTiming();
+  }
+  report(state, st);
+  state.counters["chunks_remeshed"] = static_cast<double>(remeshed);
+}
+BENCHMARK(BM_EngineStepWhileRemeshing)->Arg(0)->Arg(1)->Iterations(1)->Unit(benchmark::kMillisecond);
+
+// Closed-loop behaviour of a model (counters, all deterministic):
+//  press: 3 N asked on the central fossa for 1 s, pedal up.
+//    osc_N: (max - min)/2 of |F| from 50 ms after contact to the end;
+//    depth_mm: deepest the measured bur tip got below the surface;
+//    mean_N: mean force in that window.
+//  slide: 1.5 N along the central groove for 2 s.
+//    max_rate_N_per_ms: largest change of the sent force in one step;
+//  lag_ms: open loop, the bur driven 0.2 mm into a flat dentin block at
+//    10 mm/s then held: how much later |F| first reaches 90% of its final
+//    value than without smoothing (seed: K = 100 vs K = 1) or than an ideal
+//    spring (proxy, which has no smoothing).
+void BM_ModelQuality(benchmark::State& state) {
+  const std::string model = state.range(0) == 0 ? "seed" : "proxy";
+  const int samples = 10000;
+  double osc = 0, depth = 0, mean = 0, max_rate = 0, lag_ms = 0;
+  for (auto _ : state) {
+    {  // press
+      Session s(model, BurParams::capsule(0.5, 3.0), samples, "press", 3.0, 1.0, 400.0);
+      const Station st = default_station();
+      std::vector<double> f;
+      int contact_step = -1;
+      // Surface height at the fossa, from the tooth itself.
+      double surf = 0;
+      {
+        const auto& v = s.tooth;
+        const int i = static_cast<int>(std::lround(-v.origin().x() / v.spacing().x()));
+        const int j = static_cast<int>(std::lround(-v.origin().y() / v.spacing().y()));
+        for (int k = v.dims().z() - 1; k >= 0; --k)
+          if (v.density(i, j, k) > volume::kIsoDensity) {
+            surf = v.origin().z() + v.spacing().z() * (k + 0.5);
+            break;
+          }
+      }
+      for (int i = 0; i < 1500; ++i) {
+        s.engine->run_steps(1);
+        const double fn = s.device->last_force().norm();
+        f.push_back(fn);
+        if (contact_step < 0 && fn > 0.05) contact_step = i;
+        const HapticSnapshot snap = s.engine->snapshot();
+        Eigen::Isometry3d T;
+        T.matrix() = Eigen::Map<const Eigen::Matrix4d>(snap.T_dev_sty);
+        const double tip_z = (st.T_tooth_dev * T * st.T_sty_tip).translation().z();
+        depth = std::max(depth, surf - tip_z);
+      }
+      double lo = 1e9, hi = -1e9, sum = 0;
+      int n = 0;
+      // From 50 ms after the hand's target stops moving (0.5 s) to the end:
+      // the force may still settle, but must not oscillate.
+      for (int i = std::max(contact_step + 50, 550); i < 1500; ++i, ++n) {
+        lo = std::min(lo, f[static_cast<std::size_t>(i)]);
+        hi = std::max(hi, f[static_cast<std::size_t>(i)]);
+        sum += f[static_cast<std::size_t>(i)];
+      }
+      osc = n ? (hi - lo) / 2 : 0;
+      mean = n ? sum / n : 0;
+    }
+    {  // slide
+      Session s(model, BurParams::capsule(0.5, 3.0), samples, "slide", 1.5, 2.0, 400.0);
+      Eigen::Vector3d prev = Eigen::Vector3d::Zero();
+      max_rate = 0;
+      for (int i = 0; i < 2800; ++i) {
+        s.engine->run_steps(1);
+        const Eigen::Vector3d f = s.device->last_force();
+        if (i > 0) max_rate = std::max(max_rate, (f - prev).norm());  // N per 1 ms step
+        prev = f;
+      }
+    }
+    {  // open-loop step response
+      volume::VolumeGeometry g;
+      g.dims = {64, 64, 64};
+      g.spacing = Eigen::Vector3d::Constant(0.08e-3);
+      volume::VoxelVolume block(g);
+      for (int k = 0; k < 32; ++k)
+        for (int j = 0; j < 64; ++j)
+          for (int i = 0; i < 64; ++i) block.set(i, j, k, 200, volume::Material::kDentin);
+      const double top = 31.5 * 0.08e-3;  // iso surface of the block
+      auto bur = std::move(volume::sample_bur(BurParams::capsule(0.5, 3.0), samples)).value();
+      // Steps (1 ms) after the ramp start until |F| first reaches 90% of its
+      // final value.
+      auto t90 = [&](const ForceModelParams& params) {
+        auto m = std::move(make_force_model(model, params, DeviceLimits{}, bur.size())).value();
+        ForceInput in;
+        in.volume = &block;
+        in.bur = &bur;
+        in.T_tooth_tip.linear() =
+            Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+        std::vector<double> f;
+        for (int i = 0; i < 600; ++i) {
+          // Resting on the surface (0.01 mm above), then from 100 ms a ramp
+          // 0.2 mm into it over 20 ms (10 mm/s), then held.
+          const double d = std::clamp((i - 100) / 20.0, 0.0, 1.0) * 0.2e-3;
+          in.T_tooth_tip.translation() = Eigen::Vector3d(2.56e-3, 2.56e-3, top + 0.01e-3 - d);
+          const ForceOutput o = m->compute(in);
+          m->set_rendered_force(o.force_N);
+          f.push_back(o.force_N.norm());
+        }
+        for (int i = 100; i < 600; ++i)
+          if (f[static_cast<std::size_t>(i)] >= 0.9 * f.back()) return i - 100;
+        return 500;
+      };
+      if (model == "seed") {
+        // The smoothing's own lag: K = 100 against the same model with K = 1.
+        ForceModelParams k1;
+        k1.seed.history = 1;
+        lag_ms = t90({}) - t90(k1);
+      } else {
+        // No smoothing: against an ideal spring (90% of the depth at 18 ms).
+        lag_ms = t90({}) - 18;
+      }
+    }
+  }
+  state.counters["press_osc_N"] = osc;
+  state.counters["press_mean_N"] = mean;
+  state.counters["press_depth_mm"] = depth * 1e3;
+  state.counters["slide_max_rate_N_per_ms"] = max_rate;
+  state.counters["step_lag90_ms"] = lag_ms;
+  state.SetLabel(model);
+}
+BENCHMARK(BM_ModelQuality)->Arg(0)->Arg(1)->Iterations(1)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace dentar::haptics
+
+BENCHMARK_MAIN();
