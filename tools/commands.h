@@ -11,6 +11,7 @@ namespace dentar::tools {
 void add_demo(CLI::App& app, int& exit_code);
 void add_tooth(CLI::App& app, int& exit_code);
 void add_ct(CLI::App& app, int& exit_code);
+void add_synth(CLI::App& app, int& exit_code);
 
 // Prints "dentar <cmd>: <message>" to stderr.
 void print_error(const std::string& cmd, const std::string& message);

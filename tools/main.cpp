@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   dentar::tools::add_demo(app, exit_code);
   dentar::tools::add_tooth(app, exit_code);
   dentar::tools::add_ct(app, exit_code);
+  dentar::tools::add_synth(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
