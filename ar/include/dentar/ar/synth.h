@@ -1,0 +1,195 @@
+// Recorded-footage generator with exact ground truth (`dentar synth`).
+//
+// The scene (station_scene.h): the phantom head with its tag bundle, a
+// head-mounted camera moving around it on a smooth random path (25-45 cm,
+// looking at the mouth), a hand holding the handpiece on the haptic stylus,
+// drilling the virtual tooth on a scripted path, and the mouth mirror moving
+// in the mouth. The stylus is driven by the haptic engine itself
+// (SimulatedDevice + Engine, 1 kHz simulated time, run in step with the
+// frames), so the image, the ground truth and the session log agree exactly.
+// The virtual tooth is not in the video (it is virtual); it is in the masks.
+//
+// Determinism: the same options and station give identical frames, truth
+// and log on the same machine (one RNG stream per purpose, seeded from
+// `seed`; GL rasterisation on llvmpipe is deterministic).
+//
+// Thread/context: a SynthGenerator needs the EGL context (egl_context.h)
+// current on the calling thread for its whole life.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dentar/ar/station_scene.h"
+#include "dentar/volume/result.h"
+
+namespace dentar::ar {
+
+enum class SynthPreset { kStandard, kHard, kMirror };
+const char* synth_preset_name(SynthPreset p);
+std::optional<SynthPreset> parse_synth_preset(std::string_view name);
+
+struct SynthOptions {
+  SynthPreset preset = SynthPreset::kStandard;
+  int frames = 150;
+  double fps = 30.0;
+  int width = 640, height = 480;  // output size; the station camera is rescaled to it
+  std::uint64_t seed = 1;
+  bool distortion = true;  // render the station camera's lens distortion (off: pinhole, dist = 0)
+
+  // Head motion: camera distance to the look-at point (m), azimuth about the
+  // head's vertical axis (0 = straight in front, + toward the patient's
+  // left), elevation above the horizontal, roll; amplitudes are the largest
+  // excursion from the centre. `motion_speed` scales all frequencies
+  // (1 = calm work, ~0.05-0.3 Hz).
+  double distance_min_m = 0.28, distance_max_m = 0.42;
+  double azimuth_centre_rad = -0.45, azimuth_amplitude_rad = 0.25;
+  double elevation_centre_rad = 0.45, elevation_amplitude_rad = 0.12;
+  double roll_amplitude_rad = 0.08;
+  double motion_speed = 1.0;
+  double look_at_jitter_m = 0.01;
+
+  // Sensor and optics.
+  double read_noise_dn = 1.5;        // Gaussian read noise, 8-bit digital numbers (0 = off)
+  double shot_noise_gain = 0.04;     // shot-noise variance per DN of signal (0 = off)
+  double optical_blur_px = 0.5;      // Gaussian PSF sigma (0 = off)
+  double vignetting = 0.2;           // brightness loss at the image corners (0..0.9)
+  bool motion_blur = false;          // average sub-frames over the exposure time
+  double shutter_fraction = 0.5;     // exposure time / frame period (motion blur)
+  int blur_subframes = 5;            // odd, >= 3
+  double exposure_variation = 0.05;  // slow auto-exposure drift, relative amplitude
+  bool exposure_jumps = false;       // occasional sudden +-25 % gain steps, settling in 0.5 s
+
+  // Tag occlusion: skin-coloured occluders (an assistant's fingers) hovering
+  // over random head tags, each covering part of one.
+  int tag_occluders = 0;
+  // Fraction of the footage with the mirror in the mouth (the rest of the
+  // time it is pulled out of view): standard 0.6, mirror 1.
+  double mirror_in_mouth_fraction = 0.6;
+  // Drilling: the "access" script (haptics/scripts.h), stretched to the
+  // footage length, pressing force (N).
+  double drill_force_N = 2.5;
+  int bur_samples = 4000;
+
+  // Empty when valid; else names the option ("frames = 0 must be in 1..100000").
+  std::string validate() const;
+};
+
+// The options a preset starts from (before command-line overrides).
+//  standard: calm head motion, mirror 60 % of the time, mild noise;
+//  hard: fast head motion with motion blur, wide azimuth swings (tags at
+//   70 deg and more to the view), longer distances (tags under 20 px at
+//   640x480), 4 tag occluders, exposure jumps, stronger noise;
+//  mirror: as standard with the mirror in the mouth all the time, the
+//   camera kept where the mirror face is seen.
+SynthOptions synth_preset(SynthPreset p);
+
+// One tag's ground truth in one frame.
+struct TagTruth {
+  int id = 0;
+  bool on_mirror = false;
+  // Corners in OpenCV pixels (distortion applied when on), libapriltag's order.
+  std::array<Eigen::Vector2d, 4> corners_px;
+  double visible_fraction = 0;  // of the tag plate's pixels not hidden by anything
+  double side_px = 0;           // sqrt of the corner quadrilateral's area
+  double view_angle_rad = 0;    // between the tag normal and the direction to the camera
+  bool in_image = false;        // all four corners inside the image
+};
+
+struct FrameTruth {
+  int frame = 0;
+  double time_s = 0;  // mid-exposure time of the frame
+  // Exact poses (metres) at time_s; T_cam_tip uses the haptic step at
+  // haptic_time_s (the last 1 kHz step not after time_s).
+  Eigen::Isometry3d T_cam_man, T_cam_tooth, T_cam_mtag, T_cam_mir, T_cam_tip, T_dev_sty;
+  std::uint64_t haptic_step = 0;
+  double haptic_time_s = 0;
+  bool pedal = false;
+  std::vector<TagTruth> tags;   // tags with at least one visible pixel
+  bool mirror_in_view = false;  // >= 30 px of the reflecting face visible
+  int mirror_face_px = 0;
+  int tooth_px = 0;          // tooth silhouette area
+  int tooth_hidden_px = 0;   // of which covered by real foreground
+  double exposure_gain = 1;  // multiplier applied to this frame
+};
+
+// Mask values (CV_8UC1, one per frame): the virtual tooth's silhouette and
+// what real geometry lies in front of it.
+inline constexpr std::uint8_t kMaskOutside = 0;        // not the tooth
+inline constexpr std::uint8_t kMaskToothVisible = 64;  // tooth, nothing real in front
+inline constexpr std::uint8_t kMaskMannequin = 128;   // tooth behind lips, cheeks, gum, other teeth
+inline constexpr std::uint8_t kMaskForeground = 255;  // tooth behind fingers, instruments, mirror
+
+struct SynthFrame {
+  cv::Mat image;  // CV_8UC3 BGR, the camera image
+  cv::Mat mask;   // CV_8UC1, kMask* values
+  FrameTruth truth;
+};
+
+class SynthGenerator {
+ public:
+  // Builds the scene for `station` (its camera is rescaled to the options'
+  // size and its distortion zeroed when distortion is off; see station()).
+  // Writes the haptic session log to `session_log_path` unless empty.
+  // Errors name the option or file.
+  static Result<std::unique_ptr<SynthGenerator>> create(const StationScene& station,
+                                                        const SynthOptions& options,
+                                                        const std::string& session_log_path = {});
+  ~SynthGenerator();
+  SynthGenerator(const SynthGenerator&) = delete;
+  SynthGenerator& operator=(const SynthGenerator&) = delete;
+
+  // Renders the next frame (0, 1, ...). Fails after options.frames frames
+  // or on a GL error.
+  Status next(SynthFrame& out);
+  int frames_done() const;
+  // Closes the session log (call after the last frame); idempotent.
+  Status finish();
+  // The station as rendered (camera actually used).
+  const StationScene& station() const;
+  const SynthOptions& options() const;
+
+  // The tooth silhouette alone (CV_8UC1, 255 inside) at a given pose, drawn
+  // by the same tooth renderer the masks use (tests).
+  Result<cv::Mat> render_tooth_silhouette(const Eigen::Isometry3d& T_cam_tooth);
+
+  struct Impl;
+
+ private:
+  SynthGenerator() = default;
+  std::unique_ptr<Impl> impl_;
+};
+
+struct SynthSummary {
+  int frames = 0;
+  double seconds = 0;      // wall time
+  std::string video_path;  // video.mkv, or the frames/ folder with --png
+  int frames_with_mirror = 0;
+  double mean_visible_tags = 0;
+};
+
+// The whole job: writes into out_dir
+//   station.json  the station as rendered (station_scene.h format)
+//   video.mkv     FFV1 lossless (or frames/frame_NNNNNN.png when png)
+//   truth.jsonl   one JSON object per frame (docs/formats.md)
+//   masks/mask_NNNNNN.png
+//   session.dlog  the haptic session log of the scripted drilling
+//   synth.json    the options used and a summary
+// Needs a current EGL context. `progress` (may be empty) is called after
+// each frame with the frame count.
+Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& options,
+                               const std::string& out_dir, bool png,
+                               const std::function<void(int)>& progress = {});
+
+// One truth.jsonl line (no newline).
+std::string frame_truth_json(const FrameTruth& t);
+
+}  // namespace dentar::ar

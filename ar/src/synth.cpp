@@ -1,0 +1,974 @@
+#include "dentar/ar/synth.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <random>
+#include <sstream>
+
+#include "dentar/ar/camera_model.h"
+#include "dentar/ar/renderer.h"
+#include "dentar/haptics/engine.h"
+#include "dentar/haptics/scripts.h"
+#include "dentar/haptics/simulated_device.h"
+#include "dentar/volume/procedural_tooth.h"
+#include "synth_scene.h"
+
+namespace dentar::ar {
+
+// ---- presets and options ------------------------------------------------------
+
+const char* synth_preset_name(SynthPreset p) {
+  switch (p) {
+    case SynthPreset::kStandard:
+      return "standard";
+    case SynthPreset::kHard:
+      return "hard";
+    case SynthPreset::kMirror:
+      return "mirror";
+  }
+  return "?";
+}
+
+std::optional<SynthPreset> parse_synth_preset(std::string_view name) {
+  for (auto p : {SynthPreset::kStandard, SynthPreset::kHard, SynthPreset::kMirror})
+    if (name == synth_preset_name(p)) return p;
+  return std::nullopt;
+}
+
+SynthOptions synth_preset(SynthPreset p) {
+  SynthOptions o;
+  o.preset = p;
+  // Defaults (standard): the operator's head on the patient's right, from
+  // where the lower-left molar is seen through the open mouth.
+  if (p == SynthPreset::kHard) {
+    // Fast, wide head swings (cheek tags seen at 70 deg and more), farther
+    // away (small tags), blur, occluders, auto-exposure jumps, more noise.
+    o.distance_min_m = 0.34;
+    o.distance_max_m = 0.45;
+    o.azimuth_centre_rad = -0.1;
+    o.azimuth_amplitude_rad = 1.0;
+    o.elevation_centre_rad = 0.45;
+    o.elevation_amplitude_rad = 0.3;
+    o.roll_amplitude_rad = 0.2;
+    o.motion_speed = 3.5;
+    o.look_at_jitter_m = 0.03;
+    o.motion_blur = true;
+    o.shutter_fraction = 0.7;
+    o.read_noise_dn = 3.0;
+    o.shot_noise_gain = 0.08;
+    o.exposure_variation = 0.15;
+    o.exposure_jumps = true;
+    o.tag_occluders = 4;
+    o.mirror_in_mouth_fraction = 0.5;
+  } else if (p == SynthPreset::kMirror) {
+    // The camera stays on the side from which the mirror face is seen.
+    o.azimuth_centre_rad = -0.3;
+    o.azimuth_amplitude_rad = 0.25;
+    o.elevation_centre_rad = 0.42;
+    o.elevation_amplitude_rad = 0.1;
+    o.mirror_in_mouth_fraction = 1.0;
+  }
+  return o;
+}
+
+std::string SynthOptions::validate() const {
+  std::ostringstream os;
+  auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
+  if (frames < 1 || frames > 100000)
+    os << "frames = " << frames << " must be in 1..100000";
+  else if (!in(fps, 1, 240))
+    os << "fps = " << fps << " must be in [1, 240]";
+  else if (width < 64 || height < 48 || width > 4096 || height > 4096)
+    os << "resolution " << width << "x" << height << " must be within 64x48..4096x4096";
+  else if (!in(distance_min_m, 0.1, 2.0) || !in(distance_max_m, distance_min_m, 2.0))
+    os << "distance range [" << distance_min_m << ", " << distance_max_m
+       << "] m must satisfy 0.1 <= min <= max <= 2";
+  else if (!in(azimuth_amplitude_rad, 0, 1.6) || !in(std::abs(azimuth_centre_rad), 0, 1.6))
+    os << "azimuth centre/amplitude must be within [-1.6, 1.6] rad";
+  else if (!in(elevation_centre_rad + elevation_amplitude_rad, -1.5, 1.5) ||
+           !in(elevation_centre_rad - elevation_amplitude_rad, -1.5, 1.5) ||
+           elevation_amplitude_rad < 0)
+    os << "elevation centre +- amplitude must stay within [-1.5, 1.5] rad";
+  else if (!in(roll_amplitude_rad, 0, 1.0))
+    os << "roll amplitude must be in [0, 1] rad";
+  else if (!in(motion_speed, 0, 20))
+    os << "motion speed = " << motion_speed << " must be in [0, 20]";
+  else if (!in(look_at_jitter_m, 0, 0.1))
+    os << "look-at jitter must be in [0, 0.1] m";
+  else if (!in(read_noise_dn, 0, 50) || !in(shot_noise_gain, 0, 5))
+    os << "noise: read noise must be in [0, 50] DN and shot-noise gain in [0, 5]";
+  else if (!in(optical_blur_px, 0, 10))
+    os << "optical blur must be in [0, 10] px";
+  else if (!in(vignetting, 0, 0.9))
+    os << "vignetting must be in [0, 0.9]";
+  else if (!in(shutter_fraction, 0.01, 1.0))
+    os << "shutter fraction must be in [0.01, 1]";
+  else if (blur_subframes < 3 || blur_subframes > 31 || blur_subframes % 2 == 0)
+    os << "blur subframes = " << blur_subframes << " must be odd, 3..31";
+  else if (!in(exposure_variation, 0, 0.5))
+    os << "exposure variation must be in [0, 0.5]";
+  else if (tag_occluders < 0 || tag_occluders > 32)
+    os << "tag occluders must be in 0..32";
+  else if (!in(mirror_in_mouth_fraction, 0, 1))
+    os << "mirror fraction must be in [0, 1]";
+  else if (!in(drill_force_N, 0.1, 3.0))
+    os << "drill force must be in [0.1, 3] N";
+  else if (bur_samples < 500 || bur_samples > 30000)
+    os << "bur samples must be in 500..30000";
+  return os.str();
+}
+
+namespace {
+
+using Iso = Eigen::Isometry3d;
+using V3d = Eigen::Vector3d;
+
+Iso from_colmajor(const double* m) {
+  Iso T = Iso::Identity();
+  T.matrix() = Eigen::Map<const Eigen::Matrix4d>(m);
+  return T;
+}
+
+// Sum of sinusoids with random frequencies and phases, in [-1, 1]: a smooth
+// random walk that is a pure function of time (any frame can be rendered on
+// its own, and sub-frames for motion blur need no state).
+struct Smooth {
+  std::array<double, 4> w{}, f{}, ph{};
+  static Smooth make(std::mt19937_64& rng, double speed, double tremor_weight) {
+    std::uniform_real_distribution<double> u(0, 1);
+    Smooth s;
+    double sum = 0;
+    for (int k = 0; k < 3; ++k) {
+      s.w[k] = 0.5 + u(rng);
+      sum += s.w[k];
+      s.f[k] = speed * (0.04 + 0.09 * k + 0.08 * u(rng));
+      s.ph[k] = 2 * M_PI * u(rng);
+    }
+    for (int k = 0; k < 3; ++k) s.w[k] *= (1 - tremor_weight) / sum;
+    // Physiological head tremor: small and fast.
+    s.w[3] = tremor_weight;
+    s.f[3] = 1.5 + 2.0 * u(rng);
+    s.ph[3] = 2 * M_PI * u(rng);
+    return s;
+  }
+  double operator()(double t) const {
+    double v = 0;
+    for (int k = 0; k < 4; ++k) v += w[k] * std::sin(2 * M_PI * f[k] * t + ph[k]);
+    return v;
+  }
+};
+
+double smoothstep(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * (3 - 2 * x);
+}
+
+Iso look_at(const V3d& eye, const V3d& target, double roll) {
+  const V3d z = (target - eye).normalized();
+  V3d y = -V3d::UnitY();  // image down = world down
+  y = (y - y.dot(z) * z).normalized();
+  const V3d x = y.cross(z);
+  Iso T = Iso::Identity();
+  T.linear().col(0) = x;
+  T.linear().col(1) = y;
+  T.linear().col(2) = z;
+  T.linear() = T.linear() * Eigen::AngleAxisd(roll, V3d::UnitZ()).toRotationMatrix();
+  T.translation() = eye;
+  return T;
+}
+
+// Fast deterministic Gaussian noise: xorshift64* and the sum of four 16-bit
+// uniforms (Irwin-Hall, rescaled to unit variance; tails cut at 3.5 sigma).
+struct Noise {
+  std::uint64_t s;
+  explicit Noise(std::uint64_t seed) : s(seed * 0x9E3779B97F4A7C15ull + 0x2545F4914F6CDD1Dull) {
+    if (s == 0) s = 1;
+  }
+  std::uint64_t next() {
+    s ^= s >> 12;
+    s ^= s << 25;
+    s ^= s >> 27;
+    return s * 0x2545F4914F6CDD1Dull;
+  }
+  float gauss() {
+    const std::uint64_t r = next();
+    const float sum =
+        static_cast<float>((r & 0xffff) + ((r >> 16) & 0xffff) + ((r >> 32) & 0xffff) + (r >> 48)) *
+        (1.0f / 65536.0f);
+    return (sum - 2.0f) * 1.7320508f;
+  }
+};
+
+constexpr int kTagCodeStep = 4;  // id pass: tag i is drawn with green = 4 (i + 1) / 255
+
+}  // namespace
+
+// ---- the generator --------------------------------------------------------------
+
+struct SynthGenerator::Impl {
+  StationScene station;
+  SynthOptions opt;
+  std::unique_ptr<CameraModel> camera;
+  std::optional<TagFamily> family;
+  std::optional<Renderer> renderer;
+  std::optional<synth::SceneProgram> program;
+  std::optional<ToothRenderer> tooth_renderer;
+
+  synth::GpuMesh room, mannequin, hand, handpiece, bur, mirror_face, mirror_body, paddle, occluder;
+  struct GpuTag {
+    synth::GpuMesh quad;
+    Texture texture;
+    bool on_mirror = false;
+    const TagPlacement* placement = nullptr;
+  };
+  std::vector<GpuTag> tags;
+
+  // Haptics: the tooth, the scripted hand and the engine, in simulated time.
+  std::optional<volume::VoxelVolume> volume;
+  std::optional<volume::BurSamples> bur_samples;
+  std::unique_ptr<haptics::SimulatedDevice> device;
+  std::unique_ptr<haptics::SessionLogWriter> log;
+  std::unique_ptr<haptics::Engine> engine;
+  std::unique_ptr<volume::Surface> surface;
+  std::uint64_t steps_done = 0;
+  bool finished = false;
+
+  // Motion.
+  Smooth s_dist, s_az, s_el, s_roll, s_tx, s_ty, s_tz, s_exposure;
+  std::array<Smooth, 6> s_mirror;
+  struct Occluder {
+    int tag = 0;
+    std::array<Smooth, 4> s;
+  };
+  std::vector<Occluder> occluders;
+  std::vector<std::pair<double, double>> exposure_jumps;  // (time, relative step)
+  Iso T_tooth_mir_nominal = Iso::Identity();
+  V3d mirror_out_dir = V3d::UnitZ();  // man frame
+
+  cv::Mat vignette;  // CV_32F gain map
+  int frame = 0;
+
+  // Scene state at one instant.
+  struct State {
+    Iso T_cam_man, T_man_mir, T_man_tip, T_dev_sty;
+    std::vector<Iso> T_man_occ;
+    std::uint64_t step = 0;
+    double haptic_time_s = 0;
+    bool pedal = false;
+  };
+
+  Iso T_man_cam(double t) const {
+    const SynthOptions& o = opt;
+    const double d = 0.5 * (o.distance_min_m + o.distance_max_m) +
+                     0.5 * (o.distance_max_m - o.distance_min_m) * s_dist(t);
+    const double az = o.azimuth_centre_rad + o.azimuth_amplitude_rad * s_az(t);
+    const double el = o.elevation_centre_rad + o.elevation_amplitude_rad * s_el(t);
+    const V3d target =
+        V3d(0.008, -0.006, -0.02) + o.look_at_jitter_m * V3d(s_tx(t), s_ty(t), s_tz(t));
+    const V3d eye =
+        target + d * V3d(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
+    return look_at(eye, target, o.roll_amplitude_rad * s_roll(t));
+  }
+
+  Iso T_man_mir(double t) const {
+    // Small wobble about the nominal pose in the mouth; pulled out along the
+    // handle (out of view) for part of each 8 s cycle.
+    Iso W = Iso::Identity();
+    W.linear() = (Eigen::AngleAxisd(0.14 * s_mirror[0](t), V3d::UnitX()) *
+                  Eigen::AngleAxisd(0.14 * s_mirror[1](t), V3d::UnitY()) *
+                  Eigen::AngleAxisd(0.2 * s_mirror[2](t), V3d::UnitZ()))
+                     .toRotationMatrix();
+    W.translation() = 2.5e-3 * V3d(s_mirror[3](t), s_mirror[4](t), s_mirror[5](t));
+    Iso T = station.calibration.T_man_tooth * T_tooth_mir_nominal * W;
+    const double f = opt.mirror_in_mouth_fraction;
+    if (f < 1.0) {
+      const double period = 8.0, ramp = 0.6;
+      const double ph = std::fmod(t, period);
+      const double in_end = f * period;
+      double out = 0;  // 0 in the mouth, 1 out of view
+      if (ph >= in_end) out = smoothstep((ph - in_end) / ramp);
+      if (ph > period - ramp) out = std::min(out, smoothstep((period - ph) / ramp));
+      if (f <= 0) out = 1;
+      T.translation() += out * 0.4 * mirror_out_dir + out * 0.15 * V3d(0, -1, 0);
+    }
+    return T;
+  }
+
+  Iso T_man_occ(std::size_t i, double t) const {
+    const Occluder& o = occluders[i];
+    const TagPlacement& tag = station.mannequin_tags[static_cast<std::size_t>(o.tag)];
+    const Iso& T = tag.T_parent_tag;
+    const double h = 0.5 * tag.size_m;
+    const V3d out = -T.linear().col(2);
+    const V3d c = T.translation() + out * (0.014 + 0.006 * o.s[0](t)) +
+                  T.linear().col(0) * (1.3 * h * o.s[1](t)) +
+                  T.linear().col(1) * (1.3 * h * o.s[2](t));
+    Iso R = Iso::Identity();
+    R.linear() = T.linear() * Eigen::AngleAxisd(1.2 * o.s[3](t), V3d::UnitZ()).toRotationMatrix();
+    R.translation() = c;
+    return R;  // the occluder capsule lies along x of this frame
+  }
+
+  double exposure_gain(double t) const {
+    double g = 1.0 + opt.exposure_variation * s_exposure(t);
+    for (const auto& [tj, a] : exposure_jumps)
+      if (t >= tj) g *= 1.0 + a * std::exp(-(t - tj) / 0.15);
+    return std::clamp(g, 0.3, 2.5);
+  }
+
+  // Runs the haptic engine up to time t (the last 1 kHz step not after t).
+  State state_at(double t) {
+    State s;
+    const std::uint64_t want = static_cast<std::uint64_t>(std::floor(t * 1000.0 + 1e-9)) + 1;
+    if (want > steps_done) {
+      steps_done += engine->run_steps(want - steps_done);
+      surface_dirty = true;
+    }
+    const haptics::HapticSnapshot snap = engine->snapshot();
+    s.step = snap.step;
+    s.haptic_time_s = snap.time_s;
+    s.pedal = snap.pedal != 0;
+    s.T_dev_sty = from_colmajor(snap.T_dev_sty);
+    const auto& c = station.calibration;
+    s.T_man_tip = c.T_man_dev * s.T_dev_sty * c.T_sty_tip;
+    s.T_cam_man = T_man_cam(t).inverse();
+    s.T_man_mir = T_man_mir(t);
+    for (std::size_t i = 0; i < occluders.size(); ++i) s.T_man_occ.push_back(T_man_occ(i, t));
+    return s;
+  }
+  bool surface_dirty = true;
+
+  Eigen::Vector3f light_cam(const State& s, const V3d& dir_man) const {
+    return (s.T_cam_man.linear() * dir_man).cast<float>();
+  }
+
+  // What the camera sees (video pass).
+  void draw_video(const State& s) {
+    const auto& c = station.calibration;
+    renderer->begin_frame(Eigen::Vector4f(0.5f, 0.5f, 0.5f, 1.0f));
+    const auto& P = renderer->clip_from_cam();
+    using M = synth::SceneProgram::Mode;
+    // Head lamp just above the camera; operating light above and in front.
+    program->begin(Eigen::Vector3f(0.0f, -0.3f, -1.0f), light_cam(s, V3d(0.1, 1.0, 0.6)));
+    program->draw(room, P, s.T_cam_man, M::kLit);
+    program->draw(mannequin, P, s.T_cam_man, M::kLit);
+    const Iso T_cam_tip = s.T_cam_man * s.T_man_tip;
+    program->draw(hand, P, T_cam_tip, M::kLit);
+    program->draw(handpiece, P, T_cam_tip, M::kLit);
+    program->draw(bur, P, T_cam_tip, M::kLit);
+    const Iso T_cam_mir = s.T_cam_man * s.T_man_mir;
+    const Iso T_cam_mtag = T_cam_mir * c.T_mtag_mir.inverse();
+    program->draw(mirror_body, P, T_cam_mir, M::kLit);
+    program->draw(mirror_face, P, T_cam_mir, M::kMirror);
+    program->draw(paddle, P, T_cam_mtag, M::kLit);
+    for (std::size_t i = 0; i < s.T_man_occ.size(); ++i)
+      program->draw(occluder, P, s.T_cam_man * s.T_man_occ[i], M::kLit);
+    for (const auto& g : tags) {
+      const Iso T = (g.on_mirror ? T_cam_mtag : s.T_cam_man) * g.placement->T_parent_tag;
+      program->draw(g.quad, P, T, M::kTextured, {}, g.texture.id(), false);
+    }
+    renderer->end_frame();
+  }
+
+  // Id passes. m1: red = tooth silhouette alone; green/blue = tags alone.
+  // m2: everything real plus the tooth: red where the tooth is frontmost,
+  // green/blue = visible tag pixels, alpha = moving foreground (1) or
+  // mirror face (0.5).
+  void draw_ids(const State& s, bool all, cv::Mat& out) {
+    const auto& c = station.calibration;
+    renderer->begin_frame(Eigen::Vector4f::Zero());
+    const auto& P = renderer->clip_from_cam();
+    using M = synth::SceneProgram::Mode;
+    const Iso T_cam_tooth = s.T_cam_man * c.T_man_tooth;
+    glColorMask(GL_TRUE, GL_FALSE, GL_FALSE, GL_FALSE);
+    tooth_renderer->draw(P, T_cam_tooth);
+    if (!all) {
+      glClear(GL_DEPTH_BUFFER_BIT);
+      glColorMask(GL_FALSE, GL_TRUE, GL_TRUE, GL_FALSE);
+    } else {
+      glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    }
+    program->begin(Eigen::Vector3f::UnitZ(), Eigen::Vector3f::UnitZ());
+    const Iso T_cam_tip = s.T_cam_man * s.T_man_tip;
+    const Iso T_cam_mir = s.T_cam_man * s.T_man_mir;
+    const Iso T_cam_mtag = T_cam_mir * c.T_mtag_mir.inverse();
+    if (all) {
+      const Eigen::Vector4f none(0, 0, 0, 0), fg(0, 0, 0, 1), face(0, 0, 0, 0.5f);
+      program->draw(mannequin, P, s.T_cam_man, M::kFlat, none);
+      program->draw(hand, P, T_cam_tip, M::kFlat, fg);
+      program->draw(handpiece, P, T_cam_tip, M::kFlat, fg);
+      program->draw(bur, P, T_cam_tip, M::kFlat, fg);
+      program->draw(mirror_body, P, T_cam_mir, M::kFlat, fg);
+      program->draw(mirror_face, P, T_cam_mir, M::kFlat, face);
+      program->draw(paddle, P, T_cam_mtag, M::kFlat, fg);
+      for (std::size_t i = 0; i < s.T_man_occ.size(); ++i)
+        program->draw(occluder, P, s.T_cam_man * s.T_man_occ[i], M::kFlat, fg);
+    }
+    for (std::size_t i = 0; i < tags.size(); ++i) {
+      const auto& g = tags[i];
+      const Iso T = (g.on_mirror ? T_cam_mtag : s.T_cam_man) * g.placement->T_parent_tag;
+      const float code = static_cast<float>(kTagCodeStep * (i + 1)) / 255.0f;
+      program->draw(g.quad, P, T, M::kFlat, Eigen::Vector4f(0, code, 1, g.on_mirror ? 1.f : 0.f), 0,
+                    false);
+    }
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    renderer->end_frame();
+    renderer->read_rgba(out);
+  }
+
+  // Per-tag pixel counts from an id image (blue = coverage, green/blue = code).
+  std::vector<int> count_tags(const cv::Mat& rgba) const {
+    std::vector<int> n(tags.size(), 0);
+    for (int v = 0; v < rgba.rows; ++v) {
+      const auto* p = rgba.ptr<cv::Vec4b>(v);
+      for (int u = 0; u < rgba.cols; ++u) {
+        const int b = p[u][2];
+        if (b < 128) continue;
+        const double code = p[u][1] * 255.0 / b;
+        const long i = std::lround(code / kTagCodeStep) - 1;
+        if (i >= 0 && i < static_cast<long>(n.size())) ++n[static_cast<std::size_t>(i)];
+      }
+    }
+    return n;
+  }
+
+  void post_process(cv::Mat& bgr, double gain, int frame_index) {
+    if (opt.optical_blur_px > 0) cv::GaussianBlur(bgr, bgr, cv::Size(0, 0), opt.optical_blur_px);
+    Noise rng(opt.seed * 1000003ull + static_cast<std::uint64_t>(frame_index) + 17);
+    const float read2 = static_cast<float>(opt.read_noise_dn * opt.read_noise_dn);
+    const float shot = static_cast<float>(opt.shot_noise_gain);
+    const bool noisy = read2 > 0 || shot > 0;
+    for (int v = 0; v < bgr.rows; ++v) {
+      auto* p = bgr.ptr<std::uint8_t>(v);
+      const float* vg = vignette.ptr<float>(v);
+      for (int u = 0; u < bgr.cols; ++u) {
+        const float g = static_cast<float>(gain) * vg[u];
+        for (int ch = 0; ch < 3; ++ch) {
+          float x = p[3 * u + ch] * g;
+          if (noisy) x += std::sqrt(read2 + shot * std::max(x, 0.0f)) * rng.gauss();
+          p[3 * u + ch] = static_cast<std::uint8_t>(std::clamp(std::lround(x), 0L, 255L));
+        }
+      }
+    }
+  }
+};
+
+SynthGenerator::~SynthGenerator() {
+  if (impl_) (void)finish();
+}
+
+const StationScene& SynthGenerator::station() const { return impl_->station; }
+const SynthOptions& SynthGenerator::options() const { return impl_->opt; }
+int SynthGenerator::frames_done() const { return impl_->frame; }
+
+Status SynthGenerator::finish() {
+  if (impl_->finished) return {};
+  impl_->finished = true;
+  if (impl_->log) return impl_->log->close();
+  return {};
+}
+
+Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScene& station_in,
+                                                               const SynthOptions& o,
+                                                               const std::string& log_path) {
+  if (std::string e = o.validate(); !e.empty()) return Error{"synth options: " + e};
+  if (std::string e = station_in.validate(); !e.empty()) return Error{"station: " + e};
+  std::unique_ptr<SynthGenerator> g(new SynthGenerator);
+  g->impl_ = std::make_unique<Impl>();
+  Impl& im = *g->impl_;
+  im.opt = o;
+  im.station = station_in;
+  // Camera at the requested size: same horizontal field of view.
+  auto& k = im.station.calibration.camera;
+  if (k.width != o.width || k.height != o.height) {
+    const double s = static_cast<double>(o.width) / k.width;
+    calibration::CameraIntrinsics n = k;
+    n.width = o.width;
+    n.height = o.height;
+    n.fx = k.fx * s;
+    n.fy = k.fy * s;
+    n.cx = 0.5 * (o.width - 1) + (k.cx - 0.5 * (k.width - 1)) * s;
+    n.cy = 0.5 * (o.height - 1) + (k.cy - 0.5 * (k.height - 1)) * s;
+    k = n;
+  }
+  if (!o.distortion) k.dist = {0, 0, 0, 0, 0};
+  im.camera = std::make_unique<CameraModel>(k);
+
+  RendererOptions ro;
+  ro.near_m = 0.02;
+  ro.far_m = 6.0;
+  auto r = Renderer::create(k, ro);
+  if (!r) return Error{r.error()};
+  im.renderer.emplace(std::move(r).value());
+  auto prog = synth::SceneProgram::create();
+  if (!prog) return Error{prog.error()};
+  im.program.emplace(std::move(prog).value());
+  auto tr = ToothRenderer::create();
+  if (!tr) return Error{tr.error()};
+  im.tooth_renderer.emplace(std::move(tr).value());
+  for (int m = 0; m < volume::kMaxMaterials; ++m)
+    im.tooth_renderer->set_style(static_cast<volume::Material>(m),
+                                 MaterialStyle{Eigen::Vector3f::Ones(), 1.0f});
+  im.tooth_renderer->lighting.ambient = 1.0f;
+  im.tooth_renderer->lighting.diffuse = 0.0f;
+
+  // Meshes.
+  const StationScene& st = im.station;
+  im.room = synth::upload(synth::room_mesh());
+  im.mannequin = synth::upload(synth::mannequin_mesh(st.mannequin));
+  const volume::BurParams bp = volume::BurParams::capsule(0.5, 3.0);
+  const HandpieceParams hp;
+  const double head_z = bur_shank_end_z_m(bp) - 0.5 * hp.head_height_m;
+  im.hand = synth::upload(synth::hand_mesh(hp, head_z));
+  {
+    synth::Mesh m;
+    m.add(make_handpiece_mesh(bp, hp), Eigen::Isometry3f::Identity(), {0.62f, 0.64f, 0.68f});
+    im.handpiece = synth::upload(m);
+    synth::Mesh b;
+    b.add(make_bur_mesh(bp), Eigen::Isometry3f::Identity(), {0.80f, 0.80f, 0.78f});
+    im.bur = synth::upload(b);
+  }
+  {
+    MirrorMeshParams mp;
+    mp.radius_m = st.calibration.mirror_radius_m;
+    mp.thickness_m = st.mirror.thickness_m;
+    mp.neck_length_m = st.mirror.neck_length_m;
+    mp.neck_radius_m = st.mirror.neck_radius_m;
+    mp.handle_length_m = st.mirror.handle_length_m;
+    mp.handle_radius_m = st.mirror.handle_radius_m;
+    mp.stem_tilt_rad = st.mirror.stem_tilt_rad;
+    const MirrorMeshes mm = make_mirror_meshes(mp);
+    synth::Mesh face, body;
+    face.add(mm.face, Eigen::Isometry3f::Identity(), {0.8f, 0.8f, 0.8f});
+    body.add(mm.body, Eigen::Isometry3f::Identity(), {0.70f, 0.71f, 0.74f});
+    im.mirror_face = synth::upload(face);
+    im.mirror_body = synth::upload(body);
+    const float w = static_cast<float>(st.mirror.paddle_width_m) * 0.5f;
+    const float h = static_cast<float>(st.mirror.paddle_height_m) * 0.5f;
+    // Slightly inside the tag planes so the tags are never z-fought.
+    im.paddle = synth::upload(synth::box(
+        {-w, -h, 0.2e-3f}, {w, h, static_cast<float>(st.mirror.paddle_thickness_m) - 0.2e-3f},
+        {0.92f, 0.92f, 0.90f}));
+  }
+  im.occluder = synth::upload(
+      synth::capsule({-0.028f, 0, 0}, {0.028f, 0, 0}, 0.0085f, 0.0075f, {0.86f, 0.66f, 0.55f}));
+  im.family.emplace(TagFamily::create(st.family));
+  const int ppc = 16;  // texels per cell: edges stay sharp down to ~1 mm/px
+  for (const auto* list : {&st.mannequin_tags, &st.mirror_tags}) {
+    for (const auto& t : *list) {
+      Impl::GpuTag gt;
+      gt.placement = &t;
+      gt.on_mirror = list == &st.mirror_tags;
+      gt.quad = synth::upload(synth::tag_quad(tag_plate_half_size_m(*im.family, t.size_m)));
+      gt.texture = synth::make_tag_texture(render_tag_image(*im.family, t.id, ppc, ppc / 2));
+      im.tags.push_back(std::move(gt));
+    }
+  }
+  if (auto e = gl_error_message("SynthGenerator::create"); !e.empty()) return Error{e};
+
+  // Motion signals, one RNG stream per purpose so changing one option does
+  // not reshuffle the others.
+  std::mt19937_64 rng(o.seed);
+  const double sp = o.motion_speed, tremor = o.preset == SynthPreset::kHard ? 0.06 : 0.02;
+  im.s_dist = Smooth::make(rng, sp, 0.0);
+  im.s_az = Smooth::make(rng, sp, tremor);
+  im.s_el = Smooth::make(rng, sp, tremor);
+  im.s_roll = Smooth::make(rng, sp, tremor);
+  im.s_tx = Smooth::make(rng, sp, tremor);
+  im.s_ty = Smooth::make(rng, sp, tremor);
+  im.s_tz = Smooth::make(rng, sp, tremor);
+  im.s_exposure = Smooth::make(rng, 1.0, 0.0);
+  for (auto& s : im.s_mirror) s = Smooth::make(rng, 2.0, 0.05);
+  std::mt19937_64 rng_occ(o.seed ^ 0x0cc1d3u);
+  for (int i = 0; i < o.tag_occluders; ++i) {
+    Impl::Occluder oc;
+    oc.tag = static_cast<int>(rng_occ() % st.mannequin_tags.size());
+    for (auto& s : oc.s) s = Smooth::make(rng_occ, 1.5, 0.0);
+    im.occluders.push_back(oc);
+  }
+  const double duration = o.frames / o.fps;
+  if (o.exposure_jumps) {
+    std::mt19937_64 rng_exp(o.seed ^ 0xe4905u);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (double t = 0.3 + 2.0 * u(rng_exp); t < duration; t += 0.4 + 3.0 * u(rng_exp))
+      im.exposure_jumps.emplace_back(t, (u(rng_exp) < 0.5 ? -0.25 : 0.25));
+  }
+  // Mirror: face lingual of the tooth and a little above the crown, tilted
+  // toward it; its handle leaves the mouth forward, toward the midline.
+  {
+    const V3d n = V3d(0.0, -0.5, 0.85).normalized();  // tooth frame
+    const V3d h = V3d(-1.0, 0.25, 0.45).normalized();
+    Iso T = Iso::Identity();
+    const V3d y = -(h - h.dot(n) * n).normalized();
+    T.linear().col(2) = n;
+    T.linear().col(1) = y;
+    T.linear().col(0) = y.cross(n);
+    T.translation() = V3d(0.5e-3, 12e-3, 9e-3);
+    im.T_tooth_mir_nominal = T;
+    im.mirror_out_dir = st.calibration.T_man_tooth.linear() * h;
+  }
+  im.vignette.create(k.height, k.width, CV_32F);
+  for (int v = 0; v < k.height; ++v)
+    for (int u = 0; u < k.width; ++u) {
+      const double x = (u - k.cx) / (0.5 * k.width), y = (v - k.cy) / (0.5 * k.width);
+      im.vignette.at<float>(v, u) =
+          static_cast<float>(1.0 - o.vignetting * std::min(1.0, 0.6 * (x * x + y * y)));
+    }
+
+  // Haptics: the molar, the bur, the scripted hand on the stylus and the
+  // engine, exactly as `dentar demo` sets them up, in simulated time.
+  volume::MolarParams molar;
+  molar.voxel_mm = st.tooth_voxel_m * 1e3;
+  auto vol = volume::make_molar(molar);
+  if (!vol) return Error{"tooth: " + vol.error()};
+  im.volume.emplace(std::move(vol).value());
+  auto samples = volume::sample_bur(bp, o.bur_samples);
+  if (!samples) return Error{"bur: " + samples.error()};
+  im.bur_samples.emplace(std::move(samples).value());
+  // The access script stretched over the footage (its passes take 12/14 of
+  // `seconds` plus 2.8 s of approach and plunge).
+  const double seconds = duration > 5.0 ? (duration - 3.3) * 14.0 / 12.0 : 0.0;
+  const auto tips = haptics::tip_script("access", o.drill_force_N, seconds);
+  // Stylus poses with the handle rolled to leave the mouth forward through
+  // the left corner: the hand rests beside the left cheek, on the far side
+  // from the operator's head (camera), and does not hide the mouth.
+  std::vector<haptics::HandWaypoint> script;
+  const Iso T_dev_tooth = st.calibration.T_tooth_dev().inverse();
+  const V3d handle_man = V3d(0.5, 0.0, 0.87).normalized();
+  const V3d handle_tooth = st.calibration.T_man_tooth.linear().transpose() * handle_man;
+  for (const auto& w : tips) {
+    const V3d z = w.axis_tooth.normalized();
+    const V3d x = -(handle_tooth - handle_tooth.dot(z) * z).normalized();
+    Iso T_tooth_tip = Iso::Identity();
+    T_tooth_tip.linear().col(0) = x;
+    T_tooth_tip.linear().col(1) = z.cross(x);
+    T_tooth_tip.linear().col(2) = z;
+    T_tooth_tip.translation() = w.tip_tooth_m;
+    const Iso T_dev_sty = T_dev_tooth * T_tooth_tip * st.calibration.T_sty_tip.inverse();
+    haptics::HandWaypoint hw;
+    hw.time_s = w.time_s;
+    hw.position_m = T_dev_sty.translation();
+    hw.orientation = Eigen::Quaterniond(T_dev_sty.linear());
+    hw.pedal = w.pedal;
+    script.push_back(hw);
+  }
+  haptics::HandParams hand;
+  hand.stiffness_N_per_m = haptics::kFingerRestStiffness_N_per_m;
+  auto dev = haptics::SimulatedDevice::create(script, haptics::DeviceLimits{}, hand);
+  if (!dev) return Error{"scripted hand: " + dev.error()};
+  im.device = std::move(dev).value();
+  haptics::EngineConfig cfg;
+  cfg.T_tooth_dev = st.calibration.T_tooth_dev();
+  cfg.T_sty_tip = st.calibration.T_sty_tip;
+  cfg.try_realtime = false;
+  if (!log_path.empty()) {
+    nlohmann::json desc = {{"kind", "molar"},
+                           {"voxel_mm", molar.voxel_mm},
+                           {"source", "dentar synth"},
+                           {"preset", synth_preset_name(o.preset)},
+                           {"seed", o.seed}};
+    std::string header;
+    {
+      auto probe = haptics::Engine::create(cfg, *im.device, *im.volume, *im.bur_samples, nullptr);
+      if (!probe) return Error{"haptic engine: " + probe.error()};
+      header = (*probe)->header_json(desc.dump());
+    }
+    haptics::LogWriterOptions lo;
+    lo.fsync = false;  // offline footage: no power-loss guarantee needed
+    lo.ring_capacity = std::size_t{1} << 16;
+    auto log = haptics::SessionLogWriter::open(log_path, header, lo);
+    if (!log) return Error{log.error()};
+    im.log = std::move(log).value();
+  }
+  auto eng = haptics::Engine::create(cfg, *im.device, *im.volume, *im.bur_samples, im.log.get());
+  if (!eng) return Error{"haptic engine: " + eng.error()};
+  im.engine = std::move(eng).value();
+  im.surface = std::make_unique<volume::Surface>(*im.volume);
+  im.surface->extract_all();
+  im.tooth_renderer->sync(*im.surface);
+  return g;
+}
+
+Result<cv::Mat> SynthGenerator::render_tooth_silhouette(const Eigen::Isometry3d& T_cam_tooth) {
+  Impl& im = *impl_;
+  im.renderer->begin_frame(Eigen::Vector4f::Zero());
+  im.tooth_renderer->draw(im.renderer->clip_from_cam(), T_cam_tooth);
+  im.renderer->end_frame();
+  cv::Mat rgba, out;
+  im.renderer->read_rgba(rgba);
+  cv::extractChannel(rgba, out, 0);
+  cv::threshold(out, out, 127, 255, cv::THRESH_BINARY);
+  if (auto e = gl_error_message("SynthGenerator::render_tooth_silhouette"); !e.empty())
+    return Error{e};
+  return out;
+}
+
+Status SynthGenerator::next(SynthFrame& out) {
+  Impl& im = *impl_;
+  if (im.frame >= im.opt.frames)
+    return Error{"synth: all " + std::to_string(im.opt.frames) + " frames rendered"};
+  const double t = im.frame / im.opt.fps;
+  const auto& c = im.station.calibration;
+  const int W = c.camera.width, H = c.camera.height;
+
+  // Video: with motion blur, sub-frames across the exposure (time t is its
+  // middle); the truth is the middle sub-frame's state.
+  Impl::State mid;
+  if (im.opt.motion_blur) {
+    const int K = im.opt.blur_subframes;
+    const double exposure = im.opt.shutter_fraction / im.opt.fps;
+    cv::Mat acc(H, W, CV_32FC3, cv::Scalar::all(0)), sub;
+    for (int j = 0; j < K; ++j) {
+      const double ts = std::max(0.0, t + (static_cast<double>(j) / (K - 1) - 0.5) * exposure);
+      Impl::State s = im.state_at(ts);
+      if (j == K / 2) mid = s;
+      im.draw_video(s);
+      im.renderer->read_bgr(sub);
+      cv::accumulate(sub, acc);
+    }
+    acc.convertTo(out.image, CV_8UC3, 1.0 / K);
+  } else {
+    mid = im.state_at(t);
+    im.draw_video(mid);
+    im.renderer->read_bgr(out.image);
+    out.image = out.image.clone();
+  }
+  const double gain = im.exposure_gain(t);
+  im.post_process(out.image, gain, im.frame);
+
+  // Masks and tag visibility from the id passes, with the tooth as cut so far.
+  if (im.surface_dirty) {
+    im.surface->update();
+    im.tooth_renderer->sync(*im.surface);
+    im.surface_dirty = false;
+  }
+  cv::Mat m1, m2;
+  im.draw_ids(mid, false, m1);
+  im.draw_ids(mid, true, m2);
+  if (auto e = gl_error_message("SynthGenerator::next"); !e.empty()) return Error{e};
+
+  FrameTruth& tr = out.truth;
+  tr = FrameTruth{};
+  tr.frame = im.frame;
+  tr.time_s = t;
+  tr.T_cam_man = mid.T_cam_man;
+  tr.T_cam_tooth = mid.T_cam_man * c.T_man_tooth;
+  tr.T_cam_mir = mid.T_cam_man * mid.T_man_mir;
+  tr.T_cam_mtag = tr.T_cam_mir * c.T_mtag_mir.inverse();
+  tr.T_cam_tip = mid.T_cam_man * mid.T_man_tip;
+  tr.T_dev_sty = mid.T_dev_sty;
+  tr.haptic_step = mid.step;
+  tr.haptic_time_s = mid.haptic_time_s;
+  tr.pedal = mid.pedal;
+  tr.exposure_gain = gain;
+
+  out.mask.create(H, W, CV_8UC1);
+  for (int v = 0; v < H; ++v) {
+    const auto* a = m1.ptr<cv::Vec4b>(v);
+    const auto* b = m2.ptr<cv::Vec4b>(v);
+    auto* m = out.mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < W; ++u) {
+      const int alpha = b[u][3];
+      if (alpha >= 90 && alpha <= 170 && b[u][0] < 128) ++tr.mirror_face_px;
+      if (a[u][0] < 128) {
+        m[u] = kMaskOutside;
+        continue;
+      }
+      ++tr.tooth_px;
+      if (b[u][0] >= 128) {
+        m[u] = kMaskToothVisible;
+      } else {
+        m[u] = alpha >= 64 ? kMaskForeground : kMaskMannequin;
+        ++tr.tooth_hidden_px;
+      }
+    }
+  }
+  tr.mirror_in_view = tr.mirror_face_px >= 30;
+
+  const std::vector<int> n_all = im.count_tags(m1), n_vis = im.count_tags(m2);
+  for (std::size_t i = 0; i < im.tags.size(); ++i) {
+    if (n_vis[i] == 0) continue;
+    const auto& g = im.tags[i];
+    const Iso T_cam_tag = (g.on_mirror ? tr.T_cam_mtag : tr.T_cam_man) * g.placement->T_parent_tag;
+    TagTruth tt;
+    tt.id = g.placement->id;
+    tt.on_mirror = g.on_mirror;
+    bool ok = true;
+    for (int k = 0; k < 4; ++k) {
+      const double h = 0.5 * g.placement->size_m;
+      static constexpr double kS[4][2] = {{-1, 1}, {1, 1}, {1, -1}, {-1, -1}};
+      const auto px = im.camera->project(T_cam_tag * V3d(kS[k][0] * h, kS[k][1] * h, 0));
+      if (!px) {
+        ok = false;
+        break;
+      }
+      tt.corners_px[static_cast<std::size_t>(k)] = *px;
+    }
+    if (!ok) continue;
+    tt.in_image = true;
+    double area2 = 0;
+    for (int k = 0; k < 4; ++k) {
+      const auto& p = tt.corners_px[static_cast<std::size_t>(k)];
+      const auto& q = tt.corners_px[static_cast<std::size_t>((k + 1) % 4)];
+      area2 += p.x() * q.y() - q.x() * p.y();
+      if (p.x() < 0 || p.y() < 0 || p.x() > W - 1 || p.y() > H - 1) tt.in_image = false;
+    }
+    tt.side_px = std::sqrt(0.5 * std::abs(area2));
+    const V3d normal_out = -T_cam_tag.linear().col(2);
+    const V3d to_cam = -T_cam_tag.translation().normalized();
+    tt.view_angle_rad = std::acos(std::clamp(normal_out.dot(to_cam), -1.0, 1.0));
+    tt.visible_fraction =
+        n_all[i] > 0 ? std::min(1.0, static_cast<double>(n_vis[i]) / n_all[i]) : 0.0;
+    tr.tags.push_back(tt);
+  }
+  ++im.frame;
+  return {};
+}
+
+// ---- output files ------------------------------------------------------------------
+
+namespace {
+
+nlohmann::ordered_json mat_json(const Eigen::Isometry3d& T) {
+  nlohmann::ordered_json a = nlohmann::ordered_json::array();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) a.push_back(T.matrix()(r, c));
+  return a;
+}
+
+std::string frame_name(const char* prefix, int i, const char* ext) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%s_%06d.%s", prefix, i, ext);
+  return buf;
+}
+
+}  // namespace
+
+std::string frame_truth_json(const FrameTruth& t) {
+  nlohmann::ordered_json j;  // keys in a reader-friendly order
+  j["frame"] = t.frame;
+  j["time_s"] = t.time_s;
+  j["T_cam_man"] = mat_json(t.T_cam_man);
+  j["T_cam_tooth"] = mat_json(t.T_cam_tooth);
+  j["T_cam_mtag"] = mat_json(t.T_cam_mtag);
+  j["T_cam_mir"] = mat_json(t.T_cam_mir);
+  j["T_cam_tip"] = mat_json(t.T_cam_tip);
+  j["T_dev_sty"] = mat_json(t.T_dev_sty);
+  j["haptic_step"] = t.haptic_step;
+  j["haptic_time_s"] = t.haptic_time_s;
+  j["pedal"] = t.pedal;
+  j["mirror_in_view"] = t.mirror_in_view;
+  j["mirror_face_px"] = t.mirror_face_px;
+  j["tooth_px"] = t.tooth_px;
+  j["tooth_hidden_px"] = t.tooth_hidden_px;
+  j["exposure_gain"] = t.exposure_gain;
+  nlohmann::ordered_json tags = nlohmann::ordered_json::array();
+  for (const auto& g : t.tags) {
+    nlohmann::ordered_json c = nlohmann::ordered_json::array();
+    for (const auto& p : g.corners_px) c.push_back({p.x(), p.y()});
+    tags.push_back(nlohmann::ordered_json{{"id", g.id},
+                                          {"on", g.on_mirror ? "mirror" : "mannequin"},
+                                          {"corners_px", c},
+                                          {"visible_fraction", g.visible_fraction},
+                                          {"side_px", g.side_px},
+                                          {"view_angle_deg", g.view_angle_rad * 180.0 / M_PI},
+                                          {"in_image", g.in_image}});
+  }
+  j["tags"] = tags;
+  return j.dump();
+}
+
+Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& o,
+                               const std::string& out_dir, bool png,
+                               const std::function<void(int)>& progress) {
+  namespace fs = std::filesystem;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::error_code ec;
+  fs::create_directories(fs::path(out_dir) / "masks", ec);
+  if (!ec && png) fs::create_directories(fs::path(out_dir) / "frames", ec);
+  if (ec) return Error{"cannot create output folder '" + out_dir + "': " + ec.message()};
+  const fs::path dir(out_dir);
+  auto gen = SynthGenerator::create(station, o, (dir / "session.dlog").string());
+  if (!gen) return Error{gen.error()};
+  SynthGenerator& g = **gen;
+  if (Status s = write_station_scene(g.station(), (dir / "station.json").string()); !s)
+    return Error{s.error()};
+
+  SynthSummary sum;
+  cv::VideoWriter video;
+  if (png) {
+    sum.video_path = (dir / "frames").string();
+  } else {
+    sum.video_path = (dir / "video.mkv").string();
+    video.open(
+        sum.video_path, cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), o.fps,
+        cv::Size(g.station().calibration.camera.width, g.station().calibration.camera.height));
+    if (!video.isOpened())
+      return Error{sum.video_path + ": OpenCV cannot open an FFV1 video writer here (use --png)"};
+  }
+  std::ofstream truth(dir / "truth.jsonl", std::ios::binary | std::ios::trunc);
+  if (!truth) return Error{(dir / "truth.jsonl").string() + ": cannot open for writing"};
+  SynthFrame f;
+  long visible = 0;
+  const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 1};
+  for (int i = 0; i < o.frames; ++i) {
+    if (Status s = g.next(f); !s) return Error{s.error()};
+    if (png) {
+      const std::string p = (dir / "frames" / frame_name("frame", i, "png")).string();
+      if (!cv::imwrite(p, f.image, png_params)) return Error{p + ": cannot write"};
+    } else {
+      video.write(f.image);
+    }
+    const std::string mp = (dir / "masks" / frame_name("mask", i, "png")).string();
+    if (!cv::imwrite(mp, f.mask, png_params)) return Error{mp + ": cannot write"};
+    truth << frame_truth_json(f.truth) << "\n";
+    sum.frames_with_mirror += f.truth.mirror_in_view ? 1 : 0;
+    for (const auto& t : f.truth.tags)
+      visible += (!t.on_mirror && t.visible_fraction > 0.5) ? 1 : 0;
+    if (progress) progress(i + 1);
+  }
+  video.release();
+  truth.close();
+  if (!truth) return Error{(dir / "truth.jsonl").string() + ": write failed"};
+  if (Status s = g.finish(); !s) return Error{s.error()};
+  sum.frames = o.frames;
+  sum.mean_visible_tags = static_cast<double>(visible) / o.frames;
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  nlohmann::json meta;
+  meta["format"] = "dentar-synth";
+  meta["version"] = 1;
+  meta["preset"] = synth_preset_name(o.preset);
+  meta["frames"] = o.frames;
+  meta["fps"] = o.fps;
+  meta["width"] = o.width;
+  meta["height"] = o.height;
+  meta["seed"] = o.seed;
+  meta["distortion"] = o.distortion;
+  meta["motion_blur"] = o.motion_blur;
+  meta["shutter_fraction"] = o.shutter_fraction;
+  meta["read_noise_dn"] = o.read_noise_dn;
+  meta["shot_noise_gain"] = o.shot_noise_gain;
+  meta["exposure_variation"] = o.exposure_variation;
+  meta["exposure_jumps"] = o.exposure_jumps;
+  meta["tag_occluders"] = o.tag_occluders;
+  meta["mirror_in_mouth_fraction"] = o.mirror_in_mouth_fraction;
+  meta["video"] = png ? "frames/frame_NNNNNN.png" : "video.mkv";
+  meta["summary"] = {{"frames_with_mirror_in_view", sum.frames_with_mirror},
+                     {"mean_visible_mannequin_tags", sum.mean_visible_tags},
+                     {"wall_seconds", sum.seconds}};
+  std::ofstream mf(dir / "synth.json", std::ios::binary | std::ios::trunc);
+  mf << meta.dump(2) << "\n";
+  if (!mf) return Error{(dir / "synth.json").string() + ": cannot write"};
+  return sum;
+}
+
+}  // namespace dentar::ar

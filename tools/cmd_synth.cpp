@@ -1,0 +1,165 @@
+// dentar synth: recorded footage of the phantom-head station with exact
+// ground truth (camera, mirror and bur poses, tag corners, occlusion masks)
+// and the matching haptic session log, rendered headless (EGL).
+#include <iomanip>
+#include <iostream>
+#include <memory>
+
+#include "commands.h"
+#include "dentar/ar/egl_context.h"
+#include "dentar/ar/synth.h"
+
+namespace dentar::tools {
+namespace {
+
+struct SynthCli {
+  std::string preset = "standard";
+  int frames = 150;
+  double fps = 30;
+  std::string resolution = "640x480";
+  std::uint64_t seed = 1;
+  std::string out = "out/synth";
+  bool png = false;
+  std::string station;        // --station FILE
+  std::string write_station;  // --write-default-station FILE
+  std::string family;         // --tag-family
+  // Overrides; applied only when given (CLI11 count()).
+  bool no_distortion = false;
+  double noise_dn = 0, occluders = 0, exposure = 0, shutter = 0;
+  bool blur = false, no_blur = false, jumps = false;
+  double mirror_fraction = 0;
+};
+
+int run(const SynthCli& c, const CLI::App& app) {
+  if (!c.write_station.empty()) {
+    if (Status s = ar::write_station_scene(ar::default_station_scene(), c.write_station); !s) {
+      print_error("synth", s.error());
+      return 1;
+    }
+    std::cout << "wrote the built-in station to " << c.write_station << "\n";
+    return 0;
+  }
+  auto preset = ar::parse_synth_preset(c.preset);
+  ar::SynthOptions o = ar::synth_preset(*preset);
+  o.frames = c.frames;
+  o.fps = c.fps;
+  o.seed = c.seed;
+  const auto x = c.resolution.find('x');
+  o.width = std::stoi(c.resolution.substr(0, x));
+  o.height = std::stoi(c.resolution.substr(x + 1));
+  if (c.no_distortion) o.distortion = false;
+  if (app.count("--noise") > 0) {
+    o.read_noise_dn = c.noise_dn;
+    o.shot_noise_gain = c.noise_dn > 0 ? 0.03 * c.noise_dn : 0.0;
+  }
+  if (app.count("--motion-blur") > 0) o.motion_blur = true;
+  if (app.count("--no-motion-blur") > 0) o.motion_blur = false;
+  if (app.count("--shutter") > 0) o.shutter_fraction = c.shutter;
+  if (app.count("--exposure-variation") > 0) o.exposure_variation = c.exposure;
+  if (app.count("--exposure-jumps") > 0) o.exposure_jumps = true;
+  if (app.count("--occluders") > 0) o.tag_occluders = static_cast<int>(c.occluders);
+  if (app.count("--mirror-fraction") > 0) o.mirror_in_mouth_fraction = c.mirror_fraction;
+  if (std::string e = o.validate(); !e.empty()) {
+    print_error("synth", e);
+    return 2;
+  }
+  ar::StationScene station = ar::default_station_scene();
+  if (!c.station.empty()) {
+    auto s = ar::read_station_scene(c.station);
+    if (!s) {
+      print_error("synth", s.error());
+      return 2;
+    }
+    station = std::move(s).value();
+  }
+  if (!c.family.empty()) station.family = *ar::parse_tag_family(c.family);
+
+  auto ctx = ar::EglContext::create();
+  if (!ctx) {
+    print_error("synth", "no headless EGL context: " + ctx.error());
+    return 1;
+  }
+  std::cout << "synth: preset " << c.preset << ", " << o.frames << " frames at " << o.fps
+            << " fps, " << o.width << "x" << o.height << ", seed " << o.seed
+            << (o.distortion ? "" : ", no distortion") << (o.motion_blur ? ", motion blur" : "")
+            << "; " << ctx->description() << "\n";
+  const int every = std::max(1, o.frames / 10);
+  auto sum = ar::run_synth(station, o, c.out, c.png, [&](int n) {
+    if (n % every == 0 || n == o.frames)
+      std::cout << "  " << n << "/" << o.frames << " frames\n" << std::flush;
+  });
+  if (!sum) {
+    print_error("synth", sum.error());
+    return 1;
+  }
+  std::cout << std::fixed << std::setprecision(1) << "wrote " << c.out << ": "
+            << (c.png ? "frames/*.png" : "video.mkv (FFV1)")
+            << ", truth.jsonl, masks/, station.json, session.dlog, synth.json\n"
+            << sum->frames << " frames in " << sum->seconds << " s ("
+            << sum->frames / std::max(sum->seconds, 1e-9) << " fps); mirror in view in "
+            << sum->frames_with_mirror << " frames; " << sum->mean_visible_tags
+            << " head tags visible per frame (mean)\n";
+  return 0;
+}
+
+}  // namespace
+
+void add_synth(CLI::App& app, int& exit_code) {
+  auto c = std::make_shared<SynthCli>();
+  CLI::App* s = app.add_subcommand(
+      "synth",
+      "Render footage of the phantom-head station with exact ground truth: video, per-frame\n"
+      "poses and tag corners (truth.jsonl), tooth occlusion masks, the station file and the\n"
+      "haptic session log of the scripted drilling. Headless (EGL); deterministic per seed.\n"
+      "Synopsis: dentar synth [--preset standard|hard|mirror] [--frames N] [--fps F]\n"
+      "                       [--resolution 640x480|1280x720|1920x1080] [--seed S] [--out DIR]\n"
+      "                       [--png] [--no-distortion] [--noise DN] [--motion-blur]\n"
+      "                       [--exposure-variation A] [--exposure-jumps] [--occluders N]\n"
+      "                       [--station FILE] [--tag-family tagStandard41h12|tag36h11]");
+  s->add_option("--preset", c->preset,
+                "standard, hard (fast motion, blur, grazing/small tags, "
+                "occlusion) or mirror (mirror in view)")
+      ->check(CLI::IsMember({"standard", "hard", "mirror"}))
+      ->capture_default_str();
+  s->add_option("--frames", c->frames, "Number of frames")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  s->add_option("--fps", c->fps, "Frame rate (Hz)")
+      ->check(CLI::Range(1.0, 240.0))
+      ->capture_default_str();
+  s->add_option("--resolution", c->resolution, "Image size")
+      ->check(CLI::IsMember({"640x480", "1280x720", "1920x1080"}))
+      ->capture_default_str();
+  s->add_option("--seed", c->seed, "Random seed (same seed, same footage)")->capture_default_str();
+  s->add_option("--out", c->out, "Output folder")->capture_default_str();
+  s->add_flag("--png", c->png, "Write frames/frame_NNNNNN.png instead of video.mkv");
+  s->add_flag("--no-distortion", c->no_distortion, "Pinhole camera (no lens distortion)");
+  s->add_option("--noise", c->noise_dn,
+                "Sensor read noise (8-bit DN; shot noise scales with it; 0 = off)")
+      ->check(CLI::Range(0.0, 50.0));
+  s->add_flag("--motion-blur", c->blur, "Average sub-frames over the exposure");
+  s->add_flag("--no-motion-blur", c->no_blur, "No motion blur (even for --preset hard)");
+  s->add_option("--shutter", c->shutter, "Exposure time / frame period for motion blur")
+      ->check(CLI::Range(0.01, 1.0));
+  s->add_option("--exposure-variation", c->exposure, "Slow exposure drift, relative amplitude")
+      ->check(CLI::Range(0.0, 0.5));
+  s->add_flag("--exposure-jumps", c->jumps, "Sudden +-25 % exposure steps (auto-exposure)");
+  s->add_option("--occluders", c->occluders, "Skin-coloured occluders hovering over tags")
+      ->check(CLI::Range(0, 32));
+  s->add_option("--mirror-fraction", c->mirror_fraction,
+                "Fraction of time the mirror is in the mouth")
+      ->check(CLI::Range(0.0, 1.0));
+  s->add_option("--station", c->station, "Station scene JSON (default: the built-in station)");
+  s->add_option("--tag-family", c->family, "Override the station's tag family")
+      ->check(CLI::IsMember({"tagStandard41h12", "tag36h11"}));
+  s->add_option("--write-default-station", c->write_station,
+                "Only write the built-in station JSON to FILE and exit");
+  s->footer(
+      "Example:\n"
+      "  dentar synth --preset standard --frames 300 --fps 30 --resolution 1280x720 --seed 7 \\\n"
+      "               --out out/synth_std\n"
+      "  dentar synth --preset hard --frames 60 --png --out out/synth_hard");
+  s->callback([c, s, &exit_code] { exit_code = run(*c, *s); });
+}
+
+}  // namespace dentar::tools
