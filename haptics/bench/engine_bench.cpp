@@ -244,6 +244,72 @@ void BM_ModelQuality(benchmark::State& state) {
       }
     }
   }
+  // Direction lag: open loop, a 1 mm sphere bur in the inside corner of a
+  // dentin wall and floor, staying in contact with both while the push moves
+  // from mostly into the wall (0.2 mm wall, 0.05 mm floor) to mostly into
+  // the floor (0.05 / 0.2 mm) over 20 ms. The force direction turns by
+  // about 60 degrees. Lag: steps after the move until the direction is
+  // within 5 degrees of the model's final direction (its settling); for the
+  // seed model also compared with the same model without smoothing (K = 1),
+  // which isolates what the 100-force window adds.
+  double dir_lag_ms = -1;
+  {
+    volume::VolumeGeometry g;
+    g.dims = {64, 64, 64};
+    g.spacing = Eigen::Vector3d::Constant(0.08e-3);
+    volume::VoxelVolume box(g);
+    for (int k = 0; k < 64; ++k)
+      for (int j = 0; j < 64; ++j)
+        for (int i = 0; i < 64; ++i)
+          if (k < 32 || i < 16) box.set(i, j, k, 200, volume::Material::kDentin);
+    const double floor_z = 31.5 * 0.08e-3, wall_x = 15.5 * 0.08e-3;
+    auto bur = std::move(volume::sample_bur(BurParams::sphere(0.5), samples)).value();
+    const Eigen::Vector3d free_c(wall_x + 1.0e-3, 2.56e-3, floor_z + 1.0e-3);
+    const Eigen::Vector3d a_c(wall_x + 0.3e-3, 2.56e-3, floor_z + 0.45e-3);
+    const Eigen::Vector3d b_c(wall_x + 0.45e-3, 2.56e-3, floor_z + 0.3e-3);
+    auto run = [&](const ForceModelParams& params) {
+      auto m = std::move(make_force_model(model, params, DeviceLimits{}, bur.size())).value();
+      ForceInput in;
+      in.volume = &box;
+      in.bur = &bur;
+      in.T_tooth_tip.linear() =
+          Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+      std::vector<Eigen::Vector3d> f;
+      for (int i = 0; i < 700; ++i) {
+        const Eigen::Vector3d c =
+            i < 300 ? free_c + std::clamp((i - 50) / 30.0, 0.0, 1.0) * (a_c - free_c)
+                    : a_c + std::clamp((i - 300) / 20.0, 0.0, 1.0) * (b_c - a_c);
+        in.T_tooth_tip.translation() = c - Eigen::Vector3d(0, 0, 0.5e-3);
+        const ForceOutput o = m->compute(in);
+        m->set_rendered_force(o.force_N);
+        f.push_back(o.force_N);
+      }
+      return f;
+    };
+    auto angle_deg = [](const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+      if (u.norm() < 1e-9 || v.norm() < 1e-9) return 180.0;
+      return std::acos(std::clamp(u.normalized().dot(v.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
+    };
+    const auto f = run({});
+    // Settling: within 5 degrees of the final direction for good.
+    int settle = 700;
+    for (int i = 699; i >= 320 && angle_deg(f[static_cast<std::size_t>(i)], f.back()) < 5.0; --i)
+      settle = i;
+    dir_lag_ms = settle - 320;
+    if (model == "seed") {
+      ForceModelParams k1;
+      k1.seed.history = 1;
+      const auto r = run(k1);
+      int settle1 = 700;
+      for (int i = 699; i >= 320 && angle_deg(r[static_cast<std::size_t>(i)], r.back()) < 5.0; --i)
+        settle1 = i;
+      state.counters["dir_lag_vs_K1_ms"] = settle - settle1;
+      state.counters["dir_turn_deg"] = angle_deg(r[299], r.back());
+    } else {
+      state.counters["dir_turn_deg"] = angle_deg(f[299], f.back());
+    }
+  }
+  state.counters["dir_settle5deg_ms"] = dir_lag_ms;
   state.counters["press_osc_N"] = osc;
   state.counters["press_mean_N"] = mean;
   state.counters["press_depth_mm"] = depth * 1e3;
