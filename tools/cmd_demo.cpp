@@ -62,7 +62,9 @@ Result<BurParams> bur_params(const DemoOptions& o) {
   return Error{"--bur: unknown shape"};
 }
 
-void print_metrics(const CutMetrics& m) {
+// exposure_s: device time of the exposure (the cutter counts only its own
+// steps, i.e. pedal-down steps).
+void print_metrics(const CutMetrics& m, double exposure_s) {
   std::cout << std::fixed << std::setprecision(3) << "removed volume per material (mm^3):\n";
   for (int mat = 1; mat < kNumMaterials; ++mat)
     std::cout << "  " << std::setw(12) << std::left << material_name(static_cast<Material>(mat))
@@ -71,8 +73,8 @@ void print_metrics(const CutMetrics& m) {
             << m.removed_total_mm3 << "  (" << m.removed_percent << " % of "
             << m.original_tooth_mm3 << " mm^3)\n";
   if (m.pulp_exposure)
-    std::cout << "pulp exposed at step " << m.pulp_exposure->step << " (t = "
-              << m.pulp_exposure->step / 1000.0 << " s), tooth-frame position ("
+    std::cout << "pulp exposed at t = " << exposure_s << " s (cutting step "
+              << m.pulp_exposure->step << "), tooth-frame position ("
               << m.pulp_exposure->position_m.x() * 1e3 << ", "
               << m.pulp_exposure->position_m.y() * 1e3 << ", "
               << m.pulp_exposure->position_m.z() * 1e3 << ") mm\n";
@@ -159,10 +161,23 @@ int run_demo(const DemoOptions& o) {
   const double script_s = (*device)->script_end_s();
   std::size_t remeshed = 0;
   const auto t0 = Clock::now();
+  // The pulp-exposure event as it happens (the snapshot's flag), as the
+  // display would show it.
+  bool announced = false;
+  auto announce = [&] {
+    const HapticSnapshot snap = (*engine)->snapshot();
+    if (snap.pulp_exposed && !announced) {
+      announced = true;
+      std::cout << "EVENT pulp exposure at t = " << snap.pulp_exposed_at_s << " s (seen by the display at "
+                << snap.time_s << " s)\n"
+                << std::flush;
+    }
+  };
   if (o.simulated) {
     for (std::uint64_t s = 0; s * 1e-3 < script_s; s += 33) {
       (*engine)->run_steps(33);
       remeshed += surface.update().size();
+      announce();
     }
   } else {
     std::cout << "running " << script_s << " s of scripted drilling in real time (1 kHz thread)\n";
@@ -174,6 +189,7 @@ int run_demo(const DemoOptions& o) {
     while ((*engine)->snapshot().time_s < script_s) {
       std::this_thread::sleep_for(std::chrono::milliseconds(33));
       remeshed += surface.update().size();
+      announce();
     }
     (*engine)->stop();
   }
@@ -186,7 +202,7 @@ int run_demo(const DemoOptions& o) {
 
   const EngineStats s = (*engine)->stats();
   const CutMetrics m = (*engine)->cutter().metrics();
-  print_metrics(m);
+  print_metrics(m, (*engine)->snapshot().pulp_exposed_at_s);
   std::cout << std::setprecision(1) << "haptic steps: " << s.steps << " in " << wall_s
             << " s wall; step compute p50 " << s.compute.percentile_s(0.5) * 1e6 << " us, p99 "
             << s.compute.percentile_s(0.99) * 1e6 << " us, p99.9 "

@@ -164,8 +164,12 @@ bool Engine::step(double late_s) noexcept {
   snap.in_contact = out.in_contact;
   snap.fault = fault;
   snap.watchdog = watchdog_tripped_;
-  if (cut.touched_pulp && st.pedal) pulp_exposed_ = true;
+  if (cut.touched_pulp && st.pedal && !pulp_exposed_) {
+    pulp_exposed_ = true;
+    pulp_exposed_at_s_ = st.time_s;
+  }
   snap.pulp_exposed = pulp_exposed_;
+  snap.pulp_exposed_at_s = pulp_exposed_at_s_;
   const volume::CutMetrics m = cutter_.metrics();
   for (int i = 0; i < 8; ++i) snap.removed_mm3[i] = m.removed_mm3[static_cast<std::size_t>(i)];
   snapshot_.store(snap);

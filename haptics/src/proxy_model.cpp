@@ -25,16 +25,18 @@
 //  1. Far from the tooth (all chunks around the bur absent) the proxy snaps
 //     to the device without reading a voxel.
 //  2. Only "shell" samples, within min(1 voxel, 2 sample spacings) of the
-//     bur surface, are constraint samples (computed once per bur and voxel
-//     size into a preallocated buffer): the proxy is never deeper than a
-//     fraction of a voxel, and any deeper sample has a shell sample between
-//     it and the solid.
+//     bur surface, are constraint samples, at most kMaxShellSamples of them
+//     (an even subset of the Morton-ordered samples), computed once per bur
+//     and voxel size into a preallocated buffer. The constraint level is a
+//     little below the iso level (kIso), a skin that covers what the solid
+//     can reach between kept samples, so no cutting sample of the proxy bur
+//     ever lies in solid above the iso level (tested for every shape).
 //  3. Active list: a full pass over the shell at a base pose records the
 //     samples whose interpolation cell holds any non-air voxel. A sample
 //     whose cell is all air and which then moves by at most kActiveReach
-//     (0.2 voxel) can reach at most 1-(1-0.2)^3 = 0.488 of a full voxel's
-//     density, i.e. <= 124.4 < kIsoDensity: it cannot penetrate. So while
-//     every shell sample stays within 0.2 voxel of the base pose (across
+//     (0.17 voxel) can reach at most 1-(1-0.17)^3 = 0.428 of a full voxel's
+//     density, i.e. <= 109 < the constraint level (115.5): it cannot
+//     penetrate. So while every shell sample stays within 0.17 voxel of the base pose (across
 //     steps), only the active list is checked. Cutting only removes
 //     material, which keeps the list conservative; a new volume object or
 //     reset() rebuilds it.
@@ -111,7 +113,7 @@ class ProxyModel final : public ForceModel {
     }
 
     const Eigen::Vector3d x_start = x_;
-    const double margin = 0.02 * h;  // left between proxy and iso surface after a projection
+    const double margin = kSurfaceMargin * h;  // left between proxy and iso surface after a projection
     const double tiny = 1e-3 * step_max;
     // Inward probe per substep while resting on the surface: small, so that
     // probe and projection stay inside the active list's reach (0.2 voxel)
@@ -220,8 +222,16 @@ class ProxyModel final : public ForceModel {
   // time; motion left over is taken in the next step (the proxy may lag a
   // fast-sliding device by a fraction of a voxel, never penetrate).
   static constexpr int kMaxEvaluationsPerStep = 3;
-  static constexpr double kActiveReach = 0.2;  // voxels; see the header comment
-  static constexpr float kIso = volume::kIsoDensity;
+  static constexpr std::size_t kMaxShellSamples = 2048;
+  static constexpr double kSurfaceMargin = 0.02;  // voxels, after a projection
+  // Voxels; see the header comment: 255 (1 - (1 - 0.17)^3) = 109 stays
+  // under the constraint level kIso (115.5).
+  static constexpr double kActiveReach = 0.17;
+  // The constraint level sits a little below the surface iso level: the
+  // proxy keeps a skin of about 0.05 voxel (at a dentin/air gradient of
+  // ~200 units per voxel) off the surface, which covers what the solid can
+  // reach between the kept shell samples (kMaxShellSamples).
+  static constexpr float kIso = volume::kIsoDensity - 12.0f;
 
   struct Eval {
     int penetrating = 0;                               // samples above the iso level
@@ -255,8 +265,19 @@ class ProxyModel final : public ForceModel {
     const double thickness = std::clamp(2.0 * spacing, 0.5 * h, h);
     shell_count_ = 0;
     shell_radius_ = 0;
+    std::size_t in_shell = 0;
     for (const Eigen::Vector3f& p : bur.points_m)
-      if (bur.params.signed_distance(p.cast<double>()) > -thickness) {
+      in_shell += bur.params.signed_distance(p.cast<double>()) > -thickness ? 1 : 0;
+    // The constraint needs the surface covered at under a voxel's spacing,
+    // not every cutting sample: beyond kMaxShellSamples keep an even subset
+    // (samples are in Morton order, so a stride keeps them spread out), so
+    // a constraint pass costs the same whatever the sample count. Between
+    // kept samples the solid could reach a few hundredths of a voxel into
+    // the bur; kSurfaceMargin keeps the proxy that far off the surface.
+    const std::size_t stride = (in_shell + kMaxShellSamples - 1) / kMaxShellSamples;
+    std::size_t seen = 0;
+    for (const Eigen::Vector3f& p : bur.points_m)
+      if (bur.params.signed_distance(p.cast<double>()) > -thickness && seen++ % stride == 0) {
         shell_[shell_count_++] = p;
         shell_radius_ = std::max(shell_radius_, static_cast<double>(p.norm()));
       }

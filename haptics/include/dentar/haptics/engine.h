@@ -55,6 +55,7 @@ struct HapticSnapshot {
   std::uint32_t contacts = 0;
   std::uint8_t pedal = 0, in_contact = 0, fault = 0, watchdog = 0;
   std::uint8_t pulp_exposed = 0;
+  double pulp_exposed_at_s = 0;  // device time of the exposure (valid when pulp_exposed)
   double removed_mm3[8] = {};  // cumulative, per material label
 };
 
@@ -130,6 +131,7 @@ class Engine {
   int good_since_trip_ = 0;
   bool watchdog_tripped_ = false;
   bool pulp_exposed_ = false;
+  double pulp_exposed_at_s_ = 0;
   EngineStats stats_;
 
   SeqLock<HapticSnapshot> snapshot_;
