@@ -1,0 +1,89 @@
+// Pose of a rigid tag bundle (the mannequin's tags, the mirror's tags) from
+// one frame's tag detections: one PnP over all visible tags' corners.
+//
+//  1. Keep the detections of the bundle's family whose ids are in the layout
+//     (hamming and decision margin thresholds); undistort their corners with
+//     the camera model (cv::undistortPoints, back to pixels with the same K).
+//  2. Seed: each tag alone with IPPE_SQUARE, both planar solutions. Every
+//     seed, mapped to T_cam_body, is scored by its reprojection RMS over all
+//     kept corners. Without a previous pose the lowest RMS wins; with one,
+//     among the seeds whose RMS is close to the best (ambiguous), the one
+//     nearest the previous pose wins, so a single small tag does not flip.
+//  3. Refine all corners together with Levenberg-Marquardt.
+//  4. Covariance from the Gauss-Newton normal equations at the optimum,
+//     scaled by the residual variance: sigma^2 (J^T J)^-1,
+//     sigma^2 = sum r^2 / (2N - 6).
+//
+// Frames: `cam` (OpenCV optical), `body` (the layout's parent frame: `man`
+// for the mannequin, `mtag` for the mirror). Metres and radians; pixels where
+// the name says _px. Thread-safe (pure function).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/station_scene.h"
+#include "dentar/ar/tag_detector.h"
+#include "dentar/calibration/station.h"
+
+namespace dentar::ar {
+
+// A rigid body's tags: TagPlacement::T_parent_tag is T_body_tag.
+struct TagBundle {
+  std::string name;  // for messages: "mannequin", "mirror"
+  TagFamilyId family = TagFamilyId::kStandard41h12;
+  std::vector<TagPlacement> tags;
+};
+TagBundle mannequin_bundle(const StationScene& s);  // body = man
+TagBundle mirror_bundle(const StationScene& s);     // body = mtag
+
+struct BundlePoseOptions {
+  int max_hamming = 1;               // detections with more corrected bits are ignored
+  double min_decision_margin = 0.0;  // and those below this margin
+  int max_iterations = 30;           // Levenberg-Marquardt
+  // Seeds within this factor of the best seed's RMS (plus ambiguity_px) are
+  // treated as equally good; the previous pose then chooses among them.
+  double ambiguity_ratio = 3.0;
+  double ambiguity_px = 1.0;
+  std::string validate() const;  // empty when valid
+};
+
+enum class BundlePoseStatus {
+  kOk,
+  kNoDetections,  // the detection list was empty
+  kNoBundleTags,  // detections, but none of this bundle's family/ids/thresholds
+  kInvalidInput,  // bad camera, options or layout (message says which field)
+  kFailed,        // numerical failure (message says where)
+};
+const char* bundle_pose_status_name(BundlePoseStatus s);
+
+struct BundlePose {
+  BundlePoseStatus status = BundlePoseStatus::kFailed;
+  std::string message;  // empty when ok
+  Eigen::Isometry3d T_cam_body = Eigen::Isometry3d::Identity();
+  double rms_px = 0;         // corner reprojection RMS after refinement (undistorted px)
+  double seed_rms_px = 0;    // the chosen seed's RMS before refinement
+  int tags_used = 0;         // tags whose corners entered the fit
+  std::vector<int> tag_ids;  // their ids, ascending
+  int iterations = 0;        // LM iterations run
+  // Covariance of the pose error delta = (w [rad], v [m]), both in the camera
+  // frame: R_true = exp(w) R_cam_body (rotation vector w about the body
+  // origin), t_true = t_cam_body + v. So the bottom-right 3x3 block is the
+  // covariance of T_cam_body.translation() itself. Zero when not ok.
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  bool ok() const { return status == BundlePoseStatus::kOk; }
+};
+
+// T_cam_body_prev: the body's pose in the previous frame (or a prediction),
+// used only to break the planar ambiguity. Never throws; bad input gives a
+// status and a message naming the field.
+BundlePose estimate_bundle_pose(const TagBundle& bundle,
+                                const calibration::CameraIntrinsics& camera,
+                                const std::vector<DetectedTag>& detections,
+                                const BundlePoseOptions& options = {},
+                                const std::optional<Eigen::Isometry3d>& T_cam_body_prev = {});
+
+}  // namespace dentar::ar

@@ -1,0 +1,94 @@
+// AprilTag detection for tracking: an owning wrapper of a libapriltag
+// detector and its families (create/destroy pairs), with the speed/accuracy
+// settings exposed. Corners come out in OpenCV's pixel convention (pixel
+// centres at integers), i.e. libapriltag's corners minus 0.5 px, so they can
+// go straight into cv::undistortPoints / cv::solvePnP.
+//
+// Thread: a TagDetector is used by one thread at a time (libapriltag's
+// detector holds scratch state); `threads` > 1 makes libapriltag itself use
+// a worker pool inside detect(). threads == 1 runs inline (deterministic).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/apriltags.h"
+#include "dentar/ar/station_scene.h"
+#include "dentar/volume/result.h"
+
+struct apriltag_detector;
+
+namespace dentar::ar {
+
+struct TagDetectorOptions {
+  // Families searched in one pass (at least one; no duplicates).
+  std::vector<TagFamilyId> families = {TagFamilyId::kStandard41h12};
+  // Quad search on an image decimated by this factor (1 = full resolution;
+  // >= 1). Decoding and edge refinement still use the full image.
+  double decimation = 2.0;
+  int threads = 1;  // libapriltag worker threads, 1..64
+  // Snap the quad edges to the full-resolution gradients: recovers most of
+  // the corner accuracy lost to decimation. Keep on for pose estimation.
+  bool refine_edges = true;
+  double blur_sigma = 0.0;  // Gaussian blur before the quad search, px (0 = off)
+  // Bit errors libapriltag corrects (0..3). Each detection reports how many
+  // it corrected in `hamming`; the pose stage can reject those above its own
+  // threshold. More bits cost memory for the decode table (41h12: 2 bits).
+  int max_bits_corrected = 2;
+
+  // Empty when valid; else names the field ("decimation = 0.5 must be >= 1").
+  std::string validate() const;
+};
+
+// One tag as detected.
+struct DetectedTag {
+  TagFamilyId family = TagFamilyId::kStandard41h12;
+  int id = 0;
+  int hamming = 0;             // bits corrected to decode it
+  double decision_margin = 0;  // libapriltag's decoding confidence (higher = better)
+  // OpenCV pixel convention, libapriltag's corner order (see station_scene.h:
+  // tag-frame corners (-s/2,+s/2), (+s/2,+s/2), (+s/2,-s/2), (-s/2,-s/2)).
+  std::array<Eigen::Vector2d, 4> corners_px;
+};
+
+// Owns one libapriltag detector and its families. Move-only.
+class TagDetector {
+ public:
+  // Error when the options are invalid (message names the field).
+  static Result<TagDetector> create(const TagDetectorOptions& options = {});
+  TagDetector(TagDetector&& o) noexcept;
+  TagDetector& operator=(TagDetector&& o) noexcept;
+  TagDetector(const TagDetector&) = delete;
+  TagDetector& operator=(const TagDetector&) = delete;
+  ~TagDetector();
+
+  // Runtime settings (no re-creation); errors name the field and leave the
+  // detector unchanged.
+  Status set_decimation(double decimation);
+  Status set_threads(int threads);
+  void set_refine_edges(bool on);
+  const TagDetectorOptions& options() const { return options_; }
+
+  // Detects tags in an 8-bit grayscale image (CV_8UC1, any stride; at least
+  // 8x8 px). Error for an empty or wrong-type image. The image is only read
+  // during the call. An image without tags gives an empty list.
+  Result<std::vector<DetectedTag>> detect(const cv::Mat& gray);
+
+ private:
+  TagDetector() = default;
+  void reset() noexcept;
+  struct DetectorDeleter {
+    void operator()(apriltag_detector* d) const noexcept;
+  };
+  TagDetectorOptions options_;
+  // The detector references the families' decode tables: it is destroyed
+  // first (reset()).
+  std::vector<TagFamily> families_;
+  std::unique_ptr<apriltag_detector, DetectorDeleter> detector_;
+};
+
+}  // namespace dentar::ar

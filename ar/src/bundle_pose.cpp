@@ -1,0 +1,304 @@
+#include "dentar/ar/bundle_pose.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <string>
+#include <utility>
+
+namespace dentar::ar {
+
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+// One kept corner: its point in the body frame and its undistorted pixel.
+struct Corner {
+  Eigen::Vector3d p_body;
+  Eigen::Vector2d uv_px;
+};
+
+struct Pinhole {
+  double fx, fy, cx, cy;
+};
+
+// Residuals (projection - observation) and, when J is given, their
+// Jacobian w.r.t. delta = (w, v): R <- exp(w) R, t <- t + v (rotation about
+// the body origin, so v is the error of the reported translation itself).
+// Returns false when a corner lies behind the camera.
+bool residuals(const Eigen::Isometry3d& T_cam_body, const std::vector<Corner>& corners,
+               const Pinhole& k, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
+  const auto n = static_cast<Eigen::Index>(corners.size());
+  r.resize(2 * n);
+  if (J) J->resize(2 * n, 6);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::Vector3d p = T_cam_body * corners[i].p_body;
+    if (!(p.z() > 1e-4)) return false;  // 0.1 mm: behind or on the camera
+    const double iz = 1.0 / p.z();
+    r(2 * i) = k.fx * p.x() * iz + k.cx - corners[i].uv_px.x();
+    r(2 * i + 1) = k.fy * p.y() * iz + k.cy - corners[i].uv_px.y();
+    if (J) {
+      Eigen::Matrix<double, 2, 3> du_dp;
+      du_dp << k.fx * iz, 0, -k.fx * p.x() * iz * iz, 0, k.fy * iz, -k.fy * p.y() * iz * iz;
+      // p = exp(w) R p_body + t + v: dp/d(w, v) at 0 = [-[R p_body]x, I].
+      const Eigen::Vector3d q = p - T_cam_body.translation();
+      Eigen::Matrix3d skew;
+      skew << 0, -q.z(), q.y(), q.z(), 0, -q.x(), -q.y(), q.x(), 0;
+      J->block<2, 3>(2 * i, 0) = -du_dp * skew;
+      J->block<2, 3>(2 * i, 3) = du_dp;
+    }
+  }
+  return r.allFinite();
+}
+
+double rms_of(const Eigen::VectorXd& r) {
+  return r.size() == 0 ? 0.0 : std::sqrt(r.squaredNorm() / (static_cast<double>(r.size()) / 2));
+}
+
+// R <- exp(w) R, t <- t + v, matching the Jacobian above.
+Eigen::Isometry3d apply_delta(const Vec6& d, const Eigen::Isometry3d& T) {
+  Eigen::Isometry3d out = T;
+  const Eigen::Vector3d w = d.head<3>();
+  const double angle = w.norm();
+  if (angle > 0) out.linear() = Eigen::AngleAxisd(angle, w / angle) * T.linear();
+  out.translation() += d.tail<3>();
+  return out;
+}
+
+double rotation_angle(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd(a.linear() * b.linear().transpose()).angle();
+}
+
+Eigen::Isometry3d from_rvec_tvec(const cv::Mat& rvec, const cv::Mat& tvec) {
+  cv::Mat R;
+  cv::Rodrigues(rvec, R);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) T.linear()(i, j) = R.at<double>(i, j);
+    T.translation()(i) = tvec.at<double>(i);
+  }
+  return T;
+}
+
+BundlePose fail(BundlePoseStatus s, std::string message) {
+  BundlePose p;
+  p.status = s;
+  p.message = std::move(message);
+  return p;
+}
+
+}  // namespace
+
+TagBundle mannequin_bundle(const StationScene& s) {
+  return TagBundle{"mannequin", s.family, s.mannequin_tags};
+}
+
+TagBundle mirror_bundle(const StationScene& s) {
+  return TagBundle{"mirror", s.family, s.mirror_tags};
+}
+
+std::string BundlePoseOptions::validate() const {
+  if (max_hamming < 0) return "max_hamming = " + std::to_string(max_hamming) + " must be >= 0";
+  if (!std::isfinite(min_decision_margin)) return "min_decision_margin must be finite";
+  if (max_iterations < 0 || max_iterations > 1000)
+    return "max_iterations = " + std::to_string(max_iterations) + " must be in 0..1000";
+  if (!std::isfinite(ambiguity_ratio) || ambiguity_ratio < 1)
+    return "ambiguity_ratio = " + std::to_string(ambiguity_ratio) + " must be >= 1";
+  if (!std::isfinite(ambiguity_px) || ambiguity_px < 0)
+    return "ambiguity_px = " + std::to_string(ambiguity_px) + " must be >= 0";
+  return {};
+}
+
+const char* bundle_pose_status_name(BundlePoseStatus s) {
+  switch (s) {
+    case BundlePoseStatus::kOk:
+      return "ok";
+    case BundlePoseStatus::kNoDetections:
+      return "no detections";
+    case BundlePoseStatus::kNoBundleTags:
+      return "no tags of the bundle";
+    case BundlePoseStatus::kInvalidInput:
+      return "invalid input";
+    case BundlePoseStatus::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+BundlePose estimate_bundle_pose(const TagBundle& bundle,
+                                const calibration::CameraIntrinsics& camera,
+                                const std::vector<DetectedTag>& detections,
+                                const BundlePoseOptions& options,
+                                const std::optional<Eigen::Isometry3d>& T_cam_body_prev) {
+  const std::string who = "estimate_bundle_pose(" + bundle.name + "): ";
+  if (auto e = options.validate(); !e.empty())
+    return fail(BundlePoseStatus::kInvalidInput, who + "options: " + e);
+  if (auto e = camera.validate(); !e.empty())
+    return fail(BundlePoseStatus::kInvalidInput, who + "camera: " + e);
+  if (bundle.tags.empty())
+    return fail(BundlePoseStatus::kInvalidInput, who + "the bundle has no tags");
+  std::map<int, const TagPlacement*> layout;
+  for (std::size_t i = 0; i < bundle.tags.size(); ++i) {
+    const TagPlacement& t = bundle.tags[i];
+    if (!std::isfinite(t.size_m) || t.size_m <= 0)
+      return fail(BundlePoseStatus::kInvalidInput,
+                  who + "tags[" + std::to_string(i) + "].size_m must be finite and > 0");
+    if (!layout.emplace(t.id, &t).second)
+      return fail(BundlePoseStatus::kInvalidInput, who + "tags[" + std::to_string(i) + "].id = " +
+                                                       std::to_string(t.id) + " appears twice");
+  }
+  if (T_cam_body_prev && !T_cam_body_prev->matrix().allFinite())
+    return fail(BundlePoseStatus::kInvalidInput, who + "T_cam_body_prev is not finite");
+  if (detections.empty()) return fail(BundlePoseStatus::kNoDetections, who + "no detections");
+
+  // Keep one detection per layout id (the most confident if seen twice).
+  std::map<int, const DetectedTag*> kept;
+  for (const DetectedTag& d : detections) {
+    if (d.family != bundle.family || !layout.count(d.id) || d.hamming > options.max_hamming ||
+        d.decision_margin < options.min_decision_margin)
+      continue;
+    bool finite = true;
+    for (const auto& c : d.corners_px) finite = finite && c.allFinite();
+    if (!finite) continue;
+    auto [it, added] = kept.emplace(d.id, &d);
+    if (!added && d.decision_margin > it->second->decision_margin) it->second = &d;
+  }
+  if (kept.empty())
+    return fail(BundlePoseStatus::kNoBundleTags,
+                who + std::to_string(detections.size()) + " detection(s), none of the bundle's " +
+                    tag_family_name(bundle.family) + " ids (or all below the thresholds)");
+
+  const Pinhole k{camera.fx, camera.fy, camera.cx, camera.cy};
+  const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+  const std::vector<double> dist(camera.dist.begin(), camera.dist.end());
+
+  // Undistort every kept corner into the ideal pinhole image with the same K.
+  std::vector<cv::Point2d> distorted, undistorted;
+  for (const auto& [id, d] : kept)
+    for (const auto& c : d->corners_px) distorted.emplace_back(c.x(), c.y());
+  try {
+    cv::undistortPoints(distorted, undistorted, K, dist, cv::noArray(), K);
+  } catch (const cv::Exception& e) {
+    return fail(BundlePoseStatus::kFailed, who + "cv::undistortPoints: " + e.what());
+  }
+
+  std::vector<Corner> corners;
+  std::vector<const TagPlacement*> tags;
+  for (const auto& [id, d] : kept) {
+    const TagPlacement* t = layout.at(id);
+    for (int c = 0; c < 4; ++c) {
+      const cv::Point2d& u = undistorted[corners.size()];
+      corners.push_back(Corner{t->corner(c), Eigen::Vector2d(u.x, u.y)});
+    }
+    tags.push_back(t);
+  }
+
+  // Seeds: both IPPE_SQUARE solutions of every tag, as T_cam_body.
+  std::vector<Eigen::Isometry3d> seeds;
+  for (std::size_t ti = 0; ti < tags.size(); ++ti) {
+    const double h = tags[ti]->size_m / 2;
+    // IPPE_SQUARE's required object points: libapriltag's corner order.
+    const std::vector<cv::Point3d> obj = {{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
+    std::vector<cv::Point2d> img;
+    for (int c = 0; c < 4; ++c) {
+      const Eigen::Vector2d& u = corners[4 * ti + static_cast<std::size_t>(c)].uv_px;
+      img.emplace_back(u.x(), u.y());
+    }
+    std::vector<cv::Mat> rvecs, tvecs;
+    try {
+      cv::solvePnPGeneric(obj, img, K, cv::noArray(), rvecs, tvecs, false,
+                          cv::SOLVEPNP_IPPE_SQUARE);
+    } catch (const cv::Exception&) {
+      continue;  // degenerate quad (collinear corners): the other tags may still seed
+    }
+    for (std::size_t s = 0; s < rvecs.size(); ++s) {
+      const Eigen::Isometry3d T_cam_tag = from_rvec_tvec(rvecs[s], tvecs[s]);
+      const Eigen::Isometry3d T_cam_body = T_cam_tag * tags[ti]->T_parent_tag.inverse();
+      if (T_cam_body.matrix().allFinite()) seeds.push_back(T_cam_body);
+    }
+  }
+  if (T_cam_body_prev) seeds.push_back(*T_cam_body_prev);
+
+  // Score the seeds over all corners.
+  std::vector<double> seed_rms(seeds.size(), std::numeric_limits<double>::infinity());
+  Eigen::VectorXd r;
+  double best_rms = std::numeric_limits<double>::infinity();
+  for (std::size_t s = 0; s < seeds.size(); ++s) {
+    if (residuals(seeds[s], corners, k, r, nullptr)) seed_rms[s] = rms_of(r);
+    best_rms = std::min(best_rms, seed_rms[s]);
+  }
+  if (!std::isfinite(best_rms))
+    return fail(BundlePoseStatus::kFailed,
+                who + "no seed pose puts the tags in front of the camera");
+  std::size_t chosen = 0;
+  double chosen_key = std::numeric_limits<double>::infinity();
+  const double ambiguous_below = best_rms * options.ambiguity_ratio + options.ambiguity_px;
+  for (std::size_t s = 0; s < seeds.size(); ++s) {
+    double key = seed_rms[s];
+    if (T_cam_body_prev) {
+      // Planar ambiguity: equally good fits are told apart by continuity.
+      if (!(seed_rms[s] <= ambiguous_below)) continue;
+      key = rotation_angle(seeds[s], *T_cam_body_prev);
+    }
+    if (key < chosen_key) {
+      chosen_key = key;
+      chosen = s;
+    }
+  }
+
+  // Levenberg-Marquardt on all corners.
+  Eigen::Isometry3d T = seeds[chosen];
+  BundlePose out;
+  out.seed_rms_px = seed_rms[chosen];
+  Eigen::MatrixXd J;
+  residuals(T, corners, k, r, &J);
+  double cost = r.squaredNorm();
+  double lambda = 1e-3;
+  for (int it = 0; it < options.max_iterations; ++it) {
+    out.iterations = it + 1;
+    const Mat6 H = J.transpose() * J;
+    const Vec6 g = J.transpose() * r;
+    Mat6 A = H;
+    A.diagonal() += lambda * H.diagonal().cwiseMax(1e-12);
+    const Vec6 delta = A.ldlt().solve(-g);
+    if (!delta.allFinite()) break;
+    const Eigen::Isometry3d T_try = apply_delta(delta, T);
+    Eigen::VectorXd r_try;
+    Eigen::MatrixXd J_try;
+    if (residuals(T_try, corners, k, r_try, &J_try) && r_try.squaredNorm() < cost) {
+      const double gain = cost - r_try.squaredNorm();
+      T = T_try;
+      r = std::move(r_try);
+      J = std::move(J_try);
+      cost = r.squaredNorm();
+      lambda = std::max(lambda / 10, 1e-9);
+      if (gain < 1e-12 * (1 + cost) || delta.norm() < 1e-12) break;
+    } else {
+      lambda *= 10;
+      if (lambda > 1e8) break;  // no descent left: at the minimum
+    }
+  }
+
+  out.T_cam_body = T;
+  out.rms_px = rms_of(r);
+  out.tags_used = static_cast<int>(tags.size());
+  for (const TagPlacement* t : tags) out.tag_ids.push_back(t->id);
+  std::sort(out.tag_ids.begin(), out.tag_ids.end());
+  const double dof = static_cast<double>(r.size()) - 6;
+  const Mat6 H = J.transpose() * J;
+  Eigen::FullPivLU<Mat6> lu(H);
+  if (dof <= 0 || !lu.isInvertible())
+    return fail(BundlePoseStatus::kFailed,
+                who + "the fit is degenerate (singular normal equations)");
+  out.covariance = (cost / dof) * lu.inverse();
+  if (!out.T_cam_body.matrix().allFinite() || !out.covariance.allFinite())
+    return fail(BundlePoseStatus::kFailed, who + "the refinement diverged");
+  out.status = BundlePoseStatus::kOk;
+  return out;
+}
+
+}  // namespace dentar::ar
