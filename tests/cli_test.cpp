@@ -1,32 +1,17 @@
 // End-to-end tests of the `dentar` command line: exit codes, messages and
 // the files it writes.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
-#include <cstdio>
 #include <fstream>
 
 #include "testutil.h"
 
 namespace {
 
-struct CmdResult {
-  int code;
-  std::string out;  // stdout and stderr together
-};
+using CmdResult = dentar::test::CommandResult;
 
 CmdResult run(const std::string& args) {
-  const std::string cmd = std::string(DENTAR_BINARY) + " " + args + " 2>&1";
-  CmdResult r{-1, {}};
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  std::size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int st = pclose(p);
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
+  return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args);
 }
 
 TEST(Cli, EverySubcommandHasHelpWithSynopsisAndExample) {

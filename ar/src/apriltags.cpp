@@ -98,35 +98,4 @@ double tag_plate_half_size_m(const TagFamily& family, double size_m) {
   return 0.5 * (family.total_width() + 1) * cell;
 }
 
-std::vector<TagDetection> detect_tags(const cv::Mat& gray, TagFamilyId family_id) {
-  assert(gray.type() == CV_8UC1 && gray.isContinuous());
-  TagFamily family = TagFamily::create(family_id);
-  // Owning handles: the detector must drop the family before both go.
-  std::unique_ptr<apriltag_detector_t, void (*)(apriltag_detector_t*)> det(
-      apriltag_detector_create(), apriltag_detector_destroy);
-  apriltag_detector_add_family(det.get(), family.raw());
-  det->quad_decimate = 1.0f;
-  det->quad_sigma = 0.0f;
-  det->nthreads = 1;
-  det->refine_edges = 1;
-  image_u8_t im{gray.cols, gray.rows, static_cast<int32_t>(gray.step), gray.data};
-  std::unique_ptr<zarray_t, void (*)(zarray_t*)> found(apriltag_detector_detect(det.get(), &im),
-                                                       apriltag_detections_destroy);
-  std::vector<TagDetection> out;
-  for (int i = 0; i < zarray_size(found.get()); ++i) {
-    apriltag_detection_t* d = nullptr;
-    zarray_get(found.get(), i, &d);
-    TagDetection t;
-    t.id = d->id;
-    t.hamming = d->hamming;
-    t.decision_margin = d->decision_margin;
-    for (int k = 0; k < 4; ++k)
-      t.corners_px[k] = Eigen::Vector2d(d->p[k][0] - 0.5, d->p[k][1] - 0.5);
-    out.push_back(t);
-  }
-  found.reset();
-  apriltag_detector_remove_family(det.get(), family.raw());
-  return out;
-}
-
 }  // namespace dentar::ar

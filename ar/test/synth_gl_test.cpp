@@ -2,10 +2,7 @@
 // libapriltag detections, the occlusion mask against the tooth renderer,
 // the presets' properties, and `dentar synth` end to end.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -15,6 +12,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "dentar/ar/apriltags.h"
+#include "dentar/ar/tag_detector.h"
 #include "dentar/ar/synth.h"
 #include "dentar/haptics/session_log.h"
 #include "gl_test_context.h"
@@ -22,6 +20,23 @@
 
 namespace dentar::ar {
 namespace {
+
+// Tag detection the way the ground-truth checks need it: full resolution,
+// one thread, no blur, edge refinement on (deterministic).
+std::vector<DetectedTag> detect_full_resolution(const cv::Mat& gray, TagFamilyId family) {
+  TagDetectorOptions o;
+  o.families = {family};
+  o.decimation = 1.0;
+  o.threads = 1;
+  o.refine_edges = true;
+  o.blur_sigma = 0.0;
+  auto det = TagDetector::create(o);
+  EXPECT_TRUE(det.ok()) << det.error();
+  if (!det.ok()) return {};
+  auto found = det->detect(gray);
+  EXPECT_TRUE(found.ok()) << found.error();
+  return found.ok() ? std::move(found).value() : std::vector<DetectedTag>{};
+}
 
 std::unique_ptr<SynthGenerator> make(const SynthOptions& o, const std::string& log = {}) {
   auto g = SynthGenerator::create(default_station_scene(), o, log);
@@ -81,7 +96,7 @@ TEST(Synth, TagCornersMatchLibapriltagWithinOnePixel) {
     std::map<int, const TagTruth*> truth;
     for (const auto& t : f.truth.tags) truth[t.id] = &t;
     int in_frame = 0;
-    for (const auto& d : detect_tags(gray, TagFamilyId::kStandard41h12)) {
+    for (const auto& d : detect_full_resolution(gray, TagFamilyId::kStandard41h12)) {
       auto it = truth.find(d.id);
       ASSERT_NE(it, truth.end()) << "frame " << i << ": detected tag " << d.id
                                  << " is not in the truth";
@@ -187,22 +202,10 @@ TEST(Synth, OptionErrorsNameTheOption) {
 
 // ---- the command line ------------------------------------------------------------
 
-struct CmdResult {
-  int code;
-  std::string out;
-};
+using CmdResult = dentar::test::CommandResult;
 
 CmdResult run(const std::string& args) {
-  const std::string cmd = std::string(DENTAR_BINARY) + " " + args + " 2>&1";
-  CmdResult r{-1, {}};
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  std::size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int st = pclose(p);
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
+  return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args);
 }
 
 TEST(SynthCli, WritesEveryOutput) {

@@ -18,4 +18,12 @@ std::filesystem::path temp_dir(const std::string& name);
 std::string read_file(const std::filesystem::path& p);
 void write_file(const std::filesystem::path& p, const std::string& bytes);
 
+// Runs a shell command, capturing stdout and stderr together. code is the
+// exit status, -1 when the command could not run or was killed.
+struct CommandResult {
+  int code = -1;
+  std::string out;
+};
+CommandResult run_command(const std::string& command);
+
 }  // namespace dentar::test

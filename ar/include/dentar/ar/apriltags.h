@@ -61,17 +61,4 @@ cv::Mat render_tag_image(const TagFamily& family, int code, int px_per_cell, int
 // margin) for a tag whose border square has side size_m.
 double tag_plate_half_size_m(const TagFamily& family, double size_m);
 
-struct TagDetection {
-  int id = 0;
-  int hamming = 0;
-  double decision_margin = 0;
-  // Corners in OpenCV pixel convention (pixel centres at integers), in
-  // libapriltag's order: libapriltag's coordinates minus 0.5 px.
-  std::array<Eigen::Vector2d, 4> corners_px;
-};
-
-// Detects tags of one family in a grayscale CV_8UC1 image with libapriltag
-// (one thread, no decimation, no blur, edge refinement on: deterministic).
-std::vector<TagDetection> detect_tags(const cv::Mat& gray, TagFamilyId family);
-
 }  // namespace dentar::ar
