@@ -170,8 +170,12 @@ bool Engine::step(double late_s) noexcept {
   }
   snap.pulp_exposed = pulp_exposed_;
   snap.pulp_exposed_at_s = pulp_exposed_at_s_;
-  const volume::CutMetrics m = cutter_.metrics();
-  for (int i = 0; i < 8; ++i) snap.removed_mm3[i] = m.removed_mm3[static_cast<std::size_t>(i)];
+  // The totals change only on steps that removed something.
+  if (cut.total_removed() > 0) {
+    const volume::CutMetrics m = cutter_.metrics();
+    for (int i = 0; i < 8; ++i) removed_mm3_[i] = m.removed_mm3[static_cast<std::size_t>(i)];
+  }
+  for (int i = 0; i < 8; ++i) snap.removed_mm3[i] = removed_mm3_[i];
   snapshot_.store(snap);
 
   // Record.

@@ -132,6 +132,7 @@ class Engine {
   bool watchdog_tripped_ = false;
   bool pulp_exposed_ = false;
   double pulp_exposed_at_s_ = 0;
+  double removed_mm3_[8] = {};  // cumulative per material, for the snapshot
   EngineStats stats_;
 
   SeqLock<HapticSnapshot> snapshot_;
