@@ -11,6 +11,7 @@
 #include <numbers>
 
 #include "dentar/haptics/force_model.h"
+#include "test_blocks.h"
 #include "dentar/volume/procedural_tooth.h"
 
 // Counts heap allocations so compute() can be checked allocation-free.
@@ -34,22 +35,10 @@ using volume::BurShape;
 using volume::Material;
 using volume::VoxelVolume;
 
-constexpr double kVoxel = 1e-4;  // 0.1 mm
+constexpr double kVoxel = test_blocks::kVoxel;
 constexpr double kDt = 1e-3;
 
-VoxelVolume make_block(const std::function<bool(const Eigen::Vector3d&)>& solid,
-                       std::uint8_t density = 200, Material m = Material::kDentin) {
-  volume::VolumeGeometry g;
-  g.dims = Eigen::Vector3i(64, 64, 64);
-  g.spacing = Eigen::Vector3d::Constant(kVoxel);
-  g.origin = Eigen::Vector3d(-3.2e-3, -3.2e-3, -3.2e-3);
-  VoxelVolume v(g);
-  for (int k = 0; k < 64; ++k)
-    for (int j = 0; j < 64; ++j)
-      for (int i = 0; i < 64; ++i)
-        if (solid(v.voxel_center(i, j, k))) v.set(i, j, k, density, m);
-  return v;
-}
+using test_blocks::make_block;
 
 // Dentin (200) for voxel centres z <= 0: interpolated density crosses the
 // iso level 127.5 at z = 0.1 mm * (1 - 127.5/200) = 0.03625 mm.
