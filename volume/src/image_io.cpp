@@ -359,6 +359,13 @@ Result<std::vector<std::uint8_t>> encode_values(const ImageVolume& v, bool big_e
   return out;
 }
 
+Result<std::vector<std::uint8_t>> encode_payload(const ImageVolume& v, bool big_endian, bool gzip,
+                                                 std::string_view name) {
+  auto raw = encode_values(v, big_endian, name);
+  if (!raw || !gzip) return raw;
+  return gzip_compress(raw.value(), name);
+}
+
 std::optional<ElementType> element_type_from_name(std::string_view s) {
   const std::string l = lower(trim(s));
   for (int t = 0; t < kNumElementTypes; ++t)

@@ -52,6 +52,9 @@ Result<std::vector<std::uint8_t>> gzip_compress(std::span<const std::uint8_t> in
 // does not fit the type exactly.
 Result<std::vector<std::uint8_t>> encode_values(const ImageVolume& v, bool big_endian,
                                                 std::string_view name);
+// encode_values, then gzip when `gzip` is set: the data part of a file.
+Result<std::vector<std::uint8_t>> encode_payload(const ImageVolume& v, bool big_endian, bool gzip,
+                                                 std::string_view name);
 
 // Reads header + data of a file whose header is parsed by `parse` (which gets
 // at most kMaxHeaderBytes of the file) and decodes it.

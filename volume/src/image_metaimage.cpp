@@ -228,14 +228,9 @@ Status write_metaimage(const ImageVolume& v, const std::string& path, const Writ
   if (ext != ".mha" && ext != ".mhd")
     return file_error(path, "MetaImage files end in .mha (inline data) or .mhd (detached)");
   if (auto s = detail::validate_geometry(v.geometry, path); !s) return s;
-  auto raw = detail::encode_values(v, o.big_endian, path);
-  if (!raw) return Error{raw.error()};
-  std::vector<std::uint8_t> data = std::move(raw.value());
-  if (o.gzip) {
-    auto z = detail::gzip_compress(data, path);
-    if (!z) return Error{z.error()};
-    data = std::move(z.value());
-  }
+  auto payload = detail::encode_payload(v, o.big_endian, o.gzip, path);
+  if (!payload) return Error{payload.error()};
+  const std::vector<std::uint8_t> data = std::move(payload).value();
   const bool inline_data = ext == ".mha";
   const std::string data_name = detail::stem_of(path) + (o.gzip ? ".zraw" : ".raw");
   const auto& g = v.geometry;

@@ -332,14 +332,9 @@ Status write_nrrd(const ImageVolume& v, const std::string& path, const WriteOpti
   if (ext != ".nrrd" && ext != ".nhdr")
     return file_error(path, "NRRD files end in .nrrd (attached data) or .nhdr (detached)");
   if (auto s = detail::validate_geometry(v.geometry, path); !s) return s;
-  auto raw = detail::encode_values(v, o.big_endian, path);
-  if (!raw) return Error{raw.error()};
-  std::vector<std::uint8_t> data = std::move(raw.value());
-  if (o.gzip) {
-    auto z = detail::gzip_compress(data, path);
-    if (!z) return Error{z.error()};
-    data = std::move(z.value());
-  }
+  auto payload = detail::encode_payload(v, o.big_endian, o.gzip, path);
+  if (!payload) return Error{payload.error()};
+  const std::vector<std::uint8_t> data = std::move(payload).value();
   const bool attached = ext == ".nrrd";
   const std::string data_name = detail::stem_of(path) + (o.gzip ? ".raw.gz" : ".raw");
   const auto& g = v.geometry;
