@@ -1,11 +1,13 @@
 #include "dentar/ar/station_scene.h"
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
+#include "dentar/calibration/camera_file.h"
 #include "dentar/haptics/scripts.h"
 
 namespace dentar::ar {
@@ -234,8 +236,43 @@ std::string MirrorSceneParams::validate() const {
   return {};
 }
 
+std::string CalibrationFixtures::validate() const {
+  for (std::size_t i = 0; i < divots_man.size(); ++i)
+    if (!divots_man[i].allFinite() || divots_man[i].norm() > 1.0)
+      return "calibration_fixtures.divots_mm[" + std::to_string(i) + "] must be finite, within 1 m";
+  for (std::size_t i = 0; i < landmarks_tooth.size(); ++i)
+    if (!landmarks_tooth[i].allFinite() || landmarks_tooth[i].norm() > 0.1)
+      return "calibration_fixtures.tooth_landmarks_mm[" + std::to_string(i) +
+             "] must be finite, within 100 mm";
+  return {};
+}
+
+void StationScene::set_step_report(const CalibrationStepReport& r) {
+  static const char* const kOrder[] = {"camera", "pivot", "register", "tooth", "mirror", "check"};
+  auto rank = [](const std::string& step) {
+    for (int i = 0; i < 6; ++i)
+      if (step == kOrder[i]) return i;
+    return 6;
+  };
+  for (auto& e : calibration_report)
+    if (e.step == r.step) {
+      e = r;
+      return;
+    }
+  auto it = calibration_report.begin();
+  while (it != calibration_report.end() && rank(it->step) <= rank(r.step)) ++it;
+  calibration_report.insert(it, r);
+}
+
+const CalibrationStepReport* StationScene::step_report(const std::string& step) const {
+  for (const auto& e : calibration_report)
+    if (e.step == step) return &e;
+  return nullptr;
+}
+
 std::string StationScene::validate() const {
   if (std::string e = mannequin.validate(); !e.empty()) return e;
+  if (std::string e = fixtures.validate(); !e.empty()) return e;
   if (std::string e = mirror.validate(); !e.empty()) return e;
   if (std::string e = calibration.validate(); !e.empty()) return "calibration: " + e;
   if (!(tooth_voxel_m >= 0.02e-3 && tooth_voxel_m <= 0.5e-3))
@@ -267,6 +304,27 @@ const TagPlacement* StationScene::find_tag(int id) const {
     for (const auto& t : *list)
       if (t.id == id) return &t;
   return nullptr;
+}
+
+CalibrationFixtures default_calibration_fixtures() {
+  CalibrationFixtures f;
+  // Divots on the face around the mouth, between the tags: cheeks, upper cheeks, jaw, chin and
+  // forehead, so they surround the tooth site in 3-D (the face's curvature gives depth).
+  const MannequinParams m;
+  const double spots[8][2] = {{-32, 0}, {32, 0}, {-30, 15}, {30, 15},
+                              {-58, -25}, {58, -25}, {0, -35}, {0, 35}};
+  for (const auto& sp : spots) {
+    Eigen::Vector3d p, n;
+    head_point(m, sp[0], sp[1], p, n);
+    f.divots_man.push_back(p);
+  }
+  // Molar landmarks in the tooth frame (origin at the crown centre on the cervical plane, +z
+  // occlusal): four cusp tips 6.6 mm up, the buccal (-y) and lingual (+y) cervical points.
+  for (const auto& q : {Eigen::Vector3d(-2.5, -2.8, 6.6), Eigen::Vector3d(2.5, -2.8, 6.6),
+                        Eigen::Vector3d(2.5, 2.8, 6.6), Eigen::Vector3d(-2.5, 2.8, 6.6),
+                        Eigen::Vector3d(0, -5.3, 0.3), Eigen::Vector3d(0, 5.3, 0.3)})
+    f.landmarks_tooth.push_back(q * 1e-3);
+  return f;
 }
 
 calibration::CameraIntrinsics default_camera(int width_px, int height_px) {
@@ -318,6 +376,7 @@ StationScene default_station_scene() {
   c.T_man_dev = T_man_tooth * hs.T_tooth_dev;
   c.T_sty_tip = hs.T_sty_tip;
   c.mirror_radius_m = 0.011;
+  s.fixtures = default_calibration_fixtures();
 
   // Mirror: the paddle sits on the handle 85 mm from the disc centre, the
   // front tag facing the same side as the reflecting face. mtag = front tag
@@ -352,10 +411,20 @@ std::string station_scene_to_json(const StationScene& s) {
   const auto& k = c.camera;
   ojson j;
   j["format"] = "dentar-station";
-  j["version"] = 1;
+  j["version"] = kStationFileVersion;
   j["name"] = s.name;
-  j["camera"] = {{"width", k.width}, {"height", k.height}, {"fx", k.fx},    {"fy", k.fy},
-                 {"cx", k.cx},       {"cy", k.cy},         {"dist", k.dist}};
+  const CameraProvenance& cp = s.camera_provenance;
+  if (!cp.file.empty()) {
+    j["camera"] = {{"file", cp.file}};
+  } else {
+    j["camera"] = {{"width", k.width}, {"height", k.height}, {"fx", k.fx},    {"fy", k.fy},
+                   {"cx", k.cx},       {"cy", k.cy},         {"dist", k.dist}};
+    if (!cp.model.empty()) j["camera"]["model"] = cp.model;
+    if (cp.rms_px >= 0) j["camera"]["rms_px"] = cp.rms_px;
+    if (!cp.std_devs.empty()) j["camera"]["std_devs"] = cp.std_devs;
+    if (!cp.date.empty()) j["camera"]["date"] = cp.date;
+    if (!cp.device.empty()) j["camera"]["device"] = cp.device;
+  }
   j["tag_family"] = tag_family_name(s.family);
   j["mannequin"] = {
       {"head_centre_mm", v3(m.head_centre_m, 1e3)},
@@ -383,6 +452,18 @@ std::string station_scene_to_json(const StationScene& s) {
                  {"T_mtag_mir", pose_json(c.T_mtag_mir)},
                  {"tags", tags_json(s.mirror_tags, "T_mtag_tag")}};
   j["haptics"] = {{"T_man_dev", pose_json(c.T_man_dev)}, {"T_sty_tip", pose_json(c.T_sty_tip)}};
+  ojson divots = ojson::array(), marks = ojson::array();
+  for (const auto& p : s.fixtures.divots_man) divots.push_back(v3(p, 1e3));
+  for (const auto& p : s.fixtures.landmarks_tooth) marks.push_back(v3(p, 1e3));
+  j["calibration_fixtures"] = {{"divots_mm", divots}, {"tooth_landmarks_mm", marks}};
+  ojson rep = ojson::array();
+  for (const auto& r : s.calibration_report) {
+    ojson figs = ojson::object();
+    for (const auto& [name, v] : r.figures) figs[name] = v;
+    rep.push_back({{"step", r.step}, {"date", r.date}, {"pass", r.pass}, {"summary", r.summary},
+                   {"figures", figs}});
+  }
+  j["calibration_report"] = rep;
   return compact_number_arrays(j.dump(2)) + "\n";
 }
 
@@ -397,16 +478,65 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     StationScene s;
     check_keys(j, "",
                {"format", "version", "name", "camera", "tag_family", "mannequin", "tooth", "mirror",
-                "haptics"});
+                "haptics", "calibration_fixtures", "calibration_report"});
     if (req(j, "", "format") != "dentar-station")
       throw ParseError{"format", "must be \"dentar-station\""};
-    integer(req(j, "", "version"), "version", 1, 1);
+    // Files without a version are version 1 (written before the field was required).
+    s.version = j.contains("version")
+                    ? integer(j["version"], "version", 1, kStationFileVersion)
+                    : 1;
+    if (s.version < 2)
+      for (const char* key : {"calibration_fixtures", "calibration_report"})
+        if (j.contains(key))
+          throw ParseError{key, "needs version 2 (set \"version\": 2)"};
     if (auto it = j.find("name"); it != j.end()) {
       if (!it->is_string()) throw ParseError{"name", "must be a string"};
       s.name = it->get<std::string>();
     }
-    const json& cam = req(j, "", "camera");
-    check_keys(cam, "camera", {"width", "height", "fx", "fy", "cx", "cy", "dist"});
+    const json& cam0 = req(j, "", "camera");
+    json cam = cam0;
+    auto& cp = s.camera_provenance;
+    if (cam0.is_object() && cam0.contains("file")) {
+      // A referenced camera file (OpenCV FileStorage or ROS camera_info YAML).
+      check_keys(cam0, "camera", {"file"});
+      if (!cam0["file"].is_string() || cam0["file"].get<std::string>().empty())
+        throw ParseError{"camera.file", "must be a non-empty file name"};
+      cp.file = cam0["file"].get<std::string>();
+      std::filesystem::path fp(cp.file);
+      if (fp.is_relative()) fp = std::filesystem::path(source).parent_path() / fp;
+      auto cf = calibration::read_camera_file(fp.string());
+      if (!cf) throw ParseError{"camera.file", cf.error()};
+      const auto& ci = cf->camera;
+      cam = {{"width", ci.width}, {"height", ci.height}, {"fx", ci.fx}, {"fy", ci.fy},
+             {"cx", ci.cx},       {"cy", ci.cy},         {"dist", ci.dist}};
+      cp.model = cf->model;
+      cp.rms_px = cf->rms_px;
+      cp.std_devs = cf->std_devs;
+      cp.date = cf->date;
+      cp.device = cf->device;
+    }
+    check_keys(cam, "camera",
+               {"width", "height", "fx", "fy", "cx", "cy", "dist", "model", "rms_px", "std_devs",
+                "date", "device"});
+    if (cp.file.empty()) {
+      auto str = [&](const char* key, std::string& out) {
+        if (!cam.contains(key)) return;
+        if (!cam[key].is_string()) throw ParseError{std::string("camera.") + key, "must be a string"};
+        out = cam[key].get<std::string>();
+      };
+      str("model", cp.model);
+      str("date", cp.date);
+      str("device", cp.device);
+      if (cam.contains("rms_px")) cp.rms_px = number(cam["rms_px"], "camera.rms_px", 0, 100);
+      if (cam.contains("std_devs")) {
+        const json& sd = cam["std_devs"];
+        if (!sd.is_array() || sd.size() > 12)
+          throw ParseError{"camera.std_devs", "must be an array of at most 12 numbers"};
+        for (std::size_t i = 0; i < sd.size(); ++i)
+          cp.std_devs.push_back(
+              number(sd[i], "camera.std_devs[" + std::to_string(i) + "]", 0, 1e6));
+      }
+    }
     auto& k = s.calibration.camera;
     k.width = integer(req(cam, "camera", "width"), "camera.width", 1, 16384);
     k.height = integer(req(cam, "camera", "height"), "camera.height", 1, 16384);
@@ -481,6 +611,45 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     s.calibration.T_man_dev = pose(req(hj, "haptics", "T_man_dev"), "haptics.T_man_dev");
     s.calibration.T_sty_tip = pose(req(hj, "haptics", "T_sty_tip"), "haptics.T_sty_tip");
 
+    if (auto it = j.find("calibration_fixtures"); it != j.end()) {
+      check_keys(*it, "calibration_fixtures", {"divots_mm", "tooth_landmarks_mm"});
+      auto points = [&](const char* key, std::vector<Eigen::Vector3d>& out, double lim) {
+        const std::string p = std::string("calibration_fixtures.") + key;
+        const json& a = req(*it, "calibration_fixtures", key);
+        if (!a.is_array() || a.size() > 64) throw ParseError{p, "must be an array of 0..64 points"};
+        for (std::size_t i = 0; i < a.size(); ++i)
+          out.push_back(vec<3>(a[i], p + "[" + std::to_string(i) + "]", -lim, lim) * 1e-3);
+      };
+      points("divots_mm", s.fixtures.divots_man, 1000);
+      points("tooth_landmarks_mm", s.fixtures.landmarks_tooth, 100);
+    }
+    if (auto it = j.find("calibration_report"); it != j.end()) {
+      if (!it->is_array() || it->size() > 32)
+        throw ParseError{"calibration_report", "must be an array of step reports"};
+      for (std::size_t i = 0; i < it->size(); ++i) {
+        const std::string p = "calibration_report[" + std::to_string(i) + "]";
+        const json& r = (*it)[i];
+        check_keys(r, p, {"step", "date", "pass", "summary", "figures"});
+        CalibrationStepReport rep;
+        auto str = [&](const char* key, std::string& out) {
+          const json& v = req(r, p, key);
+          if (!v.is_string()) throw ParseError{p + "." + key, "must be a string"};
+          out = v.get<std::string>();
+        };
+        str("step", rep.step);
+        str("date", rep.date);
+        str("summary", rep.summary);
+        const json& pass = req(r, p, "pass");
+        if (!pass.is_boolean()) throw ParseError{p + ".pass", "must be true or false"};
+        rep.pass = pass.get<bool>();
+        const json& figs = req(r, p, "figures");
+        if (!figs.is_object()) throw ParseError{p + ".figures", "must be an object of numbers"};
+        for (auto f = figs.begin(); f != figs.end(); ++f)
+          rep.figures.emplace_back(f.key(), number(f.value(), p + ".figures." + f.key(), -1e12, 1e12));
+        s.calibration_report.push_back(rep);
+      }
+    }
+
     if (std::string e = s.validate(); !e.empty()) return Error{source + ": " + e};
     return s;
   } catch (const ParseError& e) {
@@ -501,11 +670,24 @@ Result<StationScene> read_station_scene(const std::string& path) {
 }
 
 Status write_station_scene(const StationScene& s, const std::string& path) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return Error{"dentar::ar::write_station_scene: cannot open for writing '" + path + "'"};
-  out << station_scene_to_json(s);
-  out.close();
-  if (!out) return Error{"dentar::ar::write_station_scene: write failed for '" + path + "'"};
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) return Error{"dentar::ar::write_station_scene: cannot open for writing '" + path + "'"};
+    out << station_scene_to_json(s);
+    out.close();
+    if (!out) {
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      return Error{"dentar::ar::write_station_scene: write failed for '" + path + "'"};
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    return Error{"dentar::ar::write_station_scene: cannot replace '" + path + "': " + ec.message()};
+  }
   return {};
 }
 

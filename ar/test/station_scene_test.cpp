@@ -100,7 +100,7 @@ TEST(StationScene, BadFieldsAreNamed) {
   };
   const Case cases[] = {
       {"/format", "nope", "format"},
-      {"/version", 2, "version"},
+      {"/version", 3, "version"},
       {"/camera/fx", -3.0, "camera.fx"},
       {"/camera/dist", nlohmann::json::array({1, 2}), "camera.dist"},
       {"/tag_family", "tag25h9", "tag_family"},

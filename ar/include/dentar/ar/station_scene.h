@@ -76,7 +76,43 @@ struct MirrorSceneParams {
   std::string validate() const;
 };
 
+// Points the instructor touches with the calibrated stylus during the station calibration
+// (`dentar calibrate register` and `tooth`). File: "calibration_fixtures" (mm).
+struct CalibrationFixtures {
+  // Divots on the mannequin (cone-shaped dimples the bur tip seats in), mannequin frame, m.
+  std::vector<Eigen::Vector3d> divots_man;
+  // Landmarks on the tooth model (cusp tips, cervical points), tooth frame, m.
+  std::vector<Eigen::Vector3d> landmarks_tooth;
+  std::string validate() const;  // empty or names the field
+};
+
+// Where the camera intrinsics came from (file "camera" block extras; all optional).
+struct CameraProvenance {
+  std::string model;  // "pinhole-radtan5" / "rational8"; empty when unknown
+  double rms_px = -1;  // calibration reprojection RMS, px; < 0 unknown
+  std::vector<double> std_devs;  // fx fy cx cy k1 k2 p1 p2 k3 (px for the first four)
+  std::string date, device;
+  // Non-empty when the station references a camera file ({"file": "cam.yaml"}) instead of
+  // embedding the numbers: the path as written (relative to the station file's directory).
+  std::string file;
+};
+
+// One step of the station calibration as recorded in the file ("calibration_report").
+struct CalibrationStepReport {
+  std::string step;  // camera, pivot, register, tooth, mirror, check
+  std::string date;  // ISO 8601 UTC
+  bool pass = false;
+  std::string summary;  // one line for people
+  // Quality figures, name (with its unit: "rms_px", "tre_mm") and value, in file order.
+  std::vector<std::pair<std::string, double>> figures;
+};
+
+// File versions: 1 (no calibration_fixtures / calibration_report; files without "version" are
+// read as 1) and 2 (current; what station_scene_to_json writes).
+inline constexpr int kStationFileVersion = 2;
+
 struct StationScene {
+  int version = kStationFileVersion;  // as read (writers always write the current version)
   std::string name = "default";
   TagFamilyId family = TagFamilyId::kStandard41h12;
   MannequinParams mannequin;
@@ -86,12 +122,22 @@ struct StationScene {
   double tooth_voxel_m = 0.1e-3;          // procedural molar's voxel size
   // Camera, T_man_tooth, T_man_dev, T_sty_tip, T_mtag_mir, mirror_radius_m.
   calibration::StationCalibration calibration;
+  CameraProvenance camera_provenance;
+  CalibrationFixtures fixtures;  // empty in version 1 files
+  std::vector<CalibrationStepReport> calibration_report;  // latest entry per step
+  // Adds or replaces the report of r.step (one entry per step, in workflow order).
+  void set_step_report(const CalibrationStepReport& r);
+  const CalibrationStepReport* step_report(const std::string& step) const;
 
   // Empty when valid; else names the field ("mannequin_tags[3].id = 9999 is
   // not a tagStandard41h12 code (0..2114)").
   std::string validate() const;
   const TagPlacement* find_tag(int id) const;  // mannequin or mirror tag, or nullptr
 };
+
+// The default fixtures: 8 divots on the face around the mouth (non-coplanar, surrounding the
+// tooth site) and 6 molar landmarks (4 cusp tips, buccal and lingual cervical points).
+CalibrationFixtures default_calibration_fixtures();
 
 // The built-in station (assets/station_default.json is this, written out):
 // 12 tags of 14 mm on the forehead, cheeks and chin; a lower-left first molar
@@ -109,8 +155,11 @@ calibration::CameraIntrinsics default_camera(int width_px, int height_px);
 std::string station_scene_to_json(const StationScene& s);
 // Errors name `source` (the file name), the field path and the problem:
 // "station.json: mannequin.tags[2].size_mm: must be a number > 0".
+// A "camera": {"file": "cam.yaml"} reference is read with calibration::read_camera_file,
+// relative to the directory of `source` (an OpenCV or ROS camera YAML).
 Result<StationScene> parse_station_scene(std::string_view text, const std::string& source);
 Result<StationScene> read_station_scene(const std::string& path);
+// Writes via a temporary file and a rename: a failure leaves the old file untouched.
 Status write_station_scene(const StationScene& s, const std::string& path);
 
 }  // namespace dentar::ar

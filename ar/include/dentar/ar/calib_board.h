@@ -1,0 +1,90 @@
+// Calibration boards on the camera side: AprilTag grid detection (libapriltag via TagDetector),
+// board photos from files, and a ray-cast renderer that stands in for the camera in
+// `dentar calibrate camera --simulate` (the board as a camera with given intrinsics and
+// distortion sees it at a given pose, antialiased, with noise and blur).
+// Board geometry and frames: calibration/intrinsics.h (board frame: x along the columns, y
+// down the rows, z into the board). Units: metres, pixels (OpenCV convention).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "dentar/ar/tag_detector.h"
+#include "dentar/calibration/intrinsics.h"
+#include "dentar/volume/result.h"
+
+namespace dentar::ar {
+
+using BoardSpec = std::variant<calibration::ChessboardSpec, calibration::AprilGridSpec>;
+
+// Parses "chessboard:COLSxROWS:SQUARE_MM" or "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]]"
+// (e.g. "chessboard:9x6:25", "aprilgrid:6x5:24:8:tag36h11"). Error names the text and the field.
+Result<BoardSpec> parse_board_spec(const std::string& text);
+std::string board_spec_to_string(const BoardSpec& spec);
+double board_width_m(const BoardSpec& spec);   // extent of its points along x, m
+double board_height_m(const BoardSpec& spec);  // along y, m
+
+// AprilTag grid in a grayscale image (CV_8UC1): every detected tag of the grid's family with an
+// id on the grid gives its 4 corners. Error "board not found in <name>" when fewer than
+// min_tags grid tags are seen. The detector must search the grid's family.
+Result<calibration::BoardView> detect_aprilgrid(TagDetector& detector, const cv::Mat& gray,
+                                                const calibration::AprilGridSpec& spec,
+                                                const std::string& name, int min_tags = 2);
+
+// Detects the board in an image (CV_8UC1 or CV_8UC3) of either kind.
+Result<calibration::BoardView> detect_board(const cv::Mat& image, const BoardSpec& spec,
+                                            const std::string& name);
+// Loads a photo (any format OpenCV reads) and detects the board; errors name the file.
+// width/height receive the image size.
+Result<calibration::BoardView> detect_board_file(const std::string& path, const BoardSpec& spec,
+                                                 int& width, int& height);
+
+// The printed board as a texture: 8-bit gray, `px_per_m` texture pixels per metre, texture
+// pixel (0,0)'s top-left corner at board point origin_m (the board's white margin included).
+struct BoardTexture {
+  cv::Mat image;  // CV_8UC1
+  double px_per_m = 0;
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
+};
+BoardTexture make_board_texture(const BoardSpec& spec, double px_per_m = 4000);
+
+struct BoardRenderOptions {
+  int supersample = 3;         // per-axis samples per pixel (antialiasing), 1..8
+  double blur_sigma_px = 0.5;  // optics blur, px (0 = none)
+  double noise_sigma_dn = 2;   // Gaussian sensor noise, 8-bit digital numbers
+  std::uint8_t background = 70;
+  // A "warped board" (printout not flat): the board surface bulges by this much toward the
+  // camera at its centre (paraboloid, zero on the board's edges), m. 0 = flat. Used to make a
+  // realistic outlier view in simulation.
+  double warp_m = 0;
+  std::uint64_t seed = 1;
+  std::string validate() const;
+};
+
+// Ray-casts the board as the camera k sees it at T_cam_board: per sample, undistort the pixel to
+// a ray, intersect the board surface, sample the texture bilinearly. CV_8UC1, k.width x k.height.
+cv::Mat render_board_view(const BoardTexture& texture, const calibration::CameraIntrinsics& k,
+                          const Eigen::Isometry3d& T_cam_board, const BoardRenderOptions& options = {});
+
+// Ground-truth image points of the board's points at a pose (no noise), OpenCV convention.
+std::vector<Eigen::Vector2d> project_board_points(const BoardSpec& spec,
+                                                  const calibration::CameraIntrinsics& k,
+                                                  const Eigen::Isometry3d& T_cam_board);
+
+// A simulated photo session: `count` poses from calibration::plan_board_poses, rendered; the
+// view at index bad_view (if >= 0) is rendered with a warped board (bad_warp_m) as the outlier.
+struct SimulatedBoardSession {
+  std::vector<cv::Mat> images;
+  std::vector<Eigen::Isometry3d> T_cam_board;  // truth
+};
+SimulatedBoardSession simulate_board_session(const BoardSpec& spec,
+                                             const calibration::CameraIntrinsics& k, int count,
+                                             std::uint64_t seed, int bad_view = -1,
+                                             double bad_warp_m = 0.006,
+                                             const BoardRenderOptions& options = {});
+
+}  // namespace dentar::ar

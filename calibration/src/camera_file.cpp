@@ -1,0 +1,337 @@
+#include "dentar/calibration/camera_file.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <opencv2/core.hpp>
+#include <sstream>
+
+namespace dentar::calibration {
+namespace {
+
+std::string read_text(const std::string& path, std::string& err) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    err = path + ": cannot open the camera file (check the path and permissions)";
+    return {};
+  }
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Writes `text` to path via a temporary file and a rename: no half-written file on failure.
+Status write_text_atomic(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) return Error{path + ": cannot create the file (check the directory exists and is writable)"};
+    out << text;
+    out.flush();
+    if (!out) {
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      return Error{path + ": write failed (disk full?)"};
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    return Error{path + ": cannot rename the temporary file into place: " + ec.message()};
+  }
+  return {};
+}
+
+// First node found under any of `names` (OpenCV's samples and tutorials differ in case).
+cv::FileNode find(const cv::FileNode& root, std::initializer_list<const char*> names) {
+  for (const char* n : names) {
+    cv::FileNode f = root[n];
+    if (!f.empty() && !f.isNone()) return f;
+  }
+  return cv::FileNode();
+}
+
+// A matrix given as !!opencv-matrix (rows, cols, dt, data), as a ROS map (rows, cols, data) or
+// as a plain sequence (rows = 1). Returns an error text naming the field, or empty.
+std::string read_matrix(const cv::FileNode& n, const std::string& field, std::vector<double>& data,
+                        int& rows, int& cols) {
+  data.clear();
+  cv::FileNode seq = n;
+  rows = 1;
+  cols = 0;
+  if (n.isMap()) {
+    seq = n["data"];
+    if (seq.empty() || !seq.isSeq()) return field + ": has no data sequence";
+    if (!n["rows"].isInt() || !n["cols"].isInt())
+      return field + ": rows and cols must be integers";
+    rows = static_cast<int>(n["rows"]);
+    cols = static_cast<int>(n["cols"]);
+  } else if (!n.isSeq()) {
+    return field + ": must be a matrix (rows, cols, data) or a sequence of numbers";
+  }
+  for (auto it = seq.begin(); it != seq.end(); ++it) {
+    const cv::FileNode v = *it;
+    if (!v.isReal() && !v.isInt()) return field + ".data: entries must be numbers";
+    data.push_back(static_cast<double>(v));
+  }
+  if (!n.isMap()) cols = static_cast<int>(data.size());
+  if (rows <= 0 || cols <= 0 || static_cast<std::size_t>(rows) * cols != data.size()) {
+    std::ostringstream os;
+    os << field << ": rows x cols = " << rows << " x " << cols << " does not match the "
+       << data.size() << " data entries";
+    return os.str();
+  }
+  return {};
+}
+
+std::string iso_now_utc() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+Result<CameraFile> parse(const std::string& path, const std::string& text) {
+  const auto first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos) return Error{path + ": the camera file is empty"};
+  if (text[first] == '{' && (text.find("\"mannequin") != std::string::npos ||
+                             text.find("\"mirror") != std::string::npos ||
+                             text.find("\"calibration\"") != std::string::npos))
+    return Error{path +
+                 ": this is a station scene JSON, not a camera file; give an OpenCV "
+                 "FileStorage YAML/XML or a ROS camera_info YAML here (pass station files "
+                 "with --station)"};
+  if (text.find('\0') != std::string::npos)
+    return Error{path + ": binary data, not a camera file (expected an OpenCV or ROS YAML)"};
+
+  // In memory, OpenCV detects YAML only by its "%YAML" directive, which ROS files lack.
+  std::string body = text;
+  if (text[first] != '<' && text[first] != '{' && text.compare(first, 5, "%YAML") != 0)
+    body = "%YAML:1.0\n" + text;
+  cv::FileStorage fs;
+  try {
+    fs.open(body, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+  } catch (const cv::Exception& e) {
+    return Error{path + ": not a readable YAML/XML camera file (" + e.err +
+                 "); expected an OpenCV FileStorage or ROS camera_info YAML"};
+  }
+  if (!fs.isOpened())
+    return Error{path + ": not a readable YAML/XML camera file; expected an OpenCV FileStorage "
+                        "or ROS camera_info YAML"};
+  const cv::FileNode root = fs.root();
+  if (!root.isMap())
+    return Error{path + ": the top level must be a map of fields (camera_matrix, ...)"};
+
+  CameraFile f;
+  const bool xml = text.compare(first, 5, "<?xml") == 0 || text[first] == '<';
+  const bool ros = !root["distortion_model"].empty() || !root["projection_matrix"].empty() ||
+                   !root["camera_name"].empty();
+  f.source_format = ros ? "ros-yaml" : (xml ? "opencv-xml" : "opencv-yaml");
+
+  auto need_int = [&](std::initializer_list<const char*> names, int& out) -> std::string {
+    cv::FileNode n = find(root, names);
+    if (n.empty()) return path + ": missing field " + *names.begin();
+    if (!n.isInt()) return path + ": field " + *names.begin() + " must be an integer";
+    out = static_cast<int>(n);
+    return {};
+  };
+  if (std::string e = need_int({"image_width", "image_Width"}, f.camera.width); !e.empty())
+    return Error{e};
+  if (std::string e = need_int({"image_height", "image_Height"}, f.camera.height); !e.empty())
+    return Error{e};
+
+  cv::FileNode km = find(root, {"camera_matrix", "Camera_Matrix"});
+  if (km.empty())
+    return Error{path + ": missing field camera_matrix (is this a camera calibration file?)"};
+  std::vector<double> k;
+  int rows = 0, cols = 0;
+  if (std::string e = read_matrix(km, "camera_matrix", k, rows, cols); !e.empty())
+    return Error{path + ": " + e};
+  if (rows != 3 || cols != 3) {
+    std::ostringstream os;
+    os << path << ": camera_matrix is " << rows << "x" << cols << ", must be 3x3";
+    return Error{os.str()};
+  }
+  if (std::abs(k[3]) > 1e-9 || std::abs(k[6]) > 1e-9 || std::abs(k[7]) > 1e-9 ||
+      std::abs(k[8] - 1.0) > 1e-9)
+    return Error{path + ": camera_matrix must be [fx 0 cx; 0 fy cy; 0 0 1]"};
+  if (std::abs(k[1]) > 1e-6 * std::abs(k[0]))
+    return Error{path + ": camera_matrix has a skew term; the pinhole model here has none "
+                        "(recalibrate with zero skew)"};
+  f.camera.fx = k[0];
+  f.camera.cx = k[2];
+  f.camera.fy = k[4];
+  f.camera.cy = k[5];
+
+  if (ros || !root["fisheye_model"].empty()) {
+    cv::FileNode fm = root["fisheye_model"];
+    if (!fm.empty() && fm.isInt() && static_cast<int>(fm) != 0)
+      return Error{path + ": fisheye_model = 1: the fisheye model is not supported; "
+                          "recalibrate with the pinhole model"};
+  }
+  std::string model_name;
+  if (cv::FileNode m = root["distortion_model"]; !m.empty()) {
+    if (!m.isString()) return Error{path + ": distortion_model must be a string"};
+    model_name = static_cast<std::string>(m);
+    if (model_name != "plumb_bob" && model_name != "rational_polynomial")
+      return Error{path + ": distortion_model \"" + model_name +
+                   "\" is not supported (use plumb_bob or rational_polynomial)"};
+  }
+  if (cv::FileNode m = root["model"]; !m.empty()) {
+    if (!m.isString()) return Error{path + ": model must be a string"};
+    model_name = static_cast<std::string>(m);
+    if (model_name != kModelRadTan5 && model_name != kModelRational8)
+      return Error{path + ": model \"" + model_name + "\" is not supported (use " +
+                   kModelRadTan5 + " or " + kModelRational8 + ")"};
+  }
+
+  cv::FileNode dn = find(root, {"distortion_coefficients", "Distortion_Coefficients", "D"});
+  if (dn.empty()) return Error{path + ": missing field distortion_coefficients"};
+  if (std::string e = read_matrix(dn, "distortion_coefficients", f.dist, rows, cols); !e.empty())
+    return Error{path + ": " + e};
+  const std::size_t nd = f.dist.size();
+  if (nd != 4 && nd != 5 && nd != 8) {
+    std::ostringstream os;
+    os << path << ": distortion_coefficients has " << nd
+       << " entries; supported are 4 or 5 (k1 k2 p1 p2 [k3]) and 8 (rational model)";
+    return Error{os.str()};
+  }
+  if (nd == 4) f.dist.push_back(0.0);
+  const bool rational = f.dist.size() == 8;
+  if ((model_name == "plumb_bob" || model_name == kModelRadTan5) && rational)
+    return Error{path + ": distortion model " + model_name +
+                 " needs 5 distortion_coefficients, the file has 8"};
+  if ((model_name == "rational_polynomial" || model_name == kModelRational8) && !rational)
+    return Error{path + ": distortion model " + model_name +
+                 " needs 8 distortion_coefficients, the file has " + std::to_string(nd)};
+  f.model = rational ? kModelRational8 : kModelRadTan5;
+  for (int i = 0; i < 5; ++i) f.camera.dist[i] = f.dist[i];
+  if (rational && (f.dist[5] != 0 || f.dist[6] != 0 || f.dist[7] != 0))
+    f.warning = "rational model: the tracker and renderer use only k1 k2 p1 p2 k3; k4..k6 are "
+                "ignored there (recalibrate with the 5-coefficient model for tracking)";
+
+  if (cv::FileNode n = find(root, {"rms_px", "avg_reprojection_error", "Avg_Reprojection_Error"});
+      !n.empty()) {
+    if (!n.isReal() && !n.isInt()) return Error{path + ": avg_reprojection_error must be a number"};
+    f.rms_px = static_cast<double>(n);
+  }
+  if (cv::FileNode n = root["intrinsics_std_devs"]; !n.empty()) {
+    if (std::string e = read_matrix(n, "intrinsics_std_devs", f.std_devs, rows, cols); !e.empty())
+      return Error{path + ": " + e};
+  }
+  auto opt_string = [&](std::initializer_list<const char*> names, std::string& out) {
+    cv::FileNode n = find(root, names);
+    if (!n.empty() && n.isString()) out = static_cast<std::string>(n);
+  };
+  opt_string({"date", "calibration_time", "calibration_Time"}, f.date);
+  opt_string({"device"}, f.device);
+  opt_string({"camera_name"}, f.camera_name);
+  if (cv::FileNode n = find(root, {"views_used", "nframes", "nr_of_frames"}); !n.empty() && n.isInt())
+    f.views_used = static_cast<int>(n);
+
+  if (std::string e = f.validate(); !e.empty()) return Error{path + ": " + e};
+  return f;
+}
+
+std::string ext_of(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+}  // namespace
+
+std::string CameraFile::validate() const {
+  if (std::string e = camera.validate(); !e.empty()) return e;
+  if (model != kModelRadTan5 && model != kModelRational8)
+    return "model \"" + model + "\" must be " + kModelRadTan5 + " or " + kModelRational8;
+  const std::size_t want = model == kModelRational8 ? 8 : 5;
+  if (!dist.empty()) {
+    if (dist.size() != want)
+      return "dist has " + std::to_string(dist.size()) + " coefficients, model " + model +
+             " needs " + std::to_string(want);
+    for (int i = 0; i < 5; ++i)
+      if (dist[i] != camera.dist[i])
+        return "dist[" + std::to_string(i) + "] differs from camera.dist[" + std::to_string(i) + "]";
+    for (double d : dist)
+      if (!std::isfinite(d)) return "dist has a non-finite coefficient";
+  }
+  if (!std::isfinite(rms_px)) return "rms_px is not finite";
+  for (double s : std_devs)
+    if (!std::isfinite(s) || s < 0) return "std_devs must be finite and >= 0";
+  if (views_used < 0) return "views_used must be >= 0";
+  return {};
+}
+
+Result<CameraFile> read_camera_file(const std::string& path) {
+  std::string err;
+  std::string text = read_text(path, err);
+  if (!err.empty()) return Error{err};
+  return parse(path, text);
+}
+
+Status write_camera_file(const std::string& path, const CameraFile& file) {
+  if (std::string e = file.validate(); !e.empty())
+    return Error{path + ": refusing to write an invalid camera file: " + e};
+  const std::string ext = ext_of(path);
+  const bool xml = ext == ".xml";
+  if (!xml && ext != ".yaml" && ext != ".yml")
+    return Error{path + ": camera files end in .yaml, .yml or .xml"};
+  std::vector<double> dist = file.dist;
+  if (dist.empty()) dist.assign(file.camera.dist.begin(), file.camera.dist.end());
+  std::string text;
+  try {
+    cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY |
+                                    (xml ? cv::FileStorage::FORMAT_XML : cv::FileStorage::FORMAT_YAML));
+    fs.writeComment("DentAR camera intrinsics (OpenCV pinhole model; px)");
+    fs << "calibration_time" << (file.date.empty() ? iso_now_utc() : file.date);
+    fs << "device" << file.device;
+    if (!file.camera_name.empty()) fs << "camera_name" << file.camera_name;
+    fs << "image_width" << file.camera.width << "image_height" << file.camera.height;
+    fs << "model" << file.model;
+    const cv::Matx33d K(file.camera.fx, 0, file.camera.cx, 0, file.camera.fy, file.camera.cy, 0, 0, 1);
+    fs << "camera_matrix" << cv::Mat(K);
+    fs << "distortion_coefficients" << cv::Mat(1, static_cast<int>(dist.size()), CV_64F, dist.data());
+    fs << "avg_reprojection_error" << file.rms_px;
+    if (!file.std_devs.empty()) {
+      fs.writeComment("std devs of fx fy cx cy k1 k2 p1 p2 k3 [k4 k5 k6]");
+      std::vector<double> s = file.std_devs;
+      fs << "intrinsics_std_devs" << cv::Mat(1, static_cast<int>(s.size()), CV_64F, s.data());
+    }
+    fs << "views_used" << file.views_used;
+    text = fs.releaseAndGetString();
+  } catch (const cv::Exception& e) {
+    return Error{path + ": OpenCV could not serialise the camera file: " + e.err};
+  }
+  return write_text_atomic(path, text);
+}
+
+Status write_ros_camera_info(const std::string& path, const CameraFile& file) {
+  if (std::string e = file.validate(); !e.empty())
+    return Error{path + ": refusing to write an invalid camera file: " + e};
+  std::vector<double> dist = file.dist;
+  if (dist.empty()) dist.assign(file.camera.dist.begin(), file.camera.dist.end());
+  const auto& c = file.camera;
+  std::ostringstream os;
+  os << std::setprecision(17);
+  auto mat = [&](const char* name, int r, int cols, const std::vector<double>& d) {
+    os << name << ":\n  rows: " << r << "\n  cols: " << cols << "\n  data: [";
+    for (std::size_t i = 0; i < d.size(); ++i) os << (i ? ", " : "") << d[i];
+    os << "]\n";
+  };
+  os << "image_width: " << c.width << "\nimage_height: " << c.height << "\n";
+  os << "camera_name: " << (file.camera_name.empty() ? "dentar_camera" : file.camera_name) << "\n";
+  mat("camera_matrix", 3, 3, {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1});
+  os << "distortion_model: " << (dist.size() == 8 ? "rational_polynomial" : "plumb_bob") << "\n";
+  mat("distortion_coefficients", 1, static_cast<int>(dist.size()), dist);
+  mat("rectification_matrix", 3, 3, {1, 0, 0, 0, 1, 0, 0, 0, 1});
+  mat("projection_matrix", 3, 4, {c.fx, 0, c.cx, 0, 0, c.fy, c.cy, 0, 0, 0, 1, 0});
+  return write_text_atomic(path, os.str());
+}
+
+}  // namespace dentar::calibration
