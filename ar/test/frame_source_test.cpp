@@ -1,0 +1,249 @@
+// Frame sources: video file, image folder, a video file standing in for a
+// live camera (real-time pacing, dropped frames), and bad inputs.
+#include "dentar/ar/frame_source.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <thread>
+
+#include "testutil.h"
+
+namespace dentar::ar {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Frame k: a gray level that encodes k (lossless FFV1 keeps it exact).
+cv::Mat make_frame(int k, int w = 160, int h = 120) {
+  cv::Mat m(h, w, CV_8UC3, cv::Scalar(10 * k % 250, 100, 200));
+  cv::putText(m, std::to_string(k), {10, 60}, cv::FONT_HERSHEY_SIMPLEX, 1.0, {255, 255, 255});
+  return m;
+}
+
+int frame_code(const cv::Mat& m) { return (m.at<cv::Vec3b>(2, 2)[0] + 5) / 10; }
+
+fs::path write_video(const fs::path& dir, int frames, double fps) {
+  const fs::path p = dir / "v.mkv";
+  cv::VideoWriter w(p.string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), fps,
+                    {160, 120});
+  EXPECT_TRUE(w.isOpened());
+  for (int k = 0; k < frames; ++k) w.write(make_frame(k));
+  w.release();
+  return p;
+}
+
+TEST(FrameSource, VideoFileFramesTimesAndCount) {
+  const fs::path dir = test::temp_dir("fs_video");
+  const fs::path v = write_video(dir, 20, 25);
+  auto s = FrameSource::open(v.string());
+  ASSERT_TRUE(s.ok()) << s.error();
+  FrameSource& src = **s;
+  EXPECT_EQ(src.width(), 160);
+  EXPECT_EQ(src.height(), 120);
+  EXPECT_NEAR(src.fps(), 25, 1e-6);
+  EXPECT_EQ(src.frame_count(), 20);
+  EXPECT_NE(src.description().find("v.mkv"), std::string::npos);
+  Frame f;
+  int n = 0;
+  double last = -1;
+  for (;;) {
+    auto r = src.read(f);
+    ASSERT_TRUE(r.ok()) << r.error();
+    if (!*r) break;
+    EXPECT_EQ(f.index, n);
+    EXPECT_EQ(f.image.type(), CV_8UC3);
+    EXPECT_EQ(frame_code(f.image), n % 25);
+    EXPECT_NEAR(f.time_s, n / 25.0, 1e-3);
+    EXPECT_GT(f.time_s, last);
+    EXPECT_EQ(f.dropped_before, 0);
+    last = f.time_s;
+    ++n;
+  }
+  EXPECT_EQ(n, 20);
+  EXPECT_EQ(src.dropped_total(), 0);
+  auto again = src.read(f);  // stays at the end
+  ASSERT_TRUE(again.ok());
+  EXPECT_FALSE(*again);
+}
+
+TEST(FrameSource, ImageFolderSortedTimesAndBadFiles) {
+  const fs::path dir = test::temp_dir("fs_folder");
+  for (int k = 0; k < 5; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%06d.png", k);
+    cv::imwrite((dir / name).string(), make_frame(k));
+  }
+  test::write_file(dir / "notes.txt", "not an image");  // ignored: not an image extension
+  FrameSourceOptions o;
+  o.folder_fps = 10;
+  auto s = FrameSource::open(dir.string(), o);
+  ASSERT_TRUE(s.ok()) << s.error();
+  EXPECT_EQ((*s)->frame_count(), 5);
+  Frame f;
+  for (int k = 0; k < 5; ++k) {
+    auto r = (*s)->read(f);
+    ASSERT_TRUE(r.ok() && *r) << (r.ok() ? "end" : r.error());
+    EXPECT_EQ(frame_code(f.image), k);
+    EXPECT_NEAR(f.time_s, k / 10.0, 1e-12);
+  }
+  auto end = (*s)->read(f);
+  ASSERT_TRUE(end.ok());
+  EXPECT_FALSE(*end);
+
+  // An undecodable frame is counted, not silently skipped.
+  test::write_file(dir / "frame_000002.png", "garbage, not a png");
+  auto s2 = FrameSource::open(dir.string(), o);
+  ASSERT_TRUE(s2.ok()) << s2.error();
+  int got = 0, dropped = 0;
+  while (true) {
+    auto r = (*s2)->read(f);
+    ASSERT_TRUE(r.ok()) << r.error();
+    if (!*r) break;
+    ++got;
+    dropped += f.dropped_before;
+    if (f.dropped_before > 0) {
+      EXPECT_EQ(frame_code(f.image), 3);
+      EXPECT_NEAR(f.time_s, 0.3, 1e-12);  // the time keeps the gap
+    }
+  }
+  EXPECT_EQ(got, 4);
+  EXPECT_EQ(dropped, 1);
+  EXPECT_EQ((*s2)->dropped_total(), 1);
+
+  // An image of another size mid-sequence is refused, naming the file.
+  cv::imwrite((dir / "frame_000004.png").string(), make_frame(4, 320, 240));
+  auto s3 = FrameSource::open(dir.string(), o);
+  ASSERT_TRUE(s3.ok()) << s3.error();
+  std::string err;
+  for (int i = 0; i < 10 && err.empty(); ++i) {
+    auto r = (*s3)->read(f);
+    if (!r.ok()) err = r.error();
+    else if (!*r) break;
+  }
+  EXPECT_NE(err.find("frame_000004.png"), std::string::npos) << err;
+  EXPECT_NE(err.find("320x240"), std::string::npos) << err;
+}
+
+TEST(FrameSource, BadInputsGiveClearErrors) {
+  const fs::path dir = test::temp_dir("fs_bad");
+  auto missing = FrameSource::open((dir / "nope.mkv").string());
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("nope.mkv"), std::string::npos);
+  EXPECT_NE(missing.error().find("no such file"), std::string::npos) << missing.error();
+
+  test::write_file(dir / "empty.mkv", "");
+  auto empty = FrameSource::open((dir / "empty.mkv").string());
+  ASSERT_FALSE(empty.ok());
+  EXPECT_NE(empty.error().find("empty"), std::string::npos) << empty.error();
+
+  std::string junk(20000, '\0');
+  for (std::size_t i = 0; i < junk.size(); ++i) junk[i] = static_cast<char>((i * 7919) % 251);
+  test::write_file(dir / "junk.mkv", junk);
+  auto bad = FrameSource::open((dir / "junk.mkv").string());
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("junk.mkv"), std::string::npos) << bad.error();
+
+  // Truncated video: an error, not a silent short stream.
+  const fs::path v = write_video(dir, 30, 30);
+  const std::string bytes = test::read_file(v);
+  test::write_file(dir / "cut.mkv", bytes.substr(0, bytes.size() / 2));
+  auto cut = FrameSource::open((dir / "cut.mkv").string());
+  std::string err = cut.ok() ? "" : cut.error();
+  if (cut.ok()) {
+    Frame f;
+    for (int i = 0; i < 100 && err.empty(); ++i) {
+      auto r = (*cut)->read(f);
+      if (!r.ok()) err = r.error();
+      else if (!*r) break;
+    }
+  }
+  EXPECT_NE(err.find("cut.mkv"), std::string::npos) << "truncated video read without error";
+
+  auto empty_dir = FrameSource::open(test::temp_dir("fs_empty_dir").string());
+  ASSERT_FALSE(empty_dir.ok());
+  EXPECT_NE(empty_dir.error().find("no image files"), std::string::npos) << empty_dir.error();
+
+  // No camera on this machine (or not that one): a clear error, no hang.
+  auto cam = FrameSource::open("camera:63");
+  ASSERT_FALSE(cam.ok());
+  EXPECT_NE(cam.error().find("camera:63"), std::string::npos) << cam.error();
+  auto dev = FrameSource::open("/dev/video63");
+  ASSERT_FALSE(dev.ok());
+  EXPECT_NE(dev.error().find("/dev/video63"), std::string::npos) << dev.error();
+  auto idx = FrameSource::open("camera:x");
+  ASSERT_FALSE(idx.ok());
+  EXPECT_NE(idx.error().find("number"), std::string::npos) << idx.error();
+
+  FrameSourceOptions o;
+  o.folder_fps = 0;
+  EXPECT_NE(o.validate().find("folder_fps"), std::string::npos);
+  o = {};
+  o.width = -1;
+  EXPECT_NE(o.validate().find("width"), std::string::npos);
+  auto badopt = FrameSource::open(v.string(), o);
+  ASSERT_FALSE(badopt.ok());
+  EXPECT_NE(badopt.error().find("width"), std::string::npos);
+}
+
+// The live-camera reader on a video file standing in for the camera: real
+// time pacing, steady-clock timestamps, frames dropped when the consumer is
+// too slow (as a V4L2 driver drops them), no frame delivered twice.
+TEST(FrameSource, LiveReaderOnAStandInVideo) {
+  const fs::path dir = test::temp_dir("fs_live");
+  const fs::path v = write_video(dir, 24, 30);
+  auto s = FrameSource::open("live:" + v.string());
+  ASSERT_TRUE(s.ok()) << s.error();
+  EXPECT_EQ((*s)->frame_count(), -1);
+  EXPECT_NE((*s)->description().find("live"), std::string::npos);
+  const auto t0 = std::chrono::steady_clock::now();
+  Frame f;
+  int got = 0, dropped = 0, last_code = -1;
+  double last_t = -1;
+  while (true) {
+    auto r = (*s)->read(f);
+    ASSERT_TRUE(r.ok()) << r.error();
+    if (!*r) break;
+    const int code = frame_code(f.image);
+    EXPECT_EQ(code, last_code + 1 + f.dropped_before) << "frame " << got;
+    EXPECT_GT(f.time_s, last_t);
+    EXPECT_NEAR(f.time_s, code / 30.0, 1e-9);  // the stand-in's capture time
+    last_code = code;
+    last_t = f.time_s;
+    dropped += f.dropped_before;
+    ++got;
+    if (got == 5) std::this_thread::sleep_for(std::chrono::milliseconds(150));  // slow consumer
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("[ live ] %d frames delivered, %d dropped, %.3f s wall for 24 frames at 30 fps\n",
+              got, dropped, wall);
+  EXPECT_EQ(got + dropped, 24);
+  EXPECT_GE(dropped, 3);  // 150 ms at 30 fps = 4.5 periods
+  EXPECT_EQ((*s)->dropped_total(), dropped);
+  EXPECT_GT(wall, 0.6);  // paced in real time (23 periods = 0.77 s)
+
+  // open_live over any cv::VideoCapture (what camera:N uses), unpaced.
+  auto cap = std::make_unique<cv::VideoCapture>(v.string(), cv::CAP_FFMPEG);
+  auto s2 = FrameSource::open_live(std::move(cap), "stand-in", 30, false);
+  ASSERT_TRUE(s2.ok()) << s2.error();
+  int n = 0;
+  while (true) {
+    auto r = (*s2)->read(f);
+    ASSERT_TRUE(r.ok()) << r.error();
+    if (!*r) break;
+    ++n;
+  }
+  EXPECT_EQ(n, 24);
+  auto closed = FrameSource::open_live(std::make_unique<cv::VideoCapture>(), "nothing", 30, false);
+  ASSERT_FALSE(closed.ok());
+  EXPECT_NE(closed.error().find("not open"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dentar::ar
