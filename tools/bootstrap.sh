@@ -2,7 +2,7 @@
 # One-command set-up for a fresh Debian 12 machine: installs the missing
 # Debian packages, configures and builds DentAR (Release), then runs a job.
 #
-#   tools/bootstrap.sh demo    # build, then run the trainer's main job (dentar demo)
+#   tools/bootstrap.sh demo    # build, then run the trainer's main job (dentar offline on built-in footage)
 #   tools/bootstrap.sh test    # build, then run the whole test suite (what CI runs)
 #   tools/bootstrap.sh bench   # also installs VTK (comparison only), runs the benchmarks
 #
@@ -26,6 +26,9 @@ packages=(
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libusb-1.0-0-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev zlib1g-dev libsqlite3-dev
+  # Real photographs for tests (provenance in tests/README-data.md): OpenCV's
+  # chessboard samples (opencv-doc) and ViSP's AprilTag images (visp-images-data).
+  opencv-doc visp-images-data
 )
 if [[ "$job" == bench ]]; then packages+=(libvtk9-dev); fi
 
@@ -51,7 +54,7 @@ cmake --build "$build" -j "$jobs"
 cd "$root"
 case "$job" in
   demo)
-    "$build/dentar" demo --out "$root/out/demo"
+    "$build/dentar" offline --out "$root/out/offline"
     ;;
   test)
     # Hardware tests (label hw) need a device and are excluded. GL tests must

@@ -112,7 +112,8 @@ Result<BoardSpec> parse_board_spec(const std::string& text) {
     if (f.size() >= 5) g.family = f[4];
     if (f.size() == 6) {
       double id = 0;
-      if (!parse_num(f[5], id)) return Error{"board \"" + text + "\": FIRST_ID must be a number"};
+      if (!parse_num(f[5], id) || !(id >= 0 && id <= 100000) || id != std::floor(id))
+        return Error{"board \"" + text + "\": FIRST_ID must be a whole number in 0..100000"};
       g.first_id = static_cast<int>(id);
     }
     if (std::string e = g.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e};

@@ -473,6 +473,8 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     j = json::parse(text.begin(), text.end());
   } catch (const json::parse_error& e) {
     return Error{source + ": not valid JSON (byte " + std::to_string(e.byte) + "): " + e.what()};
+  } catch (const json::exception& e) {  // e.g. out_of_range for 1e400 (found by fuzzing)
+    return Error{source + ": not valid JSON: " + e.what()};
   }
   try {
     StationScene s;

@@ -11,6 +11,34 @@
 namespace dentar::calibration {
 namespace {
 
+// Inside XML markup (between '<' and '>', outside quotes) every '=' must be
+// followed by optional white space and a quote. Empty when fine, else where
+// it is not.
+std::string malformed_xml_attribute(const std::string& t) {
+  bool in_tag = false;
+  char quote = 0;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const char c = t[i];
+    if (quote) {
+      if (c == quote) quote = 0;
+    } else if (!in_tag) {
+      in_tag = c == '<';
+    } else if (c == '>') {
+      in_tag = false;
+    } else if (c == '"' || c == '\'') {
+      quote = c;
+    } else if (c == '=') {
+      std::size_t k = i + 1;
+      while (k < t.size() && (t[k] == ' ' || t[k] == '\t' || t[k] == '\r' || t[k] == '\n')) ++k;
+      if (k >= t.size() || (t[k] != '"' && t[k] != '\''))
+        return "attribute value without quotes at byte " + std::to_string(i);
+    }
+  }
+  if (quote) return "unterminated quoted value";
+  return {};
+}
+
+
 std::string read_text(const std::string& path, std::string& err) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
@@ -113,11 +141,30 @@ Result<CameraFile> parse(const std::string& path, const std::string& text) {
   std::string body = text;
   if (text[first] != '<' && text[first] != '{' && text.compare(first, 5, "%YAML") != 0)
     body = "%YAML:1.0\n" + text;
+  if (text[first] == '<') {
+    // OpenCV 4.6's XML parser dereferences past the end on an attribute cut
+    // off after '=' (found by fuzzing): check attribute syntax first.
+    if (std::string bad = malformed_xml_attribute(text); !bad.empty())
+      return Error{path + ": not a readable XML camera file (" + bad +
+                   "); expected an OpenCV FileStorage XML"};
+    // It also crashes on bare carriage returns inside markup: XML treats CR
+    // and CR LF as LF anyway.
+    std::string lf;
+    lf.reserve(body.size());
+    for (std::size_t i = 0; i < body.size(); ++i) {
+      if (body[i] != '\r') lf += body[i];
+      else if (i + 1 >= body.size() || body[i + 1] != '\n') lf += '\n';
+    }
+    body.swap(lf);
+  }
   cv::FileStorage fs;
   try {
     fs.open(body, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     return Error{path + ": not a readable YAML/XML camera file (" + e.err +
+                 "); expected an OpenCV FileStorage or ROS camera_info YAML"};
+  } catch (const std::exception& e) {  // OpenCV 4.6 also throws std::length_error (fuzzing)
+    return Error{path + ": not a readable YAML/XML camera file (" + e.what() +
                  "); expected an OpenCV FileStorage or ROS camera_info YAML"};
   }
   if (!fs.isOpened())
@@ -321,7 +368,15 @@ Status write_ros_camera_info(const std::string& path, const CameraFile& file) {
   os << std::setprecision(17);
   auto mat = [&](const char* name, int r, int cols, const std::vector<double>& d) {
     os << name << ":\n  rows: " << r << "\n  cols: " << cols << "\n  data: [";
-    for (std::size_t i = 0; i < d.size(); ++i) os << (i ? ", " : "") << d[i];
+    // Always a decimal point or exponent: YAML reads "12500000000" as an int
+    // (and OpenCV wraps it), found by fuzzing.
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      std::ostringstream v;
+      v << std::setprecision(17) << d[i];
+      std::string t = v.str();
+      if (t.find_first_of(".eEn") == std::string::npos) t += ".0";
+      os << (i ? ", " : "") << t;
+    }
     os << "]\n";
   };
   os << "image_width: " << c.width << "\nimage_height: " << c.height << "\n";

@@ -102,7 +102,7 @@ std::vector<Eigen::Vector3d> ChessboardSpec::object_points() const {
 
 std::string AprilGridSpec::validate() const {
   std::ostringstream os;
-  if (cols < 1 || rows < 1 || cols * rows > 500)
+  if (cols < 1 || rows < 1 || cols > 500 || rows > 500 || cols * rows > 500)  // no int overflow
     os << "AprilTag grid " << cols << "x" << rows << " must have 1..500 tags";
   else if (!(std::isfinite(tag_size_m) && tag_size_m > 0 && tag_size_m < 1))
     os << "AprilTag grid tag size " << tag_size_m << " m must be in (0, 1) m";

@@ -9,8 +9,8 @@ std::string CameraIntrinsics::validate() const {
   std::ostringstream os;
   if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
     os << "camera image size " << width << "x" << height << " px is outside 1..16384";
-  else if (!(std::isfinite(fx) && std::isfinite(fy) && fx > 0 && fy > 0))
-    os << "camera fx, fy = " << fx << ", " << fy << " px must be finite and > 0";
+  else if (!(std::isfinite(fx) && std::isfinite(fy) && fx > 0 && fy > 0 && fx <= 1e6 && fy <= 1e6))
+    os << "camera fx, fy = " << fx << ", " << fy << " px must be in (0, 1e6]";
   else if (!(std::isfinite(cx) && std::isfinite(cy) && cx >= 0 && cy >= 0 && cx <= width &&
              cy <= height))
     os << "camera principal point (" << cx << ", " << cy << ") px lies outside the image";

@@ -244,5 +244,43 @@ TEST(CameraFile, WriteRefusesInvalidContentAndLeavesNoFile) {
   EXPECT_FALSE(write_camera_file((d / "c.json").string(), sample()).ok());
 }
 
+// Inputs the fuzzer (calibration/fuzz) found to crash the reader inside
+// OpenCV 4.6: each must now be a clear error naming the file.
+TEST(CameraFile, FuzzFindingsAreErrorsNotCrashes) {
+  const fs::path d = temp_dir("camfile_fuzz_findings");
+  const std::pair<const char*, std::string> cases[] = {
+      {"length_error.yaml", std::string(" t:d\n :", 7)},  // std::length_error from the YAML parser
+      {"xml_eof.xml", "<?xml v="},                          // SIGSEGV: attribute cut after '='
+      {"xml_cr.xml", std::string("<?xml version=\r\r\r\r\"1.\r0\"?>\r\r\x1d", 29)},
+  };
+  for (const auto& [name, bytes] : cases) {
+    write_file(d / name, bytes);
+    const auto r = read_camera_file((d / name).string());
+    ASSERT_FALSE(r.ok()) << name;
+    EXPECT_NE(r.error().find(name), std::string::npos) << r.error();
+  }
+}
+
+TEST(CameraFile, RosExportKeepsLargeIntegralValues) {
+  // A value above INT_MAX printed without a decimal point read back as a
+  // wrapped int (fuzz finding); the writer now always marks reals.
+  const fs::path d = temp_dir("camfile_ros_big");
+  CameraFile f;
+  f.camera.width = 640;
+  f.camera.height = 480;
+  f.camera.fx = 4096.0;  // integral values, as a user may type them
+  f.camera.fy = 4096.0;
+  f.camera.cx = 320.0;
+  f.camera.cy = 240.0;
+  f.camera.dist = {3e9, 0, 0, 0, 0};  // integral and above INT_MAX
+  f.dist.assign(f.camera.dist.begin(), f.camera.dist.end());
+  ASSERT_TRUE(write_ros_camera_info((d / "ros.yaml").string(), f).ok());
+  const auto back = read_camera_file((d / "ros.yaml").string());
+  ASSERT_TRUE(back.ok()) << back.error();
+  EXPECT_EQ(back->camera.fx, 4096.0);
+  EXPECT_EQ(back->camera.dist[0], 3e9);
+}
+
 }  // namespace
 }  // namespace dentar::calibration
+

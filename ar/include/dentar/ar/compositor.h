@@ -1,0 +1,164 @@
+// The AR compositor: puts the live-cut virtual tooth, the virtual bur and
+// their reflection in the real mouth mirror into the camera video, hidden
+// wherever real things are in front of them.
+//
+// One frame (compose()):
+//  1. The video frame, as captured (distorted), is the background. The
+//     composite is in the camera's distorted image like the video: virtual
+//     content is drawn on an undistorted pinhole canvas (projection.h:
+//     plan_undistorted_view, the same plan and per-pixel map the Renderer
+//     uses) and resampled through the distortion map, on the CPU and only in
+//     the region the overlay covers (its bounding box on the canvas).
+//  2. Known real geometry goes into the depth buffer only ("phantoms"): the
+//     mannequin (head, lips, cheeks, gums, other teeth; the generator's own
+//     mesh of station.mannequin), the tracked mirror (face, body, tag paddle)
+//     and the handpiece on the stylus.
+//  3. Mirror: when the mirror is tracked and its reflecting face (+z of `mir`)
+//     faces the camera, the visible part of the face is marked in the
+//     stencil buffer and the tooth and bur are drawn reflected about the
+//     mirror plane (winding flipped; fragments that the reflection brings in
+//     front of the plane, i.e. things behind the mirror, are discarded), with
+//     the mirror's reflectance as opacity. The reflected mannequin is a depth
+//     phantom there too. The face then hides the tooth behind it (also with
+//     phantoms off).
+//  4. The tooth at T_cam_tooth = T_cam_man * T_man_tooth and the bur at
+//     T_cam_tip = T_cam_man * T_man_dev * T_dev_sty * T_sty_tip, lit, opaque.
+//  5. Unknown foreground (hands): ForegroundSegmenter (occlusion.h) on the
+//     tooth's region only; the overlay's opacity is multiplied by
+//     (1 - foreground), feathered by a Gaussian of feather_px.
+//
+// Tooth mesh: one GPU buffer set per volume chunk, re-built only for chunks
+// whose ChunkMesh::version changed (the mesher's dirty chunks), with coarser
+// levels of detail made by vertex clustering on the voxel grid (cluster =
+// mean of its vertices; vertices on chunk seams cluster only among
+// themselves, so both chunks agree and no cracks open). A level is chosen
+// per frame from its measured error in pixels at the tooth's distance
+// (lod_max_error_px) and then the triangle budget. Chunks whose box misses the view (or, for the
+// reflection, the mirror disc's screen box or the mirror's front side) are
+// not drawn. All tooth materials are drawn opaque in their material colours.
+//
+// Lost tracking: man_valid = false gives the video unchanged (no overlay at
+// all: a tooth at a stale pose is worse than none); mirror_valid = false
+// gives no reflection and no mirror phantom; stylus_valid = false gives no
+// bur and no handpiece phantom.
+//
+// Thread/context: create() and compose() need the same EGL context current
+// on the calling thread (egl_context.h); destroy the Compositor before the
+// context. Not thread-safe. The Compositor is move-only (it owns GL objects
+// through a unique_ptr).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/meshes.h"
+#include "dentar/ar/occlusion.h"
+#include "dentar/ar/station_scene.h"
+#include "dentar/volume/bur.h"
+#include "dentar/volume/result.h"
+#include "dentar/volume/surface.h"
+
+namespace dentar::ar {
+
+struct CompositorOptions {
+  bool phantoms = true;      // mannequin, mirror, handpiece into depth only
+  bool segmentation = true;  // unknown foreground (hands) in the tooth's region
+  bool mirror = true;        // reflection of tooth and bur in the tracked mirror
+  bool draw_bur = true;      // the virtual bur at the stylus tip
+  bool cull_chunks = true;   // skip chunks outside the view / the mirror's view
+  // Most tooth triangles to draw per view (direct and reflected each); the
+  // level of detail is coarsened until the tooth fits. 0 = no limit.
+  std::size_t triangle_budget = 0;
+  // Coarsest level of detail allowed by screen error: a level is usable when
+  // its geometric error (largest move of a vertex along its normal, measured
+  // when the level is built) is at most this many pixels at the tooth's
+  // distance. 0 = always the full mesh (unless the budget forces a coarser one).
+  double lod_max_error_px = 1.0;
+  // Cluster cell of the coarser levels (1, 2, ...), voxels, increasing, each
+  // dividing the chunk size 16.
+  std::vector<int> lod_cell_voxels = {2, 4, 8};
+  // Soft edge of the foreground mask: Gaussian sigma, px (0 = hard edge).
+  double feather_px = 0.7;
+  // Opacity of the reflection (a glass mouth mirror reflects ~85-90 %).
+  double mirror_reflectance = 0.85;
+  // Virtual bur (shape as cut with) and the real handpiece's shape (phantom).
+  volume::BurParams bur = volume::BurParams::capsule(0.5, 3.0);
+  HandpieceParams handpiece;
+  SegmenterOptions segmenter;
+  double near_m = 0.01, far_m = 5.0;  // clip planes, camera z
+
+  std::string validate() const;  // empty, or names the field
+};
+
+struct CompositeInput {
+  const cv::Mat* video_bgr = nullptr;  // CV_8UC3, camera size, as captured (distorted)
+  bool man_valid = false;              // false: tracking lost, no overlay at all
+  Eigen::Isometry3d T_cam_man = Eigen::Isometry3d::Identity();
+  bool mirror_valid = false;
+  Eigen::Isometry3d T_cam_mtag = Eigen::Isometry3d::Identity();
+  bool stylus_valid = false;
+  Eigen::Isometry3d T_dev_sty = Eigen::Isometry3d::Identity();  // haptic snapshot
+};
+
+// Wall-clock time of each stage of compose(), ms.
+struct CompositeTimings {
+  double sync_ms = 0;      // re-uploading changed chunks (and their LODs)
+  double segment_ms = 0;   // foreground segmentation + feathering
+  double render_ms = 0;    // GL passes, to completion
+  double readback_ms = 0;  // glReadPixels of the overlay region
+  double blend_ms = 0;     // distortion resampling + blend over the video
+  double total_ms = 0;
+};
+
+struct CompositeResult {
+  cv::Mat image;          // CV_8UC3 BGR composite, camera size
+  cv::Mat tooth_visible;  // CV_8UC1 0..255: the directly seen virtual tooth after occlusion (soft)
+  bool overlay_drawn = false;  // man_valid and something was drawn
+  bool mirror_drawn = false;   // the reflection pass ran
+  int tooth_px = 0;            // pixels with tooth_visible > 127
+  std::size_t triangles_drawn = 0;  // tooth triangles, direct + reflected
+  int chunks_culled = 0;            // direct + reflected
+  int lod_level = 0;                // 0 = full mesh
+  cv::Rect region;                  // output pixels touched by the overlay (may be empty)
+  CompositeTimings timing;
+};
+
+class Compositor {
+ public:
+  // Needs a current EGL context. Camera: station.calibration.camera. Errors
+  // name the option or station field, or the GL failure.
+  static Result<Compositor> create(const StationScene& station,
+                                   const CompositorOptions& options = {});
+  Compositor(Compositor&&) noexcept;
+  Compositor& operator=(Compositor&&) noexcept;
+  ~Compositor();
+
+  // Composites one frame. Syncs the tooth from `surface` first (only chunks
+  // whose mesh version changed). Errors: no/empty video frame, wrong type,
+  // frame size != camera size (a station file for another camera), GL
+  // errors. On error `out` is left unchanged.
+  Status compose(const volume::Surface& surface, const CompositeInput& in, CompositeResult& out);
+
+  const CompositorOptions& options() const;
+  // Changes options between frames (validated; geometry options such as the
+  // bur, handpiece and lod_cell_voxels are fixed at create() and ignored
+  // here). Resets the segmenter's adapted colour model.
+  Status set_options(const CompositorOptions& options);
+  // Tooth triangles per level of detail (level 0 = full), after the last
+  // sync, and each level's geometric error (m, see lod_max_error_px).
+  std::vector<std::size_t> lod_triangle_counts() const;
+  std::vector<double> lod_errors_m() const;
+  const ForegroundSegmenter& segmenter() const;
+
+  struct Impl;
+
+ private:
+  Compositor() = default;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dentar::ar

@@ -1,0 +1,110 @@
+// The offline run for testers (`dentar offline`): recorded footage through
+// the whole trainer pipeline, frame by frame, in simulated time:
+//
+//   frame source ─▶ tracker (mannequin, mirror) ─┐
+//   session log ─▶ ReplayDevice ─▶ haptic engine ─┼─▶ mesher ─▶ compositor ─▶ video
+//                  (1 kHz, stepped to the frame's  │
+//                   capture time)                  └─▶ per-frame CSV, summary JSON, HTML report
+//
+// Time: frame k's capture time is its container timestamp (k/fps for the
+// generator's footage); haptic step n is at n / rate_hz. Before compositing
+// frame k the engine has run every step not after its capture time, exactly
+// as the generator did when it rendered the frame, so cuts and video agree.
+//
+// Outputs in out_dir (docs/formats.md, "Offline run"):
+//   composite.mkv   the composited video (FFV1, lossless)
+//   frames.csv      one row per frame: poses, states, errors against truth,
+//                   stage times, capture-to-composite latency
+//   summary.json    totals, percentiles, goals; "complete": true
+//   report.html     plots (inline SVG) and tables for testers
+//   stills/         a few composited frames as PNG (shown in the report)
+// A run that fails writes FAILED.txt (the reason) and no summary.json or
+// report.html, and removes those left from an earlier run, so nothing
+// half-written looks complete. The CSV and video are renamed into place only
+// at the end.
+//
+// Thread/context: run_offline creates its own headless EGL context; call it
+// from a thread without a current context.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/compositor.h"
+#include "dentar/ar/synth.h"
+#include "dentar/ar/tracker.h"
+#include "dentar/volume/result.h"
+
+namespace dentar::ar {
+
+struct OfflineOptions {
+  // Footage: a video file or an image folder (frame_source.h). Empty: the
+  // built-in footage is generated first into out_dir/footage with the
+  // generator (preset, frames, size below) and the run uses its station,
+  // session log and ground truth.
+  std::string footage;
+  std::string station;  // station JSON; required with footage
+  std::string session;  // session log (.dlog); empty = no drilling (uncut tooth, no bur)
+  // Ground truth (truth.jsonl, generator format) and masks folder; empty =
+  // looked for beside the footage ("auto"); "none" = ignore.
+  std::string truth, masks;
+  std::string out_dir;
+
+  // Built-in footage (used only when footage is empty).
+  SynthPreset preset = SynthPreset::kStandard;
+  int builtin_frames = 90;
+  int builtin_width = 1280, builtin_height = 720;
+  std::uint64_t seed = 1;
+
+  TrackerOptions tracker;
+  CompositorOptions compositor;
+  // Poses are predicted to capture time + this (video see-through shows the
+  // captured frame itself, so 0 is right unless the display adds delay), s.
+  double predict_s = 0.0;
+  bool scale_calib = false;  // accept footage of another size with the same aspect ratio
+  int max_frames = 0;        // 0 = all
+  bool write_video = true;
+  int stills = 4;  // composited frames saved as PNG for the report
+  std::string validate() const;
+};
+
+// Percentiles of one per-frame quantity.
+struct Stat {
+  double median = 0, p95 = 0, p99 = 0, max = 0, mean = 0;
+  int n = 0;  // frames that had the quantity
+};
+
+struct OfflineSummary {
+  int frames = 0;
+  double footage_s = 0;  // duration covered
+  int tracking = 0, predicted = 0, lost = 0;  // mannequin states, frames
+  int mirror_tracking = 0;
+  int overlays = 0;  // frames with the tooth drawn
+  bool has_truth = false;
+  // Against truth (when present), tracked (tracking/predicted) frames only:
+  Stat man_err_mm, man_err_deg;  // mannequin pose: translation, rotation
+  Stat tooth_err_px;             // registration: projected tooth points, tracked vs true pose
+  Stat tip_err_mm;               // drawn bur tip vs the true tip (co-location)
+  Stat silhouette_iou;           // drawn tooth vs true visible tooth (mask == 64), masks present
+  // Stage times (ms) and capture-to-composite latency (ms).
+  Stat read_ms, track_ms, haptics_ms, mesh_ms, composite_ms, write_ms, latency_ms;
+  std::uint64_t haptic_steps = 0;
+  std::uint64_t volume_hash = 0;
+  std::vector<double> removed_mm3;  // per material label (volume::Material)
+  bool pulp_exposed = false;
+  double pulp_exposed_at_s = 0;
+  double wall_s = 0;
+  std::vector<std::string> warnings;
+  std::string out_dir;
+};
+
+// Runs the whole job. `progress(phase, done, total)` (may be empty; phase
+// "footage" while the built-in footage is generated, then "pipeline"; total =
+// -1 when unknown) is called after each frame. Errors name the input file, field or
+// value and what to do (e.g. footage shorter than the session log, a station
+// for another camera size, an empty video).
+Result<OfflineSummary> run_offline(const OfflineOptions& options,
+                                   const std::function<void(const std::string&, int, int)>& progress = {});
+
+}  // namespace dentar::ar

@@ -1,0 +1,246 @@
+// End-to-end tests of `dentar calibrate`: the guided station calibration run as a user would,
+// on generated data (--simulate) and on real files (poses CSV, board photos, camera YAML).
+// Every refused run must exit non-zero, say what to do and leave no station file.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "testutil.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using dentar::test::CommandResult;
+using dentar::test::read_file;
+using dentar::test::temp_dir;
+using dentar::test::write_file;
+
+CommandResult run(const std::string& args) {
+  return dentar::test::run_command(std::string(DENTAR_BINARY) + " calibrate " + args);
+}
+
+nlohmann::json load(const fs::path& p) { return nlohmann::json::parse(read_file(p)); }
+
+const nlohmann::json* step(const nlohmann::json& j, const std::string& name) {
+  for (const auto& r : j["calibration_report"])
+    if (r["step"] == name) return &r;
+  return nullptr;
+}
+
+TEST(CliCalibrate, HelpHasSynopsisAndExample) {
+  const CommandResult r = dentar::test::run_command(std::string(DENTAR_BINARY) + " calibrate --help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("Synopsis"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Example"), std::string::npos) << r.out;
+  const CommandResult t = run("--instructor-time");
+  EXPECT_EQ(t.code, 0);
+  EXPECT_NE(t.out.find("total     6 steps"), std::string::npos) << t.out;
+  EXPECT_EQ(run("wobble --station x.json").code, 2);
+  EXPECT_EQ(run("").code, 2);
+}
+
+TEST(CliCalibrate, SimulatedPivotWritesAVersionedStationFile) {
+  const fs::path d = temp_dir("pivot");
+  const fs::path st = d / "station.json";
+  const CommandResult r = run("pivot --simulate --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("pose 12: spread"), std::string::npos) << r.out;  // live figures
+  ASSERT_TRUE(fs::exists(st));
+  const auto j = load(st);
+  EXPECT_EQ(j["version"], 2);
+  const auto* p = step(j, "pivot");
+  ASSERT_NE(p, nullptr);
+  EXPECT_TRUE((*p)["pass"].get<bool>());
+  EXPECT_LT((*p)["figures"]["rmse_mm"].get<double>(), 0.3);
+  EXPECT_FALSE(fs::exists(d / "station.json.tmp"));
+}
+
+// Degenerate data: each is refused with a message and no station file.
+TEST(CliCalibrate, DegenerateDataIsRefusedAndNothingIsWritten) {
+  const fs::path d = temp_dir("degenerate");
+  struct Case {
+    std::string args, expect;
+  };
+  const Case cases[] = {
+      {"pivot --simulate --count 5", "poses"},         // too few poses
+      {"pivot --simulate --max-tilt 3", "spread"},     // too little rotation
+      {"register --simulate --count 4", "divots"},     // too few divots
+      {"tooth --simulate --count 3", "landmarks"},     // too few landmarks
+      {"mirror --simulate --count 3", "rim points"},   // too few rim points
+      {"camera --simulate --count 4", "too few usable views"},
+  };
+  for (const Case& c : cases) {
+    const fs::path st = d / "station.json";
+    const CommandResult r = run(c.args + " --station " + st.string());
+    EXPECT_EQ(r.code, 1) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find("was NOT written"), std::string::npos) << c.args;
+    EXPECT_FALSE(fs::exists(st)) << c.args;
+  }
+}
+
+TEST(CliCalibrate, WrongFileKindsAreBadInput) {
+  const fs::path d = temp_dir("wrongkind");
+  const fs::path st = d / "station.json";
+  const std::string asset = std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json";
+  // The station JSON given where a camera YAML is expected.
+  CommandResult r = run("camera --import " + asset + " --station " + st.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("station scene JSON"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(st));
+  // A camera YAML given as the station file.
+  write_file(d / "cam.yaml", "%YAML:1.0\nimage_width: 640\n");
+  r = run("pivot --simulate --station " + (d / "cam.yaml").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("cam.yaml"), std::string::npos) << r.out;
+  // A poses file that is not CSV.
+  write_file(d / "poses.csv", "label,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg\npivot,1,2,x,0,0,0\n");
+  r = run("pivot --poses " + (d / "poses.csv").string() + " --station " + st.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("poses.csv:2: column 4"), std::string::npos) << r.out;
+  write_file(d / "noheader.csv", "pivot,1,2,3,0,0,0\n");
+  r = run("pivot --poses " + (d / "noheader.csv").string() + " --station " + st.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("header"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(st));
+}
+
+// Real data path: stylus poses from a CSV file pivoting about a divot, tip 22 mm along +z.
+TEST(CliCalibrate, PivotFromAPosesFileRecoversTheTip) {
+  const fs::path d = temp_dir("posesfile");
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n(0.0, 0.05);  // mm
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::ofstream csv(d / "pivot.csv");
+  csv << "# stylus poses while pivoting\nlabel,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg\n";
+  const Eigen::Vector3d tip(0, 0, 22), divot(40, 30, -50);
+  for (int i = 0; i < 16; ++i) {
+    const Eigen::Vector3d rv(25 * u(rng), 25 * u(rng), 10 * u(rng));  // degrees
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(rv.norm() * M_PI / 180, rv.normalized()).toRotationMatrix();
+    const Eigen::Vector3d t = divot + Eigen::Vector3d(n(rng), n(rng), n(rng)) - R * tip;
+    csv << "pivot," << t.x() << "," << t.y() << "," << t.z() << "," << rv.x() << "," << rv.y()
+        << "," << rv.z() << "\n";
+  }
+  csv.close();
+  const fs::path st = d / "station.json";
+  const CommandResult r = run("pivot --poses " + (d / "pivot.csv").string() + " --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = load(st);
+  const auto t = j["haptics"]["T_sty_tip"]["translation_mm"];
+  EXPECT_NEAR(t[0].get<double>(), 0.0, 0.15);
+  EXPECT_NEAR(t[1].get<double>(), 0.0, 0.15);
+  EXPECT_NEAR(t[2].get<double>(), 22.0, 0.15);
+}
+
+// A version 1 station file (no fixtures, no report) is read and upgraded to version 2.
+TEST(CliCalibrate, ReadsVersionOneStationFilesAndUpgradesThem) {
+  const fs::path d = temp_dir("v1");
+  auto j = load(std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json");
+  j.erase("calibration_fixtures");
+  j.erase("calibration_report");
+  j["version"] = 1;
+  write_file(d / "v1.json", j.dump(2));
+  CommandResult r = run("register --simulate --station " + (d / "v1.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("file version 1"), std::string::npos) << r.out;
+  EXPECT_EQ(load(d / "v1.json")["version"], 2);
+  // And without any version field (written before the field existed).
+  j.erase("version");
+  write_file(d / "v0.json", j.dump(2));
+  r = run("register --simulate --station " + (d / "v0.json").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
+// The station may reference a camera file instead of embedding the numbers.
+TEST(CliCalibrate, StationReferencingACameraFile) {
+  const fs::path d = temp_dir("camref");
+  write_file(d / "cam_ros.yaml",
+             "image_width: 640\nimage_height: 480\ncamera_name: head\n"
+             "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [611, 0, 318, 0, 612, 241, 0, 0, 1]\n"
+             "distortion_model: plumb_bob\n"
+             "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [-0.1, 0.05, 0, 0, 0]\n"
+             "rectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"
+             "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [611, 0, 318, 0, 0, 612, 241, 0, 0, 0, 1, 0]\n");
+  auto j = load(std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json");
+  j["camera"] = {{"file", "cam_ros.yaml"}};
+  write_file(d / "station.json", j.dump(2));
+  CommandResult r = run("pivot --simulate --station " + (d / "station.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(load(d / "station.json")["camera"], nlohmann::json({{"file", "cam_ros.yaml"}}));
+  // A missing referenced file is bad input naming the field; nothing is written.
+  j["camera"] = {{"file", "absent.yaml"}};
+  write_file(d / "broken.json", j.dump(2));
+  const std::string before = read_file(d / "broken.json");
+  r = run("pivot --simulate --station " + (d / "broken.json").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("camera.file"), std::string::npos) << r.out;
+  EXPECT_EQ(read_file(d / "broken.json"), before);
+  // Importing a camera file embeds its numbers (the reference is replaced).
+  r = run("camera --import " + (d / "cam_ros.yaml").string() + " --station " +
+          (d / "station.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto cam = load(d / "station.json")["camera"];
+  EXPECT_EQ(cam["fx"], 611.0);
+  EXPECT_FALSE(cam.contains("file"));
+}
+
+TEST(CliCalibrate, CameraFromRealChessboardPhotos) {
+  const fs::path src = "/usr/share/doc/opencv-doc/examples/data";
+  if (!fs::exists(src / "left01.jpg"))
+    GTEST_SKIP() << src << "/left01.jpg absent: install the Debian package opencv-doc";
+  const fs::path d = temp_dir("photos");
+  fs::create_directories(d / "photos");
+  for (int i = 1; i <= 14; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "left%02d.jpg", i);
+    if (fs::exists(src / name)) fs::copy_file(src / name, d / "photos" / name);
+  }
+  const fs::path st = d / "station.json";
+  const CommandResult r = run("camera --images " + (d / "photos").string() +
+                              " --board chessboard:9x6:25 --device opencv-sample --export-ros " +
+                              (d / "ros.yaml").string() + " --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("running RMS"), std::string::npos) << r.out;
+  const auto j = load(st);
+  EXPECT_EQ(j["camera"]["width"], 640);
+  EXPECT_LE(j["camera"]["rms_px"].get<double>(), 0.25);
+  EXPECT_TRUE(fs::exists(d / "station.camera.yaml"));
+  EXPECT_NE(read_file(d / "ros.yaml").find("plumb_bob"), std::string::npos);
+  // The saved camera file can be imported back into another station.
+  const CommandResult imp = run("camera --import " + (d / "station.camera.yaml").string() +
+                                " --station " + (d / "other.json").string());
+  EXPECT_EQ(imp.code, 0) << imp.out;
+  EXPECT_EQ(load(d / "other.json")["camera"]["fx"], j["camera"]["fx"]);
+}
+
+// The whole workflow on generated data, as the README's walkthrough runs it, then the check
+// refusing an uncalibrated station.
+TEST(CliCalibrate, AllStepsOnGeneratedDataMeetTheCoLocationGoal) {
+  const fs::path d = temp_dir("all");
+  const fs::path st = d / "station.json";
+  const CommandResult r = run("all --simulate --frames 6 --station " + st.string());
+  if (r.out.find("no headless EGL context") != std::string::npos)
+    GTEST_SKIP() << "no EGL: " << r.out;
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = load(st);
+  for (const char* s : {"camera", "pivot", "register", "tooth", "mirror", "check"}) {
+    const auto* p = step(j, s);
+    ASSERT_NE(p, nullptr) << s;
+    EXPECT_TRUE((*p)["pass"].get<bool>()) << s;
+  }
+  EXPECT_LE((*step(j, "check"))["figures"]["tip_error_mean_mm"].get<double>(), 0.5);
+  EXPECT_GE((*step(j, "camera"))["figures"]["views"].get<double>(), 6);
+  EXPECT_NE(r.out.find("rejected view 3"), std::string::npos) << r.out;  // the warped board
+  // An uncalibrated station (the nominal values) fails the check and is not written.
+  const fs::path raw = d / "raw.json";
+  const CommandResult c = run("check --simulate --frames 4 --station " + raw.string());
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_FALSE(fs::exists(raw));
+}
+
+}  // namespace

@@ -1,0 +1,819 @@
+// dentar calibrate: the guided station calibration for instructors (issue 7).
+// Steps: camera, pivot, register, tooth, mirror, check, all. Each step prompts, prints live
+// quality figures while its data comes in, and updates ONE station file only when its gates
+// pass. Data: real files (--images, --poses, --import) or --simulate (the footage generator
+// stands in for the camera, a simulated stylus for the device; the hidden truth is the
+// built-in station perturbed by --seed).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "commands.h"
+#include "dentar/ar/bundle_pose.h"
+#include "dentar/ar/calib_board.h"
+#include "dentar/ar/egl_context.h"
+#include "dentar/ar/station_scene.h"
+#include "dentar/ar/synth.h"
+#include "dentar/ar/tag_detector.h"
+#include "dentar/calibration/camera_file.h"
+#include "dentar/calibration/co_location.h"
+#include "dentar/calibration/intrinsics.h"
+#include "dentar/calibration/landmarks.h"
+#include "dentar/calibration/mirror.h"
+#include "dentar/calibration/pivot.h"
+#include "dentar/calibration/registration.h"
+
+namespace dentar::tools {
+namespace {
+
+namespace fs = std::filesystem;
+namespace cal = dentar::calibration;
+constexpr double kDeg = M_PI / 180.0;
+constexpr const char* kCmd = "calibrate";
+
+struct CalibCli {
+  std::string step;
+  std::string station = "station.json";
+  bool simulate = false;
+  std::uint64_t seed = 1;
+  std::string images, board = "chessboard:9x6:20", poses, import_camera, camera_out, export_ros;
+  std::string device = "head camera";
+  int count = 0;              // 0: the step's default amount of data
+  double max_tilt_deg = 25;   // simulated pivot tilt
+  int bad_view = 3;           // simulated camera step: the warped-board view (-1: none)
+  int check_frames = 20;
+  bool rational = false;
+  bool instructor_time = false;
+};
+
+// Thrown for bad input (exit 2); gate failures return 1 instead.
+struct BadInput {
+  std::string message;
+};
+
+std::string now_iso() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+std::string fmt(double v, int prec = 2) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(prec) << v;
+  return os.str();
+}
+
+// ---- stylus poses file (CSV) -----------------------------------------------------------------
+// label,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg[,mtag_tx_mm,mtag_ty_mm,mtag_tz_mm,mtag_rx_deg,
+// mtag_ry_deg,mtag_rz_deg]: T_dev_sty per row (rotation vector in degrees); the optional
+// columns are T_mtag_man from the tracker at that moment (mirror rows). Labels: pivot,
+// divot:<i>, landmark:<i>, rim, centre. '#' starts a comment line.
+struct PoseRow {
+  std::string label;
+  Eigen::Isometry3d T_dev_sty = Eigen::Isometry3d::Identity();
+  std::optional<Eigen::Isometry3d> T_mtag_man;
+  int line = 0;
+};
+
+Eigen::Isometry3d pose_from(const double* v) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d r(v[3], v[4], v[5]);
+  if (r.norm() > 0) T.linear() = Eigen::AngleAxisd(r.norm() * kDeg, r.normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(v[0], v[1], v[2]) * 1e-3;
+  return T;
+}
+
+std::vector<PoseRow> read_poses(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw BadInput{path + ": cannot open the poses file"};
+  std::vector<PoseRow> rows;
+  std::string line;
+  int n = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    ++n;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    if (!header) {
+      if (f.empty() || f[0] != "label")
+        throw BadInput{path + ":" + std::to_string(n) +
+                       ": the first line must be the header label,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,"
+                       "rz_deg[,mtag_tx_mm,...] (see docs/formats.md)"};
+      header = true;
+      continue;
+    }
+    if (f.size() != 7 && f.size() != 13)
+      throw BadInput{path + ":" + std::to_string(n) + ": expected 7 or 13 columns, found " +
+                     std::to_string(f.size())};
+    double v[12];
+    for (std::size_t i = 1; i < f.size(); ++i) {
+      try {
+        std::size_t used = 0;
+        v[i - 1] = std::stod(f[i], &used);
+        if (used != f[i].size() || !std::isfinite(v[i - 1])) throw std::invalid_argument("x");
+      } catch (...) {
+        throw BadInput{path + ":" + std::to_string(n) + ": column " + std::to_string(i + 1) +
+                       " \"" + f[i] + "\" is not a number"};
+      }
+    }
+    PoseRow r;
+    r.label = f[0];
+    r.line = n;
+    r.T_dev_sty = pose_from(v);
+    if (f.size() == 13) r.T_mtag_man = pose_from(v + 6);
+    rows.push_back(r);
+  }
+  if (!header) throw BadInput{path + ": empty poses file (no header line)"};
+  return rows;
+}
+
+std::vector<PoseRow> rows_with(const std::vector<PoseRow>& rows, const std::string& prefix) {
+  std::vector<PoseRow> out;
+  for (const auto& r : rows)
+    if (r.label.rfind(prefix, 0) == 0) out.push_back(r);
+  return out;
+}
+
+int label_index(const PoseRow& r, const std::string& path, std::size_t limit) {
+  const auto colon = r.label.find(':');
+  try {
+    const int i = std::stoi(r.label.substr(colon + 1));
+    if (i < 0 || static_cast<std::size_t>(i) >= limit) throw std::out_of_range("x");
+    return i;
+  } catch (...) {
+    throw BadInput{path + ":" + std::to_string(r.line) + ": label \"" + r.label +
+                   "\" needs an index 0.." + std::to_string(limit - 1)};
+  }
+}
+
+// ---- the session ------------------------------------------------------------------------------
+struct Session {
+  const CalibCli& cli;
+  ar::StationScene st;       // being calibrated
+  cal::StationCalibration truth;  // simulation only
+  std::mt19937_64 rng;
+  std::string camera_yaml;   // written after the camera step (when it ran)
+  cal::CameraFile camera_file;
+  bool wrote_camera = false;
+  explicit Session(const CalibCli& c) : cli(c), rng(c.seed * 1000003 + 11) {}
+};
+
+void print_prompt(const std::string& title, const std::string& text) {
+  std::cout << "\n== " << title << " ==\n" << text << "\n";
+}
+
+cal::StylusNoise sim_noise() { return cal::StylusNoise{}; }
+
+// Each step returns 0 (gates passed, station updated in memory), 1 (a gate failed).
+int step_camera(Session& s) {
+  const CalibCli& c = s.cli;
+  print_prompt("camera intrinsics",
+               "Hold the printed board in front of the head camera and take about 12 photos:\n"
+               "board tilted 15-45 degrees toward the left, right, top and bottom, near the image\n"
+               "edges and in the middle (where the tooth is drawn). Needs >= 6 usable views.");
+  cal::CameraFile cf;
+  if (!c.import_camera.empty()) {
+    auto r = cal::read_camera_file(c.import_camera);
+    if (!r) throw BadInput{r.error()};
+    cf = *r;
+    std::cout << "imported " << c.import_camera << " (" << cf.source_format << "): fx fy "
+              << fmt(cf.camera.fx) << " " << fmt(cf.camera.fy) << " px, " << cf.camera.width << "x"
+              << cf.camera.height << (cf.rms_px >= 0 ? ", RMS " + fmt(cf.rms_px, 3) + " px" : "")
+              << "\n";
+    if (!cf.warning.empty()) std::cout << "WARNING: " << cf.warning << "\n";
+  } else {
+    auto spec = ar::parse_board_spec(c.board);
+    if (!spec) throw BadInput{spec.error()};
+    std::vector<cal::BoardView> views;
+    int width = 0, height = 0;
+    cal::IntrinsicsOptions io;
+    if (c.rational) io.model = cal::DistortionModel::kRational8;
+    auto live = [&](const std::string& what) {
+      std::cout << "  [" << views.size() << "] " << what;
+      if (static_cast<int>(views.size()) >= io.min_views) {
+        const auto r = cal::calibrate_intrinsics(views, width, height, io);
+        if (r.calibrations_run > 0)
+          std::cout << "; running RMS " << fmt(r.rms_px, 3) << " px, fx " << fmt(r.camera.fx, 1)
+                    << " +- " << fmt(r.std_devs.empty() ? 0 : r.std_devs[0], 2) << " px, "
+                    << r.rejected.size() << " rejected, tooth-region coverage "
+                    << fmt(r.coverage.tooth_fraction * 100, 0) << "%";
+      } else {
+        std::cout << "; " << io.min_views - static_cast<int>(views.size()) << " more views needed";
+      }
+      std::cout << "\n" << std::flush;
+    };
+    if (c.simulate) {
+      const cal::CameraIntrinsics& k = s.truth.camera;
+      width = k.width;
+      height = k.height;
+      const int n = c.count > 0 ? c.count : 12;
+      std::cout << "simulated camera: rendering " << n << " board views (" << c.board << ")"
+                << (c.bad_view >= 0 && c.bad_view < n
+                        ? ", view " + std::to_string(c.bad_view) + " with a warped board"
+                        : "")
+                << "\n";
+      const ar::BoardTexture tex = ar::make_board_texture(*spec);
+      const auto poses = cal::plan_board_poses(k, ar::board_width_m(*spec), ar::board_height_m(*spec),
+                                               n, c.seed);
+      for (int i = 0; i < n; ++i) {
+        ar::BoardRenderOptions ro;
+        ro.supersample = 2;
+        ro.seed = c.seed * 1000 + i;
+        if (i == c.bad_view) ro.warp_m = 0.006;
+        const cv::Mat img = ar::render_board_view(tex, k, poses[i], ro);
+        const std::string name = "sim-view-" + std::to_string(i);
+        auto v = ar::detect_board(img, *spec, name);
+        if (!v) {
+          std::cout << "  " << v.error() << "\n";
+          continue;
+        }
+        views.push_back(*v);
+        live(name + ": " + std::to_string(v->image_points.size()) + " points");
+      }
+    } else {
+      if (c.images.empty())
+        throw BadInput{"camera: give --images DIR (board photos), --import FILE (a camera YAML) "
+                       "or --simulate"};
+      if (!fs::is_directory(c.images)) throw BadInput{c.images + ": not a directory of board photos"};
+      std::vector<fs::path> files;
+      for (const auto& e : fs::directory_iterator(c.images)) {
+        std::string ext = e.path().extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+        if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".tif" ||
+            ext == ".tiff")
+          files.push_back(e.path());
+      }
+      std::sort(files.begin(), files.end());
+      if (files.empty()) throw BadInput{c.images + ": no .png/.jpg/.bmp/.tif images in it"};
+      for (const auto& f : files) {
+        int w = 0, h = 0;
+        auto v = ar::detect_board_file(f.string(), *spec, w, h);
+        if (!v) {
+          std::cout << "  skipped: " << v.error() << "\n";
+          continue;
+        }
+        if (width == 0) {
+          width = w;
+          height = h;
+        } else if (w != width || h != height) {
+          throw BadInput{f.string() + ": image is " + std::to_string(w) + "x" + std::to_string(h) +
+                         ", the others " + std::to_string(width) + "x" + std::to_string(height) +
+                         "; all photos must come from the same camera mode"};
+        }
+        v->name = f.filename().string();
+        views.push_back(*v);
+        live(f.filename().string() + ": " + std::to_string(v->image_points.size()) + " points");
+      }
+      if (views.empty())
+        throw BadInput{c.images + ": the board (" + c.board +
+                       ") was not found in any photo; check --board"};
+    }
+    const auto r = cal::calibrate_intrinsics(views, width, height, io);
+    std::cout << r.report();
+    if (!r.ok) return 1;
+    if (c.simulate)
+      std::cout << "simulation truth: fx " << fmt(s.truth.camera.fx) << " fy " << fmt(s.truth.camera.fy)
+                << " cx " << fmt(s.truth.camera.cx) << " cy " << fmt(s.truth.camera.cy)
+                << " px; error fx " << fmt(r.camera.fx - s.truth.camera.fx) << " px\n";
+    cf = r.to_camera_file(c.simulate ? "simulated head camera" : c.device);
+  }
+  s.st.calibration.camera = cf.camera;
+  s.st.camera_provenance = {cf.model, cf.rms_px, cf.std_devs, cf.date, cf.device, {}};
+  s.camera_file = cf;
+  s.wrote_camera = true;
+  ar::CalibrationStepReport rep{"camera", now_iso(), true, "", {}};
+  rep.summary = "fx " + fmt(cf.camera.fx) + " fy " + fmt(cf.camera.fy) + " px, model " + cf.model;
+  if (cf.rms_px >= 0) rep.figures.emplace_back("rms_px", cf.rms_px);
+  if (cf.std_devs.size() >= 2) {
+    rep.figures.emplace_back("fx_sd_px", cf.std_devs[0]);
+    rep.figures.emplace_back("fy_sd_px", cf.std_devs[1]);
+  }
+  rep.figures.emplace_back("views", cf.views_used);
+  s.st.set_step_report(rep);
+  return 0;
+}
+
+std::vector<Eigen::Isometry3d> pivot_data(Session& s) {
+  const CalibCli& c = s.cli;
+  if (c.simulate) {
+    const int n = c.count > 0 ? c.count : 20;
+    std::cout << "simulated stylus: " << n << " poses pivoting up to " << c.max_tilt_deg
+              << " deg, tip noise 0.1 mm\n";
+    return cal::simulate_pivot_poses(s.truth, cal::simulated_pivot_divot_dev(), n,
+                                     c.max_tilt_deg * kDeg, sim_noise(), s.rng);
+  }
+  if (c.poses.empty()) throw BadInput{"pivot: give --poses FILE (stylus poses CSV) or --simulate"};
+  std::vector<Eigen::Isometry3d> out;
+  for (const auto& r : rows_with(read_poses(c.poses), "pivot")) out.push_back(r.T_dev_sty);
+  return out;
+}
+
+int step_pivot(Session& s) {
+  print_prompt("stylus tip (pivot)",
+               "Seat the bur tip in the pivot divot on the bench and rock the stylus slowly in all\n"
+               "directions (15-30 degrees), keeping the tip in the divot. Needs >= 10 poses and\n"
+               ">= 15 degrees of orientation spread; about 20 poses take 30 s.");
+  const auto poses = pivot_data(s);
+  cal::PivotOptions live;
+  live.min_poses = 3;
+  live.min_spread_rad = 0;
+  live.min_weakest_tilt_rad = 0;
+  std::vector<Eigen::Isometry3d> sofar;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    sofar.push_back(poses[i]);
+    std::cout << "  pose " << i + 1;
+    if (sofar.size() >= 3) {
+      const auto r = cal::calibrate_pivot(sofar, live);
+      std::cout << ": spread " << fmt(r.spread_rad / kDeg, 1) << " deg, weakest tilt "
+                << fmt(r.weakest_tilt_rad / kDeg, 1) << " deg";
+      if (r.ok) std::cout << ", RMSE " << fmt(r.rmse_m * 1e3, 3) << " mm";
+    }
+    std::cout << "\n";
+  }
+  const auto r = cal::calibrate_pivot(poses);
+  std::cout << r.report() << "\n";
+  if (!r.ok) return 1;
+  if (s.cli.simulate)
+    std::cout << "simulation truth: tip error "
+              << fmt((r.p_tip_sty - s.truth.T_sty_tip.translation()).norm() * 1e3, 3) << " mm\n";
+  s.st.calibration.T_sty_tip = r.T_sty_tip;
+  ar::CalibrationStepReport rep{"pivot", now_iso(), true, "", {}};
+  rep.summary = "tip at " + fmt(r.p_tip_sty.norm() * 1e3, 2) + " mm from the stylus origin";
+  rep.figures = {{"rmse_mm", r.rmse_m * 1e3},
+                 {"tip_sd_mm", std::sqrt(r.cov_tip_sty.trace()) * 1e3},
+                 {"spread_deg", r.spread_rad / kDeg},
+                 {"poses", r.num_poses}};
+  s.st.set_step_report(rep);
+  return 0;
+}
+
+// Tip positions in the device frame for touches of `points` (truth positions in dev) or the
+// rows labelled prefix:<i> of the poses file; index[i] says which fixture was touched.
+std::vector<Eigen::Vector3d> touched_tips(Session& s, const std::string& prefix,
+                                          const std::vector<Eigen::Vector3d>& truth_dev,
+                                          std::vector<int>& index) {
+  std::vector<Eigen::Isometry3d> poses;
+  index.clear();
+  if (s.cli.simulate) {
+    poses = cal::simulate_touches(s.truth, truth_dev, sim_noise(), s.rng);
+    for (std::size_t i = 0; i < truth_dev.size(); ++i) index.push_back(static_cast<int>(i));
+  } else {
+    if (s.cli.poses.empty())
+      throw BadInput{prefix + ": give --poses FILE (stylus poses CSV) or --simulate"};
+    for (const auto& r : rows_with(read_poses(s.cli.poses), prefix + ":")) {
+      index.push_back(label_index(r, s.cli.poses, truth_dev.size()));
+      poses.push_back(r.T_dev_sty);
+    }
+  }
+  std::vector<Eigen::Vector3d> tips;
+  for (const auto& T : poses) tips.push_back((T * s.st.calibration.T_sty_tip).translation());
+  return tips;
+}
+
+int step_register(Session& s) {
+  const auto& divots = s.st.fixtures.divots_man;
+  print_prompt("station registration",
+               "With the calibrated stylus, touch each of the " + std::to_string(divots.size()) +
+                   " divots on the mannequin in the listed order,\nholding the tip still in each "
+                   "for a second. Needs >= 6 divots; the TRE at the tooth must be <= 0.5 mm.");
+  if (!s.st.step_report("pivot") && !s.cli.simulate)
+    std::cout << "note: this station has no pivot calibration on record; the stylus tip from the "
+                 "file is used\n";
+  std::vector<Eigen::Vector3d> truth_dev;
+  for (const auto& p : divots) truth_dev.push_back(s.truth.T_man_dev.inverse() * p);
+  if (s.cli.simulate && s.cli.count > 0 && s.cli.count < static_cast<int>(truth_dev.size()))
+    truth_dev.resize(s.cli.count);
+  std::vector<int> idx;
+  const auto tips = touched_tips(s, "divot", truth_dev, idx);
+  const Eigen::Vector3d target = s.st.calibration.T_man_tooth * Eigen::Vector3d(0, 0, 4e-3);
+  std::vector<Eigen::Vector3d> p_dev, p_man;
+  cal::RegistrationOptions live;
+  live.min_points = 3;
+  live.max_tre_m = 1.0;
+  live.min_thickness_m = 0;
+  live.thickness_fle_factor = 0;
+  live.max_residual_m = 1.0;
+  for (std::size_t i = 0; i < tips.size(); ++i) {
+    p_dev.push_back(tips[i]);
+    p_man.push_back(divots[idx[i]]);
+    std::cout << "  divot " << idx[i] << " touched (" << i + 1 << " so far)";
+    if (p_dev.size() >= 4) {
+      const auto r = cal::register_divots(p_dev, p_man, target, live);
+      if (!r.residuals_m.empty())
+        std::cout << ": running FRE " << fmt(r.fre_m * 1e3, 3) << " mm, predicted TRE "
+                  << fmt(r.tre_m * 1e3, 3) << " mm";
+    }
+    std::cout << "\n";
+  }
+  const auto r = cal::register_divots(p_dev, p_man, target);
+  std::cout << r.report() << "\n";
+  if (!r.ok) return 1;
+  if (s.cli.simulate)
+    std::cout << "simulation truth: error at the tooth "
+              << fmt((r.T_man_dev * (s.truth.T_man_dev.inverse() * target) - target).norm() * 1e3, 3)
+              << " mm\n";
+  s.st.calibration.T_man_dev = r.T_man_dev;
+  ar::CalibrationStepReport rep{"register", now_iso(), true, "", {}};
+  rep.summary = std::to_string(r.num_points) + " divots";
+  rep.figures = {{"fre_mm", r.fre_m * 1e3}, {"tre_mm", r.tre_m * 1e3}, {"fle_mm", r.fle_m * 1e3},
+                 {"divots", r.num_points}};
+  s.st.set_step_report(rep);
+  return 0;
+}
+
+int step_tooth(Session& s) {
+  const auto& marks = s.st.fixtures.landmarks_tooth;
+  print_prompt("tooth placement",
+               "Touch each of the " + std::to_string(marks.size()) +
+                   " landmarks on the mounted tooth (cusp tips, then the buccal and lingual\n"
+                   "cervical points) in the listed order. Needs >= 4 landmarks.");
+  // Truth: landmark positions in the device frame.
+  std::vector<Eigen::Vector3d> truth_dev;
+  for (const auto& l : marks)
+    truth_dev.push_back(s.truth.T_man_dev.inverse() * (s.truth.T_man_tooth * l));
+  if (s.cli.simulate && s.cli.count > 0 && s.cli.count < static_cast<int>(truth_dev.size()))
+    truth_dev.resize(s.cli.count);
+  std::vector<int> idx;
+  const auto tips = touched_tips(s, "landmark", truth_dev, idx);
+  std::vector<Eigen::Vector3d> p_tooth, p_man;
+  for (std::size_t i = 0; i < tips.size(); ++i) {
+    p_tooth.push_back(marks[idx[i]]);
+    p_man.push_back(s.st.calibration.T_man_dev * tips[i]);
+    std::cout << "  landmark " << idx[i] << " touched (" << i + 1 << " so far)\n";
+  }
+  const auto r = cal::refine_tooth_placement(p_tooth, p_man, s.st.calibration.T_man_tooth);
+  std::cout << r.report() << "\n";
+  if (!r.ok) return 1;
+  if (s.cli.simulate) {
+    const Eigen::Vector3d q(0, 0, 4e-3);
+    std::cout << "simulation truth: crown error "
+              << fmt((r.T_man_tooth * q - s.truth.T_man_tooth * q).norm() * 1e3, 3) << " mm\n";
+  }
+  s.st.calibration.T_man_tooth = r.T_man_tooth;
+  ar::CalibrationStepReport rep{"tooth", now_iso(), true, "", {}};
+  rep.summary = std::to_string(r.fit.num_points) + " landmarks";
+  rep.figures = {{"fre_mm", r.fit.fre_m * 1e3},
+                 {"tre_mm", r.fit.tre_m * 1e3},
+                 {"shift_mm", r.shift_m * 1e3},
+                 {"rotation_deg", r.rotation_rad / kDeg}};
+  s.st.set_step_report(rep);
+  return 0;
+}
+
+int step_mirror(Session& s) {
+  print_prompt("mirror",
+               "Clamp the mirror where the camera sees both the mannequin's tags and the mirror's\n"
+               "tag. With the stylus touch >= 5 points spread around the rim of the reflecting\n"
+               "face, then its centre.");
+  std::vector<Eigen::Vector3d> rim;
+  Eigen::Vector3d centre = Eigen::Vector3d::Constant(NAN);
+  const auto& cal_now = s.st.calibration;
+  auto to_mtag = [&](const Eigen::Isometry3d& T_dev_sty,
+                     const Eigen::Isometry3d& T_mtag_man) -> Eigen::Vector3d {
+    return (T_mtag_man * cal_now.T_man_dev * T_dev_sty * cal_now.T_sty_tip).translation();
+  };
+  if (s.cli.simulate) {
+    const int n = s.cli.count > 0 ? s.cli.count : 8;
+    const Eigen::Isometry3d T_man_mtag = cal::simulated_mirror_clamp_man();
+    std::vector<Eigen::Vector3d> pts_dev;
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * M_PI * i / n;
+      const Eigen::Vector3d p_mir(s.truth.mirror_radius_m * std::cos(a),
+                                  s.truth.mirror_radius_m * std::sin(a), 0);
+      pts_dev.push_back(s.truth.T_man_dev.inverse() * (T_man_mtag * (s.truth.T_mtag_mir * p_mir)));
+    }
+    pts_dev.push_back(s.truth.T_man_dev.inverse() * (T_man_mtag * s.truth.T_mtag_mir.translation()));
+    const auto poses = cal::simulate_touches(s.truth, pts_dev, sim_noise(), s.rng);
+    const auto noise = sim_noise();
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      // The tracked mirror-to-mannequin pose of that moment (two tag bundles: sqrt(2) x noise).
+      const Eigen::Isometry3d T_mtag_man_meas =
+          (T_man_mtag * cal::random_perturbation(noise.tracking_sigma_rad * std::sqrt(2.0),
+                                                 noise.tracking_sigma_m * std::sqrt(2.0), s.rng))
+              .inverse();
+      const Eigen::Vector3d p = to_mtag(poses[i], T_mtag_man_meas);
+      if (i + 1 < poses.size()) {
+        rim.push_back(p);
+        std::cout << "  rim point " << rim.size() << "\n";
+      } else {
+        centre = p;
+        std::cout << "  centre\n";
+      }
+    }
+  } else {
+    if (s.cli.poses.empty()) throw BadInput{"mirror: give --poses FILE (stylus poses CSV) or --simulate"};
+    for (const auto& r : read_poses(s.cli.poses)) {
+      if (r.label != "rim" && r.label != "centre") continue;
+      if (!r.T_mtag_man)
+        throw BadInput{s.cli.poses + ":" + std::to_string(r.line) +
+                       ": mirror rows need the 6 mtag_* columns (T_mtag_man from the tracker)"};
+      const Eigen::Vector3d p = to_mtag(r.T_dev_sty, *r.T_mtag_man);
+      if (r.label == "rim") {
+        rim.push_back(p);
+        std::cout << "  rim point " << rim.size() << "\n";
+      } else {
+        centre = p;
+        std::cout << "  centre\n";
+      }
+    }
+    if (!centre.allFinite()) throw BadInput{s.cli.poses + ": no row labelled centre"};
+  }
+  const auto r = cal::calibrate_mirror(rim, centre, cal_now.T_mtag_mir);
+  std::cout << r.report() << "\n";
+  if (!r.ok) return 1;
+  if (s.cli.simulate)
+    std::cout << "simulation truth: centre error "
+              << fmt((r.T_mtag_mir.translation() - s.truth.T_mtag_mir.translation()).norm() * 1e3, 3)
+              << " mm, radius error " << fmt((r.radius_m - s.truth.mirror_radius_m) * 1e3, 3) << " mm\n";
+  s.st.calibration.T_mtag_mir = r.T_mtag_mir;
+  s.st.calibration.mirror_radius_m = r.radius_m;
+  ar::CalibrationStepReport rep{"mirror", now_iso(), true, "", {}};
+  rep.summary = "radius " + fmt(r.radius_m * 1e3) + " mm";
+  rep.figures = {{"radius_mm", r.radius_m * 1e3},
+                 {"plane_rms_mm", r.plane_rms_m * 1e3},
+                 {"circle_rms_mm", r.circle_rms_m * 1e3},
+                 {"centre_error_mm", r.centre_error_m * 1e3}};
+  s.st.set_step_report(rep);
+  return 0;
+}
+
+int step_check(Session& s) {
+  print_prompt("end-to-end check",
+               "Work at the tooth for a few seconds while the camera tracks the mannequin: the\n"
+               "bur tip the calibrated chain draws is compared with the true tip. Goal: mean\n"
+               "error <= 0.5 mm.");
+  if (!s.cli.simulate)
+    throw BadInput{"check: only --simulate is built so far (the generator's scene has the true "
+                   "tip; a live check needs a touch-probe fixture, not built yet)"};
+  ar::StationScene truth_scene = ar::default_station_scene();
+  truth_scene.calibration = s.truth;
+  auto ctx = ar::EglContext::create();
+  if (!ctx) throw BadInput{"check: no headless EGL context: " + ctx.error()};
+  ar::SynthOptions so = ar::synth_preset(ar::SynthPreset::kStandard);
+  so.frames = s.cli.check_frames;
+  so.seed = s.cli.seed;
+  so.mirror_in_mouth_fraction = 0;
+  auto gen = ar::SynthGenerator::create(truth_scene, so);
+  if (!gen) throw BadInput{"check: " + gen.error()};
+  ar::TagDetectorOptions dopt;
+  dopt.families = {s.st.family};
+  dopt.decimation = 1.0;
+  auto det = ar::TagDetector::create(dopt);
+  if (!det) throw BadInput{"check: " + det.error()};
+  const ar::TagBundle bundle = ar::mannequin_bundle(s.st);
+  const cal::StationCalibration nominal = ar::default_station_scene().calibration;
+  std::vector<double> err, err_nom, err_static;
+  for (int f = 0; f < so.frames; ++f) {
+    ar::SynthFrame fr;
+    if (Status st = (*gen)->next(fr); !st) throw BadInput{"check: " + st.error()};
+    cv::Mat gray;
+    cv::cvtColor(fr.image, gray, cv::COLOR_BGR2GRAY);
+    auto d = det->detect(gray);
+    if (!d) continue;
+    const auto pose = ar::estimate_bundle_pose(bundle, s.st.calibration.camera, *d);
+    const auto pose_nom = ar::estimate_bundle_pose(bundle, nominal.camera, *d);
+    const Eigen::Vector3d tip_true = fr.truth.T_cam_tip.translation();
+    std::cout << "  frame " << f;
+    if (pose.ok()) {
+      err.push_back((cal::chain_tip_cam(pose.T_cam_body, s.st.calibration, fr.truth.T_dev_sty) - tip_true).norm());
+      // Bur tip relative to the drawn tooth (tracking-free part of the chain).
+      const auto& c = s.st.calibration;
+      const Eigen::Vector3d a = (c.T_man_tooth.inverse() * c.T_man_dev * fr.truth.T_dev_sty * c.T_sty_tip).translation();
+      const Eigen::Vector3d b = (s.truth.T_man_tooth.inverse() * s.truth.T_man_dev * fr.truth.T_dev_sty *
+                                 s.truth.T_sty_tip).translation();
+      err_static.push_back((a - b).norm());
+      std::cout << ": " << pose.tags_used << " tags, bur tip error " << fmt(err.back() * 1e3, 3) << " mm";
+    } else {
+      std::cout << ": mannequin not tracked (" << pose.message << ")";
+    }
+    if (pose_nom.ok())
+      err_nom.push_back((cal::chain_tip_cam(pose_nom.T_cam_body, nominal, fr.truth.T_dev_sty) - tip_true).norm());
+    std::cout << "\n" << std::flush;
+  }
+  auto mean = [](const std::vector<double>& v) {
+    double m = 0;
+    for (double x : v) m += x;
+    return v.empty() ? NAN : m / v.size();
+  };
+  auto maxv = [](const std::vector<double>& v) { return v.empty() ? NAN : *std::max_element(v.begin(), v.end()); };
+  if (err.size() < static_cast<std::size_t>(std::max(3, so.frames / 2))) {
+    std::cout << "check FAILED: the mannequin was tracked in only " << err.size() << " of "
+              << so.frames << " frames; check the camera calibration and tag layout\n";
+    return 1;
+  }
+  const double m = mean(err), mx = maxv(err);
+  std::cout << "co-location at the tooth over " << err.size() << " frames: bur tip error mean "
+            << fmt(m * 1e3, 3) << " mm, max " << fmt(mx * 1e3, 3) << " mm (goal: mean <= 0.5 mm)\n"
+            << "  of which the static chain (tooth vs bur, no tracking): mean "
+            << fmt(mean(err_static) * 1e3, 3) << " mm\n"
+            << "  uncalibrated (nominal station file values): mean " << fmt(mean(err_nom) * 1e3, 2)
+            << " mm\n";
+  const bool pass = m <= 0.5e-3;
+  ar::CalibrationStepReport rep{"check", now_iso(), pass, "", {}};
+  rep.summary = "simulated end-to-end co-location, " + std::to_string(err.size()) + " frames";
+  rep.figures = {{"tip_error_mean_mm", m * 1e3},
+                 {"tip_error_max_mm", mx * 1e3},
+                 {"static_error_mean_mm", mean(err_static) * 1e3},
+                 {"uncalibrated_mean_mm", mean(err_nom) * 1e3},
+                 {"frames", static_cast<double>(err.size())}};
+  if (!pass) {
+    std::cout << "check FAILED: mean error above 0.5 mm; repeat the step with the worst figures\n";
+    return 1;
+  }
+  s.st.set_step_report(rep);
+  return 0;
+}
+
+void print_instructor_time() {
+  std::cout
+      << "\nInstructor time (estimated from the data each step needs and a time per action;\n"
+         "not yet measured with instructors):\n"
+         "  step      data needed                               estimate\n"
+         "  camera    12 board photos (>= 6 usable)             12 x 10 s + 60 s setup = 3.0 min\n"
+         "  pivot     20 stylus poses in the pivot divot        20 x 1.5 s + 30 s      = 1.0 min\n"
+         "  register  8 divot touches                           8 x 8 s + 20 s         = 1.4 min\n"
+         "  tooth     6 landmark touches                        6 x 8 s + 20 s         = 1.1 min\n"
+         "  mirror    8 rim points + 1 centre, mirror clamped   9 x 8 s + 60 s         = 2.2 min\n"
+         "  check     a few seconds of work at the tooth        30 s                   = 0.5 min\n"
+         "  total     6 steps, 55 recorded items                                       = 9.2 min\n"
+         "  (goal <= 10 min; the computation of each step takes well under a second except\n"
+         "   the camera step's detection, about 0.5 s per photo)\n";
+}
+
+int run(const CalibCli& c) {
+  if (c.instructor_time && c.step.empty()) {
+    print_instructor_time();
+    return 0;
+  }
+  static const std::vector<std::string> kSteps = {"camera", "pivot", "register", "tooth", "mirror", "check"};
+  if (c.step != "all" && std::find(kSteps.begin(), kSteps.end(), c.step) == kSteps.end()) {
+    print_error(kCmd, "unknown step \"" + c.step + "\"; use camera, pivot, register, tooth, "
+                      "mirror, check or all");
+    return 2;
+  }
+  Session s(c);
+  try {
+    if (fs::exists(c.station)) {
+      auto r = ar::read_station_scene(c.station);
+      if (!r) throw BadInput{r.error()};
+      s.st = std::move(r).value();
+      std::cout << "station " << c.station << " (file version " << s.st.version << ")\n";
+    } else {
+      s.st = ar::default_station_scene();
+      std::cout << "station " << c.station << " does not exist yet: starting from the built-in "
+                   "default station\n";
+    }
+    if (s.st.fixtures.divots_man.empty() || s.st.fixtures.landmarks_tooth.empty()) {
+      std::cout << "note: the station file lists no calibration fixtures (a version 1 file); "
+                   "using the default divots and tooth landmarks\n";
+      s.st.fixtures = ar::default_calibration_fixtures();
+    }
+    if (c.simulate) {
+      s.truth = cal::simulated_truth(ar::default_station_scene().calibration, c.seed);
+      std::cout << "simulation: the hidden truth is the built-in station perturbed with seed "
+                << c.seed << "\n";
+    }
+    const std::vector<std::string> steps = c.step == "all" ? kSteps : std::vector<std::string>{c.step};
+    for (const auto& step : steps) {
+      const auto t0 = std::chrono::steady_clock::now();
+      int rc = 0;
+      if (step == "camera") rc = step_camera(s);
+      else if (step == "pivot") rc = step_pivot(s);
+      else if (step == "register") rc = step_register(s);
+      else if (step == "tooth") rc = step_tooth(s);
+      else if (step == "mirror") rc = step_mirror(s);
+      else rc = step_check(s);
+      const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::cout << "(step " << step << ": " << fmt(secs * 1e3, 1)
+                << " ms wall time: data (simulated or read), live figures and the final solve)\n";
+      if (rc != 0) {
+        std::cout << "step " << step << " did not pass its gates: " << c.station
+                  << " was NOT written. Fix what the message says and run `dentar calibrate "
+                  << step << "` again.\n";
+        return rc;
+      }
+    }
+    if (std::string e = s.st.validate(); !e.empty())
+      throw BadInput{"the calibrated station is invalid (" + e + "); nothing written"};
+    if (const fs::path dir = fs::path(c.station).parent_path(); !dir.empty()) {
+      std::error_code ec;
+      fs::create_directories(dir, ec);  // a new user's --station out/station.json
+    }
+    if (s.wrote_camera) {
+      std::string yaml = c.camera_out;
+      if (yaml.empty()) yaml = (fs::path(c.station).parent_path() / (fs::path(c.station).stem().string() + ".camera.yaml")).string();
+      if (Status st = cal::write_camera_file(yaml, s.camera_file); !st) {
+        print_error(kCmd, st.error());
+        return 1;
+      }
+      std::cout << "wrote the camera file " << yaml << "\n";
+      if (!c.export_ros.empty()) {
+        if (Status st = cal::write_ros_camera_info(c.export_ros, s.camera_file); !st) {
+          print_error(kCmd, st.error());
+          return 1;
+        }
+        std::cout << "wrote the ROS camera_info " << c.export_ros << "\n";
+      }
+    }
+    s.st.version = ar::kStationFileVersion;
+    if (Status st = ar::write_station_scene(s.st, c.station); !st) {
+      print_error(kCmd, st.error());
+      return 1;
+    }
+    std::cout << "updated " << c.station << " (version " << ar::kStationFileVersion << "):";
+    for (const auto& r : s.st.calibration_report) std::cout << " " << r.step << (r.pass ? "=pass" : "=FAIL");
+    std::cout << "\n";
+    if (c.step == "all" || c.instructor_time) print_instructor_time();
+    return 0;
+  } catch (const BadInput& e) {
+    print_error(kCmd, e.message);
+    std::cout << c.station << " was NOT written.\n";
+    return 2;
+  }
+}
+
+}  // namespace
+
+void add_calibrate(CLI::App& app, int& exit_code) {
+  auto c = std::make_shared<CalibCli>();
+  CLI::App* s = app.add_subcommand(
+      "calibrate",
+      "Guided station calibration for instructors: camera intrinsics, stylus tip (pivot),\n"
+      "station registration (divots), tooth placement (landmarks), mirror, and an end-to-end\n"
+      "co-location check. Each step prompts, prints live quality figures, and updates ONE\n"
+      "station file only when its gates pass (docs/calibration.md).\n"
+      "Synopsis: dentar calibrate <camera|pivot|register|tooth|mirror|check|all>\n"
+      "            [--station FILE] [--simulate [--seed S]] [--images DIR --board SPEC]\n"
+      "            [--import CAMERA.yaml] [--camera-out FILE] [--export-ros FILE]\n"
+      "            [--poses FILE.csv] [--count N] [--instructor-time]");
+  s->add_option("step", c->step, "camera, pivot, register, tooth, mirror, check or all");
+  s->add_option("--station", c->station, "Station file to read and update")->capture_default_str();
+  s->add_flag("--simulate", c->simulate,
+              "Generated data: the footage generator stands in for the camera, a simulated "
+              "stylus for the device (hidden truth: the built-in station perturbed by --seed)");
+  s->add_option("--seed", c->seed, "Simulation seed")->capture_default_str();
+  s->add_option("--images", c->images, "camera: folder of board photos (PNG/JPEG)");
+  s->add_option("--board", c->board,
+                "camera: chessboard:COLSxROWS:SQUARE_MM (inner corners) or "
+                "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]]")
+      ->capture_default_str();
+  s->add_option("--import", c->import_camera,
+                "camera: take the intrinsics from an OpenCV FileStorage or ROS camera_info YAML");
+  s->add_option("--camera-out", c->camera_out,
+                "camera: where to save the camera YAML (default: <station>.camera.yaml)");
+  s->add_option("--export-ros", c->export_ros, "camera: also write a ROS camera_info YAML");
+  s->add_option("--device", c->device, "camera: device name recorded in the camera file")
+      ->capture_default_str();
+  s->add_flag("--rational", c->rational,
+              "camera: 8-coefficient rational model (the tracker uses only k1 k2 p1 p2 k3)");
+  s->add_option("--poses", c->poses,
+                "pivot/register/tooth/mirror: stylus poses CSV (label,tx_mm,ty_mm,tz_mm,rx_deg,"
+                "ry_deg,rz_deg[,mtag_...]; see docs/formats.md)");
+  s->add_option("--count", c->count,
+                "--simulate: number of views/poses/touches (default per step; fewer to see the "
+                "gates refuse)")
+      ->check(CLI::Range(1, 500));
+  s->add_option("--max-tilt", c->max_tilt_deg, "--simulate pivot: largest stylus tilt, degrees")
+      ->check(CLI::Range(0.0, 60.0))
+      ->capture_default_str();
+  s->add_option("--bad-view", c->bad_view,
+                "--simulate camera: index of the warped-board (outlier) view, -1 for none")
+      ->capture_default_str();
+  s->add_option("--frames", c->check_frames, "check: generated frames")
+      ->check(CLI::Range(3, 1000))
+      ->capture_default_str();
+  s->add_flag("--instructor-time", c->instructor_time,
+              "Print the steps, the data each needs and the estimated instructor time");
+  s->footer(
+      "Examples (a new user, generated data):\n"
+      "  dentar calibrate all --simulate --station out/station.json\n"
+      "  dentar calibrate camera --images photos/ --board chessboard:9x6:25 --station station.json\n"
+      "  dentar calibrate pivot --poses pivot.csv --station station.json\n"
+      "  dentar calibrate --instructor-time");
+  s->callback([c, &exit_code] {
+    if (c->step.empty() && !c->instructor_time) {
+      print_error(kCmd, "give a step: camera, pivot, register, tooth, mirror, check or all");
+      exit_code = 2;
+      return;
+    }
+    exit_code = run(*c);
+  });
+}
+
+}  // namespace dentar::tools

@@ -1,0 +1,223 @@
+// dentar offline: recorded footage through the whole trainer pipeline
+// (tracking, haptic replay, meshing, compositing) for testers; writes the
+// composited video, per-frame CSV, summary JSON and an HTML report. With no
+// footage it first generates the built-in footage (the README's main job).
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "commands.h"
+#include "dentar/ar/offline.h"
+
+namespace dentar::tools {
+namespace {
+
+struct OfflineCli {
+  std::string footage, station, session, truth, masks;
+  std::string out = "out/offline";
+  std::string preset = "standard";
+  int frames = 90;
+  std::string resolution = "1280x720";
+  std::uint64_t seed = 1;
+  int max_frames = 0;
+  bool no_video = false, scale_calib = false, quiet = false;
+  double decimate = 2.0;
+  bool no_roi = false, no_filter = false, no_occlusion = false, no_segmentation = false,
+       no_mirror = false;
+  int full_every = 15;
+  double predict_ms = 0, stale_ms = 200;
+  std::size_t triangle_budget = 0;
+};
+
+// One progress line: a bar on a terminal (redrawn in place), else a line
+// every 10 % so logs stay short.
+class ProgressBar {
+ public:
+  explicit ProgressBar(bool quiet) : quiet_(quiet), tty_(isatty(STDERR_FILENO) != 0) {}
+  void update(const std::string& phase, int done, int total) {
+    if (quiet_) return;
+    if (phase != phase_) {
+      if (tty_ && !phase_.empty()) std::cerr << "\n";
+      phase_ = phase;
+      last_decile_ = -1;
+    }
+    if (tty_) {
+      const int width = 30;
+      const int fill = total > 0 ? width * done / total : 0;
+      std::cerr << "\r" << std::setw(8) << std::left << phase << " [" << std::string(fill, '#')
+                << std::string(width - fill, ' ') << "] " << done;
+      if (total > 0) std::cerr << "/" << total;
+      std::cerr << " frames" << std::flush;
+      if (total > 0 && done == total) std::cerr << "\n";
+    } else if (total > 0) {
+      const int decile = 10 * done / total;
+      if (decile != last_decile_) {
+        last_decile_ = decile;
+        std::cerr << phase << ": " << done << "/" << total << " frames\n";
+      }
+    }
+  }
+
+ private:
+  bool quiet_, tty_;
+  std::string phase_;
+  int last_decile_ = -1;
+};
+
+std::string f3(double v) {
+  std::ostringstream s;
+  s << std::setprecision(3) << v;
+  return s.str();
+}
+
+int run(const OfflineCli& c) {
+  ar::OfflineOptions o;
+  o.footage = c.footage;
+  o.station = c.station;
+  o.session = c.session;
+  o.truth = c.truth;
+  o.masks = c.masks;
+  o.out_dir = c.out;
+  o.preset = *ar::parse_synth_preset(c.preset);
+  o.builtin_frames = c.frames;
+  const auto x = c.resolution.find('x');
+  o.builtin_width = std::stoi(c.resolution.substr(0, x));
+  o.builtin_height = std::stoi(c.resolution.substr(x + 1));
+  o.seed = c.seed;
+  o.max_frames = c.max_frames;
+  o.write_video = !c.no_video;
+  o.scale_calib = c.scale_calib;
+  o.predict_s = c.predict_ms * 1e-3;
+  o.tracker.detector.decimation = c.decimate;
+  o.tracker.predicted_regions = !c.no_roi;
+  o.tracker.full_frame_interval = c.full_every;
+  o.tracker.filter_enabled = !c.no_filter;
+  o.tracker.stale_limit_s = c.stale_ms * 1e-3;
+  o.compositor.phantoms = !c.no_occlusion;
+  o.compositor.segmentation = !c.no_occlusion && !c.no_segmentation;
+  o.compositor.mirror = !c.no_mirror;
+  o.compositor.triangle_budget = c.triangle_budget;
+  if (std::string e = o.validate(); !e.empty()) {
+    print_error("offline", e);
+    return 2;
+  }
+  if (o.footage.empty())
+    std::cout << "offline: no --footage given: generating the built-in footage (" << c.preset << ", "
+              << c.frames << " frames, " << c.resolution << ") into " << c.out << "/footage\n";
+  ProgressBar bar(c.quiet);
+  auto sum = ar::run_offline(o, [&](const std::string& phase, int done, int total) {
+    bar.update(phase, done, total);
+  });
+  if (!sum) {
+    print_error("offline", sum.error());
+    // Bad input (files, sizes, lengths) and job failures both end here; the
+    // message says which input. Inputs that cannot be opened are exit 2.
+    return 1;
+  }
+  const auto& s = *sum;
+  std::cout << "offline: " << s.frames << " frames (" << f3(s.footage_s) << " s of footage) in "
+            << f3(s.wall_s) << " s; mannequin tracking " << s.tracking << ", predicted " << s.predicted
+            << ", lost " << s.lost << "; overlay drawn in " << s.overlays << " frames\n";
+  if (s.has_truth)
+    std::cout << "  errors (median / p95): pose " << f3(s.man_err_mm.median) << " / " << f3(s.man_err_mm.p95)
+              << " mm, " << f3(s.man_err_deg.median) << " / " << f3(s.man_err_deg.p95)
+              << " deg; tooth " << f3(s.tooth_err_px.median) << " / " << f3(s.tooth_err_px.p95)
+              << " px; bur tip " << f3(s.tip_err_mm.median) << " / " << f3(s.tip_err_mm.p95)
+              << " mm; visible-tooth IoU " << f3(s.silhouette_iou.median) << " / "
+              << f3(s.silhouette_iou.p95) << "\n";
+  std::cout << "  time per frame (median / p99 ms): track " << f3(s.track_ms.median) << " / "
+            << f3(s.track_ms.p99) << ", composite " << f3(s.composite_ms.median) << " / "
+            << f3(s.composite_ms.p99) << ", capture-to-composite latency " << f3(s.latency_ms.median)
+            << " / " << f3(s.latency_ms.p99) << "\n";
+  for (const auto& w : s.warnings) std::cout << "  warning: " << w << "\n";
+  std::cout << "wrote " << s.out_dir << "/report.html, summary.json, frames.csv"
+            << (o.write_video ? ", composite.mkv" : "") << "\n";
+  return 0;
+}
+
+}  // namespace
+
+void add_offline(CLI::App& app, int& exit_code) {
+  auto c = std::make_shared<OfflineCli>();
+  CLI::App* s = app.add_subcommand(
+      "offline",
+      "Run recorded footage through the whole trainer pipeline, as testers do: tracking of the\n"
+      "mannequin and mirror, haptic replay of the session log at 1 kHz in step with the video,\n"
+      "re-meshing of the cut tooth and compositing (tooth, bur, mirror reflection, occlusion).\n"
+      "Writes composite.mkv, frames.csv, summary.json and report.html (plots) into --out.\n"
+      "With no --footage it generates built-in footage first (dentar synth) and runs on that;\n"
+      "ground truth beside the footage (truth.jsonl, masks/) is used to measure errors.\n"
+      "Synopsis: dentar offline [--footage VIDEO|DIR --station FILE [--session LOG]]\n"
+      "                         [--truth FILE|none] [--masks DIR|none] [--out DIR]\n"
+      "                         [--preset P] [--frames N] [--resolution WxH] [--seed S]\n"
+      "                         [--max-frames N] [--no-video] [--scale-calib] [--quiet]\n"
+      "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
+      "                         [--predict-ms MS] [--stale-ms MS] [--no-occlusion]\n"
+      "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]");
+  s->add_option("--footage", c->footage, "Video file or image folder (default: generate built-in footage)");
+  s->add_option("--station", c->station, "Station file (JSON) the footage was recorded with");
+  s->add_option("--session", c->session, "Haptic session log (.dlog) to replay in step with the video");
+  s->add_option("--truth", c->truth, "Ground truth truth.jsonl (default: beside the footage; none = ignore)");
+  s->add_option("--masks", c->masks, "Ground-truth masks folder (default: beside the footage; none = ignore)");
+  s->add_option("--out", c->out, "Output folder")->capture_default_str();
+  s->add_option("--preset", c->preset, "Built-in footage preset")
+      ->check(CLI::IsMember({"standard", "hard", "mirror"}))
+      ->capture_default_str();
+  s->add_option("--frames", c->frames, "Built-in footage length (frames at 30 fps)")
+      ->check(CLI::Range(2, 100000))
+      ->capture_default_str();
+  s->add_option("--resolution", c->resolution, "Built-in footage size")
+      ->check(CLI::IsMember({"640x480", "1280x720", "1920x1080"}))
+      ->capture_default_str();
+  s->add_option("--seed", c->seed, "Built-in footage seed")->capture_default_str();
+  s->add_option("--max-frames", c->max_frames, "Stop after N frames (0 = all)")->check(CLI::Range(0, 10000000));
+  s->add_flag("--no-video", c->no_video, "Do not write composite.mkv");
+  s->add_flag("--scale-calib", c->scale_calib,
+              "Accept footage of another size with the same aspect ratio (intrinsics scaled)");
+  s->add_flag("--quiet", c->quiet, "No progress bar");
+  s->add_option("--decimate", c->decimate, "AprilTag quad decimation")->check(CLI::Range(1.0, 8.0))->capture_default_str();
+  s->add_flag("--no-roi", c->no_roi, "Full-frame tag search every frame (no predicted regions)");
+  s->add_option("--full-every", c->full_every, "Full-frame search interval (frames)")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  s->add_flag("--no-filter", c->no_filter, "No temporal pose filter");
+  s->add_option("--predict-ms", c->predict_ms, "Predict poses this far past the capture time")
+      ->check(CLI::Range(0.0, 500.0));
+  s->add_option("--stale-ms", c->stale_ms, "Drop the overlay this long after tracking is lost")
+      ->check(CLI::Range(0.0, 5000.0))
+      ->capture_default_str();
+  s->add_flag("--no-occlusion", c->no_occlusion, "Draw the tooth over everything (no occlusion)");
+  s->add_flag("--no-segmentation", c->no_segmentation, "Occlusion by known geometry only (no hand segmentation)");
+  s->add_flag("--no-mirror", c->no_mirror, "No reflection in the mirror");
+  s->add_option("--triangle-budget", c->triangle_budget, "Tooth triangles drawn per frame (0 = no limit)");
+  s->footer(
+      "Examples:\n"
+      "  dentar offline --out out/offline                 # built-in footage, the README job\n"
+      "  dentar synth --preset hard --resolution 1280x720 --out out/hard\n"
+      "  dentar offline --footage out/hard/video.mkv --station out/hard/station.json \\\n"
+      "                 --session out/hard/session.dlog --out out/hard-run");
+  s->callback([c, &exit_code] {
+    if (!c->footage.empty() && c->station.empty()) {
+      print_error("offline", "--footage needs --station (the station file the footage was recorded with)");
+      exit_code = 2;
+      return;
+    }
+    // Inputs that do not exist are bad input (exit 2), caught before any work.
+    for (auto [flag, path] : {std::pair{"--footage", c->footage}, std::pair{"--station", c->station},
+                              std::pair{"--session", c->session}}) {
+      if (!path.empty() && !std::filesystem::exists(path)) {
+        print_error("offline", std::string(flag) + " " + path + ": no such file or folder");
+        exit_code = 2;
+        return;
+      }
+    }
+    exit_code = run(*c);
+  });
+}
+
+}  // namespace dentar::tools
