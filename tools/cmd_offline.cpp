@@ -26,6 +26,7 @@ struct OfflineCli {
   std::uint64_t seed = 1;
   int max_frames = 0;
   bool no_video = false, scale_calib = false, quiet = false;
+  std::string video_codec = "mjpg";
   double decimate = 2.0;
   bool no_roi = false, no_filter = false, no_occlusion = false, no_segmentation = false,
        no_mirror = false;
@@ -91,6 +92,7 @@ int run(const OfflineCli& c) {
   o.seed = c.seed;
   o.max_frames = c.max_frames;
   o.write_video = !c.no_video;
+  o.video_codec = c.video_codec;
   o.scale_calib = c.scale_calib;
   o.predict_s = c.predict_ms * 1e-3;
   o.tracker.detector.decimation = c.decimate;
@@ -155,7 +157,8 @@ void add_offline(CLI::App& app, int& exit_code) {
       "Synopsis: dentar offline [--footage VIDEO|DIR --station FILE [--session LOG]]\n"
       "                         [--truth FILE|none] [--masks DIR|none] [--out DIR]\n"
       "                         [--preset P] [--frames N] [--resolution WxH] [--seed S]\n"
-      "                         [--max-frames N] [--no-video] [--scale-calib] [--quiet]\n"
+      "                         [--max-frames N] [--no-video] [--video-codec mjpg|ffv1]\n"
+      "                         [--scale-calib] [--quiet]\n"
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
       "                         [--predict-ms MS] [--stale-ms MS] [--no-occlusion]\n"
       "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]");
@@ -177,6 +180,9 @@ void add_offline(CLI::App& app, int& exit_code) {
   s->add_option("--seed", c->seed, "Built-in footage seed")->capture_default_str();
   s->add_option("--max-frames", c->max_frames, "Stop after N frames (0 = all)")->check(CLI::Range(0, 10000000));
   s->add_flag("--no-video", c->no_video, "Do not write composite.mkv");
+  s->add_option("--video-codec", c->video_codec, "composite.mkv codec: mjpg (fast) or ffv1 (lossless)")
+      ->check(CLI::IsMember({"mjpg", "ffv1"}))
+      ->capture_default_str();
   s->add_flag("--scale-calib", c->scale_calib,
               "Accept footage of another size with the same aspect ratio (intrinsics scaled)");
   s->add_flag("--quiet", c->quiet, "No progress bar");

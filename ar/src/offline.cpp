@@ -296,8 +296,9 @@ std::string make_report(const OfflineOptions& o, const OfflineSummary& sum, cons
   stat_row("compositing (render + occlusion + blend)", sum.composite_ms, "ms", 33.0);
   stat_row("video encode", sum.write_ms, "ms");
   stat_row("capture-to-composite latency", sum.latency_ms, "ms");
-  h << "</table><p>Latency runs from the moment a frame is requested from the source (decode "
-       "included) until its composited image is ready, before encoding.</p>\n";
+  h << "</table><p>Latency runs from the moment the decoded frame is in memory (where a live "
+       "camera delivers it) until its composited image is ready, before encoding; decoding the "
+       "recorded footage is the read time.</p>\n";
   h << "<h2>Drilling</h2><p>" << sum.haptic_steps << " haptic steps replayed; removed volume: ";
   for (int m = 1; m < volume::kNumMaterials && m < static_cast<int>(sum.removed_mm3.size()); ++m)
     if (sum.removed_mm3[static_cast<std::size_t>(m)] > 0)
@@ -421,6 +422,8 @@ std::string OfflineOptions::validate() const {
   if (!(predict_s >= 0 && predict_s <= 0.5)) return "predict_s must be in 0..0.5 s";
   if (max_frames < 0) return "max_frames must be >= 0";
   if (stills < 0 || stills > 32) return "stills must be in 0..32";
+  if (video_codec != "mjpg" && video_codec != "ffv1")
+    return "video_codec = \"" + video_codec + "\" must be mjpg or ffv1";
   if (auto v = tracker.validate(); !v.empty()) return "tracker: " + v;
   if (auto v = compositor.validate(); !v.empty()) return "compositor: " + v;
   return {};
@@ -599,10 +602,14 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   const fs::path video_tmp = out / "composite.partial.mkv";
   cv::VideoWriter writer;
   if (o.write_video) {
-    writer.open(video_tmp.string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), fps,
+    const bool ffv1 = o.video_codec == "ffv1";
+    const int fourcc = ffv1 ? cv::VideoWriter::fourcc('F', 'F', 'V', '1') : cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+    writer.open(video_tmp.string(), cv::CAP_FFMPEG, fourcc, fps,
                 cv::Size(st.calibration.camera.width, st.calibration.camera.height));
     if (!writer.isOpened())
-      return fail("offline: " + video_tmp.string() + ": OpenCV cannot open an FFV1 video writer here (use --no-video)");
+      return fail("offline: " + video_tmp.string() + ": OpenCV cannot open a " + o.video_codec +
+                  " video writer here (use --no-video)");
+    if (!ffv1) writer.set(cv::VIDEOWRITER_PROP_QUALITY, 95);
   }
   std::ofstream csv(out / "frames.csv.partial");
   if (!csv) return fail("offline: " + (out / "frames.csv.partial").string() + ": cannot write");
@@ -629,6 +636,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     if (!got) return fail("offline: " + got.error());
     if (!*got) break;
     r.read_ms = ms_since(t_req);
+    const auto t_frame = Clock::now();  // the frame is in memory: latency starts here
     r.frame = static_cast<int>(frame.index);
     r.time_s = frame.time_s;
     if (frame.image.cols != st.calibration.camera.width || frame.image.rows != st.calibration.camera.height)
@@ -684,7 +692,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     if (auto cs = comp->compose(surface, in, cres); !cs)
       return fail("offline: compositing frame " + std::to_string(frame.index) + ": " + cs.error());
     r.composite_ms = ms_since(t0);
-    r.latency_ms = ms_since(t_req);
+    r.latency_ms = ms_since(t_frame);
     r.overlay = cres.overlay_drawn;
     r.mirror_drawn = cres.mirror_drawn;
     r.triangles = cres.triangles_drawn;
