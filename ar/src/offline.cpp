@@ -784,7 +784,10 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     snap = engine->snapshot();
     sum.pulp_exposed = snap.pulp_exposed != 0;
     sum.pulp_exposed_at_s = snap.pulp_exposed_at_s;
-    if (session_steps > sum.haptic_steps)
+    // Up to one frame period of steps may follow the last frame (exposure
+    // time); more means the footage stopped early (--max-frames).
+    if (static_cast<double>(session_steps - std::min<std::uint64_t>(session_steps, sum.haptic_steps)) >
+        rate_hz / fps + 1)
       sum.warnings.push_back("the footage ended " + std::to_string(session_steps - sum.haptic_steps) +
                              " haptic steps before the session log did (--max-frames?)");
   }

@@ -35,6 +35,7 @@ struct Body {
   Eigen::Isometry3d last_meas = Eigen::Isometry3d::Identity();
   int frames_since_meas = 0;
   TrackState state = TrackState::kLost;
+  double max_sigma_m = 0;  // position uncertainty gate (0 = off)
 };
 
 // Integer pixel box [x0, x1) x [y0, y1).
@@ -121,6 +122,14 @@ std::string TrackerOptions::validate() const {
     os << "roi_decimate_above_px = " << roi_decimate_above_px << " must be >= 0";
   else if (!finite_positive(max_rms_px))
     os << "max_rms_px = " << max_rms_px << " must be finite and > 0";
+  else if (!(std::isfinite(mannequin_max_sigma_m) && mannequin_max_sigma_m >= 0))
+    os << "mannequin_max_sigma_m = " << mannequin_max_sigma_m << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(mirror_max_sigma_m) && mirror_max_sigma_m >= 0))
+    os << "mirror_max_sigma_m = " << mirror_max_sigma_m << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(max_prediction_drift_m) && max_prediction_drift_m >= 0))
+    os << "max_prediction_drift_m = " << max_prediction_drift_m << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(sigma_floor_px) && sigma_floor_px >= 0))
+    os << "sigma_floor_px = " << sigma_floor_px << " must be finite and >= 0";
   else if (!std::isfinite(stale_limit_s) || stale_limit_s < 0 || stale_limit_s > 10)
     os << "stale_limit_s = " << stale_limit_s << " must be in [0, 10] s";
   return os.str();
@@ -228,6 +237,19 @@ struct Tracker::Impl {
     return {};
   }
 
+  // Position uncertainty gate (TrackerOptions::mannequin_max_sigma_m).
+  bool precise_enough(const BundlePose& p, double max_sigma_m) const {
+    if (max_sigma_m <= 0) return true;
+    // covariance = s^2 (J^T J)^-1 with s^2 = sum r^2 / (2N - 6) per axis;
+    // rms_px^2 = sum r^2 / N (N corners).
+    const double n = 4.0 * p.tags_used;
+    const double s2 = p.rms_px * p.rms_px * n / std::max(1.0, 2 * n - 6);
+    const double floor2 = o.sigma_floor_px * o.sigma_floor_px;
+    const double scale = s2 > 1e-12 ? std::max(1.0, floor2 / s2) : 1.0;
+    const double var = p.covariance.bottomRightCorner<3, 3>().trace() * scale;
+    return std::isfinite(var) && std::sqrt(var) <= max_sigma_m;
+  }
+
   // Pose + filter + state of one body.
   void update_body(Body& b, const std::vector<DetectedTag>& tags, double capture_s,
                    double display_s, BodyTrack& out, double& pose_ms, double& filter_ms) {
@@ -241,7 +263,7 @@ struct Tracker::Impl {
     bool measured = false;
     if (!tags.empty()) {
       const BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, o.pose, prev);
-      if (p.ok() && p.rms_px <= o.max_rms_px) {
+      if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(p, b.max_sigma_m)) {
         measured = true;
         out.T_cam_body_measured = p.T_cam_body;
         out.rms_px = p.rms_px;
@@ -262,7 +284,12 @@ struct Tracker::Impl {
       b.state = TrackState::kTracking;
     } else {
       ++b.frames_since_meas;
-      if (b.has_measurement && capture_s - b.last_meas_time_s <= o.stale_limit_s) {
+      const double age = capture_s - b.last_meas_time_s;
+      double drift = 0;  // how far the prediction may be off by now, m
+      if (o.filter_enabled && b.filter.initialised())
+        drift = (b.filter.linear_velocity().norm() + 0.1 * b.filter.angular_velocity().norm()) * age;
+      const bool drift_ok = o.max_prediction_drift_m <= 0 || drift <= o.max_prediction_drift_m;
+      if (b.has_measurement && age <= o.stale_limit_s && drift_ok) {
         b.state = TrackState::kPredicted;
       } else {
         b.state = TrackState::kLost;
@@ -310,6 +337,8 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
   }
   m.mannequin.bundle = mannequin_bundle(station);
   m.mirror.bundle = mirror_bundle(station);
+  m.mannequin.max_sigma_m = options.mannequin_max_sigma_m;
+  m.mirror.max_sigma_m = options.mirror_max_sigma_m;
   m.mannequin.filter = PoseFilter(options.filter);
   m.mirror.filter = PoseFilter(options.filter);
   return t;

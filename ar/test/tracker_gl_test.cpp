@@ -215,6 +215,7 @@ TEST(Tracker, StatesGoPredictedThenLostAndRecover) {
   ASSERT_TRUE(fo.error.empty()) << fo.error;
   TrackerOptions o;
   o.stale_limit_s = 0.2;
+  o.max_prediction_drift_m = 0;  // the time limit alone (the drift limit: below)
   auto tr = Tracker::create(fo.station, o);
   ASSERT_TRUE(tr.ok()) << tr.error();
   const cv::Mat blank(fo.frames[0].image.size(), CV_8UC3, cv::Scalar(128, 128, 128));
@@ -253,6 +254,74 @@ TEST(Tracker, StatesGoPredictedThenLostAndRecover) {
   EXPECT_EQ(f->mannequin.state, TrackState::kTracking);
   EXPECT_TRUE(f->full_frame);
   EXPECT_LT(trans_mm(f->mannequin.T_cam_body, fo.frames[k].truth.T_cam_man), 1.0);
+}
+
+TEST(Tracker, FastMotionDropsThePredictionEarly) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Footage& fo = footage(SynthPreset::kStandard, 90, 640, 480);
+  ASSERT_TRUE(fo.error.empty()) << fo.error;
+  const cv::Mat blank(fo.frames[0].image.size(), CV_8UC3, cv::Scalar(128, 128, 128));
+  const double dt = 1.0 / 30;
+  // The same tracking history, then the tags vanish: with a drift limit far
+  // below what the head moves in one frame (10 um), the body is lost at once;
+  // without it, it is predicted.
+  for (double limit : {1e-5, 0.0}) {
+    TrackerOptions o;
+    o.max_prediction_drift_m = limit;
+    auto tr = Tracker::create(fo.station, o);
+    ASSERT_TRUE(tr.ok()) << tr.error();
+    int k = 0;
+    for (; k < 10; ++k) ASSERT_TRUE(tr->track(fo.frames[k].image, k * dt, k * dt).ok());
+    auto f = tr->track(blank, k * dt, k * dt);
+    ASSERT_TRUE(f.ok()) << f.error();
+    EXPECT_EQ(f->mannequin.state, limit > 0 ? TrackState::kLost : TrackState::kPredicted) << limit;
+  }
+}
+
+TEST(Tracker, OneSmallTagIsNotTrustedForTheMannequin) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Footage& fo = footage(SynthPreset::kStandard, 90, 640, 480);
+  ASSERT_TRUE(fo.error.empty()) << fo.error;
+  // Keep one mannequin tag of frame 0 and grey out the rest of the image:
+  // the smallest one the detector finds alone.
+  const SynthFrame& s = fo.frames[0];
+  std::vector<const TagTruth*> cands;
+  for (const TagTruth& t : s.truth.tags)
+    if (!t.on_mirror && t.in_image && t.visible_fraction > 0.99) cands.push_back(&t);
+  std::sort(cands.begin(), cands.end(), [](auto* a, auto* b) { return a->side_px < b->side_px; });
+  auto only = [&](const TagTruth& t) {
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (const auto& c : t.corners_px) {
+      x0 = std::min(x0, c.x()), y0 = std::min(y0, c.y()), x1 = std::max(x1, c.x()), y1 = std::max(y1, c.y());
+    }
+    const double pad = 0.4 * t.side_px;
+    const cv::Rect roi =
+        cv::Rect(cv::Point(int(x0 - pad), int(y0 - pad)), cv::Point(int(x1 + pad), int(y1 + pad))) &
+        cv::Rect(0, 0, s.image.cols, s.image.rows);
+    cv::Mat one(s.image.size(), CV_8UC3, cv::Scalar(128, 128, 128));
+    s.image(roi).copyTo(one(roi));
+    return one;
+  };
+  auto measured_with = [&](const cv::Mat& img, double gate) {
+    TrackerOptions o;
+    o.mannequin_max_sigma_m = gate;
+    auto tr = Tracker::create(fo.station, o);
+    EXPECT_TRUE(tr.ok());
+    auto f = tr->track(img, 0.0, 0.0);
+    EXPECT_TRUE(f.ok());
+    return f.ok() && f->mannequin.measured;
+  };
+  const TagTruth* used = nullptr;
+  for (const TagTruth* t : cands)
+    if (measured_with(only(*t), 0.0)) {
+      used = t;
+      break;
+    }
+  ASSERT_NE(used, nullptr) << "no tag of frame 0 gives a pose on its own";
+  // A single tag of ~20-30 px at 30-40 cm: millimetres of depth uncertainty.
+  EXPECT_FALSE(measured_with(only(*used), 1.5e-3)) << "tag side " << used->side_px << " px";
+  // The whole frame (7+ tags) passes the same gate.
+  EXPECT_TRUE(measured_with(s.image, 1.5e-3));
 }
 
 TEST(Tracker, BadInputGivesClearErrors) {

@@ -68,9 +68,26 @@ struct TrackerOptions {
   bool full_frame_when_any_lost = false;
   // Measurements whose reprojection RMS exceeds this are rejected (px).
   double max_rms_px = 3.0;
+  // Measurements whose position uncertainty (sqrt of the trace of the
+  // covariance's translation block, m) exceeds this are rejected: one or two
+  // small tags can fit their corners exactly and still be millimetres off in
+  // depth (seen on `hard`: 5-9 mm). The covariance is re-scaled to at least
+  // sigma_floor_px of corner noise per axis, because an exact fit of 4
+  // corners says nothing about the noise. 0 = no gate. The mirror's one or
+  // two 12 mm tags are never that precise in depth, so its gate is off by
+  // default.
+  double mannequin_max_sigma_m = 1.5e-3;
+  double mirror_max_sigma_m = 0.0;
+  double sigma_floor_px = 0.25;
   PoseFilterOptions filter;
   bool filter_enabled = true;
   double stale_limit_s = 0.2;  // predicted -> lost after this long without a measurement
+  // Also predicted -> lost once the prediction may have drifted this far (m):
+  // the body's filtered speed (|v| + |w| x 0.1 m of body extent) times the
+  // time since its last measurement. A fast head turn makes a 200 ms-old
+  // prediction centimetres wrong (`hard`: 10 mm per frame); better no
+  // overlay than a misplaced one. 0 = off (only stale_limit_s).
+  double max_prediction_drift_m = 3e-3;
 
   std::string validate() const;  // empty when valid, else names the field
 };
