@@ -27,23 +27,14 @@
 #include <string_view>
 #include <vector>
 
+#include "fuzz_replay.h"
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size);
 
 namespace {
 
-using Bytes = std::vector<std::uint8_t>;
-
-// splitmix64: small and identical on every platform, so runs repeat exactly.
-struct Rng {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  std::size_t below(std::size_t n) { return n == 0 ? 0 : static_cast<std::size_t>(next() % n); }
-};
+using dentar::fuzz::Bytes;
+using dentar::fuzz::Rng;
 
 // Numbers on the parsers' limits: zero and signs, int overflow, double overflow/underflow,
 // non-finite spellings of JSON/YAML/C, exponents.
@@ -171,56 +162,23 @@ void mutate_once(Bytes& b, const std::vector<Bytes>& corpus, const std::vector<s
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::fprintf(stderr, "usage: %s <corpus dir> [--mutations N] [--seed S] [--dict FILE]\n",
-                 argv[0]);
-    return 2;
-  }
-  long mutations = 0;
-  std::uint64_t seed = 1;
   std::vector<std::string> dict;
-  for (int i = 2; i + 1 < argc; i += 2) {
-    const std::string_view a = argv[i];
-    if (a == "--mutations") {
-      mutations = std::strtol(argv[i + 1], nullptr, 10);
-    } else if (a == "--seed") {
-      seed = std::strtoull(argv[i + 1], nullptr, 10);
-    } else if (a == "--dict") {
-      dict = read_dict(argv[i + 1]);
-      if (dict.empty()) {
-        std::fprintf(stderr, "%s: no dictionary entries\n", argv[i + 1]);
-        return 2;
-      }
-    } else {
-      std::fprintf(stderr, "unknown option %s\n", argv[i]);
-      return 2;
+  dentar::fuzz::ReplayHooks h;
+  h.extra_usage = " [--dict FILE]";
+  h.option = [&dict](std::string_view name, const char* value) {
+    if (name != "--dict") {
+      std::fprintf(stderr, "unknown option %.*s\n", static_cast<int>(name.size()), name.data());
+      return false;
     }
-  }
-  std::vector<std::filesystem::path> files;
-  std::error_code ec;
-  for (const auto& e : std::filesystem::directory_iterator(argv[1], ec))
-    if (e.is_regular_file()) files.push_back(e.path());
-  if (ec || files.empty()) {
-    std::fprintf(stderr, "%s: no corpus files (%s)\n", argv[1], ec.message().c_str());
-    return 2;
-  }
-  std::sort(files.begin(), files.end());  // deterministic order
-  std::vector<Bytes> corpus;
-  for (const auto& f : files) {
-    std::ifstream in(f, std::ios::binary);
-    corpus.emplace_back(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+    dict = read_dict(value);
+    if (dict.empty()) std::fprintf(stderr, "%s: no dictionary entries\n", value);
+    return !dict.empty();
+  };
+  h.mutate = [&dict](Bytes& b, const std::vector<Bytes>& corpus, Rng& r) {
+    mutate_once(b, corpus, dict, r);
+  };
+  // Crash signals save the input being run (installed before the first run).
   for (int sig : {SIGILL, SIGSEGV, SIGABRT, SIGFPE, SIGBUS}) std::signal(sig, save_and_reraise);
-  const auto t0 = std::chrono::steady_clock::now();
-  for (const auto& c : corpus) run(c);
-  Rng rng{seed};
-  for (long m = 0; m < mutations; ++m) {
-    Bytes b = corpus[static_cast<std::size_t>(m) % corpus.size()];
-    const std::size_t rounds = 1 + rng.below(4);
-    for (std::size_t k = 0; k < rounds; ++k) mutate_once(b, corpus, dict, rng);
-    run(b);
-  }
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("%zu corpus files + %ld mutations replayed in %.2f s\n", corpus.size(), mutations, s);
-  return 0;
+  h.run = [](const Bytes& b) { run(b); };
+  return dentar::fuzz::replay_main(argc, argv, h);
 }
