@@ -7,25 +7,12 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "tag_test_util.h"
+
 namespace dentar::ar {
 namespace {
 
-// Tag detection the way the ground-truth checks need it: full resolution,
-// one thread, no blur, edge refinement on (deterministic).
-std::vector<DetectedTag> detect_full_resolution(const cv::Mat& gray, TagFamilyId family) {
-  TagDetectorOptions o;
-  o.families = {family};
-  o.decimation = 1.0;
-  o.threads = 1;
-  o.refine_edges = true;
-  o.blur_sigma = 0.0;
-  auto det = TagDetector::create(o);
-  EXPECT_TRUE(det.ok()) << det.error();
-  if (!det.ok()) return {};
-  auto found = det->detect(gray);
-  EXPECT_TRUE(found.ok()) << found.error();
-  return found.ok() ? std::move(found).value() : std::vector<DetectedTag>{};
-}
+using test::detect_full_resolution;
 
 class TagImages : public ::testing::TestWithParam<TagFamilyId> {};
 

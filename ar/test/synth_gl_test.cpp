@@ -18,25 +18,12 @@
 #include "gl_test_context.h"
 #include "testutil.h"
 
+#include "tag_test_util.h"
+
 namespace dentar::ar {
 namespace {
 
-// Tag detection the way the ground-truth checks need it: full resolution,
-// one thread, no blur, edge refinement on (deterministic).
-std::vector<DetectedTag> detect_full_resolution(const cv::Mat& gray, TagFamilyId family) {
-  TagDetectorOptions o;
-  o.families = {family};
-  o.decimation = 1.0;
-  o.threads = 1;
-  o.refine_edges = true;
-  o.blur_sigma = 0.0;
-  auto det = TagDetector::create(o);
-  EXPECT_TRUE(det.ok()) << det.error();
-  if (!det.ok()) return {};
-  auto found = det->detect(gray);
-  EXPECT_TRUE(found.ok()) << found.error();
-  return found.ok() ? std::move(found).value() : std::vector<DetectedTag>{};
-}
+using test::detect_full_resolution;
 
 std::unique_ptr<SynthGenerator> make(const SynthOptions& o, const std::string& log = {}) {
   auto g = SynthGenerator::create(default_station_scene(), o, log);
