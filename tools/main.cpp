@@ -3,12 +3,6 @@
 
 #include "commands.h"
 
-namespace dentar::tools {
-void print_error(const std::string& cmd, const std::string& message) {
-  std::cerr << "dentar " << cmd << ": " << message << "\n";
-}
-}  // namespace dentar::tools
-
 int main(int argc, char** argv) {
   CLI::App app{
       "DentAR: augmented-reality dental drilling trainer.\n"
