@@ -11,26 +11,10 @@
 #include <random>
 #include <sstream>
 
+#include "intrinsics_detail.h"
+
 namespace dentar::calibration {
-namespace {
-
-constexpr double kDeg = 180.0 / std::numbers::pi;
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-struct CalibRun {
-  bool ok = false;
-  std::string error;
-  double rms = 0;
-  cv::Mat K, D, std_int;
-  std::vector<cv::Mat> rvecs, tvecs;
-  std::vector<double> per_view;  // aligned with the subset
-};
+namespace detail {
 
 CalibRun run_calibration(const std::vector<BoardView>& views, const std::vector<int>& subset,
                          int width, int height, DistortionModel model) {
@@ -51,6 +35,9 @@ CalibRun run_calibration(const std::vector<BoardView>& views, const std::vector<
   }
   int flags = 0;
   if (model == DistortionModel::kRational8) flags |= cv::CALIB_RATIONAL_MODEL;
+  if (model == DistortionModel::kK1)
+    flags |= cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST;
+  if (model == DistortionModel::kK1K2) flags |= cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST;
   cv::Mat std_ext, per_view;
   try {
     r.rms = cv::calibrateCamera(obj, img, cv::Size(width, height), r.K, r.D, r.rvecs, r.tvecs,
@@ -71,7 +58,24 @@ CalibRun run_calibration(const std::vector<BoardView>& views, const std::vector<
   return r;
 }
 
-Eigen::Isometry3d to_iso(const cv::Mat& rvec, const cv::Mat& tvec) {
+}  // namespace detail
+
+namespace {
+using detail::CalibRun;
+using detail::run_calibration;
+
+constexpr double kDeg = 180.0 / std::numbers::pi;
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+
+Eigen::Isometry3d detail::to_iso(const cv::Mat& rvec, const cv::Mat& tvec) {
   cv::Mat R;
   cv::Rodrigues(rvec, R);
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -82,7 +86,19 @@ Eigen::Isometry3d to_iso(const cv::Mat& rvec, const cv::Mat& tvec) {
   return T;
 }
 
+namespace {
+using detail::to_iso;
 }  // namespace
+
+const char* distortion_model_name(DistortionModel m) {
+  switch (m) {
+    case DistortionModel::kK1: return "k1";
+    case DistortionModel::kK1K2: return "k1k2";
+    case DistortionModel::kRadTan5: return "radtan5";
+    case DistortionModel::kRational8: return "rational8";
+  }
+  return "?";
+}
 
 std::string ChessboardSpec::validate() const {
   std::ostringstream os;
@@ -243,6 +259,7 @@ IntrinsicsSummary calibrate_intrinsics(const std::vector<BoardView>& views, int 
                                        const IntrinsicsOptions& o) {
   IntrinsicsSummary s;
   s.model = o.model == DistortionModel::kRational8 ? kModelRational8 : kModelRadTan5;
+  s.terms = o.model;
   s.per_view_rms_px.assign(views.size(), 0.0);
   if (std::string e = o.validate(); !e.empty()) {
     s.message = "invalid options: " + e;
@@ -424,6 +441,13 @@ bool project_point(const CameraIntrinsics& k, const Eigen::Vector3d& p, Eigen::V
 
 std::vector<Eigen::Isometry3d> plan_board_poses(const CameraIntrinsics& k, double bw, double bh,
                                                 int count, std::uint64_t seed) {
+  return plan_board_poses_in_region(k, bw, bh, count, seed, 1.0);
+}
+
+std::vector<Eigen::Isometry3d> plan_board_poses_in_region(const CameraIntrinsics& k, double bw,
+                                                          double bh, int count, std::uint64_t seed,
+                                                          double area_fraction) {
+  const double sc = std::sqrt(std::clamp(area_fraction, 0.01, 1.0));
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> tilt(15.0 / kDeg, 45.0 / kDeg), roll(-0.35, 0.35),
       jitter(-0.05, 0.05);
@@ -439,8 +463,10 @@ std::vector<Eigen::Isometry3d> plan_board_poses(const CameraIntrinsics& k, doubl
     Eigen::Matrix3d R = (Eigen::AngleAxisd(roll(rng), Eigen::Vector3d::UnitZ()) *
                          Eigen::AngleAxisd(tilt(rng), axis))
                             .toRotationMatrix();
-    double u = pos[i % 10][0] + jitter(rng), v = pos[i % 10][1] + jitter(rng);
-    double d = k.fx * std::max(bw, bh) / (0.55 * k.width);
+    double u = 0.5 + sc * (pos[i % 10][0] + jitter(rng) - 0.5),
+           v = 0.5 + sc * (pos[i % 10][1] + jitter(rng) - 0.5);
+    double d = k.fx * std::max(bw, bh) / (0.55 * sc * k.width);
+    const double lo = 0.5 - 0.47 * sc, hi = 0.5 + 0.47 * sc;
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     for (int attempt = 0; attempt < 40; ++attempt) {
       const Eigen::Vector3d ray((u * k.width - k.cx) / k.fx, (v * k.height - k.cy) / k.fy, 1.0);
@@ -450,8 +476,8 @@ std::vector<Eigen::Isometry3d> plan_board_poses(const CameraIntrinsics& k, doubl
       for (const Eigen::Vector3d& c : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(bw, 0, 0),
                                        Eigen::Vector3d(bw, bh, 0), Eigen::Vector3d(0, bh, 0)}) {
         Eigen::Vector2d px;
-        if (!project_point(k, T * c, px) || px.x() < 0.03 * k.width || px.y() < 0.03 * k.height ||
-            px.x() > 0.97 * k.width || px.y() > 0.97 * k.height)
+        if (!project_point(k, T * c, px) || px.x() < lo * k.width || px.y() < lo * k.height ||
+            px.x() > hi * k.width || px.y() > hi * k.height)
           inside = false;
       }
       if (inside) break;

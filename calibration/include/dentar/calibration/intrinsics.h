@@ -66,7 +66,12 @@ Result<BoardView> detect_chessboard(const std::uint8_t* gray, int width, int hei
                                     int stride_bytes, const ChessboardSpec& spec,
                                     const std::string& name);
 
-enum class DistortionModel { kRadTan5, kRational8 };
+// Distortion models, simplest last in this list but ordered by coefficient count in
+// camera_model.h. kK1 and kK1K2 are the radtan5 model with the other coefficients held at 0
+// (their files say pinhole-radtan5 with zeros).
+enum class DistortionModel { kRadTan5, kRational8, kK1, kK1K2 };
+// "k1", "k1k2", "radtan5", "rational8".
+const char* distortion_model_name(DistortionModel m);
 
 struct IntrinsicsOptions {
   DistortionModel model = DistortionModel::kRadTan5;
@@ -112,7 +117,8 @@ struct IntrinsicsSummary {
   std::vector<std::string> warnings;  // e.g. poor coverage of the tooth region
 
   CameraIntrinsics camera;   // dist = k1 k2 p1 p2 k3 (valid when the fit ran)
-  std::string model = kModelRadTan5;
+  std::string model = kModelRadTan5;  // the file-level model (k1, k1k2 are radtan5 with zeros)
+  DistortionModel terms = DistortionModel::kRadTan5;  // the coefficients that were fitted
   std::vector<double> dist;  // all coefficients of the model (5 or 8)
   // Std devs of fx fy cx cy k1 k2 p1 p2 k3 [k4 k5 k6] (OpenCV's stdDeviationsIntrinsics: from
   // the Jacobian at the solution, scaled by the residual's variance, with OpenCV 4.6's
@@ -148,5 +154,12 @@ bool project_point(const CameraIntrinsics& k, const Eigen::Vector3d& p_cam, Eige
 // views cover the image (including its centre). Deterministic for a seed.
 std::vector<Eigen::Isometry3d> plan_board_poses(const CameraIntrinsics& k, double board_w_m,
                                                 double board_h_m, int count, std::uint64_t seed);
+// The same, with every board corner inside the centred rectangle holding `area_fraction` of the
+// image (sides sqrt(area_fraction) of the image's, 0 < area_fraction <= 1; 1 gives
+// plan_board_poses exactly): the photos of a user who kept the board in the middle.
+std::vector<Eigen::Isometry3d> plan_board_poses_in_region(const CameraIntrinsics& k,
+                                                          double board_w_m, double board_h_m,
+                                                          int count, std::uint64_t seed,
+                                                          double area_fraction);
 
 }  // namespace dentar::calibration
