@@ -44,6 +44,10 @@ Result<std::unique_ptr<ForceModel>> make_force_model(std::string_view name,
   if (name == "seed") {
     if (std::string why = params.seed.validate(); !why.empty())
       return Error{"force model: " + why};
+    if (params.seed.c2_N_s_per_m > limits.max_damping_N_s_per_m)
+      return Error{"force model: seed.c2_N_s_per_m = " + std::to_string(params.seed.c2_N_s_per_m) +
+                   " exceeds the device's max stable damping " +
+                   std::to_string(limits.max_damping_N_s_per_m) + " N s/m"};
     return detail::make_seed_model(params.seed, max_samples);
   }
   if (name == "proxy") {
@@ -59,6 +63,12 @@ Result<std::unique_ptr<ForceModel>> make_force_model(std::string_view name,
       return Error{"force model: proxy.stiffness_N_per_m = " +
                    std::to_string(params.proxy.stiffness_N_per_m) +
                    " exceeds the device's max stable stiffness " + std::to_string(kmax) + " N/m"};
+    // Virtual damping above the device's figure is as unstable as a stiff spring.
+    if (params.proxy.damping_N_s_per_m > limits.max_damping_N_s_per_m)
+      return Error{"force model: proxy.damping_N_s_per_m = " +
+                   std::to_string(params.proxy.damping_N_s_per_m) +
+                   " exceeds the device's max stable damping " +
+                   std::to_string(limits.max_damping_N_s_per_m) + " N s/m"};
     return detail::make_proxy_model(params.proxy, limits, max_samples);
   }
   return Error{"force model: unknown name '" + std::string(name) + "': use seed or proxy"};

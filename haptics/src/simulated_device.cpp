@@ -16,6 +16,11 @@ std::string DeviceLimits::validate() const {
   else if (!workspace_min_m.allFinite() || !workspace_max_m.allFinite() ||
            (workspace_max_m - workspace_min_m).minCoeff() <= 0)
     os << "workspace box must be finite with max > min on every axis";
+  else if (!std::isfinite(max_damping_N_s_per_m) || max_damping_N_s_per_m <= 0 ||
+           max_damping_N_s_per_m > 1e3)
+    os << "max_damping_N_s_per_m = " << max_damping_N_s_per_m << " must be in (0, 1e3]";
+  else if (!std::isfinite(workspace_radius_m) || workspace_radius_m < 0 || workspace_radius_m > 2)
+    os << "workspace_radius_m = " << workspace_radius_m << " must be in [0, 2] m (0 = unknown)";
   return os.str();
 }
 

@@ -18,6 +18,12 @@ struct DeviceLimits {
   Eigen::Vector3d workspace_min_m{-0.08, -0.06, -0.05};  // device frame box
   Eigen::Vector3d workspace_max_m{0.08, 0.06, 0.05};
   std::string validate() const;  // empty when valid, else names the field
+  // Largest virtual damping the device renders stably (N s/m); force models
+  // refuse a damping above it. Device profiles (device_profiles.h) set it.
+  double max_damping_N_s_per_m = 30.0;
+  // Radius of the device's usable workspace sphere around the dev-frame
+  // origin (m); 0 = only the box above is known.
+  double workspace_radius_m = 0.0;
 };
 
 // Button bits in DeviceState::buttons.
@@ -48,6 +54,10 @@ class HapticDevice {
   // Replayed sources: whether the live engine's watchdog zeroed the force
   // at the step just read, so a replay sends the same forces. Live devices: false.
   virtual bool recorded_watchdog() const noexcept { return false; }
+  // One line for the HUD and the log: what the device is doing or why it
+  // faulted ("HD servo stalled for 12 ms: zero force"). Any thread; may
+  // allocate, so never from the haptic thread. Empty when there is nothing to say.
+  virtual std::string status() const { return {}; }
 };
 
 }  // namespace dentar::haptics
