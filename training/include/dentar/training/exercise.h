@@ -1,0 +1,132 @@
+// Exercises: the tooth, the procedure and its steps, the target, forbidden
+// and entry regions (analytic shapes in the tooth frame, combined by
+// intersection), the bur and the time limit. Files: assets/exercises/*.json,
+// format in docs/formats.md ("Exercise").
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dentar/volume/bur.h"
+#include "dentar/volume/material.h"
+#include "dentar/volume/result.h"
+#include "dentar/volume/voxel_volume.h"
+
+namespace dentar::training {
+
+enum class PrimitiveKind : std::uint8_t {
+  kSphere,     // centre a, radius
+  kBox,        // corners a (min) and b (max)
+  kCylinder,   // axis from a to b, radius (flat ends)
+  kHalfSpace,  // point a, outward normal b: keeps (p - a)·b <= 0
+  kMaterial,   // voxels of `material` in the starting volume
+  kShell,      // solid voxels of the starting volume within `depth` of its surface
+  kSolid,      // solid voxels (density > iso) of the starting volume
+};
+
+// One analytic shape (tooth frame, metres). `negate` takes its complement.
+struct Primitive {
+  PrimitiveKind kind = PrimitiveKind::kBox;
+  Eigen::Vector3d a_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d b_m = Eigen::Vector3d::Zero();
+  double radius_m = 0;
+  double depth_m = 0;
+  volume::Material material = volume::Material::kAir;
+  bool negate = false;
+  // Geometric test for the analytic kinds (kMaterial/kShell/kSolid need the
+  // volume and are handled by build_masks). `grow_m` enlarges the shape (zones).
+  bool contains(const Eigen::Vector3d& p_m, double grow_m = 0) const;
+};
+
+enum class RegionRole : std::uint8_t { kTarget, kForbidden, kEntry };
+
+// A region is the intersection of its primitives.
+struct Region {
+  std::string name;
+  RegionRole role = RegionRole::kTarget;
+  std::vector<Primitive> all;
+  double points = 0;       // graded outcome: points this target region is worth
+  double zone_mm = 1.0;    // graded outcome: neighbourhood that counts as over-preparation
+};
+
+struct ExerciseStep {
+  std::string name;
+  std::string region;  // name of the region the step works on ("" = none)
+  // Where the bur works in this step (tooth frame); used to find the steps in
+  // a session. Absent: the centroid of `region`.
+  std::optional<Eigen::Vector3d> focus_m;
+};
+
+struct Orifice {
+  std::string name;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+};
+
+// Access-opening geometry (outcome kind "access_opening").
+struct AccessGeometry {
+  std::vector<Orifice> orifices;
+  Eigen::Vector3d axis_point_m = Eigen::Vector3d::Zero();  // on the long axis of the access
+  double opening_z_m = 0;  // occlusal opening plane (tooth frame z)
+  double floor_z_m = 0;    // pulpal floor level
+  double walls_from_z_m = 0;  // axial walls are measured from here up to the opening (>= floor)
+  double sight_cone_deg = 10;  // rays from an orifice within this cone of +z
+};
+
+enum class OutcomeKind : std::uint8_t { kGradedRegions, kAccessOpening };
+
+struct Exercise {
+  std::string source;  // file name (messages)
+  std::string name, title, procedure;
+  std::string tooth_json;  // {"kind": "molar"|"incisor", "voxel_mm": ...}: as in the session header
+  volume::BurParams bur;
+  int bur_samples = 2000;
+  double time_limit_s = 600;
+  double excessive_force_N = 3.0;  // drilling force above this is "excessive" (process metric)
+  std::vector<ExerciseStep> steps;
+  std::vector<Region> regions;
+  OutcomeKind outcome = OutcomeKind::kGradedRegions;
+  std::optional<AccessGeometry> access;
+
+  const Region* region(const std::string& n) const;
+  double max_points() const;  // 18 for an access opening, sum of points otherwise
+};
+
+// Parses an exercise; every error names the file (`name`) and the field.
+Result<Exercise> parse_exercise(const std::string& json_text, const std::string& name);
+Result<Exercise> load_exercise(const std::string& path);
+// The exercises shipped in assets/exercises (name without .json). The
+// assets folder is found beside the source tree, or through DENTAR_ASSETS.
+Result<Exercise> load_builtin_exercise(const std::string& name);
+std::string builtin_exercise_dir();
+
+// Builds a tooth from its description (session header "tooth" object or an
+// exercise's): kinds "molar" and "incisor" with optional "voxel_mm".
+Result<volume::VoxelVolume> make_tooth(const std::string& tooth_json);
+
+// One bit per region (bit r = regions[r]) for every voxel of the starting
+// volume, x fastest. At most 32 regions.
+struct RegionMasks {
+  Eigen::Vector3i dims{0, 0, 0};
+  std::vector<std::uint32_t> bits;
+  std::uint32_t target_bits = 0, forbidden_bits = 0, entry_bits = 0;
+  std::size_t index(int i, int j, int k) const {
+    return static_cast<std::size_t>(i) +
+           static_cast<std::size_t>(dims.x()) * (static_cast<std::size_t>(j) +
+                                                 static_cast<std::size_t>(dims.y()) * k);
+  }
+};
+
+// Rasterises the regions on the starting volume. Errors: a target and a
+// forbidden region that share a voxel (names both regions, the file and the
+// voxel's position in mm), an empty target region.
+Result<RegionMasks> build_masks(const Exercise& ex, const volume::VoxelVolume& start);
+
+// Distance (m) from each voxel of `vol` to the nearest outside voxel (not
+// solid and not pulp)
+// (3-4-5 chamfer approximation, within 3 %); 0 for non-solid voxels.
+std::vector<float> distance_to_air_m(const volume::VoxelVolume& vol);
+
+}  // namespace dentar::training

@@ -1,0 +1,67 @@
+// Outcome scores from the cut volume against the exercise's regions.
+// Formulas: docs/formats.md ("Outcome scores").
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "dentar/training/exercise.h"
+
+namespace dentar::training {
+
+struct RegionScore {
+  std::string name;
+  double volume_mm3 = 0;     // density-weighted volume of the region in the starting tooth
+  double removed_mm3 = 0;    // removed inside it
+  double coverage_pct = 0;   // 100 * removed / volume
+  double overprep_mm3 = 0;   // removed in its zone (region grown by zone_mm) outside every target
+  double points = 0, max_points = 0;
+};
+
+// One of the six access-opening criteria, 0..3.
+struct Criterion {
+  std::string name;
+  int score = 0;
+  double value = 0;   // the measured quantity (see `unit`)
+  std::string unit;
+  std::string detail;  // how the score was reached, for the report
+};
+
+struct OutcomeScores {
+  std::array<double, volume::kMaxMaterials> removed_mm3{};  // per material of the starting voxel
+  double removed_total_mm3 = 0;
+  double target_mm3 = 0, target_removed_mm3 = 0, target_coverage_pct = 0;
+  double overprep_mm3 = 0;   // removed outside every target region
+  double forbidden_mm3 = 0;  // removed inside forbidden regions
+  std::vector<std::pair<std::string, double>> forbidden_by_region;  // name, mm3
+  bool pulp_exposed = false;     // a pulp voxel borders a voxel the cut opened
+  double pulp_removed_mm3 = 0;
+  bool perforation = false;      // the cut opened to the outside away from every entry region
+  double perforation_mm3 = 0;    // opened voxels that border outside air outside entry regions
+  std::vector<RegionScore> regions;  // every target region
+  std::vector<Criterion> criteria;   // access opening: the six criteria
+  double points = 0, max_points = 0;
+};
+
+// start: the starting volume the masks were built on; cut: the same geometry
+// after the session. Errors name the mismatch.
+Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& masks,
+                                    const volume::VoxelVolume& start, const volume::VoxelVolume& cut);
+
+// Wall profile used by the access criteria (exposed for tests): cavity extent
+// (m) from the axis point along `dir` (unit, horizontal) at each level z in
+// [z0, z1], one per voxel layer where the axis voxel is open.
+struct WallProfile {
+  std::vector<double> z_m, extent_m;
+  double divergence_deg = 0;  // atan of d(extent)/dz: > 0 opens toward occlusal
+  double rms_mm = 0;          // residual of the straight-line fit
+};
+WallProfile wall_profile(const volume::VoxelVolume& cut, const Eigen::Vector3d& axis_point_m,
+                         const Eigen::Vector3d& dir, double z0_m, double z1_m);
+// Fraction (0..1) of sight rays from `from_m` within `cone_deg` of +z that
+// reach z >= top_z_m through open voxels (density < iso) of `cut`.
+double line_of_sight(const volume::VoxelVolume& cut, const Eigen::Vector3d& from_m, double top_z_m,
+                     double cone_deg);
+
+}  // namespace dentar::training

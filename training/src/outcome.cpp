@@ -1,0 +1,288 @@
+#include "dentar/training/outcome.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace dentar::training {
+namespace {
+
+using volume::kIsoDensity;
+
+bool open_at(const volume::VoxelVolume& v, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d q = (p - v.origin()).cwiseQuotient(v.spacing());
+  const int i = static_cast<int>(std::lround(q.x())), j = static_cast<int>(std::lround(q.y())),
+            k = static_cast<int>(std::lround(q.z()));
+  return v.density(i, j, k) < kIsoDensity;  // outside the volume reads as air
+}
+
+std::string fmt(double x, int prec = 2) {
+  std::ostringstream os;
+  os.setf(std::ios::fixed);
+  os.precision(prec);
+  os << x;
+  return os.str();
+}
+
+int band(double v, double t3, double t2, double t1) {  // higher is better
+  return v >= t3 ? 3 : v >= t2 ? 2 : v >= t1 ? 1 : 0;
+}
+
+}  // namespace
+
+double line_of_sight(const volume::VoxelVolume& cut, const Eigen::Vector3d& from, double top_z,
+                     double cone_deg) {
+  if (!open_at(cut, from)) return 0.0;
+  const double step = 0.5 * cut.spacing().minCoeff();
+  int rays = 0, clear = 0;
+  const double cone = cone_deg * M_PI / 180.0;
+  auto cast = [&](double tilt, double az) {
+    const Eigen::Vector3d d(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
+    ++rays;
+    for (double s = step; ; s += step) {
+      const Eigen::Vector3d p = from + s * d;
+      if (p.z() >= top_z) break;
+      if (!open_at(cut, p)) return;
+    }
+    ++clear;
+  };
+  cast(0, 0);
+  for (int ring = 1; ring <= 2; ++ring)
+    for (int a = 0; a < 8; ++a) cast(cone * ring / 2.0, a * M_PI / 4.0);
+  return static_cast<double>(clear) / rays;
+}
+
+WallProfile wall_profile(const volume::VoxelVolume& cut, const Eigen::Vector3d& axis, const Eigen::Vector3d& dir,
+                         double z0, double z1) {
+  WallProfile w;
+  const double h = cut.spacing().minCoeff();
+  const double step = 0.25 * h;
+  for (double z = z0; z <= z1 + 1e-12; z += cut.spacing().z()) {
+    const Eigen::Vector3d c(axis.x(), axis.y(), z);
+    if (!open_at(cut, c)) continue;
+    double s = 0;
+    const double max_s = 0.02;  // 20 mm
+    while (s < max_s && open_at(cut, c + (s + step) * dir)) s += step;
+    if (s >= max_s) continue;  // no wall in that direction at this level
+    w.z_m.push_back(z);
+    w.extent_m.push_back(s + 0.5 * h);  // the wall surface lies half a voxel past the last open centre
+  }
+  const std::size_t n = w.z_m.size();
+  if (n >= 2) {
+    double mz = 0, me = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      mz += w.z_m[i];
+      me += w.extent_m[i];
+    }
+    mz /= n;
+    me /= n;
+    double szz = 0, sze = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      szz += (w.z_m[i] - mz) * (w.z_m[i] - mz);
+      sze += (w.z_m[i] - mz) * (w.extent_m[i] - me);
+    }
+    const double b = szz > 0 ? sze / szz : 0;
+    const double a = me - b * mz;
+    double ss = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double r = w.extent_m[i] - (a + b * w.z_m[i]);
+      ss += r * r;
+    }
+    w.divergence_deg = std::atan(b) * 180.0 / M_PI;
+    w.rms_mm = std::sqrt(ss / n) * 1e3;
+  }
+  return w;
+}
+
+Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, const volume::VoxelVolume& start,
+                                    const volume::VoxelVolume& cut) {
+  if (start.dims() != cut.dims() || !start.spacing().isApprox(cut.spacing()) ||
+      !start.origin().isApprox(cut.origin()))
+    return Error{"score_outcome: the cut volume's geometry differs from the starting volume's (" +
+                 std::to_string(cut.dims().x()) + "x" + std::to_string(cut.dims().y()) + "x" +
+                 std::to_string(cut.dims().z()) + " vs " + std::to_string(start.dims().x()) + "x" +
+                 std::to_string(start.dims().y()) + "x" + std::to_string(start.dims().z()) + ")"};
+  if (m.dims != start.dims()) return Error{"score_outcome: masks were built on another volume"};
+  OutcomeScores o;
+  // mm3 per density unit of each material (a voxel at its material's full density is one voxel).
+  std::array<double, volume::kMaxMaterials> unit_mm3{};
+  for (int mt = 0; mt < volume::kMaxMaterials; ++mt) {
+    const double full = volume::material_info(mt).full_density;
+    unit_mm3[static_cast<std::size_t>(mt)] = full > 0 ? start.voxel_volume_m3() * 1e9 / full : 0.0;
+  }
+  const std::size_t nr = ex.regions.size();
+  std::vector<double> reg_vol(nr, 0), reg_rem(nr, 0), reg_over(nr, 0);
+  bool need_dist = false;
+  for (const auto& r : ex.regions)
+    for (const auto& p : r.all) need_dist |= p.kind == PrimitiveKind::kShell;
+  std::vector<float> dist;
+  if (need_dist) dist = distance_to_air_m(start);
+  // Zone membership of a voxel for region r (primitives grown by zone_mm).
+  auto in_zone = [&](std::size_t r, int i, int j, int k, std::size_t id) {
+    const Region& R = ex.regions[r];
+    const double g = R.zone_mm * 1e-3;
+    const Eigen::Vector3d p = start.voxel_center(i, j, k);
+    const std::uint8_t d0 = start.density(i, j, k);
+    for (const auto& pr : R.all) {
+      bool v;
+      switch (pr.kind) {
+        case PrimitiveKind::kMaterial: v = d0 > 0 && start.material(i, j, k) == pr.material; break;
+        case PrimitiveKind::kShell: v = d0 > kIsoDensity && dist[id] <= pr.depth_m + g; break;
+        case PrimitiveKind::kSolid: v = d0 > kIsoDensity; break;
+        default:
+          // contains() applies `negate` itself; a complement grows when its shape shrinks.
+          if (!pr.contains(p, pr.negate ? -g : g)) return false;
+          continue;
+      }
+      if (pr.negate) v = !v;
+      if (!v) return false;
+    }
+    return true;
+  };
+  const Eigen::Vector3i d = start.dims();
+  static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (int k = 0; k < d.z(); ++k)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i) {
+        const std::uint8_t d0 = start.density(i, j, k);
+        if (d0 == 0) continue;
+        const std::uint8_t d1 = cut.density(i, j, k);
+        const std::size_t id = m.index(i, j, k);
+        const double vmm3 = unit_mm3[static_cast<std::size_t>(start.material(i, j, k))];
+        const std::uint32_t bits = m.bits[id];
+        const double rem = d1 < d0 ? (d0 - d1) * vmm3 : 0.0;
+        for (std::size_t r = 0; r < nr; ++r)
+          if (bits >> r & 1u) {
+            reg_vol[r] += d0 * vmm3;
+            reg_rem[r] += rem;
+          }
+        if (rem <= 0) continue;
+        const auto mat = static_cast<std::size_t>(start.material(i, j, k));
+        o.removed_mm3[mat] += rem;
+        o.removed_total_mm3 += rem;
+        if (mat == static_cast<std::size_t>(volume::Material::kPulp)) o.pulp_removed_mm3 += rem;
+        if (!(bits & m.target_bits)) {
+          o.overprep_mm3 += rem;
+          for (std::size_t r = 0; r < nr; ++r)
+            if (ex.regions[r].role == RegionRole::kTarget && ex.regions[r].points > 0 && in_zone(r, i, j, k, id))
+              reg_over[r] += rem;
+        }
+        if (bits & m.forbidden_bits) o.forbidden_mm3 += rem;
+        // Opened voxel (solid before, open now): exposure and perforation.
+        if (d0 > kIsoDensity && d1 < kIsoDensity) {
+          bool exterior = false;
+          for (const auto& n : nb) {
+            const int a = i + n[0], b = j + n[1], c = k + n[2];
+            const std::uint8_t nd = start.density(a, b, c);
+            const auto nm = start.material(a, b, c);
+            if (nm == volume::Material::kPulp && nd > 0) o.pulp_exposed = true;
+            if (nd == 0) exterior = true;
+          }
+          if (exterior && !(bits & m.entry_bits)) {
+            o.perforation = true;
+            o.perforation_mm3 += d0 * vmm3;
+          }
+        }
+      }
+  for (std::size_t r = 0; r < nr; ++r) {
+    const Region& R = ex.regions[r];
+    if (R.role == RegionRole::kTarget) {
+      o.target_mm3 += reg_vol[r];
+      o.target_removed_mm3 += reg_rem[r];
+      RegionScore s;
+      s.name = R.name;
+      s.volume_mm3 = reg_vol[r];
+      s.removed_mm3 = reg_rem[r];
+      s.coverage_pct = reg_vol[r] > 0 ? 100.0 * reg_rem[r] / reg_vol[r] : 0;
+      s.overprep_mm3 = reg_over[r];
+      s.max_points = R.points;
+      if (R.points > 0 && reg_vol[r] > 0)
+        s.points = R.points * std::clamp(reg_rem[r] / reg_vol[r] - reg_over[r] / reg_vol[r], 0.0, 1.0);
+      o.regions.push_back(s);
+    } else if (R.role == RegionRole::kForbidden) {
+      o.forbidden_by_region.emplace_back(R.name, reg_rem[r]);
+    }
+  }
+  o.target_coverage_pct = o.target_mm3 > 0 ? 100.0 * o.target_removed_mm3 / o.target_mm3 : 0;
+
+  if (ex.outcome == OutcomeKind::kAccessOpening && ex.access) {
+    const AccessGeometry& a = *ex.access;
+    // 1. Orifice visibility.
+    double vis = 0;
+    std::string det;
+    for (const auto& f : a.orifices) {
+      const double v = line_of_sight(cut, f.position_m, a.opening_z_m, a.sight_cone_deg);
+      vis += v;
+      det += f.name + " " + fmt(100 * v, 0) + "% ";
+    }
+    vis /= static_cast<double>(a.orifices.size());
+    o.criteria.push_back({"canal orifices visible", band(vis, 0.9, 0.6, 0.3), 100 * vis, "% of sight lines",
+                          "clear sight lines from each orifice to the opening: " + det});
+    // 2-5. Axial walls.
+    const struct { const char* name; Eigen::Vector3d dir; } walls[4] = {
+        {"mesial wall", {-1, 0, 0}}, {"distal wall", {1, 0, 0}}, {"buccal wall", {0, -1, 0}}, {"palatal wall", {0, 1, 0}}};
+    for (const auto& w : walls) {
+      const WallProfile p = wall_profile(cut, a.axis_point_m, w.dir, a.walls_from_z_m, a.opening_z_m);
+      Criterion c;
+      c.name = w.name;
+      c.value = p.divergence_deg;
+      c.unit = "deg divergence";
+      const double needed = 0.5 * (a.opening_z_m - a.walls_from_z_m);
+      const double covered = p.z_m.size() >= 2 ? p.z_m.back() - p.z_m.front() : 0;
+      if (covered < needed) {
+        c.score = 0;
+        c.detail = "wall not formed: the cavity spans " + fmt(covered * 1e3) + " mm of the " +
+                   fmt((a.opening_z_m - a.walls_from_z_m) * 1e3) + " mm the walls span";
+      } else {
+        int s = 3;
+        std::string why;
+        if (p.divergence_deg < -10) { s -= 2; why += "strong undercut; "; }
+        else if (p.divergence_deg < -2) { s -= 1; why += "undercut (converges occlusally); "; }
+        if (p.divergence_deg > 25) { s -= 1; why += "over-flared; "; }
+        if (p.rms_mm > 0.3) { s -= 2; why += "rough (RMS " + fmt(p.rms_mm) + " mm); "; }
+        else if (p.rms_mm > 0.15) { s -= 1; why += "uneven (RMS " + fmt(p.rms_mm) + " mm); "; }
+        c.score = std::max(0, s);
+        c.detail = "divergence " + fmt(p.divergence_deg, 1) + " deg, smoothness RMS " + fmt(p.rms_mm) + " mm" +
+                   (why.empty() ? "" : ": " + why.substr(0, why.size() - 2));
+      }
+      o.criteria.push_back(c);
+    }
+    // 6. Floor integrity: material removed below the pulpal floor level.
+    double below = 0;
+    bool perf_below = false;
+    const int kf = static_cast<int>(std::floor((a.floor_z_m - start.origin().z()) / start.spacing().z()));
+    for (int k = 0; k <= std::min(kf, d.z() - 1); ++k)
+      for (int j = 0; j < d.y(); ++j)
+        for (int i = 0; i < d.x(); ++i) {
+          const std::uint8_t d0 = start.density(i, j, k);
+          if (d0 == 0 || start.material(i, j, k) == volume::Material::kPulp) continue;
+          const std::uint8_t d1 = cut.density(i, j, k);
+          if (d1 < d0) below += (d0 - d1) * unit_mm3[static_cast<std::size_t>(start.material(i, j, k))];
+        }
+    if (o.perforation)
+      for (int k = 0; k <= std::min(kf, d.z() - 1) && !perf_below; ++k)
+        for (int j = 0; j < d.y() && !perf_below; ++j)
+          for (int i = 0; i < d.x(); ++i)
+            if (start.density(i, j, k) > kIsoDensity && cut.density(i, j, k) < kIsoDensity &&
+                !(m.bits[m.index(i, j, k)] & m.entry_bits)) {
+              for (const auto& n : nb)
+                if (start.density(i + n[0], j + n[1], k + n[2]) == 0) perf_below = true;
+              if (perf_below) break;
+            }
+    Criterion fl;
+    fl.name = "pulpal floor";
+    fl.value = below;
+    fl.unit = "mm3 removed below the floor";
+    fl.score = perf_below ? 0 : below < 0.05 ? 3 : below < 0.3 ? 2 : below < 1.0 ? 1 : 0;
+    fl.detail = perf_below ? "floor perforated" : fmt(below, 3) + " mm3 of dentin removed below the floor level";
+    o.criteria.push_back(fl);
+    o.max_points = 18;
+    for (const auto& c : o.criteria) o.points += c.score;
+  } else {
+    o.max_points = ex.max_points();
+    for (const auto& r : o.regions) o.points += r.points;
+  }
+  return o;
+}
+
+}  // namespace dentar::training

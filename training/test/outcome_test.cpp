@@ -1,0 +1,271 @@
+// Outcome scoring on hand-made volumes with known answers, and the
+// exercise parser's errors.
+#include "dentar/training/outcome.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace dentar::training {
+namespace {
+
+using volume::Material;
+using volume::VoxelVolume;
+
+constexpr double kH = 0.1e-3;  // 0.1 mm voxels
+
+// A 10 x 10 x 10 mm block of dentin, origin at its corner voxel: voxel
+// (i,j,k) centre is (i,j,k) * 0.1 mm.
+VoxelVolume block(int n = 100) {
+  volume::VolumeGeometry g;
+  g.dims = Eigen::Vector3i(n, n, n);
+  g.spacing = Eigen::Vector3d::Constant(kH);
+  g.origin = Eigen::Vector3d::Zero();
+  VoxelVolume v(g);
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) v.set(i, j, k, 200, Material::kDentin);
+  return v;
+}
+
+template <typename F>
+void carve(VoxelVolume& v, F inside_mm) {
+  for (int k = 0; k < v.dims().z(); ++k)
+    for (int j = 0; j < v.dims().y(); ++j)
+      for (int i = 0; i < v.dims().x(); ++i)
+        if (inside_mm(v.voxel_center(i, j, k) * 1e3)) v.set(i, j, k, 0, v.material(i, j, k));
+}
+
+Primitive cylinder(Eigen::Vector3d a_mm, Eigen::Vector3d b_mm, double r_mm) {
+  Primitive p;
+  p.kind = PrimitiveKind::kCylinder;
+  p.a_m = a_mm * 1e-3;
+  p.b_m = b_mm * 1e-3;
+  p.radius_m = r_mm * 1e-3;
+  return p;
+}
+Primitive box(Eigen::Vector3d lo_mm, Eigen::Vector3d hi_mm) {
+  Primitive p;
+  p.kind = PrimitiveKind::kBox;
+  p.a_m = lo_mm * 1e-3;
+  p.b_m = hi_mm * 1e-3;
+  return p;
+}
+
+// Target: a 2 mm radius well from z = 6 mm to the top at (5, 5).
+Exercise well_exercise() {
+  Exercise ex;
+  ex.source = "well.json";
+  Region t{"well", RegionRole::kTarget, {cylinder({5, 5, 6}, {5, 5, 11}, 2.0)}, 4.0, 1.0};
+  Region f{"deep", RegionRole::kForbidden, {box({-1, -1, -1}, {11, 11, 5})}, 0, 1};
+  Region e{"top", RegionRole::kEntry, {box({-1, -1, 9.85}, {11, 11, 11})}, 0, 1};
+  ex.regions = {t, f, e};
+  return ex;
+}
+
+double cyl_mm3(double r, double h) { return M_PI * r * r * h; }
+
+TEST(Outcome, RemovedVolumeCoverageAndOverPreparation) {
+  const VoxelVolume start = block();
+  const Exercise ex = well_exercise();
+  auto m = build_masks(ex, start);
+  ASSERT_TRUE(m.ok()) << m.error();
+
+  // Exactly the target: a well of radius 2 mm, 4 mm deep (z from 6 to 10).
+  VoxelVolume cut = start.clone();
+  carve(cut, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.0 && p.z() >= 6.0; });
+  auto o = score_outcome(ex, *m, start, cut);
+  ASSERT_TRUE(o.ok()) << o.error();
+  const double expect = cyl_mm3(2.0, 4.0);  // 50.3 mm3
+  EXPECT_NEAR(o->removed_total_mm3, expect, 0.03 * expect);
+  EXPECT_NEAR(o->removed_mm3[static_cast<int>(Material::kDentin)], o->removed_total_mm3, 1e-9);
+  EXPECT_NEAR(o->target_coverage_pct, 100.0, 0.5);  // boundary voxels at z = 6 mm
+  EXPECT_NEAR(o->overprep_mm3, 0.0, 1e-9);
+  EXPECT_NEAR(o->forbidden_mm3, 0.0, 1e-9);
+  EXPECT_FALSE(o->perforation);
+  EXPECT_FALSE(o->pulp_exposed);
+  EXPECT_NEAR(o->points, 4.0, 0.02);
+
+  // Half the depth: 50 % coverage, 2 points.
+  VoxelVolume half = start.clone();
+  carve(half, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.0 && p.z() >= 8.0; });
+  auto oh = score_outcome(ex, *m, start, half);
+  ASSERT_TRUE(oh.ok());
+  EXPECT_NEAR(oh->target_coverage_pct, 50.0, 3.0);
+  EXPECT_NEAR(oh->points, 2.0, 0.15);
+
+  // Too wide (r 2.5 mm) and too deep (to z = 4 mm, 1 mm into the forbidden slab).
+  VoxelVolume over = start.clone();
+  carve(over, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.5 && p.z() >= 4.0; });
+  auto oo = score_outcome(ex, *m, start, over);
+  ASSERT_TRUE(oo.ok());
+  const double total = cyl_mm3(2.5, 6.0);
+  EXPECT_NEAR(oo->removed_total_mm3, total, 0.03 * total);
+  EXPECT_NEAR(oo->overprep_mm3, total - expect, 0.04 * (total - expect));
+  // Voxel layers z = 4.0 .. 5.0 mm inclusive: 11 layers of 0.1 mm.
+  EXPECT_NEAR(oo->forbidden_mm3, cyl_mm3(2.5, 1.1), 0.05 * cyl_mm3(2.5, 1.1));
+  EXPECT_LT(oo->points, 4.0 * (1.0 - 0.5));  // the zone's excess (r 2..2.5 mm, z 5..6) costs points
+}
+
+TEST(Outcome, PulpExposureAndPerforation) {
+  VoxelVolume start = block();
+  // A pulp sphere of radius 1 mm at (5, 5, 3).
+  for (int k = 0; k < 100; ++k)
+    for (int j = 0; j < 100; ++j)
+      for (int i = 0; i < 100; ++i)
+        if ((start.voxel_center(i, j, k) * 1e3 - Eigen::Vector3d(5, 5, 3)).norm() <= 1.0)
+          start.set(i, j, k, 70, Material::kPulp);
+  Exercise ex = well_exercise();
+  ex.regions.pop_back();  // no forbidden slab (it would contain the pulp), keep the entry
+  ex.regions.erase(ex.regions.begin() + 1);
+  Region e{"top", RegionRole::kEntry, {box({-1, -1, 9.85}, {11, 11, 11})}, 0, 1};
+  ex.regions.push_back(e);
+  auto m = build_masks(ex, start);
+  ASSERT_TRUE(m.ok()) << m.error();
+  VoxelVolume shallow = start.clone();
+  carve(shallow, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 1.0 && p.z() >= 5.0; });
+  auto o1 = score_outcome(ex, *m, start, shallow);
+  ASSERT_TRUE(o1.ok());
+  EXPECT_FALSE(o1->pulp_exposed);
+  EXPECT_FALSE(o1->perforation);
+  VoxelVolume deep = start.clone();
+  carve(deep, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 1.0 && p.z() >= 3.95; });
+  auto o2 = score_outcome(ex, *m, start, deep);
+  ASSERT_TRUE(o2.ok());
+  EXPECT_TRUE(o2->pulp_exposed);
+  // A side tunnel from the well out through the x = 10 mm face: perforation.
+  VoxelVolume side = shallow.clone();
+  carve(side, [](const Eigen::Vector3d& p) { return p.x() >= 5 && std::hypot(p.y() - 5, p.z() - 7) <= 0.5; });
+  auto o3 = score_outcome(ex, *m, start, side);
+  ASSERT_TRUE(o3.ok());
+  EXPECT_TRUE(o3->perforation);
+  EXPECT_GT(o3->perforation_mm3, 0.0);
+  EXPECT_FALSE(o1->perforation);
+}
+
+TEST(Outcome, WallDivergenceAndSmoothness) {
+  const VoxelVolume start = block();
+  const Eigen::Vector3d axis(5e-3, 5e-3, 0);
+  // Straight well: divergence 0, RMS within voxel quantisation.
+  VoxelVolume straight = start.clone();
+  carve(straight, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.0 && p.z() >= 4.0; });
+  const WallProfile w0 = wall_profile(straight, axis, {-1, 0, 0}, 4.5e-3, 9.5e-3);
+  EXPECT_NEAR(w0.divergence_deg, 0.0, 0.5);
+  EXPECT_LT(w0.rms_mm, 0.05);
+  ASSERT_FALSE(w0.extent_m.empty());
+  EXPECT_NEAR(w0.extent_m[0], 2.0e-3, 0.1e-3);
+  // A cone opening 10 degrees toward +z.
+  const double tan10 = std::tan(10 * M_PI / 180);
+  VoxelVolume cone = start.clone();
+  carve(cone, [&](const Eigen::Vector3d& p) {
+    return p.z() >= 4.0 && std::hypot(p.x() - 5, p.y() - 5) <= 1.5 + (p.z() - 4.0) * tan10;
+  });
+  const WallProfile w1 = wall_profile(cone, axis, {0, 1, 0}, 4.5e-3, 9.5e-3);
+  EXPECT_NEAR(w1.divergence_deg, 10.0, 1.0);
+  // Undercut: narrowing toward +z.
+  VoxelVolume under = start.clone();
+  carve(under, [&](const Eigen::Vector3d& p) {
+    return p.z() >= 4.0 && std::hypot(p.x() - 5, p.y() - 5) <= 2.5 - (p.z() - 4.0) * tan10;
+  });
+  EXPECT_NEAR(wall_profile(under, axis, {1, 0, 0}, 4.5e-3, 9.5e-3).divergence_deg, -10.0, 1.0);
+  // Rough: radius steps +-0.4 mm every 0.5 mm of height.
+  VoxelVolume rough = start.clone();
+  carve(rough, [&](const Eigen::Vector3d& p) {
+    const double r = 2.0 + ((static_cast<int>(std::floor(p.z() / 0.5)) % 2) ? 0.4 : -0.4);
+    return p.z() >= 4.0 && std::hypot(p.x() - 5, p.y() - 5) <= r;
+  });
+  EXPECT_NEAR(wall_profile(rough, axis, {-1, 0, 0}, 4.5e-3, 9.5e-3).rms_mm, 0.4, 0.06);
+}
+
+TEST(Outcome, OrificeLineOfSightAndAccessCriteria) {
+  const VoxelVolume start = block();
+  Exercise ex;
+  ex.source = "access.json";
+  ex.outcome = OutcomeKind::kAccessOpening;
+  ex.regions = {{"access", RegionRole::kTarget, {cylinder({5, 5, 3}, {5, 5, 11}, 2.5)}, 0, 1},
+                {"top", RegionRole::kEntry, {box({-1, -1, 9.85}, {11, 11, 11})}, 0, 1}};
+  AccessGeometry a;
+  a.orifices = {{"A", Eigen::Vector3d(4e-3, 5e-3, 3.2e-3)}, {"B", Eigen::Vector3d(6e-3, 5e-3, 3.2e-3)}};
+  a.axis_point_m = Eigen::Vector3d(5e-3, 5e-3, 0);
+  a.opening_z_m = 9.5e-3;
+  a.floor_z_m = 3.0e-3;
+  a.walls_from_z_m = 3.0e-3;
+  ex.access = a;
+  auto m = build_masks(ex, start);
+  ASSERT_TRUE(m.ok()) << m.error();
+  // Ideal: a straight 2.5 mm well down to z = 3 mm (the floor level).
+  VoxelVolume ideal = start.clone();
+  carve(ideal, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.5 && p.z() >= 3.05; });
+  auto o = score_outcome(ex, *m, start, ideal);
+  ASSERT_TRUE(o.ok()) << o.error();
+  ASSERT_EQ(o->criteria.size(), 6u);
+  for (const auto& c : o->criteria) EXPECT_EQ(c.score, 3) << c.name << ": " << c.detail;
+  EXPECT_EQ(o->points, 18);
+  EXPECT_EQ(o->max_points, 18);
+  // Orifice B hidden under an overhang: a shelf 1 mm above it.
+  VoxelVolume shelf = ideal.clone();
+  for (int k = 0; k < 100; ++k)
+    for (int j = 0; j < 100; ++j)
+      for (int i = 0; i < 100; ++i) {
+        const Eigen::Vector3d p = shelf.voxel_center(i, j, k) * 1e3;
+        if (p.x() > 5.3 && p.z() > 4.0 && p.z() < 4.6) shelf.set(i, j, k, 200, Material::kDentin);
+      }
+  EXPECT_NEAR(line_of_sight(shelf, a.orifices[1].position_m, a.opening_z_m, 10), 0.0, 1e-12);
+  EXPECT_NEAR(line_of_sight(shelf, a.orifices[0].position_m, a.opening_z_m, 10), 1.0, 1e-12);
+  auto os = score_outcome(ex, *m, start, shelf);
+  ASSERT_TRUE(os.ok());
+  EXPECT_LE(os->criteria[0].score, 1);
+  // Gouged floor: 1.5 mm deeper in the middle -> floor criterion drops.
+  VoxelVolume gouge = ideal.clone();
+  carve(gouge, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 1.0 && p.z() >= 1.5; });
+  auto og = score_outcome(ex, *m, start, gouge);
+  ASSERT_TRUE(og.ok());
+  EXPECT_EQ(og->criteria[5].score, 0) << og->criteria[5].detail;  // pi * 1 * 1.5 = 4.7 mm3 below
+  EXPECT_NEAR(og->criteria[5].value, M_PI * 1.6, 0.4);  // 16 voxel layers (z 1.5..3.0 mm)
+  // Nothing cut: no orifice visible, no wall, intact floor.
+  auto on = score_outcome(ex, *m, start, start);
+  ASSERT_TRUE(on.ok());
+  EXPECT_EQ(on->points, 3);  // only the floor
+}
+
+TEST(Exercise, OverlappingTargetAndForbiddenIsAnErrorNamingBoth) {
+  const VoxelVolume start = block(40);
+  Exercise ex;
+  ex.source = "bad.json";
+  ex.regions = {{"cavity", RegionRole::kTarget, {box({0, 0, 2}, {4, 4, 4})}, 1, 1},
+                {"pulp_zone", RegionRole::kForbidden, {box({1, 1, 0}, {3, 3, 2.55})}, 0, 1}};
+  auto m = build_masks(ex, start);
+  ASSERT_FALSE(m.ok());
+  EXPECT_NE(m.error().find("bad.json"), std::string::npos);
+  EXPECT_NE(m.error().find("'cavity' overlaps forbidden region 'pulp_zone'"), std::string::npos) << m.error();
+}
+
+TEST(Exercise, ParserErrorsNameFileAndField) {
+  const std::string good = R"({"format":"dentar-exercise","version":1,"name":"t","procedure":"p",
+    "tooth":{"kind":"molar","voxel_mm":0.2},"bur":{"shape":"sphere","radius_mm":0.5},"time_limit_s":60,
+    "regions":[{"name":"a","role":"target","all":[{"shape":"sphere","center_mm":[0,0,5],"radius_mm":1}]}],
+    "steps":[{"name":"s1","region":"a"}]})";
+  auto ok = parse_exercise(good, "t.json");
+  ASSERT_TRUE(ok.ok()) << ok.error();
+  EXPECT_EQ(ok->regions[0].all[0].kind, PrimitiveKind::kSphere);
+  auto expect_err = [&](std::string text, const std::string& needle) {
+    auto r = parse_exercise(text, "t.json");
+    ASSERT_FALSE(r.ok()) << needle;
+    EXPECT_NE(r.error().find(needle), std::string::npos) << r.error();
+    EXPECT_NE(r.error().find("t.json"), std::string::npos) << r.error();
+  };
+  auto replace = [&](const std::string& a, const std::string& b) {
+    std::string s = good;
+    s.replace(s.find(a), a.size(), b);
+    return s;
+  };
+  expect_err(replace("\"radius_mm\":1}", "\"radius_mm\":-1}"), "regions[0].all[0].radius_mm");
+  expect_err(replace("\"shape\":\"sphere\",\"center", "\"shape\":\"blob\",\"center"), "unknown shape 'blob'");
+  expect_err(replace("\"region\":\"a\"", "\"region\":\"zz\""), "steps[0].region");
+  expect_err(replace("\"kind\":\"molar\"", "\"kind\":\"canine\""), "tooth.kind");
+  expect_err(replace("\"role\":\"target\"", "\"role\":\"forbidden\""), "no region has role \"target\"");
+  expect_err(good.substr(0, 60), "line 1");
+}
+
+}  // namespace
+}  // namespace dentar::training
