@@ -1,0 +1,97 @@
+// dentar devices: what haptic runtimes, haptic devices and foot pedals this
+// machine has, and the reason for every absence.
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "dentar/haptics/device_profiles.h"
+#include "dentar/haptics/open_device.h"
+
+namespace dentar::tools {
+namespace {
+
+struct DevicesOptions {
+  std::string hd_library, dhd_library;
+  bool no_open = false;
+  bool json = false;
+  bool profiles = false;
+};
+
+void print_profiles() {
+  std::cout << "Device profiles (force clamp, max stable stiffness and damping, workspace):\n";
+  std::cout << "  " << std::left << std::setw(10) << "id" << std::setw(36) << "device" << std::right
+            << std::setw(8) << "N" << std::setw(10) << "N/m" << std::setw(9) << "N s/m"
+            << std::setw(8) << "mm" << "\n";
+  for (const auto& p : haptics::device_profiles())
+    std::cout << "  " << std::left << std::setw(10) << p.id << std::setw(36) << p.display_name
+              << std::right << std::setw(8) << p.max_force_N << std::setw(10)
+              << p.max_stiffness_N_per_m << std::setw(9) << p.max_damping_N_s_per_m << std::setw(8)
+              << 1e3 * p.workspace_radius_m << "\n";
+  std::cout << "  source: " << haptics::device_profiles().front().source << " and CDeltaDevices.cpp\n";
+}
+
+int run_devices(const DevicesOptions& o) {
+  const haptics::DeviceReport r = haptics::probe_devices(o.hd_library, o.dhd_library, !o.no_open);
+  if (o.json) {
+    nlohmann::json j;
+    for (const auto& rt : r.runtimes)
+      j["runtimes"].push_back({{"runtime", rt.runtime}, {"requested", rt.requested},
+                               {"present", rt.present}, {"path", rt.path},
+                               {"version", rt.version}, {"message", rt.message}});
+    j["haptic_devices"] = r.haptic_devices;
+    j["haptic_absent"] = r.haptic_absent;
+    j["pedals"] = nlohmann::json::array();
+    for (const auto& p : r.pedals)
+      j["pedals"].push_back({{"id", p.id}, {"vid_pid", p.vid_pid}, {"path", p.path},
+                             {"permission_ok", p.permission_ok}, {"note", p.note}});
+    j["pedal_absent"] = r.pedal_absent;
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << "Haptic runtimes:\n";
+  for (const auto& rt : r.runtimes) {
+    std::cout << "  " << rt.runtime << ": ";
+    if (rt.present)
+      std::cout << "found " << rt.path << (rt.version.empty() ? "" : ", version " + rt.version)
+                << "\n";
+    else
+      std::cout << rt.message << "\n";
+  }
+  std::cout << "Haptic devices:\n";
+  if (o.no_open) std::cout << "  (not opened: --no-open)\n";
+  for (const auto& d : r.haptic_devices) std::cout << "  " << d << "\n";
+  for (const auto& a : r.haptic_absent) std::cout << "  none: " << a << "\n";
+  std::cout << "Foot pedals:\n";
+  for (const auto& p : r.pedals)
+    std::cout << "  " << p.vid_pid << (p.id.empty() ? "" : " (" + p.id + ")") << " at " << p.path
+              << ": permission " << (p.permission_ok ? "OK" : "DENIED") << "; " << p.note << "\n";
+  for (const auto& a : r.pedal_absent) std::cout << "  none: " << a << "\n";
+  if (o.profiles) print_profiles();
+  return 0;
+}
+
+}  // namespace
+
+void add_devices(CLI::App& app, int& exit_code) {
+  auto o = std::make_shared<DevicesOptions>();
+  CLI::App* c = app.add_subcommand(
+      "devices",
+      "List haptic runtimes (OpenHaptics libHD, Force Dimension libdhd/libdrd) with their version,\n"
+      "the haptic devices they see with calibration state, and USB foot pedals with permission\n"
+      "state; says why anything is absent.\n"
+      "Synopsis: dentar devices [--hd-library PATH] [--dhd-library PATH] [--no-open] [--json] [--profiles]");
+  c->add_option("--hd-library", o->hd_library,
+                "libHD.so to load (default: libHD.so through the loader path or DENTAR_HD_LIBRARY)");
+  c->add_option("--dhd-library", o->dhd_library,
+                "libdhd.so/libdrd.so to load (default: libdrd.so, then libdhd.so, or DENTAR_DHD_LIBRARY)");
+  c->add_flag("--no-open", o->no_open, "Only look for the runtimes; do not open any device");
+  c->add_flag("--json", o->json, "Print the report as JSON");
+  c->add_flag("--profiles", o->profiles, "Also print the device profile table");
+  c->footer(
+      "Examples:\n  dentar devices\n"
+      "  LD_LIBRARY_PATH=build/standin dentar devices   # against the test stand-ins");
+  c->callback([o, &exit_code] { exit_code = run_devices(*o); });
+}
+
+}  // namespace dentar::tools
