@@ -1,0 +1,58 @@
+// Cohorts for development and tests: expert and novice sessions from the
+// simulated hand, run through the haptic engine in simulated time. Each
+// skill factor is documented in docs/formats.md ("Cohort generator"); the
+// novice factors move from the expert's values toward the full novice values
+// as `separation` goes from 0 (identical classes) to 1.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "dentar/training/exercise.h"
+
+namespace dentar::training {
+
+struct SkillParams {
+  double tremor_mm = 0.02;     // amplitude of a 9-11 Hz tremor on the hand's target, x and y
+  double force_factor = 1.0;   // pressing force relative to the expert's 1.0 N
+  double force_jitter = 0.05;  // relative SD of the pressing force from step to step
+  double detour_mm = 0.0;      // SD of a random waypoint between steps (path efficiency)
+  double pause_prob = 0.05;    // probability of a pause before a step (pedal up, hand still)
+  double pause_s = 0.3;        // length of a pause
+  double swap_prob = 0.0;      // probability that two neighbouring steps are done in swapped order
+  double work_s = 2.5;         // time spent drilling at one step
+  double tilt_deg = 2.0;       // SD of the bur's tilt from the planned axis, per step
+};
+SkillParams expert_skill();
+// Novice skill at a separation in [0, 1] (0 = the expert's values).
+SkillParams novice_skill(double separation);
+
+struct CohortOptions {
+  int experts = 5, novices = 5, trials = 3;
+  double separation = 1.0;
+  std::uint64_t seed = 1;
+  double voxel_mm = 0.15;  // coarser than the exercise's tooth, for speed
+  int bur_samples = 1000;
+  std::string validate() const;
+};
+
+struct CohortTrial {
+  std::string subject, label;  // label "expert" | "novice"
+  int trial = 0;
+  std::string session_path;    // session.dlog
+  // Generator's step labels: step k runs over [step_start_s[k], step_end_s[k]).
+  std::vector<int> step_order;
+  std::vector<double> step_start_s, step_end_s;
+  int true_step_at(double t) const;  // -1 outside every step
+};
+
+// Writes out_dir/<subject>_t<trial>/session.dlog and steps.json, and
+// out_dir/trials.csv (file,subject,trial,label). The exercise gives the
+// steps (focus points) and the bur; the tooth is rebuilt at opt.voxel_mm.
+Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const CohortOptions& opt,
+                                                 const std::string& out_dir);
+// Reads trials.csv (and steps.json where present) of a cohort folder.
+Result<std::vector<CohortTrial>> read_cohort(const std::string& dir);
+
+}  // namespace dentar::training

@@ -1,0 +1,269 @@
+#include "dentar/training/cohort.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+
+#include "dentar/haptics/engine.h"
+#include "dentar/haptics/scripts.h"
+#include "dentar/haptics/simulated_device.h"
+#include "dentar/training/session.h"
+
+namespace dentar::training {
+namespace fs = std::filesystem;
+
+SkillParams expert_skill() { return {}; }
+
+SkillParams novice_skill(double s) {
+  s = std::clamp(s, 0.0, 1.0);
+  const SkillParams e = expert_skill();
+  SkillParams full;
+  full.tremor_mm = 0.12;
+  full.force_factor = 1.8;
+  full.force_jitter = 0.35;
+  full.detour_mm = 1.5;
+  full.pause_prob = 0.5;
+  full.pause_s = 1.0;
+  full.swap_prob = 0.3;
+  full.work_s = 3.5;
+  full.tilt_deg = 10.0;
+  auto lerp = [s](double a, double b) { return a + s * (b - a); };
+  SkillParams n;
+  n.tremor_mm = lerp(e.tremor_mm, full.tremor_mm);
+  n.force_factor = lerp(e.force_factor, full.force_factor);
+  n.force_jitter = lerp(e.force_jitter, full.force_jitter);
+  n.detour_mm = lerp(e.detour_mm, full.detour_mm);
+  n.pause_prob = lerp(e.pause_prob, full.pause_prob);
+  n.pause_s = lerp(e.pause_s, full.pause_s);
+  n.swap_prob = lerp(e.swap_prob, full.swap_prob);
+  n.work_s = lerp(e.work_s, full.work_s);
+  n.tilt_deg = lerp(e.tilt_deg, full.tilt_deg);
+  return n;
+}
+
+std::string CohortOptions::validate() const {
+  if (experts < 1 || novices < 1 || experts > 100 || novices > 100) return "experts and novices must be in [1, 100]";
+  if (trials < 1 || trials > 50) return "trials must be in [1, 50]";
+  if (!(separation >= 0 && separation <= 1)) return "separation must be in [0, 1]";
+  if (!(voxel_mm >= 0.05 && voxel_mm <= 0.5)) return "voxel_mm must be in [0.05, 0.5]";
+  if (bur_samples < 100 || bur_samples > 30000) return "bur_samples must be in [100, 30000]";
+  return {};
+}
+
+int CohortTrial::true_step_at(double t) const {
+  for (std::size_t i = 0; i < step_order.size(); ++i)
+    if (t >= step_start_s[i] && t < step_end_s[i]) return step_order[i];
+  return -1;
+}
+
+namespace {
+
+// Subject-level variation: each factor times exp(0.2 N(0,1)), probabilities clamped.
+SkillParams vary(SkillParams p, std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0, 0.2);
+  auto f = [&] { return std::exp(n(rng)); };
+  p.tremor_mm *= f();
+  p.force_factor *= f();
+  p.force_jitter *= f();
+  p.detour_mm *= f();
+  p.pause_prob = std::clamp(p.pause_prob * f(), 0.0, 1.0);
+  p.pause_s *= f();
+  p.swap_prob = std::clamp(p.swap_prob * f(), 0.0, 1.0);
+  p.work_s *= f();
+  p.tilt_deg *= f();
+  return p;
+}
+
+struct Script {
+  std::vector<haptics::TipWaypoint> tips;
+  std::vector<int> order;
+  std::vector<double> start, end;
+};
+
+Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rng) {
+  std::normal_distribution<double> n01(0, 1);
+  std::uniform_real_distribution<double> u01(0, 1);
+  Script sc;
+  std::vector<int> order(ex.steps.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  for (std::size_t i = 0; i + 1 < order.size(); ++i)
+    if (u01(rng) < p.swap_prob) std::swap(order[i], order[i + 1]);
+  const double z_top = 7.5e-3;
+  const Eigen::Vector3d down(0, 0, -1);
+  double t = 0;
+  const double tremor_hz = 9.0 + 2.0 * u01(rng), phase = 6.28 * u01(rng);
+  auto tremor = [&](double tt) {
+    const double a = p.tremor_mm * 1e-3;
+    return Eigen::Vector3d(a * std::sin(2 * M_PI * tremor_hz * tt + phase) + 0.3 * a * n01(rng),
+                           a * std::cos(2 * M_PI * tremor_hz * tt + 1.3 * phase) + 0.3 * a * n01(rng), 0);
+  };
+  // pos and axis by value: callers pass elements of sc.tips, which push_back moves.
+  auto add = [&](double dt, Eigen::Vector3d pos, Eigen::Vector3d axis, bool pedal) {
+    // Dense waypoints (10 ms) so the tremor acts on the whole path.
+    const Eigen::Vector3d from = sc.tips.empty() ? pos : sc.tips.back().tip_tooth_m;
+    const Eigen::Vector3d afrom = sc.tips.empty() ? axis : sc.tips.back().axis_tooth;
+    const int n = std::max(1, static_cast<int>(dt / 0.01));
+    for (int i = 1; i <= n; ++i) {
+      const double f = static_cast<double>(i) / n;
+      const double tt = t + f * dt;
+      sc.tips.push_back({tt, from + f * (pos - from) + tremor(tt), (afrom + f * (axis - afrom)).normalized(), pedal});
+    }
+    t += dt;
+  };
+  sc.tips.push_back({0.0, Eigen::Vector3d(0, 0, 9e-3), down, false});
+  t = 0.0;
+  const std::vector<Eigen::Vector3d> focus = step_focus(ex, nullptr, nullptr);
+  for (int s : order) {
+    const Eigen::Vector3d f = focus[static_cast<std::size_t>(s)];
+    const double start = t;
+    if (u01(rng) < p.pause_prob) add(p.pause_s, sc.tips.back().tip_tooth_m, sc.tips.back().axis_tooth, false);
+    if (p.detour_mm > 0) {
+      const Eigen::Vector3d d(p.detour_mm * 1e-3 * n01(rng), p.detour_mm * 1e-3 * n01(rng), 0);
+      add(0.3, Eigen::Vector3d(f.x(), f.y(), z_top) + d, down, false);
+    }
+    const double tilt = p.tilt_deg * M_PI / 180.0 * n01(rng), az = 6.28 * u01(rng);
+    const Eigen::Vector3d axis(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), -std::cos(tilt));
+    add(0.3, Eigen::Vector3d(f.x(), f.y(), z_top), axis, true);
+    const double force = 1.0 * p.force_factor * std::max(0.2, 1.0 + p.force_jitter * n01(rng));
+    // The hand with a finger rest (3000 N/m) in series with the proxy coupling
+    // (0.8 x 2000 N/m): a target this far past the surface asks for `force`.
+    const double lead = force / haptics::kFingerRestStiffness_N_per_m + force / 1600.0;
+    // Descend to the focus with small circles (0.3 mm, 4 Hz) while pressing.
+    const int n = std::max(2, static_cast<int>(p.work_s / 0.05));
+    const Eigen::Vector3d top(f.x(), f.y(), std::min(z_top, f.z() + 3.5e-3));
+    add(0.2, top, axis, true);
+    for (int i = 1; i <= n; ++i) {
+      const double fr = static_cast<double>(i) / n;
+      const double a = 2 * M_PI * 4.0 * fr * p.work_s;
+      const Eigen::Vector3d c = top + fr * (f - top) + Eigen::Vector3d(0.3e-3 * std::cos(a), 0.3e-3 * std::sin(a), 0) + lead * axis;
+      add(p.work_s / n, c, axis, true);
+    }
+    add(0.3, Eigen::Vector3d(f.x(), f.y(), z_top), down, false);
+    sc.order.push_back(s);
+    sc.start.push_back(start);
+    sc.end.push_back(t);
+  }
+  add(0.2, Eigen::Vector3d(0, 0, 9e-3), down, false);
+  return sc;
+}
+
+}  // namespace
+
+Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const CohortOptions& opt, const std::string& out_dir) {
+  if (std::string why = opt.validate(); !why.empty()) return Error{"cohort: " + why};
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) return Error{"cohort: cannot create '" + out_dir + "': " + ec.message()};
+  auto tj = nlohmann::json::parse(ex.tooth_json);
+  tj["voxel_mm"] = opt.voxel_mm;
+  auto tooth0 = make_tooth(tj.dump());
+  if (!tooth0) return Error{"cohort: " + tooth0.error()};
+  auto bur = volume::sample_bur(ex.bur, opt.bur_samples);
+  if (!bur) return Error{"cohort: " + bur.error()};
+  const haptics::Station station = haptics::default_station();
+  std::vector<CohortTrial> out;
+  std::ofstream csv(out_dir + "/trials.csv");
+  if (!csv) return Error{"cohort: cannot write " + out_dir + "/trials.csv"};
+  csv << "file,subject,trial,label\n";
+  std::mt19937_64 rng(opt.seed);
+  const int n_subjects = opt.experts + opt.novices;
+  for (int sub = 0; sub < n_subjects; ++sub) {
+    const bool expert = sub < opt.experts;
+    const std::string subject = (expert ? "E" : "N") + std::to_string(expert ? sub + 1 : sub - opt.experts + 1);
+    const SkillParams base = vary(expert ? expert_skill() : novice_skill(opt.separation), rng);
+    for (int tr = 1; tr <= opt.trials; ++tr) {
+      const Script sc = make_script(ex, base, rng);
+      volume::VoxelVolume vol = tooth0->clone();
+      haptics::HandParams hand;
+      hand.stiffness_N_per_m = haptics::kFingerRestStiffness_N_per_m;  // finger rest on the neighbouring teeth
+      auto dev = haptics::SimulatedDevice::create(haptics::to_hand_script(sc.tips, station), haptics::DeviceLimits{}, hand);
+      if (!dev) return Error{"cohort: " + dev.error()};
+      haptics::EngineConfig cfg;
+      cfg.T_tooth_dev = station.T_tooth_dev;
+      cfg.T_sty_tip = station.T_sty_tip;
+      cfg.try_realtime = false;
+      std::string header;
+      {
+        auto probe = haptics::Engine::create(cfg, **dev, vol, *bur, nullptr);
+        if (!probe) return Error{"cohort: " + probe.error()};
+        header = (*probe)->header_json(tj.dump());
+      }
+      const std::string rel = subject + "_t" + std::to_string(tr);
+      fs::create_directories(out_dir + "/" + rel, ec);
+      const std::string path = out_dir + "/" + rel + "/session.dlog";
+      haptics::LogWriterOptions lo;
+      lo.fsync = false;
+      lo.ring_capacity = 1 << 18;
+      auto log = haptics::SessionLogWriter::open(path, header, lo);
+      if (!log) return Error{"cohort: " + log.error()};
+      auto eng = haptics::Engine::create(cfg, **dev, vol, *bur, log->get());
+      if (!eng) return Error{"cohort: " + eng.error()};
+      const auto steps = static_cast<std::uint64_t>((*dev)->script_end_s() * 1000.0);
+      for (std::uint64_t done = 0; done < steps; done += 1000) (*eng)->run_steps(std::min<std::uint64_t>(1000, steps - done));
+      if (Status st = (*log)->close(); !st) return Error{"cohort: " + st.error()};
+      CohortTrial ct;
+      ct.subject = subject;
+      ct.label = expert ? "expert" : "novice";
+      ct.trial = tr;
+      ct.session_path = path;
+      ct.step_order = sc.order;
+      ct.step_start_s = sc.start;
+      ct.step_end_s = sc.end;
+      nlohmann::json sj = {{"subject", subject}, {"trial", tr}, {"label", ct.label}, {"step_order", sc.order},
+                           {"step_start_s", sc.start}, {"step_end_s", sc.end}};
+      std::ofstream(out_dir + "/" + rel + "/steps.json") << sj.dump(1) << "\n";
+      csv << rel << "/session.dlog," << subject << "," << tr << "," << ct.label << "\n";
+      out.push_back(std::move(ct));
+    }
+  }
+  return out;
+}
+
+Result<std::vector<CohortTrial>> read_cohort(const std::string& dir) {
+  const std::string path = dir + "/trials.csv";
+  std::ifstream f(path);
+  if (!f) return Error{path + ": cannot open (a cohort folder needs trials.csv: file,subject,trial,label)"};
+  std::string line;
+  std::vector<CohortTrial> out;
+  int ln = 0;
+  while (std::getline(f, line)) {
+    ++ln;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (ln == 1 || line.empty()) continue;
+    std::vector<std::string> c;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) c.push_back(x);
+    if (c.size() != 4)
+      return Error{path + ": line " + std::to_string(ln) + ": " + std::to_string(c.size()) +
+                   " columns, expected 4 (file,subject,trial,label)"};
+    CohortTrial t;
+    t.session_path = (fs::path(dir) / c[0]).string();
+    t.subject = c[1];
+    try {
+      t.trial = std::stoi(c[2]);
+    } catch (...) {
+      return Error{path + ": line " + std::to_string(ln) + ", column 3 (trial): '" + c[2] + "' is not an integer"};
+    }
+    t.label = c[3];
+    const fs::path sj = fs::path(t.session_path).parent_path() / "steps.json";
+    if (fs::exists(sj)) {
+      std::ifstream g(sj);
+      auto j = nlohmann::json::parse(g, nullptr, false);
+      if (!j.is_discarded() && j.contains("step_order")) {
+        t.step_order = j["step_order"].get<std::vector<int>>();
+        t.step_start_s = j["step_start_s"].get<std::vector<double>>();
+        t.step_end_s = j["step_end_s"].get<std::vector<double>>();
+      }
+    }
+    out.push_back(std::move(t));
+  }
+  if (out.empty()) return Error{path + ": no trial listed"};
+  return out;
+}
+
+}  // namespace dentar::training

@@ -1,0 +1,144 @@
+// End to end on a generated cohort: sessions through the engine, decoding,
+// automatic steps against the generator's labels, leave-one-subject-out
+// cross-validation with every method, model save/load.
+#include "dentar/training/cohort.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <iostream>
+
+#include "dentar/training/assess.h"
+#include "dentar/training/session.h"
+#include "testutil.h"
+
+namespace dentar::training {
+namespace {
+
+struct Cohort {
+  Exercise ex;
+  std::vector<CohortTrial> trials;
+  std::vector<SessionTrack> tracks;
+  std::vector<Trial> features;
+};
+
+const Cohort& cohort() {
+  static Cohort c = [] {
+    Cohort c;
+    auto ex = load_builtin_exercise("molar_access_opening");
+    EXPECT_TRUE(ex.ok()) << ex.error();
+    c.ex = *ex;
+    CohortOptions o;
+    o.experts = 3;
+    o.novices = 3;
+    o.trials = 2;
+    o.voxel_mm = 0.2;
+    o.bur_samples = 500;
+    const std::string dir = ::testing::TempDir() + "/dentar_cohort_test";
+    std::filesystem::remove_all(dir);
+    auto t = generate_cohort(c.ex, o, dir);
+    EXPECT_TRUE(t.ok()) << t.error();
+    auto back = read_cohort(dir);
+    EXPECT_TRUE(back.ok()) << back.error();
+    c.trials = *back;
+    for (const auto& tr : c.trials) {
+      auto log = haptics::read_session_log(tr.session_path);
+      EXPECT_TRUE(log.ok()) << log.error();
+      auto s = decode_session(*log, tr.session_path);
+      EXPECT_TRUE(s.ok()) << s.error();
+      c.features.push_back({tr.subject, tr.label, tr.session_path, tr.trial, track_features(*s)});
+      c.tracks.push_back(std::move(*s));
+    }
+    return c;
+  }();
+  return c;
+}
+
+TEST(Cohort, SessionsCutTheToothAndNovicesDifferFromExperts) {
+  const Cohort& c = cohort();
+  ASSERT_EQ(c.trials.size(), 12u);
+  double e_path = 0, n_path = 0;
+  for (std::size_t i = 0; i < c.trials.size(); ++i) {
+    const auto steps = segment_steps(c.tracks[i], c.ex, nullptr, nullptr);
+    const ProcessMetrics p = process_metrics(c.tracks[i], c.ex, steps);
+    EXPECT_GT(p.drilling_s, 1.0);
+    double removed = 0;
+    for (const auto& s : p.steps) removed += s.removed_mm3;
+    EXPECT_GT(removed, 1.0) << c.trials[i].session_path;
+    (c.trials[i].label == "expert" ? e_path : n_path) += p.path_mm;
+  }
+  EXPECT_GT(n_path, 1.2 * e_path);  // novices: detours and tremor
+}
+
+TEST(Cohort, AutomaticStepsAgreeWithTheGeneratorsLabels) {
+  const Cohort& c = cohort();
+  double agree = 0, n = 0;
+  for (std::size_t i = 0; i < c.trials.size(); ++i) {
+    const auto steps = segment_steps(c.tracks[i], c.ex, nullptr, nullptr);
+    for (std::size_t f = 0; f < steps.size(); ++f) {
+      const int truth = c.trials[i].true_step_at(c.tracks[i].t_s[f]);
+      if (truth < 0 || c.tracks[i].removed_total(f) <= 0) continue;  // judged where material is removed
+      agree += steps[f] == truth;
+      n += 1;
+    }
+  }
+  ASSERT_GT(n, 100);
+  EXPECT_GT(agree / n, 0.85) << "agreement " << agree / n;
+}
+
+TEST(Cohort, LeaveOneSubjectOutSeparatesClearlyDifferentCohorts) {
+  const Cohort& c = cohort();
+  for (Method m : {Method::kDiscreteHmm, Method::kGaussianHmm, Method::kDtw}) {
+    AssessOptions o;
+    o.method = m;
+    o.states = m == Method::kDiscreteHmm ? 13 : 5;
+    o.iterations = 15;
+    auto r = cross_validate_subjects(c.features, track_feature_names(), o);
+    ASSERT_TRUE(r.ok()) << r.error();
+    EXPECT_EQ(r->n, 12);
+    // 12 trials of 6 subjects at full separation. DTW (1-NN on resampled
+    // sequences) is the weakest, as in the literature (70-85 %).
+    EXPECT_GE(r->accuracy, m == Method::kDtw ? 0.6 : 0.75) << method_name(m);
+    EXPECT_LE(r->ci_low, r->accuracy);
+    EXPECT_GE(r->ci_high, r->accuracy);
+    int total = 0;
+    for (const auto& row : r->confusion)
+      for (int v : row) total += v;
+    EXPECT_EQ(total, 12);
+  }
+}
+
+TEST(Cohort, ModelRoundTripsThroughJson) {
+  const Cohort& c = cohort();
+  for (Method m : {Method::kDiscreteHmm, Method::kGaussianHmm, Method::kDtw}) {
+    AssessOptions o;
+    o.method = m;
+    o.states = 4;
+    o.iterations = 5;
+    auto model = train_model(c.features, track_feature_names(), o);
+    ASSERT_TRUE(model.ok()) << model.error();
+    auto back = model_from_json(model_to_json(*model), "model.json");
+    ASSERT_TRUE(back.ok()) << back.error();
+    auto v1 = classify(*model, c.features[0].x);
+    auto v2 = classify(*back, c.features[0].x);
+    ASSERT_TRUE(v1.ok() && v2.ok());
+    EXPECT_EQ(v1->label, v2->label);
+    EXPECT_NEAR(v1->score[0], v2->score[0], 1e-6 * std::abs(v1->score[0]) + 1e-9);
+  }
+  auto bad = model_from_json(R"({"format":"dentar-skill-model","method":"svm"})", "m.json");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("m.json: field 'method'"), std::string::npos) << bad.error();
+}
+
+TEST(Assess, WilsonIntervalMatchesHandComputation) {
+  double lo, hi;
+  wilson_interval(10, 10, lo, hi);  // 10/10: [0.722, 1]
+  EXPECT_NEAR(lo, 0.7225, 1e-3);
+  EXPECT_NEAR(hi, 1.0, 1e-12);
+  wilson_interval(5, 10, lo, hi);  // [0.237, 0.763]
+  EXPECT_NEAR(lo, 0.2366, 1e-3);
+  EXPECT_NEAR(hi, 0.7634, 1e-3);
+}
+
+}  // namespace
+}  // namespace dentar::training
