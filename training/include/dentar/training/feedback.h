@@ -1,0 +1,61 @@
+// Objective tutoring feedback per procedure step: the student's force,
+// position, orientation and time against the experts' mean and SD, in the
+// seed's style. The wording is generated from the statistics (never canned
+// per exercise); rules in docs/formats.md ("Tutoring feedback").
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "dentar/training/session.h"
+
+namespace dentar::training {
+
+// Expert statistics per step (mean and SD over expert sessions of the
+// per-session step means).
+struct StepReference {
+  std::string name;
+  int sessions = 0;
+  Eigen::Vector3d force_mean = Eigen::Vector3d::Zero(), force_sd = Eigen::Vector3d::Zero();  // N, tooth axes
+  Eigen::Vector3d tip_mean_mm = Eigen::Vector3d::Zero(), tip_sd_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis_mean = Eigen::Vector3d::UnitZ();
+  double axis_sd_deg = 0;
+  double drilling_mean_s = 0, drilling_sd_s = 0;
+};
+struct ExpertReference {
+  std::string exercise;
+  std::vector<StepReference> steps;
+  // Whole-session process metrics: mean and SD.
+  double duration_mean_s = 0, duration_sd_s = 0, path_mean_mm = 0, path_sd_mm = 0;
+  double drilling_mean_s = 0, drilling_sd_s = 0, excessive_mean_s = 0, excessive_sd_s = 0;
+};
+ExpertReference build_reference(const std::string& exercise, const std::vector<ProcessMetrics>& experts);
+std::string reference_to_json(const ExpertReference& r);
+Result<ExpertReference> reference_from_json(const std::string& text, const std::string& name);
+
+struct FeedbackRules {
+  double min_frames = 10;       // a step needs this many drilling frames in contact to be judged
+  double band_sd = 1.0;         // "well done" within this many SDs
+  double min_sd_N = 0.05;       // SD floor (N) so a very consistent expert set is not over-strict
+  double max_multiplier = 3.0;  // never ask for more than this factor
+  double off_axis_ratio = 0.35; // off-axis force above this fraction of the main force is "large"
+  double position_mm = 0.5;     // position advice only beyond this distance and 2 SD
+  double angle_deg = 10.0;      // orientation advice only beyond this angle and 2 SD
+};
+
+struct FeedbackMessage {
+  int step = -1;  // -1: whole session
+  std::string step_name;
+  std::string kind;  // "well_done", "instruct", "ask", "caution"
+  std::string text;
+};
+
+// excessive_force_N caps "press harder" advice: the recommended force never
+// exceeds it (more force could damage the tooth).
+std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& student, const ExpertReference& ref,
+                                               double excessive_force_N, const FeedbackRules& rules = {});
+
+// Names of the tooth axes as the feedback uses them ("minus Z (long axis, apical)").
+std::string axis_direction_name(int axis, double sign);
+
+}  // namespace dentar::training
