@@ -8,6 +8,9 @@
 // Motion: the stylus tip circles (mm, HD frame) around `centre` with radius
 // `amp` at `freq` Hz in the x-y plane; velocity is the analytic derivative.
 // Everything is in mm, mm/s and N, as the real runtime reports.
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -115,6 +118,10 @@ void update_device(State& s, long t) {
 
 void scheduler_main() {
   State& s = S();
+  // Like the real HD scheduler: a real-time thread when the system allows it.
+  sched_param sp{};
+  sp.sched_priority = 90;
+  pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
   auto next = std::chrono::steady_clock::now();
   while (s.run.load()) {
     next += std::chrono::microseconds(1000);
