@@ -17,6 +17,7 @@ pkg_check_modules(APRILTAG REQUIRED IMPORTED_TARGET apriltag>=3.3)
 pkg_check_modules(EGL REQUIRED IMPORTED_TARGET egl)
 pkg_check_modules(GLES REQUIRED IMPORTED_TARGET glesv2)
 pkg_check_modules(LIBUSB REQUIRED IMPORTED_TARGET libusb-1.0)
+pkg_check_modules(CAIRO REQUIRED IMPORTED_TARGET cairo>=1.16)
 
 if(DENTAR_BUILD_TESTS)
   find_package(GTest REQUIRED)

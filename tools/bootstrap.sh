@@ -29,6 +29,9 @@ packages=(
   # Real photographs for tests (provenance in tests/README-data.md): OpenCV's
   # chessboard samples (opencv-doc) and ViSP's AprilTag images (visp-images-data).
   opencv-doc visp-images-data
+  # The printable station kit (dentar tags): cairo; its tests render the PDF and SVG back
+  # to pixels with poppler (pdftoppm) and librsvg (rsvg-convert).
+  libcairo2-dev poppler-utils librsvg2-bin
 )
 if [[ "$job" == bench ]]; then packages+=(libvtk9-dev); fi
 

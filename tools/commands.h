@@ -15,6 +15,7 @@ void add_synth(CLI::App& app, int& exit_code);
 void add_track(CLI::App& app, int& exit_code);
 void add_calibrate(CLI::App& app, int& exit_code);
 void add_offline(CLI::App& app, int& exit_code);
+void add_tags(CLI::App& app, int& exit_code);
 void add_devices(CLI::App& app, int& exit_code);
 
 // Prints "dentar <cmd>: <message>" to stderr.
