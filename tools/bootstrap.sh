@@ -32,6 +32,9 @@ packages=(
   # The printable station kit (dentar tags): cairo; its tests render the PDF and SVG back
   # to pixels with poppler (pdftoppm) and librsvg (rsvg-convert).
   libcairo2-dev poppler-utils librsvg2-bin
+  # The live trainer (dentar live): window and HUD (GLFW 3.3, Dear ImGui 1.86,
+  # desktop GL), and Xvfb + xauth for its windowed tests.
+  libglfw3-dev libimgui-dev libgl-dev xvfb xauth
 )
 if [[ "$job" == bench ]]; then packages+=(libvtk9-dev); fi
 

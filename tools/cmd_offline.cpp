@@ -162,7 +162,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
       "                         [--predict-ms MS] [--stale-ms MS] [--no-occlusion]\n"
       "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]");
-  s->add_option("--footage", c->footage, "Video file or image folder (default: generate built-in footage)");
+  s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");
   s->add_option("--station", c->station, "Station file (JSON) the footage was recorded with");
   s->add_option("--session", c->session, "Haptic session log (.dlog) to replay in step with the video");
   s->add_option("--truth", c->truth, "Ground truth truth.jsonl (default: beside the footage; none = ignore)");
@@ -206,10 +206,13 @@ void add_offline(CLI::App& app, int& exit_code) {
       "  dentar offline --out out/offline                 # built-in footage, the README job\n"
       "  dentar synth --preset hard --resolution 1280x720 --out out/hard\n"
       "  dentar offline --footage out/hard/video.mkv --station out/hard/station.json \\\n"
-      "                 --session out/hard/session.dlog --out out/hard-run");
+      "                 --session out/hard/session.dlog --out out/hard-run\n"
+      "  dentar offline --footage out/rec --out out/rec-run   # a `dentar live --record` folder");
   s->callback([c, &exit_code] {
-    if (!c->footage.empty() && c->station.empty()) {
-      print_error("offline", "--footage needs --station (the station file the footage was recorded with)");
+    const bool recording = !c->footage.empty() && std::filesystem::exists(std::filesystem::path(c->footage) / "recording.json");
+    if (!c->footage.empty() && c->station.empty() && !recording) {
+      print_error("offline", "--footage needs --station (the station file the footage was recorded with), "
+                             "unless it is a `dentar live --record` folder");
       exit_code = 2;
       return;
     }

@@ -15,8 +15,11 @@ void add_synth(CLI::App& app, int& exit_code);
 void add_track(CLI::App& app, int& exit_code);
 void add_calibrate(CLI::App& app, int& exit_code);
 void add_offline(CLI::App& app, int& exit_code);
-void add_tags(CLI::App& app, int& exit_code);
+void add_score(CLI::App& app, int& exit_code);
+void add_assess(CLI::App& app, int& exit_code);
 void add_devices(CLI::App& app, int& exit_code);
+void add_tags(CLI::App& app, int& exit_code);
+void add_live(CLI::App& app, int& exit_code);
 
 // Prints "dentar <cmd>: <message>" to stderr.
 void print_error(const std::string& cmd, const std::string& message);

@@ -18,8 +18,11 @@ int main(int argc, char** argv) {
   dentar::tools::add_track(app, exit_code);
   dentar::tools::add_calibrate(app, exit_code);
   dentar::tools::add_offline(app, exit_code);
-  dentar::tools::add_tags(app, exit_code);
+  dentar::tools::add_score(app, exit_code);
+  dentar::tools::add_assess(app, exit_code);
   dentar::tools::add_devices(app, exit_code);
+  dentar::tools::add_tags(app, exit_code);
+  dentar::tools::add_live(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

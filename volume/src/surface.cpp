@@ -533,4 +533,10 @@ TriangleMesh merge_chunks(const std::vector<ChunkMesh>& chunks) {
   return m;
 }
 
+void Surface::replace_chunk(int chunk_id, ChunkMesh mesh) {
+  ChunkMesh& m = meshes_.at(static_cast<std::size_t>(chunk_id));
+  mesh.version = m.version + 1;
+  m = std::move(mesh);
+}
+
 }  // namespace dentar::volume

@@ -42,6 +42,11 @@ struct EngineConfig {
   double max_force_rate_N_per_s = 2000.0;  // spike limit for the guard
   bool try_realtime = true;                // ask for SCHED_FIFO
   int realtime_priority = 80;
+  // Real-time thread only: pin the engine thread to this CPU (-1 = no pin),
+  // and touch `prefault_stack_bytes` of its stack before the first step so
+  // no page fault lands inside a step (with mlockall the pages stay).
+  int cpu = -1;
+  std::size_t prefault_stack_bytes = 256 * 1024;
   std::string validate() const;  // empty when valid, else names the field
 };
 
@@ -67,6 +72,7 @@ struct EngineStats {
   std::uint64_t guard_clamped = 0, guard_rate_limited = 0;
   std::uint64_t log_dropped = 0;
   bool realtime_granted = false;  // SCHED_FIFO obtained (real-time mode only)
+  bool cpu_pinned = false;        // the thread runs only on EngineConfig::cpu
   std::string realtime_note;      // why not, when not
   TimingHistogram compute;        // time inside step()
   TimingHistogram jitter;         // wake-up time minus deadline (real-time mode)

@@ -101,6 +101,10 @@ class Surface {
   // Re-extracts the given chunks only; returns the ids whose mesh changed.
   std::vector<int> extract(const std::vector<int>& chunk_ids);
 
+  // Adopts a chunk mesh extracted by another Surface over the same volume
+  // (a mesher thread's): the display side of double-buffered meshing. The
+  // version is bumped so renderers re-upload it. chunk_id must be valid.
+  void replace_chunk(int chunk_id, ChunkMesh mesh);
   const std::vector<ChunkMesh>& chunks() const { return meshes_; }
   std::size_t triangle_count() const;
   std::size_t vertex_count() const;

@@ -1,0 +1,93 @@
+// Frame sources for tracking: a video file, a folder of image files, or a
+// live camera (V4L2 through cv::VideoCapture), behind one interface that
+// hands out BGR frames with a monotonic capture time and dropped-frame
+// accounting.
+//
+// Spec strings (FrameSource::open):
+//   camera:N            V4L2 camera index N (cv::CAP_V4L2)
+//   /dev/videoN         V4L2 device path
+//   live:PATH           a video file standing in for a live camera: the
+//                       camera reader itself, paced in real time at the
+//                       file's fps; frames the consumer was too slow for are
+//                       skipped and counted as dropped, like a camera's
+//   DIR                 a folder: its image files (png, jpg, jpeg, bmp, pgm,
+//                       ppm, tif, tiff) in name order
+//   FILE                a video file (FFmpeg)
+//
+// Timestamps (Frame::time_s, seconds, monotonic, starting near 0):
+//   video file: the container's timestamp (CAP_PROP_POS_MSEC), or index/fps
+//     when the container has none;
+//   folder: index / folder_fps;
+//   camera / live: std::chrono::steady_clock since open, taken when the frame
+//     is grabbed.
+// Dropped frames: camera/live: a gap between consecutive frames longer than
+// 1.5 frame periods counts round(gap / period) - 1 frames; files: a frame
+// that fails to decode is counted (dropped_before of the next good frame)
+// and reported, never silently skipped; more than 10 in a row ends the
+// stream with an error (a corrupt file).
+//
+// Errors (Result): missing path, unreadable/corrupt/empty video, an image of
+// another size or an unreadable image inside a folder, a camera that cannot
+// be opened. Messages name the source and say what to do.
+// Thread: one reader thread per source.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <string>
+
+#include "dentar/volume/result.h"
+
+namespace cv {
+class VideoCapture;
+}
+
+namespace dentar::ar {
+
+struct FrameSourceOptions {
+  // Camera requests (0 = leave the driver's default). The driver may choose
+  // another mode: width()/height()/fps() report what it delivers.
+  int width = 0, height = 0;
+  double fps = 0;
+  double folder_fps = 30;  // timestamps of image folders, Hz
+  std::string validate() const;  // empty when valid, else names the field
+};
+
+struct Frame {
+  cv::Mat image;  // CV_8UC3 BGR (gray files are converted)
+  std::int64_t index = 0;  // 0, 1, ... in delivery order (drops not counted)
+  double time_s = 0;       // capture time, s (see above)
+  int dropped_before = 0;  // frames lost between the previous frame and this one
+  // std::chrono::steady_clock time of the capture, s since that clock's
+  // epoch (live sources: when the frame was grabbed, or was due for paced
+  // footage; files and folders: when it was decoded). Latency starts here.
+  double steady_s = 0;
+};
+
+// steady_clock now, s since its epoch (the clock of Frame::steady_s).
+double steady_now_s();
+
+class FrameSource {
+ public:
+  static Result<std::unique_ptr<FrameSource>> open(const std::string& spec,
+                                                   const FrameSourceOptions& options = {});
+  // The live reader over any opened capture (a camera, or a video file
+  // standing in for one). `pace`: deliver frames in real time at `fps`
+  // (needed when the capture is a file; a camera paces itself).
+  static Result<std::unique_ptr<FrameSource>> open_live(std::unique_ptr<cv::VideoCapture> capture,
+                                                        const std::string& description,
+                                                        double fps, bool pace);
+  virtual ~FrameSource();
+  // Next frame into `out`; false at the end of a file (never for a live
+  // camera unless it stops delivering). Errors name the source and frame.
+  virtual Result<bool> read(Frame& out) = 0;
+  virtual int width() const = 0;
+  virtual int height() const = 0;
+  virtual double fps() const = 0;                 // nominal, Hz
+  virtual std::int64_t frame_count() const = 0;   // -1 unknown (camera)
+  virtual std::int64_t dropped_total() const = 0;
+  virtual std::string description() const = 0;  // "video file x.mkv (640x480, 30 fps)"
+};
+
+}  // namespace dentar::ar

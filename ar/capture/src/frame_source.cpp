@@ -1,0 +1,416 @@
+#include "dentar/ar/frame_source.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+namespace dentar::ar {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr int kMaxConsecutiveFailures = 10;
+
+std::string size_str(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
+
+std::string fps_str(double fps) {
+  std::ostringstream os;
+  os << fps;
+  return os.str();
+}
+
+// BGR 8-bit whatever the decoder gave (gray, BGRA).
+cv::Mat to_bgr(const cv::Mat& m) {
+  if (m.type() == CV_8UC3) return m;
+  cv::Mat out;
+  if (m.type() == CV_8UC1)
+    cv::cvtColor(m, out, cv::COLOR_GRAY2BGR);
+  else if (m.type() == CV_8UC4)
+    cv::cvtColor(m, out, cv::COLOR_BGRA2BGR);
+  else
+    m.convertTo(out, CV_8U);  // 16-bit etc.: caller checks the type again
+  return out;
+}
+
+// ---- video file ----
+class VideoFileSource final : public FrameSource {
+ public:
+  static Result<std::unique_ptr<FrameSource>> open(const std::string& path) {
+    auto s = std::unique_ptr<VideoFileSource>(new VideoFileSource);
+    s->path_ = path;
+    s->cap_.open(path, cv::CAP_FFMPEG);
+    if (!s->cap_.isOpened())
+      return Error{path + ": cannot open as a video (corrupt, or a format FFmpeg does not know); "
+                          "check the file with ffprobe, or pass a folder of images"};
+    s->fps_ = s->cap_.get(cv::CAP_PROP_FPS);
+    if (!std::isfinite(s->fps_) || s->fps_ <= 0 || s->fps_ > 1000) s->fps_ = 30;  // no rate stored
+    const double n = s->cap_.get(cv::CAP_PROP_FRAME_COUNT);
+    s->count_ = std::isfinite(n) && n > 0 ? static_cast<std::int64_t>(std::llround(n)) : -1;
+    // The first frame now: an empty or undecodable file fails at open.
+    cv::Mat first;
+    if (!s->cap_.read(first) || first.empty())
+      return Error{path + ": no decodable frame (empty or corrupt video)"};
+    s->first_ = to_bgr(first);
+    if (s->first_.type() != CV_8UC3)
+      return Error{path + ": frames are not 8-bit images (type " +
+                   cv::typeToString(first.type()) + ")"};
+    s->width_ = s->first_.cols;
+    s->height_ = s->first_.rows;
+    s->first_time_ = s->stamp();
+    return std::unique_ptr<FrameSource>(std::move(s));
+  }
+
+  Result<bool> read(Frame& out) override {
+    if (ended_) return false;
+    cv::Mat img;
+    double t = 0;
+    int failed = 0;
+    if (!first_.empty()) {
+      img = first_;
+      first_.release();
+      t = first_time_;
+    } else {
+      for (;;) {
+        if (cap_.read(img) && !img.empty()) {
+          t = stamp();
+          break;
+        }
+        // End of stream, or a frame that does not decode: FFmpeg says which
+        // only through the position; a known frame count tells them apart.
+        const bool before_end = count_ > 0 && next_index_ + dropped_ + failed < count_ - 1;
+        if (!before_end) {
+          ended_ = true;
+          if (failed > 0 || (count_ > 0 && next_index_ + dropped_ < count_ - 2))
+            return Error{path_ + ": the video ends at frame " + std::to_string(next_index_) +
+                         " of " + std::to_string(count_) +
+                         " announced (truncated or corrupt file)"};
+          return false;
+        }
+        if (++failed > kMaxConsecutiveFailures)
+          return Error{path_ + ": more than " + std::to_string(kMaxConsecutiveFailures) +
+                       " frames in a row fail to decode after frame " +
+                       std::to_string(next_index_) + " (corrupt file)"};
+      }
+      img = to_bgr(img);
+      if (img.cols != width_ || img.rows != height_ || img.type() != CV_8UC3)
+        return Error{path_ + ": frame " + std::to_string(next_index_) + " is " +
+                     size_str(img.cols, img.rows) + " but the video started at " +
+                     size_str(width_, height_)};
+    }
+    if (t <= last_time_) t = last_time_ + 1.0 / fps_;  // keep time monotonic
+    last_time_ = t;
+    dropped_ += failed;
+    out.image = img;
+    out.index = next_index_++;
+    out.time_s = t;
+    out.dropped_before = failed;
+    out.steady_s = steady_now_s();
+    return true;
+  }
+  int width() const override { return width_; }
+  int height() const override { return height_; }
+  double fps() const override { return fps_; }
+  std::int64_t frame_count() const override { return count_; }
+  std::int64_t dropped_total() const override { return dropped_; }
+  std::string description() const override {
+    return "video file " + path_ + " (" + size_str(width_, height_) + ", " + fps_str(fps_) +
+           " fps, " + (count_ > 0 ? std::to_string(count_) : std::string("?")) + " frames)";
+  }
+
+ private:
+  // The container's time of the frame just read, s (index/fps when absent).
+  double stamp() {
+    const double ms = cap_.get(cv::CAP_PROP_POS_MSEC);
+    if (std::isfinite(ms) && ms >= 0 && (ms > 0 || next_index_ == 0)) return ms * 1e-3;
+    return static_cast<double>(next_index_ + dropped_) / fps_;
+  }
+  std::string path_;
+  cv::VideoCapture cap_;
+  cv::Mat first_;
+  double first_time_ = 0, last_time_ = -1, fps_ = 30;
+  int width_ = 0, height_ = 0;
+  std::int64_t count_ = -1, next_index_ = 0, dropped_ = 0;
+  bool ended_ = false;
+};
+
+// ---- image folder ----
+class FolderSource final : public FrameSource {
+ public:
+  static Result<std::unique_ptr<FrameSource>> open(const std::string& dir, double fps) {
+    auto s = std::unique_ptr<FolderSource>(new FolderSource);
+    s->dir_ = dir;
+    s->fps_ = fps;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+      if (!e.is_regular_file()) continue;
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
+        return static_cast<char>(std::tolower(c));
+      });
+      for (const char* k : {".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff"})
+        if (ext == k) s->files_.push_back(e.path().string());
+    }
+    if (ec) return Error{dir + ": cannot list the folder: " + ec.message()};
+    if (s->files_.empty())
+      return Error{dir + ": no image files (png, jpg, bmp, pgm, ppm, tif) in the folder"};
+    std::sort(s->files_.begin(), s->files_.end());
+    // Size from the first readable image.
+    for (const std::string& f : s->files_) {
+      cv::Mat m = cv::imread(f, cv::IMREAD_COLOR);
+      if (!m.empty()) {
+        s->width_ = m.cols;
+        s->height_ = m.rows;
+        break;
+      }
+    }
+    if (s->width_ == 0)
+      return Error{dir + ": none of the " + std::to_string(s->files_.size()) +
+                   " image files can be decoded"};
+    return std::unique_ptr<FrameSource>(std::move(s));
+  }
+
+  Result<bool> read(Frame& out) override {
+    int failed = 0;
+    for (; pos_ < files_.size(); ++pos_) {
+      cv::Mat m = cv::imread(files_[pos_], cv::IMREAD_COLOR);
+      if (m.empty()) {
+        if (++failed > kMaxConsecutiveFailures)
+          return Error{files_[pos_] + ": more than " + std::to_string(kMaxConsecutiveFailures) +
+                       " images in a row cannot be decoded"};
+        continue;  // counted below: reported through dropped_before
+      }
+      if (m.cols != width_ || m.rows != height_)
+        return Error{files_[pos_] + ": image is " + size_str(m.cols, m.rows) +
+                     " but the sequence started at " + size_str(width_, height_) +
+                     "; all frames of a folder must have one size"};
+      dropped_ += failed;
+      out.image = m;
+      out.index = next_index_++;
+      out.time_s = static_cast<double>(pos_) / fps_;
+      out.dropped_before = failed;
+      out.steady_s = steady_now_s();
+      ++pos_;
+      return true;
+    }
+    dropped_ += failed;
+    if (failed > 0)
+      return Error{dir_ + ": the last " + std::to_string(failed) +
+                   " image(s) cannot be decoded"};
+    return false;
+  }
+  int width() const override { return width_; }
+  int height() const override { return height_; }
+  double fps() const override { return fps_; }
+  std::int64_t frame_count() const override { return static_cast<std::int64_t>(files_.size()); }
+  std::int64_t dropped_total() const override { return dropped_; }
+  std::string description() const override {
+    return "image folder " + dir_ + " (" + std::to_string(files_.size()) + " files, " +
+           size_str(width_, height_) + ", " + fps_str(fps_) + " fps)";
+  }
+
+ private:
+  std::string dir_;
+  std::vector<std::string> files_;
+  std::size_t pos_ = 0;
+  double fps_ = 30;
+  int width_ = 0, height_ = 0;
+  std::int64_t next_index_ = 0, dropped_ = 0;
+};
+
+// ---- live camera (or a file standing in for one) ----
+class LiveSource final : public FrameSource {
+ public:
+  LiveSource(std::unique_ptr<cv::VideoCapture> cap, std::string desc, double fps, bool pace)
+      : cap_(std::move(cap)), desc_(std::move(desc)), fps_(fps), pace_(pace) {}
+
+  Status start() {
+    t0_ = Clock::now();
+    cv::Mat first;
+    if (!grab_retrieve(first))
+      return Error{desc_ + ": opened, but delivers no frame (device busy or unsupported mode?)"};
+    width_ = first.cols;
+    height_ = first.rows;
+    first_ = first;
+    first_time_ = pace_ ? 0.0 : since_open();
+    file_pos_ = 1;
+    return {};
+  }
+
+  Result<bool> read(Frame& out) override {
+    cv::Mat img;
+    double t = 0;
+    int dropped = 0;
+    if (!first_.empty()) {
+      img = first_;
+      first_.release();
+      t = first_time_;
+    } else if (pace_) {
+      // The "camera" exposes frame k at k / fps after open. Wait for the
+      // next one, or skip those that went by while the consumer was busy.
+      const double now = since_open();
+      const auto due = static_cast<std::int64_t>(std::floor(now * fps_));
+      if (file_pos_ > due) {
+        std::this_thread::sleep_for(std::chrono::duration<double>(
+            static_cast<double>(file_pos_) / fps_ - now));
+      } else {
+        while (file_pos_ < due) {
+          if (!cap_->grab()) {  // end of the stand-in file: the skipped ones were dropped
+            dropped_ += dropped;
+            return false;
+          }
+          ++file_pos_;
+          ++dropped;
+        }
+      }
+      if (!grab_retrieve(img)) {
+        dropped_ += dropped;
+        return false;
+      }
+      t = static_cast<double>(file_pos_) / fps_;
+      ++file_pos_;
+    } else {
+      if (!grab_retrieve(img)) return false;  // camera stopped
+      t = since_open();
+      // A gap of more than 1.5 periods: the driver dropped frames.
+      const double gap = t - last_time_, period = 1.0 / fps_;
+      if (last_time_ >= 0 && gap > 1.5 * period)
+        dropped = static_cast<int>(std::lround(gap / period)) - 1;
+    }
+    if (img.cols != width_ || img.rows != height_)
+      return Error{desc_ + ": frame " + std::to_string(index_) + " is " +
+                   size_str(img.cols, img.rows) + " but the stream started at " +
+                   size_str(width_, height_)};
+    if (t <= last_time_) t = last_time_ + 1e-6;
+    last_time_ = t;
+    dropped_ += dropped;
+    out.image = img;
+    out.index = index_++;
+    out.time_s = t;
+    out.dropped_before = dropped;
+    out.steady_s = std::chrono::duration<double>(t0_.time_since_epoch()).count() + t;
+    return true;
+  }
+  int width() const override { return width_; }
+  int height() const override { return height_; }
+  double fps() const override { return fps_; }
+  std::int64_t frame_count() const override { return -1; }
+  std::int64_t dropped_total() const override { return dropped_; }
+  std::string description() const override {
+    return desc_ + " (" + size_str(width_, height_) + ", " + fps_str(fps_) + " fps, live)";
+  }
+
+ private:
+  double since_open() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
+  bool grab_retrieve(cv::Mat& out) {
+    cv::Mat m;
+    if (!cap_->read(m) || m.empty()) return false;
+    out = to_bgr(m);
+    return out.type() == CV_8UC3;
+  }
+  std::unique_ptr<cv::VideoCapture> cap_;
+  std::string desc_;
+  double fps_ = 30;
+  bool pace_ = false;
+  Clock::time_point t0_;
+  cv::Mat first_;
+  double first_time_ = 0, last_time_ = -1;
+  int width_ = 0, height_ = 0;
+  std::int64_t index_ = 0, file_pos_ = 0, dropped_ = 0;
+};
+
+}  // namespace
+
+FrameSource::~FrameSource() = default;
+
+double steady_now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string FrameSourceOptions::validate() const {
+  std::ostringstream os;
+  if (width < 0 || width > 16384)
+    os << "width = " << width << " px must be in 0..16384 (0 = the camera's default)";
+  else if (height < 0 || height > 16384)
+    os << "height = " << height << " px must be in 0..16384 (0 = the camera's default)";
+  else if (!std::isfinite(fps) || fps < 0 || fps > 1000)
+    os << "fps = " << fps << " must be in [0, 1000] (0 = the camera's default)";
+  else if (!std::isfinite(folder_fps) || folder_fps <= 0 || folder_fps > 1000)
+    os << "folder_fps = " << folder_fps << " must be in (0, 1000]";
+  return os.str();
+}
+
+Result<std::unique_ptr<FrameSource>> FrameSource::open_live(
+    std::unique_ptr<cv::VideoCapture> capture, const std::string& description, double fps,
+    bool pace) {
+  if (!capture || !capture->isOpened()) return Error{description + ": capture is not open"};
+  if (!std::isfinite(fps) || fps <= 0 || fps > 1000) fps = 30;  // driver did not say
+  auto s = std::make_unique<LiveSource>(std::move(capture), description, fps, pace);
+  if (Status st = s->start(); !st) return Error{st.error()};
+  return std::unique_ptr<FrameSource>(std::move(s));
+}
+
+Result<std::unique_ptr<FrameSource>> FrameSource::open(const std::string& spec,
+                                                       const FrameSourceOptions& options) {
+  if (auto e = options.validate(); !e.empty()) return Error{"FrameSourceOptions: " + e};
+  if (spec.empty()) return Error{"frame source: empty input (give a video, a folder or camera:N)"};
+
+  // Live camera: camera:N or /dev/videoN.
+  const bool is_index = spec.rfind("camera:", 0) == 0;
+  const bool is_dev = spec.rfind("/dev/video", 0) == 0;
+  if (is_index || is_dev) {
+    auto cap = std::make_unique<cv::VideoCapture>();
+    if (is_index) {
+      const std::string n = spec.substr(7);
+      if (n.empty() || n.size() > 3 || !std::all_of(n.begin(), n.end(), ::isdigit))
+        return Error{spec + ": camera index must be a number (camera:0, camera:1, ...)"};
+      if (!fs::exists("/dev/video" + n))
+        return Error{spec + ": no camera /dev/video" + n +
+                     " on this machine (list them with v4l2-ctl --list-devices)"};
+      cap->open(std::stoi(n), cv::CAP_V4L2);
+    } else {
+      if (!fs::exists(spec))
+        return Error{spec + ": no such camera device (list them with v4l2-ctl --list-devices)"};
+      cap->open(spec, cv::CAP_V4L2);
+    }
+    if (!cap->isOpened())
+      return Error{spec + ": cannot open the camera through V4L2 (busy, no permission, or not "
+                          "a capture device)"};
+    if (options.width > 0) cap->set(cv::CAP_PROP_FRAME_WIDTH, options.width);
+    if (options.height > 0) cap->set(cv::CAP_PROP_FRAME_HEIGHT, options.height);
+    if (options.fps > 0) cap->set(cv::CAP_PROP_FPS, options.fps);
+    const double fps = cap->get(cv::CAP_PROP_FPS);
+    return open_live(std::move(cap), "camera " + spec, fps > 0 ? fps : options.fps, false);
+  }
+
+  // A file standing in for a live camera.
+  if (spec.rfind("live:", 0) == 0) {
+    const std::string path = spec.substr(5);
+    if (!fs::is_regular_file(path)) return Error{path + ": no such video file (live:PATH)"};
+    auto cap = std::make_unique<cv::VideoCapture>(path, cv::CAP_FFMPEG);
+    if (!cap->isOpened())
+      return Error{path + ": cannot open as a video (corrupt, or a format FFmpeg does not know)"};
+    const double fps = cap->get(cv::CAP_PROP_FPS);
+    return open_live(std::move(cap), "live stand-in " + path, fps, true);
+  }
+
+  std::error_code ec;
+  if (!fs::exists(spec, ec))
+    return Error{spec + ": no such file or folder (give a video file, an image folder, "
+                        "camera:N or /dev/videoN)"};
+  if (fs::is_directory(spec, ec)) return FolderSource::open(spec, options.folder_fps);
+  if (!fs::is_regular_file(spec, ec)) return Error{spec + ": not a regular file or folder"};
+  if (fs::file_size(spec, ec) == 0) return Error{spec + ": empty file (0 bytes), not a video"};
+  return VideoFileSource::open(spec);
+}
+
+}  // namespace dentar::ar

@@ -1,0 +1,155 @@
+// FramePipeline: one camera frame through the trainer. The same object
+// serves `dentar offline` (recorded footage, simulated time) and
+// `dentar live` (a camera, real time); both are thin drivers around it.
+//
+//   frame + capture time + latest haptic snapshot
+//     -> tracker (mannequin, mirror, pen)              tracking
+//     -> T_cam_tooth = T_cam_man * T_man_tooth          registration
+//     -> ToothMeshes::sync (inline re-mesh, or the      cutting-mesh update
+//        mesher thread's meshes swapped in)
+//     -> Compositor (video + tooth + bur + mirror        compositing, occlusion
+//        reflection, phantoms, foreground)
+//   -> composite image + FrameRecord (what happened, with stage times)
+//
+// Determinism: with the same frames, capture times, snapshots and an inline
+// mesher, process() gives the same records and composites (tested).
+// Thread/context: create() and process() on one thread, with a GLES 3
+// context current (egl_context.h); destroy the pipeline before the context.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dentar/ar/compositor.h"
+#include "dentar/ar/station_scene.h"
+#include "dentar/ar/tracker.h"
+#include "dentar/haptics/engine.h"
+#include "dentar/volume/result.h"
+#include "dentar/volume/surface.h"
+#include "dentar/volume/voxel_volume.h"
+
+namespace dentar::ar {
+
+struct PipelineOptions {
+  TrackerOptions tracker;
+  CompositorOptions compositor;
+  // Poses are predicted to capture time + this (video see-through shows the
+  // captured frame itself, so 0 is right unless the display adds delay), s.
+  double predict_s = 0.0;
+  std::string validate() const;  // empty, or names the field
+};
+
+// The tooth's meshes as the compositor draws them. Inline (offline, tests):
+// sync() re-meshes the volume's dirty chunks on the calling thread, so every
+// frame shows every cut made before it. Threaded (live): a mesher thread
+// re-meshes at its own pace into its own Surface and publishes changed
+// chunks; sync() adopts the published chunks (a short lock, never on the
+// haptic thread). The volume is not owned and must outlive this object; it
+// may be cut concurrently only through volume::Cutter.
+class ToothMeshes {
+ public:
+  explicit ToothMeshes(const volume::VoxelVolume& volume);  // extracts the whole surface
+  ~ToothMeshes();                                           // stops the mesher
+  ToothMeshes(const ToothMeshes&) = delete;
+  ToothMeshes& operator=(const ToothMeshes&) = delete;
+
+  // Starts the mesher thread (period between passes, s). Idempotent.
+  void start_mesher(double period_s = 1.0 / 120.0);
+  void stop_mesher();
+  bool threaded() const { return mesher_.joinable(); }
+  // Frame thread: brings display() up to date; returns the chunks changed.
+  int sync();
+  const volume::Surface& display() const { return display_; }
+
+  struct Stats {
+    std::uint64_t passes = 0, chunks = 0;  // mesher passes, chunks re-meshed
+    double max_pass_ms = 0;
+  };
+  Stats stats() const;
+
+ private:
+  void mesher_main(double period_s);
+
+  const volume::VoxelVolume* volume_;
+  volume::Surface display_;                 // frame thread
+  std::unique_ptr<volume::Surface> back_;   // mesher thread (threaded mode)
+  mutable std::mutex mutex_;                // guards pending_ and stats_
+  std::vector<std::pair<int, volume::ChunkMesh>> pending_;
+  Stats stats_;
+  std::atomic<bool> stop_{false};
+  std::thread mesher_;
+};
+
+struct FrameInput {
+  const cv::Mat* image = nullptr;  // CV_8UC3 BGR, the station camera's size, as captured
+  std::int64_t index = 0;
+  double capture_time_s = 0;  // monotonic, s
+  // The latest haptic state (null: no engine, no bur). The bur is drawn when
+  // stylus_valid, at snapshot.T_dev_sty through the station calibration.
+  const haptics::HapticSnapshot* haptic = nullptr;
+  bool stylus_valid = false;
+};
+
+// What happened to one frame. States: 0 tracking, 1 predicted, 2 lost.
+struct FrameRecord {
+  std::int64_t frame = 0;
+  double time_s = 0;  // capture time
+  int man_state = 2, mir_state = 2, pen_state = 2;
+  Eigen::Isometry3d T_cam_man = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_cam_mtag = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_cam_ptag = Eigen::Isometry3d::Identity();
+  double man_rms_px = 0;  // NaN when not measured
+  int man_tags = 0, mir_tags = 0, pen_tags = 0, tags_detected = 0;
+  bool full_frame = false;
+  // Haptics as drawn.
+  std::uint64_t haptic_step = 0;
+  bool pedal = false, stylus_drawn = false;
+  double force_N = 0;
+  double removed_mm3[8] = {};
+  Eigen::Isometry3d T_dev_sty = Eigen::Isometry3d::Identity();
+  // Stage times, ms.
+  double track_ms = 0, detect_ms = 0, pose_ms = 0, filter_ms = 0, mesh_ms = 0, composite_ms = 0;
+  int mesh_chunks = 0;
+  bool overlay = false, mirror_drawn = false;
+  std::size_t triangles = 0;
+};
+
+class FramePipeline {
+ public:
+  // Errors name the option or the station field, or the GL failure.
+  static Result<std::unique_ptr<FramePipeline>> create(const StationScene& station,
+                                                       const PipelineOptions& options);
+  // One frame; `out` receives the composite (out.image: BGR, camera size).
+  // Errors (wrong frame size or type, tracker or GL failure) name the frame.
+  Status process(const FrameInput& in, ToothMeshes& meshes, CompositeResult& out, FrameRecord& rec);
+  // Draws the tooth once on a grey frame (GPU uploads, levels of detail,
+  // shader warm-up: ~0.5 s on llvmpipe) so the first real frame is not late,
+  // then resets the tracker and the segmenter: the frames that follow are
+  // processed exactly as without it.
+  Status warm_up(ToothMeshes& meshes);
+
+  Tracker& tracker() { return tracker_; }
+  Compositor& compositor() { return compositor_; }
+  const StationScene& station() const { return station_; }
+  const PipelineOptions& options() const { return options_; }
+
+ private:
+  FramePipeline(StationScene st, PipelineOptions o, Tracker t, Compositor c)
+      : station_(std::move(st)), options_(std::move(o)), tracker_(std::move(t)), compositor_(std::move(c)) {}
+  StationScene station_;
+  PipelineOptions options_;
+  Tracker tracker_;
+  Compositor compositor_;
+};
+
+// Column-major 4x4 (HapticSnapshot) to an isometry.
+Eigen::Isometry3d isometry_from_colmajor(const double* m);
+
+}  // namespace dentar::ar

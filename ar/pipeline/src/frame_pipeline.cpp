@@ -1,0 +1,209 @@
+#include "dentar/ar/frame_pipeline.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace dentar::ar {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+int state_index(TrackState s) { return s == TrackState::kTracking ? 0 : s == TrackState::kPredicted ? 1 : 2; }
+
+}  // namespace
+
+Eigen::Isometry3d isometry_from_colmajor(const double* a) {
+  Eigen::Matrix4d m;
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) m(r, c) = a[c * 4 + r];
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = m.topLeftCorner<3, 3>();
+  T.translation() = m.topRightCorner<3, 1>();
+  return T;
+}
+
+std::string PipelineOptions::validate() const {
+  if (!(std::isfinite(predict_s) && predict_s >= 0 && predict_s <= 0.5)) return "predict_s must be in 0..0.5 s";
+  if (auto v = tracker.validate(); !v.empty()) return "tracker: " + v;
+  if (auto v = compositor.validate(); !v.empty()) return "compositor: " + v;
+  return {};
+}
+
+// ---- ToothMeshes ----
+
+ToothMeshes::ToothMeshes(const volume::VoxelVolume& volume) : volume_(&volume), display_(volume) {
+  display_.extract_all();
+}
+
+ToothMeshes::~ToothMeshes() { stop_mesher(); }
+
+void ToothMeshes::start_mesher(double period_s) {
+  if (mesher_.joinable()) return;
+  back_ = std::make_unique<volume::Surface>(*volume_);
+  back_->extract_all();
+  stop_.store(false);
+  mesher_ = std::thread([this, period_s] { mesher_main(period_s); });
+}
+
+void ToothMeshes::stop_mesher() {
+  stop_.store(true);
+  if (mesher_.joinable()) mesher_.join();
+}
+
+void ToothMeshes::mesher_main(double period_s) {
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(period_s));
+  auto next = Clock::now();
+  while (!stop_.load(std::memory_order_acquire)) {
+    const auto t0 = Clock::now();
+    const std::vector<int> changed = back_->update();
+    if (!changed.empty()) {
+      std::vector<std::pair<int, volume::ChunkMesh>> batch;
+      batch.reserve(changed.size());
+      for (int id : changed) batch.emplace_back(id, back_->chunks()[static_cast<std::size_t>(id)]);
+      const double ms = ms_since(t0);
+      std::lock_guard<std::mutex> lock(mutex_);
+      // Later passes replace earlier ones for the same chunk.
+      for (auto& b : batch) {
+        bool replaced = false;
+        for (auto& p : pending_)
+          if (p.first == b.first) {
+            p.second = std::move(b.second);
+            replaced = true;
+            break;
+          }
+        if (!replaced) pending_.push_back(std::move(b));
+      }
+      stats_.chunks += changed.size();
+      stats_.max_pass_ms = std::max(stats_.max_pass_ms, ms);
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++stats_.passes;
+    }
+    next += period;
+    const auto now = Clock::now();
+    if (next < now) next = now;
+    std::this_thread::sleep_until(next);
+  }
+}
+
+int ToothMeshes::sync() {
+  if (!mesher_.joinable()) {
+    const auto changed = display_.update();
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++stats_.passes;
+    stats_.chunks += changed.size();
+    return static_cast<int>(changed.size());
+  }
+  std::vector<std::pair<int, volume::ChunkMesh>> got;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    got.swap(pending_);
+  }
+  for (auto& p : got) display_.replace_chunk(p.first, std::move(p.second));
+  return static_cast<int>(got.size());
+}
+
+ToothMeshes::Stats ToothMeshes::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
+}
+
+// ---- FramePipeline ----
+
+Result<std::unique_ptr<FramePipeline>> FramePipeline::create(const StationScene& station,
+                                                             const PipelineOptions& options) {
+  if (auto v = options.validate(); !v.empty()) return Error{"FramePipeline: " + v};
+  auto tracker = Tracker::create(station, options.tracker);
+  if (!tracker) return Error{"tracker: " + tracker.error()};
+  auto comp = Compositor::create(station, options.compositor);
+  if (!comp) return Error{"compositor: " + comp.error()};
+  return std::unique_ptr<FramePipeline>(
+      new FramePipeline(station, options, std::move(*tracker), std::move(*comp)));
+}
+
+Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, CompositeResult& out,
+                              FrameRecord& r) {
+  if (in.image == nullptr || in.image->empty())
+    return Error{"frame " + std::to_string(in.index) + ": no image"};
+  r = FrameRecord{};
+  r.frame = in.index;
+  r.time_s = in.capture_time_s;
+
+  // Haptics as of this frame (the snapshot the caller took).
+  if (in.haptic != nullptr) {
+    const haptics::HapticSnapshot& s = *in.haptic;
+    r.haptic_step = s.step;
+    r.pedal = s.pedal != 0;
+    r.force_N = std::sqrt(s.force_dev_N[0] * s.force_dev_N[0] + s.force_dev_N[1] * s.force_dev_N[1] +
+                          s.force_dev_N[2] * s.force_dev_N[2]);
+    for (int m = 0; m < 8; ++m) r.removed_mm3[m] = s.removed_mm3[m];
+    r.T_dev_sty = isometry_from_colmajor(s.T_dev_sty);
+  }
+
+  // Cutting-mesh update.
+  auto t0 = Clock::now();
+  r.mesh_chunks = meshes.sync();
+  r.mesh_ms = ms_since(t0);
+
+  // Tracking.
+  t0 = Clock::now();
+  auto tf = tracker_.track(*in.image, in.capture_time_s, in.capture_time_s + options_.predict_s);
+  if (!tf) return Error{"tracking frame " + std::to_string(in.index) + ": " + tf.error()};
+  r.track_ms = ms_since(t0);
+  r.detect_ms = tf->timing.detect_ms;
+  r.pose_ms = tf->timing.pose_ms;
+  r.filter_ms = tf->timing.filter_ms;
+  r.man_state = state_index(tf->mannequin.state);
+  r.mir_state = state_index(tf->mirror.state);
+  r.pen_state = state_index(tf->pen.state);
+  r.T_cam_man = tf->mannequin.T_cam_body;
+  r.T_cam_mtag = tf->mirror.T_cam_body;
+  r.T_cam_ptag = tf->pen.T_cam_body;
+  r.man_rms_px = tf->mannequin.measured ? tf->mannequin.rms_px : std::numeric_limits<double>::quiet_NaN();
+  r.man_tags = tf->mannequin.tags_used;
+  r.mir_tags = tf->mirror.tags_used;
+  r.pen_tags = tf->pen.tags_used;
+  r.tags_detected = tf->tags_detected;
+  r.full_frame = tf->full_frame;
+
+  // Registration and compositing.
+  t0 = Clock::now();
+  CompositeInput ci;
+  ci.video_bgr = in.image;
+  ci.man_valid = r.man_state != 2;
+  ci.T_cam_man = r.T_cam_man;
+  ci.mirror_valid = r.mir_state != 2;
+  ci.T_cam_mtag = r.T_cam_mtag;
+  ci.stylus_valid = in.haptic != nullptr && in.stylus_valid;
+  ci.T_dev_sty = r.T_dev_sty;
+  if (auto cs = compositor_.compose(meshes.display(), ci, out); !cs)
+    return Error{"compositing frame " + std::to_string(in.index) + ": " + cs.error()};
+  r.composite_ms = ms_since(t0);
+  r.stylus_drawn = ci.stylus_valid && ci.man_valid;
+  r.overlay = out.overlay_drawn;
+  r.mirror_drawn = out.mirror_drawn;
+  r.triangles = out.triangles_drawn;
+  return {};
+}
+
+Status FramePipeline::warm_up(ToothMeshes& meshes) {
+  const auto& cam = station_.calibration.camera;
+  const cv::Mat grey(cam.height, cam.width, CV_8UC3, cv::Scalar(128, 128, 128));
+  Eigen::Isometry3d T_cam_tooth = Eigen::Isometry3d::Identity();
+  T_cam_tooth.translation() = Eigen::Vector3d(0, 0, 0.25);
+  CompositeInput ci;
+  ci.video_bgr = &grey;
+  ci.man_valid = true;
+  ci.T_cam_man = T_cam_tooth * station_.calibration.T_man_tooth.inverse();
+  CompositeResult out;
+  if (auto s = compositor_.compose(meshes.display(), ci, out); !s) return Error{"warm-up: " + s.error()};
+  if (auto s = compositor_.set_options(compositor_.options()); !s) return Error{"warm-up: " + s.error()};
+  tracker_.reset();
+  return {};
+}
+
+}  // namespace dentar::ar

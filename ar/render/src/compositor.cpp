@@ -1,0 +1,971 @@
+#include "dentar/ar/compositor.h"
+
+#include <GLES3/gl3.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <unordered_map>
+
+#include "dentar/ar/gl_objects.h"
+#include "dentar/ar/projection.h"
+#include "dentar/volume/material.h"
+#include "dentar/ar/gpu_mesh.h"
+#include "dentar/ar/scene_mesh.h"
+
+namespace dentar::ar {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// ---- shaders ---------------------------------------------------------------
+
+// One program for everything: lit colour into attachment 0, tooth coverage
+// into 1, the surface's albedo into 2 (which attachments are written is
+// chosen with glDrawBuffers per pass). u_plane (cam frame) discards the
+// fragments on its negative side: the reflection's "behind the mirror".
+constexpr const char* kVertex = R"(#version 300 es
+uniform highp mat4 u_clip_from_obj;
+uniform highp mat4 u_cam_from_obj;  // rigid, or rigid followed by the mirror reflection
+layout(location = 0) in highp vec3 a_position_m;
+layout(location = 1) in highp vec3 a_normal;
+layout(location = 2) in mediump vec3 a_rgb;
+out highp vec3 v_pos_cam;
+out highp vec3 v_normal_cam;
+out mediump vec3 v_rgb;
+void main() {
+  gl_Position = u_clip_from_obj * vec4(a_position_m, 1.0);
+  v_pos_cam = (u_cam_from_obj * vec4(a_position_m, 1.0)).xyz;
+  v_normal_cam = mat3(u_cam_from_obj) * a_normal;
+  v_rgb = a_rgb;
+}
+)";
+
+constexpr const char* kFragment = R"(#version 300 es
+precision highp float;
+uniform vec4 u_plane;
+uniform vec3 u_to_light_cam;
+uniform float u_ambient;
+uniform float u_diffuse;
+uniform float u_alpha;  // opacity; colour is written premultiplied
+uniform float u_tooth;  // value for the tooth-coverage attachment
+uniform vec3 u_tint;    // multiplies the vertex colour (sRGB)
+in vec3 v_pos_cam;
+in vec3 v_normal_cam;
+in vec3 v_rgb;
+layout(location = 0) out vec4 o_color;
+layout(location = 1) out vec4 o_tooth;
+layout(location = 2) out vec4 o_albedo;
+vec3 srgb_encode(vec3 c) {
+  c = clamp(c, 0.0, 1.0);
+  return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
+}
+void main() {
+  if (dot(u_plane.xyz, v_pos_cam) + u_plane.w < 0.0) discard;
+  vec3 n = normalize(v_normal_cam);
+  float light = u_ambient + u_diffuse * max(dot(n, u_to_light_cam), 0.0);
+  vec3 albedo = clamp(v_rgb * u_tint, 0.0, 1.0);
+  o_color = vec4(srgb_encode(pow(albedo, vec3(2.2)) * light) * u_alpha, u_alpha);
+  o_tooth = vec4(u_tooth, 0.0, 0.0, 1.0);
+  o_albedo = vec4(albedo, 1.0);
+}
+)";
+
+// Full-screen triangle on the far plane (depth 1): resets depth where the
+// stencil test lets it through.
+constexpr const char* kFarVertex = R"(#version 300 es
+void main() {
+  vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
+  gl_Position = vec4(p, 1.0, 1.0);
+}
+)";
+constexpr const char* kFarFragment = R"(#version 300 es
+precision mediump float;
+out vec4 o_color;
+void main() { o_color = vec4(0.0); }
+)";
+
+constexpr GLenum kAtt[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+
+void draw_buffers(bool color, bool tooth, bool albedo) {
+  const GLenum b[3] = {color ? kAtt[0] : GL_NONE, tooth ? kAtt[1] : GL_NONE,
+                       albedo ? kAtt[2] : GL_NONE};
+  glDrawBuffers(3, b);
+}
+
+// Axis-aligned box, float, in some object frame.
+struct Box {
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = Eigen::Vector3f::Constant(-std::numeric_limits<float>::max());
+  bool empty() const { return lo.x() > hi.x(); }
+  void add(const Eigen::Vector3f& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  void add(const Box& b) {
+    if (b.empty()) return;
+    add(b.lo);
+    add(b.hi);
+  }
+  Eigen::Vector3d corner(int i) const {
+    return Eigen::Vector3d((i & 1) ? hi.x() : lo.x(), (i & 2) ? hi.y() : lo.y(),
+                           (i & 4) ? hi.z() : lo.z());
+  }
+};
+
+Box box_of(const scene::Mesh& m) {
+  Box b;
+  for (const auto& v : m.vertices) b.add(v.position_m);
+  return b;
+}
+
+// A phantom mesh with its triangles grouped by position (cubes of `cell`
+// metres by triangle centroid), each group with its box: groups outside the
+// overlay's region are not drawn (the mannequin is ~50k triangles, of which
+// a few hundred lie near the tooth).
+struct ClusteredMesh {
+  scene::GpuMesh gpu;
+  struct Part {
+    Box box;
+    GLsizei first = 0, count = 0;  // indices
+  };
+  std::vector<Part> parts;
+  Box box;
+};
+
+ClusteredMesh cluster_phantom(const scene::Mesh& m, float cell) {
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> groups;
+  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    const Eigen::Vector3f c = (m.vertices[m.indices[t]].position_m +
+                               m.vertices[m.indices[t + 1]].position_m +
+                               m.vertices[m.indices[t + 2]].position_m) /
+                              3.0f;
+    const Eigen::Vector3i q = (c / cell).array().floor().cast<int>();
+    const std::uint64_t key = (static_cast<std::uint64_t>(q.x() + 100000) & 0x1fffff) |
+                              ((static_cast<std::uint64_t>(q.y() + 100000) & 0x1fffff) << 21) |
+                              ((static_cast<std::uint64_t>(q.z() + 100000) & 0x1fffff) << 42);
+    auto& g = groups[key];
+    g.insert(g.end(), {m.indices[t], m.indices[t + 1], m.indices[t + 2]});
+  }
+  ClusteredMesh out;
+  scene::Mesh sorted;
+  sorted.vertices = m.vertices;
+  for (const auto& [key, idx] : groups) {
+    ClusteredMesh::Part p;
+    p.first = static_cast<GLsizei>(sorted.indices.size());
+    p.count = static_cast<GLsizei>(idx.size());
+    for (std::uint32_t i : idx) p.box.add(m.vertices[i].position_m);
+    out.box.add(p.box);
+    sorted.indices.insert(sorted.indices.end(), idx.begin(), idx.end());
+    out.parts.push_back(p);
+  }
+  out.gpu = scene::upload(sorted);
+  return out;
+}
+
+// Pixel rectangle [x0, x1) x [y0, y1) on the canvas (OpenCV rows, top = 0).
+struct PxRect {
+  double x0 = std::numeric_limits<double>::max(), y0 = std::numeric_limits<double>::max();
+  double x1 = -std::numeric_limits<double>::max(), y1 = -std::numeric_limits<double>::max();
+  bool all = false;  // a point was behind the near plane: assume everything
+  bool empty() const { return !all && x0 > x1; }
+  void add(const Eigen::Vector2d& p) {
+    x0 = std::min(x0, p.x());
+    y0 = std::min(y0, p.y());
+    x1 = std::max(x1, p.x());
+    y1 = std::max(y1, p.y());
+  }
+  void add(const PxRect& r) {
+    all = all || r.all;
+    if (r.x0 <= r.x1) {
+      add(Eigen::Vector2d(r.x0, r.y0));
+      add(Eigen::Vector2d(r.x1, r.y1));
+    }
+  }
+  bool overlaps(const PxRect& r) const {
+    if (all || r.all) return true;
+    if (empty() || r.empty()) return false;
+    return x0 <= r.x1 && r.x0 <= x1 && y0 <= r.y1 && r.y0 <= y1;
+  }
+  // Integer rectangle grown by `margin` and clipped to w x h.
+  cv::Rect clip(int w, int h, int margin) const {
+    if (all) return {0, 0, w, h};
+    if (empty()) return {};
+    const int a = std::max(0, static_cast<int>(std::floor(x0)) - margin);
+    const int b = std::max(0, static_cast<int>(std::floor(y0)) - margin);
+    const int c = std::min(w, static_cast<int>(std::ceil(x1)) + 1 + margin);
+    const int d = std::min(h, static_cast<int>(std::ceil(y1)) + 1 + margin);
+    if (c <= a || d <= b) return {};
+    return {a, b, c - a, d - b};
+  }
+};
+
+// Screen box of an object box under an affine cam-from-object transform,
+// on a pinhole camera.
+PxRect project_box(const Box& b, const Eigen::Affine3d& T_cam_obj,
+                   const calibration::CameraIntrinsics& k, double near_m) {
+  PxRect r;
+  if (b.empty()) return r;
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3d p = T_cam_obj * b.corner(i);
+    if (p.z() < near_m) {
+      r.all = true;
+      return r;
+    }
+    r.add(Eigen::Vector2d(k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy));
+  }
+  return r;
+}
+
+Eigen::Vector3f material_rgb(int label) {
+  const int m = std::clamp(label, 0, volume::kMaxMaterials - 1);
+  const auto& rgb = volume::material_info(m).rgb;
+  return Eigen::Vector3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
+}
+
+// Level 0: the chunk mesh as is, coloured by material.
+void full_mesh(const volume::ChunkMesh& cm, scene::Mesh& out) {
+  out.vertices.resize(cm.vertices.size());
+  for (std::size_t i = 0; i < cm.vertices.size(); ++i) {
+    scene::Vertex& v = out.vertices[i];
+    v.position_m = cm.vertices[i].position_m;
+    v.normal = cm.vertices[i].normal;
+    v.rgb = material_rgb(cm.vertices[i].material);
+  }
+  out.indices = cm.indices;
+}
+
+// Vertex clustering on the voxel grid, in cells of `cell` voxels (a divisor
+// of the chunk size, so cells never straddle chunks). Each vertex lies on a
+// grid edge (its edge key); a vertex on a chunk seam (the edge lies in a
+// boundary plane between two chunks) also exists, bit-identical, in the
+// neighbour chunk's mesh. To keep the two copies identical after
+// clustering, seam vertices are clustered only with seam vertices of the
+// same plane (2-D cells in it; both chunks see exactly that set), vertices
+// on two seam planes (chunk edges) are kept, and interior vertices cluster
+// in 3-D cells. A cluster's vertex is the mean of its members (in double,
+// so the two chunks' sums agree) with the mean normal: it stays on a smooth
+// surface (no staircase). Triangles that collapse are dropped. Returns the
+// largest distance of a member from its cluster vertex along the member's
+// normal, m (the level's geometric error; tangential moves do not change
+// what is seen).
+double cluster_mesh(const volume::ChunkMesh& cm, int cell, scene::Mesh& out,
+                    std::unordered_map<std::uint64_t, std::uint32_t>& map,
+                    std::vector<Eigen::Vector3d>& sums, std::vector<int>& counts) {
+  constexpr int kChunk = volume::VoxelVolume::kChunkSize;
+  constexpr std::uint64_t kNoCluster = ~std::uint64_t{0};
+  out.vertices.clear();
+  out.indices.clear();
+  map.clear();
+  sums.clear();
+  counts.clear();
+  std::vector<std::uint32_t> remap(cm.vertices.size());
+  for (std::size_t i = 0; i < cm.vertices.size(); ++i) {
+    const volume::GridEdge e = volume::decode_edge_key(cm.edge_keys[i]);
+    const int idx[3] = {e.i, e.j, e.k};
+    int seam_axis = -1, seams = 0;
+    for (int a = 0; a < 3; ++a)
+      if (a != e.axis && idx[a] > 0 && idx[a] % kChunk == 0) {
+        seam_axis = a;
+        ++seams;
+      }
+    auto cell_of = [&](int a) {
+      // floor division for indices down to -1
+      return static_cast<std::uint64_t>((idx[a] + cell) / cell) & 0xffff;
+    };
+    std::uint64_t key = cell_of(0) | (cell_of(1) << 16) | (cell_of(2) << 32);
+    if (seams >= 2) {
+      key = kNoCluster;  // on a chunk edge: kept as is
+    } else {
+      if (seams == 1) {
+        // In-plane cell plus the plane (its index along the seam axis).
+        key = (cell_of(0) * (seam_axis != 0)) | ((cell_of(1) * (seam_axis != 1)) << 16) |
+              ((cell_of(2) * (seam_axis != 2)) << 32);
+        key |= (static_cast<std::uint64_t>(idx[seam_axis]) & 0x3fff) << 48;
+        key |= static_cast<std::uint64_t>(seam_axis + 1) << 62;
+      }
+    }
+    const auto next = static_cast<std::uint32_t>(out.vertices.size());
+    std::uint32_t c = next;
+    if (key != kNoCluster) c = map.try_emplace(key, next).first->second;
+    if (c == next) {
+      scene::Vertex v;
+      v.position_m = Eigen::Vector3f::Zero();  // set from the mean below
+      v.normal = Eigen::Vector3f::Zero();
+      v.rgb = material_rgb(cm.vertices[i].material);
+      out.vertices.push_back(v);
+      sums.push_back(Eigen::Vector3d::Zero());
+      counts.push_back(0);
+    }
+    sums[c] += cm.vertices[i].position_m.cast<double>();
+    ++counts[c];
+    out.vertices[c].normal += cm.vertices[i].normal;
+    remap[i] = c;
+  }
+  for (std::size_t c = 0; c < out.vertices.size(); ++c) {
+    scene::Vertex& v = out.vertices[c];
+    v.position_m = (sums[c] / counts[c]).cast<float>();
+    const float n = v.normal.norm();
+    v.normal = n > 1e-12f ? Eigen::Vector3f(v.normal / n) : Eigen::Vector3f::UnitZ();
+  }
+  double err = 0;
+  for (std::size_t i = 0; i < cm.vertices.size(); ++i) {
+    const auto& mv = cm.vertices[i];
+    err = std::max(err, static_cast<double>(std::abs(
+                            mv.normal.dot(out.vertices[remap[i]].position_m - mv.position_m))));
+  }
+  for (std::size_t t = 0; t + 2 < cm.indices.size(); t += 3) {
+    const std::uint32_t a = remap[cm.indices[t]], b = remap[cm.indices[t + 1]],
+                        c = remap[cm.indices[t + 2]];
+    if (a == b || b == c || a == c) continue;
+    out.indices.insert(out.indices.end(), {a, b, c});
+  }
+  return err;
+}
+
+struct Lit {
+  GLint clip_from_obj = -1, cam_from_obj = -1, plane = -1, to_light = -1, ambient = -1,
+        diffuse = -1, alpha = -1, tooth = -1, tint = -1;
+};
+
+}  // namespace
+
+// ---- options -------------------------------------------------------------------
+
+std::string CompositorOptions::validate() const {
+  std::ostringstream os;
+  if (!(std::isfinite(lod_max_error_px) && lod_max_error_px >= 0 && lod_max_error_px <= 100)) {
+    os << "lod_max_error_px = " << lod_max_error_px << " must be in [0, 100]";
+  } else if (lod_cell_voxels.size() > 4) {
+    os << "lod_cell_voxels has " << lod_cell_voxels.size() << " levels; at most 4";
+  } else if (!(std::isfinite(feather_px) && feather_px >= 0 && feather_px <= 20)) {
+    os << "feather_px = " << feather_px << " must be in [0, 20]";
+  } else if (!(std::isfinite(mirror_reflectance) && mirror_reflectance > 0 &&
+               mirror_reflectance <= 1)) {
+    os << "mirror_reflectance = " << mirror_reflectance << " must be in (0, 1]";
+  } else if (!(std::isfinite(near_m) && near_m > 0 && std::isfinite(far_m) && far_m > near_m)) {
+    os << "near_m = " << near_m << ", far_m = " << far_m << " must satisfy 0 < near < far";
+  } else if (std::string e = bur.validate(); !e.empty()) {
+    os << "bur: " << e;
+  } else if (std::string e2 = handpiece.validate(); !e2.empty()) {
+    os << "handpiece: " << e2;
+  } else if (std::string e3 = segmenter.validate(); !e3.empty()) {
+    os << "segmenter." << e3;
+  } else {
+    int prev = 1;
+    for (std::size_t i = 0; i < lod_cell_voxels.size(); ++i) {
+      const int c = lod_cell_voxels[i];
+      if (!(c > prev && c <= 16 && 16 % c == 0)) {
+        os << "lod_cell_voxels[" << i << "] = " << c
+           << " must be increasing, > 1 and divide the chunk size 16 (2, 4, 8, 16)";
+        break;
+      }
+      prev = c;
+    }
+  }
+  return os.str();
+}
+
+// ---- implementation ----------------------------------------------------------------
+
+struct Compositor::Impl {
+  StationScene station;
+  CompositorOptions opt;
+  calibration::CameraIntrinsics camera;  // output (distorted)
+  UndistortedView view;                  // canvas plan
+  Eigen::Matrix4d P = Eigen::Matrix4d::Identity();  // clip from cam, canvas
+  cv::Mat map1, map2;                               // fixed-point canvas->output maps
+  int cw = 0, ch = 0;                               // canvas size
+
+  Framebuffer fbo;
+  Renderbuffer rb_color, rb_tooth, rb_albedo, rb_depth;
+  Program lit, far;
+  Lit u;
+  VertexArray empty_vao;
+
+  ClusteredMesh mannequin;
+  scene::GpuMesh handpiece, bur, mirror_face, mirror_body, paddle;
+  Box handpiece_box, bur_box, mirror_box;
+
+  struct GpuChunk {
+    std::uint64_t version = 0;
+    Box box;  // tooth frame
+    std::vector<scene::GpuMesh> levels;
+    std::vector<std::size_t> tris;
+    std::vector<double> error_m;  // per level, see cluster_mesh
+  };
+  std::vector<GpuChunk> chunks;
+  std::vector<std::size_t> level_tris;  // totals per level
+  std::vector<double> level_error_m;    // largest per level
+  scene::Mesh scratch_mesh;
+  std::unordered_map<std::uint64_t, std::uint32_t> scratch_map;
+  std::vector<Eigen::Vector3d> scratch_sums;
+  std::vector<int> scratch_counts;
+
+  ForegroundSegmenter segmenter;
+  // Canvas-size CPU copies of the attachments; only `last_canvas` is non-zero.
+  cv::Mat c_color, c_tooth, c_albedo, flip_scratch;
+  cv::Rect last_canvas;
+  // Output-size scratch (ROI views are used).
+  cv::Mat o_color, o_tooth, o_albedo, fg, region, fgf;
+
+  int levels() const { return 1 + static_cast<int>(opt.lod_cell_voxels.size()); }
+
+  void sync(const volume::Surface& surface) {
+    const auto& meshes = surface.chunks();
+    if (chunks.size() != meshes.size()) {
+      chunks.clear();
+      chunks.resize(meshes.size());
+    }
+    const int L = levels();
+    for (std::size_t i = 0; i < meshes.size(); ++i) {
+      GpuChunk& g = chunks[i];
+      const volume::ChunkMesh& cm = meshes[i];
+      if (cm.version == g.version) continue;
+      g.version = cm.version;
+      g.levels.clear();
+      g.tris.assign(static_cast<std::size_t>(L), 0);
+      g.error_m.assign(static_cast<std::size_t>(L), 0.0);
+      g.box = Box{};
+      if (cm.empty()) continue;
+      for (const auto& v : cm.vertices) g.box.add(v.position_m);
+      for (int l = 0; l < L; ++l) {
+        if (l == 0)
+          full_mesh(cm, scratch_mesh);
+        else
+          g.error_m[static_cast<std::size_t>(l)] =
+              cluster_mesh(cm, opt.lod_cell_voxels[static_cast<std::size_t>(l - 1)],
+                           scratch_mesh, scratch_map, scratch_sums, scratch_counts);
+        g.tris[static_cast<std::size_t>(l)] = scratch_mesh.indices.size() / 3;
+        g.levels.push_back(scene::upload(scratch_mesh));
+      }
+    }
+    level_tris.assign(static_cast<std::size_t>(L), 0);
+    level_error_m.assign(static_cast<std::size_t>(L), 0.0);
+    for (const GpuChunk& g : chunks)
+      for (std::size_t l = 0; l < g.tris.size(); ++l) {
+        level_tris[l] += g.tris[l];
+        level_error_m[l] = std::max(level_error_m[l], g.error_m[l]);
+      }
+  }
+
+  void set_pose(const Eigen::Affine3d& T_cam_obj) const {
+    const Eigen::Matrix4f clip_from_obj = (P * T_cam_obj.matrix()).cast<float>();
+    const Eigen::Matrix4f cam_from_obj = T_cam_obj.matrix().cast<float>();
+    glUniformMatrix4fv(u.clip_from_obj, 1, GL_FALSE, clip_from_obj.data());
+    glUniformMatrix4fv(u.cam_from_obj, 1, GL_FALSE, cam_from_obj.data());
+  }
+  void draw_mesh(const scene::GpuMesh& m, const Eigen::Affine3d& T_cam_obj) const {
+    if (m.count == 0) return;
+    set_pose(T_cam_obj);
+    glBindVertexArray(m.vao.id());
+    glDrawElements(GL_TRIANGLES, m.count, GL_UNSIGNED_INT, nullptr);
+  }
+
+  // Draws the parts of a clustered phantom whose screen box overlaps `view`.
+  void draw_clustered(const ClusteredMesh& m, const Eigen::Affine3d& T_cam_obj,
+                      const PxRect& view) const {
+    set_pose(T_cam_obj);
+    glBindVertexArray(m.gpu.vao.id());
+    for (const auto& p : m.parts) {
+      if (!project_box(p.box, T_cam_obj, this->view.pinhole, opt.near_m).overlaps(view)) continue;
+      glDrawElements(GL_TRIANGLES, p.count, GL_UNSIGNED_INT,
+                     reinterpret_cast<const void*>(static_cast<std::size_t>(p.first) *
+                                                   sizeof(std::uint32_t)));
+    }
+  }
+
+  // Draws the tooth's chunks at `level` whose screen box overlaps `view`
+  // (and, with a plane, that are not wholly on its negative side).
+  void draw_tooth(const Eigen::Affine3d& T_cam_tooth, int level, const PxRect& view,
+                  const Eigen::Vector4d* plane, CompositeResult& out) const {
+    set_pose(T_cam_tooth);
+    const auto& k = this->view.pinhole;
+    for (const GpuChunk& g : chunks) {
+      if (g.levels.empty()) continue;
+      if (opt.cull_chunks) {
+        bool culled = !project_box(g.box, T_cam_tooth, k, opt.near_m).overlaps(view);
+        if (!culled && plane != nullptr) {
+          bool any = false;
+          for (int c = 0; c < 8 && !any; ++c)
+            any = plane->head<3>().dot(T_cam_tooth * g.box.corner(c)) + plane->w() >= 0;
+          culled = !any;
+        }
+        if (culled) {
+          ++out.chunks_culled;
+          continue;
+        }
+      }
+      const scene::GpuMesh& m = g.levels[static_cast<std::size_t>(level)];
+      if (m.count == 0) continue;
+      glBindVertexArray(m.vao.id());
+      glDrawElements(GL_TRIANGLES, m.count, GL_UNSIGNED_INT, nullptr);
+      out.triangles_drawn += static_cast<std::size_t>(m.count) / 3;
+    }
+  }
+
+  // Reads attachment `att` in canvas rectangle r into dst (canvas-size Mat), top-down.
+  void read_attachment(int att, const cv::Rect& r, cv::Mat& dst) {
+    glReadBuffer(kAtt[att]);
+    flip_scratch.create(r.height, r.width, CV_8UC4);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(r.x, ch - (r.y + r.height), r.width, r.height, GL_RGBA, GL_UNSIGNED_BYTE,
+                 flip_scratch.data);
+    cv::flip(flip_scratch, dst(r), 0);
+  }
+
+  // Output rectangle covering the distorted image of canvas rectangle r.
+  cv::Rect output_rect(const cv::Rect& r) const {
+    if (r.empty()) return {};
+    if (view.identity()) return r & cv::Rect(0, 0, camera.width, camera.height);
+    const auto& pk = view.pinhole;
+    const auto& k = camera;
+    PxRect o;
+    const int n = 16;
+    for (int e = 0; e < 4; ++e) {
+      for (int i = 0; i <= n; ++i) {
+        const double s = static_cast<double>(i) / n;
+        double x = r.x - 0.5, y = r.y - 0.5;
+        const double w = r.width, h = r.height;
+        if (e == 0) x += s * w;
+        if (e == 1) x += s * w, y += h;
+        if (e == 2) y += s * h;
+        if (e == 3) x += w, y += s * h;
+        const double xn = (x - pk.cx) / pk.fx, yn = (y - pk.cy) / pk.fy;
+        const double r2 = xn * xn + yn * yn;
+        const auto& d = k.dist;
+        const double radial = 1 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
+        const double xd = xn * radial + 2 * d[2] * xn * yn + d[3] * (r2 + 2 * xn * xn);
+        const double yd = yn * radial + d[2] * (r2 + 2 * yn * yn) + 2 * d[3] * xn * yn;
+        o.add(Eigen::Vector2d(k.fx * xd + k.cx, k.fy * yd + k.cy));
+      }
+    }
+    return o.clip(k.width, k.height, 2);
+  }
+};
+
+Compositor::Compositor(Compositor&&) noexcept = default;
+Compositor& Compositor::operator=(Compositor&&) noexcept = default;
+Compositor::~Compositor() = default;
+
+const CompositorOptions& Compositor::options() const { return impl_->opt; }
+const ForegroundSegmenter& Compositor::segmenter() const { return impl_->segmenter; }
+std::vector<std::size_t> Compositor::lod_triangle_counts() const { return impl_->level_tris; }
+std::vector<double> Compositor::lod_errors_m() const { return impl_->level_error_m; }
+
+Status Compositor::set_options(const CompositorOptions& o) {
+  if (std::string e = o.validate(); !e.empty()) return Error{"CompositorOptions." + e};
+  CompositorOptions keep = o;
+  keep.bur = impl_->opt.bur;
+  keep.handpiece = impl_->opt.handpiece;
+  keep.lod_cell_voxels = impl_->opt.lod_cell_voxels;
+  keep.near_m = impl_->opt.near_m;
+  keep.far_m = impl_->opt.far_m;
+  impl_->opt = keep;
+  impl_->segmenter = ForegroundSegmenter(o.segmenter);  // starts adapting afresh
+  return {};
+}
+
+Result<Compositor> Compositor::create(const StationScene& station, const CompositorOptions& o) {
+  if (std::string e = o.validate(); !e.empty()) return Error{"CompositorOptions." + e};
+  if (std::string e = station.validate(); !e.empty()) return Error{"station: " + e};
+  Compositor c;
+  c.impl_ = std::make_unique<Impl>();
+  Impl& im = *c.impl_;
+  im.station = station;
+  im.opt = o;
+  im.camera = station.calibration.camera;
+  im.segmenter = ForegroundSegmenter(o.segmenter);
+  auto view = plan_undistorted_view(im.camera);
+  if (!view) return Error{"station camera: " + view.error()};
+  im.view = std::move(view).value();
+  im.cw = im.view.pinhole.width;
+  im.ch = im.view.pinhole.height;
+  im.P = clip_from_cam(im.view.pinhole, o.near_m, o.far_m);
+  if (!im.view.identity()) {
+    // The same per-pixel map the Renderer's CPU warp uses (pixels that
+    // cannot be inverted point far outside and take the clear value).
+    const int W = im.camera.width, H = im.camera.height;
+    cv::Mat map(H, W, CV_32FC2);
+    for (int v = 0; v < H; ++v)
+      for (int x = 0; x < W; ++x) {
+        const Eigen::Vector2f p = im.view.map_px[static_cast<std::size_t>(v) * W + x];
+        map.at<cv::Vec2f>(v, x) =
+            std::isnan(p.x()) ? cv::Vec2f(-100.f, -100.f) : cv::Vec2f(p.x(), p.y());
+      }
+    cv::convertMaps(map, cv::noArray(), im.map1, im.map2, CV_16SC2);
+  }
+
+  // Framebuffer: colour, tooth coverage, albedo (RGBA8 each) + depth/stencil.
+  im.fbo = make_framebuffer();
+  glBindFramebuffer(GL_FRAMEBUFFER, im.fbo.id());
+  Renderbuffer* rbs[3] = {&im.rb_color, &im.rb_tooth, &im.rb_albedo};
+  for (int i = 0; i < 3; ++i) {
+    *rbs[i] = make_renderbuffer();
+    glBindRenderbuffer(GL_RENDERBUFFER, rbs[i]->id());
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, im.cw, im.ch);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, kAtt[i], GL_RENDERBUFFER, rbs[i]->id());
+  }
+  im.rb_depth = make_renderbuffer();
+  glBindRenderbuffer(GL_RENDERBUFFER, im.rb_depth.id());
+  glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH24_STENCIL8, im.cw, im.ch);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_STENCIL_ATTACHMENT, GL_RENDERBUFFER,
+                            im.rb_depth.id());
+  const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+  glBindRenderbuffer(GL_RENDERBUFFER, 0);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  if (status != GL_FRAMEBUFFER_COMPLETE) {
+    std::ostringstream os;
+    os << "compositor framebuffer " << im.cw << "x" << im.ch
+       << " (3 x RGBA8 + DEPTH24_STENCIL8) is incomplete: status 0x" << std::hex << status;
+    return Error{os.str()};
+  }
+
+  auto lit = link_program(kVertex, kFragment, "compositor (lit)");
+  if (!lit) return Error{lit.error()};
+  im.lit = std::move(lit).value();
+  const GLuint id = im.lit.id();
+  im.u.clip_from_obj = glGetUniformLocation(id, "u_clip_from_obj");
+  im.u.cam_from_obj = glGetUniformLocation(id, "u_cam_from_obj");
+  im.u.plane = glGetUniformLocation(id, "u_plane");
+  im.u.to_light = glGetUniformLocation(id, "u_to_light_cam");
+  im.u.ambient = glGetUniformLocation(id, "u_ambient");
+  im.u.diffuse = glGetUniformLocation(id, "u_diffuse");
+  im.u.alpha = glGetUniformLocation(id, "u_alpha");
+  im.u.tooth = glGetUniformLocation(id, "u_tooth");
+  im.u.tint = glGetUniformLocation(id, "u_tint");
+  auto far = link_program(kFarVertex, kFarFragment, "compositor (depth reset)");
+  if (!far) return Error{far.error()};
+  im.far = std::move(far).value();
+  im.empty_vao = make_vertex_array();
+
+  // Phantom and instrument meshes (the generator's builders: same shapes).
+  {
+    const scene::Mesh man = scene::mannequin_mesh(station.mannequin);
+    im.mannequin = cluster_phantom(man, 0.01f);
+    scene::Mesh hp, b;
+    hp.add(make_handpiece_mesh(o.bur, o.handpiece), Eigen::Isometry3f::Identity(),
+           {0.62f, 0.64f, 0.68f});
+    b.add(make_bur_mesh(o.bur), Eigen::Isometry3f::Identity(), {0.80f, 0.80f, 0.78f});
+    im.handpiece_box = box_of(hp);
+    im.bur_box = box_of(b);
+    im.handpiece = scene::upload(hp);
+    im.bur = scene::upload(b);
+    MirrorMeshParams mp;
+    const auto& ms = station.mirror;
+    mp.radius_m = station.calibration.mirror_radius_m;
+    mp.thickness_m = ms.thickness_m;
+    mp.neck_length_m = ms.neck_length_m;
+    mp.neck_radius_m = ms.neck_radius_m;
+    mp.handle_length_m = ms.handle_length_m;
+    mp.handle_radius_m = ms.handle_radius_m;
+    mp.stem_tilt_rad = ms.stem_tilt_rad;
+    const MirrorMeshes mm = make_mirror_meshes(mp);
+    scene::Mesh face, body;
+    face.add(mm.face, Eigen::Isometry3f::Identity(), Eigen::Vector3f::Ones());
+    body.add(mm.body, Eigen::Isometry3f::Identity(), Eigen::Vector3f::Ones());
+    im.mirror_box = box_of(face);
+    im.mirror_face = scene::upload(face);
+    im.mirror_body = scene::upload(body);
+    const float w = static_cast<float>(ms.paddle_width_m) * 0.5f;
+    const float h = static_cast<float>(ms.paddle_height_m) * 0.5f;
+    const scene::Mesh pad = scene::box({-w, -h, 0.0f}, {w, h, static_cast<float>(ms.paddle_thickness_m)},
+                                       Eigen::Vector3f::Ones());
+    im.paddle = scene::upload(pad);
+  }
+  glBindVertexArray(0);
+  glBindBuffer(GL_ARRAY_BUFFER, 0);
+  if (auto e = gl_error_message("Compositor::create"); !e.empty()) return Error{e};
+  return c;
+}
+
+Status Compositor::compose(const volume::Surface& surface, const CompositeInput& in,
+                           CompositeResult& result) {
+  const auto t_start = Clock::now();
+  Impl& im = *impl_;
+  const int W = im.camera.width, H = im.camera.height;
+  if (in.video_bgr == nullptr || in.video_bgr->empty())
+    return Error{"compose: the video frame is empty (a decoding error or the end of the footage)"};
+  if (in.video_bgr->type() != CV_8UC3)
+    return Error{"compose: the video frame must be 8-bit BGR (CV_8UC3); got type " +
+                 std::to_string(in.video_bgr->type())};
+  if (in.video_bgr->cols != W || in.video_bgr->rows != H)
+    return Error{"compose: the video frame is " + std::to_string(in.video_bgr->cols) + "x" +
+                 std::to_string(in.video_bgr->rows) + " but the station camera is " +
+                 std::to_string(W) + "x" + std::to_string(H) +
+                 " (use the station file calibrated for this camera)"};
+  const CompositorOptions& o = im.opt;
+  const calibration::StationCalibration& cal = im.station.calibration;
+  CompositeResult out;
+
+  auto t0 = Clock::now();
+  im.sync(surface);
+  out.timing.sync_ms = ms_since(t0);
+
+  in.video_bgr->copyTo(out.image);
+  out.tooth_visible = cv::Mat::zeros(H, W, CV_8UC1);
+  if (!in.man_valid) {
+    out.timing.total_ms = ms_since(t_start);
+    result = std::move(out);
+    return {};
+  }
+
+  // Poses (cam frame, metres).
+  const Eigen::Isometry3d T_cam_tooth = in.T_cam_man * cal.T_man_tooth;
+  const bool stylus = in.stylus_valid;
+  const Eigen::Isometry3d T_cam_tip =
+      in.T_cam_man * cal.T_man_dev * in.T_dev_sty * cal.T_sty_tip;
+  const bool mirror_known = in.mirror_valid;
+  const Eigen::Isometry3d T_cam_mir = in.T_cam_mtag * cal.T_mtag_mir;
+  const Eigen::Vector3d n_mir = T_cam_mir.linear().col(2);
+  const Eigen::Vector3d p_mir = T_cam_mir.translation();
+  // The face is seen from its reflecting side when the camera (origin) is on +z of `mir`.
+  const bool reflect = o.mirror && mirror_known && n_mir.dot(-p_mir) > 0 && p_mir.z() > o.near_m;
+
+  // Level of detail: footprint first, then the budget.
+  Box tooth_box;
+  for (const auto& g : im.chunks) tooth_box.add(g.box);
+  int level = 0;
+  const int L = im.levels();
+  if (!tooth_box.empty()) {
+    const Eigen::Vector3d c =
+        T_cam_tooth * (0.5 * (tooth_box.lo + tooth_box.hi).cast<double>());
+    const double m_per_px = std::max(c.z(), o.near_m) / im.view.pinhole.fx;
+    if (o.lod_max_error_px > 0)
+      for (int l = 1; l < L; ++l)
+        if (im.level_error_m[static_cast<std::size_t>(l)] / m_per_px <= o.lod_max_error_px)
+          level = l;
+    if (o.triangle_budget > 0)
+      while (level + 1 < L && im.level_tris[static_cast<std::size_t>(level)] > o.triangle_budget)
+        ++level;
+  }
+  out.lod_level = level;
+
+  // Canvas region of everything drawn in colour.
+  const auto& pk = im.view.pinhole;
+  const PxRect canvas_all = [&] {
+    PxRect r;
+    r.add(Eigen::Vector2d(0, 0));
+    r.add(Eigen::Vector2d(im.cw - 1, im.ch - 1));
+    return r;
+  }();
+  PxRect tooth_rect = project_box(tooth_box, T_cam_tooth, pk, o.near_m);
+  PxRect mirror_rect;
+  if (reflect) mirror_rect = project_box(im.mirror_box, T_cam_mir, pk, o.near_m);
+  PxRect overlay = tooth_rect;
+  if (reflect) overlay.add(mirror_rect);
+  const bool bur = stylus && o.draw_bur;
+  if (bur) overlay.add(project_box(im.bur_box, T_cam_tip, pk, o.near_m));
+  const cv::Rect croi = overlay.clip(im.cw, im.ch, 3) & cv::Rect(0, 0, im.cw, im.ch);
+  PxRect croi_px;  // the same as a PxRect, for culling
+  croi_px.add(Eigen::Vector2d(croi.x, croi.y));
+  croi_px.add(Eigen::Vector2d(croi.x + croi.width, croi.y + croi.height));
+
+  // ---- GL passes ----
+  t0 = Clock::now();
+  glBindFramebuffer(GL_FRAMEBUFFER, im.fbo.id());
+  glViewport(0, 0, im.cw, im.ch);
+  if (!croi.empty()) {
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(croi.x, im.ch - (croi.y + croi.height), croi.width, croi.height);
+    draw_buffers(true, true, true);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glDepthMask(GL_TRUE);
+    glStencilMask(0xFF);
+    glClearColor(0, 0, 0, 0);
+    glClearDepthf(1.0f);
+    glClearStencil(0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
+    glDisable(GL_BLEND);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LEQUAL);
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+    glFrontFace(GL_CCW);
+    glDisable(GL_STENCIL_TEST);
+    glUseProgram(im.lit.id());
+    const Eigen::Vector3f L0 = Eigen::Vector3f(0.0f, -0.35f, -1.0f).normalized();
+    glUniform3f(im.u.to_light, L0.x(), L0.y(), L0.z());
+    glUniform1f(im.u.ambient, 0.3f);
+    glUniform1f(im.u.diffuse, 0.8f);
+    glUniform3f(im.u.tint, 1, 1, 1);
+    glUniform4f(im.u.plane, 0, 0, 0, 1);  // keep everything
+    glUniform1f(im.u.alpha, 1.0f);
+    glUniform1f(im.u.tooth, 0.0f);
+
+    const Eigen::Affine3d A_man(in.T_cam_man.matrix());
+    const Eigen::Affine3d A_tip(T_cam_tip.matrix());
+    const Eigen::Affine3d A_mir(T_cam_mir.matrix());
+    const Eigen::Affine3d A_mtag(in.T_cam_mtag.matrix());
+    // 1. Phantoms: depth; the mannequin also leaves its albedo for the segmenter.
+    if (o.phantoms) {
+      draw_buffers(false, false, true);
+      im.draw_clustered(im.mannequin, A_man, croi_px);
+      draw_buffers(false, false, false);
+      if (stylus) im.draw_mesh(im.handpiece, A_tip);
+      if (mirror_known) {
+        im.draw_mesh(im.mirror_body, A_mir);
+        im.draw_mesh(im.paddle, A_mtag);
+        if (!reflect) im.draw_mesh(im.mirror_face, A_mir);
+      }
+    }
+    // 2. Mirror reflection inside the visible part of the face.
+    if (reflect) {
+      draw_buffers(false, false, false);
+      glEnable(GL_STENCIL_TEST);
+      glStencilFunc(GL_ALWAYS, 1, 0xFF);
+      glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
+      glDepthMask(GL_FALSE);
+      im.draw_mesh(im.mirror_face, A_mir);
+      // Depth to far inside the stencil so the reflected world starts empty.
+      glStencilFunc(GL_EQUAL, 1, 0xFF);
+      glStencilOp(GL_KEEP, GL_KEEP, GL_KEEP);
+      glDepthMask(GL_TRUE);
+      glDepthFunc(GL_ALWAYS);
+      glUseProgram(im.far.id());
+      glBindVertexArray(im.empty_vao.id());
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      glUseProgram(im.lit.id());
+      glDepthFunc(GL_LEQUAL);
+      // Reflection about the plane n.x = d (cam frame): x' = x - 2 n (n.x - d).
+      const double d = n_mir.dot(p_mir);
+      Eigen::Affine3d M = Eigen::Affine3d::Identity();
+      M.linear() = Eigen::Matrix3d::Identity() - 2.0 * n_mir * n_mir.transpose();
+      M.translation() = 2.0 * d * n_mir;
+      // Keep what lies behind the mirror plane after reflection.
+      const Eigen::Vector4d plane(-n_mir.x(), -n_mir.y(), -n_mir.z(), d);
+      glUniform4f(im.u.plane, static_cast<float>(plane.x()), static_cast<float>(plane.y()),
+                  static_cast<float>(plane.z()), static_cast<float>(plane.w()));
+      glFrontFace(GL_CW);  // the reflection reverses the winding
+      if (o.phantoms) im.draw_clustered(im.mannequin, M * A_man, mirror_rect);
+      draw_buffers(true, false, false);
+      const float a = static_cast<float>(o.mirror_reflectance);
+      glUniform1f(im.u.alpha, a);
+      im.draw_tooth(M * Eigen::Affine3d(T_cam_tooth.matrix()), level, mirror_rect, &plane, out);
+      if (bur) im.draw_mesh(im.bur, M * A_tip);
+      glUniform1f(im.u.alpha, 1.0f);
+      glFrontFace(GL_CCW);
+      glUniform4f(im.u.plane, 0, 0, 0, 1);
+      // The face's own depth back inside the stencil: it hides what is behind it.
+      draw_buffers(false, false, false);
+      glDepthFunc(GL_ALWAYS);
+      im.draw_mesh(im.mirror_face, A_mir);
+      glDepthFunc(GL_LEQUAL);
+      glDisable(GL_STENCIL_TEST);
+      out.mirror_drawn = true;
+    }
+    // 3. The tooth (coverage 1) and the bur (coverage 0: it hides the tooth).
+    glDepthFunc(GL_LESS);
+    draw_buffers(true, true, false);
+    glUniform1f(im.u.tooth, 1.0f);
+    im.draw_tooth(Eigen::Affine3d(T_cam_tooth.matrix()), level, canvas_all, nullptr, out);
+    glUniform1f(im.u.tooth, 0.0f);
+    if (bur) im.draw_mesh(im.bur, A_tip);
+    glBindVertexArray(0);
+    glUseProgram(0);
+    glDisable(GL_SCISSOR_TEST);
+    glFinish();
+  }
+  out.timing.render_ms = ms_since(t0);
+
+  // ---- readback of the region ----
+  t0 = Clock::now();
+  if (im.c_color.rows != im.ch || im.c_color.cols != im.cw) {
+    for (cv::Mat* m : {&im.c_color, &im.c_tooth, &im.c_albedo})
+      *m = cv::Mat::zeros(im.ch, im.cw, CV_8UC4);
+    im.last_canvas = {};
+  }
+  if (!im.last_canvas.empty())
+    for (cv::Mat* m : {&im.c_color, &im.c_tooth, &im.c_albedo}) (*m)(im.last_canvas).setTo(0);
+  im.last_canvas = croi;
+  if (!croi.empty()) {
+    im.read_attachment(0, croi, im.c_color);
+    im.read_attachment(1, croi, im.c_tooth);
+    im.read_attachment(2, croi, im.c_albedo);
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  out.timing.readback_ms = ms_since(t0);
+  if (auto e = gl_error_message("Compositor::compose"); !e.empty()) return Error{e};
+
+  // ---- resample the region into the distorted image ----
+  t0 = Clock::now();
+  const cv::Rect roi = im.output_rect(croi);
+  out.region = roi;
+  double blend_ms = 0;
+  if (!roi.empty()) {
+    for (cv::Mat* m : {&im.o_color, &im.o_tooth, &im.o_albedo})
+      if (m->rows != H || m->cols != W) m->create(H, W, CV_8UC4);
+    cv::Mat oc = im.o_color(roi), ot = im.o_tooth(roi), oa = im.o_albedo(roi);
+    if (im.view.identity()) {
+      im.c_color(roi).copyTo(oc);
+      im.c_tooth(roi).copyTo(ot);
+      im.c_albedo(roi).copyTo(oa);
+    } else {
+      const cv::Mat m1 = im.map1(roi), m2 = im.map2(roi);
+      cv::remap(im.c_color, oc, m1, m2, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+      cv::remap(im.c_tooth, ot, m1, m2, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+      // Nearest for the albedo: a blend of two surfaces' colours is neither.
+      cv::remap(im.c_albedo, oa, m1, m2, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+                cv::Scalar::all(0));
+    }
+    blend_ms += ms_since(t0);
+
+    // ---- unknown foreground in the tooth's region ----
+    t0 = Clock::now();
+    const cv::Mat video = (*in.video_bgr)(roi);
+    cv::Mat tooth_cov;
+    cv::extractChannel(ot, tooth_cov, 0);
+    bool have_fg = false;
+    if (o.segmentation && cv::countNonZero(tooth_cov) > 0) {
+      // Classify the tooth's pixels and a ring of feather width around them.
+      const int grow = static_cast<int>(std::ceil(2.0 * o.feather_px)) + 1;
+      cv::dilate(tooth_cov, im.region, cv::getStructuringElement(
+                                           cv::MORPH_RECT, cv::Size(2 * grow + 1, 2 * grow + 1)));
+      im.segmenter.segment(video, oa, im.region, im.fg);
+      if (o.feather_px > 0)
+        cv::GaussianBlur(im.fg, im.fgf, cv::Size(0, 0), o.feather_px);
+      else
+        im.fg.copyTo(im.fgf);
+      have_fg = true;
+    }
+    out.timing.segment_ms = ms_since(t0);
+
+    // ---- blend: out = video (1 - a (1 - f)) + rgb (1 - f), rgb premultiplied ----
+    t0 = Clock::now();
+    cv::Mat dst = out.image(roi), vis = out.tooth_visible(roi);
+    for (int v = 0; v < roi.height; ++v) {
+      const auto* c = oc.ptr<cv::Vec4b>(v);
+      const auto* tc = tooth_cov.ptr<std::uint8_t>(v);
+      const std::uint8_t* f = have_fg ? im.fgf.ptr<std::uint8_t>(v) : nullptr;
+      auto* p = dst.ptr<cv::Vec3b>(v);
+      auto* tv = vis.ptr<std::uint8_t>(v);
+      for (int x = 0; x < roi.width; ++x) {
+        const int a = c[x][3];
+        if (a == 0) continue;
+        const int keep = f != nullptr ? 255 - f[x] : 255;  // 1 - foreground, 0..255
+        const int ae = a * keep;                           // 0..255^2
+        for (int ch = 0; ch < 3; ++ch) {
+          const int val = (p[x][ch] * (65025 - ae) + c[x][2 - ch] * keep * 255 + 32512) / 65025;
+          p[x][ch] = static_cast<std::uint8_t>(std::min(val, 255));
+        }
+        tv[x] = static_cast<std::uint8_t>((tc[x] * keep + 127) / 255);
+      }
+    }
+    blend_ms += ms_since(t0);
+    out.tooth_px = cv::countNonZero(vis > 127);
+    out.overlay_drawn = true;
+  }
+  out.timing.blend_ms = blend_ms;
+  out.timing.total_ms = ms_since(t_start);
+  result = std::move(out);
+  return {};
+}
+
+}  // namespace dentar::ar

@@ -1,0 +1,182 @@
+// Station scene description: what physically stands at a training station
+// (phantom head with its AprilTag bundle, tooth site, mouth mirror with its
+// tag paddle) plus the station calibration values. Read by the footage
+// generator (synth.h) and, later, by the live trainer. File format: JSON,
+// docs/formats.md ("Station scene"). Files store mm and degrees; code holds
+// metres and radians.
+//
+// Tag frames follow libapriltag's pose convention so a tracker can use the
+// layout directly: origin at the tag centre, x to the right and y down in the
+// tag image, z into the tag (away from a viewer who reads it). The four
+// corners of the border square (side `size_m`) are, in order,
+// (-s/2, +s/2), (+s/2, +s/2), (+s/2, -s/2), (-s/2, -s/2): the order in which
+// libapriltag reports its detections' corners.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <array>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dentar/calibration/station.h"
+#include "dentar/volume/result.h"
+
+namespace dentar::ar {
+
+enum class TagFamilyId { kStandard41h12, kTag36h11 };
+// "tagStandard41h12" / "tag36h11".
+const char* tag_family_name(TagFamilyId f);
+std::optional<TagFamilyId> parse_tag_family(std::string_view name);
+
+struct TagPlacement {
+  int id = 0;           // code index in the family
+  double size_m = 0.0;  // side of the border square (libapriltag's "tagsize"), m
+  // Pose of the tag frame in its parent: `man` for the head's tags, `mtag`
+  // for the mirror's.
+  Eigen::Isometry3d T_parent_tag = Eigen::Isometry3d::Identity();
+  // Corner k (0..3, order above) in the parent frame, metres.
+  Eigen::Vector3d corner(int k) const;
+};
+
+// The procedural phantom head, in the mannequin frame `man`: origin between
+// the lips, +y up, +z out of the face, +x to the patient's left.
+struct MannequinParams {
+  Eigen::Vector3d head_centre_m = Eigen::Vector3d(0.0, 0.03, -0.085);
+  Eigen::Vector3d head_radii_m = Eigen::Vector3d(0.075, 0.105, 0.095);  // ellipsoid semi-axes
+  double mouth_half_width_m = 0.031;   // open mouth, an ellipse around the origin (x)
+  double mouth_half_height_m = 0.024;  // (y)
+  double lip_radius_m = 0.005;         // lips: a tube around the mouth opening
+  // sRGB colours, 0..1.
+  Eigen::Vector3d skin_rgb = Eigen::Vector3d(0.87, 0.72, 0.62);
+  Eigen::Vector3d lip_rgb = Eigen::Vector3d(0.72, 0.38, 0.38);
+  Eigen::Vector3d gum_rgb = Eigen::Vector3d(0.85, 0.45, 0.48);
+  Eigen::Vector3d teeth_rgb = Eigen::Vector3d(0.93, 0.91, 0.84);
+  std::string validate() const;
+};
+
+// The mouth mirror body (see meshes.h MirrorMeshParams; its radius is the
+// calibration's mirror_radius_m) and the paddle on its handle that carries
+// the mirror's tags.
+struct MirrorSceneParams {
+  double thickness_m = 1.5e-3;
+  double neck_length_m = 20e-3;
+  double neck_radius_m = 1.0e-3;
+  double handle_length_m = 100e-3;
+  double handle_radius_m = 3.0e-3;
+  double stem_tilt_rad = 0.35;
+  // Paddle: a plastic block in the mtag frame's x/y plane, centred on the
+  // mtag origin, its front face at z = 0 (the front tag lies on it) and
+  // `paddle_thickness_m` deep toward +z (the back tag); the handle runs
+  // through it.
+  double paddle_width_m = 0.03;
+  double paddle_height_m = 0.03;
+  double paddle_thickness_m = 7.0e-3;
+  std::string validate() const;
+};
+
+// Points the instructor touches with the calibrated stylus during the station calibration
+// (`dentar calibrate register` and `tooth`). File: "calibration_fixtures" (mm).
+struct CalibrationFixtures {
+  // Divots on the mannequin (cone-shaped dimples the bur tip seats in), mannequin frame, m.
+  std::vector<Eigen::Vector3d> divots_man;
+  // Landmarks on the tooth model (cusp tips, cervical points), tooth frame, m.
+  std::vector<Eigen::Vector3d> landmarks_tooth;
+  std::string validate() const;  // empty or names the field
+};
+
+// A pen with a paper tag flag that stands in for the haptic stylus when no
+// device is at hand (`dentar live --stylus pen`, the printable station kit).
+// Frame `ptag`: the flag's front tag frame. The pen runs along +y of `ptag`
+// (down the flag, toward the writing tip); the tip frame has z along the pen
+// toward the tip (the bur axis convention of `tip`).
+struct PenParams {
+  std::vector<TagPlacement> tags;  // T_parent_tag = T_ptag_tag (front and back of the flag); empty = no pen
+  Eigen::Isometry3d T_ptag_tip = Eigen::Isometry3d::Identity();  // pen tip in the flag frame
+  double flag_size_m = 0.04;  // printed flag square (the tag and its white margin), m
+  std::string validate() const;
+};
+
+// Where the camera intrinsics came from (file "camera" block extras; all optional).
+struct CameraProvenance {
+  std::string model;  // "pinhole-radtan5" / "rational8"; empty when unknown
+  double rms_px = -1;  // calibration reprojection RMS, px; < 0 unknown
+  std::vector<double> std_devs;  // fx fy cx cy k1 k2 p1 p2 k3 (px for the first four)
+  std::string date, device;
+  // Non-empty when the station references a camera file ({"file": "cam.yaml"}) instead of
+  // embedding the numbers: the path as written (relative to the station file's directory).
+  std::string file;
+};
+
+// One step of the station calibration as recorded in the file ("calibration_report").
+struct CalibrationStepReport {
+  std::string step;  // camera, pivot, register, tooth, mirror, check
+  std::string date;  // ISO 8601 UTC
+  bool pass = false;
+  std::string summary;  // one line for people
+  // Quality figures, name (with its unit: "rms_px", "tre_mm") and value, in file order.
+  std::vector<std::pair<std::string, double>> figures;
+};
+
+// File versions: 1 (no calibration_fixtures / calibration_report; files without "version" are
+// read as 1) and 2 (current; what station_scene_to_json writes).
+inline constexpr int kStationFileVersion = 2;
+
+struct StationScene {
+  int version = kStationFileVersion;  // as read (writers always write the current version)
+  std::string name = "default";
+  TagFamilyId family = TagFamilyId::kStandard41h12;
+  MannequinParams mannequin;
+  std::vector<TagPlacement> mannequin_tags;  // T_parent_tag = T_man_tag
+  MirrorSceneParams mirror;
+  std::vector<TagPlacement> mirror_tags;  // T_parent_tag = T_mtag_tag
+  double tooth_voxel_m = 0.1e-3;          // procedural molar's voxel size
+  // Camera, T_man_tooth, T_man_dev, T_sty_tip, T_mtag_mir, mirror_radius_m.
+  calibration::StationCalibration calibration;
+  CameraProvenance camera_provenance;
+  PenParams pen;  // optional in files ("pen"); the default pen when absent
+  CalibrationFixtures fixtures;  // empty in version 1 files
+  std::vector<CalibrationStepReport> calibration_report;  // latest entry per step
+  // Adds or replaces the report of r.step (one entry per step, in workflow order).
+  void set_step_report(const CalibrationStepReport& r);
+  const CalibrationStepReport* step_report(const std::string& step) const;
+
+  // Empty when valid; else names the field ("mannequin_tags[3].id = 9999 is
+  // not a tagStandard41h12 code (0..2114)").
+  std::string validate() const;
+  const TagPlacement* find_tag(int id) const;  // mannequin, mirror or pen tag, or nullptr
+};
+
+// The default pen: tags 30 (front) and 31 (back) of 25 mm on a 40 mm flag,
+// the tip 130 mm below the flag's centre.
+PenParams default_pen();
+
+// The default fixtures: 8 divots on the face around the mouth (non-coplanar, surrounding the
+// tooth site) and 6 molar landmarks (4 cusp tips, buccal and lingual cervical points).
+CalibrationFixtures default_calibration_fixtures();
+
+// The built-in station (assets/station_default.json is this, written out):
+// 12 tags of 14 mm on the forehead, cheeks and chin; a lower-left first molar
+// site; the haptic device placed as haptics::default_station() says; a
+// 640x480 head camera with mild barrel distortion; a mirror with two tags
+// (front and back of its paddle).
+StationScene default_station_scene();
+
+// Intrinsics of the default camera family at another image size: same
+// horizontal field of view (fx = fy = 0.9375 W), principal point near the
+// centre, the default distortion.
+calibration::CameraIntrinsics default_camera(int width_px, int height_px);
+
+// JSON text (2-space indent, numbers round-trip exactly).
+std::string station_scene_to_json(const StationScene& s);
+// Errors name `source` (the file name), the field path and the problem:
+// "station.json: mannequin.tags[2].size_mm: must be a number > 0".
+// A "camera": {"file": "cam.yaml"} reference is read with calibration::read_camera_file,
+// relative to the directory of `source` (an OpenCV or ROS camera YAML).
+Result<StationScene> parse_station_scene(std::string_view text, const std::string& source);
+Result<StationScene> read_station_scene(const std::string& path);
+// Writes via a temporary file and a rename: a failure leaves the old file untouched.
+Status write_station_scene(const StationScene& s, const std::string& path);
+
+}  // namespace dentar::ar

@@ -1,0 +1,198 @@
+// Per-frame tracker of the station's rigid bodies (the mannequin's tag bundle
+// and the mirror's tags): AprilTag detection -> bundle PnP -> SE(3) filter,
+// with a tracking state per body.
+//
+// Fast path ("predicted regions"): when every body that matters has a recent
+// pose, the detector does not scan the whole frame. Each body's tags are
+// projected with its predicted pose; every tag's box is padded by a margin
+// that grows with the tag's size, the body's image speed and the time since
+// its last measurement; overlapping boxes are merged; the detector runs on
+// each crop (decimation roi_decimation, full-resolution edge refinement) and
+// the corners are shifted back. A full-frame search (detector.decimation)
+// runs every full_frame_interval frames, whenever the mannequin is lost, and
+// on the first frame; a lost mirror is searched for by those full frames
+// (see `full_frame_when_any_lost`).
+//
+// States: kTracking = a pose was measured in this frame; kPredicted = not
+// measured, but the last measurement is younger than stale_limit_s (pose =
+// the filter's prediction); kLost = older or never measured: the pose is
+// meaningless and the overlay must not be drawn.
+//
+// Frames: `cam` (OpenCV optical), `man` (mannequin), `mtag` (the mirror's tag
+// frame). SI units; _ms / _px where the name says so. A Tracker is used by
+// one thread at a time (it owns a libapriltag detector).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/bundle_pose.h"
+#include "dentar/ar/pose_filter.h"
+#include "dentar/ar/station_scene.h"
+#include "dentar/ar/tag_detector.h"
+#include "dentar/calibration/station.h"
+#include "dentar/volume/result.h"
+
+namespace dentar::ar {
+
+enum class TrackState { kTracking, kPredicted, kLost };
+const char* track_state_name(TrackState s);  // "tracking", "predicted", "lost"
+
+struct TrackerOptions {
+  // Full-frame detection settings (families must include the station's).
+  TagDetectorOptions detector;
+  BundlePoseOptions pose;
+  bool predicted_regions = true;  // the fast path above
+  int full_frame_interval = 15;   // frames between full-frame searches, >= 1
+  // Region padding around a tag's predicted border square: the tag's own
+  // cells outside it (0.4 x side for tagStandard41h12, 0.125 for tag36h11)
+  // plus roi_margin x side plus roi_min_margin_px, plus the body's predicted
+  // image motion since its last measurement, times (1 + frames since it).
+  double roi_margin = 0.15;
+  double roi_min_margin_px = 4.0;
+  // Decimation inside the regions (1 = full resolution, libapriltag's quad
+  // search is then slowest but sees the smallest tags). Regions whose tags
+  // are all predicted larger than roi_decimate_above_px use 2 instead (edge
+  // refinement at full resolution keeps the corners as accurate).
+  double roi_decimation = 1.0;
+  double roi_decimate_above_px = 24.0;
+  // Also search the full frame whenever the mirror (not only the mannequin)
+  // is lost. Off by default: the mirror is out of view for long stretches
+  // and would force the slow path on every one of those frames.
+  bool full_frame_when_any_lost = false;
+  // Measurements whose reprojection RMS exceeds this are rejected (px).
+  double max_rms_px = 3.0;
+  // Measurements whose position uncertainty (sqrt of the trace of the
+  // covariance's translation block, m) exceeds this are rejected: one or two
+  // small tags can fit their corners exactly and still be millimetres off in
+  // depth (seen on `hard`: 5-9 mm). The covariance is re-scaled to at least
+  // sigma_floor_px of corner noise per axis, because an exact fit of 4
+  // corners says nothing about the noise. 0 = no gate. The mirror's one or
+  // two 12 mm tags are never that precise in depth, so its gate is off by
+  // default.
+  double mannequin_max_sigma_m = 1.5e-3;
+  double mirror_max_sigma_m = 0.0;
+  double sigma_floor_px = 0.25;
+  PoseFilterOptions filter;
+  bool filter_enabled = true;
+  double stale_limit_s = 0.2;  // predicted -> lost after this long without a measurement
+  // Also predicted -> lost once the prediction may have drifted this far (m):
+  // the body's filtered speed (|v| + |w| x 0.1 m of body extent) times the
+  // time since its last measurement. A fast head turn makes a 200 ms-old
+  // prediction centimetres wrong (`hard`: 10 mm per frame); better no
+  // overlay than a misplaced one. 0 = off (only stale_limit_s).
+  double max_prediction_drift_m = 3e-3;
+  // Also track the pen (station.pen, body frame `ptag`) that stands in for
+  // the haptic stylus (`dentar live --stylus pen`). Its regions join the fast
+  // path like the mirror's; a lost pen is found by the full-frame searches.
+  bool track_pen = false;
+  double pen_max_sigma_m = 0.0;  // as mirror_max_sigma_m (0 = no gate)
+
+  std::string validate() const;  // empty when valid, else names the field
+};
+
+struct BodyTrack {
+  std::string name;  // "mannequin" or "mirror"
+  TrackState state = TrackState::kLost;
+  // Filtered and predicted to the display time (the measurement itself when
+  // the filter is off); meaningless when lost.
+  Eigen::Isometry3d T_cam_body = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_cam_body_measured = Eigen::Isometry3d::Identity();  // this frame's PnP
+  bool measured = false;  // a pose was measured in this frame
+  double rms_px = 0;      // reprojection RMS of the measurement (undistorted px)
+  int tags_used = 0;
+  std::vector<int> tag_ids;  // ids used, ascending
+  // Covariance of the measurement (bundle_pose.h: (w rad, v m) in `cam`).
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  double since_measurement_s = 0;  // capture time - last measured capture time
+};
+
+struct TrackTimings {
+  double detect_ms = 0, pose_ms = 0, filter_ms = 0, total_ms = 0;
+};
+
+struct TrackFrame {
+  double capture_time_s = 0, display_time_s = 0;
+  bool full_frame = true;  // false: the predicted-region path ran
+  int regions = 0;         // crops searched (0 on a full frame)
+  double searched_fraction = 1;  // searched pixels / image pixels
+  int tags_detected = 0;
+  std::vector<DetectedTag> tags;  // all detections, full-image OpenCV pixels
+  BodyTrack mannequin, mirror;
+  BodyTrack pen;  // lost unless options.track_pen
+  TrackTimings timing;
+};
+
+class Tracker {
+ public:
+  // Uses station.calibration.camera (its size must be the images'); the
+  // bodies come from mannequin_bundle()/mirror_bundle(). Errors name the
+  // option or the station field.
+  static Result<Tracker> create(const StationScene& station, const TrackerOptions& options = {});
+  Tracker(Tracker&&) noexcept;
+  Tracker& operator=(Tracker&&) noexcept;
+  ~Tracker();
+
+  // One frame (BGR CV_8UC3 or gray CV_8UC1, the calibration's size),
+  // captured at capture_time_s (monotonic, s); poses are predicted to
+  // display_time_s (>= capture time; equal = no prediction). Errors: empty or
+  // wrong-size/type image (message says which), detector failure.
+  Result<TrackFrame> track(const cv::Mat& image, double capture_time_s, double display_time_s);
+  // Forgets all bodies (next frame is a full-frame search).
+  void reset();
+  const TrackerOptions& options() const;
+  const calibration::CameraIntrinsics& camera() const;
+
+  struct Impl;
+
+ private:
+  Tracker() = default;
+  std::unique_ptr<Impl> impl_;
+};
+
+// ---- Camera model / image size ----
+
+// Intrinsics for another image size: fx, cx scaled by width ratio, fy, cy by
+// the height ratio (pixel centres at integers: c' = (c + 0.5) s - 0.5);
+// distortion unchanged (it acts on normalised coordinates). Error when the
+// aspect ratios differ by more than 0.5 % (a crop, not a scale) or a size is
+// not positive.
+Result<calibration::CameraIntrinsics> scale_intrinsics(const calibration::CameraIntrinsics& k,
+                                                       int width, int height);
+// The calibration to use for images of width x height: the calibration
+// itself when the sizes match; scaled when `allow_scale`; else an error that
+// names both sizes and suggests --scale-calib. `source` names the file.
+Result<calibration::CameraIntrinsics> camera_for_image(const calibration::CameraIntrinsics& k,
+                                                       int width, int height, bool allow_scale,
+                                                       const std::string& source);
+// Reads a camera calibration: a station JSON (station_scene.h, its
+// calibration.camera) or an OpenCV FileStorage / ROS camera_info YAML
+// (calibration/camera_file.h). Errors name the file and field.
+Result<calibration::CameraIntrinsics> read_camera_calibration(const std::string& path);
+
+// ---- Per-tag poses (`dentar track --tags`) ----
+
+struct TagPose {
+  TagFamilyId family = TagFamilyId::kStandard41h12;
+  int id = 0;
+  std::array<Eigen::Vector2d, 4> corners_px;  // detected (distorted) OpenCV px
+  // Tag frame per libapriltag (station_scene.h): the better of the two
+  // IPPE_SQUARE solutions (lower reprojection RMS on the undistorted corners).
+  Eigen::Isometry3d T_cam_tag = Eigen::Isometry3d::Identity();
+  double rms_px = 0;
+  Eigen::Isometry3d T_cam_tag_alt = Eigen::Isometry3d::Identity();  // the other solution
+  double alt_rms_px = 0;  // its RMS (a ratio alt/best near 1 = ambiguous)
+  bool ok = false;
+};
+// Every detection's own pose for a square tag of side tag_size_m (m).
+std::vector<TagPose> estimate_tag_poses(const std::vector<DetectedTag>& tags,
+                                        const calibration::CameraIntrinsics& camera,
+                                        double tag_size_m);
+
+}  // namespace dentar::ar

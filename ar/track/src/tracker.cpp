@@ -1,0 +1,567 @@
+#include "dentar/ar/tracker.h"
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <utility>
+
+#include "dentar/ar/camera_model.h"
+#include "dentar/calibration/camera_file.h"
+
+namespace dentar::ar {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+bool finite_positive(double v) { return std::isfinite(v) && v > 0; }
+
+// One rigid body's tracking state.
+struct Body {
+  TagBundle bundle;
+  PoseFilter filter;
+  bool has_measurement = false;  // a measurement younger than the stale limit exists
+  double last_meas_time_s = 0;
+  Eigen::Isometry3d last_meas = Eigen::Isometry3d::Identity();
+  int frames_since_meas = 0;
+  TrackState state = TrackState::kLost;
+  double max_sigma_m = 0;  // position uncertainty gate (0 = off)
+};
+
+// Integer pixel box [x0, x1) x [y0, y1).
+struct Box {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  double min_side_px = 1e9;  // smallest predicted tag side inside
+  int area() const { return std::max(0, x1 - x0) * std::max(0, y1 - y0); }
+  bool overlaps(const Box& o) const {
+    return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1;
+  }
+  void unite(const Box& o) {
+    x0 = std::min(x0, o.x0);
+    y0 = std::min(y0, o.y0);
+    x1 = std::max(x1, o.x1);
+    y1 = std::max(y1, o.y1);
+    min_side_px = std::min(min_side_px, o.min_side_px);
+  }
+};
+
+// Merges boxes whose union costs no more pixels than the two apart (a
+// union of two far-apart boxes would search the gap between them). Each tag
+// lies wholly inside its own box, so merging is only about not searching
+// shared pixels twice; a tag found in two crops is deduplicated later.
+std::vector<Box> merge_boxes(std::vector<Box> boxes) {
+  bool merged = true;
+  while (merged) {
+    merged = false;
+    for (std::size_t i = 0; i < boxes.size() && !merged; ++i)
+      for (std::size_t j = i + 1; j < boxes.size() && !merged; ++j) {
+        if (!boxes[i].overlaps(boxes[j])) continue;
+        Box u = boxes[i];
+        u.unite(boxes[j]);
+        if (u.area() > boxes[i].area() + boxes[j].area()) continue;
+        boxes[i] = u;
+        boxes.erase(boxes.begin() + static_cast<std::ptrdiff_t>(j));
+        merged = true;
+      }
+  }
+  return boxes;
+}
+
+// Keeps one detection per (family, id): the most confident.
+std::vector<DetectedTag> dedup(std::vector<DetectedTag> tags) {
+  std::map<std::pair<int, int>, DetectedTag> best;
+  for (const DetectedTag& t : tags) {
+    auto key = std::make_pair(static_cast<int>(t.family), t.id);
+    auto it = best.find(key);
+    if (it == best.end() || t.decision_margin > it->second.decision_margin) best[key] = t;
+  }
+  std::vector<DetectedTag> out;
+  out.reserve(best.size());
+  for (auto& [k, t] : best) out.push_back(t);
+  return out;
+}
+
+}  // namespace
+
+const char* track_state_name(TrackState s) {
+  switch (s) {
+    case TrackState::kTracking:
+      return "tracking";
+    case TrackState::kPredicted:
+      return "predicted";
+    case TrackState::kLost:
+      return "lost";
+  }
+  return "?";
+}
+
+std::string TrackerOptions::validate() const {
+  if (auto e = detector.validate(); !e.empty()) return "detector." + e;
+  if (auto e = pose.validate(); !e.empty()) return "pose." + e;
+  if (auto e = filter.validate(); !e.empty()) return "filter." + e;
+  std::ostringstream os;
+  if (full_frame_interval < 1 || full_frame_interval > 100000)
+    os << "full_frame_interval = " << full_frame_interval << " frames must be in 1..100000";
+  else if (!std::isfinite(roi_margin) || roi_margin < 0 || roi_margin > 10)
+    os << "roi_margin = " << roi_margin << " must be in [0, 10] (times the tag side)";
+  else if (!std::isfinite(roi_min_margin_px) || roi_min_margin_px < 0 || roi_min_margin_px > 1000)
+    os << "roi_min_margin_px = " << roi_min_margin_px << " must be in [0, 1000]";
+  else if (!std::isfinite(roi_decimation) || roi_decimation < 1 || roi_decimation > 16)
+    os << "roi_decimation = " << roi_decimation << " must be in [1, 16]";
+  else if (!std::isfinite(roi_decimate_above_px) || roi_decimate_above_px < 0)
+    os << "roi_decimate_above_px = " << roi_decimate_above_px << " must be >= 0";
+  else if (!finite_positive(max_rms_px))
+    os << "max_rms_px = " << max_rms_px << " must be finite and > 0";
+  else if (!(std::isfinite(mannequin_max_sigma_m) && mannequin_max_sigma_m >= 0))
+    os << "mannequin_max_sigma_m = " << mannequin_max_sigma_m << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(mirror_max_sigma_m) && mirror_max_sigma_m >= 0))
+    os << "mirror_max_sigma_m = " << mirror_max_sigma_m << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(max_prediction_drift_m) && max_prediction_drift_m >= 0))
+    os << "max_prediction_drift_m = " << max_prediction_drift_m << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(sigma_floor_px) && sigma_floor_px >= 0))
+    os << "sigma_floor_px = " << sigma_floor_px << " must be finite and >= 0";
+  else if (!std::isfinite(stale_limit_s) || stale_limit_s < 0 || stale_limit_s > 10)
+    os << "stale_limit_s = " << stale_limit_s << " must be in [0, 10] s";
+  return os.str();
+}
+
+struct Tracker::Impl {
+  TrackerOptions o;
+  calibration::CameraIntrinsics camera;
+  CameraModel model{calibration::CameraIntrinsics{}};
+  std::optional<TagDetector> detector;
+  Body mannequin, mirror, pen;
+  std::int64_t frames = 0;
+  int frames_since_full = 0;
+  // How far a tag's printed cells reach beyond its border square (the
+  // detected corners), as a fraction of the square's side: tagStandard41h12
+  // has data bits and a dark ring outside it (0.4), tag36h11 a white ring
+  // (0.125). The quad search needs all of it inside the crop.
+  double outer_extent = 0.4;
+  bool have_last_capture = false;
+  double last_capture_s = 0;
+  cv::Mat gray;  // scratch
+
+  // Boxes around `b`'s tags at its predicted pose; false when the body has
+  // no usable prediction (then only a full frame can find it).
+  bool add_regions(const Body& b, double capture_s, double frame_dt_s, std::vector<Box>& boxes) {
+    if (b.state == TrackState::kLost) return false;
+    const bool filt = o.filter_enabled && b.filter.initialised();
+    const Eigen::Isometry3d T_pred = filt ? b.filter.predict(capture_s) : b.last_meas;
+    // One frame earlier along the prediction: the motion a frame brings,
+    // which is what the prediction may be wrong by.
+    const Eigen::Isometry3d T_prev =
+        filt ? b.filter.predict(capture_s - frame_dt_s) : b.last_meas;
+    const double grow = 1.0 + b.frames_since_meas;
+    for (const TagPlacement& t : b.bundle.tags) {
+      const Eigen::Isometry3d T_cam_tag = T_pred * t.T_parent_tag;
+      const Eigen::Vector3d c = T_cam_tag.translation();
+      // Facing the camera (tag z points into the tag) and not grazing.
+      if (!(c.z() > 0.01) || T_cam_tag.linear().col(2).dot(c.normalized()) < 0.12) continue;
+      std::array<Eigen::Vector2d, 4> px;
+      bool ok = true;
+      for (int k = 0; k < 4 && ok; ++k) {
+        auto p = model.project(T_pred * t.corner(k));
+        ok = p.has_value();
+        if (ok) px[k] = *p;
+      }
+      if (!ok) continue;
+      double area2 = 0;
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector2d& a = px[k];
+        const Eigen::Vector2d& bq = px[(k + 1) % 4];
+        area2 += a.x() * bq.y() - bq.x() * a.y();
+      }
+      const double side = std::sqrt(std::abs(area2) / 2);
+      double motion = 0;
+      {
+        auto p_now = model.project(T_pred * t.T_parent_tag.translation());
+        auto p_last = model.project(b.last_meas * t.T_parent_tag.translation());
+        auto p_prev = model.project(T_prev * t.T_parent_tag.translation());
+        if (p_now && p_last) motion += (*p_now - *p_last).norm();
+        if (p_now && p_prev) motion += grow * (*p_now - *p_prev).norm();
+      }
+      const double margin = (outer_extent + o.roi_margin) * side + o.roi_min_margin_px + motion;
+      double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+      for (const auto& p : px) {
+        x0 = std::min(x0, p.x());
+        y0 = std::min(y0, p.y());
+        x1 = std::max(x1, p.x());
+        y1 = std::max(y1, p.y());
+      }
+      Box box;
+      box.x0 = std::max(0, static_cast<int>(std::floor(x0 - margin)));
+      box.y0 = std::max(0, static_cast<int>(std::floor(y0 - margin)));
+      box.x1 = std::min(camera.width, static_cast<int>(std::ceil(x1 + margin)) + 1);
+      box.y1 = std::min(camera.height, static_cast<int>(std::ceil(y1 + margin)) + 1);
+      box.min_side_px = side;
+      if (box.x1 - box.x0 < 16 || box.y1 - box.y0 < 16) continue;  // (almost) off the image
+      boxes.push_back(box);
+    }
+    return true;
+  }
+
+  Status detect_full(std::vector<DetectedTag>& out) {
+    if (Status s = detector->set_decimation(o.detector.decimation); !s) return s;
+    auto r = detector->detect(gray);
+    if (!r) return Error{r.error()};
+    out = std::move(r).value();
+    return {};
+  }
+
+  Status detect_regions(const std::vector<Box>& boxes, std::vector<DetectedTag>& out) {
+    std::vector<DetectedTag> all;
+    for (const Box& b : boxes) {
+      const double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
+                                                                  : o.roi_decimation;
+      if (Status s = detector->set_decimation(dec); !s) return s;
+      const cv::Mat crop = gray(cv::Rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0));
+      auto r = detector->detect(crop);
+      if (!r) return Error{r.error()};
+      for (DetectedTag t : *r) {
+        for (auto& c : t.corners_px) c += Eigen::Vector2d(b.x0, b.y0);
+        all.push_back(t);
+      }
+    }
+    out = dedup(std::move(all));
+    return {};
+  }
+
+  // Position uncertainty gate (TrackerOptions::mannequin_max_sigma_m).
+  bool precise_enough(const BundlePose& p, double max_sigma_m) const {
+    if (max_sigma_m <= 0) return true;
+    // covariance = s^2 (J^T J)^-1 with s^2 = sum r^2 / (2N - 6) per axis;
+    // rms_px^2 = sum r^2 / N (N corners).
+    const double n = 4.0 * p.tags_used;
+    const double s2 = p.rms_px * p.rms_px * n / std::max(1.0, 2 * n - 6);
+    const double floor2 = o.sigma_floor_px * o.sigma_floor_px;
+    const double scale = s2 > 1e-12 ? std::max(1.0, floor2 / s2) : 1.0;
+    const double var = p.covariance.bottomRightCorner<3, 3>().trace() * scale;
+    return std::isfinite(var) && std::sqrt(var) <= max_sigma_m;
+  }
+
+  // Pose + filter + state of one body.
+  void update_body(Body& b, const std::vector<DetectedTag>& tags, double capture_s,
+                   double display_s, BodyTrack& out, double& pose_ms, double& filter_ms) {
+    out = BodyTrack{};
+    out.name = b.bundle.name;
+    const auto t0 = Clock::now();
+    std::optional<Eigen::Isometry3d> prev;
+    if (b.state != TrackState::kLost)
+      prev = o.filter_enabled && b.filter.initialised() ? b.filter.predict(capture_s)
+                                                         : b.last_meas;
+    bool measured = false;
+    if (!tags.empty()) {
+      const BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, o.pose, prev);
+      if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(p, b.max_sigma_m)) {
+        measured = true;
+        out.T_cam_body_measured = p.T_cam_body;
+        out.rms_px = p.rms_px;
+        out.tags_used = p.tags_used;
+        out.tag_ids = p.tag_ids;
+        out.covariance = p.covariance;
+      }
+    }
+    pose_ms += ms_since(t0);
+    const auto t1 = Clock::now();
+    if (measured) {
+      if (b.state == TrackState::kLost) b.filter.reset();  // no velocity from a stale track
+      b.filter.update(out.T_cam_body_measured, capture_s);
+      b.has_measurement = true;
+      b.last_meas = out.T_cam_body_measured;
+      b.last_meas_time_s = capture_s;
+      b.frames_since_meas = 0;
+      b.state = TrackState::kTracking;
+    } else {
+      ++b.frames_since_meas;
+      const double age = capture_s - b.last_meas_time_s;
+      double drift = 0;  // how far the prediction may be off by now, m
+      if (o.filter_enabled && b.filter.initialised())
+        drift = (b.filter.linear_velocity().norm() + 0.1 * b.filter.angular_velocity().norm()) * age;
+      const bool drift_ok = o.max_prediction_drift_m <= 0 || drift <= o.max_prediction_drift_m;
+      if (b.has_measurement && age <= o.stale_limit_s && drift_ok) {
+        b.state = TrackState::kPredicted;
+      } else {
+        b.state = TrackState::kLost;
+        b.has_measurement = false;
+        b.filter.reset();
+      }
+    }
+    out.measured = measured;
+    out.state = b.state;
+    out.since_measurement_s = b.has_measurement ? capture_s - b.last_meas_time_s : 0;
+    if (b.state != TrackState::kLost)
+      out.T_cam_body = o.filter_enabled ? b.filter.predict(display_s) : b.last_meas;
+    filter_ms += ms_since(t1);
+  }
+};
+
+Tracker::Tracker(Tracker&&) noexcept = default;
+Tracker& Tracker::operator=(Tracker&&) noexcept = default;
+Tracker::~Tracker() = default;
+
+Result<Tracker> Tracker::create(const StationScene& station, const TrackerOptions& options) {
+  if (auto e = options.validate(); !e.empty()) return Error{"TrackerOptions: " + e};
+  if (auto e = station.calibration.camera.validate(); !e.empty())
+    return Error{"Tracker: station calibration.camera: " + e};
+  if (std::find(options.detector.families.begin(), options.detector.families.end(),
+                station.family) == options.detector.families.end())
+    return Error{std::string("TrackerOptions: detector.families does not include the station's "
+                             "tag family ") +
+                 tag_family_name(station.family)};
+  if (station.mannequin_tags.empty()) return Error{"Tracker: the station has no mannequin tags"};
+  auto det = TagDetector::create(options.detector);
+  if (!det) return Error{det.error()};
+  Tracker t;
+  t.impl_ = std::make_unique<Impl>();
+  Impl& m = *t.impl_;
+  m.o = options;
+  m.camera = station.calibration.camera;
+  m.model = CameraModel(m.camera);
+  m.detector.emplace(std::move(det).value());
+  {
+    const TagFamily fam = TagFamily::create(station.family);
+    m.outer_extent = fam.raw() == nullptr ? 0.5
+                                          : 0.5 * (fam.total_width() - fam.width_at_border()) /
+                                                    double(fam.width_at_border());
+  }
+  m.mannequin.bundle = mannequin_bundle(station);
+  m.mirror.bundle = mirror_bundle(station);
+  m.mannequin.max_sigma_m = options.mannequin_max_sigma_m;
+  m.mirror.max_sigma_m = options.mirror_max_sigma_m;
+  m.mannequin.filter = PoseFilter(options.filter);
+  m.mirror.filter = PoseFilter(options.filter);
+  if (options.track_pen) {
+    if (station.pen.tags.empty())
+      return Error{"Tracker: track_pen is set but the station has no pen (station file \"pen\".tags)"};
+    m.pen.bundle = TagBundle{"pen", station.family, station.pen.tags};
+    m.pen.max_sigma_m = options.pen_max_sigma_m;
+    m.pen.filter = PoseFilter(options.filter);
+  }
+  return t;
+}
+
+void Tracker::reset() {
+  for (Body* b : {&impl_->mannequin, &impl_->mirror, &impl_->pen}) {
+    b->filter.reset();
+    b->has_measurement = false;
+    b->state = TrackState::kLost;
+    b->frames_since_meas = 0;
+  }
+  impl_->frames = 0;
+  impl_->frames_since_full = 0;
+  impl_->have_last_capture = false;
+}
+
+const TrackerOptions& Tracker::options() const { return impl_->o; }
+const calibration::CameraIntrinsics& Tracker::camera() const { return impl_->camera; }
+
+Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
+                                  double display_time_s) {
+  Impl& m = *impl_;
+  const auto t_start = Clock::now();
+  if (image.empty()) return Error{"Tracker::track: empty image"};
+  if (image.cols != m.camera.width || image.rows != m.camera.height)
+    return Error{"Tracker::track: image is " + std::to_string(image.cols) + "x" +
+                 std::to_string(image.rows) + " px but the calibration is for " +
+                 std::to_string(m.camera.width) + "x" + std::to_string(m.camera.height) +
+                 " px; use a calibration for this size (or scale it: scale_intrinsics)"};
+  if (!std::isfinite(capture_time_s) || !std::isfinite(display_time_s))
+    return Error{"Tracker::track: capture/display time is not finite"};
+  if (image.type() == CV_8UC3)
+    cv::cvtColor(image, m.gray, cv::COLOR_BGR2GRAY);
+  else if (image.type() == CV_8UC1)
+    m.gray = image;
+  else
+    return Error{"Tracker::track: image type " + cv::typeToString(image.type()) +
+                 " is neither CV_8UC3 (BGR) nor CV_8UC1 (gray)"};
+  display_time_s = std::max(display_time_s, capture_time_s);
+
+  TrackFrame f;
+  f.capture_time_s = capture_time_s;
+  f.display_time_s = display_time_s;
+  const double frame_dt =
+      m.have_last_capture ? std::clamp(capture_time_s - m.last_capture_s, 1e-3, 0.2) : 1.0 / 30;
+
+  // Region-of-interest or full-frame search.
+  std::vector<Box> boxes;
+  bool full = !m.o.predicted_regions || m.frames == 0 ||
+              m.frames_since_full + 1 >= m.o.full_frame_interval;
+  if (!full) {
+    const bool man_ok = m.add_regions(m.mannequin, capture_time_s, frame_dt, boxes);
+    const bool mir_ok = m.add_regions(m.mirror, capture_time_s, frame_dt, boxes);
+    if (!m.pen.bundle.tags.empty()) m.add_regions(m.pen, capture_time_s, frame_dt, boxes);
+    full = !man_ok || (m.o.full_frame_when_any_lost && !mir_ok) || boxes.empty();
+  }
+  const auto t_det = Clock::now();
+  std::vector<DetectedTag> tags;
+  if (!full) {
+    boxes = merge_boxes(std::move(boxes));
+    if (Status s = m.detect_regions(boxes, tags); !s) return Error{s.error()};
+    int area = 0;
+    for (const Box& b : boxes) area += b.area();
+    f.regions = static_cast<int>(boxes.size());
+    f.searched_fraction = double(area) / (double(m.camera.width) * m.camera.height);
+    // The mannequin was expected but not found in its regions: look at the
+    // whole frame now rather than coast on a prediction (recall first).
+    bool man_found = false;
+    for (const DetectedTag& t : tags)
+      for (const TagPlacement& p : m.mannequin.bundle.tags)
+        man_found = man_found || (t.family == m.mannequin.bundle.family && t.id == p.id);
+    if (!man_found) full = true;
+  }
+  if (full) {
+    if (Status s = m.detect_full(tags); !s) return Error{s.error()};
+    f.regions = 0;
+    f.searched_fraction = 1;
+    m.frames_since_full = 0;
+  } else {
+    ++m.frames_since_full;
+  }
+  f.timing.detect_ms = ms_since(t_det);
+  f.full_frame = full;
+  f.tags_detected = static_cast<int>(tags.size());
+
+  m.update_body(m.mannequin, tags, capture_time_s, display_time_s, f.mannequin, f.timing.pose_ms,
+                f.timing.filter_ms);
+  if (!m.mirror.bundle.tags.empty())
+    m.update_body(m.mirror, tags, capture_time_s, display_time_s, f.mirror, f.timing.pose_ms,
+                  f.timing.filter_ms);
+  else
+    f.mirror.name = "mirror";
+  if (!m.pen.bundle.tags.empty())
+    m.update_body(m.pen, tags, capture_time_s, display_time_s, f.pen, f.timing.pose_ms,
+                  f.timing.filter_ms);
+  f.pen.name = "pen";
+  f.tags = std::move(tags);
+  ++m.frames;
+  m.have_last_capture = true;
+  m.last_capture_s = capture_time_s;
+  f.timing.total_ms = ms_since(t_start);
+  return f;
+}
+
+// ---- Camera model / image size ----
+
+Result<calibration::CameraIntrinsics> scale_intrinsics(const calibration::CameraIntrinsics& k,
+                                                       int width, int height) {
+  if (k.width <= 0 || k.height <= 0 || width <= 0 || height <= 0)
+    return Error{"scale_intrinsics: sizes must be positive (calibration " +
+                 std::to_string(k.width) + "x" + std::to_string(k.height) + ", image " +
+                 std::to_string(width) + "x" + std::to_string(height) + ")"};
+  const double sx = double(width) / k.width, sy = double(height) / k.height;
+  if (std::abs(sx / sy - 1.0) > 0.005)
+    return Error{"scale_intrinsics: image " + std::to_string(width) + "x" +
+                 std::to_string(height) + " has another aspect ratio than the calibration's " +
+                 std::to_string(k.width) + "x" + std::to_string(k.height) +
+                 " (a crop, not a scale): calibrate the camera at this size"};
+  calibration::CameraIntrinsics out = k;
+  out.width = width;
+  out.height = height;
+  out.fx = k.fx * sx;
+  out.fy = k.fy * sy;
+  out.cx = (k.cx + 0.5) * sx - 0.5;
+  out.cy = (k.cy + 0.5) * sy - 0.5;
+  return out;
+}
+
+Result<calibration::CameraIntrinsics> camera_for_image(const calibration::CameraIntrinsics& k,
+                                                       int width, int height, bool allow_scale,
+                                                       const std::string& source) {
+  if (k.width == width && k.height == height) return k;
+  if (!allow_scale)
+    return Error{source + ": the calibration is for " + std::to_string(k.width) + "x" +
+                 std::to_string(k.height) + " px images but the input is " +
+                 std::to_string(width) + "x" + std::to_string(height) +
+                 " px; use a calibration made at this size, or pass --scale-calib to scale "
+                 "fx, fy, cx, cy (same aspect ratio only)"};
+  auto s = scale_intrinsics(k, width, height);
+  if (!s) return Error{source + ": " + s.error()};
+  return s;
+}
+
+Result<calibration::CameraIntrinsics> read_camera_calibration(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{path + ": cannot open the calibration file (missing or unreadable)"};
+  char c = 0;
+  while (in.get(c) && std::isspace(static_cast<unsigned char>(c))) {
+  }
+  if (c == '{') {  // a station JSON
+    auto s = read_station_scene(path);
+    if (!s) return Error{s.error()};
+    return s->calibration.camera;
+  }
+  auto f = calibration::read_camera_file(path);
+  if (!f) return Error{f.error()};
+  if (auto e = f->camera.validate(); !e.empty()) return Error{path + ": " + e};
+  return f->camera;
+}
+
+// ---- Per-tag poses ----
+
+std::vector<TagPose> estimate_tag_poses(const std::vector<DetectedTag>& tags,
+                                        const calibration::CameraIntrinsics& camera,
+                                        double tag_size_m) {
+  std::vector<TagPose> out;
+  if (!finite_positive(tag_size_m) || !camera.validate().empty()) return out;
+  const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  const std::vector<double> dist(camera.dist.begin(), camera.dist.end());
+  const double h = tag_size_m / 2;
+  const std::vector<cv::Point3d> obj = {{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
+  for (const DetectedTag& t : tags) {
+    TagPose p;
+    p.family = t.family;
+    p.id = t.id;
+    p.corners_px = t.corners_px;
+    std::vector<cv::Point2d> d, u;
+    for (const auto& c : t.corners_px) d.emplace_back(c.x(), c.y());
+    std::vector<cv::Mat> rvecs, tvecs;
+    cv::Mat errs;
+    try {
+      cv::undistortPoints(d, u, K, dist, cv::noArray(), K);
+      cv::solvePnPGeneric(obj, u, K, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE_SQUARE,
+                          cv::noArray(), cv::noArray(), errs);
+    } catch (const cv::Exception&) {
+      out.push_back(p);  // degenerate quad: ok = false
+      continue;
+    }
+    auto to_iso = [](const cv::Mat& r, const cv::Mat& tv) {
+      cv::Mat R;
+      cv::Rodrigues(r, R);
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) T.linear()(i, j) = R.at<double>(i, j);
+        T.translation()(i) = tv.at<double>(i);
+      }
+      return T;
+    };
+    std::vector<std::pair<double, Eigen::Isometry3d>> sol;
+    for (std::size_t s = 0; s < rvecs.size(); ++s) {
+      const double e = errs.empty() ? 0.0 : errs.at<double>(static_cast<int>(s));
+      sol.emplace_back(e, to_iso(rvecs[s], tvecs[s]));
+    }
+    std::sort(sol.begin(), sol.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    if (!sol.empty()) {
+      p.ok = sol[0].second.matrix().allFinite();
+      p.rms_px = sol[0].first;
+      p.T_cam_tag = sol[0].second;
+      p.T_cam_tag_alt = sol.size() > 1 ? sol[1].second : sol[0].second;
+      p.alt_rms_px = sol.size() > 1 ? sol[1].first : sol[0].first;
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace dentar::ar

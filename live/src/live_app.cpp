@@ -1,0 +1,803 @@
+// dentar live: threads, engine, window and recording. See live_app.h.
+#include "dentar/live/live_app.h"
+
+#define GLFW_INCLUDE_NONE
+#include <GL/gl.h>
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <thread>
+
+#include "dentar/ar/capture_thread.h"
+#include "dentar/ar/egl_context.h"
+#include "dentar/ar/frame_source.h"
+#include "dentar/haptics/engine.h"
+#include "dentar/haptics/pedal.h"
+#include "dentar/haptics/replay.h"
+#include "dentar/haptics/replay_device.h"
+#include "dentar/haptics/scripts.h"
+#include "dentar/haptics/session_log.h"
+#include "dentar/haptics/simulated_device.h"
+#include "dentar/live/pen_device.h"
+#include "dentar/volume/bur.h"
+#include "dentar/volume/material.h"
+#include "dentar/volume/procedural_tooth.h"
+
+namespace dentar::live {
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::atomic<int> g_signal{0};
+extern "C" void on_signal(int sig) { g_signal.store(sig); }
+
+double now_s() { return ar::steady_now_s(); }
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(std::min<double>(v.size() - 1, std::ceil(q * (v.size() - 1))));
+  return v[i];
+}
+
+double rss_mb() {
+  std::ifstream f("/proc/self/statm");
+  long pages = 0, rss = 0;
+  f >> pages >> rss;
+  return static_cast<double>(rss) * static_cast<double>(sysconf(_SC_PAGESIZE)) / 1e6;
+}
+
+std::string iso_now() {
+  const std::time_t t = std::time(nullptr);
+  char b[32];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return b;
+}
+
+const char* kState[] = {"tracking", "predicted", "lost"};
+
+// What the frame thread hands the window: the newest composite and its raw
+// frame (shown without overlay when the camera stalls).
+struct Shown {
+  cv::Mat composite, raw;
+  std::int64_t index = -1;  // recording index (frames processed)
+  double steady_s = 0;      // capture time
+  ar::FrameRecord rec;
+  std::string error;
+};
+
+// The recorder/logger thread: frames as lossless PNG, then their CSV row
+// (a row never names a frame that is not on disk), flushed per frame.
+class Recorder {
+ public:
+  static Result<std::unique_ptr<Recorder>> open(const fs::path& dir) {
+    std::unique_ptr<Recorder> r(new Recorder);
+    r->dir_ = dir;
+    std::error_code ec;
+    fs::create_directories(dir / "frames", ec);
+    if (ec) return Error{dir.string() + ": cannot create the recording folder: " + ec.message()};
+    r->csv_.open(dir / "frames.csv");
+    if (!r->csv_) return Error{(dir / "frames.csv").string() + ": cannot write"};
+    r->csv_ << "frame,time_s,steady_s,source_index,haptic_step,man_state,mirror_state,pen_state,"
+               "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms\n";
+    r->csv_.flush();
+    r->log_.open(dir / "live.log");
+    r->thread_ = std::thread([p = r.get()] { p->main(); });
+    return r;
+  }
+  ~Recorder() { close(); }
+  // Frame thread. Drops (and counts) when the writer is behind by > 90 frames.
+  void push(cv::Mat raw, const ar::FrameRecord& rec, std::int64_t index, std::int64_t source_index,
+            double steady_s) {
+    std::lock_guard<std::mutex> lock(m_);
+    if (q_.size() > 90) {
+      ++dropped_;
+      return;
+    }
+    q_.push_back(Item{std::move(raw), rec, index, source_index, steady_s});
+    cv_.notify_one();
+  }
+  void log(const std::string& line) {
+    std::lock_guard<std::mutex> lock(m_);
+    log_ << iso_now() << " " << line << "\n";
+    log_.flush();
+  }
+  void close() {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+  std::int64_t written() const { return written_.load(); }
+  std::int64_t dropped() const { return dropped_.load(); }
+  const fs::path& dir() const { return dir_; }
+
+ private:
+  struct Item {
+    cv::Mat raw;
+    ar::FrameRecord rec;
+    std::int64_t index, source_index;
+    double steady_s;
+  };
+  void main() {
+    for (;;) {
+      Item it;
+      {
+        std::unique_lock<std::mutex> lock(m_);
+        cv_.wait(lock, [&] { return stop_ || !q_.empty(); });
+        if (q_.empty()) return;
+        it = std::move(q_.front());
+        q_.pop_front();
+      }
+      char name[48];
+      std::snprintf(name, sizeof name, "frame_%06lld.png", static_cast<long long>(it.index));
+      const fs::path tmp = dir_ / "frames" / (std::string(name) + ".tmp.png");
+      if (!cv::imwrite(tmp.string(), it.raw, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
+        ++dropped_;
+        continue;
+      }
+      std::error_code ec;
+      fs::rename(tmp, dir_ / "frames" / name, ec);
+      const ar::FrameRecord& r = it.rec;
+      auto pose = [&](int state, const Eigen::Isometry3d& T) {
+        if (state == 2) return std::string();
+        std::ostringstream s;
+        s << std::setprecision(17);
+        const Eigen::Matrix4d m = T.matrix();
+        for (int i = 0; i < 12; ++i) s << (i ? " " : "") << m(i / 4, i % 4);
+        return s.str();
+      };
+      csv_ << std::setprecision(17) << it.index << ',' << r.time_s << ',' << it.steady_s << ','
+           << it.source_index << ',' << r.haptic_step << ',' << kState[r.man_state] << ','
+           << kState[r.mir_state] << ',' << kState[r.pen_state] << ',' << pose(r.man_state, r.T_cam_man) << ','
+           << pose(r.mir_state, r.T_cam_mtag) << ',' << (r.pedal ? 1 : 0) << ',' << std::setprecision(6)
+           << r.force_N << ',' << (r.overlay ? 1 : 0) << ',' << r.track_ms << ',' << r.mesh_ms << ','
+           << r.composite_ms << '\n';
+      csv_.flush();
+      ++written_;
+    }
+  }
+  fs::path dir_;
+  std::ofstream csv_, log_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::deque<Item> q_;
+  bool stop_ = false;
+  std::atomic<std::int64_t> written_{0}, dropped_{0};
+  std::thread thread_;
+};
+
+// The window: GLFW + desktop GL for the video texture and Dear ImGui's HUD.
+struct Window {
+  GLFWwindow* win = nullptr;
+  GLuint tex = 0;
+  int tex_w = 0, tex_h = 0;
+  bool imgui = false;
+  ~Window() {
+    if (imgui) {
+      ImGui_ImplOpenGL3_Shutdown();
+      ImGui_ImplGlfw_Shutdown();
+      ImGui::DestroyContext();
+    }
+    if (tex) glDeleteTextures(1, &tex);
+    if (win) glfwDestroyWindow(win);
+    glfwTerminate();
+  }
+};
+
+std::atomic<bool> g_space{false};
+void on_key(GLFWwindow* w, int key, int, int action, int) {
+  if (key == GLFW_KEY_SPACE) g_space.store(action != GLFW_RELEASE);
+  if (key == GLFW_KEY_ESCAPE && action == GLFW_PRESS) glfwSetWindowShouldClose(w, GLFW_TRUE);
+}
+
+}  // namespace
+
+std::string LiveOptions::validate() const {
+  if (camera.empty()) return "camera is empty: give --camera camera:N, /dev/videoN or live:PATH";
+  if (width < 0 || height < 0 || fps < 0) return "camera mode (--width/--height/--fps) must be >= 0";
+  if (!(stylus == "sim" || stylus == "pen" || stylus == "none" || stylus.rfind("replay:", 0) == 0))
+    return "stylus = \"" + stylus + "\" must be sim, pen, none or replay:FILE.dlog";
+  if (stylus == "replay:") return "stylus = replay: needs a session log path (replay:FILE.dlog)";
+  if (display < -1 || display > 16) return "display = " + std::to_string(display) + " must be -1 (window) or a monitor 0..16";
+  if (window_width < 0 || window_height < 0 || window_width > 8192 || window_height > 8192)
+    return "window size must be within 0..8192";
+  if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
+  if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
+  if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
+  if (auto v = pipeline.validate(); !v.empty()) return "pipeline: " + v;
+  return {};
+}
+
+std::string LiveSummary::json() const {
+  char hash[20];
+  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(volume_hash));
+  nlohmann::json j = {
+      {"frames", {{"captured", frames_captured}, {"processed", frames_processed}, {"displayed", frames_displayed},
+                  {"dropped_source", dropped_source}, {"dropped_consumer", dropped_consumer},
+                  {"camera_reopens", camera_reopens}}},
+      {"wall_s", wall_s},
+      {"displayed_fps", displayed_fps},
+      {"latency_ms", {{"p50", latency_p50_ms}, {"p99", latency_p99_ms}, {"max", latency_max_ms}}},
+      {"process_ms", {{"p50", process_p50_ms}, {"p99", process_p99_ms}}},
+      {"engine", {{"steps", engine_steps}, {"missed_deadlines", missed_deadlines}, {"watchdog_trips", watchdog_trips},
+                  {"step_us", {{"p50", step_p50_us}, {"p99", step_p99_us}, {"p999", step_p999_us}, {"max", step_max_us}}},
+                  {"jitter_us", {{"p99", jitter_p99_us}, {"max", jitter_max_us}}},
+                  {"realtime_granted", realtime_granted}, {"cpu_pinned", cpu_pinned},
+                  {"memory_locked", memory_locked}, {"isolation", isolation_note}}},
+      {"volume_hash", hash},
+      {"rss_mb", {{"start", rss_start_mb}, {"end", rss_end_mb}}},
+      {"overlay_hidden_ms_after_stall", overlay_hidden_ms_after_stall},
+      {"warnings", warnings}};
+  return j.dump(2) + "\n";
+}
+
+Result<LiveSummary> run_live(const LiveOptions& o) {
+  if (auto v = o.validate(); !v.empty()) return Error{"live: " + v};
+  LiveSummary sum;
+  sum.rss_start_mb = rss_mb();
+  auto say = [&](const std::string& s) {
+    if (!o.quiet) std::fprintf(stderr, "dentar live: %s\n", s.c_str());
+  };
+
+  // ---- station ----
+  ar::StationScene st;
+  if (o.station.empty()) {
+    st = ar::default_station_scene();
+  } else {
+    auto s = ar::read_station_scene(o.station);
+    if (!s) return Error{"live: " + s.error()};
+    st = std::move(*s);
+  }
+
+  // ---- camera ----
+  ar::FrameSourceOptions so;
+  so.width = o.width;
+  so.height = o.height;
+  so.fps = o.fps;
+  auto src = ar::FrameSource::open(o.camera, so);
+  if (!src) {
+    const bool is_cam = o.camera.rfind("camera:", 0) == 0 || o.camera.rfind("/dev/video", 0) == 0;
+    return Error{"live: " + src.error() +
+                 (is_cam ? "\nCameras found:\n" + list_cameras() : std::string()) +
+                 "\nTo try without a camera, play recorded footage as a camera: --camera live:PATH "
+                 "(for example footage made by `dentar synth --out out/clip`: --camera live:out/clip/video.mkv "
+                 "--station out/clip/station.json)"};
+  }
+  {
+    auto& cam = st.calibration.camera;
+    const int W = (*src)->width(), H = (*src)->height();
+    if (W != cam.width || H != cam.height) {
+      const std::string sizes = o.camera + " delivers " + std::to_string(W) + "x" + std::to_string(H) +
+                                " but the station camera is calibrated for " + std::to_string(cam.width) + "x" +
+                                std::to_string(cam.height);
+      if (!o.scale_calib && !o.station.empty())
+        return Error{"live: " + sizes + ": use the station calibrated for this camera mode (dentar calibrate camera), "
+                     "ask for its mode with --width/--height, or pass --scale-calib"};
+      auto scaled = ar::scale_intrinsics(cam, W, H);
+      if (!scaled) return Error{"live: " + sizes + ": " + scaled.error()};
+      cam = *scaled;
+      sum.warnings.push_back(sizes + "; intrinsics scaled: calibrate this camera for accurate placement");
+    }
+  }
+
+  // ---- tooth, stylus, engine ----
+  std::optional<volume::VoxelVolume> vol;
+  volume::BurParams bur_params = volume::BurParams::capsule(0.5, 3.0);
+  int bur_samples = 10000;
+  std::unique_ptr<haptics::HapticDevice> device;
+  PenDevice* pen = nullptr;
+  haptics::EngineConfig cfg;
+  cfg.model = o.model;
+  cfg.T_tooth_dev = st.calibration.T_tooth_dev();
+  cfg.T_sty_tip = st.calibration.T_sty_tip;
+  nlohmann::json tooth_desc = {{"kind", "molar"}, {"voxel_mm", st.tooth_voxel_m * 1e3}};
+  haptics::ManualPedal key_pedal;
+  bool pedal_from_device = false;
+  if (o.stylus.rfind("replay:", 0) == 0) {
+    const std::string path = o.stylus.substr(7);
+    auto log = haptics::read_session_log(path);
+    if (!log) return Error{"live: --stylus: " + log.error()};
+    auto setup = haptics::parse_session_header(log->header_json);
+    if (!setup) return Error{"live: --stylus: " + path + ": " + setup.error()};
+    auto j = nlohmann::json::parse(setup->tooth_json, nullptr, false);
+    if (j.is_discarded() || j.value("kind", "") != "molar" || !j.contains("voxel_mm"))
+      return Error{"live: --stylus: " + path + ": header field tooth is not a procedural molar"};
+    tooth_desc = j;
+    volume::MolarParams mp;
+    mp.voxel_mm = j["voxel_mm"].get<double>();
+    auto t = volume::make_molar(mp);
+    if (!t) return Error{"live: tooth: " + t.error()};
+    vol.emplace(std::move(*t));
+    if (vol->content_hash() != setup->volume_hash_start)
+      return Error{"live: --stylus: " + path + ": the rebuilt tooth does not match the log's volume_hash_start"};
+    bur_params = setup->bur;
+    bur_samples = setup->bur_samples;
+    cfg = setup->engine;
+    device = std::make_unique<haptics::ReplayDevice>(std::move(log->records), setup->limits);
+    pedal_from_device = true;
+  } else {
+    volume::MolarParams mp;
+    mp.voxel_mm = st.tooth_voxel_m * 1e3;
+    auto t = volume::make_molar(mp);
+    if (!t) return Error{"live: tooth: " + t.error()};
+    vol.emplace(std::move(*t));
+    haptics::DeviceLimits limits;
+    if (o.stylus == "sim" || o.stylus == "none") {
+      haptics::HandParams hand;
+      hand.stiffness_N_per_m = haptics::kFingerRestStiffness_N_per_m;
+      const haptics::Station hs{cfg.T_tooth_dev, cfg.T_sty_tip};
+      auto d = haptics::SimulatedDevice::create(haptics::to_hand_script(haptics::tip_script("access", 3.0, 0), hs),
+                                                limits, hand);
+      if (!d) return Error{"live: simulated hand: " + d.error()};
+      device = std::move(*d);
+      pedal_from_device = true;
+    } else {  // pen
+      if (st.pen.tags.empty())
+        return Error{"live: --stylus pen: the station file has no pen (\"pen\".tags); print the kit with `dentar tags`"};
+      auto p = std::make_unique<PenDevice>(limits);
+      pen = p.get();
+      device = std::move(p);
+    }
+  }
+  auto bur = volume::sample_bur(bur_params, bur_samples);
+  if (!bur) return Error{"live: bur: " + bur.error()};
+  haptics::PedalDevice pedal_device(*device, key_pedal, pedal_from_device);
+  haptics::HapticDevice& engine_device = pedal_device;
+  const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
+  cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
+  cfg.try_realtime = o.realtime;
+
+  // ---- isolation: everything but the engine off its core; memory locked ----
+  std::string iso;
+  if (cfg.cpu >= 0 && ncpu > 1) {
+    cpu_set_t others;
+    CPU_ZERO(&others);
+    for (int c = 0; c < ncpu; ++c)
+      if (c != cfg.cpu) CPU_SET(c, &others);
+    // Threads created from now on (capture, frame, mesher, recorder, llvmpipe's
+    // rasteriser threads inside EGL) inherit this mask.
+    if (pthread_setaffinity_np(pthread_self(), sizeof others, &others) == 0)
+      iso += "other threads kept off CPU " + std::to_string(cfg.cpu) + "; ";
+    if (!getenv("LP_NUM_THREADS")) setenv("LP_NUM_THREADS", std::to_string(std::max(1, ncpu - 1)).c_str(), 1);
+  }
+  if (o.realtime) {
+    sum.memory_locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
+    if (!sum.memory_locked)
+      iso += std::string("mlockall refused (") + std::strerror(errno) +
+             "): raise the memlock limit (ulimit -l unlimited, or memlock in /etc/security/limits.conf); ";
+  }
+
+  std::unique_ptr<haptics::SessionLogWriter> log;
+  std::unique_ptr<Recorder> recorder;
+  const fs::path rdir = o.record_dir;
+  if (!o.record_dir.empty()) {
+    auto r = Recorder::open(rdir);
+    if (!r) return Error{"live: " + r.error()};
+    recorder = std::move(*r);
+    if (auto s = ar::write_station_scene(st, (rdir / "station.json").string()); !s)
+      return Error{"live: " + s.error()};
+    nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
+                           {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", "inline"},
+                           {"complete", false}};
+    std::ofstream(rdir / "recording.json") << meta.dump(2) << "\n";
+  }
+  std::string header;
+  {
+    auto probe = haptics::Engine::create(cfg, engine_device, *vol, *bur, nullptr);
+    if (!probe) return Error{"live: engine: " + probe.error()};
+    header = (*probe)->header_json(tooth_desc.dump());
+  }
+  if (recorder) {
+    auto w = haptics::SessionLogWriter::open((rdir / "session.dlog").string(), header);
+    if (!w) return Error{"live: " + w.error()};
+    log = std::move(*w);
+  }
+  auto engine_r = haptics::Engine::create(cfg, engine_device, *vol, *bur, log.get());
+  if (!engine_r) return Error{"live: engine: " + engine_r.error()};
+  haptics::Engine& engine = **engine_r;
+
+  // ---- window ----
+  Window w;
+  if (!glfwInit()) return Error{"live: no display: GLFW cannot start (is $DISPLAY set? run under X, or Xvfb for tests)"};
+  const int W = (*src)->width(), H = (*src)->height();
+  GLFWmonitor* monitor = nullptr;
+  if (o.display >= 0) {
+    int n = 0;
+    GLFWmonitor** mons = glfwGetMonitors(&n);
+    if (o.display >= n)
+      return Error{"live: --display " + std::to_string(o.display) + ": only " + std::to_string(n) +
+                   " monitor(s) connected (0.." + std::to_string(n - 1) + "); use -1 for a window"};
+    monitor = mons[o.display];
+  }
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 0);
+  int ww = o.window_width > 0 ? o.window_width : W, wh = o.window_height > 0 ? o.window_height : H;
+  if (monitor) {
+    const GLFWvidmode* mode = glfwGetVideoMode(monitor);
+    ww = mode->width;
+    wh = mode->height;
+  }
+  w.win = glfwCreateWindow(ww, wh, "DentAR live", monitor, nullptr);
+  if (!w.win) return Error{"live: cannot open a window (no OpenGL 3.0 on this display?)"};
+  glfwMakeContextCurrent(w.win);
+  glfwSwapInterval(o.vsync ? 1 : 0);
+  glfwSetKeyCallback(w.win, on_key);
+  glGenTextures(1, &w.tex);
+  glBindTexture(GL_TEXTURE_2D, w.tex);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, W, H, 0, GL_BGR, GL_UNSIGNED_BYTE, nullptr);
+  w.tex_w = W;
+  w.tex_h = H;
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;
+  ImGui_ImplGlfw_InitForOpenGL(w.win, true);
+  ImGui_ImplOpenGL3_Init("#version 130");
+  w.imgui = true;
+
+  // ---- threads ----
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  g_signal.store(0);
+  ar::CaptureThreadOptions cto;
+  cto.reopen = o.camera.rfind("live:", 0) != 0;  // footage ends; a camera comes back
+  cto.stall_after_frames = o.stall_after_frames;
+  cto.stall_s = o.stall_s;
+  // Reopen the source now, after the slow set-up (tooth, window): a paced
+  // stand-in starts its clock at open, and a camera's first frames would be stale.
+  src->reset();
+  std::unique_ptr<ar::CaptureThread> capture_holder;  // made once the pipeline is ready
+  std::atomic<ar::CaptureThread*> capture_ptr{nullptr};
+  std::string cam_desc = o.camera;
+
+  std::mutex shown_m;
+  std::condition_variable shown_cv;
+  Shown shown;
+  bool shown_new = false;
+  std::atomic<bool> stop{false};
+  std::atomic<int> pipeline_ready{0};  // 1 ok, -1 failed
+  std::string pipeline_error;
+  std::vector<double> process_ms;
+  std::int64_t processed = 0;
+
+  std::thread frame_thread([&] {
+    auto egl = ar::EglContext::create();
+    if (!egl || !egl->make_current()) {
+      pipeline_error = "headless rendering: " + (egl ? std::string("make_current failed") : egl.error());
+      pipeline_ready.store(-1);
+      return;
+    }
+    auto pipe = ar::FramePipeline::create(st, o.pipeline);
+    if (!pipe) {
+      pipeline_error = pipe.error();
+      pipeline_ready.store(-1);
+      return;
+    }
+    ar::ToothMeshes meshes(*vol);
+    if (auto s = pipe->get()->warm_up(meshes); !s) {
+      pipeline_error = s.error();
+      pipeline_ready.store(-1);
+      return;
+    }
+    meshes.start_mesher();
+    pipeline_ready.store(1);
+    while (capture_ptr.load() == nullptr && !stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    if (stop.load()) {
+      meshes.stop_mesher();
+      pipe->reset();
+      return;
+    }
+    ar::CaptureThread& capture = *capture_ptr.load();
+    ar::Frame f;
+    ar::CompositeResult cres;
+    ar::FrameRecord rec;
+    while (!stop.load()) {
+      if (!capture.wait_take(f, 0.05)) {
+        if (capture.ended()) break;
+        continue;
+      }
+      const haptics::HapticSnapshot snap = engine.snapshot();
+      ar::FrameInput in;
+      in.image = &f.image;
+      in.index = processed;
+      in.capture_time_s = f.time_s;
+      in.haptic = o.stylus == "none" ? nullptr : &snap;
+      in.stylus_valid = o.stylus != "none" && !snap.fault;
+      const auto t0 = Clock::now();
+      std::string err;
+      try {
+        if (auto s = pipe->get()->process(in, meshes, cres, rec); !s) err = s.error();
+      } catch (const std::exception& e) {
+        err = std::string("pipeline threw: ") + e.what();
+      }
+      process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      if (pen != nullptr) {
+        const bool ok = rec.man_state != 2 && rec.pen_state != 2;
+        const Eigen::Isometry3d T_dev_sty = (rec.T_cam_man * st.calibration.T_man_dev).inverse() * rec.T_cam_ptag *
+                                            st.pen.T_ptag_tip * st.calibration.T_sty_tip.inverse();
+        pen->publish(T_dev_sty, ok, f.steady_s);
+      }
+      {
+        std::lock_guard<std::mutex> lock(shown_m);
+        shown.raw = f.image;
+        if (err.empty()) cres.image.copyTo(shown.composite);
+        else f.image.copyTo(shown.composite);
+        shown.index = processed;
+        shown.steady_s = f.steady_s;
+        shown.rec = rec;
+        shown.error = err;
+        shown_new = true;
+      }
+      shown_cv.notify_one();
+      if (recorder && err.empty()) recorder->push(f.image, rec, processed, f.index, f.steady_s);
+      ++processed;
+    }
+    meshes.stop_mesher();
+    // The GL objects go before the context.
+    pipe->reset();
+  });
+  while (pipeline_ready.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  if (pipeline_ready.load() < 0) {
+    frame_thread.join();
+    return Error{"live: " + pipeline_error};
+  }
+  {
+    auto src2 = ar::FrameSource::open(o.camera, so);
+    if (!src2) {
+      stop.store(true);
+      frame_thread.join();
+      return Error{"live: " + src2.error()};
+    }
+    capture_holder = std::make_unique<ar::CaptureThread>(std::move(*src2), o.camera, so, cto);
+  }
+  ar::CaptureThread& capture = *capture_holder;
+  cam_desc = capture.description();
+  if (recorder) recorder->log("camera " + cam_desc + "; stylus " + o.stylus + "; engine CPU " + std::to_string(cfg.cpu));
+  capture.start();
+  capture_ptr.store(&capture);
+  if (auto s = engine.start(); !s) {
+    stop.store(true);
+    capture.stop();
+    frame_thread.join();
+    return Error{"live: engine: " + s.error()};
+  }
+  say("camera " + cam_desc + "; stylus " + o.stylus + "; engine on CPU " + std::to_string(cfg.cpu) +
+      (o.realtime ? " (SCHED_FIFO asked)" : ""));
+
+  // ---- display loop (main thread) ----
+  const double t_start = now_s();
+  std::vector<double> latency_ms;
+  std::int64_t displayed = 0, last_index = -1;
+  Shown cur;
+  std::vector<std::pair<std::int64_t, std::string>> shots = o.screenshots;
+  double stall_seen_at = -1;
+  std::string stop_reason = "window closed";
+  double fps_t0 = t_start;
+  int fps_n = 0;
+  double fps_now = 0;
+  while (true) {
+    if (glfwWindowShouldClose(w.win)) break;
+    if (g_signal.load() != 0) {
+      stop_reason = g_signal.load() == SIGINT ? "SIGINT" : "SIGTERM";
+      break;
+    }
+    if (o.seconds > 0 && now_s() - t_start >= o.seconds) {
+      stop_reason = "time limit";
+      break;
+    }
+    if (capture.ended() && !shown_new && processed > 0 && now_s() - capture.last_frame_steady_s() > 0.5) {
+      stop_reason = "footage ended";
+      break;
+    }
+    bool fresh = false;
+    {
+      // Draw when a frame arrives; otherwise redraw the HUD at ~30 Hz (an
+      // idle loop must not spin: under Xvfb there is no vsync to pace it).
+      std::unique_lock<std::mutex> lock(shown_m);
+      shown_cv.wait_for(lock, std::chrono::milliseconds(30), [&] { return shown_new; });
+      if (shown_new) {
+        cur.composite = shown.composite.clone();
+        cur.raw = shown.raw;
+        cur.index = shown.index;
+        cur.steady_s = shown.steady_s;
+        cur.rec = shown.rec;
+        cur.error = shown.error;
+        shown_new = false;
+        fresh = true;
+      }
+    }
+    glfwPollEvents();
+    key_pedal.set_pressed(g_space.load());
+    // The camera went quiet: show the video without the overlay within 200 ms.
+    const double age = cur.index >= 0 ? now_s() - capture.last_frame_steady_s() : 0;
+    const bool stalled = cur.index >= 0 && age > 0.15;
+    if (stalled && stall_seen_at < 0) stall_seen_at = now_s();
+    if (!stalled) stall_seen_at = -1;
+    const cv::Mat& img = stalled ? cur.raw : cur.composite;
+    if (!img.empty() && (fresh || stalled)) {
+      glBindTexture(GL_TEXTURE_2D, w.tex);
+      glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+      const cv::Mat c = img.isContinuous() ? img : img.clone();
+      glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, c.cols, c.rows, GL_BGR, GL_UNSIGNED_BYTE, c.data);
+    }
+    int fbw = 0, fbh = 0;
+    glfwGetFramebufferSize(w.win, &fbw, &fbh);
+    glViewport(0, 0, fbw, fbh);
+    glClearColor(0, 0, 0, 1);
+    glClear(GL_COLOR_BUFFER_BIT);
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    {
+      // Video fills the window, aspect kept (letterbox).
+      const float s = std::min(float(fbw) / W, float(fbh) / H);
+      const float dw = W * s, dh = H * s, x0 = (fbw - dw) / 2, y0 = (fbh - dh) / 2;
+      ImGui::GetBackgroundDrawList()->AddImage(reinterpret_cast<ImTextureID>(static_cast<std::uintptr_t>(w.tex)),
+                                               ImVec2(x0, y0), ImVec2(x0 + dw, y0 + dh));
+    }
+    if (o.hud) {
+      const ar::FrameRecord& r = cur.rec;
+      const haptics::HapticSnapshot snap = engine.snapshot();
+      ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
+      ImGui::SetNextWindowBgAlpha(0.6f);
+      ImGui::Begin("DentAR", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
+      const ImVec4 col[] = {ImVec4(0.3f, 1, 0.3f, 1), ImVec4(1, 0.85f, 0.2f, 1), ImVec4(1, 0.3f, 0.3f, 1)};
+      ImGui::TextColored(col[r.man_state], "mannequin: %s", kState[r.man_state]);
+      ImGui::SameLine();
+      ImGui::TextColored(col[r.mir_state], "  mirror: %s", kState[r.mir_state]);
+      if (pen) {
+        ImGui::SameLine();
+        ImGui::TextColored(col[r.pen_state], "  pen: %s", kState[r.pen_state]);
+      }
+      const double f = std::sqrt(snap.force_dev_N[0] * snap.force_dev_N[0] + snap.force_dev_N[1] * snap.force_dev_N[1] +
+                                 snap.force_dev_N[2] * snap.force_dev_N[2]);
+      const double fmax = engine_device.limits().max_force_N;
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.2f N", f);
+      ImGui::Text("force");
+      ImGui::SameLine();
+      ImGui::ProgressBar(static_cast<float>(std::min(1.0, f / fmax)), ImVec2(200, 0), buf);
+      ImGui::Text("drill: %s%s", snap.pedal ? "ON" : "off", snap.in_contact ? "  (contact)" : "");
+      ImGui::Text("removed mm3: enamel %.2f  dentin %.2f  pulp %.2f",
+                  snap.removed_mm3[static_cast<int>(volume::Material::kEnamel)],
+                  snap.removed_mm3[static_cast<int>(volume::Material::kDentin)],
+                  snap.removed_mm3[static_cast<int>(volume::Material::kPulp)]);
+      ImGui::Text("%.1f fps  latency %.0f ms", fps_now, latency_ms.empty() ? 0.0 : latency_ms.back());
+      if (stalled)
+        ImGui::TextColored(col[2], "camera: no frame for %.0f ms, overlay hidden%s", age * 1e3,
+                           capture.status().empty() ? "" : (" (" + capture.status() + ")").c_str());
+      if (!cur.error.empty()) ImGui::TextColored(col[2], "pipeline: %s", cur.error.c_str());
+      if (snap.watchdog) ImGui::TextColored(col[2], "haptics: watchdog: zero force");
+      if (snap.fault) ImGui::TextColored(col[2], "haptics: device fault: zero force%s", pen ? " (pen not seen)" : "");
+      if (snap.pulp_exposed) ImGui::TextColored(col[2], "PULP EXPOSED");
+      if (pen) ImGui::TextColored(col[1], "pen mode: no force on the hand; space bar = pedal");
+      ImGui::End();
+    }
+    ImGui::Render();
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    // Test hook: the window's pixels for frame N (before the swap).
+    if (fresh) {
+      for (auto it = shots.begin(); it != shots.end();) {
+        if (it->first == cur.index) {
+          cv::Mat px(fbh, fbw, CV_8UC3);
+          glPixelStorei(GL_PACK_ALIGNMENT, 1);
+          glReadBuffer(GL_BACK);
+          glReadPixels(0, 0, fbw, fbh, GL_BGR, GL_UNSIGNED_BYTE, px.data);
+          cv::flip(px, px, 0);
+          cv::imwrite(it->second, px);
+          it = shots.erase(it);
+        } else {
+          ++it;
+        }
+      }
+    }
+    glfwSwapBuffers(w.win);
+    const double t_swap = now_s();
+    if (fresh && cur.index != last_index) {
+      latency_ms.push_back((t_swap - cur.steady_s) * 1e3);
+      last_index = cur.index;
+      ++displayed;
+      ++fps_n;
+    }
+    if (stalled && stall_seen_at > 0 && sum.overlay_hidden_ms_after_stall < 0)
+      sum.overlay_hidden_ms_after_stall = static_cast<int>(std::lround((t_swap - capture.last_frame_steady_s()) * 1e3));
+    if (t_swap - fps_t0 >= 1.0) {
+      fps_now = fps_n / (t_swap - fps_t0);
+      fps_t0 = t_swap;
+      fps_n = 0;
+    }
+  }
+
+  // ---- shutdown: zero force first, then the logs, then the recording ----
+  engine.stop();  // the engine's last act is a zero force
+  if (recorder) recorder->log("engine stopped: zero force sent (" + stop_reason + ")");
+  say("stopping (" + stop_reason + "): force zeroed");
+  stop.store(true);
+  capture.stop();
+  frame_thread.join();
+  const haptics::EngineStats es = engine.stats();
+  if (log) {
+    if (auto s = log->close(); !s) sum.warnings.push_back("session log: " + s.error());
+  }
+  sum.wall_s = now_s() - t_start;
+  sum.frames_captured = capture.delivered();
+  sum.frames_processed = processed;
+  sum.frames_displayed = displayed;
+  sum.dropped_source = capture.dropped_source();
+  sum.dropped_consumer = capture.dropped_consumer();
+  sum.camera_reopens = capture.reopens();
+  sum.displayed_fps = sum.wall_s > 0 ? displayed / sum.wall_s : 0;
+  sum.latency_p50_ms = percentile(latency_ms, 0.5);
+  sum.latency_p99_ms = percentile(latency_ms, 0.99);
+  sum.latency_max_ms = latency_ms.empty() ? 0 : *std::max_element(latency_ms.begin(), latency_ms.end());
+  sum.process_p50_ms = percentile(process_ms, 0.5);
+  sum.process_p99_ms = percentile(process_ms, 0.99);
+  sum.engine_steps = es.steps;
+  sum.missed_deadlines = es.missed_deadlines;
+  sum.watchdog_trips = es.watchdog_trips;
+  sum.step_p50_us = es.compute.percentile_s(0.5) * 1e6;
+  sum.step_p99_us = es.compute.percentile_s(0.99) * 1e6;
+  sum.step_p999_us = es.compute.percentile_s(0.999) * 1e6;
+  sum.step_max_us = es.compute.max_s() * 1e6;
+  sum.jitter_p99_us = es.jitter.percentile_s(0.99) * 1e6;
+  sum.jitter_max_us = es.jitter.max_s() * 1e6;
+  sum.realtime_granted = es.realtime_granted;
+  sum.cpu_pinned = es.cpu_pinned;
+  sum.isolation_note = iso + es.realtime_note;
+  sum.volume_hash = vol->content_hash();
+  sum.rss_end_mb = rss_mb();
+  if (!sum.realtime_granted && o.realtime)
+    sum.warnings.push_back("engine: " + es.realtime_note);
+  if (recorder) {
+    recorder->log("stopped: " + stop_reason);
+    recorder->close();
+    if (recorder->dropped() > 0)
+      sum.warnings.push_back("recording: " + std::to_string(recorder->dropped()) +
+                             " frames not written (disk too slow); the recording replays without them");
+    char hash[20];
+    std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
+    nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
+                           {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", "inline"},
+                           {"complete", true}, {"frames", recorder->written()},
+                           {"frames_not_written", recorder->dropped()}, {"volume_hash", hash},
+                           {"engine_steps", es.steps}, {"stop_reason", stop_reason}};
+    std::ofstream(rdir / "recording.json.tmp") << meta.dump(2) << "\n";
+    std::error_code ec;
+    fs::rename(rdir / "recording.json.tmp", rdir / "recording.json", ec);
+    std::ofstream(rdir / "summary.json") << sum.json();
+  }
+  if (!o.summary_path.empty()) std::ofstream(o.summary_path) << sum.json();
+  return sum;
+}
+
+}  // namespace dentar::live

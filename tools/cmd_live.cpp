@@ -1,0 +1,124 @@
+// dentar live: the student's trainer with a camera, a window and the 1 kHz
+// engine (live/live_app.h). A thin driver over the shared FramePipeline.
+#include <iostream>
+
+#include "commands.h"
+#include "dentar/live/live_app.h"
+
+namespace dentar::tools {
+
+void add_live(CLI::App& app, int& exit_code) {
+  struct Cli {
+    live::LiveOptions o;
+    std::vector<std::string> shots;
+    bool no_hud = false, no_vsync = false, no_realtime = false, no_occlusion = false, no_segmentation = false,
+         no_mirror = false, list = false;
+    std::string stall;
+  };
+  auto c = std::make_shared<Cli>();
+  auto* sub = app.add_subcommand(
+      "live",
+      "The live trainer: camera -> tracking -> virtual tooth in the video, in a window with a HUD,\n"
+      "while the 1 kHz haptic engine cuts the tooth.\n"
+      "Synopsis: dentar live [--camera SPEC] [--station FILE] [--stylus sim|pen|replay:LOG|none]\n"
+      "                      [--display N] [--record DIR] [--seconds S] [...]");
+  sub->footer(
+      "Examples:\n"
+      "  dentar live --camera camera:0 --stylus pen --scale-calib     # webcam, printed kit (dentar tags)\n"
+      "  dentar synth --frames 300 --out out/clip\n"
+      "  dentar live --camera live:out/clip/video.mkv --station out/clip/station.json \\\n"
+      "              --stylus replay:out/clip/session.dlog --record out/rec\n"
+      "  dentar offline --footage out/rec --out out/rec_offline      # replays the recording\n"
+      "Keys: space = pedal (drill), Esc or closing the window = stop.");
+  sub->add_option("--camera", c->o.camera, "camera:N, /dev/videoN, or live:VIDEO (footage paced as a camera)");
+  sub->add_option("--width", c->o.width, "requested camera width (px)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--height", c->o.height, "requested camera height (px)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--station", c->o.station, "station file (default: the built-in station)");
+  sub->add_flag("--scale-calib", c->o.scale_calib, "accept a camera of another size (intrinsics scaled)");
+  sub->add_option("--stylus", c->o.stylus, "sim (simulated hand), pen (printed pen tag), replay:FILE.dlog, none");
+  sub->add_option("--model", c->o.model, "force model: proxy or seed");
+  sub->add_option("--display", c->o.display, "monitor index for fullscreen (the HMD's input); -1 = a window");
+  sub->add_option("--window-width", c->o.window_width, "window width (px, default: the camera's)");
+  sub->add_option("--window-height", c->o.window_height, "window height (px)");
+  sub->add_flag("--no-hud", c->no_hud, "video only, no HUD");
+  sub->add_flag("--no-vsync", c->no_vsync, "swap without waiting for vertical sync");
+  sub->add_option("--record", c->o.record_dir, "record footage, session log, station and per-frame CSV into DIR");
+  sub->add_option("--seconds", c->o.seconds, "stop after S seconds (default: until closed)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--engine-cpu", c->o.engine_cpu, "CPU for the haptic engine (-2 = the last, -1 = no pinning)");
+  sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");
+  sub->add_flag("--no-occlusion", c->no_occlusion, "no depth phantoms (lips, mirror, handpiece)");
+  sub->add_flag("--no-segmentation", c->no_segmentation, "no foreground (hand) segmentation");
+  sub->add_flag("--no-mirror", c->no_mirror, "no reflection in the mouth mirror");
+  sub->add_option("--summary", c->o.summary_path, "also write the run's summary JSON here");
+  sub->add_option("--screenshot", c->shots, "test hook: FRAME:FILE.png saves the window when frame FRAME shows");
+  sub->add_option("--inject-stall", c->stall, "test hook: AFTER_FRAMES:SECONDS, the camera goes quiet");
+  sub->add_flag("--list-cameras", c->list, "list the V4L2 cameras and their modes, then exit");
+  sub->add_flag("--quiet", c->o.quiet, "no progress lines");
+  sub->callback([c, &exit_code] {
+    if (c->list) {
+      std::cout << live::list_cameras() << "\n";
+      exit_code = 0;
+      return;
+    }
+    live::LiveOptions o = c->o;
+    o.hud = !c->no_hud;
+    o.vsync = !c->no_vsync;
+    o.realtime = !c->no_realtime;
+    o.pipeline.compositor.phantoms = !c->no_occlusion;
+    o.pipeline.compositor.segmentation = !c->no_segmentation;
+    o.pipeline.compositor.mirror = !c->no_mirror;
+    if (o.stylus == "pen") o.pipeline.tracker.track_pen = true;
+    for (const auto& s : c->shots) {
+      const auto k = s.find(':');
+      try {
+        if (k == std::string::npos) throw std::invalid_argument("no colon");
+        o.screenshots.emplace_back(std::stoll(s.substr(0, k)), s.substr(k + 1));
+      } catch (const std::exception&) {
+        print_error("live", "--screenshot " + s + ": must be FRAME:FILE.png");
+        exit_code = 2;
+        return;
+      }
+    }
+    if (!c->stall.empty()) {
+      const auto k = c->stall.find(':');
+      try {
+        if (k == std::string::npos) throw std::invalid_argument("no colon");
+        o.stall_after_frames = std::stoll(c->stall.substr(0, k));
+        o.stall_s = std::stod(c->stall.substr(k + 1));
+      } catch (const std::exception&) {
+        print_error("live", "--inject-stall " + c->stall + ": must be AFTER_FRAMES:SECONDS");
+        exit_code = 2;
+        return;
+      }
+    }
+    if (auto v = o.validate(); !v.empty()) {
+      print_error("live", v);
+      exit_code = 2;
+      return;
+    }
+    auto r = live::run_live(o);
+    if (!r) {
+      print_error("live", r.error());
+      exit_code = 1;
+      return;
+    }
+    const live::LiveSummary& s = *r;
+    if (!o.quiet) {
+      std::cout << "frames: " << s.frames_captured << " captured, " << s.frames_processed << " processed, "
+                << s.frames_displayed << " displayed (" << s.displayed_fps << " fps); dropped: "
+                << s.dropped_source << " by the source, " << s.dropped_consumer << " replaced before use\n"
+                << "capture-to-display latency: p50 " << s.latency_p50_ms << " ms, p99 " << s.latency_p99_ms
+                << " ms\n"
+                << "engine: " << s.engine_steps << " steps, step p99.9 " << s.step_p999_us << " us, max "
+                << s.step_max_us << " us, " << s.missed_deadlines << " missed deadlines, " << s.watchdog_trips
+                << " watchdog trips; " << (s.realtime_granted ? "SCHED_FIFO" : "no SCHED_FIFO") << ", "
+                << (s.cpu_pinned ? "pinned" : "not pinned") << ", " << (s.memory_locked ? "mlockall" : "no mlockall")
+                << "\n";
+      for (const auto& w : s.warnings) std::cout << "warning: " << w << "\n";
+    }
+    exit_code = 0;
+  });
+}
+
+}  // namespace dentar::tools
