@@ -47,7 +47,8 @@ SkillParams novice_skill(double s) {
 }
 
 std::string CohortOptions::validate() const {
-  if (experts < 1 || novices < 1 || experts > 100 || novices > 100) return "experts and novices must be in [1, 100]";
+  if (experts < 0 || novices < 0 || experts > 100 || novices > 100 || experts + novices < 1)
+    return "experts and novices must be in [0, 100], at least one subject";
   if (trials < 1 || trials > 50) return "trials must be in [1, 50]";
   if (!(separation >= 0 && separation <= 1)) return "separation must be in [0, 1]";
   if (!(voxel_mm >= 0.05 && voxel_mm <= 0.5)) return "voxel_mm must be in [0.05, 0.5]";
@@ -120,30 +121,39 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
   const std::vector<Eigen::Vector3d> focus = step_focus(ex, nullptr, nullptr);
   for (int s : order) {
     const Eigen::Vector3d f = focus[static_cast<std::size_t>(s)];
+    const Eigen::Vector3d app = ex.steps[static_cast<std::size_t>(s)].approach;
+    // Retract point: 5.5 mm from the focus along the approach direction, and
+    // at least 1.5 mm clear above the occlusal level when approaching from +z.
+    Eigen::Vector3d retract = f + 5.5e-3 * app;
+    if (app.z() > 0.9) retract.z() = std::max(retract.z(), z_top);
     const double start = t;
     if (u01(rng) < p.pause_prob) add(p.pause_s, sc.tips.back().tip_tooth_m, sc.tips.back().axis_tooth, false);
     if (p.detour_mm > 0) {
-      const Eigen::Vector3d d(p.detour_mm * 1e-3 * n01(rng), p.detour_mm * 1e-3 * n01(rng), 0);
-      add(0.3, Eigen::Vector3d(f.x(), f.y(), z_top) + d, down, false);
+      const Eigen::Vector3d d(p.detour_mm * 1e-3 * n01(rng), p.detour_mm * 1e-3 * n01(rng), p.detour_mm * 1e-3 * n01(rng));
+      add(0.3, retract + d - (d.dot(app)) * app, -app, false);
     }
-    const double tilt = p.tilt_deg * M_PI / 180.0 * n01(rng), az = 6.28 * u01(rng);
-    const Eigen::Vector3d axis(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), -std::cos(tilt));
-    add(0.3, Eigen::Vector3d(f.x(), f.y(), z_top), axis, true);
+    // Tilt: a random direction perpendicular to the planned axis.
+    const double tilt = p.tilt_deg * M_PI / 180.0 * n01(rng);
+    Eigen::Vector3d perp = app.unitOrthogonal();
+    perp = Eigen::AngleAxisd(6.28 * u01(rng), app) * perp;
+    const Eigen::Vector3d axis = (-app * std::cos(tilt) + perp * std::sin(tilt)).normalized();
+    add(0.3, retract, axis, true);
     const double force = 1.0 * p.force_factor * std::max(0.2, 1.0 + p.force_jitter * n01(rng));
     // The hand with a finger rest (3000 N/m) in series with the proxy coupling
     // (0.8 x 2000 N/m): a target this far past the surface asks for `force`.
     const double lead = force / haptics::kFingerRestStiffness_N_per_m + force / 1600.0;
-    // Descend to the focus with small circles (0.3 mm, 4 Hz) while pressing.
+    // Move toward the focus with small circles (0.3 mm, 4 Hz) while pressing.
     const int n = std::max(2, static_cast<int>(p.work_s / 0.05));
-    const Eigen::Vector3d top(f.x(), f.y(), std::min(z_top, f.z() + 3.5e-3));
+    const Eigen::Vector3d top = f + std::min(3.5e-3, (retract - f).norm()) * app;
+    const Eigen::Vector3d u = app.unitOrthogonal(), v = app.cross(u);
     add(0.2, top, axis, true);
     for (int i = 1; i <= n; ++i) {
       const double fr = static_cast<double>(i) / n;
       const double a = 2 * M_PI * 4.0 * fr * p.work_s;
-      const Eigen::Vector3d c = top + fr * (f - top) + Eigen::Vector3d(0.3e-3 * std::cos(a), 0.3e-3 * std::sin(a), 0) + lead * axis;
+      const Eigen::Vector3d c = top + fr * (f - top) + 0.3e-3 * (std::cos(a) * u + std::sin(a) * v) + lead * axis;
       add(p.work_s / n, c, axis, true);
     }
-    add(0.3, Eigen::Vector3d(f.x(), f.y(), z_top), down, false);
+    add(0.3, retract, -app, false);
     sc.order.push_back(s);
     sc.start.push_back(start);
     sc.end.push_back(t);

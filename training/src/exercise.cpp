@@ -275,6 +275,12 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
       if (!get_vec3_mm(c, sj, "focus_mm", path, f)) return Error{c.err};
       s.focus_m = f;
     }
+    if (sj.contains("approach")) {
+      Eigen::Vector3d a;
+      if (!get_vec3_mm(c, sj, "approach", path, a, 1.0)) return Error{c.err};
+      if (a.norm() < 1e-9) return Error{name + ": field '" + path + "approach': must not be zero"};
+      s.approach = a.normalized();
+    }
     if (!s.region.empty() && !ex.region(s.region))
       return Error{name + ": field '" + path + "region': no region named '" + s.region + "'"};
     ex.steps.push_back(s);

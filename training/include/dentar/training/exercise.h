@@ -58,6 +58,10 @@ struct ExerciseStep {
   // Where the bur works in this step (tooth frame); used to find the steps in
   // a session. Absent: the centroid of `region`.
   std::optional<Eigen::Vector3d> focus_m;
+  // Unit vector from the focus toward where the bur comes from (the bur axis
+  // is its opposite); +z (occlusal/incisal) when absent. Used by the cohort
+  // generator's scripts.
+  Eigen::Vector3d approach = Eigen::Vector3d::UnitZ();
 };
 
 struct Orifice {

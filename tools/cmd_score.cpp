@@ -1,0 +1,56 @@
+// dentar score: scores a finished session (outcome, process, steps, feedback)
+// and writes score.html (self-contained, SVG plots) and score.json beside it.
+#include <iostream>
+#include <memory>
+
+#include "commands.h"
+#include "dentar/training/report.h"
+
+namespace dentar::tools {
+namespace {
+
+struct ScoreCli {
+  training::ScoreOptions opt;
+  bool quiet = false;
+};
+
+int run_score(const ScoreCli& c) {
+  auto r = training::score_session(c.opt);
+  if (!r) {
+    print_error("score", r.error());
+    // Bad input (missing file, damaged header, wrong exercise) is exit 2.
+    return 2;
+  }
+  if (!r->log_warning.empty()) std::cerr << "dentar score: warning: " << r->log_warning << "\n";
+  if (!c.quiet) std::cout << r->summary_text();
+  return 0;
+}
+
+}  // namespace
+
+void add_score(CLI::App& app, int& exit_code) {
+  auto c = std::make_shared<ScoreCli>();
+  CLI::App* s = app.add_subcommand(
+      "score",
+      "Score a finished session: replay it on the starting tooth, outcome scores against the\n"
+      "exercise, process metrics, steps found automatically, feedback against the experts;\n"
+      "writes score.html and score.json.\n"
+      "Synopsis: dentar score SESSION_DIR|SESSION.dlog [--exercise NAME|FILE] [--out DIR]\n"
+      "                      [--reference FILE] [--model FILE]");
+  s->add_option("session", c->opt.session, "Session folder (holding session.dlog) or a .dlog file")->required();
+  s->add_option("--exercise", c->opt.exercise,
+                "Exercise: built-in name (molar_access_opening, molar_class1_cavity, incisor_partial_crown)\n"
+                "or a JSON file; default: by the session's tooth");
+  s->add_option("--out", c->opt.out_dir, "Output folder (default: the session's folder)");
+  s->add_option("--reference", c->opt.reference,
+                "Expert reference JSON (dentar assess --make-reference); default: generated expert sessions");
+  s->add_option("--model", c->opt.model, "Skill model JSON (dentar assess --train ... --save) to classify the session");
+  s->add_option("--reference-trials", c->opt.reference_trials, "Generated expert sessions for the default reference")
+      ->check(CLI::Range(1, 20))
+      ->capture_default_str();
+  s->add_flag("--quiet", c->quiet, "Print nothing but errors");
+  s->footer("Example:\n  dentar demo --simulated --out out/demo && dentar score out/demo");
+  s->callback([c, &exit_code] { exit_code = run_score(*c); });
+}
+
+}  // namespace dentar::tools

@@ -1,0 +1,48 @@
+// Scoring a finished session: replay the log on the starting tooth, score
+// the outcome against the exercise, decode the process, find the steps,
+// compare with the experts, give feedback, optionally classify skill, and
+// write a self-contained HTML report (SVG plots) and a JSON summary.
+// Callable from `dentar score`, and from the offline and live drivers.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dentar/training/assess.h"
+#include "dentar/training/feedback.h"
+#include "dentar/training/outcome.h"
+
+namespace dentar::training {
+
+struct ScoreOptions {
+  std::string session;    // a .dlog file, or a folder holding session.dlog (and optionally station.json)
+  std::string exercise;   // built-in name or a .json path; empty: by the session's tooth
+                          // (molar -> molar_access_opening, incisor -> incisor_partial_crown)
+  std::string out_dir;    // empty: the session's folder
+  std::string reference;  // expert reference JSON; empty: generated from expert cohort sessions
+                          // (cached as <out_dir>/expert_reference.json)
+  std::string model;      // optional skill model (dentar assess --train ... --save)
+  int reference_trials = 3;
+  bool write_files = true;
+};
+
+struct ScoreSummary {
+  std::string session_path, exercise_name, exercise_title, report_html, summary_json;
+  std::string log_warning;   // truncated/corrupt log: what was kept
+  bool station_found = false;
+  double seconds = 0;        // time spent scoring
+  OutcomeScores outcome;
+  ProcessMetrics process;
+  ExpertReference reference;
+  std::vector<FeedbackMessage> feedback;
+  std::optional<Verdict> verdict;
+  std::string summary_text() const;  // a few lines for a terminal
+};
+
+Result<ScoreSummary> score_session(const ScoreOptions& opt);
+
+// Exercise that fits a session's tooth description (see ScoreOptions::exercise).
+std::string default_exercise_for(const std::string& tooth_json);
+
+}  // namespace dentar::training

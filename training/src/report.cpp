@@ -1,0 +1,449 @@
+#include "dentar/training/report.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "dentar/haptics/replay.h"
+#include "dentar/training/cohort.h"
+
+namespace dentar::training {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string esc(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    switch (c) {
+      case '&': o += "&amp;"; break;
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '"': o += "&quot;"; break;
+      default: o += c;
+    }
+  }
+  return o;
+}
+
+std::string num(double v, int prec = 2) {
+  std::ostringstream os;
+  os.setf(std::ios::fixed);
+  os.precision(prec);
+  os << v;
+  return os.str();
+}
+
+// Top (occlusal) view for molars, labial view for incisors: cells coloured by
+// what happened along the line of sight.
+std::string target_map_svg(const Exercise& ex, const RegionMasks& m, const volume::VoxelVolume& start,
+                           const volume::VoxelVolume& cut, bool labial_view) {
+  const auto d = start.dims();
+  // View axis w; image axes (u right, v up).
+  const int ua = 0, va = labial_view ? 2 : 1, wa = labial_view ? 1 : 2;
+  const int nu = d[ua], nv = d[va], nw = d[wa];
+  const int cell = std::max(1, std::max(nu, nv) / 110);
+  const int cu = (nu + cell - 1) / cell, cv = (nv + cell - 1) / cell;
+  std::vector<int> colour(static_cast<std::size_t>(cu * cv), 0);
+  struct Acc { int solid = 0, target = 0, cut_target = 0, over = 0, forb = 0; };
+  std::vector<Acc> acc(static_cast<std::size_t>(cu * cv));
+  for (int iv = 0; iv < nv; ++iv)
+    for (int iu = 0; iu < nu; ++iu) {
+      Acc& a = acc[static_cast<std::size_t>((iv / cell) * cu + iu / cell)];
+      for (int iw = 0; iw < nw; ++iw) {
+        int ijk[3];
+        ijk[ua] = iu;
+        ijk[va] = iv;
+        ijk[wa] = iw;
+        const std::uint8_t d0 = start.density(ijk[0], ijk[1], ijk[2]);
+        if (d0 <= volume::kIsoDensity) continue;
+        const std::uint32_t b = m.bits[m.index(ijk[0], ijk[1], ijk[2])];
+        const bool removed = cut.density(ijk[0], ijk[1], ijk[2]) <= volume::kIsoDensity;
+        ++a.solid;
+        if (b & m.target_bits) {
+          ++a.target;
+          if (removed) ++a.cut_target;
+        } else if (removed) {
+          ++a.over;
+        }
+        if ((b & m.forbidden_bits) && removed) ++a.forb;
+      }
+    }
+  static const char* pal[] = {"none", "#d9d9d9", "#f2e394", "#9bd17f", "#3c9a3c", "#f4a340", "#d7301f"};
+  for (std::size_t i = 0; i < acc.size(); ++i) {
+    const Acc& a = acc[i];
+    int c = 0;
+    if (a.forb > 0) c = 6;
+    else if (a.over > 0) c = 5;
+    else if (a.target > 0) c = a.cut_target == 0 ? 2 : (a.cut_target * 2 < a.target ? 3 : 4);
+    else if (a.solid > 0) c = 1;
+    colour[i] = c;
+  }
+  const int px = 4, W = cu * px, H = cv * px;
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W + 190 << "' height='" << std::max(H, 150)
+    << "' font-family='sans-serif' font-size='11'>";
+  for (int y = 0; y < cv; ++y)
+    for (int x = 0; x < cu;) {
+      const int c = colour[static_cast<std::size_t>(y * cu + x)];
+      int e = x;
+      while (e < cu && colour[static_cast<std::size_t>(y * cu + e)] == c) ++e;
+      if (c) s << "<rect x='" << x * px << "' y='" << (cv - 1 - y) * px << "' width='" << (e - x) * px << "' height='" << px
+               << "' fill='" << pal[c] << "'/>";
+      x = e;
+    }
+  const char* names[] = {"", "tooth, untouched", "target, not cut", "target, partly cut", "target, cut",
+                         "cut outside the target", "cut into a forbidden region"};
+  for (int c = 1; c <= 6; ++c)
+    s << "<rect x='" << W + 10 << "' y='" << 10 + (c - 1) * 18 << "' width='12' height='12' fill='" << pal[c]
+      << "'/><text x='" << W + 28 << "' y='" << 20 + (c - 1) * 18 << "'>" << names[c] << "</text>";
+  s << "<text x='" << W + 10 << "' y='" << 10 + 6 * 18 + 10 << "'>" << (labial_view ? "labial view" : "occlusal view")
+    << ", mesial left</text></svg>";
+  (void)ex;
+  return s.str();
+}
+
+std::string force_plot_svg(const SessionTrack& t, const std::vector<int>& steps, std::size_t n_steps) {
+  const int W = 900, H = 260, L = 50, B = 30;
+  if (t.size() < 2) return "<p>(no samples)</p>";
+  double fmax = 0.5;
+  for (const auto& f : t.force_N) fmax = std::max(fmax, f.cwiseAbs().maxCoeff());
+  const double t0 = t.t_s.front(), t1 = t.t_s.back();
+  auto X = [&](double tt) { return L + (W - L - 10) * (tt - t0) / std::max(1e-9, t1 - t0); };
+  auto Y = [&](double f) { return 10 + (H - B - 10) * (0.5 - 0.5 * f / fmax); };
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'>";
+  // Step bands.
+  for (std::size_t i = 0; i < steps.size();) {
+    std::size_t j = i;
+    while (j < steps.size() && steps[j] == steps[i]) ++j;
+    const double xa = X(t.t_s[i]), xb = X(t.t_s[j - 1]);
+    s << "<rect x='" << xa << "' y='10' width='" << std::max(0.5, xb - xa) << "' height='" << H - B - 10 << "' fill='"
+      << (steps[i] % 2 ? "#eef3fb" : "#f8f8f8") << "'/>";
+    if (xb - xa > 14) s << "<text x='" << (xa + xb) / 2 - 4 << "' y='22' fill='#555'>" << steps[i] + 1 << "</text>";
+    i = j;
+  }
+  (void)n_steps;
+  s << "<line x1='" << L << "' y1='" << Y(0) << "' x2='" << W - 10 << "' y2='" << Y(0) << "' stroke='#999'/>";
+  const char* col[3] = {"#1f77b4", "#2ca02c", "#d62728"};
+  const std::size_t stride = std::max<std::size_t>(1, t.size() / 1500);
+  for (int a = 0; a < 3; ++a) {
+    s << "<polyline fill='none' stroke='" << col[a] << "' stroke-width='1' points='";
+    for (std::size_t i = 0; i < t.size(); i += stride) s << num(X(t.t_s[i]), 1) << "," << num(Y(t.force_N[i](a)), 1) << " ";
+    s << "'/>";
+  }
+  s << "<text x='5' y='" << Y(fmax) + 4 << "'>" << num(fmax, 1) << " N</text><text x='5' y='" << Y(-fmax) << "'>-"
+    << num(fmax, 1) << " N</text><text x='" << L << "' y='" << H - 8 << "'>" << num(t0, 1) << " s</text><text x='"
+    << W - 60 << "' y='" << H - 8 << "'>" << num(t1, 1) << " s</text>";
+  const char* lab[3] = {"Fx mesio-distal", "Fy bucco-lingual", "Fz long axis"};
+  for (int a = 0; a < 3; ++a)
+    s << "<text x='" << 200 + a * 160 << "' y='" << H - 8 << "' fill='" << col[a] << "'>" << lab[a] << "</text>";
+  s << "</svg>";
+  return s.str();
+}
+
+// Per step: the student's mean force on each axis (dot) against the expert band (mean +- SD).
+std::string step_band_svg(const ProcessMetrics& p, const ExpertReference& r) {
+  const std::size_t S = p.steps.size();
+  const int rowh = 22, W = 900, L = 260;
+  const int H = static_cast<int>(S) * rowh + 40;
+  double fmax = 0.5;
+  for (std::size_t k = 0; k < S; ++k) {
+    fmax = std::max(fmax, p.steps[k].force.mean.cwiseAbs().maxCoeff());
+    if (k < r.steps.size()) fmax = std::max(fmax, (r.steps[k].force_mean.cwiseAbs() + r.steps[k].force_sd).maxCoeff());
+  }
+  const int pw = (W - L - 20) / 3;
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'>";
+  const char* lab[3] = {"Fx mesio-distal (N)", "Fy bucco-lingual (N)", "Fz long axis (N)"};
+  for (int a = 0; a < 3; ++a) {
+    const int x0 = L + a * pw;
+    auto X = [&](double f) { return x0 + 5 + (pw - 10) * (0.5 + 0.5 * f / fmax); };
+    s << "<text x='" << x0 + 5 << "' y='12'>" << lab[a] << "</text><line x1='" << X(0) << "' y1='18' x2='" << X(0)
+      << "' y2='" << H - 20 << "' stroke='#bbb'/>";
+    s << "<text x='" << x0 << "' y='" << H - 6 << "'>-" << num(fmax, 1) << "</text><text x='" << x0 + pw - 25 << "' y='"
+      << H - 6 << "'>" << num(fmax, 1) << "</text>";
+    for (std::size_t k = 0; k < S; ++k) {
+      const double y = 24 + static_cast<double>(k) * rowh;
+      if (k < r.steps.size() && r.steps[k].sessions > 0) {
+        const double m = r.steps[k].force_mean(a), sd = r.steps[k].force_sd(a);
+        s << "<rect x='" << X(m - sd) << "' y='" << y << "' width='" << std::max(1.0, X(m + sd) - X(m - sd))
+          << "' height='14' fill='#c7dcef'/><line x1='" << X(m) << "' y1='" << y << "' x2='" << X(m) << "' y2='" << y + 14
+          << "' stroke='#3b6ea5'/>";
+      }
+      if (p.steps[k].force.n > 0)
+        s << "<circle cx='" << X(p.steps[k].force.mean(a)) << "' cy='" << y + 7 << "' r='4' fill='#d62728'/>";
+    }
+  }
+  for (std::size_t k = 0; k < S; ++k)
+    s << "<text x='4' y='" << 35 + static_cast<double>(k) * rowh << "'>" << k + 1 << ". " << esc(p.steps[k].name.substr(0, 38)) << "</text>";
+  s << "</svg>";
+  return s.str();
+}
+
+Result<ExpertReference> generated_reference(const Exercise& ex, const ScoreOptions& o, const std::string& out_dir) {
+  const std::string cache = out_dir + "/expert_reference.json";
+  if (fs::exists(cache)) {
+    std::ifstream f(cache);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    auto r = reference_from_json(ss.str(), cache);
+    if (r && r->exercise == ex.name) return r;
+  }
+  CohortOptions co;
+  co.experts = o.reference_trials;  // one trial each of N expert subjects (subject-level spread)
+  co.novices = 0;
+  co.trials = 1;
+  co.voxel_mm = 0.15;
+  const std::string dir = out_dir + "/expert_cohort";
+  auto trials = generate_cohort(ex, co, dir);
+  if (!trials) return Error{"expert reference: " + trials.error()};
+  std::vector<ProcessMetrics> pm;
+  for (const auto& t : *trials) {
+    auto log = haptics::read_session_log(t.session_path);
+    if (!log) return Error{log.error()};
+    auto tr = decode_session(*log, t.session_path);
+    if (!tr) return Error{tr.error()};
+    pm.push_back(process_metrics(*tr, ex, segment_steps(*tr, ex, nullptr, nullptr)));
+  }
+  ExpertReference r = build_reference(ex.name, pm);
+  std::ofstream(cache) << reference_to_json(r) << "\n";
+  fs::remove_all(dir);
+  return r;
+}
+
+}  // namespace
+
+std::string default_exercise_for(const std::string& tooth_json) {
+  auto j = json::parse(tooth_json, nullptr, false);
+  if (j.is_object() && j.value("kind", "") == "incisor") return "incisor_partial_crown";
+  return "molar_access_opening";
+}
+
+std::string ScoreSummary::summary_text() const {
+  std::ostringstream s;
+  s << "exercise: " << exercise_title << "\n";
+  s << "outcome: " << num(outcome.points, 1) << " / " << num(outcome.max_points, 0) << " points; removed "
+    << num(outcome.removed_total_mm3) << " mm3, target coverage " << num(outcome.target_coverage_pct, 1)
+    << " %, over-preparation " << num(outcome.overprep_mm3) << " mm3, forbidden " << num(outcome.forbidden_mm3) << " mm3"
+    << (outcome.pulp_exposed ? ", pulp exposed" : "") << (outcome.perforation ? ", PERFORATION" : "") << "\n";
+  s << "process: " << num(process.duration_s, 1) << " s, drilling " << num(process.drilling_s, 1) << " s, path "
+    << num(process.path_mm, 0) << " mm, excessive force " << num(process.excessive_force_s, 2) << " s\n";
+  if (verdict) s << "assessment: " << verdict->label << " (margin " << num(verdict->margin, 3) << ")\n";
+  s << "feedback: " << feedback.size() << " messages\n";
+  for (const auto& f : feedback) s << "  - " << f.text << "\n";
+  if (!report_html.empty()) s << "report: " << report_html << "\nsummary: " << summary_json << "\n";
+  return s.str();
+}
+
+Result<ScoreSummary> score_session(const ScoreOptions& o) {
+  const auto t_start = std::chrono::steady_clock::now();
+  ScoreSummary sum;
+  std::string log_path = o.session;
+  if (o.session.empty()) return Error{"score: no session given (a .dlog file or a folder holding session.dlog)"};
+  if (fs::is_directory(o.session)) {
+    log_path = (fs::path(o.session) / "session.dlog").string();
+    if (!fs::exists(log_path))
+      return Error{o.session + ": no session.dlog in this folder (record one with `dentar demo` or `dentar live --record DIR`)"};
+    sum.station_found = fs::exists(fs::path(o.session) / "station.json");
+  } else if (!fs::exists(o.session)) {
+    return Error{o.session + ": no such file or folder"};
+  }
+  sum.session_path = log_path;
+  const std::string out_dir = o.out_dir.empty() ? fs::path(log_path).parent_path().string() : o.out_dir;
+  auto log = haptics::read_session_log(log_path);
+  if (!log) return Error{log.error()};
+  sum.log_warning = log->warning;
+  if (log->records.empty()) return Error{log_path + ": the log holds no complete block of steps" +
+                                         (log->warning.empty() ? std::string() : " (" + log->warning + ")")};
+  auto setup = haptics::parse_session_header(log->header_json);
+  if (!setup) return Error{log_path + ": " + setup.error()};
+  const std::string ex_name = o.exercise.empty() ? default_exercise_for(setup->tooth_json) : o.exercise;
+  auto ex = ex_name.find(".json") != std::string::npos ? load_exercise(ex_name) : load_builtin_exercise(ex_name);
+  if (!ex) return Error{ex.error()};
+  {
+    auto a = json::parse(setup->tooth_json, nullptr, false), b = json::parse(ex->tooth_json, nullptr, false);
+    const std::string ka = a.is_object() ? a.value("kind", "?") : "?", kb = b.value("kind", "?");
+    if (ka != kb)
+      return Error{log_path + ": the session was drilled on a " + ka + ", the exercise '" + ex->name + "' is for a " + kb +
+                   " (choose another with --exercise)"};
+  }
+  sum.exercise_name = ex->name;
+  sum.exercise_title = ex->title.empty() ? ex->name : ex->title;
+  auto start = make_tooth(setup->tooth_json);
+  if (!start) return Error{log_path + ": cannot rebuild the session's tooth: " + start.error()};
+  volume::VoxelVolume cut = start->clone();
+  auto rep = haptics::replay_session(*log, cut);
+  if (!rep) return Error{log_path + ": replay: " + rep.error()};
+  auto masks = build_masks(*ex, *start);
+  if (!masks) return Error{masks.error()};
+  auto outcome = score_outcome(*ex, *masks, *start, cut);
+  if (!outcome) return Error{outcome.error()};
+  sum.outcome = *outcome;
+  auto track = decode_session(*log, log_path);
+  if (!track) return Error{track.error()};
+  const std::vector<int> steps = segment_steps(*track, *ex, &*masks, &*start);
+  sum.process = process_metrics(*track, *ex, steps);
+  if (o.write_files) {
+    std::error_code ec;
+    fs::create_directories(out_dir, ec);
+    if (ec) return Error{"score: cannot create '" + out_dir + "': " + ec.message()};
+  }
+  if (!o.reference.empty()) {
+    std::ifstream f(o.reference);
+    if (!f) return Error{o.reference + ": cannot open the expert reference"};
+    std::stringstream ss;
+    ss << f.rdbuf();
+    auto r = reference_from_json(ss.str(), o.reference);
+    if (!r) return Error{r.error()};
+    if (r->steps.size() != ex->steps.size())
+      return Error{o.reference + ": " + std::to_string(r->steps.size()) + " steps, the exercise '" + ex->name + "' has " +
+                   std::to_string(ex->steps.size())};
+    sum.reference = *r;
+  } else {
+    auto r = generated_reference(*ex, o, o.write_files ? out_dir : (fs::temp_directory_path() / "dentar_reference").string());
+    if (!r) return Error{r.error()};
+    sum.reference = *r;
+  }
+  sum.feedback = tutoring_feedback(sum.process, sum.reference, ex->excessive_force_N);
+  if (!o.model.empty()) {
+    std::ifstream f(o.model);
+    if (!f) return Error{o.model + ": cannot open the skill model"};
+    std::stringstream ss;
+    ss << f.rdbuf();
+    auto m = model_from_json(ss.str(), o.model);
+    if (!m) return Error{m.error()};
+    auto v = classify(*m, track_features(*track));
+    if (!v) return Error{o.model + ": " + v.error()};
+    sum.verdict = *v;
+  }
+  // JSON summary.
+  json j;
+  j["format"] = "dentar-score";
+  j["version"] = 1;
+  j["session"] = log_path;
+  j["exercise"] = {{"name", ex->name}, {"title", sum.exercise_title}};
+  if (!sum.log_warning.empty()) j["log_warning"] = sum.log_warning;
+  j["station_json_found"] = sum.station_found;
+  const OutcomeScores& oc = sum.outcome;
+  json rem = json::object();
+  for (int m = 1; m < volume::kNumMaterials; ++m)
+    rem[std::string(volume::material_name(static_cast<volume::Material>(m)))] = oc.removed_mm3[static_cast<std::size_t>(m)];
+  j["outcome"] = {{"points", oc.points}, {"max_points", oc.max_points}, {"removed_mm3", rem},
+                  {"removed_total_mm3", oc.removed_total_mm3}, {"target_mm3", oc.target_mm3},
+                  {"target_coverage_pct", oc.target_coverage_pct}, {"overprep_mm3", oc.overprep_mm3},
+                  {"forbidden_mm3", oc.forbidden_mm3}, {"pulp_exposed", oc.pulp_exposed},
+                  {"perforation", oc.perforation}, {"perforation_mm3", oc.perforation_mm3}};
+  j["outcome"]["regions"] = json::array();
+  for (const auto& r : oc.regions)
+    j["outcome"]["regions"].push_back({{"name", r.name}, {"coverage_pct", r.coverage_pct}, {"overprep_mm3", r.overprep_mm3},
+                                       {"points", r.points}, {"max_points", r.max_points}});
+  j["outcome"]["criteria"] = json::array();
+  for (const auto& c : oc.criteria)
+    j["outcome"]["criteria"].push_back({{"name", c.name}, {"score", c.score}, {"value", c.value}, {"unit", c.unit}, {"detail", c.detail}});
+  const ProcessMetrics& p = sum.process;
+  j["process"] = {{"duration_s", p.duration_s}, {"drilling_s", p.drilling_s}, {"path_mm", p.path_mm},
+                  {"excessive_force_s", p.excessive_force_s}, {"excessive_force_N", p.excessive_force_N},
+                  {"mirror_tracked", p.mirror_tracked}, {"watchdog_frames", p.watchdog_frames}};
+  j["process"]["force_by_material"] = json::object();
+  for (int m = 1; m < volume::kNumMaterials; ++m) {
+    const ForceStats& f = p.force_by_material[static_cast<std::size_t>(m)];
+    if (f.n > 0)
+      j["process"]["force_by_material"][std::string(volume::material_name(static_cast<volume::Material>(m)))] =
+          {{"frames", f.n}, {"mean_N", f.mean_magnitude}, {"max_N", f.max_magnitude}};
+  }
+  j["steps"] = json::array();
+  for (std::size_t k = 0; k < p.steps.size(); ++k) {
+    const StepMetrics& s = p.steps[k];
+    json sj = {{"name", s.name}, {"start_s", s.start_s}, {"end_s", s.end_s}, {"drilling_s", s.drilling_s},
+               {"path_mm", s.path_mm}, {"removed_mm3", s.removed_mm3},
+               {"force_mean_N", {s.force.mean.x(), s.force.mean.y(), s.force.mean.z()}},
+               {"force_sd_N", {s.force.sd.x(), s.force.sd.y(), s.force.sd.z()}}};
+    if (k < sum.reference.steps.size()) {
+      const auto& e = sum.reference.steps[k];
+      sj["expert_force_mean_N"] = {e.force_mean.x(), e.force_mean.y(), e.force_mean.z()};
+      sj["expert_force_sd_N"] = {e.force_sd.x(), e.force_sd.y(), e.force_sd.z()};
+    }
+    j["steps"].push_back(sj);
+  }
+  j["feedback"] = json::array();
+  for (const auto& f : sum.feedback) j["feedback"].push_back({{"step", f.step}, {"kind", f.kind}, {"text", f.text}});
+  if (sum.verdict) j["assessment"] = {{"label", sum.verdict->label}, {"margin", sum.verdict->margin}, {"scores", sum.verdict->score}};
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  j["scoring_seconds"] = sum.seconds;
+  if (!o.write_files) return sum;
+
+  sum.summary_json = (fs::path(out_dir) / "score.json").string();
+  {
+    std::ofstream f(sum.summary_json);
+    if (!(f << j.dump(1) << "\n")) return Error{sum.summary_json + ": cannot write"};
+  }
+  // HTML report.
+  std::ostringstream h;
+  h << "<!DOCTYPE html><html><head><meta charset='utf-8'><title>DentAR session report</title><style>"
+       "body{font-family:sans-serif;max-width:960px;margin:20px auto;color:#222}table{border-collapse:collapse;margin:8px 0}"
+       "td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}th{background:#f0f0f0}.big{font-size:28px;font-weight:bold}"
+       ".well_done{color:#2a7a2a}.ask{color:#1f5fa0}.caution{color:#b03020}</style></head><body>";
+  h << "<h1>Session report</h1><p>" << esc(sum.exercise_title) << "<br>session: <code>" << esc(log_path) << "</code></p>";
+  if (!sum.log_warning.empty()) h << "<p class='caution'>Log damaged: " << esc(sum.log_warning) << "</p>";
+  h << "<p class='big'>" << num(oc.points, 1) << " / " << num(oc.max_points, 0) << " points</p>";
+  if (sum.verdict) h << "<p>Skill assessment: <b>" << esc(sum.verdict->label) << "</b> (score margin " << num(sum.verdict->margin, 3) << ")</p>";
+  h << "<h2>Outcome</h2><table><tr><th>measure</th><th>value</th></tr>";
+  for (int m = 1; m < volume::kNumMaterials; ++m)
+    if (oc.removed_mm3[static_cast<std::size_t>(m)] > 0)
+      h << "<tr><td>removed " << volume::material_name(static_cast<volume::Material>(m)) << "</td><td>"
+        << num(oc.removed_mm3[static_cast<std::size_t>(m)]) << " mm&sup3;</td></tr>";
+  h << "<tr><td>target coverage</td><td>" << num(oc.target_coverage_pct, 1) << " %</td></tr><tr><td>over-preparation</td><td>"
+    << num(oc.overprep_mm3) << " mm&sup3;</td></tr><tr><td>forbidden regions</td><td>" << num(oc.forbidden_mm3)
+    << " mm&sup3;</td></tr><tr><td>pulp exposure</td><td>" << (oc.pulp_exposed ? "yes" : "no")
+    << "</td></tr><tr><td>perforation</td><td>" << (oc.perforation ? "yes (" + num(oc.perforation_mm3) + " mm&sup3;)" : "no")
+    << "</td></tr></table>";
+  if (!oc.criteria.empty()) {
+    h << "<table><tr><th>criterion</th><th>score (0-3)</th><th>how</th></tr>";
+    for (const auto& c : oc.criteria) h << "<tr><td>" << esc(c.name) << "</td><td>" << c.score << "</td><td>" << esc(c.detail) << "</td></tr>";
+    h << "</table>";
+  } else {
+    h << "<table><tr><th>region</th><th>coverage</th><th>over-preparation nearby</th><th>points</th></tr>";
+    for (const auto& r : oc.regions)
+      h << "<tr><td>" << esc(r.name) << "</td><td>" << num(r.coverage_pct, 1) << " %</td><td>" << num(r.overprep_mm3)
+        << " mm&sup3;</td><td>" << num(r.points, 1) << " / " << num(r.max_points, 0) << "</td></tr>";
+    h << "</table>";
+  }
+  h << "<h3>Target map against the cut</h3>"
+    << target_map_svg(*ex, *masks, *start, cut, json::parse(setup->tooth_json).value("kind", "") == "incisor");
+  h << "<h2>Feedback</h2><ul>";
+  for (const auto& f : sum.feedback) h << "<li class='" << f.kind << "'>" << esc(f.text) << "</li>";
+  if (sum.feedback.empty()) h << "<li>No step could be compared with the experts.</li>";
+  h << "</ul><h2>Force along the tooth's axes, by step</h2>"
+    << force_plot_svg(*track, steps, ex->steps.size())
+    << "<p>Force the bur presses on the tooth, tooth frame (x mesio-distal, y bucco-lingual, z long axis); shaded bands: "
+       "steps found automatically.</p>"
+    << "<h3>Student (red) against the expert band (mean &plusmn; SD), per step</h3>" << step_band_svg(p, sum.reference);
+  const ExpertReference& r = sum.reference;
+  h << "<h2>Process</h2><table><tr><th>measure</th><th>you</th><th>experts (mean &plusmn; SD)</th></tr>"
+    << "<tr><td>time</td><td>" << num(p.duration_s, 1) << " s</td><td>" << num(r.duration_mean_s, 1) << " &plusmn; " << num(r.duration_sd_s, 1) << " s</td></tr>"
+    << "<tr><td>drilling time</td><td>" << num(p.drilling_s, 1) << " s</td><td>" << num(r.drilling_mean_s, 1) << " &plusmn; " << num(r.drilling_sd_s, 1) << " s</td></tr>"
+    << "<tr><td>path length</td><td>" << num(p.path_mm, 0) << " mm</td><td>" << num(r.path_mean_mm, 0) << " &plusmn; " << num(r.path_sd_mm, 0) << " mm</td></tr>"
+    << "<tr><td>drilling with force &gt; " << num(p.excessive_force_N, 1) << " N</td><td>" << num(p.excessive_force_s, 2) << " s</td><td>"
+    << num(r.excessive_mean_s, 2) << " &plusmn; " << num(r.excessive_sd_s, 2) << " s</td></tr>"
+    << "<tr><td>mirror use</td><td colspan='2'>no mirror poses in this session log</td></tr></table>";
+  h << "<table><tr><th>step</th><th>time (s)</th><th>drilling (s)</th><th>removed (mm&sup3;)</th><th>mean force (N)</th></tr>";
+  for (std::size_t k = 0; k < p.steps.size(); ++k)
+    h << "<tr><td>" << k + 1 << ". " << esc(p.steps[k].name) << "</td><td>" << num(p.steps[k].start_s, 1) << " - "
+      << num(p.steps[k].end_s, 1) << "</td><td>" << num(p.steps[k].drilling_s, 1) << "</td><td>" << num(p.steps[k].removed_mm3)
+      << "</td><td>" << num(p.steps[k].force.mean_magnitude) << "</td></tr>";
+  h << "</table><p>Expert band: " << (o.reference.empty() ? "generated expert sessions (cohort generator, " + std::to_string(o.reference_trials) + " trials)" : esc(o.reference))
+    << ". Scored in " << num(sum.seconds, 2) << " s.</p></body></html>\n";
+  sum.report_html = (fs::path(out_dir) / "score.html").string();
+  std::ofstream f(sum.report_html);
+  if (!(f << h.str())) return Error{sum.report_html + ": cannot write"};
+  return sum;
+}
+
+}  // namespace dentar::training
