@@ -175,6 +175,12 @@ std::string make_hd_message(const HdApi& api, HDErrorInfo e) {
   return os.str();
 }
 
+// Empties HD's error stack (bounded: a broken runtime cannot hang us).
+void drain_errors(const HdApi& a) {
+  for (int i = 0; i < 64 && a.hdGetError().errorCode != kHdSuccess; ++i) {
+  }
+}
+
 int leading_int(const std::string& s) {
   std::size_t i = 0;
   while (i < s.size() && !std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
@@ -303,8 +309,7 @@ Result<std::unique_ptr<HdDevice>> HdDevice::open(const DeviceOpenOptions& o) {
     return Error{"OpenHaptics runtime " + m.lib.path() + " has no " + missing +
                  ": it is not OpenHaptics 3.x; install OpenHaptics 3.4 or newer"};
   const HdApi& a = m.api;
-  while (a.hdGetError().errorCode != kHdSuccess) {
-  }
+  drain_errors(a);
 
   // Open: by configuration name; else the default device, matched by serial.
   const std::string& want = o.name_or_serial;
@@ -312,6 +317,8 @@ Result<std::unique_ptr<HdDevice>> HdDevice::open(const DeviceOpenOptions& o) {
   HDErrorInfo e = a.hdGetError();
   bool by_serial = false;
   if ((m.hhd == kHdInvalidHandle || e.errorCode != kHdSuccess) && !want.empty()) {
+    if (m.hhd != kHdInvalidHandle) a.hdDisableDevice(m.hhd);
+    drain_errors(a);  // the failed attempt's errors
     m.hhd = a.hdInitDevice(nullptr);
     e = a.hdGetError();
     by_serial = true;
@@ -362,8 +369,7 @@ Result<std::unique_ptr<HdDevice>> HdDevice::open(const DeviceOpenOptions& o) {
     d->limits_.max_force_N = std::min(d->limits_.max_force_N, nominal_f);
   m.max_force_N = d->limits_.max_force_N;
   a.hdGetIntegerv(kHdCalibrationStyle, &m.cal_style);
-  while (a.hdGetError().errorCode != kHdSuccess) {
-  }
+  drain_errors(a);
 
   d->monitor_.configure(o);
   ForceCmd zero{};
