@@ -89,6 +89,7 @@ struct Plan {
   std::vector<Text> texts;
   std::vector<CutRect> cuts;
   std::optional<PenDrawing> pen;
+  std::optional<Eigen::Vector2d> origin_mark_mm;  // the mannequin origin on a board
   ar::TagFamilyId family = ar::TagFamilyId::kStandard41h12;
 };
 
@@ -226,7 +227,93 @@ Result<Plan> make_plan(const ar::StationScene& s, const KitOptions& o) {
   };
 
   const std::string fam_name = ar::tag_family_name(s.family);
-  if (!s.mannequin_tags.empty()) {
+  // Coplanar mannequin tags with one orientation (a box face): one board at the station's
+  // exact spacing, when it fits on the page.
+  struct BoardTag {
+    Eigen::Vector2d offset_mm;  // border square centre relative to tag 0, board = tag-0 image axes
+    double half_mm;             // half side of pattern + quiet zone
+  };
+  std::vector<BoardTag> board;
+  Eigen::Vector2d board_lo(1e9, 1e9), board_hi(-1e9, -1e9);
+  Eigen::Vector3d origin_in_t0 = Eigen::Vector3d::Zero();
+  if (s.mannequin_tags.size() >= 2) {
+    const Eigen::Isometry3d& T0 = s.mannequin_tags[0].T_parent_tag;
+    const Eigen::Matrix3d R0 = T0.linear();
+    bool flat = true;
+    for (const ar::TagPlacement& t : s.mannequin_tags) {
+      const Eigen::Vector3d d = R0.transpose() * (t.T_parent_tag.translation() - T0.translation());
+      const double angle = Eigen::AngleAxisd(R0.transpose() * t.T_parent_tag.linear()).angle();
+      if (std::abs(d.z()) > 0.05e-3 || angle > 0.1 * M_PI / 180) {
+        flat = false;
+        break;
+      }
+      const TagGeometry g = tag_geometry(fam, t.size_m);
+      const BoardTag b{d.head<2>() * 1e3, (0.5 * g.pattern_m + g.quiet_m) * 1e3};
+      board_lo = board_lo.cwiseMin(b.offset_mm - Eigen::Vector2d::Constant(b.half_mm));
+      board_hi = board_hi.cwiseMax(b.offset_mm + Eigen::Vector2d::Constant(b.half_mm));
+      board.push_back(b);
+    }
+    // Tags whose pattern + quiet zone overlap cannot be printed as one board.
+    for (std::size_t i = 0; flat && i < board.size(); ++i)
+      for (std::size_t j = i + 1; j < board.size(); ++j)
+        if (((board[i].offset_mm - board[j].offset_mm).cwiseAbs().array() <
+             board[i].half_mm + board[j].half_mm - 1e-6)
+                .all())
+          flat = false;
+    origin_in_t0 = R0.transpose() * (-T0.translation()) * 1e3;
+    const Eigen::Vector2d size = board_hi - board_lo;
+    if (!flat || size.x() > flow.usable_width() ||
+        size.y() + 3 * kLabelLine + kHeadingHeight > flow.usable_height())
+      board.clear();
+  }
+  if (!board.empty()) {
+    const Eigen::Vector2d size = board_hi - board_lo;
+    const double h = size.y() + kLabelGap + 2 * kLabelLine;
+    heading("Mannequin tags (" + std::to_string(s.mannequin_tags.size()) + ", " + fam_name +
+                ") on one board",
+            "Cut along the dashed outline and tape the whole board flat onto the box: the tags "
+            "keep the station's spacing.",
+            h);
+    int page = 0;
+    const Eigen::Vector2d p = flow.place(size.x(), h, page);
+    const Eigen::Vector2d o = p - board_lo;  // page position (mm) of tag 0's centre
+    plan.cuts.push_back({page, p.x(), p.y(), p.x() + size.x(), p.y() + size.y()});
+    for (std::size_t i = 0; i < board.size(); ++i) {
+      const ar::TagPlacement& tp = s.mannequin_tags[i];
+      const TagGeometry g = tag_geometry(fam, tp.size_m);
+      KitTag t;
+      t.role = TagRole::kMannequin;
+      t.index = static_cast<int>(i);
+      t.id = tp.id;
+      t.size_m = tp.size_m;
+      t.page = page;
+      t.pattern_m = g.pattern_m;
+      t.quiet_m = g.quiet_m;
+      t.centre_m = (o + board[i].offset_mm) * 1e-3;
+      t.cut_min_m = p * 1e-3;
+      t.cut_max_m = (p + size) * 1e-3;
+      L.tags.push_back(t);
+    }
+    const Eigen::Vector2d om = o + origin_in_t0.head<2>();
+    if ((om.array() >= p.array()).all() && (om.array() <= (p + size).array()).all()) {
+      // Only where no tag's pattern or quiet zone is.
+      bool clear = true;
+      for (const BoardTag& b : board)
+        if (((o + b.offset_mm - om).cwiseAbs().array() < b.half_mm + 3.0).all()) clear = false;
+      if (clear) plan.origin_mark_mm = om;
+    }
+    std::string ids;
+    for (const ar::TagPlacement& t : s.mannequin_tags)
+      ids += (ids.empty() ? "" : ", ") + std::to_string(t.id);
+    char b[160];
+    std::snprintf(b, sizeof b, "%s border; the + is the mannequin origin (the mouth), %.1f mm %s the board",
+                  mm_text(s.mannequin_tags[0].size_m).c_str(), std::abs(origin_in_t0.z()),
+                  origin_in_t0.z() >= 0 ? "behind" : "in front of");
+    const double ty = p.y() + size.y() + kLabelGap + kLabelFont * 0.8;
+    plan.texts.push_back({page, p.x(), ty, kLabelFont, false, "mannequin ids " + ids});
+    plan.texts.push_back({page, p.x(), ty + kLabelLine, kLabelFont, false, b});
+    L.mannequin_board = true;
+  } else if (!s.mannequin_tags.empty()) {
     const TagGeometry g0 = tag_geometry(fam, s.mannequin_tags[0].size_m);
     heading("Mannequin tags (" + std::to_string(s.mannequin_tags.size()) + ", " + fam_name + ")",
             "Cut along the dashed squares and tape each tag flat onto the box, upright (its label "
@@ -459,6 +546,21 @@ void draw_page(cairo_t* cr, const Plan& plan, const ar::TagFamily& fam, int page
     cairo_stroke(cr);
   }
   cairo_set_dash(cr, nullptr, 0, 0);
+  if (plan.origin_mark_mm && !L.tags.empty()) {
+    int board_page = -1;
+    for (const KitTag& t : L.tags)
+      if (t.role == TagRole::kMannequin) board_page = t.page;
+    if (board_page == page) {
+      const Eigen::Vector2d& m = *plan.origin_mark_mm;
+      cairo_set_source_rgb(cr, 0.6, 0.1, 0.1);
+      cairo_set_line_width(cr, 0.25);
+      cairo_move_to(cr, m.x() - 2.5, m.y());
+      cairo_line_to(cr, m.x() + 2.5, m.y());
+      cairo_move_to(cr, m.x(), m.y() - 2.5);
+      cairo_line_to(cr, m.x(), m.y() + 2.5);
+      cairo_stroke(cr);
+    }
+  }
   for (const KitTag& t : L.tags)
     if (t.page == page) draw_tag(cr, fam, t.id, t.size_m * 1e3, t.centre_m * 1e3);
   for (const KitScaleBar& b : L.scale_bars) {

@@ -229,6 +229,7 @@ void check_layout(const StationScene& s, const KitOptions& o) {
     for (const auto& u : L->tags) {
       if (&u == &t || u.page != t.page) continue;
       if (t.role == dentar::kit::TagRole::kPen && u.role == t.role) continue;  // same flag
+      if (t.cut_min_m == u.cut_min_m && t.cut_max_m == u.cut_max_m) continue;  // same board
       const bool apart = (t.cut_max_m.array() <= u.cut_min_m.array() + 1e-12).any() ||
                          (u.cut_max_m.array() <= t.cut_min_m.array() + 1e-12).any();
       EXPECT_TRUE(apart) << n << " overlaps " << u.id;
@@ -261,6 +262,64 @@ TEST(StationKit, LayoutStaysInsideThePageMarginsOnBothPapers) {
   StationScene big = dentar::ar::default_station_scene();
   for (auto& t : big.mannequin_tags) t.size_m = 0.05;  // 90 mm printed: several pages
   check_layout(big, KitOptions{});
+}
+
+// Six 20 mm tags on a box face around the mouth (coplanar, one orientation): tag x along the
+// mannequin's x, tag y down (mannequin -y), facing the camera (+z of the mannequin).
+StationScene box_station() {
+  StationScene s = dentar::ar::default_station_scene();
+  s.name = "box";
+  s.mannequin_tags.clear();
+  const double xs[3] = {-0.055, 0.0, 0.055}, ys[2] = {0.040, -0.040};
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 3; ++c) {
+      dentar::ar::TagPlacement t;
+      t.id = 3 * r + c;
+      t.size_m = 0.020;
+      t.T_parent_tag.linear() =
+          Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+      t.T_parent_tag.translation() = Eigen::Vector3d(xs[c], ys[r], 0.0);
+      s.mannequin_tags.push_back(t);
+    }
+  return s;
+}
+
+TEST(StationKit, CoplanarBundlePrintsAsOneBoardAtTheStationsSpacing) {
+  const StationScene s = box_station();
+  EXPECT_EQ(s.validate(), "");
+  auto L = dentar::kit::layout_station_kit(s, KitOptions{});
+  ASSERT_TRUE(L) << L.error();
+  EXPECT_TRUE(L->mannequin_board);
+  const dentar::kit::KitTag* t0 = nullptr;
+  for (const auto& t : L->tags)
+    if (t.role == dentar::kit::TagRole::kMannequin && t.index == 0) t0 = &t;
+  ASSERT_NE(t0, nullptr);
+  const Eigen::Matrix3d R0 = s.mannequin_tags[0].T_parent_tag.linear();
+  for (const auto& t : L->tags) {
+    if (t.role != dentar::kit::TagRole::kMannequin) continue;
+    EXPECT_EQ(t.page, t0->page);
+    // Page offset between tags = the station's offset in tag 0's image axes.
+    const Eigen::Vector3d d = R0.transpose() * (s.mannequin_tags[t.index].T_parent_tag.translation() -
+                                                s.mannequin_tags[0].T_parent_tag.translation());
+    EXPECT_NEAR((t.centre_m - t0->centre_m - d.head<2>()).norm(), 0, 1e-9) << t.id;
+  }
+  check_layout(s, KitOptions{});
+  // Rendered: every tag detected where the layout put it, sizes and corners within 0.1/0.2 mm
+  // (check_page), so the printed spacing is the station's.
+  check_kit(s, KitOptions{}, "box_board");
+
+  // One tag tilted: loose tags again.
+  StationScene bent = s;
+  bent.mannequin_tags[4].T_parent_tag.linear() =
+      bent.mannequin_tags[4].T_parent_tag.linear() *
+      Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  auto L2 = dentar::kit::layout_station_kit(bent, KitOptions{});
+  ASSERT_TRUE(L2) << L2.error();
+  EXPECT_FALSE(L2->mannequin_board);
+  // The built-in station's tags sit on a curved head: loose tags.
+  auto L3 = dentar::kit::layout_station_kit(dentar::ar::default_station_scene(), KitOptions{});
+  ASSERT_TRUE(L3) << L3.error();
+  EXPECT_FALSE(L3->mannequin_board);
 }
 
 TEST(StationKit, DefaultPenFlagIsEnlargedWithANote) {

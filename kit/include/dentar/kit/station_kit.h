@@ -4,7 +4,8 @@
 // docs/formats.md ("Station kit").
 //
 // - the mannequin tag bundle (the station's mannequin_tags, to tape onto a box), each with a
-//   dashed cut square and a label (role, id, border size in mm);
+//   dashed cut square and a label (role, id, border size in mm); when the tags are coplanar
+//   with one orientation (a box face), one board with the tags at their exact spacing;
 // - the mirror tags (front and back of the mirror's paddle);
 // - the pen flag: the front and back panels side by side, a fold line between them (fold with
 //   the printed sides out, the pen between the layers), and the pen's axis drawn from the flag
@@ -82,6 +83,10 @@ struct KitLayout {
   std::vector<KitTag> tags;              // mannequin, mirror, then pen tags
   std::vector<KitScaleBar> scale_bars;   // one per page
   std::optional<KitPenFlag> pen;         // absent when the station has no pen tags
+  // The mannequin tags are coplanar with one orientation (tags on a box face): printed as one
+  // board at the station's exact spacing (their cut_min/max_m are the board's outline), with
+  // the mannequin origin marked when it lies on the board clear of the tags.
+  bool mannequin_board = false;
   // Things the user should know (e.g. the pen flag printed larger than flag_size_m because
   // the tag and its quiet zone do not fit on it).
   std::vector<std::string> notes;
