@@ -368,7 +368,11 @@ Result<Plan> make_plan(const ar::StationScene& s, const KitOptions& o) {
       f = need_mm;
     }
     const Eigen::Vector3d tip = s.pen.T_ptag_tip.translation() * 1e3;
-    const std::string tip_label = "pen tip: " + mm_text(tip.norm() * 1e-3) + " from the flag centre";
+    std::string tip_label = "pen tip: " + mm_text(tip.norm() * 1e-3) + " from the flag centre";
+    if (std::abs(tip.z()) > 0.5) {  // the tip mark shows (x, y) only
+      tip_label += ", " + mm_text(std::abs(tip.z()) * 1e-3) +
+                   (tip.z() > 0 ? " behind the flag" : " in front of the flag");
+    }
     const double label_top = kLabelFont + kLabelLine + 1.0;  // panel labels above the panels
     // Item box (local mm, origin at the front panel's top-left minus the label band).
     const double cx = 0.5 * f, cy = label_top + 0.5 * f;

@@ -360,6 +360,18 @@ TEST(StationKit, StationWithoutAPenHasNoFlag) {
   EXPECT_EQ(L->tags.size(), s.mannequin_tags.size() + s.mirror_tags.size());
 }
 
+TEST(StationKit, PenTipBehindTheFlagIsStatedAndStillFits) {
+  StationScene s = dentar::ar::default_station_scene();
+  s.pen.T_ptag_tip.translation() = Eigen::Vector3d(0.01, 0.12, 0.004);  // 4 mm behind (pen radius)
+  auto L = dentar::kit::layout_station_kit(s, KitOptions{});
+  ASSERT_TRUE(L) << L.error();
+  ASSERT_TRUE(L->pen.has_value());
+  EXPECT_NEAR((L->pen->tip_m - L->pen->front_centre_m - Eigen::Vector2d(0.01, 0.12)).norm(), 0,
+              1e-12);
+  EXPECT_NEAR(L->pen->tip_distance_m, s.pen.T_ptag_tip.translation().norm(), 1e-12);
+  check_layout(s, KitOptions{});
+}
+
 TEST(StationKitBadInput, TagTooLargeForThePaperNamesTheTagAndPaper) {
   StationScene s = dentar::ar::default_station_scene();
   s.mannequin_tags[3].size_m = 0.15;  // 270 mm printed
