@@ -1,12 +1,15 @@
 // dentar devices: what haptic runtimes, haptic devices and foot pedals this
 // machine has, and the reason for every absence.
+#include <algorithm>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "dentar/ar/station_scene.h"
 #include "dentar/haptics/device_profiles.h"
 #include "dentar/haptics/open_device.h"
+#include "dentar/volume/procedural_tooth.h"
 
 namespace dentar::tools {
 namespace {
@@ -16,7 +19,41 @@ struct DevicesOptions {
   bool no_open = false;
   bool json = false;
   bool profiles = false;
+  std::string station;
 };
+
+// Can each profile's stylus reach the crown of the station's tooth?
+int print_reach(const std::string& path) {
+  auto st = ar::read_station_scene(path);
+  if (!st.ok()) {
+    print_error("devices", st.error());
+    return 2;
+  }
+  volume::MolarParams mp;
+  mp.voxel_mm = 1e3 * st->tooth_voxel_m;
+  auto tooth = volume::make_molar(mp);
+  if (!tooth.ok()) {
+    print_error("devices", path + ": tooth: " + tooth.error());
+    return 2;
+  }
+  // Bounding box of the solid voxels, then its top crown_height (the crown: where the bur works).
+  Eigen::AlignedBox3d box;
+  const volume::VoxelVolume& v = *tooth;
+  for (int k = 0; k < v.dims().z(); ++k)
+    for (int j = 0; j < v.dims().y(); ++j)
+      for (int i = 0; i < v.dims().x(); ++i)
+        if (v.density(i, j, k) > 127)
+          box.extend(Eigen::Vector3d(v.origin() + v.spacing().cwiseProduct(Eigen::Vector3d(i, j, k))));
+  if (!box.isEmpty()) box.min().z() = std::max(box.min().z(), box.max().z() - 1e-3 * mp.crown_height_mm);
+  std::cout << "Reach from " << path << " (the crown, " << mp.crown_height_mm << " mm):\n";
+  for (const auto& p : haptics::device_profiles()) {
+    const auto r = haptics::check_reach(haptics::limits_from_profile(p), st->calibration.T_tooth_dev(),
+                                        st->calibration.T_sty_tip, box);
+    std::cout << "  " << std::left << std::setw(10) << p.id << std::right << (r.reachable ? "OK  " : "NO  ")
+              << r.message << "\n";
+  }
+  return 0;
+}
 
 void print_profiles() {
   std::cout << "Device profiles (force clamp, max stable stiffness and damping, workspace):\n";
@@ -68,6 +105,7 @@ int run_devices(const DevicesOptions& o) {
               << ": permission " << (p.permission_ok ? "OK" : "DENIED") << "; " << p.note << "\n";
   for (const auto& a : r.pedal_absent) std::cout << "  none: " << a << "\n";
   if (o.profiles) print_profiles();
+  if (!o.station.empty()) return print_reach(o.station);
   return 0;
 }
 
@@ -80,7 +118,8 @@ void add_devices(CLI::App& app, int& exit_code) {
       "List haptic runtimes (OpenHaptics libHD, Force Dimension libdhd/libdrd) with their version,\n"
       "the haptic devices they see with calibration state, and USB foot pedals with permission\n"
       "state; says why anything is absent.\n"
-      "Synopsis: dentar devices [--hd-library PATH] [--dhd-library PATH] [--no-open] [--json] [--profiles]");
+      "Synopsis: dentar devices [--hd-library PATH] [--dhd-library PATH] [--no-open] [--json]\n"
+      "                         [--profiles] [--station FILE]");
   c->add_option("--hd-library", o->hd_library,
                 "libHD.so to load (default: libHD.so through the loader path or DENTAR_HD_LIBRARY)");
   c->add_option("--dhd-library", o->dhd_library,
@@ -88,9 +127,13 @@ void add_devices(CLI::App& app, int& exit_code) {
   c->add_flag("--no-open", o->no_open, "Only look for the runtimes; do not open any device");
   c->add_flag("--json", o->json, "Print the report as JSON");
   c->add_flag("--profiles", o->profiles, "Also print the device profile table");
+  c->add_option("--station", o->station,
+                "Also check, for every profile, that the stylus reaches the tooth's crown from this "
+                "station file's device placement");
   c->footer(
       "Examples:\n  dentar devices\n"
-      "  LD_LIBRARY_PATH=build/standin dentar devices   # against the test stand-ins");
+      "  LD_LIBRARY_PATH=build/standin dentar devices   # against the test stand-ins\n"
+      "  dentar devices --no-open --station assets/station_default.json");
   c->callback([o, &exit_code] { exit_code = run_devices(*o); });
 }
 

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <new>
 #include <limits>
 #include <thread>
 
@@ -13,6 +15,18 @@
 #include "dentar/haptics/scripts.h"
 #include "dentar/volume/procedural_tooth.h"
 #include "standin_util.h"
+
+// Counts heap allocations made by the calling thread (the servo thread of the
+// stand-in allocates; only the engine side is checked).
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+static thread_local long t_allocs = 0;
+void* operator new(std::size_t n) {
+  ++t_allocs;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace dentar::haptics {
 namespace {
@@ -164,6 +178,23 @@ TEST_F(HdStandin, PoseVelocityAndButtonsInSIUnits) {
   EXPECT_EQ(d->info().calibration, "ok");
   EXPECT_EQ(force_enabled(), 1);
   EXPECT_NE(d->status().find(": ok"), std::string::npos) << d->status();
+}
+
+TEST_F(HdStandin, ReadAndWriteDoNotAllocateEvenWhenFaulted) {
+  auto d = open_ok();
+  ASSERT_TRUE(d);
+  DeviceState st;
+  ASSERT_TRUE(wait_for([&] { return d->read(st); }));
+  inject(4, ticks() + 2, 8.0);  // a jump: the fault path runs too
+  const long before = t_allocs;
+  bool faulted = false;
+  for (int i = 0; i < 2000; ++i) {
+    faulted |= !d->read(st);
+    d->write_force({0.5, 0, 0});
+    if (i % 10 == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  EXPECT_EQ(t_allocs - before, 0);
+  EXPECT_TRUE(faulted);
 }
 
 TEST_F(HdStandin, ForcesReachTheServoClampedAndZeroWhenStaleOrNaN) {

@@ -149,6 +149,17 @@ TEST(DevicesCli, ListsTheStandinsAndExplainsAbsences) {
   EXPECT_NE(none.out.find("\"present\": false"), std::string::npos) << none.out;
   const auto bad = test::run_command(std::string(DENTAR_BINARY) + " devices --bogus 2>&1");
   EXPECT_EQ(bad.code, 2) << bad.out;
+  // The default station puts the device 19 cm from the tooth: out of a Touch's
+  // reach, within a Premium 3.0's.
+  const auto reach = test::run_command(std::string(DENTAR_BINARY) +
+                                       " devices --no-open --station assets/station_default.json 2>&1");
+  EXPECT_EQ(reach.code, 0) << reach.out;
+  EXPECT_NE(reach.out.find("touch     NO  the stylus cannot reach the tooth"), std::string::npos) << reach.out;
+  EXPECT_NE(reach.out.find("premium3  OK"), std::string::npos) << reach.out;
+  const auto nofile = test::run_command(std::string(DENTAR_BINARY) +
+                                        " devices --no-open --station /nonexistent.json 2>&1");
+  EXPECT_EQ(nofile.code, 2) << nofile.out;
+  EXPECT_NE(nofile.out.find("/nonexistent.json"), std::string::npos) << nofile.out;
 }
 
 }  // namespace
