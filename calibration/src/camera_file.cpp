@@ -336,9 +336,12 @@ Status write_camera_file(const std::string& path, const CameraFile& file) {
     cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY |
                                     (xml ? cv::FileStorage::FORMAT_XML : cv::FileStorage::FORMAT_YAML));
     fs.writeComment("DentAR camera intrinsics (OpenCV pinhole model; px)");
-    fs << "calibration_time" << (file.date.empty() ? iso_now_utc() : file.date);
-    fs << "device" << file.device;
-    if (!file.camera_name.empty()) fs << "camera_name" << file.camera_name;
+    // Free text goes through cv::write, which stores it as a string: `fs << key << text` reads
+    // a text starting with '{' or '[' as the start of a map or sequence and writes a file
+    // OpenCV cannot read back (found by fuzzing: a date "{un Nov 22 ...").
+    cv::write(fs, "calibration_time", file.date.empty() ? iso_now_utc() : file.date);
+    cv::write(fs, "device", file.device);
+    if (!file.camera_name.empty()) cv::write(fs, "camera_name", file.camera_name);
     fs << "image_width" << file.camera.width << "image_height" << file.camera.height;
     fs << "model" << file.model;
     const cv::Matx33d K(file.camera.fx, 0, file.camera.cx, 0, file.camera.fy, file.camera.cy, 0, 0, 1);
@@ -380,7 +383,13 @@ Status write_ros_camera_info(const std::string& path, const CameraFile& file) {
     os << "]\n";
   };
   os << "image_width: " << c.width << "\nimage_height: " << c.height << "\n";
-  os << "camera_name: " << (file.camera_name.empty() ? "dentar_camera" : file.camera_name) << "\n";
+  // Quoted, so a name such as "{left" or "cam #2" stays a string (unquoted, OpenCV could not
+  // read the file back: found by fuzzing); quotes, backslashes and control characters, which
+  // OpenCV's YAML reader does not unescape reliably, become '_'.
+  std::string name = file.camera_name.empty() ? "dentar_camera" : file.camera_name;
+  for (char& ch : name)
+    if (ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) ch = '_';
+  os << "camera_name: \"" << name << "\"\n";
   mat("camera_matrix", 3, 3, {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1});
   os << "distortion_model: " << (dist.size() == 8 ? "rational_polynomial" : "plumb_bob") << "\n";
   mat("distortion_coefficients", 1, static_cast<int>(dist.size()), dist);
