@@ -218,6 +218,49 @@ TEST(CliCalibrate, CameraFromRealChessboardPhotos) {
   EXPECT_EQ(load(d / "other.json")["camera"]["fx"], j["camera"]["fx"]);
 }
 
+// The camera step chooses the distortion model on held-out views, says why, and says where in
+// the image the model holds; with boards only in the middle it warns and names the photos to add.
+TEST(CliCalibrate, CameraChoosesTheModelAndSaysWhereItHolds) {
+  const fs::path d = temp_dir("model");
+  const fs::path st = d / "station.json";
+  const CommandResult r = run("camera --simulate --sim-board-area 30 --bad-view -1 --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("camera calibration OK: model "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("  why "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("held-out"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("candidate models"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("trust (error bound"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("WARNING: the model is trustworthy to 1.0 px over only"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Add photos with the board reaching into"), std::string::npos) << r.out;
+  const auto j = load(st);
+  const auto* cam = step(j, "camera");
+  ASSERT_NE(cam, nullptr);
+  EXPECT_NE((*cam)["summary"].get<std::string>().find("chosen on held-out views"), std::string::npos);
+  EXPECT_GT((*cam)["figures"]["heldout_rms_px"].get<double>(), 0);
+  const double trusted = (*cam)["figures"]["trusted_image_pct"].get<double>();
+  EXPECT_GT(trusted, 5);
+  EXPECT_LT(trusted, 80);
+  EXPECT_GT((*cam)["figures"]["cx_sd_px"].get<double>(), 0);
+  EXPECT_FALSE((*cam)["date"].get<std::string>().empty());
+  // The whole image covered: more of it is trusted.
+  const fs::path st2 = d / "full.json";
+  const CommandResult f = run("camera --simulate --bad-view -1 --count 16 --station " + st2.string());
+  ASSERT_EQ(f.code, 0) << f.out;
+  EXPECT_GT((*step(load(st2), "camera"))["figures"]["trusted_image_pct"].get<double>(), trusted) << f.out;
+  // A model that is not a model name is bad input.
+  EXPECT_EQ(run("camera --simulate --model k9 --station " + (d / "x.json").string()).code, 2);
+}
+
+// The stylus poses file: bad rows are bad input naming file:line and the column.
+TEST(CliCalibrate, BadPosesFileNamesTheLine) {
+  const fs::path d = temp_dir("posesbad");
+  write_file(d / "p.csv", "label,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg\npivot,1,2,3,0,0,0\npivot,1,zz,3,0,0,0\n");
+  const CommandResult r = run("pivot --poses " + (d / "p.csv").string() + " --station " + (d / "s.json").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("p.csv:3: column 3 (ty_mm) \"zz\""), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(d / "s.json"));
+}
+
 // The whole workflow on generated data, as the README's walkthrough runs it, then the check
 // refusing an uncalibrated station.
 TEST(CliCalibrate, AllStepsOnGeneratedDataMeetTheCoLocationGoal) {

@@ -26,12 +26,14 @@
 #include "dentar/ar/synth.h"
 #include "dentar/ar/tag_detector.h"
 #include "dentar/calibration/camera_file.h"
+#include "dentar/calibration/camera_model.h"
 #include "dentar/calibration/co_location.h"
 #include "dentar/calibration/intrinsics.h"
 #include "dentar/calibration/landmarks.h"
 #include "dentar/calibration/mirror.h"
 #include "dentar/calibration/pivot.h"
 #include "dentar/calibration/registration.h"
+#include "dentar/calibration/stylus_poses.h"
 
 namespace dentar::tools {
 namespace {
@@ -51,8 +53,10 @@ struct CalibCli {
   int count = 0;              // 0: the step's default amount of data
   double max_tilt_deg = 25;   // simulated pivot tilt
   int bad_view = 3;           // simulated camera step: the warped-board view (-1: none)
+  double sim_board_area = 100;  // simulated camera step: boards inside this % of the image
   int check_frames = 20;
   bool rational = false;
+  std::string model = "auto";  // camera: auto, k1, k1k2, radtan5, rational8
   bool instructor_time = false;
 };
 
@@ -76,90 +80,23 @@ std::string fmt(double v, int prec = 2) {
   return os.str();
 }
 
-// ---- stylus poses file (CSV) -----------------------------------------------------------------
-// label,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg[,mtag_tx_mm,mtag_ty_mm,mtag_tz_mm,mtag_rx_deg,
-// mtag_ry_deg,mtag_rz_deg]: T_dev_sty per row (rotation vector in degrees); the optional
-// columns are T_mtag_man from the tracker at that moment (mirror rows). Labels: pivot,
-// divot:<i>, landmark:<i>, rim, centre. '#' starts a comment line.
-struct PoseRow {
-  std::string label;
-  Eigen::Isometry3d T_dev_sty = Eigen::Isometry3d::Identity();
-  std::optional<Eigen::Isometry3d> T_mtag_man;
-  int line = 0;
-};
-
-Eigen::Isometry3d pose_from(const double* v) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  const Eigen::Vector3d r(v[3], v[4], v[5]);
-  if (r.norm() > 0) T.linear() = Eigen::AngleAxisd(r.norm() * kDeg, r.normalized()).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(v[0], v[1], v[2]) * 1e-3;
-  return T;
-}
+// ---- stylus poses file (CSV): calibration/stylus_poses.h --------------------------------------
+using PoseRow = cal::StylusPoseRow;
 
 std::vector<PoseRow> read_poses(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw BadInput{path + ": cannot open the poses file"};
-  std::vector<PoseRow> rows;
-  std::string line;
-  int n = 0;
-  bool header = false;
-  while (std::getline(in, line)) {
-    ++n;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    if (!header) {
-      if (f.empty() || f[0] != "label")
-        throw BadInput{path + ":" + std::to_string(n) +
-                       ": the first line must be the header label,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,"
-                       "rz_deg[,mtag_tx_mm,...] (see docs/formats.md)"};
-      header = true;
-      continue;
-    }
-    if (f.size() != 7 && f.size() != 13)
-      throw BadInput{path + ":" + std::to_string(n) + ": expected 7 or 13 columns, found " +
-                     std::to_string(f.size())};
-    double v[12];
-    for (std::size_t i = 1; i < f.size(); ++i) {
-      try {
-        std::size_t used = 0;
-        v[i - 1] = std::stod(f[i], &used);
-        if (used != f[i].size() || !std::isfinite(v[i - 1])) throw std::invalid_argument("x");
-      } catch (...) {
-        throw BadInput{path + ":" + std::to_string(n) + ": column " + std::to_string(i + 1) +
-                       " \"" + f[i] + "\" is not a number"};
-      }
-    }
-    PoseRow r;
-    r.label = f[0];
-    r.line = n;
-    r.T_dev_sty = pose_from(v);
-    if (f.size() == 13) r.T_mtag_man = pose_from(v + 6);
-    rows.push_back(r);
-  }
-  if (!header) throw BadInput{path + ": empty poses file (no header line)"};
-  return rows;
+  auto r = cal::read_stylus_poses(path);
+  if (!r) throw BadInput{r.error()};
+  return std::move(r).value();
 }
 
 std::vector<PoseRow> rows_with(const std::vector<PoseRow>& rows, const std::string& prefix) {
-  std::vector<PoseRow> out;
-  for (const auto& r : rows)
-    if (r.label.rfind(prefix, 0) == 0) out.push_back(r);
-  return out;
+  return cal::stylus_rows_with(rows, prefix);
 }
 
 int label_index(const PoseRow& r, const std::string& path, std::size_t limit) {
-  const auto colon = r.label.find(':');
-  try {
-    const int i = std::stoi(r.label.substr(colon + 1));
-    if (i < 0 || static_cast<std::size_t>(i) >= limit) throw std::out_of_range("x");
-    return i;
-  } catch (...) {
-    throw BadInput{path + ":" + std::to_string(r.line) + ": label \"" + r.label +
-                   "\" needs an index 0.." + std::to_string(limit - 1)};
-  }
+  auto i = cal::stylus_label_index(r, path, limit);
+  if (!i) throw BadInput{i.error()};
+  return *i;
 }
 
 // ---- the session ------------------------------------------------------------------------------
@@ -188,6 +125,7 @@ int step_camera(Session& s) {
                "board tilted 15-45 degrees toward the left, right, top and bottom, near the image\n"
                "edges and in the middle (where the tooth is drawn). Needs >= 6 usable views.");
   cal::CameraFile cf;
+  std::optional<cal::ModelSelection> selection;  // when calibrated here (not imported)
   if (!c.import_camera.empty()) {
     auto r = cal::read_camera_file(c.import_camera);
     if (!r) throw BadInput{r.error()};
@@ -202,8 +140,14 @@ int step_camera(Session& s) {
     if (!spec) throw BadInput{spec.error()};
     std::vector<cal::BoardView> views;
     int width = 0, height = 0;
-    cal::IntrinsicsOptions io;
-    if (c.rational) io.model = cal::DistortionModel::kRational8;
+    cal::IntrinsicsOptions io;  // live figures: the 5-coefficient fit
+    cal::ModelSelectionOptions mo;
+    if (c.rational || c.model == "rational8") mo.force = cal::DistortionModel::kRational8;
+    else if (c.model == "k1") mo.force = cal::DistortionModel::kK1;
+    else if (c.model == "k1k2") mo.force = cal::DistortionModel::kK1K2;
+    else if (c.model == "radtan5") mo.force = cal::DistortionModel::kRadTan5;
+    else if (c.model != "auto")
+      throw BadInput{"camera: --model " + c.model + " is not one of auto, k1, k1k2, radtan5, rational8"};
     auto live = [&](const std::string& what) {
       std::cout << "  [" << views.size() << "] " << what;
       if (static_cast<int>(views.size()) >= io.min_views) {
@@ -229,8 +173,11 @@ int step_camera(Session& s) {
                         : "")
                 << "\n";
       const ar::BoardTexture tex = ar::make_board_texture(*spec);
-      const auto poses = cal::plan_board_poses(k, ar::board_width_m(*spec), ar::board_height_m(*spec),
-                                               n, c.seed);
+      const auto poses = cal::plan_board_poses_in_region(
+          k, ar::board_width_m(*spec), ar::board_height_m(*spec), n, c.seed, c.sim_board_area / 100);
+      if (c.sim_board_area < 100)
+        std::cout << "simulated photos keep the board inside the middle " << fmt(c.sim_board_area, 0)
+                  << "% of the image\n";
       for (int i = 0; i < n; ++i) {
         ar::BoardRenderOptions ro;
         ro.supersample = 2;
@@ -284,14 +231,18 @@ int step_camera(Session& s) {
         throw BadInput{c.images + ": the board (" + c.board +
                        ") was not found in any photo; check --board"};
     }
-    const auto r = cal::calibrate_intrinsics(views, width, height, io);
-    std::cout << r.report();
-    if (!r.ok) return 1;
+    std::cout << "choosing the distortion model (k1, k1k2, radtan5, rational8 where warranted) "
+                 "on held-out views...\n";
+    const cal::ModelSelection sel = cal::select_camera_model(views, width, height, mo);
+    std::cout << sel.report();
+    if (!sel.ok) return 1;
+    const cal::IntrinsicsSummary& r = sel.chosen;
     if (c.simulate)
       std::cout << "simulation truth: fx " << fmt(s.truth.camera.fx) << " fy " << fmt(s.truth.camera.fy)
                 << " cx " << fmt(s.truth.camera.cx) << " cy " << fmt(s.truth.camera.cy)
                 << " px; error fx " << fmt(r.camera.fx - s.truth.camera.fx) << " px\n";
-    cf = r.to_camera_file(c.simulate ? "simulated head camera" : c.device);
+    cf = sel.to_camera_file(c.simulate ? "simulated head camera" : c.device);
+    selection = sel;
   }
   s.st.calibration.camera = cf.camera;
   s.st.camera_provenance = {cf.model, cf.rms_px, cf.std_devs, cf.date, cf.device, {}};
@@ -299,12 +250,38 @@ int step_camera(Session& s) {
   s.wrote_camera = true;
   ar::CalibrationStepReport rep{"camera", now_iso(), true, "", {}};
   rep.summary = "fx " + fmt(cf.camera.fx) + " fy " + fmt(cf.camera.fy) + " px, model " + cf.model;
+  if (selection)
+    rep.summary += " (distortion terms " + std::string(cal::distortion_model_name(selection->model)) +
+                   ", chosen on held-out views; trustworthy to " +
+                   fmt(selection->trust.max_error_px, 1) + " px over " +
+                   fmt(selection->trust.trusted_fraction * 100, 0) + "% of the image)";
+  else
+    rep.summary += " (imported from " + c.import_camera + ")";
   if (cf.rms_px >= 0) rep.figures.emplace_back("rms_px", cf.rms_px);
-  if (cf.std_devs.size() >= 2) {
+  if (cf.std_devs.size() >= 4) {
     rep.figures.emplace_back("fx_sd_px", cf.std_devs[0]);
     rep.figures.emplace_back("fy_sd_px", cf.std_devs[1]);
+    rep.figures.emplace_back("cx_sd_px", cf.std_devs[2]);
+    rep.figures.emplace_back("cy_sd_px", cf.std_devs[3]);
   }
   rep.figures.emplace_back("views", cf.views_used);
+  if (selection) {
+    const auto& ch = selection->candidates;
+    for (const auto& cand : ch)
+      if (cand.model == selection->model) rep.figures.emplace_back("heldout_rms_px", cand.heldout_rms_px);
+    rep.figures.emplace_back("distortion_terms", static_cast<double>(cal::free_coefficient_count(selection->model)));
+    rep.figures.emplace_back("trusted_image_pct", selection->trust.trusted_fraction * 100);
+    rep.figures.emplace_back("trusted_tooth_pct", selection->trust.tooth_trusted_fraction * 100);
+    double worst_tooth = 0;
+    const auto& tr = cal::IntrinsicsOptions{}.tooth_region;
+    for (int rr = 0; rr < selection->trust.rows; ++rr)
+      for (int cc = 0; cc < selection->trust.cols; ++cc) {
+        const double x = (cc + 0.5) / selection->trust.cols, y = (rr + 0.5) / selection->trust.rows;
+        if (x >= tr[0] && x <= tr[2] && y >= tr[1] && y <= tr[3])
+          worst_tooth = std::max(worst_tooth, selection->trust.bound_px[rr * selection->trust.cols + cc]);
+      }
+    rep.figures.emplace_back("tooth_error_bound_px", worst_tooth);
+  }
   s.st.set_step_report(rep);
   return 0;
 }
@@ -760,6 +737,7 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "station file only when its gates pass (docs/calibration.md).\n"
       "Synopsis: dentar calibrate <camera|pivot|register|tooth|mirror|check|all>\n"
       "            [--station FILE] [--simulate [--seed S]] [--images DIR --board SPEC]\n"
+      "            [--model auto|k1|k1k2|radtan5|rational8]\n"
       "            [--import CAMERA.yaml] [--camera-out FILE] [--export-ros FILE]\n"
       "            [--poses FILE.csv] [--count N] [--instructor-time]");
   s->add_option("step", c->step, "camera, pivot, register, tooth, mirror, check or all");
@@ -780,8 +758,14 @@ void add_calibrate(CLI::App& app, int& exit_code) {
   s->add_option("--export-ros", c->export_ros, "camera: also write a ROS camera_info YAML");
   s->add_option("--device", c->device, "camera: device name recorded in the camera file")
       ->capture_default_str();
+  s->add_option("--model", c->model,
+                "camera: distortion model: auto (default: the simplest model as good as the best on "
+                "held-out views; folding models refused), k1, k1k2, radtan5 or rational8 (a "
+                "requested model that folds over is refused and auto is used)")
+      ->check(CLI::IsMember({"auto", "k1", "k1k2", "radtan5", "rational8"}))
+      ->capture_default_str();
   s->add_flag("--rational", c->rational,
-              "camera: 8-coefficient rational model (the tracker uses only k1 k2 p1 p2 k3)");
+              "camera: same as --model rational8 (the tracker uses only k1 k2 p1 p2 k3)");
   s->add_option("--poses", c->poses,
                 "pivot/register/tooth/mirror: stylus poses CSV (label,tx_mm,ty_mm,tz_mm,rx_deg,"
                 "ry_deg,rz_deg[,mtag_...]; see docs/formats.md)");
@@ -794,6 +778,11 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   s->add_option("--bad-view", c->bad_view,
                 "--simulate camera: index of the warped-board (outlier) view, -1 for none")
+      ->capture_default_str();
+  s->add_option("--sim-board-area", c->sim_board_area,
+                "--simulate camera: keep every board inside the centred part of the image holding "
+                "this % of it (a user who never moved the board to the edges)")
+      ->check(CLI::Range(10.0, 100.0))
       ->capture_default_str();
   s->add_option("--frames", c->check_frames, "check: generated frames")
       ->check(CLI::Range(3, 1000))

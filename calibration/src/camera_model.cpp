@@ -179,8 +179,10 @@ Eigen::MatrixXd intrinsics_covariance(const Lens& l, const std::vector<int>& fr,
 
 // K-fold held-out reprojection RMS (px) of a model over the kept views.
 bool heldout_rms(const std::vector<BoardView>& views, int width, int height, DistortionModel m,
-                 int folds, double& rms, int& npts, std::string& error) {
+                 int folds, double& rms, int& npts, std::vector<double>& view_mse,
+                 std::string& error) {
   const int V = static_cast<int>(views.size());
+  view_mse.assign(V, NAN);
   const int K = std::clamp(folds, 2, V);
   double sse = 0;
   npts = 0;
@@ -210,11 +212,14 @@ bool heldout_rms(const std::vector<BoardView>& views, int width, int height, Dis
       } catch (const cv::Exception& e) {
         continue;  // this held-out view does not count
       }
+      double view_sse = 0;
       for (std::size_t j = 0; j < proj.size(); ++j) {
         const double dx = proj[j].x - img[j].x, dy = proj[j].y - img[j].y;
         sse += dx * dx + dy * dy;
+        view_sse += dx * dx + dy * dy;
         ++npts;
       }
+      if (!proj.empty()) view_mse[i] = view_sse / proj.size();
     }
   }
   if (npts == 0) {
@@ -223,6 +228,19 @@ bool heldout_rms(const std::vector<BoardView>& views, int width, int height, Dis
   }
   rms = std::sqrt(sse / npts);
   return true;
+}
+
+// Paired t statistic of a - b over the entries finite in both (0 with fewer than 3).
+double paired_t(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> d;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+    if (std::isfinite(a[i]) && std::isfinite(b[i])) d.push_back(a[i] - b[i]);
+  if (d.size() < 3) return 0;
+  double mean = 0, var = 0;
+  for (double x : d) mean += x / d.size();
+  for (double x : d) var += (x - mean) * (x - mean) / (d.size() - 1);
+  if (var <= 0) return mean > 0 ? std::numeric_limits<double>::infinity() : 0;
+  return mean / std::sqrt(var / d.size());
 }
 
 // Where a cell lies, for the instructor: "top-left corner", "left edge", "middle", ...
@@ -240,6 +258,10 @@ std::string cell_place(int r, int c, int rows, int cols) {
 }
 
 }  // namespace
+
+int free_coefficient_count(DistortionModel m) {
+  return static_cast<int>(free_coefficients(m).size());
+}
 
 Lens Lens::from(const CameraIntrinsics& k) {
   Lens l;
@@ -450,8 +472,7 @@ std::string ModelSelectionOptions::validate() const {
   if (std::string e = intrinsics.validate(); !e.empty()) return e;
   std::ostringstream os;
   if (folds < 2 || folds > 50) os << "folds = " << folds << " must be 2..50";
-  else if (!(as_good_ratio >= 1 && as_good_ratio < 2)) os << "as_good_ratio must be in [1, 2)";
-  else if (!(as_good_px >= 0)) os << "as_good_px must be >= 0";
+  else if (!(significance_t > 0)) os << "significance_t must be > 0";
   else if (!(max_error_px > 0)) os << "max_error_px must be > 0";
   else if (!(sigma_k >= 0)) os << "sigma_k must be >= 0";
   else if (!(extrapolation_margin >= 1)) os << "extrapolation_margin must be >= 1";
@@ -489,11 +510,11 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
     if (m == DistortionModel::kRational8 && o.force != m) {
       const CandidateModel& k1k2 = sel.candidates[1];
       const CandidateModel& rt5 = sel.candidates[2];
-      const bool gain = k1k2.heldout_rms_px > 0 && rt5.heldout_rms_px > 0 &&
-                        rt5.heldout_rms_px < o.rational_gain * k1k2.heldout_rms_px;
+      const bool gain = k1k2.heldout_rms_px > 0 && rt5.heldout_rms_px > 0 && rt5.check.ok &&
+                        paired_t(k1k2.heldout_view_mse, rt5.heldout_view_mse) >= o.significance_t;
       if (!gain || base.coverage.image_fraction < o.rational_min_coverage) {
-        c.verdict = !gain ? "not fitted: radtan5 is not clearly better than k1k2 on held-out views, "
-                            "so nothing asks for more terms"
+        c.verdict = !gain ? "not fitted: radtan5 is not valid or not significantly better than k1k2 "
+                            "on held-out views, so nothing asks for more terms"
                           : "not fitted: the boards cover too little of the image for 8 coefficients";
         sel.candidates.push_back(c);
         continue;
@@ -517,7 +538,8 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
     }
     c.fitted = true;
     std::string err;
-    if (!heldout_rms(kept, width, height, m, o.folds, c.heldout_rms_px, c.heldout_points, err)) {
+    if (!heldout_rms(kept, width, height, m, o.folds, c.heldout_rms_px, c.heldout_points,
+                     c.heldout_view_mse, err)) {
       c.heldout_rms_px = -1;
       c.verdict = "no held-out figure: " + err;
     }
@@ -526,17 +548,25 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
     sel.candidates.push_back(c);
   }
 
-  // 3. Choose: the simplest valid model as good as the best valid one on held-out views. The
-  // tracker reads 5 coefficients, so rational8 is reported but not chosen automatically.
-  double best = std::numeric_limits<double>::infinity(), best_usable = best;
-  for (const auto& c : sel.candidates)
-    if (c.fitted && c.check.ok && c.heldout_rms_px > 0) {
-      best = std::min(best, c.heldout_rms_px);
-      if (c.model != DistortionModel::kRational8) best_usable = std::min(best_usable, c.heldout_rms_px);
-    }
-  for (auto& c : sel.candidates)
-    c.as_good = c.fitted && c.check.ok && c.heldout_rms_px > 0 &&
-                c.heldout_rms_px <= best * o.as_good_ratio + o.as_good_px;
+  // 3. Choose: the simplest valid model not significantly worse than the best valid one on
+  // held-out views. The tracker reads 5 coefficients, so rational8 is reported but not chosen
+  // automatically: among the others, the comparison is with the best of them.
+  int best_i = -1, best_usable_i = -1;
+  for (std::size_t i = 0; i < sel.candidates.size(); ++i) {
+    const auto& c = sel.candidates[i];
+    if (!(c.fitted && c.check.ok && c.heldout_rms_px > 0)) continue;
+    if (best_i < 0 || c.heldout_rms_px < sel.candidates[best_i].heldout_rms_px) best_i = static_cast<int>(i);
+    if (c.model != DistortionModel::kRational8 &&
+        (best_usable_i < 0 || c.heldout_rms_px < sel.candidates[best_usable_i].heldout_rms_px))
+      best_usable_i = static_cast<int>(i);
+  }
+  const double best = best_i >= 0 ? sel.candidates[best_i].heldout_rms_px : INFINITY;
+  for (auto& c : sel.candidates) {
+    if (!(c.fitted && c.check.ok && c.heldout_rms_px > 0) || best_usable_i < 0) continue;
+    const auto& ref = sel.candidates[c.model == DistortionModel::kRational8 ? best_i : best_usable_i];
+    c.t_vs_best = paired_t(c.heldout_view_mse, ref.heldout_view_mse);
+    c.as_good = &c == &ref || c.t_vs_best < o.significance_t;
+  }
   int chosen = -1;
   std::string forced_note;
   if (o.force) {
@@ -553,8 +583,7 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
   if (chosen < 0)
     for (std::size_t i = 0; i < sel.candidates.size(); ++i) {
       const auto& c = sel.candidates[i];
-      if (c.model != DistortionModel::kRational8 && c.fitted && c.check.ok && c.heldout_rms_px > 0 &&
-          c.heldout_rms_px <= best_usable * o.as_good_ratio + o.as_good_px) {
+      if (c.model != DistortionModel::kRational8 && c.as_good) {
         chosen = static_cast<int>(i);
         break;
       }
@@ -579,10 +608,15 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
     if (o.force && *o.force == ch.model)
       os << "requested with --model; held-out RMS " << ch.heldout_rms_px << " px (best valid "
          << best << " px)";
+    else if (chosen == best_usable_i)
+      os << "the best valid model on held-out views (held-out RMS " << ch.heldout_rms_px
+         << " px); every simpler model is significantly worse there or was refused";
     else
-      os << "the simplest model whose held-out RMS (" << ch.heldout_rms_px << " px) is within "
-         << std::setprecision(0) << (o.as_good_ratio - 1) * 100 << "% of the best valid model's ("
-         << std::setprecision(3) << best << " px)";
+      os << "the simplest model not significantly worse on held-out views than the best valid "
+         << "one (held-out RMS " << ch.heldout_rms_px << " px vs "
+         << sel.candidates[best_usable_i].heldout_rms_px << " px for "
+         << distortion_model_name(sel.candidates[best_usable_i].model) << "; paired t over the "
+         << "views " << std::setprecision(1) << ch.t_vs_best << " < " << o.significance_t << ")";
     std::vector<std::string> refused;
     for (const auto& c : sel.candidates)
       if (c.fitted && !c.check.ok) refused.push_back(distortion_model_name(c.model));
@@ -598,12 +632,13 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
     } else if (c.fitted && c.check.ok && c.verdict.empty()) {
       std::ostringstream os;
       os << std::fixed << std::setprecision(3);
-      if (c.as_good)
-        os << (c.model == DistortionModel::kRational8 && best < best_usable * o.as_good_ratio
-                   ? "best held-out RMS, but the tracker reads only k1 k2 p1 p2 k3"
-                   : "as good on held-out views, but more coefficients");
+      if (c.model == DistortionModel::kRational8 && c.heldout_rms_px <= best)
+        os << "best held-out RMS, but the tracker reads only k1 k2 p1 p2 k3";
+      else if (c.as_good)
+        os << "as good on held-out views, but more coefficients";
       else if (&c < &ch)
-        os << "worse on held-out views (" << c.heldout_rms_px << " px)";
+        os << "significantly worse on held-out views (paired t " << std::setprecision(1)
+           << c.t_vs_best << ")";
       else
         os << "not better than the chosen model on held-out views";
       c.verdict = os.str();
@@ -611,7 +646,7 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
   }
   if (ch.model != DistortionModel::kRational8 && sel.candidates[3].fitted &&
       sel.candidates[3].check.ok && sel.candidates[3].heldout_rms_px > 0 &&
-      sel.candidates[3].heldout_rms_px * o.as_good_ratio + o.as_good_px < ch.heldout_rms_px)
+      paired_t(ch.heldout_view_mse, sel.candidates[3].heldout_view_mse) >= o.significance_t)
     sel.warnings.push_back(
         "the rational model fits held-out views clearly better (" +
         fmt(sel.candidates[3].heldout_rms_px, 3) + " px vs " + fmt(ch.heldout_rms_px, 3) +

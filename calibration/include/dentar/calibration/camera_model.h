@@ -9,7 +9,8 @@
 //     view's board pose with the fitted intrinsics, RMS of its reprojection),
 //  3. refuses a model whose radial factor is not monotonic, or whose projection cannot be
 //     inverted, anywhere in the image (check_lens),
-//  4. keeps the simplest valid model whose held-out RMS is as good as the best valid one's,
+//  4. keeps the simplest valid model not significantly worse on held-out views than the best
+//     valid one (paired t over the views),
 //  5. maps, over the image, an upper bound of the chosen model's projection error: the
 //     projection uncertainty from the fit's noise (the full covariance of the intrinsics with
 //     the board poses marginalised, as mrcal does, here without its rotation compensation, so
@@ -46,6 +47,9 @@ struct Lens {
   bool unproject(const Eigen::Vector2d& px, Eigen::Vector2d& xy) const;
 };
 
+// Coefficients a model fits: 1, 2, 5, 8.
+int free_coefficient_count(DistortionModel m);
+
 struct LensCheck {
   bool ok = false;
   std::string reason;        // why not, in words for an instructor (empty when ok)
@@ -66,8 +70,12 @@ struct CandidateModel {
   IntrinsicsSummary fit;       // on all the kept views
   double heldout_rms_px = -1;  // RMS reprojection distance of the held-out views
   int heldout_points = 0;
+  std::vector<double> heldout_view_mse;  // per kept view, mean squared distance (NaN: unsolved)
+  // Paired t statistic, over the held-out views, of this model's squared error minus the best
+  // valid model's: > significance_t means this model is significantly worse.
+  double t_vs_best = 0;
   LensCheck check;
-  bool as_good = false;        // valid and held-out RMS within the tolerance of the best
+  bool as_good = false;        // valid and not significantly worse than the best on held-out views
   std::string verdict;         // "chosen: ...", "refused: ...", "worse on held-out views ..."
 };
 
@@ -93,12 +101,14 @@ struct TrustMap {
 struct ModelSelectionOptions {
   IntrinsicsOptions intrinsics;  // rejection, gates, coverage grid, tooth region (model ignored)
   int folds = 5;                 // K of the K-fold held-out comparison (fewer when fewer views)
-  // "As good": held-out RMS <= best * as_good_ratio + as_good_px.
-  double as_good_ratio = 1.05;
-  double as_good_px = 0.005;
-  // rational8 is fitted only when radtan5 beats k1k2 on held-out views by this factor (higher
-  // order distortion is evident) and the boards cover at least this fraction of the image.
-  double rational_gain = 0.95;
+  // "As good" as the best valid model (lowest held-out RMS): the paired t statistic of the
+  // per-view held-out squared errors (this model minus the best) is below significance_t.
+  // A model that only memorises the boards gains nothing here; a real lens term lowers the
+  // error on every held-out view and is kept.
+  double significance_t = 2.0;
+  // rational8 is fitted only when radtan5 is valid and significantly better than k1k2 on
+  // held-out views (higher-order distortion is evident) and the boards cover at least this
+  // fraction of the image.
   double rational_min_coverage = 0.5;
   double max_reversal_px = 0.5;  // check_lens
   double max_error_px = 1.0;     // trust threshold of the map
