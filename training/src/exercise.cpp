@@ -169,9 +169,11 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
     try {
       const json again = json::parse(text);
       (void)again;
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse_error, or out_of_range for a number overflow
       std::size_t line = 1, col = 1;
-      for (std::size_t i = 0; i < std::min<std::size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size()); ++i) {
+      std::size_t byte = text.size();
+      if (const auto* pe = dynamic_cast<const json::parse_error*>(&e)) byte = pe->byte > 0 ? pe->byte - 1 : 0;
+      for (std::size_t i = 0; i < std::min(byte, text.size()); ++i) {
         if (text[i] == '\n') {
           ++line;
           col = 1;
@@ -179,6 +181,7 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
           ++col;
         }
       }
+      if (!dynamic_cast<const json::parse_error*>(&e)) return Error{name + ": not valid JSON (" + e.what() + ")"};
       return Error{name + ": line " + std::to_string(line) + ", column " + std::to_string(col) +
                    ": not valid JSON (" + e.what() + ")"};
     }

@@ -50,7 +50,7 @@ bool parse_double(const std::string& s, double& v) {
   const char* b = s.data();
   const char* e = s.data() + s.size();
   auto r = std::from_chars(b, e, v);
-  return r.ec == std::errc() && r.ptr == e;
+  return r.ec == std::errc() && r.ptr == e && std::isfinite(v);
 }
 
 }  // namespace
@@ -144,7 +144,7 @@ Result<KinematicsTable> parse_kinematics(const std::string& text, const std::str
     for (std::size_t c = 0; c < ncols; ++c)
       if (!parse_double(f[c], r[c]))
         return Error{name + ": line " + std::to_string(ln) + ", column " + std::to_string(c + 1) +
-                     (header.empty() ? "" : " ('" + header[c] + "')") + ": '" + f[c] + "' is not a number"};
+                     (header.empty() ? "" : " ('" + header[c] + "')") + ": '" + f[c] + "' is not a finite number"};
     rows.push_back(std::move(r));
   }
   if (rows.size() < 2) return Error{name + ": fewer than 2 data rows"};
@@ -221,7 +221,7 @@ Result<KinematicsTable> parse_kinematics(const std::string& text, const std::str
     t.rate_hz = map.rate_hz / map.decimate;
   } else {
     const double span = rows.back()[tcol] - rows.front()[tcol];
-    if (!(span > 0)) return Error{name + ": the time column '" + map.time + "' does not increase"};
+    if (!(std::isfinite(span) && span > 0)) return Error{name + ": the time column '" + map.time + "' does not increase (or spans more than a double holds)"};
     t.rate_hz = static_cast<double>(rows.size() - 1) / span / map.decimate;
   }
   return t;
