@@ -29,7 +29,16 @@ constexpr double kTolMm = 0.1;
 
 std::string quote(const fs::path& p) { return "'" + p.string() + "'"; }
 
+// The rasterisers are Debian packages (tools/bootstrap.sh); CMake found them at configure time.
+bool have_tool(const std::string& path, const char* package) {
+  const bool ok = !path.empty() && path.find("NOTFOUND") == std::string::npos && fs::exists(path);
+  EXPECT_TRUE(ok) << "no " << path << ": apt-get install " << package
+                  << " (tools/bootstrap.sh lists it), then re-run cmake";
+  return ok;
+}
+
 cv::Mat render_pdf_page(const fs::path& pdf, int page, const fs::path& dir, double dpi) {
+  if (!have_tool(DENTAR_PDFTOPPM, "poppler-utils")) return {};
   const fs::path prefix = dir / ("pdf_page" + std::to_string(page + 1));
   const std::string cmd = std::string(DENTAR_PDFTOPPM) + " -r " + std::to_string(int(dpi)) +
                           " -gray -singlefile -f " + std::to_string(page + 1) + " -l " +
@@ -40,6 +49,7 @@ cv::Mat render_pdf_page(const fs::path& pdf, int page, const fs::path& dir, doub
 }
 
 cv::Mat render_svg(const fs::path& svg, const fs::path& dir, double dpi) {
+  if (!have_tool(DENTAR_RSVG_CONVERT, "librsvg2-bin")) return {};
   const fs::path png = dir / (svg.stem().string() + "_svg.png");
   const std::string d = std::to_string(int(dpi));
   const std::string cmd = std::string(DENTAR_RSVG_CONVERT) + " --dpi-x " + d + " --dpi-y " + d +
