@@ -45,6 +45,17 @@ std::string read_text(const std::string& path, std::string& err) {
     err = path + ": cannot open the camera file (check the path and permissions)";
     return {};
   }
+  // Camera files are a few KiB. A large file given here by mistake (a video, a CT volume)
+  // would be read whole and handed to OpenCV's parser, which can then run for minutes: refuse
+  // it up front.
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size > (1 << 20)) {
+    err = path + ": " + std::to_string(size) + " bytes is far too large for a camera file (at "
+          "most 1 MiB); give the calibration YAML/XML";
+    return {};
+  }
+  in.seekg(0);
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();

@@ -233,6 +233,36 @@ TEST(CameraFile, MissingFileNamesThePath) {
   EXPECT_NE(r.error().find("/nonexistent/dir/cam.yaml"), std::string::npos);
 }
 
+TEST(CameraFile, HugeFileIsRefusedBeforeParsing) {
+  const fs::path d = temp_dir("camfile_huge");
+  write_file(d / "big.yaml", "%YAML:1.0\n---\n" + std::string(2u << 20, '#') + "\n");
+  auto r = read_camera_file((d / "big.yaml").string());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("too large for a camera file"), std::string::npos) << r.error();
+}
+
+// Free text that OpenCV's writer or YAML reader would take for structure (fuzzing findings):
+// every writer must produce a file that reads back.
+TEST(CameraFile, TextStartingWithBracesRoundTrips) {
+  const fs::path d = temp_dir("camfile_braces");
+  CameraFile f = sample();
+  f.date = "{un Nov 22 01:30:00 2026";
+  f.device = "[left] cam: #2";
+  f.camera_name = "{a: [1, {";
+  for (const char* name : {"c.yaml", "c.xml"}) {
+    ASSERT_TRUE(write_camera_file((d / name).string(), f).ok()) << name;
+    auto r = read_camera_file((d / name).string());
+    ASSERT_TRUE(r.ok()) << name << ": " << r.error();
+    EXPECT_EQ(r->date, f.date) << name;
+    EXPECT_EQ(r->device, f.device) << name;
+    expect_same(f, *r);
+  }
+  ASSERT_TRUE(write_ros_camera_info((d / "ros.yaml").string(), f).ok());
+  auto r = read_camera_file((d / "ros.yaml").string());
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->camera_name, f.camera_name);
+}
+
 TEST(CameraFile, WriteRefusesInvalidContentAndLeavesNoFile) {
   const fs::path d = temp_dir("camfile_badwrite");
   CameraFile f = sample();
