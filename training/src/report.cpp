@@ -88,7 +88,7 @@ std::string target_map_svg(const Exercise& ex, const RegionMasks& m, const volum
   const int px = 4, W = cu * px, H = cv * px;
   std::ostringstream s;
   s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W + 190 << "' height='" << std::max(H, 150)
-    << "' font-family='sans-serif' font-size='11'>";
+    << "' font-family='sans-serif' font-size='11'><rect width='100%' height='100%' fill='white'/>";
   for (int y = 0; y < cv; ++y)
     for (int x = 0; x < cu;) {
       const int c = colour[static_cast<std::size_t>(y * cu + x)];
@@ -118,7 +118,7 @@ std::string force_plot_svg(const SessionTrack& t, const std::vector<int>& steps,
   auto X = [&](double tt) { return L + (W - L - 10) * (tt - t0) / std::max(1e-9, t1 - t0); };
   auto Y = [&](double f) { return 10 + (H - B - 10) * (0.5 - 0.5 * f / fmax); };
   std::ostringstream s;
-  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'>";
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'><rect width='100%' height='100%' fill='white'/>";
   // Step bands.
   for (std::size_t i = 0; i < steps.size();) {
     std::size_t j = i;
@@ -160,7 +160,7 @@ std::string step_band_svg(const ProcessMetrics& p, const ExpertReference& r) {
   }
   const int pw = (W - L - 20) / 3;
   std::ostringstream s;
-  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'>";
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'><rect width='100%' height='100%' fill='white'/>";
   const char* lab[3] = {"Fx mesio-distal (N)", "Fy bucco-lingual (N)", "Fz long axis (N)"};
   for (int a = 0; a < 3; ++a) {
     const int x0 = L + a * pw;
