@@ -100,6 +100,17 @@ Result<std::unique_ptr<EvdevPedal>> EvdevPedal::open(const std::string& path, st
   std::unique_ptr<EvdevPedal> p(new EvdevPedal());
   p->path_ = path;
   p->keys_ = std::move(keys);
+  if (vid == 0 && pid == 0) {
+    // Remember the device's USB identity, so it is found again after an
+    // unplug even when it comes back as another eventN.
+    namespace fs = std::filesystem;
+    const fs::path id = fs::path("/sys/class/input") / fs::path(path).filename() / "device/id";
+    const std::string v = read_line(id / "vendor"), d = read_line(id / "product");
+    if (!v.empty() && !d.empty()) {
+      vid = static_cast<std::uint16_t>(std::strtoul(v.c_str(), nullptr, 16));
+      pid = static_cast<std::uint16_t>(std::strtoul(d.c_str(), nullptr, 16));
+    }
+  }
   p->vid_ = vid;
   p->pid_ = pid;
   p->can_reopen_ = true;
