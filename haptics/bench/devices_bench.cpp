@@ -56,7 +56,9 @@ void print_pct(const char* what, const std::vector<double>& v, double scale, con
 }
 
 // An engine-like 1 kHz loop (absolute deadlines) over a device for `seconds`.
-void paced_loop(HapticDevice& d, double seconds, std::vector<double>& cost, std::vector<double>* age) {
+// `clock0` turns DeviceState::time_s (s since open) into CLOCK_MONOTONIC time.
+void paced_loop(HapticDevice& d, double seconds, std::vector<double>& cost, std::vector<double>* age,
+                double clock0 = 0) {
   timespec next;
   clock_gettime(CLOCK_MONOTONIC, &next);
   const int n = static_cast<int>(seconds * 1000);
@@ -73,7 +75,7 @@ void paced_loop(HapticDevice& d, double seconds, std::vector<double>& cost, std:
     d.write_force(ok ? Eigen::Vector3d(0.1, 0, 0) : Eigen::Vector3d::Zero());
     const double t1 = now_s();
     cost.push_back(t1 - t0);
-    if (age && ok) age->push_back(t0 - st.time_s);
+    if (age && ok) age->push_back(t0 - (clock0 + st.time_s));
   }
 }
 
@@ -88,7 +90,7 @@ void bench_overhead(double seconds) {
       std::printf("  HD stand-in: %s\n", d.error().c_str());
     } else {
       std::vector<double> cost, age;
-      paced_loop(**d, seconds, cost, &age);
+      paced_loop(**d, seconds, cost, &age, (*d)->opened_at_s());
       print_pct("HD (SeqLock mailbox) read+write", cost, 1e6, "us");
       print_pct("HD servo sample age at read", age, 1e3, "ms");
       std::printf("  HD faults during the run: %llu\n",

@@ -159,6 +159,8 @@ TEST_F(DhdStandin, PoseButtonsAndForces) {
   EXPECT_NEAR(st.T_dev_sty.translation().norm(), 0.01, 1e-12);  // the circle, in m
   EXPECT_NEAR(st.velocity_m_per_s.norm(), 0.01 * M_PI, 1e-12);
   EXPECT_EQ(st.buttons, kButtonPrimary);
+  EXPECT_GE(st.time_s, 0.0);  // seconds since open
+  EXPECT_LT(st.time_s, 5.0);
   d->write_force({1, 2, 3});
   d->write_force({40, 0, 0});  // above the omega's 12 N
   d->write_force({std::numeric_limits<double>::quiet_NaN(), 0, 0});

@@ -175,6 +175,11 @@ TEST_F(HdStandin, PoseVelocityAndButtonsInSIUnits) {
   EXPECT_NEAR(st.velocity_m_per_s.norm(), 10e-3 * 2 * M_PI * 0.5, 1e-9);
   EXPECT_EQ(st.buttons, kButtonPrimary | kButtonSecondary);
   EXPECT_TRUE(st.T_dev_sty.linear().isIdentity(1e-12));
+  // Device time: seconds since open, advancing with the servo ticks.
+  EXPECT_GT(st.time_s, 0.0);
+  EXPECT_LT(st.time_s, 5.0);
+  const double t1 = st.time_s;
+  ASSERT_TRUE(wait_for([&] { return d->read(st) && st.time_s > t1 + 0.002; }));
   EXPECT_EQ(d->info().calibration, "ok");
   EXPECT_EQ(force_enabled(), 1);
   EXPECT_NE(d->status().find(": ok"), std::string::npos) << d->status();

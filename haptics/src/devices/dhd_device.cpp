@@ -129,6 +129,7 @@ struct DhdDevice::Impl {
   bool wrist = false;
   DeviceOpenOptions opts;
   double max_force_N = 12.0;
+  double t0_s = 0;  // CLOCK_MONOTONIC at open: DeviceState::time_s counts from here
   // Haptic thread.
   int pending_error = 0;   // from write_force, reported by the next read
   bool pending_stall = false;
@@ -296,6 +297,7 @@ Result<std::unique_ptr<DhdDevice>> DhdDevice::open(const DeviceOpenOptions& o) {
   d->limits_ = limits_from_profile(*d->profile_);
   m.max_force_N = d->limits_.max_force_N;
   d->monitor_.configure(o);
+  m.t0_s = detail::monotonic_s();
   a.dhdSetForce(0, 0, 0, m.id);
   if (a.dhdEnableForce(1, m.id) < 0)
     return fail("cannot enable forces on " + d->info_.model + ": " + a.error_text(a.dhdErrorGetLast()));
@@ -342,7 +344,7 @@ bool DhdDevice::read(DeviceState& out) noexcept {
     for (int c = 0; c < 3; ++c) out.T_dev_sty.linear()(r, c) = R[r][c];
   out.T_dev_sty.translation() = Eigen::Vector3d(p[0], p[1], p[2]);
   out.velocity_m_per_s = Eigen::Vector3d(v[0], v[1], v[2]);
-  out.time_s = t1;
+  out.time_s = t1 - m.t0_s;  // s since open
   out.buttons = (buttons & 1u ? kButtonPrimary : 0u) | (buttons & 2u ? kButtonSecondary : 0u);
   const bool ok = monitor_.check(out.T_dev_sty, out.velocity_m_per_s, ext, code);
   out.fault = !ok;

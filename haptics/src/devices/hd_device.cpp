@@ -199,6 +199,7 @@ struct HdDevice::Impl {
   bool scheduler_started = false;
   DeviceOpenOptions opts;
   double max_force_N = 3.3;
+  double t0_s = 0;  // CLOCK_MONOTONIC at open: DeviceState::time_s counts from here
   SeqLock<ServoState> state;
   SeqLock<ForceCmd> force;
   std::atomic<bool> closing{false};
@@ -375,6 +376,7 @@ Result<std::unique_ptr<HdDevice>> HdDevice::open(const DeviceOpenOptions& o) {
   ForceCmd zero{};
   zero.stamp_s = -1e9;  // stale: the servo sends zero until the engine writes
   m.force.store(zero);
+  m.t0_s = detail::monotonic_s();
   a.hdEnable(kHdForceOutput);
   a.hdStartScheduler();
   m.scheduler_started = true;
@@ -430,6 +432,7 @@ std::string HdDevice::name() const {
 }
 
 std::uint64_t HdDevice::servo_ticks() const noexcept { return impl_->state.load().tick; }
+double HdDevice::opened_at_s() const noexcept { return impl_->t0_s; }
 
 bool HdDevice::read(DeviceState& out) noexcept {
   Impl& m = *impl_;
@@ -451,7 +454,7 @@ bool HdDevice::read(DeviceState& out) noexcept {
   out.T_dev_sty.linear() = M.topLeftCorner<3, 3>();
   out.T_dev_sty.translation() = 1e-3 * M.topRightCorner<3, 1>();
   out.velocity_m_per_s = 1e-3 * Eigen::Vector3d(s.v_mm_s[0], s.v_mm_s[1], s.v_mm_s[2]);
-  out.time_s = s.stamp_s;
+  out.time_s = s.stamp_s - m.t0_s;  // the servo tick's time, s since open
   out.buttons = (s.buttons & 1 ? kButtonPrimary : 0u) | (s.buttons & 2 ? kButtonSecondary : 0u);
   const bool ok = monitor_.check(out.T_dev_sty, out.velocity_m_per_s, ext, code);
   out.fault = !ok;

@@ -46,6 +46,8 @@ class HdDevice final : public HapticDevice {
   const FaultMonitor& faults() const { return monitor_; }
   // Servo ticks seen so far (any thread).
   std::uint64_t servo_ticks() const noexcept;
+  // CLOCK_MONOTONIC (s) at open: DeviceState::time_s + this = the tick's clock time.
+  double opened_at_s() const noexcept;
 
   struct Impl;
 

@@ -2,6 +2,9 @@
 // share: open options, runtime probing results, and the fault monitor that
 // turns NaN, pose jumps, stalls and runtime errors into zero force.
 //
+// DeviceState::time_s of these devices: seconds since the device was opened
+// (CLOCK_MONOTONIC; HD: the servo tick that took the sample).
+//
 // Fault policy (all backends): on any fault read() returns false with
 // DeviceState::fault set (the engine sends zero force at once and marks the
 // step in the session log), status() says what happened and what to do, and
