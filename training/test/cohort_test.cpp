@@ -142,3 +142,44 @@ TEST(Assess, WilsonIntervalMatchesHandComputation) {
 
 }  // namespace
 }  // namespace dentar::training
+
+namespace dentar::training {
+namespace {
+
+// The 13-step incisor preparation: steps approach from labial (-y) or
+// incisal (+z), several share a region; the Viterbi order prior separates them.
+TEST(Cohort, AutomaticStepsOnTheThirteenStepIncisorPreparation) {
+  auto ex = load_builtin_exercise("incisor_partial_crown");
+  ASSERT_TRUE(ex.ok()) << ex.error();
+  CohortOptions o;
+  o.experts = 1;
+  o.novices = 1;
+  o.trials = 1;
+  o.voxel_mm = 0.2;
+  o.bur_samples = 500;
+  o.seed = 5;
+  const std::string dir = ::testing::TempDir() + "/dentar_incisor_cohort";
+  std::filesystem::remove_all(dir);
+  auto t = generate_cohort(*ex, o, dir);
+  ASSERT_TRUE(t.ok()) << t.error();
+  for (const auto& tr : *t) {
+    auto log = haptics::read_session_log(tr.session_path);
+    ASSERT_TRUE(log.ok());
+    auto s = decode_session(*log, tr.session_path);
+    ASSERT_TRUE(s.ok());
+    const auto steps = segment_steps(*s, *ex, nullptr, nullptr);
+    double agree = 0, n = 0;
+    for (std::size_t f = 0; f < steps.size(); ++f) {
+      const int truth = tr.true_step_at(s->t_s[f]);
+      if (truth < 0 || s->removed_total(f) <= 0) continue;
+      agree += steps[f] == truth;
+      n += 1;
+    }
+    std::cerr << tr.label << " incisor step agreement " << agree / n << " over " << n << " frames\n";
+    ASSERT_GT(n, 50);
+    EXPECT_GT(agree / n, tr.label == "expert" ? 0.9 : 0.75);
+  }
+}
+
+}  // namespace
+}  // namespace dentar::training
