@@ -473,6 +473,8 @@ std::string ModelSelectionOptions::validate() const {
   std::ostringstream os;
   if (folds < 2 || folds > 50) os << "folds = " << folds << " must be 2..50";
   else if (!(significance_t > 0)) os << "significance_t must be > 0";
+  else if (!(as_good_ratio >= 1 && as_good_ratio < 2)) os << "as_good_ratio must be in [1, 2)";
+  else if (!(as_good_px >= 0)) os << "as_good_px must be >= 0";
   else if (!(max_error_px > 0)) os << "max_error_px must be > 0";
   else if (!(sigma_k >= 0)) os << "sigma_k must be >= 0";
   else if (!(extrapolation_margin >= 1)) os << "extrapolation_margin must be >= 1";
@@ -565,7 +567,8 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
     if (!(c.fitted && c.check.ok && c.heldout_rms_px > 0) || best_usable_i < 0) continue;
     const auto& ref = sel.candidates[c.model == DistortionModel::kRational8 ? best_i : best_usable_i];
     c.t_vs_best = paired_t(c.heldout_view_mse, ref.heldout_view_mse);
-    c.as_good = &c == &ref || c.t_vs_best < o.significance_t;
+    c.as_good = &c == &ref || (c.t_vs_best < o.significance_t &&
+                               c.heldout_rms_px <= ref.heldout_rms_px * o.as_good_ratio + o.as_good_px);
   }
   int chosen = -1;
   std::string forced_note;
@@ -610,13 +613,15 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
          << best << " px)";
     else if (chosen == best_usable_i)
       os << "the best valid model on held-out views (held-out RMS " << ch.heldout_rms_px
-         << " px); every simpler model is significantly worse there or was refused";
+         << " px); every simpler model is worse there (significantly, or by more than "
+         << std::setprecision(0) << (o.as_good_ratio - 1) * 100 << "%) or was refused";
     else
       os << "the simplest model not significantly worse on held-out views than the best valid "
          << "one (held-out RMS " << ch.heldout_rms_px << " px vs "
          << sel.candidates[best_usable_i].heldout_rms_px << " px for "
          << distortion_model_name(sel.candidates[best_usable_i].model) << "; paired t over the "
-         << "views " << std::setprecision(1) << ch.t_vs_best << " < " << o.significance_t << ")";
+         << "views " << std::setprecision(1) << ch.t_vs_best << " < " << o.significance_t
+         << " and within " << std::setprecision(0) << (o.as_good_ratio - 1) * 100 << "%)";
     std::vector<std::string> refused;
     for (const auto& c : sel.candidates)
       if (c.fitted && !c.check.ok) refused.push_back(distortion_model_name(c.model));
@@ -637,8 +642,8 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
       else if (c.as_good)
         os << "as good on held-out views, but more coefficients";
       else if (&c < &ch)
-        os << "significantly worse on held-out views (paired t " << std::setprecision(1)
-           << c.t_vs_best << ")";
+        os << "worse on held-out views (held-out RMS " << c.heldout_rms_px << " px, paired t "
+           << std::setprecision(1) << c.t_vs_best << ")";
       else
         os << "not better than the chosen model on held-out views";
       c.verdict = os.str();

@@ -106,6 +106,10 @@ struct ModelSelectionOptions {
   // A model that only memorises the boards gains nothing here; a real lens term lowers the
   // error on every held-out view and is kept.
   double significance_t = 2.0;
+  // ... and its held-out RMS is within as_good_ratio * best + as_good_px (with few views the
+  // t test alone misses a model that is plainly worse: twice the best RMS at t = 1.9).
+  double as_good_ratio = 1.05;
+  double as_good_px = 0.005;
   // rational8 is fitted only when radtan5 is valid and significantly better than k1k2 on
   // held-out views (higher-order distortion is evident) and the boards cover at least this
   // fraction of the image.
