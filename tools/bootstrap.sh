@@ -33,8 +33,8 @@ packages=(
   # to pixels with poppler (pdftoppm) and librsvg (rsvg-convert).
   libcairo2-dev poppler-utils librsvg2-bin
   # The live trainer (dentar live): window and HUD (GLFW 3.3, Dear ImGui 1.86,
-  # desktop GL), and Xvfb + xauth for its windowed tests.
-  libglfw3-dev libimgui-dev libgl-dev xvfb xauth
+  # desktop GL), and Xvfb + xauth + xdotool for its windowed tests.
+  libglfw3-dev libimgui-dev libgl-dev xvfb xauth xdotool
 )
 if [[ "$job" == bench ]]; then packages+=(libvtk9-dev); fi
 

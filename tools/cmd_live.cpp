@@ -34,16 +34,23 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(CLI::NonNegativeNumber);
   sub->add_option("--height", c->o.height, "requested camera height (px)")->check(CLI::NonNegativeNumber);
   sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(CLI::NonNegativeNumber);
-  sub->add_option("--station", c->o.station, "station file (default: the built-in station)");
+  sub->add_option("--station", c->o.station,
+                  "station file, or a built-in station: default (phantom head), box (flat tag board)");
   sub->add_flag("--scale-calib", c->o.scale_calib, "accept a camera of another size (intrinsics scaled)");
   sub->add_option("--stylus", c->o.stylus, "sim (simulated hand), pen (printed pen tag), replay:FILE.dlog, none");
   sub->add_option("--model", c->o.model, "force model: proxy or seed");
+  sub->add_option("--device", c->o.device,
+                  "a real haptic device instead of --stylus: touch, omni, desktop, premium, premium3, hd, "
+                  "omega, sigma, delta, falcon, dhd (see `dentar devices`)");
+  sub->add_option("--device-name", c->o.device_name, "the device's configuration name or serial (default: the first)");
+  sub->add_option("--pedal", c->o.pedal, "keyboard (space bar, default), auto, vec, usb:VID:PID, evdev:/dev/input/eventN");
   sub->add_option("--display", c->o.display, "monitor index for fullscreen (the HMD's input); -1 = a window");
   sub->add_option("--window-width", c->o.window_width, "window width (px, default: the camera's)");
   sub->add_option("--window-height", c->o.window_height, "window height (px)");
   sub->add_flag("--no-hud", c->no_hud, "video only, no HUD");
   sub->add_flag("--no-vsync", c->no_vsync, "swap without waiting for vertical sync");
   sub->add_option("--record", c->o.record_dir, "record footage, session log, station and per-frame CSV into DIR");
+  sub->add_flag("--loop", c->o.loop, "live:PATH footage: play it again from the start at its end");
   sub->add_option("--seconds", c->o.seconds, "stop after S seconds (default: until closed)")->check(CLI::NonNegativeNumber);
   sub->add_option("--engine-cpu", c->o.engine_cpu, "CPU for the haptic engine (-2 = the last, -1 = no pinning)");
   sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");

@@ -1,5 +1,6 @@
 // dentar tags: the printable station kit (the station's AprilTags at true scale, the pen flag and
 // a 50 mm scale bar) as PDF and SVG. A thin layer over dentar::kit.
+#include <filesystem>
 #include <iostream>
 #include <memory>
 
@@ -22,7 +23,9 @@ int run(const TagsCli& c) {
     return 2;
   }
   ar::StationScene station = ar::default_station_scene();
-  if (!c.station.empty()) {
+  if (!c.station.empty() && !std::filesystem::exists(c.station) && ar::builtin_station_scene(c.station)) {
+    station = *ar::builtin_station_scene(c.station);
+  } else if (!c.station.empty()) {
     auto s = ar::read_station_scene(c.station);
     if (!s) {
       print_error("tags", "--station: " + s.error());
@@ -64,7 +67,8 @@ void add_tags(CLI::App& app, int& exit_code) {
       "axis and tip mark) and a 50 mm scale bar on every page. PDF (all pages) and SVG (one file\n"
       "per page: station_kit.svg, station_kit_page2.svg, ...).\n"
       "Synopsis: dentar tags [--station FILE] [--out DIR] [--paper a4|letter]");
-  s->add_option("--station", c->station, "Station scene JSON (default: the built-in station)");
+  s->add_option("--station", c->station,
+                "Station scene JSON, or a built-in station: default (phantom head), box (flat tag board)");
   s->add_option("--out", c->out, "Output folder (station_kit.pdf, station_kit.svg)")
       ->capture_default_str();
   s->add_option("--paper", c->paper, "Paper size: a4 or letter")->capture_default_str();

@@ -155,6 +155,7 @@ bool Engine::step(double late_s) noexcept {
   // Publish for graphics.
   HapticSnapshot snap;
   snap.step = step_index_;
+  snap.steps_done = step_index_ + 1;
   snap.time_s = st.time_s;
   to_array(fault ? T_tooth_tip : out.T_tooth_tip_display, snap.T_tooth_tip_display);
   to_array(st.T_dev_sty, snap.T_dev_sty);
@@ -261,6 +262,8 @@ void Engine::thread_main() {
   } else {
     stats_.realtime_note += "real-time priority not requested";
   }
+  rt_granted_.store(stats_.realtime_granted, std::memory_order_release);
+  cpu_pinned_.store(stats_.cpu_pinned, std::memory_order_release);
   const auto period_ns = static_cast<std::int64_t>(std::llround(1e9 / cfg_.rate_hz));
   timespec next;
   clock_gettime(CLOCK_MONOTONIC, &next);

@@ -332,10 +332,17 @@ TEST(StationKit, CoplanarBundlePrintsAsOneBoardAtTheStationsSpacing) {
   EXPECT_FALSE(L3->mannequin_board);
 }
 
-TEST(StationKit, DefaultPenFlagIsEnlargedWithANote) {
-  // The default pen's 25 mm tagStandard41h12 tags print 45 mm wide (+ quiet zone): larger than
-  // its 40 mm flag_size. The kit keeps the tag size (tracking measures it) and says so.
-  const StationScene s = dentar::ar::default_station_scene();
+TEST(StationKit, SmallPenFlagIsEnlargedWithANote) {
+  // The default pen's 25 mm tagStandard41h12 tags print 45 mm wide (+ quiet zone): its 55 mm
+  // flag fits them. A 40 mm flag does not: the kit keeps the tag size (tracking measures it),
+  // prints the flag 55 mm wide and says so.
+  StationScene s = dentar::ar::default_station_scene();
+  auto L0 = dentar::kit::layout_station_kit(s, KitOptions{});
+  ASSERT_TRUE(L0) << L0.error();
+  ASSERT_TRUE(L0->pen.has_value());
+  EXPECT_NEAR(L0->pen->side_m, 0.055, 1e-9);
+  EXPECT_TRUE(L0->notes.empty());
+  s.pen.flag_size_m = 0.04;
   auto L = dentar::kit::layout_station_kit(s, KitOptions{});
   ASSERT_TRUE(L) << L.error();
   ASSERT_TRUE(L->pen.has_value());

@@ -34,6 +34,7 @@
 #include "dentar/ar/egl_context.h"
 #include "dentar/ar/frame_source.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/haptics/open_device.h"
 #include "dentar/haptics/pedal.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/replay_device.h"
@@ -101,7 +102,7 @@ class Recorder {
     if (ec) return Error{dir.string() + ": cannot create the recording folder: " + ec.message()};
     r->csv_.open(dir / "frames.csv");
     if (!r->csv_) return Error{(dir / "frames.csv").string() + ": cannot write"};
-    r->csv_ << "frame,time_s,steady_s,source_index,haptic_step,man_state,mirror_state,pen_state,"
+    r->csv_ << "frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,"
                "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms\n";
     r->csv_.flush();
     r->log_.open(dir / "live.log");
@@ -173,7 +174,7 @@ class Recorder {
         return s.str();
       };
       csv_ << std::setprecision(17) << it.index << ',' << r.time_s << ',' << it.steady_s << ','
-           << it.source_index << ',' << r.haptic_step << ',' << kState[r.man_state] << ','
+           << it.source_index << ',' << r.haptic_steps_done << ',' << kState[r.man_state] << ','
            << kState[r.mir_state] << ',' << kState[r.pen_state] << ',' << pose(r.man_state, r.T_cam_man) << ','
            << pose(r.mir_state, r.T_cam_mtag) << ',' << (r.pedal ? 1 : 0) << ',' << std::setprecision(6)
            << r.force_N << ',' << (r.overlay ? 1 : 0) << ',' << r.track_ms << ',' << r.mesh_ms << ','
@@ -221,6 +222,7 @@ void on_key(GLFWwindow* w, int key, int, int action, int) {
 std::string LiveOptions::validate() const {
   if (camera.empty()) return "camera is empty: give --camera camera:N, /dev/videoN or live:PATH";
   if (width < 0 || height < 0 || fps < 0) return "camera mode (--width/--height/--fps) must be >= 0";
+  if (pedal.empty()) return "pedal is empty: give keyboard, auto, vec, usb:VID:PID or evdev:/dev/input/eventN";
   if (!(stylus == "sim" || stylus == "pen" || stylus == "none" || stylus.rfind("replay:", 0) == 0))
     return "stylus = \"" + stylus + "\" must be sim, pen, none or replay:FILE.dlog";
   if (stylus == "replay:") return "stylus = replay: needs a session log path (replay:FILE.dlog)";
@@ -251,7 +253,8 @@ std::string LiveSummary::json() const {
                   {"realtime_granted", realtime_granted}, {"cpu_pinned", cpu_pinned},
                   {"memory_locked", memory_locked}, {"isolation", isolation_note}}},
       {"volume_hash", hash},
-      {"rss_mb", {{"start", rss_start_mb}, {"end", rss_end_mb}}},
+      {"rss_mb", {{"start", rss_start_mb}, {"after_10s", rss_warm_mb}, {"end", rss_end_mb},
+                  {"growth_after_10s", rss_warm_mb > 0 ? rss_end_mb - rss_warm_mb : 0.0}}},
       {"overlay_hidden_ms_after_stall", overlay_hidden_ms_after_stall},
       {"warnings", warnings}};
   return j.dump(2) + "\n";
@@ -267,8 +270,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
 
   // ---- station ----
   ar::StationScene st;
-  if (o.station.empty()) {
-    st = ar::default_station_scene();
+  const bool builtin = o.station.empty() || (!fs::exists(o.station) && ar::builtin_station_scene(o.station));
+  if (builtin) {
+    st = *ar::builtin_station_scene(o.station.empty() ? "default" : o.station);
   } else {
     auto s = ar::read_station_scene(o.station);
     if (!s) return Error{"live: " + s.error()};
@@ -296,7 +300,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       const std::string sizes = o.camera + " delivers " + std::to_string(W) + "x" + std::to_string(H) +
                                 " but the station camera is calibrated for " + std::to_string(cam.width) + "x" +
                                 std::to_string(cam.height);
-      if (!o.scale_calib && !o.station.empty())
+      if (!o.scale_calib && !builtin)
         return Error{"live: " + sizes + ": use the station calibrated for this camera mode (dentar calibrate camera), "
                      "ask for its mode with --width/--height, or pass --scale-calib"};
       auto scaled = ar::scale_intrinsics(cam, W, H);
@@ -319,7 +323,19 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   nlohmann::json tooth_desc = {{"kind", "molar"}, {"voxel_mm", st.tooth_voxel_m * 1e3}};
   haptics::ManualPedal key_pedal;
   bool pedal_from_device = false;
-  if (o.stylus.rfind("replay:", 0) == 0) {
+  if (!o.device.empty()) {
+    volume::MolarParams mp;
+    mp.voxel_mm = st.tooth_voxel_m * 1e3;
+    auto t = volume::make_molar(mp);
+    if (!t) return Error{"live: tooth: " + t.error()};
+    vol.emplace(std::move(*t));
+    haptics::DeviceOpenOptions dopt;
+    dopt.name_or_serial = o.device_name;
+    auto d = haptics::open_haptic_device(o.device, dopt);
+    if (!d) return Error{"live: --device " + o.device + ": " + d.error()};
+    device = std::move(*d);
+    pedal_from_device = false;
+  } else if (o.stylus.rfind("replay:", 0) == 0) {
     const std::string path = o.stylus.substr(7);
     auto log = haptics::read_session_log(path);
     if (!log) return Error{"live: --stylus: " + log.error()};
@@ -367,7 +383,14 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   }
   auto bur = volume::sample_bur(bur_params, bur_samples);
   if (!bur) return Error{"live: bur: " + bur.error()};
-  haptics::PedalDevice pedal_device(*device, key_pedal, pedal_from_device);
+  std::unique_ptr<haptics::Pedal> usb_pedal;
+  if (o.pedal != "keyboard") {
+    auto p = haptics::open_pedal(o.pedal);
+    if (!p) return Error{"live: --pedal " + o.pedal + ": " + p.error()};
+    usb_pedal = std::move(*p);
+  }
+  const haptics::Pedal& pedal = usb_pedal ? *usb_pedal : static_cast<const haptics::Pedal&>(key_pedal);
+  haptics::PedalDevice pedal_device(*device, pedal, pedal_from_device);
   haptics::HapticDevice& engine_device = pedal_device;
   const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
   cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
@@ -470,7 +493,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   std::signal(SIGTERM, on_signal);
   g_signal.store(0);
   ar::CaptureThreadOptions cto;
-  cto.reopen = o.camera.rfind("live:", 0) != 0;  // footage ends; a camera comes back
+  cto.reopen = o.loop || o.camera.rfind("live:", 0) != 0;  // footage ends (unless looped); a camera comes back
   cto.stall_after_frames = o.stall_after_frames;
   cto.stall_s = o.stall_s;
   // Reopen the source now, after the slow set-up (tooth, window): a paced
@@ -591,8 +614,20 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     frame_thread.join();
     return Error{"live: engine: " + s.error()};
   }
-  say("camera " + cam_desc + "; stylus " + o.stylus + "; engine on CPU " + std::to_string(cfg.cpu) +
-      (o.realtime ? " (SCHED_FIFO asked)" : ""));
+  // What the system granted, and what to do when it did not.
+  for (int i = 0; i < 100 && engine.snapshot().step == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  std::string grant = "engine: ";
+  if (!o.realtime) grant += "real time not asked (--no-realtime); ";
+  else if (engine.realtime_granted_now()) grant += "SCHED_FIFO granted; ";
+  else grant += "SCHED_FIFO refused: run as root, or `sudo setcap cap_sys_nice,cap_ipc_lock+ep dentar`, or an rtprio limit in /etc/security/limits.conf; ";
+  if (cfg.cpu >= 0) grant += engine.cpu_pinned_now() ? "pinned to CPU " + std::to_string(cfg.cpu) + "; " : "not pinned (CPU " + std::to_string(cfg.cpu) + " refused); ";
+  else grant += "not pinned; ";
+  if (o.realtime) grant += sum.memory_locked ? "memory locked" : "memory not locked (raise `ulimit -l`)";
+  grant += "; " + iso;
+  say("camera " + cam_desc + "; stylus " + o.stylus);
+  say(grant);
+  if (recorder) recorder->log(grant);
+  const bool rt_ok = !o.realtime || (engine.realtime_granted_now() && sum.memory_locked);
 
   // ---- display loop (main thread) ----
   const double t_start = now_s();
@@ -687,7 +722,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       ImGui::Text("force");
       ImGui::SameLine();
       ImGui::ProgressBar(static_cast<float>(std::min(1.0, f / fmax)), ImVec2(200, 0), buf);
-      ImGui::Text("drill: %s%s", snap.pedal ? "ON" : "off", snap.in_contact ? "  (contact)" : "");
+      ImGui::Text("drill: %s%s   pedal: %s", snap.pedal ? "ON" : "off", snap.in_contact ? "  (contact)" : "",
+                  pedal.status().c_str());
+      if (const std::string ds = engine_device.status(); !ds.empty()) ImGui::TextColored(col[1], "device: %s", ds.c_str());
       ImGui::Text("removed mm3: enamel %.2f  dentin %.2f  pulp %.2f",
                   snap.removed_mm3[static_cast<int>(volume::Material::kEnamel)],
                   snap.removed_mm3[static_cast<int>(volume::Material::kDentin)],
@@ -701,6 +738,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       if (snap.fault) ImGui::TextColored(col[2], "haptics: device fault: zero force%s", pen ? " (pen not seen)" : "");
       if (snap.pulp_exposed) ImGui::TextColored(col[2], "PULP EXPOSED");
       if (pen) ImGui::TextColored(col[1], "pen mode: no force on the hand; space bar = pedal");
+      if (!rt_ok) ImGui::TextColored(col[1], "haptics not real-time: %s", grant.c_str());
+      if (!stalled && cur.index >= 0 && now_s() - cur.steady_s > 0.5)
+        ImGui::TextColored(col[2], "frame pipeline stalled: no composite for %.0f ms", (now_s() - cur.steady_s) * 1e3);
       ImGui::End();
     }
     ImGui::Render();
@@ -731,6 +771,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     }
     if (stalled && stall_seen_at > 0 && sum.overlay_hidden_ms_after_stall < 0)
       sum.overlay_hidden_ms_after_stall = static_cast<int>(std::lround((t_swap - capture.last_frame_steady_s()) * 1e3));
+    if (sum.rss_warm_mb == 0 && t_swap - t_start >= 10.0) sum.rss_warm_mb = rss_mb();
     if (t_swap - fps_t0 >= 1.0) {
       fps_now = fps_n / (t_swap - fps_t0);
       fps_t0 = t_swap;

@@ -57,6 +57,9 @@ void CaptureThread::main() {
       if (src && (*src)->width() == width_ && (*src)->height() == height_) {
         source_ = std::move(*src);
         reopens_.fetch_add(1);
+        // A reopened source counts its time from 0 again: keep capture times
+        // monotonic across the reopen (one frame period after the last).
+        time_offset_ = last_time_s_ + (fps_ > 0 ? 1.0 / fps_ : 1.0 / 30);
         set_status("");
       } else {
         set_status(src ? spec_ + ": came back at another size; not used"
@@ -79,6 +82,8 @@ void CaptureThread::main() {
       continue;
     }
     ++count;
+    f.time_s += time_offset_;
+    last_time_s_ = f.time_s;
     dropped_source_.fetch_add(f.dropped_before);
     if (options_.stall_after_frames > 0 && count == options_.stall_after_frames)
       stall_until = f.steady_s + options_.stall_s;

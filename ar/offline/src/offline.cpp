@@ -400,7 +400,7 @@ struct Recording {
   bool present = false;
   std::string frames_csv;
   std::vector<double> capture_s;            // per frame index
-  std::vector<std::uint64_t> haptic_steps;  // per frame index
+  std::vector<std::uint64_t> haptic_steps;  // per frame index: engine steps done when it was composited
   std::string discovery;                    // "inline" or "async"
 };
 
@@ -434,9 +434,9 @@ Result<Recording> read_recording(const fs::path& dir) {
       if (cols[i] == name) return static_cast<int>(i);
     return -1;
   };
-  const int cf = col("frame"), ct = col("time_s"), ch = col("haptic_step");
+  const int cf = col("frame"), ct = col("time_s"), ch = col("haptic_steps");
   if (cf < 0 || ct < 0 || ch < 0)
-    return Error{rec.frames_csv + ": line 1: needs the columns frame, time_s and haptic_step"};
+    return Error{rec.frames_csv + ": line 1: needs the columns frame, time_s and haptic_steps"};
   int lineno = 1;
   while (std::getline(in, line)) {
     ++lineno;
@@ -457,7 +457,7 @@ Result<Recording> read_recording(const fs::path& dir) {
       rec.capture_s.push_back(std::stod(v[static_cast<std::size_t>(ct)]));
       rec.haptic_steps.push_back(std::stoull(v[static_cast<std::size_t>(ch)]));
     } catch (const std::exception&) {
-      return Error{rec.frames_csv + ": line " + std::to_string(lineno) + ": frame, time_s or haptic_step is not a number"};
+      return Error{rec.frames_csv + ": line " + std::to_string(lineno) + ": frame, time_s or haptic_steps is not a number"};
     }
   }
   if (rec.capture_s.empty()) return Error{rec.frames_csv + ": no frames recorded"};
@@ -745,7 +745,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     fin.capture_time_s = frame.time_s;
     fin.haptic = engine ? &snap : nullptr;
     fin.stylus_valid = engine && device && device->position() < device->size();
-    if (!rec.haptic_steps.empty()) fin.stylus_valid = engine != nullptr;
+    if (!rec.haptic_steps.empty()) fin.stylus_valid = engine != nullptr && !snap.fault;
     FrameRecord fr;
     if (auto ps = pipe.process(fin, meshes, cres, fr); !ps) return fail("offline: " + ps.error());
     r.haptic_step = fr.haptic_step;

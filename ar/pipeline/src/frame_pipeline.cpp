@@ -137,6 +137,7 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   if (in.haptic != nullptr) {
     const haptics::HapticSnapshot& s = *in.haptic;
     r.haptic_step = s.step;
+    r.haptic_steps_done = s.steps_done;
     r.pedal = s.pedal != 0;
     r.force_N = std::sqrt(s.force_dev_N[0] * s.force_dev_N[0] + s.force_dev_N[1] * s.force_dev_N[1] +
                           s.force_dev_N[2] * s.force_dev_N[2]);

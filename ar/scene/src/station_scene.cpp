@@ -325,17 +325,47 @@ PenParams default_pen() {
   back.id = 31;
   // Printed on the back of the same flag: turned about y, 0.1 mm behind (paper).
   back.T_parent_tag.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  back.T_parent_tag.translation() = Eigen::Vector3d(0, 0, 0.1e-3);
+  back.T_parent_tag.translation() = Eigen::Vector3d(0, 0, 8e-3);  // folded around an 8 mm pen
   p.tags = {front, back};
-  p.flag_size_m = 0.04;
+  p.flag_size_m = 0.055;
   // Tip frame: z along +y of the flag (down the pen), x along the flag's x.
   Eigen::Matrix3d R;
   R.col(0) = Eigen::Vector3d::UnitX();
   R.col(2) = Eigen::Vector3d::UnitY();
   R.col(1) = R.col(2).cross(R.col(0));
   p.T_ptag_tip.linear() = R;
-  p.T_ptag_tip.translation() = Eigen::Vector3d(0, 0.130, 0);
+  p.T_ptag_tip.translation() = Eigen::Vector3d(0, 0.130, 4e-3);
   return p;
+}
+
+StationScene box_station_scene() {
+  StationScene s = default_station_scene();
+  s.name = "box: a flat board of 6 tags (try-out with a webcam)";
+  s.mannequin_tags.clear();
+  Eigen::Matrix3d R;  // tag x = man x, tag y = -man y, tag z (into the tag) = -man z
+  R << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  int id = 0;
+  for (double y : {0.055, -0.055})
+    for (double x : {-0.06, 0.0, 0.06}) {
+      TagPlacement t;
+      t.id = id++;
+      t.size_m = 0.025;
+      t.T_parent_tag.linear() = R;
+      t.T_parent_tag.translation() = Eigen::Vector3d(x, y, 0);
+      s.mannequin_tags.push_back(t);
+    }
+  const Eigen::Isometry3d T_tooth_dev = s.calibration.T_man_tooth.inverse() * s.calibration.T_man_dev;
+  s.calibration.T_man_tooth = Eigen::Isometry3d::Identity();
+  s.calibration.T_man_tooth.translation() = Eigen::Vector3d(0, 0, 0.014);
+  s.calibration.T_man_dev = s.calibration.T_man_tooth * T_tooth_dev;
+  s.fixtures.divots_man.clear();
+  return s;
+}
+
+std::optional<StationScene> builtin_station_scene(std::string_view name) {
+  if (name == "default") return default_station_scene();
+  if (name == "box") return box_station_scene();
+  return std::nullopt;
 }
 
 CalibrationFixtures default_calibration_fixtures() {
@@ -497,9 +527,11 @@ std::string station_scene_to_json(const StationScene& s) {
                    {"figures", figs}});
   }
   j["calibration_report"] = rep;
-  j["pen"] = {{"flag_size_mm", s.pen.flag_size_m * 1e3},
-              {"T_ptag_tip", pose_json(s.pen.T_ptag_tip)},
-              {"tags", tags_json(s.pen.tags, "T_ptag_tag")}};
+  // No pen tags: no "pen" block (a file without one reads as the default pen).
+  if (!s.pen.tags.empty())
+    j["pen"] = {{"flag_size_mm", s.pen.flag_size_m * 1e3},
+                {"T_ptag_tip", pose_json(s.pen.T_ptag_tip)},
+                {"tags", tags_json(s.pen.tags, "T_ptag_tag")}};
   return compact_number_arrays(j.dump(2)) + "\n";
 }
 

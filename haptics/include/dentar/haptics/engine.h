@@ -52,7 +52,8 @@ struct EngineConfig {
 
 // What graphics reads (lock-free). Plain data.
 struct HapticSnapshot {
-  std::uint64_t step = 0;
+  std::uint64_t step = 0;        // index of the step that published this (0-based)
+  std::uint64_t steps_done = 0;  // steps run so far, this one included (0: none yet)
   double time_s = 0;
   double T_tooth_tip_display[16] = {};  // column-major 4x4: where to draw the bur
   double T_dev_sty[16] = {};            // column-major 4x4: measured stylus
@@ -94,6 +95,10 @@ class Engine {
   Status start();
   void stop();
   bool running() const { return running_.load(std::memory_order_acquire); }
+  // While the thread runs: whether it got SCHED_FIFO and its CPU pin (known
+  // once its first step ran; both false before). After stop(): see stats().
+  bool realtime_granted_now() const { return rt_granted_.load(std::memory_order_acquire); }
+  bool cpu_pinned_now() const { return cpu_pinned_.load(std::memory_order_acquire); }
   // True when the device source ended (replay) and the thread stopped itself.
   bool finished() const { return finished_.load(std::memory_order_acquire); }
 
@@ -144,6 +149,7 @@ class Engine {
   SeqLock<HapticSnapshot> snapshot_;
   std::atomic<std::uint64_t> steps_published_{0};
   std::atomic<bool> running_{false}, stop_{false}, finished_{false};
+  std::atomic<bool> rt_granted_{false}, cpu_pinned_{false};
   std::thread thread_;
 };
 

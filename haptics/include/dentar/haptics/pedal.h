@@ -67,6 +67,7 @@ class PedalDevice final : public HapticDevice {
   }
   void write_force(const Eigen::Vector3d& f) noexcept override { inner_->write_force(f); }
   bool recorded_watchdog() const noexcept override { return inner_->recorded_watchdog(); }
+  std::string status() const override { return inner_->status(); }
 
  private:
   HapticDevice* inner_;

@@ -37,12 +37,19 @@ struct LiveOptions {
   std::string camera = "camera:0";  // FrameSource spec (camera:N, /dev/videoN, live:PATH)
   int width = 0, height = 0;        // camera mode request (0 = driver default)
   double fps = 0;
-  std::string station;       // station file; empty = the built-in station
+  std::string station;       // station file, or a built-in station ("default", "box"); empty = "default"
   bool scale_calib = false;  // accept a camera of another size (intrinsics scaled)
   // Stylus: "sim" (the simulated hand drilling the access script), "pen"
   // (the printed pen tag), "replay:FILE.dlog" (a session log in real time),
   // "none" (no bur).
   std::string stylus = "sim";
+  // A real haptic device instead of the stylus stand-ins: a kind of
+  // haptics::open_haptic_device ("touch", "omega", "hd", "dhd", ...); empty =
+  // use `stylus`. device_name: its configuration name or serial ("" = first).
+  std::string device, device_name;
+  // Foot pedal: "keyboard" (the space bar), or a spec of haptics::open_pedal
+  // ("auto", "vec", "usb:VID:PID", "evdev:/dev/input/eventN").
+  std::string pedal = "keyboard";
   std::string model = "proxy";  // force model
   int display = -1;             // monitor for fullscreen (HMD input); -1 = a desktop window
   int window_width = 0, window_height = 0;  // windowed size (0 = the camera's)
@@ -50,6 +57,7 @@ struct LiveOptions {
   bool vsync = true;
   std::string record_dir;  // empty = no recording
   double seconds = 0;      // stop after this long (0 = until closed)
+  bool loop = false;       // live:PATH footage: play it again at its end (long runs, benchmarks)
   int engine_cpu = -2;     // -2 = the last CPU; -1 = no pinning
   bool realtime = true;    // SCHED_FIFO + mlockall
   ar::PipelineOptions pipeline;
@@ -75,7 +83,8 @@ struct LiveSummary {
   bool realtime_granted = false, cpu_pinned = false, memory_locked = false;
   std::string isolation_note;
   std::uint64_t volume_hash = 0;
-  double rss_start_mb = 0, rss_end_mb = 0;
+  // Resident memory: at start, 10 s in (after warm-up), at the end, MB.
+  double rss_start_mb = 0, rss_warm_mb = 0, rss_end_mb = 0;
   int overlay_hidden_ms_after_stall = -1;  // measured with the stall hook
   std::vector<std::string> warnings;
   std::string json() const;

@@ -7,6 +7,7 @@
 // end), the thread says so in status() and, if `reopen` is set, reopens the
 // same spec every reopen_period_s until it delivers again. A stall (no frame
 // for a while) is visible to the consumer through last_frame_steady_s().
+// Capture times (Frame::time_s) stay monotonic across a reopen.
 //
 // Threads: one capture thread inside; take()/wait_take()/status() from any
 // one consumer thread.
@@ -79,6 +80,7 @@ class CaptureThread {
   bool slot_full_ = false;
   std::string status_;
 
+  double time_offset_ = 0, last_time_s_ = 0;  // capture thread: Frame::time_s across reopens
   std::atomic<double> last_steady_s_{0};
   std::atomic<std::int64_t> delivered_{0}, dropped_consumer_{0}, dropped_source_{0}, reopens_{0};
   std::atomic<bool> stop_{false}, ended_{false};

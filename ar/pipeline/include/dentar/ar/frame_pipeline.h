@@ -109,7 +109,8 @@ struct FrameRecord {
   int man_tags = 0, mir_tags = 0, pen_tags = 0, tags_detected = 0;
   bool full_frame = false;
   // Haptics as drawn.
-  std::uint64_t haptic_step = 0;
+  std::uint64_t haptic_step = 0;        // HapticSnapshot::step
+  std::uint64_t haptic_steps_done = 0;  // HapticSnapshot::steps_done (replay: step the engine to this)
   bool pedal = false, stylus_drawn = false;
   double force_N = 0;
   double removed_mm3[8] = {};

@@ -94,7 +94,7 @@ struct CalibrationFixtures {
 struct PenParams {
   std::vector<TagPlacement> tags;  // T_parent_tag = T_ptag_tag (front and back of the flag); empty = no pen
   Eigen::Isometry3d T_ptag_tip = Eigen::Isometry3d::Identity();  // pen tip in the flag frame
-  double flag_size_m = 0.04;  // printed flag square (the tag and its white margin), m
+  double flag_size_m = 0.055;  // printed flag square (the tag and its white margin), m
   std::string validate() const;
 };
 
@@ -148,9 +148,21 @@ struct StationScene {
   const TagPlacement* find_tag(int id) const;  // mannequin, mirror or pen tag, or nullptr
 };
 
-// The default pen: tags 30 (front) and 31 (back) of 25 mm on a 40 mm flag,
-// the tip 130 mm below the flag's centre.
+// The default pen: tags 30 (front) and 31 (back) of 25 mm (45 mm printed) on
+// a 55 mm paper flag folded around an 8 mm pen: the back tag 8 mm behind the
+// front one, the tip on the pen's axis (4 mm behind the front tag) 130 mm
+// below the flag's centre.
 PenParams default_pen();
+
+// A station for trying the trainer with a cardboard box and a webcam: the
+// default station with its head tags replaced by one flat board of 6 tags of
+// 25 mm (45 mm printed), ids 0..5, at x = -60, 0, 60 mm and y = +55, -55 mm in
+// the board plane (z = 0 of `man`, facing +z); the tooth stands on the
+// board's centre, occlusal side up (+z), its cervical plane 14 mm above it.
+// The head mesh is still the mannequin's: run it with occlusion off.
+StationScene box_station_scene();
+// Built-in stations by name: "default" and "box"; nullopt for another name.
+std::optional<StationScene> builtin_station_scene(std::string_view name);
 
 // The default fixtures: 8 divots on the face around the mouth (non-coplanar, surrounding the
 // tooth site) and 6 molar landmarks (4 cusp tips, buccal and lingual cervical points).

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Live-trainer benchmarks (docs/BENCHMARKS.md, "live"): runs `dentar live` on
+# generated footage paced as a 30 fps camera, under Xvfb, and prints one
+# table row per configuration from each run's summary JSON.
+#
+#   tools/bench_live.sh table [SECONDS]        latency / fps vs resolution, occlusion, mirror
+#   tools/bench_live.sh engine [SECONDS]       engine timing with/without isolation, with/without stress
+#   tools/bench_live.sh memory [SECONDS]       RSS growth over a long run
+#
+# Environment: BUILD_DIR (default build), OUT (default out/bench_live).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bin="${BUILD_DIR:-$root/build}/dentar"
+out="${OUT:-$root/out/bench_live}"
+mode="${1:-table}"
+secs="${2:-30}"
+mkdir -p "$out"
+
+clip() {  # clip W H -> folder with video.mkv, station.json, session.dlog
+  local d="$out/clip_${1}x${2}"
+  if [[ ! -f "$d/session.dlog" ]]; then
+    "$bin" synth --preset standard --frames 150 --resolution "${1}x${2}" --seed 5 --out "$d" >/dev/null
+  fi
+  echo "$d"
+}
+
+run() {  # run NAME CLIP [live options...] -> prints a table row
+  local name="$1" c="$2"; shift 2
+  xvfb-run -a -s '-screen 0 1920x1200x24' "$bin" live --camera "live:$c/video.mkv" --station "$c/station.json" \
+    --loop --seconds "$secs" --quiet --summary "$out/$name.json" "$@" >/dev/null
+  python3 - "$out/$name.json" "$name" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); e = s["engine"]; f = s["frames"]
+mins = s["wall_s"] / 60
+print(f"| {sys.argv[2]} | {s['latency_ms']['p50']:.1f} | {s['latency_ms']['p99']:.1f} | {s['displayed_fps']:.1f} | "
+      f"{f['dropped_source']} / {f['dropped_consumer']} | {s['process_ms']['p50']:.1f} / {s['process_ms']['p99']:.1f} | "
+      f"{e['step_us']['p999']:.0f} / {e['step_us']['max']:.0f} | {e['missed_deadlines']/mins:.2f} | {e['watchdog_trips']} | "
+      f"{s['rss_mb']['growth_after_10s']:.1f} |")
+PY
+}
+
+header() {
+  echo "| run | latency p50 ms | p99 ms | displayed fps | dropped source / consumer | frame p50 / p99 ms | engine step p99.9 / max us | missed deadlines /min | watchdog trips | RSS growth after 10 s, MB |"
+  echo "|---|---|---|---|---|---|---|---|---|---|"
+}
+
+case "$mode" in
+  table)
+    c480=$(clip 640 480); c720=$(clip 1280 720)
+    header
+    run "640x480 full" "$c480" --stylus replay:"$c480/session.dlog"
+    run "1280x720 full" "$c720" --stylus replay:"$c720/session.dlog"
+    run "1280x720 no mirror" "$c720" --stylus replay:"$c720/session.dlog" --no-mirror
+    run "1280x720 no occlusion" "$c720" --stylus replay:"$c720/session.dlog" --no-occlusion --no-segmentation
+    run "1280x720 no hud" "$c720" --stylus replay:"$c720/session.dlog" --no-hud
+    ;;
+  engine)
+    c720=$(clip 1280 720)
+    header
+    run "isolated" "$c720" --stylus sim
+    run "not isolated" "$c720" --stylus sim --engine-cpu -1 --no-realtime
+    command -v stress >/dev/null || { echo "stress not installed (apt install stress)"; exit 1; }
+    stress --cpu 2 --timeout "$((secs + 20))" >/dev/null 2>&1 & sp=$!
+    sleep 1
+    run "isolated + stress" "$c720" --stylus sim
+    run "not isolated + stress" "$c720" --stylus sim --engine-cpu -1 --no-realtime
+    kill "$sp" 2>/dev/null || true; wait "$sp" 2>/dev/null || true
+    ;;
+  memory)
+    c720=$(clip 1280 720)
+    header
+    run "memory ${secs}s" "$c720" --stylus sim
+    ;;
+  *) echo "usage: tools/bench_live.sh table|engine|memory [SECONDS]" >&2; exit 2 ;;
+esac
