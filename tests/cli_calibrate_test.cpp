@@ -216,6 +216,14 @@ TEST(CliCalibrate, CameraFromRealChessboardPhotos) {
                                 " --station " + (d / "other.json").string());
   EXPECT_EQ(imp.code, 0) << imp.out;
   EXPECT_EQ(load(d / "other.json")["camera"]["fx"], j["camera"]["fx"]);
+  // A board of the wrong size: the photos mostly do not show it, and the message says to
+  // check --board.
+  const CommandResult wrong = run("camera --images " + (d / "photos").string() +
+                                  " --board chessboard:8x5:25 --station " + (d / "wrong.json").string());
+  EXPECT_EQ(wrong.code, 1) << wrong.out;
+  EXPECT_NE(wrong.out.find("check that --board chessboard:8x5:25 matches the printed board"),
+            std::string::npos) << wrong.out;
+  EXPECT_FALSE(fs::exists(d / "wrong.json"));
 }
 
 // The camera step chooses the distortion model on held-out views, says why, and says where in

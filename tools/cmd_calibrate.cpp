@@ -140,6 +140,7 @@ int step_camera(Session& s) {
     if (!spec) throw BadInput{spec.error()};
     std::vector<cal::BoardView> views;
     int width = 0, height = 0;
+    int photos_skipped = 0;  // photos where the board was not found
     cal::IntrinsicsOptions io;  // live figures: the 5-coefficient fit
     cal::ModelSelectionOptions mo;
     if (c.rational || c.model == "rational8") mo.force = cal::DistortionModel::kRational8;
@@ -213,6 +214,7 @@ int step_camera(Session& s) {
         auto v = ar::detect_board_file(f.string(), *spec, w, h);
         if (!v) {
           std::cout << "  skipped: " << v.error() << "\n";
+          ++photos_skipped;
           continue;
         }
         if (width == 0) {
@@ -235,7 +237,14 @@ int step_camera(Session& s) {
                  "on held-out views...\n";
     const cal::ModelSelection sel = cal::select_camera_model(views, width, height, mo);
     std::cout << sel.report();
-    if (!sel.ok) return 1;
+    if (!sel.ok) {
+      if (photos_skipped > 0 && photos_skipped >= static_cast<int>(views.size()))
+        std::cout << "note: the board was not found in " << photos_skipped << " of "
+                  << photos_skipped + static_cast<int>(views.size()) << " photos: check that --board "
+                  << c.board << " matches the printed board (count its INNER corners: a chessboard "
+                  << "of 10x7 squares has 9x6) and its square size\n";
+      return 1;
+    }
     const cal::IntrinsicsSummary& r = sel.chosen;
     if (c.simulate)
       std::cout << "simulation truth: fx " << fmt(s.truth.camera.fx) << " fy " << fmt(s.truth.camera.fy)
