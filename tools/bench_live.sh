@@ -16,17 +16,23 @@ mode="${1:-table}"
 secs="${2:-30}"
 mkdir -p "$out"
 
-clip() {  # clip W H -> folder with video.mkv, station.json, session.dlog
+# The stand-in camera plays Motion JPEG, as UVC webcams deliver 720p: the
+# generator's lossless FFV1 takes ~47 ms a 720p frame to decode, more than a
+# 30 fps camera's whole frame period on one core (Debian's ffmpeg transcodes).
+clip() {  # clip W H -> folder with camera.avi (MJPG), station.json, session.dlog
   local d="$out/clip_${1}x${2}"
   if [[ ! -f "$d/session.dlog" ]]; then
     "$bin" synth --preset standard --frames 150 --resolution "${1}x${2}" --seed 5 --out "$d" >/dev/null
+  fi
+  if [[ ! -f "$d/camera.avi" ]]; then
+    ffmpeg -loglevel error -y -i "$d/video.mkv" -c:v mjpeg -q:v 3 "$d/camera.avi"
   fi
   echo "$d"
 }
 
 run() {  # run NAME CLIP [live options...] -> prints a table row
   local name="$1" c="$2"; shift 2
-  xvfb-run -a -s '-screen 0 1920x1200x24' "$bin" live --camera "live:$c/video.mkv" --station "$c/station.json" \
+  xvfb-run -a -s '-screen 0 1920x1200x24' "$bin" live --camera "live:$c/camera.avi" --station "$c/station.json" \
     --loop --seconds "$secs" --quiet --summary "$out/$name.json" "$@" >/dev/null
   python3 - "$out/$name.json" "$name" <<'PY'
 import json, sys

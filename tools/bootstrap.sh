@@ -36,7 +36,8 @@ packages=(
   # desktop GL), and Xvfb + xauth + xdotool for its windowed tests.
   libglfw3-dev libimgui-dev libgl-dev xvfb xauth xdotool
 )
-if [[ "$job" == bench ]]; then packages+=(libvtk9-dev); fi
+# bench: VTK for the surface comparison; ffmpeg and stress for the live benchmarks.
+if [[ "$job" == bench ]]; then packages+=(libvtk9-dev ffmpeg stress); fi
 
 missing=()
 for p in "${packages[@]}"; do
