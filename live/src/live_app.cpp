@@ -605,7 +605,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   }
   ar::CaptureThread& capture = *capture_holder;
   cam_desc = capture.description();
-  if (recorder) recorder->log("camera " + cam_desc + "; stylus " + o.stylus + "; engine CPU " + std::to_string(cfg.cpu));
+  if (recorder)
+    recorder->log("camera " + cam_desc + "; " + (o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name()) +
+                  "; pedal " + pedal.name() + "; engine CPU " + std::to_string(cfg.cpu));
   capture.start();
   capture_ptr.store(&capture);
   if (auto s = engine.start(); !s) {
@@ -624,7 +626,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   else grant += "not pinned; ";
   if (o.realtime) grant += sum.memory_locked ? "memory locked" : "memory not locked (raise `ulimit -l`)";
   grant += "; " + iso;
-  say("camera " + cam_desc + "; stylus " + o.stylus);
+  const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name();
+  say("camera " + cam_desc + "; " + stylus_desc + "; pedal " + pedal.name());
   say(grant);
   if (recorder) recorder->log(grant);
   const bool rt_ok = !o.realtime || (engine.realtime_granted_now() && sum.memory_locked);

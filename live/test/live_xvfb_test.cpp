@@ -290,6 +290,31 @@ TEST(LiveXvfb, TruncatedRecordingReplays) {
   EXPECT_GT(s["frames"].get<int>(), 3);
 }
 
+// A haptic device through its vendor runtime: the stand-in libHD.so built in
+// the test tree, found through LD_LIBRARY_PATH as the real one would be.
+TEST(LiveXvfb, HapticDeviceThroughTheStandInRuntime) {
+  REQUIRE_XVFB();
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_device");
+  const std::string standin = (fs::path(kBin).parent_path() / "standin").string();
+  auto r = run_command(xvfb("env LD_LIBRARY_PATH=" + standin + " " + kBin + " live --device touch --camera live:" +
+                            (c / "video.mkv").string() + " --station " + (c / "station.json").string() +
+                            " --record " + (t / "rec").string() + " --seconds 2 --quiet --summary " +
+                            (t / "live.json").string() + " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto s = read_json(t / "live.json");
+  EXPECT_GT(s["engine"]["steps"].get<int>(), 500);
+  EXPECT_EQ(s["engine"]["watchdog_trips"].get<int>(), 0);
+  const std::string log = dentar::test::read_file(t / "rec" / "live.log");
+  EXPECT_NE(log.find("device "), std::string::npos) << log;
+  EXPECT_NE(log.find("engine stopped: zero force sent"), std::string::npos) << log;
+  // Without the runtime: a clear message at start, never a crash.
+  r = run_command(kBin + " live --device touch --camera live:" + (c / "video.mkv").string() + " --station " +
+                  (c / "station.json").string() + " --quiet 2>&1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("libHD"), std::string::npos) << r.out;
+}
+
 // No camera: a clear message naming the cameras found and the footage route.
 TEST(LiveCli, MissingCameraExplains) {
   auto r = run_command(kBin + " live --camera /dev/video97 --quiet 2>&1");
