@@ -41,7 +41,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--model", c->o.model, "force model: proxy or seed");
   sub->add_option("--device", c->o.device,
                   "a real haptic device instead of --stylus: touch, omni, desktop, premium, premium3, hd, "
-                  "omega, sigma, delta, falcon, dhd (see `dentar devices`)");
+                  "omega, sigma, delta, falcon, dhd (see `dentar devices`); sim = the simulated hand");
   sub->add_option("--device-name", c->o.device_name, "the device's configuration name or serial (default: the first)");
   sub->add_option("--pedal", c->o.pedal, "keyboard (space bar, default), auto, vec, usb:VID:PID, evdev:/dev/input/eventN");
   sub->add_option("--display", c->o.display, "monitor index for fullscreen (the HMD's input); -1 = a window");
@@ -69,6 +69,10 @@ void add_live(CLI::App& app, int& exit_code) {
       return;
     }
     live::LiveOptions o = c->o;
+    if (o.device == "sim") {  // --device sim: the simulated hand, as --stylus sim
+      o.device.clear();
+      o.stylus = "sim";
+    }
     o.hud = !c->no_hud;
     o.vsync = !c->no_vsync;
     o.realtime = !c->no_realtime;

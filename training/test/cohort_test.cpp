@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <iostream>
 
@@ -34,7 +36,8 @@ const Cohort& cohort() {
     o.trials = 2;
     o.voxel_mm = 0.2;
     o.bur_samples = 500;
-    const std::string dir = ::testing::TempDir() + "/dentar_cohort_test";
+    // One folder per process: ctest runs these tests as parallel processes.
+    const std::string dir = ::testing::TempDir() + "/dentar_cohort_test_" + std::to_string(::getpid());
     std::filesystem::remove_all(dir);
     auto t = generate_cohort(c.ex, o, dir);
     EXPECT_TRUE(t.ok()) << t.error();
@@ -158,7 +161,7 @@ TEST(Cohort, AutomaticStepsOnTheThirteenStepIncisorPreparation) {
   o.voxel_mm = 0.2;
   o.bur_samples = 500;
   o.seed = 5;
-  const std::string dir = ::testing::TempDir() + "/dentar_incisor_cohort";
+  const std::string dir = ::testing::TempDir() + "/dentar_incisor_cohort_" + std::to_string(::getpid());
   std::filesystem::remove_all(dir);
   auto t = generate_cohort(*ex, o, dir);
   ASSERT_TRUE(t.ok()) << t.error();

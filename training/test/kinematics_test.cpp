@@ -1,6 +1,7 @@
 #include "dentar/training/kinematics.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -76,7 +77,7 @@ TEST(Kinematics, BadTablesNameFileLineAndColumn) {
 
 TEST(Kinematics, TrialsTableFeedsCrossValidation) {
   // Six subjects, two trials each: "expert" moves smoothly, "novice" jitters.
-  const std::string dir = ::testing::TempDir() + "/dentar_kin_test";
+  const std::string dir = ::testing::TempDir() + "/dentar_kin_test_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   std::ofstream trials(dir + "/trials.csv");
   trials << "file,subject,trial,label\n";
