@@ -6,6 +6,7 @@
 #   tools/bench_live.sh table [SECONDS]        latency / fps vs resolution, occlusion, mirror
 #   tools/bench_live.sh engine [SECONDS]       engine timing with/without isolation, with/without stress
 #   tools/bench_live.sh memory [SECONDS]       RSS growth over a long run
+#   tools/bench_live.sh discovery [SECONDS]    720p: tag discovery inline vs async (frame-thread CPU vs engine CPU)
 #
 # Environment: BUILD_DIR (default build), OUT (default out/bench_live).
 set -euo pipefail
@@ -72,10 +73,18 @@ case "$mode" in
     run "not isolated + stress" "$c720" --stylus sim --engine-cpu -1 --no-realtime
     kill "$sp" 2>/dev/null || true; wait "$sp" 2>/dev/null || true
     ;;
+  discovery)
+    c720=$(clip 1280 720)
+    header
+    run "720p discovery inline" "$c720" --stylus replay:"$c720/session.dlog" --discovery inline
+    run "720p discovery async, others" "$c720" --stylus replay:"$c720/session.dlog" --discovery async --discovery-cpu others
+    run "720p discovery async, engine CPU" "$c720" --stylus replay:"$c720/session.dlog" --discovery async --discovery-cpu engine
+    run "720p async engine CPU, sim hand" "$c720" --stylus sim
+    ;;
   memory)
     c720=$(clip 1280 720)
     header
     run "memory ${secs}s" "$c720" --stylus sim
     ;;
-  *) echo "usage: tools/bench_live.sh table|engine|memory [SECONDS]" >&2; exit 2 ;;
+  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery [SECONDS]" >&2; exit 2 ;;
 esac

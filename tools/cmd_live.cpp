@@ -14,6 +14,7 @@ void add_live(CLI::App& app, int& exit_code) {
     bool no_hud = false, no_vsync = false, no_realtime = false, no_occlusion = false, no_segmentation = false,
          no_mirror = false, list = false;
     std::string stall;
+    std::string discovery = "async";
   };
   auto c = std::make_shared<Cli>();
   auto* sub = app.add_subcommand(
@@ -54,6 +55,10 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--seconds", c->o.seconds, "stop after S seconds (default: until closed)")->check(CLI::NonNegativeNumber);
   sub->add_option("--engine-cpu", c->o.engine_cpu, "CPU for the haptic engine (-2 = the last, -1 = no pinning)");
   sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");
+  sub->add_option("--discovery", c->discovery,
+                  "full-frame tag search: async (off the frame path, default) or inline (in the frame that needs it)");
+  sub->add_option("--discovery-cpu", c->o.discovery_cpu,
+                  "async search: engine (the engine's CPU at SCHED_IDLE, default) or others (with the frame thread)");
   sub->add_flag("--no-occlusion", c->no_occlusion, "no depth phantoms (lips, mirror, handpiece)");
   sub->add_flag("--no-segmentation", c->no_segmentation, "no foreground (hand) segmentation");
   sub->add_flag("--no-mirror", c->no_mirror, "no reflection in the mouth mirror");
@@ -80,6 +85,12 @@ void add_live(CLI::App& app, int& exit_code) {
     o.pipeline.compositor.segmentation = !c->no_segmentation;
     o.pipeline.compositor.mirror = !c->no_mirror;
     if (o.stylus == "pen") o.pipeline.tracker.track_pen = true;
+    if (c->discovery != "async" && c->discovery != "inline") {
+      print_error("live", "--discovery " + c->discovery + ": must be async or inline");
+      exit_code = 2;
+      return;
+    }
+    o.pipeline.tracker.discovery = c->discovery == "async" ? ar::DiscoveryMode::kAsync : ar::DiscoveryMode::kInline;
     for (const auto& s : c->shots) {
       const auto k = s.find(':');
       try {

@@ -103,7 +103,7 @@ class Recorder {
     r->csv_.open(dir / "frames.csv");
     if (!r->csv_) return Error{(dir / "frames.csv").string() + ": cannot write"};
     r->csv_ << "frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,"
-               "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms\n";
+               "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms,disc_start,disc_merged\n";
     r->csv_.flush();
     r->log_.open(dir / "live.log");
     r->thread_ = std::thread([p = r.get()] { p->main(); });
@@ -178,7 +178,7 @@ class Recorder {
            << kState[r.mir_state] << ',' << kState[r.pen_state] << ',' << pose(r.man_state, r.T_cam_man) << ','
            << pose(r.mir_state, r.T_cam_mtag) << ',' << (r.pedal ? 1 : 0) << ',' << std::setprecision(6)
            << r.force_N << ',' << (r.overlay ? 1 : 0) << ',' << r.track_ms << ',' << r.mesh_ms << ','
-           << r.composite_ms << '\n';
+           << r.composite_ms << ',' << (r.disc_start ? 1 : 0) << ',' << r.disc_merged << '\n';
       csv_.flush();
       ++written_;
     }
@@ -232,6 +232,10 @@ std::string LiveOptions::validate() const {
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
   if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
   if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
+  if (discovery_cpu != "others" && discovery_cpu != "engine")
+    return "discovery_cpu = \"" + discovery_cpu + "\" must be others or engine";
+  if (pipeline.tracker.discovery == ar::DiscoveryMode::kScheduled)
+    return "pipeline.tracker.discovery = scheduled is for replays (dentar offline), not a live run";
   if (auto v = pipeline.validate(); !v.empty()) return "pipeline: " + v;
   return {};
 }
@@ -416,6 +420,26 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
              "): raise the memlock limit (ulimit -l unlimited, or memlock in /etc/security/limits.conf); ";
   }
 
+  // The tracker's full-frame search (tracker.h, "Discovery"): on the
+  // engine's CPU at SCHED_IDLE, it uses the ~85 % of that core the engine
+  // leaves idle instead of queueing behind the frame path on the others.
+  ar::PipelineOptions popt = o.pipeline;
+  const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
+  std::atomic<int> discovery_placed{0};  // 1 pinned + SCHED_IDLE, -1 refused
+  if (popt.tracker.discovery == ar::DiscoveryMode::kAsync && o.discovery_cpu == "engine" && cfg.cpu >= 0 &&
+      ncpu > 1) {
+    const int cpu = cfg.cpu;
+    popt.tracker.discovery_thread_init = [cpu, &discovery_placed] {
+      cpu_set_t one;
+      CPU_ZERO(&one);
+      CPU_SET(cpu, &one);
+      sched_param sp{};
+      const bool ok = pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0 &&
+                      pthread_setschedparam(pthread_self(), SCHED_IDLE, &sp) == 0;
+      discovery_placed.store(ok ? 1 : -1);
+    };
+  }
+
   std::unique_ptr<haptics::SessionLogWriter> log;
   std::unique_ptr<Recorder> recorder;
   const fs::path rdir = o.record_dir;
@@ -426,7 +450,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     if (auto s = ar::write_station_scene(st, (rdir / "station.json").string()); !s)
       return Error{"live: " + s.error()};
     nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
-                           {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", "inline"},
+                           {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
                            {"complete", false}};
     std::ofstream(rdir / "recording.json") << meta.dump(2) << "\n";
   }
@@ -520,7 +544,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       pipeline_ready.store(-1);
       return;
     }
-    auto pipe = ar::FramePipeline::create(st, o.pipeline);
+    auto pipe = ar::FramePipeline::create(st, popt);
     if (!pipe) {
       pipeline_error = pipe.error();
       pipeline_ready.store(-1);
@@ -626,6 +650,14 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   else grant += "not pinned; ";
   if (o.realtime) grant += sum.memory_locked ? "memory locked" : "memory not locked (raise `ulimit -l`)";
   grant += "; " + iso;
+  if (popt.tracker.discovery == ar::DiscoveryMode::kAsync)
+    grant += discovery_placed.load() > 0
+                 ? "; tag discovery async on CPU " + std::to_string(cfg.cpu) + " at SCHED_IDLE"
+                 : discovery_placed.load() < 0 ? "; tag discovery async (CPU " + std::to_string(cfg.cpu) +
+                                                     " at SCHED_IDLE refused: with the frame thread)"
+                                               : "; tag discovery async, with the frame thread";
+  else
+    grant += "; tag discovery inline (" + discovery_name + ")";
   const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name();
   say("camera " + cam_desc + "; " + stylus_desc + "; pedal " + pedal.name());
   say(grant);
@@ -831,7 +863,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     char hash[20];
     std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
     nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
-                           {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", "inline"},
+                           {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
                            {"complete", true}, {"frames", recorder->written()},
                            {"frames_not_written", recorder->dropped()}, {"volume_hash", hash},
                            {"engine_steps", es.steps}, {"stop_reason", stop_reason}};

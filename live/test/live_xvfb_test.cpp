@@ -107,7 +107,8 @@ TEST(LiveXvfb, WindowMatchesOfflineAndRecordingReplays) {
   ASSERT_EQ(r.code, 0) << r.out;
   const auto meta = read_json(rec / "recording.json");
   EXPECT_TRUE(meta["complete"].get<bool>());
-  EXPECT_EQ(meta["discovery"], "inline");
+  // The live default: the full-frame tag search off the frame path.
+  EXPECT_EQ(meta["discovery"], "async");
   const auto live_sum = read_json(t / "live.json");
   EXPECT_GT(live_sum["frames"]["processed"].get<int>(), 12);  // of 60: a loaded machine drops many
   EXPECT_GT(live_sum["engine"]["steps"].get<int>(), 1000);
@@ -120,11 +121,24 @@ TEST(LiveXvfb, WindowMatchesOfflineAndRecordingReplays) {
   EXPECT_EQ(off_sum["volume_hash"], meta["volume_hash"]);
   EXPECT_EQ(off_sum["volume_hash"], live_sum["volume_hash"]);
 
-  // Same tracked poses (tag discovery inline): live writes full precision,
+  // Same tracked poses: the async searches are replayed on the same frames
+  // and merged where the live run merged them. Live writes full precision,
   // offline 9 significant digits of mm.
   const auto lr = read_csv(rec / "frames.csv"), orows = read_csv(off / "frames.csv");
   ASSERT_GT(lr.size(), 10u);
   ASSERT_EQ(lr.size(), orows.size());
+  {
+    const int ds = col(lr[0], "disc_start"), dm = col(lr[0], "disc_merged");
+    ASSERT_GE(ds, 0);
+    ASSERT_GE(dm, 0);
+    int starts = 0, merges = 0;
+    for (std::size_t i = 1; i < lr.size(); ++i) {
+      starts += lr[i][ds] == "1" ? 1 : 0;
+      merges += lr[i][dm] != "-1" ? 1 : 0;
+    }
+    EXPECT_GE(starts, 1);
+    EXPECT_GE(merges, 1);  // at least the first frame's search was merged
+  }
   const int l_state = col(lr[0], "man_state"), l_T = col(lr[0], "man_T");
   const int o_state = col(orows[0], "man_state"), o_tx = col(orows[0], "man_tx_mm");
   int compared = 0;

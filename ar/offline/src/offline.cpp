@@ -402,6 +402,10 @@ struct Recording {
   std::vector<double> capture_s;            // per frame index
   std::vector<std::uint64_t> haptic_steps;  // per frame index: engine steps done when it was composited
   std::string discovery;                    // "inline" or "async"
+  // discovery "async": what the live tracker's full-frame search did at each
+  // frame (frames.csv disc_start, disc_merged), replayed with kScheduled.
+  std::vector<DiscoveryCue> cues;
+  bool cues_exact = true;  // false: a merge names a frame the recording lacks (dropped)
 };
 
 Result<Recording> read_recording(const fs::path& dir) {
@@ -437,6 +441,13 @@ Result<Recording> read_recording(const fs::path& dir) {
   const int cf = col("frame"), ct = col("time_s"), ch = col("haptic_steps");
   if (cf < 0 || ct < 0 || ch < 0)
     return Error{rec.frames_csv + ": line 1: needs the columns frame, time_s and haptic_steps"};
+  if (rec.discovery != "inline" && rec.discovery != "async")
+    return Error{meta.string() + ": discovery = \"" + rec.discovery + "\" must be inline or async"};
+  const bool async = rec.discovery == "async";
+  const int cs = col("disc_start"), cm = col("disc_merged");
+  if (async && (cs < 0 || cm < 0))
+    return Error{rec.frames_csv + ": line 1: recording.json says discovery async, which needs the columns "
+                 "disc_start and disc_merged (what the live tracker's search did per frame)"};
   int lineno = 1;
   while (std::getline(in, line)) {
     ++lineno;
@@ -445,7 +456,7 @@ Result<Recording> read_recording(const fs::path& dir) {
     std::stringstream ss(line);
     std::string c;
     while (std::getline(ss, c, ',')) v.push_back(c);
-    if (static_cast<int>(v.size()) <= std::max({cf, ct, ch})) {
+    if (static_cast<int>(v.size()) <= std::max({cf, ct, ch, async ? std::max(cs, cm) : 0})) {
       // A crash can cut the last row short: stop there, the frames before it replay.
       break;
     }
@@ -456,8 +467,24 @@ Result<Recording> read_recording(const fs::path& dir) {
                      " out of order (expected " + std::to_string(rec.capture_s.size()) + ")"};
       rec.capture_s.push_back(std::stod(v[static_cast<std::size_t>(ct)]));
       rec.haptic_steps.push_back(std::stoull(v[static_cast<std::size_t>(ch)]));
+      if (async) {
+        DiscoveryCue cue;
+        cue.start = std::stoi(v[static_cast<std::size_t>(cs)]) != 0;
+        cue.merge = std::stoll(v[static_cast<std::size_t>(cm)]);
+        if (cue.merge >= f || cue.merge < -1)
+          return Error{rec.frames_csv + ": line " + std::to_string(lineno) + ": disc_merged = " +
+                       std::to_string(cue.merge) + " must be -1 or an earlier frame"};
+        // A merge of a search whose frame is not in the recording cannot be
+        // replayed: dropped, and the replay is marked inexact.
+        if (cue.merge >= 0 && !rec.cues[static_cast<std::size_t>(cue.merge)].start) {
+          cue.merge = -1;
+          rec.cues_exact = false;
+        }
+        rec.cues.push_back(cue);
+      }
     } catch (const std::exception&) {
-      return Error{rec.frames_csv + ": line " + std::to_string(lineno) + ": frame, time_s or haptic_steps is not a number"};
+      return Error{rec.frames_csv + ": line " + std::to_string(lineno) +
+                   ": frame, time_s, haptic_steps, disc_start or disc_merged is not a number"};
     }
   }
   if (rec.capture_s.empty()) return Error{rec.frames_csv + ": no frames recorded"};
@@ -643,6 +670,13 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   ToothMeshes meshes(*vol);
   PipelineOptions po;
   po.tracker = o.tracker;
+  // A live run whose tag search ran off the frame path: replay its decisions.
+  if (!rec.cues.empty()) {
+    po.tracker.discovery = DiscoveryMode::kScheduled;
+    if (!rec.cues_exact)
+      sum.warnings.push_back(rec.frames_csv + ": a tag search merged in the live run started on a frame the "
+                             "recording lacks; poses near it may differ from the live run's");
+  }
   po.compositor = o.compositor;
   po.predict_s = o.predict_s;
   auto pipeline = FramePipeline::create(st, po);
@@ -743,6 +777,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     fin.image = &frame.image;
     fin.index = frame.index;
     fin.capture_time_s = frame.time_s;
+    if (!rec.cues.empty()) fin.discovery = &rec.cues[static_cast<std::size_t>(frame.index)];
     fin.haptic = engine ? &snap : nullptr;
     fin.stylus_valid = engine && device && device->position() < device->size();
     if (!rec.haptic_steps.empty()) fin.stylus_valid = engine != nullptr && !snap.fault;

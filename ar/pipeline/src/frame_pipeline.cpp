@@ -152,7 +152,8 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
 
   // Tracking.
   t0 = Clock::now();
-  auto tf = tracker_.track(*in.image, in.capture_time_s, in.capture_time_s + options_.predict_s);
+  auto tf = tracker_.track(*in.image, in.capture_time_s, in.capture_time_s + options_.predict_s,
+                           in.discovery, in.index);
   if (!tf) return Error{"tracking frame " + std::to_string(in.index) + ": " + tf.error()};
   r.track_ms = ms_since(t0);
   r.detect_ms = tf->timing.detect_ms;
@@ -170,6 +171,9 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   r.pen_tags = tf->pen.tags_used;
   r.tags_detected = tf->tags_detected;
   r.full_frame = tf->full_frame;
+  r.disc_start = tf->discovery_started;
+  r.disc_merged = tf->discovery_merged;
+  r.disc_ms = tf->discovery_ms;
 
   // Registration and compositing.
   t0 = Clock::now();

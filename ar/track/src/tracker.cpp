@@ -4,8 +4,11 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <fstream>
 #include <map>
+#include <mutex>
+#include <thread>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -132,8 +135,166 @@ std::string TrackerOptions::validate() const {
     os << "sigma_floor_px = " << sigma_floor_px << " must be finite and >= 0";
   else if (!std::isfinite(stale_limit_s) || stale_limit_s < 0 || stale_limit_s > 10)
     os << "stale_limit_s = " << stale_limit_s << " must be in [0, 10] s";
+  else if (discovery != DiscoveryMode::kInline && !predicted_regions)
+    os << "discovery = " << discovery_mode_name(discovery)
+       << " needs predicted_regions (without them every frame is a full-frame search)";
   return os.str();
 }
+
+const char* discovery_mode_name(DiscoveryMode m) {
+  switch (m) {
+    case DiscoveryMode::kInline:
+      return "inline";
+    case DiscoveryMode::kDeferred:
+      return "deferred";
+    case DiscoveryMode::kAsync:
+      return "async";
+    case DiscoveryMode::kScheduled:
+      return "scheduled";
+  }
+  return "?";
+}
+
+Result<DiscoveryMode> parse_discovery_mode(const std::string& name) {
+  for (DiscoveryMode m : {DiscoveryMode::kInline, DiscoveryMode::kDeferred, DiscoveryMode::kAsync,
+                          DiscoveryMode::kScheduled})
+    if (name == discovery_mode_name(m)) return m;
+  return Error{"discovery mode '" + name + "' is not one of inline, deferred, async, scheduled"};
+}
+
+namespace {
+
+// One full-frame search's result.
+struct Discovered {
+  std::int64_t frame = -1;
+  double capture_s = 0;
+  std::vector<DetectedTag> tags;
+  double ms = 0;
+  std::string error;  // the detector failed (tags empty)
+};
+
+// The full-frame search off the frame path: its own detector (libapriltag's
+// is single-threaded), one job at a time. kAsync runs it on `thread`; the
+// other modes call run() on the frame thread. The frame thread and the
+// worker share only `job`/`done` under `mutex` (held for swaps, never
+// during a search).
+class DiscoveryWorker {
+ public:
+  DiscoveryWorker(TagDetector det, double decimation) : det_(std::move(det)), decimation_(decimation) {}
+  ~DiscoveryWorker() { stop(); }
+
+  void start(std::function<void()> init) {
+    thread_ = std::thread([this, init = std::move(init)] {
+      if (init) init();
+      main();
+    });
+  }
+  void stop() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+  bool threaded() const { return thread_.joinable(); }
+
+  // Frame thread. Idle = no search queued or running and no result waiting.
+  bool idle() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return !queued_ && !running_ && !has_done_;
+  }
+  // Frame thread: copies `gray` (the caller's buffer may be reused) and
+  // queues the search (threaded) or runs it now (not threaded).
+  void post(const cv::Mat& gray, std::int64_t frame, double capture_s) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    gray.copyTo(job_gray_);  // reuses the buffer after the first frame
+    job_frame_ = frame;
+    job_capture_s_ = capture_s;
+    queued_ = true;
+    if (!threaded()) {
+      lock.unlock();
+      run_one();
+      return;
+    }
+    lock.unlock();
+    cv_.notify_one();
+  }
+  // Frame thread: the finished search, if any (never waits).
+  std::optional<Discovered> take() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!has_done_) return std::nullopt;
+    has_done_ = false;
+    return std::move(done_);
+  }
+  // Frame thread: drops queued and finished work, waiting for a running
+  // search to end (reset()).
+  void drop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    queued_ = false;
+    idle_cv_.wait(lock, [this] { return !running_; });
+    has_done_ = false;
+  }
+  // Synchronous search (kScheduled), on the caller's thread.
+  Discovered search(const cv::Mat& gray, std::int64_t frame, double capture_s) {
+    Discovered d;
+    d.frame = frame;
+    d.capture_s = capture_s;
+    const auto t0 = Clock::now();
+    if (Status s = det_.set_decimation(decimation_); !s) {
+      d.error = s.error();
+    } else if (auto r = det_.detect(gray); !r) {
+      d.error = r.error();
+    } else {
+      d.tags = dedup(std::move(r).value());
+    }
+    d.ms = ms_since(t0);
+    return d;
+  }
+
+ private:
+  void run_one() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!queued_) return;
+    queued_ = false;
+    running_ = true;
+    const std::int64_t frame = job_frame_;
+    const double cap = job_capture_s_;
+    lock.unlock();
+    // job_gray_ is not touched by post() while running_ (post is only called
+    // when idle()).
+    Discovered d = search(job_gray_, frame, cap);
+    lock.lock();
+    running_ = false;
+    done_ = std::move(d);
+    has_done_ = true;
+    lock.unlock();
+    idle_cv_.notify_all();
+  }
+  void main() {
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        cv_.wait(lock, [this] { return stop_ || queued_; });
+        if (stop_) return;
+      }
+      run_one();
+    }
+  }
+
+  TagDetector det_;
+  double decimation_ = 2;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable cv_, idle_cv_;
+  bool stop_ = false, queued_ = false, running_ = false, has_done_ = false;
+  cv::Mat job_gray_;
+  std::int64_t job_frame_ = -1;
+  double job_capture_s_ = 0;
+  Discovered done_;
+};
+
+}  // namespace
 
 struct Tracker::Impl {
   TrackerOptions o;
@@ -151,6 +312,32 @@ struct Tracker::Impl {
   bool have_last_capture = false;
   double last_capture_s = 0;
   cv::Mat gray;  // scratch
+  // Discovery off the frame path (not kInline).
+  std::unique_ptr<DiscoveryWorker> discovery;
+  std::map<std::int64_t, Discovered> scheduled;  // kScheduled: started, not merged yet
+  int frames_since_discovery = 0;
+
+  // Merges a full-frame search's tags as measurements at its capture time
+  // (see tracker.h, "Discovery"); now = this frame's index.
+  void merge(const Discovered& d, std::int64_t now) {
+    for (Body* b : {&mannequin, &mirror, &pen}) {
+      if (b->bundle.tags.empty()) continue;
+      if (b->has_measurement && b->last_meas_time_s >= d.capture_s) continue;  // fresher already
+      std::optional<Eigen::Isometry3d> prev;
+      if (b->state != TrackState::kLost)
+        prev = o.filter_enabled && b->filter.initialised() ? b->filter.predict(d.capture_s)
+                                                            : b->last_meas;
+      const BundlePose p = estimate_bundle_pose(b->bundle, camera, d.tags, o.pose, prev);
+      if (!(p.ok() && p.rms_px <= o.max_rms_px && precise_enough(p, b->max_sigma_m))) continue;
+      if (b->state == TrackState::kLost) b->filter.reset();
+      b->filter.update(p.T_cam_body, d.capture_s);
+      b->has_measurement = true;
+      b->last_meas = p.T_cam_body;
+      b->last_meas_time_s = d.capture_s;
+      b->frames_since_meas = static_cast<int>(std::max<std::int64_t>(0, now - d.frame));
+      b->state = TrackState::kPredicted;
+    }
+  }
 
   // Boxes around `b`'s tags at its predicted pose; false when the body has
   // no usable prediction (then only a full frame can find it).
@@ -335,6 +522,12 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
                                           : 0.5 * (fam.total_width() - fam.width_at_border()) /
                                                     double(fam.width_at_border());
   }
+  if (options.discovery != DiscoveryMode::kInline) {
+    auto ddet = TagDetector::create(options.detector);
+    if (!ddet) return Error{ddet.error()};
+    m.discovery = std::make_unique<DiscoveryWorker>(std::move(ddet).value(), options.detector.decimation);
+    if (options.discovery == DiscoveryMode::kAsync) m.discovery->start(options.discovery_thread_init);
+  }
   m.mannequin.bundle = mannequin_bundle(station);
   m.mirror.bundle = mirror_bundle(station);
   m.mannequin.max_sigma_m = options.mannequin_max_sigma_m;
@@ -361,13 +554,17 @@ void Tracker::reset() {
   impl_->frames = 0;
   impl_->frames_since_full = 0;
   impl_->have_last_capture = false;
+  impl_->frames_since_discovery = 0;
+  impl_->scheduled.clear();
+  if (impl_->discovery) impl_->discovery->drop();
 }
 
 const TrackerOptions& Tracker::options() const { return impl_->o; }
 const calibration::CameraIntrinsics& Tracker::camera() const { return impl_->camera; }
 
 Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
-                                  double display_time_s) {
+                                  double display_time_s, const DiscoveryCue* cue,
+                                  std::int64_t frame_id) {
   Impl& m = *impl_;
   const auto t_start = Clock::now();
   if (image.empty()) return Error{"Tracker::track: empty image"};
@@ -378,6 +575,10 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
                  " px; use a calibration for this size (or scale it: scale_intrinsics)"};
   if (!std::isfinite(capture_time_s) || !std::isfinite(display_time_s))
     return Error{"Tracker::track: capture/display time is not finite"};
+  const DiscoveryMode mode = m.o.discovery;
+  if (cue != nullptr && mode != DiscoveryMode::kScheduled)
+    return Error{std::string("Tracker::track: a discovery cue was given but the tracker's discovery "
+                             "mode is ") + discovery_mode_name(mode) + ", not scheduled"};
   if (image.type() == CV_8UC3)
     cv::cvtColor(image, m.gray, cv::COLOR_BGR2GRAY);
   else if (image.type() == CV_8UC1)
@@ -388,44 +589,81 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
   display_time_s = std::max(display_time_s, capture_time_s);
 
   TrackFrame f;
+  const std::int64_t id = frame_id >= 0 ? frame_id : m.frames;
+  f.index = id;
   f.capture_time_s = capture_time_s;
   f.display_time_s = display_time_s;
   const double frame_dt =
       m.have_last_capture ? std::clamp(capture_time_s - m.last_capture_s, 1e-3, 0.2) : 1.0 / 30;
+  const bool off_path = mode != DiscoveryMode::kInline;
+
+  // A finished full-frame search first: its bodies then have regions here.
+  if (off_path) {
+    std::optional<Discovered> d;
+    if (mode == DiscoveryMode::kScheduled) {
+      if (cue != nullptr && cue->merge >= 0) {
+        auto it = m.scheduled.find(cue->merge);
+        if (it == m.scheduled.end())
+          return Error{"Tracker::track: frame " + std::to_string(id) +
+                       " merges the discovery started on frame " + std::to_string(cue->merge) +
+                       ", which was never started (a recording with rows missing?)"};
+        d = std::move(it->second);
+        m.scheduled.erase(it);
+      }
+    } else {
+      d = m.discovery->take();
+    }
+    if (d) {
+      if (!d->error.empty())
+        return Error{"Tracker::track: full-frame search of frame " + std::to_string(d->frame) +
+                     ": " + d->error};
+      m.merge(*d, id);
+      f.discovery_merged = d->frame;
+      f.discovery_tags = static_cast<int>(d->tags.size());
+      f.discovery_ms = d->ms;
+    }
+  }
 
   // Region-of-interest or full-frame search.
   std::vector<Box> boxes;
-  bool full = !m.o.predicted_regions || m.frames == 0 ||
-              m.frames_since_full + 1 >= m.o.full_frame_interval;
+  bool man_ok = false;
+  bool full = !off_path && (!m.o.predicted_regions || m.frames == 0 ||
+                            m.frames_since_full + 1 >= m.o.full_frame_interval);
+  bool mir_ok = false, pen_ok = false;
   if (!full) {
-    const bool man_ok = m.add_regions(m.mannequin, capture_time_s, frame_dt, boxes);
-    const bool mir_ok = m.add_regions(m.mirror, capture_time_s, frame_dt, boxes);
-    if (!m.pen.bundle.tags.empty()) m.add_regions(m.pen, capture_time_s, frame_dt, boxes);
-    full = !man_ok || (m.o.full_frame_when_any_lost && !mir_ok) || boxes.empty();
+    man_ok = m.add_regions(m.mannequin, capture_time_s, frame_dt, boxes);
+    mir_ok = m.add_regions(m.mirror, capture_time_s, frame_dt, boxes);
+    if (!m.pen.bundle.tags.empty()) pen_ok = m.add_regions(m.pen, capture_time_s, frame_dt, boxes);
+    if (!off_path) full = !man_ok || (m.o.full_frame_when_any_lost && !mir_ok) || boxes.empty();
   }
   const auto t_det = Clock::now();
   std::vector<DetectedTag> tags;
-  if (!full) {
+  bool man_missed = false;  // the mannequin was expected in its regions but not found
+  if (!full && !boxes.empty()) {
     boxes = merge_boxes(std::move(boxes));
     if (Status s = m.detect_regions(boxes, tags); !s) return Error{s.error()};
     int area = 0;
     for (const Box& b : boxes) area += b.area();
     f.regions = static_cast<int>(boxes.size());
     f.searched_fraction = double(area) / (double(m.camera.width) * m.camera.height);
-    // The mannequin was expected but not found in its regions: look at the
-    // whole frame now rather than coast on a prediction (recall first).
     bool man_found = false;
     for (const DetectedTag& t : tags)
       for (const TagPlacement& p : m.mannequin.bundle.tags)
         man_found = man_found || (t.family == m.mannequin.bundle.family && t.id == p.id);
-    if (!man_found) full = true;
+    man_missed = man_ok && !man_found;
+    // Inline: look at the whole frame now rather than coast on a prediction
+    // (recall first). Off the path: a search is posted below instead.
+    if (man_missed && !off_path) full = true;
+  } else if (!full) {
+    f.regions = 0;
+    f.searched_fraction = 0;
   }
   if (full) {
     if (Status s = m.detect_full(tags); !s) return Error{s.error()};
     f.regions = 0;
     f.searched_fraction = 1;
     m.frames_since_full = 0;
-  } else {
+  } else if (!off_path) {
     ++m.frames_since_full;
   }
   f.timing.detect_ms = ms_since(t_det);
@@ -443,6 +681,29 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
     m.update_body(m.pen, tags, capture_time_s, display_time_s, f.pen, f.timing.pose_ms,
                   f.timing.filter_ms);
   f.pen.name = "pen";
+
+  // Off the path: hand this frame to a full-frame search when a body needs
+  // finding or the interval is up, and the previous search is merged.
+  if (off_path) {
+    bool start = false;
+    if (mode == DiscoveryMode::kScheduled) {
+      start = cue != nullptr && cue->start;
+      if (start) m.scheduled[id] = m.discovery->search(m.gray, id, capture_time_s);
+    } else {
+      const bool any_lost = (!m.mirror.bundle.tags.empty() && !mir_ok &&
+                             f.mirror.state == TrackState::kLost) ||
+                            (!m.pen.bundle.tags.empty() && !pen_ok && f.pen.state == TrackState::kLost);
+      const bool want = m.frames == 0 || f.mannequin.state == TrackState::kLost || man_missed ||
+                        (m.o.full_frame_when_any_lost && any_lost) ||
+                        m.frames_since_discovery + 1 >= m.o.full_frame_interval;
+      if (want && m.discovery->idle()) {
+        m.discovery->post(m.gray, id, capture_time_s);
+        start = true;
+      }
+    }
+    f.discovery_started = start;
+    m.frames_since_discovery = start ? 0 : m.frames_since_discovery + 1;
+  }
   f.tags = std::move(tags);
   ++m.frames;
   m.have_last_capture = true;

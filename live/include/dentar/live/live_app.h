@@ -60,6 +60,12 @@ struct LiveOptions {
   bool loop = false;       // live:PATH footage: play it again at its end (long runs, benchmarks)
   int engine_cpu = -2;     // -2 = the last CPU; -1 = no pinning
   bool realtime = true;    // SCHED_FIFO + mlockall
+  // Where the tracker's full-frame tag search runs when it is off the frame
+  // path (pipeline.tracker.discovery = kAsync, the default here): "others"
+  // (with the frame thread, off the engine's CPU) or "engine" (on the
+  // engine's CPU at SCHED_IDLE: it only gets the time the engine leaves,
+  // and the FIFO engine preempts it at once).
+  std::string discovery_cpu = "engine";
   ar::PipelineOptions pipeline;
   // Test hooks.
   std::vector<std::pair<std::int64_t, std::string>> screenshots;  // (frame, PNG path) of the window

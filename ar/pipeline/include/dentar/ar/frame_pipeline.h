@@ -95,6 +95,10 @@ struct FrameInput {
   // stylus_valid, at snapshot.T_dev_sty through the station calibration.
   const haptics::HapticSnapshot* haptic = nullptr;
   bool stylus_valid = false;
+  // Replaying a live run whose discovery ran off the frame path
+  // (TrackerOptions::discovery = kScheduled): what the live run did at this
+  // frame. Null otherwise.
+  const DiscoveryCue* discovery = nullptr;
 };
 
 // What happened to one frame. States: 0 tracking, 1 predicted, 2 lost.
@@ -108,6 +112,12 @@ struct FrameRecord {
   double man_rms_px = 0;  // NaN when not measured
   int man_tags = 0, mir_tags = 0, pen_tags = 0, tags_detected = 0;
   bool full_frame = false;
+  // Discovery off the frame path (tracker.h): a full-frame search was started
+  // on this frame's image; the one started on frame disc_merged (-1 none)
+  // was merged, taking disc_ms on its own thread.
+  bool disc_start = false;
+  std::int64_t disc_merged = -1;
+  double disc_ms = 0;
   // Haptics as drawn.
   std::uint64_t haptic_step = 0;        // HapticSnapshot::step
   std::uint64_t haptic_steps_done = 0;  // HapticSnapshot::steps_done (replay: step the engine to this)

@@ -13,6 +13,21 @@
 // on the first frame; a lost mirror is searched for by those full frames
 // (see `full_frame_when_any_lost`).
 //
+// Discovery (TrackerOptions::discovery): the full-frame search, which
+// finds bodies without a usable prediction, costs ~20 ms at 1280x720. Run
+// inline (kInline, the default), a frame that needs it waits for it. The
+// other modes take it off the frame path: the frame's own search is the
+// predicted regions only, and the frame's grey image is handed to a
+// full-frame search whose tags are merged at the start of a later frame,
+// as measurements at the capture time of the frame they were found in (a
+// body whose newest measurement is already younger ignores them). The merged
+// body is then "predicted" and its regions find it in the current frame.
+// kAsync searches on a worker thread (merged at the first frame after it is
+// done); kDeferred makes the same decisions but searches synchronously when
+// the search is posted and merges at the next frame (deterministic: tests);
+// kScheduled replays a live run's decisions (DiscoveryCue per frame), which
+// makes a recording's poses reproducible bit for bit.
+//
 // States: kTracking = a pose was measured in this frame; kPredicted = not
 // measured, but the last measurement is younger than stale_limit_s (pose =
 // the filter's prediction); kLost = older or never measured: the pose is
@@ -26,6 +41,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <optional>
@@ -42,6 +59,16 @@
 namespace dentar::ar {
 
 enum class TrackState { kTracking, kPredicted, kLost };
+enum class DiscoveryMode { kInline, kDeferred, kAsync, kScheduled };
+const char* discovery_mode_name(DiscoveryMode m);  // "inline", "deferred", "async", "scheduled"
+// Parses the names above; error names the value and the choices.
+Result<DiscoveryMode> parse_discovery_mode(const std::string& name);
+
+// kScheduled: what happens to discovery at one frame (from a recording).
+struct DiscoveryCue {
+  bool start = false;        // search this frame's image (after the merge below)
+  std::int64_t merge = -1;   // merge the search started on this frame index (-1 none)
+};
 const char* track_state_name(TrackState s);  // "tracking", "predicted", "lost"
 
 struct TrackerOptions {
@@ -93,6 +120,11 @@ struct TrackerOptions {
   // path like the mirror's; a lost pen is found by the full-frame searches.
   bool track_pen = false;
   double pen_max_sigma_m = 0.0;  // as mirror_max_sigma_m (0 = no gate)
+  // Where the full-frame search runs (see the top of this file).
+  DiscoveryMode discovery = DiscoveryMode::kInline;
+  // kAsync: called once on the worker thread before its first search (CPU
+  // affinity, scheduling class); may be empty.
+  std::function<void()> discovery_thread_init;
 
   std::string validate() const;  // empty when valid, else names the field
 };
@@ -118,6 +150,7 @@ struct TrackTimings {
 };
 
 struct TrackFrame {
+  std::int64_t index = 0;  // the frame_id given to track(), else its count since create()/reset()
   double capture_time_s = 0, display_time_s = 0;
   bool full_frame = true;  // false: the predicted-region path ran
   int regions = 0;         // crops searched (0 on a full frame)
@@ -127,6 +160,14 @@ struct TrackFrame {
   BodyTrack mannequin, mirror;
   BodyTrack pen;  // lost unless options.track_pen
   TrackTimings timing;
+  // Discovery off the frame path (not kInline): this frame's image was handed
+  // to a full-frame search; the search started on frame `discovery_merged`
+  // (-1: none) was merged before this frame's own search, with
+  // `discovery_tags` tags found in `discovery_ms` (its own time, ms).
+  bool discovery_started = false;
+  std::int64_t discovery_merged = -1;
+  int discovery_tags = 0;
+  double discovery_ms = 0;
 };
 
 class Tracker {
@@ -142,9 +183,15 @@ class Tracker {
   // One frame (BGR CV_8UC3 or gray CV_8UC1, the calibration's size),
   // captured at capture_time_s (monotonic, s); poses are predicted to
   // display_time_s (>= capture time; equal = no prediction). Errors: empty or
-  // wrong-size/type image (message says which), detector failure.
-  Result<TrackFrame> track(const cv::Mat& image, double capture_time_s, double display_time_s);
-  // Forgets all bodies (next frame is a full-frame search).
+  // wrong-size/type image (message says which), detector failure, a cue
+  // outside kScheduled or one that merges a search never started.
+  // frame_id names the frame in TrackFrame::index, discovery_merged and the
+  // cues (-1: the tracker's own count of track() calls since create/reset);
+  // ids must increase.
+  Result<TrackFrame> track(const cv::Mat& image, double capture_time_s, double display_time_s,
+                           const DiscoveryCue* cue = nullptr, std::int64_t frame_id = -1);
+  // Forgets all bodies (next frame is a full-frame search); waits for and
+  // drops a running discovery.
   void reset();
   const TrackerOptions& options() const;
   const calibration::CameraIntrinsics& camera() const;
