@@ -58,7 +58,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--discovery", c->discovery,
                   "full-frame tag search: async (off the frame path, default) or inline (in the frame that needs it)");
   sub->add_option("--discovery-cpu", c->o.discovery_cpu,
-                  "async search: engine (the engine's CPU at SCHED_IDLE, default) or others (with the frame thread)");
+                  "async search: engine (the engine's CPU, below the engine; default) or others (with the frame thread)");
   sub->add_flag("--no-occlusion", c->no_occlusion, "no depth phantoms (lips, mirror, handpiece)");
   sub->add_flag("--no-segmentation", c->no_segmentation, "no foreground (hand) segmentation");
   sub->add_flag("--no-mirror", c->no_mirror, "no reflection in the mouth mirror");

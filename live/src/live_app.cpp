@@ -257,6 +257,8 @@ std::string LiveSummary::json() const {
                   {"realtime_granted", realtime_granted}, {"cpu_pinned", cpu_pinned},
                   {"memory_locked", memory_locked}, {"isolation", isolation_note}}},
       {"volume_hash", hash},
+      {"removed_mm3", {{"enamel", removed_enamel_mm3}, {"dentin", removed_dentin_mm3},
+                       {"pulp", removed_pulp_mm3}, {"total", removed_total_mm3}}},
       {"rss_mb", {{"start", rss_start_mb}, {"after_10s", rss_warm_mb}, {"end", rss_end_mb},
                   {"growth_after_10s", rss_warm_mb > 0 ? rss_end_mb - rss_warm_mb : 0.0}}},
       {"overlay_hidden_ms_after_stall", overlay_hidden_ms_after_stall},
@@ -421,11 +423,12 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   }
 
   // The tracker's full-frame search (tracker.h, "Discovery"): on the
-  // engine's CPU at SCHED_IDLE, it uses the ~85 % of that core the engine
-  // leaves idle instead of queueing behind the frame path on the others.
+  // engine's CPU (below the FIFO engine, which preempts it at once) it uses
+  // the ~85 % of that core the engine leaves idle instead of queueing behind
+  // the frame path on the others.
   ar::PipelineOptions popt = o.pipeline;
   const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
-  std::atomic<int> discovery_placed{0};  // 1 pinned + SCHED_IDLE, -1 refused
+  std::atomic<int> discovery_placed{0};  // 1 pinned to the engine's CPU, -1 refused
   if (popt.tracker.discovery == ar::DiscoveryMode::kAsync && o.discovery_cpu == "engine" && cfg.cpu >= 0 &&
       ncpu > 1) {
     const int cpu = cfg.cpu;
@@ -433,9 +436,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       cpu_set_t one;
       CPU_ZERO(&one);
       CPU_SET(cpu, &one);
-      sched_param sp{};
-      const bool ok = pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0 &&
-                      pthread_setschedparam(pthread_self(), SCHED_IDLE, &sp) == 0;
+      // Normal (CFS) priority: below the FIFO engine whatever it is; only
+      // other processes' threads share that core with it.
+      const bool ok = pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0;
       discovery_placed.store(ok ? 1 : -1);
     };
   }
@@ -652,9 +655,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   grant += "; " + iso;
   if (popt.tracker.discovery == ar::DiscoveryMode::kAsync)
     grant += discovery_placed.load() > 0
-                 ? "; tag discovery async on CPU " + std::to_string(cfg.cpu) + " at SCHED_IDLE"
+                 ? "; tag discovery async on CPU " + std::to_string(cfg.cpu) + " (below the engine)"
                  : discovery_placed.load() < 0 ? "; tag discovery async (CPU " + std::to_string(cfg.cpu) +
-                                                     " at SCHED_IDLE refused: with the frame thread)"
+                                                     " refused: with the frame thread)"
                                                : "; tag discovery async, with the frame thread";
   else
     grant += "; tag discovery inline (" + discovery_name + ")";
@@ -851,6 +854,13 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   sum.cpu_pinned = es.cpu_pinned;
   sum.isolation_note = iso + es.realtime_note;
   sum.volume_hash = vol->content_hash();
+  {
+    const haptics::HapticSnapshot last = engine.snapshot();
+    sum.removed_enamel_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kEnamel)];
+    sum.removed_dentin_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kDentin)];
+    sum.removed_pulp_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kPulp)];
+    for (double v : last.removed_mm3) sum.removed_total_mm3 += v;
+  }
   sum.rss_end_mb = rss_mb();
   if (!sum.realtime_granted && o.realtime)
     sum.warnings.push_back("engine: " + es.realtime_note);

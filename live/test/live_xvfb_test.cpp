@@ -19,6 +19,8 @@
 #include <sstream>
 #include <thread>
 
+#include "dentar/ar/apriltags.h"
+#include "dentar/ar/station_scene.h"
 #include "testutil.h"
 
 namespace fs = std::filesystem;
@@ -339,3 +341,139 @@ TEST(LiveCli, MissingCameraExplains) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("stylus"), std::string::npos) << r.out;
 }
+
+// ---- The webcam try-out: the box station and the printed pen ----
+
+namespace {
+
+// Draws one tag (its printed cells with a one-cell quiet zone) at
+// T_cam_parent * placement into a gray image, through a pinhole camera
+// (the station's distortion is zero here).
+void draw_tag(cv::Mat& img, const dentar::ar::TagFamily& fam, const dentar::ar::TagPlacement& t,
+              const Eigen::Isometry3d& T_cam_parent, const dentar::calibration::CameraIntrinsics& k) {
+  const int ppc = 10, margin = ppc;
+  const cv::Mat tag = dentar::ar::render_tag_image(fam, t.id, ppc, margin);
+  const double cell_m = t.size_m / fam.width_at_border(), half = fam.total_width() / 2.0;
+  std::vector<cv::Point2f> src, dst;
+  for (const auto& [u, v] : {std::pair{0.0, 0.0}, {1.0, 0.0}, {1.0, 1.0}, {0.0, 1.0}}) {
+    const double px = u * tag.cols, py = v * tag.rows;
+    const Eigen::Vector3d p =
+        T_cam_parent * t.T_parent_tag *
+        Eigen::Vector3d(((px - margin) / ppc - half) * cell_m, ((py - margin) / ppc - half) * cell_m, 0);
+    src.emplace_back(static_cast<float>(px - 0.5), static_cast<float>(py - 0.5));
+    dst.emplace_back(static_cast<float>(k.fx * p.x() / p.z() + k.cx), static_cast<float>(k.fy * p.y() / p.z() + k.cy));
+  }
+  cv::warpPerspective(tag, img, cv::getPerspectiveTransform(src, dst), img.size(), cv::INTER_LINEAR,
+                      cv::BORDER_TRANSPARENT);
+}
+
+// What a webcam sees at the try-out: the printed box board and the pen's
+// flag, the pen tip going down into the virtual tooth and back (5 s at
+// 30 fps). Writes pen.mkv (lossless) and station.json (the box station,
+// no lens distortion) into dir.
+void make_pen_clip(const fs::path& dir) {
+  using namespace dentar::ar;
+  StationScene st = box_station_scene();
+  st.calibration.camera.dist.fill(0.0);
+  const auto& k = st.calibration.camera;
+  ASSERT_TRUE(write_station_scene(st, (dir / "station.json").string()).ok());
+  // Camera 30 cm in front of and 25 cm above the board, looking at the tooth.
+  const Eigen::Vector3d eye(0, -0.30, 0.25), target(0, 0, 0.02);
+  Eigen::Matrix3d R_man_cam;
+  R_man_cam.col(2) = (target - eye).normalized();
+  R_man_cam.col(0) = Eigen::Vector3d::UnitX();
+  R_man_cam.col(1) = R_man_cam.col(2).cross(R_man_cam.col(0));
+  Eigen::Isometry3d T_man_cam = Eigen::Isometry3d::Identity();
+  T_man_cam.linear() = R_man_cam;
+  T_man_cam.translation() = eye;
+  const Eigen::Isometry3d T_cam_man = T_man_cam.inverse();
+  // The pen leans toward the camera's side, its flag facing the camera:
+  // ptag y along the pen toward the tip, x along the board's x.
+  const Eigen::Vector3d d = Eigen::Vector3d(0, 0.3, -1).normalized();
+  Eigen::Matrix3d R_man_ptag;
+  R_man_ptag.col(0) = Eigen::Vector3d::UnitX();
+  R_man_ptag.col(1) = d;
+  R_man_ptag.col(2) = R_man_ptag.col(0).cross(d);
+  // Tip path: from 8 mm above the crown's centre to 4 mm above the cervical
+  // plane (well inside the crown), held, then back out.
+  const Eigen::Vector3d above = st.calibration.T_man_tooth * Eigen::Vector3d(0, 0, 0.016);
+  const Eigen::Vector3d inside = st.calibration.T_man_tooth * Eigen::Vector3d(0, 0, 0.004);
+  const TagFamily fam = TagFamily::create(st.family);
+  cv::VideoWriter vw((dir / "pen.mkv").string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), 30,
+                     cv::Size(k.width, k.height));
+  ASSERT_TRUE(vw.isOpened());
+  for (int i = 0; i < 150; ++i) {
+    const double s = i < 30 ? 0.0 : i < 60 ? (i - 30) / 30.0 : i < 130 ? 1.0 : std::max(0.0, 1.0 - (i - 130) / 15.0);
+    const Eigen::Vector3d tip = above + s * (inside - above);
+    Eigen::Isometry3d T_man_ptag = Eigen::Isometry3d::Identity();
+    T_man_ptag.linear() = R_man_ptag;
+    T_man_ptag.translation() = tip - R_man_ptag * st.pen.T_ptag_tip.translation();
+    cv::Mat gray(k.height, k.width, CV_8UC1, cv::Scalar(170));
+    for (const TagPlacement& t : st.mannequin_tags) draw_tag(gray, fam, t, T_cam_man, k);
+    draw_tag(gray, fam, st.pen.tags[0], T_cam_man * T_man_ptag, k);  // the front of the flag
+    cv::Mat bgr;
+    cv::cvtColor(gray, bgr, cv::COLOR_GRAY2BGR);
+    vw.write(bgr);
+  }
+}
+
+}  // namespace
+
+// The README's try-out, as a newcomer does it with a webcam: the box board
+// and the pen tracked, the pen's tip driving the engine, the space bar as the
+// pedal. With the space bar held the pen cuts the tooth (and the recording
+// replays to the same cut); without it nothing is removed.
+TEST(LiveXvfb, PenCutsTheToothWhileTheSpaceBarIsHeld) {
+  REQUIRE_XVFB();
+  if (std::system("command -v xdotool >/dev/null 2>&1") != 0) {
+    if (std::getenv("DENTAR_REQUIRE_GL")) FAIL() << "xdotool missing (apt install xdotool)";
+    GTEST_SKIP() << "xdotool not installed";
+  }
+  const fs::path t = dentar::test::temp_dir("live_pen");
+  make_pen_clip(t);
+  if (HasFatalFailure()) return;
+  auto live = [&](const std::string& name, bool press) {
+    const std::string script = (t / (name + ".sh")).string();
+    std::string keys = press ? "xdotool keydown --window \"$w\" space\nsleep 4.5\nxdotool keyup --window \"$w\" space\n"
+                             : "sleep 4.5\n";
+    dentar::test::write_file(
+        script, "#!/bin/sh\n" + kBin + " live --camera live:" + (t / "pen.mkv").string() + " --station " +
+                    (t / "station.json").string() + " --stylus pen --no-occlusion --record " + (t / name).string() +
+                    " --summary " + (t / (name + ".json")).string() + " --quiet &\npid=$!\n"
+                    "for i in $(seq 1 100); do w=$(xdotool search --name 'DentAR live' 2>/dev/null | head -1); "
+                    "[ -n \"$w\" ] && break; sleep 0.1; done\n" + keys + "wait $pid\necho exit=$?\n");
+    return run_command(xvfb("sh " + script + " 2>&1"));
+  };
+  auto r = live("cut", true);
+  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_NE(r.out.find("exit=0"), std::string::npos) << r.out;
+  const auto sum = read_json(t / "cut.json");
+  const auto rows = read_csv(t / "cut" / "frames.csv");
+  ASSERT_GT(rows.size(), 20u);
+  const int ps = col(rows[0], "pen_state"), ms = col(rows[0], "man_state"), pd = col(rows[0], "pedal");
+  int pen_seen = 0, man_seen = 0, pedal_on = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    pen_seen += rows[i][ps] != "lost" ? 1 : 0;
+    man_seen += rows[i][ms] != "lost" ? 1 : 0;
+    pedal_on += rows[i][pd] == "1" ? 1 : 0;
+  }
+  const double n = static_cast<double>(rows.size() - 1);
+  EXPECT_GT(man_seen, 0.8 * n) << "the box board is tracked";
+  EXPECT_GT(pen_seen, 0.8 * n) << "the pen is tracked";
+  EXPECT_GT(pedal_on, 0.3 * n) << "the space bar is the pedal";
+  const double removed = sum["removed_mm3"]["total"].get<double>();
+  EXPECT_GT(removed, 0.05) << "the pen's tip inside the crown with the pedal down cuts it";
+
+  // The recording replays offline to the same cut.
+  r = run_command(kBin + " offline --footage " + (t / "cut").string() + " --out " + (t / "cut_off").string() +
+                  " --no-occlusion --quiet 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(read_json(t / "cut_off" / "summary.json")["volume_hash"], sum["volume_hash"]);
+
+  // The same motion without the space bar removes nothing.
+  r = live("nocut", false);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto sum0 = read_json(t / "nocut.json");
+  EXPECT_EQ(sum0["removed_mm3"]["total"].get<double>(), 0.0);
+}
+

@@ -58,9 +58,12 @@ RunOut run(bool warm) {
   const Clip& c = clip();
   auto vol = molar(c.gen->station().tooth_voxel_m);
   ToothMeshes meshes(vol);
-  auto p = FramePipeline::create(c.gen->station(), PipelineOptions{});
+  const PipelineOptions opts;
+  auto p = FramePipeline::create(c.gen->station(), opts);
   EXPECT_TRUE(p.ok()) << p.error();
-  if (warm) EXPECT_TRUE((*p)->warm_up(meshes).ok());
+  if (warm) {
+    EXPECT_TRUE((*p)->warm_up(meshes).ok());
+  }
   RunOut out;
   haptics::HapticSnapshot snap{};
   // A stylus pose from the truth, so the bur and handpiece are drawn too.

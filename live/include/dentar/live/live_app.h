@@ -63,8 +63,8 @@ struct LiveOptions {
   // Where the tracker's full-frame tag search runs when it is off the frame
   // path (pipeline.tracker.discovery = kAsync, the default here): "others"
   // (with the frame thread, off the engine's CPU) or "engine" (on the
-  // engine's CPU at SCHED_IDLE: it only gets the time the engine leaves,
-  // and the FIFO engine preempts it at once).
+  // engine's CPU at normal priority: it only gets the time the FIFO engine
+  // leaves, and the engine preempts it at once).
   std::string discovery_cpu = "engine";
   ar::PipelineOptions pipeline;
   // Test hooks.
@@ -89,6 +89,8 @@ struct LiveSummary {
   bool realtime_granted = false, cpu_pinned = false, memory_locked = false;
   std::string isolation_note;
   std::uint64_t volume_hash = 0;
+  // Removed by the end of the run, mm^3 (engine snapshot; total = all materials).
+  double removed_enamel_mm3 = 0, removed_dentin_mm3 = 0, removed_pulp_mm3 = 0, removed_total_mm3 = 0;
   // Resident memory: at start, 10 s in (after warm-up), at the end, MB.
   double rss_start_mb = 0, rss_warm_mb = 0, rss_end_mb = 0;
   int overlay_hidden_ms_after_stall = -1;  // measured with the stall hook
