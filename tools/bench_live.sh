@@ -6,7 +6,7 @@
 #   tools/bench_live.sh table [SECONDS]        latency / fps vs resolution, occlusion, mirror
 #   tools/bench_live.sh engine [SECONDS]       engine timing with/without isolation, with/without stress
 #   tools/bench_live.sh memory [SECONDS]       RSS growth over a long run
-#   tools/bench_live.sh discovery [SECONDS]    720p: tag discovery inline vs async (frame-thread CPU vs engine CPU)
+#   tools/bench_live.sh discovery [SECONDS]    720p: tag discovery inline vs async; background threads' CPU
 #
 # Environment: BUILD_DIR (default build), OUT (default out/bench_live).
 set -euo pipefail
@@ -76,10 +76,10 @@ case "$mode" in
   discovery)
     c720=$(clip 1280 720)
     header
-    run "720p discovery inline" "$c720" --stylus replay:"$c720/session.dlog" --discovery inline
-    run "720p discovery async, others" "$c720" --stylus replay:"$c720/session.dlog" --discovery async --discovery-cpu others
-    run "720p discovery async, engine CPU" "$c720" --stylus replay:"$c720/session.dlog" --discovery async --discovery-cpu engine
-    run "720p async engine CPU, sim hand" "$c720" --stylus sim
+    run "720p inline, background with frame thread" "$c720" --stylus replay:"$c720/session.dlog" --discovery inline --background-cpu others
+    run "720p async, background with frame thread" "$c720" --stylus replay:"$c720/session.dlog" --background-cpu others
+    run "720p async, background on engine CPU (default)" "$c720" --stylus replay:"$c720/session.dlog"
+    run "720p default, sim hand cutting" "$c720" --stylus sim
     ;;
   memory)
     c720=$(clip 1280 720)

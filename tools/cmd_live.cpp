@@ -57,8 +57,9 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");
   sub->add_option("--discovery", c->discovery,
                   "full-frame tag search: async (off the frame path, default) or inline (in the frame that needs it)");
-  sub->add_option("--discovery-cpu", c->o.discovery_cpu,
-                  "async search: engine (the engine's CPU, below the engine; default) or others (with the frame thread)");
+  sub->add_option("--background-cpu", c->o.background_cpu,
+                  "tag search, capture and mesher threads: engine (the engine's CPU, below the engine; default) "
+                  "or others (with the frame thread)");
   sub->add_flag("--no-occlusion", c->no_occlusion, "no depth phantoms (lips, mirror, handpiece)");
   sub->add_flag("--no-segmentation", c->no_segmentation, "no foreground (hand) segmentation");
   sub->add_flag("--no-mirror", c->no_mirror, "no reflection in the mouth mirror");

@@ -22,6 +22,7 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -232,8 +233,8 @@ std::string LiveOptions::validate() const {
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
   if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
   if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
-  if (discovery_cpu != "others" && discovery_cpu != "engine")
-    return "discovery_cpu = \"" + discovery_cpu + "\" must be others or engine";
+  if (background_cpu != "others" && background_cpu != "engine")
+    return "background_cpu = \"" + background_cpu + "\" must be others or engine";
   if (pipeline.tracker.discovery == ar::DiscoveryMode::kScheduled)
     return "pipeline.tracker.discovery = scheduled is for replays (dentar offline), not a live run";
   if (auto v = pipeline.validate(); !v.empty()) return "pipeline: " + v;
@@ -422,25 +423,27 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
              "): raise the memlock limit (ulimit -l unlimited, or memlock in /etc/security/limits.conf); ";
   }
 
-  // The tracker's full-frame search (tracker.h, "Discovery"): on the
-  // engine's CPU (below the FIFO engine, which preempts it at once) it uses
-  // the ~85 % of that core the engine leaves idle instead of queueing behind
-  // the frame path on the others.
+  // Background threads (the tracker's full-frame search, tracker.h
+  // "Discovery"; capture with its decoding; the mesher) on the engine's CPU,
+  // at normal priority: the FIFO engine preempts them at once, and they use
+  // the ~85 % of that core the engine leaves idle instead of queueing with
+  // the frame thread and the display on the others.
   ar::PipelineOptions popt = o.pipeline;
   const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
-  std::atomic<int> discovery_placed{0};  // 1 pinned to the engine's CPU, -1 refused
-  if (popt.tracker.discovery == ar::DiscoveryMode::kAsync && o.discovery_cpu == "engine" && cfg.cpu >= 0 &&
-      ncpu > 1) {
+  std::atomic<int> bg_placed{0}, bg_refused{0};  // background threads pinned / refused
+  std::function<void()> to_engine_cpu;
+  if (o.background_cpu == "engine" && cfg.cpu >= 0 && ncpu > 1) {
     const int cpu = cfg.cpu;
-    popt.tracker.discovery_thread_init = [cpu, &discovery_placed] {
+    to_engine_cpu = [cpu, &bg_placed, &bg_refused] {
       cpu_set_t one;
       CPU_ZERO(&one);
       CPU_SET(cpu, &one);
-      // Normal (CFS) priority: below the FIFO engine whatever it is; only
-      // other processes' threads share that core with it.
-      const bool ok = pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0;
-      discovery_placed.store(ok ? 1 : -1);
+      // Normal (CFS) priority: below the FIFO engine whatever it is (SCHED_IDLE
+      // would starve them whenever another process uses that core).
+      if (pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0) ++bg_placed;
+      else ++bg_refused;
     };
+    popt.tracker.discovery_thread_init = to_engine_cpu;
   }
 
   std::unique_ptr<haptics::SessionLogWriter> log;
@@ -523,6 +526,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cto.reopen = o.loop || o.camera.rfind("live:", 0) != 0;  // footage ends (unless looped); a camera comes back
   cto.stall_after_frames = o.stall_after_frames;
   cto.stall_s = o.stall_s;
+  cto.thread_init = to_engine_cpu;
   // Reopen the source now, after the slow set-up (tooth, window): a paced
   // stand-in starts its clock at open, and a camera's first frames would be stale.
   src->reset();
@@ -559,7 +563,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       pipeline_ready.store(-1);
       return;
     }
-    meshes.start_mesher();
+    meshes.start_mesher(1.0 / 120.0, to_engine_cpu);
     pipeline_ready.store(1);
     while (capture_ptr.load() == nullptr && !stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(2));
     if (stop.load()) {
@@ -653,14 +657,13 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   else grant += "not pinned; ";
   if (o.realtime) grant += sum.memory_locked ? "memory locked" : "memory not locked (raise `ulimit -l`)";
   grant += "; " + iso;
-  if (popt.tracker.discovery == ar::DiscoveryMode::kAsync)
-    grant += discovery_placed.load() > 0
-                 ? "; tag discovery async on CPU " + std::to_string(cfg.cpu) + " (below the engine)"
-                 : discovery_placed.load() < 0 ? "; tag discovery async (CPU " + std::to_string(cfg.cpu) +
-                                                     " refused: with the frame thread)"
-                                               : "; tag discovery async, with the frame thread";
+  grant += "; tag discovery " + discovery_name;
+  if (to_engine_cpu)
+    grant += "; " + std::to_string(bg_placed.load()) + " background threads (tag search, capture, mesher) on CPU " +
+             std::to_string(cfg.cpu) + " below the engine" +
+             (bg_refused.load() > 0 ? " (" + std::to_string(bg_refused.load()) + " refused)" : std::string());
   else
-    grant += "; tag discovery inline (" + discovery_name + ")";
+    grant += "; background threads with the frame thread";
   const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name();
   say("camera " + cam_desc + "; " + stylus_desc + "; pedal " + pedal.name());
   say(grant);

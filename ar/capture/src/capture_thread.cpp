@@ -18,7 +18,10 @@ CaptureThread::~CaptureThread() { stop(); }
 void CaptureThread::start() {
   if (thread_.joinable()) return;
   stop_.store(false);
-  thread_ = std::thread([this] { main(); });
+  thread_ = std::thread([this] {
+    if (options_.thread_init) options_.thread_init();
+    main();
+  });
 }
 
 void CaptureThread::stop() {

@@ -40,12 +40,15 @@ ToothMeshes::ToothMeshes(const volume::VoxelVolume& volume) : volume_(&volume), 
 
 ToothMeshes::~ToothMeshes() { stop_mesher(); }
 
-void ToothMeshes::start_mesher(double period_s) {
+void ToothMeshes::start_mesher(double period_s, std::function<void()> init) {
   if (mesher_.joinable()) return;
   back_ = std::make_unique<volume::Surface>(*volume_);
   back_->extract_all();
   stop_.store(false);
-  mesher_ = std::thread([this, period_s] { mesher_main(period_s); });
+  mesher_ = std::thread([this, period_s, init = std::move(init)] {
+    if (init) init();
+    mesher_main(period_s);
+  });
 }
 
 void ToothMeshes::stop_mesher() {

@@ -60,12 +60,13 @@ struct LiveOptions {
   bool loop = false;       // live:PATH footage: play it again at its end (long runs, benchmarks)
   int engine_cpu = -2;     // -2 = the last CPU; -1 = no pinning
   bool realtime = true;    // SCHED_FIFO + mlockall
-  // Where the tracker's full-frame tag search runs when it is off the frame
-  // path (pipeline.tracker.discovery = kAsync, the default here): "others"
-  // (with the frame thread, off the engine's CPU) or "engine" (on the
-  // engine's CPU at normal priority: it only gets the time the FIFO engine
-  // leaves, and the engine preempts it at once).
-  std::string discovery_cpu = "engine";
+  // Where the background threads run (the tracker's full-frame tag search
+  // when pipeline.tracker.discovery = kAsync, the default here; the capture
+  // thread with its decoding; the mesher): "engine" (on the engine's CPU at
+  // normal priority: they get only the time the FIFO engine leaves, and it
+  // preempts them at once) or "others" (with the frame thread and the
+  // display, off the engine's CPU).
+  std::string background_cpu = "engine";
   ar::PipelineOptions pipeline;
   // Test hooks.
   std::vector<std::pair<std::int64_t, std::string>> screenshots;  // (frame, PNG path) of the window

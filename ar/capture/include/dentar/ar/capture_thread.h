@@ -16,6 +16,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -33,6 +34,8 @@ struct CaptureThreadOptions {
   // camera's cable is pulled). 0 = never.
   std::int64_t stall_after_frames = 0;
   double stall_s = 0;
+  // Called once on the capture thread before it reads (CPU affinity); may be empty.
+  std::function<void()> thread_init;
 };
 
 class CaptureThread {

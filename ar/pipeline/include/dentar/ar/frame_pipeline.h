@@ -20,6 +20,7 @@
 #include <Eigen/Geometry>
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <opencv2/core/mat.hpp>
@@ -60,8 +61,9 @@ class ToothMeshes {
   ToothMeshes(const ToothMeshes&) = delete;
   ToothMeshes& operator=(const ToothMeshes&) = delete;
 
-  // Starts the mesher thread (period between passes, s). Idempotent.
-  void start_mesher(double period_s = 1.0 / 120.0);
+  // Starts the mesher thread (period between passes, s); `init` runs once on
+  // it first (CPU affinity; may be empty). Idempotent.
+  void start_mesher(double period_s = 1.0 / 120.0, std::function<void()> init = {});
   void stop_mesher();
   bool threaded() const { return mesher_.joinable(); }
   // Frame thread: brings display() up to date; returns the chunks changed.
