@@ -261,7 +261,9 @@ std::string LiveSummary::json() const {
       {"removed_mm3", {{"enamel", removed_enamel_mm3}, {"dentin", removed_dentin_mm3},
                        {"pulp", removed_pulp_mm3}, {"total", removed_total_mm3}}},
       {"rss_mb", {{"start", rss_start_mb}, {"after_10s", rss_warm_mb}, {"end", rss_end_mb},
-                  {"growth_after_10s", rss_warm_mb > 0 ? rss_end_mb - rss_warm_mb : 0.0}}},
+                  {"growth_after_10s", rss_warm_mb > 0 ? rss_end_mb - rss_warm_mb : 0.0},
+                  {"after_60s", rss_60s_mb}, {"max_after_60s", rss_max_after_60s_mb},
+                  {"growth_after_60s", rss_60s_mb > 0 ? rss_end_mb - rss_60s_mb : 0.0}}},
       {"overlay_hidden_ms_after_stall", overlay_hidden_ms_after_stall},
       {"warnings", warnings}};
   return j.dump(2) + "\n";
@@ -814,6 +816,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       sum.overlay_hidden_ms_after_stall = static_cast<int>(std::lround((t_swap - capture.last_frame_steady_s()) * 1e3));
     if (sum.rss_warm_mb == 0 && t_swap - t_start >= 10.0) sum.rss_warm_mb = rss_mb();
     if (t_swap - fps_t0 >= 1.0) {
+      if (t_swap - t_start >= 60.0) {
+        const double r = rss_mb();
+        if (sum.rss_60s_mb == 0) sum.rss_60s_mb = r;
+        sum.rss_max_after_60s_mb = std::max(sum.rss_max_after_60s_mb, r);
+      }
       fps_now = fps_n / (t_swap - fps_t0);
       fps_t0 = t_swap;
       fps_n = 0;

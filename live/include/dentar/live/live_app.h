@@ -94,6 +94,9 @@ struct LiveSummary {
   double removed_enamel_mm3 = 0, removed_dentin_mm3 = 0, removed_pulp_mm3 = 0, removed_total_mm3 = 0;
   // Resident memory: at start, 10 s in (after warm-up), at the end, MB.
   double rss_start_mb = 0, rss_warm_mb = 0, rss_end_mb = 0;
+  // 60 s in (start-up buffers returned by then) and the largest seen after it
+  // (sampled once a second), MB; 0 in runs shorter than a minute.
+  double rss_60s_mb = 0, rss_max_after_60s_mb = 0;
   int overlay_hidden_ms_after_stall = -1;  // measured with the stall hook
   std::vector<std::string> warnings;
   std::string json() const;
