@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "commands.h"
+#include "dentar/store/db_url.h"
 #include "dentar/store/station.h"
 #include "dentar/training/report.h"
 

@@ -86,6 +86,9 @@ Result<std::unique_ptr<Db>> open_postgres(const DbUrl& url, int connect_timeout_
     PQfinish(c);
     return Error{url.redacted + ": cannot connect: " + m};
   }
+  // Server notices (e.g. "terminating connection due to immediate shutdown")
+  // surface as errors on the next statement; do not print them.
+  PQsetNoticeProcessor(c, [](void*, const char*) {}, nullptr);
   PGresult* r = PQexec(c, "SET client_min_messages = warning");
   PQclear(r);
   return std::unique_ptr<Db>(std::make_unique<PgDb>(c, url.redacted));

@@ -48,6 +48,50 @@ std::string safe_next(const std::string& n) {
   return n;
 }
 
+int hexval(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// Percent-decoding ('+' is a space); false on a malformed escape.
+bool decode(const std::string& in, std::string& out) {
+  out.clear();
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    if (in[i] == '%') {
+      if (i + 2 >= in.size()) return false;
+      const int a = hexval(in[i + 1]), b = hexval(in[i + 2]);
+      if (a < 0 || b < 0) return false;
+      out += static_cast<char>(a * 16 + b);
+      i += 2;
+    } else {
+      out += in[i] == '+' ? ' ' : in[i];
+    }
+  }
+  return true;
+}
+
+bool query_ok(const std::string& target) {
+  const std::size_t q = target.find('?');
+  if (q == std::string::npos) return true;
+  const std::string query = target.substr(q + 1);
+  if (query.empty()) return true;
+  std::size_t pos = 0;
+  while (pos <= query.size()) {
+    std::size_t amp = query.find('&', pos);
+    if (amp == std::string::npos) amp = query.size();
+    const std::string item = query.substr(pos, amp - pos);
+    const std::size_t eq = item.find('=');
+    if (eq == std::string::npos || item.find('=', eq + 1) != std::string::npos) return false;
+    std::string key, val;
+    if (!decode(item.substr(0, eq), key) || !decode(item.substr(eq + 1), val)) return false;
+    if (key != "exercise" || val.empty() || !validate_code("exercise", val).empty()) return false;
+    pos = amp + 1;
+  }
+  return true;
+}
+
 SessionFilter filter(const std::string& student, const std::string& exercise, std::size_t limit = 0) {
   SessionFilter f;
   f.student = student;
@@ -159,12 +203,11 @@ struct WebServer::Impl {
         res.set_redirect("/login?next=" + html::url_part(safe_next(req.path)), 303);
         return;
       }
-      // Every query parameter is checked: only known names with code values.
-      for (const auto& [k, v] : req.params) {
-        if (k != "exercise" || !validate_code("exercise", v).empty()) {
-          fail(res, 400, user, "The request has a parameter this page does not accept.");
-          return;
-        }
+      // Every query parameter is checked on the raw query (not httplib's
+      // lenient parse): only `exercise=CODE`, one '=' each.
+      if (!query_ok(req.target)) {
+        fail(res, 400, user, "The request has a parameter this page does not accept.");
+        return;
       }
       auto l = lease();
       if (!l) {

@@ -161,7 +161,9 @@ void migrate_from_each_version(const std::function<std::string(int)>& url_for) {
       ASSERT_TRUE(old);
       EXPECT_EQ(old->schema_version(), from);
       ASSERT_TRUE(old->exec_raw(kV1Rows).ok());
-      if (from >= 2) ASSERT_TRUE(old->exec_raw(kV2Rows).ok());
+      if (from >= 2) {
+        ASSERT_TRUE(old->exec_raw(kV2Rows).ok());
+      }
     }
     {  // Refused without migration, with the command to run.
       OpenOptions o;

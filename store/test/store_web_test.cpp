@@ -69,7 +69,10 @@ class Web : public ::testing::Test {
     if (logged_in) h.emplace("Cookie", cookie_);
     return c.Get(path.c_str(), h);
   }
-  static std::unique_ptr<Store> store() { return std::move(*Store::open(db_)); }
+  static std::unique_ptr<Store> store() {
+    auto s = Store::open(db_);
+    return std::move(*s);
+  }
   static inline fs::path* dir_ = nullptr;
   static inline std::string db_, base_, cookie_;
   static inline WebServer* server_ = nullptr;
@@ -141,6 +144,10 @@ TEST_F(Web, NumbersOnThePagesMatchTheDatabase) {
   ASSERT_TRUE(rep);
   EXPECT_EQ(rep->status, 200);
   EXPECT_EQ(rep->body, (**rec).score_html);
+  auto filtered = get("/student/s02?exercise=incisor_partial_crown");
+  ASSERT_TRUE(filtered);
+  EXPECT_EQ(filtered->status, 200);
+  EXPECT_NE(filtered->body.find("3 sessions of incisor_partial_crown"), std::string::npos);
   auto cohort = get("/cohort");
   ASSERT_TRUE(cohort);
   EXPECT_EQ(cohort->status, 200);
@@ -167,7 +174,8 @@ TEST_F(Web, PathTraversalAndSqlInjectionAreRefused) {
       "/session/1%20OR%201=1", "/session/1;DROP%20TABLE%20sessions", "/session/1'--/report",
       "/student/s01'%20OR%20'1'='1", "/student/s01%27%3B%20DROP%20TABLE%20sessions%3B--",
       "/exercise/x'%20UNION%20SELECT%20key%20FROM%20sessions--",
-      "/student/s01?exercise=x'%20OR%201=1--", "/student/s01?exercise=..%2F..%2Fetc", "/student/s01?id=1%20OR%201=1",
+      "/student/s01?exercise=x'%20OR%201=1--",
+      "/student/s01?exercise=molar_access_opening&exercise=x'--", "/student/s01?exercise=%ZZ", "/student/s01?exercise=..%2F..%2Fetc", "/student/s01?id=1%20OR%201=1",
       "/cohort?x=1'", "/?student=s01'--"};
   for (const auto& a : attacks) {
     auto r = get(a);
