@@ -115,6 +115,10 @@ double num(const json& j, const char* k) {
   return j.is_object() && j.contains(k) && j[k].is_number() ? j[k].get<double>() : 0.0;
 }
 
+std::string str_of(const json& j, const char* k) {
+  return j.is_object() && j.contains(k) && j[k].is_string() ? j[k].get<std::string>() : "";
+}
+
 std::string read_text(const fs::path& p) {
   std::ifstream f(p, std::ios::binary);
   std::ostringstream s;
@@ -204,7 +208,7 @@ struct Reader {
 
 Result<SessionRecord> record_from_json(const json& j) {
   if (!j.is_object()) return Error{"stored session: not a JSON object"};
-  if (j.value("format", std::string()) != "dentar-stored-session")
+  if (str_of(j, "format") != "dentar-stored-session")
     return Error{"stored session: format must be \"dentar-stored-session\""};
   if (!j.contains("version") || !j["version"].is_number_integer() || j["version"].get<long long>() != 1)
     return Error{"stored session: version must be 1"};
@@ -317,7 +321,7 @@ Result<SessionRecord> record_from_session_dir(const std::string& path, const Imp
   } catch (const json::exception& e) {
     return Error{sj.string() + ": not valid JSON: " + e.what()};
   }
-  if (!s.is_object() || s.value("format", std::string()) != "dentar-score")
+  if (!s.is_object() || str_of(s, "format") != "dentar-score")
     return Error{sj.string() + ": format is not \"dentar-score\" (written by `dentar score`)"};
   if (const fs::path html = rep / "score.html"; fs::is_regular_file(html, ec)) r.score_html = read_text(html);
   Sha h;
@@ -328,21 +332,22 @@ Result<SessionRecord> record_from_session_dir(const std::string& path, const Imp
   r.report_dir = fs::absolute(rep, ec).lexically_normal().string();
   r.student = opt.student;
   r.station = opt.station;
-  const json& ex = s.value("exercise", json::object());
-  r.exercise = ex.is_object() ? ex.value("name", std::string()) : "";
-  r.exercise_title = ex.is_object() ? ex.value("title", std::string()) : "";
+  const json ex = s.contains("exercise") ? s["exercise"] : json::object();
+  r.exercise = str_of(ex, "name");
+  r.exercise_title = str_of(ex, "title");
   if (r.exercise.empty()) return Error{sj.string() + ": exercise.name missing"};
   if (auto e = validate_code("exercise", r.exercise); !e.empty()) return Error{sj.string() + ": " + e};
   if (s.contains("log_warning") && s["log_warning"].is_string()) r.log_warning = s["log_warning"].get<std::string>();
-  const json out = s.value("outcome", json::object()), pr = s.value("process", json::object());
+  const json out = s.contains("outcome") ? s["outcome"] : json::object();
+  const json pr = s.contains("process") ? s["process"] : json::object();
   r.points = num(out, "points");
   r.max_points = num(out, "max_points");
   r.coverage_pct = num(out, "target_coverage_pct");
   r.overprep_mm3 = num(out, "overprep_mm3");
   r.forbidden_mm3 = num(out, "forbidden_mm3");
   r.removed_mm3 = num(out, "removed_total_mm3");
-  r.pulp_exposed = out.is_object() && out.value("pulp_exposed", false);
-  r.perforation = out.is_object() && out.value("perforation", false);
+  r.pulp_exposed = out.is_object() && out.contains("pulp_exposed") && out["pulp_exposed"].is_boolean() && out["pulp_exposed"].get<bool>();
+  r.perforation = out.is_object() && out.contains("perforation") && out["perforation"].is_boolean() && out["perforation"].get<bool>();
   r.duration_s = num(pr, "duration_s");
   r.drilling_s = num(pr, "drilling_s");
   r.path_mm = num(pr, "path_mm");
@@ -353,23 +358,32 @@ Result<SessionRecord> record_from_session_dir(const std::string& path, const Imp
     for (const auto& st : s["steps"]) {
       if (!st.is_object()) continue;
       StepScore x;
-      x.name = st.value("name", std::string());
+      x.name = str_of(st, "name");
       x.start_s = num(st, "start_s");
       x.end_s = num(st, "end_s");
       x.drilling_s = num(st, "drilling_s");
       x.path_mm = num(st, "path_mm");
       x.removed_mm3 = num(st, "removed_mm3");
-      x.force_N = vec3(st.value("force_mean_N", json()));
-      x.force_sd_N = vec3(st.value("force_sd_N", json()));
-      x.has_expert = st.contains("expert_force_mean_N");
-      x.expert_force_N = vec3(st.value("expert_force_mean_N", json()));
-      x.expert_sd_N = vec3(st.value("expert_force_sd_N", json()));
+      x.force_N = vec3(st.contains("force_mean_N") ? st["force_mean_N"] : json());
+      x.force_sd_N = vec3(st.contains("force_sd_N") ? st["force_sd_N"] : json());
+      x.has_expert = st.contains("expert_force_mean_N") && st["expert_force_mean_N"].is_array();
+      x.expert_force_N = vec3(x.has_expert ? st["expert_force_mean_N"] : json());
+      x.expert_sd_N = vec3(st.contains("expert_force_sd_N") ? st["expert_force_sd_N"] : json());
       r.steps.push_back(x);
     }
+  // feedback[].step: the step's index (-1 or absent: the whole session).
   if (s.contains("feedback") && s["feedback"].is_array())
-    for (const auto& f : s["feedback"])
-      if (f.is_object())
-        r.feedback.push_back({f.value("step", std::string()), f.value("kind", std::string()), f.value("text", std::string())});
+    for (const auto& f : s["feedback"]) {
+      if (!f.is_object()) continue;
+      std::string step;
+      if (f.contains("step") && f["step"].is_number_integer()) {
+        const auto i = f["step"].get<long long>();
+        if (i >= 0 && static_cast<std::size_t>(i) < r.steps.size()) step = r.steps[static_cast<std::size_t>(i)].name;
+      } else if (f.contains("step") && f["step"].is_string()) {
+        step = f["step"].get<std::string>();
+      }
+      r.feedback.push_back({step, str_of(f, "kind"), str_of(f, "text")});
+    }
   // A live recording: its start time, and a hash over its description files.
   const fs::path rec = dir / "recording.json";
   if (fs::is_regular_file(rec, ec)) {

@@ -346,7 +346,7 @@ TEST(Record, ImportNeedsAScoredSessionAndSaysHow) {
   dentar::test::write_file(dir / "score.json", R"({"format":"dentar-score","version":1,"exercise":{"name":"molar_access_opening"},
     "outcome":{"points":12.5,"max_points":18,"target_coverage_pct":91,"criteria":[{"name":"Mesial wall","score":2}]},
     "process":{"duration_s":80,"path_mm":640},"steps":[{"name":"outline","force_mean_N":[0,0,-1]}],
-    "feedback":[{"step":"outline","kind":"well_done","text":"good"}]})");
+    "feedback":[{"step":0,"kind":"well_done","text":"good"},{"step":-1,"kind":"caution","text":"path"},{"step":"x","kind":7}]})");
   dentar::test::write_file(dir / "recording.json", R"({"format":"dentar-recording","started":"2026-11-20T09:30:00Z"})");
   io.student = "s1";
   auto ok = record_from_session_dir(dir.string(), io);
@@ -358,6 +358,10 @@ TEST(Record, ImportNeedsAScoredSessionAndSaysHow) {
   bool crit = false;
   for (const auto& m : ok->metrics) crit |= m.name == "outcome.criteria.Mesial wall.score" && m.value == 2;
   EXPECT_TRUE(crit);
+  ASSERT_EQ(ok->feedback.size(), 3u);
+  EXPECT_EQ(ok->feedback[0].step, "outline");  // score.json gives the step's index
+  EXPECT_EQ(ok->feedback[1].step, "");         // the whole session
+  EXPECT_EQ(ok->feedback[2].kind, "");         // a mistyped field is dropped, never a crash
 }
 
 }  // namespace
