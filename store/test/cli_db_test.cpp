@@ -132,6 +132,49 @@ TEST(CliDb, BadInputIsExit2WithAMessage) {
   EXPECT_NE(live.out.find("--db needs --record DIR"), std::string::npos) << live.out;
 }
 
+// `dentar offline --db`: the replayed session is scored and stored.
+TEST(CliDb, OfflineStoresTheReplayedSession) {
+  const fs::path d = dentar::test::temp_dir("cli_db_offline");
+  const std::string db = "sqlite:" + (d / "school.db").string();
+  const CommandResult r = run("offline --out " + (d / "run").string() +
+                              " --frames 20 --resolution 640x480 --no-video --quiet --db " + db +
+                              " --student s5 --station-id st-off");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("offline: session"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("stored in " + db), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(d / "run" / "score.json"));  // scored beside the offline report
+  auto st = dentar::store::Store::open(db);
+  ASSERT_TRUE(st.ok());
+  auto rec = (*st)->session_by_key(*dentar::store::sha256_file((d / "run" / "footage" / "session.dlog").string()));
+  ASSERT_TRUE(rec.ok() && rec->has_value());
+  EXPECT_EQ((**rec).student, "s5");
+  EXPECT_EQ((**rec).station, "st-off");
+  EXPECT_FALSE((**rec).score_html.empty());
+}
+
+// `dentar live --record --db` in a real window (Xvfb): the recording is
+// scored and stored with its recording hash.
+TEST(CliDb, LiveStoresTheRecordedSession) {
+  ASSERT_EQ(std::system("command -v xvfb-run >/dev/null 2>&1"), 0) << "xvfb-run missing (tools/bootstrap.sh installs xvfb)";
+  const fs::path d = dentar::test::temp_dir("cli_db_live");
+  ASSERT_EQ(run("synth --preset standard --frames 30 --resolution 640x480 --seed 3 --out " + (d / "clip").string()).code, 0);
+  const std::string db = "sqlite:" + (d / "school.db").string();
+  const CommandResult r = dentar::test::run_command(
+      "xvfb-run -a -s '-screen 0 1280x1024x24' " + std::string(DENTAR_BINARY) + " live --camera live:" +
+      (d / "clip" / "video.mkv").string() + " --station " + (d / "clip" / "station.json").string() +
+      " --stylus replay:" + (d / "clip" / "session.dlog").string() + " --record " + (d / "rec").string() +
+      " --no-hud --quiet --db " + db + " --student s6 --station-id st-live 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("live: session"), std::string::npos) << r.out;
+  auto st = dentar::store::Store::open(db);
+  ASSERT_TRUE(st.ok());
+  auto rec = (*st)->session_by_key(*dentar::store::sha256_file((d / "rec" / "session.dlog").string()));
+  ASSERT_TRUE(rec.ok() && rec->has_value());
+  EXPECT_EQ((**rec).student, "s6");
+  EXPECT_EQ((**rec).recording_sha256.size(), 64u);
+  EXPECT_EQ((**rec).started_utc.size(), 20u);  // recording.json "started"
+}
+
 TEST(CliServe, SetPasswordThenRefusesBadSetups) {
   const fs::path d = dentar::test::temp_dir("cli_serve");
   const std::string pw = (d / "pw.txt").string();
