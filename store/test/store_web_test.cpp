@@ -193,6 +193,46 @@ TEST_F(Web, PathTraversalAndSqlInjectionAreRefused) {
   EXPECT_TRUE(store()->students().ok());
 }
 
+// HTTPS directly (Debian's cpp-httplib is built with OpenSSL): a self-signed
+// certificate made with the openssl command; the login cookie is Secure.
+TEST(WebTls, ServesHttpsWithASecureCookie) {
+  const fs::path d = dentar::test::temp_dir("store_web_tls");
+  const auto gen = dentar::test::run_command(
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost -keyout " + (d / "key.pem").string() +
+      " -out " + (d / "cert.pem").string() + " 2>&1");
+  ASSERT_EQ(gen.code, 0) << gen.out;
+  ASSERT_TRUE(Store::open("sqlite:" + (d / "s.db").string()).ok());
+  ASSERT_TRUE(set_password((d / "pw.txt").string(), "bob", "bob-password-1", 2000).ok());
+  ServeOptions o;
+  o.db_url = "sqlite:" + (d / "s.db").string();
+  o.password_file = (d / "pw.txt").string();
+  o.port = 0;
+  o.cert_file = (d / "cert.pem").string();
+  o.key_file = (d / "key.pem").string();
+  auto w = WebServer::create(o);
+  ASSERT_TRUE(w.ok()) << w.error();
+  ASSERT_TRUE((*w)->bind().ok());
+  std::thread t([&] { (void)(*w)->listen_after_bind(); });
+  httplib::SSLClient c("127.0.0.1", (*w)->port());
+  c.enable_server_certificate_verification(false);
+  auto r = c.Post("/login", "user=bob&password=bob-password-1&next=/", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(r) << httplib::to_string(r.error());
+  EXPECT_EQ(r->status, 303);
+  EXPECT_NE(r->get_header_value("Set-Cookie").find("; Secure"), std::string::npos);
+  // Plain HTTP to the HTTPS port gets no page.
+  httplib::Client plain("127.0.0.1", (*w)->port());
+  auto p = plain.Get("/login");
+  EXPECT_TRUE(!p || p->status != 200);
+  (*w)->stop();
+  t.join();
+  // A key that is not PEM is refused with the file names.
+  dentar::test::write_file(d / "bad.pem", "not a key");
+  o.key_file = (d / "bad.pem").string();
+  auto bad = WebServer::create(o);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("not a usable PEM certificate and key"), std::string::npos) << bad.error();
+}
+
 class Browser : public Web {
  protected:
   void SetUp() override {
