@@ -49,7 +49,7 @@ const char* kStyle =
     "header a{color:#fff;text-decoration:none;font-weight:600}header .user{margin-left:auto;font-weight:400}"
     "main{padding:16px 24px;max-width:1200px}h1{font-size:1.5em}h2{font-size:1.15em;margin-top:28px}"
     "table{border-collapse:collapse;background:#fff;margin:8px 0}td,th{border:1px solid #d5dae1;padding:4px 10px;"
-    "text-align:left}th{background:#eef1f5}td.n{text-align:right;font-variant-numeric:tabular-nums}"
+    "text-align:left}th{background:#eef1f5}td.n{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}"
     ".warn{color:#a33;font-weight:600}.ok{color:#286b2a}.muted{color:#667}svg{background:#fff;border:1px solid #d5dae1;"
     "margin:6px 0}form.login{background:#fff;padding:20px;border:1px solid #d5dae1;max-width:320px}"
     "form.login input{display:block;margin:6px 0 12px;width:100%;padding:6px}";
@@ -112,7 +112,7 @@ std::string num(double v) { return fixed(v, 1); }
 }  // namespace
 
 std::string trend_svg(const std::vector<Series>& series, const std::string& title, double y_max) {
-  const double W = 720, H = 260, L = 50, R = 150, T = 28, B = 34;
+  const double W = 780, H = 260, L = 50, R = 200, T = 28, B = 34;
   double x0 = 1e300, x1 = -1e300;
   for (const auto& s : series)
     for (const auto& p : s.points) x0 = std::min(x0, p.first), x1 = std::max(x1, p.first);
@@ -144,7 +144,7 @@ std::string trend_svg(const std::vector<Series>& series, const std::string& titl
     if (i < 12)
       s += "<rect x=\"" + num(W - R + 12) + "\" y=\"" + num(T + 16.0 * static_cast<double>(i)) +
            "\" width=\"10\" height=\"10\" fill=\"" + c + "\"/><text x=\"" + num(W - R + 26) + "\" y=\"" +
-           num(T + 9 + 16.0 * static_cast<double>(i)) + "\" font-size=\"11\">" + esc(se.label.substr(0, 20)) + "</text>";
+           num(T + 9 + 16.0 * static_cast<double>(i)) + "\" font-size=\"11\">" + esc(se.label.substr(0, 28)) + "</text>";
   }
   return s + "</svg>";
 }
@@ -168,8 +168,10 @@ std::string force_band_svg(const std::vector<ForceRow>& rows) {
     s += "<text x=\"8\" y=\"" + num(y + 4) + "\" font-size=\"11\">" + esc(r.step.substr(0, 28)) + " · " + esc(r.axis) + "</text>";
     if (r.has_expert)
       s += "<rect x=\"" + num(X(r.expert_mean - r.expert_sd)) + "\" y=\"" + num(y - 7) + "\" width=\"" +
-           num(std::max(1.0, X(r.expert_mean + r.expert_sd) - X(r.expert_mean - r.expert_sd))) +
-           "\" height=\"14\" fill=\"#b9e0b5\"/>";
+           num(std::max(3.0, X(r.expert_mean + r.expert_sd) - X(r.expert_mean - r.expert_sd))) +
+           "\" height=\"14\" fill=\"#8fd18a\"/><line x1=\"" + num(X(r.expert_mean)) + "\" x2=\"" +
+           num(X(r.expert_mean)) + "\" y1=\"" + num(y - 8) + "\" y2=\"" + num(y + 8) +
+           "\" stroke=\"#1e6b24\" stroke-width=\"2\"/>";
     const bool inside = r.has_expert && std::abs(r.mean - r.expert_mean) <= r.expert_sd;
     const std::string c = !r.has_expert ? "#1f77b4" : inside ? "#286b2a" : "#c0392b";
     s += "<line x1=\"" + num(X(r.mean - r.sd)) + "\" x2=\"" + num(X(r.mean + r.sd)) + "\" y1=\"" + num(y) + "\" y2=\"" +
