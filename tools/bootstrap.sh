@@ -35,6 +35,10 @@ packages=(
   # The live trainer (dentar live): window and HUD (GLFW 3.3, Dear ImGui 1.86,
   # desktop GL), and Xvfb + xauth + xdotool for its windowed tests.
   libglfw3-dev libimgui-dev libgl-dev xvfb xauth xdotool
+  # The session store and the instructor's page: libpq + OpenSSL (PBKDF2, SHA-256),
+  # cpp-httplib (built with OpenSSL: HTTPS), PostgreSQL 15 server binaries (initdb,
+  # pg_ctl: the store tests make a throwaway cluster) and Chromium (headless page tests).
+  libpq-dev libssl-dev libcpp-httplib-dev libbrotli-dev postgresql-15 chromium
 )
 # bench: VTK for the surface comparison; ffmpeg and stress for the live benchmarks.
 if [[ "$job" == bench ]]; then packages+=(libvtk9-dev ffmpeg stress); fi

@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "commands.h"
+#include "db_util.h"
 #include "dentar/live/live_app.h"
 
 namespace dentar::tools {
@@ -15,6 +16,7 @@ void add_live(CLI::App& app, int& exit_code) {
          no_mirror = false, list = false;
     std::string stall;
     std::string discovery = "async";
+    DbCli db;  // --db: store the finished session (needs --record)
   };
   auto c = std::make_shared<Cli>();
   auto* sub = app.add_subcommand(
@@ -68,6 +70,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--inject-stall", c->stall, "test hook: AFTER_FRAMES:SECONDS, the camera goes quiet");
   sub->add_flag("--list-cameras", c->list, "list the V4L2 cameras and their modes, then exit");
   sub->add_flag("--quiet", c->o.quiet, "no progress lines");
+  add_db_options(sub, c->db, false);
   sub->callback([c, &exit_code] {
     if (c->list) {
       std::cout << live::list_cameras() << "\n";
@@ -120,6 +123,15 @@ void add_live(CLI::App& app, int& exit_code) {
       exit_code = 2;
       return;
     }
+    if (!c->db.db.empty() && o.record_dir.empty()) {
+      print_error("live", "--db needs --record DIR: the recorded session folder is what is scored and stored");
+      exit_code = 2;
+      return;
+    }
+    if (!check_db_options("live", c->db)) {
+      exit_code = 2;
+      return;
+    }
     auto r = live::run_live(o);
     if (!r) {
       print_error("live", r.error());
@@ -140,7 +152,7 @@ void add_live(CLI::App& app, int& exit_code) {
                 << "\n";
       for (const auto& w : s.warnings) std::cout << "warning: " << w << "\n";
     }
-    exit_code = 0;
+    exit_code = c->db.db.empty() ? 0 : store_finished_session("live", c->db, o.record_dir, "", o.quiet);
   });
 }
 

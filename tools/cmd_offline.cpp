@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "commands.h"
+#include "db_util.h"
 #include "dentar/ar/offline.h"
 
 namespace dentar::tools {
@@ -146,6 +147,7 @@ int run(const OfflineCli& c) {
 
 void add_offline(CLI::App& app, int& exit_code) {
   auto c = std::make_shared<OfflineCli>();
+  auto db = std::make_shared<DbCli>();  // --db: score and store the replayed session
   CLI::App* s = app.add_subcommand(
       "offline",
       "Run recorded footage through the whole trainer pipeline, as testers do: tracking of the\n"
@@ -208,7 +210,12 @@ void add_offline(CLI::App& app, int& exit_code) {
       "  dentar offline --footage out/hard/video.mkv --station out/hard/station.json \\\n"
       "                 --session out/hard/session.dlog --out out/hard-run\n"
       "  dentar offline --footage out/rec --out out/rec-run   # a `dentar live --record` folder");
-  s->callback([c, &exit_code] {
+  add_db_options(s, *db, false);
+  s->callback([c, db, &exit_code] {
+    if (!check_db_options("offline", *db)) {
+      exit_code = 2;
+      return;
+    }
     const bool recording = !c->footage.empty() && std::filesystem::exists(std::filesystem::path(c->footage) / "recording.json");
     if (!c->footage.empty() && c->station.empty() && !recording) {
       print_error("offline", "--footage needs --station (the station file the footage was recorded with), "
@@ -226,6 +233,13 @@ void add_offline(CLI::App& app, int& exit_code) {
       }
     }
     exit_code = run(*c);
+    if (exit_code == 0 && !db->db.empty()) {  // the session log the run replayed
+      namespace fs = std::filesystem;
+      const std::string log = !c->session.empty() ? c->session
+                              : c->footage.empty() ? (fs::path(c->out) / "footage" / "session.dlog").string()
+                                                   : (fs::path(c->footage) / "session.dlog").string();
+      exit_code = store_finished_session("offline", *db, log, c->out, c->quiet);
+    }
   });
 }
 

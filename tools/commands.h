@@ -20,6 +20,8 @@ void add_assess(CLI::App& app, int& exit_code);
 void add_devices(CLI::App& app, int& exit_code);
 void add_tags(CLI::App& app, int& exit_code);
 void add_live(CLI::App& app, int& exit_code);
+void add_db(CLI::App& app, int& exit_code);
+void add_serve(CLI::App& app, int& exit_code);
 
 // Prints "dentar <cmd>: <message>" to stderr.
 void print_error(const std::string& cmd, const std::string& message);

@@ -23,6 +23,8 @@ int main(int argc, char** argv) {
   dentar::tools::add_devices(app, exit_code);
   dentar::tools::add_tags(app, exit_code);
   dentar::tools::add_live(app, exit_code);
+  dentar::tools::add_db(app, exit_code);
+  dentar::tools::add_serve(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,503 @@
+// The instructor's web page. Each request borrows one database connection
+// from a small pool; pages are built from parameterised queries only.
+#include "dentar/store/web.h"
+
+#include <httplib.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <set>
+
+#include "dentar/store/store.h"
+#include "html.h"
+
+namespace dentar::store {
+
+std::string ServeOptions::validate() const {
+  if (db_url.empty()) return "--db: required (sqlite:PATH or postgresql://...)";
+  if (password_file.empty()) return "--passwords: required (create it with --set-password USER)";
+  if (port < 0 || port > 65535) return "--port " + std::to_string(port) + ": must be 0-65535";
+  if (cert_file.empty() != key_file.empty()) return "--cert and --key: give both for HTTPS, or neither";
+  if (session_hours < 1 || session_hours > 24 * 30) return "--session-hours: must be 1-720";
+  if (threads < 1 || threads > 64) return "--threads: must be 1-64";
+  return "";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr const char* kCookie = "dentar_session";
+
+bool is_id(const std::string& s) {
+  if (s.empty() || s.size() > 18) return false;
+  for (char c : s)
+    if (c < '0' || c > '9') return false;
+  return true;
+}
+
+// `next` after login: a local path of safe characters only (no scheme, no //).
+std::string safe_next(const std::string& n) {
+  if (n.empty() || n[0] != '/' || (n.size() > 1 && (n[1] == '/' || n[1] == '\\')) || n.size() > 200) return "/";
+  for (unsigned char c : n)
+    if (!(std::isalnum(c) || c == '/' || c == '.' || c == '_' || c == '-' || c == '@' || c == '?' || c == '=' ||
+          c == '&' || c == '%'))
+      return "/";
+  return n;
+}
+
+int hexval(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// Percent-decoding ('+' is a space); false on a malformed escape.
+bool decode(const std::string& in, std::string& out) {
+  out.clear();
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    if (in[i] == '%') {
+      if (i + 2 >= in.size()) return false;
+      const int a = hexval(in[i + 1]), b = hexval(in[i + 2]);
+      if (a < 0 || b < 0) return false;
+      out += static_cast<char>(a * 16 + b);
+      i += 2;
+    } else {
+      out += in[i] == '+' ? ' ' : in[i];
+    }
+  }
+  return true;
+}
+
+bool query_ok(const std::string& target) {
+  const std::size_t q = target.find('?');
+  if (q == std::string::npos) return true;
+  const std::string query = target.substr(q + 1);
+  if (query.empty()) return true;
+  std::size_t pos = 0;
+  while (pos <= query.size()) {
+    std::size_t amp = query.find('&', pos);
+    if (amp == std::string::npos) amp = query.size();
+    const std::string item = query.substr(pos, amp - pos);
+    const std::size_t eq = item.find('=');
+    if (eq == std::string::npos || item.find('=', eq + 1) != std::string::npos) return false;
+    std::string key, val;
+    if (!decode(item.substr(0, eq), key) || !decode(item.substr(eq + 1), val)) return false;
+    if (key != "exercise" || val.empty() || !validate_code("exercise", val).empty()) return false;
+    pos = amp + 1;
+  }
+  return true;
+}
+
+SessionFilter filter(const std::string& student, const std::string& exercise, std::size_t limit = 0) {
+  SessionFilter f;
+  f.student = student;
+  f.exercise = exercise;
+  f.limit = limit;
+  return f;
+}
+
+std::string pct(double p, double m) { return m > 0 ? html::fixed(100.0 * p / m, 1) : "–"; }
+
+OpenOptions readonly_open() {
+  OpenOptions o;
+  o.create = false;
+  o.migrate = false;
+  return o;
+}
+
+}  // namespace
+
+struct WebServer::Impl {
+  ServeOptions opt;
+  PasswordFile users;
+  std::unique_ptr<httplib::Server> svr;
+  int port = 0;
+  bool tls = false;
+
+  std::mutex mu;  // guards cookies and the pool
+  struct CookieSession {
+    std::string user;
+    Clock::time_point expires;
+  };
+  std::map<std::string, CookieSession> cookies;
+  std::vector<std::unique_ptr<Store>> pool;
+  std::condition_variable pool_cv;
+
+  struct Lease {
+    Impl* impl;
+    std::unique_ptr<Store> store;
+    Lease(Impl* i, std::unique_ptr<Store> s) : impl(i), store(std::move(s)) {}
+    Lease(Lease&&) = default;
+    ~Lease() {
+      if (!store) return;
+      std::lock_guard lk(impl->mu);
+      impl->pool.push_back(std::move(store));
+      impl->pool_cv.notify_one();
+    }
+  };
+  Result<Lease> lease() {
+    {
+      std::unique_lock lk(mu);
+      if (!pool.empty()) {
+        Lease l{this, std::move(pool.back())};
+        pool.pop_back();
+        return l;
+      }
+    }
+    auto s = Store::open(opt.db_url, readonly_open());
+    if (!s) return Error{s.error()};
+    return Lease{this, std::move(*s)};
+  }
+
+  std::string user_of(const httplib::Request& req) {
+    const std::string c = req.get_header_value("Cookie");
+    const std::string key = std::string(kCookie) + "=";
+    std::size_t p = 0;
+    while ((p = c.find(key, p)) != std::string::npos) {
+      if (p == 0 || c[p - 1] == ' ' || c[p - 1] == ';') {
+        std::size_t e = c.find(';', p);
+        const std::string tok = c.substr(p + key.size(), e == std::string::npos ? std::string::npos : e - p - key.size());
+        std::lock_guard lk(mu);
+        auto it = cookies.find(tok);
+        if (it != cookies.end()) {
+          if (it->second.expires > Clock::now()) return it->second.user;
+          cookies.erase(it);
+        }
+        return "";
+      }
+      p += key.size();
+    }
+    return "";
+  }
+
+  static void headers(httplib::Response& res) {
+    res.set_header("Content-Security-Policy",
+                   "default-src 'none'; style-src 'unsafe-inline'; img-src data:; form-action 'self'; frame-ancestors 'none'");
+    res.set_header("X-Content-Type-Options", "nosniff");
+    res.set_header("Referrer-Policy", "no-referrer");
+    res.set_header("X-Frame-Options", "DENY");
+    res.set_header("Cache-Control", "no-store");
+  }
+  static void send(httplib::Response& res, int status, const std::string& body) {
+    res.status = status;
+    headers(res);
+    res.set_content(body, "text/html; charset=utf-8");
+  }
+  static void fail(httplib::Response& res, int status, const std::string& user, const std::string& text) {
+    const char* title = status == 404 ? "Not found" : status == 400 ? "Bad request" : status == 401 ? "Login needed"
+                                                                                                   : "Server error";
+    send(res, status, html::message_page(status, title, text, user));
+  }
+
+  // Wraps a page: login required, a database connection, errors as pages.
+  using PageFn = std::function<void(const httplib::Request&, httplib::Response&, Store&, const std::string& user)>;
+  httplib::Server::Handler guarded(PageFn fn) {
+    return [this, fn](const httplib::Request& req, httplib::Response& res) {
+      const std::string user = user_of(req);
+      if (user.empty()) {
+        headers(res);
+        res.set_redirect("/login?next=" + html::url_part(safe_next(req.path)), 303);
+        return;
+      }
+      // Every query parameter is checked on the raw query (not httplib's
+      // lenient parse): only `exercise=CODE`, one '=' each.
+      if (!query_ok(req.target)) {
+        fail(res, 400, user, "The request has a parameter this page does not accept.");
+        return;
+      }
+      auto l = lease();
+      if (!l) {
+        fail(res, 500, user, "The session database cannot be reached right now; try again in a minute.");
+        return;
+      }
+      fn(req, res, *l->store, user);
+    };
+  }
+
+  void routes() {
+    auto& s = *svr;
+    s.set_payload_max_length(64 * 1024);
+    s.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr) {
+      fail(res, 500, "", "Something went wrong on the server; the error was logged.");
+    });
+    s.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
+      if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;  // our own page
+      fail(res, res.status == 404 ? 404 : res.status, "",
+           res.status == 404 ? "There is no such page." : "The request could not be handled.");
+      return httplib::Server::HandlerResponse::Handled;
+    }));
+
+    s.Get("/login", [this](const httplib::Request& req, httplib::Response& res) {
+      send(res, 200, html::login_page(safe_next(req.get_param_value("next")), ""));
+    });
+    s.Post("/login", [this](const httplib::Request& req, httplib::Response& res) {
+      const std::string user = req.get_param_value("user"), pw = req.get_param_value("password");
+      const std::string next = safe_next(req.get_param_value("next"));
+      auto it = users.find(user);
+      // Unknown users cost the same PBKDF2 work as known ones.
+      static const PasswordEntry dummy = hash_password("not-a-password", kDefaultPbkdf2Iterations);
+      const bool ok = verify_password(it != users.end() ? it->second : dummy, pw) && it != users.end();
+      if (!ok) {
+        send(res, 401, html::login_page(next, "Wrong user name or password."));
+        return;
+      }
+      const std::string tok = random_token_hex(32);
+      {
+        std::lock_guard lk(mu);
+        for (auto c = cookies.begin(); c != cookies.end();)  // drop expired sessions
+          c = c->second.expires < Clock::now() ? cookies.erase(c) : std::next(c);
+        cookies[tok] = {user, Clock::now() + std::chrono::hours(opt.session_hours)};
+      }
+      headers(res);
+      res.set_header("Set-Cookie", std::string(kCookie) + "=" + tok + "; Path=/; HttpOnly; SameSite=Lax; Max-Age=" +
+                                       std::to_string(opt.session_hours * 3600) + (tls ? "; Secure" : ""));
+      res.set_redirect(next, 303);
+    });
+    s.Get("/logout", [this](const httplib::Request& req, httplib::Response& res) {
+      const std::string c = req.get_header_value("Cookie");
+      {
+        std::lock_guard lk(mu);
+        for (auto it = cookies.begin(); it != cookies.end();)
+          it = c.find(it->first) != std::string::npos ? cookies.erase(it) : std::next(it);
+      }
+      headers(res);
+      res.set_header("Set-Cookie", std::string(kCookie) + "=; Path=/; HttpOnly; SameSite=Lax; Max-Age=0");
+      res.set_redirect("/login", 303);
+    });
+
+    s.Get("/", guarded([](const httplib::Request&, httplib::Response& res, Store& st, const std::string& user) {
+      auto students = st.students();
+      if (!students) return fail(res, 500, user, "The student list could not be read.");
+      std::string b = "<h1>Students</h1><table id=\"students\"><tr><th>Student</th><th>Sessions</th><th>Mean score</th>"
+                      "<th>Last score</th><th>Last session</th></tr>";
+      for (const auto& x : *students)
+        b += "<tr data-student=\"" + html::esc(x.code) + "\"><td><a href=\"/student/" + html::url_part(x.code) + "\">" +
+             html::esc(x.code) + "</a></td><td class=\"n\" data-k=\"sessions\">" + std::to_string(x.sessions) +
+             "</td><td class=\"n\" data-k=\"mean_pct\">" + (x.sessions ? html::fixed(x.mean_pct, 1) + " %" : "–") +
+             "</td><td class=\"n\" data-k=\"last_pct\">" + (x.sessions ? html::fixed(x.last_pct, 1) + " %" : "–") +
+             "</td><td>" + html::esc(x.last_utc) + "</td></tr>";
+      b += "</table>";
+      if (students->empty()) b += "<p class=\"muted\">No sessions stored yet (<code>dentar db import</code>).</p>";
+      send(res, 200, html::page("Students", b, user));
+    }));
+
+    s.Get(R"(/student/([^/]+))", guarded([](const httplib::Request& req, httplib::Response& res, Store& st,
+                                             const std::string& user) {
+      const std::string code = req.matches[1];
+      if (!validate_code("student", code).empty()) return fail(res, 400, user, "That is not a student code.");
+      const std::string ex = req.get_param_value("exercise");
+      auto ss = st.sessions(filter(code, ex));
+      if (!ss) return fail(res, 500, user, "The sessions could not be read.");
+      if (ss->empty()) {
+        auto any = st.sessions(filter(code, "", 1));
+        if (!any || any->empty()) return fail(res, 404, user, "There is no student with that code.");
+      }
+      std::map<std::string, html::Series> by_ex;
+      for (const auto& x : *ss) {
+        auto& se = by_ex[x.exercise];
+        se.label = x.exercise;
+        if (x.max_points > 0) se.points.emplace_back(html::parse_utc(x.started_utc), 100.0 * x.points / x.max_points);
+      }
+      std::string b = "<h1>Student " + html::esc(code) + "</h1><p>" + std::to_string(ss->size()) + " sessions" +
+                      (ex.empty() ? "" : " of " + html::esc(ex) + " (<a href=\"/student/" + html::url_part(code) + "\">all</a>)") +
+                      "</p><h2>Scores over time</h2>";
+      std::vector<html::Series> all;
+      for (auto& [name, se] : by_ex) all.push_back(se);
+      b += html::trend_svg(all, "Score (% of the exercise's points) per exercise");
+      b += "<h2>Sessions</h2><table id=\"sessions\"><tr><th>Session</th><th>Started (UTC)</th><th>Exercise</th>"
+           "<th>Station</th><th>Points</th><th>Score</th><th>Target removed</th><th>Time</th><th>Pulp</th><th>Report</th></tr>";
+      for (auto it = ss->rbegin(); it != ss->rend(); ++it) {
+        const auto& x = *it;
+        const std::string id = std::to_string(x.id);
+        b += "<tr data-id=\"" + id + "\"><td><a href=\"/session/" + id + "\">#" + id + "</a></td><td>" +
+             html::esc(x.started_utc) + "</td><td><a href=\"/student/" + html::url_part(code) + "?exercise=" +
+             html::url_part(x.exercise) + "\">" + html::esc(x.exercise) + "</a></td><td>" + html::esc(x.station) +
+             "</td><td class=\"n\" data-k=\"points\">" + html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) +
+             "</td><td class=\"n\" data-k=\"pct\">" + pct(x.points, x.max_points) + " %</td><td class=\"n\">" +
+             html::fixed(x.coverage_pct, 1) + " %</td><td class=\"n\">" + html::fixed(x.duration_s, 1) + " s</td><td>" +
+             (x.pulp_exposed ? "<span class=\"warn\">exposed</span>" : "–") + "</td><td>" +
+             (x.has_report ? "<a href=\"/session/" + id + "/report\">report</a>" : "–") + "</td></tr>";
+      }
+      b += "</table>";
+      send(res, 200, html::page("Student " + code, b, user));
+    }));
+
+    s.Get(R"(/session/([^/]+))", guarded([](const httplib::Request& req, httplib::Response& res, Store& st,
+                                             const std::string& user) {
+      const std::string ids = req.matches[1];
+      if (!is_id(ids)) return fail(res, 400, user, "A session number is digits only.");
+      auto r = st.session(std::stoll(ids));
+      if (!r) return fail(res, 500, user, "The session could not be read.");
+      if (!*r) return fail(res, 404, user, "There is no session #" + ids + ".");
+      const SessionRecord& x = **r;
+      std::string b = "<h1>Session #" + ids + "</h1><table id=\"summary\">";
+      auto row = [&](const std::string& k, const std::string& label, const std::string& v) {
+        b += "<tr><th>" + label + "</th><td data-k=\"" + k + "\">" + v + "</td></tr>";
+      };
+      row("student", "Student", "<a href=\"/student/" + html::url_part(x.student) + "\">" + html::esc(x.student) + "</a>");
+      row("exercise", "Exercise", html::esc(x.exercise_title.empty() ? x.exercise : x.exercise_title));
+      row("station", "Station", html::esc(x.station));
+      row("started", "Started (UTC)", html::esc(x.started_utc));
+      row("points", "Points", html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) + " (" + pct(x.points, x.max_points) + " %)");
+      row("coverage", "Target removed", html::fixed(x.coverage_pct, 1) + " %");
+      row("overprep", "Over-preparation", html::fixed(x.overprep_mm3, 2) + " mm³");
+      row("pulp", "Pulp exposed", x.pulp_exposed ? "<span class=\"warn\">yes</span>" : "no");
+      row("perforation", "Perforation", x.perforation ? "<span class=\"warn\">yes</span>" : "no");
+      row("duration", "Time / drilling", html::fixed(x.duration_s, 1) + " s / " + html::fixed(x.drilling_s, 1) + " s");
+      row("path", "Bur tip path", html::fixed(x.path_mm, 0) + " mm");
+      row("excessive", "Drilling with excessive force", html::fixed(x.excessive_force_s, 1) + " s");
+      row("log", "Session log", html::esc(x.log_path) + "<br><code>sha256 " + html::esc(x.log_sha256) + "</code> (" +
+                                    std::to_string(x.log_bytes) + " bytes)");
+      if (!x.recording_path.empty())
+        row("recording", "Recording", html::esc(x.recording_path) + "<br><code>sha256 " + html::esc(x.recording_sha256) + "</code>");
+      if (!x.log_warning.empty()) row("log_warning", "Log warning", "<span class=\"warn\">" + html::esc(x.log_warning) + "</span>");
+      b += "</table>";
+      if (!x.score_html.empty()) b += "<p><a id=\"report-link\" href=\"/session/" + ids + "/report\">Full score report</a></p>";
+      b += "<h2>Force against the experts, per step</h2>";
+      std::vector<html::ForceRow> fr;
+      const char* axes[] = {"Fx mesio-distal", "Fy bucco-lingual", "Fz long axis"};
+      for (const auto& k : x.steps)
+        for (int a = 0; a < 3; ++a)
+          fr.push_back({k.name, axes[a], k.force_N[a], k.force_sd_N[a], k.has_expert, k.expert_force_N[a], k.expert_sd_N[a]});
+      b += html::force_band_svg(fr);
+      b += "<h2>Feedback</h2><ul id=\"feedback\">";
+      for (const auto& f : x.feedback)
+        b += "<li><b>" + html::esc(f.step.empty() ? "session" : f.step) + "</b> (" + html::esc(f.kind) + "): " + html::esc(f.text) + "</li>";
+      b += "</ul><h2>Metrics</h2><table id=\"metrics\"><tr><th>Metric</th><th>Value</th><th>Unit</th></tr>";
+      for (const auto& m : x.metrics)
+        b += "<tr><td>" + html::esc(m.name) + "</td><td class=\"n\">" + html::fixed(m.value, 3) + "</td><td>" + html::esc(m.unit) + "</td></tr>";
+      b += "</table>";
+      send(res, 200, html::page("Session #" + ids, b, user));
+    }));
+
+    s.Get(R"(/session/([^/]+)/report)", guarded([](const httplib::Request& req, httplib::Response& res, Store& st,
+                                                    const std::string& user) {
+      const std::string ids = req.matches[1];
+      if (!is_id(ids)) return fail(res, 400, user, "A session number is digits only.");
+      auto r = st.session(std::stoll(ids));
+      if (!r) return fail(res, 500, user, "The session could not be read.");
+      if (!*r) return fail(res, 404, user, "There is no session #" + ids + ".");
+      if ((*r)->score_html.empty()) return fail(res, 404, user, "Session #" + ids + " was stored without its report.");
+      send(res, 200, (*r)->score_html);  // the stored score.html; never a file from disk
+    }));
+
+    s.Get("/cohort", guarded([](const httplib::Request&, httplib::Response& res, Store& st, const std::string& user) {
+      auto exs = st.exercises();
+      if (!exs) return fail(res, 500, user, "The exercises could not be read.");
+      std::string b = "<h1>Cohort</h1>";
+      if (exs->empty()) b += "<p class=\"muted\">No sessions stored yet.</p>";
+      for (const auto& e : *exs) {
+        auto ss = st.sessions(filter("", e));
+        if (!ss) return fail(res, 500, user, "The sessions could not be read.");
+        std::map<std::string, std::vector<double>> per;
+        for (const auto& x : *ss)
+          if (x.max_points > 0) per[x.student].push_back(100.0 * x.points / x.max_points);
+        b += "<h2><a href=\"/exercise/" + html::url_part(e) + "\">" + html::esc(e) + "</a></h2>";
+        std::vector<std::pair<std::string, std::vector<double>>> rows(per.begin(), per.end());
+        b += html::strip_svg(rows, "Every session's score (dots) and each student's mean (red bar)");
+        b += "<table class=\"cohort\" data-exercise=\"" + html::esc(e) +
+             "\"><tr><th>Student</th><th>Sessions</th><th>Mean</th><th>Best</th><th>Last</th></tr>";
+        for (const auto& [stu, v] : rows) {
+          double sum = 0, best = 0;
+          for (double p : v) sum += p, best = std::max(best, p);
+          b += "<tr data-student=\"" + html::esc(stu) + "\"><td><a href=\"/student/" + html::url_part(stu) + "?exercise=" +
+               html::url_part(e) + "\">" + html::esc(stu) + "</a></td><td class=\"n\" data-k=\"sessions\">" +
+               std::to_string(v.size()) + "</td><td class=\"n\" data-k=\"mean_pct\">" +
+               html::fixed(sum / static_cast<double>(v.size()), 1) + " %</td><td class=\"n\">" + html::fixed(best, 1) +
+               " %</td><td class=\"n\">" + html::fixed(v.back(), 1) + " %</td></tr>";
+        }
+        b += "</table>";
+      }
+      send(res, 200, html::page("Cohort", b, user));
+    }));
+
+    s.Get(R"(/exercise/([^/]+))", guarded([](const httplib::Request& req, httplib::Response& res, Store& st,
+                                              const std::string& user) {
+      const std::string e = req.matches[1];
+      if (!validate_code("exercise", e).empty()) return fail(res, 400, user, "That is not an exercise name.");
+      auto ss = st.sessions(filter("", e));
+      if (!ss) return fail(res, 500, user, "The sessions could not be read.");
+      if (ss->empty()) return fail(res, 404, user, "No session of that exercise is stored.");
+      std::map<std::string, html::Series> per;
+      for (const auto& x : *ss) {
+        auto& se = per[x.student];
+        se.label = x.student;
+        if (x.max_points > 0) se.points.emplace_back(html::parse_utc(x.started_utc), 100.0 * x.points / x.max_points);
+      }
+      std::vector<html::Series> all;
+      for (auto& [k, v] : per) all.push_back(v);
+      std::string b = "<h1>Exercise " + html::esc(e) + "</h1><p>" + std::to_string(ss->size()) + " sessions by " +
+                      std::to_string(per.size()) + " students</p>" + html::trend_svg(all, "Score over time, one line per student");
+      send(res, 200, html::page("Exercise " + e, b, user));
+    }));
+  }
+};
+
+WebServer::~WebServer() { stop(); }
+
+Result<std::unique_ptr<WebServer>> WebServer::create(const ServeOptions& opt) {
+  if (auto v = opt.validate(); !v.empty()) return Error{v};
+  auto users = load_password_file(opt.password_file);
+  if (!users) return Error{users.error()};
+  if (users->empty()) return Error{opt.password_file + ": no user; add one with --set-password USER"};
+  // The database must exist and be at this program's schema (no migration
+  // from a read-only server: `dentar db migrate`).
+  auto probe = Store::open(opt.db_url, readonly_open());
+  if (!probe) return Error{probe.error()};
+  std::unique_ptr<WebServer> w(new WebServer());
+  w->impl_ = std::make_unique<Impl>();
+  Impl& m = *w->impl_;
+  m.opt = opt;
+  m.users = *users;
+  m.pool.push_back(std::move(*probe));
+  if (!opt.cert_file.empty()) {
+    std::error_code ec;
+    for (const auto& f : {opt.cert_file, opt.key_file})
+      if (!std::filesystem::is_regular_file(f, ec)) return Error{f + ": no such certificate/key file"};
+    auto s = std::make_unique<httplib::SSLServer>(opt.cert_file.c_str(), opt.key_file.c_str());
+    if (!s->is_valid()) return Error{opt.cert_file + " / " + opt.key_file + ": not a usable PEM certificate and key"};
+    m.svr = std::move(s);
+    m.tls = true;
+  } else {
+    m.svr = std::make_unique<httplib::Server>();
+  }
+  const int threads = opt.threads;
+  m.svr->new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<std::size_t>(threads)); };
+  m.routes();
+  return w;
+}
+
+Status WebServer::bind() {
+  auto& m = *impl_;
+  if (m.opt.port == 0) {
+    m.port = m.svr->bind_to_any_port(m.opt.host);
+    if (m.port <= 0) return Error{m.opt.host + ": cannot listen on any port"};
+  } else {
+    if (!m.svr->bind_to_port(m.opt.host, m.opt.port))
+      return Error{m.opt.host + ":" + std::to_string(m.opt.port) + ": cannot listen (port in use? another --port)"};
+    m.port = m.opt.port;
+  }
+  return {};
+}
+
+Status WebServer::listen_after_bind() {
+  if (!impl_->svr->listen_after_bind()) return Error{"the server stopped with an error"};
+  return {};
+}
+
+Status WebServer::listen() {
+  if (auto s = bind(); !s) return s;
+  return listen_after_bind();
+}
+
+int WebServer::port() const { return impl_->port; }
+
+void WebServer::stop() {
+  if (impl_ && impl_->svr) impl_->svr->stop();
+}
+
+}  // namespace dentar::store

@@ -1,0 +1,196 @@
+// `dentar db` and `dentar serve` as a user runs them: import a scored
+// session (scoring it when needed), idempotent re-import, status, export,
+// a station whose server is down, bad input with clear messages.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "dentar/store/store.h"
+#include "testkit.h"
+#include "testutil.h"
+
+namespace {
+namespace fs = std::filesystem;
+using dentar::test::CommandResult;
+
+CommandResult run(const std::string& args) { return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args); }
+
+// One generated session, scored (1 expert reference trial: quick).
+const fs::path& session() {
+  static const fs::path dir = [] {
+    const fs::path d = dentar::test::temp_dir("cli_db_cohort");
+    const CommandResult g = run("assess --generate " + d.string() + " --experts 1 --novices 1 --trials 1 --voxel-mm 0.25 --seed 5");
+    EXPECT_EQ(g.code, 0) << g.out;
+    const CommandResult s = run("score " + (d / "N1_t1").string() + " --reference-trials 1 --quiet");
+    EXPECT_EQ(s.code, 0) << s.out;
+    return d / "N1_t1";
+  }();
+  return dir;
+}
+
+TEST(CliDb, HelpHasSynopsisAndExample) {
+  for (const char* sub : {"db", "serve", "db import", "db export"}) {
+    const CommandResult r = run(std::string(sub) + " --help");
+    EXPECT_EQ(r.code, 0) << sub;
+    EXPECT_NE(r.out.find("Example"), std::string::npos) << sub << r.out;
+  }
+  EXPECT_NE(run("db --help").out.find("Synopsis"), std::string::npos);
+  EXPECT_NE(run("serve --help").out.find("Synopsis"), std::string::npos);
+}
+
+TEST(CliDb, ImportStatusExportAndReimportOnce) {
+  const fs::path d = dentar::test::temp_dir("cli_db_import");
+  const std::string db = "sqlite:" + (d / "school.db").string();
+  ASSERT_EQ(run("db init --db " + db).code, 0);
+  const CommandResult r = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("of s042 (molar_access_opening"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("stored in " + db), std::string::npos) << r.out;
+  const CommandResult again = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_NE(again.out.find("already stored"), std::string::npos) << again.out;
+  const CommandResult st = run("db status --db " + db);
+  EXPECT_EQ(st.code, 0);
+  EXPECT_NE(st.out.find("schema version 3 (this program: 3), 1 sessions"), std::string::npos) << st.out;
+  const CommandResult ex = run("db export --db " + db + " --out " + (d / "all.jsonl").string());
+  ASSERT_EQ(ex.code, 0) << ex.out;
+  std::ifstream in(d / "all.jsonl");
+  std::string line;
+  int n = 0;
+  nlohmann::json j;
+  while (std::getline(in, line)) j = nlohmann::json::parse(line), ++n;
+  ASSERT_EQ(n, 1);
+  EXPECT_EQ(j["student"], "s042");
+  EXPECT_EQ(j["station"], "st-3");
+  EXPECT_EQ(j["key"], *dentar::store::sha256_file((session() / "session.dlog").string()));
+  const auto score = nlohmann::json::parse(dentar::test::read_file(session() / "score.json"));
+  EXPECT_DOUBLE_EQ(j["points"].get<double>(), score["outcome"]["points"].get<double>());
+  EXPECT_NE(j["score_html"].get<std::string>().find("<svg"), std::string::npos);
+}
+
+TEST(CliDb, UnscoredSessionIsScoredOnImport) {
+  const fs::path d = dentar::test::temp_dir("cli_db_unscored");
+  const fs::path s = d / "sess";
+  fs::create_directories(s);
+  fs::copy_file(session().parent_path() / "E1_t1" / "session.dlog", s / "session.dlog");
+  const std::string db = "sqlite:" + (d / "school.db").string();
+  const CommandResult r = run("db import " + s.string() + " --db " + db + " --student s1 --station-id st");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("scoring"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(s / "score.json"));
+  EXPECT_TRUE(fs::exists(s / "score.html"));
+}
+
+TEST(CliDb, StationWithTheServerDownKeepsTheSessionQueued) {
+  const fs::path d = dentar::test::temp_dir("cli_db_down");
+  const std::string server = "postgresql://dentar@127.0.0.1:" + std::to_string(dentar::store::testkit::free_port()) + "/dentar";
+  const std::string local = "sqlite:" + (d / "station.db").string();
+  const CommandResult r = run("db import " + session().string() + " --db " + server + " --station-db " + local +
+                              " --student s9 --station-id st-9");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("kept at this station"), std::string::npos) << r.out;
+  const CommandResult f = run("db forward --db " + server + " --station-db " + local);
+  EXPECT_EQ(f.code, 1);
+  EXPECT_NE(f.out.find("1 still queued"), std::string::npos) << f.out;
+  EXPECT_NE(f.out.find("the queued sessions are kept"), std::string::npos) << f.out;
+  // The queue goes to a reachable store, once.
+  const std::string other = "sqlite:" + (d / "school.db").string();
+  const CommandResult ok = run("db forward --db " + other + " --station-db " + local);
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_NE(ok.out.find("1 sent"), std::string::npos) << ok.out;
+  EXPECT_NE(run("db forward --db " + other + " --station-db " + local).out.find("0 sent"), std::string::npos);
+}
+
+TEST(CliDb, BadInputIsExit2WithAMessage) {
+  const fs::path d = dentar::test::temp_dir("cli_db_bad");
+  const CommandResult url = run("db init --db mysql://x/y");
+  EXPECT_EQ(url.code, 2);
+  EXPECT_NE(url.out.find("expected sqlite:PATH or postgresql://"), std::string::npos) << url.out;
+  const CommandResult nostu = run("db import " + session().string() + " --db sqlite:" + (d / "a.db").string());
+  EXPECT_EQ(nostu.code, 2);
+  EXPECT_NE(nostu.out.find("--student"), std::string::npos) << nostu.out;
+  const CommandResult badstu = run("db import " + session().string() + " --db sqlite:" + (d / "a.db").string() + " --student 'a b'");
+  EXPECT_EQ(badstu.code, 2);
+  const CommandResult missing = run("db import " + (d / "nope").string() + " --db sqlite:" + (d / "a.db").string() + " --student s1");
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_NE(missing.out.find("no such session folder"), std::string::npos) << missing.out;
+  const CommandResult nodb = run("db status --db sqlite:" + (d / "absent.db").string());
+  EXPECT_EQ(nodb.code, 1);
+  EXPECT_NE(nodb.out.find("dentar db init"), std::string::npos) << nodb.out;
+  // A database from a newer DentAR is refused by every command.
+  {
+    auto st = dentar::store::Store::open("sqlite:" + (d / "newer.db").string());
+    ASSERT_TRUE(st.ok());
+    ASSERT_TRUE((*st)->exec_raw("INSERT INTO dentar_schema(version, applied_utc) VALUES(42, 'x')").ok());
+  }
+  const CommandResult newer = run("db migrate --db sqlite:" + (d / "newer.db").string());
+  EXPECT_EQ(newer.code, 1);
+  EXPECT_NE(newer.out.find("newer than this program's"), std::string::npos) << newer.out;
+  const CommandResult live = run("live --db sqlite:x.db --student s1 --seconds 1");
+  EXPECT_EQ(live.code, 2);
+  EXPECT_NE(live.out.find("--db needs --record DIR"), std::string::npos) << live.out;
+}
+
+// `dentar offline --db`: the replayed session is scored and stored.
+TEST(CliDb, OfflineStoresTheReplayedSession) {
+  const fs::path d = dentar::test::temp_dir("cli_db_offline");
+  const std::string db = "sqlite:" + (d / "school.db").string();
+  const CommandResult r = run("offline --out " + (d / "run").string() +
+                              " --frames 20 --resolution 640x480 --no-video --quiet --db " + db +
+                              " --student s5 --station-id st-off");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("offline: session"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("stored in " + db), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(d / "run" / "score.json"));  // scored beside the offline report
+  auto st = dentar::store::Store::open(db);
+  ASSERT_TRUE(st.ok());
+  auto rec = (*st)->session_by_key(*dentar::store::sha256_file((d / "run" / "footage" / "session.dlog").string()));
+  ASSERT_TRUE(rec.ok() && rec->has_value());
+  EXPECT_EQ((**rec).student, "s5");
+  EXPECT_EQ((**rec).station, "st-off");
+  EXPECT_FALSE((**rec).score_html.empty());
+}
+
+// `dentar live --record --db` in a real window (Xvfb): the recording is
+// scored and stored with its recording hash.
+TEST(CliDb, LiveStoresTheRecordedSession) {
+  ASSERT_EQ(std::system("command -v xvfb-run >/dev/null 2>&1"), 0) << "xvfb-run missing (tools/bootstrap.sh installs xvfb)";
+  const fs::path d = dentar::test::temp_dir("cli_db_live");
+  ASSERT_EQ(run("synth --preset standard --frames 30 --resolution 640x480 --seed 3 --out " + (d / "clip").string()).code, 0);
+  const std::string db = "sqlite:" + (d / "school.db").string();
+  const CommandResult r = dentar::test::run_command(
+      "xvfb-run -a -s '-screen 0 1280x1024x24' " + std::string(DENTAR_BINARY) + " live --camera live:" +
+      (d / "clip" / "video.mkv").string() + " --station " + (d / "clip" / "station.json").string() +
+      " --stylus replay:" + (d / "clip" / "session.dlog").string() + " --record " + (d / "rec").string() +
+      " --no-hud --quiet --db " + db + " --student s6 --station-id st-live 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("live: session"), std::string::npos) << r.out;
+  auto st = dentar::store::Store::open(db);
+  ASSERT_TRUE(st.ok());
+  auto rec = (*st)->session_by_key(*dentar::store::sha256_file((d / "rec" / "session.dlog").string()));
+  ASSERT_TRUE(rec.ok() && rec->has_value());
+  EXPECT_EQ((**rec).student, "s6");
+  EXPECT_EQ((**rec).recording_sha256.size(), 64u);
+  EXPECT_EQ((**rec).started_utc.size(), 20u);  // recording.json "started"
+}
+
+TEST(CliServe, SetPasswordThenRefusesBadSetups) {
+  const fs::path d = dentar::test::temp_dir("cli_serve");
+  const std::string pw = (d / "pw.txt").string();
+  const CommandResult s = dentar::test::run_command("echo 'a-long-password' | " + std::string(DENTAR_BINARY) +
+                                                    " serve --passwords " + pw + " --set-password alice --iterations 2000");
+  ASSERT_EQ(s.code, 0) << s.out;
+  EXPECT_NE(dentar::test::read_file(pw).find("alice:pbkdf2-sha256:2000:"), std::string::npos);
+  const CommandResult nodb = run("serve --passwords " + pw + " --db sqlite:" + (d / "absent.db").string());
+  EXPECT_EQ(nodb.code, 2);
+  EXPECT_NE(nodb.out.find("no such database file"), std::string::npos) << nodb.out;
+  const CommandResult nopw = run("serve --passwords " + (d / "none.txt").string() + " --db sqlite:x.db");
+  EXPECT_EQ(nopw.code, 2);
+  EXPECT_NE(nopw.out.find("cannot read the password file"), std::string::npos) << nopw.out;
+  const CommandResult certs = run("serve --passwords " + pw + " --db sqlite:x.db --cert a.pem");
+  EXPECT_EQ(certs.code, 2);
+  EXPECT_NE(certs.out.find("--cert and --key"), std::string::npos) << certs.out;
+}
+
+}  // namespace

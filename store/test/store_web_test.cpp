@@ -1,0 +1,302 @@
+// The instructor's page: login enforced, numbers on the pages match the
+// database, path traversal and SQL injection in every parameter refused,
+// unknown sessions give the 404 page, and headless Chromium renders it.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <regex>
+#include <thread>
+
+#include "dentar/store/store.h"
+#include "dentar/store/web.h"
+#include "testkit.h"
+#include "testutil.h"
+
+namespace {
+namespace fs = std::filesystem;
+using namespace dentar::store;
+
+constexpr const char* kUser = "alice";
+constexpr const char* kPassword = "correct-horse-battery";
+
+class Web : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(dentar::test::temp_dir("store_web"));
+    db_ = "sqlite:" + (*dir_ / "school.db").string();
+    {
+      auto st = Store::open(db_);
+      ASSERT_TRUE(st.ok()) << st.error();
+      int n = 0;
+      for (const char* stu : {"s01", "s02", "s03"})
+        for (int k = 0; k < 6; ++k, ++n)
+          ASSERT_TRUE((*st)->put(testkit::make_record(stu, "st-" + std::to_string(k % 3),
+                                                     k % 2 ? "incisor_partial_crown" : "molar_access_opening", 40 + n,
+                                                     60 * 24 * k + n))
+                          .ok());
+    }
+    ASSERT_TRUE(set_password((*dir_ / "pw.txt").string(), kUser, kPassword, 20000).ok());
+    ServeOptions o;
+    o.db_url = db_;
+    o.password_file = (*dir_ / "pw.txt").string();
+    o.port = 0;
+    auto w = WebServer::create(o);
+    ASSERT_TRUE(w.ok()) << w.error();
+    server_ = w->release();
+    ASSERT_TRUE(server_->bind().ok());
+    thread_ = new std::thread([] { (void)server_->listen_after_bind(); });
+    base_ = "http://127.0.0.1:" + std::to_string(server_->port());
+    // One logged-in cookie for the HTTP-level tests.
+    httplib::Client c("127.0.0.1", server_->port());
+    auto r = c.Post("/login", "user=alice&password=correct-horse-battery&next=/", "application/x-www-form-urlencoded");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 303);
+    const std::string sc = r->get_header_value("Set-Cookie");
+    cookie_ = sc.substr(0, sc.find(';'));
+    ASSERT_NE(cookie_.find("dentar_session="), std::string::npos);
+  }
+  static void TearDownTestSuite() {
+    server_->stop();
+    thread_->join();
+    delete thread_;
+    delete server_;
+  }
+  static httplib::Result get(const std::string& path, bool logged_in = true) {
+    httplib::Client c("127.0.0.1", server_->port());
+    httplib::Headers h;
+    if (logged_in) h.emplace("Cookie", cookie_);
+    return c.Get(path.c_str(), h);
+  }
+  static std::unique_ptr<Store> store() {
+    auto s = Store::open(db_);
+    return std::move(*s);
+  }
+  static inline fs::path* dir_ = nullptr;
+  static inline std::string db_, base_, cookie_;
+  static inline WebServer* server_ = nullptr;
+  static inline std::thread* thread_ = nullptr;
+};
+
+TEST_F(Web, LoginIsEnforcedOnEveryPage) {
+  for (const char* p : {"/", "/student/s01", "/session/1", "/session/1/report", "/cohort", "/exercise/molar_access_opening"}) {
+    auto r = get(p, false);
+    ASSERT_TRUE(r) << p;
+    EXPECT_EQ(r->status, 303) << p;
+    EXPECT_EQ(r->get_header_value("Location").rfind("/login?next=", 0), 0u) << p;
+    EXPECT_EQ(r->body.find("s01"), std::string::npos) << p;
+  }
+  httplib::Client c("127.0.0.1", server_->port());
+  auto bad = c.Post("/login", "user=alice&password=wrong&next=/", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(bad);
+  EXPECT_EQ(bad->status, 401);
+  EXPECT_TRUE(bad->get_header_value("Set-Cookie").empty());
+  EXPECT_NE(bad->body.find("Wrong user name or password"), std::string::npos);
+  auto forged = httplib::Client("127.0.0.1", server_->port()).Get("/", {{"Cookie", "dentar_session=00ff"}});
+  ASSERT_TRUE(forged);
+  EXPECT_EQ(forged->status, 303);
+  // An open redirect through next= is not possible.
+  auto off = c.Post("/login", "user=alice&password=correct-horse-battery&next=//evil.example/x",
+                    "application/x-www-form-urlencoded");
+  ASSERT_TRUE(off);
+  EXPECT_EQ(off->get_header_value("Location"), "/");
+}
+
+TEST_F(Web, NumbersOnThePagesMatchTheDatabase) {
+  auto st = store();
+  SessionFilter f;
+  f.student = "s02";
+  auto ss = st->sessions(f);
+  ASSERT_TRUE(ss.ok());
+  ASSERT_EQ(ss->size(), 6u);
+  auto r = get("/student/s02");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  for (const auto& x : *ss) {
+    char pts[64];
+    std::snprintf(pts, sizeof pts, "%.2f / %.0f", x.points, x.max_points);
+    const std::string row = "<tr data-id=\"" + std::to_string(x.id) + "\">";
+    const auto at = r->body.find(row);
+    ASSERT_NE(at, std::string::npos) << row;
+    EXPECT_NE(r->body.find("data-k=\"points\">" + std::string(pts) + "</td>", at), std::string::npos) << pts;
+  }
+  EXPECT_NE(r->body.find("<svg"), std::string::npos);
+  auto home = get("/");
+  ASSERT_TRUE(home);
+  auto students = st->students();
+  for (const auto& s : *students) {
+    char mean[32];
+    std::snprintf(mean, sizeof mean, "%.1f %%", s.mean_pct);
+    const auto at = home->body.find("data-student=\"" + s.code + "\"");
+    ASSERT_NE(at, std::string::npos);
+    EXPECT_NE(home->body.find("data-k=\"sessions\">" + std::to_string(s.sessions) + "</td>", at), std::string::npos);
+    EXPECT_NE(home->body.find("data-k=\"mean_pct\">" + std::string(mean), at), std::string::npos) << mean;
+  }
+  const auto id = (*ss)[0].id;
+  auto sp = get("/session/" + std::to_string(id));
+  ASSERT_TRUE(sp);
+  ASSERT_EQ(sp->status, 200);
+  EXPECT_NE(sp->body.find("force bands"), std::string::npos);
+  auto rec = st->session(id);
+  EXPECT_NE(sp->body.find((**rec).log_sha256), std::string::npos);
+  auto rep = get("/session/" + std::to_string(id) + "/report");
+  ASSERT_TRUE(rep);
+  EXPECT_EQ(rep->status, 200);
+  EXPECT_EQ(rep->body, (**rec).score_html);
+  auto filtered = get("/student/s02?exercise=incisor_partial_crown");
+  ASSERT_TRUE(filtered);
+  EXPECT_EQ(filtered->status, 200);
+  EXPECT_NE(filtered->body.find("3 sessions of incisor_partial_crown"), std::string::npos);
+  auto cohort = get("/cohort");
+  ASSERT_TRUE(cohort);
+  EXPECT_EQ(cohort->status, 200);
+  EXPECT_NE(cohort->body.find("data-exercise=\"incisor_partial_crown\""), std::string::npos);
+}
+
+TEST_F(Web, UnknownSessionsAndPagesAreThe404Page) {
+  for (const char* p : {"/session/999999", "/session/999999/report", "/student/nobody", "/exercise/none", "/nope", "/session"}) {
+    auto r = get(p);
+    ASSERT_TRUE(r) << p;
+    EXPECT_EQ(r->status, 404) << p;
+    EXPECT_NE(r->body.find("data-status=\"404\""), std::string::npos) << p << r->body;
+  }
+}
+
+// Every parameter of every page, with traversal and injection attempts:
+// refused (400/404), nothing else leaks, the database is unchanged.
+TEST_F(Web, PathTraversalAndSqlInjectionAreRefused) {
+  auto before = *store()->count_sessions();
+  const std::vector<std::string> attacks = {
+      "/../school.db", "/school.db", "/%2e%2e/%2e%2e/etc/passwd", "/session/..%2F..%2Fschool.db",
+      "/session/1/..%2F..%2F..%2Fetc%2Fpasswd", "/session/1%2F..%2F..%2Fschool.db/report",
+      "/student/..%2F..%2Fetc%2Fpasswd", "/student/..", "/exercise/..%2Fschool.db",
+      "/session/1%20OR%201=1", "/session/1;DROP%20TABLE%20sessions", "/session/1'--/report",
+      "/student/s01'%20OR%20'1'='1", "/student/s01%27%3B%20DROP%20TABLE%20sessions%3B--",
+      "/exercise/x'%20UNION%20SELECT%20key%20FROM%20sessions--",
+      "/student/s01?exercise=x'%20OR%201=1--",
+      "/student/s01?exercise=molar_access_opening&exercise=x'--", "/student/s01?exercise=%ZZ", "/student/s01?exercise=..%2F..%2Fetc", "/student/s01?id=1%20OR%201=1",
+      "/cohort?x=1'", "/?student=s01'--"};
+  for (const auto& a : attacks) {
+    auto r = get(a);
+    ASSERT_TRUE(r) << a;
+    EXPECT_TRUE(r->status == 400 || r->status == 404) << a << " -> " << r->status;
+    EXPECT_EQ(r->body.find("SQLite format"), std::string::npos) << a;
+    EXPECT_EQ(r->body.find("root:"), std::string::npos) << a;
+    EXPECT_EQ(r->body.find("data-id="), std::string::npos) << a;  // no session rows leaked
+  }
+  httplib::Client c("127.0.0.1", server_->port());
+  auto inj = c.Post("/login", "user=alice'%20OR%201=1--&password='%20OR%20'1'='1&next=/", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(inj);
+  EXPECT_EQ(inj->status, 401);
+  EXPECT_EQ(*store()->count_sessions(), before);
+  EXPECT_TRUE(store()->students().ok());
+}
+
+// HTTPS directly (Debian's cpp-httplib is built with OpenSSL): a self-signed
+// certificate made with the openssl command; the login cookie is Secure.
+TEST(WebTls, ServesHttpsWithASecureCookie) {
+  const fs::path d = dentar::test::temp_dir("store_web_tls");
+  const auto gen = dentar::test::run_command(
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost -keyout " + (d / "key.pem").string() +
+      " -out " + (d / "cert.pem").string() + " 2>&1");
+  ASSERT_EQ(gen.code, 0) << gen.out;
+  ASSERT_TRUE(Store::open("sqlite:" + (d / "s.db").string()).ok());
+  ASSERT_TRUE(set_password((d / "pw.txt").string(), "bob", "bob-password-1", 2000).ok());
+  ServeOptions o;
+  o.db_url = "sqlite:" + (d / "s.db").string();
+  o.password_file = (d / "pw.txt").string();
+  o.port = 0;
+  o.cert_file = (d / "cert.pem").string();
+  o.key_file = (d / "key.pem").string();
+  auto w = WebServer::create(o);
+  ASSERT_TRUE(w.ok()) << w.error();
+  ASSERT_TRUE((*w)->bind().ok());
+  std::thread t([&] { (void)(*w)->listen_after_bind(); });
+  httplib::SSLClient c("127.0.0.1", (*w)->port());
+  c.enable_server_certificate_verification(false);
+  auto r = c.Post("/login", "user=bob&password=bob-password-1&next=/", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(r) << httplib::to_string(r.error());
+  EXPECT_EQ(r->status, 303);
+  EXPECT_NE(r->get_header_value("Set-Cookie").find("; Secure"), std::string::npos);
+  // Plain HTTP to the HTTPS port gets no page.
+  httplib::Client plain("127.0.0.1", (*w)->port());
+  auto p = plain.Get("/login");
+  EXPECT_TRUE(!p || p->status != 200);
+  (*w)->stop();
+  t.join();
+  // A key that is not PEM is refused with the file names.
+  dentar::test::write_file(d / "bad.pem", "not a key");
+  o.key_file = (d / "bad.pem").string();
+  auto bad = WebServer::create(o);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("not a usable PEM certificate and key"), std::string::npos) << bad.error();
+}
+
+class Browser : public Web {
+ protected:
+  void SetUp() override {
+    ASSERT_FALSE(testkit::chromium_binary().empty())
+        << "Debian's chromium is not installed (tools/bootstrap.sh installs it); the browser tests need it";
+  }
+  static std::string dom_after_login(const std::string& next) {
+    const fs::path d = dentar::test::temp_dir("store_web_login");
+    const fs::path page = testkit::login_page_file(d, base_, kUser, kPassword, next);
+    const auto r = testkit::chromium("--virtual-time-budget=10000 --dump-dom", "file://" + page.string());
+    EXPECT_EQ(r.code, 0);
+    return r.out;
+  }
+};
+
+TEST_F(Browser, LoginPageWithoutCookie) {
+  const auto r = testkit::chromium("--dump-dom", base_ + "/student/s01");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("Instructor login"), std::string::npos) << r.out.substr(0, 2000);
+  EXPECT_EQ(r.out.find("data-id="), std::string::npos);
+}
+
+TEST_F(Browser, StudentPageNumbersMatchTheDatabase) {
+  const std::string dom = dom_after_login("/student/s03");
+  ASSERT_NE(dom.find("Student s03"), std::string::npos) << dom.substr(0, 3000);
+  SessionFilter f;
+  f.student = "s03";
+  auto ss = store()->sessions(f);
+  std::regex row(R"re(<tr data-id="(\d+)">.*?data-k="points">([0-9.]+) / ([0-9]+)</td>)re");
+  std::map<std::int64_t, double> shown;
+  for (auto it = std::sregex_iterator(dom.begin(), dom.end(), row); it != std::sregex_iterator(); ++it)
+    shown[std::stoll((*it)[1])] = std::stod((*it)[2]);
+  ASSERT_EQ(shown.size(), ss->size());
+  for (const auto& x : *ss) {
+    ASSERT_TRUE(shown.count(x.id)) << x.id;
+    EXPECT_NEAR(shown[x.id], x.points, 0.005) << x.id;
+  }
+}
+
+TEST_F(Browser, UnknownSessionShowsThe404Page) {
+  const std::string dom = dom_after_login("/session/424242");
+  EXPECT_NE(dom.find("404 · Not found"), std::string::npos) << dom.substr(0, 2000);
+  EXPECT_NE(dom.find("There is no session #424242"), std::string::npos);
+}
+
+TEST_F(Browser, ScreenshotOfTheStudentPageRenders) {
+  const fs::path d = dentar::test::temp_dir("store_web_shot");
+  const fs::path page = testkit::login_page_file(d, base_, kUser, kPassword, "/student/s01");
+  const fs::path png = d / "student.png";
+  const auto r = testkit::chromium("--virtual-time-budget=10000 --window-size=1200,900 --screenshot=" + png.string(),
+                                   "file://" + page.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  const cv::Mat img = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty()) << png;
+  EXPECT_EQ(img.cols, 1200);
+  EXPECT_EQ(img.rows, 900);
+  // The header bar (#1d3b5a) is drawn at the top, the page is not blank.
+  const cv::Vec3b top = img.at<cv::Vec3b>(10, 600);
+  EXPECT_NEAR(top[0], 0x5a, 12);
+  EXPECT_NEAR(top[1], 0x3b, 12);
+  EXPECT_NEAR(top[2], 0x1d, 12);
+  cv::Scalar mean, sd;
+  cv::meanStdDev(img, mean, sd);
+  EXPECT_GT(sd[0], 20.0);
+}
+
+}  // namespace

@@ -1,0 +1,108 @@
+#include "db_util.h"
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+
+#include "commands.h"
+#include "dentar/store/db_url.h"
+#include "dentar/store/station.h"
+#include "dentar/training/report.h"
+
+namespace dentar::tools {
+namespace fs = std::filesystem;
+
+std::string default_station_db() {
+  if (const char* e = std::getenv("DENTAR_STATION_DB"); e && *e) return e;
+  const char* home = std::getenv("HOME");
+  return "sqlite:" + (fs::path(home && *home ? home : ".") / ".local/share/dentar/station.db").string();
+}
+
+void add_db_options(CLI::App* sub, DbCli& c, bool db_required) {
+  auto* o = sub->add_option("--db", c.db,
+                            db_required ? "where sessions are kept: sqlite:PATH or postgresql://USER@HOST[:PORT]/DB"
+                                        : "store the finished session here: sqlite:PATH or postgresql://USER@HOST[:PORT]/DB");
+  if (db_required) o->required();
+  sub->add_option("--station-db", c.station_db,
+                  "this station's own SQLite queue when --db is a server (default: $DENTAR_STATION_DB or "
+                  "~/.local/share/dentar/station.db)");
+  sub->add_option("--student", c.student, "the student's code (letters, digits, . _ @ -)");
+  sub->add_option("--station-id", c.station_id, "this station's code (default: the host name)");
+}
+
+bool check_db_options(const std::string& cmd, DbCli& c) {
+  if (c.db.empty()) return true;
+  auto u = store::parse_db_url(c.db);
+  if (!u) {
+    print_error(cmd, "--db: " + u.error());
+    return false;
+  }
+  if (c.student.empty()) {
+    print_error(cmd, "--db needs --student CODE (whose session this is)");
+    return false;
+  }
+  if (auto e = store::validate_code("--student", c.student); !e.empty()) {
+    print_error(cmd, e);
+    return false;
+  }
+  if (c.station_id.empty()) {
+    char host[256] = {};
+    gethostname(host, sizeof host - 1);
+    c.station_id = host[0] ? host : "station";
+    for (char& ch : c.station_id)
+      if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '.' && ch != '-' && ch != '_') ch = '-';
+  }
+  if (auto e = store::validate_code("--station-id", c.station_id); !e.empty()) {
+    print_error(cmd, e);
+    return false;
+  }
+  if (u->kind == store::DbUrl::Kind::Postgres && c.station_db.empty()) c.station_db = default_station_db();
+  if (!c.station_db.empty()) {
+    auto s = store::parse_db_url(c.station_db);
+    if (!s || s->kind != store::DbUrl::Kind::Sqlite) {
+      print_error(cmd, "--station-db " + c.station_db + ": must be sqlite:PATH");
+      return false;
+    }
+  }
+  return true;
+}
+
+int store_finished_session(const std::string& cmd, const DbCli& c, const std::string& session,
+                           const std::string& report_dir, bool quiet) {
+  std::error_code ec;
+  const fs::path dir = fs::is_directory(session, ec) ? fs::path(session) : fs::path(session).parent_path();
+  const fs::path rep = report_dir.empty() ? dir : fs::path(report_dir);
+  if (!fs::exists(rep / "score.json", ec)) {
+    if (!quiet) std::cout << cmd << ": scoring " << session << " before storing it\n";
+    training::ScoreOptions so;
+    so.session = session;
+    so.out_dir = report_dir;
+    auto sc = training::score_session(so);
+    if (!sc) {
+      print_error(cmd, "scoring " + session + " for the store: " + sc.error() + " (the session folder is kept)");
+      return 1;
+    }
+  }
+  store::ImportOptions io;
+  io.student = c.student;
+  io.station = c.station_id;
+  io.report_dir = report_dir;
+  auto rec = store::record_from_session_dir(session, io);
+  if (!rec) {
+    print_error(cmd, rec.error());
+    return 2;
+  }
+  const bool local_only = c.station_db.empty();
+  auto r = store::store_session(*rec, local_only ? c.db : c.station_db, local_only ? "" : c.db);
+  if (!r) {
+    print_error(cmd, "storing the session: " + r.error() + " (the session folder " + dir.string() + " is kept)");
+    return 1;
+  }
+  std::cout << cmd << ": session " << rec->key.substr(0, 12) << " of " << rec->student << " ("
+            << rec->exercise << ", " << rec->points << " / " << rec->max_points << " points): " << r->message << "\n";
+  return 0;
+}
+
+}  // namespace dentar::tools

@@ -1,0 +1,34 @@
+// Storing a finished session from `dentar live`, `dentar offline` and
+// `dentar db import`: score it if it has no score.json yet, then store it
+// (station store-and-forward when the target is a server).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+namespace dentar::tools {
+
+struct DbCli {
+  std::string db;          // --db URL: where the session is kept
+  std::string station_db;  // --station-db sqlite:PATH: this station's own queue (server targets)
+  std::string student;     // --student CODE
+  std::string station_id;  // --station-id CODE (default: the host name)
+};
+
+// Adds --db, --station-db, --student, --station-id to a subcommand.
+void add_db_options(CLI::App* sub, DbCli& c, bool db_required);
+
+// Checks the options before any work (bad input: message, returns false).
+bool check_db_options(const std::string& cmd, DbCli& c);
+
+// Scores `session` (a folder with session.dlog, or a .dlog) into report_dir
+// (empty: the session's folder) unless score.json is there, then stores it.
+// Prints one line for the student. Returns the exit code (0, 1, 2).
+int store_finished_session(const std::string& cmd, const DbCli& c, const std::string& session,
+                           const std::string& report_dir, bool quiet);
+
+// The station's own queue when --db is a server and --station-db is not
+// given: $DENTAR_STATION_DB, else ~/.local/share/dentar/station.db.
+std::string default_station_db();
+
+}  // namespace dentar::tools
