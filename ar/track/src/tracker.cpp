@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "dentar/ar/camera_model.h"
+#include "dentar/ar/pose_uncertainty.h"
 #include "dentar/calibration/camera_file.h"
 
 namespace dentar::ar {
@@ -39,6 +40,9 @@ struct Body {
   int frames_since_meas = 0;
   TrackState state = TrackState::kLost;
   double max_sigma_m = 0;  // position uncertainty gate (0 = off)
+  // The point whose position sigma is gated, in the body frame: the body
+  // origin, or the mirror's centre (what the reflection is drawn from).
+  Eigen::Vector3d gate_point = Eigen::Vector3d::Zero();
 };
 
 // Integer pixel box [x0, x1) x [y0, y1).
@@ -424,17 +428,14 @@ struct Tracker::Impl {
     return {};
   }
 
+  // Position sigma of the body's gate point (pose_uncertainty.h), the
+  // corner noise floored at sigma_floor_px.
+  double gate_sigma(const Body& b, const BundlePose& p) const {
+    return point_sigma_m(floored_covariance(p, o.sigma_floor_px), p.T_cam_body, b.gate_point);
+  }
   // Position uncertainty gate (TrackerOptions::mannequin_max_sigma_m).
-  bool precise_enough(const BundlePose& p, double max_sigma_m) const {
-    if (max_sigma_m <= 0) return true;
-    // covariance = s^2 (J^T J)^-1 with s^2 = sum r^2 / (2N - 6) per axis;
-    // rms_px^2 = sum r^2 / N (N corners).
-    const double n = 4.0 * p.tags_used;
-    const double s2 = p.rms_px * p.rms_px * n / std::max(1.0, 2 * n - 6);
-    const double floor2 = o.sigma_floor_px * o.sigma_floor_px;
-    const double scale = s2 > 1e-12 ? std::max(1.0, floor2 / s2) : 1.0;
-    const double var = p.covariance.bottomRightCorner<3, 3>().trace() * scale;
-    return std::isfinite(var) && std::sqrt(var) <= max_sigma_m;
+  bool precise_enough(const Body& b, const BundlePose& p) const {
+    return b.max_sigma_m <= 0 || gate_sigma(b, p) <= b.max_sigma_m;
   }
 
   // Pose + filter + state of one body.
@@ -450,13 +451,14 @@ struct Tracker::Impl {
     bool measured = false;
     if (!tags.empty()) {
       const BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, o.pose, prev);
-      if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(p, b.max_sigma_m)) {
+      if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(b, p)) {
         measured = true;
         out.T_cam_body_measured = p.T_cam_body;
         out.rms_px = p.rms_px;
         out.tags_used = p.tags_used;
         out.tag_ids = p.tag_ids;
         out.covariance = p.covariance;
+        out.sigma_m = gate_sigma(b, p);
       }
     }
     pose_ms += ms_since(t0);
@@ -532,6 +534,7 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
   m.mirror.bundle = mirror_bundle(station);
   m.mannequin.max_sigma_m = options.mannequin_max_sigma_m;
   m.mirror.max_sigma_m = options.mirror_max_sigma_m;
+  m.mirror.gate_point = station.calibration.T_mtag_mir.translation();  // mirror centre in mtag
   m.mannequin.filter = PoseFilter(options.filter);
   m.mirror.filter = PoseFilter(options.filter);
   if (options.track_pen) {

@@ -142,6 +142,10 @@ struct BodyTrack {
   std::vector<int> tag_ids;  // ids used, ascending
   // Covariance of the measurement (bundle_pose.h: (w rad, v m) in `cam`).
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  // Position sigma (m) of the body's gate point (the mannequin's origin, the
+  // mirror's centre) from the covariance with the corner noise floored at
+  // sigma_floor_px (pose_uncertainty.h); 0 when not measured.
+  double sigma_m = 0;
   double since_measurement_s = 0;  // capture time - last measured capture time
 };
 
