@@ -969,7 +969,8 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
                              {"predicted_regions", o.tracker.predicted_regions},
                              {"full_frame_interval", o.tracker.full_frame_interval},
                              {"filter", o.tracker.filter_enabled},
-                             {"stale_limit_ms", o.tracker.stale_limit_s * 1e3}}}};
+                             {"stale_limit_ms", o.tracker.stale_limit_s * 1e3},
+                             {"mirror_max_sigma_mm", o.tracker.mirror_max_sigma_m * 1e3}}}};
   char hash[20];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
   nlohmann::json removed = nlohmann::json::object();

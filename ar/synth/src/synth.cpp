@@ -118,7 +118,7 @@ SynthOptions synth_preset(SynthPreset p) {
     o.motion_blur = true;
     o.shutter_fraction = 0.5;
   } else if (p == SynthPreset::kOffFrame) {
-    o.aim_offset_rad = 18.0 * M_PI / 180.0;
+    o.aim_offset_rad = 24.0 * M_PI / 180.0;
   }
   return o;
 }

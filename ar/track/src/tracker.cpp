@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "dentar/ar/camera_model.h"
+#include "dentar/ar/image_motion.h"
 #include "dentar/ar/pose_uncertainty.h"
 #include "dentar/calibration/camera_file.h"
 
@@ -43,6 +44,8 @@ struct Body {
   // The point whose position sigma is gated, in the body frame: the body
   // origin, or the mirror's centre (what the reflection is drawn from).
   Eigen::Vector3d gate_point = Eigen::Vector3d::Zero();
+  bool static_in_world = false;  // the mannequin: its image motion is the camera's
+  cv::Mat thumb_at_meas;         // ImageMotion thumbnail of its last measured frame
 };
 
 // Integer pixel box [x0, x1) x [y0, y1).
@@ -135,6 +138,10 @@ std::string TrackerOptions::validate() const {
     os << "mirror_max_sigma_m = " << mirror_max_sigma_m << " must be finite and >= 0 (0 = off)";
   else if (!(std::isfinite(max_prediction_drift_m) && max_prediction_drift_m >= 0))
     os << "max_prediction_drift_m = " << max_prediction_drift_m << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(max_prediction_turn_rad) && max_prediction_turn_rad >= 0))
+    os << "max_prediction_turn_rad = " << max_prediction_turn_rad << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(min_motion_response) && min_motion_response >= 0 && min_motion_response < 1))
+    os << "min_motion_response = " << min_motion_response << " must be in [0, 1)";
   else if (!(std::isfinite(sigma_floor_px) && sigma_floor_px >= 0))
     os << "sigma_floor_px = " << sigma_floor_px << " must be finite and >= 0";
   else if (!std::isfinite(stale_limit_s) || stale_limit_s < 0 || stale_limit_s > 10)
@@ -332,7 +339,7 @@ struct Tracker::Impl {
         prev = o.filter_enabled && b->filter.initialised() ? b->filter.predict(d.capture_s)
                                                             : b->last_meas;
       const BundlePose p = estimate_bundle_pose(b->bundle, camera, d.tags, o.pose, prev);
-      if (!(p.ok() && p.rms_px <= o.max_rms_px && precise_enough(p, b->max_sigma_m))) continue;
+      if (!(p.ok() && p.rms_px <= o.max_rms_px && precise_enough(*b, p))) continue;
       if (b->state == TrackState::kLost) b->filter.reset();
       b->filter.update(p.T_cam_body, d.capture_s);
       b->has_measurement = true;
@@ -340,7 +347,38 @@ struct Tracker::Impl {
       b->last_meas_time_s = d.capture_s;
       b->frames_since_meas = static_cast<int>(std::max<std::int64_t>(0, now - d.frame));
       b->state = TrackState::kPredicted;
+      // No thumbnail of that frame: the image-motion check waits for the
+      // next direct measurement.
+      b->thumb_at_meas.release();
     }
+  }
+
+  ImageMotion motion;            // thumbnails for the prediction check
+  std::int64_t motion_frame = -1;  // frame whose thumbnail `motion` holds
+
+  void ensure_motion() {
+    if (motion_frame == frames) return;
+    motion.set_frame(gray);
+    motion_frame = frames;
+  }
+
+  // The prediction check (TrackerOptions::max_prediction_turn_rad): false
+  // when the image moved since b's last measurement by more than its
+  // prediction explains, or no longer correlates with that frame.
+  bool prediction_matches_image(Body& b, double capture_s) {
+    if (o.max_prediction_turn_rad <= 0 || b.thumb_at_meas.empty()) return true;
+    ensure_motion();
+    const ImageMotion::Shift sh = motion.shift_since(b.thumb_at_meas);
+    if (!sh.valid || sh.response < o.min_motion_response) return false;
+    Eigen::Vector2d expect = Eigen::Vector2d::Zero();
+    if (o.filter_enabled && b.filter.initialised()) {
+      auto a = model.project(b.filter.predict(capture_s).translation());
+      auto c = model.project(b.last_meas.translation());
+      if (a && c) expect = *a - *c;
+    }
+    const double unexplained = b.static_in_world ? (sh.px - expect).norm()
+                                                 : std::max(0.0, sh.px.norm() - expect.norm());
+    return unexplained / camera.fx <= o.max_prediction_turn_rad;
   }
 
   // Boxes around `b`'s tags at its predicted pose; false when the body has
@@ -471,6 +509,10 @@ struct Tracker::Impl {
       b.last_meas_time_s = capture_s;
       b.frames_since_meas = 0;
       b.state = TrackState::kTracking;
+      if (o.max_prediction_turn_rad > 0) {
+        ensure_motion();
+        motion.keep(b.thumb_at_meas);
+      }
     } else {
       ++b.frames_since_meas;
       const double age = capture_s - b.last_meas_time_s;
@@ -478,7 +520,8 @@ struct Tracker::Impl {
       if (o.filter_enabled && b.filter.initialised())
         drift = (b.filter.linear_velocity().norm() + 0.1 * b.filter.angular_velocity().norm()) * age;
       const bool drift_ok = o.max_prediction_drift_m <= 0 || drift <= o.max_prediction_drift_m;
-      if (b.has_measurement && age <= o.stale_limit_s && drift_ok) {
+      if (b.has_measurement && age <= o.stale_limit_s && drift_ok &&
+          prediction_matches_image(b, capture_s)) {
         b.state = TrackState::kPredicted;
       } else {
         b.state = TrackState::kLost;
@@ -533,6 +576,7 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
   m.mannequin.bundle = mannequin_bundle(station);
   m.mirror.bundle = mirror_bundle(station);
   m.mannequin.max_sigma_m = options.mannequin_max_sigma_m;
+  m.mannequin.static_in_world = true;
   m.mirror.max_sigma_m = options.mirror_max_sigma_m;
   m.mirror.gate_point = station.calibration.T_mtag_mir.translation();  // mirror centre in mtag
   m.mannequin.filter = PoseFilter(options.filter);
@@ -553,7 +597,9 @@ void Tracker::reset() {
     b->has_measurement = false;
     b->state = TrackState::kLost;
     b->frames_since_meas = 0;
+    b->thumb_at_meas.release();
   }
+  impl_->motion_frame = -1;
   impl_->frames = 0;
   impl_->frames_since_full = 0;
   impl_->have_last_capture = false;

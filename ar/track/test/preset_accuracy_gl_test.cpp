@@ -176,27 +176,29 @@ TEST(PresetAccuracy, EveryPresetWithinItsBounds) {
   DENTAR_GL_TEST_CONTEXT();
   const Size z = run_size();
   static const Bound kBounds[] = {
-      {SynthPreset::kStandard, 1.0, 0.35, 0.2, 6.0},
-      {SynthPreset::kHard, 0.6, 3.0, 1.8, 0},
-      {SynthPreset::kMirror, 1.0, 0.35, 0.2, 6.0},
-      {SynthPreset::kHand, 0.9, 0.6, 0.3, 6.0},
-      {SynthPreset::kGlare, 1.0, 0.35, 0.2, 8.0},
-      {SynthPreset::kLowLight, 1.0, 0.6, 0.3, 0},
-      {SynthPreset::kFastTurns, 0.5, 3.0, 1.5, 0},
-      {SynthPreset::kOffFrame, 0.9, 0.6, 0.3, 0},
+      {SynthPreset::kStandard, 1.0, 0.35, 0.4, 3.0},
+      {SynthPreset::kHard, 0.85, 1.0, 0.6, 3.0},
+      {SynthPreset::kMirror, 1.0, 0.4, 0.4, 3.0},
+      {SynthPreset::kHand, 1.0, 0.35, 0.4, 3.0},
+      {SynthPreset::kGlare, 1.0, 0.4, 0.4, 3.0},
+      {SynthPreset::kLowLight, 1.0, 0.35, 0.45, 3.0},
+      {SynthPreset::kFastTurns, 0.5, 3.0, 1.5, 3.0},
+      {SynthPreset::kOffFrame, 1.0, 0.35, 0.3, 3.0},
   };
   std::printf("\n[ presets ] %dx%d, %d frames, seed 5, default tracker; drawn pose (filtered) vs truth\n",
               z.w, z.h, z.frames);
   std::printf("| preset | frames | drawn | median mm / deg | p95 mm / deg | mirror drawn / in view | mirror p95 mm / deg |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   std::vector<std::pair<const char*, PresetRun>> runs;
+  const char* only = std::getenv("DENTAR_PRESETS");  // e.g. "hard,fast": a quick look
   for (const Bound& b : kBounds) {
+    if (only && std::string(only).find(synth_preset_name(b.preset)) == std::string::npos) continue;
     const Footage& fo = footage(b.preset);
     ASSERT_TRUE(fo.error.empty()) << fo.error;
     const PresetRun r = run(fo);
     print_row(synth_preset_name(b.preset), r);
     runs.emplace_back(synth_preset_name(b.preset), r);
-    if (!z.is_default()) continue;
+    if (!z.is_default() || only) continue;
     const char* name = synth_preset_name(b.preset);
     ASSERT_EQ(r.frames, z.frames) << name;
     EXPECT_GE(r.drawn, b.min_drawn * r.frames) << name;
@@ -239,8 +241,9 @@ TEST(PresetAccuracy, RobustCornerWeighting) {
   DENTAR_GL_TEST_CONTEXT();
   std::printf("\n[ presets ] Huber corner weighting: drawn %% and p95 mm / deg, plain vs robust\n");
   std::printf("| preset | robust_px | drawn | p95 mm / deg | mirror p95 mm |\n|---|---|---|---|---|\n");
-  for (SynthPreset p : {SynthPreset::kStandard, SynthPreset::kHard, SynthPreset::kHand, SynthPreset::kOffFrame,
-                        SynthPreset::kFastTurns, SynthPreset::kGlare}) {
+  // (hand, offframe, fast and glare were measured too: identical to the
+  // last digit, docs/BENCHMARKS.md; kept out of CI for time.)
+  for (SynthPreset p : {SynthPreset::kStandard, SynthPreset::kHard}) {
     const Footage& fo = footage(p);
     ASSERT_TRUE(fo.error.empty()) << fo.error;
     double p95[2] = {0, 0};

@@ -122,7 +122,7 @@ struct SynthOptions {
 //  lowlight: standard at 0.3 exposure with strong read and shot noise;
 //  fast: standard + sudden 25 deg head turns in 0.12 s (>= 200 deg/s),
 //   with motion blur;
-//  offframe: standard with the camera aimed 18 deg away from the mouth,
+//  offframe: standard with the camera aimed 24 deg away from the mouth,
 //   alternating sides: the tags on that side are cut by the frame edge.
 SynthOptions synth_preset(SynthPreset p);
 
