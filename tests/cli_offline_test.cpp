@@ -64,7 +64,9 @@ void expect_no_complete_report(const fs::path& out) {
 
 TEST(CliOffline, RunsTheWholePipelineOnAClipWithTruth) {
   const fs::path out = temp_dir("offline_run");
-  const auto r = run_command(offline_on(clip(), out));
+  // --mirror-sigma-mm 0: the mirror is drawn (and its error measured) in
+  // every frame it is tracked, however uncertain.
+  const auto r = run_command(offline_on(clip(), out, "--mirror-sigma-mm 0"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("wrote"), std::string::npos) << r.out;
 
@@ -79,6 +81,14 @@ TEST(CliOffline, RunsTheWholePipelineOnAClipWithTruth) {
   EXPECT_LT(js["errors"]["tooth_px"]["median"].get<double>(), 1.0);
   EXPECT_LT(js["errors"]["tip_mm"]["median"].get<double>(), 1.0);
   EXPECT_GT(js["errors"]["silhouette_iou"]["median"].get<double>(), 0.85);
+  // The mirror is in the mouth for the whole clip (standard: the first
+  // 4.8 s of every 8 s): its pose error is measured where testers look.
+  ASSERT_TRUE(js["errors"]["mir_mm"]["p95"].is_number()) << js["errors"].dump(1);
+  EXPECT_GE(js["errors"]["mir_mm"]["n"].get<int>(), 20);
+  EXPECT_EQ(js["errors"]["mir_mm"]["n"].get<int>(), js["errors"]["mir_deg"]["n"].get<int>());
+  EXPECT_GT(js["errors"]["mir_mm"]["median"].get<double>(), 0.0);
+  EXPECT_LT(js["errors"]["mir_mm"]["p95"].get<double>(), 8.0);
+  EXPECT_LT(js["errors"]["mir_deg"]["p95"].get<double>(), 3.0);
   // The haptic replay ran every step not after the last frame's time
   // (29/30 s = 966.7 ms: steps 0..966), the whole session log.
   EXPECT_EQ(js["haptic_steps"].get<int>(), 966 + 1);
@@ -97,7 +107,8 @@ TEST(CliOffline, RunsTheWholePipelineOnAClipWithTruth) {
     return static_cast<std::size_t>(it - head.begin());
   };
   const std::size_t c_state = col("man_state"), c_err = col("man_err_mm"), c_lat = col("latency_ms"),
-                    c_tz = col("man_tz_mm");
+                    c_tz = col("man_tz_mm"), c_mstate = col("mirror_state"), c_merr = col("mir_err_mm"),
+                    c_mdeg = col("mir_err_deg");
   for (std::size_t i = 1; i < rows.size(); ++i) {
     ASSERT_EQ(rows[i].size(), head.size()) << "row " << i;
     EXPECT_EQ(std::stoi(rows[i][0]), static_cast<int>(i - 1));
@@ -107,6 +118,9 @@ TEST(CliOffline, RunsTheWholePipelineOnAClipWithTruth) {
       EXPECT_LT(tz, 450.0);
       EXPECT_LT(std::stod(rows[i][c_err]), 2.0);
     }
+    // Mirror error cells are filled exactly when the mirror has a pose.
+    EXPECT_EQ(rows[i][c_mstate] != "lost", !rows[i][c_merr].empty()) << "row " << i;
+    EXPECT_EQ(rows[i][c_merr].empty(), rows[i][c_mdeg].empty()) << "row " << i;
     EXPECT_GT(std::stod(rows[i][c_lat]), 0.0);
   }
 
@@ -136,7 +150,8 @@ TEST(CliOffline, RunsTheWholePipelineOnAClipWithTruth) {
 
   // Report: the plots a tester reads, and the stills it links.
   const std::string html = read_file(out / "report.html");
-  for (const char* s : {"Mannequin pose error against time", "Removed volume per material",
+  for (const char* s : {"Mannequin pose error against time", "Mirror pose error against time",
+                        "mirror plane pose, translation", "Removed volume per material",
                         "capture-to-composite latency", "compositing", "<svg"})
     EXPECT_NE(html.find(s), std::string::npos) << s;
   int svgs = 0;

@@ -33,6 +33,7 @@ struct OfflineCli {
        no_mirror = false;
   int full_every = 15;
   double predict_ms = 0, stale_ms = 200;
+  double mirror_sigma_mm = 1.0;
   std::size_t triangle_budget = 0;
 };
 
@@ -101,6 +102,7 @@ int run(const OfflineCli& c) {
   o.tracker.full_frame_interval = c.full_every;
   o.tracker.filter_enabled = !c.no_filter;
   o.tracker.stale_limit_s = c.stale_ms * 1e-3;
+  o.tracker.mirror_max_sigma_m = c.mirror_sigma_mm * 1e-3;
   o.compositor.phantoms = !c.no_occlusion;
   o.compositor.segmentation = !c.no_occlusion && !c.no_segmentation;
   o.compositor.mirror = !c.no_mirror;
@@ -162,7 +164,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--max-frames N] [--no-video] [--video-codec mjpg|ffv1]\n"
       "                         [--scale-calib] [--quiet]\n"
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
-      "                         [--predict-ms MS] [--stale-ms MS] [--no-occlusion]\n"
+      "                         [--predict-ms MS] [--stale-ms MS] [--mirror-sigma-mm MM] [--no-occlusion]\n"
       "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]");
   s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");
   s->add_option("--station", c->station, "Station file (JSON) the footage was recorded with");
@@ -170,8 +172,8 @@ void add_offline(CLI::App& app, int& exit_code) {
   s->add_option("--truth", c->truth, "Ground truth truth.jsonl (default: beside the footage; none = ignore)");
   s->add_option("--masks", c->masks, "Ground-truth masks folder (default: beside the footage; none = ignore)");
   s->add_option("--out", c->out, "Output folder")->capture_default_str();
-  s->add_option("--preset", c->preset, "Built-in footage preset")
-      ->check(CLI::IsMember({"standard", "hard", "mirror"}))
+  s->add_option("--preset", c->preset, "Built-in footage preset (dentar synth --help)")
+      ->check(CLI::IsMember({"standard", "hard", "mirror", "hand", "glare", "lowlight", "fast", "offframe"}))
       ->capture_default_str();
   s->add_option("--frames", c->frames, "Built-in footage length (frames at 30 fps)")
       ->check(CLI::Range(2, 100000))
@@ -196,6 +198,11 @@ void add_offline(CLI::App& app, int& exit_code) {
   s->add_flag("--no-filter", c->no_filter, "No temporal pose filter");
   s->add_option("--predict-ms", c->predict_ms, "Predict poses this far past the capture time")
       ->check(CLI::Range(0.0, 500.0));
+  s->add_option("--mirror-sigma-mm", c->mirror_sigma_mm,
+                "Hide the mirror's reflection when its centre's position sigma exceeds this "
+                "(mm; 0 = always draw it)")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
   s->add_option("--stale-ms", c->stale_ms, "Drop the overlay this long after tracking is lost")
       ->check(CLI::Range(0.0, 5000.0))
       ->capture_default_str();

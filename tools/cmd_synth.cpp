@@ -111,15 +111,18 @@ void add_synth(CLI::App& app, int& exit_code) {
       "Render footage of the phantom-head station with exact ground truth: video, per-frame\n"
       "poses and tag corners (truth.jsonl), tooth occlusion masks, the station file and the\n"
       "haptic session log of the scripted drilling. Headless (EGL); deterministic per seed.\n"
-      "Synopsis: dentar synth [--preset standard|hard|mirror] [--frames N] [--fps F]\n"
+      "Synopsis: dentar synth [--preset standard|hard|mirror|hand|glare|lowlight|fast|offframe]\n"
+      "                       [--frames N] [--fps F]\n"
       "                       [--resolution 640x480|1280x720|1920x1080] [--seed S] [--out DIR]\n"
       "                       [--png] [--no-distortion] [--noise DN] [--motion-blur]\n"
       "                       [--exposure-variation A] [--exposure-jumps] [--occluders N]\n"
       "                       [--station FILE] [--tag-family tagStandard41h12|tag36h11]");
   s->add_option("--preset", c->preset,
-                "standard, hard (fast motion, blur, grazing/small tags, "
-                "occlusion) or mirror (mirror in view)")
-      ->check(CLI::IsMember({"standard", "hard", "mirror"}))
+                "standard, hard (fast motion, blur, grazing/small tags, occlusion), mirror "
+                "(mirror in view), or one failure mode on standard: hand (a finger crosses the "
+                "tooth), glare (on the mirror), lowlight (dim and noisy), fast (head turns "
+                ">= 200 deg/s), offframe (tags cut by the frame edge)")
+      ->check(CLI::IsMember({"standard", "hard", "mirror", "hand", "glare", "lowlight", "fast", "offframe"}))
       ->capture_default_str();
   s->add_option("--frames", c->frames, "Number of frames")
       ->check(CLI::Range(1, 100000))

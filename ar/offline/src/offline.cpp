@@ -86,7 +86,9 @@ double rotation_deg(const Iso& a, const Iso& b) {
 
 struct TruthFrame {
   bool present = false;
-  Iso T_cam_man, T_cam_tooth, T_cam_tip;
+  bool has_mirror = false;  // T_cam_mir present (older truth files lack it)
+  bool mirror_in_view = false;
+  Iso T_cam_man, T_cam_tooth, T_cam_tip, T_cam_mir;
 };
 
 // Reads truth.jsonl (generator format). Errors name the file and line.
@@ -112,6 +114,11 @@ Result<std::vector<TruthFrame>> read_truth(const std::string& path) {
       t.T_cam_man = from_rowmajor(j.at("T_cam_man"));
       t.T_cam_tooth = from_rowmajor(j.at("T_cam_tooth"));
       t.T_cam_tip = from_rowmajor(j.at("T_cam_tip"));
+      if (j.contains("T_cam_mir")) {
+        t.T_cam_mir = from_rowmajor(j.at("T_cam_mir"));
+        t.has_mirror = true;
+        t.mirror_in_view = j.value("mirror_in_view", true);
+      }
     } catch (const std::exception& e) {
       return Error{path + ":" + std::to_string(n) + ": " + e.what() +
                    " (expected frame, T_cam_man, T_cam_tooth, T_cam_tip as 16 numbers, row-major)"};
@@ -164,6 +171,9 @@ struct Row {
   bool pedal = false, overlay = false, mirror_drawn = false;
   double removed_mm3[volume::kNumMaterials] = {};
   double man_err_mm = kNaN, man_err_deg = kNaN, tooth_err_px = kNaN, tip_err_mm = kNaN, iou = kNaN;
+  // Mirror plane pose (T_cam_mir = T_cam_mtag T_mtag_mir, the frame the
+  // reflection is drawn from) against truth: centre distance and rotation.
+  double mir_err_mm = kNaN, mir_err_deg = kNaN;
   double read_ms = 0, detect_ms = 0, pose_ms = 0, filter_ms = 0, track_ms = 0, haptics_ms = 0,
          mesh_ms = 0, composite_ms = 0, write_ms = 0, latency_ms = 0;
   std::size_t triangles = 0;
@@ -176,8 +186,8 @@ std::string csv_header() {
       "mirror_qz,mirror_tags,tags_detected,full_frame,haptic_step,pedal,overlay,mirror_drawn,triangles";
   for (int m = 1; m < volume::kNumMaterials; ++m)
     h += ",removed_" + std::string(volume::material_info(m).name) + "_mm3";
-  h += ",man_err_mm,man_err_deg,tooth_err_px,tip_err_mm,silhouette_iou,read_ms,detect_ms,pose_ms,"
-       "filter_ms,track_ms,haptics_ms,mesh_ms,composite_ms,write_ms,latency_ms\n";
+  h += ",man_err_mm,man_err_deg,tooth_err_px,tip_err_mm,silhouette_iou,mir_err_mm,mir_err_deg,"
+       "read_ms,detect_ms,pose_ms,filter_ms,track_ms,haptics_ms,mesh_ms,composite_ms,write_ms,latency_ms\n";
   return h;
 }
 
@@ -206,7 +216,8 @@ std::string csv_row(const Row& r) {
     << ',' << (r.pedal ? 1 : 0) << ',' << (r.overlay ? 1 : 0) << ',' << (r.mirror_drawn ? 1 : 0) << ','
     << r.triangles << ',';
   for (int m = 1; m < volume::kNumMaterials; ++m) num(r.removed_mm3[m]);
-  for (double x : {r.man_err_mm, r.man_err_deg, r.tooth_err_px, r.tip_err_mm, r.iou, r.read_ms,
+  for (double x : {r.man_err_mm, r.man_err_deg, r.tooth_err_px, r.tip_err_mm, r.iou, r.mir_err_mm,
+                   r.mir_err_deg, r.read_ms,
                    r.detect_ms, r.pose_ms, r.filter_ms, r.track_ms, r.haptics_ms, r.mesh_ms,
                    r.composite_ms, r.write_ms})
     num(x);
@@ -270,7 +281,12 @@ std::string make_report(const OfflineOptions& o, const OfflineSummary& sum, cons
     stat_row("registration: tooth box corners, drawn vs true", sum.tooth_err_px, "px");
     stat_row("co-location: drawn bur tip vs true tip", sum.tip_err_mm, "mm", 0.5);
     stat_row("occlusion: visible-tooth IoU", sum.silhouette_iou, "");
-    h << "</table><p>Errors use the frames with an overlay (tracking or predicted); lost frames draw nothing.</p>\n";
+    stat_row("mirror plane pose, translation", sum.mir_err_mm, "mm", 0.5);
+    stat_row("mirror plane pose, rotation", sum.mir_err_deg, "deg", 0.3);
+    h << "</table><p>Errors use the frames with an overlay (tracking or predicted); lost frames draw "
+         "nothing. The mirror's rows use the frames where the mirror is tracked or predicted "
+         "(its reflection may be drawn); its pose is the mirror plane frame <code>mir</code>, "
+         "from which the reflection is computed.</p>\n";
   } else {
     h << "<h2>Accuracy</h2><p>No ground truth with this footage: errors are not measured.</p>\n";
   }
@@ -320,6 +336,17 @@ std::string make_report(const OfflineOptions& o, const OfflineSummary& sum, cons
     q.series = {{"tooth, drawn vs true (px)", t, column([](const Row& r) { return r.tooth_err_px; }), ""},
                 {"bur tip, drawn vs true (mm)", t, column([](const Row& r) { return r.tip_err_mm; }), ""}};
     h << svg_line_plot(q);
+    if (sum.mir_err_mm.n > 0) {
+      LinePlot m;
+      m.title = "Mirror pose error against time (frames with a mirror pose)";
+      m.x_label = "time (s)";
+      m.y_label = "error";
+      m.series = {{"translation (mm)", t, column([](const Row& r) { return r.mir_err_mm; }), ""},
+                  {"rotation (deg)", t, column([](const Row& r) { return r.mir_err_deg; }), ""}};
+      m.goal_y = 0.5;
+      m.goal_label = "0.5 mm goal";
+      h << svg_line_plot(m);
+    }
     if (sum.silhouette_iou.n > 0) {
       LinePlot u;
       u.title = "Visible-tooth IoU against the true mask";
@@ -826,6 +853,11 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
         r.tip_err_mm = (T_cam_tip.translation() - tr.T_cam_tip.translation()).norm() * 1e3;
       }
     }
+    if (fi < truth.size() && truth[fi].present && truth[fi].has_mirror && r.mir_state != 2) {
+      const Iso T_cam_mir = r.T_cam_mtag * st.calibration.T_mtag_mir;
+      r.mir_err_mm = (T_cam_mir.translation() - truth[fi].T_cam_mir.translation()).norm() * 1e3;
+      r.mir_err_deg = rotation_deg(T_cam_mir, truth[fi].T_cam_mir);
+    }
     if (!mask_dir.empty()) {
       char name[32];
       std::snprintf(name, sizeof name, "mask_%06d.png", static_cast<int>(frame.index));
@@ -885,6 +917,8 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   sum.tooth_err_px = make_stat(col([](const Row& r) { return r.tooth_err_px; }));
   sum.tip_err_mm = make_stat(col([](const Row& r) { return r.tip_err_mm; }));
   sum.silhouette_iou = make_stat(col([](const Row& r) { return r.iou; }));
+  sum.mir_err_mm = make_stat(col([](const Row& r) { return r.mir_err_mm; }));
+  sum.mir_err_deg = make_stat(col([](const Row& r) { return r.mir_err_deg; }));
   sum.read_ms = make_stat(col([](const Row& r) { return r.read_ms; }));
   sum.track_ms = make_stat(col([](const Row& r) { return r.track_ms; }));
   sum.haptics_ms = make_stat(col([](const Row& r) { return r.haptics_ms; }));
@@ -935,7 +969,8 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
                              {"predicted_regions", o.tracker.predicted_regions},
                              {"full_frame_interval", o.tracker.full_frame_interval},
                              {"filter", o.tracker.filter_enabled},
-                             {"stale_limit_ms", o.tracker.stale_limit_s * 1e3}}}};
+                             {"stale_limit_ms", o.tracker.stale_limit_s * 1e3},
+                             {"mirror_max_sigma_mm", o.tracker.mirror_max_sigma_m * 1e3}}}};
   char hash[20];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
   nlohmann::json removed = nlohmann::json::object();
@@ -955,7 +990,9 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
         {"man_deg", stat_json(sum.man_err_deg)},
         {"tooth_px", stat_json(sum.tooth_err_px)},
         {"tip_mm", stat_json(sum.tip_err_mm)},
-        {"silhouette_iou", stat_json(sum.silhouette_iou)}}},
+        {"silhouette_iou", stat_json(sum.silhouette_iou)},
+        {"mir_mm", stat_json(sum.mir_err_mm)},
+        {"mir_deg", stat_json(sum.mir_err_deg)}}},
       {"stage_ms",
        {{"read", stat_json(sum.read_ms)},
         {"track", stat_json(sum.track_ms)},

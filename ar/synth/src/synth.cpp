@@ -33,12 +33,38 @@ const char* synth_preset_name(SynthPreset p) {
       return "hard";
     case SynthPreset::kMirror:
       return "mirror";
+    case SynthPreset::kHand:
+      return "hand";
+    case SynthPreset::kGlare:
+      return "glare";
+    case SynthPreset::kLowLight:
+      return "lowlight";
+    case SynthPreset::kFastTurns:
+      return "fast";
+    case SynthPreset::kOffFrame:
+      return "offframe";
   }
   return "?";
 }
 
+const std::vector<SynthPreset>& all_synth_presets() {
+  static const std::vector<SynthPreset> all = {
+      SynthPreset::kStandard, SynthPreset::kHard,      SynthPreset::kMirror,    SynthPreset::kHand,
+      SynthPreset::kGlare,    SynthPreset::kLowLight,  SynthPreset::kFastTurns, SynthPreset::kOffFrame};
+  return all;
+}
+
+std::string synth_preset_names(const char* separator) {
+  std::string out;
+  for (SynthPreset p : all_synth_presets()) {
+    if (!out.empty()) out += separator;
+    out += synth_preset_name(p);
+  }
+  return out;
+}
+
 std::optional<SynthPreset> parse_synth_preset(std::string_view name) {
-  for (auto p : {SynthPreset::kStandard, SynthPreset::kHard, SynthPreset::kMirror})
+  for (auto p : all_synth_presets())
     if (name == synth_preset_name(p)) return p;
   return std::nullopt;
 }
@@ -68,13 +94,31 @@ SynthOptions synth_preset(SynthPreset p) {
     o.exposure_jumps = true;
     o.tag_occluders = 4;
     o.mirror_in_mouth_fraction = 0.5;
-  } else if (p == SynthPreset::kMirror) {
+  } else if (p == SynthPreset::kMirror || p == SynthPreset::kGlare) {
     // The camera stays on the side from which the mirror face is seen.
     o.azimuth_centre_rad = -0.3;
     o.azimuth_amplitude_rad = 0.25;
     o.elevation_centre_rad = 0.42;
     o.elevation_amplitude_rad = 0.1;
     o.mirror_in_mouth_fraction = 1.0;
+    if (p == SynthPreset::kGlare) o.mirror_glare = 1.0;
+  } else if (p == SynthPreset::kHand) {
+    o.hand_crossing = true;
+  } else if (p == SynthPreset::kLowLight) {
+    // A dim room without the head lamp: a third of the light, the sensor's
+    // read noise and shot noise at high gain.
+    o.exposure = 0.3;
+    o.read_noise_dn = 4.0;
+    o.shot_noise_gain = 0.25;
+  } else if (p == SynthPreset::kFastTurns) {
+    // 25 deg in 0.12 s: 312 deg/s peak, 208 deg/s mean, blurred.
+    o.head_turn_rad = 25.0 * M_PI / 180.0;
+    o.head_turn_s = 0.12;
+    o.head_turn_period_s = 1.5;
+    o.motion_blur = true;
+    o.shutter_fraction = 0.5;
+  } else if (p == SynthPreset::kOffFrame) {
+    o.aim_offset_rad = 24.0 * M_PI / 180.0;
   }
   return o;
 }
@@ -115,6 +159,19 @@ std::string SynthOptions::validate() const {
     os << "blur subframes = " << blur_subframes << " must be odd, 3..31";
   else if (!in(exposure_variation, 0, 0.5))
     os << "exposure variation must be in [0, 0.5]";
+  else if (!in(exposure, 0.05, 4.0))
+    os << "exposure = " << exposure << " must be in [0.05, 4]";
+  else if (!in(aim_offset_rad, 0, 0.6))
+    os << "aim offset = " << aim_offset_rad << " rad must be in [0, 0.6]";
+  else if (!in(head_turn_rad, 0, 1.0))
+    os << "head turn = " << head_turn_rad << " rad must be in [0, 1]";
+  else if (!in(head_turn_period_s, 0.2, 60) || !in(head_turn_s, 0.01, 0.25 * head_turn_period_s))
+    os << "head turn duration " << head_turn_s << " s must be in [0.01, period/4] (period "
+       << head_turn_period_s << " s, in [0.2, 60])";
+  else if (!in(hand_crossing_period_s, 1.0, 60))
+    os << "hand crossing period = " << hand_crossing_period_s << " s must be in [1, 60]";
+  else if (!in(mirror_glare, 0, 1))
+    os << "mirror glare = " << mirror_glare << " must be in [0, 1]";
   else if (tag_occluders < 0 || tag_occluders > 32)
     os << "tag occluders must be in 0..32";
   else if (!in(mirror_in_mouth_fraction, 0, 1))
@@ -223,6 +280,7 @@ struct SynthGenerator::Impl {
   std::optional<ToothRenderer> tooth_renderer;
 
   synth::GpuMesh room, mannequin, hand, handpiece, bur, mirror_face, mirror_body, paddle, occluder;
+  synth::GpuMesh finger;  // the crossing finger (hand_crossing)
   struct GpuTag {
     synth::GpuMesh quad;
     Texture texture;
@@ -244,6 +302,7 @@ struct SynthGenerator::Impl {
   // Motion.
   Smooth s_dist, s_az, s_el, s_roll, s_tx, s_ty, s_tz, s_exposure;
   std::array<Smooth, 6> s_mirror;
+  std::array<Smooth, 3> s_glare;  // glare spot: x, y on the paddle, intensity
   struct Occluder {
     int tag = 0;
     std::array<Smooth, 4> s;
@@ -260,6 +319,8 @@ struct SynthGenerator::Impl {
   struct State {
     Iso T_cam_man, T_man_mir, T_man_tip, T_dev_sty;
     std::vector<Iso> T_man_occ;
+    std::optional<Iso> T_man_finger;  // the crossing finger when in view
+    bool finger_in_front = false;     // within 2 cm of the tooth's line of sight
     std::uint64_t step = 0;
     double haptic_time_s = 0;
     bool pedal = false;
@@ -275,7 +336,54 @@ struct SynthGenerator::Impl {
         V3d(0.008, -0.006, -0.02) + o.look_at_jitter_m * V3d(s_tx(t), s_ty(t), s_tz(t));
     const V3d eye =
         target + d * V3d(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
-    return look_at(eye, target, o.roll_amplitude_rad * s_roll(t));
+    Iso T = look_at(eye, target, o.roll_amplitude_rad * s_roll(t));
+    const double yaw = aim_yaw(t) + turn_yaw(t);
+    if (yaw != 0) T.linear() = T.linear() * Eigen::AngleAxisd(yaw, V3d::UnitY()).toRotationMatrix();
+    return T;
+  }
+
+  // Camera yaw about its own vertical axis (rad): aim offset (offframe).
+  // -1 -> +1 in 1 s, held 1 s, back in 1 s, held 1 s.
+  double aim_yaw(double t) const {
+    if (opt.aim_offset_rad <= 0) return 0;
+    const double q = std::fmod(t, 4.0) / 4.0;
+    const double s = q < 0.5 ? 2 * smoothstep(q / 0.25) - 1 : 1 - 2 * smoothstep((q - 0.5) / 0.25);
+    return opt.aim_offset_rad * s;
+  }
+  // Sudden head turns: away at 1/4 of each period, back at 3/4.
+  double turn_yaw(double t) const {
+    if (opt.head_turn_rad <= 0) return 0;
+    const double P = opt.head_turn_period_s, D = opt.head_turn_s;
+    const double q = std::fmod(t, P);
+    return opt.head_turn_rad * (smoothstep((q - 0.25 * P) / D) - smoothstep((q - 0.75 * P) / D));
+  }
+  // |angular velocity| of the camera (rad/s), central difference.
+  double camera_speed(double t) const {
+    const double h = 5e-4;
+    const Iso a = T_man_cam(std::max(0.0, t - h)), b = T_man_cam(t + h);
+    return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle() / (t + h - std::max(0.0, t - h));
+  }
+
+  // The crossing finger (hand_crossing): 7 cm in front of the tooth toward
+  // the camera, vertical in the image, sweeping sideways across the tooth's
+  // line of sight from -5 to +5 cm in 0.8 s, once per period; absent (out of
+  // view) for the rest of the period. The finger capsule lies along x.
+  std::optional<Iso> T_man_finger(double t, const Iso& T_man_cam_t, bool& in_front) const {
+    in_front = false;
+    if (!opt.hand_crossing) return std::nullopt;
+    const double ph = (std::fmod(t, opt.hand_crossing_period_s) - 0.3) / 0.8;
+    if (ph < 0 || ph > 1) return std::nullopt;
+    const V3d p_tooth = station.calibration.T_man_tooth.translation();
+    const V3d to_cam = (T_man_cam_t.translation() - p_tooth).normalized();
+    const V3d side = T_man_cam_t.linear().col(0), down = T_man_cam_t.linear().col(1);
+    const double offset = -0.05 + 0.1 * ph;
+    in_front = std::abs(offset) < 0.02;
+    Iso T = Iso::Identity();
+    T.linear().col(0) = down;
+    T.linear().col(1) = to_cam.cross(down).normalized();
+    T.linear().col(2) = T.linear().col(0).cross(T.linear().col(1));
+    T.translation() = p_tooth + 0.07 * to_cam + offset * side + 0.02 * down;
+    return T;
   }
 
   Iso T_man_mir(double t) const {
@@ -321,7 +429,7 @@ struct SynthGenerator::Impl {
     double g = 1.0 + opt.exposure_variation * s_exposure(t);
     for (const auto& [tj, a] : exposure_jumps)
       if (t >= tj) g *= 1.0 + a * std::exp(-(t - tj) / 0.15);
-    return std::clamp(g, 0.3, 2.5);
+    return opt.exposure * std::clamp(g, 0.3, 2.5);
   }
 
   // Runs the haptic engine up to time t (the last 1 kHz step not after t).
@@ -339,7 +447,9 @@ struct SynthGenerator::Impl {
     s.T_dev_sty = from_colmajor(snap.T_dev_sty);
     const auto& c = station.calibration;
     s.T_man_tip = c.T_man_dev * s.T_dev_sty * c.T_sty_tip;
-    s.T_cam_man = T_man_cam(t).inverse();
+    const Iso T_man_cam_t = T_man_cam(t);
+    s.T_cam_man = T_man_cam_t.inverse();
+    s.T_man_finger = T_man_finger(t, T_man_cam_t, s.finger_in_front);
     s.T_man_mir = T_man_mir(t);
     for (std::size_t i = 0; i < occluders.size(); ++i) s.T_man_occ.push_back(T_man_occ(i, t));
     return s;
@@ -371,6 +481,7 @@ struct SynthGenerator::Impl {
     program->draw(paddle, P, T_cam_mtag, M::kLit);
     for (std::size_t i = 0; i < s.T_man_occ.size(); ++i)
       program->draw(occluder, P, s.T_cam_man * s.T_man_occ[i], M::kLit);
+    if (s.T_man_finger) program->draw(finger, P, s.T_cam_man * *s.T_man_finger, M::kLit);
     for (const auto& g : tags) {
       const Iso T = (g.on_mirror ? T_cam_mtag : s.T_cam_man) * g.placement->T_parent_tag;
       program->draw(g.quad, P, T, M::kTextured, {}, g.texture.id(), false);
@@ -411,6 +522,7 @@ struct SynthGenerator::Impl {
       program->draw(paddle, P, T_cam_mtag, M::kFlat, fg);
       for (std::size_t i = 0; i < s.T_man_occ.size(); ++i)
         program->draw(occluder, P, s.T_cam_man * s.T_man_occ[i], M::kFlat, fg);
+      if (s.T_man_finger) program->draw(finger, P, s.T_cam_man * *s.T_man_finger, M::kFlat, fg);
     }
     for (std::size_t i = 0; i < tags.size(); ++i) {
       const auto& g = tags[i];
@@ -438,6 +550,41 @@ struct SynthGenerator::Impl {
       }
     }
     return n;
+  }
+
+  // A specular highlight on the mirror (mirror_glare): a saturating
+  // Gaussian spot wandering over the tag paddle, drawn before the sensor
+  // model (it is light, so it is blurred and noisy like the rest). True when
+  // drawn (the paddle faces the camera and the spot is in the image).
+  bool add_glare(cv::Mat& bgr, const State& s, double t) const {
+    if (opt.mirror_glare <= 0) return false;
+    const auto& c = station.calibration;
+    const Iso T_cam_mtag = s.T_cam_man * s.T_man_mir * c.T_mtag_mir.inverse();
+    const V3d centre = T_cam_mtag.translation();
+    // Tag z points into the paddle: facing the camera when z . centre > 0.
+    if (!(centre.z() > 0.02) || T_cam_mtag.linear().col(2).dot(centre.normalized()) < 0.1) return false;
+    const V3d p_mtag(0.5 * station.mirror.paddle_width_m * s_glare[0](t),
+                     0.5 * station.mirror.paddle_height_m * s_glare[1](t), 0.0);
+    const V3d p = T_cam_mtag * p_mtag;
+    const auto px = camera->project(p);
+    if (!px) return false;
+    const double sigma = std::max(1.0, c.camera.fx * 2.0e-3 / p.z());  // ~2 mm spot
+    // From a faint sheen to a burnt-out spot as the angle to the lamp changes.
+    const double peak = opt.mirror_glare * 255.0 * (0.9 + 0.6 * s_glare[2](t));
+    const int r = static_cast<int>(std::ceil(3 * sigma));
+    const int u0 = std::max(0, static_cast<int>(px->x()) - r), u1 = std::min(bgr.cols - 1, static_cast<int>(px->x()) + r);
+    const int v0 = std::max(0, static_cast<int>(px->y()) - r), v1 = std::min(bgr.rows - 1, static_cast<int>(px->y()) + r);
+    if (u0 > u1 || v0 > v1) return false;
+    for (int v = v0; v <= v1; ++v) {
+      auto* row = bgr.ptr<std::uint8_t>(v);
+      for (int u = u0; u <= u1; ++u) {
+        const double d2 = (u - px->x()) * (u - px->x()) + (v - px->y()) * (v - px->y());
+        const double add = peak * std::exp(-0.5 * d2 / (sigma * sigma));
+        for (int ch = 0; ch < 3; ++ch)
+          row[3 * u + ch] = static_cast<std::uint8_t>(std::min(255.0, row[3 * u + ch] + add));
+      }
+    }
+    return true;
   }
 
   void post_process(cv::Mat& bgr, double gain, int frame_index) {
@@ -560,6 +707,9 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
   }
   im.occluder = synth::upload(
       synth::capsule({-0.028f, 0, 0}, {0.028f, 0, 0}, 0.0085f, 0.0075f, {0.86f, 0.66f, 0.55f}));
+  // A gloved (blue nitrile) finger for hand_crossing: 10 cm long, 9 mm radius.
+  im.finger = synth::upload(
+      synth::capsule({-0.05f, 0, 0}, {0.05f, 0, 0}, 0.009f, 0.008f, {0.42f, 0.52f, 0.82f}));
   im.family.emplace(TagFamily::create(st.family));
   const int ppc = 16;  // texels per cell: edges stay sharp down to ~1 mm/px
   for (const auto* list : {&st.mannequin_tags, &st.mirror_tags}) {
@@ -587,6 +737,10 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
   im.s_tz = Smooth::make(rng, sp, tremor);
   im.s_exposure = Smooth::make(rng, 1.0, 0.0);
   for (auto& s : im.s_mirror) s = Smooth::make(rng, 2.0, 0.05);
+  {
+    std::mt19937_64 rng_glare(o.seed ^ 0x61a7eu);  // own stream: other signals unchanged
+    for (auto& s : im.s_glare) s = Smooth::make(rng_glare, 4.0, 0.0);
+  }
   std::mt19937_64 rng_occ(o.seed ^ 0x0cc1d3u);
   for (int i = 0; i < o.tag_occluders; ++i) {
     Impl::Occluder oc;
@@ -742,6 +896,7 @@ Status SynthGenerator::next(SynthFrame& out) {
     out.image = out.image.clone();
   }
   const double gain = im.exposure_gain(t);
+  const bool glare = im.add_glare(out.image, mid, t);
   im.post_process(out.image, gain, im.frame);
 
   // Masks and tag visibility from the id passes, with the tooth as cut so far.
@@ -769,6 +924,9 @@ Status SynthGenerator::next(SynthFrame& out) {
   tr.haptic_time_s = mid.haptic_time_s;
   tr.pedal = mid.pedal;
   tr.exposure_gain = gain;
+  tr.camera_speed_deg_s = im.camera_speed(t) * 180.0 / M_PI;
+  tr.hand_crossing = mid.finger_in_front;
+  tr.glare = glare;
 
   out.mask.create(H, W, CV_8UC1);
   for (int v = 0; v < H; ++v) {
@@ -870,6 +1028,9 @@ std::string frame_truth_json(const FrameTruth& t) {
   j["tooth_px"] = t.tooth_px;
   j["tooth_hidden_px"] = t.tooth_hidden_px;
   j["exposure_gain"] = t.exposure_gain;
+  j["camera_speed_deg_s"] = t.camera_speed_deg_s;
+  j["hand_crossing"] = t.hand_crossing;
+  j["glare"] = t.glare;
   nlohmann::ordered_json tags = nlohmann::ordered_json::array();
   for (const auto& g : t.tags) {
     nlohmann::ordered_json c = nlohmann::ordered_json::array();
@@ -961,6 +1122,14 @@ Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& 
   meta["exposure_jumps"] = o.exposure_jumps;
   meta["tag_occluders"] = o.tag_occluders;
   meta["mirror_in_mouth_fraction"] = o.mirror_in_mouth_fraction;
+  meta["exposure"] = o.exposure;
+  meta["aim_offset_deg"] = o.aim_offset_rad * 180.0 / M_PI;
+  meta["head_turn_deg"] = o.head_turn_rad * 180.0 / M_PI;
+  meta["head_turn_s"] = o.head_turn_s;
+  meta["head_turn_period_s"] = o.head_turn_period_s;
+  meta["hand_crossing"] = o.hand_crossing;
+  meta["hand_crossing_period_s"] = o.hand_crossing_period_s;
+  meta["mirror_glare"] = o.mirror_glare;
   meta["video"] = png ? "frames/frame_NNNNNN.png" : "video.mkv";
   meta["summary"] = {{"frames_with_mirror_in_view", sum.frames_with_mirror},
                      {"mean_visible_mannequin_tags", sum.mean_visible_tags},

@@ -55,6 +55,23 @@ bool residuals(const Eigen::Isometry3d& T_cam_body, const std::vector<Corner>& c
   return r.allFinite();
 }
 
+// Huber weights per corner (both residuals of a corner share one) and the
+// robust cost sum rho(|r_i|); k <= 0: weights 1, cost = sum r^2.
+double huber(const Eigen::VectorXd& r, double k, Eigen::VectorXd& w) {
+  w.setOnes(r.size());
+  double cost = 0;
+  for (Eigen::Index i = 0; i + 1 < r.size(); i += 2) {
+    const double d = std::hypot(r(i), r(i + 1));
+    if (k > 0 && d > k) {
+      w(i) = w(i + 1) = k / d;
+      cost += 2 * k * d - k * k;
+    } else {
+      cost += d * d;
+    }
+  }
+  return cost;
+}
+
 double rms_of(const Eigen::VectorXd& r) {
   return r.size() == 0 ? 0.0 : std::sqrt(r.squaredNorm() / (static_cast<double>(r.size()) / 2));
 }
@@ -110,6 +127,8 @@ std::string BundlePoseOptions::validate() const {
     return "ambiguity_ratio = " + std::to_string(ambiguity_ratio) + " must be >= 1";
   if (!std::isfinite(ambiguity_px) || ambiguity_px < 0)
     return "ambiguity_px = " + std::to_string(ambiguity_px) + " must be >= 0";
+  if (!std::isfinite(robust_px) || robust_px < 0)
+    return "robust_px = " + std::to_string(robust_px) + " must be >= 0 (0 = off)";
   return {};
 }
 
@@ -255,26 +274,31 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   BundlePose out;
   out.seed_rms_px = seed_rms[chosen];
   Eigen::MatrixXd J;
+  Eigen::VectorXd w;
   residuals(T, corners, k, r, &J);
-  double cost = r.squaredNorm();
+  const double kr = options.robust_px;
+  double cost = huber(r, kr, w);
   double lambda = 1e-3;
   for (int it = 0; it < options.max_iterations; ++it) {
     out.iterations = it + 1;
-    const Mat6 H = J.transpose() * J;
-    const Vec6 g = J.transpose() * r;
+    // IRLS: the Huber weights of the current residuals.
+    const Mat6 H = J.transpose() * w.asDiagonal() * J;
+    const Vec6 g = J.transpose() * w.asDiagonal() * r;
     Mat6 A = H;
     A.diagonal() += lambda * H.diagonal().cwiseMax(1e-12);
     const Vec6 delta = A.ldlt().solve(-g);
     if (!delta.allFinite()) break;
     const Eigen::Isometry3d T_try = apply_delta(delta, T);
-    Eigen::VectorXd r_try;
+    Eigen::VectorXd r_try, w_try;
     Eigen::MatrixXd J_try;
-    if (residuals(T_try, corners, k, r_try, &J_try) && r_try.squaredNorm() < cost) {
-      const double gain = cost - r_try.squaredNorm();
+    double cost_try = 0;
+    if (residuals(T_try, corners, k, r_try, &J_try) && (cost_try = huber(r_try, kr, w_try)) < cost) {
+      const double gain = cost - cost_try;
       T = T_try;
       r = std::move(r_try);
       J = std::move(J_try);
-      cost = r.squaredNorm();
+      w = std::move(w_try);
+      cost = cost_try;
       lambda = std::max(lambda / 10, 1e-9);
       if (gain < 1e-12 * (1 + cost) || delta.norm() < 1e-12) break;
     } else {
@@ -289,13 +313,17 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   for (const TagPlacement* t : tags) out.tag_ids.push_back(t->id);
   std::sort(out.tag_ids.begin(), out.tag_ids.end());
   const double dof = static_cast<double>(r.size()) - 6;
-  const Mat6 H = J.transpose() * J;
+  const Mat6 H = J.transpose() * w.asDiagonal() * J;
   Eigen::FullPivLU<Mat6> lu(H);
   if (dof <= 0 || !lu.isInvertible())
     return fail(BundlePoseStatus::kFailed,
                 who + "the fit is degenerate (singular normal equations)");
-  out.covariance = (cost / dof) * lu.inverse();
-  if (!out.T_cam_body.matrix().allFinite() || !out.covariance.allFinite())
+  for (Eigen::Index i = 0; i < w.size(); i += 2) out.downweighted += w(i) < 1 ? 1 : 0;
+  const double wss = r.dot(w.asDiagonal() * r);  // = sum r^2 without down-weighted corners
+  out.covariance_per_px2 = lu.inverse();
+  out.noise_px2 = wss / dof;
+  out.covariance = out.noise_px2 * out.covariance_per_px2;
+  if (!out.T_cam_body.matrix().allFinite() || !out.covariance_per_px2.allFinite())
     return fail(BundlePoseStatus::kFailed, who + "the refinement diverged");
   out.status = BundlePoseStatus::kOk;
   return out;

@@ -15,6 +15,8 @@
 #include <utility>
 
 #include "dentar/ar/camera_model.h"
+#include "dentar/ar/image_motion.h"
+#include "dentar/ar/pose_uncertainty.h"
 #include "dentar/calibration/camera_file.h"
 
 namespace dentar::ar {
@@ -39,6 +41,11 @@ struct Body {
   int frames_since_meas = 0;
   TrackState state = TrackState::kLost;
   double max_sigma_m = 0;  // position uncertainty gate (0 = off)
+  // The point whose position sigma is gated, in the body frame: the body
+  // origin, or the mirror's centre (what the reflection is drawn from).
+  Eigen::Vector3d gate_point = Eigen::Vector3d::Zero();
+  bool static_in_world = false;  // the mannequin: its image motion is the camera's
+  cv::Mat thumb_at_meas;         // ImageMotion thumbnail of its last measured frame
 };
 
 // Integer pixel box [x0, x1) x [y0, y1).
@@ -131,6 +138,10 @@ std::string TrackerOptions::validate() const {
     os << "mirror_max_sigma_m = " << mirror_max_sigma_m << " must be finite and >= 0 (0 = off)";
   else if (!(std::isfinite(max_prediction_drift_m) && max_prediction_drift_m >= 0))
     os << "max_prediction_drift_m = " << max_prediction_drift_m << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(max_prediction_turn_rad) && max_prediction_turn_rad >= 0))
+    os << "max_prediction_turn_rad = " << max_prediction_turn_rad << " must be finite and >= 0 (0 = off)";
+  else if (!(std::isfinite(min_motion_response) && min_motion_response >= 0 && min_motion_response < 1))
+    os << "min_motion_response = " << min_motion_response << " must be in [0, 1)";
   else if (!(std::isfinite(sigma_floor_px) && sigma_floor_px >= 0))
     os << "sigma_floor_px = " << sigma_floor_px << " must be finite and >= 0";
   else if (!std::isfinite(stale_limit_s) || stale_limit_s < 0 || stale_limit_s > 10)
@@ -328,7 +339,7 @@ struct Tracker::Impl {
         prev = o.filter_enabled && b->filter.initialised() ? b->filter.predict(d.capture_s)
                                                             : b->last_meas;
       const BundlePose p = estimate_bundle_pose(b->bundle, camera, d.tags, o.pose, prev);
-      if (!(p.ok() && p.rms_px <= o.max_rms_px && precise_enough(p, b->max_sigma_m))) continue;
+      if (!(p.ok() && p.rms_px <= o.max_rms_px && precise_enough(*b, p))) continue;
       if (b->state == TrackState::kLost) b->filter.reset();
       b->filter.update(p.T_cam_body, d.capture_s);
       b->has_measurement = true;
@@ -336,7 +347,38 @@ struct Tracker::Impl {
       b->last_meas_time_s = d.capture_s;
       b->frames_since_meas = static_cast<int>(std::max<std::int64_t>(0, now - d.frame));
       b->state = TrackState::kPredicted;
+      // No thumbnail of that frame: the image-motion check waits for the
+      // next direct measurement.
+      b->thumb_at_meas.release();
     }
+  }
+
+  ImageMotion motion;            // thumbnails for the prediction check
+  std::int64_t motion_frame = -1;  // frame whose thumbnail `motion` holds
+
+  void ensure_motion() {
+    if (motion_frame == frames) return;
+    motion.set_frame(gray);
+    motion_frame = frames;
+  }
+
+  // The prediction check (TrackerOptions::max_prediction_turn_rad): false
+  // when the image moved since b's last measurement by more than its
+  // prediction explains, or no longer correlates with that frame.
+  bool prediction_matches_image(Body& b, double capture_s) {
+    if (o.max_prediction_turn_rad <= 0 || b.thumb_at_meas.empty()) return true;
+    ensure_motion();
+    const ImageMotion::Shift sh = motion.shift_since(b.thumb_at_meas);
+    if (!sh.valid || sh.response < o.min_motion_response) return false;
+    Eigen::Vector2d expect = Eigen::Vector2d::Zero();
+    if (o.filter_enabled && b.filter.initialised()) {
+      auto a = model.project(b.filter.predict(capture_s).translation());
+      auto c = model.project(b.last_meas.translation());
+      if (a && c) expect = *a - *c;
+    }
+    const double unexplained = b.static_in_world ? (sh.px - expect).norm()
+                                                 : std::max(0.0, sh.px.norm() - expect.norm());
+    return unexplained / camera.fx <= o.max_prediction_turn_rad;
   }
 
   // Boxes around `b`'s tags at its predicted pose; false when the body has
@@ -424,17 +466,14 @@ struct Tracker::Impl {
     return {};
   }
 
+  // Position sigma of the body's gate point (pose_uncertainty.h), the
+  // corner noise floored at sigma_floor_px.
+  double gate_sigma(const Body& b, const BundlePose& p) const {
+    return point_sigma_m(floored_covariance(p, o.sigma_floor_px), p.T_cam_body, b.gate_point);
+  }
   // Position uncertainty gate (TrackerOptions::mannequin_max_sigma_m).
-  bool precise_enough(const BundlePose& p, double max_sigma_m) const {
-    if (max_sigma_m <= 0) return true;
-    // covariance = s^2 (J^T J)^-1 with s^2 = sum r^2 / (2N - 6) per axis;
-    // rms_px^2 = sum r^2 / N (N corners).
-    const double n = 4.0 * p.tags_used;
-    const double s2 = p.rms_px * p.rms_px * n / std::max(1.0, 2 * n - 6);
-    const double floor2 = o.sigma_floor_px * o.sigma_floor_px;
-    const double scale = s2 > 1e-12 ? std::max(1.0, floor2 / s2) : 1.0;
-    const double var = p.covariance.bottomRightCorner<3, 3>().trace() * scale;
-    return std::isfinite(var) && std::sqrt(var) <= max_sigma_m;
+  bool precise_enough(const Body& b, const BundlePose& p) const {
+    return b.max_sigma_m <= 0 || gate_sigma(b, p) <= b.max_sigma_m;
   }
 
   // Pose + filter + state of one body.
@@ -450,13 +489,14 @@ struct Tracker::Impl {
     bool measured = false;
     if (!tags.empty()) {
       const BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, o.pose, prev);
-      if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(p, b.max_sigma_m)) {
+      if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(b, p)) {
         measured = true;
         out.T_cam_body_measured = p.T_cam_body;
         out.rms_px = p.rms_px;
         out.tags_used = p.tags_used;
         out.tag_ids = p.tag_ids;
         out.covariance = p.covariance;
+        out.sigma_m = gate_sigma(b, p);
       }
     }
     pose_ms += ms_since(t0);
@@ -469,6 +509,10 @@ struct Tracker::Impl {
       b.last_meas_time_s = capture_s;
       b.frames_since_meas = 0;
       b.state = TrackState::kTracking;
+      if (o.max_prediction_turn_rad > 0) {
+        ensure_motion();
+        motion.keep(b.thumb_at_meas);
+      }
     } else {
       ++b.frames_since_meas;
       const double age = capture_s - b.last_meas_time_s;
@@ -476,7 +520,8 @@ struct Tracker::Impl {
       if (o.filter_enabled && b.filter.initialised())
         drift = (b.filter.linear_velocity().norm() + 0.1 * b.filter.angular_velocity().norm()) * age;
       const bool drift_ok = o.max_prediction_drift_m <= 0 || drift <= o.max_prediction_drift_m;
-      if (b.has_measurement && age <= o.stale_limit_s && drift_ok) {
+      if (b.has_measurement && age <= o.stale_limit_s && drift_ok &&
+          prediction_matches_image(b, capture_s)) {
         b.state = TrackState::kPredicted;
       } else {
         b.state = TrackState::kLost;
@@ -531,7 +576,9 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
   m.mannequin.bundle = mannequin_bundle(station);
   m.mirror.bundle = mirror_bundle(station);
   m.mannequin.max_sigma_m = options.mannequin_max_sigma_m;
+  m.mannequin.static_in_world = true;
   m.mirror.max_sigma_m = options.mirror_max_sigma_m;
+  m.mirror.gate_point = station.calibration.T_mtag_mir.translation();  // mirror centre in mtag
   m.mannequin.filter = PoseFilter(options.filter);
   m.mirror.filter = PoseFilter(options.filter);
   if (options.track_pen) {
@@ -550,7 +597,9 @@ void Tracker::reset() {
     b->has_measurement = false;
     b->state = TrackState::kLost;
     b->frames_since_meas = 0;
+    b->thumb_at_meas.release();
   }
+  impl_->motion_frame = -1;
   impl_->frames = 0;
   impl_->frames_since_full = 0;
   impl_->have_last_capture = false;

@@ -216,6 +216,7 @@ TEST(Tracker, StatesGoPredictedThenLostAndRecover) {
   TrackerOptions o;
   o.stale_limit_s = 0.2;
   o.max_prediction_drift_m = 0;  // the time limit alone (the drift limit: below)
+  o.max_prediction_turn_rad = 0;  // a blank image no longer correlates (that check: below)
   auto tr = Tracker::create(fo.station, o);
   ASSERT_TRUE(tr.ok()) << tr.error();
   const cv::Mat blank(fo.frames[0].image.size(), CV_8UC3, cv::Scalar(128, 128, 128));
@@ -268,6 +269,7 @@ TEST(Tracker, FastMotionDropsThePredictionEarly) {
   for (double limit : {1e-5, 0.0}) {
     TrackerOptions o;
     o.max_prediction_drift_m = limit;
+    o.max_prediction_turn_rad = 0;  // the drift limit alone
     auto tr = Tracker::create(fo.station, o);
     ASSERT_TRUE(tr.ok()) << tr.error();
     int k = 0;
@@ -275,6 +277,41 @@ TEST(Tracker, FastMotionDropsThePredictionEarly) {
     auto f = tr->track(blank, k * dt, k * dt);
     ASSERT_TRUE(f.ok()) << f.error();
     EXPECT_EQ(f->mannequin.state, limit > 0 ? TrackState::kLost : TrackState::kPredicted) << limit;
+  }
+}
+
+// The image-motion check (max_prediction_turn_rad, image_motion.h): the
+// last frame again with its tags hidden by grey patches (nothing moved)
+// keeps the prediction; the same frame shifted 40 px sideways (a 3.8 deg
+// head turn the filter never saw) ends it at once.
+TEST(Tracker, ImageMotionEndsThePredictionWhenTheViewChanges) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Footage& fo = footage(SynthPreset::kStandard, 90, 640, 480);
+  ASSERT_TRUE(fo.error.empty()) << fo.error;
+  const double dt = 1.0 / 30;
+  for (bool turned : {true, false}) {
+    TrackerOptions o;
+    o.max_prediction_drift_m = 0;
+    auto tr = Tracker::create(fo.station, o);
+    ASSERT_TRUE(tr.ok()) << tr.error();
+    int k = 0;
+    for (; k < 10; ++k) ASSERT_TRUE(tr->track(fo.frames[k].image, k * dt, k * dt).ok());
+    cv::Mat hidden = fo.frames[9].image.clone();
+    for (const TagTruth& t : fo.frames[9].truth.tags) {
+      cv::Rect box(int(t.corners_px[0].x()), int(t.corners_px[0].y()), 1, 1);
+      for (const auto& c : t.corners_px) box |= cv::Rect(int(c.x()), int(c.y()), 1, 1);
+      const int g = box.width / 2 + 4;
+      box = cv::Rect(box.x - g, box.y - g, box.width + 2 * g, box.height + 2 * g) &
+            cv::Rect(0, 0, hidden.cols, hidden.rows);
+      hidden(box).setTo(cv::Scalar(128, 128, 128));
+    }
+    cv::Mat shifted;
+    const cv::Mat M = (cv::Mat_<double>(2, 3) << 1, 0, 40, 0, 1, 0);
+    cv::warpAffine(hidden, shifted, M, hidden.size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    auto f = tr->track(turned ? shifted : hidden, k * dt, k * dt);
+    ASSERT_TRUE(f.ok()) << f.error();
+    EXPECT_FALSE(f->mannequin.measured) << turned;
+    EXPECT_EQ(f->mannequin.state, turned ? TrackState::kLost : TrackState::kPredicted) << turned;
   }
 }
 

@@ -90,6 +90,9 @@ struct OfflineSummary {
   Stat tooth_err_px;             // registration: projected tooth points, tracked vs true pose
   Stat tip_err_mm;               // drawn bur tip vs the true tip (co-location)
   Stat silhouette_iou;           // drawn tooth vs true visible tooth (mask == 64), masks present
+  // Mirror plane pose (`mir`, T_cam_mtag T_mtag_mir) against truth, frames
+  // where the mirror is tracked or predicted: centre distance, rotation.
+  Stat mir_err_mm, mir_err_deg;
   // Stage times (ms) and capture-to-composite latency (ms).
   // Latency: from the decoded frame being in memory (a live camera's
   // delivery) to the composited image being ready; decode is read_ms.

@@ -33,9 +33,16 @@
 
 namespace dentar::ar {
 
-enum class SynthPreset { kStandard, kHard, kMirror };
-const char* synth_preset_name(SynthPreset p);
+// The failure-mode presets (hand ... offframe) each add one way tracking
+// fails to an otherwise `standard` scene (glare: to `mirror`), so that an
+// error can be traced to its cause; `hard` mixes several at once.
+enum class SynthPreset { kStandard, kHard, kMirror, kHand, kGlare, kLowLight, kFastTurns, kOffFrame };
+const char* synth_preset_name(SynthPreset p);  // "standard", ..., "hand", "glare", "lowlight", "fast", "offframe"
 std::optional<SynthPreset> parse_synth_preset(std::string_view name);
+// Every preset, in the enum's order (for CLI checks and test loops).
+const std::vector<SynthPreset>& all_synth_presets();
+// "standard|hard|mirror|hand|glare|lowlight|fast|offframe"
+std::string synth_preset_names(const char* separator = "|");
 
 struct SynthOptions {
   SynthPreset preset = SynthPreset::kStandard;
@@ -65,6 +72,7 @@ struct SynthOptions {
   bool motion_blur = false;          // average sub-frames over the exposure time
   double shutter_fraction = 0.5;     // exposure time / frame period (motion blur)
   int blur_subframes = 5;            // odd, >= 3
+  double exposure = 1.0;             // base exposure gain (lowlight: 0.3), 0.05..4
   double exposure_variation = 0.05;  // slow auto-exposure drift, relative amplitude
   bool exposure_jumps = false;       // occasional sudden +-25 % gain steps, settling in 0.5 s
 
@@ -74,6 +82,25 @@ struct SynthOptions {
   // Fraction of the footage with the mirror in the mouth (the rest of the
   // time it is pulled out of view): standard 0.6, mirror 1.
   double mirror_in_mouth_fraction = 0.6;
+
+  // Failure modes (all off by default).
+  // Camera aimed away from the mouth by a yaw about its own vertical axis
+  // that swings between -aim_offset_rad and +aim_offset_rad (4 s period,
+  // resting at each side): the head's tags on that side leave the frame.
+  double aim_offset_rad = 0.0;
+  // Sudden head turns: every head_turn_period_s the camera yaws by
+  // head_turn_rad in head_turn_s (smoothstep: peak speed 1.5 x amplitude /
+  // duration), holds, and turns back as fast half a period later.
+  double head_turn_rad = 0.0;
+  double head_turn_s = 0.12;
+  double head_turn_period_s = 1.5;
+  // A gloved finger sweeps across the tooth between it and the camera,
+  // once per hand_crossing_period_s (a 0.8 s sweep, then out of view).
+  bool hand_crossing = false;
+  double hand_crossing_period_s = 2.0;
+  // A specular highlight (0 = none, 1 = saturating) wandering over the
+  // mirror's tag paddle and face: washes out part of the mirror's tags.
+  double mirror_glare = 0.0;
   // Drilling: the "access" script (haptics/scripts.h), stretched to the
   // footage length, pressing force (N).
   double drill_force_N = 2.5;
@@ -89,7 +116,14 @@ struct SynthOptions {
 //   70 deg and more to the view), longer distances (tags under 20 px at
 //   640x480), 4 tag occluders, exposure jumps, stronger noise;
 //  mirror: as standard with the mirror in the mouth all the time, the
-//   camera kept where the mirror face is seen.
+//   camera kept where the mirror face is seen;
+//  hand: standard + a finger crossing the tooth every 2 s;
+//  glare: mirror + a moving saturating highlight on the mirror;
+//  lowlight: standard at 0.3 exposure with strong read and shot noise;
+//  fast: standard + sudden 25 deg head turns in 0.12 s (>= 200 deg/s),
+//   with motion blur;
+//  offframe: standard with the camera aimed 24 deg away from the mouth,
+//   alternating sides: the tags on that side are cut by the frame edge.
 SynthOptions synth_preset(SynthPreset p);
 
 // One tag's ground truth in one frame.
@@ -119,6 +153,10 @@ struct FrameTruth {
   int tooth_px = 0;          // tooth silhouette area
   int tooth_hidden_px = 0;   // of which covered by real foreground
   double exposure_gain = 1;  // multiplier applied to this frame
+  // Camera angular speed at time_s (|rotation rate| of T_man_cam, deg/s).
+  double camera_speed_deg_s = 0;
+  bool hand_crossing = false;   // the crossing finger is in front of the tooth's region
+  bool glare = false;           // a glare spot was drawn on the mirror
 };
 
 // Mask values (CV_8UC1, one per frame): the virtual tooth's silhouette and

@@ -9,10 +9,13 @@
 //     kept corners. Without a previous pose the lowest RMS wins; with one,
 //     among the seeds whose RMS is close to the best (ambiguous), the one
 //     nearest the previous pose wins, so a single small tag does not flip.
-//  3. Refine all corners together with Levenberg-Marquardt.
+//  3. Refine all corners together with Levenberg-Marquardt; with
+//     robust_px > 0 each corner's residual is down-weighted by the Huber
+//     loss (iteratively reweighted): a corner pulled off by an occluder or
+//     glare no longer drags the whole bundle.
 //  4. Covariance from the Gauss-Newton normal equations at the optimum,
-//     scaled by the residual variance: sigma^2 (J^T J)^-1,
-//     sigma^2 = sum r^2 / (2N - 6).
+//     scaled by the residual variance: sigma^2 (J^T W J)^-1,
+//     sigma^2 = sum w r^2 / (2N - 6) (W = the robust weights).
 //
 // Frames: `cam` (OpenCV optical), `body` (the layout's parent frame: `man`
 // for the mannequin, `mtag` for the mirror). Metres and radians; pixels where
@@ -48,6 +51,9 @@ struct BundlePoseOptions {
   // treated as equally good; the previous pose then chooses among them.
   double ambiguity_ratio = 3.0;
   double ambiguity_px = 1.0;
+  // Huber threshold on a corner's reprojection distance (px): corners
+  // farther off count linearly, not quadratically. 0 = plain least squares.
+  double robust_px = 0.0;
   std::string validate() const;  // empty when valid
 };
 
@@ -69,11 +75,17 @@ struct BundlePose {
   int tags_used = 0;         // tags whose corners entered the fit
   std::vector<int> tag_ids;  // their ids, ascending
   int iterations = 0;        // LM iterations run
+  int downweighted = 0;      // corners beyond robust_px at the optimum (Huber weight < 1)
   // Covariance of the pose error delta = (w [rad], v [m]), both in the camera
   // frame: R_true = exp(w) R_cam_body (rotation vector w about the body
   // origin), t_true = t_cam_body + v. So the bottom-right 3x3 block is the
   // covariance of T_cam_body.translation() itself. Zero when not ok.
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  // The same for 1 px^2 of corner noise per axis, (J^T W J)^-1, and the
+  // residual estimate of that noise, sum w r^2 / (2N - 6) (px^2):
+  // covariance = covariance_per_px2 * noise_px2.
+  Eigen::Matrix<double, 6, 6> covariance_per_px2 = Eigen::Matrix<double, 6, 6>::Zero();
+  double noise_px2 = 0;
   bool ok() const { return status == BundlePoseStatus::kOk; }
 };
 

@@ -100,12 +100,17 @@ struct TrackerOptions {
   // small tags can fit their corners exactly and still be millimetres off in
   // depth (seen on `hard`: 5-9 mm). The covariance is re-scaled to at least
   // sigma_floor_px of corner noise per axis, because an exact fit of 4
-  // corners says nothing about the noise. 0 = no gate. The mirror's one or
-  // two 12 mm tags are never that precise in depth, so its gate is off by
-  // default.
-  double mannequin_max_sigma_m = 1.5e-3;
-  double mirror_max_sigma_m = 0.0;
-  double sigma_floor_px = 0.25;
+  // corners says nothing about the noise (pose_uncertainty.h). 0 = no gate.
+  // The floor is the corner noise measured on the generator's footage: with
+  // 0.1 px the predicted RMS position error matches the observed one within
+  // ~20 % on standard, hard and lowlight (docs/BENCHMARKS.md, issue 16); the
+  // mannequin gate, tuned at 1.5 mm with a 0.25 px floor, is 0.6 mm at 0.1.
+  // The mirror's gate applies to its centre (85 mm from its tags, what the
+  // reflection is drawn from): a reflection less certain than 1 mm is
+  // hidden rather than drawn off.
+  double mannequin_max_sigma_m = 0.6e-3;
+  double mirror_max_sigma_m = 1.0e-3;
+  double sigma_floor_px = 0.1;
   PoseFilterOptions filter;
   bool filter_enabled = true;
   double stale_limit_s = 0.2;  // predicted -> lost after this long without a measurement
@@ -115,6 +120,14 @@ struct TrackerOptions {
   // prediction centimetres wrong (`hard`: 10 mm per frame); better no
   // overlay than a misplaced one. 0 = off (only stale_limit_s).
   double max_prediction_drift_m = 3e-3;
+  // Also predicted -> lost when the whole image moved since the body's last
+  // measurement by more than the prediction explains, as an angle of camera
+  // rotation (shift px / fx, rad; image_motion.h), or when the frames no
+  // longer correlate (phase-correlation peak < min_motion_response). The
+  // filter cannot see a head turn that blurred the tags away; the image can
+  // (`fast` preset: 79 mm p95 drawn without it). 0 = off.
+  double max_prediction_turn_rad = 0.012;  // 0.7 deg: ~4 mm at 35 cm
+  double min_motion_response = 0.03;
   // Also track the pen (station.pen, body frame `ptag`) that stands in for
   // the haptic stylus (`dentar live --stylus pen`). Its regions join the fast
   // path like the mirror's; a lost pen is found by the full-frame searches.
@@ -142,6 +155,10 @@ struct BodyTrack {
   std::vector<int> tag_ids;  // ids used, ascending
   // Covariance of the measurement (bundle_pose.h: (w rad, v m) in `cam`).
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  // Position sigma (m) of the body's gate point (the mannequin's origin, the
+  // mirror's centre) from the covariance with the corner noise floored at
+  // sigma_floor_px (pose_uncertainty.h); 0 when not measured.
+  double sigma_m = 0;
   double since_measurement_s = 0;  // capture time - last measured capture time
 };
 

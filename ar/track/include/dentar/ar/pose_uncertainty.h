@@ -1,0 +1,35 @@
+// What a pose covariance says about a point of the body: the uncertainty of
+// the mirror's centre (85 mm from its tags) or of the tooth, from the bundle
+// PnP's covariance (bundle_pose.h: delta = (w rad, v m) in `cam`,
+// R_true = exp(w) R, t_true = t + v).
+//
+// Used for gating: the tracker hides the mirror's reflection when its
+// centre's position sigma exceeds TrackerOptions::mirror_max_sigma_m, rather
+// than drawing a reflection millimetres off. Pure functions, thread-safe.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "dentar/ar/bundle_pose.h"
+
+namespace dentar::ar {
+
+using PoseCovariance = Eigen::Matrix<double, 6, 6>;
+
+// Covariance (m^2, in `cam`) of the point p_body of a body at T_cam_body:
+// d(T p) = -[R p]x w + v.
+Eigen::Matrix3d point_covariance(const PoseCovariance& cov, const Eigen::Isometry3d& T_cam_body,
+                                 const Eigen::Vector3d& p_body);
+// sqrt(trace(point_covariance)): the RMS 3-D position error to expect (m);
+// infinity when the covariance is not finite.
+double point_sigma_m(const PoseCovariance& cov, const Eigen::Isometry3d& T_cam_body,
+                     const Eigen::Vector3d& p_body);
+
+// The covariance used for gating: the residual estimate of the corner noise
+// is itself noisy with few corners and near zero when four corners of one
+// tag fit almost exactly, so the noise is taken as at least floor_px per
+// axis: covariance_per_px2 * max(noise_px2, floor_px^2).
+PoseCovariance floored_covariance(const BundlePose& p, double floor_px);
+
+}  // namespace dentar::ar

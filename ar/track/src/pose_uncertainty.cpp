@@ -1,0 +1,28 @@
+#include "dentar/ar/pose_uncertainty.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace dentar::ar {
+
+Eigen::Matrix3d point_covariance(const PoseCovariance& cov, const Eigen::Isometry3d& T_cam_body,
+                                 const Eigen::Vector3d& p_body) {
+  const Eigen::Vector3d q = T_cam_body.linear() * p_body;  // R p
+  Eigen::Matrix<double, 3, 6> A;
+  A.leftCols<3>() << 0, q.z(), -q.y(), -q.z(), 0, q.x(), q.y(), -q.x(), 0;  // -[q]x
+  A.rightCols<3>() = Eigen::Matrix3d::Identity();
+  return A * cov * A.transpose();
+}
+
+double point_sigma_m(const PoseCovariance& cov, const Eigen::Isometry3d& T_cam_body,
+                     const Eigen::Vector3d& p_body) {
+  const double v = point_covariance(cov, T_cam_body, p_body).trace();
+  return std::isfinite(v) && v >= 0 ? std::sqrt(v) : std::numeric_limits<double>::infinity();
+}
+
+PoseCovariance floored_covariance(const BundlePose& p, double floor_px) {
+  return p.covariance_per_px2 * std::max(p.noise_px2, floor_px * floor_px);
+}
+
+}  // namespace dentar::ar

@@ -1,0 +1,110 @@
+// Corner bias of the detector on ideally sampled tags (issue 16, "corner
+// bias"): on the generator's footage libapriltag's corners lie ~0.09 px
+// inside the true border square on every preset (docs/BENCHMARKS.md). Is
+// that the detector or the renderer? Here the tag is drawn without GL: a
+// high-resolution tag image warped by a homography at 8x the output size
+// and box-filtered down (exact pixel integration), then the generator's
+// optical blur (Gaussian, sigma 0.5 px). The mean outward error of the
+// detected corners says what the detector itself does.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <opencv2/imgproc.hpp>
+#include <random>
+#include <vector>
+
+#include "dentar/ar/apriltags.h"
+#include "dentar/ar/tag_detector.h"
+
+namespace dentar::ar {
+namespace {
+
+struct BiasResult {
+  double mean_outward_px = 0, median_err_px = 0;
+  int tags = 0;
+};
+
+// side_px: border-square side in the output image; blur_px: Gaussian sigma.
+BiasResult measure(double side_px, double blur_px, int n, unsigned seed) {
+  const TagFamily fam = TagFamily::create(TagFamilyId::kStandard41h12);
+  const int ppc = 32, margin = 2 * ppc;
+  const cv::Mat tex = render_tag_image(fam, 7, ppc, margin);
+  // Border square corners in the texture (OpenCV px), libapriltag's order.
+  const double lo = margin + fam.border_start() * ppc - 0.5;
+  const double hi = margin + (fam.border_start() + fam.width_at_border()) * ppc - 0.5;
+  const std::vector<cv::Point2f> src = {{float(lo), float(hi)}, {float(hi), float(hi)},
+                                        {float(hi), float(lo)}, {float(lo), float(lo)}};
+  TagDetectorOptions o;
+  o.decimation = 1;
+  auto det = TagDetector::create(o);
+  EXPECT_TRUE(det.ok());
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const int W = 160, S = 8;
+  double outward = 0;
+  std::vector<double> errs;
+  BiasResult r;
+  for (int i = 0; i < n; ++i) {
+    // A square of the given side, turned and slightly foreshortened, at a
+    // random sub-pixel position.
+    const double a = M_PI * u(rng), sq = 1.0 + 0.15 * u(rng);
+    const Eigen::Vector2d c(W / 2.0 + 3 * u(rng), W / 2.0 + 3 * u(rng));
+    std::vector<Eigen::Vector2d> dst(4);
+    const double h = side_px / 2;
+    const double kx[4] = {-1, 1, 1, -1}, ky[4] = {1, 1, -1, -1};
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d p(kx[k] * h * sq, ky[k] * h / sq);
+      dst[k] = c + Eigen::Rotation2Dd(a) * p;
+    }
+    std::vector<cv::Point2f> dst_hi;
+    for (const auto& p : dst)
+      dst_hi.emplace_back(float((p.x() + 0.5) * S - 0.5), float((p.y() + 0.5) * S - 0.5));
+    const cv::Mat H = cv::getPerspectiveTransform(src, dst_hi);
+    cv::Mat big, img;
+    cv::warpPerspective(tex, big, H, cv::Size(W * S, W * S), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                        cv::Scalar(255));
+    cv::resize(big, img, cv::Size(W, W), 0, 0, cv::INTER_AREA);
+    if (blur_px > 0) cv::GaussianBlur(img, img, cv::Size(0, 0), blur_px);
+    auto found = det->detect(img);
+    if (!found || found->size() != 1) continue;
+    const DetectedTag& t = found->front();
+    ++r.tags;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d e = t.corners_px[k] - dst[k];
+      outward += e.dot((dst[k] - c).normalized());
+      errs.push_back(e.norm());
+    }
+  }
+  if (r.tags == 0) return r;
+  r.mean_outward_px = outward / (4.0 * r.tags);
+  std::sort(errs.begin(), errs.end());
+  r.median_err_px = errs[errs.size() / 2];
+  return r;
+}
+
+TEST(CornerBias, LibapriltagOnIdeallySampledTags) {
+  std::printf("[ bias ] side px | blur sigma px | tags | median corner error px | mean outward px\n");
+  double worst = 0;
+  for (double side : {18.0, 25.0, 40.0})
+    for (double blur : {0.0, 0.5, 1.0}) {
+      const BiasResult r = measure(side, blur, 40, 3);
+      std::printf("[ bias ] %5.0f | %.1f | %d | %.3f | %+.3f\n", side, blur, r.tags, r.median_err_px,
+                  r.mean_outward_px);
+      EXPECT_GE(r.tags, 30) << side << " " << blur;
+      // Measured 2026-11-25: |bias| <= 0.007 px up to the generator's 0.5 px
+      // blur (0.08 px only with 1 px blur on 18 px tags); a change of corner
+      // convention (the 0.5 px shift) or of libapriltag would show here.
+      if (blur <= 0.5) {
+        EXPECT_LT(std::abs(r.mean_outward_px), 0.03) << side << " " << blur;
+        EXPECT_LT(r.median_err_px, 0.12) << side << " " << blur;
+      }
+      worst = std::max(worst, std::abs(r.mean_outward_px));
+    }
+  std::printf("[ bias ] largest |mean outward| %.3f px\n", worst);
+}
+
+}  // namespace
+}  // namespace dentar::ar

@@ -1,0 +1,407 @@
+// Tracker accuracy per footage preset against the generator's truth, as
+// regression bounds (issue 16), and where the error comes from on the hard
+// presets: corner error against truth split by blur, tag size, view angle,
+// occlusion and corner bias, and the pose from the true corners of the same
+// tags (the bundle's 3D layout alone).
+//
+// The bounds are the figures measured at 640x480, 60 frames, seed 5, with a
+// margin (docs/BENCHMARKS.md); DENTAR_PRESET_FRAMES / DENTAR_PRESET_SIZE
+// (e.g. 150 / 1280x720) print the same tables for the benchmark record
+// without asserting the bounds.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/bundle_pose.h"
+#include "dentar/ar/pose_filter.h"
+#include "dentar/ar/synth.h"
+#include "dentar/ar/tracker.h"
+#include "gl_test_context.h"
+
+namespace dentar::ar {
+namespace {
+
+using Iso = Eigen::Isometry3d;
+
+double rot_deg(const Iso& a, const Iso& b) {
+  return rotation_log(a.linear() * b.linear().transpose()).norm() * 180 / M_PI;
+}
+double trans_mm(const Iso& a, const Iso& b) { return (a.translation() - b.translation()).norm() * 1e3; }
+double pct(std::vector<double> v, double p) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(std::min<double>(v.size() - 1, std::floor(p * v.size())))];
+}
+double mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? NAN : s / v.size();
+}
+
+struct Size {
+  int frames = 60, w = 640, h = 480;
+  bool is_default() const { return frames == 60 && w == 640 && h == 480; }
+};
+Size run_size() {
+  Size s;
+  if (const char* f = std::getenv("DENTAR_PRESET_FRAMES")) s.frames = std::max(5, std::atoi(f));
+  if (const char* z = std::getenv("DENTAR_PRESET_SIZE")) std::sscanf(z, "%dx%d", &s.w, &s.h);
+  return s;
+}
+
+struct Footage {
+  StationScene station;
+  std::vector<SynthFrame> frames;
+  std::string error;
+};
+
+const Footage& footage(SynthPreset preset) {
+  static std::map<int, Footage> cache;
+  auto it = cache.find(static_cast<int>(preset));
+  if (it != cache.end()) return it->second;
+  Footage& f = cache[static_cast<int>(preset)];
+  const Size z = run_size();
+  SynthOptions o = synth_preset(preset);
+  o.frames = z.frames;
+  o.width = z.w;
+  o.height = z.h;
+  o.seed = 5;
+  o.bur_samples = 1000;
+  auto g = SynthGenerator::create(default_station_scene(), o);
+  if (!g) {
+    f.error = g.error();
+    return f;
+  }
+  f.station = (*g)->station();
+  for (int i = 0; i < o.frames; ++i) {
+    SynthFrame s;
+    if (Status st = (*g)->next(s); !st) {
+      f.error = st.error();
+      return f;
+    }
+    s.mask.release();
+    s.image = s.image.clone();
+    f.frames.push_back(std::move(s));
+  }
+  return f;
+}
+
+struct PresetRun {
+  int frames = 0, drawn = 0, mirror_seen = 0, mirror_drawn = 0;
+  std::vector<double> t_mm, r_deg;        // drawn mannequin pose (filtered) vs truth
+  std::vector<double> mir_mm, mir_deg;    // mirror plane (T_cam_mtag T_mtag_mir) vs truth
+  // Measured (unfiltered) poses: the gate sigma (BodyTrack::sigma_m) and
+  // the error of the same point, for the honesty check of the covariance.
+  std::vector<double> man_sigma_mm, man_meas_mm, mir_sigma_mm, mir_meas_mm;
+};
+
+PresetRun run(const Footage& fo, const TrackerOptions& opt = {}) {
+  PresetRun r;
+  auto tr = Tracker::create(fo.station, opt);
+  EXPECT_TRUE(tr.ok()) << (tr.ok() ? "" : tr.error());
+  if (!tr) return r;
+  const Iso T_mtag_mir = fo.station.calibration.T_mtag_mir;
+  for (const SynthFrame& s : fo.frames) {
+    auto f = tr->track(s.image, s.truth.time_s, s.truth.time_s);
+    EXPECT_TRUE(f.ok()) << (f.ok() ? "" : f.error());
+    if (!f) return r;
+    ++r.frames;
+    if (f->mannequin.state != TrackState::kLost) {
+      ++r.drawn;
+      r.t_mm.push_back(trans_mm(f->mannequin.T_cam_body, s.truth.T_cam_man));
+      r.r_deg.push_back(rot_deg(f->mannequin.T_cam_body, s.truth.T_cam_man));
+    }
+    if (f->mannequin.measured) {
+      r.man_sigma_mm.push_back(f->mannequin.sigma_m * 1e3);
+      r.man_meas_mm.push_back(trans_mm(f->mannequin.T_cam_body_measured, s.truth.T_cam_man));
+    }
+    if (f->mirror.measured) {
+      r.mir_sigma_mm.push_back(f->mirror.sigma_m * 1e3);
+      r.mir_meas_mm.push_back(trans_mm(f->mirror.T_cam_body_measured * T_mtag_mir, s.truth.T_cam_mir));
+    }
+    r.mirror_seen += s.truth.mirror_in_view ? 1 : 0;
+    if (f->mirror.state != TrackState::kLost) {
+      ++r.mirror_drawn;
+      const Iso T_cam_mir = f->mirror.T_cam_body * T_mtag_mir;
+      r.mir_mm.push_back(trans_mm(T_cam_mir, s.truth.T_cam_mir));
+      r.mir_deg.push_back(rot_deg(T_cam_mir, s.truth.T_cam_mir));
+    }
+  }
+  return r;
+}
+
+double rms(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x * x;
+  return v.empty() ? NAN : std::sqrt(s / v.size());
+}
+
+// Predicted (RMS of the gate sigma) against observed (RMS error) over the
+// measured frames; fraction of frames whose error is within 2 sigma.
+void print_honesty(const char* name, const PresetRun& r) {
+  auto within2 = [](const std::vector<double>& sg, const std::vector<double>& e) {
+    int n = 0;
+    for (std::size_t i = 0; i < e.size(); ++i) n += e[i] <= 2 * sg[i] ? 1 : 0;
+    return e.empty() ? NAN : double(n) / e.size();
+  };
+  std::printf("| %s | %zu | %.3f | %.3f | %.2f | %zu | %.3f | %.3f | %.2f |\n", name, r.man_meas_mm.size(),
+              rms(r.man_sigma_mm), rms(r.man_meas_mm), within2(r.man_sigma_mm, r.man_meas_mm),
+              r.mir_meas_mm.size(), rms(r.mir_sigma_mm), rms(r.mir_meas_mm),
+              within2(r.mir_sigma_mm, r.mir_meas_mm));
+}
+
+void print_row(const char* name, const PresetRun& r) {
+  std::printf("| %s | %d | %.1f %% | %.3f / %.3f | %.3f / %.3f | %d / %d | %.3f / %.3f |\n", name,
+              r.frames, 100.0 * r.drawn / std::max(1, r.frames), pct(r.t_mm, 0.5), pct(r.r_deg, 0.5),
+              pct(r.t_mm, 0.95), pct(r.r_deg, 0.95), r.mirror_drawn, r.mirror_seen,
+              pct(r.mir_mm, 0.95), pct(r.mir_deg, 0.95));
+}
+
+// Regression bounds per preset at the default size (measured x ~1.5).
+struct Bound {
+  SynthPreset preset;
+  double min_drawn;           // fraction of frames with the overlay
+  double t_p95_mm, r_p95_deg;  // mannequin
+  double mir_p95_mm;           // mirror plane, when the mirror was tracked (0 = not checked)
+};
+
+TEST(PresetAccuracy, EveryPresetWithinItsBounds) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Size z = run_size();
+  static const Bound kBounds[] = {
+      {SynthPreset::kStandard, 1.0, 0.35, 0.4, 3.0},
+      {SynthPreset::kHard, 0.85, 1.0, 0.6, 3.0},
+      {SynthPreset::kMirror, 1.0, 0.4, 0.4, 3.0},
+      {SynthPreset::kHand, 1.0, 0.35, 0.4, 3.0},
+      {SynthPreset::kGlare, 1.0, 0.4, 0.4, 3.0},
+      {SynthPreset::kLowLight, 1.0, 0.35, 0.45, 3.0},
+      {SynthPreset::kFastTurns, 0.5, 3.0, 1.5, 3.0},
+      // offframe: measured 0.210 mm / 0.192 deg with an 18 deg aim; the 24 deg
+      // of the final preset (fewer tags) is bounded with room until measured.
+      {SynthPreset::kOffFrame, 0.9, 0.6, 0.5, 3.0},
+  };
+  std::printf("\n[ presets ] %dx%d, %d frames, seed 5, default tracker; drawn pose (filtered) vs truth\n",
+              z.w, z.h, z.frames);
+  std::printf("| preset | frames | drawn | median mm / deg | p95 mm / deg | mirror drawn / in view | mirror p95 mm / deg |\n");
+  std::printf("|---|---|---|---|---|---|---|\n");
+  std::vector<std::pair<const char*, PresetRun>> runs;
+  const char* only = std::getenv("DENTAR_PRESETS");  // e.g. "hard,fast": a quick look
+  for (const Bound& b : kBounds) {
+    if (only && std::string(only).find(synth_preset_name(b.preset)) == std::string::npos) continue;
+    const Footage& fo = footage(b.preset);
+    ASSERT_TRUE(fo.error.empty()) << fo.error;
+    const PresetRun r = run(fo);
+    print_row(synth_preset_name(b.preset), r);
+    runs.emplace_back(synth_preset_name(b.preset), r);
+    if (!z.is_default() || only) continue;
+    const char* name = synth_preset_name(b.preset);
+    ASSERT_EQ(r.frames, z.frames) << name;
+    EXPECT_GE(r.drawn, b.min_drawn * r.frames) << name;
+    EXPECT_LE(pct(r.t_mm, 0.95), b.t_p95_mm) << name;
+    EXPECT_LE(pct(r.r_deg, 0.95), b.r_p95_deg) << name;
+    if (b.mir_p95_mm > 0 && !r.mir_mm.empty()) { EXPECT_LE(pct(r.mir_mm, 0.95), b.mir_p95_mm) << name; }
+  }
+  std::printf("\n[ presets ] covariance honesty on measured poses (gate sigma vs error of the same point)\n");
+  std::printf("| preset | mannequin frames | RMS sigma mm | RMS error mm | within 2 sigma | mirror frames | "
+              "RMS sigma mm | RMS error mm | within 2 sigma |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& [name, r] : runs) print_honesty(name, r);
+}
+
+// The mirror's gate: with mirror_max_sigma_m = 1 mm the reflection is
+// hidden when its centre's sigma is worse, rather than drawn off. Drawn
+// frames must then be more accurate than without the gate.
+TEST(PresetAccuracy, MirrorGateHidesImpreciseReflections) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Footage& fo = footage(SynthPreset::kMirror);
+  ASSERT_TRUE(fo.error.empty()) << fo.error;
+  TrackerOptions off;
+  off.mirror_max_sigma_m = 0;
+  TrackerOptions on;
+  on.mirror_max_sigma_m = 1e-3;
+  const PresetRun a = run(fo, off), b = run(fo, on);
+  std::printf("[ presets ] mirror without gate: drawn %d, p50 %.3f p95 %.3f mm; with the 1 mm gate: drawn %d, "
+              "p50 %.3f p95 %.3f mm\n",
+              a.mirror_drawn, pct(a.mir_mm, 0.5), pct(a.mir_mm, 0.95), b.mirror_drawn, pct(b.mir_mm, 0.5),
+              pct(b.mir_mm, 0.95));
+  ASSERT_GT(a.mirror_drawn, 0);
+  EXPECT_LE(b.mirror_drawn, a.mirror_drawn);
+  // Every measurement the gate let through claims sigma <= 1 mm.
+  for (double sg : b.mir_sigma_mm) EXPECT_LE(sg, 1.0 + 1e-9);
+  if (b.mirror_drawn > 5) { EXPECT_LT(pct(b.mir_mm, 0.95), pct(a.mir_mm, 0.95)); }
+}
+
+// Per-corner Huber weighting in the bundle PnP (BundlePoseOptions::
+// robust_px) against plain least squares, per preset.
+TEST(PresetAccuracy, RobustCornerWeighting) {
+  DENTAR_GL_TEST_CONTEXT();
+  std::printf("\n[ presets ] Huber corner weighting: drawn %% and p95 mm / deg, plain vs robust\n");
+  std::printf("| preset | robust_px | drawn | p95 mm / deg | mirror p95 mm |\n|---|---|---|---|---|\n");
+  // (hand, offframe, fast and glare were measured too: identical to the
+  // last digit, docs/BENCHMARKS.md; kept out of CI for time.)
+  for (SynthPreset p : {SynthPreset::kStandard, SynthPreset::kHard}) {
+    const Footage& fo = footage(p);
+    ASSERT_TRUE(fo.error.empty()) << fo.error;
+    double p95[2] = {0, 0};
+    int k = 0;
+    for (double rp : {0.0, 1.0}) {
+      TrackerOptions o;
+      o.pose.robust_px = rp;
+      const PresetRun r = run(fo, o);
+      std::printf("| %s | %.1f | %.1f %% | %.3f / %.3f | %.3f |\n", synth_preset_name(p), rp,
+                  100.0 * r.drawn / std::max(1, r.frames), pct(r.t_mm, 0.95), pct(r.r_deg, 0.95),
+                  pct(r.mir_mm, 0.95));
+      p95[k++] = pct(r.t_mm, 0.95);
+    }
+    // On clean footage the weights are all 1: the same poses.
+    if (p == SynthPreset::kStandard) { EXPECT_NEAR(p95[1], p95[0], 0.02); }
+  }
+}
+
+// ---- where the error comes from ------------------------------------------------
+
+struct CornerSample {
+  double err_px;      // |detected - true|
+  double outward_px;  // along the centre-to-corner direction (+ = outline too large)
+  double side_px, angle_deg, visible, blur_px;
+};
+
+// Every mannequin tag the full-resolution detector finds, against its true
+// corners; blur = the true corners' motion between the previous and next
+// frame's mid-exposure, times the shutter fraction (the smear length).
+std::vector<CornerSample> corner_samples(const Footage& fo, double shutter) {
+  std::vector<CornerSample> out;
+  TagDetectorOptions d;
+  d.families = {fo.station.family};
+  d.decimation = 1;
+  auto det = TagDetector::create(d);
+  EXPECT_TRUE(det.ok());
+  if (!det) return out;
+  cv::Mat gray;
+  for (std::size_t i = 0; i < fo.frames.size(); ++i) {
+    const FrameTruth& t = fo.frames[i].truth;
+    cv::cvtColor(fo.frames[i].image, gray, cv::COLOR_BGR2GRAY);
+    auto tags = det->detect(gray);
+    if (!tags) continue;
+    for (const DetectedTag& dt : *tags) {
+      const TagTruth* tt = nullptr;
+      for (const TagTruth& g : t.tags)
+        if (!g.on_mirror && g.id == dt.id) tt = &g;
+      if (!tt || !tt->in_image) continue;
+      // Smear: the same corner one frame before and after.
+      double blur = 0;
+      for (int nb : {-1, 1}) {
+        const long j = static_cast<long>(i) + nb;
+        if (j < 0 || j >= static_cast<long>(fo.frames.size())) continue;
+        for (const TagTruth& g : fo.frames[static_cast<std::size_t>(j)].truth.tags)
+          if (!g.on_mirror && g.id == dt.id)
+            blur = std::max(blur, (g.corners_px[0] - tt->corners_px[0]).norm() * shutter);
+      }
+      Eigen::Vector2d c = Eigen::Vector2d::Zero();
+      for (const auto& p : tt->corners_px) c += p / 4;
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector2d e = dt.corners_px[k] - tt->corners_px[k];
+        const Eigen::Vector2d dir = (tt->corners_px[k] - c).normalized();
+        out.push_back({e.norm(), e.dot(dir), tt->side_px, tt->view_angle_rad * 180 / M_PI,
+                       tt->visible_fraction, blur});
+      }
+    }
+  }
+  return out;
+}
+
+void print_bins(const char* what, const std::vector<CornerSample>& s,
+                double (*key)(const CornerSample&), std::vector<double> edges) {
+  std::printf("| %s | corners | median err px | p95 err px | mean outward px |\n|---|---|---|---|---|\n", what);
+  edges.insert(edges.begin(), -1e9);
+  edges.push_back(1e9);
+  for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
+    std::vector<double> e, o;
+    for (const auto& c : s)
+      if (key(c) >= edges[b] && key(c) < edges[b + 1]) {
+        e.push_back(c.err_px);
+        o.push_back(c.outward_px);
+      }
+    if (e.empty()) continue;
+    std::printf("| [%g, %g) | %zu | %.3f | %.3f | %+.3f |\n", std::max(-1.0, edges[b]),
+                std::min(999.0, edges[b + 1]), e.size(), pct(e, 0.5), pct(e, 0.95), mean(o));
+  }
+}
+
+// Pose of the same detected tag set from the detected and from the true
+// corners: the second is what the bundle's layout gives with perfect corners.
+struct LayoutSplit {
+  std::vector<double> det_mm, true_mm, tags;
+};
+LayoutSplit layout_split(const Footage& fo) {
+  LayoutSplit r;
+  TagDetectorOptions d;
+  d.families = {fo.station.family};
+  d.decimation = 1;
+  auto det = TagDetector::create(d);
+  if (!det) return r;
+  const TagBundle bundle = mannequin_bundle(fo.station);
+  cv::Mat gray;
+  for (const SynthFrame& s : fo.frames) {
+    cv::cvtColor(s.image, gray, cv::COLOR_BGR2GRAY);
+    auto tags = det->detect(gray);
+    if (!tags) continue;
+    std::vector<DetectedTag> truth_tags;
+    for (const DetectedTag& dt : *tags)
+      for (const TagTruth& g : s.truth.tags)
+        if (!g.on_mirror && g.id == dt.id && g.in_image) {
+          DetectedTag t = dt;
+          t.corners_px = g.corners_px;
+          truth_tags.push_back(t);
+        }
+    const BundlePose a = estimate_bundle_pose(bundle, fo.station.calibration.camera, *tags, {}, s.truth.T_cam_man);
+    const BundlePose b =
+        estimate_bundle_pose(bundle, fo.station.calibration.camera, truth_tags, {}, s.truth.T_cam_man);
+    if (!a.ok() || !b.ok()) continue;
+    r.det_mm.push_back(trans_mm(a.T_cam_body, s.truth.T_cam_man));
+    r.true_mm.push_back(trans_mm(b.T_cam_body, s.truth.T_cam_man));
+    r.tags.push_back(a.tags_used);
+  }
+  return r;
+}
+
+TEST(PresetAccuracy, WhereTheHardErrorComesFrom) {
+  DENTAR_GL_TEST_CONTEXT();
+  for (SynthPreset p : {SynthPreset::kHard, SynthPreset::kStandard, SynthPreset::kFastTurns}) {
+    const Footage& fo = footage(p);
+    ASSERT_TRUE(fo.error.empty()) << fo.error;
+    const SynthOptions o = synth_preset(p);
+    const auto s = corner_samples(fo, o.motion_blur ? o.shutter_fraction : 0.0);
+    std::printf("\n[ sources ] %s: %zu detected mannequin corners against truth (full resolution)\n",
+                synth_preset_name(p), s.size());
+    ASSERT_GT(s.size(), 40u);
+    print_bins("blur smear px", s, [](const CornerSample& c) { return c.blur_px; }, {1, 3, 6, 12});
+    print_bins("tag side px", s, [](const CornerSample& c) { return c.side_px; }, {20, 30, 50});
+    print_bins("view angle deg", s, [](const CornerSample& c) { return c.angle_deg; }, {40, 55, 70});
+    print_bins("visible fraction", s, [](const CornerSample& c) { return c.visible; }, {0.8, 0.95, 0.999});
+    const LayoutSplit l = layout_split(fo);
+    std::printf("[ sources ] %s: bundle pose of the detected tag sets: detected corners p50 %.3f p95 %.3f mm; "
+                "true corners of the same tags p50 %.4f p95 %.4f mm; tags used median %.0f\n",
+                synth_preset_name(p), pct(l.det_mm, 0.5), pct(l.det_mm, 0.95), pct(l.true_mm, 0.5),
+                pct(l.true_mm, 0.95), pct(l.tags, 0.5));
+    // The decomposition holds: with the true corners the layout is exact
+    // (the solver and the truth agree to a few micrometres), so all of the
+    // error above comes from the corners.
+    ASSERT_FALSE(l.true_mm.empty());
+    EXPECT_LT(pct(l.true_mm, 0.95), 0.01);
+    // Sharp, whole, large, frontal tags: the detector's corners are good.
+    std::vector<double> clean;
+    for (const auto& c : s)
+      if (c.blur_px < 1 && c.visible > 0.999 && c.side_px > 30 && c.angle_deg < 40) clean.push_back(c.err_px);
+    if (clean.size() > 20) { EXPECT_LT(pct(clean, 0.5), 0.3) << synth_preset_name(p); }
+  }
+}
+
+}  // namespace
+}  // namespace dentar::ar
