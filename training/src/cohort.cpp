@@ -155,7 +155,7 @@ using Rows = std::vector<std::vector<Eigen::Vector3d>>;
 // apart over the outline eroded by the bur radius (- outline_err, > 0 wider),
 // where the step's cell still has material at or above the layer.
 std::vector<Rows> plan_sweep(const StepGeom& g, double bur_radius_m, double outline_err_m, double depth_err_m,
-                             double skip_prob, std::mt19937_64& rng) {
+                             double skip_prob, double sink_m, std::mt19937_64& rng) {
   std::vector<Rows> layers;
   if (g.cell.empty()) return layers;
   std::uniform_real_distribution<double> u01(0, 1);
@@ -178,9 +178,9 @@ std::vector<Rows> plan_sweep(const StepGeom& g, double bur_radius_m, double outl
   const double erode = std::max(0.0, bur_radius_m - outline_err_m);
   const int er = static_cast<int>(std::ceil(erode / grid));
   const int reach = static_cast<int>(std::ceil(0.8 * bur_radius_m / grid));
-  // The floor: the expert aims the last layer a little above the cell's
-  // bottom, as the pressing bur sinks on (about 0.15 mm at 1 N).
-  const double floor_h = hmin + 0.15e-3 - depth_err_m;
+  // The floor: the last layer is aimed above the cell's bottom by the depth
+  // the pressing bur sinks on past a layer (sink_m), minus the floor error.
+  const double floor_h = hmin + sink_m - depth_err_m;
   std::vector<double> heights;
   for (double h = hmax - dz; h > floor_h; h -= dz) heights.push_back(h);
   heights.push_back(floor_h);
@@ -299,8 +299,14 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
     const double lead = force / haptics::kFingerRestStiffness_N_per_m + force / 1600.0;
     const StepGeom* sg = geom && static_cast<std::size_t>(s) < geom->size() ? &(*geom)[static_cast<std::size_t>(s)] : nullptr;
     std::vector<Rows> layers;
+    // The hand aims `over` past each layer; the bur sinks on until the force
+    // falls under the cutter's 0.05 N threshold (the hand and coupling in
+    // series: 1 / (1/3000 + 1/1600) = 1043 N/m). The expert plans for the sink
+    // of the nominal 1 N, not for the trial's own force (novices press harder).
+    const double over = 0.35e-3 * force;
+    const double sink = std::max(0.0, 0.35e-3 - 0.05 / 1043.0);
     if (sg) layers = plan_sweep(*sg, ex.bur.radius_m, p.outline_mm * 1e-3 * n01(rng), p.depth_mm * 1e-3 * n01(rng),
-                                p.skip_prob, rng);
+                                p.skip_prob, sink, rng);
     // Stopping early: the step's deeper layers are never reached.
     if (layers.size() > 1 && u01(rng) < p.stop_prob)
       layers.resize(std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(layers.size() * (0.3 + 0.5 * u01(rng))))));
@@ -322,7 +328,6 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
       // Sweep the step's part of the target layer by layer; the hand aims
       // `over` past each layer along the bur axis, so it presses with about
       // `force` while material is left and the bur slows as it reaches the layer.
-      const double over = 0.35e-3 * force;
       const double speed = std::max(0.2, p.sweep_mm_s) * 1e-3;
       auto at = [&](const Eigen::Vector3d& huv) { return Eigen::Vector3d(sg->f + huv.x() * sg->a + huv.y() * sg->U + huv.z() * sg->V); };
       Eigen::Vector3d cur = sc.tips.back().tip_tooth_m;
