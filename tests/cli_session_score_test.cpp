@@ -17,7 +17,8 @@ using dentar::test::CommandResult;
 
 CommandResult run(const std::string& args) { return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args); }
 
-void expect_sane_score(const fs::path& dir, const std::string& exercise, double max_points) {
+// cut: the session removed material (the demo's does; 1 s of built-in footage may end before the bur reaches the tooth).
+void expect_sane_score(const fs::path& dir, const std::string& exercise, double max_points, bool cut) {
   ASSERT_TRUE(fs::exists(dir / "score.json")) << dir;
   ASSERT_TRUE(fs::exists(dir / "score.html")) << dir;
   const auto j = nlohmann::json::parse(dentar::test::read_file(dir / "score.json"));
@@ -27,11 +28,12 @@ void expect_sane_score(const fs::path& dir, const std::string& exercise, double 
   const double pts = j["outcome"]["points"].get<double>();
   EXPECT_GE(pts, 0.0);
   EXPECT_LE(pts, max_points);
-  EXPECT_GT(j["outcome"]["removed_total_mm3"].get<double>(), 0.01);
+  if (cut) EXPECT_GT(j["outcome"]["removed_total_mm3"].get<double>(), 0.01);
+  EXPECT_GE(j["outcome"]["removed_total_mm3"].get<double>(), 0.0);
   EXPECT_GE(j["outcome"]["target_coverage_pct"].get<double>(), 0.0);
   EXPECT_LE(j["outcome"]["target_coverage_pct"].get<double>(), 100.0);
   EXPECT_GT(j["process"]["duration_s"].get<double>(), 0.1);
-  EXPECT_GT(j["process"]["drilling_s"].get<double>(), 0.0);
+  EXPECT_GE(j["process"]["drilling_s"].get<double>(), 0.0);
   EXPECT_FALSE(j["steps"].empty());
 }
 
@@ -41,7 +43,7 @@ TEST(CliSessionScore, OfflineOnBuiltInFootageScoresAndLinksTheReport) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("score: "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("/ 18.0 points (molar_access_opening)"), std::string::npos) << r.out;
-  expect_sane_score(out, "molar_access_opening", 18.0);
+  expect_sane_score(out, "molar_access_opening", 18.0, false);
   const std::string report = dentar::test::read_file(out / "report.html");
   EXPECT_NE(report.find("href=\"score.html\""), std::string::npos);
   EXPECT_NE(report.find("Session score"), std::string::npos);
@@ -64,7 +66,7 @@ TEST(CliSessionScore, DemoSimulatedScoresTheSession) {
   const CommandResult r = run("demo --simulated --voxel-mm 0.15 --samples 2000 --seconds 3 --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("score: "), std::string::npos) << r.out;
-  expect_sane_score(out, "molar_access_opening", 18.0);
+  expect_sane_score(out, "molar_access_opening", 18.0, true);
   // A session log alone has no camera: mirror use unavailable, not zero.
   const auto j = nlohmann::json::parse(dentar::test::read_file(out / "score.json"));
   EXPECT_FALSE(j["process"]["mirror_use"]["available"].get<bool>());
