@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "session_score.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/scripts.h"
@@ -41,6 +42,8 @@ struct DemoOptions {
   bool simulated = false;
   std::string out = "out/demo";
   bool obj = false;
+  std::string exercise;  // scoring ("" = by the tooth: the molar access opening)
+  bool no_score = false;
 };
 
 std::string hex(std::uint64_t h) {
@@ -109,6 +112,7 @@ int run_demo(const DemoOptions& o) {
     print_error("demo", "cannot create output folder '" + o.out + "': " + ec.message());
     return 1;
   }
+  remove_old_score(o.out);
   std::cout << "tooth: procedural maxillary molar, " << vol.dims().x() << "x" << vol.dims().y()
             << "x" << vol.dims().z() << " voxels of " << o.voxel_mm << " mm, "
             << vol.allocated_chunks() << "/" << vol.num_chunks() << " chunks allocated ("
@@ -256,6 +260,20 @@ int run_demo(const DemoOptions& o) {
   std::cout << std::setprecision(2) << "replay: " << rep->steps << " steps in " << rep_s << " s ("
             << rep->steps * 1e-3 / std::max(rep_s, 1e-9) << "x real time), max force difference "
             << rep->max_force_difference_N << " N\n";
+  if (!o.no_score) {
+    // The demo's drilling is an occlusal access on the molar: scored against
+    // the molar access opening unless --exercise says otherwise. A failure
+    // to score is a warning; the session and the hash check stand.
+    DriverScoreInput in;
+    in.session = log_path;
+    in.out_dir = o.out;
+    in.exercise = o.exercise;
+    const DriverScore d = score_after_run(in);
+    if (d.ok)
+      std::cout << d.line << "\n";
+    else
+      std::cout << "warning: " << d.warning << "\n";
+  }
   return match ? 0 : 1;
 }
 
@@ -266,9 +284,10 @@ void add_demo(CLI::App& app, int& exit_code) {
   CLI::App* c = app.add_subcommand(
       "demo",
       "Drill the built-in molar through the 1 kHz haptic engine (simulated hand, scripted\n"
-      "pedal), write the session log and the cut mesh, replay the log and check the hash.\n"
+      "pedal), write the session log and the cut mesh, replay the log and check the hash;\n"
+      "then score the session (score.json, score.html; see dentar score).\n"
       "Synopsis: dentar demo [--model proxy|seed] [--bur SHAPE] [--samples N] [--seconds S]\n"
-      "                      [--simulated] [--out DIR]");
+      "                      [--simulated] [--out DIR] [--exercise NAME|FILE] [--no-score]");
   c->add_option("--voxel-mm", o->voxel_mm, "Voxel size of the procedural molar (mm)")
       ->check(CLI::Range(0.02, 0.5))
       ->capture_default_str();
@@ -296,8 +315,18 @@ void add_demo(CLI::App& app, int& exit_code) {
   c->add_flag("--simulated", o->simulated, "Run in simulated time (as fast as possible)");
   c->add_option("--out", o->out, "Output folder")->capture_default_str();
   c->add_flag("--obj", o->obj, "Also write cut_tooth.obj");
+  c->add_option("--exercise", o->exercise,
+                "Exercise the session is scored against (default: by the tooth, molar_access_opening)");
+  c->add_flag("--no-score", o->no_score, "Do not score the session (score.json, score.html)");
   c->footer("Example:\n  dentar demo --model proxy --bur capsule --samples 10000 --out out/demo");
-  c->callback([o, &exit_code] { exit_code = run_demo(*o); });
+  c->callback([o, &exit_code] {
+    if (std::string e = check_exercise(o->exercise); !e.empty()) {
+      print_error("demo", e);
+      exit_code = 2;
+      return;
+    }
+    exit_code = run_demo(*o);
+  });
 }
 
 }  // namespace dentar::tools

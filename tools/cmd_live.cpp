@@ -1,10 +1,12 @@
 // dentar live: the student's trainer with a camera, a window and the 1 kHz
 // engine (live/live_app.h). A thin driver over the shared FramePipeline.
+#include <filesystem>
 #include <iostream>
 
 #include "commands.h"
 #include "db_util.h"
 #include "dentar/live/live_app.h"
+#include "session_score.h"
 
 namespace dentar::tools {
 
@@ -16,6 +18,7 @@ void add_live(CLI::App& app, int& exit_code) {
          no_mirror = false, list = false;
     std::string stall;
     std::string discovery = "async";
+    bool no_score = false;
     DbCli db;  // --db: store the finished session (needs --record)
   };
   auto c = std::make_shared<Cli>();
@@ -24,7 +27,7 @@ void add_live(CLI::App& app, int& exit_code) {
       "The live trainer: camera -> tracking -> virtual tooth in the video, in a window with a HUD,\n"
       "while the 1 kHz haptic engine cuts the tooth.\n"
       "Synopsis: dentar live [--camera SPEC] [--station FILE] [--stylus sim|pen|replay:LOG|none]\n"
-      "                      [--display N] [--record DIR] [--seconds S] [...]");
+      "                      [--display N] [--record DIR] [--seconds S] [--exercise NAME|FILE] [...]");
   sub->footer(
       "Examples:\n"
       "  dentar live --camera camera:0 --stylus pen --scale-calib     # webcam, printed kit (dentar tags)\n"
@@ -70,6 +73,10 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--inject-stall", c->stall, "test hook: AFTER_FRAMES:SECONDS, the camera goes quiet");
   sub->add_flag("--list-cameras", c->list, "list the V4L2 cameras and their modes, then exit");
   sub->add_flag("--quiet", c->o.quiet, "no progress lines");
+  sub->add_option("--exercise", c->o.exercise,
+                  "exercise of the session (recorded in recording.json; with --record the session is scored\n"
+                  "against it into DIR/score.json and score.html): a built-in name or a JSON file; default by the tooth");
+  sub->add_flag("--no-score", c->no_score, "with --record: do not score the session");
   add_db_options(sub, c->db, false);
   sub->callback([c, &exit_code] {
     if (c->list) {
@@ -123,6 +130,12 @@ void add_live(CLI::App& app, int& exit_code) {
       exit_code = 2;
       return;
     }
+    if (std::string e = check_exercise(o.exercise); !e.empty()) {
+      print_error("live", e);
+      exit_code = 2;
+      return;
+    }
+    if (!o.record_dir.empty() && !c->no_score) remove_old_score(o.record_dir);
     if (!c->db.db.empty() && o.record_dir.empty()) {
       print_error("live", "--db needs --record DIR: the recorded session folder is what is scored and stored");
       exit_code = 2;
@@ -151,6 +164,24 @@ void add_live(CLI::App& app, int& exit_code) {
                 << (s.cpu_pinned ? "pinned" : "not pinned") << ", " << (s.memory_locked ? "mlockall" : "no mlockall")
                 << "\n";
       for (const auto& w : s.warnings) std::cout << "warning: " << w << "\n";
+    }
+    // A finished recorded session is scored (the recording is complete
+    // before this; a failure to score is a warning, never a failed run).
+    if (!o.record_dir.empty() && !c->no_score) {
+      namespace fs = std::filesystem;
+      DriverScoreInput in;
+      in.session = (fs::path(o.record_dir) / "session.dlog").string();
+      in.out_dir = o.record_dir;
+      in.exercise = o.exercise;
+      in.frames_csv = (fs::path(o.record_dir) / "frames.csv").string();
+      in.station = (fs::path(o.record_dir) / "station.json").string();
+      const DriverScore d = score_after_run(in);
+      if (d.ok)
+        std::cout << d.line << "\n";
+      else
+        std::cout << "warning: " << d.warning << "\n";
+    } else if (o.record_dir.empty() && !o.quiet) {
+      std::cout << "not scored: the session is kept only with --record DIR (then DIR/score.html)\n";
     }
     exit_code = c->db.db.empty() ? 0 : store_finished_session("live", c->db, o.record_dir, "", o.quiet);
   });

@@ -14,6 +14,7 @@
 #include "commands.h"
 #include "db_util.h"
 #include "dentar/ar/offline.h"
+#include "session_score.h"
 
 namespace dentar::tools {
 namespace {
@@ -35,6 +36,8 @@ struct OfflineCli {
   double predict_ms = 0, stale_ms = 200;
   double mirror_sigma_mm = 1.0;
   std::size_t triangle_budget = 0;
+  std::string exercise;  // scoring: exercise name or file ("" = recorded / by the tooth)
+  bool no_score = false;
 };
 
 // One progress line: a bar on a terminal (redrawn in place), else a line
@@ -114,6 +117,29 @@ int run(const OfflineCli& c) {
   if (o.footage.empty())
     std::cout << "offline: no --footage given: generating the built-in footage (" << c.preset << ", "
               << c.frames << " frames, " << c.resolution << ") into " << c.out << "/footage\n";
+  // Score the replayed session into the same folder (score.json, score.html,
+  // linked from report.html). A failure to score is a warning, not a failed run.
+  std::string score_line;
+  if (!c.no_score) remove_old_score(c.out);
+  if (!c.no_score)
+    o.after_run = [&](ar::OfflineSummary& s) -> std::string {
+      if (s.session.empty()) return {};
+      DriverScoreInput in;
+      in.session = s.session;
+      in.out_dir = s.out_dir;
+      in.exercise = c.exercise;
+      if (std::filesystem::exists(std::filesystem::path(c.footage) / "recording.json")) in.recording = c.footage;
+      in.frames_csv = (std::filesystem::path(s.out_dir) / "frames.csv").string();
+      in.station = s.station;
+      if (!c.quiet) std::cerr << "scoring the session ...\n";
+      const DriverScore d = score_after_run(in);
+      if (!d.ok) {
+        s.warnings.push_back(d.warning);
+        return "<p class=\"bad\">" + d.warning + "</p>";
+      }
+      score_line = d.line;
+      return d.html;
+    };
   ProgressBar bar(c.quiet);
   auto sum = ar::run_offline(o, [&](const std::string& phase, int done, int total) {
     bar.update(phase, done, total);
@@ -140,6 +166,7 @@ int run(const OfflineCli& c) {
             << f3(s.composite_ms.p99) << ", capture-to-composite latency " << f3(s.latency_ms.median)
             << " / " << f3(s.latency_ms.p99) << "\n";
   for (const auto& w : s.warnings) std::cout << "  warning: " << w << "\n";
+  if (!score_line.empty()) std::cout << score_line << "\n";
   std::cout << "wrote " << s.out_dir << "/report.html, summary.json, frames.csv"
             << (o.write_video ? ", composite.mkv" : "") << "\n";
   return 0;
@@ -155,7 +182,8 @@ void add_offline(CLI::App& app, int& exit_code) {
       "Run recorded footage through the whole trainer pipeline, as testers do: tracking of the\n"
       "mannequin and mirror, haptic replay of the session log at 1 kHz in step with the video,\n"
       "re-meshing of the cut tooth and compositing (tooth, bur, mirror reflection, occlusion).\n"
-      "Writes composite.mkv, frames.csv, summary.json and report.html (plots) into --out.\n"
+      "Writes composite.mkv, frames.csv, summary.json and report.html (plots) into --out, and\n"
+      "scores the session (score.json, score.html, linked from report.html; see dentar score).\n"
       "With no --footage it generates built-in footage first (dentar synth) and runs on that;\n"
       "ground truth beside the footage (truth.jsonl, masks/) is used to measure errors.\n"
       "Synopsis: dentar offline [--footage VIDEO|DIR --station FILE [--session LOG]]\n"
@@ -165,7 +193,8 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--scale-calib] [--quiet]\n"
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
       "                         [--predict-ms MS] [--stale-ms MS] [--mirror-sigma-mm MM] [--no-occlusion]\n"
-      "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]");
+      "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]\n"
+      "                         [--exercise NAME|FILE] [--no-score]");
   s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");
   s->add_option("--station", c->station, "Station file (JSON) the footage was recorded with");
   s->add_option("--session", c->session, "Haptic session log (.dlog) to replay in step with the video");
@@ -210,6 +239,11 @@ void add_offline(CLI::App& app, int& exit_code) {
   s->add_flag("--no-segmentation", c->no_segmentation, "Occlusion by known geometry only (no hand segmentation)");
   s->add_flag("--no-mirror", c->no_mirror, "No reflection in the mirror");
   s->add_option("--triangle-budget", c->triangle_budget, "Tooth triangles drawn per frame (0 = no limit)");
+  s->add_option("--exercise", c->exercise,
+                "Exercise the session is scored against: built-in name (molar_access_opening, molar_class1_cavity,\n"
+                "incisor_partial_crown) or a JSON file; default: the recording's, else by the tooth (the\n"
+                "built-in footage drills the molar access opening)");
+  s->add_flag("--no-score", c->no_score, "Do not score the session (no score.json / score.html)");
   s->footer(
       "Examples:\n"
       "  dentar offline --out out/offline                 # built-in footage, the README job\n"
@@ -238,6 +272,11 @@ void add_offline(CLI::App& app, int& exit_code) {
         exit_code = 2;
         return;
       }
+    }
+    if (std::string e = check_exercise(c->exercise); !e.empty()) {
+      print_error("offline", e);
+      exit_code = 2;
+      return;
     }
     exit_code = run(*c);
     if (exit_code == 0 && !db->db.empty()) {  // the session log the run replayed

@@ -1,10 +1,14 @@
 // dentar score: scores a finished session (outcome, process, steps, feedback)
 // and writes score.html (self-contained, SVG plots) and score.json beside it.
+#include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <memory>
 
 #include "commands.h"
 #include "dentar/training/report.h"
+#include "session_score.h"
 
 namespace dentar::tools {
 namespace {
@@ -14,8 +18,44 @@ struct ScoreCli {
   bool quiet = false;
 };
 
+// Mirror use and the recorded exercise come from the folder the session is
+// in: a `dentar live --record` folder (station.json, frames.csv,
+// recording.json) or a `dentar offline` run folder (frames.csv, and its
+// summary.json naming the session log and station it used).
+void fill_from_folder(training::ScoreOptions& o) {
+  namespace fs = std::filesystem;
+  if (!fs::is_directory(o.session)) return;
+  const fs::path d = o.session;
+  std::string station = fs::exists(d / "station.json") ? (d / "station.json").string() : "";
+  if (!fs::exists(d / "session.dlog") && fs::exists(d / "summary.json")) {
+    std::ifstream f(d / "summary.json");
+    auto j = nlohmann::json::parse(f, nullptr, false);
+    if (j.is_object() && j.contains("inputs") && j["inputs"].is_object()) {
+      const auto& in = j["inputs"];
+      if (in.contains("session") && in["session"].is_string()) {
+        if (o.out_dir.empty()) o.out_dir = d.string();
+        if (o.frames_csv.empty() && fs::exists(d / "frames.csv")) o.frames_csv = (d / "frames.csv").string();
+        o.session = in["session"].get<std::string>();
+      }
+      if (station.empty() && in.contains("station") && in["station"].is_string()) station = in["station"].get<std::string>();
+    }
+  }
+  if (o.exercise.empty()) o.exercise = recorded_exercise(d.string());
+  if (!station.empty() && !o.sight) {
+    auto g = sight_from_station(station);
+    if (!g) {
+      std::cerr << "dentar score: warning: " << g.error() << " (mirror use not measured)\n";
+      return;
+    }
+    o.sight = *g;
+    o.sight_source = station;
+  }
+}
+
 int run_score(const ScoreCli& c) {
-  auto r = training::score_session(c.opt);
+  training::ScoreOptions opt = c.opt;
+  fill_from_folder(opt);
+  auto r = training::score_session(opt);
   if (!r) {
     print_error("score", r.error());
     // Bad input (missing file, damaged header, wrong exercise) is exit 2.

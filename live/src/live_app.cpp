@@ -460,6 +460,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
                            {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
                            {"complete", false}};
+    if (!o.exercise.empty()) meta["exercise"] = o.exercise;
     std::ofstream(rdir / "recording.json") << meta.dump(2) << "\n";
   }
   std::string header;
@@ -887,6 +888,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
                            {"complete", true}, {"frames", recorder->written()},
                            {"frames_not_written", recorder->dropped()}, {"volume_hash", hash},
                            {"engine_steps", es.steps}, {"stop_reason", stop_reason}};
+    if (!o.exercise.empty()) meta["exercise"] = o.exercise;
     std::ofstream(rdir / "recording.json.tmp") << meta.dump(2) << "\n";
     std::error_code ec;
     fs::rename(rdir / "recording.json.tmp", rdir / "recording.json", ec);

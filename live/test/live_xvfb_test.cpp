@@ -105,12 +105,25 @@ TEST(LiveXvfb, WindowMatchesOfflineAndRecordingReplays) {
   auto r = run_command(xvfb(kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
                             (c / "station.json").string() + " --stylus replay:" + (c / "session.dlog").string() +
                             " --record " + rec.string() + " --no-hud --quiet --screenshot 8:" +
-                            (t / "shot8.png").string() + " --summary " + (t / "live.json").string() + " 2>&1"));
+                            (t / "shot8.png").string() + " --summary " + (t / "live.json").string() +
+                            " --exercise molar_class1_cavity 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto meta = read_json(rec / "recording.json");
   EXPECT_TRUE(meta["complete"].get<bool>());
   // The live default: the full-frame tag search off the frame path.
   EXPECT_EQ(meta["discovery"], "async");
+  EXPECT_EQ(meta["exercise"], "molar_class1_cavity");
+  // The finished recorded session is scored against the recorded exercise,
+  // with mirror use from the recording's frames and station.
+  ASSERT_TRUE(fs::exists(rec / "score.html")) << r.out;
+  const auto score = read_json(rec / "score.json");
+  EXPECT_EQ(score["exercise"]["name"], "molar_class1_cavity");
+  EXPECT_GE(score["outcome"]["points"].get<double>(), 0.0);
+  EXPECT_LE(score["outcome"]["points"].get<double>(), 10.0);
+  EXPECT_GT(score["outcome"]["removed_total_mm3"].get<double>(), 0.0);
+  EXPECT_TRUE(score["process"]["mirror_use"].contains("available"));
+  if (score["process"]["mirror_use"]["available"].get<bool>())
+    EXPECT_GT(score["process"]["mirror_use"]["frames_tracked"].get<int>(), 0);
   const auto live_sum = read_json(t / "live.json");
   EXPECT_GT(live_sum["frames"]["processed"].get<int>(), 12);  // of 60: a loaded machine drops many
   EXPECT_GT(live_sum["engine"]["steps"].get<int>(), 1000);
@@ -119,6 +132,8 @@ TEST(LiveXvfb, WindowMatchesOfflineAndRecordingReplays) {
                   " --video-codec ffv1 --quiet 2>&1");
   ASSERT_EQ(r.code, 0) << r.out;
   const auto off_sum = read_json(off / "summary.json");
+  // Offline on the recording scores it against the recorded exercise too.
+  EXPECT_EQ(read_json(off / "score.json")["exercise"]["name"], "molar_class1_cavity");
   // Same final cut, bit for bit.
   EXPECT_EQ(off_sum["volume_hash"], meta["volume_hash"]);
   EXPECT_EQ(off_sum["volume_hash"], live_sum["volume_hash"]);
@@ -438,7 +453,7 @@ TEST(LiveXvfb, PenCutsTheToothWhileTheSpaceBarIsHeld) {
                              : "sleep 4.5\n";
     dentar::test::write_file(
         script, "#!/bin/sh\n" + kBin + " live --camera live:" + (t / "pen.mkv").string() + " --station " +
-                    (t / "station.json").string() + " --stylus pen --no-occlusion --record " + (t / name).string() +
+                    (t / "station.json").string() + " --stylus pen --no-occlusion --no-score --record " + (t / name).string() +
                     " --summary " + (t / (name + ".json")).string() + " --quiet &\npid=$!\n"
                     "for i in $(seq 1 100); do w=$(xdotool search --name 'DentAR live' 2>/dev/null | head -1); "
                     "[ -n \"$w\" ] && break; sleep 0.1; done\n" + keys + "wait $pid\necho exit=$?\n");
@@ -466,7 +481,7 @@ TEST(LiveXvfb, PenCutsTheToothWhileTheSpaceBarIsHeld) {
 
   // The recording replays offline to the same cut.
   r = run_command(kBin + " offline --footage " + (t / "cut").string() + " --out " + (t / "cut_off").string() +
-                  " --no-occlusion --quiet 2>&1");
+                  " --no-occlusion --no-score --quiet 2>&1");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(read_json(t / "cut_off" / "summary.json")["volume_hash"], sum["volume_hash"]);
 

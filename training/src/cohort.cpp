@@ -30,8 +30,12 @@ SkillParams novice_skill(double s) {
   full.pause_prob = 0.5;
   full.pause_s = 1.0;
   full.swap_prob = 0.3;
-  full.work_s = 3.5;
   full.tilt_deg = 10.0;
+  full.sweep_mm_s = 2.0;
+  full.outline_mm = 0.6;
+  full.depth_mm = 0.6;
+  full.skip_prob = 0.4;
+  full.stop_prob = 0.7;
   auto lerp = [s](double a, double b) { return a + s * (b - a); };
   SkillParams n;
   n.tremor_mm = lerp(e.tremor_mm, full.tremor_mm);
@@ -41,8 +45,12 @@ SkillParams novice_skill(double s) {
   n.pause_prob = lerp(e.pause_prob, full.pause_prob);
   n.pause_s = lerp(e.pause_s, full.pause_s);
   n.swap_prob = lerp(e.swap_prob, full.swap_prob);
-  n.work_s = lerp(e.work_s, full.work_s);
   n.tilt_deg = lerp(e.tilt_deg, full.tilt_deg);
+  n.sweep_mm_s = lerp(e.sweep_mm_s, full.sweep_mm_s);
+  n.outline_mm = lerp(e.outline_mm, full.outline_mm);
+  n.depth_mm = lerp(e.depth_mm, full.depth_mm);
+  n.skip_prob = lerp(e.skip_prob, full.skip_prob);
+  n.stop_prob = lerp(e.stop_prob, full.stop_prob);
   return n;
 }
 
@@ -75,9 +83,156 @@ SkillParams vary(SkillParams p, std::mt19937_64& rng) {
   p.pause_prob = std::clamp(p.pause_prob * f(), 0.0, 1.0);
   p.pause_s *= f();
   p.swap_prob = std::clamp(p.swap_prob * f(), 0.0, 1.0);
-  p.work_s *= f();
   p.tilt_deg *= f();
+  p.sweep_mm_s *= f();
+  p.outline_mm *= f();
+  p.depth_mm *= f();
+  p.skip_prob = std::clamp(p.skip_prob * f(), 0.0, 1.0);
+  p.stop_prob = std::clamp(p.stop_prob * f(), 0.0, 1.0);
   return p;
+}
+
+// Where each step works, in its own coordinates: h along the approach from
+// the focus (m), u and v across it. `region`: every voxel of the step's target
+// region (the outline the bur must stay inside); `cell`: the solid voxels of
+// that region this step removes, those whose nearest focus (by the automatic
+// step finder's own measure: off-axis distance, 0.3 x the distance still
+// ahead) is this step's. Empty cell: the step plunges at its focus.
+struct StepGeom {
+  Eigen::Vector3d f = Eigen::Vector3d::Zero(), a = Eigen::Vector3d::UnitZ(), U = Eigen::Vector3d::UnitX(),
+                  V = Eigen::Vector3d::UnitY();
+  std::vector<Eigen::Vector3d> region, cell;  // (h, u, v)
+};
+
+std::vector<StepGeom> step_geometry(const Exercise& ex, const RegionMasks& m, const volume::VoxelVolume& start) {
+  const std::vector<Eigen::Vector3d> focus = step_focus(ex, &m, &start);
+  const std::size_t S = ex.steps.size();
+  std::vector<StepGeom> g(S);
+  std::vector<int> region_of(S, -1);
+  for (std::size_t k = 0; k < S; ++k) {
+    g[k].f = focus[k];
+    g[k].a = ex.steps[k].approach.normalized();
+    g[k].U = g[k].a.unitOrthogonal();
+    g[k].V = g[k].a.cross(g[k].U);
+    for (std::size_t r = 0; r < ex.regions.size(); ++r)
+      if (ex.regions[r].name == ex.steps[k].region && ex.regions[r].role == RegionRole::kTarget) region_of[k] = static_cast<int>(r);
+  }
+  const auto d = m.dims;
+  for (int kk = 0; kk < d.z(); ++kk)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i) {
+        const std::uint32_t bits = m.bits[m.index(i, j, kk)];
+        if (!(bits & m.target_bits)) continue;
+        const Eigen::Vector3d p = start.voxel_center(i, j, kk);
+        const bool solid = start.density(i, j, kk) > volume::kIsoDensity;
+        double best = 1e300;
+        int arg = -1;
+        for (std::size_t k = 0; k < S; ++k) {
+          if (region_of[k] < 0 || !(bits >> region_of[k] & 1u)) continue;
+          const Eigen::Vector3d dd = g[k].f - p;
+          const double ahead = dd.dot(-g[k].a);  // along the bur axis (-approach)
+          const double w = ahead > 0 ? 0.3 : 1.0;
+          const double c = (dd - ahead * -g[k].a).squaredNorm() + w * w * ahead * ahead;
+          g[k].region.emplace_back((p - g[k].f).dot(g[k].a), (p - g[k].f).dot(g[k].U), (p - g[k].f).dot(g[k].V));
+          if (solid && c < best) {
+            best = c;
+            arg = static_cast<int>(k);
+          }
+        }
+        if (arg >= 0) {
+          const StepGeom& s = g[static_cast<std::size_t>(arg)];
+          g[static_cast<std::size_t>(arg)].cell.emplace_back((p - s.f).dot(s.a), (p - s.f).dot(s.U), (p - s.f).dot(s.V));
+        }
+      }
+  return g;
+}
+
+// One layer's sweep: raster rows (u runs) of tip positions (h, u, v).
+using Rows = std::vector<std::vector<Eigen::Vector3d>>;
+
+// Plans a step's sweep: layers from the top of its cell down to its floor
+// (+ depth_err, > 0 deeper), each a boustrophedon raster of rows 0.4 mm
+// apart over the outline eroded by the bur radius (- outline_err, > 0 wider),
+// where the step's cell still has material at or above the layer.
+std::vector<Rows> plan_sweep(const StepGeom& g, double bur_radius_m, double outline_err_m, double depth_err_m,
+                             double skip_prob, double sink_m, std::mt19937_64& rng) {
+  std::vector<Rows> layers;
+  if (g.cell.empty()) return layers;
+  std::uniform_real_distribution<double> u01(0, 1);
+  const double grid = 0.2e-3, dz = 0.5e-3;
+  double hmax = -1e9, hmin = 1e9, umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
+  for (const auto& c : g.cell) {
+    hmax = std::max(hmax, c.x());
+    hmin = std::min(hmin, c.x());
+  }
+  for (const auto& c : g.region) {
+    umin = std::min(umin, c.y());
+    umax = std::max(umax, c.y());
+    vmin = std::min(vmin, c.z());
+    vmax = std::max(vmax, c.z());
+  }
+  const int nu = static_cast<int>((umax - umin) / grid) + 1, nv = static_cast<int>((vmax - vmin) / grid) + 1;
+  if (nu <= 0 || nv <= 0 || nu > 400 || nv > 400) return layers;
+  auto cu = [&](double x) { return std::clamp(static_cast<int>(std::lround((x - umin) / grid)), 0, nu - 1); };
+  auto cv = [&](double x) { return std::clamp(static_cast<int>(std::lround((x - vmin) / grid)), 0, nv - 1); };
+  const double erode = std::max(0.0, bur_radius_m - outline_err_m);
+  const int er = static_cast<int>(std::ceil(erode / grid));
+  const int reach = static_cast<int>(std::ceil(0.8 * bur_radius_m / grid));
+  // The floor: the last layer is aimed above the cell's bottom by the depth
+  // the pressing bur sinks on past a layer (sink_m), minus the floor error.
+  const double floor_h = hmin + sink_m - depth_err_m;
+  std::vector<double> heights;
+  for (double h = hmax - dz; h > floor_h; h -= dz) heights.push_back(h);
+  heights.push_back(floor_h);
+  bool reverse = false;
+  for (double hL : heights) {
+    std::vector<std::uint8_t> foot(static_cast<std::size_t>(nu * nv), 0), need(foot.size(), 0), work(foot.size(), 0);
+    for (const auto& c : g.region)
+      if (c.x() >= hL - 0.5 * dz && c.x() <= hL + dz) foot[static_cast<std::size_t>(cv(c.z()) * nu + cu(c.y()))] = 1;
+    for (const auto& c : g.cell)
+      if (c.x() >= hL - 0.5 * dz) {
+        const int i0 = cu(c.y()), j0 = cv(c.z());
+        for (int dj = -reach; dj <= reach; ++dj)
+          for (int di = -reach; di <= reach; ++di) {
+            const int i = i0 + di, j = j0 + dj;
+            if (i < 0 || j < 0 || i >= nu || j >= nv || di * di + dj * dj > reach * reach) continue;
+            need[static_cast<std::size_t>(j * nu + i)] = 1;
+          }
+      }
+    for (int j = 0; j < nv; ++j)
+      for (int i = 0; i < nu; ++i) {
+        if (!need[static_cast<std::size_t>(j * nu + i)] || !foot[static_cast<std::size_t>(j * nu + i)]) continue;
+        bool inside = true;
+        for (int dj = -er; dj <= er && inside; ++dj)
+          for (int di = -er; di <= er && inside; ++di) {
+            if ((di * di + dj * dj) * grid * grid > erode * erode + 1e-12) continue;
+            const int x = i + di, y = j + dj;
+            inside = x >= 0 && y >= 0 && x < nu && y < nv && foot[static_cast<std::size_t>(y * nu + x)];
+          }
+        if (inside) work[static_cast<std::size_t>(j * nu + i)] = 1;
+      }
+    Rows rows;
+    int last_row = -100;
+    for (int j = 0; j < nv; ++j) {
+      bool any = false;
+      for (int i = 0; i < nu && !any; ++i) any = work[static_cast<std::size_t>(j * nu + i)];
+      if (!any) continue;
+      bool next_any = false;  // the outermost row of the outline is always swept
+      if (j + 1 < nv)
+        for (int i = 0; i < nu && !next_any; ++i) next_any = work[static_cast<std::size_t>((j + 1) * nu + i)];
+      if (j - last_row < 2 && next_any) continue;
+      last_row = j;
+      if (u01(rng) < skip_prob) continue;
+      std::vector<Eigen::Vector3d> row;
+      for (int i = 0; i < nu; ++i)
+        if (work[static_cast<std::size_t>(j * nu + i)]) row.emplace_back(hL, umin + i * grid, vmin + j * grid);
+      if (reverse) std::reverse(row.begin(), row.end());
+      reverse = !reverse;
+      rows.push_back(std::move(row));
+    }
+    if (!rows.empty()) layers.push_back(std::move(rows));
+  }
+  return layers;
 }
 
 struct Script {
@@ -86,7 +241,7 @@ struct Script {
   std::vector<double> start, end;
 };
 
-Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rng) {
+Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rng, const std::vector<StepGeom>* geom) {
   std::normal_distribution<double> n01(0, 1);
   std::uniform_real_distribution<double> u01(0, 1);
   Script sc;
@@ -142,16 +297,56 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
     // The hand with a finger rest (3000 N/m) in series with the proxy coupling
     // (0.8 x 2000 N/m): a target this far past the surface asks for `force`.
     const double lead = force / haptics::kFingerRestStiffness_N_per_m + force / 1600.0;
-    // Move toward the focus with small circles (0.3 mm, 4 Hz) while pressing.
-    const int n = std::max(2, static_cast<int>(p.work_s / 0.05));
-    const Eigen::Vector3d top = f + std::min(3.5e-3, (retract - f).norm()) * app;
-    const Eigen::Vector3d u = app.unitOrthogonal(), v = app.cross(u);
-    add(0.2, top, axis, true);
-    for (int i = 1; i <= n; ++i) {
-      const double fr = static_cast<double>(i) / n;
-      const double a = 2 * M_PI * 4.0 * fr * p.work_s;
-      const Eigen::Vector3d c = top + fr * (f - top) + 0.3e-3 * (std::cos(a) * u + std::sin(a) * v) + lead * axis;
-      add(p.work_s / n, c, axis, true);
+    const StepGeom* sg = geom && static_cast<std::size_t>(s) < geom->size() ? &(*geom)[static_cast<std::size_t>(s)] : nullptr;
+    std::vector<Rows> layers;
+    // The hand aims `over` past each layer; the bur sinks on until the force
+    // falls under the cutter's 0.05 N threshold (the hand and coupling in
+    // series: 1 / (1/3000 + 1/1600) = 1043 N/m). The expert plans for the sink
+    // of the nominal 1 N, not for the trial's own force (novices press harder).
+    const double over = 0.35e-3 * force;
+    const double sink = std::max(0.0, 0.35e-3 - 0.05 / 1043.0);
+    if (sg) layers = plan_sweep(*sg, ex.bur.radius_m, p.outline_mm * 1e-3 * n01(rng), p.depth_mm * 1e-3 * n01(rng),
+                                p.skip_prob, sink, rng);
+    // Stopping early: the step's deeper layers are never reached.
+    if (layers.size() > 1 && u01(rng) < p.stop_prob)
+      layers.resize(std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(layers.size() * (0.3 + 0.5 * u01(rng))))));
+    if (layers.empty()) {
+      // No target voxels for this step (or no geometry): press toward the
+      // focus with small circles (0.3 mm, 4 Hz) for 2.5 s.
+      const double work_s = 2.5;
+      const int n = std::max(2, static_cast<int>(work_s / 0.05));
+      const Eigen::Vector3d top = f + std::min(3.5e-3, (retract - f).norm()) * app;
+      const Eigen::Vector3d u = app.unitOrthogonal(), v = app.cross(u);
+      add(0.2, top, axis, true);
+      for (int i = 1; i <= n; ++i) {
+        const double fr = static_cast<double>(i) / n;
+        const double a = 2 * M_PI * 4.0 * fr * work_s;
+        const Eigen::Vector3d c = top + fr * (f - top) + 0.3e-3 * (std::cos(a) * u + std::sin(a) * v) + lead * axis;
+        add(work_s / n, c, axis, true);
+      }
+    } else {
+      // Sweep the step's part of the target layer by layer; the hand aims
+      // `over` past each layer along the bur axis, so it presses with about
+      // `force` while material is left and the bur slows as it reaches the layer.
+      const double speed = std::max(0.2, p.sweep_mm_s) * 1e-3;
+      auto at = [&](const Eigen::Vector3d& huv) { return Eigen::Vector3d(sg->f + huv.x() * sg->a + huv.y() * sg->U + huv.z() * sg->V); };
+      Eigen::Vector3d cur = sc.tips.back().tip_tooth_m;
+      auto go = [&](const Eigen::Vector3d& target, bool press) {
+        const Eigen::Vector3d dst = target + (press ? over : 0.0) * axis;
+        const double dist = (dst - cur).norm();
+        add(std::max(0.02, dist / speed), dst, axis, true);
+        cur = dst;
+      };
+      const Eigen::Vector3d first = at(layers.front().front().front());
+      go(first + 1.0e-3 * app, false);
+      for (const Rows& rows : layers)
+        for (const auto& row : rows) {
+          go(at(row.front()), true);
+          // Row ends and every 1 mm between: the dense interpolation of add() does the rest.
+          const Eigen::Vector3d a0 = at(row.front()), a1 = at(row.back());
+          const int pieces = std::max(1, static_cast<int>((a1 - a0).norm() / 1e-3));
+          for (int q = 1; q <= pieces; ++q) go(a0 + (a1 - a0) * (static_cast<double>(q) / pieces), true);
+        }
     }
     add(0.3, retract, -app, false);
     sc.order.push_back(s);
@@ -175,6 +370,9 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
   if (!tooth0) return Error{"cohort: " + tooth0.error()};
   auto bur = volume::sample_bur(ex.bur, opt.bur_samples);
   if (!bur) return Error{"cohort: " + bur.error()};
+  auto masks = build_masks(ex, *tooth0);
+  if (!masks) return Error{"cohort: " + masks.error()};
+  const std::vector<StepGeom> geom = step_geometry(ex, *masks, *tooth0);
   const haptics::Station station = haptics::default_station();
   std::vector<CohortTrial> out;
   std::ofstream csv(out_dir + "/trials.csv");
@@ -187,7 +385,7 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
     const std::string subject = (expert ? "E" : "N") + std::to_string(expert ? sub + 1 : sub - opt.experts + 1);
     const SkillParams base = vary(expert ? expert_skill() : novice_skill(opt.separation), rng);
     for (int tr = 1; tr <= opt.trials; ++tr) {
-      const Script sc = make_script(ex, base, rng);
+      const Script sc = make_script(ex, base, rng, &geom);
       volume::VoxelVolume vol = tooth0->clone();
       haptics::HandParams hand;
       hand.stiffness_N_per_m = haptics::kFingerRestStiffness_N_per_m;  // finger rest on the neighbouring teeth

@@ -1,7 +1,11 @@
 #include "dentar/training/report.h"
 
 #include <algorithm>
+#include <unistd.h>
+
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -38,6 +42,19 @@ std::string num(double v, int prec = 2) {
   os.precision(prec);
   os << v;
   return os.str();
+}
+
+// Through a temporary file and a rename: a failed write never leaves half a file.
+Status write_file_atomic(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp" + std::to_string(::getpid());  // unique: runs may share a cache
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!(f << text) || !f.flush()) return Error{path + ": cannot write"};
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) return Error{path + ": cannot write: " + ec.message()};
+  return {};
 }
 
 // Top (occlusal) view for molars, labial view for incisors: cells coloured by
@@ -187,14 +204,53 @@ std::string step_band_svg(const ProcessMetrics& p, const ExpertReference& r) {
   return s.str();
 }
 
+// Key of a generated reference: the exercise's steps, regions and tooth, the
+// number of expert sessions and the cohort generator's version, so an edited
+// exercise or a changed generator never reuses an old reference.
+std::string reference_key(const Exercise& ex, int trials) {
+  std::ostringstream k;
+  k.precision(9);
+  k << ex.name << '|' << ex.tooth_json << '|' << ex.bur.radius_m << '|' << ex.bur.length_m << '|' << trials << '|'
+    << kCohortGeneratorVersion;
+  for (const auto& st : ex.steps) {
+    k << '|' << st.name << ',' << st.region << ',' << st.approach.transpose();
+    if (st.focus_m) k << ',' << st.focus_m->transpose();
+  }
+  for (const auto& r : ex.regions) {
+    k << '|' << r.name << ',' << static_cast<int>(r.role);
+    for (const auto& p : r.all)
+      k << ',' << static_cast<int>(p.kind) << ' ' << p.a_m.transpose() << ' ' << p.b_m.transpose() << ' ' << p.radius_m << ' '
+        << p.depth_m << ' ' << static_cast<int>(p.material) << ' ' << p.negate;
+  }
+  // FNV-1a, 64 bit: a file name, not a security measure.
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : k.str()) h = (h ^ c) * 1099511628211ull;
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return ex.name + "_" + buf;
+}
+
+// Cache of generated references shared by every run on this machine:
+// $DENTAR_CACHE_DIR, else $XDG_CACHE_HOME/dentar, else ~/.cache/dentar ("" = none).
+std::string reference_cache_dir() {
+  if (const char* d = std::getenv("DENTAR_CACHE_DIR"); d && *d) return d;
+  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) return std::string(d) + "/dentar";
+  if (const char* d = std::getenv("HOME"); d && *d) return std::string(d) + "/.cache/dentar";
+  return {};
+}
+
 Result<ExpertReference> generated_reference(const Exercise& ex, const ScoreOptions& o, const std::string& out_dir) {
-  const std::string cache = out_dir + "/expert_reference.json";
-  if (fs::exists(cache)) {
+  const std::string cdir = reference_cache_dir();
+  const std::string cache = cdir.empty() ? std::string() : cdir + "/expert_reference_" + reference_key(ex, o.reference_trials) + ".json";
+  if (!cache.empty() && fs::exists(cache)) {
     std::ifstream f(cache);
     std::stringstream ss;
     ss << f.rdbuf();
     auto r = reference_from_json(ss.str(), cache);
-    if (r && r->exercise == ex.name) return r;
+    if (r && r->exercise == ex.name && r->steps.size() == ex.steps.size()) {
+      std::ofstream(out_dir + "/expert_reference.json") << reference_to_json(*r) << "\n";  // the reference this report used
+      return r;
+    }
   }
   CohortOptions co;
   co.experts = o.reference_trials;  // one trial each of N expert subjects (subject-level spread)
@@ -213,7 +269,13 @@ Result<ExpertReference> generated_reference(const Exercise& ex, const ScoreOptio
     pm.push_back(process_metrics(*tr, ex, segment_steps(*tr, ex, nullptr, nullptr)));
   }
   ExpertReference r = build_reference(ex.name, pm);
-  std::ofstream(cache) << reference_to_json(r) << "\n";
+  std::ofstream(out_dir + "/expert_reference.json") << reference_to_json(r) << "\n";
+  if (!cache.empty()) {
+    std::error_code ec;
+    fs::create_directories(cdir, ec);
+    // A cache that cannot be written only costs time next run.
+    if (!ec) (void)write_file_atomic(cache, reference_to_json(r) + "\n");
+  }
   fs::remove_all(dir);
   return r;
 }
@@ -235,6 +297,14 @@ std::string ScoreSummary::summary_text() const {
     << (outcome.pulp_exposed ? ", pulp exposed" : "") << (outcome.perforation ? ", PERFORATION" : "") << "\n";
   s << "process: " << num(process.duration_s, 1) << " s, drilling " << num(process.drilling_s, 1) << " s, path "
     << num(process.path_mm, 0) << " mm, excessive force " << num(process.excessive_force_s, 2) << " s\n";
+  if (mirror.available) {
+    s << "mirror use (site seen while drilling):";
+    for (int c = 0; c < 4; ++c)
+      s << " " << sightline_name(static_cast<Sightline>(c)) << " " << num(mirror.drilling_pct(static_cast<Sightline>(c)), 0) << " %";
+    s << "\n";
+  } else {
+    s << "mirror use: unavailable (" << mirror.why << ")\n";
+  }
   if (verdict) s << "assessment: " << verdict->label << " (margin " << num(verdict->margin, 3) << ")\n";
   s << "feedback: " << feedback.size() << " messages\n";
   for (const auto& f : feedback) s << "  - " << f.text << "\n";
@@ -290,6 +360,27 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   if (!track) return Error{track.error()};
   const std::vector<int> steps = segment_steps(*track, *ex, &*masks, &*start);
   sum.process = process_metrics(*track, *ex, steps);
+  {
+    // Mirror use needs camera frames and the station geometry; a session log alone has neither.
+    std::string fcsv = o.frames_csv;
+    if (fcsv.empty() && fs::is_directory(o.session) && fs::exists(fs::path(o.session) / "frames.csv"))
+      fcsv = (fs::path(o.session) / "frames.csv").string();
+    if (fcsv.empty()) {
+      sum.mirror.why = "no camera frames with this session (a session log alone has no camera or mirror poses; "
+                       "score a `dentar live --record` folder or a `dentar offline` run)";
+    } else if (!o.sight) {
+      sum.mirror.why = "no station geometry (station.json) to place the mirror and the tooth";
+    } else {
+      auto frames = read_view_frames(fcsv, setup->engine.rate_hz);
+      if (!frames) {
+        // A damaged frames.csv costs the mirror figures, not the score.
+        sum.mirror.why = frames.error();
+      } else {
+        sum.mirror = mirror_use(*frames, *o.sight, *track, *ex, steps);
+      }
+    }
+    sum.process.mirror_tracked = sum.mirror.available;
+  }
   if (o.write_files) {
     std::error_code ec;
     fs::create_directories(out_dir, ec);
@@ -351,6 +442,29 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   j["process"] = {{"duration_s", p.duration_s}, {"drilling_s", p.drilling_s}, {"path_mm", p.path_mm},
                   {"excessive_force_s", p.excessive_force_s}, {"excessive_force_N", p.excessive_force_N},
                   {"mirror_tracked", p.mirror_tracked}, {"watchdog_frames", p.watchdog_frames}};
+  {
+    const MirrorUse& mu = sum.mirror;
+    json mj = {{"available", mu.available}};
+    if (!mu.available) {
+      mj["why"] = mu.why;
+    } else {
+      mj["frames"] = mu.frames;
+      mj["frames_tracked"] = mu.frames_tracked;
+      mj["frames_mirror_tracked"] = mu.frames_mirror_tracked;
+      json all = json::object(), dr = json::object(), pct = json::object();
+      for (int c = 0; c < 4; ++c) {
+        const char* n = sightline_name(static_cast<Sightline>(c));
+        all[n] = mu.all[static_cast<std::size_t>(c)];
+        dr[n] = mu.drilling[static_cast<std::size_t>(c)];
+        pct[n] = mu.drilling_pct(static_cast<Sightline>(c));
+      }
+      mj["frames_by_class"] = all;
+      mj["drilling_frames_by_class"] = dr;
+      mj["drilling_pct"] = pct;
+      if (!o.sight_source.empty()) mj["station"] = o.sight_source;
+    }
+    j["process"]["mirror_use"] = mj;
+  }
   j["process"]["force_by_material"] = json::object();
   for (int m = 1; m < volume::kNumMaterials; ++m) {
     const ForceStats& f = p.force_by_material[static_cast<std::size_t>(m)];
@@ -365,6 +479,11 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
                {"path_mm", s.path_mm}, {"removed_mm3", s.removed_mm3},
                {"force_mean_N", {s.force.mean.x(), s.force.mean.y(), s.force.mean.z()}},
                {"force_sd_N", {s.force.sd.x(), s.force.sd.y(), s.force.sd.z()}}};
+    if (sum.mirror.available && k < sum.mirror.by_step.size()) {
+      json mu = json::object();
+      for (int c = 0; c < 4; ++c) mu[sightline_name(static_cast<Sightline>(c))] = sum.mirror.by_step[k][static_cast<std::size_t>(c)];
+      sj["mirror_use_drilling_frames"] = mu;
+    }
     if (k < sum.reference.steps.size()) {
       const auto& e = sum.reference.steps[k];
       sj["expert_force_mean_N"] = {e.force_mean.x(), e.force_mean.y(), e.force_mean.z()};
@@ -380,10 +499,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   if (!o.write_files) return sum;
 
   sum.summary_json = (fs::path(out_dir) / "score.json").string();
-  {
-    std::ofstream f(sum.summary_json);
-    if (!(f << j.dump(1) << "\n")) return Error{sum.summary_json + ": cannot write"};
-  }
+  if (Status st = write_file_atomic(sum.summary_json, j.dump(1) + "\n"); !st) return Error{st.error()};
   // HTML report.
   std::ostringstream h;
   h << "<!DOCTYPE html><html><head><meta charset='utf-8'><title>DentAR session report</title><style>"
@@ -432,7 +548,17 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
     << "<tr><td>path length</td><td>" << num(p.path_mm, 0) << " mm</td><td>" << num(r.path_mean_mm, 0) << " &plusmn; " << num(r.path_sd_mm, 0) << " mm</td></tr>"
     << "<tr><td>drilling with force &gt; " << num(p.excessive_force_N, 1) << " N</td><td>" << num(p.excessive_force_s, 2) << " s</td><td>"
     << num(r.excessive_mean_s, 2) << " &plusmn; " << num(r.excessive_sd_s, 2) << " s</td></tr>"
-    << "<tr><td>mirror use</td><td colspan='2'>no mirror poses in this session log</td></tr></table>";
+    << "<tr><td>mirror use</td><td colspan='2'>";
+  if (!sum.mirror.available) {
+    h << "unavailable: " << esc(sum.mirror.why);
+  } else {
+    h << "site seen while drilling: ";
+    for (int c = 0; c < 4; ++c)
+      h << (c ? ", " : "") << sightline_name(static_cast<Sightline>(c)) << " " << num(sum.mirror.drilling_pct(static_cast<Sightline>(c)), 0) << " %";
+    h << " (" << sum.mirror.frames_tracked << " camera frames with the mannequin tracked, mirror tracked in "
+      << sum.mirror.frames_mirror_tracked << ")";
+  }
+  h << "</td></tr></table>";
   h << "<table><tr><th>step</th><th>time (s)</th><th>drilling (s)</th><th>removed (mm&sup3;)</th><th>mean force (N)</th></tr>";
   for (std::size_t k = 0; k < p.steps.size(); ++k)
     h << "<tr><td>" << k + 1 << ". " << esc(p.steps[k].name) << "</td><td>" << num(p.steps[k].start_s, 1) << " - "
@@ -441,8 +567,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   h << "</table><p>Expert band: " << (o.reference.empty() ? "generated expert sessions (cohort generator, " + std::to_string(o.reference_trials) + " trials)" : esc(o.reference))
     << ". Scored in " << num(sum.seconds, 2) << " s.</p></body></html>\n";
   sum.report_html = (fs::path(out_dir) / "score.html").string();
-  std::ofstream f(sum.report_html);
-  if (!(f << h.str())) return Error{sum.report_html + ": cannot write"};
+  if (Status st = write_file_atomic(sum.report_html, h.str()); !st) return Error{st.error()};
   return sum;
 }
 

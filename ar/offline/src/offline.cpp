@@ -236,7 +236,8 @@ std::string fmt(double v, int prec = 3) {
 // The HTML report: summary tables, then plots. Self-contained (inline SVG,
 // stills as relative PNG links).
 std::string make_report(const OfflineOptions& o, const OfflineSummary& sum, const std::vector<Row>& rows,
-                        const std::vector<std::string>& stills, const nlohmann::json& inputs) {
+                        const std::vector<std::string>& stills, const nlohmann::json& inputs,
+                        const std::string& extra_html) {
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
     << "<title>DentAR offline run</title><style>"
@@ -254,6 +255,7 @@ std::string make_report(const OfflineOptions& o, const OfflineSummary& sum, cons
     for (const auto& w : sum.warnings) h << "<li class=\"bad\">" << html_escape(w) << "</li>";
     h << "</ul>\n";
   }
+  if (!extra_html.empty()) h << "<h2>Session score</h2>\n" << extra_html << "\n";
   h << "<h2>Tracking</h2><table><tr><th>mannequin state</th><th>frames</th><th>share</th></tr>";
   for (auto [name, n] : {std::pair{"tracking", sum.tracking}, std::pair{"predicted", sum.predicted},
                          std::pair{"lost (no overlay)", sum.lost}})
@@ -597,6 +599,8 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   }
   auto station = read_station_scene(o.station);
   if (!station) return fail("offline: " + station.error());
+  sum.session = o.session;
+  sum.station = o.station;
   StationScene& st = *station;
 
   auto src = FrameSource::open(o.footage, {});
@@ -956,6 +960,9 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     fs::rename(video_tmp, out / "composite.mkv", ec);
     if (ec) return fail("offline: composite.mkv: " + ec.message());
   }
+  // The drivers' hook (scoring): its HTML goes into the report, its warnings into both files.
+  std::string extra_html;
+  if (o.after_run) extra_html = o.after_run(sum);
   nlohmann::json inputs = {{"footage", o.footage},
                            {"station", o.station},
                            {"session", o.session.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.session)},
@@ -1009,7 +1016,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
       {"warnings", sum.warnings},
       {"inputs", inputs}};
   if (auto s = write_atomic(out / "summary.json", js.dump(2) + "\n"); !s) return fail("offline: " + s.error());
-  if (auto s = write_atomic(out / "report.html", make_report(o, sum, rows, stills, inputs)); !s)
+  if (auto s = write_atomic(out / "report.html", make_report(o, sum, rows, stills, inputs, extra_html)); !s)
     return fail("offline: " + s.error());
   return sum;
 }

@@ -56,6 +56,7 @@ struct LiveOptions {
   bool hud = true;
   bool vsync = true;
   std::string record_dir;  // empty = no recording
+  std::string exercise;    // exercise the session is for (recorded in recording.json; scored by the driver)
   double seconds = 0;      // stop after this long (0 = until closed)
   bool loop = false;       // live:PATH footage: play it again at its end (long runs, benchmarks)
   int engine_cpu = -2;     // -2 = the last CPU; -1 = no pinning

@@ -13,6 +13,10 @@
 
 namespace dentar::training {
 
+// Bumped whenever the generated sessions change (cached expert references
+// are keyed by it).
+inline constexpr int kCohortGeneratorVersion = 3;
+
 struct SkillParams {
   double tremor_mm = 0.02;     // amplitude of a 9-11 Hz tremor on the hand's target, x and y
   double force_factor = 1.0;   // pressing force relative to the expert's 1.0 N
@@ -21,8 +25,14 @@ struct SkillParams {
   double pause_prob = 0.05;    // probability of a pause before a step (pedal up, hand still)
   double pause_s = 0.3;        // length of a pause
   double swap_prob = 0.0;      // probability that two neighbouring steps are done in swapped order
-  double work_s = 2.5;         // time spent drilling at one step
   double tilt_deg = 2.0;       // SD of the bur's tilt from the planned axis, per step
+  // How the step's part of the target is prepared (layer by layer along the
+  // approach, raster rows within the outline, the outline followed):
+  double sweep_mm_s = 3.0;     // speed of the bur along the sweep
+  double outline_mm = 0.05;    // SD of the outline's error per step (> 0: over-extended)
+  double depth_mm = 0.05;      // SD of the floor's error per step (> 0: too deep)
+  double skip_prob = 0.0;      // probability that a raster row of a layer is left out
+  double stop_prob = 0.0;      // probability that a step's preparation stops early (after 30-80 % of its layers)
 };
 SkillParams expert_skill();
 // Novice skill at a separation in [0, 1] (0 = the expert's values).

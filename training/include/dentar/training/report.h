@@ -11,6 +11,7 @@
 
 #include "dentar/training/assess.h"
 #include "dentar/training/feedback.h"
+#include "dentar/training/mirror_use.h"
 #include "dentar/training/outcome.h"
 
 namespace dentar::training {
@@ -25,6 +26,13 @@ struct ScoreOptions {
   std::string model;      // optional skill model (dentar assess --train ... --save)
   int reference_trials = 3;
   bool write_files = true;
+  // Mirror use (docs/formats.md "Mirror use"): per-frame camera and mirror
+  // poses (frames.csv of `dentar offline` or `dentar live --record`; empty:
+  // <session folder>/frames.csv when present) and the station geometry (the
+  // drivers read it from station.json). Either missing: mirror use unavailable.
+  std::string frames_csv;
+  std::optional<SightGeometry> sight;
+  std::string sight_source;  // where the geometry came from (report)
 };
 
 struct ScoreSummary {
@@ -37,6 +45,7 @@ struct ScoreSummary {
   ExpertReference reference;
   std::vector<FeedbackMessage> feedback;
   std::optional<Verdict> verdict;
+  MirrorUse mirror;
   std::string summary_text() const;  // a few lines for a terminal
 };
 

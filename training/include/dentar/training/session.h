@@ -70,7 +70,7 @@ struct ProcessMetrics {
   double excessive_force_N = 0;
   std::array<ForceStats, volume::kMaxMaterials> force_by_material{};  // frames removing that material
   std::vector<StepMetrics> steps;
-  bool mirror_tracked = false;  // session logs carry no mirror poses yet
+  bool mirror_tracked = false;  // mirror use measured (score_session: camera frames and station given)
   std::uint64_t watchdog_frames = 0, clamped_frames = 0;
 };
 

@@ -38,6 +38,8 @@
 
 namespace dentar::ar {
 
+struct OfflineSummary;
+
 struct OfflineOptions {
   // Footage: a video file or an image folder (frame_source.h). Empty: the
   // built-in footage is generated first into out_dir/footage with the
@@ -69,6 +71,11 @@ struct OfflineOptions {
   // encode than FFV1 at 720p, plays everywhere) or "ffv1" (lossless, slow).
   std::string video_codec = "mjpg";
   int stills = 4;  // composited frames saved as PNG for the report
+  // Called once at the end of a successful run, after frames.csv is in place
+  // and before summary.json and report.html are written. Returns HTML shown
+  // in the report under "Session score"; may add warnings to the summary.
+  // The drivers (tools/) score the session here; ar does not know training.
+  std::function<std::string(OfflineSummary&)> after_run;
   std::string validate() const;
 };
 
@@ -105,6 +112,7 @@ struct OfflineSummary {
   double wall_s = 0;
   std::vector<std::string> warnings;
   std::string out_dir;
+  std::string session, station;  // the session log replayed (empty: none) and the station file, as resolved
 };
 
 // Runs the whole job. `progress(phase, done, total)` (may be empty; phase

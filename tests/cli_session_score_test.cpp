@@ -1,0 +1,103 @@
+// End to end: the drivers score the session they ran. `dentar offline` on
+// short built-in footage and `dentar demo --simulated` write score.json and
+// score.html beside their other outputs (offline links it from report.html);
+// a session that cannot be scored leaves the run and its files intact with a
+// clear warning; a bad --exercise is refused before any work.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "testutil.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using dentar::test::CommandResult;
+
+CommandResult run(const std::string& args) { return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args); }
+
+// cut: the session removed material (the demo's does; 1 s of built-in footage may end before the bur reaches the tooth).
+void expect_sane_score(const fs::path& dir, const std::string& exercise, double max_points, bool cut) {
+  ASSERT_TRUE(fs::exists(dir / "score.json")) << dir;
+  ASSERT_TRUE(fs::exists(dir / "score.html")) << dir;
+  const auto j = nlohmann::json::parse(dentar::test::read_file(dir / "score.json"));
+  EXPECT_EQ(j["format"], "dentar-score");
+  EXPECT_EQ(j["exercise"]["name"], exercise);
+  EXPECT_EQ(j["outcome"]["max_points"].get<double>(), max_points);
+  const double pts = j["outcome"]["points"].get<double>();
+  EXPECT_GE(pts, 0.0);
+  EXPECT_LE(pts, max_points);
+  if (cut) EXPECT_GT(j["outcome"]["removed_total_mm3"].get<double>(), 0.01);
+  EXPECT_GE(j["outcome"]["removed_total_mm3"].get<double>(), 0.0);
+  EXPECT_GE(j["outcome"]["target_coverage_pct"].get<double>(), 0.0);
+  EXPECT_LE(j["outcome"]["target_coverage_pct"].get<double>(), 100.0);
+  EXPECT_GT(j["process"]["duration_s"].get<double>(), 0.1);
+  EXPECT_GE(j["process"]["drilling_s"].get<double>(), 0.0);
+  EXPECT_FALSE(j["steps"].empty());
+}
+
+TEST(CliSessionScore, OfflineOnBuiltInFootageScoresAndLinksTheReport) {
+  const fs::path out = dentar::test::temp_dir("offline_score");
+  const CommandResult r = run("offline --quiet --frames 30 --resolution 640x480 --no-video --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("score: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("/ 18.0 points (molar_access_opening)"), std::string::npos) << r.out;
+  expect_sane_score(out, "molar_access_opening", 18.0, false);
+  const std::string report = dentar::test::read_file(out / "report.html");
+  EXPECT_NE(report.find("href=\"score.html\""), std::string::npos);
+  EXPECT_NE(report.find("Session score"), std::string::npos);
+  // The built-in footage has a tracked mirror: mirror use is measured, the
+  // classes add up to the frames with the mannequin tracked.
+  const auto j = nlohmann::json::parse(dentar::test::read_file(out / "score.json"));
+  const auto& mu = j["process"]["mirror_use"];
+  ASSERT_TRUE(mu["available"].get<bool>()) << mu.dump();
+  int sum = 0;
+  for (const char* c : {"direct", "mirror", "both", "none"}) sum += mu["frames_by_class"][c].get<int>();
+  EXPECT_EQ(sum, mu["frames_tracked"].get<int>());
+  EXPECT_GT(sum, 0);
+  // Re-scoring the run folder with `dentar score` finds the session and station through summary.json.
+  const CommandResult again = run("score " + out.string() + " --quiet");
+  EXPECT_EQ(again.code, 0) << again.out;
+}
+
+TEST(CliSessionScore, DemoSimulatedScoresTheSession) {
+  const fs::path out = dentar::test::temp_dir("demo_score");
+  const CommandResult r = run("demo --simulated --voxel-mm 0.15 --samples 2000 --seconds 3 --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("score: "), std::string::npos) << r.out;
+  expect_sane_score(out, "molar_access_opening", 18.0, true);
+  // A session log alone has no camera: mirror use unavailable, not zero.
+  const auto j = nlohmann::json::parse(dentar::test::read_file(out / "score.json"));
+  EXPECT_FALSE(j["process"]["mirror_use"]["available"].get<bool>());
+  EXPECT_NE(j["process"]["mirror_use"]["why"].get<std::string>().find("no camera"), std::string::npos);
+}
+
+TEST(CliSessionScore, AFailedScoreKeepsTheRunAndWarns) {
+  const fs::path out = dentar::test::temp_dir("offline_score_fail");
+  dentar::test::write_file(out / "score.json", "{\"old\": true}");  // from an earlier run: must not pass for this one
+  // The incisor exercise cannot score a molar session: the run still succeeds.
+  const CommandResult r = run("offline --quiet --frames 12 --resolution 640x480 --no-video --exercise incisor_partial_crown --out " +
+                              out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("warning: the session was not scored (the recording is kept)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("drilled on a molar"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out / "score.json"));
+  const auto js = nlohmann::json::parse(dentar::test::read_file(out / "summary.json"));
+  EXPECT_TRUE(js["complete"].get<bool>());
+  EXPECT_EQ(js["frames"].get<int>(), 12);
+  EXPECT_NE(dentar::test::read_file(out / "report.html").find("not scored"), std::string::npos);
+}
+
+TEST(CliSessionScore, BadExerciseIsRefusedBeforeTheRun) {
+  const fs::path out = dentar::test::temp_dir("offline_bad_exercise");
+  CommandResult r = run("offline --quiet --frames 12 --exercise no_such_exercise --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--exercise no_such_exercise"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+  r = run("demo --simulated --exercise /nonexistent/ex.json --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("/nonexistent/ex.json"), std::string::npos) << r.out;
+}
+
+}  // namespace

@@ -1,0 +1,104 @@
+#include "session_score.h"
+
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "dentar/ar/station_scene.h"
+#include "dentar/training/report.h"
+
+namespace dentar::tools {
+namespace fs = std::filesystem;
+
+namespace {
+std::string fmt1(double v) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  s << v;
+  return s.str();
+}
+std::string esc(const std::string& in) {
+  std::string o;
+  for (char c : in) o += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
+  return o;
+}
+}  // namespace
+
+Result<training::SightGeometry> sight_from_station(const std::string& station_json) {
+  auto st = ar::read_station_scene(station_json);
+  if (!st) return Error{st.error()};
+  const auto& c = st->calibration;
+  training::SightGeometry g;
+  g.T_man_tooth = c.T_man_tooth;
+  g.T_mtag_mir = c.T_mtag_mir;
+  g.mirror_radius_m = c.mirror_radius_m;
+  if (c.camera.fx > 0 && c.camera.fy > 0) {
+    g.tan_half_fov_x = 0.5 * c.camera.width / c.camera.fx;
+    g.tan_half_fov_y = 0.5 * c.camera.height / c.camera.fy;
+  }
+  return g;
+}
+
+std::string check_exercise(const std::string& exercise) {
+  if (exercise.empty()) return {};
+  auto ex = exercise.find(".json") != std::string::npos ? training::load_exercise(exercise)
+                                                        : training::load_builtin_exercise(exercise);
+  return ex ? std::string() : "--exercise " + exercise + ": " + ex.error();
+}
+
+void remove_old_score(const std::string& dir) {
+  std::error_code ec;
+  for (const char* f : {"score.json", "score.html"}) fs::remove(fs::path(dir) / f, ec);
+}
+
+std::string recorded_exercise(const std::string& recording_dir) {
+  if (recording_dir.empty()) return {};
+  std::ifstream f(fs::path(recording_dir) / "recording.json");
+  if (!f) return {};
+  auto j = nlohmann::json::parse(f, nullptr, false);
+  if (!j.is_object() || !j.contains("exercise") || !j["exercise"].is_string()) return {};
+  return j["exercise"].get<std::string>();
+}
+
+DriverScore score_after_run(const DriverScoreInput& in) {
+  DriverScore r;
+  try {
+    training::ScoreOptions so;
+    so.session = in.session;
+    so.out_dir = in.out_dir;
+    so.exercise = !in.exercise.empty() ? in.exercise : recorded_exercise(in.recording);
+    if (!in.frames_csv.empty() && fs::exists(in.frames_csv)) so.frames_csv = in.frames_csv;
+    if (!in.station.empty()) {
+      auto g = sight_from_station(in.station);
+      if (g) {
+        so.sight = *g;
+        so.sight_source = in.station;
+      }
+    }
+    auto s = training::score_session(so);
+    if (!s) {
+      r.warning = "the session was not scored (the recording is kept): " + s.error();
+      return r;
+    }
+    r.ok = true;
+    r.line = "score: " + fmt1(s->outcome.points) + " / " + fmt1(s->outcome.max_points) + " points (" +
+             s->exercise_name + "), " + std::to_string(s->feedback.size()) + " feedback messages; wrote " +
+             s->report_html + ", " + s->summary_json;
+    if (!s->log_warning.empty()) r.line += "\n  score: log warning: " + s->log_warning;
+    std::ostringstream h;
+    h << "<p><b>" << fmt1(s->outcome.points) << " / " << fmt1(s->outcome.max_points) << " points</b> on "
+      << esc(s->exercise_title) << "; target coverage " << fmt1(s->outcome.target_coverage_pct) << " %, forbidden "
+      << fmt1(s->outcome.forbidden_mm3) << " mm&sup3;, " << s->feedback.size()
+      << " feedback messages. Full report: <a href=\"score.html\">score.html</a> (summary: <a href=\"score.json\">score.json</a>).</p>";
+    r.html = h.str();
+  } catch (const std::exception& e) {
+    r.warning = std::string("the session was not scored (the recording is kept): ") + e.what();
+  }
+  return r;
+}
+
+}  // namespace dentar::tools
