@@ -240,8 +240,15 @@ HealthItem TagLayoutCheck::result() const {
   }
   std::sort(moved.rbegin(), moved.rend());
   if (moved.empty()) {
-    it.message = std::to_string(disp_.size()) + " tags where the calibration put them (worst " + mm(worst) +
-                 " mm, limit " + mm(lim) + " mm)";
+    std::vector<std::pair<std::size_t, int>> seen;  // (frames, id): most seen first
+    for (const auto& [id, v] : disp_) seen.emplace_back(v.size(), id);
+    std::sort(seen.begin(), seen.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
+    std::string ids;
+    for (const auto& [n, id] : seen) ids += (ids.empty() ? "" : ", ") + std::to_string(id);
+    it.message = std::to_string(disp_.size()) + " tags where the calibration put them (most seen first: " + ids +
+                 "; worst " + mm(worst) + " mm, limit " + mm(lim) + " mm)";
     return it;
   }
   std::ostringstream os;

@@ -1,7 +1,7 @@
 // Station health at the start of `dentar live`, as a student session meets it: a real window
 // under Xvfb, generated footage paced as the camera. A healthy calibrated station; a station
 // whose calibration is stale and one of whose mannequin tags was moved after calibration
-// (footage rendered with the tag 3 mm away from where the file says); a station file made with
+// (footage rendered with a tag 3 mm away from where the file says); a station file made with
 // another camera. Skips when xvfb-run is missing, unless DENTAR_REQUIRE_GL=1.
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -52,28 +52,14 @@ nlohmann::json calibrated(nlohmann::json st, const std::string& date) {
   return st;
 }
 
-// The forehead tag: the highest mannequin tag.
-int forehead_tag(const nlohmann::json& st, std::size_t& index) {
-  double best = -1e9;
-  int id = -1;
-  const auto& tags = st["mannequin"]["tags"];
-  for (std::size_t i = 0; i < tags.size(); ++i) {
-    const double y = tags[i]["T_man_tag"]["translation_mm"][1].get<double>();
-    if (y > best) {
-      best = y;
-      id = tags[i]["id"].get<int>();
-      index = i;
-    }
-  }
-  return id;
-}
-
 nlohmann::json run_live(const fs::path& video, const fs::path& station, const fs::path& dir, int& code,
                         std::string& out) {
   const fs::path sum = dir / "live.json";
+  // Looped for 25 s with the compositor's extras off: on a loaded CI machine the pipeline may
+  // process only a few frames a second, and the tag check needs 10 frames of the mannequin.
   auto r = run_command(xvfb(kBin + " live --camera live:" + video.string() + " --station " + station.string() +
-                            " --stylus none --no-realtime --engine-cpu -1 --quiet --summary " + sum.string() +
-                            " 2>&1"));
+                            " --stylus none --no-realtime --engine-cpu -1 --no-occlusion --no-segmentation"
+                            " --no-mirror --loop --seconds 25 --quiet --summary " + sum.string() + " 2>&1"));
   code = r.code;
   out = r.out;
   return fs::exists(sum) ? read_json(sum) : nlohmann::json();
@@ -95,18 +81,6 @@ TEST(StationHealthXvfb, HealthyStaleMovedAndOtherCamera) {
                        (t / "ok").string() + " 2>&1");
   ASSERT_EQ(r.code, 0) << r.out;
   const nlohmann::json base = read_json(t / "ok" / "station.json");
-  std::size_t idx = 0;
-  const int moved = forehead_tag(base, idx);
-  ASSERT_GE(moved, 0);
-  // Footage of the same station with the forehead tag re-stuck 3 mm to the side.
-  nlohmann::json shifted = base;
-  shifted["mannequin"]["tags"][idx]["T_man_tag"]["translation_mm"][0] =
-      shifted["mannequin"]["tags"][idx]["T_man_tag"]["translation_mm"][0].get<double>() + 3.0;
-  write_json(t / "moved_station.json", shifted);
-  r = run_command(kBin + " synth --preset standard --frames 75 --resolution 640x480 --seed 4 --station " +
-                  (t / "moved_station.json").string() + " --out " + (t / "moved").string() + " 2>&1");
-  ASSERT_EQ(r.code, 0) << r.out;
-
   const std::time_t now = std::time(nullptr);
   int code = 0;
   std::string out;
@@ -116,18 +90,36 @@ TEST(StationHealthXvfb, HealthyStaleMovedAndOtherCamera) {
   auto sum = run_live(t / "ok" / "video.mkv", t / "fresh.json", t / "run1", code, out);
   ASSERT_EQ(code, 0) << out;
   EXPECT_FALSE(sum["station_health"]["instructor_needed"].get<bool>()) << sum.dump(2);
-  EXPECT_TRUE(has_item(sum, "ok: tag layout:")) << sum.dump(2);
   EXPECT_TRUE(has_item(sum, "ok: calibration age: calibrated 2 days ago")) << sum.dump(2);
+  EXPECT_TRUE(has_item(sum, "ok: tag layout:")) << sum.dump(2);
+  // Tag 3: on the upper lip, facing forward: the head camera sees it in every frame.
+  const int moved = 3;
+  std::size_t idx = 0;
+  const auto& tags = base["mannequin"]["tags"];
+  for (std::size_t i = 0; i < tags.size(); ++i)
+    if (tags[i]["id"].get<int>() == moved) idx = i;
+  // Footage of the same station with that tag re-stuck 3 mm to the side (and 1.5 mm further
+  // out of the face, so that the flat tag still clears the curved head there).
+  nlohmann::json shifted = base;
+  auto& tr = shifted["mannequin"]["tags"][idx]["T_man_tag"]["translation_mm"];
+  tr[0] = tr[0].get<double>() + 3.0;
+  tr[2] = tr[2].get<double>() + 1.5;
+  write_json(t / "moved_station.json", shifted);
+  r = run_command(kBin + " synth --preset standard --frames 75 --resolution 640x480 --seed 4 --station " +
+                  (t / "moved_station.json").string() + " --out " + (t / "moved").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
 
-  // 2. Calibrated 90 days ago (the default limit is 30), and the forehead tag moved.
-  write_json(t / "stale.json", calibrated(base, iso(now - 90 * 86400)));
+  // 2. Calibrated 90 days ago (the default limit is 30), and the most seen tag moved.
+  write_json(t / "stale.json", calibrated(base, iso(now - 90 * 86400)));  // the unmoved layout
   fs::create_directories(t / "run2");
   sum = run_live(t / "moved" / "video.mkv", t / "stale.json", t / "run2", code, out);
   ASSERT_EQ(code, 0) << out;
   EXPECT_TRUE(sum["station_health"]["instructor_needed"].get<bool>()) << sum.dump(2);
   EXPECT_TRUE(has_item(sum, "instructor needed: calibration age: calibrated 90 days ago")) << sum.dump(2);
-  EXPECT_TRUE(has_item(sum, "instructor needed: tag layout: mannequin tag " + std::to_string(moved) + " ("))
-      << "moved tag " << moved << "\n" << sum.dump(2);
+  std::string layout;
+  for (const auto& s : sum["station_health"]["items"])
+    if (s.get<std::string>().rfind("instructor needed: tag layout: mannequin tag", 0) == 0) layout = s.get<std::string>();
+  EXPECT_NE(layout.find(" " + std::to_string(moved) + " ("), std::string::npos) << sum.dump(2);
 
   // 3. A station file made with another camera is refused before the session starts.
   nlohmann::json other = calibrated(base, iso(now - 86400));
