@@ -52,7 +52,7 @@ TEST(CliCalibrate, SimulatedPivotWritesAVersionedStationFile) {
   EXPECT_NE(r.out.find("pose 12: spread"), std::string::npos) << r.out;  // live figures
   ASSERT_TRUE(fs::exists(st));
   const auto j = load(st);
-  EXPECT_EQ(j["version"], 2);
+  EXPECT_EQ(j["version"], 3);
   const auto* p = step(j, "pivot");
   ASSERT_NE(p, nullptr);
   EXPECT_TRUE((*p)["pass"].get<bool>());
@@ -137,18 +137,19 @@ TEST(CliCalibrate, PivotFromAPosesFileRecoversTheTip) {
   EXPECT_NEAR(t[2].get<double>(), 22.0, 0.15);
 }
 
-// A version 1 station file (no fixtures, no report) is read and upgraded to version 2.
+// A version 1 station file (no fixtures, no report) is read and upgraded to the current version.
 TEST(CliCalibrate, ReadsVersionOneStationFilesAndUpgradesThem) {
   const fs::path d = temp_dir("v1");
   auto j = load(std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json");
   j.erase("calibration_fixtures");
   j.erase("calibration_report");
+  j.erase("station_policy");  // a version 3 field
   j["version"] = 1;
   write_file(d / "v1.json", j.dump(2));
   CommandResult r = run("register --simulate --station " + (d / "v1.json").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("file version 1"), std::string::npos) << r.out;
-  EXPECT_EQ(load(d / "v1.json")["version"], 2);
+  EXPECT_EQ(load(d / "v1.json")["version"], 3);
   // And without any version field (written before the field existed).
   j.erase("version");
   write_file(d / "v0.json", j.dump(2));
@@ -287,11 +288,77 @@ TEST(CliCalibrate, AllStepsOnGeneratedDataMeetTheCoLocationGoal) {
   EXPECT_LE((*step(j, "check"))["figures"]["tip_error_mean_mm"].get<double>(), 0.5);
   EXPECT_GE((*step(j, "camera"))["figures"]["views"].get<double>(), 6);
   EXPECT_NE(r.out.find("rejected view 3"), std::string::npos) << r.out;  // the warped board
-  // An uncalibrated station (the nominal values) fails the check and is not written.
+  EXPECT_LE((*step(j, "check"))["figures"]["threshold_mm"].get<double>(), 0.5);
+  // An uncalibrated station (the nominal values) fails the check against the station's
+  // threshold; the failure is recorded with its date (dentar live then asks for an instructor).
   const fs::path raw = d / "raw.json";
   const CommandResult c = run("check --simulate --frames 4 --station " + raw.string());
   EXPECT_EQ(c.code, 1) << c.out;
-  EXPECT_FALSE(fs::exists(raw));
+  EXPECT_NE(c.out.find("check FAILED against this station's threshold"), std::string::npos) << c.out;
+  ASSERT_TRUE(fs::exists(raw));
+  const auto raw_j = load(raw);
+  const auto* chk = step(raw_j, "check");
+  ASSERT_NE(chk, nullptr);
+  EXPECT_FALSE((*chk)["pass"].get<bool>());
+  EXPECT_GT((*chk)["figures"]["tip_error_mean_mm"].get<double>(), 0.5);
+  EXPECT_EQ((*chk)["date"].get<std::string>().size(), 20u);
+}
+
+// `migrate` rewrites an older station file in the current version and keeps the original.
+TEST(CliCalibrate, MigrateKeepsTheOriginal) {
+  const fs::path d = temp_dir("migrate");
+  auto j = load(std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json");
+  j.erase("station_policy");
+  j.erase("hand_eye");
+  j["version"] = 2;
+  write_file(d / "s.json", j.dump(2));
+  CommandResult r = run("migrate --station " + (d / "s.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("from version 2 to 3"), std::string::npos) << r.out;
+  EXPECT_EQ(load(d / "s.json")["version"], 3);
+  EXPECT_TRUE(load(d / "s.json").contains("station_policy"));
+  EXPECT_EQ(load(d / "s.json.v2.bak")["version"], 2);
+  r = run("migrate --station " + (d / "s.json").string());
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("nothing to do"), std::string::npos) << r.out;
+  EXPECT_EQ(run("migrate --station " + (d / "none.json").string()).code, 2);
+}
+
+// Hand-eye on generated head motions with large rotations: ours recovers the camera on the
+// HMD; the result, its 1-sigma and its date go into the station file.
+TEST(CliCalibrate, HandEyeSimulatedWritesItsFields) {
+  const fs::path d = temp_dir("handeye");
+  const fs::path st = d / "station.json";
+  const CommandResult r = run("hand_eye --simulate --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("OpenCV TSAI"), std::string::npos) << r.out;
+  const auto j = load(st);
+  ASSERT_TRUE(j.contains("hand_eye"));
+  EXPECT_EQ(j["hand_eye"]["hand"], "HMD");
+  EXPECT_EQ(j["hand_eye"]["method"], "ours");
+  EXPECT_GT(j["hand_eye"]["translation_sd_mm"].get<double>(), 0.0);
+  EXPECT_LT(j["hand_eye"]["translation_sd_mm"].get<double>(), 2.0);
+  const auto t = j["hand_eye"]["T_hand_cam"]["translation_mm"];
+  EXPECT_NEAR(t[0].get<double>(), 12, 2);
+  EXPECT_NEAR(t[1].get<double>(), -35, 2);
+  EXPECT_NEAR(t[2].get<double>(), 70, 2);
+  ASSERT_NE(step(j, "hand_eye"), nullptr);
+}
+
+// A station file calibrated with one camera is refused for another, naming both.
+TEST(CliCalibrate, StationFileOfAnotherCameraIsBadInput) {
+  const fs::path d = temp_dir("othercam");
+  auto j = load(std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json");
+  j["camera"]["device_id"] = "footage camA/video.mkv";
+  write_file(d / "s.json", j.dump(2));
+  const std::string before = read_file(d / "s.json");
+  CommandResult r = run("pivot --simulate --camera live:/tmp/camB/video.mkv --station " + (d / "s.json").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("calibrated with camera \"footage camA/video.mkv\""), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\"footage camB/video.mkv\""), std::string::npos) << r.out;
+  EXPECT_EQ(read_file(d / "s.json"), before);
+  r = run("pivot --simulate --camera live:/tmp/camA/video.mkv --station " + (d / "s.json").string());
+  EXPECT_EQ(r.code, 0) << r.out;
 }
 
 }  // namespace

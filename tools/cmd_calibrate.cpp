@@ -34,6 +34,9 @@
 #include "dentar/calibration/pivot.h"
 #include "dentar/calibration/registration.h"
 #include "dentar/calibration/stylus_poses.h"
+#include "dentar/calibration/hand_eye.h"
+#include "dentar/live/calibrate_app.h"
+#include "dentar/live/station_health.h"
 
 namespace dentar::tools {
 namespace {
@@ -58,6 +61,15 @@ struct CalibCli {
   bool rational = false;
   std::string model = "auto";  // camera: auto, k1, k1k2, radtan5, rational8
   bool instructor_time = false;
+  std::string camera;  // --camera SPEC: which physical camera (camera.device_id)
+  std::string hand = "HMD";  // hand_eye: what carries the camera
+  double he_spread_deg = 170;  // --simulate hand_eye: rotation spread of the motions
+  // live
+  std::string haptic = "sim", haptic_name, pedal = "keyboard", live_steps = "pivot,register,tooth";
+  std::string screenshots, summary;
+  double pace = 1.0, seconds = 0;
+  int display = -1;
+  bool quiet = false;
 };
 
 // Thrown for bad input (exit 2); gate failures return 1 instead.
@@ -108,6 +120,7 @@ struct Session {
   std::string camera_yaml;   // written after the camera step (when it ran)
   cal::CameraFile camera_file;
   bool wrote_camera = false;
+  bool record_failure = false;  // a failed check is still written (its date and FAIL)
   explicit Session(const CalibCli& c) : cli(c), rng(c.seed * 1000003 + 11) {}
 };
 
@@ -254,7 +267,15 @@ int step_camera(Session& s) {
     selection = sel;
   }
   s.st.calibration.camera = cf.camera;
-  s.st.camera_provenance = {cf.model, cf.rms_px, cf.std_devs, cf.date, cf.device, {}};
+  const std::string keep_id = s.st.camera_provenance.device_id;
+  s.st.camera_provenance = ar::CameraProvenance{};
+  s.st.camera_provenance.model = cf.model;
+  s.st.camera_provenance.rms_px = cf.rms_px;
+  s.st.camera_provenance.std_devs = cf.std_devs;
+  s.st.camera_provenance.date = cf.date;
+  s.st.camera_provenance.device = cf.device;
+  // The camera this calibration belongs to (--camera); kept from the file otherwise.
+  s.st.camera_provenance.device_id = c.camera.empty() ? keep_id : live::camera_identity(c.camera);
   s.camera_file = cf;
   s.wrote_camera = true;
   ar::CalibrationStepReport rep{"camera", now_iso(), true, "", {}};
@@ -610,18 +631,79 @@ int step_check(Session& s) {
             << fmt(mean(err_static) * 1e3, 3) << " mm\n"
             << "  uncalibrated (nominal station file values): mean " << fmt(mean(err_nom) * 1e3, 2)
             << " mm\n";
-  const bool pass = m <= 0.5e-3;
+  const double threshold = s.st.policy.check_threshold_m;
+  const bool pass = m <= threshold;
+  std::cout << (pass ? "check PASSED" : "check FAILED") << " against this station's threshold: mean "
+            << fmt(m * 1e3, 3) << " mm " << (pass ? "<=" : ">") << " " << fmt(threshold * 1e3, 2)
+            << " mm (station_policy.check_threshold_mm); the date and the result go into the station file\n";
   ar::CalibrationStepReport rep{"check", now_iso(), pass, "", {}};
   rep.summary = "simulated end-to-end co-location, " + std::to_string(err.size()) + " frames";
   rep.figures = {{"tip_error_mean_mm", m * 1e3},
                  {"tip_error_max_mm", mx * 1e3},
                  {"static_error_mean_mm", mean(err_static) * 1e3},
                  {"uncalibrated_mean_mm", mean(err_nom) * 1e3},
-                 {"frames", static_cast<double>(err.size())}};
+                 {"frames", static_cast<double>(err.size())},
+                 {"threshold_mm", threshold * 1e3}};
+  s.st.set_step_report(rep);
   if (!pass) {
-    std::cout << "check FAILED: mean error above 0.5 mm; repeat the step with the worst figures\n";
+    std::cout << "check FAILED: mean error above the threshold; repeat the steps with the worst "
+                 "figures. The failed check is recorded: dentar live will ask for an instructor.\n";
+    s.record_failure = true;
     return 1;
   }
+  return 0;
+}
+
+// Hand-eye: the camera on the HMD (or a tracked frame). --simulate: generated motions of the
+// body with large rotations (the case where OpenCV 4.6's TSAI and DANIILIDIS fail).
+int step_hand_eye(Session& s) {
+  print_prompt("hand-eye (camera on the " + s.cli.hand + ")",
+               "Keep the board (or the mannequin) still. Turn the head about at least two different\n"
+               "axes (left-right AND up-down or tilt) while both the " + s.cli.hand +
+                   " tracker and the camera see\ntheir targets; about 12 poses.");
+  if (!s.cli.simulate)
+    throw BadInput{"hand_eye: only --simulate is built so far (the live route needs the headset's own "
+                   "tracker, which no DentAR station has yet)"};
+  const int n = s.cli.count > 0 ? s.cli.count : 12;
+  const Eigen::Isometry3d T_hand_cam_true =
+      Eigen::Translation3d(0.012, -0.035, 0.07) * Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0.1).normalized());
+  const Eigen::Isometry3d T_base_target = Eigen::Translation3d(0.1, -0.3, 0.5) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX());
+  const auto obs = cal::simulate_hand_eye(T_hand_cam_true, T_base_target, n, s.cli.he_spread_deg * kDeg, 1e-3, 0.5e-3, s.rng);
+  std::cout << "simulated " << n << " pose pairs, rotations spread up to " << fmt(s.cli.he_spread_deg, 0)
+            << " deg, noise 0.06 deg / 0.5 mm\n";
+  const cal::HandEyeResult r = cal::calibrate_hand_eye(obs);
+  std::cout << r.report() << "\n";
+  for (cal::HandEyeMethod m : {cal::HandEyeMethod::kTsai, cal::HandEyeMethod::kPark, cal::HandEyeMethod::kHoraud,
+                               cal::HandEyeMethod::kAndreff, cal::HandEyeMethod::kDaniilidis}) {
+    const cal::HandEyeResult o = cal::calibrate_hand_eye_opencv(obs, m);
+    std::cout << "  for comparison, OpenCV " << cal::hand_eye_method_name(m) << ": "
+              << (o.ok ? "error " + fmt(cal::rotation_error_rad(o.T_hand_cam, T_hand_cam_true) / kDeg, 2) + " deg, " +
+                             fmt(cal::translation_error_m(o.T_hand_cam, T_hand_cam_true) * 1e3, 2) + " mm"
+                       : "failed: " + o.message);
+    for (const auto& w : o.warnings) std::cout << " (" << w << ")";
+    std::cout << "\n";
+  }
+  if (!r.ok) return 1;
+  std::cout << "simulation truth: error " << fmt(cal::rotation_error_rad(r.T_hand_cam, T_hand_cam_true) / kDeg, 3)
+            << " deg, " << fmt(cal::translation_error_m(r.T_hand_cam, T_hand_cam_true) * 1e3, 3) << " mm\n";
+  ar::HandEyeRecord& h = s.st.hand_eye;
+  h.present = true;
+  h.T_hand_cam = r.T_hand_cam;
+  h.hand = s.cli.hand;
+  h.method = cal::hand_eye_method_name(r.method);
+  h.rot_sd_rad = r.rot_sd_rad;
+  h.trans_sd_m = r.trans_sd_m;
+  h.rms_rot_rad = r.rms_rot_rad;
+  h.rms_m = r.rms_m;
+  h.observations = static_cast<int>(obs.size());
+  h.date = now_iso();
+  ar::CalibrationStepReport rep{"hand_eye", h.date, true, "camera on the " + h.hand + ", " + std::to_string(n) + " poses", {}};
+  rep.figures = {{"rotation_sd_deg", r.rot_sd_rad / kDeg},
+                 {"translation_sd_mm", r.trans_sd_m * 1e3},
+                 {"rms_rotation_deg", r.rms_rot_rad / kDeg},
+                 {"rms_mm", r.rms_m * 1e3},
+                 {"spread_deg", r.rotation_spread_rad / kDeg},
+                 {"poses", static_cast<double>(n)}};
   s.st.set_step_report(rep);
   return 0;
 }
@@ -648,10 +730,75 @@ int run(const CalibCli& c) {
     return 0;
   }
   static const std::vector<std::string> kSteps = {"camera", "pivot", "register", "tooth", "mirror", "check"};
-  if (c.step != "all" && std::find(kSteps.begin(), kSteps.end(), c.step) == kSteps.end()) {
-    print_error(kCmd, "unknown step \"" + c.step + "\"; use camera, pivot, register, tooth, "
-                      "mirror, check or all");
+  if (c.step == "live") {
+    live::CalibrateLiveOptions lo;
+    lo.station = c.station;
+    lo.camera = c.camera;
+    lo.device = c.haptic;
+    lo.device_name = c.haptic_name;
+    lo.pedal = c.pedal;
+    lo.steps.clear();
+    std::stringstream ss(c.live_steps);
+    for (std::string w; std::getline(ss, w, ',');)
+      if (!w.empty()) lo.steps.push_back(w);
+    lo.seed = c.seed;
+    lo.pace = c.pace;
+    lo.seconds = c.seconds;
+    lo.screenshot_dir = c.screenshots;
+    lo.summary_path = c.summary;
+    lo.display = c.display;
+    lo.quiet = c.quiet;
+    if (std::string v = lo.validate(); !v.empty()) {
+      print_error(kCmd, "live: " + v);
+      return 2;
+    }
+    auto r = live::run_calibrate_live(lo);
+    if (!r) {
+      print_error(kCmd, r.error());
+      return 2;
+    }
+    for (const auto& st : r->steps)
+      std::cout << "step " << st.step << ": " << (st.pass ? "passed" : "did NOT pass") << " in " << fmt(st.seconds, 1)
+                << " s (" << st.items << " items, " << st.refused << " touches refused)\n";
+    if (r->truth_tip_error_mm >= 0)
+      std::cout << "simulation truth: tip error " << fmt(r->truth_tip_error_mm, 3) << " mm, error at the crown "
+                << fmt(r->truth_tooth_error_mm, 3) << " mm, bur tip vs tooth mean "
+                << fmt(r->truth_static_colocation_mean_mm, 3) << " mm (p99 " << fmt(r->truth_static_colocation_p99_mm, 3)
+                << " mm)\n";
+    std::cout << (r->written ? "updated " + c.station : c.station + " was NOT written (" + r->stop_reason + ")") << "\n";
+    return r->written ? 0 : 1;
+  }
+  if (c.step != "all" && c.step != "hand_eye" && c.step != "migrate" &&
+      std::find(kSteps.begin(), kSteps.end(), c.step) == kSteps.end()) {
+    print_error(kCmd, "unknown step \"" + c.step + "\"; use camera, hand_eye, pivot, register, tooth, "
+                      "mirror, check, all or migrate");
     return 2;
+  }
+  if (c.step == "migrate") {
+    // Rewrites an older station file in the current version; the original is kept beside it.
+    auto r = ar::read_station_scene(c.station);
+    if (!r) {
+      print_error(kCmd, r.error());
+      return 2;
+    }
+    if (r->migrated_from == 0) {
+      std::cout << c.station << " is already version " << ar::kStationFileVersion << ": nothing to do\n";
+      return 0;
+    }
+    const std::string backup = c.station + ".v" + std::to_string(r->migrated_from) + ".bak";
+    std::error_code ec;
+    fs::copy_file(c.station, backup, fs::copy_options::overwrite_existing, ec);
+    if (ec) {
+      print_error(kCmd, c.station + ": cannot keep the original as " + backup + ": " + ec.message() + "; nothing written");
+      return 1;
+    }
+    if (Status st = ar::write_station_scene(*r, c.station); !st) {
+      print_error(kCmd, st.error());
+      return 1;
+    }
+    std::cout << "migrated " << c.station << " from version " << r->migrated_from << " to "
+              << ar::kStationFileVersion << " (the original is kept as " << backup << ")\n";
+    return 0;
   }
   Session s(c);
   try {
@@ -659,7 +806,18 @@ int run(const CalibCli& c) {
       auto r = ar::read_station_scene(c.station);
       if (!r) throw BadInput{r.error()};
       s.st = std::move(r).value();
-      std::cout << "station " << c.station << " (file version " << s.st.version << ")\n";
+      std::cout << "station " << c.station << " (file version " << s.st.version
+                << (s.st.migrated_from ? ", migrated to " + std::to_string(ar::kStationFileVersion) + " on writing" : "")
+                << ")\n";
+      // A station file made with another camera: its intrinsics and placement are not this one's.
+      const std::string& want = s.st.camera_provenance.device_id;
+      if (!c.camera.empty() && c.step != "camera" && c.step != "all" && !want.empty()) {
+        const std::string have = live::camera_identity(c.camera);
+        if (!have.empty() && have != want)
+          throw BadInput{c.station + ": calibrated with camera \"" + want + "\", but --camera " + c.camera +
+                         " is \"" + have + "\": run `dentar calibrate camera` for this camera first, or use "
+                         "the station file made for it"};
+      }
     } else {
       s.st = ar::default_station_scene();
       std::cout << "station " << c.station << " does not exist yet: starting from the built-in "
@@ -680,6 +838,7 @@ int run(const CalibCli& c) {
       const auto t0 = std::chrono::steady_clock::now();
       int rc = 0;
       if (step == "camera") rc = step_camera(s);
+      else if (step == "hand_eye") rc = step_hand_eye(s);
       else if (step == "pivot") rc = step_pivot(s);
       else if (step == "register") rc = step_register(s);
       else if (step == "tooth") rc = step_tooth(s);
@@ -688,6 +847,13 @@ int run(const CalibCli& c) {
       const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::cout << "(step " << step << ": " << fmt(secs * 1e3, 1)
                 << " ms wall time: data (simulated or read), live figures and the final solve)\n";
+      if (rc != 0 && s.record_failure) {
+        // The failed check is recorded (date, FAIL, figures) so the station is not handed out.
+        s.st.version = ar::kStationFileVersion;
+        if (Status st = ar::write_station_scene(s.st, c.station); !st) print_error(kCmd, st.error());
+        else std::cout << "recorded the FAILED " << step << " in " << c.station << "\n";
+        return rc;
+      }
       if (rc != 0) {
         std::cout << "step " << step << " did not pass its gates: " << c.station
                   << " was NOT written. Fix what the message says and run `dentar calibrate "
@@ -744,12 +910,39 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "station registration (divots), tooth placement (landmarks), mirror, and an end-to-end\n"
       "co-location check. Each step prompts, prints live quality figures, and updates ONE\n"
       "station file only when its gates pass (docs/calibration.md).\n"
-      "Synopsis: dentar calibrate <camera|pivot|register|tooth|mirror|check|all>\n"
+      "Synopsis: dentar calibrate <camera|hand_eye|pivot|register|tooth|mirror|check|all|live|migrate>\n"
       "            [--station FILE] [--simulate [--seed S]] [--images DIR --board SPEC]\n"
       "            [--model auto|k1|k1k2|radtan5|rational8]\n"
       "            [--import CAMERA.yaml] [--camera-out FILE] [--export-ros FILE]\n"
-      "            [--poses FILE.csv] [--count N] [--instructor-time]");
-  s->add_option("step", c->step, "camera, pivot, register, tooth, mirror, check or all");
+      "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]");
+  s->add_option("step", c->step,
+                "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live "
+                "(pivot, register, tooth in a window with the stylus), or migrate (rewrite an older "
+                "station file in the current version, keeping the original)");
+  s->add_option("--camera", c->camera,
+                "the camera this station belongs to (camera:N, /dev/videoN, live:FILE): the camera step "
+                "records it (camera.device_id); the other steps refuse a station file of another camera");
+  s->add_option("--haptic", c->haptic,
+                "live: the stylus: sim (the simulated instructor) or a device kind (touch, omni, omega, hd, "
+                "dhd, ...; see `dentar devices`)")
+      ->capture_default_str();
+  s->add_option("--haptic-name", c->haptic_name, "live: the device's configuration name or serial");
+  s->add_option("--pedal", c->pedal, "live: keyboard (space bar) or a pedal spec (auto, vec, usb:VID:PID, evdev:PATH)")
+      ->capture_default_str();
+  s->add_option("--steps", c->live_steps, "live: the steps to run, in order (pivot,register,tooth)")
+      ->capture_default_str();
+  s->add_option("--pace", c->pace, "live --haptic sim: the instructor's travel speed (1 = human pace)")
+      ->check(CLI::Range(0.25, 20.0))
+      ->capture_default_str();
+  s->add_option("--seconds", c->seconds, "live: give up after S seconds (0 = no limit)")->check(CLI::NonNegativeNumber);
+  s->add_option("--screenshots", c->screenshots, "live: save the window at the end of each step into DIR/<step>.png");
+  s->add_option("--summary", c->summary, "live: write the run's summary JSON here");
+  s->add_option("--display", c->display, "live: monitor for fullscreen (-1 = a window)");
+  s->add_flag("--quiet", c->quiet, "live: no progress lines");
+  s->add_option("--hand", c->hand, "hand_eye: what carries the camera (HMD, tracked frame)")->capture_default_str();
+  s->add_option("--he-spread", c->he_spread_deg, "--simulate hand_eye: rotation spread of the head motions, degrees")
+      ->check(CLI::Range(10.0, 180.0))
+      ->capture_default_str();
   s->add_option("--station", c->station, "Station file to read and update")->capture_default_str();
   s->add_flag("--simulate", c->simulate,
               "Generated data: the footage generator stands in for the camera, a simulated "
@@ -803,6 +996,9 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "  dentar calibrate all --simulate --station out/station.json\n"
       "  dentar calibrate camera --images photos/ --board chessboard:9x6:25 --station station.json\n"
       "  dentar calibrate pivot --poses pivot.csv --station station.json\n"
+      "  dentar calibrate live --haptic touch --pedal auto --station station.json   # in a window\n"
+      "  dentar calibrate live --haptic sim --camera live:out/clip/video.mkv --station out/s.json\n"
+      "  dentar calibrate migrate --station old_station.json\n"
       "  dentar calibrate --instructor-time");
   s->callback([c, &exit_code] {
     if (c->step.empty() && !c->instructor_time) {

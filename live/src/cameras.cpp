@@ -10,8 +10,30 @@
 #include <vector>
 
 #include "dentar/live/live_app.h"
+#include "dentar/live/station_health.h"
 
 namespace dentar::live {
+
+std::string camera_identity(const std::string& spec) {
+  namespace fs = std::filesystem;
+  std::string dev;
+  if (spec.rfind("camera:", 0) == 0) dev = "/dev/video" + spec.substr(7);
+  else if (spec.rfind("/dev/video", 0) == 0) dev = spec;
+  if (dev.empty()) {
+    const std::string path = spec.rfind("live:", 0) == 0 ? spec.substr(5) : spec;
+    // The folder and the file (synth writes every clip as <out>/video.mkv).
+    const fs::path p = fs::absolute(path).lexically_normal();
+    return "footage " + (p.parent_path().filename() / p.filename()).string();
+  }
+  const int fd = ::open(dev.c_str(), O_RDWR | O_NONBLOCK);
+  if (fd < 0) return {};
+  v4l2_capability cap{};
+  std::string id;
+  if (ioctl(fd, VIDIOC_QUERYCAP, &cap) == 0)
+    id = std::string(reinterpret_cast<const char*>(cap.card)) + " @ " + reinterpret_cast<const char*>(cap.bus_info);
+  ::close(fd);
+  return id;
+}
 
 std::string list_cameras() {
   namespace fs = std::filesystem;

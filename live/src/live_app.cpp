@@ -43,6 +43,7 @@
 #include "dentar/haptics/session_log.h"
 #include "dentar/haptics/simulated_device.h"
 #include "dentar/live/pen_device.h"
+#include "dentar/live/station_health.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/material.h"
 #include "dentar/volume/procedural_tooth.h"
@@ -265,6 +266,7 @@ std::string LiveSummary::json() const {
                   {"after_60s", rss_60s_mb}, {"max_after_60s", rss_max_after_60s_mb},
                   {"growth_after_60s", rss_60s_mb > 0 ? rss_end_mb - rss_60s_mb : 0.0}}},
       {"overlay_hidden_ms_after_stall", overlay_hidden_ms_after_stall},
+      {"station_health", {{"instructor_needed", instructor_needed}, {"items", station_health}}},
       {"warnings", warnings}};
   return j.dump(2) + "\n";
 }
@@ -318,6 +320,12 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       sum.warnings.push_back(sizes + "; intrinsics scaled: calibrate this camera for accurate placement");
     }
   }
+
+  // ---- station health (station_health.h): file checks now, tags and stylus tip per frame ----
+  StationHealthMonitor health(st, builtin, static_cast<double>(std::time(nullptr)), camera_identity(o.camera));
+  if (auto r = health.refusal()) return Error{"live: " + o.station + ": " + r->message};
+  for (const auto& it : health.health().items)
+    if (it.level != HealthLevel::kOk) say("station health: " + it.check + ": " + it.message);
 
   // ---- tooth, stylus, engine ----
   std::optional<volume::VoxelVolume> vol;
@@ -598,6 +606,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         err = std::string("pipeline threw: ") + e.what();
       }
       process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      for (const auto& it : health.on_frame(pipe->get()->last_detections(), f.steady_s, rec.T_dev_sty,
+                                            in.stylus_valid)) {
+        say("station health: " + it.check + ": " + health_level_name(it.level) + ": " + it.message);
+        if (recorder) recorder->log("station health: " + it.check + ": " + health_level_name(it.level) + ": " + it.message);
+      }
       if (pen != nullptr) {
         const bool ok = rec.man_state != 2 && rec.pen_state != 2;
         const Eigen::Isometry3d T_dev_sty = (rec.T_cam_man * st.calibration.T_man_dev).inverse() * rec.T_cam_ptag *
@@ -751,6 +764,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       ImGui::SetNextWindowBgAlpha(0.6f);
       ImGui::Begin("DentAR", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
       const ImVec4 col[] = {ImVec4(0.3f, 1, 0.3f, 1), ImVec4(1, 0.85f, 0.2f, 1), ImVec4(1, 0.3f, 0.3f, 1)};
+      {
+        const StationHealth h = health.health();
+        ImGui::TextColored(col[static_cast<int>(h.worst())], "%s", h.headline().c_str());
+      }
       ImGui::TextColored(col[r.man_state], "mannequin: %s", kState[r.man_state]);
       ImGui::SameLine();
       ImGui::TextColored(col[r.mir_state], "  mirror: %s", kState[r.mir_state]);
@@ -875,6 +892,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   sum.rss_end_mb = rss_mb();
   if (!sum.realtime_granted && o.realtime)
     sum.warnings.push_back("engine: " + es.realtime_note);
+  for (const auto& it : health.health().items) {
+    sum.station_health.push_back(std::string(health_level_name(it.level)) + ": " + it.check + ": " + it.message);
+    if (it.level != HealthLevel::kOk) sum.warnings.push_back("station health: " + it.check + ": " + it.message);
+  }
+  sum.instructor_needed = health.health().instructor_needed();
   if (recorder) {
     recorder->log("stopped: " + stop_reason);
     recorder->close();

@@ -158,6 +158,7 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   auto tf = tracker_.track(*in.image, in.capture_time_s, in.capture_time_s + options_.predict_s,
                            in.discovery, in.index);
   if (!tf) return Error{"tracking frame " + std::to_string(in.index) + ": " + tf.error()};
+  last_tags_ = tf->tags;
   r.track_ms = ms_since(t0);
   r.detect_ms = tf->timing.detect_ms;
   r.pose_ms = tf->timing.pose_ms;

@@ -248,11 +248,11 @@ std::string CalibrationFixtures::validate() const {
 }
 
 void StationScene::set_step_report(const CalibrationStepReport& r) {
-  static const char* const kOrder[] = {"camera", "pivot", "register", "tooth", "mirror", "check"};
+  static const char* const kOrder[] = {"camera", "hand_eye", "pivot", "register", "tooth", "mirror", "check"};
   auto rank = [](const std::string& step) {
-    for (int i = 0; i < 6; ++i)
+    for (int i = 0; i < 7; ++i)
       if (step == kOrder[i]) return i;
-    return 6;
+    return 7;
   };
   for (auto& e : calibration_report)
     if (e.step == r.step) {
@@ -270,8 +270,34 @@ const CalibrationStepReport* StationScene::step_report(const std::string& step) 
   return nullptr;
 }
 
+std::string StationPolicy::validate() const {
+  std::ostringstream os;
+  if (!(check_threshold_m > 0 && check_threshold_m <= 10e-3))
+    os << "station_policy.check_threshold_mm = " << check_threshold_m * 1e3 << " must be in (0, 10]";
+  else if (!(max_age_days > 0 && max_age_days <= 3650))
+    os << "station_policy.max_age_days = " << max_age_days << " must be in (0, 3650]";
+  else if (!(tag_moved_m > 0 && tag_moved_m <= 50e-3))
+    os << "station_policy.tag_moved_mm = " << tag_moved_m * 1e3 << " must be in (0, 50]";
+  else if (!(tip_check_m > 0 && tip_check_m <= 10e-3))
+    os << "station_policy.tip_check_mm = " << tip_check_m * 1e3 << " must be in (0, 10]";
+  else if (health_divot < 0 || health_divot > 63)
+    os << "station_policy.health_divot = " << health_divot << " must be in 0..63";
+  return os.str();
+}
+
 std::string StationScene::validate() const {
   if (std::string e = mannequin.validate(); !e.empty()) return e;
+  if (std::string e = policy.validate(); !e.empty()) return e;
+  if (!fixtures.divots_man.empty() && policy.health_divot >= static_cast<int>(fixtures.divots_man.size()))
+    return "station_policy.health_divot = " + std::to_string(policy.health_divot) +
+           " names no divot (calibration_fixtures.divots_mm has " +
+           std::to_string(fixtures.divots_man.size()) + ")";
+  if (hand_eye.present) {
+    if (std::string e = calibration::check_rigid(hand_eye.T_hand_cam, "hand_eye.T_hand_cam"); !e.empty())
+      return e;
+    if (hand_eye.T_hand_cam.translation().norm() > 1.0)
+      return "hand_eye.T_hand_cam: the camera is over 1 m from the body that carries it";
+  }
   if (std::string e = fixtures.validate(); !e.empty()) return e;
   if (std::string e = mirror.validate(); !e.empty()) return e;
   if (std::string e = calibration.validate(); !e.empty()) return "calibration: " + e;
@@ -488,6 +514,7 @@ std::string station_scene_to_json(const StationScene& s) {
     if (!cp.date.empty()) j["camera"]["date"] = cp.date;
     if (!cp.device.empty()) j["camera"]["device"] = cp.device;
   }
+  if (!cp.device_id.empty()) j["camera"]["device_id"] = cp.device_id;
   j["tag_family"] = tag_family_name(s.family);
   j["mannequin"] = {
       {"head_centre_mm", v3(m.head_centre_m, 1e3)},
@@ -527,6 +554,23 @@ std::string station_scene_to_json(const StationScene& s) {
                    {"figures", figs}});
   }
   j["calibration_report"] = rep;
+  if (s.hand_eye.present) {
+    const HandEyeRecord& h = s.hand_eye;
+    ojson hj = {{"T_hand_cam", pose_json(h.T_hand_cam)}, {"hand", h.hand}, {"method", h.method}};
+    if (h.rot_sd_rad >= 0) hj["rotation_sd_deg"] = h.rot_sd_rad / kDeg;
+    if (h.trans_sd_m >= 0) hj["translation_sd_mm"] = h.trans_sd_m * 1e3;
+    hj["rms_rotation_deg"] = h.rms_rot_rad / kDeg;
+    hj["rms_mm"] = h.rms_m * 1e3;
+    hj["observations"] = h.observations;
+    hj["date"] = h.date;
+    j["hand_eye"] = hj;
+  }
+  const StationPolicy& po = s.policy;
+  j["station_policy"] = {{"check_threshold_mm", po.check_threshold_m * 1e3},
+                         {"max_age_days", po.max_age_days},
+                         {"tag_moved_mm", po.tag_moved_m * 1e3},
+                         {"tip_check_mm", po.tip_check_m * 1e3},
+                         {"health_divot", po.health_divot}};
   // No pen tags: no "pen" block (a file without one reads as the default pen).
   if (!s.pen.tags.empty())
     j["pen"] = {{"flag_size_mm", s.pen.flag_size_m * 1e3},
@@ -548,7 +592,8 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     StationScene s;
     check_keys(j, "",
                {"format", "version", "name", "camera", "tag_family", "mannequin", "tooth", "mirror",
-                "haptics", "calibration_fixtures", "calibration_report", "pen"});
+                "haptics", "calibration_fixtures", "calibration_report", "pen", "hand_eye",
+                "station_policy"});
     if (req(j, "", "format") != "dentar-station")
       throw ParseError{"format", "must be \"dentar-station\""};
     // Files without a version are version 1 (written before the field was required).
@@ -558,7 +603,16 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     if (s.version < 2)
       for (const char* key : {"calibration_fixtures", "calibration_report"})
         if (j.contains(key))
-          throw ParseError{key, "needs version 2 (set \"version\": 2)"};
+          throw ParseError{key, "needs version 2 or later (set \"version\": " +
+                                    std::to_string(kStationFileVersion) + ")"};
+    if (s.version < 3)
+      for (const char* key : {"hand_eye", "station_policy"})
+        if (j.contains(key))
+          throw ParseError{key, "needs version 3 (set \"version\": 3)"};
+    if (s.version < 3 && j.contains("camera") && j["camera"].is_object() &&
+        j["camera"].contains("device_id"))
+      throw ParseError{"camera.device_id", "needs version 3 (set \"version\": 3)"};
+    if (s.version < kStationFileVersion) s.migrated_from = s.version;
     if (auto it = j.find("name"); it != j.end()) {
       if (!it->is_string()) throw ParseError{"name", "must be a string"};
       s.name = it->get<std::string>();
@@ -568,7 +622,7 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     auto& cp = s.camera_provenance;
     if (cam0.is_object() && cam0.contains("file")) {
       // A referenced camera file (OpenCV FileStorage or ROS camera_info YAML).
-      check_keys(cam0, "camera", {"file"});
+      check_keys(cam0, "camera", {"file", "device_id"});
       if (!cam0["file"].is_string() || cam0["file"].get<std::string>().empty())
         throw ParseError{"camera.file", "must be a non-empty file name"};
       cp.file = cam0["file"].get<std::string>();
@@ -584,6 +638,12 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
       cp.std_devs = cf->std_devs;
       cp.date = cf->date;
       cp.device = cf->device;
+    }
+    if (cam0.is_object() && cam0.contains("device_id")) {
+      if (!cam0["device_id"].is_string() || cam0["device_id"].get<std::string>().size() > 256)
+        throw ParseError{"camera.device_id", "must be a string of at most 256 characters"};
+      cp.device_id = cam0["device_id"].get<std::string>();
+      cam.erase("device_id");
     }
     check_keys(cam, "camera",
                {"width", "height", "fx", "fy", "cx", "cy", "dist", "model", "rms_px", "std_devs",
@@ -720,6 +780,46 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
       }
     }
 
+    if (auto it = j.find("hand_eye"); it != j.end()) {
+      const json& h = *it;
+      check_keys(h, "hand_eye",
+                 {"T_hand_cam", "hand", "method", "rotation_sd_deg", "translation_sd_mm",
+                  "rms_rotation_deg", "rms_mm", "observations", "date"});
+      HandEyeRecord& he = s.hand_eye;
+      he.present = true;
+      he.T_hand_cam = pose(req(h, "hand_eye", "T_hand_cam"), "hand_eye.T_hand_cam");
+      auto str = [&](const char* key, std::string& out) {
+        const json& v = req(h, "hand_eye", key);
+        if (!v.is_string()) throw ParseError{std::string("hand_eye.") + key, "must be a string"};
+        out = v.get<std::string>();
+      };
+      str("hand", he.hand);
+      str("method", he.method);
+      str("date", he.date);
+      if (h.contains("rotation_sd_deg"))
+        he.rot_sd_rad = number(h["rotation_sd_deg"], "hand_eye.rotation_sd_deg", 0, 180) * kDeg;
+      if (h.contains("translation_sd_mm"))
+        he.trans_sd_m = number(h["translation_sd_mm"], "hand_eye.translation_sd_mm", 0, 1000) * 1e-3;
+      he.rms_rot_rad = number(req(h, "hand_eye", "rms_rotation_deg"), "hand_eye.rms_rotation_deg", 0, 180) * kDeg;
+      he.rms_m = number(req(h, "hand_eye", "rms_mm"), "hand_eye.rms_mm", 0, 1000) * 1e-3;
+      he.observations = integer(req(h, "hand_eye", "observations"), "hand_eye.observations", 0, 100000);
+    }
+    if (auto it = j.find("station_policy"); it != j.end()) {
+      const json& pj = *it;
+      check_keys(pj, "station_policy",
+                 {"check_threshold_mm", "max_age_days", "tag_moved_mm", "tip_check_mm", "health_divot"});
+      StationPolicy& po = s.policy;
+      if (pj.contains("check_threshold_mm"))
+        po.check_threshold_m = number(pj["check_threshold_mm"], "station_policy.check_threshold_mm", 0.01, 10) * 1e-3;
+      if (pj.contains("max_age_days"))
+        po.max_age_days = number(pj["max_age_days"], "station_policy.max_age_days", 0.001, 3650);
+      if (pj.contains("tag_moved_mm"))
+        po.tag_moved_m = number(pj["tag_moved_mm"], "station_policy.tag_moved_mm", 0.01, 50) * 1e-3;
+      if (pj.contains("tip_check_mm"))
+        po.tip_check_m = number(pj["tip_check_mm"], "station_policy.tip_check_mm", 0.01, 10) * 1e-3;
+      if (pj.contains("health_divot"))
+        po.health_divot = integer(pj["health_divot"], "station_policy.health_divot", 0, 63);
+    }
     if (auto it = j.find("pen"); it != j.end()) {
       check_keys(*it, "pen", {"flag_size_mm", "T_ptag_tip", "tags"});
       s.pen.flag_size_m = number(req(*it, "pen", "flag_size_mm"), "pen.flag_size_mm", 5, 200) * 1e-3;

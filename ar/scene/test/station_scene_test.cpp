@@ -100,7 +100,10 @@ TEST(StationScene, BadFieldsAreNamed) {
   };
   const Case cases[] = {
       {"/format", "nope", "format"},
-      {"/version", 3, "version"},
+      {"/version", 4, "version"},
+      {"/station_policy/check_threshold_mm", 50.0, "station_policy.check_threshold_mm"},
+      {"/station_policy/health_divot", 20, "station_policy.health_divot"},
+      {"/camera/device_id", 7, "camera.device_id"},
       {"/camera/fx", -3.0, "camera.fx"},
       {"/camera/dist", nlohmann::json::array({1, 2}), "camera.dist"},
       {"/tag_family", "tag25h9", "tag_family"},
@@ -138,6 +141,97 @@ TEST(StationScene, BadFieldsAreNamed) {
   auto f = read_station_scene("/nonexistent/station.json");
   ASSERT_FALSE(f.ok());
   EXPECT_NE(f.error().find("/nonexistent/station.json"), std::string::npos);
+}
+
+// Version 3: the hand-eye result with its uncertainty and date, the camera's identity and the
+// station policy survive a round trip.
+TEST(StationScene, VersionThreeFieldsRoundTrip) {
+  StationScene s = default_station_scene();
+  s.camera_provenance.device_id = "HD Webcam C615 @ usb-0000:00:14.0-1";
+  s.hand_eye.present = true;
+  s.hand_eye.T_hand_cam = Eigen::Translation3d(0.01, -0.02, 0.08) *
+                          Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized());
+  s.hand_eye.hand = "HMD";
+  s.hand_eye.method = "ours";
+  s.hand_eye.rot_sd_rad = 0.001;
+  s.hand_eye.trans_sd_m = 0.0004;
+  s.hand_eye.rms_rot_rad = 0.002;
+  s.hand_eye.rms_m = 0.0007;
+  s.hand_eye.observations = 12;
+  s.hand_eye.date = "2026-11-25T10:00:00Z";
+  s.policy.check_threshold_m = 0.3e-3;
+  s.policy.max_age_days = 14;
+  s.policy.health_divot = 2;
+  s.set_step_report({"hand_eye", "2026-11-25T10:00:00Z", true, "12 poses", {{"rot_sd_deg", 0.06}}});
+  s.set_step_report({"camera", "2026-11-25T09:00:00Z", true, "", {}});
+  s.set_step_report({"check", "2026-11-25T11:00:00Z", true, "", {{"threshold_mm", 0.3}}});
+  auto r = parse_station_scene(station_scene_to_json(s), "v3.json");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->version, kStationFileVersion);
+  EXPECT_EQ(r->migrated_from, 0);
+  EXPECT_EQ(r->camera_provenance.device_id, s.camera_provenance.device_id);
+  ASSERT_TRUE(r->hand_eye.present);
+  EXPECT_LT((r->hand_eye.T_hand_cam.matrix() - s.hand_eye.T_hand_cam.matrix()).norm(), 1e-12);
+  EXPECT_EQ(r->hand_eye.hand, "HMD");
+  EXPECT_NEAR(r->hand_eye.rot_sd_rad, 0.001, 1e-15);
+  EXPECT_NEAR(r->hand_eye.trans_sd_m, 0.0004, 1e-15);
+  EXPECT_EQ(r->hand_eye.observations, 12);
+  EXPECT_EQ(r->hand_eye.date, "2026-11-25T10:00:00Z");
+  EXPECT_NEAR(r->policy.check_threshold_m, 0.3e-3, 1e-15);
+  EXPECT_EQ(r->policy.max_age_days, 14);
+  EXPECT_EQ(r->policy.health_divot, 2);
+  // Report entries stay in workflow order, hand_eye after camera.
+  ASSERT_EQ(r->calibration_report.size(), 3u);
+  EXPECT_EQ(r->calibration_report[0].step, "camera");
+  EXPECT_EQ(r->calibration_report[1].step, "hand_eye");
+  EXPECT_EQ(r->calibration_report[2].step, "check");
+}
+
+// Older files are read and migrated: the new parts get their defaults, migrated_from says
+// from which version, and writing gives the current version. A v3 field in an older file is
+// refused with the version it needs.
+TEST(StationScene, OlderVersionsAreMigrated) {
+  nlohmann::json j = nlohmann::json::parse(station_scene_to_json(default_station_scene()));
+  j.erase("hand_eye");
+  j.erase("station_policy");
+  for (int v : {2, 1, 0}) {
+    nlohmann::json old = j;
+    if (v < 2) {
+      old.erase("calibration_fixtures");
+      old.erase("calibration_report");
+    }
+    if (v == 0) old.erase("version");
+    else old["version"] = v;
+    auto r = parse_station_scene(old.dump(), "old.json");
+    ASSERT_TRUE(r.ok()) << v << ": " << r.error();
+    EXPECT_EQ(r->version, std::max(v, 1));
+    EXPECT_EQ(r->migrated_from, std::max(v, 1));
+    EXPECT_FALSE(r->hand_eye.present);
+    EXPECT_NEAR(r->policy.check_threshold_m, StationPolicy{}.check_threshold_m, 0);
+    const nlohmann::json out = nlohmann::json::parse(station_scene_to_json(*r));
+    EXPECT_EQ(out["version"], kStationFileVersion);
+    EXPECT_TRUE(out.contains("station_policy"));
+  }
+  nlohmann::json bad = j;
+  bad["version"] = 2;
+  bad["station_policy"] = {{"max_age_days", 5}};
+  auto r = parse_station_scene(bad.dump(), "old.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("station_policy: needs version 3"), std::string::npos) << r.error();
+  bad = j;
+  bad["version"] = 2;
+  bad["camera"]["device_id"] = "cam";
+  r = parse_station_scene(bad.dump(), "old.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("camera.device_id: needs version 3"), std::string::npos) << r.error();
+  // A hand-eye block that is not rigid is named.
+  nlohmann::json he = nlohmann::json::parse(station_scene_to_json(default_station_scene()));
+  he["hand_eye"] = {{"T_hand_cam", {{"translation_mm", {0, 0, 2000}}, {"rvec_deg", {0, 0, 0}}}},
+                    {"hand", "HMD"}, {"method", "ours"}, {"rms_rotation_deg", 0.1}, {"rms_mm", 0.2},
+                    {"observations", 8}, {"date", "2026-11-25T10:00:00Z"}};
+  r = parse_station_scene(he.dump(), "he.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("hand_eye.T_hand_cam"), std::string::npos) << r.error();
 }
 
 }  // namespace

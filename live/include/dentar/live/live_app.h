@@ -99,6 +99,9 @@ struct LiveSummary {
   // (sampled once a second), MB; 0 in runs shorter than a minute.
   double rss_60s_mb = 0, rss_max_after_60s_mb = 0;
   int overlay_hidden_ms_after_stall = -1;  // measured with the stall hook
+  // Station health at the end (station_health.h): "level: check: message" per item.
+  std::vector<std::string> station_health;
+  bool instructor_needed = false;
   std::vector<std::string> warnings;
   std::string json() const;
 };

@@ -152,6 +152,9 @@ class FramePipeline {
   Compositor& compositor() { return compositor_; }
   const StationScene& station() const { return station_; }
   const PipelineOptions& options() const { return options_; }
+  // The last processed frame's tag detections (full-image OpenCV px): for checks that look
+  // at single tags (live station health: did a mannequin tag move?). Valid until the next process().
+  const std::vector<DetectedTag>& last_detections() const { return last_tags_; }
 
  private:
   FramePipeline(StationScene st, PipelineOptions o, Tracker t, Compositor c)
@@ -160,6 +163,7 @@ class FramePipeline {
   PipelineOptions options_;
   Tracker tracker_;
   Compositor compositor_;
+  std::vector<DetectedTag> last_tags_;
 };
 
 // Column-major 4x4 (HapticSnapshot) to an isometry.

@@ -104,6 +104,10 @@ struct CameraProvenance {
   double rms_px = -1;  // calibration reprojection RMS, px; < 0 unknown
   std::vector<double> std_devs;  // fx fy cx cy k1 k2 p1 p2 k3 (px for the first four)
   std::string date, device;
+  // v3: which physical camera this is (V4L2 "card @ bus" as ar::FrameSource::identity() reports,
+  // or the footage file for live:PATH); empty when unknown. A station file calibrated with
+  // another camera is refused by `dentar live` and `dentar calibrate` (station health).
+  std::string device_id;
   // Non-empty when the station references a camera file ({"file": "cam.yaml"}) instead of
   // embedding the numbers: the path as written (relative to the station file's directory).
   std::string file;
@@ -111,7 +115,7 @@ struct CameraProvenance {
 
 // One step of the station calibration as recorded in the file ("calibration_report").
 struct CalibrationStepReport {
-  std::string step;  // camera, pivot, register, tooth, mirror, check
+  std::string step;  // camera, hand_eye, pivot, register, tooth, mirror, check
   std::string date;  // ISO 8601 UTC
   bool pass = false;
   std::string summary;  // one line for people
@@ -119,12 +123,42 @@ struct CalibrationStepReport {
   std::vector<std::pair<std::string, double>> figures;
 };
 
+// v3: the camera fixed to the HMD or to a tracked frame (hand-eye, calibration/hand_eye.h).
+// File: "hand_eye" (optional).
+struct HandEyeRecord {
+  bool present = false;
+  Eigen::Isometry3d T_hand_cam = Eigen::Isometry3d::Identity();  // camera on the carrying body
+  std::string hand;    // what carries the camera: "HMD", "tracked frame", ...
+  std::string method;  // "ours" (linear start + LM) or an OpenCV method name
+  double rot_sd_rad = -1, trans_sd_m = -1;  // 1 sigma, worst axis; < 0 unknown
+  double rms_rot_rad = 0, rms_m = 0;        // residuals of the fit
+  int observations = 0;
+  std::string date;  // ISO 8601 UTC
+};
+
+// v3: the station's own thresholds (file "station_policy"; all optional, these defaults).
+// The check step passes at or below check_threshold_m; `dentar live` asks for an instructor
+// when the calibration is older than max_age_days, a mannequin tag moved by more than
+// tag_moved_m, or the stylus tip misses the health divot by more than tip_check_m.
+struct StationPolicy {
+  double check_threshold_m = 0.5e-3;  // end-to-end co-location, mean
+  double max_age_days = 30;
+  double tag_moved_m = 1.0e-3;
+  double tip_check_m = 1.0e-3;
+  int health_divot = 0;  // index into calibration_fixtures.divots_mm touched at session start
+  std::string validate() const;
+};
+
 // File versions: 1 (no calibration_fixtures / calibration_report; files without "version" are
-// read as 1) and 2 (current; what station_scene_to_json writes).
-inline constexpr int kStationFileVersion = 2;
+// read as 1), 2 (fixtures and report), 3 (current: camera.device_id, hand_eye, station_policy,
+// and a "hand_eye" step in the report). Older versions are read and migrated in memory (the
+// missing parts get their defaults; `migrated_from` says from which); writers always write
+// the current version.
+inline constexpr int kStationFileVersion = 3;
 
 struct StationScene {
   int version = kStationFileVersion;  // as read (writers always write the current version)
+  int migrated_from = 0;              // the file's version when older than the current; else 0
   std::string name = "default";
   TagFamilyId family = TagFamilyId::kStandard41h12;
   MannequinParams mannequin;
@@ -138,6 +172,8 @@ struct StationScene {
   PenParams pen;  // optional in files ("pen"); the default pen when absent
   CalibrationFixtures fixtures;  // empty in version 1 files
   std::vector<CalibrationStepReport> calibration_report;  // latest entry per step
+  HandEyeRecord hand_eye;  // v3, optional
+  StationPolicy policy;    // v3, optional in the file
   // Adds or replaces the report of r.step (one entry per step, in workflow order).
   void set_step_report(const CalibrationStepReport& r);
   const CalibrationStepReport* step_report(const std::string& step) const;

@@ -1,0 +1,73 @@
+// `dentar calibrate live`: the instructor's live station calibration in a window. The stylus
+// steps run live today: pivot (stops itself when the tip is known to 0.2 mm), register (the
+// mannequin's divots in a guided order, FRE and predicted TRE after each touch) and tooth (the
+// tooth's landmarks). A touch is taken by the space bar, Enter, the foot pedal or a stylus
+// button, and refused when the stylus moved during it. The station file is written once, at
+// the end, only when every step passed (as `dentar calibrate all`).
+//
+//   device (HD | DHD | simulated instructor) ──1 kHz poller, zero force──▶ latest pose
+//   camera (optional, CaptureThread) ──latest frame──▶ window background
+//   main thread: HudWindow (GLFW + ImGui), step bookkeeping (calibration/guided.h)
+//
+// `--device sim` is the simulated instructor: a SimulatedDevice whose hand follows an
+// instructor's motions toward a hidden truth (the station perturbed by --seed, as
+// `dentar calibrate --simulate`), and whose key presses are scripted (one deliberately while
+// the stylus still moves, to show the refusal); it runs at human pace, so the step times are
+// the instructor times of a calm instructor (docs/BENCHMARKS.md).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dentar/volume/result.h"
+
+namespace dentar::live {
+
+struct CalibrateLiveOptions {
+  std::string station = "station.json";  // read when it exists (else the built-in default) and written
+  std::string camera;                    // FrameSource spec shown behind the HUD; empty = no video
+  std::string device = "sim";            // "sim" or a haptics::open_haptic_device kind
+  std::string device_name;
+  std::string pedal = "keyboard";  // keyboard, or a haptics::open_pedal spec (a press takes a touch)
+  std::vector<std::string> steps = {"pivot", "register", "tooth"};
+  std::uint64_t seed = 1;  // sim: the hidden truth and the instructor's hand
+  double pace = 1.0;       // sim: instructor's travel speed (1 = human pace); holds stay real
+  double seconds = 0;      // give up after this long (0 = no limit)
+  std::string screenshot_dir;  // the window as PNG at the end of each step (<step>.png)
+  std::string summary_path;    // summary JSON
+  int display = -1;
+  bool vsync = true;
+  bool quiet = false;
+  std::string validate() const;
+};
+
+struct CalibrateLiveStep {
+  std::string step;
+  bool pass = false;
+  double seconds = 0;  // instructor time: step start to step done
+  int items = 0;       // poses kept (pivot) or touches taken
+  int refused = 0;     // touches refused
+  std::vector<std::pair<std::string, double>> figures;
+  std::string message;
+};
+
+struct CalibrateLiveSummary {
+  std::vector<CalibrateLiveStep> steps;
+  bool written = false;
+  std::string stop_reason;
+  double total_s = 0;
+  // --device sim: the result against the hidden truth, mm (-1 when not computed).
+  double truth_tip_error_mm = -1;      // |p_tip - true p_tip|
+  double truth_tooth_error_mm = -1;    // the calibrated chain's error at the crown (tooth frame point 4 mm up)
+  double truth_static_colocation_mean_mm = -1, truth_static_colocation_p99_mm = -1;  // bur tip vs tooth, working poses
+  std::vector<std::string> log;  // what the HUD said, in order
+  std::string json() const;
+};
+
+// Errors (exit 2 at the CLI): bad options, unreadable station, no display, no device.
+// A step that does not pass is not an error: summary.written is false and the step says why.
+Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& options);
+
+}  // namespace dentar::live

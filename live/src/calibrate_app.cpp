@@ -1,0 +1,692 @@
+// `dentar calibrate live`: see calibrate_app.h.
+#include "dentar/live/calibrate_app.h"
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <deque>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "dentar/ar/capture_thread.h"
+#include "dentar/ar/frame_source.h"
+#include "dentar/ar/station_scene.h"
+#include "dentar/calibration/co_location.h"
+#include "dentar/calibration/guided.h"
+#include "dentar/calibration/landmarks.h"
+#include "dentar/haptics/open_device.h"
+#include "dentar/haptics/scripts.h"
+#include "dentar/haptics/simulated_device.h"
+#include "dentar/live/hud_window.h"
+
+namespace dentar::live {
+namespace fs = std::filesystem;
+namespace cal = dentar::calibration;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+std::atomic<int> g_cal_signal{0};
+extern "C" void on_cal_signal(int sig) { g_cal_signal.store(sig); }
+
+double wall_s() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
+
+std::string iso_now() {
+  const std::time_t t = std::time(nullptr);
+  char b[32];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return b;
+}
+
+std::string fmt(double v, int prec = 2) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(prec) << v;
+  return os.str();
+}
+
+// The device, polled at 1 kHz on its own thread with zero force (a calibration renders no
+// force); the main thread reads the latest pose. The simulated instructor's device is swapped
+// per step (each step's motions start where the last one ended).
+class Poller {
+ public:
+  struct Sample {
+    double t_s = 0;  // the device's own time (simulated devices: simulated time), s
+    Eigen::Isometry3d T_dev_sty = Eigen::Isometry3d::Identity();
+    std::uint32_t buttons = 0;
+    bool valid = false;
+  };
+  // simulated: step the device as often as wall time asks (it advances 1 ms per step), so a
+  // delayed thread does not slow the simulated hand down.
+  Poller(std::unique_ptr<haptics::HapticDevice> d, bool simulated) : dev_(std::move(d)), simulated_(simulated) {
+    thread_ = std::thread([this] { main(); });
+  }
+  ~Poller() {
+    stop_.store(true);
+    if (thread_.joinable()) thread_.join();
+  }
+  void swap(std::unique_ptr<haptics::HapticDevice> d) {
+    std::lock_guard<std::mutex> lock(m_);
+    dev_ = std::move(d);
+    steps_ = 0;
+    t0_ = Clock::now();
+    last_ = Sample{};
+    history_.clear();
+  }
+  Sample latest() const {
+    std::lock_guard<std::mutex> lock(m_);
+    return last_;
+  }
+  // The samples after device time t_s (100 Hz, the last 3 s): the steps see every sample even
+  // when the window redraws slowly (a loaded machine, a software renderer).
+  std::vector<Sample> since(double t_s) const {
+    std::lock_guard<std::mutex> lock(m_);
+    std::vector<Sample> out;
+    for (const auto& x : history_)
+      if (x.t_s > t_s) out.push_back(x);
+    return out;
+  }
+  std::string name() const {
+    std::lock_guard<std::mutex> lock(m_);
+    return dev_ ? dev_->name() : std::string("none");
+  }
+
+ private:
+  void main() {
+    auto next = Clock::now();
+    while (!stop_.load()) {
+      next += std::chrono::milliseconds(1);
+      {
+        std::lock_guard<std::mutex> lock(m_);
+        if (dev_) {
+          const std::int64_t due =
+              simulated_ ? std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - t0_).count() + 1
+                         : steps_ + 1;
+          for (int i = 0; i < 200 && steps_ < due; ++i, ++steps_) {
+            haptics::DeviceState s;
+            const bool ok = dev_->read(s);
+            dev_->write_force(Eigen::Vector3d::Zero());
+            last_.t_s = s.time_s;
+            last_.T_dev_sty = s.T_dev_sty;
+            last_.buttons = s.buttons;
+            last_.valid = ok && !s.fault && s.T_dev_sty.matrix().allFinite();
+            if (steps_ % 10 == 0) {
+              history_.push_back(last_);
+              if (history_.size() > 300) history_.pop_front();
+            }
+          }
+        }
+      }
+      if (Clock::now() - next > std::chrono::milliseconds(50)) next = Clock::now();
+      std::this_thread::sleep_until(next);
+    }
+  }
+  mutable std::mutex m_;
+  std::unique_ptr<haptics::HapticDevice> dev_;
+  Sample last_;
+  std::deque<Sample> history_;
+  bool simulated_ = false;
+  std::int64_t steps_ = 0;
+  Clock::time_point t0_ = Clock::now();
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// ---- the simulated instructor ---------------------------------------------------------------
+struct Press {
+  double t_s;  // device time (the plan starts at 0)
+  int target;  // the point the instructor is holding (-1: any); a press whose point is not the
+               // HUD's next one is not made (the instructor reads the HUD)
+};
+struct Plan {
+  std::vector<haptics::HandWaypoint> script;  // times relative to the step start
+  std::vector<Press> presses;
+};
+
+Eigen::Quaterniond pointing(const Eigen::Vector3d& dir, double spin) {
+  // A rotation whose +z (the stylus axis toward the tip) is `dir`.
+  const Eigen::Vector3d z = dir.normalized();
+  Eigen::Vector3d x = z.unitOrthogonal();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d R;
+  R.col(0) = x;
+  R.col(1) = y;
+  R.col(2) = z;
+  return Eigen::Quaterniond(R * Eigen::AngleAxisd(spin, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+}
+
+class SimInstructor {
+ public:
+  SimInstructor(const cal::StationCalibration& truth, std::uint64_t seed, double pace)
+      : truth_(truth), rng_(seed * 7919 + 3), pace_(pace) {}
+
+  // Rocking in the pivot divot: the tip stays seated (0.05 mm jitter), the stylus tilts 11-25
+  // degrees around a cone whose azimuth turns every 6 s, for up to 3 minutes.
+  Plan pivot(const Eigen::Isometry3d& from) {
+    Plan p;
+    const Eigen::Vector3d divot = cal::simulated_pivot_divot_dev();
+    const Eigen::Vector3d down(0, -1, 0), tip = truth_.T_sty_tip.translation();
+    std::normal_distribution<double> j(0, 0.05e-3);
+    add(p, 0, from);
+    const double arrive = 2.0 / pace_;
+    for (double t = 0; t <= 180; t += 0.1) {
+      const double phi = 2 * M_PI * t / 6.0, a = (18 + 7 * std::sin(2 * M_PI * t / 11.0)) * kDeg;
+      const Eigen::Vector3d axis(std::cos(phi), 0, std::sin(phi));
+      const Eigen::Quaterniond q =
+          Eigen::Quaterniond(Eigen::AngleAxisd(a, axis)) * pointing(down, 0.3 * std::sin(2 * M_PI * t / 9.0));
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.linear() = q.toRotationMatrix();
+      T.translation() = divot + Eigen::Vector3d(j(rng_), j(rng_), j(rng_)) - T.linear() * tip;
+      add(p, arrive + t, T);
+    }
+    p.presses.push_back({arrive + 0.5, -1});  // seated: start collecting
+    return p;
+  }
+
+  // Touches of targets (device frame, truth) in order, each approached along `approach` (the
+  // stylus axis, device frame) tilted by up to 20 degrees; the tip rests within the fixture's
+  // localisation error (0.2 mm RMS) and the key is pressed after ~0.8 s of holding, and once
+  // more 0.6 s later if the HUD still asks for that point (the first press was refused). With
+  // moving_press_at = i, the instructor first presses while still arriving at target i.
+  Plan touches(const std::vector<Eigen::Vector3d>& targets, const Eigen::Vector3d& approach,
+               const Eigen::Isometry3d& from, int moving_press_at) {
+    Plan p;
+    std::normal_distribution<double> fle(0, 0.2e-3 / std::sqrt(3.0));
+    std::uniform_real_distribution<double> u(-1, 1);
+    const Eigen::Vector3d tip = truth_.T_sty_tip.translation();
+    double t = 0;
+    add(p, t, from);
+    const double travel = 2.0 / pace_, descend = 0.8 / pace_, hold = 1.7;
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      const Eigen::Vector3d tilt(u(rng_), u(rng_), u(rng_));
+      const Eigen::Quaterniond q =
+          Eigen::Quaterniond(Eigen::AngleAxisd(20 * kDeg * std::abs(u(rng_)), tilt.normalized())) *
+          pointing(approach, u(rng_) * M_PI);
+      const Eigen::Matrix3d R = q.toRotationMatrix();
+      const Eigen::Vector3d rest = targets[i] + Eigen::Vector3d(fle(rng_), fle(rng_), fle(rng_));
+      auto pose = [&](const Eigen::Vector3d& tip_at) {
+        Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+        T.linear() = R;
+        T.translation() = tip_at - R * tip;
+        return T;
+      };
+      const Eigen::Vector3d above = rest - 12e-3 * R.col(2);
+      t += travel;
+      add(p, t, pose(above));
+      t += descend;
+      add(p, t, pose(rest));
+      const int ti = static_cast<int>(i);
+      if (ti == moving_press_at) p.presses.push_back({t - 0.3 * descend, ti});
+      p.presses.push_back({t + 0.8, ti});
+      p.presses.push_back({t + 1.4, ti});
+      t += hold;
+      add(p, t, pose(rest));
+      t += 0.4 / pace_;
+      add(p, t, pose(above));
+    }
+    add(p, t + 30, p.script.back().position_m, p.script.back().orientation);
+    return p;
+  }
+
+  Result<std::unique_ptr<haptics::HapticDevice>> device(const Plan& plan) const {
+    haptics::HandParams hand;
+    hand.stiffness_N_per_m = haptics::kFingerRestStiffness_N_per_m;  // fingers rested
+    haptics::DeviceLimits limits;
+    limits.workspace_min_m = Eigen::Vector3d::Constant(-1);
+    limits.workspace_max_m = Eigen::Vector3d::Constant(1);
+    auto d = haptics::SimulatedDevice::create(plan.script, limits, hand);
+    if (!d) return Error{d.error()};
+    return std::unique_ptr<haptics::HapticDevice>(std::move(*d));
+  }
+
+ private:
+  static void add(Plan& p, double t, const Eigen::Isometry3d& T) {
+    add(p, t, T.translation(), Eigen::Quaterniond(T.linear()));
+  }
+  static void add(Plan& p, double t, const Eigen::Vector3d& x, const Eigen::Quaterniond& q) {
+    if (!p.script.empty() && t <= p.script.back().time_s) t = p.script.back().time_s + 1e-3;
+    haptics::HandWaypoint w;
+    w.time_s = t;
+    w.position_m = x;
+    w.orientation = q;
+    p.script.push_back(w);
+  }
+  cal::StationCalibration truth_;
+  std::mt19937_64 rng_;
+  double pace_;
+};
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return -1;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(std::min<double>(v.size() - 1, std::ceil(q * (v.size() - 1))))];
+}
+
+}  // namespace
+
+std::string CalibrateLiveOptions::validate() const {
+  if (station.empty()) return "station is empty: give --station FILE";
+  if (device.empty()) return "device is empty: give sim or a device kind (touch, omega, hd, ...)";
+  if (pedal.empty()) return "pedal is empty: give keyboard, auto, vec, usb:VID:PID or evdev:/dev/input/eventN";
+  if (steps.empty()) return "steps is empty: give pivot, register and/or tooth";
+  for (const auto& s : steps)
+    if (s != "pivot" && s != "register" && s != "tooth")
+      return "step \"" + s + "\" is not live yet: the live steps are pivot, register and tooth (camera, mirror "
+             "and check run with `dentar calibrate <step>`)";
+  if (!(std::isfinite(pace) && pace >= 0.25 && pace <= 20)) return "pace must be in [0.25, 20]";
+  if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
+  if (display < -1 || display > 16) return "display must be -1 (a window) or a monitor 0..16";
+  return {};
+}
+
+std::string CalibrateLiveSummary::json() const {
+  nlohmann::ordered_json j;
+  nlohmann::ordered_json st = nlohmann::ordered_json::array();
+  for (const auto& s : steps) {
+    nlohmann::ordered_json f = nlohmann::ordered_json::object();
+    for (const auto& [k, v] : s.figures) f[k] = v;
+    st.push_back({{"step", s.step}, {"pass", s.pass}, {"seconds", s.seconds}, {"items", s.items},
+                  {"refused", s.refused}, {"figures", f}, {"message", s.message}});
+  }
+  j["steps"] = st;
+  j["written"] = written;
+  j["stop_reason"] = stop_reason;
+  j["total_s"] = total_s;
+  j["truth"] = {{"tip_error_mm", truth_tip_error_mm},
+                {"tooth_error_mm", truth_tooth_error_mm},
+                {"static_colocation_mean_mm", truth_static_colocation_mean_mm},
+                {"static_colocation_p99_mm", truth_static_colocation_p99_mm}};
+  j["log"] = log;
+  return j.dump(2) + "\n";
+}
+
+Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
+  if (auto v = o.validate(); !v.empty()) return Error{"calibrate live: " + v};
+  CalibrateLiveSummary sum;
+  auto say = [&](const std::string& s) {
+    sum.log.push_back(s);
+    if (!o.quiet) std::fprintf(stderr, "dentar calibrate live: %s\n", s.c_str());
+  };
+
+  // ---- station ----
+  ar::StationScene st;
+  if (fs::exists(o.station)) {
+    auto r = ar::read_station_scene(o.station);
+    if (!r) return Error{"calibrate live: " + r.error()};
+    st = std::move(*r);
+  } else {
+    st = ar::default_station_scene();
+    say("station " + o.station + " does not exist yet: starting from the built-in default station");
+  }
+  if (st.fixtures.divots_man.empty() || st.fixtures.landmarks_tooth.empty())
+    st.fixtures = ar::default_calibration_fixtures();
+  const cal::StationCalibration nominal = st.calibration;
+
+  // ---- device ----
+  const bool sim = o.device == "sim";
+  cal::StationCalibration truth;
+  std::unique_ptr<SimInstructor> instructor;
+  std::unique_ptr<Poller> poller;
+  if (sim) {
+    truth = cal::simulated_truth(nominal, o.seed);
+    instructor = std::make_unique<SimInstructor>(truth, o.seed, o.pace);
+    say("simulated instructor: the hidden truth is the station perturbed with seed " + std::to_string(o.seed));
+  } else {
+    haptics::DeviceOpenOptions dopt;
+    dopt.name_or_serial = o.device_name;
+    auto d = haptics::open_haptic_device(o.device, dopt);
+    if (!d) return Error{"calibrate live: haptic device " + o.device + ": " + d.error()};
+    poller = std::make_unique<Poller>(std::move(*d), false);
+  }
+  std::unique_ptr<haptics::Pedal> pedal;
+  if (o.pedal != "keyboard") {
+    auto p = haptics::open_pedal(o.pedal);
+    if (!p) return Error{"calibrate live: --pedal " + o.pedal + ": " + p.error()};
+    pedal = std::move(*p);
+  }
+
+  // ---- camera (background only) ----
+  std::unique_ptr<ar::CaptureThread> capture;
+  int vw = 1280, vh = 720;
+  if (!o.camera.empty()) {
+    ar::FrameSourceOptions so;
+    auto src = ar::FrameSource::open(o.camera, so);
+    if (!src) return Error{"calibrate live: --camera " + o.camera + ": " + src.error()};
+    vw = (*src)->width();
+    vh = (*src)->height();
+    ar::CaptureThreadOptions cto;
+    cto.reopen = true;  // footage loops, a camera comes back
+    capture = std::make_unique<ar::CaptureThread>(std::move(*src), o.camera, so, cto);
+    capture->start();
+  }
+
+  // ---- window ----
+  auto win_r = HudWindow::open("DentAR station calibration", vw, vh, 0, 0, o.display, o.vsync);
+  if (!win_r) return Error{"calibrate live: " + win_r.error()};
+  HudWindow& win = **win_r;
+  std::signal(SIGINT, on_cal_signal);
+  std::signal(SIGTERM, on_cal_signal);
+  g_cal_signal.store(0);
+  if (!o.screenshot_dir.empty()) fs::create_directories(o.screenshot_dir);
+
+  const double t_start = wall_s();
+  Eigen::Isometry3d last_pose = Eigen::Isometry3d::Identity();
+  last_pose.translation() = cal::simulated_pivot_divot_dev() + Eigen::Vector3d(0, 0.05, 0);
+  const Eigen::Vector3d crown_tooth(0, 0, 4e-3);
+  bool all_pass = true;
+  bool aborted = false;
+  const ImVec4 green(0.3f, 1, 0.3f, 1), yellow(1, 0.85f, 0.2f, 1), red(1, 0.35f, 0.35f, 1);
+  std::uint32_t last_buttons = 0;
+  bool last_pedal = false;
+
+  for (const std::string& step : o.steps) {
+    CalibrateLiveStep rec;
+    rec.step = step;
+    // Targets and the instructor's plan.
+    std::vector<Eigen::Vector3d> known;  // register: divots (man); tooth: landmarks (tooth)
+    std::string title, instruction;
+    Eigen::Vector3d target_fit;  // where the TRE is predicted, in the known points' frame
+    if (step == "pivot") {
+      title = "Stylus tip (pivot)";
+      instruction = "Seat the bur tip in the pivot divot and rock the stylus slowly in all directions\n"
+                    "(15-30 degrees), keeping the tip seated. The step stops by itself.";
+    } else if (step == "register") {
+      title = "Station registration (divots)";
+      known = st.fixtures.divots_man;
+      target_fit = st.calibration.T_man_tooth * crown_tooth;
+      instruction = "Touch the divots on the mannequin in the order shown. Hold the tip still in each,\n"
+                    "then press SPACE (or the pedal, or the stylus button).";
+    } else {
+      title = "Tooth placement (landmarks)";
+      known = st.fixtures.landmarks_tooth;
+      target_fit = crown_tooth;
+      instruction = "Touch the landmarks on the mounted tooth in the order shown (cusp tips, then the\n"
+                    "buccal and lingual cervical points). Hold still, then press SPACE.";
+    }
+    Plan plan;
+    if (sim) {
+      if (step == "pivot") {
+        plan = instructor->pivot(last_pose);
+      } else {
+        std::vector<Eigen::Vector3d> tdev;
+        Eigen::Vector3d approach;
+        if (step == "register") {
+          for (const auto& p : known) tdev.push_back(truth.T_man_dev.inverse() * p);
+          approach = truth.T_man_dev.inverse().linear() * Eigen::Vector3d(0, 0, -1);  // into the face
+        } else {
+          for (const auto& p : known) tdev.push_back(truth.T_man_dev.inverse() * (truth.T_man_tooth * p));
+          approach = truth.T_man_dev.inverse().linear() * (truth.T_man_tooth.linear() * Eigen::Vector3d(0, 0, -1));
+        }
+        plan = instructor->touches(tdev, approach, last_pose, step == "register" ? 2 : -1);
+      }
+      auto d = instructor->device(plan);
+      if (!d) return Error{"calibrate live: simulated instructor: " + d.error()};
+      if (!poller) poller = std::make_unique<Poller>(std::move(*d), true);
+      else poller->swap(std::move(*d));
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    say("step " + step + ": " + title);
+    cal::LivePivot pivot;
+    bool collecting = false;
+    cal::LiveTouches touches(step == "register" ? "divot" : "landmark", static_cast<int>(known.size()));
+    cal::RegistrationSummary fit;
+    std::string refusal;
+    std::size_t next_press = 0;
+    double last_seen = -1e300;
+    const double t0 = wall_s();
+    bool step_done = false;
+    cv::Mat shot;
+    while (!step_done) {
+      if (win.should_close()) {
+        sum.stop_reason = "window closed";
+        aborted = true;
+        break;
+      }
+      if (g_cal_signal.load() != 0) {
+        sum.stop_reason = g_cal_signal.load() == SIGINT ? "SIGINT" : "SIGTERM";
+        aborted = true;
+        break;
+      }
+      if (o.seconds > 0 && wall_s() - t_start > o.seconds) {
+        sum.stop_reason = "time limit";
+        aborted = true;
+        break;
+      }
+      win.poll();
+      const double now = wall_s();
+      const Poller::Sample s = poller->latest();
+      const std::vector<Poller::Sample> fresh = poller->since(last_seen);
+      if (!fresh.empty()) last_seen = fresh.back().t_s;
+      // The scripted instructor's key, through the window's key queue, on the hand's own clock.
+      while (sim && s.valid && next_press < plan.presses.size() && s.t_s >= plan.presses[next_press].t_s) {
+        const int want = plan.presses[next_press].target;
+        if (want < 0 || (step != "pivot" && want == touches.next())) win.inject_key(GLFW_KEY_SPACE);
+        ++next_press;
+      }
+      if (capture) {
+        ar::Frame f;
+        if (capture->wait_take(f, 0.0)) win.set_video(f.image);
+      }
+      if (s.valid) last_pose = s.T_dev_sty;
+      // A take: a key press, a pedal press or a stylus button press (edges).
+      bool take = false;
+      for (int k : win.take_presses()) {
+        if (k == GLFW_KEY_SPACE || k == GLFW_KEY_ENTER || k == GLFW_KEY_KP_ENTER) take = true;
+        if (k == GLFW_KEY_ESCAPE) {
+          sum.stop_reason = "Esc";
+          aborted = true;
+        }
+      }
+      if (aborted) break;
+      const bool pedal_now = pedal && pedal->pressed();
+      if (pedal_now && !last_pedal) take = true;
+      last_pedal = pedal_now;
+      if (s.valid && (s.buttons & ~last_buttons) != 0) take = true;
+      last_buttons = s.valid ? s.buttons : 0;
+
+      if (step == "pivot") {
+        if (take) {  // the tip is seated: (re)start collecting
+          pivot = cal::LivePivot();
+          collecting = true;
+          say("pivot: collecting poses");
+        }
+        if (collecting)
+          for (const auto& x : fresh)
+            if (x.valid) pivot.add(x.T_dev_sty);
+        if (pivot.done()) step_done = true;
+      } else {
+        for (const auto& x : fresh) {
+          const Eigen::Vector3d tip_dev = (x.T_dev_sty * st.calibration.T_sty_tip).translation();
+          const Eigen::Vector3d tip = step == "register" ? tip_dev : Eigen::Vector3d(st.calibration.T_man_dev * tip_dev);
+          touches.add_sample(x.t_s, x.valid ? tip : Eigen::Vector3d::Constant(NAN));
+        }
+        if (take) {
+          const int which = touches.next();
+          const cal::TouchResult r = touches.take();
+          if (r.ok) {
+            refusal.clear();
+            fit = cal::running_fit(touches.taken_dev(), known, target_fit);
+            std::string line = (step == "register" ? "divot " : "landmark ") + std::to_string(which) + " taken";
+            if (!fit.residuals_m.empty())
+              line += ": FRE " + fmt(fit.fre_m * 1e3, 3) + " mm, predicted TRE at the tooth " + fmt(fit.tre_m * 1e3, 3) + " mm";
+            say(line);
+          } else if (!touches.done()) {
+            refusal = r.message;
+            say(r.message);
+          }
+        }
+        if (touches.done()) step_done = true;
+      }
+
+      // ---- HUD ----
+      win.begin_frame();
+      ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
+      ImGui::SetNextWindowBgAlpha(0.7f);
+      ImGui::Begin("Station calibration", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
+      ImGui::Text("step %d of %zu: %s   (%.0f s)", static_cast<int>(sum.steps.size()) + 1, o.steps.size(), title.c_str(),
+                  now - t0);
+      ImGui::TextUnformatted(instruction.c_str());
+      ImGui::Separator();
+      ImGui::TextColored(s.valid ? green : red, "stylus: %s", s.valid ? poller->name().c_str() : "no pose (device fault?)");
+      if (step == "pivot") {
+        const cal::PivotSummary& c = pivot.current();
+        ImGui::Text("poses %d   spread %.1f deg   weakest %.1f deg", pivot.poses(), c.spread_rad / kDeg,
+                    c.weakest_tilt_rad / kDeg);
+        if (c.ok) ImGui::Text("RMSE %.3f mm   predicted tip error %.3f mm (stops at %.2f mm)", c.rmse_m * 1e3,
+                              std::isfinite(pivot.tip_sd_m()) ? pivot.tip_sd_m() * 1e3 : 99.0,
+                              pivot.options().target_tip_sd_m * 1e3);
+        if (!collecting)
+          ImGui::TextColored(yellow, "seat the bur tip in the pivot divot, then press SPACE and start rocking");
+        else if (c.ok && c.rmse_m > 1e-3)
+          ImGui::TextColored(red, "the tip slipped out of the divot (RMSE %.2f mm): seat it and press SPACE to restart",
+                             c.rmse_m * 1e3);
+        else
+          ImGui::TextColored(pivot.done() ? green : yellow, "%s", pivot.hint().c_str());
+      } else {
+        for (int i = 0; i < touches.count(); ++i) {
+          const bool taken = i < touches.next(), current = i == touches.next();
+          const Eigen::Vector3d& k = known[static_cast<std::size_t>(i)];
+          ImGui::TextColored(taken ? green : current ? yellow : ImVec4(0.8f, 0.8f, 0.8f, 1), "%s %s %d  (%.1f, %.1f, %.1f) mm%s",
+                             taken ? "[x]" : current ? "[>]" : "[ ]", step == "register" ? "divot" : "landmark", i,
+                             k.x() * 1e3, k.y() * 1e3, k.z() * 1e3,
+                             taken && !fit.residuals_m.empty() && static_cast<std::size_t>(i) < fit.residuals_m.size()
+                                 ? ("   residual " + fmt(fit.residuals_m[static_cast<std::size_t>(i)] * 1e3, 2) + " mm").c_str()
+                                 : "");
+        }
+        if (!fit.residuals_m.empty())
+          ImGui::Text("FRE %.3f mm   predicted TRE at the tooth %.3f mm", fit.fre_m * 1e3, fit.tre_m * 1e3);
+        ImGui::TextColored(touches.still() ? green : yellow, "%s",
+                           touches.still() ? "stylus still: press SPACE to take the touch" : "stylus moving");
+        if (!refusal.empty()) ImGui::TextColored(red, "%s", refusal.c_str());
+      }
+      ImGui::End();
+      const cv::Mat px = win.end_frame(step_done && !o.screenshot_dir.empty());
+      if (!px.empty()) shot = px;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    rec.seconds = wall_s() - t0;
+    if (aborted) {
+      rec.message = "stopped (" + sum.stop_reason + ")";
+      sum.steps.push_back(rec);
+      all_pass = false;
+      break;
+    }
+    if (!shot.empty()) cv::imwrite((fs::path(o.screenshot_dir) / (step + ".png")).string(), shot);
+
+    // ---- the step's result, with its real gates ----
+    ar::CalibrationStepReport rep{step, iso_now(), false, "", {}};
+    if (step == "pivot") {
+      const cal::PivotSummary r = pivot.final_result();
+      rec.items = r.num_poses;
+      rec.pass = r.ok;
+      rec.message = r.report();
+      if (r.ok) {
+        st.calibration.T_sty_tip = r.T_sty_tip;
+        rep.summary = "live: tip at " + fmt(r.p_tip_sty.norm() * 1e3) + " mm from the stylus origin";
+        rep.figures = {{"rmse_mm", r.rmse_m * 1e3},
+                       {"tip_sd_mm", std::sqrt(r.cov_tip_sty.trace()) * 1e3},
+                       {"spread_deg", r.spread_rad / kDeg},
+                       {"poses", r.num_poses}};
+      }
+    } else if (step == "register") {
+      const cal::RegistrationSummary r = cal::register_divots(touches.taken_dev(), known, target_fit);
+      rec.items = touches.next();
+      rec.refused = touches.refused();
+      rec.pass = r.ok;
+      rec.message = r.report();
+      if (r.ok) {
+        st.calibration.T_man_dev = r.T_man_dev;
+        rep.summary = "live: " + std::to_string(r.num_points) + " divots";
+        rep.figures = {{"fre_mm", r.fre_m * 1e3}, {"tre_mm", r.tre_m * 1e3}, {"fle_mm", r.fle_m * 1e3},
+                       {"divots", r.num_points}, {"refused_touches", touches.refused()}};
+      }
+    } else {
+      const cal::LandmarkSummary r = cal::refine_tooth_placement(known, touches.taken_dev(), st.calibration.T_man_tooth);
+      rec.items = touches.next();
+      rec.refused = touches.refused();
+      rec.pass = r.ok;
+      rec.message = r.report();
+      if (r.ok) {
+        st.calibration.T_man_tooth = r.T_man_tooth;
+        rep.summary = "live: " + std::to_string(r.fit.num_points) + " landmarks";
+        rep.figures = {{"fre_mm", r.fit.fre_m * 1e3}, {"tre_mm", r.fit.tre_m * 1e3}, {"shift_mm", r.shift_m * 1e3},
+                       {"rotation_deg", r.rotation_rad / kDeg}, {"refused_touches", touches.refused()}};
+      }
+    }
+    rep.pass = rec.pass;
+    rep.figures.emplace_back("instructor_s", rec.seconds);
+    rec.figures = rep.figures;
+    say("step " + step + (rec.pass ? " passed" : " did NOT pass") + " after " + fmt(rec.seconds, 1) + " s: " + rec.message);
+    sum.steps.push_back(rec);
+    if (!rec.pass) {
+      all_pass = false;
+      break;
+    }
+    st.set_step_report(rep);
+  }
+  if (capture) capture->stop();
+  poller.reset();
+  sum.total_s = wall_s() - t_start;
+  if (sum.stop_reason.empty()) sum.stop_reason = all_pass ? "all steps passed" : "a step did not pass";
+
+  if (sim) {
+    sum.truth_tip_error_mm = (st.calibration.T_sty_tip.translation() - truth.T_sty_tip.translation()).norm() * 1e3;
+    const Eigen::Vector3d q_dev_cal = st.calibration.T_man_dev.inverse() * (st.calibration.T_man_tooth * crown_tooth);
+    const Eigen::Vector3d q_dev_true = truth.T_man_dev.inverse() * (truth.T_man_tooth * crown_tooth);
+    sum.truth_tooth_error_mm = (q_dev_cal - q_dev_true).norm() * 1e3;
+    // The static chain at working poses: the bur tip within 3 mm of the crown, the stylus
+    // tilted up to 25 degrees: where the calibrated chain draws the tip on the tooth vs truth.
+    std::mt19937_64 rng(o.seed + 17);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::vector<double> err;
+    const Eigen::Vector3d approach = truth.T_man_dev.inverse().linear() * (truth.T_man_tooth.linear() * Eigen::Vector3d(0, 0, -1));
+    for (int i = 0; i < 500; ++i) {
+      const Eigen::Vector3d tip_tooth = crown_tooth + 3e-3 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+      const Eigen::Matrix3d R = (Eigen::AngleAxisd(25 * kDeg * std::abs(u(rng)),
+                                                   Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized()) *
+                                 pointing(approach, u(rng) * M_PI))
+                                    .toRotationMatrix();
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.linear() = R;
+      T.translation() = truth.T_man_dev.inverse() * (truth.T_man_tooth * tip_tooth) - R * truth.T_sty_tip.translation();
+      const Eigen::Vector3d drawn = (st.calibration.T_tooth_dev() * T * st.calibration.T_sty_tip).translation();
+      const Eigen::Vector3d real = (truth.T_tooth_dev() * T * truth.T_sty_tip).translation();
+      err.push_back((drawn - real).norm() * 1e3);
+    }
+    double m = 0;
+    for (double e : err) m += e;
+    sum.truth_static_colocation_mean_mm = m / err.size();
+    sum.truth_static_colocation_p99_mm = percentile(err, 0.99);
+    say("simulation truth: tip error " + fmt(sum.truth_tip_error_mm, 3) + " mm; error at the crown " +
+        fmt(sum.truth_tooth_error_mm, 3) + " mm; bur tip vs tooth at working poses mean " +
+        fmt(sum.truth_static_colocation_mean_mm, 3) + " mm, p99 " + fmt(sum.truth_static_colocation_p99_mm, 3) + " mm");
+  }
+  if (all_pass && !aborted) {
+    st.version = ar::kStationFileVersion;
+    if (const fs::path dir = fs::path(o.station).parent_path(); !dir.empty()) fs::create_directories(dir);
+    if (auto w = ar::write_station_scene(st, o.station); !w) return Error{"calibrate live: " + w.error()};
+    sum.written = true;
+    say("updated " + o.station);
+  } else {
+    say(o.station + " was NOT written (" + sum.stop_reason + ")");
+  }
+  if (!o.summary_path.empty()) std::ofstream(o.summary_path) << sum.json();
+  return sum;
+}
+
+}  // namespace dentar::live

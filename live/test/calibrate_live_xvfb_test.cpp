@@ -1,0 +1,99 @@
+// `dentar calibrate live` end to end, as an instructor runs it but driven by the stand-ins: a
+// real window under Xvfb, the generator's footage paced as the camera behind the HUD, the
+// simulated instructor's hand on a SimulatedDevice and its scripted keys (one press while the
+// stylus still moves, which must be refused). The station file is checked against the hidden
+// truth with the simulated workflow's figures as bounds (pivot RMSE 0.16 mm, TRE at the tooth
+// 0.18 mm, co-location 0.32 mm). Skips when xvfb-run is missing, unless DENTAR_REQUIRE_GL=1.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "testutil.h"
+
+namespace fs = std::filesystem;
+using dentar::test::run_command;
+
+namespace {
+
+const std::string kBin = DENTAR_BINARY;
+
+bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 0; }
+#define REQUIRE_XVFB()                                                                        \
+  do {                                                                                        \
+    if (!have_xvfb()) {                                                                       \
+      if (std::getenv("DENTAR_REQUIRE_GL")) FAIL() << "xvfb-run missing (apt install xvfb)";  \
+      GTEST_SKIP() << "xvfb-run not installed (Debian package xvfb)";                         \
+    }                                                                                         \
+  } while (0)
+
+std::string xvfb(const std::string& cmd) { return "xvfb-run -a -s '-screen 0 1280x1024x24' " + cmd; }
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream f(p);
+  return nlohmann::json::parse(f);
+}
+
+const nlohmann::json* step(const nlohmann::json& j, const std::string& name) {
+  for (const auto& r : j["calibration_report"])
+    if (r["step"] == name) return &r;
+  return nullptr;
+}
+
+}  // namespace
+
+TEST(CalibrateLiveXvfb, StylusStepsWithTheSimulatedInstructor) {
+  REQUIRE_XVFB();
+  const fs::path t = dentar::test::temp_dir("calibrate_live");
+  auto r = run_command(kBin + " synth --preset standard --frames 30 --resolution 640x480 --seed 2 --out " +
+                       (t / "clip").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const fs::path st = t / "station.json", sum = t / "summary.json", shots = t / "shots";
+  r = run_command(xvfb(kBin + " calibrate live --haptic sim --pace 4 --seed 3 --camera live:" +
+                       (t / "clip" / "video.mkv").string() + " --station " + st.string() + " --summary " +
+                       sum.string() + " --screenshots " + shots.string() + " --seconds 400 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto s = read_json(sum);
+  ASSERT_EQ(s["steps"].size(), 3u) << s.dump(2);
+  EXPECT_TRUE(s["written"].get<bool>());
+  // The press while the stylus was still arriving at divot 2 was refused, then retaken.
+  EXPECT_GE(s["steps"][1]["refused"].get<int>(), 1) << s.dump(2);
+  bool said = false;
+  for (const auto& l : s["log"]) said |= l.get<std::string>().find("divot 2: touch refused: the stylus moved") != std::string::npos;
+  EXPECT_TRUE(said) << s.dump(2);
+  // The station file against the hidden truth.
+  const auto j = read_json(st);
+  EXPECT_EQ(j["version"], 3);
+  for (const char* name : {"pivot", "register", "tooth"}) {
+    const auto* p = step(j, name);
+    ASSERT_NE(p, nullptr) << name;
+    EXPECT_TRUE((*p)["pass"].get<bool>()) << name;
+    EXPECT_GT((*p)["figures"]["instructor_s"].get<double>(), 0.0) << name;
+  }
+  EXPECT_LE((*step(j, "pivot"))["figures"]["rmse_mm"].get<double>(), 0.16);
+  EXPECT_LE((*step(j, "pivot"))["figures"]["tip_sd_mm"].get<double>(), 0.2);
+  EXPECT_LE((*step(j, "register"))["figures"]["tre_mm"].get<double>(), 0.18);
+  EXPECT_LE(s["truth"]["tip_error_mm"].get<double>(), 0.2) << s.dump(2);
+  EXPECT_LE(s["truth"]["tooth_error_mm"].get<double>(), 0.32) << s.dump(2);
+  EXPECT_LE(s["truth"]["static_colocation_mean_mm"].get<double>(), 0.32) << s.dump(2);
+  // The HUD was drawn: each step's window is not blank.
+  for (const char* name : {"pivot", "register", "tooth"}) {
+    const cv::Mat img = cv::imread((shots / (std::string(name) + ".png")).string());
+    ASSERT_FALSE(img.empty()) << name;
+    cv::Scalar mean, sd;
+    cv::meanStdDev(img, mean, sd);
+    EXPECT_GT(sd[0] + sd[1] + sd[2], 10.0) << name;
+  }
+}
+
+// Steps that are not live yet, and bad options, are bad input with the reason.
+TEST(CalibrateLiveXvfb, BadInput) {
+  auto r = run_command(kBin + " calibrate live --steps camera --station /tmp/x.json 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("not live yet"), std::string::npos) << r.out;
+  r = run_command(kBin + " calibrate live --haptic nosuchdevice --station /tmp/x.json 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("haptic device nosuchdevice"), std::string::npos) << r.out;
+}
