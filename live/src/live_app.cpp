@@ -273,6 +273,11 @@ std::string LiveSummary::json() const {
 
 Result<LiveSummary> run_live(const LiveOptions& o) {
   if (auto v = o.validate(); !v.empty()) return Error{"live: " + v};
+  // SIGINT/SIGTERM from here on end the run cleanly (zero force, logs,
+  // recording), also when they arrive during the set-up below.
+  g_signal.store(0);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
   LiveSummary sum;
   sum.rss_start_mb = rss_mb();
   auto say = [&](const std::string& s) {
@@ -530,9 +535,6 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   w.imgui = true;
 
   // ---- threads ----
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  g_signal.store(0);
   ar::CaptureThreadOptions cto;
   cto.reopen = o.loop || o.camera.rfind("live:", 0) != 0;  // footage ends (unless looped); a camera comes back
   cto.stall_after_frames = o.stall_after_frames;
