@@ -248,7 +248,15 @@ TEST_P(LiveSignal, StopsCleanlyAndRecordingReplays) {
     argv.push_back(nullptr);
     ASSERT_EQ(posix_spawn(&pid, kBin.c_str(), nullptr, nullptr, argv.data(), environ), 0);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(1300));
+  // Mid-run: once a few frames are recorded (a loaded machine takes longer
+  // to set up), at most 30 s.
+  for (int i = 0; i < 300; ++i) {
+    std::ifstream f(rec / "frames.csv");
+    int lines = 0;
+    for (std::string l; std::getline(f, l);) ++lines;
+    if (lines >= 5) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
   kill(pid, sig);
   int status = 0;
   waitpid(pid, &status, 0);
