@@ -39,7 +39,11 @@ void expect_sane_score(const fs::path& dir, const std::string& exercise, double 
 
 TEST(CliSessionScore, OfflineOnBuiltInFootageScoresAndLinksTheReport) {
   const fs::path out = dentar::test::temp_dir("offline_score");
-  const CommandResult r = run("offline --quiet --frames 30 --resolution 640x480 --no-video --out " + out.string());
+  // --mirror-sigma-mm 0: the mirror is drawn (and so counts as tracked for mirror
+  // use) whatever its pose uncertainty; with the default 1 mm gate the
+  // 640x480 footage's single 12 mm mirror tag is never precise enough.
+  const CommandResult r =
+      run("offline --quiet --frames 30 --resolution 640x480 --no-video --mirror-sigma-mm 0 --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("score: "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("/ 18.0 points (molar_access_opening)"), std::string::npos) << r.out;
@@ -47,7 +51,7 @@ TEST(CliSessionScore, OfflineOnBuiltInFootageScoresAndLinksTheReport) {
   const std::string report = dentar::test::read_file(out / "report.html");
   EXPECT_NE(report.find("href=\"score.html\""), std::string::npos);
   EXPECT_NE(report.find("Session score"), std::string::npos);
-  // The built-in footage has a tracked mirror: mirror use is measured, the
+  // The built-in footage has a tracked mirror (ungated): mirror use is measured, the
   // classes add up to the frames with the mannequin tracked.
   const auto j = nlohmann::json::parse(dentar::test::read_file(out / "score.json"));
   const auto& mu = j["process"]["mirror_use"];
