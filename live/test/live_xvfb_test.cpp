@@ -104,7 +104,7 @@ TEST(LiveXvfb, WindowMatchesOfflineAndRecordingReplays) {
   const fs::path rec = t / "rec", off = t / "off";
   auto r = run_command(xvfb(kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
                             (c / "station.json").string() + " --stylus replay:" + (c / "session.dlog").string() +
-                            " --record " + rec.string() + " --no-hud --quiet --screenshot 8:" +
+                            " --record " + rec.string() + " --no-hud --quiet --loop --seconds 5 --screenshot 8:" +
                             (t / "shot8.png").string() + " --summary " + (t / "live.json").string() +
                             " --exercise molar_class1_cavity 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
@@ -204,7 +204,7 @@ TEST(LiveXvfb, CameraStallHidesOverlayThenRecovers) {
   const fs::path c = clip();
   const fs::path t = dentar::test::temp_dir("live_stall");
   auto r = run_command(xvfb(kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
-                            (c / "station.json").string() + " --stylus none --quiet --loop --seconds 4 --inject-stall 10:0.8 --summary " +
+                            (c / "station.json").string() + " --stylus none --quiet --loop --seconds 8 --inject-stall 10:0.8 --summary " +
                             (t / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto s = read_json(t / "live.json");
@@ -212,7 +212,7 @@ TEST(LiveXvfb, CameraStallHidesOverlayThenRecovers) {
   EXPECT_GE(hidden, 0) << "the stall was never noticed";
   EXPECT_LE(hidden, 200);
   // 10 frames before, ~24 skipped during 0.8 s, the rest after (the clip
-  // loops for 4 s: a loaded machine processes few frames of a 2 s clip).
+  // loops for 8 s: a loaded machine processes few frames of a 2 s clip).
   EXPECT_GT(s["frames"]["processed"].get<int>(), 20);
 }
 
