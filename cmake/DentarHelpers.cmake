@@ -28,17 +28,24 @@ endfunction()
 # dentar_test(<name> SOURCES ... DEPS ... [LABELS ...]): one GoogleTest binary,
 # registered with ctest per test case. Working directory is the source root so
 # tests find ../shared/data the same way the README does.
+# SERIAL: the test runs alone (ctest RUN_SERIAL), for tests that measure
+# real-time behaviour (frames a live run processes) and fail when another
+# heavy test shares the two cores.
 function(dentar_test name)
-  cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(T "SERIAL" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   target_link_libraries(${name} PRIVATE ${T_DEPS} dentar_testutil GTest::gtest GTest::gtest_main)
   dentar_warnings(${name})
   if(NOT T_TIMEOUT)
     set(T_TIMEOUT 600)
   endif()
+  set(_serial "")
+  if(T_SERIAL)
+    set(_serial RUN_SERIAL TRUE)
+  endif()
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
-    PROPERTIES LABELS "${T_LABELS}" TIMEOUT ${T_TIMEOUT}
+    PROPERTIES LABELS "${T_LABELS}" TIMEOUT ${T_TIMEOUT} ${_serial}
     DISCOVERY_TIMEOUT 60)
 endfunction()
 
