@@ -64,7 +64,7 @@ void add_live(CLI::App& app, int& exit_code) {
                   "full-frame tag search: async (off the frame path, default) or inline (in the frame that needs it)");
   sub->add_option("--background-cpu", c->o.background_cpu,
                   "tag search, capture and mesher threads: engine (the engine's CPU, below the engine; default) "
-                  "or others (with the frame thread)");
+                  "or others (with the frame thread); engine needs SCHED_FIFO and falls back to others without it");
   sub->add_flag("--no-occlusion", c->no_occlusion, "no depth phantoms (lips, mirror, handpiece)");
   sub->add_flag("--no-segmentation", c->no_segmentation, "no foreground (hand) segmentation");
   sub->add_flag("--no-mirror", c->no_mirror, "no reflection in the mouth mirror");

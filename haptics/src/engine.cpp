@@ -213,6 +213,18 @@ std::uint64_t Engine::run_steps(std::uint64_t n, double late_s) {
   return done;
 }
 
+bool realtime_available(int priority, std::string* why) {
+  int rc = -1;
+  std::thread probe([&rc, priority] {
+    sched_param sp{};
+    sp.sched_priority = priority;
+    rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+  });
+  probe.join();
+  if (rc != 0 && why != nullptr) *why = std::strerror(rc);
+  return rc == 0;
+}
+
 Status Engine::start() {
   if (running()) return Error{"engine: already running"};
   if (thread_.joinable()) thread_.join();

@@ -1,4 +1,4 @@
-// See hud_window.h. Window set-up as in live_app.cpp (desktop GL 3.0 + ImGui's GL3 backend).
+// See hud_window.h. Desktop GL 3.0 + Dear ImGui's GL3 backend; `dentar live` and `dentar calibrate live`.
 #include "dentar/live/hud_window.h"
 
 #define GLFW_INCLUDE_NONE
@@ -26,7 +26,7 @@ Result<std::unique_ptr<HudWindow>> HudWindow::open(const std::string& title, int
     GLFWmonitor** mons = glfwGetMonitors(&n);
     if (display >= n) {
       glfwTerminate();
-      return Error{"--display " + std::to_string(display) + ": only " + std::to_string(n) + " monitor(s) connected"};
+      return Error{"--display " + std::to_string(display) + ": only " + std::to_string(n) + " monitor(s) connected (0.." + std::to_string(n - 1) + "); use -1 for a window"};
     }
     monitor = mons[display];
   }

@@ -2,11 +2,8 @@
 #include "dentar/live/live_app.h"
 
 #define GLFW_INCLUDE_NONE
-#include <GL/gl.h>
 #include <GLFW/glfw3.h>
 #include <imgui.h>
-#include <backends/imgui_impl_glfw.h>
-#include <backends/imgui_impl_opengl3.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
@@ -42,6 +39,7 @@
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/haptics/simulated_device.h"
+#include "dentar/live/hud_window.h"
 #include "dentar/live/pen_device.h"
 #include "dentar/live/station_health.h"
 #include "dentar/volume/bur.h"
@@ -194,30 +192,6 @@ class Recorder {
   std::atomic<std::int64_t> written_{0}, dropped_{0};
   std::thread thread_;
 };
-
-// The window: GLFW + desktop GL for the video texture and Dear ImGui's HUD.
-struct Window {
-  GLFWwindow* win = nullptr;
-  GLuint tex = 0;
-  int tex_w = 0, tex_h = 0;
-  bool imgui = false;
-  ~Window() {
-    if (imgui) {
-      ImGui_ImplOpenGL3_Shutdown();
-      ImGui_ImplGlfw_Shutdown();
-      ImGui::DestroyContext();
-    }
-    if (tex) glDeleteTextures(1, &tex);
-    if (win) glfwDestroyWindow(win);
-    glfwTerminate();
-  }
-};
-
-std::atomic<bool> g_space{false};
-void on_key(GLFWwindow* w, int key, int, int action, int) {
-  if (key == GLFW_KEY_SPACE) g_space.store(action != GLFW_RELEASE);
-  if (key == GLFW_KEY_ESCAPE && action == GLFW_PRESS) glfwSetWindowShouldClose(w, GLFW_TRUE);
-}
 
 }  // namespace
 
@@ -447,7 +421,23 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
   std::atomic<int> bg_placed{0}, bg_refused{0};  // background threads pinned / refused
   std::function<void()> to_engine_cpu;
-  if (o.background_cpu == "engine" && cfg.cpu >= 0 && ncpu > 1) {
+  // Beside the engine only when the engine will preempt them: without
+  // SCHED_FIFO they would share its core equally and it would miss deadlines
+  // (seen on a CI machine without CAP_SYS_NICE: 3 watchdog trips in 2 s).
+  std::string bg_note;
+  bool bg_beside_engine = o.background_cpu == "engine" && cfg.cpu >= 0 && ncpu > 1;
+  if (bg_beside_engine) {
+    std::string why;
+    if (!o.realtime) {
+      bg_beside_engine = false;
+      bg_note = "background threads kept off the engine CPU (--no-realtime: the engine could not preempt them)";
+    } else if (!haptics::realtime_available(cfg.realtime_priority, &why)) {
+      bg_beside_engine = false;
+      bg_note = "background threads kept off the engine CPU (SCHED_FIFO refused: " + why +
+                "; the engine could not preempt them)";
+    }
+  }
+  if (bg_beside_engine) {
     const int cpu = cfg.cpu;
     to_engine_cpu = [cpu, &bg_placed, &bg_refused] {
       cpu_set_t one;
@@ -492,47 +482,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   haptics::Engine& engine = **engine_r;
 
   // ---- window ----
-  Window w;
-  if (!glfwInit()) return Error{"live: no display: GLFW cannot start (is $DISPLAY set? run under X, or Xvfb for tests)"};
   const int W = (*src)->width(), H = (*src)->height();
-  GLFWmonitor* monitor = nullptr;
-  if (o.display >= 0) {
-    int n = 0;
-    GLFWmonitor** mons = glfwGetMonitors(&n);
-    if (o.display >= n)
-      return Error{"live: --display " + std::to_string(o.display) + ": only " + std::to_string(n) +
-                   " monitor(s) connected (0.." + std::to_string(n - 1) + "); use -1 for a window"};
-    monitor = mons[o.display];
-  }
-  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
-  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 0);
-  int ww = o.window_width > 0 ? o.window_width : W, wh = o.window_height > 0 ? o.window_height : H;
-  if (monitor) {
-    const GLFWvidmode* mode = glfwGetVideoMode(monitor);
-    ww = mode->width;
-    wh = mode->height;
-  }
-  w.win = glfwCreateWindow(ww, wh, "DentAR live", monitor, nullptr);
-  if (!w.win) return Error{"live: cannot open a window (no OpenGL 3.0 on this display?)"};
-  glfwMakeContextCurrent(w.win);
-  glfwSwapInterval(o.vsync ? 1 : 0);
-  glfwSetKeyCallback(w.win, on_key);
-  glGenTextures(1, &w.tex);
-  glBindTexture(GL_TEXTURE_2D, w.tex);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, W, H, 0, GL_BGR, GL_UNSIGNED_BYTE, nullptr);
-  w.tex_w = W;
-  w.tex_h = H;
-  IMGUI_CHECKVERSION();
-  ImGui::CreateContext();
-  ImGui::GetIO().IniFilename = nullptr;
-  ImGui_ImplGlfw_InitForOpenGL(w.win, true);
-  ImGui_ImplOpenGL3_Init("#version 130");
-  w.imgui = true;
+  auto hw_r = HudWindow::open("DentAR live", W, H, o.window_width, o.window_height, o.display, o.vsync);
+  if (!hw_r) return Error{"live: " + hw_r.error()};
+  HudWindow& hw = **hw_r;
 
   // ---- threads ----
   ar::CaptureThreadOptions cto;
@@ -680,6 +633,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     grant += "; " + std::to_string(bg_placed.load()) + " background threads (tag search, capture, mesher) on CPU " +
              std::to_string(cfg.cpu) + " below the engine" +
              (bg_refused.load() > 0 ? " (" + std::to_string(bg_refused.load()) + " refused)" : std::string());
+  else if (!bg_note.empty())
+    grant += "; " + bg_note;
   else
     grant += "; background threads with the frame thread";
   const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name();
@@ -700,7 +655,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   int fps_n = 0;
   double fps_now = 0;
   while (true) {
-    if (glfwWindowShouldClose(w.win)) break;
+    if (hw.should_close()) break;
     if (g_signal.load() != 0) {
       stop_reason = g_signal.load() == SIGINT ? "SIGINT" : "SIGTERM";
       break;
@@ -730,35 +685,18 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         fresh = true;
       }
     }
-    glfwPollEvents();
-    key_pedal.set_pressed(g_space.load());
+    hw.poll();
+    for (const int key : hw.take_presses())
+      if (key == GLFW_KEY_ESCAPE) hw.request_close();
+    key_pedal.set_pressed(hw.held(GLFW_KEY_SPACE));
     // The camera went quiet: show the video without the overlay within 200 ms.
     const double age = cur.index >= 0 ? now_s() - capture.last_frame_steady_s() : 0;
     const bool stalled = cur.index >= 0 && age > 0.15;
     if (stalled && stall_seen_at < 0) stall_seen_at = now_s();
     if (!stalled) stall_seen_at = -1;
     const cv::Mat& img = stalled ? cur.raw : cur.composite;
-    if (!img.empty() && (fresh || stalled)) {
-      glBindTexture(GL_TEXTURE_2D, w.tex);
-      glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-      const cv::Mat c = img.isContinuous() ? img : img.clone();
-      glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, c.cols, c.rows, GL_BGR, GL_UNSIGNED_BYTE, c.data);
-    }
-    int fbw = 0, fbh = 0;
-    glfwGetFramebufferSize(w.win, &fbw, &fbh);
-    glViewport(0, 0, fbw, fbh);
-    glClearColor(0, 0, 0, 1);
-    glClear(GL_COLOR_BUFFER_BIT);
-    ImGui_ImplOpenGL3_NewFrame();
-    ImGui_ImplGlfw_NewFrame();
-    ImGui::NewFrame();
-    {
-      // Video fills the window, aspect kept (letterbox).
-      const float s = std::min(float(fbw) / W, float(fbh) / H);
-      const float dw = W * s, dh = H * s, x0 = (fbw - dw) / 2, y0 = (fbh - dh) / 2;
-      ImGui::GetBackgroundDrawList()->AddImage(reinterpret_cast<ImTextureID>(static_cast<std::uintptr_t>(w.tex)),
-                                               ImVec2(x0, y0), ImVec2(x0 + dw, y0 + dh));
-    }
+    if (!img.empty() && (fresh || stalled)) hw.set_video(img);
+    hw.begin_frame();
     if (o.hud) {
       const ar::FrameRecord& r = cur.rec;
       const haptics::HapticSnapshot snap = engine.snapshot();
@@ -806,25 +744,14 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         ImGui::TextColored(col[2], "frame pipeline stalled: no composite for %.0f ms", (now_s() - cur.steady_s) * 1e3);
       ImGui::End();
     }
-    ImGui::Render();
-    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-    // Test hook: the window's pixels for frame N (before the swap).
-    if (fresh) {
-      for (auto it = shots.begin(); it != shots.end();) {
-        if (it->first == cur.index) {
-          cv::Mat px(fbh, fbw, CV_8UC3);
-          glPixelStorei(GL_PACK_ALIGNMENT, 1);
-          glReadBuffer(GL_BACK);
-          glReadPixels(0, 0, fbw, fbh, GL_BGR, GL_UNSIGNED_BYTE, px.data);
-          cv::flip(px, px, 0);
-          cv::imwrite(it->second, px);
-          it = shots.erase(it);
-        } else {
-          ++it;
-        }
-      }
+    // Test hook: the window's pixels for frame N (read before the swap).
+    const auto shot = fresh ? std::find_if(shots.begin(), shots.end(), [&](const auto& x) { return x.first == cur.index; })
+                            : shots.end();
+    const cv::Mat px = hw.end_frame(shot != shots.end());
+    if (shot != shots.end()) {
+      cv::imwrite(shot->second, px);
+      shots.erase(shot);
     }
-    glfwSwapBuffers(w.win);
     const double t_swap = now_s();
     if (fresh && cur.index != last_index) {
       latency_ms.push_back((t_swap - cur.steady_s) * 1e3);
@@ -882,7 +809,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   sum.jitter_max_us = es.jitter.max_s() * 1e6;
   sum.realtime_granted = es.realtime_granted;
   sum.cpu_pinned = es.cpu_pinned;
-  sum.isolation_note = iso + es.realtime_note;
+  sum.isolation_note = iso + es.realtime_note + (bg_note.empty() ? std::string() : "; " + bg_note);
   sum.volume_hash = vol->content_hash();
   {
     const haptics::HapticSnapshot last = engine.snapshot();

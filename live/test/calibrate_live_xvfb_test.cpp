@@ -12,29 +12,16 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "testutil.h"
+#include "xvfb_util.h"
 
 namespace fs = std::filesystem;
+using dentar::test::read_json;
 using dentar::test::run_command;
+using dentar::test::xvfb;
 
 namespace {
 
 const std::string kBin = DENTAR_BINARY;
-
-bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 0; }
-#define REQUIRE_XVFB()                                                                        \
-  do {                                                                                        \
-    if (!have_xvfb()) {                                                                       \
-      if (std::getenv("DENTAR_REQUIRE_GL")) FAIL() << "xvfb-run missing (apt install xvfb)";  \
-      GTEST_SKIP() << "xvfb-run not installed (Debian package xvfb)";                         \
-    }                                                                                         \
-  } while (0)
-
-std::string xvfb(const std::string& cmd) { return "xvfb-run -a -s '-screen 0 1280x1024x24' " + cmd; }
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream f(p);
-  return nlohmann::json::parse(f);
-}
 
 const nlohmann::json* step(const nlohmann::json& j, const std::string& name) {
   for (const auto& r : j["calibration_report"])

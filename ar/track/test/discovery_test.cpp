@@ -16,6 +16,7 @@
 #include "dentar/ar/apriltags.h"
 #include "dentar/ar/station_scene.h"
 #include "dentar/ar/tracker.h"
+#include "tag_drawing.h"
 
 namespace dentar::ar {
 namespace {
@@ -49,26 +50,7 @@ cv::Mat render(const StationScene& st, const Eigen::Isometry3d& T_cam_man, bool 
   cv::Mat img(k.height, k.width, CV_8UC1, cv::Scalar(150));
   if (blank) return img;
   const TagFamily fam = TagFamily::create(st.family);
-  const int ppc = 10, margin = ppc;
-  for (const TagPlacement& t : st.mannequin_tags) {
-    const cv::Mat tag = render_tag_image(fam, t.id, ppc, margin);
-    // Tag-image continuous coordinates (pixel edges at -0.5) -> tag frame:
-    // the border square (width_at_border cells) has side size_m.
-    const double cell_m = t.size_m / fam.width_at_border();
-    const double half_cells = fam.total_width() / 2.0;
-    std::vector<cv::Point2f> src, dst;
-    for (const auto& [u, v] : {std::pair{0.0, 0.0}, {1.0, 0.0}, {1.0, 1.0}, {0.0, 1.0}}) {
-      const double px = u * tag.cols, py = v * tag.rows;  // continuous, edges at 0
-      const double cx = (px - margin) / ppc - half_cells, cy = (py - margin) / ppc - half_cells;
-      const Eigen::Vector3d p_man = t.T_parent_tag * Eigen::Vector3d(cx * cell_m, cy * cell_m, 0);
-      const Eigen::Vector3d p = T_cam_man * p_man;
-      src.emplace_back(static_cast<float>(px - 0.5), static_cast<float>(py - 0.5));
-      dst.emplace_back(static_cast<float>(k.fx * p.x() / p.z() + k.cx),
-                       static_cast<float>(k.fy * p.y() / p.z() + k.cy));
-    }
-    const cv::Mat H = cv::getPerspectiveTransform(src, dst);
-    cv::warpPerspective(tag, img, H, img.size(), cv::INTER_LINEAR, cv::BORDER_TRANSPARENT);
-  }
+  for (const TagPlacement& t : st.mannequin_tags) test::draw_tag_pinhole(img, fam, t, T_cam_man, k);
   return img;
 }
 

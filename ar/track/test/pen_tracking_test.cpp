@@ -8,6 +8,7 @@
 #include "dentar/ar/apriltags.h"
 #include "dentar/ar/camera_model.h"
 #include "dentar/ar/tracker.h"
+#include "tag_drawing.h"
 
 namespace dentar::ar {
 namespace {
@@ -16,23 +17,8 @@ namespace {
 cv::Mat pen_frame(const StationScene& st, const Eigen::Isometry3d& T_cam_ptag) {
   const TagFamily fam = TagFamily::create(st.family);
   const TagPlacement& t = st.pen.tags[0];
-  const int ppc = 24;
-  const cv::Mat img = render_tag_image(fam, t.id, ppc, 0);
-  const double cell_m = t.size_m / fam.width_at_border();
-  const double half_cells = 0.5 * fam.total_width();
-  const CameraModel cam(st.calibration.camera);
-  std::vector<cv::Point2f> src, dst;
-  for (int k = 0; k < 4; ++k) {
-    const double u = (k == 1 || k == 2) ? img.cols : 0, v = k >= 2 ? img.rows : 0;  // pixel edges
-    const Eigen::Vector3d p_tag((u / ppc - half_cells) * cell_m, (v / ppc - half_cells) * cell_m, 0);
-    const auto px = cam.project(T_cam_ptag * t.T_parent_tag * p_tag);
-    EXPECT_TRUE(px.has_value());
-    src.emplace_back(static_cast<float>(u - 0.5), static_cast<float>(v - 0.5));
-    dst.emplace_back(static_cast<float>(px->x()), static_cast<float>(px->y()));
-  }
-  const cv::Mat H = cv::getPerspectiveTransform(src, dst);
   cv::Mat out(st.calibration.camera.height, st.calibration.camera.width, CV_8UC1, cv::Scalar(255));
-  cv::warpPerspective(img, out, H, out.size(), cv::INTER_AREA, cv::BORDER_TRANSPARENT);
+  test::draw_tag_pinhole(out, fam, t, T_cam_ptag, st.calibration.camera, 24, 0, cv::INTER_AREA);
   cv::Mat bgr;
   cv::cvtColor(out, bgr, cv::COLOR_GRAY2BGR);
   return bgr;

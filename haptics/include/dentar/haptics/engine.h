@@ -153,4 +153,10 @@ class Engine {
   std::thread thread_;
 };
 
+// Whether this process may run a thread under SCHED_FIFO at `priority`: tried
+// on a short-lived probe thread (the caller's scheduling is untouched). When
+// not, `why` (if given) gets the system's reason. Used before placing other
+// threads beside the engine: without FIFO they would share its core equally.
+bool realtime_available(int priority, std::string* why = nullptr);
+
 }  // namespace dentar::haptics

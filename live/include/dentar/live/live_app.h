@@ -66,7 +66,9 @@ struct LiveOptions {
   // thread with its decoding; the mesher): "engine" (on the engine's CPU at
   // normal priority: they get only the time the FIFO engine leaves, and it
   // preempts them at once) or "others" (with the frame thread and the
-  // display, off the engine's CPU).
+  // display, off the engine's CPU). "engine" falls back to "others" when
+  // SCHED_FIFO is not granted (or --no-realtime): the engine could not
+  // preempt them, and would share its core with them.
   std::string background_cpu = "engine";
   ar::PipelineOptions pipeline;
   // Test hooks.
