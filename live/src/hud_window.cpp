@@ -2,15 +2,19 @@
 #include "dentar/live/hud_window.h"
 
 #define GLFW_INCLUDE_NONE
+#define GL_GLEXT_PROTOTYPES
 #include <GL/gl.h>
+#include <GL/glext.h>
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace dentar::live {
 
@@ -55,10 +59,20 @@ Result<std::unique_ptr<HudWindow>> HudWindow::open(const std::string& title, int
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, video_w, video_h, 0, GL_BGR, GL_UNSIGNED_BYTE, nullptr);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  // BGRA: llvmpipe's own layout, so an upload is a copy (GL_BGR into RGB8
+  // went through Mesa's per-pixel format conversion).
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, video_w, video_h, 0, GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
   w->tex_w_ = video_w;
   w->tex_h_ = video_h;
+  GLuint fbo = 0;
+  glGenFramebuffers(1, &fbo);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+  glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, tex, 0);
+  const GLenum fb_status = glCheckFramebufferStatus(GL_READ_FRAMEBUFFER);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  w->fbo_ = fbo;
+  if (fb_status != GL_FRAMEBUFFER_COMPLETE) return Error{"window: the video texture cannot be read as a framebuffer"};
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;
@@ -73,6 +87,10 @@ HudWindow::~HudWindow() {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
     ImGui::DestroyContext();
+  }
+  if (fbo_) {
+    GLuint f = fbo_;
+    glDeleteFramebuffers(1, &f);
   }
   if (tex_) {
     GLuint t = tex_;
@@ -108,25 +126,36 @@ bool HudWindow::held(int key) const { return held_.count(key) > 0; }
 
 void HudWindow::set_video(const cv::Mat& bgr) {
   if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || bgr.type() != CV_8UC3) return;
-  const cv::Mat c = bgr.isContinuous() ? bgr : bgr.clone();
+  cv::cvtColor(bgr, bgra_, cv::COLOR_BGR2BGRA);  // SIMD; the buffer is kept between frames
   glBindTexture(GL_TEXTURE_2D, tex_);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, c.cols, c.rows, GL_BGR, GL_UNSIGNED_BYTE, c.data);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, bgra_.cols, bgra_.rows, GL_BGRA, GL_UNSIGNED_BYTE, bgra_.data);
 }
 
 void HudWindow::begin_frame() {
   int fbw = 0, fbh = 0;
   glfwGetFramebufferSize(win_, &fbw, &fbh);
   glViewport(0, 0, fbw, fbh);
-  glClearColor(0, 0, 0, 1);
-  glClear(GL_COLOR_BUFFER_BIT);
+  // Video fills the window, aspect kept (letterbox), drawn by a framebuffer
+  // blit, not a blended textured quad: at 1:1 (the default window) it is a
+  // nearest-pixel copy, the window shows the composite's exact pixels, and
+  // llvmpipe's cost per frame falls from a filtered, blended quad to a copy.
+  const double s = std::min(double(fbw) / tex_w_, double(fbh) / tex_h_);
+  const int dw = static_cast<int>(std::lround(tex_w_ * s)), dh = static_cast<int>(std::lround(tex_h_ * s));
+  const int x0 = (fbw - dw) / 2, y0 = (fbh - dh) / 2;
+  if (dw != fbw || dh != fbh) {
+    glClearColor(0, 0, 0, 1);
+    glClear(GL_COLOR_BUFFER_BIT);
+  }
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+  // Image row 0 is the top; GL's window origin is the bottom: flip in the blit.
+  glBlitFramebuffer(0, 0, tex_w_, tex_h_, x0, y0 + dh, x0 + dw, y0, GL_COLOR_BUFFER_BIT,
+                    dw == tex_w_ && dh == tex_h_ ? GL_NEAREST : GL_LINEAR);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
-  const float s = std::min(float(fbw) / tex_w_, float(fbh) / tex_h_);
-  const float dw = tex_w_ * s, dh = tex_h_ * s, x0 = (fbw - dw) / 2, y0 = (fbh - dh) / 2;
-  ImGui::GetBackgroundDrawList()->AddImage(reinterpret_cast<ImTextureID>(static_cast<std::uintptr_t>(tex_)),
-                                           ImVec2(x0, y0), ImVec2(x0 + dw, y0 + dh));
 }
 
 cv::Mat HudWindow::end_frame(bool capture) {

@@ -511,7 +511,16 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   std::int64_t processed = 0;
 
   std::thread frame_thread([&] {
+    // llvmpipe starts its rasteriser thread when the context is made, with
+    // this thread's CPU mask: with the background threads on the engine's
+    // CPU, it goes there too (it is the largest GL cost; the frame thread
+    // then only records the draw calls and waits, and CPU 0 keeps the
+    // tracking, the blend and the display).
+    cpu_set_t frame_mask;
+    const bool raster_moved = to_engine_cpu && pthread_getaffinity_np(pthread_self(), sizeof frame_mask, &frame_mask) == 0;
+    if (raster_moved) to_engine_cpu();
     auto egl = ar::EglContext::create();
+    if (raster_moved) pthread_setaffinity_np(pthread_self(), sizeof frame_mask, &frame_mask);
     if (!egl || !egl->make_current()) {
       pipeline_error = "headless rendering: " + (egl ? std::string("make_current failed") : egl.error());
       pipeline_ready.store(-1);
@@ -575,7 +584,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       {
         std::lock_guard<std::mutex> lock(shown_m);
         shown.raw = f.image;
-        if (err.empty()) cres.image.copyTo(shown.composite);
+        // Buffers change hands, never copied (2.7 MB a 720p frame): the
+        // compositor's, the shown slot and the display's each own one.
+        if (err.empty()) cv::swap(cres.image, shown.composite);
         else f.image.copyTo(shown.composite);
         shown.index = processed;
         shown.steady_s = f.steady_s;
@@ -630,7 +641,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   grant += "; " + iso;
   grant += "; tag discovery " + discovery_name;
   if (to_engine_cpu)
-    grant += "; " + std::to_string(bg_placed.load()) + " background threads (tag search, capture, mesher) on CPU " +
+    grant += "; " + std::to_string(bg_placed.load()) + " background threads (tag search, capture, mesher, GL rasteriser) on CPU " +
              std::to_string(cfg.cpu) + " below the engine" +
              (bg_refused.load() > 0 ? " (" + std::to_string(bg_refused.load()) + " refused)" : std::string());
   else if (!bg_note.empty())
@@ -675,7 +686,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       std::unique_lock<std::mutex> lock(shown_m);
       shown_cv.wait_for(lock, std::chrono::milliseconds(30), [&] { return shown_new; });
       if (shown_new) {
-        cur.composite = shown.composite.clone();
+        cv::swap(cur.composite, shown.composite);
         cur.raw = shown.raw;
         cur.index = shown.index;
         cur.steady_s = shown.steady_s;

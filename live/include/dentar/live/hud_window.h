@@ -1,7 +1,8 @@
 // A GLFW window showing video with a Dear ImGui HUD over it, for the live tools
 // (`dentar calibrate live`; the same set-up as `dentar live`'s window: desktop GL 3.0, the
 // video as a letterboxed texture in the background, ImGui on top, optional fullscreen on a
-// monitor, vsync). Main thread only. Keys are collected as presses (for take-a-view /
+// monitor, vsync). Main thread only. The video is blitted into the window (1:1 = exact
+// pixels), the HUD drawn over it. Keys are collected as presses (for take-a-view /
 // take-a-touch) and held states (the space bar as a pedal); scripted presses go through the
 // same queue (inject_key), so a test drives exactly the code an instructor's keys drive.
 #pragma once
@@ -47,8 +48,9 @@ class HudWindow {
   HudWindow() = default;
   static void on_key(GLFWwindow* w, int key, int scancode, int action, int mods);
   GLFWwindow* win_ = nullptr;
-  unsigned tex_ = 0;
+  unsigned tex_ = 0, fbo_ = 0;  // the video texture (BGRA) and a read framebuffer on it
   int tex_w_ = 0, tex_h_ = 0;
+  cv::Mat bgra_;  // upload buffer, reused
   bool imgui_ = false;
   std::vector<int> presses_;
   std::set<int> held_;
