@@ -1,6 +1,7 @@
 // The offline run: footage + session log through tracking, haptic replay,
 // meshing and compositing; CSV, summary JSON and HTML report. See offline.h.
 #include "dentar/ar/offline.h"
+#include "dentar/ar/recording_table.h"
 
 #include <algorithm>
 #include <chrono>
@@ -448,75 +449,22 @@ Result<Recording> read_recording(const fs::path& dir) {
   } catch (const std::exception& e) {
     return Error{meta.string() + ": not valid JSON (" + e.what() + ")"};
   }
-  if (!j.is_object() || j.value("format", "") != "dentar-recording")
+  if (!j.is_object() || !j.contains("format") || !j["format"].is_string() || j["format"] != "dentar-recording")
     return Error{meta.string() + ": format must be \"dentar-recording\""};
+  if (j.contains("discovery") && !j["discovery"].is_string())
+    return Error{meta.string() + ": discovery must be the string \"inline\" or \"async\""};
   rec.discovery = j.value("discovery", "inline");
+  if (rec.discovery != "inline" && rec.discovery != "async")
+    return Error{meta.string() + ": discovery = \"" + rec.discovery + "\" must be inline or async"};
   rec.frames_csv = (dir / "frames.csv").string();
   std::ifstream in(rec.frames_csv);
   if (!in) return Error{rec.frames_csv + ": missing: the recording has no per-frame table"};
-  std::string line;
-  if (!std::getline(in, line)) return Error{rec.frames_csv + ": empty"};
-  std::vector<std::string> cols;
-  {
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) cols.push_back(c);
-  }
-  auto col = [&](const char* name) -> int {
-    for (std::size_t i = 0; i < cols.size(); ++i)
-      if (cols[i] == name) return static_cast<int>(i);
-    return -1;
-  };
-  const int cf = col("frame"), ct = col("time_s"), ch = col("haptic_steps");
-  if (cf < 0 || ct < 0 || ch < 0)
-    return Error{rec.frames_csv + ": line 1: needs the columns frame, time_s and haptic_steps"};
-  if (rec.discovery != "inline" && rec.discovery != "async")
-    return Error{meta.string() + ": discovery = \"" + rec.discovery + "\" must be inline or async"};
-  const bool async = rec.discovery == "async";
-  const int cs = col("disc_start"), cm = col("disc_merged");
-  if (async && (cs < 0 || cm < 0))
-    return Error{rec.frames_csv + ": line 1: recording.json says discovery async, which needs the columns "
-                 "disc_start and disc_merged (what the live tracker's search did per frame)"};
-  int lineno = 1;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (line.empty()) continue;
-    std::vector<std::string> v;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) v.push_back(c);
-    if (static_cast<int>(v.size()) <= std::max({cf, ct, ch, async ? std::max(cs, cm) : 0})) {
-      // A crash can cut the last row short: stop there, the frames before it replay.
-      break;
-    }
-    try {
-      const long long f = std::stoll(v[static_cast<std::size_t>(cf)]);
-      if (f != static_cast<long long>(rec.capture_s.size()))
-        return Error{rec.frames_csv + ": line " + std::to_string(lineno) + ": frame " + std::to_string(f) +
-                     " out of order (expected " + std::to_string(rec.capture_s.size()) + ")"};
-      rec.capture_s.push_back(std::stod(v[static_cast<std::size_t>(ct)]));
-      rec.haptic_steps.push_back(std::stoull(v[static_cast<std::size_t>(ch)]));
-      if (async) {
-        DiscoveryCue cue;
-        cue.start = std::stoi(v[static_cast<std::size_t>(cs)]) != 0;
-        cue.merge = std::stoll(v[static_cast<std::size_t>(cm)]);
-        if (cue.merge >= f || cue.merge < -1)
-          return Error{rec.frames_csv + ": line " + std::to_string(lineno) + ": disc_merged = " +
-                       std::to_string(cue.merge) + " must be -1 or an earlier frame"};
-        // A merge of a search whose frame is not in the recording cannot be
-        // replayed: dropped, and the replay is marked inexact.
-        if (cue.merge >= 0 && !rec.cues[static_cast<std::size_t>(cue.merge)].start) {
-          cue.merge = -1;
-          rec.cues_exact = false;
-        }
-        rec.cues.push_back(cue);
-      }
-    } catch (const std::exception&) {
-      return Error{rec.frames_csv + ": line " + std::to_string(lineno) +
-                   ": frame, time_s, haptic_steps, disc_start or disc_merged is not a number"};
-    }
-  }
-  if (rec.capture_s.empty()) return Error{rec.frames_csv + ": no frames recorded"};
+  auto table = parse_recording_table(in, rec.discovery == "async", rec.frames_csv);
+  if (!table) return Error{table.error()};
+  rec.capture_s = std::move(table->capture_s);
+  rec.haptic_steps = std::move(table->haptic_steps);
+  rec.cues = std::move(table->cues);
+  rec.cues_exact = table->cues_exact;
   return rec;
 }
 

@@ -1,0 +1,92 @@
+// frames.csv of a live recording as `dentar offline` replays it: accepted
+// tables, a row cut by a crash, and bad values refused with the line, the
+// column and what is wrong.
+#include <gtest/gtest.h>
+
+#include <sstream>
+
+#include "dentar/ar/recording_table.h"
+
+namespace dentar::ar {
+namespace {
+
+const char* kHeader = "frame,time_s,steady_s,haptic_steps,man_state,disc_start,disc_merged\n";
+
+Result<RecordingTable> parse(const std::string& body, bool async = true) {
+  std::istringstream in(kHeader + body);
+  return parse_recording_table(in, async, "rec/frames.csv");
+}
+
+TEST(RecordingTable, ReadsTimesStepsAndCues) {
+  auto r = parse("0,0,5.0,0,lost,1,-1\n1,0.033,5.033,33,tracking,0,0\n2,0.067,5.067,66,tracking,1,-1\n"
+                 "3,0.1,5.1,99,tracking,0,2\n");
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ(r->capture_s.size(), 4u);
+  EXPECT_DOUBLE_EQ(r->capture_s[1], 0.033);
+  EXPECT_EQ(r->haptic_steps[3], 99u);
+  ASSERT_EQ(r->cues.size(), 4u);
+  EXPECT_TRUE(r->cues[0].start);
+  EXPECT_EQ(r->cues[1].merge, 0);
+  EXPECT_EQ(r->cues[3].merge, 2);
+  EXPECT_TRUE(r->cues_exact);
+  EXPECT_FALSE(r->truncated);
+  // Inline discovery: no cues, and the disc_ columns are not needed.
+  std::istringstream in("frame,time_s,haptic_steps\n0,0,0\n1,0.033,33\n");
+  auto i = parse_recording_table(in, false, "x.csv");
+  ASSERT_TRUE(i) << i.error();
+  EXPECT_TRUE(i->cues.empty());
+}
+
+TEST(RecordingTable, ARowCutByACrashIsDroppedTheRestReplays) {
+  auto r = parse("0,0,5.0,0,lost,1,-1\n1,0.033,5.033,33,tracking,0,0\n2,0.06");
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ(r->capture_s.size(), 2u);
+  EXPECT_TRUE(r->truncated);
+  // Cut inside a number of a needed column: still only the complete rows.
+  r = parse("0,0,5.0,0,lost,1,-1\n1,0.033,5.033,3");
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ(r->capture_s.size(), 1u);
+}
+
+TEST(RecordingTable, AMergeOfASearchNotStartedIsDroppedAndMarked) {
+  auto r = parse("0,0,5.0,0,lost,0,-1\n1,0.033,5.033,33,tracking,0,0\n");
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ(r->cues[1].merge, -1);
+  EXPECT_FALSE(r->cues_exact);
+}
+
+TEST(RecordingTable, BadValuesNameLineColumnAndWhy) {
+  struct Case {
+    std::string body, want;
+  };
+  const Case cases[] = {
+      {"0,0,5,0,lost,1,-1\n1,0.03,5,-5,x,0,-1\n", "line 3, column haptic_steps: \"-5\" is not a step count"},
+      {"0,0,5,0,lost,1,-1\n1,0.03,5,99999999999,x,0,-1\n", "line 3, column haptic_steps: \"99999999999\" is beyond"},
+      {"0,0,5,40,lost,1,-1\n1,0.03,5,30,x,0,-1\n", "column haptic_steps: \"30\" goes back"},
+      {"0,nan,5,0,lost,1,-1\n", "line 2, column time_s: \"nan\" is not a finite time"},
+      {"0,0.5,5,0,lost,1,-1\n1,0.2,5,1,x,0,-1\n", "column time_s: \"0.2\" goes back in time"},
+      {"0,0,5,0,lost,1,-1\n2,0.03,5,1,x,0,-1\n", "column frame: \"2\" is out of order (expected frame 1)"},
+      {"0x,0,5,0,lost,1,-1\n", "column frame: \"0x\" is not a frame number"},
+      {"0,0,5,0,lost,2,-1\n", "column disc_start: \"2\" must be 0 or 1"},
+      {"0,0,5,0,lost,1,0\n", "column disc_merged: \"0\" must be -1 or an earlier frame"},
+      {"0,0,5,0,lost,1,-1\n1,0.03\n2,0.06,5,1,x,0,-1\n", "line 3: 2 fields, the header names 7"},
+      {"", "rec/frames.csv: no frames recorded"},
+  };
+  for (const auto& c : cases) {
+    auto r = parse(c.body);
+    ASSERT_FALSE(r) << c.body;
+    EXPECT_NE(r.error().find(c.want), std::string::npos) << r.error();
+    EXPECT_EQ(r.error().rfind("rec/frames.csv: ", 0), 0u) << r.error();
+  }
+  std::istringstream no_disc("frame,time_s,haptic_steps\n0,0,0\n");
+  auto r = parse_recording_table(no_disc, true, "f.csv");
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("disc_start and disc_merged"), std::string::npos) << r.error();
+  std::istringstream empty("");
+  r = parse_recording_table(empty, false, "f.csv");
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error(), "f.csv: empty");
+}
+
+}  // namespace
+}  // namespace dentar::ar
