@@ -55,3 +55,48 @@ function(dentar_bench name)
   target_link_libraries(${name} PRIVATE ${B_DEPS} benchmark::benchmark)
   dentar_warnings(${name})
 endfunction()
+
+# A module's fuzz targets: every fuzz_*.cpp in the calling directory (each defines
+# LLVMFuzzerTestOneInput).
+#  - With DENTAR_FUZZ (clang): a libFuzzer binary <PREFIX><name> (ASan + UBSan).
+#  - With tests: <PREFIX><name>_replay = the target + REPLAY_MAIN (a replay driver without
+#    libFuzzer), run as a ctest labelled "fuzz;<LABEL>" on corpus/<name> plus MUTATIONS
+#    deterministic mutations (a variable <name>_MUTATIONS overrides the count per target),
+#    with <name>.dict when it exists, and a per-input time limit when MAX_INPUT_SECONDS is
+#    given (text replay driver: a hang fails the test instead of stalling the suite).
+function(dentar_fuzz_targets)
+  cmake_parse_arguments(F "" "PREFIX;LABEL;REPLAY_MAIN;MUTATIONS;MAX_INPUT_SECONDS" "DEPS" ${ARGN})
+  if(NOT F_MUTATIONS)
+    set(F_MUTATIONS 20000)
+  endif()
+  file(GLOB targets CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/fuzz_*.cpp)
+  foreach(f ${targets})
+    get_filename_component(n ${f} NAME_WE)
+    set(t ${F_PREFIX}${n})
+    if(DENTAR_FUZZ)
+      add_executable(${t} ${f})
+      target_link_libraries(${t} PRIVATE ${F_DEPS})
+      target_compile_options(${t} PRIVATE -fsanitize=fuzzer,address,undefined -g)
+      target_link_options(${t} PRIVATE -fsanitize=fuzzer,address,undefined)
+    endif()
+    if(DENTAR_BUILD_TESTS)
+      add_executable(${t}_replay ${f} ${F_REPLAY_MAIN})
+      target_link_libraries(${t}_replay PRIVATE ${F_DEPS})
+      dentar_warnings(${t}_replay)
+      target_include_directories(${t}_replay PRIVATE ${PROJECT_SOURCE_DIR}/tests/fuzzutil)
+      set(m ${F_MUTATIONS})
+      if(DEFINED ${n}_MUTATIONS)
+        set(m ${${n}_MUTATIONS})
+      endif()
+      set(args ${CMAKE_CURRENT_SOURCE_DIR}/corpus/${n} --mutations ${m})
+      if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${n}.dict)
+        list(APPEND args --dict ${CMAKE_CURRENT_SOURCE_DIR}/${n}.dict)
+      endif()
+      if(F_MAX_INPUT_SECONDS)
+        list(APPEND args --max-input-seconds ${F_MAX_INPUT_SECONDS})
+      endif()
+      add_test(NAME ${t}_replay COMMAND ${t}_replay ${args})
+      set_tests_properties(${t}_replay PROPERTIES LABELS "fuzz;${F_LABEL}" TIMEOUT 600)
+    endif()
+  endforeach()
+endfunction()
