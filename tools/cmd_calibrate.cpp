@@ -56,7 +56,9 @@ struct CalibCli {
   int count = 0;              // 0: the step's default amount of data
   double max_tilt_deg = 25;   // simulated pivot tilt
   int bad_view = 3;           // simulated camera step: the warped-board view (-1: none)
-  double sim_board_area = 100;  // simulated camera step: boards inside this % of the image
+  double sim_board_area = 100;
+  bool board_given = false;  // --board on the command line (live: else its AprilTag grid default)
+  int camera_views = 12;     // live camera step  // simulated camera step: boards inside this % of the image
   int check_frames = 20;
   bool rational = false;
   std::string model = "auto";  // camera: auto, k1, k1k2, radtan5, rational8
@@ -65,7 +67,7 @@ struct CalibCli {
   std::string hand = "HMD";  // hand_eye: what carries the camera
   double he_spread_deg = 170;  // --simulate hand_eye: rotation spread of the motions
   // live
-  std::string haptic = "sim", haptic_name, pedal = "keyboard", live_steps = "pivot,register,tooth";
+  std::string haptic = "sim", haptic_name, pedal = "keyboard", live_steps;  // empty: every live step (camera only with --camera)
   std::string screenshots, summary;
   double pace = 1.0, seconds = 0;
   int display = -1;
@@ -738,9 +740,13 @@ int run(const CalibCli& c) {
     lo.device_name = c.haptic_name;
     lo.pedal = c.pedal;
     lo.steps.clear();
-    std::stringstream ss(c.live_steps);
+    std::stringstream ss(!c.live_steps.empty() ? c.live_steps
+                         : c.camera.empty() ? "pivot,register,tooth,mirror,check"
+                                            : "camera,pivot,register,tooth,mirror,check");
     for (std::string w; std::getline(ss, w, ',');)
       if (!w.empty()) lo.steps.push_back(w);
+    if (c.board_given) lo.board = c.board;
+    lo.camera_views = c.camera_views;
     lo.seed = c.seed;
     lo.pace = c.pace;
     lo.seconds = c.seconds;
@@ -917,7 +923,7 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]");
   s->add_option("step", c->step,
                 "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live "
-                "(pivot, register, tooth in a window with the stylus), or migrate (rewrite an older "
+                "(the station's steps in a window: camera, pivot, register, tooth, mirror, check), or migrate (rewrite an older "
                 "station file in the current version, keeping the original)");
   s->add_option("--camera", c->camera,
                 "the camera this station belongs to (camera:N, /dev/videoN, live:FILE): the camera step "
@@ -929,7 +935,12 @@ void add_calibrate(CLI::App& app, int& exit_code) {
   s->add_option("--haptic-name", c->haptic_name, "live: the device's configuration name or serial");
   s->add_option("--pedal", c->pedal, "live: keyboard (space bar) or a pedal spec (auto, vec, usb:VID:PID, evdev:PATH)")
       ->capture_default_str();
-  s->add_option("--steps", c->live_steps, "live: the steps to run, in order (pivot,register,tooth)")
+  s->add_option("--camera-views", c->camera_views,
+                "live camera step: views after which the step stops itself once the lens model is trusted over the image")
+      ->check(CLI::Range(6, 30))
+      ->capture_default_str();
+  s->add_option("--steps", c->live_steps,
+                "live: the steps to run, in order, from camera,pivot,register,tooth,mirror,check")
       ->capture_default_str();
   s->add_option("--pace", c->pace, "live --haptic sim: the instructor's travel speed (1 = human pace)")
       ->check(CLI::Range(0.25, 20.0))
@@ -951,7 +962,8 @@ void add_calibrate(CLI::App& app, int& exit_code) {
   s->add_option("--images", c->images, "camera: folder of board photos (PNG/JPEG)");
   s->add_option("--board", c->board,
                 "camera: chessboard:COLSxROWS:SQUARE_MM (inner corners) or "
-                "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]]")
+                "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] (live: default aprilgrid:6x5:24:8:tag36h11, "
+                "which is detected fast enough for video)")
       ->capture_default_str();
   s->add_option("--import", c->import_camera,
                 "camera: take the intrinsics from an OpenCV FileStorage or ROS camera_info YAML");
@@ -1000,7 +1012,8 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "  dentar calibrate live --haptic sim --camera live:out/clip/video.mkv --station out/s.json\n"
       "  dentar calibrate migrate --station old_station.json\n"
       "  dentar calibrate --instructor-time");
-  s->callback([c, &exit_code] {
+  s->callback([c, s, &exit_code] {
+    c->board_given = s->count("--board") > 0;
     if (c->step.empty() && !c->instructor_time) {
       print_error(kCmd, "give a step: camera, pivot, register, tooth, mirror, check or all");
       exit_code = 2;

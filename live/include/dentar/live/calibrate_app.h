@@ -32,6 +32,10 @@ struct CalibrateLiveOptions {
   std::string device_name;
   std::string pedal = "keyboard";  // keyboard, or a haptics::open_pedal spec (a press takes a touch)
   std::vector<std::string> steps = {"pivot", "register", "tooth"};
+  // camera step: the printed board (ar/calib_board.h spec) and the views after which the step
+  // may stop itself (when the model is trusted over the image).
+  std::string board = "aprilgrid:6x5:24:8:tag36h11";
+  int camera_views = 12;
   std::uint64_t seed = 1;  // sim: the hidden truth and the instructor's hand
   double pace = 1.0;       // sim: instructor's travel speed (1 = human pace); holds stay real
   double seconds = 0;      // give up after this long (0 = no limit)
@@ -62,6 +66,10 @@ struct CalibrateLiveSummary {
   double truth_tip_error_mm = -1;      // |p_tip - true p_tip|
   double truth_tooth_error_mm = -1;    // the calibrated chain's error at the crown (tooth frame point 4 mm up)
   double truth_static_colocation_mean_mm = -1, truth_static_colocation_p99_mm = -1;  // bur tip vs tooth, working poses
+  // camera step on footage with a camera.yaml beside it (`dentar synth --board`): the chosen
+  // model against the true camera, px (-1 when not computed): fx, and the worst projection
+  // error over the whole image and over the tooth region (after the best ray rotation).
+  double truth_camera_fx_error_px = -1, truth_camera_max_px = -1, truth_camera_tooth_max_px = -1;
   std::vector<std::string> log;  // what the HUD said, in order
   std::string json() const;
 };
