@@ -723,7 +723,10 @@ void print_instructor_time() {
          "  check     a few seconds of work at the tooth        30 s                   = 0.5 min\n"
          "  total     6 steps, 55 recorded items                                       = 9.2 min\n"
          "  (goal <= 10 min; the computation of each step takes well under a second except\n"
-         "   the camera step's detection, about 0.5 s per photo)\n";
+         "   the camera step's detection, about 0.5 s per photo)\n"
+         "Measured with `dentar calibrate live --haptic sim` at human pace (the simulated\n"
+         "instructor, tools/bench_calibrate_live.sh): about 3.5 min for the six steps\n"
+         "(docs/BENCHMARKS.md, \"the whole station live\"); plan with the estimate.\n";
 }
 
 int run(const CalibCli& c) {

@@ -394,7 +394,9 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   }
 
   // ---- window ----
-  auto win_r = HudWindow::open("DentAR station calibration", vw, vh, 0, 0, o.display, o.vsync);
+  // A small camera image is shown enlarged so the HUD's text leaves the view visible.
+  const int zoom = std::max(1, 1280 / std::max(vw, 1));
+  auto win_r = HudWindow::open("DentAR station calibration", vw, vh, vw * zoom, vh * zoom, o.display, o.vsync);
   if (!win_r) return Error{"calibrate live: " + win_r.error()};
   HudWindow& win = **win_r;
   std::signal(SIGINT, on_cal_signal);
@@ -1087,7 +1089,12 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   } else {
     say(o.station + " was NOT written (" + sum.stop_reason + ")");
   }
-  if (!o.summary_path.empty()) std::ofstream(o.summary_path) << sum.json();
+  if (!o.summary_path.empty()) {
+    if (const fs::path dir = fs::path(o.summary_path).parent_path(); !dir.empty()) fs::create_directories(dir);
+    std::ofstream f(o.summary_path);
+    f << sum.json();
+    if (!f) say("cannot write the summary " + o.summary_path);
+  }
   return sum;
 }
 
