@@ -133,7 +133,9 @@ void LiveCameraViews::add_frame(double t_s, const BoardView* view, const std::st
   last_layout_ok_ = lr < std::max(options_.max_layout_px, options_.max_layout_fraction * diag_px(view->image_points));
   Seen s{t_s, view->image_points, view->object_points};
   double v = 0;
-  if (last_found_ && !recent_.empty() && t_s - recent_.back().t_s < 0.5) {
+  // Consecutive detections up to 1.5 s apart are compared (speed is per second): a loaded
+  // machine that processes 2 frames a second still sees a held board as still.
+  if (last_found_ && !recent_.empty() && t_s - recent_.back().t_s < 1.5) {
     v = speed(recent_.back(), s);
     if (v > options_.max_speed_px_per_s || still_since_ < 0) still_since_ = t_s;
   } else {

@@ -300,6 +300,8 @@ std::string CalibrateLiveOptions::validate() const {
              "check (hand_eye runs with `dentar calibrate hand_eye`)";
     if (s == "camera" && camera.empty())
       return "the camera step needs the camera: give --camera camera:N, /dev/videoN or live:FOOTAGE";
+    if (s == "mirror" && camera.empty() && device != "sim")
+      return "the mirror step needs the camera (the mirror's pose is tracked at each touch): give --camera";
   }
   if (auto b = ar::parse_board_spec(board); !b) return "board: " + b.error();
   if (camera_views < 6 || camera_views > 30) return "camera_views must be in [6, 30]";
@@ -353,6 +355,16 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   }
   if (st.fixtures.divots_man.empty() || st.fixtures.landmarks_tooth.empty())
     st.fixtures = ar::default_calibration_fixtures();
+  // A station file made with another camera: its intrinsics and placement are not this one's
+  // (unless this run calibrates the camera first).
+  if (!o.camera.empty() && std::find(o.steps.begin(), o.steps.end(), "camera") == o.steps.end() &&
+      !st.camera_provenance.device_id.empty()) {
+    const std::string have = camera_identity(o.camera);
+    if (!have.empty() && have != st.camera_provenance.device_id)
+      return Error{"calibrate live: " + o.station + ": calibrated with camera \"" + st.camera_provenance.device_id +
+                   "\", but --camera " + o.camera + " is \"" + have +
+                   "\": add the camera step (--steps camera,...) for this camera, or use the station file made for it"};
+  }
   const cal::StationCalibration nominal = st.calibration;
 
   // ---- device ----
@@ -394,9 +406,9 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   }
 
   // ---- window ----
-  // A small camera image is shown enlarged so the HUD's text leaves the view visible.
-  const int zoom = std::max(1, 1280 / std::max(vw, 1));
-  auto win_r = HudWindow::open("DentAR station calibration", vw, vh, vw * zoom, vh * zoom, o.display, o.vsync);
+  // A small camera image is shown enlarged (to 1024 px wide) so the HUD's text leaves the view visible.
+  const int win_w = std::max(vw, 1024), win_h = static_cast<int>(std::lround(double(vh) * win_w / std::max(vw, 1)));
+  auto win_r = HudWindow::open("DentAR station calibration", vw, vh, win_w, win_h, o.display, o.vsync);
   if (!win_r) return Error{"calibrate live: " + win_r.error()};
   HudWindow& win = **win_r;
   std::signal(SIGINT, on_cal_signal);
@@ -656,7 +668,7 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       }
       // The simulated instructor with the board: presses once the board has been still 0.8 s
       // (as the HUD shows it), once per hold; once while the board still moves (refused); F
-      // when the footage came round again (three views in a row too similar).
+      // when the footage came round again (three views in a row too similar)
       if (sim && cam) {
         const double still = cam->still_for_s();
         if (still <= 0) press_latch = false;
@@ -667,7 +679,8 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
           win.inject_key(GLFW_KEY_SPACE);
           press_latch = true;
         }
-        if (similar_in_row >= 3 && cam->views() >= cam->options().intrinsics.min_views) win.inject_key(GLFW_KEY_F);
+        // (from the target number of views on: a slow machine that missed holds goes round again)
+        if (similar_in_row >= 3 && cam->views() >= cam->options().target_views) win.inject_key(GLFW_KEY_F);
       }
       if (s.valid) last_pose = s.T_dev_sty;
       // A take: a key press, a pedal press or a stylus button press (edges).

@@ -213,6 +213,17 @@ TEST(CalibrateLiveXvfb, BadInput) {
   r = run_command(kBin + " calibrate live --steps camera --camera live:/nonexistent.mkv --board aprilgrid:0x5:24:8 --station /tmp/x.json 2>&1");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("board"), std::string::npos) << r.out;
+  // A station file from another camera.
+  const fs::path t = dentar::test::temp_dir("calibrate_live_other_camera");
+  r = run_command(kBin + " synth --write-default-station " + (t / "s.json").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto j = read_json(t / "s.json");
+  j["camera"]["device_id"] = "footage elsewhere/video.mkv";
+  std::ofstream(t / "s.json") << j.dump(2);
+  r = run_command(kBin + " calibrate live --steps pivot --camera live:" + (t / "here" / "video.mkv").string() +
+                  " --station " + (t / "s.json").string() + " 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("calibrated with camera \"footage elsewhere/video.mkv\""), std::string::npos) << r.out;
   r = run_command(kBin + " calibrate live --haptic nosuchdevice --station /tmp/x.json 2>&1");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("haptic device nosuchdevice"), std::string::npos) << r.out;
