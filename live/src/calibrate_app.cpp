@@ -166,6 +166,10 @@ struct Press {
 struct Plan {
   std::vector<haptics::HandWaypoint> script;  // times relative to the step start
   std::vector<Press> presses;
+  // Touch steps: per target, when the tip rests in it (device time). The instructor presses
+  // while the HUD asks for that target and shows the stylus still, again every 0.5 s until it
+  // is taken (a starved or paused process may see a scripted press only after the hand moved).
+  std::vector<std::pair<double, double>> rest;
 };
 
 Eigen::Quaterniond pointing(const Eigen::Vector3d& dir, double spin) {
@@ -210,8 +214,8 @@ class SimInstructor {
 
   // Touches of targets (device frame, truth) in order, each approached along `approach` (the
   // stylus axis, device frame) tilted by up to 20 degrees; the tip rests within the fixture's
-  // localisation error (0.2 mm RMS) and the key is pressed after ~0.8 s of holding, and once
-  // more 0.6 s later if the HUD still asks for that point (the first press was refused). With
+  // localisation error (0.2 mm RMS) for 1.7 s, during which the instructor presses (Plan::rest,
+  // pressed once the HUD shows the stylus still, again if the HUD still asks). With
   // moving_press_at = i, the instructor first presses while still arriving at target i.
   Plan touches(const std::vector<Eigen::Vector3d>& targets, const Eigen::Vector3d& approach,
                const Eigen::Isometry3d& from, int moving_press_at) {
@@ -242,8 +246,7 @@ class SimInstructor {
       add(p, t, pose(rest));
       const int ti = static_cast<int>(i);
       if (ti == moving_press_at) p.presses.push_back({t - 0.3 * descend, ti});
-      p.presses.push_back({t + 0.8, ti});
-      p.presses.push_back({t + 1.4, ti});
+      p.rest.emplace_back(t, t + hold);
       t += hold;
       add(p, t, pose(rest));
       t += 0.4 / pace_;
@@ -625,6 +628,7 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
     cal::RegistrationSummary fit;
     std::string refusal;
     std::size_t next_press = 0;
+    double last_sim_press = -1e300;  // device time of the simulated instructor's last press
     double last_seen = -1e300;
     const double t0 = wall_s();
     bool step_done = false;
@@ -653,8 +657,19 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       // The scripted instructor's key, through the window's key queue, on the hand's own clock.
       while (sim && s.valid && next_press < plan.presses.size() && s.t_s >= plan.presses[next_press].t_s) {
         const int want = plan.presses[next_press].target;
-        if (want < 0 || (step != "pivot" && want == touches.next())) win.inject_key(GLFW_KEY_SPACE);
+        if (want < 0 || (step != "pivot" && want == touches.next())) {
+          win.inject_key(GLFW_KEY_SPACE);
+          last_sim_press = s.t_s;
+        }
         ++next_press;
+      }
+      if (sim && s.valid && step != "pivot" && step != "camera") {
+        const auto i = static_cast<std::size_t>(touches.next());
+        if (i < plan.rest.size() && s.t_s >= plan.rest[i].first + 0.6 && s.t_s <= plan.rest[i].second &&
+            touches.still() && s.t_s - last_sim_press >= 0.5) {
+          win.inject_key(GLFW_KEY_SPACE);
+          last_sim_press = s.t_s;
+        }
       }
       if (capture) {
         ar::Frame f;

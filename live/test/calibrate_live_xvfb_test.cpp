@@ -224,7 +224,7 @@ TEST(CalibrateLiveXvfb, BadInput) {
                   " --station " + (t / "s.json").string() + " 2>&1");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("calibrated with camera \"footage elsewhere/video.mkv\""), std::string::npos) << r.out;
-  r = run_command(kBin + " calibrate live --haptic nosuchdevice --station /tmp/x.json 2>&1");
+  r = run_command(kBin + " calibrate live --steps pivot --haptic nosuchdevice --station /tmp/x.json 2>&1");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("haptic device nosuchdevice"), std::string::npos) << r.out;
 }
