@@ -80,11 +80,12 @@ TEST(CalibrateLiveXvfb, StylusStepsWithTheSimulatedInstructor) {
 // into the corners and edges), for the tests below; its camera.yaml is the truth.
 class CalibrateLiveCameraXvfb : public ::testing::Test {
  protected:
-  // The clip is deterministic: rendered once into the test's working folder (ctest runs each
-  // test in its own process) and reused while its clip.json is there.
+  // The clip is deterministic: rendered once into the build folder (ctest runs each test in its
+  // own process) and reused while its clip.json is there.
   static void SetUpTestSuite() {
     dir_ = new fs::path(dentar::test::temp_dir("calibrate_live_board"));
-    const fs::path cache = fs::current_path() / "calibrate_live_board_clip_seed3";
+    const fs::path cache = fs::path(kBin).parent_path() / "test_cache" / "calibrate_live_board_clip_seed3";
+    fs::create_directories(cache.parent_path());
     out_ = new std::string;
     if (!fs::exists(cache / "clip.json")) {
       const fs::path tmp = *dir_ / "render";
