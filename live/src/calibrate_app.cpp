@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -115,6 +116,9 @@ class Poller {
     std::lock_guard<std::mutex> lock(m_);
     return dev_ ? dev_->name() : std::string("none");
   }
+  // Simulated: the hand's clock does not pass t_s (the instructor waits in the point until the
+  // HUD says it is taken, however late a starved or paused process sees it); inf = no limit.
+  void hold_at(double t_s) { limit_s_.store(t_s); }
 
  private:
   void main() {
@@ -123,7 +127,9 @@ class Poller {
       next += std::chrono::milliseconds(1);
       {
         std::lock_guard<std::mutex> lock(m_);
-        if (dev_) {
+        if (dev_ && simulated_ && last_.valid && last_.t_s >= limit_s_.load()) {
+          t0_ += std::chrono::milliseconds(1);  // held: the device clock waits with the hand
+        } else if (dev_) {
           const std::int64_t due =
               simulated_ ? std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - t0_).count() + 1
                          : steps_ + 1;
@@ -154,6 +160,7 @@ class Poller {
   std::int64_t steps_ = 0;
   Clock::time_point t0_ = Clock::now();
   std::atomic<bool> stop_{false};
+  std::atomic<double> limit_s_{std::numeric_limits<double>::infinity()};
   std::thread thread_;
 };
 
@@ -595,6 +602,7 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       if (!d) return Error{"calibrate live: simulated instructor: " + d.error()};
       if (!poller) poller = std::make_unique<Poller>(std::move(*d), true);
       else poller->swap(std::move(*d));
+      poller->hold_at(std::numeric_limits<double>::infinity());
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     say("step " + step + ": " + title);
@@ -628,7 +636,7 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
     cal::RegistrationSummary fit;
     std::string refusal;
     std::size_t next_press = 0;
-    double last_sim_press = -1e300;  // device time of the simulated instructor's last press
+    double last_sim_press_wall = -1e300;  // wall time of the simulated instructor's last press
     double last_seen = -1e300;
     const double t0 = wall_s();
     bool step_done = false;
@@ -659,16 +667,16 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
         const int want = plan.presses[next_press].target;
         if (want < 0 || (step != "pivot" && want == touches.next())) {
           win.inject_key(GLFW_KEY_SPACE);
-          last_sim_press = s.t_s;
         }
         ++next_press;
       }
-      if (sim && s.valid && step != "pivot" && step != "camera") {
+      if (sim && step != "pivot" && step != "camera") {
         const auto i = static_cast<std::size_t>(touches.next());
-        if (i < plan.rest.size() && s.t_s >= plan.rest[i].first + 0.6 && s.t_s <= plan.rest[i].second &&
-            touches.still() && s.t_s - last_sim_press >= 0.5) {
+        poller->hold_at(i < plan.rest.size() ? plan.rest[i].second - 0.05 : std::numeric_limits<double>::infinity());
+        if (s.valid && i < plan.rest.size() && s.t_s >= plan.rest[i].first + 0.6 && s.t_s <= plan.rest[i].second &&
+            touches.still() && now - last_sim_press_wall >= 0.5) {
           win.inject_key(GLFW_KEY_SPACE);
-          last_sim_press = s.t_s;
+          last_sim_press_wall = now;
         }
       }
       if (capture) {
