@@ -56,7 +56,9 @@ struct CalibCli {
   int count = 0;              // 0: the step's default amount of data
   double max_tilt_deg = 25;   // simulated pivot tilt
   int bad_view = 3;           // simulated camera step: the warped-board view (-1: none)
-  double sim_board_area = 100;  // simulated camera step: boards inside this % of the image
+  double sim_board_area = 100;
+  bool board_given = false;  // --board on the command line (live: else its AprilTag grid default)
+  int camera_views = 12;     // live camera step  // simulated camera step: boards inside this % of the image
   int check_frames = 20;
   bool rational = false;
   std::string model = "auto";  // camera: auto, k1, k1k2, radtan5, rational8
@@ -65,7 +67,7 @@ struct CalibCli {
   std::string hand = "HMD";  // hand_eye: what carries the camera
   double he_spread_deg = 170;  // --simulate hand_eye: rotation spread of the motions
   // live
-  std::string haptic = "sim", haptic_name, pedal = "keyboard", live_steps = "pivot,register,tooth";
+  std::string haptic = "sim", haptic_name, pedal = "keyboard", live_steps;  // empty: every live step (camera only with --camera)
   std::string screenshots, summary;
   double pace = 1.0, seconds = 0;
   int display = -1;
@@ -586,6 +588,12 @@ int step_check(Session& s) {
   const ar::TagBundle bundle = ar::mannequin_bundle(s.st);
   const cal::StationCalibration nominal = ar::default_station_scene().calibration;
   std::vector<double> err, err_nom, err_static;
+  // What the eye sees: the drawn tip (the chain through the calibrated camera) against the real
+  // tip in the image (the true camera), px, and that distance in mm at the tip's depth. A
+  // calibrated camera turned slightly against the true one (a principal point shifted to absorb
+  // tangential terms) turns the tracked poses with it: the camera-frame error grows, the image
+  // does not.
+  std::vector<double> err_img_px, err_img_mm;
   for (int f = 0; f < so.frames; ++f) {
     ar::SynthFrame fr;
     if (Status st = (*gen)->next(fr); !st) throw BadInput{"check: " + st.error()};
@@ -598,7 +606,13 @@ int step_check(Session& s) {
     const Eigen::Vector3d tip_true = fr.truth.T_cam_tip.translation();
     std::cout << "  frame " << f;
     if (pose.ok()) {
-      err.push_back((cal::chain_tip_cam(pose.T_cam_body, s.st.calibration, fr.truth.T_dev_sty) - tip_true).norm());
+      const Eigen::Vector3d tip_drawn = cal::chain_tip_cam(pose.T_cam_body, s.st.calibration, fr.truth.T_dev_sty);
+      err.push_back((tip_drawn - tip_true).norm());
+      Eigen::Vector2d px_drawn, px_true;
+      if (cal::project_point(s.st.calibration.camera, tip_drawn, px_drawn) && cal::project_point(s.truth.camera, tip_true, px_true)) {
+        err_img_px.push_back((px_drawn - px_true).norm());
+        err_img_mm.push_back(err_img_px.back() * tip_true.z() / s.truth.camera.fx);
+      }
       // Bur tip relative to the drawn tooth (tracking-free part of the chain).
       const auto& c = s.st.calibration;
       const Eigen::Vector3d a = (c.T_man_tooth.inverse() * c.T_man_dev * fr.truth.T_dev_sty * c.T_sty_tip).translation();
@@ -629,6 +643,9 @@ int step_check(Session& s) {
             << fmt(m * 1e3, 3) << " mm, max " << fmt(mx * 1e3, 3) << " mm (goal: mean <= 0.5 mm)\n"
             << "  of which the static chain (tooth vs bur, no tracking): mean "
             << fmt(mean(err_static) * 1e3, 3) << " mm\n"
+            << "  in the image (drawn tip vs the real tip as the true camera sees it): mean "
+            << fmt(mean(err_img_px), 2) << " px = " << fmt(mean(err_img_mm) * 1e3, 3) << " mm at the tip's depth, max "
+            << fmt(maxv(err_img_mm) * 1e3, 3) << " mm\n"
             << "  uncalibrated (nominal station file values): mean " << fmt(mean(err_nom) * 1e3, 2)
             << " mm\n";
   const double threshold = s.st.policy.check_threshold_m;
@@ -641,6 +658,8 @@ int step_check(Session& s) {
   rep.figures = {{"tip_error_mean_mm", m * 1e3},
                  {"tip_error_max_mm", mx * 1e3},
                  {"static_error_mean_mm", mean(err_static) * 1e3},
+                 {"image_error_mean_px", mean(err_img_px)},
+                 {"image_error_mean_mm", mean(err_img_mm) * 1e3},
                  {"uncalibrated_mean_mm", mean(err_nom) * 1e3},
                  {"frames", static_cast<double>(err.size())},
                  {"threshold_mm", threshold * 1e3}};
@@ -721,7 +740,10 @@ void print_instructor_time() {
          "  check     a few seconds of work at the tooth        30 s                   = 0.5 min\n"
          "  total     6 steps, 55 recorded items                                       = 9.2 min\n"
          "  (goal <= 10 min; the computation of each step takes well under a second except\n"
-         "   the camera step's detection, about 0.5 s per photo)\n";
+         "   the camera step's detection, about 0.5 s per photo)\n"
+         "Measured with `dentar calibrate live --haptic sim` at human pace (the simulated\n"
+         "instructor, tools/bench_calibrate_live.sh): about 3.5 min for the six steps\n"
+         "(docs/BENCHMARKS.md, \"the whole station live\"); plan with the estimate.\n";
 }
 
 int run(const CalibCli& c) {
@@ -738,9 +760,13 @@ int run(const CalibCli& c) {
     lo.device_name = c.haptic_name;
     lo.pedal = c.pedal;
     lo.steps.clear();
-    std::stringstream ss(c.live_steps);
+    std::stringstream ss(!c.live_steps.empty() ? c.live_steps
+                         : c.camera.empty() ? "pivot,register,tooth,mirror,check"
+                                            : "camera,pivot,register,tooth,mirror,check");
     for (std::string w; std::getline(ss, w, ',');)
       if (!w.empty()) lo.steps.push_back(w);
+    if (c.board_given) lo.board = c.board;
+    lo.camera_views = c.camera_views;
     lo.seed = c.seed;
     lo.pace = c.pace;
     lo.seconds = c.seconds;
@@ -917,7 +943,7 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]");
   s->add_option("step", c->step,
                 "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live "
-                "(pivot, register, tooth in a window with the stylus), or migrate (rewrite an older "
+                "(the station's steps in a window: camera, pivot, register, tooth, mirror, check), or migrate (rewrite an older "
                 "station file in the current version, keeping the original)");
   s->add_option("--camera", c->camera,
                 "the camera this station belongs to (camera:N, /dev/videoN, live:FILE): the camera step "
@@ -929,7 +955,12 @@ void add_calibrate(CLI::App& app, int& exit_code) {
   s->add_option("--haptic-name", c->haptic_name, "live: the device's configuration name or serial");
   s->add_option("--pedal", c->pedal, "live: keyboard (space bar) or a pedal spec (auto, vec, usb:VID:PID, evdev:PATH)")
       ->capture_default_str();
-  s->add_option("--steps", c->live_steps, "live: the steps to run, in order (pivot,register,tooth)")
+  s->add_option("--camera-views", c->camera_views,
+                "live camera step: views after which the step stops itself once the lens model is trusted over the image")
+      ->check(CLI::Range(6, 30))
+      ->capture_default_str();
+  s->add_option("--steps", c->live_steps,
+                "live: the steps to run, in order, from camera,pivot,register,tooth,mirror,check")
       ->capture_default_str();
   s->add_option("--pace", c->pace, "live --haptic sim: the instructor's travel speed (1 = human pace)")
       ->check(CLI::Range(0.25, 20.0))
@@ -951,7 +982,8 @@ void add_calibrate(CLI::App& app, int& exit_code) {
   s->add_option("--images", c->images, "camera: folder of board photos (PNG/JPEG)");
   s->add_option("--board", c->board,
                 "camera: chessboard:COLSxROWS:SQUARE_MM (inner corners) or "
-                "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]]")
+                "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] (live: default aprilgrid:6x5:24:8:tag36h11, "
+                "which is detected fast enough for video)")
       ->capture_default_str();
   s->add_option("--import", c->import_camera,
                 "camera: take the intrinsics from an OpenCV FileStorage or ROS camera_info YAML");
@@ -997,10 +1029,13 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "  dentar calibrate camera --images photos/ --board chessboard:9x6:25 --station station.json\n"
       "  dentar calibrate pivot --poses pivot.csv --station station.json\n"
       "  dentar calibrate live --haptic touch --pedal auto --station station.json   # in a window\n"
-      "  dentar calibrate live --haptic sim --camera live:out/clip/video.mkv --station out/s.json\n"
+      "  dentar calibrate live --camera camera:0 --haptic touch --pedal auto --station station.json\n"
+      "  dentar synth --board aprilgrid:6x5:24:8 --seed 3 --out out/clip   # a hand-held board clip\n"
+      "  dentar calibrate live --haptic sim --seed 3 --camera live:out/clip/video.mkv --station out/s.json\n"
       "  dentar calibrate migrate --station old_station.json\n"
       "  dentar calibrate --instructor-time");
-  s->callback([c, &exit_code] {
+  s->callback([c, s, &exit_code] {
+    c->board_given = s->count("--board") > 0;
     if (c->step.empty() && !c->instructor_time) {
       print_error(kCmd, "give a step: camera, pivot, register, tooth, mirror, check or all");
       exit_code = 2;

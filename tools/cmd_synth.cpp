@@ -6,7 +6,9 @@
 #include <memory>
 
 #include "commands.h"
+#include "dentar/ar/board_clip.h"
 #include "dentar/ar/egl_context.h"
+#include "dentar/calibration/co_location.h"
 #include "dentar/ar/synth.h"
 
 namespace dentar::tools {
@@ -28,7 +30,46 @@ struct SynthCli {
   double noise_dn = 0, occluders = 0, exposure = 0, shutter = 0;
   bool blur = false, no_blur = false, jumps = false;
   double mirror_fraction = 0;
+  // --board: a calibration board moved in front of the camera instead of the station.
+  std::string board;
+  int holds = 16;
+  double hold_s = 2.0, move_s = 1.2;
 };
+
+// `dentar synth --board SPEC`: the hand-held board clip (ar/board_clip.h). The camera is the
+// built-in station's camera at --resolution, perturbed by --seed exactly as the hidden truth of
+// `dentar calibrate --simulate` / `calibrate live --haptic sim` with the same seed.
+int run_board(const SynthCli& c, const CLI::App& app) {
+  ar::BoardClipOptions o;
+  o.board = c.board;
+  o.holds = c.holds;
+  o.hold_s = c.hold_s;
+  o.move_s = c.move_s;
+  o.fps = app.count("--fps") > 0 ? c.fps : 10.0;
+  o.seed = c.seed;
+  if (app.count("--noise") > 0) o.noise_dn = c.noise_dn;
+  if (std::string e = o.validate(); !e.empty()) {
+    print_error("synth", "--board: " + e);
+    return 2;
+  }
+  const auto x = c.resolution.find('x');
+  ar::StationScene st = ar::default_station_scene();
+  st.calibration.camera = ar::default_camera(std::stoi(c.resolution.substr(0, x)), std::stoi(c.resolution.substr(x + 1)));
+  calibration::CameraIntrinsics k = calibration::simulated_truth(st.calibration, c.seed).camera;
+  if (c.no_distortion) k.dist = {};
+  std::cout << "synth: board clip " << o.board << ", " << o.holds << " poses held " << o.hold_s << " s, moved in "
+            << o.move_s << " s, " << o.fps << " fps, " << k.width << "x" << k.height << ", true fx " << k.fx
+            << " k1 " << k.dist[0] << " (seed " << o.seed << ")\n";
+  auto sum = ar::write_board_clip(k, o, c.out);
+  if (!sum) {
+    print_error("synth", sum.error());
+    return 1;
+  }
+  std::cout << std::fixed << std::setprecision(1) << "wrote " << c.out
+            << ": video.mkv (FFV1), camera.yaml (the true camera), board_truth.jsonl, clip.json; " << sum->frames
+            << " frames (" << sum->duration_s << " s of footage) in " << sum->render_s << " s\n";
+  return 0;
+}
 
 int run(const SynthCli& c, const CLI::App& app) {
   if (!c.write_station.empty()) {
@@ -39,6 +80,7 @@ int run(const SynthCli& c, const CLI::App& app) {
     std::cout << "wrote the built-in station to " << c.write_station << "\n";
     return 0;
   }
+  if (!c.board.empty()) return run_board(c, app);
   auto preset = ar::parse_synth_preset(c.preset);
   ar::SynthOptions o = ar::synth_preset(*preset);
   o.frames = c.frames;
@@ -116,7 +158,8 @@ void add_synth(CLI::App& app, int& exit_code) {
       "                       [--resolution 640x480|1280x720|1920x1080] [--seed S] [--out DIR]\n"
       "                       [--png] [--no-distortion] [--noise DN] [--motion-blur]\n"
       "                       [--exposure-variation A] [--exposure-jumps] [--occluders N]\n"
-      "                       [--station FILE] [--tag-family tagStandard41h12|tag36h11]");
+      "                       [--station FILE] [--tag-family tagStandard41h12|tag36h11]\n"
+      "       dentar synth --board SPEC [--holds N] [--hold S] [--move S] [--fps F] [--seed S] [--out DIR]");
   s->add_option("--preset", c->preset,
                 "standard, hard (fast motion, blur, grazing/small tags, occlusion), mirror "
                 "(mirror in view), or one failure mode on standard: hand (a finger crosses the "
@@ -155,13 +198,21 @@ void add_synth(CLI::App& app, int& exit_code) {
   s->add_option("--station", c->station, "Station scene JSON (default: the built-in station)");
   s->add_option("--tag-family", c->family, "Override the station's tag family")
       ->check(CLI::IsMember({"tagStandard41h12", "tag36h11"}));
+  s->add_option("--board", c->board,
+                "Instead of the station: a calibration board (aprilgrid:6x5:24:8:tag36h11, chessboard:9x6:20) "
+                "moved by hand in front of the camera, held still at --holds poses (the stand-in camera "
+                "for `dentar calibrate live --steps camera`); writes camera.yaml with the true camera");
+  s->add_option("--holds", c->holds, "--board: poses the board is held at")->check(CLI::Range(1, 200))->capture_default_str();
+  s->add_option("--hold", c->hold_s, "--board: seconds held still at each pose")->check(CLI::Range(0.2, 60.0))->capture_default_str();
+  s->add_option("--move", c->move_s, "--board: seconds moving between poses")->check(CLI::Range(0.1, 60.0))->capture_default_str();
   s->add_option("--write-default-station", c->write_station,
                 "Only write the built-in station JSON to FILE and exit");
   s->footer(
       "Example:\n"
       "  dentar synth --preset standard --frames 300 --fps 30 --resolution 1280x720 --seed 7 \\\n"
       "               --out out/synth_std\n"
-      "  dentar synth --preset hard --frames 60 --png --out out/synth_hard");
+      "  dentar synth --preset hard --frames 60 --png --out out/synth_hard\n"
+      "  dentar synth --board aprilgrid:6x5:24:8 --holds 16 --seed 3 --out out/board_clip");
   s->callback([c, s, &exit_code] { exit_code = run(*c, *s); });
 }
 

@@ -12,27 +12,37 @@
 #include <csignal>
 #include <cstdio>
 #include <deque>
+#include <future>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <thread>
 
+#include "dentar/ar/calib_board.h"
 #include "dentar/ar/capture_thread.h"
 #include "dentar/ar/frame_source.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/calibration/camera_file.h"
+#include "dentar/calibration/camera_model.h"
 #include "dentar/calibration/co_location.h"
 #include "dentar/calibration/guided.h"
 #include "dentar/calibration/landmarks.h"
 #include "dentar/haptics/open_device.h"
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/simulated_device.h"
+#include "dentar/ar/bundle_pose.h"
+#include "dentar/calibration/mirror.h"
 #include "dentar/live/hud_window.h"
+#include "dentar/live/station_health.h"
 
 namespace dentar::live {
 namespace fs = std::filesystem;
@@ -42,6 +52,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
+constexpr int kMirrorRimPoints = 8;  // rim touches, then the centre
 std::atomic<int> g_cal_signal{0};
 extern "C" void on_cal_signal(int sig) { g_cal_signal.store(sig); }
 
@@ -105,6 +116,9 @@ class Poller {
     std::lock_guard<std::mutex> lock(m_);
     return dev_ ? dev_->name() : std::string("none");
   }
+  // Simulated: the hand's clock does not pass t_s (the instructor waits in the point until the
+  // HUD says it is taken, however late a starved or paused process sees it); inf = no limit.
+  void hold_at(double t_s) { limit_s_.store(t_s); }
 
  private:
   void main() {
@@ -113,7 +127,9 @@ class Poller {
       next += std::chrono::milliseconds(1);
       {
         std::lock_guard<std::mutex> lock(m_);
-        if (dev_) {
+        if (dev_ && simulated_ && last_.valid && last_.t_s >= limit_s_.load()) {
+          t0_ += std::chrono::milliseconds(1);  // held: the device clock waits with the hand
+        } else if (dev_) {
           const std::int64_t due =
               simulated_ ? std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - t0_).count() + 1
                          : steps_ + 1;
@@ -144,6 +160,7 @@ class Poller {
   std::int64_t steps_ = 0;
   Clock::time_point t0_ = Clock::now();
   std::atomic<bool> stop_{false};
+  std::atomic<double> limit_s_{std::numeric_limits<double>::infinity()};
   std::thread thread_;
 };
 
@@ -156,6 +173,10 @@ struct Press {
 struct Plan {
   std::vector<haptics::HandWaypoint> script;  // times relative to the step start
   std::vector<Press> presses;
+  // Touch steps: per target, when the tip rests in it (device time). The instructor presses
+  // while the HUD asks for that target and shows the stylus still, again every 0.5 s until it
+  // is taken (a starved or paused process may see a scripted press only after the hand moved).
+  std::vector<std::pair<double, double>> rest;
 };
 
 Eigen::Quaterniond pointing(const Eigen::Vector3d& dir, double spin) {
@@ -200,8 +221,8 @@ class SimInstructor {
 
   // Touches of targets (device frame, truth) in order, each approached along `approach` (the
   // stylus axis, device frame) tilted by up to 20 degrees; the tip rests within the fixture's
-  // localisation error (0.2 mm RMS) and the key is pressed after ~0.8 s of holding, and once
-  // more 0.6 s later if the HUD still asks for that point (the first press was refused). With
+  // localisation error (0.2 mm RMS) for 1.7 s, during which the instructor presses (Plan::rest,
+  // pressed once the HUD shows the stylus still, again if the HUD still asks). With
   // moving_press_at = i, the instructor first presses while still arriving at target i.
   Plan touches(const std::vector<Eigen::Vector3d>& targets, const Eigen::Vector3d& approach,
                const Eigen::Isometry3d& from, int moving_press_at) {
@@ -232,8 +253,7 @@ class SimInstructor {
       add(p, t, pose(rest));
       const int ti = static_cast<int>(i);
       if (ti == moving_press_at) p.presses.push_back({t - 0.3 * descend, ti});
-      p.presses.push_back({t + 0.8, ti});
-      p.presses.push_back({t + 1.4, ti});
+      p.rest.emplace_back(t, t + hold);
       t += hold;
       add(p, t, pose(rest));
       t += 0.4 / pace_;
@@ -283,11 +303,18 @@ std::string CalibrateLiveOptions::validate() const {
   if (station.empty()) return "station is empty: give --station FILE";
   if (device.empty()) return "device is empty: give sim or a device kind (touch, omega, hd, ...)";
   if (pedal.empty()) return "pedal is empty: give keyboard, auto, vec, usb:VID:PID or evdev:/dev/input/eventN";
-  if (steps.empty()) return "steps is empty: give pivot, register and/or tooth";
-  for (const auto& s : steps)
-    if (s != "pivot" && s != "register" && s != "tooth")
-      return "step \"" + s + "\" is not live yet: the live steps are pivot, register and tooth (camera, mirror "
-             "and check run with `dentar calibrate <step>`)";
+  if (steps.empty()) return "steps is empty: give camera, pivot, register, tooth, mirror and/or check";
+  for (const auto& s : steps) {
+    if (s != "camera" && s != "pivot" && s != "register" && s != "tooth" && s != "mirror" && s != "check")
+      return "step \"" + s + "\" is not a live step: the live steps are camera, pivot, register, tooth, mirror and "
+             "check (hand_eye runs with `dentar calibrate hand_eye`)";
+    if (s == "camera" && camera.empty())
+      return "the camera step needs the camera: give --camera camera:N, /dev/videoN or live:FOOTAGE";
+    if (s == "mirror" && camera.empty() && device != "sim")
+      return "the mirror step needs the camera (the mirror's pose is tracked at each touch): give --camera";
+  }
+  if (auto b = ar::parse_board_spec(board); !b) return "board: " + b.error();
+  if (camera_views < 6 || camera_views > 30) return "camera_views must be in [6, 30]";
   if (!(std::isfinite(pace) && pace >= 0.25 && pace <= 20)) return "pace must be in [0.25, 20]";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
   if (display < -1 || display > 16) return "display must be -1 (a window) or a monitor 0..16";
@@ -310,7 +337,10 @@ std::string CalibrateLiveSummary::json() const {
   j["truth"] = {{"tip_error_mm", truth_tip_error_mm},
                 {"tooth_error_mm", truth_tooth_error_mm},
                 {"static_colocation_mean_mm", truth_static_colocation_mean_mm},
-                {"static_colocation_p99_mm", truth_static_colocation_p99_mm}};
+                {"static_colocation_p99_mm", truth_static_colocation_p99_mm},
+                {"camera_fx_error_px", truth_camera_fx_error_px},
+                {"camera_max_error_px", truth_camera_max_px},
+                {"camera_tooth_max_error_px", truth_camera_tooth_max_px}};
   j["log"] = log;
   return j.dump(2) + "\n";
 }
@@ -335,6 +365,16 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   }
   if (st.fixtures.divots_man.empty() || st.fixtures.landmarks_tooth.empty())
     st.fixtures = ar::default_calibration_fixtures();
+  // A station file made with another camera: its intrinsics and placement are not this one's
+  // (unless this run calibrates the camera first).
+  if (!o.camera.empty() && std::find(o.steps.begin(), o.steps.end(), "camera") == o.steps.end() &&
+      !st.camera_provenance.device_id.empty()) {
+    const std::string have = camera_identity(o.camera);
+    if (!have.empty() && have != st.camera_provenance.device_id)
+      return Error{"calibrate live: " + o.station + ": calibrated with camera \"" + st.camera_provenance.device_id +
+                   "\", but --camera " + o.camera + " is \"" + have +
+                   "\": add the camera step (--steps camera,...) for this camera, or use the station file made for it"};
+  }
   const cal::StationCalibration nominal = st.calibration;
 
   // ---- device ----
@@ -376,7 +416,9 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   }
 
   // ---- window ----
-  auto win_r = HudWindow::open("DentAR station calibration", vw, vh, 0, 0, o.display, o.vsync);
+  // A small camera image is shown enlarged (to 1024 px wide) so the HUD's text leaves the view visible.
+  const int win_w = std::max(vw, 1024), win_h = static_cast<int>(std::lround(double(vh) * win_w / std::max(vw, 1)));
+  auto win_r = HudWindow::open("DentAR station calibration", vw, vh, win_w, win_h, o.display, o.vsync);
   if (!win_r) return Error{"calibrate live: " + win_r.error()};
   HudWindow& win = **win_r;
   std::signal(SIGINT, on_cal_signal);
@@ -393,6 +435,87 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   const ImVec4 green(0.3f, 1, 0.3f, 1), yellow(1, 0.85f, 0.2f, 1), red(1, 0.35f, 0.35f, 1);
   std::uint32_t last_buttons = 0;
   bool last_pedal = false;
+  bool record_failure = false;                 // a failed check is written (dated FAIL)
+  std::optional<cal::CameraFile> camera_file;  // the camera step's result
+  const std::string camera_id = o.camera.empty() ? std::string() : camera_identity(o.camera);
+  const ar::BoardSpec board_spec = *ar::parse_board_spec(o.board);
+  std::mt19937_64 mirror_rng(o.seed * 131 + 7);
+
+  // Camera step, per new frame: detect the board, feed the step, draw the overlay (coverage or
+  // trust map, the suggested place, the detected points) into the frame shown.
+  auto camera_view = [&](const ar::Frame& f, cal::LiveCameraViews& c, ar::TagDetector* det) -> cv::Mat {
+    cv::Mat gray;
+    cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
+    Result<cal::BoardView> v = det ? ar::detect_aprilgrid(*det, gray, std::get<cal::AprilGridSpec>(board_spec), "the live view")
+                                   : ar::detect_board(gray, board_spec, "the live view");
+    double sharp = 0;
+    if (v && !v->image_points.empty()) {
+      // Focus measure: variance of the Laplacian over the board's bounding box.
+      cv::Rect2d bb(v->image_points[0].x(), v->image_points[0].y(), 0, 0);
+      for (const auto& p : v->image_points) bb |= cv::Rect2d(p.x(), p.y(), 1, 1);
+      const cv::Rect box = cv::Rect(bb) & cv::Rect(0, 0, gray.cols, gray.rows);
+      if (box.area() > 16) {
+        cv::Mat lap;
+        cv::Laplacian(gray(box), lap, CV_32F);
+        cv::Scalar mu, sd;
+        cv::meanStdDev(lap, mu, sd);
+        sharp = sd[0] * sd[0];
+      }
+    }
+    c.add_frame(f.time_s, v ? &*v : nullptr, v ? std::string() : v.error(), sharp);
+    cv::Mat img = f.image.clone(), tint = f.image.clone();
+    const cal::CoverageMap cm = c.coverage();
+    const bool trust = c.trust_views() > 0 && c.trust().cols == cm.cols && c.trust().rows == cm.rows;
+    for (int r = 0; r < cm.rows; ++r)
+      for (int k = 0; k < cm.cols; ++k) {
+        const int i = r * cm.cols + k;
+        const cv::Rect cell(k * img.cols / cm.cols, r * img.rows / cm.rows, img.cols / cm.cols, img.rows / cm.rows);
+        cv::Scalar col(-1, 0, 0);
+        if (trust) col = c.trust().trusted[i] ? cv::Scalar(0, 200, 0) : c.trust().extrapolated[i] ? cv::Scalar(128, 128, 128) : cv::Scalar(0, 0, 220);
+        else if (cm.counts[i] >= 5) col = cv::Scalar(0, 200, 0);
+        else if (cm.counts[i] > 0) col = cv::Scalar(0, 200, 220);
+        if (col[0] >= 0) cv::rectangle(tint, cell, col, cv::FILLED);
+        cv::rectangle(img, cell, cv::Scalar(90, 90, 90), 1);
+      }
+    cv::addWeighted(tint, 0.25, img, 0.75, 0, img);
+    int sc = 0, sr = 0;
+    std::string sug;
+    if (c.suggestion(sc, sr, sug)) {
+      const cv::Rect cell(sc * img.cols / cm.cols, sr * img.rows / cm.rows, img.cols / cm.cols, img.rows / cm.rows);
+      cv::rectangle(img, cell, cv::Scalar(255, 230, 0), 3);
+      cv::putText(img, "board here", cell.tl() + cv::Point(4, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 230, 0), 1);
+    }
+    const cv::Scalar pc = !c.last_layout_ok() ? cv::Scalar(0, 0, 255) : c.still() ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 220, 255);
+    for (const auto& p : c.last_view().image_points) cv::circle(img, cv::Point(cvRound(p.x()), cvRound(p.y())), 3, pc, 1);
+    return img;
+  };
+  // Mirror step with a real camera: the mirror tag's pose against the mannequin's, per frame.
+  struct {
+    bool valid = false;
+    double when_s = 0;
+    Eigen::Isometry3d T_mtag_man = Eigen::Isometry3d::Identity();
+  } mirror_track;
+  std::unique_ptr<ar::TagDetector> station_det;
+  auto track_mirror = [&](const ar::Frame& f) {
+    if (!station_det) {
+      ar::TagDetectorOptions dopt;
+      dopt.families = {st.family};
+      auto d = ar::TagDetector::create(dopt);
+      if (!d) return;
+      station_det = std::make_unique<ar::TagDetector>(std::move(*d));
+    }
+    cv::Mat gray;
+    cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
+    auto d = station_det->detect(gray);
+    if (!d) return;
+    const auto man = ar::estimate_bundle_pose(ar::mannequin_bundle(st), st.calibration.camera, *d);
+    const auto mir = ar::estimate_bundle_pose(ar::mirror_bundle(st), st.calibration.camera, *d);
+    mirror_track.valid = man.ok() && mir.ok();
+    if (mirror_track.valid) {
+      mirror_track.T_mtag_man = mir.T_cam_body.inverse() * man.T_cam_body;
+      mirror_track.when_s = wall_s();
+    }
+  };
 
   for (const std::string& step : o.steps) {
     CalibrateLiveStep rec;
@@ -411,15 +534,41 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       target_fit = st.calibration.T_man_tooth * crown_tooth;
       instruction = "Touch the divots on the mannequin in the order shown. Hold the tip still in each,\n"
                     "then press SPACE (or the pedal, or the stylus button).";
-    } else {
+    } else if (step == "tooth") {
       title = "Tooth placement (landmarks)";
       known = st.fixtures.landmarks_tooth;
       target_fit = crown_tooth;
       instruction = "Touch the landmarks on the mounted tooth in the order shown (cusp tips, then the\n"
                     "buccal and lingual cervical points). Hold still, then press SPACE.";
+    } else if (step == "camera") {
+      title = "Camera (board views)";
+      instruction = "Hold the printed board in front of the head camera, tilted 15-45 degrees. Hold it still and\n"
+                    "press SPACE (or the pedal) for each view; put it where the cyan box asks. The step stops\n"
+                    "by itself when the lens model is trusted over the image; F finishes early (>= 6 views).";
+    } else if (step == "mirror") {
+      title = "Mirror (rim and centre)";
+      // The mirror frame: the reflecting face in z = 0, its centre at the origin.
+      for (int i = 0; i < kMirrorRimPoints; ++i) {
+        const double a = 2 * M_PI * i / kMirrorRimPoints;
+        known.emplace_back(st.calibration.mirror_radius_m * std::cos(a), st.calibration.mirror_radius_m * std::sin(a), 0);
+      }
+      known.emplace_back(0, 0, 0);
+      instruction = "Clamp the mirror where the camera sees the mannequin's tags and the mirror's tag. Touch the\n"
+                    "rim of the reflecting face at the points shown (going round), then its centre; hold still\n"
+                    "and press SPACE for each.";
+    } else {
+      title = "Check (known points)";
+      // Check points in the mannequin frame: the tooth's landmarks (through the calibrated tooth
+      // placement) and the first and last divots.
+      for (const auto& p : st.fixtures.landmarks_tooth) known.push_back(st.calibration.T_man_tooth * p);
+      known.push_back(st.fixtures.divots_man.front());
+      known.push_back(st.fixtures.divots_man.back());
+      instruction = "Touch each known point in the order shown; the HUD shows how far the calibrated bur tip is\n"
+                    "from it. The station passes when the mean error is within its threshold.";
     }
+    const int n_landmarks = static_cast<int>(st.fixtures.landmarks_tooth.size());
     Plan plan;
-    if (sim) {
+    if (sim && step != "camera") {
       if (step == "pivot") {
         plan = instructor->pivot(last_pose);
       } else {
@@ -428,6 +577,21 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
         if (step == "register") {
           for (const auto& p : known) tdev.push_back(truth.T_man_dev.inverse() * p);
           approach = truth.T_man_dev.inverse().linear() * Eigen::Vector3d(0, 0, -1);  // into the face
+        } else if (step == "mirror") {
+          const Eigen::Isometry3d T_man_mir = cal::simulated_mirror_clamp_man() * truth.T_mtag_mir;
+          for (int i = 0; i < kMirrorRimPoints; ++i) {
+            const double a = 2 * M_PI * i / kMirrorRimPoints;
+            tdev.push_back(truth.T_man_dev.inverse() *
+                           (T_man_mir * Eigen::Vector3d(truth.mirror_radius_m * std::cos(a), truth.mirror_radius_m * std::sin(a), 0)));
+          }
+          tdev.push_back(truth.T_man_dev.inverse() * T_man_mir.translation());
+          approach = truth.T_man_dev.inverse().linear() * (T_man_mir.linear() * Eigen::Vector3d(0, 0, -1));
+        } else if (step == "check") {
+          // The true places of the check points (the calibrated ones are what the HUD compares).
+          for (const auto& p : st.fixtures.landmarks_tooth) tdev.push_back(truth.T_man_dev.inverse() * (truth.T_man_tooth * p));
+          tdev.push_back(truth.T_man_dev.inverse() * st.fixtures.divots_man.front());
+          tdev.push_back(truth.T_man_dev.inverse() * st.fixtures.divots_man.back());
+          approach = truth.T_man_dev.inverse().linear() * (truth.T_man_tooth.linear() * Eigen::Vector3d(0, 0, -1));
         } else {
           for (const auto& p : known) tdev.push_back(truth.T_man_dev.inverse() * (truth.T_man_tooth * p));
           approach = truth.T_man_dev.inverse().linear() * (truth.T_man_tooth.linear() * Eigen::Vector3d(0, 0, -1));
@@ -438,15 +602,41 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       if (!d) return Error{"calibrate live: simulated instructor: " + d.error()};
       if (!poller) poller = std::make_unique<Poller>(std::move(*d), true);
       else poller->swap(std::move(*d));
+      poller->hold_at(std::numeric_limits<double>::infinity());
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     say("step " + step + ": " + title);
     cal::LivePivot pivot;
     bool collecting = false;
-    cal::LiveTouches touches(step == "register" ? "divot" : "landmark", static_cast<int>(known.size()));
+    const std::string what = step == "register" ? "divot" : step == "tooth" ? "landmark" : step == "mirror" ? "mirror point" : "check point";
+    cal::LiveTouches touches(what, static_cast<int>(known.size()));
+    std::vector<Eigen::Vector3d> mirror_mtag;  // mirror: the touches in the mirror tag's frame
+    std::vector<double> check_err;             // check: error at each point, m
+    // ---- camera step state ----
+    std::unique_ptr<cal::LiveCameraViews> cam;
+    std::unique_ptr<ar::TagDetector> grid_det;
+    std::future<cal::ModelSelection> pending;
+    int pending_views = 0;
+    cal::ModelSelection last_sel;
+    bool finish = false, press_latch = false, moving_press_done = false;
+    int similar_in_row = 0;
+    if (step == "camera") {
+      cal::LiveCameraOptions lco;
+      lco.target_views = o.camera_views;
+      cam = std::make_unique<cal::LiveCameraViews>(vw, vh, lco);
+      if (const auto* g = std::get_if<cal::AprilGridSpec>(&board_spec)) {
+        ar::TagDetectorOptions dopt;
+        dopt.families = {*ar::parse_tag_family(g->family)};
+        dopt.decimation = 1.0;
+        auto d = ar::TagDetector::create(dopt);
+        if (!d) return Error{"calibrate live: " + d.error()};
+        grid_det = std::make_unique<ar::TagDetector>(std::move(*d));
+      }
+    }
     cal::RegistrationSummary fit;
     std::string refusal;
     std::size_t next_press = 0;
+    double last_sim_press_wall = -1e300;  // wall time of the simulated instructor's last press
     double last_seen = -1e300;
     const double t0 = wall_s();
     bool step_done = false;
@@ -469,24 +659,58 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       }
       win.poll();
       const double now = wall_s();
-      const Poller::Sample s = poller->latest();
-      const std::vector<Poller::Sample> fresh = poller->since(last_seen);
+      const Poller::Sample s = poller ? poller->latest() : Poller::Sample{};
+      const std::vector<Poller::Sample> fresh = poller ? poller->since(last_seen) : std::vector<Poller::Sample>{};
       if (!fresh.empty()) last_seen = fresh.back().t_s;
       // The scripted instructor's key, through the window's key queue, on the hand's own clock.
       while (sim && s.valid && next_press < plan.presses.size() && s.t_s >= plan.presses[next_press].t_s) {
         const int want = plan.presses[next_press].target;
-        if (want < 0 || (step != "pivot" && want == touches.next())) win.inject_key(GLFW_KEY_SPACE);
+        if (want < 0 || (step != "pivot" && want == touches.next())) {
+          win.inject_key(GLFW_KEY_SPACE);
+        }
         ++next_press;
+      }
+      if (sim && step != "pivot" && step != "camera") {
+        const auto i = static_cast<std::size_t>(touches.next());
+        poller->hold_at(i < plan.rest.size() ? plan.rest[i].second - 0.05 : std::numeric_limits<double>::infinity());
+        if (s.valid && i < plan.rest.size() && s.t_s >= plan.rest[i].first + 0.6 && s.t_s <= plan.rest[i].second &&
+            touches.still() && now - last_sim_press_wall >= 0.5) {
+          win.inject_key(GLFW_KEY_SPACE);
+          last_sim_press_wall = now;
+        }
       }
       if (capture) {
         ar::Frame f;
-        if (capture->wait_take(f, 0.0)) win.set_video(f.image);
+        if (capture->wait_take(f, 0.0)) {
+          if (cam) win.set_video(camera_view(f, *cam, grid_det.get()));
+          else {
+            if (step == "mirror" && !sim) track_mirror(f);
+            win.set_video(f.image);
+          }
+        }
+      }
+      // The simulated instructor with the board: presses once the board has been still 0.8 s
+      // (as the HUD shows it), once per hold; once while the board still moves (refused); F
+      // when the footage came round again (three views in a row too similar)
+      if (sim && cam) {
+        const double still = cam->still_for_s();
+        if (still <= 0) press_latch = false;
+        if (!moving_press_done && cam->views() >= 2 && cam->board_seen() && still <= 0) {
+          win.inject_key(GLFW_KEY_SPACE);
+          moving_press_done = true;
+        } else if (!press_latch && still >= 0.8) {
+          win.inject_key(GLFW_KEY_SPACE);
+          press_latch = true;
+        }
+        // (from the target number of views on: a slow machine that missed holds goes round again)
+        if (similar_in_row >= 3 && cam->views() >= cam->options().target_views) win.inject_key(GLFW_KEY_F);
       }
       if (s.valid) last_pose = s.T_dev_sty;
       // A take: a key press, a pedal press or a stylus button press (edges).
       bool take = false;
       for (int k : win.take_presses()) {
         if (k == GLFW_KEY_SPACE || k == GLFW_KEY_ENTER || k == GLFW_KEY_KP_ENTER) take = true;
+        if (k == GLFW_KEY_F) finish = true;
         if (k == GLFW_KEY_ESCAPE) {
           sum.stop_reason = "Esc";
           aborted = true;
@@ -499,7 +723,38 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       if (s.valid && (s.buttons & ~last_buttons) != 0) take = true;
       last_buttons = s.valid ? s.buttons : 0;
 
-      if (step == "pivot") {
+      if (step == "camera") {
+        if (take) {
+          const cal::CameraTake r = cam->take();
+          say(r.message);
+          if (r.ok) {
+            refusal.clear();
+            similar_in_row = 0;
+          } else {
+            refusal = r.message;
+            if (r.message.find("too similar") != std::string::npos) ++similar_in_row;
+          }
+        }
+        // The model selection (seconds) runs beside the window; its trust map drives the
+        // suggestion and the stop.
+        if (pending.valid() && pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+          last_sel = pending.get();
+          cam->set_trust(last_sel.trust, pending_views);
+        }
+        const int min_views = cam->options().intrinsics.min_views;
+        if (!pending.valid() && cam->views() >= min_views && cam->views() != cam->trust_views()) {
+          pending_views = cam->views();
+          pending = std::async(std::launch::async, [v = cam->taken(), vw, vh] {
+            return cal::select_camera_model(v, vw, vh, cal::ModelSelectionOptions{});
+          });
+        }
+        if (finish) {
+          if (cam->views() >= min_views) step_done = true;
+          else refusal = "F: at least " + std::to_string(min_views) + " views are needed (" + std::to_string(cam->views()) + " taken)";
+          finish = false;
+        }
+        if (cam->done()) step_done = true;
+      } else if (step == "pivot") {
         if (take) {  // the tip is seated: (re)start collecting
           pivot = cal::LivePivot();
           collecting = true;
@@ -512,18 +767,51 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       } else {
         for (const auto& x : fresh) {
           const Eigen::Vector3d tip_dev = (x.T_dev_sty * st.calibration.T_sty_tip).translation();
+          // register: device frame; the others: mannequin frame (through the registration).
           const Eigen::Vector3d tip = step == "register" ? tip_dev : Eigen::Vector3d(st.calibration.T_man_dev * tip_dev);
           touches.add_sample(x.t_s, x.valid ? tip : Eigen::Vector3d::Constant(NAN));
+        }
+        // The mirror's pose at the touch: tracked (the mirror tag and the mannequin's tags in
+        // the latest frame) or, simulated, the clamp's true pose with the tracking noise.
+        std::optional<Eigen::Isometry3d> T_mtag_man_now;
+        if (step == "mirror" && take) {
+          if (sim) {
+            const cal::StylusNoise noise;
+            T_mtag_man_now = (cal::simulated_mirror_clamp_man() *
+                              cal::random_perturbation(noise.tracking_sigma_rad * std::sqrt(2.0),
+                                                       noise.tracking_sigma_m * std::sqrt(2.0), mirror_rng))
+                                 .inverse();
+          } else if (mirror_track.valid && now - mirror_track.when_s < 0.3) {
+            T_mtag_man_now = mirror_track.T_mtag_man;
+          } else {
+            take = false;
+            refusal = "touch refused: the camera does not see both the mirror's tag and the mannequin's tags "
+                      "(turn the camera or the mirror so both are in view)";
+            say(refusal);
+          }
         }
         if (take) {
           const int which = touches.next();
           const cal::TouchResult r = touches.take();
           if (r.ok) {
             refusal.clear();
-            fit = cal::running_fit(touches.taken_dev(), known, target_fit);
-            std::string line = (step == "register" ? "divot " : "landmark ") + std::to_string(which) + " taken";
-            if (!fit.residuals_m.empty())
-              line += ": FRE " + fmt(fit.fre_m * 1e3, 3) + " mm, predicted TRE at the tooth " + fmt(fit.tre_m * 1e3, 3) + " mm";
+            std::string line = what + " " + std::to_string(which) + " taken";
+            if (step == "register" || step == "tooth") {
+              fit = cal::running_fit(touches.taken_dev(), known, target_fit);
+              if (!fit.residuals_m.empty())
+                line += ": FRE " + fmt(fit.fre_m * 1e3, 3) + " mm, predicted TRE at the tooth " + fmt(fit.tre_m * 1e3, 3) + " mm";
+            } else if (step == "mirror") {
+              mirror_mtag.push_back(*T_mtag_man_now * touches.taken_dev().back());
+            } else {
+              const Eigen::Vector3d& p = touches.taken_dev().back();
+              Eigen::Vector3d err = p - known[static_cast<std::size_t>(which)];
+              if (which < n_landmarks)  // the error at the tooth, in the tooth frame
+                err = st.calibration.T_man_tooth.linear().transpose() * err;
+              check_err.push_back(err.norm());
+              double m = 0;
+              for (double e : check_err) m += e;
+              line += ": error " + fmt(check_err.back() * 1e3, 3) + " mm (mean so far " + fmt(m / check_err.size() * 1e3, 3) + " mm)";
+            }
             say(line);
           } else if (!touches.done()) {
             refusal = r.message;
@@ -542,8 +830,34 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
                   now - t0);
       ImGui::TextUnformatted(instruction.c_str());
       ImGui::Separator();
-      ImGui::TextColored(s.valid ? green : red, "stylus: %s", s.valid ? poller->name().c_str() : "no pose (device fault?)");
-      if (step == "pivot") {
+      if (step != "camera")
+        ImGui::TextColored(s.valid ? green : red, "stylus: %s", s.valid ? poller->name().c_str() : "no pose (device fault?)");
+      if (step == "camera") {
+        const cal::CoverageMap cm = cam->coverage();
+        ImGui::Text("views %d (stops itself from %d when the image is trusted)   refused %d", cam->views(),
+                    cam->options().target_views, cam->refused());
+        ImGui::TextColored(!cam->board_seen() ? red : !cam->last_layout_ok() ? red : cam->still() ? green : yellow, "%s",
+                           cam->status().c_str());
+        const cal::IntrinsicsSummary& run = cam->running();
+        if (run.calibrations_run > 0 && run.std_devs.size() >= 4)
+          ImGui::Text("RMS %.3f px   fx %.1f +- %.2f   fy %.1f +- %.2f   cx %.1f +- %.2f   cy %.1f +- %.2f px (1 sigma)",
+                      run.rms_px, run.camera.fx, run.std_devs[0], run.camera.fy, run.std_devs[1], run.camera.cx,
+                      run.std_devs[2], run.camera.cy, run.std_devs[3]);
+        else
+          ImGui::Text("RMS and the uncertainty of fx fy cx cy appear from view %d on", cam->options().intrinsics.min_views);
+        ImGui::Text("coverage: board points in %.0f%% of the image, %.0f%% of the tooth region", cm.image_fraction * 100,
+                    cm.tooth_fraction * 100);
+        if (cam->trust_views() > 0)
+          ImGui::Text("lens model (%d views, %s): trusted to %.1f px over %.0f%% of the image, %.0f%% of the tooth region",
+                      cam->trust_views(), last_sel.ok ? cal::distortion_model_name(last_sel.model) : "no model yet",
+                      cam->trust().max_error_px, cam->trust().trusted_fraction * 100, cam->trust().tooth_trusted_fraction * 100);
+        if (pending.valid()) ImGui::TextUnformatted("choosing the lens model on held-out views...");
+        int sc = 0, sr = 0;
+        std::string sug;
+        if (cam->suggestion(sc, sr, sug)) ImGui::TextColored(ImVec4(0.3f, 0.9f, 1, 1), "%s", sug.c_str());
+        if (!refusal.empty()) ImGui::TextColored(red, "%s", refusal.c_str());
+        ImGui::TextUnformatted("keys: SPACE / pedal take a view   F finish   Esc stop");
+      } else if (step == "pivot") {
         const cal::PivotSummary& c = pivot.current();
         ImGui::Text("poses %d   spread %.1f deg   weakest %.1f deg", pivot.poses(), c.spread_rad / kDeg,
                     c.weakest_tilt_rad / kDeg);
@@ -562,11 +876,22 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
           const bool taken = i < touches.next(), current = i == touches.next();
           const Eigen::Vector3d& k = known[static_cast<std::size_t>(i)];
           ImGui::TextColored(taken ? green : current ? yellow : ImVec4(0.8f, 0.8f, 0.8f, 1), "%s %s %d  (%.1f, %.1f, %.1f) mm%s",
-                             taken ? "[x]" : current ? "[>]" : "[ ]", step == "register" ? "divot" : "landmark", i,
+                             taken ? "[x]" : current ? "[>]" : "[ ]", what.c_str(), i,
                              k.x() * 1e3, k.y() * 1e3, k.z() * 1e3,
-                             taken && !fit.residuals_m.empty() && static_cast<std::size_t>(i) < fit.residuals_m.size()
+                             step == "check" && taken && static_cast<std::size_t>(i) < check_err.size()
+                                 ? ("   error " + fmt(check_err[static_cast<std::size_t>(i)] * 1e3, 3) + " mm").c_str()
+                             : step == "mirror" && i == touches.count() - 1 ? "   (centre)"
+                             : taken && !fit.residuals_m.empty() && static_cast<std::size_t>(i) < fit.residuals_m.size()
                                  ? ("   residual " + fmt(fit.residuals_m[static_cast<std::size_t>(i)] * 1e3, 2) + " mm").c_str()
                                  : "");
+        }
+        if (step == "check" && !check_err.empty()) {
+          double m = 0;
+          for (double e : check_err) m += e;
+          m /= check_err.size();
+          const double thr = st.policy.check_threshold_m;
+          ImGui::TextColored(m <= thr ? green : red, "mean error %.3f mm (station threshold %.2f mm): %s so far", m * 1e3,
+                             thr * 1e3, m <= thr ? "PASS" : "FAIL");
         }
         if (!fit.residuals_m.empty())
           ImGui::Text("FRE %.3f mm   predicted TRE at the tooth %.3f mm", fit.fre_m * 1e3, fit.tre_m * 1e3);
@@ -615,6 +940,112 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
         rep.figures = {{"fre_mm", r.fre_m * 1e3}, {"tre_mm", r.tre_m * 1e3}, {"fle_mm", r.fle_m * 1e3},
                        {"divots", r.num_points}, {"refused_touches", touches.refused()}};
       }
+    } else if (step == "camera") {
+      if (pending.valid()) pending.wait();
+      say("choosing the lens model on held-out views (" + std::to_string(cam->views()) + " views)...");
+      const cal::ModelSelection sel = cal::select_camera_model(cam->taken(), vw, vh, cal::ModelSelectionOptions{});
+      {
+        std::istringstream lines(sel.report());
+        for (std::string l; std::getline(lines, l);) say(l);
+      }
+      rec.items = cam->views();
+      rec.refused = cam->refused();
+      rec.pass = sel.ok;
+      rec.message = sel.message;
+      if (sel.ok) {
+        const cal::CameraFile cf = sel.to_camera_file(camera_id.empty() ? o.camera : camera_id);
+        st.calibration.camera = cf.camera;
+        st.camera_provenance = ar::CameraProvenance{};
+        st.camera_provenance.model = cf.model;
+        st.camera_provenance.rms_px = cf.rms_px;
+        st.camera_provenance.std_devs = cf.std_devs;
+        st.camera_provenance.date = cf.date;
+        st.camera_provenance.device = cf.device;
+        st.camera_provenance.device_id = camera_id;
+        camera_file = cf;
+        rep.summary = "live: fx " + fmt(cf.camera.fx) + " fy " + fmt(cf.camera.fy) + " px, distortion terms " +
+                      cal::distortion_model_name(sel.model) + " (chosen on held-out views), trustworthy to " +
+                      fmt(sel.trust.max_error_px, 1) + " px over " + fmt(sel.trust.trusted_fraction * 100, 0) + "% of the image";
+        rep.figures = {{"rms_px", cf.rms_px}};
+        if (cf.std_devs.size() >= 4)
+          rep.figures.insert(rep.figures.end(), {{"fx_sd_px", cf.std_devs[0]}, {"fy_sd_px", cf.std_devs[1]},
+                                                 {"cx_sd_px", cf.std_devs[2]}, {"cy_sd_px", cf.std_devs[3]}});
+        rep.figures.emplace_back("views", cf.views_used);
+        rep.figures.emplace_back("refused_views", cam->refused());
+        for (const auto& c : sel.candidates)
+          if (c.model == sel.model) rep.figures.emplace_back("heldout_rms_px", c.heldout_rms_px);
+        rep.figures.emplace_back("distortion_terms", cal::free_coefficient_count(sel.model));
+        rep.figures.emplace_back("trusted_image_pct", sel.trust.trusted_fraction * 100);
+        rep.figures.emplace_back("trusted_tooth_pct", sel.trust.tooth_trusted_fraction * 100);
+        // Footage from `dentar synth --board` carries its true camera: the chosen model against it.
+        if (o.camera.rfind("live:", 0) == 0) {
+          const fs::path truth_yaml = fs::path(o.camera.substr(5)).parent_path() / "camera.yaml";
+          if (fs::exists(truth_yaml)) {
+            if (auto t = cal::read_camera_file(truth_yaml.string()); t && t->camera.width == vw && t->camera.height == vh) {
+              const cal::Lens ref = cal::Lens::from(t->camera), est = cal::Lens::from(sel.chosen);
+              std::vector<Eigen::Vector2d> fit_px;
+              for (const auto& v : cam->taken()) fit_px.insert(fit_px.end(), v.image_points.begin(), v.image_points.end());
+              const Eigen::Matrix3d R = cal::align_rotation(ref, est, fit_px);
+              double worst = 0, worst_tooth = 0;
+              const auto& tr = cal::IntrinsicsOptions{}.tooth_region;
+              for (int v = 0; v < vh; v += 8)
+                for (int u = 0; u < vw; u += 8) {
+                  const double e = cal::projection_error_px(ref, est, R, u, v);
+                  if (!std::isfinite(e)) continue;
+                  worst = std::max(worst, e);
+                  if (u >= tr[0] * vw && u <= tr[2] * vw && v >= tr[1] * vh && v <= tr[3] * vh) worst_tooth = std::max(worst_tooth, e);
+                }
+              sum.truth_camera_fx_error_px = std::abs(sel.chosen.camera.fx - t->camera.fx);
+              sum.truth_camera_max_px = worst;
+              sum.truth_camera_tooth_max_px = worst_tooth;
+              say("footage truth (" + truth_yaml.string() + "): fx error " + fmt(sum.truth_camera_fx_error_px, 2) +
+                  " px; projection error over the whole image at most " + fmt(worst, 2) + " px, over the tooth region " +
+                  fmt(worst_tooth, 2) + " px");
+            }
+          }
+        }
+      }
+    } else if (step == "mirror") {
+      rec.items = touches.next();
+      rec.refused = touches.refused();
+      std::vector<Eigen::Vector3d> rim(mirror_mtag.begin(), mirror_mtag.end() - (mirror_mtag.empty() ? 0 : 1));
+      const Eigen::Vector3d centre = mirror_mtag.empty() ? Eigen::Vector3d::Constant(NAN) : mirror_mtag.back();
+      const cal::MirrorSummary r = cal::calibrate_mirror(rim, centre, st.calibration.T_mtag_mir);
+      rec.pass = r.ok;
+      rec.message = r.report();
+      if (r.ok) {
+        if (sim)
+          say("simulation truth: mirror centre error " +
+              fmt((r.T_mtag_mir.translation() - truth.T_mtag_mir.translation()).norm() * 1e3, 3) + " mm, radius error " +
+              fmt((r.radius_m - truth.mirror_radius_m) * 1e3, 3) + " mm");
+        st.calibration.T_mtag_mir = r.T_mtag_mir;
+        st.calibration.mirror_radius_m = r.radius_m;
+        rep.summary = "live: radius " + fmt(r.radius_m * 1e3) + " mm";
+        rep.figures = {{"radius_mm", r.radius_m * 1e3},
+                       {"plane_rms_mm", r.plane_rms_m * 1e3},
+                       {"circle_rms_mm", r.circle_rms_m * 1e3},
+                       {"centre_error_mm", r.centre_error_m * 1e3},
+                       {"refused_touches", touches.refused()}};
+      }
+    } else if (step == "check") {
+      rec.items = touches.next();
+      rec.refused = touches.refused();
+      double m = 0, mx = 0;
+      for (double e : check_err) {
+        m += e;
+        mx = std::max(mx, e);
+      }
+      m = check_err.empty() ? NAN : m / check_err.size();
+      const double thr = st.policy.check_threshold_m;
+      rec.pass = std::isfinite(m) && m <= thr;
+      rec.message = std::string(rec.pass ? "check PASSED" : "check FAILED") + ": mean error at the " +
+                    std::to_string(check_err.size()) + " known points " + fmt(m * 1e3, 3) + " mm, max " + fmt(mx * 1e3, 3) +
+                    " mm; station threshold " + fmt(thr * 1e3, 2) + " mm" +
+                    (rec.pass ? "" : ": repeat the steps with the worst figures (the failed check is recorded)");
+      rep.summary = "live: " + std::to_string(check_err.size()) + " known points touched";
+      rep.figures = {{"error_mean_mm", m * 1e3}, {"error_max_mm", mx * 1e3}, {"points", static_cast<double>(check_err.size())},
+                     {"threshold_mm", thr * 1e3}, {"refused_touches", touches.refused()}};
+      if (!rec.pass && all_pass) record_failure = true;
     } else {
       const cal::LandmarkSummary r = cal::refine_tooth_placement(known, touches.taken_dev(), st.calibration.T_man_tooth);
       rec.items = touches.next();
@@ -634,6 +1065,7 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
     say("step " + step + (rec.pass ? " passed" : " did NOT pass") + " after " + fmt(rec.seconds, 1) + " s: " + rec.message);
     sum.steps.push_back(rec);
     if (!rec.pass) {
+      if (record_failure) st.set_step_report(rep);  // the failed check, dated, so the station is not handed out
       all_pass = false;
       break;
     }
@@ -644,7 +1076,9 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   sum.total_s = wall_s() - t_start;
   if (sum.stop_reason.empty()) sum.stop_reason = all_pass ? "all steps passed" : "a step did not pass";
 
-  if (sim) {
+  bool stylus_steps = false;
+  for (const auto& r : sum.steps) stylus_steps |= r.step != "camera";
+  if (sim && stylus_steps) {
     sum.truth_tip_error_mm = (st.calibration.T_sty_tip.translation() - truth.T_sty_tip.translation()).norm() * 1e3;
     const Eigen::Vector3d q_dev_cal = st.calibration.T_man_dev.inverse() * (st.calibration.T_man_tooth * crown_tooth);
     const Eigen::Vector3d q_dev_true = truth.T_man_dev.inverse() * (truth.T_man_tooth * crown_tooth);
@@ -676,16 +1110,27 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
         fmt(sum.truth_tooth_error_mm, 3) + " mm; bur tip vs tooth at working poses mean " +
         fmt(sum.truth_static_colocation_mean_mm, 3) + " mm, p99 " + fmt(sum.truth_static_colocation_p99_mm, 3) + " mm");
   }
-  if (all_pass && !aborted) {
+  if ((all_pass || record_failure) && !aborted) {
     st.version = ar::kStationFileVersion;
     if (const fs::path dir = fs::path(o.station).parent_path(); !dir.empty()) fs::create_directories(dir);
+    if (camera_file) {
+      const std::string yaml = (fs::path(o.station).parent_path() / (fs::path(o.station).stem().string() + ".camera.yaml")).string();
+      if (Status w = cal::write_camera_file(yaml, *camera_file); !w) return Error{"calibrate live: " + w.error()};
+      say("wrote the camera file " + yaml);
+    }
     if (auto w = ar::write_station_scene(st, o.station); !w) return Error{"calibrate live: " + w.error()};
     sum.written = true;
-    say("updated " + o.station);
+    say(record_failure ? "recorded the FAILED check in " + o.station + " (dentar live will ask for an instructor)"
+                       : "updated " + o.station);
   } else {
     say(o.station + " was NOT written (" + sum.stop_reason + ")");
   }
-  if (!o.summary_path.empty()) std::ofstream(o.summary_path) << sum.json();
+  if (!o.summary_path.empty()) {
+    if (const fs::path dir = fs::path(o.summary_path).parent_path(); !dir.empty()) fs::create_directories(dir);
+    std::ofstream f(o.summary_path);
+    f << sum.json();
+    if (!f) say("cannot write the summary " + o.summary_path);
+  }
   return sum;
 }
 

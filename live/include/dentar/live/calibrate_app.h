@@ -1,19 +1,27 @@
-// `dentar calibrate live`: the instructor's live station calibration in a window. The stylus
-// steps run live today: pivot (stops itself when the tip is known to 0.2 mm), register (the
-// mannequin's divots in a guided order, FRE and predicted TRE after each touch) and tooth (the
-// tooth's landmarks). A touch is taken by the space bar, Enter, the foot pedal or a stylus
-// button, and refused when the stylus moved during it. The station file is written once, at
-// the end, only when every step passed (as `dentar calibrate all`).
+// `dentar calibrate live`: the instructor's live station calibration in a window, every step:
+//  - camera: the live video with the board detection, a coverage / trust map of the image and
+//    the place the next view is needed; a view is taken by key or pedal and refused with the
+//    reason (not found, wrong board, moving, blurred, too similar); RMS and the 1-sigma of fx fy
+//    cx cy after each view (calibration/guided.h LiveCameraViews); the model selection of
+//    camera_model.h runs beside the window and decides at the end;
+//  - pivot (stops itself when the tip is known to 0.2 mm), register (the mannequin's divots in a
+//    guided order, FRE and predicted TRE after each touch), tooth (the tooth's landmarks),
+//    mirror (8 rim points and the centre, the mirror's pose tracked at each touch), check
+//    (known points: the error at each, PASS/FAIL against the station's threshold).
+// A touch is taken by the space bar, Enter, the foot pedal or a stylus button, and refused
+// when the stylus moved during it. The station file is written once, at the end, only when
+// every step passed (a failed check is written too, dated, as `dentar calibrate all`).
 //
 //   device (HD | DHD | simulated instructor) ──1 kHz poller, zero force──▶ latest pose
-//   camera (optional, CaptureThread) ──latest frame──▶ window background
+//   camera (CaptureThread) ──latest frame──▶ board detection (camera step) ──▶ window background
 //   main thread: HudWindow (GLFW + ImGui), step bookkeeping (calibration/guided.h)
 //
 // `--device sim` is the simulated instructor: a SimulatedDevice whose hand follows an
 // instructor's motions toward a hidden truth (the station perturbed by --seed, as
-// `dentar calibrate --simulate`), and whose key presses are scripted (one deliberately while
-// the stylus still moves, to show the refusal); it runs at human pace, so the step times are
-// the instructor times of a calm instructor (docs/BENCHMARKS.md).
+// `dentar calibrate --simulate`), and whose key presses are scripted on what the HUD shows (one
+// deliberately while the stylus still moves, one while the board still moves, to show the
+// refusals); the board is the camera's footage (`dentar synth --board`: a hand-held board at
+// human pace). The step times are those of a calm instructor (docs/BENCHMARKS.md).
 #pragma once
 
 #include <cstdint>
@@ -32,6 +40,10 @@ struct CalibrateLiveOptions {
   std::string device_name;
   std::string pedal = "keyboard";  // keyboard, or a haptics::open_pedal spec (a press takes a touch)
   std::vector<std::string> steps = {"pivot", "register", "tooth"};
+  // camera step: the printed board (ar/calib_board.h spec) and the views after which the step
+  // may stop itself (when the model is trusted over the image).
+  std::string board = "aprilgrid:6x5:24:8:tag36h11";
+  int camera_views = 12;
   std::uint64_t seed = 1;  // sim: the hidden truth and the instructor's hand
   double pace = 1.0;       // sim: instructor's travel speed (1 = human pace); holds stay real
   double seconds = 0;      // give up after this long (0 = no limit)
@@ -62,6 +74,10 @@ struct CalibrateLiveSummary {
   double truth_tip_error_mm = -1;      // |p_tip - true p_tip|
   double truth_tooth_error_mm = -1;    // the calibrated chain's error at the crown (tooth frame point 4 mm up)
   double truth_static_colocation_mean_mm = -1, truth_static_colocation_p99_mm = -1;  // bur tip vs tooth, working poses
+  // camera step on footage with a camera.yaml beside it (`dentar synth --board`): the chosen
+  // model against the true camera, px (-1 when not computed): fx, and the worst projection
+  // error over the whole image and over the tooth region (after the best ray rotation).
+  double truth_camera_fx_error_px = -1, truth_camera_max_px = -1, truth_camera_tooth_max_px = -1;
   std::vector<std::string> log;  // what the HUD said, in order
   std::string json() const;
 };
