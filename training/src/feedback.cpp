@@ -69,6 +69,18 @@ ExpertReference build_reference(const std::string& exercise, const std::vector<P
       mean_sd(p[a], s.tip_mean_mm(a), s.tip_sd_mm(a));
     }
     mean_sd(dr, s.drilling_mean_s, s.drilling_sd_s);
+    std::vector<double> mir, none;
+    for (const auto& e : experts) {
+      if (!e.mirror_tracked || k >= e.steps.size()) continue;
+      const auto& v = e.steps[k].views;
+      const int n = v[0] + v[1] + v[2] + v[3];
+      if (n < 10) continue;  // too few classified drilling frames to say how this expert looked
+      mir.push_back(100.0 * (v[1] + v[2]) / n);
+      none.push_back(100.0 * v[3] / n);
+    }
+    s.view_sessions = static_cast<int>(mir.size());
+    mean_sd(mir, s.mirror_pct_mean, s.mirror_pct_sd);
+    mean_sd(none, s.no_sight_pct_mean, s.no_sight_pct_sd);
     if (axis_sum.norm() > 0) s.axis_mean = axis_sum.normalized();
     std::vector<double> ang;
     for (const auto& a : axes) ang.push_back(std::acos(std::clamp(a.dot(s.axis_mean), -1.0, 1.0)) * 180 / M_PI);
@@ -101,7 +113,9 @@ std::string reference_to_json(const ExpertReference& r) {
     j["steps"].push_back({{"name", s.name}, {"sessions", s.sessions}, {"force_mean_N", v3(s.force_mean)},
                           {"force_sd_N", v3(s.force_sd)}, {"tip_mean_mm", v3(s.tip_mean_mm)}, {"tip_sd_mm", v3(s.tip_sd_mm)},
                           {"axis_mean", v3(s.axis_mean)}, {"axis_sd_deg", s.axis_sd_deg},
-                          {"drilling_s", {s.drilling_mean_s, s.drilling_sd_s}}});
+                          {"drilling_s", {s.drilling_mean_s, s.drilling_sd_s}}, {"view_sessions", s.view_sessions},
+                          {"mirror_pct", {s.mirror_pct_mean, s.mirror_pct_sd}},
+                          {"no_sight_pct", {s.no_sight_pct_mean, s.no_sight_pct_sd}}});
   return j.dump(1);
 }
 
@@ -134,6 +148,13 @@ Result<ExpertReference> reference_from_json(const std::string& text, const std::
       t.axis_sd_deg = s.at("axis_sd_deg").get<double>();
       t.drilling_mean_s = s.at("drilling_s").at(0).get<double>();
       t.drilling_sd_s = s.at("drilling_s").at(1).get<double>();
+      if (s.contains("view_sessions")) {  // optional: references without expert views give no mirror advice
+        t.view_sessions = s.at("view_sessions").get<int>();
+        t.mirror_pct_mean = s.at("mirror_pct").at(0).get<double>();
+        t.mirror_pct_sd = s.at("mirror_pct").at(1).get<double>();
+        t.no_sight_pct_mean = s.at("no_sight_pct").at(0).get<double>();
+        t.no_sight_pct_sd = s.at("no_sight_pct").at(1).get<double>();
+      }
       r.steps.push_back(t);
     }
   } catch (const json::exception& e) {
@@ -146,6 +167,35 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
                                                double excessive_force_N, const FeedbackRules& R) {
   std::vector<FeedbackMessage> out;
   const std::size_t S = std::min(st.steps.size(), ref.steps.size());
+  // Mirror use of a step against the experts' (docs/formats.md, "Tutoring
+  // feedback"): only where both the student's and the experts' views were measured.
+  auto mirror_advice = [&](std::size_t, const StepMetrics& s, const StepReference& e, const auto& add) {
+    if (!st.mirror_tracked || e.view_sessions < 1) return;
+    const auto& v = s.views;
+    const int n = v[0] + v[1] + v[2] + v[3];
+    if (n < R.min_view_frames) return;
+    const double fm = 100.0 * (v[1] + v[2]) / n, fd = 100.0 * v[0] / n, fn = 100.0 * v[3] / n;
+    const double sd = std::max(e.mirror_pct_sd, R.min_sd_pct);
+    const std::string experts = "experts " + num(e.mirror_pct_mean, 0) + " +/- " + num(sd, 0) + " %";
+    if (e.mirror_pct_mean >= R.mirror_step_pct) {  // the experts work this site in indirect vision
+      if (fm < e.mirror_pct_mean - R.band_sd * sd) {
+        std::string how = fd >= fn ? "; you looked at it directly in " + num(fd, 0) +
+                                         " % of them: bend less and let the mirror show it"
+                                   : "; you worked without sight of it in " + num(fn, 0) + " % of them";
+        add("instruct", "use the mirror for this step: you saw the site in the mirror in " + num(fm, 0) +
+                            " % of your drilling frames, " + experts + how + ".");
+      } else {
+        add("well_done", "well done: you worked in the mirror in " + num(fm, 0) + " % of your drilling frames (" +
+                             experts + ").");
+      }
+    } else {
+      const double nsd = std::max(e.no_sight_pct_sd, R.min_sd_pct);
+      if (fn > R.no_sight_pct && fn > e.no_sight_pct_mean + 2 * nsd)
+        add("caution", "you could not see the site in " + num(fn, 0) + " % of your drilling frames (experts " +
+                           num(e.no_sight_pct_mean, 0) + " +/- " + num(nsd, 0) +
+                           " %): use the mirror or change your position.");
+    }
+  };
   for (std::size_t k = 0; k < S; ++k) {
     const StepMetrics& s = st.steps[k];
     const StepReference& e = ref.steps[k];
@@ -221,6 +271,7 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
                           num(e.drilling_sd_s) + " s.");
     }
     if (!any) add("well_done", "well done: force in " + dir + " " + num(sm, 2) + " N, within the experts' " + band + ".");
+    mirror_advice(k, s, e, add);
   }
   if (st.excessive_force_s > ref.excessive_mean_s + 2 * ref.excessive_sd_s + 0.1)
     out.push_back({-1, "", "caution", "You drilled with more than " + num(excessive_force_N) + " N for " +

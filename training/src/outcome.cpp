@@ -1,6 +1,7 @@
 #include "dentar/training/outcome.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <sstream>
 
@@ -117,10 +118,9 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     for (const auto& p : r.all) need_dist |= p.kind == PrimitiveKind::kShell;
   std::vector<float> dist;
   if (need_dist) dist = distance_to_air_m(start);
-  // Zone membership of a voxel for region r (primitives grown by zone_mm).
-  auto in_zone = [&](std::size_t r, int i, int j, int k, std::size_t id) {
+  // Zone membership of a voxel for region r (primitives grown by g, m).
+  auto in_zone = [&](std::size_t r, int i, int j, int k, std::size_t id, double g) {
     const Region& R = ex.regions[r];
-    const double g = R.zone_mm * 1e-3;
     const Eigen::Vector3d p = start.voxel_center(i, j, k);
     const std::uint8_t d0 = start.density(i, j, k);
     for (const auto& pr : R.all) {
@@ -163,9 +163,31 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
         if (mat == static_cast<std::size_t>(volume::Material::kPulp)) o.pulp_removed_mm3 += rem;
         if (!(bits & m.target_bits)) {
           o.overprep_mm3 += rem;
-          for (std::size_t r = 0; r < nr; ++r)
-            if (ex.regions[r].role == RegionRole::kTarget && ex.regions[r].points > 0 && in_zone(r, i, j, k, id))
-              reg_over[r] += rem;
+          // Charged once, to the nearest target region whose zone holds the
+          // voxel (the smallest growth, in 0.05 mm steps, that reaches it;
+          // a tie is shared): zones overlap where targets meet, and a cut too
+          // deep under one region is not the neighbouring region's fault.
+          double best = 1e9;
+          std::uint32_t who = 0;
+          for (std::size_t r = 0; r < nr; ++r) {
+            const Region& R = ex.regions[r];
+            if (R.role != RegionRole::kTarget || R.points <= 0) continue;
+            const int n = static_cast<int>(std::ceil(R.zone_mm / 0.05 - 1e-9));
+            for (int q = 1; q <= n; ++q) {
+              const double g = std::min(R.zone_mm, 0.05 * q) * 1e-3;
+              if (g > best + 1e-12) break;
+              if (!in_zone(r, i, j, k, id, g)) continue;
+              if (g < best - 1e-12) who = 0;
+              best = g;
+              who |= 1u << r;
+              break;
+            }
+          }
+          if (who) {
+            const double share = rem / std::popcount(who);
+            for (std::size_t r = 0; r < nr; ++r)
+              if (who >> r & 1u) reg_over[r] += share;
+          }
         }
         if (bits & m.forbidden_bits) o.forbidden_mm3 += rem;
         // Opened voxel (solid before, open now): exposure and perforation.

@@ -380,6 +380,9 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
       }
     }
     sum.process.mirror_tracked = sum.mirror.available;
+    if (sum.mirror.available)
+      for (std::size_t k = 0; k < sum.process.steps.size() && k < sum.mirror.by_step.size(); ++k)
+        sum.process.steps[k].views = sum.mirror.by_step[k];
   }
   if (o.write_files) {
     std::error_code ec;

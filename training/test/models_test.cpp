@@ -247,6 +247,15 @@ TEST(Dtw, HandComputedAndInvariantToTimeWarp) {
   const Sequence r = resample(a, 5);
   EXPECT_NEAR(r(1, 0), 0.5, 1e-12);
   EXPECT_NEAR(r(4, 0), 2.0, 1e-12);
+  // Shortening averages spans: 0..11 to 3 rows is the means of 0-3, 4-7, 8-11,
+  // and a ripple faster than the new rate averages out instead of aliasing.
+  Sequence ramp(12, 2);
+  for (int i = 0; i < 12; ++i) ramp.row(i) << i, (i % 2 ? 1.0 : -1.0);
+  const Sequence s = resample(ramp, 3);
+  EXPECT_NEAR(s(0, 0), 1.5, 1e-12);
+  EXPECT_NEAR(s(1, 0), 5.5, 1e-12);
+  EXPECT_NEAR(s(2, 0), 9.5, 1e-12);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(s(i, 1), 0.0, 1e-12);
 }
 
 }  // namespace

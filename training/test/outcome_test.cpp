@@ -269,3 +269,59 @@ TEST(Exercise, ParserErrorsNameFileAndField) {
 
 }  // namespace
 }  // namespace dentar::training
+
+namespace dentar::training {
+namespace {
+
+// The incisor's graded regions on the procedural tooth itself (0.2 mm
+// voxels): the exact target removed scores the maximum; a labial reduction
+// 0.2 mm too deep costs the labial regions about 0.2 / 1.0 of their points
+// and nothing elsewhere.
+TEST(Outcome, IncisorGradedRegionsOnTheProceduralTooth) {
+  auto ex = load_builtin_exercise("incisor_partial_crown");
+  ASSERT_TRUE(ex.ok()) << ex.error();
+  auto start = make_tooth(R"({"kind": "incisor", "voxel_mm": 0.2})");
+  ASSERT_TRUE(start.ok()) << start.error();
+  auto m = build_masks(*ex, *start);
+  ASSERT_TRUE(m.ok()) << m.error();
+  const auto dist = distance_to_air_m(*start);
+  auto cut_where = [&](auto pred) {
+    VoxelVolume cut = start->clone();
+    for (int k = 0; k < cut.dims().z(); ++k)
+      for (int j = 0; j < cut.dims().y(); ++j)
+        for (int i = 0; i < cut.dims().x(); ++i)
+          if (pred(i, j, k, m->index(i, j, k))) cut.set(i, j, k, 0, cut.material(i, j, k));
+    return cut;
+  };
+  auto points_of = [](const OutcomeScores& o, const std::string& n) {
+    for (const auto& r : o.regions)
+      if (r.name == n) return r.points;
+    return -1.0;
+  };
+  const VoxelVolume exact = cut_where([&](int, int, int, std::size_t id) { return (m->bits[id] & m->target_bits) != 0; });
+  auto oe = score_outcome(*ex, *m, *start, exact);
+  ASSERT_TRUE(oe.ok()) << oe.error();
+  EXPECT_NEAR(oe->points, 16.0, 0.01);
+  EXPECT_NEAR(oe->target_coverage_pct, 100.0, 0.01);
+  EXPECT_FALSE(oe->pulp_exposed);
+
+  // Labial reduction (z 1.05..8.45 mm, labial of y = -0.4 mm) to 1.2 mm instead of 1.0 mm.
+  const VoxelVolume deep = cut_where([&](int i, int j, int k, std::size_t id) {
+    const Eigen::Vector3d p = start->voxel_center(i, j, k) * 1e3;
+    const bool labial = p.y() <= -0.4 && p.z() >= 1.05 && p.z() <= 8.45 && start->density(i, j, k) > volume::kIsoDensity &&
+                        dist[id] <= 1.2e-3 + 1e-6;
+    return (m->bits[id] & m->target_bits) != 0 || labial;
+  });
+  auto od = score_outcome(*ex, *m, *start, deep);
+  ASSERT_TRUE(od.ok()) << od.error();
+  for (const char* n : {"labial_incisal", "labial_gingival"}) {
+    const double p = points_of(*od, n);
+    EXPECT_GT(p, 4.0 * (1 - 0.35)) << n;
+    EXPECT_LT(p, 4.0 * (1 - 0.1)) << n;
+  }
+  EXPECT_NEAR(points_of(*od, "incisal"), 4.0, 0.05) << "a labial over-reduction is not the incisal region's";
+  EXPECT_NEAR(points_of(*od, "marginal"), 4.0, 0.05) << "a labial over-reduction above the margin is not the margin's";
+}
+
+}  // namespace
+}  // namespace dentar::training

@@ -21,6 +21,12 @@ struct StepReference {
   Eigen::Vector3d axis_mean = Eigen::Vector3d::UnitZ();
   double axis_sd_deg = 0;
   double drilling_mean_s = 0, drilling_sd_s = 0;
+  // Mirror use, over the experts whose views were measured (view_sessions;
+  // 0: no expert views, no mirror advice): % of the step's drilling frames
+  // with the site seen in the mirror (classes mirror + both), and seen
+  // neither way (none).
+  int view_sessions = 0;
+  double mirror_pct_mean = 0, mirror_pct_sd = 0, no_sight_pct_mean = 0, no_sight_pct_sd = 0;
 };
 struct ExpertReference {
   std::string exercise;
@@ -41,6 +47,11 @@ struct FeedbackRules {
   double off_axis_ratio = 0.35; // off-axis force above this fraction of the main force is "large"
   double position_mm = 0.5;     // position advice only beyond this distance and 2 SD
   double angle_deg = 10.0;      // orientation advice only beyond this angle and 2 SD
+  // Mirror use (where the student's and the experts' views were measured):
+  double min_view_frames = 10;    // drilling frames with the site classified, to judge a step
+  double mirror_step_pct = 50;    // experts seeing the site in the mirror this often: an indirect-vision step
+  double min_sd_pct = 5;          // SD floor (percentage points)
+  double no_sight_pct = 20;       // working without sight of the site above this (and 2 SD) is cautioned
 };
 
 struct FeedbackMessage {

@@ -94,7 +94,8 @@ class GaussianHmm {
 // two sequences of the same width, Euclidean frame distance, normalised by
 // (n + m). Infinite when the band makes the ends unreachable.
 double dtw_distance(const Sequence& a, const Sequence& b, int window = -1);
-// Resamples a sequence to n rows by linear interpolation (n >= 2).
+// Resamples a sequence to n rows (n >= 2): linear interpolation when
+// lengthening, the mean of n equal spans when shortening (no aliasing).
 Sequence resample(const Sequence& x, int n);
 
 }  // namespace dentar::training

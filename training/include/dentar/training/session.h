@@ -63,6 +63,9 @@ struct StepMetrics {
   ForceStats force;  // while drilling and in contact
   Eigen::Vector3d tip_mean_mm = Eigen::Vector3d::Zero(), tip_sd_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis_mean = Eigen::Vector3d::Zero();  // mean bur axis (unit)
+  // Drilling frames per sightline class (direct, mirror, both, none; see
+  // mirror_use.h), filled where mirror use was measured (ProcessMetrics::mirror_tracked).
+  std::array<int, 4> views{};
 };
 
 struct ProcessMetrics {
