@@ -204,6 +204,71 @@ TEST(PoseUncertainty, PerTagCovarianceWithUnequalTagNoise) {
   EXPECT_NEAR(std::sqrt(per_tag2 / shared2), 1.0, 0.15);
 }
 
+// Why the covariance over-states the error on footage by 1.5-2x while the
+// Monte Carlo above agrees, two hypotheses measured (docs/BENCHMARKS.md):
+// (1) libapriltag's corners are intersections of four fitted edge lines, so
+// their errors are not independent: noise as a random offset of each edge
+// line (0.2 px) moves the two corners of an edge together;
+// (2) the generator's corner bias: every tag's outline 0.09 px too small
+// (systematic) plus 0.12 px of independent noise. In a bundle each tag's
+// shrink is a depth change the rigid body cannot follow: it goes mostly into
+// the residual, which inflates the noise estimate, not into the pose.
+TEST(PoseUncertainty, WhyTheCovarianceIsPessimisticOnFootage) {
+  const StationScene s = default_station_scene();
+  const TagBundle b = mannequin_bundle(s);
+  const Eigen::Vector3d tooth = s.calibration.T_man_tooth.translation();
+  double ratios[2] = {0, 0};
+  for (int model : {0, 1}) {
+    const Iso T = camera_looking_at_mouth(0.36, -0.45, 0.45);
+    std::mt19937 rng(31);
+    std::normal_distribution<double> n(0.0, 1.0);
+    const int N = 600;
+    double obs2 = 0, pred2 = 0;
+    for (int i = 0; i < N; ++i) {
+      auto dets = noisy_corners(b, s.calibration.camera, T, 0.0, rng);
+      for (DetectedTag& d : dets) {
+        const auto c = d.corners_px;
+        Eigen::Vector2d mid = Eigen::Vector2d::Zero();
+        for (const auto& p : c) mid += p / 4;
+        if (model == 1) {
+          for (auto& p : d.corners_px)
+            p += -0.09 * (p - mid).normalized() + 0.12 * Eigen::Vector2d(n(rng), n(rng));
+          continue;
+        }
+        std::array<double, 4> off;
+        std::array<Eigen::Vector2d, 4> nrm;
+        for (int e = 0; e < 4; ++e) {  // edge e runs from corner e to corner e+1
+          const Eigen::Vector2d dir = (c[(e + 1) % 4] - c[e]).normalized();
+          nrm[e] = Eigen::Vector2d(dir.y(), -dir.x());
+          if (nrm[e].dot(0.5 * (c[e] + c[(e + 1) % 4]) - mid) < 0) nrm[e] = -nrm[e];
+          off[e] = 0.2 * n(rng);
+        }
+        for (int k = 0; k < 4; ++k) {  // corner k lies on edges k-1 and k
+          const int a = (k + 3) % 4;
+          Eigen::Matrix2d A;
+          A.row(0) = nrm[a].transpose();
+          A.row(1) = nrm[k].transpose();
+          d.corners_px[k] += A.inverse() * Eigen::Vector2d(off[a], off[k]);
+        }
+      }
+      const BundlePose p = estimate_bundle_pose(b, s.calibration.camera, dets, {}, T);
+      ASSERT_TRUE(p.ok()) << p.message;
+      obs2 += (T * tooth - p.T_cam_body * tooth).squaredNorm() / N;
+      pred2 += point_covariance(p.covariance, p.T_cam_body, tooth).trace() / N;
+    }
+    ratios[model] = std::sqrt(pred2 / obs2);
+    std::printf("[ uncertainty ] %s: tooth sigma predicted %.4f mm, observed %.4f mm (x%.2f)\n",
+                model == 0 ? "edge-line noise 0.2 px" : "outline bias -0.09 px + 0.12 px noise",
+                std::sqrt(pred2) * 1e3, std::sqrt(obs2) * 1e3, ratios[model]);
+  }
+  // Measured: neither reproduces the footage's 1.5-2x (x1.07 and x0.94):
+  // the covariance stays honest under both, so neither is the reason.
+  for (double r : ratios) {
+    EXPECT_GT(r, 0.8);
+    EXPECT_LT(r, 1.2);
+  }
+}
+
 TEST(PoseUncertainty, MirrorCentreSigmaWithin20PercentOfMonteCarlo) {
   const StationScene s = default_station_scene();
   const TagBundle b = mirror_bundle(s);

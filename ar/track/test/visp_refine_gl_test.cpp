@@ -60,7 +60,6 @@ std::vector<visp::Face> tag_faces(const TagBundle& b) {
     for (const Eigen::Vector2d& q : {Eigen::Vector2d(-h, -h), Eigen::Vector2d(-h, h), Eigen::Vector2d(h, h),
                                      Eigen::Vector2d(h, -h)})
       f.push_back(t.T_parent_tag * Eigen::Vector3d(q.x(), q.y(), 0));
-    if (std::getenv("DENTAR_VISP_FLIP")) std::reverse(f.begin(), f.end());
     out.push_back(f);
   }
   return out;
@@ -95,6 +94,7 @@ Footage make_footage(SynthPreset preset, int w, int h, int n) {
 
 struct Result3 {
   std::vector<double> tag_mm, tag_deg, ref_mm, ref_deg, ms;
+  std::vector<double> track_ms;  // same-run anchor: the tag tracker's own time per frame
   int frames = 0, refined = 0;
 };
 
@@ -120,6 +120,7 @@ Result3 run_visp(const Footage& fo, const visp::Options& vo) {
     ++r.frames;
     auto f = tr->track(s.image, s.truth.time_s, s.truth.time_s);
     if (!f) continue;
+    r.track_ms.push_back(f->timing.total_ms);
     const auto t0 = std::chrono::steady_clock::now();
     cv::cvtColor(s.image, gray, cv::COLOR_BGR2GRAY);
     cv::remap(gray, und, m1, m2, cv::INTER_LINEAR);
@@ -158,12 +159,15 @@ TEST(VispRefine, MannequinEdgesAndKltAgainstTags) {
   if (const char* p = std::getenv("DENTAR_PRESETS")) presets = p;
   std::printf("\n[ visp ] %dx%d, %d frames, seed 5: mannequin pose vs truth, tag pose alone vs ViSP-refined\n", w, h, n);
   std::printf("| preset | variant | frames with a tag pose | refined | tags p50 / p95 mm | refined p50 / p95 mm | "
-              "tags p95 deg | refined p95 deg | undistort + ViSP ms p50 / p99 |\n|---|---|---|---|---|---|---|---|---|\n");
+              "tags p95 deg | refined p95 deg | undistort + ViSP ms p50 / p99 | tag tracker ms p50 / p99 (anchor) |\n"
+              "|---|---|---|---|---|---|---|---|---|---|\n");
   for (SynthPreset p : {SynthPreset::kStandard, SynthPreset::kHard, SynthPreset::kHand, SynthPreset::kLowLight}) {
     if (presets.find(synth_preset_name(p)) == std::string::npos) continue;
     const Footage fo = make_footage(p, w, h, n);
     ASSERT_EQ(fo.frames.size(), static_cast<std::size_t>(n));
     for (bool klt : {false, true}) {
+      // CI: KLT on `hard` costs ~0.15-3 s a frame here; run it with DENTAR_PRESETS.
+      if (klt && p == SynthPreset::kHard && !std::getenv("DENTAR_PRESETS")) continue;
       visp::Options vo;
       vo.klt = klt;
       vo.me_range = 2;  // the tag pose is within ~0.5 px: a wider search finds the data cells' edges
@@ -172,10 +176,10 @@ TEST(VispRefine, MannequinEdgesAndKltAgainstTags) {
       if (const char* e = std::getenv("DENTAR_VISP_STEP")) vo.me_sample_step = std::atoi(e);
       const Result3 r = run_visp(fo, vo);
       const char* name = klt ? "edges + KLT" : "edges";
-      std::printf("| %s | %s | %zu | %d | %.3f / %.3f | %.3f / %.3f | %.3f | %.3f | %.2f / %.2f |\n",
+      std::printf("| %s | %s | %zu | %d | %.3f / %.3f | %.3f / %.3f | %.3f | %.3f | %.2f / %.2f | %.2f / %.2f |\n",
                   synth_preset_name(p), name, r.tag_mm.size(), r.refined, pct(r.tag_mm, 0.5), pct(r.tag_mm, 0.95),
                   pct(r.ref_mm, 0.5), pct(r.ref_mm, 0.95), pct(r.tag_deg, 0.95), pct(r.ref_deg, 0.95),
-                  pct(r.ms, 0.5), pct(r.ms, 0.99));
+                  pct(r.ms, 0.5), pct(r.ms, 0.99), pct(r.track_ms, 0.5), pct(r.track_ms, 0.99));
       ASSERT_FALSE(r.tag_mm.empty());
       if (p == SynthPreset::kStandard && !klt) {
         // The edges found the tag outlines in most frames, and did not move
