@@ -39,6 +39,31 @@ std::string mm_text(double m, int decimals = 1) {
   return b;
 }
 
+// Where each mirror tag goes, from its placement on the paddle (station_scene.h
+// MirrorSceneParams). Seen from the reflecting side with the mirror head up, the
+// paddle's -y side is on the right (mtag: x along the handle away from the head,
+// z into the paddle).
+std::string mirror_instructions(const ar::StationScene& s) {
+  if (s.mirror.paddle_roof_rad <= 0)
+    return s.mirror_tags.size() == 2
+               ? "Tape the first onto the front of the mirror's paddle (the reflecting side), the "
+                 "second onto its back."
+               : "Tape each onto the mirror's paddle as the station file places it.";
+  std::string right, left, back;
+  for (const ar::TagPlacement& t : s.mirror_tags) {
+    std::string& to = t.T_parent_tag.linear().col(2).z() < 0 ? back
+                      : t.T_parent_tag.translation().y() < 0 ? right
+                                                              : left;
+    to += (to.empty() ? "" : " and ") + std::to_string(t.id);
+  }
+  char b[200];
+  std::snprintf(b, sizeof b, "Reflecting side toward you, head up: id %s on the roof's right face (%.0f deg), "
+                "%s on its left, %s on the flat back.",
+                right.empty() ? "-" : right.c_str(), s.mirror.paddle_roof_rad * 180 / M_PI,
+                left.empty() ? "-" : left.c_str(), back.empty() ? "-" : back.c_str());
+  return b;
+}
+
 // Text widths need a cairo context with the drawing font; a 1x1 image surface serves.
 class TextMeasure {
  public:
@@ -324,9 +349,7 @@ Result<Plan> make_plan(const ar::StationScene& s, const KitOptions& o) {
   }
   if (!s.mirror_tags.empty()) {
     const TagGeometry g0 = tag_geometry(fam, s.mirror_tags[0].size_m);
-    heading("Mirror tags (" + std::to_string(s.mirror_tags.size()) + ")",
-            "Tape the first onto the front of the mirror's paddle (the reflecting side), the "
-            "second onto its back.",
+    heading("Mirror tags (" + std::to_string(s.mirror_tags.size()) + ")", mirror_instructions(s),
             (g0.pattern_m + 2 * g0.quiet_m) * 1e3 + kLabelGap + 2 * kLabelLine);
     if (Status st = loose_tags(s.mirror_tags, TagRole::kMirror, "mirror_tags"); !st)
       return Error{st.error()};

@@ -674,11 +674,7 @@ Result<Compositor> Compositor::create(const StationScene& station, const Composi
     im.mirror_box = box_of(face);
     im.mirror_face = scene::upload(face);
     im.mirror_body = scene::upload(body);
-    const float w = static_cast<float>(ms.paddle_width_m) * 0.5f;
-    const float h = static_cast<float>(ms.paddle_height_m) * 0.5f;
-    const scene::Mesh pad = scene::box({-w, -h, 0.0f}, {w, h, static_cast<float>(ms.paddle_thickness_m)},
-                                       Eigen::Vector3f::Ones());
-    im.paddle = scene::upload(pad);
+    im.paddle = scene::upload(scene::paddle_mesh(ms, Eigen::Vector3f::Ones()));
   }
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);

@@ -1,5 +1,6 @@
 #include "dentar/ar/scene_mesh.h"
 
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <functional>
@@ -194,6 +195,51 @@ Mesh box(const V3& lo, const V3& hi, const V3& rgb) {
           m, centre, n, u, h[(axis + 1) % 3], h[(axis + 2) % 3], 1, 1,
           [&](const V3&) { return rgb; }, 0.0f, 0);
     }
+  return m;
+}
+
+Mesh paddle_mesh(const MirrorSceneParams& mp, const V3& rgb, float inset_m) {
+  const float w = 0.5f * static_cast<float>(mp.paddle_width_m);
+  const float h = 0.5f * static_cast<float>(mp.paddle_height_m);
+  const float t = static_cast<float>(mp.paddle_thickness_m);
+  // Only the tag-carrying faces (front, back) need the inset.
+  if (mp.paddle_roof_rad <= 0) return box({-w, -h, inset_m}, {w, h, t - inset_m}, rgb);
+  // Cross-section in the y/z plane (a pentagon: ridge, eaves, back corners),
+  // each edge moved inward by inset_m, extruded along x.
+  const float a = static_cast<float>(mp.paddle_roof_rad), ta = std::tan(a), d = inset_m;
+  const float zr = -0.5f * h * ta + d / std::cos(a);  // ridge (y = 0)
+  const float ye = h - d, ze = zr + ye * ta, zb = t - d;
+  const std::array<Eigen::Vector2f, 5> sec = {Eigen::Vector2f(0, zr), Eigen::Vector2f(ye, ze),
+                                              Eigen::Vector2f(ye, zb), Eigen::Vector2f(-ye, zb),
+                                              Eigen::Vector2f(-ye, ze)};
+  Mesh m;
+  auto vert = [&](float x, const Eigen::Vector2f& yz, const V3& n) {
+    Vertex v;
+    v.position_m = V3(x, yz.x(), yz.y());
+    v.normal = n;
+    v.rgb = rgb;
+    m.vertices.push_back(v);
+    return static_cast<std::uint32_t>(m.vertices.size() - 1);
+  };
+  // Side faces: flat-shaded quads, normal = outward normal of the edge.
+  for (std::size_t i = 0; i < sec.size(); ++i) {
+    const Eigen::Vector2f p = sec[i], q = sec[(i + 1) % sec.size()];
+    const Eigen::Vector2f e = (q - p).normalized();
+    Eigen::Vector2f n2(e.y(), -e.x());  // one of the two normals; outward = away from the centroid
+    const Eigen::Vector2f mid = 0.5f * (p + q), c(0, 0.5f * (zr + zb));
+    if (n2.dot(mid - c) < 0) n2 = -n2;
+    const V3 n(0, n2.x(), n2.y());
+    const std::uint32_t a0 = vert(-w, p, n), a1 = vert(w, p, n), b0 = vert(-w, q, n), b1 = vert(w, q, n);
+    add_tri(m, a0, a1, b1);
+    add_tri(m, a0, b1, b0);
+  }
+  // End caps: convex pentagons, fans from the ridge.
+  for (float x : {-w, w}) {
+    const V3 n(x > 0 ? 1.0f : -1.0f, 0, 0);
+    std::array<std::uint32_t, 5> id{};
+    for (std::size_t i = 0; i < sec.size(); ++i) id[i] = vert(x, sec[i], n);
+    for (std::size_t i = 1; i + 1 < sec.size(); ++i) add_tri(m, id[0], id[i], id[i + 1]);
+  }
   return m;
 }
 

@@ -233,6 +233,11 @@ std::string MirrorSceneParams::validate() const {
   if (!in(paddle_width_m, 0.005, 0.1) || !in(paddle_height_m, 0.005, 0.1))
     return "mirror.paddle size must be in [5, 100] mm";
   if (!in(paddle_thickness_m, 2e-4, 0.02)) return "mirror.paddle_thickness must be in [0.2, 20] mm";
+  if (!in(paddle_roof_rad, 0.0, 60 * M_PI / 180)) return "mirror.paddle_roof must be in [0, 60] deg";
+  // The eaves (z = height/4 tan(roof)) must lie in front of the back face.
+  if (paddle_roof_rad > 0 && 0.25 * paddle_height_m * std::tan(paddle_roof_rad) >= paddle_thickness_m)
+    return "mirror.paddle_thickness must exceed the roof's eave depth (paddle height / 4 x tan(roof)); "
+           "make the paddle thicker or the roof flatter";
   return {};
 }
 
@@ -481,6 +486,13 @@ StationScene default_station_scene() {
   // Front face of the paddle just clear of the handle's top.
   T_mir_mtag.translation() = stem_start + 0.085 * stem_dir - (mp.handle_radius_m + 0.5e-3) * z_mtag;
   c.T_mtag_mir = T_mir_mtag.inverse();
+  set_mirror_paddle(s, MirrorPaddle::kRoof);
+  s.pen = default_pen();
+  return s;
+}
+
+void set_mirror_paddle(StationScene& s, MirrorPaddle kind) {
+  MirrorSceneParams& mp = s.mirror;
   TagPlacement front;
   front.id = 20;
   front.size_m = 0.012;
@@ -488,10 +500,35 @@ StationScene default_station_scene() {
   back.id = 21;
   // Back face: turned about the tag's y axis (still readable from behind).
   back.T_parent_tag.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  if (kind == MirrorPaddle::kFlat) {
+    mp.paddle_width_m = 0.03;
+    mp.paddle_height_m = 0.03;
+    mp.paddle_thickness_m = 7.0e-3;
+    mp.paddle_roof_rad = 0;
+    back.T_parent_tag.translation() = Eigen::Vector3d(0, 0, mp.paddle_thickness_m);
+    s.mirror_tags = {front, back};
+    return;
+  }
+  // Roof: each face carries a 12 mm tag whose printed plate (24 mm with its
+  // quiet zone) spans the face's slope from ridge to eave: 40 mm of paddle
+  // height at 35 deg; 9 mm deep so the handle (its top 0.5 mm behind z = 0)
+  // and the eaves (6.9 mm) both fit in front of the back face.
+  mp.paddle_width_m = 0.03;
+  mp.paddle_height_m = 0.04;
+  mp.paddle_thickness_m = 9.0e-3;
+  mp.paddle_roof_rad = 35 * M_PI / 180;
+  const double a = mp.paddle_roof_rad, q = 0.25 * mp.paddle_height_m;
+  // The -y face: its outward normal (-z of the tag) leans toward -y, so the
+  // tag's z axis is +z turned by -a about x; the tag's y axis runs up the
+  // slope toward the ridge.
+  TagPlacement lo = front, hi = front;
+  lo.T_parent_tag.linear() = Eigen::AngleAxisd(-a, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  lo.T_parent_tag.translation() = Eigen::Vector3d(0, -q, 0);
+  hi.id = 22;
+  hi.T_parent_tag.linear() = Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  hi.T_parent_tag.translation() = Eigen::Vector3d(0, q, 0);
   back.T_parent_tag.translation() = Eigen::Vector3d(0, 0, mp.paddle_thickness_m);
-  s.mirror_tags = {front, back};
-  s.pen = default_pen();
-  return s;
+  s.mirror_tags = {lo, back, hi};
 }
 
 std::string station_scene_to_json(const StationScene& s) {
@@ -539,6 +576,7 @@ std::string station_scene_to_json(const StationScene& s) {
                  {"stem_tilt_deg", mp.stem_tilt_rad / kDeg},
                  {"paddle_size_mm", {mp.paddle_width_m * 1e3, mp.paddle_height_m * 1e3}},
                  {"paddle_thickness_mm", mp.paddle_thickness_m * 1e3},
+                 {"paddle_roof_deg", mp.paddle_roof_rad / kDeg},
                  {"T_mtag_mir", pose_json(c.T_mtag_mir)},
                  {"tags", tags_json(s.mirror_tags, "T_mtag_tag")}};
   j["haptics"] = {{"T_man_dev", pose_json(c.T_man_dev)}, {"T_sty_tip", pose_json(c.T_sty_tip)}};
@@ -715,7 +753,7 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     check_keys(rj, "mirror",
                {"radius_mm", "thickness_mm", "neck_length_mm", "neck_radius_mm", "handle_length_mm",
                 "handle_radius_mm", "stem_tilt_deg", "paddle_size_mm", "paddle_thickness_mm",
-                "T_mtag_mir", "tags"});
+                "paddle_roof_deg", "T_mtag_mir", "tags"});
     auto& mp = s.mirror;
     auto mm = [&](const char* key, double lo, double hi) {
       return number(req(rj, "mirror", key), std::string("mirror.") + key, lo, hi) * 1e-3;
@@ -733,6 +771,10 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     mp.paddle_width_m = paddle[0] * 1e-3;
     mp.paddle_height_m = paddle[1] * 1e-3;
     mp.paddle_thickness_m = mm("paddle_thickness_mm", 0.2, 20);
+    // Optional (station files before issue 16 have a flat paddle).
+    mp.paddle_roof_rad = rj.contains("paddle_roof_deg")
+                             ? number(rj["paddle_roof_deg"], "mirror.paddle_roof_deg", 0, 60) * kDeg
+                             : 0.0;
     s.calibration.T_mtag_mir = pose(req(rj, "mirror", "T_mtag_mir"), "mirror.T_mtag_mir");
     s.mirror_tags = tags(req(rj, "mirror", "tags"), "mirror.tags", "T_mtag_tag");
 

@@ -41,6 +41,8 @@ void expect_same(const StationScene& a, const StationScene& b) {
     expect_near(a.mirror_tags[i].T_parent_tag, b.mirror_tags[i].T_parent_tag, "T_mtag_tag");
   EXPECT_LT((a.mannequin.head_radii_m - b.mannequin.head_radii_m).norm(), 1e-15);
   EXPECT_NEAR(a.mirror.paddle_thickness_m, b.mirror.paddle_thickness_m, 1e-15);
+  EXPECT_NEAR(a.mirror.paddle_roof_rad, b.mirror.paddle_roof_rad, 1e-15);
+  EXPECT_NEAR(a.mirror.paddle_height_m, b.mirror.paddle_height_m, 1e-15);
   EXPECT_NEAR(a.tooth_voxel_m, b.tooth_voxel_m, 1e-15);
 }
 
@@ -90,6 +92,38 @@ TEST(StationScene, ShippedDefaultMatchesTheBuiltIn) {
          "  dentar synth --write-default-station assets/station_default.json";
 }
 
+// The mirror's roof paddle (issue 16): its two roof tags face 70 deg apart,
+// both toward the reflecting side, and lie on the roof's faces; a station
+// file written before the roof (no "paddle_roof_deg") reads as the flat
+// paddle it describes and round-trips unchanged.
+TEST(StationScene, MirrorRoofPaddleAndOlderFlatFiles) {
+  const StationScene s = default_station_scene();
+  ASSERT_EQ(s.mirror_tags.size(), 3u);
+  EXPECT_NEAR(s.mirror.paddle_roof_rad, 35 * M_PI / 180, 1e-12);
+  const Eigen::Vector3d n0 = s.mirror_tags[0].T_parent_tag.linear().col(2);
+  const Eigen::Vector3d n2 = s.mirror_tags[2].T_parent_tag.linear().col(2);
+  EXPECT_NEAR(std::acos(n0.dot(n2)) * 180 / M_PI, 70.0, 1e-9);
+  EXPECT_GT(n0.z(), 0);  // tag z points into the paddle: both face -z (the reflecting side)
+  EXPECT_GT(n2.z(), 0);
+  EXPECT_LT(s.mirror_tags[1].T_parent_tag.linear().col(2).z(), 0);  // the back tag
+  // Each roof tag's centre lies on its face: z = -h/4 tan(a) + |y| tan(a).
+  const double ta = std::tan(s.mirror.paddle_roof_rad), q = 0.25 * s.mirror.paddle_height_m;
+  for (int i : {0, 2}) {
+    const Eigen::Vector3d c = s.mirror_tags[i].T_parent_tag.translation();
+    EXPECT_NEAR(c.z(), -q * ta + std::abs(c.y()) * ta, 1e-12);
+  }
+  // An older file: flat paddle, tags 20 and 21, no roof key.
+  StationScene flat = s;
+  set_mirror_paddle(flat, MirrorPaddle::kFlat);
+  nlohmann::json j = nlohmann::json::parse(station_scene_to_json(flat));
+  j["mirror"].erase("paddle_roof_deg");
+  auto r = parse_station_scene(j.dump(), "old.json");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->mirror.paddle_roof_rad, 0.0);
+  EXPECT_EQ(r->validate(), "");
+  expect_same(flat, *r);
+}
+
 // Each edit breaks one field; the message must name the file and that field.
 TEST(StationScene, BadFieldsAreNamed) {
   const nlohmann::json good = nlohmann::json::parse(station_scene_to_json(default_station_scene()));
@@ -113,6 +147,8 @@ TEST(StationScene, BadFieldsAreNamed) {
       {"/mannequin/head_radii_mm/1", 1000.0, "mannequin.head_radii_mm[1]"},
       {"/tooth/T_man_tooth/rvec_deg", "x", "tooth.T_man_tooth.rvec_deg"},
       {"/mirror/radius_mm", 0.0, "mirror.radius_mm"},
+      {"/mirror/paddle_roof_deg", 75.0, "mirror.paddle_roof_deg"},
+      {"/mirror/paddle_thickness_mm", 5.0, "eave"},
       {"/mirror/tags/0/T_mtag_tag/translation_mm/2", nullptr,
        "mirror.tags[0].T_mtag_tag.translation_mm[2]"},
       {"/haptics/T_sty_tip", 3, "haptics.T_sty_tip"},

@@ -698,12 +698,8 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
     body.add(mm.body, Eigen::Isometry3f::Identity(), {0.70f, 0.71f, 0.74f});
     im.mirror_face = synth::upload(face);
     im.mirror_body = synth::upload(body);
-    const float w = static_cast<float>(st.mirror.paddle_width_m) * 0.5f;
-    const float h = static_cast<float>(st.mirror.paddle_height_m) * 0.5f;
     // Slightly inside the tag planes so the tags are never z-fought.
-    im.paddle = synth::upload(synth::box(
-        {-w, -h, 0.2e-3f}, {w, h, static_cast<float>(st.mirror.paddle_thickness_m) - 0.2e-3f},
-        {0.92f, 0.92f, 0.90f}));
+    im.paddle = synth::upload(scene::paddle_mesh(st.mirror, {0.92f, 0.92f, 0.90f}, 0.2e-3f));
   }
   im.occluder = synth::upload(
       synth::capsule({-0.028f, 0, 0}, {0.028f, 0, 0}, 0.0085f, 0.0075f, {0.86f, 0.66f, 0.55f}));

@@ -323,6 +323,27 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   out.covariance_per_px2 = lu.inverse();
   out.noise_px2 = wss / dof;
   out.covariance = out.noise_px2 * out.covariance_per_px2;
+  // Per-tag noise (sandwich): each tag's corners get their own noise
+  // estimate, its residual sum over its residual degrees of freedom
+  // (8 minus the tag's share of the 6 pose parameters, the trace of its
+  // rows' hat matrix), floored below at 1e-4 of the mean (a tag that fits
+  // exactly still has some noise).
+  {
+    const Mat6& C = out.covariance_per_px2;
+    Mat6 meat = Mat6::Zero();
+    const double mean = std::max(out.noise_px2, 1e-12);
+    for (std::size_t t = 0; t < tags.size(); ++t) {
+      const Eigen::Index r0 = static_cast<Eigen::Index>(8 * t);
+      const Eigen::Matrix<double, 8, 6> Jt = J.block<8, 6>(r0, 0);
+      const Eigen::Matrix<double, 8, 1> wt = w.segment<8>(r0);
+      const Eigen::Matrix<double, 8, 1> rt = r.segment<8>(r0);
+      const double lev = (Jt * C * Jt.transpose() * wt.asDiagonal()).trace();
+      const double ss = rt.dot(wt.asDiagonal() * rt);
+      const double s2 = std::max(ss / std::max(8.0 - lev, 0.5), 1e-4 * mean);
+      meat += s2 * Jt.transpose() * wt.asDiagonal() * Jt;
+    }
+    out.covariance_per_tag = C * meat * C;
+  }
   if (!out.T_cam_body.matrix().allFinite() || !out.covariance_per_px2.allFinite())
     return fail(BundlePoseStatus::kFailed, who + "the refinement diverged");
   out.status = BundlePoseStatus::kOk;

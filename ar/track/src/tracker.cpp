@@ -469,7 +469,15 @@ struct Tracker::Impl {
   // Position sigma of the body's gate point (pose_uncertainty.h), the
   // corner noise floored at sigma_floor_px.
   double gate_sigma(const Body& b, const BundlePose& p) const {
+    return o.sigma_per_tag ? per_tag_sigma(b, p) : uniform_sigma(b, p);
+  }
+  double uniform_sigma(const Body& b, const BundlePose& p) const {
     return point_sigma_m(floored_covariance(p, o.sigma_floor_px), p.T_cam_body, b.gate_point);
+  }
+  double per_tag_sigma(const Body& b, const BundlePose& p) const {
+    const double floor = point_sigma_m(p.covariance_per_px2 * (o.sigma_floor_px * o.sigma_floor_px),
+                                       p.T_cam_body, b.gate_point);
+    return std::max(floor, point_sigma_m(p.covariance_per_tag, p.T_cam_body, b.gate_point));
   }
   // Position uncertainty gate (TrackerOptions::mannequin_max_sigma_m).
   bool precise_enough(const Body& b, const BundlePose& p) const {
@@ -496,7 +504,8 @@ struct Tracker::Impl {
         out.tags_used = p.tags_used;
         out.tag_ids = p.tag_ids;
         out.covariance = p.covariance;
-        out.sigma_m = gate_sigma(b, p);
+        out.sigma_m = uniform_sigma(b, p);
+        out.sigma_per_tag_m = per_tag_sigma(b, p);
       }
     }
     pose_ms += ms_since(t0);

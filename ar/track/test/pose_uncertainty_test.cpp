@@ -158,6 +158,117 @@ TEST(PoseUncertainty, MannequinCovarianceWithin20PercentOfMonteCarlo) {
   EXPECT_LT(ratio, 1.2);
 }
 
+// Tags of unequal noise (odd ids 0.6 px, even ids 0.1 px, as small grazing
+// and large frontal tags differ on the footage): the per-tag covariance
+// (BundlePose::covariance_per_tag) predicts the tooth's scatter within 20 %;
+// the shared-noise covariance spreads the noisy tags' noise over all.
+TEST(PoseUncertainty, PerTagCovarianceWithUnequalTagNoise) {
+  const StationScene s = default_station_scene();
+  const TagBundle b = mannequin_bundle(s);
+  const Eigen::Vector3d tooth = s.calibration.T_man_tooth.translation();
+  for (const Iso& T : {camera_looking_at_mouth(0.36, -0.45, 0.45), camera_looking_at_mouth(0.33, 0.3, 0.2)}) {
+    std::mt19937 rng(21);
+    std::normal_distribution<double> n(0.0, 1.0);
+    const int N = 800;
+    double obs2 = 0, shared2 = 0, per_tag2 = 0;
+    for (int i = 0; i < N; ++i) {
+      auto dets = noisy_corners(b, s.calibration.camera, T, 0.0, rng);
+      for (DetectedTag& d : dets)
+        for (auto& c : d.corners_px) c += (d.id % 2 ? 0.6 : 0.1) * Eigen::Vector2d(n(rng), n(rng));
+      const BundlePose p = estimate_bundle_pose(b, s.calibration.camera, dets, {}, T);
+      ASSERT_TRUE(p.ok()) << p.message;
+      obs2 += (T * tooth - p.T_cam_body * tooth).squaredNorm() / N;
+      shared2 += point_covariance(p.covariance, p.T_cam_body, tooth).trace() / N;
+      per_tag2 += point_covariance(p.covariance_per_tag, p.T_cam_body, tooth).trace() / N;
+    }
+    const double obs = std::sqrt(obs2), shared = std::sqrt(shared2), per_tag = std::sqrt(per_tag2);
+    std::printf("[ uncertainty ] unequal tag noise, tooth sigma: observed %.4f mm, shared noise %.4f mm (x%.2f), "
+                "per-tag noise %.4f mm (x%.2f)\n",
+                obs * 1e3, shared * 1e3, shared / obs, per_tag * 1e3, per_tag / obs);
+    EXPECT_GT(per_tag / obs, 0.8);
+    EXPECT_LT(per_tag / obs, 1.2);
+  }
+  // With equal noise both agree (the per-tag estimate is then the same
+  // noise estimated per tag).
+  std::mt19937 rng(5);
+  const Iso T = camera_looking_at_mouth(0.36, -0.45, 0.45);
+  double shared2 = 0, per_tag2 = 0, obs2 = 0;
+  for (int i = 0; i < 400; ++i) {
+    const BundlePose p = estimate_bundle_pose(b, s.calibration.camera, noisy_corners(b, s.calibration.camera, T, 0.3, rng), {}, T);
+    ASSERT_TRUE(p.ok());
+    obs2 += (T * tooth - p.T_cam_body * tooth).squaredNorm() / 400;
+    shared2 += point_covariance(p.covariance, p.T_cam_body, tooth).trace() / 400;
+    per_tag2 += point_covariance(p.covariance_per_tag, p.T_cam_body, tooth).trace() / 400;
+  }
+  EXPECT_NEAR(std::sqrt(per_tag2 / obs2), 1.0, 0.2);
+  EXPECT_NEAR(std::sqrt(per_tag2 / shared2), 1.0, 0.15);
+}
+
+// Why the covariance over-states the error on footage by 1.5-2x while the
+// Monte Carlo above agrees, two hypotheses measured (docs/BENCHMARKS.md):
+// (1) libapriltag's corners are intersections of four fitted edge lines, so
+// their errors are not independent: noise as a random offset of each edge
+// line (0.2 px) moves the two corners of an edge together;
+// (2) the generator's corner bias: every tag's outline 0.09 px too small
+// (systematic) plus 0.12 px of independent noise. In a bundle each tag's
+// shrink is a depth change the rigid body cannot follow: it goes mostly into
+// the residual, which inflates the noise estimate, not into the pose.
+TEST(PoseUncertainty, WhyTheCovarianceIsPessimisticOnFootage) {
+  const StationScene s = default_station_scene();
+  const TagBundle b = mannequin_bundle(s);
+  const Eigen::Vector3d tooth = s.calibration.T_man_tooth.translation();
+  double ratios[2] = {0, 0};
+  for (int model : {0, 1}) {
+    const Iso T = camera_looking_at_mouth(0.36, -0.45, 0.45);
+    std::mt19937 rng(31);
+    std::normal_distribution<double> n(0.0, 1.0);
+    const int N = 600;
+    double obs2 = 0, pred2 = 0;
+    for (int i = 0; i < N; ++i) {
+      auto dets = noisy_corners(b, s.calibration.camera, T, 0.0, rng);
+      for (DetectedTag& d : dets) {
+        const auto c = d.corners_px;
+        Eigen::Vector2d mid = Eigen::Vector2d::Zero();
+        for (const auto& p : c) mid += p / 4;
+        if (model == 1) {
+          for (auto& p : d.corners_px)
+            p += -0.09 * (p - mid).normalized() + 0.12 * Eigen::Vector2d(n(rng), n(rng));
+          continue;
+        }
+        std::array<double, 4> off;
+        std::array<Eigen::Vector2d, 4> nrm;
+        for (int e = 0; e < 4; ++e) {  // edge e runs from corner e to corner e+1
+          const Eigen::Vector2d dir = (c[(e + 1) % 4] - c[e]).normalized();
+          nrm[e] = Eigen::Vector2d(dir.y(), -dir.x());
+          if (nrm[e].dot(0.5 * (c[e] + c[(e + 1) % 4]) - mid) < 0) nrm[e] = -nrm[e];
+          off[e] = 0.2 * n(rng);
+        }
+        for (int k = 0; k < 4; ++k) {  // corner k lies on edges k-1 and k
+          const int a = (k + 3) % 4;
+          Eigen::Matrix2d A;
+          A.row(0) = nrm[a].transpose();
+          A.row(1) = nrm[k].transpose();
+          d.corners_px[k] += A.inverse() * Eigen::Vector2d(off[a], off[k]);
+        }
+      }
+      const BundlePose p = estimate_bundle_pose(b, s.calibration.camera, dets, {}, T);
+      ASSERT_TRUE(p.ok()) << p.message;
+      obs2 += (T * tooth - p.T_cam_body * tooth).squaredNorm() / N;
+      pred2 += point_covariance(p.covariance, p.T_cam_body, tooth).trace() / N;
+    }
+    ratios[model] = std::sqrt(pred2 / obs2);
+    std::printf("[ uncertainty ] %s: tooth sigma predicted %.4f mm, observed %.4f mm (x%.2f)\n",
+                model == 0 ? "edge-line noise 0.2 px" : "outline bias -0.09 px + 0.12 px noise",
+                std::sqrt(pred2) * 1e3, std::sqrt(obs2) * 1e3, ratios[model]);
+  }
+  // Measured: neither reproduces the footage's 1.5-2x (x1.07 and x0.94):
+  // the covariance stays honest under both, so neither is the reason.
+  for (double r : ratios) {
+    EXPECT_GT(r, 0.8);
+    EXPECT_LT(r, 1.2);
+  }
+}
+
 TEST(PoseUncertainty, MirrorCentreSigmaWithin20PercentOfMonteCarlo) {
   const StationScene s = default_station_scene();
   const TagBundle b = mirror_bundle(s);
@@ -225,8 +336,13 @@ TEST(PoseUncertainty, MirrorLayoutStudy) {
     const char* name;
     std::vector<TagPlacement> tags;
   };
+  StationScene roof = s;
+  set_mirror_paddle(roof, MirrorPaddle::kRoof);
+  std::vector<TagPlacement> roof_front;  // the roof's two faces, without the back tag
+  for (const TagPlacement& t : roof.mirror_tags)
+    if (t.T_parent_tag.linear().col(2).z() > 0) roof_front.push_back(t);
   std::vector<Layout> layouts = {
-      {"current: one 12 mm tag (30 mm paddle)", {tag(20, 0.012, {0, 0, 0}, I)}},
+      {"flat paddle: one 12 mm tag (30 mm paddle)", {tag(20, 0.012, {0, 0, 0}, I)}},
       {"one 20 mm tag (40 mm paddle)", {tag(20, 0.020, {0, 0, 0}, I)}},
       {"two 12 mm tags, roof at +-35 deg across the handle",
        {tag(20, 0.012, {0, -0.009, 0.003}, Eigen::AngleAxisd(0.61, Eigen::Vector3d::UnitX()).toRotationMatrix()),
@@ -235,6 +351,7 @@ TEST(PoseUncertainty, MirrorLayoutStudy) {
        {tag(20, 0.012, {-0.02, 0, 0}, I), tag(22, 0.012, {0.02, 0, 0}, I)}},
       {"three 12 mm tags, 20 mm apart, toward the head (70 mm paddle)",
        {tag(20, 0.012, {-0.04, 0, 0}, I), tag(22, 0.012, {-0.02, 0, 0}, I), tag(23, 0.012, {0, 0, 0}, I)}},
+      {"station default since issue 16: roof paddle 35 deg, tags at y = +-10 mm", roof_front},
   };
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1, 1);
@@ -271,6 +388,9 @@ TEST(PoseUncertainty, MirrorLayoutStudy) {
   // current single 12 mm tag.
   EXPECT_LT(medians[1], medians[0]);
   EXPECT_LT(medians[3], 0.7 * medians[0]);
+  // The roof built into the station halves the flat paddle's sigma.
+  ASSERT_EQ(roof_front.size(), 2u);
+  EXPECT_LT(medians[5], 0.5 * medians[0]);
 }
 
 }  // namespace

@@ -62,11 +62,14 @@ struct Footage {
   std::string error;
 };
 
-const Footage& footage(SynthPreset preset) {
-  static std::map<int, Footage> cache;
-  auto it = cache.find(static_cast<int>(preset));
+// The default station (roof paddle on the mirror), or with the flat paddle
+// it had before issue 16 (MirrorPaddle::kFlat).
+const Footage& footage(SynthPreset preset, MirrorPaddle paddle = MirrorPaddle::kRoof) {
+  static std::map<std::pair<int, int>, Footage> cache;
+  const std::pair<int, int> key(static_cast<int>(preset), static_cast<int>(paddle));
+  auto it = cache.find(key);
   if (it != cache.end()) return it->second;
-  Footage& f = cache[static_cast<int>(preset)];
+  Footage& f = cache[key];
   const Size z = run_size();
   SynthOptions o = synth_preset(preset);
   o.frames = z.frames;
@@ -74,7 +77,9 @@ const Footage& footage(SynthPreset preset) {
   o.height = z.h;
   o.seed = 5;
   o.bur_samples = 1000;
-  auto g = SynthGenerator::create(default_station_scene(), o);
+  StationScene st = default_station_scene();
+  set_mirror_paddle(st, paddle);
+  auto g = SynthGenerator::create(st, o);
   if (!g) {
     f.error = g.error();
     return f;
@@ -100,6 +105,8 @@ struct PresetRun {
   // Measured (unfiltered) poses: the gate sigma (BodyTrack::sigma_m) and
   // the error of the same point, for the honesty check of the covariance.
   std::vector<double> man_sigma_mm, man_meas_mm, mir_sigma_mm, mir_meas_mm;
+  std::vector<double> man_sigma_pt_mm, mir_sigma_pt_mm;  // per-tag noise (BodyTrack::sigma_per_tag_m)
+  std::vector<double> man_sigma_raw_mm;  // residual noise estimate alone (no floor), at the origin
 };
 
 PresetRun run(const Footage& fo, const TrackerOptions& opt = {}) {
@@ -120,10 +127,13 @@ PresetRun run(const Footage& fo, const TrackerOptions& opt = {}) {
     }
     if (f->mannequin.measured) {
       r.man_sigma_mm.push_back(f->mannequin.sigma_m * 1e3);
+      r.man_sigma_pt_mm.push_back(f->mannequin.sigma_per_tag_m * 1e3);
+      r.man_sigma_raw_mm.push_back(std::sqrt(f->mannequin.covariance.bottomRightCorner<3, 3>().trace()) * 1e3);
       r.man_meas_mm.push_back(trans_mm(f->mannequin.T_cam_body_measured, s.truth.T_cam_man));
     }
     if (f->mirror.measured) {
       r.mir_sigma_mm.push_back(f->mirror.sigma_m * 1e3);
+      r.mir_sigma_pt_mm.push_back(f->mirror.sigma_per_tag_m * 1e3);
       r.mir_meas_mm.push_back(trans_mm(f->mirror.T_cam_body_measured * T_mtag_mir, s.truth.T_cam_mir));
     }
     r.mirror_seen += s.truth.mirror_in_view ? 1 : 0;
@@ -151,10 +161,12 @@ void print_honesty(const char* name, const PresetRun& r) {
     for (std::size_t i = 0; i < e.size(); ++i) n += e[i] <= 2 * sg[i] ? 1 : 0;
     return e.empty() ? NAN : double(n) / e.size();
   };
-  std::printf("| %s | %zu | %.3f | %.3f | %.2f | %zu | %.3f | %.3f | %.2f |\n", name, r.man_meas_mm.size(),
-              rms(r.man_sigma_mm), rms(r.man_meas_mm), within2(r.man_sigma_mm, r.man_meas_mm),
-              r.mir_meas_mm.size(), rms(r.mir_sigma_mm), rms(r.mir_meas_mm),
-              within2(r.mir_sigma_mm, r.mir_meas_mm));
+  std::printf("| %s | %zu | %.3f / %.3f / %.3f | %.3f | %.2f / %.2f | %zu | %.3f / %.3f | %.3f | %.2f / %.2f |\n", name,
+              r.man_meas_mm.size(), rms(r.man_sigma_mm), rms(r.man_sigma_pt_mm), rms(r.man_sigma_raw_mm),
+              rms(r.man_meas_mm),
+              within2(r.man_sigma_mm, r.man_meas_mm), within2(r.man_sigma_pt_mm, r.man_meas_mm),
+              r.mir_meas_mm.size(), rms(r.mir_sigma_mm), rms(r.mir_sigma_pt_mm), rms(r.mir_meas_mm),
+              within2(r.mir_sigma_mm, r.mir_meas_mm), within2(r.mir_sigma_pt_mm, r.mir_meas_mm));
 }
 
 void print_row(const char* name, const PresetRun& r) {
@@ -211,8 +223,9 @@ TEST(PresetAccuracy, EveryPresetWithinItsBounds) {
     if (b.mir_p95_mm > 0 && !r.mir_mm.empty()) { EXPECT_LE(pct(r.mir_mm, 0.95), b.mir_p95_mm) << name; }
   }
   std::printf("\n[ presets ] covariance honesty on measured poses (gate sigma vs error of the same point)\n");
-  std::printf("| preset | mannequin frames | RMS sigma mm | RMS error mm | within 2 sigma | mirror frames | "
-              "RMS sigma mm | RMS error mm | within 2 sigma |\n|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| preset | mannequin frames | RMS sigma mm (shared / per-tag noise / no floor) | RMS error mm | within 2 sigma | "
+              "mirror frames | RMS sigma mm (shared / per-tag) | RMS error mm | within 2 sigma |\n"
+              "|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [name, r] : runs) print_honesty(name, r);
 }
 
@@ -237,6 +250,147 @@ TEST(PresetAccuracy, MirrorGateHidesImpreciseReflections) {
   // Every measurement the gate let through claims sigma <= 1 mm.
   for (double sg : b.mir_sigma_mm) EXPECT_LE(sg, 1.0 + 1e-9);
   if (b.mirror_drawn > 5) { EXPECT_LT(pct(b.mir_mm, 0.95), pct(a.mir_mm, 0.95)); }
+}
+
+// The mirror's paddle: the roof (two 12 mm tags 70 deg apart, the default
+// station since issue 16) against the flat paddle (one 12 mm tag per side)
+// on the same scenes: mirror centre error with and without the 1 mm gate.
+TEST(PresetAccuracy, MirrorRoofPaddleAgainstFlat) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Size z = run_size();
+  std::printf("\n[ mirror ] %dx%d, %d frames, seed 5: mirror plane pose vs truth, ungated (and with the 1 mm gate)\n",
+              z.w, z.h, z.frames);
+  std::printf("| preset | paddle | tracked / in view | p50 mm / deg | p95 mm / deg | RMS sigma / RMS error mm | "
+              "gated: drawn | gated p95 mm / deg |\n|---|---|---|---|---|---|---|---|\n");
+  const char* only = std::getenv("DENTAR_PRESETS");
+  for (SynthPreset p : {SynthPreset::kStandard, SynthPreset::kHard, SynthPreset::kMirror}) {
+    if (only && std::string(only).find(synth_preset_name(p)) == std::string::npos) continue;
+    if (!only && p == SynthPreset::kMirror) continue;  // CI: standard and hard
+    double p95[2] = {0, 0}, p50[2] = {0, 0};
+    int k = 0;
+    for (MirrorPaddle paddle : {MirrorPaddle::kFlat, MirrorPaddle::kRoof}) {
+      const Footage& fo = footage(p, paddle);
+      ASSERT_TRUE(fo.error.empty()) << fo.error;
+      TrackerOptions off;
+      off.mirror_max_sigma_m = 0;
+      const PresetRun a = run(fo, off), b = run(fo);
+      std::printf("| %s | %s | %d / %d | %.3f / %.3f | %.3f / %.3f | %.3f / %.3f | %d | %.3f / %.3f |\n",
+                  synth_preset_name(p), paddle == MirrorPaddle::kFlat ? "flat" : "roof", a.mirror_drawn,
+                  a.mirror_seen, pct(a.mir_mm, 0.5), pct(a.mir_deg, 0.5), pct(a.mir_mm, 0.95),
+                  pct(a.mir_deg, 0.95), rms(a.mir_sigma_mm), rms(a.mir_meas_mm), b.mirror_drawn,
+                  pct(b.mir_mm, 0.95), pct(b.mir_deg, 0.95));
+      p50[k] = pct(a.mir_mm, 0.5);
+      p95[k++] = pct(a.mir_mm, 0.95);
+      // The mannequin does not care which paddle the mirror has.
+      EXPECT_GT(a.drawn, 0);
+    }
+    if (!z.is_default() || only) continue;
+    // Measured (docs/BENCHMARKS.md): the roof halves the typical error on
+    // `standard` (median 2.02 -> 1.48 mm) but not its p95 (3.08 -> 3.68 mm:
+    // the generator's -0.09 px corner bias is systematic and a second tag at
+    // 70 deg does not average it out); on `hard` it ends the flips of the
+    // single tag (p95 99.8 -> 19.0 mm). The bounds guard those.
+    if (p == SynthPreset::kStandard) {
+      EXPECT_LT(p50[1], 0.85 * p50[0]);
+      EXPECT_LT(p95[1], 1.4 * p95[0]);
+    }
+    if (p == SynthPreset::kHard) { EXPECT_LT(p95[1], 0.4 * p95[0]); }
+  }
+}
+
+// Why frames go undrawn on `hard`: drawn fraction and error with each of the
+// tracker's refusals switched off in turn (the mannequin's sigma gate, the
+// drift gate, the image-motion check, the stale limit), and per undrawn
+// frame what the footage held (DENTAR_PRESET_FRAMELOG=1 prints them).
+TEST(PresetAccuracy, WhyHardFramesAreNotDrawn) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Footage& fo = footage(SynthPreset::kHard);
+  ASSERT_TRUE(fo.error.empty()) << fo.error;
+  struct Variant {
+    const char* name;
+    TrackerOptions o;
+  };
+  std::vector<Variant> vs;
+  vs.push_back({"default", {}});
+  vs.push_back({"no sigma gate", {}});
+  vs.back().o.mannequin_max_sigma_m = 0;
+  vs.push_back({"no image-motion check", {}});
+  vs.back().o.max_prediction_turn_rad = 0;
+  vs.push_back({"no drift gate", {}});
+  vs.back().o.max_prediction_drift_m = 0;
+  vs.push_back({"stale limit 0.4 s", {}});
+  vs.back().o.stale_limit_s = 0.4;
+
+  std::printf("\n[ hard ] drawn and p95 with one refusal off at a time\n| variant | drawn | measured | p95 mm / deg |\n|---|---|---|---|\n");
+  std::vector<PresetRun> rs;
+  for (const Variant& v : vs) {
+    const PresetRun r = run(fo, v.o);
+    std::printf("| %s | %d / %d | %zu | %.3f / %.3f |\n", v.name, r.drawn, r.frames, r.man_meas_mm.size(),
+                pct(r.t_mm, 0.95), pct(r.r_deg, 0.95));
+    rs.push_back(r);
+  }
+  // Without the sigma gate at least as many frames are measured.
+  EXPECT_GE(rs[1].man_meas_mm.size(), rs[0].man_meas_mm.size());
+  // Which of the truly visible mannequin tags (>= 90 % of the plate, all
+  // corners in the image) the default tracker detected, by view angle and
+  // size: the gate refuses frames with too few tags.
+  {
+    auto tr = Tracker::create(fo.station, {});
+    ASSERT_TRUE(tr.ok());
+    struct Bin {
+      int seen = 0, found = 0;
+    };
+    std::map<std::string, Bin> bins;
+    for (const SynthFrame& s : fo.frames) {
+      auto f = tr->track(s.image, s.truth.time_s, s.truth.time_s);
+      ASSERT_TRUE(f.ok());
+      for (const TagTruth& g : s.truth.tags) {
+        if (g.on_mirror || !g.in_image || g.visible_fraction < 0.9) continue;
+        bool found = false;
+        for (const DetectedTag& d : f->tags) found = found || d.id == g.id;
+        const double a = g.view_angle_rad * 180 / M_PI;
+        const std::string ab = a < 40 ? "angle < 40" : a < 55 ? "angle 40-55" : a < 70 ? "angle 55-70" : "angle >= 70";
+        const std::string sb = g.side_px < 15 ? "side < 15 px" : g.side_px < 20 ? "side 15-20 px" : "side >= 20 px";
+        for (const std::string& key : {ab, sb, std::string("all")}) {
+          bins[key].seen++;
+          bins[key].found += found ? 1 : 0;
+        }
+      }
+    }
+    std::printf("\n[ hard ] visible mannequin tags detected (default tracker)\n| bin | visible | detected |\n|---|---|---|\n");
+    for (const auto& [k, b] : bins)
+      std::printf("| %s | %d | %.0f %% |\n", k.c_str(), b.seen, 100.0 * b.found / std::max(1, b.seen));
+    EXPECT_GT(bins["all"].found, 0);
+  }
+  if (std::getenv("DENTAR_PRESET_FRAMELOG")) {
+    auto tr = Tracker::create(fo.station, {});
+    ASSERT_TRUE(tr.ok());
+    TrackerOptions nogate;
+    nogate.mannequin_max_sigma_m = 0;
+    auto tr2 = Tracker::create(fo.station, nogate);
+    ASSERT_TRUE(tr2.ok());
+    for (std::size_t i = 0; i < fo.frames.size(); ++i) {
+      const SynthFrame& s = fo.frames[i];
+      auto f = tr->track(s.image, s.truth.time_s, s.truth.time_s);
+      auto f2 = tr2->track(s.image, s.truth.time_s, s.truth.time_s);
+      ASSERT_TRUE(f.ok() && f2.ok());
+      int in_img = 0, vis = 0;
+      double min_side = 1e9;
+      for (const TagTruth& g : s.truth.tags)
+        if (!g.on_mirror && g.in_image) {
+          ++in_img;
+          if (g.visible_fraction > 0.9) ++vis;
+          min_side = std::min(min_side, g.side_px);
+        }
+      std::printf("frame %2zu %-9s meas %d full %d det %2d used %2d sigma %.3f | nogate: %-9s used %2d sigma %.3f "
+                  "err %.3f | truth tags in image %2d visible %2d\n",
+                  i, track_state_name(f->mannequin.state), f->mannequin.measured, f->full_frame, f->tags_detected,
+                  f->mannequin.tags_used, f->mannequin.sigma_m * 1e3, track_state_name(f2->mannequin.state),
+                  f2->mannequin.tags_used, f2->mannequin.sigma_m * 1e3,
+                  f2->mannequin.measured ? trans_mm(f2->mannequin.T_cam_body_measured, s.truth.T_cam_man) : -1.0,
+                  in_img, vis);
+    }
+  }
 }
 
 // Per-corner Huber weighting in the bundle PnP (BundlePoseOptions::

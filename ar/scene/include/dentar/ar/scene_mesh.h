@@ -37,6 +37,11 @@ Mesh capsule(const Eigen::Vector3f& a, const Eigen::Vector3f& b, float ra, float
 Mesh ellipsoid(const Eigen::Vector3f& centre, const Eigen::Matrix3f& R_axes,
                const Eigen::Vector3f& radii, const Eigen::Vector3f& rgb, int segments = 24);
 Mesh box(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, const Eigen::Vector3f& rgb);
+// The mirror's tag paddle in the mtag frame (station_scene.h
+// MirrorSceneParams: flat front or roof), every face moved `inset_m` inward
+// (the generator draws it 0.2 mm inside the tag planes so the tags are not
+// z-fought).
+Mesh paddle_mesh(const MirrorSceneParams& mp, const Eigen::Vector3f& rgb, float inset_m = 0);
 // Hand holding the handpiece, in the tip frame of the bur (handle leaving
 // toward -x of tip at HandpieceParams::handle_angle_rad).
 Mesh hand_mesh(const HandpieceParams& hp, double head_centre_z_m);

@@ -67,12 +67,21 @@ struct MirrorSceneParams {
   double handle_radius_m = 3.0e-3;
   double stem_tilt_rad = 0.35;
   // Paddle: a plastic block in the mtag frame's x/y plane, centred on the
-  // mtag origin, its front face at z = 0 (the front tag lies on it) and
-  // `paddle_thickness_m` deep toward +z (the back tag); the handle runs
-  // through it.
+  // mtag origin, `paddle_width_m` along x (the handle, which runs through
+  // it), `paddle_height_m` along y, its back face at z = `paddle_thickness_m`
+  // (the back tag). Its front (toward -z) is
+  // - flat at z = 0 when `paddle_roof_rad` = 0 (the front tag lies on it;
+  //   station files without "paddle_roof_deg" read this way), or
+  // - a roof when > 0: two faces meeting in a ridge along x at y = 0, each
+  //   sloping `paddle_roof_rad` back from the x/y plane, and crossing z = 0
+  //   half-way between ridge and eave (y = +-height/4): the ridge at
+  //   z = -height/4 tan(roof), the eaves at z = +height/4 tan(roof). A tag on
+  //   each face gives two views of the paddle 2 x roof apart, which fixes its
+  //   depth (issue 16: mirror centre sigma 5.95 -> 2.39 mm, docs/BENCHMARKS.md).
   double paddle_width_m = 0.03;
   double paddle_height_m = 0.03;
   double paddle_thickness_m = 7.0e-3;
+  double paddle_roof_rad = 0;
   std::string validate() const;
 };
 
@@ -210,6 +219,15 @@ CalibrationFixtures default_calibration_fixtures();
 // 640x480 head camera with mild barrel distortion; a mirror with two tags
 // (front and back of its paddle).
 StationScene default_station_scene();
+
+// The mirror paddle's tag layouts. kRoof (the default station's since issue
+// 16): a 30 x 40 x 9 mm paddle with a 35 deg roof, tag 20 on its -y face,
+// 22 on its +y face, 21 on the flat back. kFlat (before): a 30 x 30 x 7 mm
+// block, tag 20 on the front, 21 on the back. Both 12 mm tags; T_mtag_mir is
+// kept (the mtag frame does not move). Rewrites s.mirror's paddle and
+// s.mirror_tags.
+enum class MirrorPaddle { kFlat, kRoof };
+void set_mirror_paddle(StationScene& s, MirrorPaddle kind);
 
 // Intrinsics of the default camera family at another image size: same
 // horizontal field of view (fx = fy = 0.9375 W), principal point near the

@@ -86,6 +86,12 @@ struct BundlePose {
   // covariance = covariance_per_px2 * noise_px2.
   Eigen::Matrix<double, 6, 6> covariance_per_px2 = Eigen::Matrix<double, 6, 6>::Zero();
   double noise_px2 = 0;
+  // The same covariance with each tag's own corner noise (its residuals over
+  // its residual degrees of freedom) instead of one noise for all: a
+  // sandwich C (sum_t s_t J_t^T J_t) C with C = covariance_per_px2. Small or
+  // grazing tags are noisier than large frontal ones (docs/BENCHMARKS.md,
+  // issue 16), and one shared noise spreads their noise over the good tags.
+  Eigen::Matrix<double, 6, 6> covariance_per_tag = Eigen::Matrix<double, 6, 6>::Zero();
   bool ok() const { return status == BundlePoseStatus::kOk; }
 };
 

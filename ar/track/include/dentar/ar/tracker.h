@@ -111,6 +111,9 @@ struct TrackerOptions {
   double mannequin_max_sigma_m = 0.6e-3;
   double mirror_max_sigma_m = 1.0e-3;
   double sigma_floor_px = 0.1;
+  // Gate on each tag's own corner noise (BodyTrack::sigma_per_tag_m) instead
+  // of one noise shared by all corners.
+  bool sigma_per_tag = false;
   PoseFilterOptions filter;
   bool filter_enabled = true;
   double stale_limit_s = 0.2;  // predicted -> lost after this long without a measurement
@@ -156,9 +159,14 @@ struct BodyTrack {
   // Covariance of the measurement (bundle_pose.h: (w rad, v m) in `cam`).
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
   // Position sigma (m) of the body's gate point (the mannequin's origin, the
-  // mirror's centre) from the covariance with the corner noise floored at
-  // sigma_floor_px (pose_uncertainty.h); 0 when not measured.
+  // mirror's centre) from the covariance with one corner noise for all
+  // corners, floored at sigma_floor_px (pose_uncertainty.h); what the gate
+  // uses unless TrackerOptions::sigma_per_tag; 0 when not measured.
   double sigma_m = 0;
+  // The same point's sigma from the per-tag noise covariance
+  // (BundlePose::covariance_per_tag), floored like sigma_m; what the gate
+  // uses when TrackerOptions::sigma_per_tag.
+  double sigma_per_tag_m = 0;
   double since_measurement_s = 0;  // capture time - last measured capture time
 };
 

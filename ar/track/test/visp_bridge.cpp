@@ -1,0 +1,137 @@
+// Built as C++17 (see visp_bridge.h).
+#include "visp_bridge.h"
+
+#include <cmath>
+#include <exception>
+#include <fstream>
+
+#include <visp3/core/vpCameraParameters.h>
+#include <visp3/core/vpHomogeneousMatrix.h>
+#include <visp3/core/vpImageConvert.h>
+#include <visp3/klt/vpKltOpencv.h>
+#include <visp3/mbt/vpMbGenericTracker.h>
+#include <visp3/me/vpMe.h>
+
+namespace dentar::ar::visp {
+namespace {
+
+vpHomogeneousMatrix to_vp(const Eigen::Isometry3d& T) {
+  vpHomogeneousMatrix M;
+  for (unsigned r = 0; r < 3; ++r) {
+    for (unsigned c = 0; c < 3; ++c) M[r][c] = T.linear()(r, c);
+    M[r][3] = T.translation()(r);
+  }
+  return M;
+}
+Eigen::Isometry3d from_vp(const vpHomogeneousMatrix& M) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (unsigned r = 0; r < 3; ++r) {
+    for (unsigned c = 0; c < 3; ++c) T.linear()(r, c) = M[r][c];
+    T.translation()(r) = M[r][3];
+  }
+  return T;
+}
+
+class Impl : public Refiner {
+ public:
+  Impl(const Options& o) : o_(o), tracker_(1, (o.edges ? vpMbGenericTracker::EDGE_TRACKER : 0) |
+                                                  (o.klt ? vpMbGenericTracker::KLT_TRACKER : 0)) {}
+  bool init(const std::vector<Face>& faces, double fx, double fy, double cx, double cy,
+            const std::string& dir, std::string* error) {
+    try {
+      const std::string path = dir + "/dentar_visp_model.cao";
+      {
+        std::ofstream f(path);
+        std::size_t n = 0;
+        for (const Face& fc : faces) n += fc.size();
+        f << "V1\n" << n << "\n";
+        for (const Face& fc : faces)
+          for (const Eigen::Vector3d& p : fc) f << p.x() << " " << p.y() << " " << p.z() << "\n";
+        f << "0\n0\n" << faces.size() << "\n";
+        std::size_t k = 0;
+        for (const Face& fc : faces) {
+          f << fc.size();
+          for (std::size_t i = 0; i < fc.size(); ++i) f << " " << k++;
+          f << "\n";
+        }
+        f << "0\n0\n";
+      }
+      tracker_.setCameraParameters(vpCameraParameters(fx, fy, cx, cy));
+      vpMe me;
+      me.setMaskSize(5);
+      me.setMaskNumber(180);
+      me.setRange(static_cast<unsigned>(o_.me_range));
+      me.setThreshold(o_.me_threshold);
+      me.setMu1(0.5);
+      me.setMu2(0.5);
+      me.setSampleStep(o_.me_sample_step);
+      tracker_.setMovingEdge(me);
+      if (o_.klt) {
+        vpKltOpencv klt;
+        klt.setMaxFeatures(300);
+        klt.setWindowSize(5);
+        klt.setQuality(0.01);
+        klt.setMinDistance(3);
+        klt.setHarrisFreeParameter(0.01);
+        klt.setBlockSize(3);
+        klt.setPyramidLevels(2);
+        tracker_.setKltOpencv(klt);
+        tracker_.setKltMaskBorder(1);
+      }
+      tracker_.setAngleAppear(80 * M_PI / 180);
+      tracker_.setAngleDisappear(85 * M_PI / 180);
+      tracker_.setNearClippingDistance(0.05);
+      tracker_.setFarClippingDistance(2.0);
+      tracker_.setClipping(tracker_.getClipping() | vpPolygon3D::FOV_CLIPPING);
+      tracker_.loadModel(path);
+    } catch (const std::exception& e) {
+      if (error) *error = e.what();
+      return false;
+    }
+    return true;
+  }
+  bool refine(const cv::Mat& gray, const Eigen::Isometry3d& T_seed, const cv::Mat* prev_gray,
+              const Eigen::Isometry3d* prev_T, Eigen::Isometry3d& out, std::string* error) override {
+    try {
+      vpImageConvert::convert(gray, I_);
+      if (o_.klt) {
+        if (!prev_gray || !prev_T) {
+          if (error) *error = "KLT needs the previous frame";
+          return false;
+        }
+        vpImageConvert::convert(*prev_gray, I_prev_);
+        tracker_.initFromPose(I_prev_, to_vp(*prev_T));
+      } else {
+        tracker_.initFromPose(I_, to_vp(T_seed));
+      }
+      tracker_.track(I_);
+      vpHomogeneousMatrix cMo;
+      tracker_.getPose(cMo);
+      out = from_vp(cMo);
+      features_ = static_cast<int>(tracker_.getNbFeaturesEdge() + tracker_.getNbFeaturesKlt());
+    } catch (const std::exception& e) {
+      if (error) *error = e.what();
+      return false;
+    }
+    return out.matrix().allFinite();
+  }
+  int features() const override { return features_; }
+
+ private:
+  Options o_;
+  vpMbGenericTracker tracker_;
+  vpImage<unsigned char> I_, I_prev_;
+  int features_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<Refiner> Refiner::create(const std::vector<Face>& faces, double fx, double fy, double cx,
+                                         double cy, const Options& o, const std::string& scratch_dir,
+                                         std::string* error) {
+  auto r = std::make_unique<Impl>(o);
+  if (!r->init(faces, fx, fy, cx, cy, scratch_dir, error)) return nullptr;
+  return r;
+}
+
+}  // namespace dentar::ar::visp
