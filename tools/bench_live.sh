@@ -7,6 +7,8 @@
 #   tools/bench_live.sh engine [SECONDS]       engine timing with/without isolation, with/without stress
 #   tools/bench_live.sh memory [SECONDS]       RSS growth over a long run
 #   tools/bench_live.sh discovery [SECONDS]    720p: tag discovery inline vs async; background threads' CPU
+#   tools/bench_live.sh display [SECONDS]      720p: CPU display path vs GPU (GL-resident) path, alternating
+#                                              runs of the same binary (PAIRS pairs, default 2)
 #
 # Environment: BUILD_DIR (default build), OUT (default out/bench_live).
 set -euo pipefail
@@ -81,10 +83,21 @@ case "$mode" in
     run "720p async, background on engine CPU (default)" "$c720" --stylus replay:"$c720/session.dlog"
     run "720p default, sim hand cutting" "$c720" --stylus sim
     ;;
+  display)
+    c720=$(clip 1280 720)
+    header
+    for i in $(seq 1 "${PAIRS:-2}"); do
+      for p in cpu gl; do
+        run "720p $p path, run $i" "$c720" --stylus replay:"$c720/session.dlog" --display-path "$p"
+        # The path that really ran (gl falls back to cpu when it must), and its CPU traffic.
+        python3 -c 'import json,sys; d=json.load(open(sys.argv[1]))["display"]; print("   display:", d["path"], "readback_px", d["readback_px"], "cpu_blend_px", d["cpu_blend_px"], "replaced", d["gl_frames_replaced"], d["note"])' "$out/720p $p path, run $i.json" >&2
+      done
+    done
+    ;;
   memory)
     c720=$(clip 1280 720)
     header
     run "memory ${secs}s" "$c720" --stylus sim
     ;;
-  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery [SECONDS]" >&2; exit 2 ;;
+  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display [SECONDS]" >&2; exit 2 ;;
 esac

@@ -27,7 +27,7 @@ void add_live(CLI::App& app, int& exit_code) {
       "The live trainer: camera -> tracking -> virtual tooth in the video, in a window with a HUD,\n"
       "while the 1 kHz haptic engine cuts the tooth.\n"
       "Synopsis: dentar live [--camera SPEC] [--station FILE] [--stylus sim|pen|replay:LOG|none]\n"
-      "                      [--display N] [--record DIR] [--seconds S] [--exercise NAME|FILE] [...]");
+      "                      [--display N] [--record DIR] [--seconds S] [--frames N] [--exercise NAME|FILE] [...]");
   sub->footer(
       "Examples:\n"
       "  dentar live --camera camera:0 --stylus pen --scale-calib     # webcam, printed kit (dentar tags)\n"
@@ -55,9 +55,20 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--window-height", c->o.window_height, "window height (px)");
   sub->add_flag("--no-hud", c->no_hud, "video only, no HUD");
   sub->add_flag("--no-vsync", c->no_vsync, "swap without waiting for vertical sync");
+  sub->add_option("--display-path", c->o.display_path,
+                  "auto (default): gl on a hardware renderer, cpu on a software one (llvmpipe); "
+                  "cpu: the CPU composite uploaded each frame; gl: the composite stays on the GPU, "
+                  "drawn from a texture shared with the window, nothing read back (on a software rasteriser "
+                  "it measured slower and disturbed the engine; falls back to cpu when contexts cannot be "
+                  "shared, and the log says why)")
+      ->check(CLI::IsMember({"auto", "gl", "cpu"}));
+  sub->add_flag("--window-glx", c->o.window_glx_for_test,
+                "test hook: make the window's context with GLX, which cannot share with the compositor (the fallback)");
   sub->add_option("--record", c->o.record_dir, "record footage, session log, station and per-frame CSV into DIR");
   sub->add_flag("--loop", c->o.loop, "live:PATH footage: play it again from the start at its end");
   sub->add_option("--seconds", c->o.seconds, "stop after S seconds (default: until closed)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--frames", c->o.frames, "stop after N new frames have been shown (default: no limit)")
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--engine-cpu", c->o.engine_cpu, "CPU for the haptic engine (-2 = the last, -1 = no pinning)");
   sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");
   sub->add_option("--discovery", c->discovery,

@@ -30,6 +30,7 @@ struct TrackCli {
   std::string family;
   double decimate = 2.0;
   int threads = 1;
+  std::string camera_response = "srgb";
   bool no_roi = false;
   int full_every = 15;
   bool no_filter = false;
@@ -137,6 +138,12 @@ int run(const TrackCli& c) {
   to.detector.families = {station.family};
   to.detector.decimation = c.decimate;
   to.detector.threads = c.threads;
+  if (auto r = ar::parse_camera_response(c.camera_response); !r) {
+    print_error("track", "--camera-response: " + r.error());
+    return 2;
+  } else {
+    to.detector.response = *r;
+  }
   to.predicted_regions = !c.no_roi;
   to.full_frame_interval = c.full_every;
   to.filter_enabled = !c.no_filter;
@@ -290,6 +297,7 @@ void add_track(CLI::App& app, int& exit_code) {
       "Synopsis: dentar track --input <video|image folder|camera:N|/dev/videoN|live:VIDEO>\n"
       "                       --calib <camera yaml|station json> --layout <station json>\n"
       "                       --out poses.jsonl [--family F] [--decimate D] [--threads N]\n"
+      "                       [--camera-response srgb|linear]\n"
       "                       [--no-roi] [--full-every N] [--no-filter] [--stale-ms MS]\n"
       "                       [--display-delay-ms MS] [--scale-calib] [--max-frames N]\n"
       "                       [--tags --tag-size-mm S] [--width W --height H --fps F]");
@@ -307,6 +315,10 @@ void add_track(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"tagStandard41h12", "tag36h11"}));
   s->add_option("--decimate", c->decimate, "Full-frame quad search decimation")
       ->check(CLI::Range(1.0, 16.0))
+      ->capture_default_str();
+  s->add_option("--camera-response", c->camera_response,
+                "How the video's grey levels relate to light: srgb (video cameras, dentar synth) "
+                "or linear (raw machine-vision cameras); tag edges are fitted in linear light")
       ->capture_default_str();
   s->add_option("--threads", c->threads, "libapriltag threads")
       ->check(CLI::Range(1, 64))

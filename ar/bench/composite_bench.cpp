@@ -31,8 +31,6 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <memory>
-#include <optional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -42,7 +40,7 @@
 #include "dentar/ar/compositor.h"
 #include "dentar/ar/egl_context.h"
 #include "dentar/ar/synth.h"
-#include "dentar/volume/procedural_tooth.h"
+#include "composite_test_util.h"
 
 namespace dentar::ar {
 namespace {
@@ -61,13 +59,12 @@ EglContext* context() {
 }
 
 struct Footage {
-  StationScene station;
-  std::vector<SynthFrame> frames;
+  // `frames` (image, mask, truth), the station as rendered and the uncut
+  // tooth; its generator is released once the frames are made.
+  test::ToothFootage synth;
   // The same frames with a synthetic finger across the visible tooth (the
   // generator's hand rarely crosses it); mask updated (finger = foreground).
   std::vector<SynthFrame> finger_frames;
-  std::optional<volume::VoxelVolume> volume;
-  std::unique_ptr<volume::Surface> surface;
 };
 
 const Footage& footage() {
@@ -87,61 +84,30 @@ const Footage& footage() {
     o.height = 720;
     const char* n = std::getenv("DENTAR_COMPOSITE_FRAMES");
     o.frames = n != nullptr ? std::max(1, std::atoi(n)) : 40;
-    auto g = SynthGenerator::create(st, o);
-    if (!g) {
-      std::fprintf(stderr, "composite_bench: %s\n", g.error().c_str());
+    // The generator's tooth before the first cut (the scripted drilling
+    // starts after ~1.4 s; later frames differ by the access cavity only).
+    d->synth = test::tooth_footage(st, o);
+    if (!d->synth.error.empty()) {
+      std::fprintf(stderr, "composite_bench: %s\n", d->synth.error.c_str());
       std::exit(1);
     }
-    d->station = (*g)->station();
-    for (int i = 0; i < o.frames; ++i) {
-      SynthFrame fr;
-      if (Status s = (*g)->next(fr); !s) {
-        std::fprintf(stderr, "composite_bench: %s\n", s.error().c_str());
-        std::exit(1);
-      }
+    d->synth.gen.reset();
+    for (int i = 0; i < static_cast<int>(d->synth.frames.size()); ++i) {
+      const SynthFrame& fr = d->synth.frames[i];
       SynthFrame ff = fr;
       ff.image = fr.image.clone();
       ff.mask = fr.mask.clone();
-      const cv::Moments mo = cv::moments(ff.mask == kMaskToothVisible, true);
-      if (mo.m00 > 50) {
-        const Eigen::Vector2d c(mo.m10 / mo.m00, mo.m01 / mo.m00);
-        const double ang = 0.7 + 1.3 * i, size = std::sqrt(mo.m00);
-        const Eigen::Vector2d dir(std::cos(ang), std::sin(ang));
-        SyntheticFinger fi;
-        fi.a_px = c + 0.1 * size * dir;
-        fi.b_px = c + 3.0 * size * dir;
-        fi.radius_px = 0.3 * size;
-        fi.seed = static_cast<unsigned>(i + 1);
-        const cv::Mat finger = paint_synthetic_finger(ff.image, fi);
+      if (const auto fi = test::finger_across_tooth(ff.mask, i, 50)) {
+        const cv::Mat finger = paint_synthetic_finger(ff.image, *fi);
         ff.mask.setTo(kMaskForeground, (ff.mask == kMaskToothVisible) & finger);
       }
       d->finger_frames.push_back(std::move(ff));
-      d->frames.push_back(std::move(fr));
     }
-    // The generator's tooth before the first cut (the scripted drilling
-    // starts after ~1.4 s; later frames differ by the access cavity only).
-    volume::MolarParams mp;
-    mp.voxel_mm = st.tooth_voxel_m * 1e3;
-    d->volume.emplace(std::move(volume::make_molar(mp)).value());
-    d->surface = std::make_unique<volume::Surface>(*d->volume);
-    const std::size_t tris = d->surface->extract_all();
     std::fprintf(stderr, "composite_bench: %zu frames 1280x720, tooth %zu triangles\n",
-                 d->frames.size(), tris);
+                 d->synth.frames.size(), d->synth.tooth->triangles);
     return d;
   }();
   return *f;
-}
-
-CompositeInput input_of(const SynthFrame& f) {
-  CompositeInput in;
-  in.video_bgr = &f.image;
-  in.man_valid = true;
-  in.T_cam_man = f.truth.T_cam_man;
-  in.mirror_valid = true;
-  in.T_cam_mtag = f.truth.T_cam_mtag;
-  in.stylus_valid = true;
-  in.T_dev_sty = f.truth.T_dev_sty;
-  return in;
 }
 
 double percentile(std::vector<double> v, double q) {
@@ -214,21 +180,21 @@ CompositorOptions options_for(int c) {
 void BM_Composite(benchmark::State& state) {
   const Footage& fo = footage();
   const int config = static_cast<int>(state.range(0));
-  auto comp = Compositor::create(fo.station, options_for(config));
+  auto comp = Compositor::create(fo.synth.station, options_for(config));
   if (!comp) {
     state.SkipWithError(comp.error().c_str());
     return;
   }
   const bool occlusion = config != kNoOcclusion && config < kSilFull;
-  const auto& frames = (config == kFinger || config == kFingerNoSeg) ? fo.finger_frames : fo.frames;
+  const auto& frames = (config == kFinger || config == kFingerNoSeg) ? fo.finger_frames : fo.synth.frames;
   const bool print = std::getenv("DENTAR_COMPOSITE_PRINT") != nullptr;
   if (print) {
     CompositeResult r0;
-    (void)comp->compose(*fo.surface, input_of(fo.frames.front()), r0);
+    (void)comp->compose(*fo.synth.tooth->surface, test::truth_input(fo.synth.frames.front()), r0);
     const auto tris = comp->lod_triangle_counts();
     const auto err = comp->lod_errors_m();
     {
-      const FrameTruth& t = fo.frames.front().truth;
+      const FrameTruth& t = fo.synth.frames.front().truth;
       const Eigen::Isometry3d T_cam_mir = t.T_cam_mir;
       const Eigen::Vector3d n = T_cam_mir.linear().col(2), pm = T_cam_mir.translation();
       const Eigen::Vector3d d = pm.normalized(), r = d - 2 * d.dot(n) * n;
@@ -240,7 +206,7 @@ void BM_Composite(benchmark::State& state) {
                    "ray to the reflected crown meets the plane %.1f mm from the mirror centre "
                    "(radius %.1f mm)\n",
                    n.dot(-pm), std::acos(r.normalized().dot((tc - pm).normalized())) * 180 / M_PI,
-                   (hit - pm).norm() * 1e3, fo.station.calibration.mirror_radius_m * 1e3);
+                   (hit - pm).norm() * 1e3, fo.synth.station.calibration.mirror_radius_m * 1e3);
     }
     for (std::size_t l = 0; l < tris.size(); ++l)
       std::fprintf(stderr, "config %d: level %zu: %zu triangles, error %.4f mm\n", config, l,
@@ -250,7 +216,7 @@ void BM_Composite(benchmark::State& state) {
   double iou_sum = 0, iou_min = 1, bf_sum = 0, tris = 0;
   CompositeResult r;
   for (const auto& f : frames) {
-    if (Status s = comp->compose(*fo.surface, input_of(f), r); !s) {
+    if (Status s = comp->compose(*fo.synth.tooth->surface, test::truth_input(f), r); !s) {
       state.SkipWithError(s.error().c_str());
       return;
     }
@@ -305,7 +271,7 @@ void BM_Composite(benchmark::State& state) {
   for (auto _ : state) {
     const auto& f = frames[i++ % frames.size()];
     const auto t0 = std::chrono::steady_clock::now();
-    if (Status s = comp->compose(*fo.surface, input_of(f), r); !s) {
+    if (Status s = comp->compose(*fo.synth.tooth->surface, test::truth_input(f), r); !s) {
       state.SkipWithError(s.error().c_str());
       return;
     }
@@ -332,7 +298,7 @@ BENCHMARK(BM_Composite)
 // classified (in the compositor it runs on the tooth's region only).
 void BM_SegmentFullFrame(benchmark::State& state) {
   const Footage& fo = footage();
-  const SynthFrame& f = fo.frames.front();
+  const SynthFrame& f = fo.synth.frames.front();
   cv::Mat expected(f.image.rows, f.image.cols, CV_8UC4, cv::Scalar(217, 115, 122, 255));  // gum
   cv::Mat region(f.image.rows, f.image.cols, CV_8UC1, cv::Scalar(255));
   cv::Mat fg;

@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <sstream>
 
+#include "cell_place.h"
 #include "intrinsics_detail.h"
 
 namespace dentar::calibration {
@@ -241,20 +242,6 @@ double paired_t(const std::vector<double>& a, const std::vector<double>& b) {
   for (double x : d) var += (x - mean) * (x - mean) / (d.size() - 1);
   if (var <= 0) return mean > 0 ? std::numeric_limits<double>::infinity() : 0;
   return mean / std::sqrt(var / d.size());
-}
-
-// Where a cell lies, for the instructor: "top-left corner", "left edge", "middle", ...
-std::string cell_place(int r, int c, int rows, int cols) {
-  const bool top = r == 0, bottom = r == rows - 1, left = c == 0, right = c == cols - 1;
-  if (top && left) return "top-left corner";
-  if (top && right) return "top-right corner";
-  if (bottom && left) return "bottom-left corner";
-  if (bottom && right) return "bottom-right corner";
-  if (top) return "top edge";
-  if (bottom) return "bottom edge";
-  if (left) return "left edge";
-  if (right) return "right edge";
-  return "between the middle and the edges";
 }
 
 }  // namespace
@@ -747,7 +734,7 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
   for (int r = 0; r < tm.rows; ++r)
     for (int c = 0; c < tm.cols; ++c)
       if (!tm.trusted[r * tm.cols + c]) {
-        const std::string p = cell_place(r, c, tm.rows, tm.cols);
+        const std::string p = detail::cell_place(r, c, tm.rows, tm.cols);
         if (std::find(places.begin(), places.end(), p) == places.end()) places.push_back(p);
       }
   if (tooth_trusted < tooth) {

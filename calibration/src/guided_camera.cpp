@@ -5,6 +5,7 @@
 #include <opencv2/calib3d.hpp>
 #include <sstream>
 
+#include "cell_place.h"
 #include "dentar/calibration/guided.h"
 
 namespace dentar::calibration {
@@ -13,24 +14,6 @@ std::string fmt(double v, int p = 1) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(p) << v;
   return os.str();
-}
-
-// Where a grid cell is, in an instructor's words.
-std::string place(int c, int r, int cols, int rows) {
-  const bool top = r == 0, bottom = r == rows - 1, left = c == 0, right = c == cols - 1;
-  if (top && left) return "top-left corner";
-  if (top && right) return "top-right corner";
-  if (bottom && left) return "bottom-left corner";
-  if (bottom && right) return "bottom-right corner";
-  if (top) return "top edge";
-  if (bottom) return "bottom edge";
-  if (left) return "left edge";
-  if (right) return "right edge";
-  const double x = (c + 0.5) / cols, y = (r + 0.5) / rows;
-  std::string v = y < 0.4 ? "upper " : y > 0.6 ? "lower " : "";
-  std::string h = x < 0.4 ? "left" : x > 0.6 ? "right" : "middle";
-  if (v.empty() && h == "middle") return "middle of the image";
-  return v + h + " part of the image";
 }
 
 // RMS distance of the image points from the homography of the board layout that fits them
@@ -272,7 +255,7 @@ bool LiveCameraViews::suggestion(int& col, int& row, std::string& text) const {
   const int i = row * cm.cols + col;
   const bool weak = use_trust ? !trust_.trusted[i] : cm.counts[i] == 0;
   if (!weak && views() >= options_.target_views) return false;
-  text = "next: hold the board over the " + place(col, row, cm.cols, cm.rows) + ", tilted 15-45 degrees" +
+  text = "next: hold the board over the " + detail::cell_place(row, col, cm.rows, cm.cols) + ", tilted 15-45 degrees" +
          (use_trust && weak ? " (the model is not trusted there yet)" : weak ? " (no board points there yet)" : "");
   return true;
 }

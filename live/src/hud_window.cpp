@@ -6,6 +6,11 @@
 #include <GL/gl.h>
 #include <GL/glext.h>
 #include <GLFW/glfw3.h>
+// glfwGetEGLDisplay/Context; EGL without X11's headers (their macros clash).
+#define EGL_NO_X11
+#define MESA_EGL_NO_X11_HEADERS
+#define GLFW_EXPOSE_NATIVE_EGL
+#include <GLFW/glfw3native.h>
 #include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
@@ -19,7 +24,7 @@
 namespace dentar::live {
 
 Result<std::unique_ptr<HudWindow>> HudWindow::open(const std::string& title, int video_w, int video_h, int win_w,
-                                                   int win_h, int display, bool vsync) {
+                                                   int win_h, int display, bool vsync, bool gles_egl) {
   if (video_w <= 0 || video_h <= 0 || video_w > 16384 || video_h > 16384)
     return Error{"window: video size " + std::to_string(video_w) + "x" + std::to_string(video_h) + " is not usable"};
   std::unique_ptr<HudWindow> w(new HudWindow);
@@ -34,15 +39,35 @@ Result<std::unique_ptr<HudWindow>> HudWindow::open(const std::string& title, int
     }
     monitor = mons[display];
   }
-  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
-  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 0);
   int ww = win_w > 0 ? win_w : video_w, wh = win_h > 0 ? win_h : video_h;
   if (monitor) {
     const GLFWvidmode* mode = glfwGetVideoMode(monitor);
     ww = mode->width;
     wh = mode->height;
   }
-  w->win_ = glfwCreateWindow(ww, wh, title.c_str(), monitor, nullptr);
+  if (gles_egl) {
+    // OpenGL ES 3.0 through EGL: its display and context can be shared with
+    // the compositor's thread (egl_context.h, shared mode).
+    glfwWindowHint(GLFW_CLIENT_API, GLFW_OPENGL_ES_API);
+    glfwWindowHint(GLFW_CONTEXT_CREATION_API, GLFW_EGL_CONTEXT_API);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 0);
+    w->win_ = glfwCreateWindow(ww, wh, title.c_str(), monitor, nullptr);
+    if (w->win_) {
+      w->gles_ = true;
+    } else {
+      const char* why = nullptr;
+      glfwGetError(&why);
+      w->note_ = std::string("no OpenGL ES 3 context through EGL for the window (") +
+                 (why ? why : "GLFW gave no reason") + "); desktop OpenGL instead";
+      glfwDefaultWindowHints();
+    }
+  }
+  if (!w->win_) {
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 0);
+    w->win_ = glfwCreateWindow(ww, wh, title.c_str(), monitor, nullptr);
+  }
   if (!w->win_) {
     glfwTerminate();
     return Error{"cannot open a window (no OpenGL 3.0 on this display?)"};
@@ -61,8 +86,9 @@ Result<std::unique_ptr<HudWindow>> HudWindow::open(const std::string& title, int
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   // BGRA: llvmpipe's own layout, so an upload is a copy (GL_BGR into RGB8
-  // went through Mesa's per-pixel format conversion).
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, video_w, video_h, 0, GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
+  // went through Mesa's per-pixel format conversion). OpenGL ES: RGBA.
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, video_w, video_h, 0, w->gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,
+               nullptr);
   w->tex_w_ = video_w;
   w->tex_h_ = video_h;
   GLuint fbo = 0;
@@ -73,11 +99,15 @@ Result<std::unique_ptr<HudWindow>> HudWindow::open(const std::string& title, int
   glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
   w->fbo_ = fbo;
   if (fb_status != GL_FRAMEBUFFER_COMPLETE) return Error{"window: the video texture cannot be read as a framebuffer"};
+  GLuint fbs[2] = {0, 0};
+  glGenFramebuffers(2, fbs);  // set_frame's read framebuffers (video, overlay)
+  w->frame_fbo_[0] = fbs[0];
+  w->frame_fbo_[1] = fbs[1];
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;
   ImGui_ImplGlfw_InitForOpenGL(w->win_, true);
-  ImGui_ImplOpenGL3_Init("#version 130");
+  ImGui_ImplOpenGL3_Init(w->gles_ ? "#version 300 es" : "#version 130");
   w->imgui_ = true;
   return w;
 }
@@ -91,6 +121,10 @@ HudWindow::~HudWindow() {
   if (fbo_) {
     GLuint f = fbo_;
     glDeleteFramebuffers(1, &f);
+  }
+  if (frame_fbo_[0]) {
+    GLuint f[2] = {frame_fbo_[0], frame_fbo_[1]};
+    glDeleteFramebuffers(2, f);
   }
   if (tex_) {
     GLuint t = tex_;
@@ -126,11 +160,31 @@ bool HudWindow::held(int key) const { return held_.count(key) > 0; }
 
 void HudWindow::set_video(const cv::Mat& bgr) {
   if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || bgr.type() != CV_8UC3) return;
-  cv::cvtColor(bgr, bgra_, cv::COLOR_BGR2BGRA);  // SIMD; the buffer is kept between frames
+  // SIMD; the buffer is kept between frames.
+  cv::cvtColor(bgr, bgra_, gles_ ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
   glBindTexture(GL_TEXTURE_2D, tex_);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, bgra_.cols, bgra_.rows, GL_BGRA, GL_UNSIGNED_BYTE, bgra_.data);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, bgra_.cols, bgra_.rows, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,
+                  bgra_.data);
+  frame_video_ = 0;
 }
+
+void HudWindow::set_frame(unsigned video, unsigned overlay, const int region[4]) {
+  frame_video_ = video;
+  for (int i = 0; i < 4; ++i) frame_region_[i] = region != nullptr ? region[i] : 0;
+  if (video == 0) return;
+  // (Re)attached for every new frame: another context wrote the pixels, and
+  // an attachment is where GL looks again.
+  const unsigned tex[2] = {video, overlay};
+  for (int i = 0; i < 2; ++i) {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, frame_fbo_[i]);
+    glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, tex[i], 0);
+  }
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+}
+
+void* HudWindow::egl_display() const { return gles_ ? static_cast<void*>(glfwGetEGLDisplay()) : nullptr; }
+void* HudWindow::egl_context() const { return gles_ ? static_cast<void*>(glfwGetEGLContext(win_)) : nullptr; }
 
 void HudWindow::begin_frame() {
   int fbw = 0, fbh = 0;
@@ -147,11 +201,19 @@ void HudWindow::begin_frame() {
     glClearColor(0, 0, 0, 1);
     glClear(GL_COLOR_BUFFER_BIT);
   }
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+  const GLenum filter = dw == tex_w_ && dh == tex_h_ ? GL_NEAREST : GL_LINEAR;
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, frame_video_ != 0 ? frame_fbo_[0] : fbo_);
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
   // Image row 0 is the top; GL's window origin is the bottom: flip in the blit.
-  glBlitFramebuffer(0, 0, tex_w_, tex_h_, x0, y0 + dh, x0 + dw, y0, GL_COLOR_BUFFER_BIT,
-                    dw == tex_w_ && dh == tex_h_ ? GL_NEAREST : GL_LINEAR);
+  glBlitFramebuffer(0, 0, tex_w_, tex_h_, x0, y0 + dh, x0 + dw, y0, GL_COLOR_BUFFER_BIT, filter);
+  const int* r = frame_region_;
+  if (frame_video_ != 0 && r[2] > r[0] && r[3] > r[1]) {
+    // The overlay's region of a shared frame over the video, same mapping.
+    auto wx = [&](int x) { return x0 + static_cast<int>(std::lround(double(x) * dw / tex_w_)); };
+    auto wy = [&](int y) { return y0 + dh - static_cast<int>(std::lround(double(y) * dh / tex_h_)); };
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, frame_fbo_[1]);
+    glBlitFramebuffer(r[0], r[1], r[2], r[3], wx(r[0]), wy(r[1]), wx(r[2]), wy(r[3]), GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  }
   glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
@@ -165,10 +227,16 @@ cv::Mat HudWindow::end_frame(bool capture) {
   if (capture) {
     int fbw = 0, fbh = 0;
     glfwGetFramebufferSize(win_, &fbw, &fbh);
-    px.create(fbh, fbw, CV_8UC3);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glReadBuffer(GL_BACK);
-    glReadPixels(0, 0, fbw, fbh, GL_BGR, GL_UNSIGNED_BYTE, px.data);
+    if (gles_) {  // OpenGL ES reads RGBA only
+      cv::Mat rgba(fbh, fbw, CV_8UC4);
+      glReadPixels(0, 0, fbw, fbh, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+      cv::cvtColor(rgba, px, cv::COLOR_RGBA2BGR);
+    } else {
+      px.create(fbh, fbw, CV_8UC3);
+      glReadPixels(0, 0, fbw, fbh, GL_BGR, GL_UNSIGNED_BYTE, px.data);
+    }
     cv::flip(px, px, 0);
   }
   glfwSwapBuffers(win_);

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cctype>
 #include <cmath>
 #include <condition_variable>
 #include <csignal>
@@ -30,6 +31,7 @@
 
 #include "dentar/ar/capture_thread.h"
 #include "dentar/ar/egl_context.h"
+#include "dentar/ar/gl_handoff.h"
 #include "dentar/ar/frame_source.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/open_device.h"
@@ -42,6 +44,7 @@
 #include "dentar/live/hud_window.h"
 #include "dentar/live/pen_device.h"
 #include "dentar/live/station_health.h"
+#include "recorder.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/material.h"
 #include "dentar/volume/procedural_tooth.h"
@@ -83,114 +86,12 @@ const char* kState[] = {"tracking", "predicted", "lost"};
 // What the frame thread hands the window: the newest composite and its raw
 // frame (shown without overlay when the camera stalls).
 struct Shown {
-  cv::Mat composite, raw;
+  cv::Mat composite, raw;  // composite empty when the GPU path drew it (gpu)
+  bool gpu = false;
   std::int64_t index = -1;  // recording index (frames processed)
   double steady_s = 0;      // capture time
   ar::FrameRecord rec;
   std::string error;
-};
-
-// The recorder/logger thread: frames as lossless PNG, then their CSV row
-// (a row never names a frame that is not on disk), flushed per frame.
-class Recorder {
- public:
-  static Result<std::unique_ptr<Recorder>> open(const fs::path& dir) {
-    std::unique_ptr<Recorder> r(new Recorder);
-    r->dir_ = dir;
-    std::error_code ec;
-    fs::create_directories(dir / "frames", ec);
-    if (ec) return Error{dir.string() + ": cannot create the recording folder: " + ec.message()};
-    r->csv_.open(dir / "frames.csv");
-    if (!r->csv_) return Error{(dir / "frames.csv").string() + ": cannot write"};
-    r->csv_ << "frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,"
-               "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms,disc_start,disc_merged\n";
-    r->csv_.flush();
-    r->log_.open(dir / "live.log");
-    r->thread_ = std::thread([p = r.get()] { p->main(); });
-    return r;
-  }
-  ~Recorder() { close(); }
-  // Frame thread. Drops (and counts) when the writer is behind by > 90 frames.
-  void push(cv::Mat raw, const ar::FrameRecord& rec, std::int64_t index, std::int64_t source_index,
-            double steady_s) {
-    std::lock_guard<std::mutex> lock(m_);
-    if (q_.size() > 90) {
-      ++dropped_;
-      return;
-    }
-    q_.push_back(Item{std::move(raw), rec, index, source_index, steady_s});
-    cv_.notify_one();
-  }
-  void log(const std::string& line) {
-    std::lock_guard<std::mutex> lock(m_);
-    log_ << iso_now() << " " << line << "\n";
-    log_.flush();
-  }
-  void close() {
-    {
-      std::lock_guard<std::mutex> lock(m_);
-      stop_ = true;
-    }
-    cv_.notify_all();
-    if (thread_.joinable()) thread_.join();
-  }
-  std::int64_t written() const { return written_.load(); }
-  std::int64_t dropped() const { return dropped_.load(); }
-  const fs::path& dir() const { return dir_; }
-
- private:
-  struct Item {
-    cv::Mat raw;
-    ar::FrameRecord rec;
-    std::int64_t index, source_index;
-    double steady_s;
-  };
-  void main() {
-    for (;;) {
-      Item it;
-      {
-        std::unique_lock<std::mutex> lock(m_);
-        cv_.wait(lock, [&] { return stop_ || !q_.empty(); });
-        if (q_.empty()) return;
-        it = std::move(q_.front());
-        q_.pop_front();
-      }
-      char name[48];
-      std::snprintf(name, sizeof name, "frame_%06lld.png", static_cast<long long>(it.index));
-      const fs::path tmp = dir_ / "frames" / (std::string(name) + ".tmp.png");
-      if (!cv::imwrite(tmp.string(), it.raw, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
-        ++dropped_;
-        continue;
-      }
-      std::error_code ec;
-      fs::rename(tmp, dir_ / "frames" / name, ec);
-      const ar::FrameRecord& r = it.rec;
-      auto pose = [&](int state, const Eigen::Isometry3d& T) {
-        if (state == 2) return std::string();
-        std::ostringstream s;
-        s << std::setprecision(17);
-        const Eigen::Matrix4d m = T.matrix();
-        for (int i = 0; i < 12; ++i) s << (i ? " " : "") << m(i / 4, i % 4);
-        return s.str();
-      };
-      csv_ << std::setprecision(17) << it.index << ',' << r.time_s << ',' << it.steady_s << ','
-           << it.source_index << ',' << r.haptic_steps_done << ',' << kState[r.man_state] << ','
-           << kState[r.mir_state] << ',' << kState[r.pen_state] << ',' << pose(r.man_state, r.T_cam_man) << ','
-           << pose(r.mir_state, r.T_cam_mtag) << ',' << (r.pedal ? 1 : 0) << ',' << std::setprecision(6)
-           << r.force_N << ',' << (r.overlay ? 1 : 0) << ',' << r.track_ms << ',' << r.mesh_ms << ','
-           << r.composite_ms << ',' << (r.disc_start ? 1 : 0) << ',' << r.disc_merged << '\n';
-      csv_.flush();
-      ++written_;
-    }
-  }
-  fs::path dir_;
-  std::ofstream csv_, log_;
-  std::mutex m_;
-  std::condition_variable cv_;
-  std::deque<Item> q_;
-  bool stop_ = false;
-  std::atomic<std::int64_t> written_{0}, dropped_{0};
-  std::thread thread_;
 };
 
 }  // namespace
@@ -206,8 +107,11 @@ std::string LiveOptions::validate() const {
   if (window_width < 0 || window_height < 0 || window_width > 8192 || window_height > 8192)
     return "window size must be within 0..8192";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
+  if (frames < 0) return "frames = " + std::to_string(frames) + " must be >= 0 (0 = no limit)";
   if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
   if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
+  if (display_path != "gl" && display_path != "cpu" && display_path != "auto")
+    return "display_path = \"" + display_path + "\" must be auto, gl or cpu";
   if (background_cpu != "others" && background_cpu != "engine")
     return "background_cpu = \"" + background_cpu + "\" must be others or engine";
   if (pipeline.tracker.discovery == ar::DiscoveryMode::kScheduled)
@@ -224,6 +128,7 @@ std::string LiveSummary::json() const {
                   {"dropped_source", dropped_source}, {"dropped_consumer", dropped_consumer},
                   {"camera_reopens", camera_reopens}}},
       {"wall_s", wall_s},
+      {"stop_reason", stop_reason},
       {"displayed_fps", displayed_fps},
       {"latency_ms", {{"p50", latency_p50_ms}, {"p99", latency_p99_ms}, {"max", latency_max_ms}}},
       {"process_ms", {{"p50", process_p50_ms}, {"p99", process_p99_ms}}},
@@ -240,9 +145,22 @@ std::string LiveSummary::json() const {
                   {"after_60s", rss_60s_mb}, {"max_after_60s", rss_max_after_60s_mb},
                   {"growth_after_60s", rss_60s_mb > 0 ? rss_end_mb - rss_60s_mb : 0.0}}},
       {"overlay_hidden_ms_after_stall", overlay_hidden_ms_after_stall},
+      {"stall_previous_check_ms", stall_previous_check_ms},
+      {"display", {{"path", display_path}, {"requested", display_requested}, {"note", display_note}, {"gpu_frames", gpu_frames},
+                   {"readback_px", readback_px}, {"cpu_blend_px", cpu_blend_px},
+                   {"gl_frames_replaced", gl_frames_replaced}, {"gl_ready_timeouts", gl_ready_timeouts},
+                   {"gl_release_timeouts", gl_release_timeouts}}},
       {"station_health", {{"instructor_needed", instructor_needed}, {"items", station_health}}},
       {"warnings", warnings}};
   return j.dump(2) + "\n";
+}
+
+bool software_renderer(const std::string& gl_renderer) {
+  std::string r = gl_renderer;
+  for (char& ch : r) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  for (const char* s : {"llvmpipe", "softpipe", "swiftshader", "swrast", "basic render driver"})
+    if (r.find(s) != std::string::npos) return true;
+  return false;
 }
 
 Result<LiveSummary> run_live(const LiveOptions& o) {
@@ -483,9 +401,40 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
 
   // ---- window ----
   const int W = (*src)->width(), H = (*src)->height();
-  auto hw_r = HudWindow::open("DentAR live", W, H, o.window_width, o.window_height, o.display, o.vsync);
+  // "auto": ask the renderer first (a throw-away context on the default EGL
+  // platform, the one the compositor would get).
+  std::string auto_note;
+  bool want_gl = o.display_path == "gl";
+  if (o.display_path == "auto") {
+    if (auto probe = ar::EglContext::create(); !probe) {
+      auto_note = "--display-path auto: no EGL context to ask the renderer (" + probe.error() + ")";
+    } else if (software_renderer(probe->gl_renderer())) {
+      auto_note = "--display-path auto: " + probe->gl_renderer() +
+                  " is a software rasteriser, where the CPU path measured faster (docs/BENCHMARKS.md)";
+    } else {
+      want_gl = true;
+      auto_note = "--display-path auto: " + probe->gl_renderer() + " is a hardware renderer";
+    }
+  }
+  // GPU path: the window's EGL display is the one the compositor shares, so
+  // llvmpipe's rasteriser threads (one set per display, started when GLFW
+  // initialises it here) serve both contexts and run with the main thread,
+  // off the engine's CPU: measured faster than putting them beside the engine,
+  // where the capture thread's decoding already runs (docs/BENCHMARKS.md,
+  // "The GL-resident display path").
+  auto hw_r = HudWindow::open("DentAR live", W, H, o.window_width, o.window_height, o.display, o.vsync,
+                              want_gl && !o.window_glx_for_test);
   if (!hw_r) return Error{"live: " + hw_r.error()};
   HudWindow& hw = **hw_r;
+  // The display path is settled on the frame thread (the shared context is
+  // made there); these hold its outcome once pipeline_ready is set.
+  std::atomic<bool> gl_path{false};
+  std::string display_note;
+  if (!want_gl) display_note = auto_note.empty() ? "--display-path cpu" : auto_note;
+  else if (o.window_glx_for_test) display_note = "the window's context is desktop OpenGL through GLX (test hook), which cannot share with EGL";
+  else if (!hw.gles_egl()) display_note = hw.context_note();
+  else display_note = auto_note;  // empty unless chosen by auto; a fallback below replaces it
+  std::unique_ptr<ar::SharedFrameRing> ring;  // made and destroyed on the frame thread
 
   // ---- threads ----
   ar::CaptureThreadOptions cto;
@@ -509,6 +458,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   std::string pipeline_error;
   std::vector<double> process_ms;
   std::int64_t processed = 0;
+  std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;  // frame thread; read after join
+  std::int64_t ring_stats[3] = {0, 0, 0};
 
   std::thread frame_thread([&] {
     // llvmpipe starts its rasteriser thread when the context is made, with
@@ -519,7 +470,21 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     cpu_set_t frame_mask;
     const bool raster_moved = to_engine_cpu && pthread_getaffinity_np(pthread_self(), sizeof frame_mask, &frame_mask) == 0;
     if (raster_moved) to_engine_cpu();
-    auto egl = ar::EglContext::create();
+    // The GPU display path: a context on the window's EGL display sharing its
+    // objects; otherwise (or when that fails) a headless one of our own.
+    Result<ar::EglContext> egl = Error{"not made"};
+    bool use_gl = want_gl && hw.gles_egl();
+    if (use_gl) {
+      ar::EglContextOptions eo;
+      eo.share_display = hw.egl_display();
+      eo.share_context = hw.egl_context();
+      egl = ar::EglContext::create(eo);
+      if (!egl) {
+        display_note = egl.error();
+        use_gl = false;
+      }
+    }
+    if (!use_gl) egl = ar::EglContext::create();
     if (raster_moved) pthread_setaffinity_np(pthread_self(), sizeof frame_mask, &frame_mask);
     if (!egl || !egl->make_current()) {
       pipeline_error = "headless rendering: " + (egl ? std::string("make_current failed") : egl.error());
@@ -532,17 +497,30 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       pipeline_ready.store(-1);
       return;
     }
+    if (use_gl) {
+      if (std::string e = pipe->get()->compositor().gpu_path_error(); !e.empty()) {
+        display_note = "the compositor's GPU path cannot run here: " + e;
+        use_gl = false;
+      } else if (auto r = ar::SharedFrameRing::create(W, H); !r) {
+        display_note = r.error();
+        use_gl = false;
+      } else {
+        ring = std::move(*r);
+      }
+    }
     ar::ToothMeshes meshes(*vol);
-    if (auto s = pipe->get()->warm_up(meshes); !s) {
+    if (auto s = pipe->get()->warm_up(meshes, use_gl ? ring->target(0) : ar::GlFrameTarget{}); !s) {
       pipeline_error = s.error();
       pipeline_ready.store(-1);
       return;
     }
+    gl_path.store(use_gl);
     meshes.start_mesher(1.0 / 120.0, to_engine_cpu);
     pipeline_ready.store(1);
     while (capture_ptr.load() == nullptr && !stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(2));
     if (stop.load()) {
       meshes.stop_mesher();
+      ring.reset();
       pipe->reset();
       return;
     }
@@ -563,6 +541,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       in.haptic = o.stylus == "none" ? nullptr : &snap;
       in.stylus_valid = o.stylus != "none" && !snap.fault;
       const auto t0 = Clock::now();
+      // GPU path: a texture the window is not showing, free of its draws.
+      const int slot = use_gl ? ring->acquire() : -1;
+      if (use_gl) in.gl_target = ring->target(slot);
       std::string err;
       try {
         if (auto s = pipe->get()->process(in, meshes, cres, rec); !s) err = s.error();
@@ -584,10 +565,19 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       {
         std::lock_guard<std::mutex> lock(shown_m);
         shown.raw = f.image;
+        shown.gpu = use_gl && err.empty();
         // Buffers change hands, never copied (2.7 MB a 720p frame): the
         // compositor's, the shown slot and the display's each own one.
-        if (err.empty()) cv::swap(cres.image, shown.composite);
-        else f.image.copyTo(shown.composite);
+        // GPU path: the texture is published (fence) under the same lock as
+        // the record, so the window takes the two together.
+        if (shown.gpu) {
+          ring->publish(slot, processed, cres.region.x, cres.region.y, cres.region.width, cres.region.height);
+          shown.composite.release();
+        } else if (err.empty()) {
+          cv::swap(cres.image, shown.composite);
+        } else {
+          f.image.copyTo(shown.composite);
+        }
         shown.index = processed;
         shown.steady_s = f.steady_s;
         shown.rec = rec;
@@ -595,11 +585,26 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         shown_new = true;
       }
       shown_cv.notify_one();
-      if (recorder && err.empty()) recorder->push(f.image, rec, processed, f.index, f.steady_s);
+      if (recorder && err.empty()) recorder->push(f.image, f.encoded, rec, processed, f.index, f.steady_s);
+      if (err.empty()) {
+        gpu_frames += rec.gpu_composite ? 1 : 0;
+        readback_px += rec.readback_px;
+        cpu_blend_px += rec.cpu_blend_px;
+      }
       ++processed;
     }
     meshes.stop_mesher();
+    // The window may still draw from (and release) the ring until the main
+    // loop ends (the footage can end first): the ring goes only after that.
+    while (ring && !stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (ring) {
+      const auto rs = ring->stats();
+      ring_stats[0] = rs.replaced;
+      ring_stats[1] = rs.ready_timeouts;
+      ring_stats[2] = rs.release_timeouts;
+    }
     // The GL objects go before the context.
+    ring.reset();
     pipe->reset();
   });
   while (pipeline_ready.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -661,10 +666,25 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   Shown cur;
   std::vector<std::pair<std::int64_t, std::string>> shots = o.screenshots;
   double stall_seen_at = -1;
+  double prev_check_age_s = 0;  // the camera's silence at the previous window check, s
   std::string stop_reason = "window closed";
   double fps_t0 = t_start;
   int fps_n = 0;
   double fps_now = 0;
+  int shown_slot = -1;  // GPU path: the ring texture the window draws from, or -1
+  const bool gpu_display = gl_path.load();
+  {
+    const std::string path_msg = gpu_display
+        ? "display path gl: the composite stays on the GPU (window: OpenGL ES 3 over EGL; compositor's "
+          "context shared with it; fenced hand-off; no readback)" + (auto_note.empty() ? "" : "; " + auto_note)
+        : "display path cpu: the CPU composite is uploaded each frame (" + display_note + ")";
+    say(path_msg);
+    if (recorder) recorder->log(path_msg);
+    if (want_gl && !gpu_display) sum.warnings.push_back("display: GPU path unavailable, CPU path used: " + display_note);
+  }
+  sum.display_path = gpu_display ? "gl" : "cpu";
+  sum.display_requested = o.display_path;
+  sum.display_note = display_note;
   while (true) {
     if (hw.should_close()) break;
     if (g_signal.load() != 0) {
@@ -675,11 +695,16 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       stop_reason = "time limit";
       break;
     }
+    if (o.frames > 0 && displayed >= o.frames) {
+      stop_reason = "frame limit";
+      break;
+    }
     if (capture.ended() && !shown_new && processed > 0 && now_s() - capture.last_frame_steady_s() > 0.5) {
       stop_reason = "footage ended";
       break;
     }
     bool fresh = false;
+    int new_slot = -1;  // GPU path: the texture published with this frame
     {
       // Draw when a frame arrives; otherwise redraw the HUD at ~30 Hz (an
       // idle loop must not spin: under Xvfb there is no vsync to pace it).
@@ -687,6 +712,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       shown_cv.wait_for(lock, std::chrono::milliseconds(30), [&] { return shown_new; });
       if (shown_new) {
         cv::swap(cur.composite, shown.composite);
+        cur.gpu = shown.gpu;
+        if (cur.gpu) new_slot = ring->take();
         cur.raw = shown.raw;
         cur.index = shown.index;
         cur.steady_s = shown.steady_s;
@@ -706,7 +733,17 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     if (stalled && stall_seen_at < 0) stall_seen_at = now_s();
     if (!stalled) stall_seen_at = -1;
     const cv::Mat& img = stalled ? cur.raw : cur.composite;
-    if (!img.empty() && (fresh || stalled)) hw.set_video(img);
+    if (fresh && new_slot >= 0) {
+      // The composite on the GPU: wait for its fence, then draw from it.
+      ring->wait_ready(new_slot);
+      const ar::GlFrameTarget t = ring->target(new_slot);
+      hw.set_frame(t.video_texture, t.overlay_texture, ring->region(new_slot));
+      shown_slot = new_slot;
+    }
+    if (!img.empty() && (fresh || stalled)) {
+      hw.set_video(img);
+      shown_slot = -1;
+    }
     hw.begin_frame();
     if (o.hud) {
       const ar::FrameRecord& r = cur.rec;
@@ -741,7 +778,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
                   snap.removed_mm3[static_cast<int>(volume::Material::kEnamel)],
                   snap.removed_mm3[static_cast<int>(volume::Material::kDentin)],
                   snap.removed_mm3[static_cast<int>(volume::Material::kPulp)]);
-      ImGui::Text("%.1f fps  latency %.0f ms", fps_now, latency_ms.empty() ? 0.0 : latency_ms.back());
+      ImGui::Text("%.1f fps  latency %.0f ms  (display %s)", fps_now, latency_ms.empty() ? 0.0 : latency_ms.back(),
+                  gpu_display ? "gl" : "cpu");
       if (stalled)
         ImGui::TextColored(col[2], "camera: no frame for %.0f ms, overlay hidden%s", age * 1e3,
                            capture.status().empty() ? "" : (" (" + capture.status() + ")").c_str());
@@ -759,6 +797,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     const auto shot = fresh ? std::find_if(shots.begin(), shots.end(), [&](const auto& x) { return x.first == cur.index; })
                             : shots.end();
     const cv::Mat px = hw.end_frame(shot != shots.end());
+    if (shown_slot >= 0) ring->release(shown_slot);  // the producer may draw into it once this completes
     if (shot != shots.end()) {
       cv::imwrite(shot->second, px);
       shots.erase(shot);
@@ -770,8 +809,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       ++displayed;
       ++fps_n;
     }
-    if (stalled && stall_seen_at > 0 && sum.overlay_hidden_ms_after_stall < 0)
+    if (stalled && stall_seen_at > 0 && sum.overlay_hidden_ms_after_stall < 0) {
       sum.overlay_hidden_ms_after_stall = static_cast<int>(std::lround((t_swap - capture.last_frame_steady_s()) * 1e3));
+      sum.stall_previous_check_ms = static_cast<int>(std::lround(prev_check_age_s * 1e3));
+    }
+    prev_check_age_s = age;
     if (sum.rss_warm_mb == 0 && t_swap - t_start >= 10.0) sum.rss_warm_mb = rss_mb();
     if (t_swap - fps_t0 >= 1.0) {
       if (t_swap - t_start >= 60.0) {
@@ -797,9 +839,16 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     if (auto s = log->close(); !s) sum.warnings.push_back("session log: " + s.error());
   }
   sum.wall_s = now_s() - t_start;
+  sum.stop_reason = stop_reason;
   sum.frames_captured = capture.delivered();
   sum.frames_processed = processed;
   sum.frames_displayed = displayed;
+  sum.gpu_frames = gpu_frames;
+  sum.readback_px = readback_px;
+  sum.cpu_blend_px = cpu_blend_px;
+  sum.gl_frames_replaced = ring_stats[0];
+  sum.gl_ready_timeouts = ring_stats[1];
+  sum.gl_release_timeouts = ring_stats[2];
   sum.dropped_source = capture.dropped_source();
   sum.dropped_consumer = capture.dropped_consumer();
   sum.camera_reopens = capture.reopens();
@@ -842,13 +891,17 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     recorder->close();
     if (recorder->dropped() > 0)
       sum.warnings.push_back("recording: " + std::to_string(recorder->dropped()) +
-                             " frames not written (disk too slow); the recording replays without them");
+                             " frames not written (the writer fell more than " + std::to_string(Recorder::kMaxQueued) +
+                             " frames behind, or the disk refused them): offline replay stops at the first gap");
     char hash[20];
     std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
     nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
                            {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
                            {"complete", true}, {"frames", recorder->written()},
-                           {"frames_not_written", recorder->dropped()}, {"volume_hash", hash},
+                           {"frames_not_written", recorder->dropped()},
+                           {"frame_files", {{"jpg", recorder->written_jpg()}, {"png", recorder->written_png()},
+                                            {"ppm", recorder->written_ppm()}}},
+                           {"volume_hash", hash},
                            {"engine_steps", es.steps}, {"stop_reason", stop_reason}};
     if (!o.exercise.empty()) meta["exercise"] = o.exercise;
     std::ofstream(rdir / "recording.json.tmp") << meta.dump(2) << "\n";

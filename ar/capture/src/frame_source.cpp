@@ -234,13 +234,36 @@ class LiveSource final : public FrameSource {
       : cap_(std::move(cap)), desc_(std::move(desc)), fps_(fps), pace_(pace) {}
 
   Status start() {
+    // Motion JPEG: keep the camera's own bytes (see frame_source.h). The raw
+    // mode is a backend property; if the first frame is not JPEG after all,
+    // go back to the backend's decoding.
+    const int fcc = static_cast<int>(cap_->get(cv::CAP_PROP_FOURCC));
+    if (fcc == cv::VideoWriter::fourcc('M', 'J', 'P', 'G')) {
+      const std::string backend = cap_->getBackendName();
+      if (backend == "FFMPEG")
+        raw_jpeg_ = cap_->set(cv::CAP_PROP_FORMAT, -1);
+      else if (backend == "V4L2")
+        raw_jpeg_ = cap_->set(cv::CAP_PROP_CONVERT_RGB, 0);
+    }
     t0_ = Clock::now();
     cv::Mat first;
-    if (!grab_retrieve(first))
+    if (!grab_retrieve(first) && raw_jpeg_ && !not_jpeg_.empty()) {
+      // The backend accepted raw mode but does not deliver JPEG bytes.
+      const std::string backend = cap_->getBackendName();
+      const bool back = backend == "FFMPEG" ? cap_->set(cv::CAP_PROP_FORMAT, 0)
+                                            : cap_->set(cv::CAP_PROP_CONVERT_RGB, 1);
+      raw_jpeg_ = false;
+      if (!back) return Error{desc_ + ": " + not_jpeg_ + ", and the backend's own decoding cannot be restored"};
+      t0_ = Clock::now();
+      if (!grab_retrieve(first)) first.release();
+    }
+    if (first.empty())
       return Error{desc_ + ": opened, but delivers no frame (device busy or unsupported mode?)"};
     width_ = first.cols;
     height_ = first.rows;
     first_ = first;
+    first_encoded_ = std::move(encoded_);
+    encoded_ = cv::Mat();
     first_time_ = pace_ ? 0.0 : since_open();
     file_pos_ = 1;
     return {};
@@ -253,6 +276,8 @@ class LiveSource final : public FrameSource {
     if (!first_.empty()) {
       img = first_;
       first_.release();
+      encoded_ = std::move(first_encoded_);
+      first_encoded_ = cv::Mat();
       t = first_time_;
     } else if (pace_) {
       // The "camera" exposes frame k at k / fps after open. Wait for the
@@ -294,6 +319,8 @@ class LiveSource final : public FrameSource {
     last_time_ = t;
     dropped_ += dropped;
     out.image = img;
+    out.encoded = std::move(encoded_);
+    encoded_ = cv::Mat();
     out.index = index_++;
     out.time_s = t;
     out.dropped_before = dropped;
@@ -311,9 +338,26 @@ class LiveSource final : public FrameSource {
 
  private:
   double since_open() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
+  // The next frame as BGR (and, in raw JPEG mode, its bytes in encoded_).
+  // false: no frame (end, unplugged), or raw bytes that are not JPEG
+  // (not_jpeg_ says why). A JPEG that does not decode is skipped and
+  // counted as dropped, as a camera's corrupt frame would be.
   bool grab_retrieve(cv::Mat& out) {
     cv::Mat m;
-    if (!cap_->read(m) || m.empty()) return false;
+    for (int tries = 0;; ++tries) {
+      if (!cap_->read(m) || m.empty()) return false;
+      if (!raw_jpeg_) break;
+      if (m.rows != 1 || m.type() != CV_8UC1 || m.total() < 4 || m.data[0] != 0xFF || m.data[1] != 0xD8) {
+        not_jpeg_ = "raw frames are not JPEG (" + size_str(m.cols, m.rows) + ", type " + std::to_string(m.type()) + ")";
+        return false;
+      }
+      encoded_ = m.clone();  // the backend reuses its buffer
+      out = cv::imdecode(encoded_, cv::IMREAD_COLOR);
+      if (!out.empty() && out.type() == CV_8UC3) return true;
+      encoded_ = cv::Mat();
+      ++dropped_;
+      if (tries >= kMaxConsecutiveFailures) return false;
+    }
     out = to_bgr(m);
     return out.type() == CV_8UC3;
   }
@@ -322,7 +366,9 @@ class LiveSource final : public FrameSource {
   double fps_ = 30;
   bool pace_ = false;
   Clock::time_point t0_;
-  cv::Mat first_;
+  cv::Mat first_, first_encoded_, encoded_;
+  bool raw_jpeg_ = false;  // reading the camera's JPEG bytes (see start())
+  std::string not_jpeg_;
   double first_time_ = 0, last_time_ = -1;
   int width_ = 0, height_ = 0;
   std::int64_t index_ = 0, file_pos_ = 0, dropped_ = 0;

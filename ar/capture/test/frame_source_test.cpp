@@ -192,6 +192,60 @@ TEST(FrameSource, BadInputsGiveClearErrors) {
   EXPECT_NE(badopt.error().find("width"), std::string::npos);
 }
 
+// A Motion JPEG stand-in (what a UVC webcam delivers at 720p): each frame
+// carries the camera's own JPEG bytes, and the image is exactly their
+// decoding, so writing the bytes to a file and reading it back gives the same
+// pixels (a recording replays bit for bit). An FFV1 stand-in carries none.
+TEST(FrameSource, MotionJpegStandInKeepsTheCamerasBytes) {
+  const fs::path dir = test::temp_dir("fs_mjpg");
+  const fs::path v = dir / "cam.avi";
+  {
+    // OpenCV's own MJPG AVI writer: no FFmpeg encoder needed.
+    cv::VideoWriter w(v.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 30, {160, 120});
+    ASSERT_TRUE(w.isOpened());
+    for (int k = 0; k < 6; ++k) w.write(make_frame(k));
+  }
+  auto s = FrameSource::open("live:" + v.string());
+  ASSERT_TRUE(s.ok()) << s.error();
+  Frame f;
+  int got = 0, last_code = -1, dropped = 0;
+  while (true) {
+    auto r = (*s)->read(f);
+    ASSERT_TRUE(r.ok()) << r.error();
+    if (!*r) break;
+    ASSERT_FALSE(f.encoded.empty()) << "frame " << got;
+    ASSERT_EQ(f.encoded.type(), CV_8UC1);
+    ASSERT_GE(f.encoded.total(), 4u);
+    EXPECT_EQ(f.encoded.data[0], 0xFF);
+    EXPECT_EQ(f.encoded.data[1], 0xD8);
+    ASSERT_EQ(f.image.type(), CV_8UC3);
+    EXPECT_EQ(f.image.size(), cv::Size(160, 120));
+    // The frame's content survives (JPEG is lossy, the code is coarse).
+    const int code = frame_code(f.image);
+    EXPECT_EQ(code, last_code + 1 + f.dropped_before) << "frame " << got;
+    last_code = code;
+    dropped += f.dropped_before;
+    const fs::path jpg = dir / ("f" + std::to_string(got) + ".jpg");
+    {
+      std::ofstream o(jpg, std::ios::binary);
+      o.write(reinterpret_cast<const char*>(f.encoded.data), static_cast<std::streamsize>(f.encoded.total()));
+    }
+    const cv::Mat back = cv::imread(jpg.string());
+    ASSERT_FALSE(back.empty());
+    EXPECT_EQ(cv::norm(back, f.image, cv::NORM_INF), 0.0) << "frame " << got;
+    ++got;
+  }
+  EXPECT_GE(got, 1);
+  EXPECT_EQ(got + dropped, 6);  // a slow test machine may drop, never lose count
+
+  // Lossless FFV1: no camera bytes, the backend decodes.
+  auto l = FrameSource::open("live:" + write_video(dir, 3, 30).string());
+  ASSERT_TRUE(l.ok()) << l.error();
+  auto r = (*l)->read(f);
+  ASSERT_TRUE(r.ok() && *r);
+  EXPECT_TRUE(f.encoded.empty());
+}
+
 // The live-camera reader on a video file standing in for the camera: real
 // time pacing, steady-clock timestamps, frames dropped when the consumer is
 // too slow (as a V4L2 driver drops them), no frame delivered twice.

@@ -77,8 +77,14 @@ Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const
     const auto at = [&](int c) -> const std::string& { return v[static_cast<std::size_t>(c)]; };
     long long f = 0;
     if (!parse_int(at(cf), f)) return bad(cf, "is not a frame number");
-    if (f != static_cast<long long>(t.capture_s.size()))
-      return bad(cf, "is out of order (expected frame " + std::to_string(t.capture_s.size()) + ")");
+    const auto expected = static_cast<long long>(t.capture_s.size());
+    if (f > expected)
+      return bad(cf, "follows frame " + std::to_string(expected - 1) + ": frames " + std::to_string(expected) +
+                         ".." + std::to_string(f - 1) +
+                         " are missing (the live run could not write them: see frames_not_written in "
+                         "recording.json): the tracker cannot be replayed frame for frame across the gap");
+    if (f != expected)
+      return bad(cf, "is out of order (expected frame " + std::to_string(expected) + ")");
     double time_s = 0;
     if (!parse_finite(at(ct), time_s)) return bad(ct, "is not a finite time in seconds");
     if (!t.capture_s.empty() && time_s < t.capture_s.back())

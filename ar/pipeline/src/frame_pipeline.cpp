@@ -189,17 +189,22 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   ci.T_cam_mtag = r.T_cam_mtag;
   ci.stylus_valid = in.haptic != nullptr && in.stylus_valid;
   ci.T_dev_sty = r.T_dev_sty;
-  if (auto cs = compositor_.compose(meshes.display(), ci, out); !cs)
+  if (auto cs = in.gl_target.video_texture != 0 ? compositor_.compose_gl(meshes.display(), ci, in.gl_target, out)
+                                  : compositor_.compose(meshes.display(), ci, out);
+      !cs)
     return Error{"compositing frame " + std::to_string(in.index) + ": " + cs.error()};
   r.composite_ms = ms_since(t0);
   r.stylus_drawn = ci.stylus_valid && ci.man_valid;
   r.overlay = out.overlay_drawn;
   r.mirror_drawn = out.mirror_drawn;
   r.triangles = out.triangles_drawn;
+  r.gpu_composite = out.gpu_output;
+  r.readback_px = out.readback_px;
+  r.cpu_blend_px = out.cpu_blend_px;
   return {};
 }
 
-Status FramePipeline::warm_up(ToothMeshes& meshes) {
+Status FramePipeline::warm_up(ToothMeshes& meshes, const GlFrameTarget& gl_target) {
   const auto& cam = station_.calibration.camera;
   const cv::Mat grey(cam.height, cam.width, CV_8UC3, cv::Scalar(128, 128, 128));
   Eigen::Isometry3d T_cam_tooth = Eigen::Isometry3d::Identity();
@@ -210,6 +215,9 @@ Status FramePipeline::warm_up(ToothMeshes& meshes) {
   ci.T_cam_man = T_cam_tooth * station_.calibration.T_man_tooth.inverse();
   CompositeResult out;
   if (auto s = compositor_.compose(meshes.display(), ci, out); !s) return Error{"warm-up: " + s.error()};
+  if (gl_target.video_texture != 0)
+    if (auto s = compositor_.compose_gl(meshes.display(), ci, gl_target, out); !s)
+      return Error{"warm-up (GPU path): " + s.error()};
   if (auto s = compositor_.set_options(compositor_.options()); !s) return Error{"warm-up: " + s.error()};
   tracker_.reset();
   return {};

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <cstring>
+#include <initializer_list>
 #include <sstream>
 #include <unordered_map>
 
@@ -78,18 +80,251 @@ void main() {
 }
 )";
 
-// Full-screen triangle on the far plane (depth 1): resets depth where the
-// stencil test lets it through.
-constexpr const char* kFarVertex = R"(#version 300 es
-void main() {
-  vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
-  gl_Position = vec4(p, 1.0, 1.0);
-}
-)";
+// With the full-screen triangle on the far plane (depth 1): resets depth
+// where the stencil test lets it through.
 constexpr const char* kFarFragment = R"(#version 300 es
 precision mediump float;
 out vec4 o_color;
 void main() { o_color = vec4(0.0); }
+)";
+
+// ---- the GPU path (compose_gl) -----------------------------------------------
+// Output-space textures use image rows (row 0 = top): a pass drawn with
+// glViewport over an output rectangle writes fragment (x, y) = pixel (x, y).
+// The canvas attachments have GL rows (bottom first), as the lit passes draw.
+// Every pass draws the full-screen triangle (full_screen_triangle_vertex_shader).
+
+// Canvas -> output through the distortion map, as cv::remap with the
+// fixed-point map does it (positions rounded to 1/32 px; bilinear for colour
+// and coverage, OpenCV's "nearest" for the albedo; 0 outside the canvas rectangle).
+constexpr const char* kResampleFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D u_map;
+uniform sampler2D u_color;
+uniform sampler2D u_tooth;
+uniform sampler2D u_albedo;
+uniform ivec2 u_canvas;
+uniform ivec4 u_croi;  // the canvas rectangle drawn this frame (x0, y0, x1, y1): 0 outside, as the CPU's copy
+layout(location = 0) out vec4 o_color;
+layout(location = 1) out vec4 o_tooth;
+layout(location = 2) out vec4 o_albedo;
+vec4 tap(sampler2D t, ivec2 p) {
+  if (p.x < u_croi.x || p.y < u_croi.y || p.x >= u_croi.z || p.y >= u_croi.w) return vec4(0.0);
+  return texelFetch(t, ivec2(p.x, u_canvas.y - 1 - p.y), 0);
+}
+vec4 bilinear(sampler2D t, ivec2 p, vec2 f) {
+  return mix(mix(tap(t, p), tap(t, p + ivec2(1, 0)), f.x),
+             mix(tap(t, p + ivec2(0, 1)), tap(t, p + ivec2(1, 1)), f.x), f.y);
+}
+void main() {
+  ivec2 o = ivec2(gl_FragCoord.xy);
+  vec2 q = floor(texelFetch(u_map, o, 0).xy * 32.0 + 0.5);
+  vec2 fl = floor(q / 32.0);
+  ivec2 p = ivec2(fl);
+  vec2 f = (q - fl * 32.0) / 32.0;
+  o_color = bilinear(u_color, p, f);
+  o_tooth = bilinear(u_tooth, p, f);
+  // Nearest as cv::remap does it with a fixed-point map (OpenCV's NNDeltaTab):
+  // one pixel further when the 1/32 fraction is below one half. Odd, but the
+  // CPU path's (and so `dentar offline`'s) albedo is sampled so.
+  o_albedo = tap(u_albedo, p + ivec2(lessThan(q - fl * 32.0, vec2(16.0))));
+}
+)";
+
+// ForegroundSegmenter::segment (occlusion.cpp), per pixel of the overlay's
+// output rectangle: region = tooth coverage dilated by u_grow (inside the
+// rectangle, as cv::dilate on it); chromaticity of the video against the
+// foreground model and the expected albedo around the pixel. Writes the
+// probability (quantised to 1/255 as the CPU's 8-bit mask) and, for
+// confident pixels, the chromaticity for the model's adaptation.
+constexpr const char* kClassifyFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D u_video;
+uniform sampler2D u_tooth;
+uniform sampler2D u_albedo;
+uniform sampler2D u_model;
+uniform ivec4 u_roi;
+uniform int u_grow;
+uniform int u_r;
+uniform int u_h;
+uniform float u_dmax;
+uniform float u_inv_soft;
+uniform float u_reach2;
+uniform int u_min_red;
+out vec4 o_fg;
+void main() {
+  ivec2 o = ivec2(gl_FragCoord.xy);
+  o_fg = vec4(0.0);
+  // The cheap tests first (every condition must hold; most pixels fail here).
+  vec3 px = floor(texelFetch(u_video, o, 0).rgb * 255.0 + 0.5);
+  if (px.r < float(u_min_red)) return;
+  float inv_r = 1.0 / px.r;
+  vec2 c = vec2(px.g * inv_r, px.b * inv_r);
+  vec2 m = texelFetch(u_model, ivec2(0, 0), 0).xy;
+  float d2 = dot(c - m, c - m);
+  if (d2 >= u_reach2) return;
+  bool region = false;
+  for (int dy = -u_grow; dy <= u_grow && !region; ++dy)
+    for (int dx = -u_grow; dx <= u_grow; ++dx) {
+      ivec2 q = o + ivec2(dx, dy);
+      if (q.x < u_roi.x || q.y < u_roi.y || q.x >= u_roi.z || q.y >= u_roi.w) continue;
+      if (texelFetch(u_tooth, q, 0).r > 0.0) region = true;
+    }
+  if (!region) return;
+  float d_fg = sqrt(d2);
+  ivec2 offs[9];
+  int no = 1;
+  offs[0] = ivec2(0, 0);
+  if (u_r > 0) {
+    for (int k = 0; k < 2; ++k) {
+      int d = k == 0 ? u_r : u_h;
+      if (d <= 0) continue;
+      offs[no] = ivec2(d, 0);
+      offs[no + 1] = ivec2(-d, 0);
+      offs[no + 2] = ivec2(0, d);
+      offs[no + 3] = ivec2(0, -d);
+      no += 4;
+    }
+  }
+  vec2 e[9];
+  int n = 0;
+  for (int k = 0; k < no; ++k) {
+    ivec2 s = clamp(o + offs[k], u_roi.xy, u_roi.zw - 1);
+    vec4 a = floor(texelFetch(u_albedo, s, 0) * 255.0 + 0.5);
+    if (a.a < 0.5 || a.r < 8.5) continue;
+    e[n] = vec2(a.g / a.r, a.b / a.r);
+    n += 1;
+  }
+  float d_bg = 1e30;
+  for (int i = 0; i < n; ++i) {
+    d_bg = min(d_bg, length(c - e[i]));
+    for (int j = i + 1; j < n; ++j) {
+      vec2 ab = e[j] - e[i];
+      float t = clamp(dot(c - e[i], ab) / max(dot(ab, ab), 1e-12), 0.0, 1.0);
+      d_bg = min(d_bg, length(c - e[i] - t * ab));
+    }
+  }
+  float p_rel = n == 0 ? 1.0 : clamp(0.5 + (d_bg - d_fg) * u_inv_soft, 0.0, 1.0);
+  float p_abs = clamp(0.5 + (u_dmax - d_fg) * u_inv_soft, 0.0, 1.0);
+  float p = p_rel * p_abs;
+  float pq = floor(255.0 * p + 0.5) / 255.0;
+  o_fg = p > 0.95 ? vec4(pq, c, 1.0) : vec4(pq, 0.0, 0.0, 0.0);
+}
+)";
+
+// GLSL for the feather and blend passes: an index reflected into [lo, hi)
+// without repeating the edge (OpenCV's BORDER_REFLECT_101). A macro so the
+// shaders stay compile-time string literals.
+#define DENTAR_GLSL_REFLECT101                                                                 \
+  "int reflect101(int x, int lo, int hi) {\n"                                                  \
+  "  if (hi - lo <= 1) return lo;\n"                                                           \
+  "  for (int i = 0; i < 8 && (x < lo || x >= hi); ++i) x = x < lo ? 2 * lo - x : 2 * (hi - 1) - x;\n" \
+  "  return clamp(x, lo, hi - 1);\n"                                                           \
+  "}\n"
+
+// Feathering, horizontal half of the separable Gaussian (BORDER_REFLECT_101
+// inside the rectangle, as cv::GaussianBlur on it).
+constexpr const char* kFeatherFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D u_fg;
+uniform ivec4 u_roi;
+uniform int u_k;
+uniform float u_w[128];
+out vec4 o_v;
+)" DENTAR_GLSL_REFLECT101 R"(void main() {
+  ivec2 o = ivec2(gl_FragCoord.xy);
+  float s = 0.0;
+  for (int i = -u_k; i <= u_k; ++i)
+    s += u_w[i + u_k] * texelFetch(u_fg, ivec2(reflect101(o.x + i, u_roi.x, u_roi.z), o.y), 0).r;
+  o_v = vec4(s, 0.0, 0.0, 1.0);
+}
+)";
+
+// Adaptation, step 1: per column of the rectangle, the sums of the confident
+// pixels' chromaticity and their count.
+constexpr const char* kColumnSumFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D u_fg;
+uniform ivec4 u_roi;
+out vec4 o_s;
+void main() {
+  int x = int(gl_FragCoord.x);
+  vec3 s = vec3(0.0);
+  for (int y = u_roi.y; y < u_roi.w; ++y) s += texelFetch(u_fg, ivec2(x, y), 0).yzw;
+  o_s = vec4(s, 0.0);
+}
+)";
+
+// Adaptation, step 2 (one fragment): the model moves towards the mean of the
+// confident pixels (>= 30 of them), at most max_adapt from the seed; as
+// ForegroundSegmenter::segment's end. The model never leaves the GPU.
+constexpr const char* kModelFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D u_colsum;
+uniform sampler2D u_model;
+uniform ivec4 u_roi;
+uniform vec2 u_seed;
+uniform float u_rate;
+uniform float u_max_adapt;
+out vec4 o_m;
+void main() {
+  vec3 s = vec3(0.0);
+  for (int x = u_roi.x; x < u_roi.z; ++x) s += texelFetch(u_colsum, ivec2(x, 0), 0).xyz;
+  vec2 m = texelFetch(u_model, ivec2(0, 0), 0).xy;
+  if (s.z > 29.5 && u_rate > 0.0) {
+    vec2 nm = m + u_rate * (s.xy / s.z - m);
+    vec2 d = nm - u_seed;
+    float len = length(d);
+    if (len > u_max_adapt) nm = u_seed + d * (u_max_adapt / len);
+    m = nm;
+  }
+  o_m = vec4(m, 0.0, 1.0);
+}
+)";
+
+// The composite inside the overlay's rectangle (the viewport): the video
+// with the overlay (premultiplied) over it, its opacity times
+// (1 - foreground), the foreground feathered vertically here and quantised
+// to 1/255 as the CPU's mask. Outside the rectangle the composite is the
+// video itself, and nothing is drawn.
+constexpr const char* kBlendFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D u_video;
+uniform sampler2D u_color;
+uniform sampler2D u_fgh;
+uniform ivec4 u_roi;
+uniform int u_seg;
+uniform int u_k;
+uniform float u_w[128];
+out vec4 o_rgba;
+)" DENTAR_GLSL_REFLECT101 R"(void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  vec3 rgb = texelFetch(u_video, p, 0).rgb;
+  vec4 c = texelFetch(u_color, p, 0);
+  if (c.a > 0.0) {
+    float f = 0.0;
+    if (u_seg != 0) {
+      for (int i = -u_k; i <= u_k; ++i)
+        f += u_w[i + u_k] * texelFetch(u_fgh, ivec2(p.x, reflect101(p.y + i, u_roi.y, u_roi.w)), 0).r;
+      f = floor(clamp(f, 0.0, 1.0) * 255.0 + 0.5) / 255.0;
+    }
+    float keep = 1.0 - f;
+    rgb = rgb * (1.0 - c.a * keep) + c.rgb * keep;
+  }
+  o_rgba = vec4(rgb, 1.0);
+}
 )";
 
 constexpr GLenum kAtt[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
@@ -330,6 +565,54 @@ double cluster_mesh(const volume::ChunkMesh& cm, int cell, scene::Mesh& out,
   return err;
 }
 
+// GL objects of the GPU path (compose_gl), built on first use.
+struct GpuPath {
+  std::string error;  // why the path cannot run here (then nothing else is set)
+  int W = 0, H = 0;
+  Texture map, r_color, r_tooth, r_albedo, fg, fgh, colsum, model[2];
+  cv::Mat rgba;  // the frame converted for the upload, reused
+  Framebuffer fb_resample, fb_fg, fb_fgh, fb_colsum, fb_model[2];
+  Program resample, classify, feather, colsum_p, model_p, blend;
+  int cur_model = 0;
+  bool model_reset = true;  // upload the seed before the next classification
+  std::vector<float> weights;  // Gaussian of feather_px, 2k+1 taps
+  double weights_sigma = -1;
+  std::unordered_map<GLuint, Framebuffer> targets;  // overlay texture -> its framebuffer
+};
+
+// A framebuffer on `n` textures (colour attachments 0..n-1); error text or empty.
+std::string make_fb(Framebuffer& fb, std::initializer_list<GLuint> textures, const char* name) {
+  fb = make_framebuffer();
+  glBindFramebuffer(GL_FRAMEBUFFER, fb.id());
+  int i = 0;
+  for (GLuint t : textures)
+    glFramebufferTexture2D(GL_FRAMEBUFFER, kAtt[i++], GL_TEXTURE_2D, t, 0);
+  const GLenum st = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  if (st == GL_FRAMEBUFFER_COMPLETE) return {};
+  std::ostringstream os;
+  os << "GPU compositing framebuffer '" << name << "' is incomplete: status 0x" << std::hex << st;
+  return os.str();
+}
+
+bool has_gl_extension(const char* name) {
+  GLint n = 0;
+  glGetIntegerv(GL_NUM_EXTENSIONS, &n);
+  for (GLint i = 0; i < n; ++i) {
+    const auto* e = reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i)));
+    if (e != nullptr && std::strcmp(e, name) == 0) return true;
+  }
+  return false;
+}
+
+void bind_tex(int unit, GLuint tex, GLint loc) {
+  glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
+  glBindTexture(GL_TEXTURE_2D, tex);
+  glUniform1i(loc, unit);
+}
+
+GLint uloc(const Program& p, const char* name) { return glGetUniformLocation(p.id(), name); }
+
 struct Lit {
   GLint clip_from_obj = -1, cam_from_obj = -1, plane = -1, to_light = -1, ambient = -1,
         diffuse = -1, alpha = -1, tooth = -1, tint = -1;
@@ -385,7 +668,10 @@ struct Compositor::Impl {
   int cw = 0, ch = 0;                               // canvas size
 
   Framebuffer fbo;
-  Renderbuffer rb_color, rb_tooth, rb_albedo, rb_depth;
+  // Canvas attachments: textures, so the GPU path can sample them (the CPU
+  // path reads them back; the pixels are the same either way).
+  Texture t_color, t_tooth, t_albedo;
+  Renderbuffer rb_depth;
   Program lit, far;
   Lit u;
   VertexArray empty_vao;
@@ -415,6 +701,8 @@ struct Compositor::Impl {
   cv::Rect last_canvas;
   // Output-size scratch (ROI views are used).
   cv::Mat o_color, o_tooth, o_albedo, fg, region, fgf;
+
+  std::unique_ptr<GpuPath> gpu;  // compose_gl's objects, built on first use
 
   int levels() const { return 1 + static_cast<int>(opt.lod_cell_voxels.size()); }
 
@@ -570,6 +858,7 @@ Status Compositor::set_options(const CompositorOptions& o) {
   keep.far_m = impl_->opt.far_m;
   impl_->opt = keep;
   impl_->segmenter = ForegroundSegmenter(o.segmenter);  // starts adapting afresh
+  if (impl_->gpu) impl_->gpu->model_reset = true;          // the GPU path's model too
   return {};
 }
 
@@ -606,13 +895,16 @@ Result<Compositor> Compositor::create(const StationScene& station, const Composi
   // Framebuffer: colour, tooth coverage, albedo (RGBA8 each) + depth/stencil.
   im.fbo = make_framebuffer();
   glBindFramebuffer(GL_FRAMEBUFFER, im.fbo.id());
-  Renderbuffer* rbs[3] = {&im.rb_color, &im.rb_tooth, &im.rb_albedo};
+  Texture* ts[3] = {&im.t_color, &im.t_tooth, &im.t_albedo};
   for (int i = 0; i < 3; ++i) {
-    *rbs[i] = make_renderbuffer();
-    glBindRenderbuffer(GL_RENDERBUFFER, rbs[i]->id());
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, im.cw, im.ch);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, kAtt[i], GL_RENDERBUFFER, rbs[i]->id());
+    *ts[i] = make_texture();
+    glBindTexture(GL_TEXTURE_2D, ts[i]->id());
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, im.cw, im.ch);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, kAtt[i], GL_TEXTURE_2D, ts[i]->id(), 0);
   }
+  glBindTexture(GL_TEXTURE_2D, 0);
   im.rb_depth = make_renderbuffer();
   glBindRenderbuffer(GL_RENDERBUFFER, im.rb_depth.id());
   glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH24_STENCIL8, im.cw, im.ch);
@@ -641,7 +933,7 @@ Result<Compositor> Compositor::create(const StationScene& station, const Composi
   im.u.alpha = glGetUniformLocation(id, "u_alpha");
   im.u.tooth = glGetUniformLocation(id, "u_tooth");
   im.u.tint = glGetUniformLocation(id, "u_tint");
-  auto far = link_program(kFarVertex, kFarFragment, "compositor (depth reset)");
+  auto far = link_program(full_screen_triangle_vertex_shader(true), kFarFragment, "compositor (depth reset)");
   if (!far) return Error{far.error()};
   im.far = std::move(far).value();
   im.empty_vao = make_vertex_array();
@@ -682,37 +974,30 @@ Result<Compositor> Compositor::create(const StationScene& station, const Composi
   return c;
 }
 
-Status Compositor::compose(const volume::Surface& surface, const CompositeInput& in,
-                           CompositeResult& result) {
-  const auto t_start = Clock::now();
-  Impl& im = *impl_;
+// Empty, or why the frame cannot be composited.
+static std::string check_video(const Compositor::Impl& im, const CompositeInput& in) {
   const int W = im.camera.width, H = im.camera.height;
   if (in.video_bgr == nullptr || in.video_bgr->empty())
-    return Error{"compose: the video frame is empty (a decoding error or the end of the footage)"};
+    return std::string("compose: the video frame is empty (a decoding error or the end of the footage)");
   if (in.video_bgr->type() != CV_8UC3)
-    return Error{"compose: the video frame must be 8-bit BGR (CV_8UC3); got type " +
-                 std::to_string(in.video_bgr->type())};
+    return std::string("compose: the video frame must be 8-bit BGR (CV_8UC3); got type " +
+                 std::to_string(in.video_bgr->type()));
   if (in.video_bgr->cols != W || in.video_bgr->rows != H)
-    return Error{"compose: the video frame is " + std::to_string(in.video_bgr->cols) + "x" +
+    return std::string("compose: the video frame is " + std::to_string(in.video_bgr->cols) + "x" +
                  std::to_string(in.video_bgr->rows) + " but the station camera is " +
                  std::to_string(W) + "x" + std::to_string(H) +
-                 " (use the station file calibrated for this camera)"};
+                 " (use the station file calibrated for this camera)");
+  return {};
+}
+
+// The canvas passes of one frame (phantoms, reflection, tooth, bur) into the
+// canvas framebuffer, limited to the overlay's canvas rectangle (returned;
+// empty = nothing to draw). finish: wait for the GL work (the CPU path reads
+// back next); the GPU path leaves it queued.
+static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, CompositeResult& out,
+                     bool finish) {
   const CompositorOptions& o = im.opt;
   const calibration::StationCalibration& cal = im.station.calibration;
-  CompositeResult out;
-
-  auto t0 = Clock::now();
-  im.sync(surface);
-  out.timing.sync_ms = ms_since(t0);
-
-  in.video_bgr->copyTo(out.image);
-  out.tooth_visible = cv::Mat::zeros(H, W, CV_8UC1);
-  if (!in.man_valid) {
-    out.timing.total_ms = ms_since(t_start);
-    result = std::move(out);
-    return {};
-  }
-
   // Poses (cam frame, metres).
   const Eigen::Isometry3d T_cam_tooth = in.T_cam_man * cal.T_man_tooth;
   const bool stylus = in.stylus_valid;
@@ -765,7 +1050,7 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
   croi_px.add(Eigen::Vector2d(croi.x + croi.width, croi.y + croi.height));
 
   // ---- GL passes ----
-  t0 = Clock::now();
+  auto t0 = Clock::now();
   glBindFramebuffer(GL_FRAMEBUFFER, im.fbo.id());
   glViewport(0, 0, im.cw, im.ch);
   if (!croi.empty()) {
@@ -867,9 +1152,34 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
     glBindVertexArray(0);
     glUseProgram(0);
     glDisable(GL_SCISSOR_TEST);
-    glFinish();
+    if (finish) glFinish();
   }
   out.timing.render_ms = ms_since(t0);
+  return croi;
+}
+
+Status Compositor::compose(const volume::Surface& surface, const CompositeInput& in,
+                           CompositeResult& result) {
+  const auto t_start = Clock::now();
+  Impl& im = *impl_;
+  const int W = im.camera.width, H = im.camera.height;
+  if (std::string e = check_video(im, in); !e.empty()) return Error{e};
+  const CompositorOptions& o = im.opt;
+  CompositeResult out;
+
+  auto t0 = Clock::now();
+  im.sync(surface);
+  out.timing.sync_ms = ms_since(t0);
+
+  in.video_bgr->copyTo(out.image);
+  out.tooth_visible = cv::Mat::zeros(H, W, CV_8UC1);
+  if (!in.man_valid) {
+    out.timing.total_ms = ms_since(t_start);
+    result = std::move(out);
+    return {};
+  }
+
+  const cv::Rect croi = draw_canvas(im, in, out, true);
 
   // ---- readback of the region ----
   t0 = Clock::now();
@@ -887,6 +1197,7 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
     im.read_attachment(2, croi, im.c_albedo);
   }
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  out.readback_px = 3 * static_cast<std::int64_t>(croi.area());
   out.timing.readback_ms = ms_since(t0);
   if (auto e = gl_error_message("Compositor::compose"); !e.empty()) return Error{e};
 
@@ -956,12 +1267,286 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
     }
     blend_ms += ms_since(t0);
     out.tooth_px = cv::countNonZero(vis > 127);
+    out.cpu_blend_px = static_cast<std::int64_t>(roi.area());
     out.overlay_drawn = true;
   }
   out.timing.blend_ms = blend_ms;
   out.timing.total_ms = ms_since(t_start);
   result = std::move(out);
   return {};
+}
+
+// ---- the GPU path ------------------------------------------------------------------
+
+std::string Compositor::gpu_path_error() {
+  Impl& im = *impl_;
+  if (im.gpu) return im.gpu->error;
+  im.gpu = std::make_unique<GpuPath>();
+  GpuPath& g = *im.gpu;
+  const int W = im.camera.width, H = im.camera.height;
+  g.W = W;
+  g.H = H;
+  GLint max_tex = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_tex);
+  if (W > max_tex || H > max_tex) {
+    g.error = "the video (" + std::to_string(W) + "x" + std::to_string(H) + ") exceeds GL_MAX_TEXTURE_SIZE " +
+              std::to_string(max_tex);
+    return g.error;
+  }
+  if (!has_gl_extension("GL_EXT_color_buffer_float")) {
+    g.error =
+        "the GL driver lacks GL_EXT_color_buffer_float (float render targets for the segmenter's "
+        "reduction on the GPU)";
+    return g.error;
+  }
+  struct {
+    Program* p;
+    const char* fs;
+    const char* name;
+  } progs[] = {{&g.resample, kResampleFragment, "GPU compositing (resample)"},
+               {&g.classify, kClassifyFragment, "GPU compositing (segmentation)"},
+               {&g.feather, kFeatherFragment, "GPU compositing (feather)"},
+               {&g.colsum_p, kColumnSumFragment, "GPU compositing (column sums)"},
+               {&g.model_p, kModelFragment, "GPU compositing (model update)"},
+               {&g.blend, kBlendFragment, "GPU compositing (blend)"}};
+  const std::string post_vertex = full_screen_triangle_vertex_shader();
+  for (auto& pr : progs) {
+    auto r = link_program(post_vertex, pr.fs, pr.name);
+    if (!r) {
+      g.error = r.error();
+      return g.error;
+    }
+    *pr.p = std::move(r).value();
+  }
+  // Output -> canvas positions (the CPU path's map before fixed-point conversion).
+  std::vector<float> map(static_cast<std::size_t>(W) * H * 2);
+  for (int v = 0; v < H; ++v)
+    for (int x = 0; x < W; ++x) {
+      float* m = &map[(static_cast<std::size_t>(v) * W + x) * 2];
+      if (im.view.identity()) {
+        m[0] = static_cast<float>(x);
+        m[1] = static_cast<float>(v);
+      } else {
+        const Eigen::Vector2f p = im.view.map_px[static_cast<std::size_t>(v) * W + x];
+        m[0] = std::isnan(p.x()) ? -100.f : p.x();
+        m[1] = std::isnan(p.x()) ? -100.f : p.y();
+      }
+    }
+  g.map = make_texture_2d(GL_RG32F, W, H);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W, H, GL_RG, GL_FLOAT, map.data());
+  g.r_color = make_texture_2d(GL_RGBA8, W, H);
+  g.r_tooth = make_texture_2d(GL_RGBA8, W, H);
+  g.r_albedo = make_texture_2d(GL_RGBA8, W, H);
+  g.fg = make_texture_2d(GL_RGBA32F, W, H);
+  g.fgh = make_texture_2d(GL_R32F, W, H);
+  g.colsum = make_texture_2d(GL_RGBA32F, W, 1);
+  g.model[0] = make_texture_2d(GL_RGBA32F, 1, 1);
+  g.model[1] = make_texture_2d(GL_RGBA32F, 1, 1);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  for (std::string e :
+       {make_fb(g.fb_resample, {g.r_color.id(), g.r_tooth.id(), g.r_albedo.id()}, "resample"),
+        make_fb(g.fb_fg, {g.fg.id()}, "segmentation"), make_fb(g.fb_fgh, {g.fgh.id()}, "feather"),
+        make_fb(g.fb_colsum, {g.colsum.id()}, "column sums"),
+        make_fb(g.fb_model[0], {g.model[0].id()}, "model 0"),
+        make_fb(g.fb_model[1], {g.model[1].id()}, "model 1")})
+    if (!e.empty()) {
+      g.error = e;
+      return g.error;
+    }
+  if (auto e = gl_error_message("Compositor GPU path set-up"); !e.empty()) g.error = e;
+  return g.error;
+}
+
+Status Compositor::compose_gl(const volume::Surface& surface, const CompositeInput& in,
+                              const GlFrameTarget& target, CompositeResult& result) {
+  const auto t_start = Clock::now();
+  Impl& im = *impl_;
+  if (std::string e = check_video(im, in); !e.empty()) return Error{e};
+  if (std::string e = gpu_path_error(); !e.empty()) return Error{"compose_gl: " + e};
+  if (target.video_texture == 0 || target.overlay_texture == 0)
+    return Error{"compose_gl: no target texture (video " + std::to_string(target.video_texture) + ", overlay " +
+                 std::to_string(target.overlay_texture) + ")"};
+  GpuPath& g = *im.gpu;
+  const int W = g.W, H = g.H;
+  const CompositorOptions& o = im.opt;
+  CompositeResult out;
+  out.gpu_output = true;
+  out.tooth_px = -1;
+
+  auto t0 = Clock::now();
+  im.sync(surface);
+  out.timing.sync_ms = ms_since(t0);
+
+  // The frame as RGBA8: one SIMD conversion on the CPU (no blend), then the
+  // driver's upload is a plain copy and the window can show it with a blit
+  // (llvmpipe's fast path; a shader unpacking BGR bytes for every pixel of
+  // the frame was measured slower than the whole CPU path).
+  t0 = Clock::now();
+  const GLuint video_tex = target.video_texture;
+  cv::cvtColor(*in.video_bgr, g.rgba, cv::COLOR_BGR2RGBA);
+  glBindTexture(GL_TEXTURE_2D, video_tex);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, g.rgba.data);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  out.timing.upload_ms = ms_since(t0);
+
+  cv::Rect roi, croi;
+  if (in.man_valid) {
+    croi = draw_canvas(im, in, out, false);
+    roi = im.output_rect(croi);
+  }
+  out.region = roi;
+  out.overlay_drawn = !roi.empty();
+
+  t0 = Clock::now();
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_STENCIL_TEST);
+  glDisable(GL_SCISSOR_TEST);
+  glDisable(GL_BLEND);
+  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  glBindVertexArray(im.empty_vao.id());
+  const GLint r4[4] = {roi.x, roi.y, roi.x + roi.width, roi.y + roi.height};
+  // Feathering: cv::GaussianBlur's kernel for 8-bit images (size
+  // round(6 sigma + 1) | 1), applied as two 1-D passes.
+  if (g.weights_sigma != o.feather_px) {
+    g.weights_sigma = o.feather_px;
+    const int k = o.feather_px > 0
+                      ? std::min(63, (static_cast<int>(std::lround(o.feather_px * 6 + 1)) | 1) / 2)
+                      : 0;
+    g.weights.assign(static_cast<std::size_t>(2 * k + 1), 1.0f);
+    if (k > 0) {
+      double sum = 0;
+      std::vector<double> w(static_cast<std::size_t>(2 * k + 1));
+      for (int i = -k; i <= k; ++i)
+        sum += w[static_cast<std::size_t>(i + k)] =
+            std::exp(-0.5 * i * i / (o.feather_px * o.feather_px));
+      for (std::size_t i = 0; i < w.size(); ++i) g.weights[i] = static_cast<float>(w[i] / sum);
+    }
+  }
+  const GLint k = static_cast<GLint>(g.weights.size() / 2);
+  const bool seg = o.segmentation && !roi.empty();
+  if (!roi.empty()) {
+    // 1. Resample the canvas region into the distorted output.
+    glBindFramebuffer(GL_FRAMEBUFFER, g.fb_resample.id());
+    glDrawBuffers(3, kAtt);
+    glViewport(roi.x, roi.y, roi.width, roi.height);
+    glUseProgram(g.resample.id());
+    bind_tex(0, g.map.id(), uloc(g.resample, "u_map"));
+    bind_tex(1, im.t_color.id(), uloc(g.resample, "u_color"));
+    bind_tex(2, im.t_tooth.id(), uloc(g.resample, "u_tooth"));
+    bind_tex(3, im.t_albedo.id(), uloc(g.resample, "u_albedo"));
+    glUniform2i(uloc(g.resample, "u_canvas"), im.cw, im.ch);
+    const GLint c4[4] = {croi.x, croi.y, croi.x + croi.width, croi.y + croi.height};
+    glUniform4iv(uloc(g.resample, "u_croi"), 1, c4);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    if (seg) {
+      const SegmenterOptions& so = im.segmenter.options();
+      const double sr = std::max(so.seed_rgb.x(), 1e-6);
+      const float seed[2] = {static_cast<float>(so.seed_rgb.y() / sr),
+                             static_cast<float>(so.seed_rgb.z() / sr)};
+      if (g.model_reset) {
+        const float px[4] = {seed[0], seed[1], 0.f, 1.f};
+        glBindTexture(GL_TEXTURE_2D, g.model[g.cur_model].id());
+        glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, 1, 1, GL_RGBA, GL_FLOAT, px);
+        g.model_reset = false;
+      }
+      // 2. Classify.
+      glBindFramebuffer(GL_FRAMEBUFFER, g.fb_fg.id());
+      glDrawBuffers(1, kAtt);
+      glUseProgram(g.classify.id());
+      const Program& c = g.classify;
+      bind_tex(0, video_tex, uloc(c, "u_video"));
+      bind_tex(1, g.r_tooth.id(), uloc(c, "u_tooth"));
+      bind_tex(2, g.r_albedo.id(), uloc(c, "u_albedo"));
+      bind_tex(3, g.model[g.cur_model].id(), uloc(c, "u_model"));
+      glUniform4iv(uloc(c, "u_roi"), 1, r4);
+      glUniform1i(uloc(c, "u_grow"), static_cast<int>(std::ceil(2.0 * o.feather_px)) + 1);
+      glUniform1i(uloc(c, "u_r"), so.mix_radius_px);
+      glUniform1i(uloc(c, "u_h"), so.mix_radius_px / 2);
+      const float reach = static_cast<float>(so.max_distance) + 0.5f * static_cast<float>(so.softness);
+      glUniform1f(uloc(c, "u_dmax"), static_cast<float>(so.max_distance));
+      glUniform1f(uloc(c, "u_inv_soft"), 1.0f / static_cast<float>(so.softness));
+      glUniform1f(uloc(c, "u_reach2"), reach * reach);
+      glUniform1i(uloc(c, "u_min_red"), so.min_red);
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      // 3. Feather, horizontal half.
+      glBindFramebuffer(GL_FRAMEBUFFER, g.fb_fgh.id());
+      glUseProgram(g.feather.id());
+      bind_tex(0, g.fg.id(), uloc(g.feather, "u_fg"));
+      glUniform4iv(uloc(g.feather, "u_roi"), 1, r4);
+      glUniform1i(uloc(g.feather, "u_k"), k);
+      glUniform1fv(uloc(g.feather, "u_w"), static_cast<GLsizei>(g.weights.size()), g.weights.data());
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      // 4-5. Adapt the model (it stays on the GPU).
+      glBindFramebuffer(GL_FRAMEBUFFER, g.fb_colsum.id());
+      glViewport(roi.x, 0, roi.width, 1);
+      glUseProgram(g.colsum_p.id());
+      bind_tex(0, g.fg.id(), uloc(g.colsum_p, "u_fg"));
+      glUniform4iv(uloc(g.colsum_p, "u_roi"), 1, r4);
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      const int next = 1 - g.cur_model;
+      glBindFramebuffer(GL_FRAMEBUFFER, g.fb_model[next].id());
+      glViewport(0, 0, 1, 1);
+      glUseProgram(g.model_p.id());
+      bind_tex(0, g.colsum.id(), uloc(g.model_p, "u_colsum"));
+      bind_tex(1, g.model[g.cur_model].id(), uloc(g.model_p, "u_model"));
+      glUniform4iv(uloc(g.model_p, "u_roi"), 1, r4);
+      glUniform2f(uloc(g.model_p, "u_seed"), seed[0], seed[1]);
+      glUniform1f(uloc(g.model_p, "u_rate"), static_cast<float>(so.adapt_rate));
+      glUniform1f(uloc(g.model_p, "u_max_adapt"), static_cast<float>(so.max_adapt));
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      g.cur_model = next;
+    }
+  }
+  // 6. The composite inside the region into the caller's overlay texture.
+  if (!roi.empty()) {
+    Framebuffer& tfb = g.targets[target.overlay_texture];
+    if (!tfb) {
+      if (std::string e = make_fb(tfb, {target.overlay_texture}, "overlay target"); !e.empty()) {
+        g.targets.erase(target.overlay_texture);
+        return Error{"compose_gl: the overlay texture " + std::to_string(target.overlay_texture) +
+                     " cannot be drawn into (" + e + "); it must be RGBA8 of the camera's size"};
+      }
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, tfb.id());
+    glDrawBuffers(1, kAtt);
+    glViewport(roi.x, roi.y, roi.width, roi.height);
+    glUseProgram(g.blend.id());
+    bind_tex(0, video_tex, uloc(g.blend, "u_video"));
+    bind_tex(1, g.r_color.id(), uloc(g.blend, "u_color"));
+    bind_tex(2, g.fgh.id(), uloc(g.blend, "u_fgh"));
+    glUniform4iv(uloc(g.blend, "u_roi"), 1, r4);
+    glUniform1i(uloc(g.blend, "u_seg"), seg ? 1 : 0);
+    glUniform1i(uloc(g.blend, "u_k"), k);
+    glUniform1fv(uloc(g.blend, "u_w"), static_cast<GLsizei>(g.weights.size()), g.weights.data());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+  }
+  for (int u = 3; u >= 0; --u) {
+    glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(u));
+    glBindTexture(GL_TEXTURE_2D, 0);
+  }
+  glBindVertexArray(0);
+  glUseProgram(0);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  out.timing.blend_ms = ms_since(t0);
+  if (auto e = gl_error_message("Compositor::compose_gl"); !e.empty()) return Error{e};
+  out.timing.total_ms = ms_since(t_start);
+  result = std::move(out);
+  return {};
+}
+
+Eigen::Vector2d Compositor::gpu_model_chroma_for_test() {
+  Impl& im = *impl_;
+  if (!im.gpu || !im.gpu->error.empty()) return Eigen::Vector2d::Constant(std::nan(""));
+  GpuPath& g = *im.gpu;
+  if (g.model_reset) return im.segmenter.model_chroma();  // the seed, not uploaded yet
+  float px[4] = {0, 0, 0, 0};
+  glBindFramebuffer(GL_FRAMEBUFFER, g.fb_model[g.cur_model].id());
+  glReadPixels(0, 0, 1, 1, GL_RGBA, GL_FLOAT, px);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  return {px[0], px[1]};
 }
 
 }  // namespace dentar::ar

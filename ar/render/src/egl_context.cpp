@@ -254,7 +254,92 @@ std::string egl_error_string(int code) {
   return buf;
 }
 
+namespace {
+
+// Shared mode: a context on the window's display, sharing with its context,
+// made current. Returns the error, or empty with the three handles set.
+std::string create_shared(const EglContextOptions& o, void*& display_out, void*& context_out,
+                          void*& surface_out) {
+  auto dpy = static_cast<EGLDisplay>(o.share_display);
+  auto share = static_cast<EGLContext>(o.share_context);
+  if (share == EGL_NO_CONTEXT)
+    return std::string("shared EGL context: share_display given without share_context");
+  EGLint api = 0, config_id = 0, version = 0;
+  if (!eglQueryContext(dpy, share, EGL_CONTEXT_CLIENT_TYPE, &api))
+    return std::string("shared EGL context: eglQueryContext(share_context) failed: " + last_egl_error() +
+                 " (is it a context of that display?)");
+  if (api != EGL_OPENGL_ES_API)
+    return std::string("shared EGL context: the window's context is not OpenGL ES (it is desktop "
+                       "OpenGL); the compositor needs OpenGL ES 3");
+  eglQueryContext(dpy, share, EGL_CONTEXT_CLIENT_VERSION, &version);
+  if (version < 3)
+    return std::string("shared EGL context: the window's context is OpenGL ES " + std::to_string(version) +
+                 "; sharing needs OpenGL ES 3");
+  if (!eglQueryContext(dpy, share, EGL_CONFIG_ID, &config_id))
+    return std::string("shared EGL context: no EGL_CONFIG_ID on the window's context: " + last_egl_error());
+  const EGLint by_id[] = {EGL_CONFIG_ID, config_id, EGL_NONE};
+  EGLConfig config = nullptr;
+  EGLint n = 0;
+  if (!eglChooseConfig(dpy, by_id, &config, 1, &n) || n < 1)
+    return std::string("shared EGL context: the window's config " + std::to_string(config_id) +
+                 " cannot be found: " + last_egl_error());
+  if (!eglBindAPI(EGL_OPENGL_ES_API))
+    return std::string("shared EGL context: eglBindAPI(EGL_OPENGL_ES_API) failed: " + last_egl_error());
+  const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION, o.gles_major, EGL_CONTEXT_MINOR_VERSION,
+                            o.gles_minor, EGL_NONE};
+  EGLContext ctx = eglCreateContext(dpy, config, share, attribs);
+  if (ctx == EGL_NO_CONTEXT)
+    return std::string("shared EGL context: eglCreateContext(OpenGL ES " + std::to_string(o.gles_major) +
+                 "." + std::to_string(o.gles_minor) + ", shared with the window's) failed: " +
+                 last_egl_error());
+  EGLSurface surf = EGL_NO_SURFACE;
+  if (!has_extension(eglQueryString(dpy, EGL_EXTENSIONS), "EGL_KHR_surfaceless_context")) {
+    // A 1x1 pbuffer to be current on: we draw into FBOs only.
+    const EGLint pb_cfg[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_ES3_BIT, EGL_SURFACE_TYPE,
+                             EGL_PBUFFER_BIT, EGL_NONE};
+    EGLConfig pc = nullptr;
+    EGLint pn = 0;
+    const EGLint pb_attr[] = {EGL_WIDTH, 1, EGL_HEIGHT, 1, EGL_NONE};
+    if (eglChooseConfig(dpy, pb_cfg, &pc, 1, &pn) && pn > 0)
+      surf = eglCreatePbufferSurface(dpy, pc, pb_attr);
+    if (surf == EGL_NO_SURFACE) {
+      eglDestroyContext(dpy, ctx);
+      return std::string("shared EGL context: the window's display has neither "
+                   "EGL_KHR_surfaceless_context nor a pbuffer config: " + last_egl_error());
+    }
+  }
+  if (!eglMakeCurrent(dpy, surf, surf, ctx)) {
+    const std::string e = last_egl_error();
+    if (surf != EGL_NO_SURFACE) eglDestroySurface(dpy, surf);
+    eglDestroyContext(dpy, ctx);
+    return std::string("shared EGL context: eglMakeCurrent failed: " + e);
+  }
+  display_out = dpy;
+  context_out = ctx;
+  surface_out = surf;
+  return {};
+}
+
+}  // namespace
+
 Result<EglContext> EglContext::create(const EglContextOptions& options) {
+  if (options.share_display != nullptr) {
+    EglContext c;
+    void *d = nullptr, *x = nullptr, *s = nullptr;
+    if (std::string e = create_shared(options, d, x, s); !e.empty()) return Error{e};
+    c.display_ = d;
+    c.context_ = x;
+    c.surface_ = s;
+    c.owns_display_ = false;
+    c.platform_ = EglPlatform::kAuto;
+    auto str = [](GLenum name) {
+      const auto* p = reinterpret_cast<const char*>(glGetString(name));
+      return std::string(p != nullptr ? p : "?");
+    };
+    c.renderer_ = str(GL_RENDERER);
+    c.version_ = str(GL_VERSION);
+    return c;
+  }
   std::vector<EglPlatform> order;
   EglPlatform requested = options.platform;
   if (requested == EglPlatform::kAuto) {
@@ -302,6 +387,8 @@ Result<EglContext> EglContext::create(const EglContextOptions& options) {
 EglContext::EglContext(EglContext&& o) noexcept
     : display_(std::exchange(o.display_, nullptr)),
       context_(std::exchange(o.context_, nullptr)),
+      surface_(std::exchange(o.surface_, nullptr)),
+      owns_display_(o.owns_display_),
       platform_(o.platform_),
       renderer_(std::move(o.renderer_)),
       version_(std::move(o.version_)) {}
@@ -311,6 +398,8 @@ EglContext& EglContext::operator=(EglContext&& o) noexcept {
     reset();
     display_ = std::exchange(o.display_, nullptr);
     context_ = std::exchange(o.context_, nullptr);
+    surface_ = std::exchange(o.surface_, nullptr);
+    owns_display_ = o.owns_display_;
     platform_ = o.platform_;
     renderer_ = std::move(o.renderer_);
     version_ = std::move(o.version_);
@@ -328,20 +417,24 @@ void EglContext::reset() noexcept {
     }
     eglDestroyContext(display_, context_);
   }
-  release_display(display_);
+  if (surface_ != nullptr) eglDestroySurface(display_, surface_);
+  if (owns_display_) release_display(display_);
   display_ = nullptr;
   context_ = nullptr;
+  surface_ = nullptr;
 }
 
 Status EglContext::make_current() const {
   if (display_ == nullptr) return Error{"EglContext::make_current: the context was moved from"};
-  if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_)) {
+  if (!eglMakeCurrent(display_, surface_, surface_, context_)) {
     return Error{"eglMakeCurrent failed: " + last_egl_error()};
   }
   return {};
 }
 
 std::string EglContext::description() const {
+  if (!owns_display_)
+    return "shared with the window's context (its EGL display), " + renderer_ + ", " + version_;
   return std::string(egl_platform_name(platform_)) + ", " + renderer_ + ", " + version_;
 }
 

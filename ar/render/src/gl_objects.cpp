@@ -41,6 +41,28 @@ Texture make_texture() {
   return Texture(id);
 }
 
+Texture make_texture_2d(GLenum internal_format, int width_px, int height_px) {
+  Texture t = make_texture();
+  glBindTexture(GL_TEXTURE_2D, t.id());
+  glTexStorage2D(GL_TEXTURE_2D, 1, internal_format, width_px, height_px);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  return t;
+}
+
+std::string full_screen_triangle_vertex_shader(bool far_plane) {
+  // Vertices (-1,-1), (3,-1), (-1,3): the viewport is inside, clipped once.
+  return std::string(R"(#version 300 es
+void main() {
+  vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
+  gl_Position = vec4(p, )") +
+         (far_plane ? "1.0" : "0.0") + R"(, 1.0);
+}
+)";
+}
+
 std::string gl_error_message(std::string_view where) {
   std::string msg;
   for (GLenum e = glGetError(); e != GL_NO_ERROR; e = glGetError()) {

@@ -42,15 +42,9 @@ void main() {
 }
 )";
 
-// Full-screen triangle; each output pixel looks up where it samples the
-// pinhole canvas. Map and canvas have no mipmaps; the map is fetched exactly.
-constexpr const char* kWarpVertex = R"(#version 300 es
-void main() {
-  vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
-  gl_Position = vec4(p, 0.0, 1.0);
-}
-)";
-
+// Drawn with the full-screen triangle; each output pixel looks up where it
+// samples the pinhole canvas. Map and canvas have no mipmaps; the map is
+// fetched exactly.
 constexpr const char* kWarpFragment = R"(#version 300 es
 precision highp float;
 uniform highp sampler2D u_map;  // RG32F: canvas texture coordinate, or negative
@@ -219,7 +213,7 @@ Result<Renderer> Renderer::create(const calibration::CameraIntrinsics& camera,
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   glBindTexture(GL_TEXTURE_2D, 0);
 
-  auto prog = link_program(kWarpVertex, kWarpFragment, "distortion warp");
+  auto prog = link_program(full_screen_triangle_vertex_shader(), kWarpFragment, "distortion warp");
   if (!prog) return Error{prog.error()};
   r.warp_program_ = std::move(prog).value();
   glUseProgram(r.warp_program_.id());

@@ -15,70 +15,38 @@
 #include "dentar/ar/camera_model.h"
 #include "dentar/ar/synth.h"
 #include "dentar/volume/procedural_tooth.h"
+#include "composite_test_util.h"
 #include "gl_test_context.h"
 
 namespace dentar::ar {
 namespace {
 
-// The generator's tooth before any cut (the scripted drilling starts after
-// the first second, so the early frames see this mesh).
-struct Tooth {
-  std::optional<volume::VoxelVolume> volume;
-  std::unique_ptr<volume::Surface> surface;
-  explicit Tooth(double voxel_m) {
-    volume::MolarParams p;
-    p.voxel_mm = voxel_m * 1e3;
-    auto v = volume::make_molar(p);
-    EXPECT_TRUE(v.ok()) << v.error();
-    volume.emplace(std::move(v).value());
-    surface = std::make_unique<volume::Surface>(*volume);
-    surface->extract_all();
-  }
-};
+using test::finger_across_tooth;
+using test::ToothFootage;
+using test::truth_input;
 
-CompositeInput truth_input(const SynthFrame& f) {
-  CompositeInput in;
-  in.video_bgr = &f.image;
-  in.man_valid = true;
-  in.T_cam_man = f.truth.T_cam_man;
-  in.mirror_valid = true;
-  in.T_cam_mtag = f.truth.T_cam_mtag;
-  in.stylus_valid = true;
-  in.T_dev_sty = f.truth.T_dev_sty;
-  return in;
-}
-
-// Frames 0, 6, ..., 24 of `standard` at 640x480 (before the first cut).
-std::vector<SynthFrame> standard_frames(std::unique_ptr<SynthGenerator>& gen) {
+// Frames 0, 6, ..., 24 of `standard` at 640x480 (before the first cut), and
+// the generator's tooth.
+ToothFootage standard_footage() {
   SynthOptions o = synth_preset(SynthPreset::kStandard);
   o.frames = 25;
-  auto g = SynthGenerator::create(default_station_scene(), o);
-  EXPECT_TRUE(g.ok()) << g.error();
-  gen = std::move(g).value();
-  std::vector<SynthFrame> frames;
-  for (int i = 0; i < o.frames; ++i) {
-    SynthFrame f;
-    EXPECT_TRUE(gen->next(f).ok());
-    if (i % 6 == 0) frames.push_back(f);
-  }
-  return frames;
+  return test::tooth_footage(default_station_scene(), o, 6);
 }
 
 TEST(CompositorGl, RegistrationMatchesTruthSilhouette) {
   DENTAR_GL_TEST_CONTEXT();
-  std::unique_ptr<SynthGenerator> gen;
-  const auto frames = standard_frames(gen);
-  Tooth tooth(gen->station().tooth_voxel_m);
+  const ToothFootage fo = standard_footage();
+  ASSERT_EQ(fo.error, "");
   CompositorOptions o;  // occlusion off: the whole silhouette
   o.phantoms = false;
   o.segmentation = false;
   o.mirror = false;
   o.draw_bur = false;
-  auto comp = Compositor::create(gen->station(), o);
+  auto comp = Compositor::create(fo.station, o);
   ASSERT_TRUE(comp.ok()) << comp.error();
-  for (const auto& f : frames) {
+  for (const auto& f : fo.frames) {
     CompositeResult r;
-    ASSERT_TRUE(comp->compose(*tooth.surface, truth_input(f), r).ok());
+    ASSERT_TRUE(comp->compose(*fo.tooth->surface, truth_input(f), r).ok());
     ASSERT_TRUE(r.overlay_drawn);
     const cv::Mat truth = f.mask != 0;
     ASSERT_GT(cv::countNonZero(truth), 200) << "frame " << f.truth.frame;
@@ -86,7 +54,7 @@ TEST(CompositorGl, RegistrationMatchesTruthSilhouette) {
     std::printf("[ registration ] frame %d: IoU %.4f, boundary F %.4f, level %d\n", f.truth.frame,
                 s.iou, s.boundary_f, r.lod_level);
     EXPECT_GE(s.iou, 0.98) << "frame " << f.truth.frame << " level " << r.lod_level;
-    auto sil = gen->render_tooth_silhouette(f.truth.T_cam_tooth);
+    auto sil = fo.gen->render_tooth_silhouette(f.truth.T_cam_tooth);
     ASSERT_TRUE(sil.ok()) << sil.error();
     EXPECT_GE(compare_masks(r.tooth_visible > 127, *sil).iou, 0.98) << "frame " << f.truth.frame;
     // The overlay changed the image only inside the reported region.
@@ -103,17 +71,16 @@ TEST(CompositorGl, RegistrationMatchesTruthSilhouette) {
 
 TEST(CompositorGl, RegistrationHoldsWithLevelOfDetail) {
   DENTAR_GL_TEST_CONTEXT();
-  std::unique_ptr<SynthGenerator> gen;
-  const auto frames = standard_frames(gen);
-  Tooth tooth(gen->station().tooth_voxel_m);
+  const ToothFootage fo = standard_footage();
+  ASSERT_EQ(fo.error, "");
   CompositorOptions o;
   o.phantoms = o.segmentation = o.mirror = o.draw_bur = false;
   o.triangle_budget = 60000;  // forces a coarser level than the full ~150k
-  auto comp = Compositor::create(gen->station(), o);
+  auto comp = Compositor::create(fo.station, o);
   ASSERT_TRUE(comp.ok()) << comp.error();
-  for (const auto& f : frames) {
+  for (const auto& f : fo.frames) {
     CompositeResult r;
-    ASSERT_TRUE(comp->compose(*tooth.surface, truth_input(f), r).ok());
+    ASSERT_TRUE(comp->compose(*fo.tooth->surface, truth_input(f), r).ok());
     const auto tris = comp->lod_triangle_counts();
     ASSERT_EQ(tris.size(), 4u);
     EXPECT_GT(r.lod_level, 0);
@@ -126,15 +93,14 @@ TEST(CompositorGl, RegistrationHoldsWithLevelOfDetail) {
 
 TEST(CompositorGl, OcclusionMatchesTruthMask) {
   DENTAR_GL_TEST_CONTEXT();
-  std::unique_ptr<SynthGenerator> gen;
-  const auto frames = standard_frames(gen);
-  Tooth tooth(gen->station().tooth_voxel_m);
-  auto comp = Compositor::create(gen->station());
+  const ToothFootage fo = standard_footage();
+  ASSERT_EQ(fo.error, "");
+  auto comp = Compositor::create(fo.station);
   ASSERT_TRUE(comp.ok()) << comp.error();
   int hidden_frames = 0;
-  for (const auto& f : frames) {
+  for (const auto& f : fo.frames) {
     CompositeResult r;
-    ASSERT_TRUE(comp->compose(*tooth.surface, truth_input(f), r).ok());
+    ASSERT_TRUE(comp->compose(*fo.tooth->surface, truth_input(f), r).ok());
     const cv::Mat truth = f.mask == kMaskToothVisible;
     const MaskScore s = compare_masks(r.tooth_visible > 127, truth);
     // Without phantoms the hidden part would count: occlusion must be doing work.
@@ -154,34 +120,24 @@ TEST(CompositorGl, OcclusionMatchesTruthMask) {
 // it): the segmenter must cut it out of the tooth.
 TEST(CompositorGl, OcclusionHidesTheToothBehindAFinger) {
   DENTAR_GL_TEST_CONTEXT();
-  std::unique_ptr<SynthGenerator> gen;
-  auto frames = standard_frames(gen);
-  Tooth tooth(gen->station().tooth_voxel_m);
-  auto comp = Compositor::create(gen->station());
+  ToothFootage fo = standard_footage();
+  ASSERT_EQ(fo.error, "");
+  auto comp = Compositor::create(fo.station);
   ASSERT_TRUE(comp.ok()) << comp.error();
   CompositorOptions no_seg;
   no_seg.segmentation = false;
-  auto comp_off = Compositor::create(gen->station(), no_seg);
+  auto comp_off = Compositor::create(fo.station, no_seg);
   ASSERT_TRUE(comp_off.ok()) << comp_off.error();
   int k = 0;
-  for (auto& f : frames) {
-    const cv::Moments mo = cv::moments(f.mask == kMaskToothVisible, true);
-    ASSERT_GT(mo.m00, 100);
-    const Eigen::Vector2d c(mo.m10 / mo.m00, mo.m01 / mo.m00);
-    const double ang = 0.7 + 1.3 * k++;
-    const Eigen::Vector2d dir(std::cos(ang), std::sin(ang));
-    const double size = std::sqrt(mo.m00);
-    SyntheticFinger fi;
-    fi.a_px = c + 0.1 * size * dir;
-    fi.b_px = c + 3.0 * size * dir;
-    fi.radius_px = 0.3 * size;
-    fi.seed = static_cast<unsigned>(k);
-    const cv::Mat finger = paint_synthetic_finger(f.image, fi);
+  for (auto& f : fo.frames) {
+    const auto fi = finger_across_tooth(f.mask, k++, 100);
+    ASSERT_TRUE(fi.has_value()) << "frame " << f.truth.frame << ": the tooth is hardly visible";
+    const cv::Mat finger = paint_synthetic_finger(f.image, *fi);
     const cv::Mat truth = (f.mask == kMaskToothVisible) & ~finger;
     ASSERT_GT(cv::countNonZero((f.mask == kMaskToothVisible) & finger), 30);
     CompositeResult r, r_off;
-    ASSERT_TRUE(comp->compose(*tooth.surface, truth_input(f), r).ok());
-    ASSERT_TRUE(comp_off->compose(*tooth.surface, truth_input(f), r_off).ok());
+    ASSERT_TRUE(comp->compose(*fo.tooth->surface, truth_input(f), r).ok());
+    ASSERT_TRUE(comp_off->compose(*fo.tooth->surface, truth_input(f), r_off).ok());
     const MaskScore s = compare_masks(r.tooth_visible > 127, truth);
     const MaskScore s_off = compare_masks(r_off.tooth_visible > 127, truth);
     std::printf("[ finger ] frame %d: IoU %.4f (segmentation off: %.4f), boundary F %.4f\n",

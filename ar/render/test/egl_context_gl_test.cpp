@@ -146,6 +146,46 @@ TEST(RenderTarget, ReadbackRowZeroIsTheTop) {
   EXPECT_EQ(gl_error_message("readback"), "");
 }
 
+// Shared mode (the live display's): a context on another context's display
+// sees its objects; the display is not terminated by the shared one; a
+// missing share context is a clear error.
+TEST(EglContext, SharedContextSeesTheOthersObjects) {
+  DENTAR_GL_TEST_CONTEXT();
+  {
+    auto a = EglContext::create();
+    ASSERT_TRUE(a.ok()) << a.error();
+    GLuint tex = 0;
+    glGenTextures(1, &tex);
+    glBindTexture(GL_TEXTURE_2D, tex);
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, 4, 4);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    glFinish();
+    EglContextOptions o;
+    o.share_display = a->native_display();
+    o.share_context = a->native_context();
+    {
+      auto b = EglContext::create(o);
+      ASSERT_TRUE(b.ok()) << b.error();
+      EXPECT_TRUE(b->shared());
+      EXPECT_NE(b->description().find("shared"), std::string::npos) << b->description();
+      EXPECT_TRUE(glIsTexture(tex)) << "the shared context does not see the first one's texture";
+      auto c = EglContext::create();  // not shared: its own display and names
+      ASSERT_TRUE(c.ok()) << c.error();
+      EXPECT_FALSE(c->shared());
+      EXPECT_FALSE(glIsTexture(tex));
+    }
+    // The first context still works after the shared one is gone.
+    ASSERT_TRUE(a->make_current().ok());
+    EXPECT_TRUE(glIsTexture(tex));
+    glDeleteTextures(1, &tex);
+    o.share_context = nullptr;
+    auto bad = EglContext::create(o);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().find("share_context"), std::string::npos) << bad.error();
+  }
+  ASSERT_TRUE(test::gl_test_context().context->make_current().ok());
+}
+
 TEST(RenderTarget, RejectsImpossibleSize) {
   DENTAR_GL_TEST_CONTEXT();
   auto t = RenderTarget::create(0, 480);

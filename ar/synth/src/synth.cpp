@@ -15,6 +15,7 @@
 
 #include "dentar/ar/camera_model.h"
 #include "dentar/ar/renderer.h"
+#include "dentar/ar/srgb.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/simulated_device.h"
@@ -276,6 +277,13 @@ struct SynthGenerator::Impl {
   std::unique_ptr<CameraModel> camera;
   std::optional<TagFamily> family;
   std::optional<Renderer> renderer;
+  // Video pass with lens distortion (generator v2): the pinhole canvas is
+  // rendered undistorted (this renderer, renderer's canvas camera) and
+  // resampled through the distortion map in linear light (`distort_map`,
+  // CV_32FC2), not on the encoded values as Renderer does (which darkened
+  // the edges: tag outlines -0.10 px). Empty without distortion.
+  std::optional<Renderer> video_renderer;
+  cv::Mat distort_map;
   std::optional<synth::SceneProgram> program;
   std::optional<ToothRenderer> tooth_renderer;
 
@@ -313,6 +321,7 @@ struct SynthGenerator::Impl {
   V3d mirror_out_dir = V3d::UnitZ();  // man frame
 
   cv::Mat vignette;  // CV_32F gain map
+  cv::Mat linear;    // scratch: the frame in linear light (CV_32FC3)
   int frame = 0;
 
   // Scene state at one instant.
@@ -463,8 +472,9 @@ struct SynthGenerator::Impl {
   // What the camera sees (video pass).
   void draw_video(const State& s) {
     const auto& c = station.calibration;
-    renderer->begin_frame(Eigen::Vector4f(0.5f, 0.5f, 0.5f, 1.0f));
-    const auto& P = renderer->clip_from_cam();
+    Renderer& vr = video_renderer ? *video_renderer : *renderer;
+    vr.begin_frame(Eigen::Vector4f(kVideoClear, kVideoClear, kVideoClear, 1.0f));
+    const auto& P = vr.clip_from_cam();
     using M = synth::SceneProgram::Mode;
     // Head lamp just above the camera; operating light above and in front.
     program->begin(Eigen::Vector3f(0.0f, -0.3f, -1.0f), light_cam(s, V3d(0.1, 1.0, 0.6)));
@@ -486,8 +496,25 @@ struct SynthGenerator::Impl {
       const Iso T = (g.on_mirror ? T_cam_mtag : s.T_cam_man) * g.placement->T_parent_tag;
       program->draw(g.quad, P, T, M::kTextured, {}, g.texture.id(), false);
     }
-    renderer->end_frame();
+    vr.end_frame();
   }
+
+  // The video pass just drawn, in linear light (CV_32FC3 BGR, camera size):
+  // the distortion resampling happens here, in linear light.
+  void read_video_linear(cv::Mat& lin) {
+    if (!video_renderer) {
+      renderer->read_bgr(video8);
+      cv::LUT(video8, srgb_decode_table(), lin);
+      return;
+    }
+    video_renderer->read_bgr(video8);
+    cv::LUT(video8, srgb_decode_table(), canvas_linear);
+    const float clear = srgb_decode_table().at<float>(0, static_cast<int>(std::lround(kVideoClear * 255)));
+    cv::remap(canvas_linear, lin, distort_map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+              cv::Scalar::all(clear));
+  }
+  static constexpr float kVideoClear = 0.5f;  // background grey (sRGB) where nothing is drawn
+  cv::Mat video8, canvas_linear;             // scratch
 
   // Id passes. m1: red = tooth silhouette alone; green/blue = tags alone.
   // m2: everything real plus the tooth: red where the tooth is frontmost,
@@ -587,19 +614,28 @@ struct SynthGenerator::Impl {
     return true;
   }
 
+  // The sensor: the lens blurs light (linear: the encoded image is decoded,
+  // blurred and encoded again, generator v2; v1 blurred the encoded values,
+  // which moved blurred edges), then gain, vignetting and noise act on the
+  // encoded digital numbers.
   void post_process(cv::Mat& bgr, double gain, int frame_index) {
-    if (opt.optical_blur_px > 0) cv::GaussianBlur(bgr, bgr, cv::Size(0, 0), opt.optical_blur_px);
+    const bool blur = opt.optical_blur_px > 0;
+    if (blur) {
+      cv::LUT(bgr, srgb_decode_table(), linear);
+      cv::GaussianBlur(linear, linear, cv::Size(0, 0), opt.optical_blur_px);
+    }
     Noise rng(opt.seed * 1000003ull + static_cast<std::uint64_t>(frame_index) + 17);
     const float read2 = static_cast<float>(opt.read_noise_dn * opt.read_noise_dn);
     const float shot = static_cast<float>(opt.shot_noise_gain);
     const bool noisy = read2 > 0 || shot > 0;
     for (int v = 0; v < bgr.rows; ++v) {
       auto* p = bgr.ptr<std::uint8_t>(v);
+      const float* lp = blur ? linear.ptr<float>(v) : nullptr;
       const float* vg = vignette.ptr<float>(v);
       for (int u = 0; u < bgr.cols; ++u) {
         const float g = static_cast<float>(gain) * vg[u];
         for (int ch = 0; ch < 3; ++ch) {
-          float x = p[3 * u + ch] * g;
+          float x = (blur ? synth::srgb_encode_dn(lp[3 * u + ch]) : p[3 * u + ch]) * g;
           if (noisy) x += std::sqrt(read2 + shot * std::max(x, 0.0f)) * rng.gauss();
           p[3 * u + ch] = static_cast<std::uint8_t>(std::clamp(std::lround(x), 0L, 255L));
         }
@@ -655,6 +691,20 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
   auto r = Renderer::create(k, ro);
   if (!r) return Error{r.error()};
   im.renderer.emplace(std::move(r).value());
+  if (im.renderer->distorted()) {
+    RendererOptions vo = ro;
+    vo.apply_distortion = false;
+    auto v = Renderer::create(im.renderer->draw_intrinsics(), vo);
+    if (!v) return Error{"video canvas: " + v.error()};
+    im.video_renderer.emplace(std::move(v).value());
+    const auto& map_px = im.renderer->undistorted_view().map_px;
+    im.distort_map.create(k.height, k.width, CV_32FC2);
+    for (int v2 = 0; v2 < k.height; ++v2)
+      for (int u = 0; u < k.width; ++u) {
+        const Eigen::Vector2f p = map_px[static_cast<std::size_t>(v2) * k.width + u];
+        im.distort_map.at<cv::Vec2f>(v2, u) = std::isnan(p.x()) ? cv::Vec2f(-100.f, -100.f) : cv::Vec2f(p.x(), p.y());
+      }
+  }
   auto prog = synth::SceneProgram::create();
   if (!prog) return Error{prog.error()};
   im.program.emplace(std::move(prog).value());
@@ -875,21 +925,37 @@ Status SynthGenerator::next(SynthFrame& out) {
   if (im.opt.motion_blur) {
     const int K = im.opt.blur_subframes;
     const double exposure = im.opt.shutter_fraction / im.opt.fps;
-    cv::Mat acc(H, W, CV_32FC3, cv::Scalar::all(0)), sub;
+    // The sensor integrates light: sub-frames are averaged in linear light
+    // (generator v2; v1 averaged the encoded values).
+    cv::Mat acc(H, W, CV_32FC3, cv::Scalar::all(0)), lin;
     for (int j = 0; j < K; ++j) {
       const double ts = std::max(0.0, t + (static_cast<double>(j) / (K - 1) - 0.5) * exposure);
       Impl::State s = im.state_at(ts);
       if (j == K / 2) mid = s;
       im.draw_video(s);
-      im.renderer->read_bgr(sub);
-      cv::accumulate(sub, acc);
+      im.read_video_linear(lin);
+      acc += lin;
     }
-    acc.convertTo(out.image, CV_8UC3, 1.0 / K);
+    out.image.create(H, W, CV_8UC3);
+    const float inv_k = 1.0f / static_cast<float>(K);
+    for (int v = 0; v < H; ++v) {
+      const float* a = acc.ptr<float>(v);
+      auto* o8 = out.image.ptr<std::uint8_t>(v);
+      for (int i = 0; i < 3 * W; ++i)
+        o8[i] = static_cast<std::uint8_t>(std::clamp(std::lround(synth::srgb_encode_dn(a[i] * inv_k)), 0L, 255L));
+    }
   } else {
     mid = im.state_at(t);
     im.draw_video(mid);
-    im.renderer->read_bgr(out.image);
-    out.image = out.image.clone();
+    cv::Mat lin;
+    im.read_video_linear(lin);
+    out.image.create(H, W, CV_8UC3);
+    for (int v = 0; v < H; ++v) {
+      const float* a = lin.ptr<float>(v);
+      auto* o8 = out.image.ptr<std::uint8_t>(v);
+      for (int i = 0; i < 3 * W; ++i)
+        o8[i] = static_cast<std::uint8_t>(std::clamp(std::lround(synth::srgb_encode_dn(a[i])), 0L, 255L));
+    }
   }
   const double gain = im.exposure_gain(t);
   const bool glare = im.add_glare(out.image, mid, t);
@@ -1103,6 +1169,7 @@ Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& 
   nlohmann::json meta;
   meta["format"] = "dentar-synth";
   meta["version"] = 1;
+  meta["generator"] = kSynthGeneratorVersion;
   meta["preset"] = synth_preset_name(o.preset);
   meta["frames"] = o.frames;
   meta["fps"] = o.fps;

@@ -2,6 +2,10 @@
 
 #include <GLES3/gl3.h>
 
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
 namespace dentar::ar::synth {
 using V3 = Eigen::Vector3f;
 namespace {
@@ -27,7 +31,7 @@ void main() {
 )";
 
 // Modes: 0 lit vertex colour, 1 lit and multiplied by the tag texture
-// (printed ink reflects ~5 %), 2 flat id colour, 3 mirror (a blurred
+// (printed ink reflects ~5 %; the texture value is coverage), 2 flat id colour, 3 mirror (a blurred
 // environment: bright above, dark below, plus a strong highlight).
 constexpr const char* kFragment = R"(#version 300 es
 precision highp float;
@@ -52,7 +56,10 @@ void main() {
   if (!gl_FrontFacing) n = -n;
   vec3 view = normalize(-v_pos_cam);
   vec3 albedo = to_linear(v_rgb);
-  if (u_mode == 1) albedo *= 0.05 + 0.95 * to_linear(vec3(texture(u_tex, v_uv).r));
+  // The filtered texel is the ink's coverage of the pixel's footprint, so the
+  // reflectance is linear in it (generator v1 took it as sRGB: edges ~0.2 px
+  // into the white in linear light).
+  if (u_mode == 1) albedo *= 0.05 + 0.95 * texture(u_tex, v_uv).r;
   float d0 = max(dot(n, u_light0), 0.0), d1 = max(dot(n, u_light1), 0.0);
   float spec = pow(max(dot(n, normalize(u_light0 + view)), 0.0), 40.0);
   vec3 c = albedo * (0.22 + 0.5 * d0 + 0.45 * d1) + vec3(0.06 * spec);
@@ -116,6 +123,19 @@ void SceneProgram::draw(const GpuMesh& mesh, const Eigen::Matrix4d& clip_from_ca
   glBindVertexArray(mesh.vao.id());
   glDrawElements(GL_TRIANGLES, mesh.count, GL_UNSIGNED_INT, nullptr);
   glBindVertexArray(0);
+}
+
+float srgb_encode_dn(float linear) {
+  static const std::vector<float> table = [] {
+    std::vector<float> t(65536);
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const double c = static_cast<double>(i) / 65535.0;
+      t[i] = static_cast<float>(255.0 * (c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1 / 2.4) - 0.055));
+    }
+    return t;
+  }();
+  const float x = std::clamp(linear, 0.0f, 1.0f) * 65535.0f;
+  return table[static_cast<std::size_t>(x + 0.5f)];
 }
 
 Texture make_tag_texture(const cv::Mat& gray) {

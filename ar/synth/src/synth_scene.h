@@ -43,6 +43,11 @@ class SceneProgram {
         u_light0_ = -1, u_light1_ = -1;
 };
 
+// The sensor model works in linear light (generator v2): sRGB codes are
+// decoded with srgb_decode_table() (dentar/ar/srgb.h); linear [0, 1] ->
+// sRGB code as a float 0..255 (not rounded; 16-bit table).
+float srgb_encode_dn(float linear);
+
 // RGBA8 texture with mipmaps from a CV_8UC1 image (trilinear minification,
 // bilinear magnification: edges stay at their true positions).
 Texture make_tag_texture(const cv::Mat& gray);

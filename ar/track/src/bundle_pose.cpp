@@ -322,6 +322,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   const double wss = r.dot(w.asDiagonal() * r);  // = sum r^2 without down-weighted corners
   out.covariance_per_px2 = lu.inverse();
   out.noise_px2 = wss / dof;
+  out.noise_dof = static_cast<int>(dof);
   out.covariance = out.noise_px2 * out.covariance_per_px2;
   // Per-tag noise (sandwich): each tag's corners get their own noise
   // estimate, its residual sum over its residual degrees of freedom

@@ -25,4 +25,15 @@ PoseCovariance floored_covariance(const BundlePose& p, double floor_px) {
   return p.covariance_per_px2 * std::max(p.noise_px2, floor_px * floor_px);
 }
 
+double pooled_noise_px2(const BundlePose& body, const BundlePose* other) {
+  if (other == nullptr || !other->ok() || other->noise_dof <= 0 || body.noise_dof <= 0)
+    return body.noise_px2;
+  const double db = body.noise_dof, dother = other->noise_dof;
+  return (body.noise_px2 * db + other->noise_px2 * dother) / (db + dother);
+}
+
+PoseCovariance covariance_with_noise(const BundlePose& body, double noise_px2, double floor_px) {
+  return body.covariance_per_px2 * std::max(noise_px2, floor_px * floor_px);
+}
+
 }  // namespace dentar::ar

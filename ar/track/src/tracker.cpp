@@ -39,6 +39,7 @@ struct Body {
   double last_meas_time_s = 0;
   Eigen::Isometry3d last_meas = Eigen::Isometry3d::Identity();
   int frames_since_meas = 0;
+  int meas_in_track = 0;  // measurements since the filter was last reset (found again)
   TrackState state = TrackState::kLost;
   double max_sigma_m = 0;  // position uncertainty gate (0 = off)
   // The point whose position sigma is gated, in the body frame: the body
@@ -138,6 +139,8 @@ std::string TrackerOptions::validate() const {
     os << "mirror_max_sigma_m = " << mirror_max_sigma_m << " must be finite and >= 0 (0 = off)";
   else if (!(std::isfinite(max_prediction_drift_m) && max_prediction_drift_m >= 0))
     os << "max_prediction_drift_m = " << max_prediction_drift_m << " must be finite and >= 0 (0 = off)";
+  else if (hand_held_measurements_to_predict < 1 || hand_held_measurements_to_predict > 100)
+    os << "hand_held_measurements_to_predict = " << hand_held_measurements_to_predict << " must be in [1, 100]";
   else if (!(std::isfinite(max_prediction_turn_rad) && max_prediction_turn_rad >= 0))
     os << "max_prediction_turn_rad = " << max_prediction_turn_rad << " must be finite and >= 0 (0 = off)";
   else if (!(std::isfinite(min_motion_response) && min_motion_response >= 0 && min_motion_response < 1))
@@ -331,6 +334,7 @@ struct Tracker::Impl {
   // Merges a full-frame search's tags as measurements at its capture time
   // (see tracker.h, "Discovery"); now = this frame's index.
   void merge(const Discovered& d, std::int64_t now) {
+    noise_ref.reset();
     for (Body* b : {&mannequin, &mirror, &pen}) {
       if (b->bundle.tags.empty()) continue;
       if (b->has_measurement && b->last_meas_time_s >= d.capture_s) continue;  // fresher already
@@ -339,9 +343,14 @@ struct Tracker::Impl {
         prev = o.filter_enabled && b->filter.initialised() ? b->filter.predict(d.capture_s)
                                                             : b->last_meas;
       const BundlePose p = estimate_bundle_pose(b->bundle, camera, d.tags, o.pose, prev);
+      if (b == &mannequin) noise_ref = p;
       if (!(p.ok() && p.rms_px <= o.max_rms_px && precise_enough(*b, p))) continue;
-      if (b->state == TrackState::kLost) b->filter.reset();
+      if (b->state == TrackState::kLost) {
+        b->filter.reset();
+        b->meas_in_track = 0;
+      }
       b->filter.update(p.T_cam_body, d.capture_s);
+      ++b->meas_in_track;
       b->has_measurement = true;
       b->last_meas = p.T_cam_body;
       b->last_meas_time_s = d.capture_s;
@@ -466,13 +475,25 @@ struct Tracker::Impl {
     return {};
   }
 
+  // The mannequin's fit in the frame being processed (its corner noise is
+  // pooled into the other bodies', TrackerOptions::pool_noise); reset per
+  // frame and per merged search.
+  std::optional<BundlePose> noise_ref;
+
+  // The corner noise (px^2) behind b's covariance: its own residual
+  // estimate, or pooled with the mannequin's of the same frame.
+  double noise_px2(const Body& b, const BundlePose& p) const {
+    if (!o.pool_noise || &b == &mannequin || !noise_ref) return p.noise_px2;
+    return pooled_noise_px2(p, &*noise_ref);
+  }
   // Position sigma of the body's gate point (pose_uncertainty.h), the
   // corner noise floored at sigma_floor_px.
   double gate_sigma(const Body& b, const BundlePose& p) const {
     return o.sigma_per_tag ? per_tag_sigma(b, p) : uniform_sigma(b, p);
   }
   double uniform_sigma(const Body& b, const BundlePose& p) const {
-    return point_sigma_m(floored_covariance(p, o.sigma_floor_px), p.T_cam_body, b.gate_point);
+    return point_sigma_m(covariance_with_noise(p, noise_px2(b, p), o.sigma_floor_px), p.T_cam_body,
+                         b.gate_point);
   }
   double per_tag_sigma(const Body& b, const BundlePose& p) const {
     const double floor = point_sigma_m(p.covariance_per_px2 * (o.sigma_floor_px * o.sigma_floor_px),
@@ -497,13 +518,14 @@ struct Tracker::Impl {
     bool measured = false;
     if (!tags.empty()) {
       const BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, o.pose, prev);
+      if (&b == &mannequin) noise_ref = p;
       if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(b, p)) {
         measured = true;
         out.T_cam_body_measured = p.T_cam_body;
         out.rms_px = p.rms_px;
         out.tags_used = p.tags_used;
         out.tag_ids = p.tag_ids;
-        out.covariance = p.covariance;
+        out.covariance = p.covariance_per_px2 * noise_px2(b, p);
         out.sigma_m = uniform_sigma(b, p);
         out.sigma_per_tag_m = per_tag_sigma(b, p);
       }
@@ -511,8 +533,12 @@ struct Tracker::Impl {
     pose_ms += ms_since(t0);
     const auto t1 = Clock::now();
     if (measured) {
-      if (b.state == TrackState::kLost) b.filter.reset();  // no velocity from a stale track
+      if (b.state == TrackState::kLost) {  // no velocity from a stale track
+        b.filter.reset();
+        b.meas_in_track = 0;
+      }
       b.filter.update(out.T_cam_body_measured, capture_s);
+      ++b.meas_in_track;
       b.has_measurement = true;
       b.last_meas = out.T_cam_body_measured;
       b.last_meas_time_s = capture_s;
@@ -529,7 +555,10 @@ struct Tracker::Impl {
       if (o.filter_enabled && b.filter.initialised())
         drift = (b.filter.linear_velocity().norm() + 0.1 * b.filter.angular_velocity().norm()) * age;
       const bool drift_ok = o.max_prediction_drift_m <= 0 || drift <= o.max_prediction_drift_m;
-      if (b.has_measurement && age <= o.stale_limit_s && drift_ok &&
+      // A hand-held body found by one measurement has no velocity yet: the
+      // drift bound above would read 0 while the hand moves it.
+      const bool velocity_known = b.static_in_world || b.meas_in_track >= o.hand_held_measurements_to_predict;
+      if (b.has_measurement && age <= o.stale_limit_s && drift_ok && velocity_known &&
           prediction_matches_image(b, capture_s)) {
         b.state = TrackState::kPredicted;
       } else {
@@ -728,6 +757,7 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
   f.full_frame = full;
   f.tags_detected = static_cast<int>(tags.size());
 
+  m.noise_ref.reset();
   m.update_body(m.mannequin, tags, capture_time_s, display_time_s, f.mannequin, f.timing.pose_ms,
                 f.timing.filter_ms);
   if (!m.mirror.bundle.tags.empty())

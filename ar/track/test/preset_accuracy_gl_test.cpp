@@ -23,44 +23,14 @@
 #include "dentar/ar/pose_filter.h"
 #include "dentar/ar/synth.h"
 #include "dentar/ar/tracker.h"
+#include "accuracy_test_util.h"
 #include "gl_test_context.h"
 
 namespace dentar::ar {
 namespace {
 
 using Iso = Eigen::Isometry3d;
-
-double rot_deg(const Iso& a, const Iso& b) {
-  return rotation_log(a.linear() * b.linear().transpose()).norm() * 180 / M_PI;
-}
-double trans_mm(const Iso& a, const Iso& b) { return (a.translation() - b.translation()).norm() * 1e3; }
-double pct(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[static_cast<std::size_t>(std::min<double>(v.size() - 1, std::floor(p * v.size())))];
-}
-double mean(const std::vector<double>& v) {
-  double s = 0;
-  for (double x : v) s += x;
-  return v.empty() ? NAN : s / v.size();
-}
-
-struct Size {
-  int frames = 60, w = 640, h = 480;
-  bool is_default() const { return frames == 60 && w == 640 && h == 480; }
-};
-Size run_size() {
-  Size s;
-  if (const char* f = std::getenv("DENTAR_PRESET_FRAMES")) s.frames = std::max(5, std::atoi(f));
-  if (const char* z = std::getenv("DENTAR_PRESET_SIZE")) std::sscanf(z, "%dx%d", &s.w, &s.h);
-  return s;
-}
-
-struct Footage {
-  StationScene station;
-  std::vector<SynthFrame> frames;
-  std::string error;
-};
+using namespace test;  // accuracy_test_util.h: footage, run size, error figures
 
 // The default station (roof paddle on the mirror), or with the flat paddle
 // it had before issue 16 (MirrorPaddle::kFlat).
@@ -69,33 +39,10 @@ const Footage& footage(SynthPreset preset, MirrorPaddle paddle = MirrorPaddle::k
   const std::pair<int, int> key(static_cast<int>(preset), static_cast<int>(paddle));
   auto it = cache.find(key);
   if (it != cache.end()) return it->second;
-  Footage& f = cache[key];
-  const Size z = run_size();
-  SynthOptions o = synth_preset(preset);
-  o.frames = z.frames;
-  o.width = z.w;
-  o.height = z.h;
-  o.seed = 5;
-  o.bur_samples = 1000;
+  const SynthOptions o = accuracy_options(preset);
   StationScene st = default_station_scene();
   set_mirror_paddle(st, paddle);
-  auto g = SynthGenerator::create(st, o);
-  if (!g) {
-    f.error = g.error();
-    return f;
-  }
-  f.station = (*g)->station();
-  for (int i = 0; i < o.frames; ++i) {
-    SynthFrame s;
-    if (Status st = (*g)->next(s); !st) {
-      f.error = st.error();
-      return f;
-    }
-    s.mask.release();
-    s.image = s.image.clone();
-    f.frames.push_back(std::move(s));
-  }
-  return f;
+  return cache[key] = make_footage(st, o);
 }
 
 struct PresetRun {
@@ -186,10 +133,13 @@ struct Bound {
 
 TEST(PresetAccuracy, EveryPresetWithinItsBounds) {
   DENTAR_GL_TEST_CONTEXT();
-  const Size z = run_size();
+  const RunSize z = run_size();
   static const Bound kBounds[] = {
       {SynthPreset::kStandard, 1.0, 0.35, 0.4, 3.0},
-      {SynthPreset::kHard, 0.85, 1.0, 0.6, 3.0},
+      // hard: 90 % drawn on generator v1 footage; 76.7 % (0.735 mm p95) on
+      // v2's, whose tag edges are right in linear light (issue 16 third part:
+      // v1's outline bias had cancelled part of libapriltag's own error).
+      {SynthPreset::kHard, 0.72, 1.0, 0.6, 3.0},
       {SynthPreset::kMirror, 1.0, 0.4, 0.4, 3.0},
       {SynthPreset::kHand, 1.0, 0.35, 0.4, 3.0},
       {SynthPreset::kGlare, 1.0, 0.4, 0.4, 3.0},
@@ -199,7 +149,8 @@ TEST(PresetAccuracy, EveryPresetWithinItsBounds) {
       // 0.111 deg p95 (2026-11-25): in the other half too few tags stay in the
       // image for the 0.6 mm gate. Below the issue's 95 % goal; this bound
       // only guards against getting worse.
-      {SynthPreset::kOffFrame, 0.45, 0.45, 0.3, 3.0},
+      // Generator v2 (issue 16 third part): 50 % drawn, 0.600 mm / 0.138 deg p95.
+      {SynthPreset::kOffFrame, 0.45, 0.8, 0.3, 3.0},
   };
   std::printf("\n[ presets ] %dx%d, %d frames, seed 5, default tracker; drawn pose (filtered) vs truth\n",
               z.w, z.h, z.frames);
@@ -257,7 +208,7 @@ TEST(PresetAccuracy, MirrorGateHidesImpreciseReflections) {
 // on the same scenes: mirror centre error with and without the 1 mm gate.
 TEST(PresetAccuracy, MirrorRoofPaddleAgainstFlat) {
   DENTAR_GL_TEST_CONTEXT();
-  const Size z = run_size();
+  const RunSize z = run_size();
   std::printf("\n[ mirror ] %dx%d, %d frames, seed 5: mirror plane pose vs truth, ungated (and with the 1 mm gate)\n",
               z.w, z.h, z.frames);
   std::printf("| preset | paddle | tracked / in view | p50 mm / deg | p95 mm / deg | RMS sigma / RMS error mm | "
@@ -294,7 +245,17 @@ TEST(PresetAccuracy, MirrorRoofPaddleAgainstFlat) {
       EXPECT_LT(p50[1], 0.85 * p50[0]);
       EXPECT_LT(p95[1], 1.4 * p95[0]);
     }
-    if (p == SynthPreset::kHard) { EXPECT_LT(p95[1], 0.4 * p95[0]); }
+    // On `hard` the flat paddle's single tag flips, and each flip used to be
+    // predicted onward from that one measurement (ungated p95 104 mm, roof
+    // 14.8). Since a hand-held body is predicted only from its second
+    // measurement (TrackerOptions::hand_held_measurements_to_predict) the
+    // flat paddle measures 8.7 mm p95 and the roof still 14.8 (2026-11-26):
+    // the roof's lead on hard was those predictions. Neither passes the
+    // 1 mm gate. The bound guards against one-measurement predictions.
+    if (p == SynthPreset::kHard) {
+      EXPECT_LT(p95[0], 20.0);
+      EXPECT_LT(p95[1], 20.0);
+    }
   }
 }
 
@@ -475,19 +436,14 @@ std::vector<CornerSample> corner_samples(const Footage& fo, double shutter) {
 void print_bins(const char* what, const std::vector<CornerSample>& s,
                 double (*key)(const CornerSample&), std::vector<double> edges) {
   std::printf("| %s | corners | median err px | p95 err px | mean outward px |\n|---|---|---|---|---|\n", what);
-  edges.insert(edges.begin(), -1e9);
-  edges.push_back(1e9);
-  for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
+  for_each_bin(s, key, std::move(edges), [](double lo, double hi, const std::vector<const CornerSample*>& in) {
     std::vector<double> e, o;
-    for (const auto& c : s)
-      if (key(c) >= edges[b] && key(c) < edges[b + 1]) {
-        e.push_back(c.err_px);
-        o.push_back(c.outward_px);
-      }
-    if (e.empty()) continue;
-    std::printf("| [%g, %g) | %zu | %.3f | %.3f | %+.3f |\n", std::max(-1.0, edges[b]),
-                std::min(999.0, edges[b + 1]), e.size(), pct(e, 0.5), pct(e, 0.95), mean(o));
-  }
+    for (const CornerSample* c : in) {
+      e.push_back(c->err_px);
+      o.push_back(c->outward_px);
+    }
+    std::printf("| [%g, %g) | %zu | %.3f | %.3f | %+.3f |\n", lo, hi, e.size(), pct(e, 0.5), pct(e, 0.95), mean(o));
+  });
 }
 
 // Pose of the same detected tag set from the detected and from the true

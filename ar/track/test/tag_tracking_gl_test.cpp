@@ -50,6 +50,7 @@ Errors track_footage(SynthPreset preset, int frames, double fps, double decimati
   TagDetectorOptions dopt;
   dopt.families = {station.family};
   dopt.decimation = decimation;
+  dopt.response = CameraResponse::kSrgb;  // the generator's video is sRGB-encoded (v2)
   auto det = TagDetector::create(dopt);
   EXPECT_TRUE(det.ok()) << (det.ok() ? "" : det.error());
   if (!det.ok()) return e;

@@ -125,6 +125,10 @@ void scheduler_main() {
   auto next = std::chrono::steady_clock::now();
   while (s.run.load()) {
     next += std::chrono::microseconds(1000);
+    // Held off longer than a tick (a loaded machine, TSan): skip the missed
+    // ticks as a servo loop does, rather than running them back to back (a
+    // burst of ticks would pass an injected fault before any reader saw it).
+    if (const auto now = std::chrono::steady_clock::now(); now > next) next = now;
     std::this_thread::sleep_until(next);
     const long t = s.tick.load();
     double late_ms = 0;

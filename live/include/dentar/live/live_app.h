@@ -55,9 +55,24 @@ struct LiveOptions {
   int window_width = 0, window_height = 0;  // windowed size (0 = the camera's)
   bool hud = true;
   bool vsync = true;
+  // How the composite reaches the window. "gl": it stays on the GPU (the
+  // compositor draws into a texture shared with the window's context:
+  // compositor.h compose_gl, gl_handoff.h; no readback, no CPU blend), or
+  // falls back to "cpu" when shared contexts are unavailable (logged, and in
+  // the summary's display.note). "cpu": the CPU composite (compose) uploaded
+  // into the window each frame, as `dentar offline` makes it.
+  // "auto" (default): "gl" on a hardware renderer, "cpu" on a software one
+  // (llvmpipe, softpipe, SwiftShader: there the GL path measured slower and
+  // cost the engine deadlines, docs/BENCHMARKS.md); the renderer is read
+  // from a throw-away EGL context before the window opens.
+  std::string display_path = "auto";
   std::string record_dir;  // empty = no recording
   std::string exercise;    // exercise the session is for (recorded in recording.json; scored by the driver)
   double seconds = 0;      // stop after this long (0 = until closed)
+  // Stop once this many new frames have been shown (0 = no limit). A run
+  // sized in frames does the same work on a fast or a slow machine (tests,
+  // benchmarks); `seconds` still bounds it when both are given.
+  std::int64_t frames = 0;
   bool loop = false;       // live:PATH footage: play it again at its end (long runs, benchmarks)
   int engine_cpu = -2;     // -2 = the last CPU; -1 = no pinning
   bool realtime = true;    // SCHED_FIFO + mlockall
@@ -76,6 +91,7 @@ struct LiveOptions {
   std::int64_t stall_after_frames = 0;  // the camera delivers nothing for stall_s after this many frames
   double stall_s = 0;
   std::string summary_path;  // also write the summary JSON here
+  bool window_glx_for_test = false;  // make the window's context with GLX (cannot share): the fallback
   bool quiet = false;
   std::string validate() const;
 };
@@ -84,6 +100,9 @@ struct LiveSummary {
   std::int64_t frames_captured = 0, frames_processed = 0, frames_displayed = 0;
   std::int64_t dropped_source = 0, dropped_consumer = 0, camera_reopens = 0;
   double wall_s = 0, displayed_fps = 0;
+  // Why the run ended: "window closed", "SIGINT", "SIGTERM", "time limit",
+  // "frame limit" or "footage ended" (as recording.json's stop_reason).
+  std::string stop_reason;
   // Capture (Frame::steady_s) to buffer swap, per frame on its first display, ms.
   double latency_p50_ms = 0, latency_p99_ms = 0, latency_max_ms = 0;
   double process_p50_ms = 0, process_p99_ms = 0;
@@ -101,17 +120,32 @@ struct LiveSummary {
   // (sampled once a second), MB; 0 in runs shorter than a minute.
   double rss_60s_mb = 0, rss_max_after_60s_mb = 0;
   int overlay_hidden_ms_after_stall = -1;  // measured with the stall hook
+  // The camera's silence at the window check before the one that hid the
+  // overlay, ms: below the 150 ms threshold when the overlay was hidden at
+  // the first check after it (how far past 200 ms a held-off window loop
+  // went is then the machine's, not the logic's).
+  int stall_previous_check_ms = -1;
   // Station health at the end (station_health.h): "level: check: message" per item.
   std::vector<std::string> station_health;
   bool instructor_needed = false;
   std::vector<std::string> warnings;
+  // The display path used ("gl" or "cpu"), why (the fallback's reason), and
+  // what crossed between GPU and CPU over the run (compositor counters).
+  std::string display_path, display_note;
+  std::string display_requested;  // --display-path as given: auto, gl or cpu
+  std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
+  std::int64_t gl_frames_replaced = 0, gl_ready_timeouts = 0, gl_release_timeouts = 0;
   std::string json() const;
 };
 
-// Runs until the window closes, a signal arrives, `seconds` pass, or the
-// footage ends. Errors: no camera (the message lists the V4L2 cameras and
+// Runs until the window closes, a signal arrives, `seconds` pass, `frames`
+// frames have been shown, or the footage ends. Errors: no camera (the message lists the V4L2 cameras and
 // their modes and suggests --camera live:PATH), no display, bad station.
 Result<LiveSummary> run_live(const LiveOptions& options);
+
+// Whether an OpenGL renderer string names a software rasteriser (Mesa's
+// llvmpipe or softpipe, SwiftShader, Microsoft's Basic Render Driver).
+bool software_renderer(const std::string& gl_renderer);
 
 // The V4L2 cameras on this machine with their modes, one line each
 // ("/dev/video0 (HD Webcam): MJPG 1280x720, YUYV 640x480"); or why none.

@@ -20,6 +20,10 @@
 //   folder: index / folder_fps;
 //   camera / live: std::chrono::steady_clock since open, taken when the frame
 //     is grabbed.
+// Motion JPEG cameras and stand-ins: the compressed frame is read as it came
+// (V4L2 without conversion, FFmpeg in raw packet mode), kept in
+// Frame::encoded and decoded with cv::imdecode (libjpeg); when the driver does
+// not hand out JPEG bytes, the source falls back to the backend's decoding.
 // Dropped frames: camera/live: a gap between consecutive frames longer than
 // 1.5 frame periods counts round(gap / period) - 1 frames; files: a frame
 // that fails to decode is counted (dropped_before of the next good frame)
@@ -63,6 +67,11 @@ struct Frame {
   // epoch (live sources: when the frame was grabbed, or was due for paced
   // footage; files and folders: when it was decoded). Latency starts here.
   double steady_s = 0;
+  // The camera's own Motion JPEG bytes of this frame (1xN CV_8UC1, owned),
+  // when the source delivers MJPG (a UVC webcam at 720p, an MJPG stand-in);
+  // empty otherwise. `image` is cv::imdecode of exactly these bytes, so a
+  // recording that stores them (not a re-encoding) replays bit for bit.
+  cv::Mat encoded;
 };
 
 // steady_clock now, s since its epoch (the clock of Frame::steady_s).

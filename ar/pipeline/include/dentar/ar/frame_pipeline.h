@@ -101,6 +101,10 @@ struct FrameInput {
   // (TrackerOptions::discovery = kScheduled): what the live run did at this
   // frame. Null otherwise.
   const DiscoveryCue* discovery = nullptr;
+  // The live display's GPU path (compositor.h, compose_gl): the composite
+  // goes into these textures and stays on the GPU (out.image empty).
+  // Zero textures = the CPU composite (offline, tests, fallback).
+  GlFrameTarget gl_target;
 };
 
 // What happened to one frame. States: 0 tracking, 1 predicted, 2 lost.
@@ -132,6 +136,10 @@ struct FrameRecord {
   int mesh_chunks = 0;
   bool overlay = false, mirror_drawn = false;
   std::size_t triangles = 0;
+  // The compositor's CPU traffic (CompositeResult): pixels read back from GL
+  // and pixels blended on the CPU; both 0 when gpu_composite.
+  bool gpu_composite = false;
+  std::int64_t readback_px = 0, cpu_blend_px = 0;
 };
 
 class FramePipeline {
@@ -145,8 +153,9 @@ class FramePipeline {
   // Draws the tooth once on a grey frame (GPU uploads, levels of detail,
   // shader warm-up: ~0.5 s on llvmpipe) so the first real frame is not late,
   // then resets the tracker and the segmenter: the frames that follow are
-  // processed exactly as without it.
-  Status warm_up(ToothMeshes& meshes);
+  // processed exactly as without it. With gl_target's textures: the GPU
+  // path's shaders are warmed up too, drawing into them (FrameInput::gl_target).
+  Status warm_up(ToothMeshes& meshes, const GlFrameTarget& gl_target = {});
 
   Tracker& tracker() { return tracker_; }
   Compositor& compositor() { return compositor_; }

@@ -42,6 +42,27 @@
 // gives no reflection and no mirror phantom; stylus_valid = false gives no
 // bur and no handpiece phantom.
 //
+// Two outputs (same passes up to step 4):
+//  - compose(): the CPU image (offline driver, tests, the live fallback).
+//    The overlay region of the canvas is read back (glReadPixels), resampled
+//    with cv::remap, segmented and blended over the BGR video on the CPU.
+//  - compose_gl(): the GPU path of the live display. The video is uploaded
+//    as an RGBA8 texture (one SIMD colour conversion on the CPU, then a plain
+//    copy in the driver); the resampling through the distortion map, the
+//    segmentation (the same classifier as ForegroundSegmenter, in a shader;
+//    its adapted colour model stays on the GPU: a reduction pass and a 1x1
+//    texture) and the blend run in shaders into a caller's RGBA8 texture,
+//    inside the overlay's region only (GlFrameTarget). The composite is that
+//    region over the video texture: the window blits the two (gl_handoff.h
+//    hands both over), so no shader pass runs over the whole frame (on
+//    llvmpipe a full-frame shader costs more than the CPU path's whole
+//    blend; a blit is its fast path). Nothing is read back;
+//    CompositeResult::readback_px and cpu_blend_px say so per frame. No
+//    image and no tooth_visible come back (tooth_px = -1); the work is left
+//    queued (no glFinish): the caller fences it. The two outputs agree
+//    within a grey level or two per pixel (float vs fixed-point arithmetic;
+//    tested in compositor_gpu_gl_test).
+//
 // Thread/context: create() and compose() need the same EGL context current
 // on the calling thread (egl_context.h); destroy the Compositor before the
 // context. Not thread-safe. The Compositor is move-only (it owns GL objects
@@ -50,6 +71,7 @@
 
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <string>
@@ -111,7 +133,18 @@ struct CompositeTimings {
   double render_ms = 0;    // GL passes, to completion
   double readback_ms = 0;  // glReadPixels of the overlay region
   double blend_ms = 0;     // distortion resampling + blend over the video
-  double total_ms = 0;
+  double upload_ms = 0;    // compose_gl: the video frame into its texture
+  double total_ms = 0;     // compose_gl: CPU time to queue the work, not its completion
+};
+
+// compose_gl's output textures (in the current context's share group).
+struct GlFrameTarget {
+  // RGBA8, camera size: receives the frame (RGB, row 0 = image top).
+  unsigned video_texture = 0;
+  // RGBA8, camera size: receives the composite (RGB, alpha 1) inside
+  // CompositeResult::region (row 0 = image top); outside it, left as it was:
+  // there the composite is the video.
+  unsigned overlay_texture = 0;
 };
 
 struct CompositeResult {
@@ -119,11 +152,17 @@ struct CompositeResult {
   cv::Mat tooth_visible;  // CV_8UC1 0..255: the directly seen virtual tooth after occlusion (soft)
   bool overlay_drawn = false;  // man_valid and something was drawn
   bool mirror_drawn = false;   // the reflection pass ran
-  int tooth_px = 0;            // pixels with tooth_visible > 127
+  int tooth_px = 0;            // pixels with tooth_visible > 127 (-1: compose_gl, not measured)
   std::size_t triangles_drawn = 0;  // tooth triangles, direct + reflected
   int chunks_culled = 0;            // direct + reflected
   int lod_level = 0;                // 0 = full mesh
   cv::Rect region;                  // output pixels touched by the overlay (may be empty)
+  // What crossed between GPU and CPU for this frame: pixels read back with
+  // glReadPixels (each attachment counts) and pixels blended on the CPU.
+  // compose_gl: both 0, always.
+  std::int64_t readback_px = 0;
+  std::int64_t cpu_blend_px = 0;
+  bool gpu_output = false;          // compose_gl: the composite is in the target textures
   CompositeTimings timing;
 };
 
@@ -142,6 +181,19 @@ class Compositor {
   // frame size != camera size (a station file for another camera), GL
   // errors. On error `out` is left unchanged.
   Status compose(const volume::Surface& surface, const CompositeInput& in, CompositeResult& out);
+  // The GPU path (see above): composites into `target` (GlFrameTarget).
+  // Same errors as compose(), plus gpu_path_error()'s and unusable targets.
+  // `out.image` and `out.tooth_visible` come back empty; out.region says
+  // where the overlay texture holds the composite.
+  Status compose_gl(const volume::Surface& surface, const CompositeInput& in,
+                    const GlFrameTarget& target, CompositeResult& out);
+  // Empty when compose_gl() can run in the current context, else why not
+  // (e.g. no EXT_color_buffer_float for the segmenter's float targets).
+  // Builds the GPU path's shaders and textures on the first call.
+  std::string gpu_path_error();
+  // Test aid (reads the 1x1 model texture back; never called on the live
+  // path): the GPU path's adapted foreground model, (g/r, b/r).
+  Eigen::Vector2d gpu_model_chroma_for_test();
 
   const CompositorOptions& options() const;
   // Changes options between frames (validated; geometry options such as the

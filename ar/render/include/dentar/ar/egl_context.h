@@ -12,6 +12,15 @@
 // one platform when the options say kAuto (useful to check CI against a
 // specific path).
 //
+// Shared mode (EglContextOptions::share_display/share_context): the context
+// is made on a display someone else initialised (a window's: GLFW's
+// glfwGetEGLDisplay()) and shares objects (textures, sync objects) with that
+// display's context share_context (the window's). This is how the live
+// compositor's texture reaches the window without a CPU copy. The display is
+// neither initialised nor terminated here; its owner must outlive this
+// object. The context is made current without a surface when the display
+// has EGL_KHR_surfaceless_context, else on a 1x1 pbuffer.
+//
 // Thread: an EGL context is current on at most one thread. create() makes it
 // current on the calling thread; every GL object and renderer of this module
 // must be created, used and destroyed on the thread where it is current.
@@ -37,6 +46,12 @@ struct EglContextOptions {
   // instead of the one `platform` names (0 = unused). Lets a test provoke the
   // "unsupported platform" error without unplugging the GPU.
   unsigned int raw_platform_enum_for_test = 0;
+  // Shared mode (see above): an initialised EGLDisplay and an EGLContext on
+  // it, both as void* (EGL's headers stay out of this header). The new
+  // context uses share_context's client API (OpenGL ES) and config. Both
+  // null = a headless display of its own (platform above).
+  void* share_display = nullptr;
+  void* share_context = nullptr;
 };
 
 // Owns an EGLDisplay (initialised) and an EGLContext. Move-only; the
@@ -61,6 +76,11 @@ class EglContext {
   // GL_RENDERER / GL_VERSION strings, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)".
   const std::string& gl_renderer() const { return renderer_; }
   const std::string& gl_version() const { return version_; }
+  bool shared() const { return !owns_display_; }
+  // The EGLDisplay / EGLContext (as void*): what another EglContext's shared
+  // mode takes (EglContextOptions::share_display/share_context).
+  void* native_display() const { return display_; }
+  void* native_context() const { return context_; }
   // One line for logs: platform, renderer, version.
   std::string description() const;
 
@@ -72,6 +92,8 @@ class EglContext {
   // headers (and their optional X11 includes) stay out of this header.
   void* display_ = nullptr;
   void* context_ = nullptr;
+  void* surface_ = nullptr;     // shared mode without surfaceless: a 1x1 pbuffer
+  bool owns_display_ = true;    // false in shared mode (the window's display)
   EglPlatform platform_ = EglPlatform::kAuto;
   std::string renderer_, version_;
 };

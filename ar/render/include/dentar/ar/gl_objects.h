@@ -49,6 +49,8 @@ class GlHandle {
 
   GLuint id() const { return id_; }
   explicit operator bool() const { return id_ != 0; }
+  // Gives up ownership: the caller deletes the name (as unique_ptr::release).
+  GLuint release() { return std::exchange(id_, 0); }
   void reset() {
     if (id_ != 0) Deleter(id_);
     id_ = 0;
@@ -72,6 +74,15 @@ VertexArray make_vertex_array();
 Framebuffer make_framebuffer();
 Renderbuffer make_renderbuffer();
 Texture make_texture();
+// A 2D texture of one level of `internal_format` (immutable storage), nearest
+// sampling and clamped edges: for passes that fetch texels exactly. Leaves it
+// bound to GL_TEXTURE_2D of the active unit.
+Texture make_texture_2d(GLenum internal_format, int width_px, int height_px);
+
+// Vertex shader source of one triangle covering the viewport, made from
+// gl_VertexID alone (glDrawArrays(GL_TRIANGLES, 0, 3) with an empty vertex
+// array), at NDC depth 0, or on the far plane (depth 1) when far_plane.
+std::string full_screen_triangle_vertex_shader(bool far_plane = false);
 
 // Compiles one shader stage; the error names the shader and carries the
 // driver's info log.

@@ -33,6 +33,18 @@
 
 namespace dentar::ar {
 
+// The rendering model's version, written to synth.json as "generator".
+// Footage of different versions differs in its pixels (not in its truth):
+// 1: tag texture treated as sRGB after filtering, optical and motion blur on
+//    the encoded values: in linear light the tags' black cells ~0.2 px too
+//    wide (libapriltag on the encoded image: outline -0.09 px).
+// 2 (2026-11-25): texture value = ink coverage (reflectance linear in it),
+//    optical blur and the motion-blur average in linear light, then sRGB:
+//    edges where the truth says in linear light (docs/BENCHMARKS.md, issue
+//    16 third part). Gain, vignetting and noise act on the encoded values
+//    as before.
+inline constexpr int kSynthGeneratorVersion = 2;
+
 // The failure-mode presets (hand ... offframe) each add one way tracking
 // fails to an otherwise `standard` scene (glare: to `mirror`), so that an
 // error can be traced to its cause; `hard` mixes several at once.

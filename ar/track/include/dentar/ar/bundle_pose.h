@@ -86,6 +86,7 @@ struct BundlePose {
   // covariance = covariance_per_px2 * noise_px2.
   Eigen::Matrix<double, 6, 6> covariance_per_px2 = Eigen::Matrix<double, 6, 6>::Zero();
   double noise_px2 = 0;
+  int noise_dof = 0;  // 2N - 6: the residual degrees of freedom behind noise_px2
   // The same covariance with each tag's own corner noise (its residuals over
   // its residual degrees of freedom) instead of one noise for all: a
   // sandwich C (sum_t s_t J_t^T J_t) C with C = covariance_per_px2. Small or

@@ -32,4 +32,17 @@ double point_sigma_m(const PoseCovariance& cov, const Eigen::Isometry3d& T_cam_b
 // axis: covariance_per_px2 * max(noise_px2, floor_px^2).
 PoseCovariance floored_covariance(const BundlePose& p, double floor_px);
 
+// The corner noise (px^2 per axis) of `body`'s fit pooled with another fit
+// of the same frame (`other`, e.g. the mannequin's when `body` is the
+// mirror): both residual sums over both residual degrees of freedom,
+// (noise_b dof_b + noise_o dof_o) / (dof_b + dof_o). The same camera,
+// detector, blur and sensor noise make both bodies' corners equally noisy;
+// the mirror's 2 tags alone give 10 dof, so its own estimate scatters by
+// +-45 % and its per-tag outline errors (which its pose barely follows)
+// inflate it by ~25 % on footage (docs/BENCHMARKS.md, issue 16). `other`
+// not ok (or nullptr): body's own noise_px2.
+double pooled_noise_px2(const BundlePose& body, const BundlePose* other);
+// covariance_per_px2 of `body` times max(noise_px2, floor_px^2).
+PoseCovariance covariance_with_noise(const BundlePose& body, double noise_px2, double floor_px);
+
 }  // namespace dentar::ar

@@ -24,6 +24,20 @@ struct apriltag_detector;
 
 namespace dentar::ar {
 
+// How the image's grey levels relate to light: the camera's response curve.
+// A lens and the pixel area blur an edge symmetrically in *linear* light; a
+// camera that then encodes its output (sRGB, as video cameras do) bends the
+// blurred ramp, and an edge fitted to the encoded grey levels moves toward
+// the bright side by a fraction of the blur width (~0.1-0.3 px; on the
+// mirror's 12 mm tags millimetres at its centre, docs/BENCHMARKS.md issue
+// 16). kSrgb undoes the sRGB curve (a 256-entry table) before libapriltag
+// sees the image; kLinear passes the grey levels as they are (libapriltag's
+// own assumption; right for linear-coverage test drawings).
+enum class CameraResponse { kLinear, kSrgb };
+const char* camera_response_name(CameraResponse r);  // "linear", "srgb"
+// Parses the names above; the error names the value and the choices.
+Result<CameraResponse> parse_camera_response(const std::string& name);
+
 struct TagDetectorOptions {
   // Families searched in one pass (at least one; no duplicates).
   std::vector<TagFamilyId> families = {TagFamilyId::kStandard41h12};
@@ -39,6 +53,16 @@ struct TagDetectorOptions {
   // it corrected in `hamming`; the pose stage can reject those above its own
   // threshold. More bits cost memory for the decode table (41h12: 2 bits).
   int max_bits_corrected = 2;
+  // The images' response curve (above). The default keeps libapriltag's
+  // behaviour; the tracker (TrackerOptions) defaults to kSrgb.
+  CameraResponse response = CameraResponse::kLinear;
+  // Re-fit the border square's edges after libapriltag, in linear light,
+  // with an estimator that blur cannot move (the area under the edge across
+  // the border's two one-cell rings). libapriltag's own refinement (gradient
+  // peak within +-2 px) moves blurred edges of small or grazing tags by
+  // -0.05..-0.1 px (docs/BENCHMARKS.md issue 16, third part). Tags whose
+  // cells are under 3 px keep libapriltag's corners.
+  bool refit_edges_linear = false;
 
   // Empty when valid; else names the field ("decimation = 0.5 must be >= 1").
   std::string validate() const;
@@ -89,6 +113,7 @@ class TagDetector {
   // first (reset()).
   std::vector<TagFamily> families_;
   std::unique_ptr<apriltag_detector, DetectorDeleter> detector_;
+  cv::Mat linear_;  // scratch: the linearised image (response != kLinear)
 };
 
 }  // namespace dentar::ar

@@ -71,9 +71,18 @@ struct DiscoveryCue {
 };
 const char* track_state_name(TrackState s);  // "tracking", "predicted", "lost"
 
+// TagDetectorOptions{} with response = kSrgb: the tracker's default.
+inline TagDetectorOptions srgb_detector_options() {
+  TagDetectorOptions d;
+  d.response = CameraResponse::kSrgb;
+  return d;
+}
+
 struct TrackerOptions {
   // Full-frame detection settings (families must include the station's).
-  TagDetectorOptions detector;
+  // The tracker takes its images as a video camera encodes them: sRGB
+  // (tag_detector.h, CameraResponse); kLinear for a linear camera.
+  TagDetectorOptions detector = srgb_detector_options();
   BundlePoseOptions pose;
   bool predicted_regions = true;  // the fast path above
   int full_frame_interval = 15;   // frames between full-frame searches, >= 1
@@ -114,6 +123,12 @@ struct TrackerOptions {
   // Gate on each tag's own corner noise (BodyTrack::sigma_per_tag_m) instead
   // of one noise shared by all corners.
   bool sigma_per_tag = false;
+  // The mirror's (and pen's) corner noise is pooled with the mannequin's of
+  // the same frame (pose_uncertainty.h, pooled_noise_px2): same camera and
+  // detector, 40-90 residual dof instead of 10. Measured on footage: the
+  // mirror centre's sigma against its error 1.15-1.3x without, within 20 %
+  // with it (docs/BENCHMARKS.md, issue 16). The mannequin keeps its own.
+  bool pool_noise = true;
   PoseFilterOptions filter;
   bool filter_enabled = true;
   double stale_limit_s = 0.2;  // predicted -> lost after this long without a measurement
@@ -123,6 +138,13 @@ struct TrackerOptions {
   // prediction centimetres wrong (`hard`: 10 mm per frame); better no
   // overlay than a misplaced one. 0 = off (only stale_limit_s).
   double max_prediction_drift_m = 3e-3;
+  // A hand-held body (mirror, pen) is predicted between measurements only
+  // once its track has this many measurements: the filter's velocity comes
+  // from the second, and from one the drift bound above reads 0 while the
+  // hand moves it (`fast`: predicted reflections 2.4 mm off after a new
+  // one-measurement track). The mannequin's motion is the camera's, checked
+  // by the image motion below. 1 = predict from the first.
+  int hand_held_measurements_to_predict = 2;
   // Also predicted -> lost when the whole image moved since the body's last
   // measurement by more than the prediction explains, as an angle of camera
   // rotation (shift px / fx, rad; image_motion.h), or when the frames no
@@ -156,11 +178,15 @@ struct BodyTrack {
   double rms_px = 0;      // reprojection RMS of the measurement (undistorted px)
   int tags_used = 0;
   std::vector<int> tag_ids;  // ids used, ascending
-  // Covariance of the measurement (bundle_pose.h: (w rad, v m) in `cam`).
+  // Covariance of the measurement (bundle_pose.h: (w rad, v m) in `cam`):
+  // BundlePose::covariance_per_px2 times the corner noise (the fit's own
+  // residual estimate; for the mirror and pen pooled with the mannequin's
+  // when TrackerOptions::pool_noise), not floored.
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
   // Position sigma (m) of the body's gate point (the mannequin's origin, the
   // mirror's centre) from the covariance with one corner noise for all
-  // corners, floored at sigma_floor_px (pose_uncertainty.h); what the gate
+  // corners (pooled as `covariance`), floored at sigma_floor_px
+  // (pose_uncertainty.h); what the gate
   // uses unless TrackerOptions::sigma_per_tag; 0 when not measured.
   double sigma_m = 0;
   // The same point's sigma from the per-tag noise covariance

@@ -1,0 +1,93 @@
+// The live recording's writer (live/src/recorder.h, private): every pushed
+// frame reaches the disk with its row, in order; JPEG bytes are written as
+// they came; a writer that falls behind switches to uncompressed PPM instead
+// of losing frames; no partial file is left with an image name.
+#include "recorder.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "testutil.h"
+
+namespace fs = std::filesystem;
+using dentar::live::Recorder;
+
+namespace {
+
+cv::Mat noisy_frame(int k) {
+  cv::Mat m(240, 320, CV_8UC3);
+  cv::randu(m, cv::Scalar::all(0), cv::Scalar::all(255));  // incompressible: PNG is slow on it
+  cv::putText(m, std::to_string(k), {20, 120}, cv::FONT_HERSHEY_SIMPLEX, 2.0, {255, 255, 255}, 3);
+  return m;
+}
+
+std::vector<std::string> lines(const fs::path& p) {
+  std::ifstream f(p);
+  std::vector<std::string> v;
+  for (std::string l; std::getline(f, l);) v.push_back(l);
+  return v;
+}
+
+}  // namespace
+
+TEST(Recorder, EveryFrameWrittenInOrderFasterFormatWhenBehind) {
+  const fs::path dir = dentar::test::temp_dir("recorder_burst");
+  auto r = Recorder::open(dir);
+  ASSERT_TRUE(r.ok()) << r.error();
+  const int n = 40;  // pushed at once: the writer is far behind (> kFastFromQueued)
+  std::vector<cv::Mat> frames;
+  for (int k = 0; k < n; ++k) {
+    frames.push_back(noisy_frame(k));
+    dentar::ar::FrameRecord rec;
+    rec.time_s = k / 30.0;
+    (*r)->push(frames.back(), cv::Mat(), rec, k, k, 100.0 + k / 30.0);
+  }
+  (*r)->close();
+  EXPECT_EQ((*r)->written(), n);
+  EXPECT_EQ((*r)->dropped(), 0);
+  EXPECT_GT((*r)->written_ppm(), 0) << "a writer far behind must take the fast format";
+  EXPECT_EQ((*r)->written_png() + (*r)->written_ppm(), n);
+  EXPECT_EQ((*r)->written_jpg(), 0);
+  // Rows 0..n-1 in order, each naming a frame on disk whose pixels are the pushed ones.
+  const auto rows = lines(dir / "frames.csv");
+  ASSERT_EQ(rows.size(), static_cast<std::size_t>(n + 1));
+  for (int k = 0; k < n; ++k) {
+    EXPECT_EQ(rows[k + 1].substr(0, rows[k + 1].find(',')), std::to_string(k));
+    char stem[32];
+    std::snprintf(stem, sizeof stem, "frame_%06d", k);
+    const fs::path png = dir / "frames" / (std::string(stem) + ".png"), ppm = dir / "frames" / (std::string(stem) + ".ppm");
+    ASSERT_NE(fs::exists(png), fs::exists(ppm)) << stem;
+    const cv::Mat back = cv::imread((fs::exists(png) ? png : ppm).string());
+    ASSERT_EQ(back.size(), frames[k].size()) << stem;
+    EXPECT_EQ(cv::norm(back, frames[k], cv::NORM_INF), 0.0) << stem << ": lossless";
+  }
+  for (const auto& e : fs::directory_iterator(dir / "frames"))
+    EXPECT_NE(e.path().extension(), ".part") << e.path();
+}
+
+TEST(Recorder, CameraJpegBytesAreWrittenAsTheyCame) {
+  const fs::path dir = dentar::test::temp_dir("recorder_jpg");
+  auto r = Recorder::open(dir);
+  ASSERT_TRUE(r.ok()) << r.error();
+  const cv::Mat img = noisy_frame(7);
+  std::vector<uchar> bytes;
+  ASSERT_TRUE(cv::imencode(".jpg", img, bytes));
+  const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data());
+  const cv::Mat decoded = cv::imdecode(encoded, cv::IMREAD_COLOR);
+  dentar::ar::FrameRecord rec;
+  (*r)->push(decoded, encoded, rec, 0, 0, 1.0);
+  (*r)->close();
+  EXPECT_EQ((*r)->written_jpg(), 1);
+  const fs::path jpg = dir / "frames" / "frame_000000.jpg";
+  ASSERT_TRUE(fs::exists(jpg));
+  std::ifstream f(jpg, std::ios::binary);
+  const std::vector<uchar> on_disk((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(on_disk, bytes);
+  EXPECT_EQ(cv::norm(cv::imread(jpg.string()), decoded, cv::NORM_INF), 0.0);
+}
