@@ -28,7 +28,9 @@ void expect_sane_score(const fs::path& dir, const std::string& exercise, double 
   const double pts = j["outcome"]["points"].get<double>();
   EXPECT_GE(pts, 0.0);
   EXPECT_LE(pts, max_points);
-  if (cut) EXPECT_GT(j["outcome"]["removed_total_mm3"].get<double>(), 0.01);
+  if (cut) {
+    EXPECT_GT(j["outcome"]["removed_total_mm3"].get<double>(), 0.01);
+  }
   EXPECT_GE(j["outcome"]["removed_total_mm3"].get<double>(), 0.0);
   EXPECT_GE(j["outcome"]["target_coverage_pct"].get<double>(), 0.0);
   EXPECT_LE(j["outcome"]["target_coverage_pct"].get<double>(), 100.0);

@@ -83,6 +83,33 @@ Eigen::Matrix<double, 2, 6> jac(const Iso& T, const Eigen::Vector3d& p_body, con
   return J;
 }
 
+// Detected minus true corners (undistorted, stacked 2n) and the projection
+// onto what the pose can absorb: P = J (JᵀJ)⁻¹ Jᵀ, J the stacked 2x6 corner
+// Jacobians at the estimate.
+struct CornerSplit {
+  Eigen::VectorXd e;
+  Eigen::MatrixXd J, P;
+  std::vector<Eigen::Vector2d> tu;  // the true corners, undistorted
+  Eigen::Index n = 0;
+};
+CornerSplit split_corners(const std::vector<Eigen::Vector2d>& det, const std::vector<Eigen::Vector2d>& tru,
+                          const std::vector<Eigen::Matrix<double, 2, 6>>& Js,
+                          const calibration::CameraIntrinsics& cam) {
+  const auto du = undistort(det, cam);
+  CornerSplit c;
+  c.tu = undistort(tru, cam);
+  const auto& tu = c.tu;
+  c.n = static_cast<Eigen::Index>(du.size());
+  c.e.resize(2 * c.n);
+  c.J.resize(2 * c.n, 6);
+  for (Eigen::Index i = 0; i < c.n; ++i) {
+    c.e.segment<2>(2 * i) = du[i] - tu[i];
+    c.J.block<2, 6>(2 * i, 0) = Js[static_cast<std::size_t>(i)];
+  }
+  c.P = c.J * (c.J.transpose() * c.J).inverse() * c.J.transpose();
+  return c;
+}
+
 double rms(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x * x;
@@ -163,16 +190,9 @@ Honesty measure(const Footage& fo, const TrackerOptions& opt) {
           }
         }
         if (!det.empty()) {
-          const auto du = undistort(det, cam), tu = undistort(tru, cam);
-          const auto n = static_cast<Eigen::Index>(du.size());
-          Eigen::VectorXd e(2 * n);
-          Eigen::MatrixXd J(2 * n, 6);
-          for (Eigen::Index i = 0; i < n; ++i) {
-            e.segment<2>(2 * i) = du[i] - tu[i];
-            J.block<2, 6>(2 * i, 0) = Js[i];
-          }
-          const Eigen::VectorXd ein = J * (J.transpose() * J).inverse() * J.transpose() * e;
-          h.mir_true2.push_back(e.squaredNorm() / (2.0 * n));
+          const CornerSplit c = split_corners(det, tru, Js, cam);
+          const Eigen::VectorXd ein = c.P * c.e;
+          h.mir_true2.push_back(c.e.squaredNorm() / (2.0 * c.n));
           h.mir_in2.push_back(ein.squaredNorm() / 6.0);
         }
       }
@@ -204,16 +224,12 @@ Honesty measure(const Footage& fo, const TrackerOptions& opt) {
       }
     }
     if (det.empty()) continue;
-    const auto du = undistort(det, cam), tu = undistort(tru, cam);
-    const auto n = static_cast<Eigen::Index>(du.size());
-    Eigen::VectorXd e(2 * n);
-    Eigen::MatrixXd J(2 * n, 6);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      e.segment<2>(2 * i) = du[i] - tu[i];
-      J.block<2, 6>(2 * i, 0) = Js[i];
-    }
-    const Eigen::MatrixXd P = J * (J.transpose() * J).inverse() * J.transpose();
-    const Eigen::VectorXd ein = P * e, eout = e - ein;
+    const CornerSplit c = split_corners(det, tru, Js, cam);
+    const Eigen::VectorXd& e = c.e;
+    const Eigen::MatrixXd& J = c.J;
+    const std::vector<Eigen::Vector2d>& tu = c.tu;
+    const Eigen::Index n = c.n;
+    const Eigen::VectorXd ein = c.P * e, eout = e - ein;
     h.true_noise2.push_back(e.squaredNorm() / (2.0 * n));
     h.in_pose2.push_back(ein.squaredNorm() / 6.0);
     h.out_pose2.push_back(eout.squaredNorm() / (2.0 * n - 6));
