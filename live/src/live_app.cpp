@@ -728,7 +728,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       if (key == GLFW_KEY_ESCAPE) hw.request_close();
     key_pedal.set_pressed(hw.held(GLFW_KEY_SPACE));
     // The camera went quiet: show the video without the overlay within 200 ms.
-    const double age = cur.index >= 0 ? now_s() - capture.last_frame_steady_s() : 0;
+    // One read of the capture time per check: a frame may land before the
+    // swap, and the figure below must be about the silence this check saw.
+    const double last_frame_s = capture.last_frame_steady_s();
+    const double age = cur.index >= 0 ? now_s() - last_frame_s : 0;
     const bool stalled = cur.index >= 0 && age > 0.15;
     if (stalled && stall_seen_at < 0) stall_seen_at = now_s();
     if (!stalled) stall_seen_at = -1;
@@ -810,7 +813,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       ++fps_n;
     }
     if (stalled && stall_seen_at > 0 && sum.overlay_hidden_ms_after_stall < 0) {
-      sum.overlay_hidden_ms_after_stall = static_cast<int>(std::lround((t_swap - capture.last_frame_steady_s()) * 1e3));
+      sum.overlay_hidden_ms_after_stall = static_cast<int>(std::lround((t_swap - last_frame_s) * 1e3));
       sum.stall_previous_check_ms = static_cast<int>(std::lround(prev_check_age_s * 1e3));
     }
     prev_check_age_s = age;
