@@ -274,6 +274,22 @@ TEST(StationKit, LayoutStaysInsideThePageMarginsOnBothPapers) {
   check_layout(big, KitOptions{});
 }
 
+// The 20-tag head layout measured for issue 16 (MannequinLayout::kWrap20) prints on
+// the same two pages as the default 12 on both papers, every tag placed once.
+TEST(StationKit, WrapHeadLayoutPrintsOnTwoPages) {
+  StationScene s = dentar::ar::default_station_scene();
+  dentar::ar::set_mannequin_layout(s, dentar::ar::MannequinLayout::kWrap20);
+  for (Paper p : {Paper::kA4, Paper::kLetter}) {
+    KitOptions o;
+    o.paper = p;
+    check_layout(s, o);
+    auto L = dentar::kit::layout_station_kit(s, o);
+    ASSERT_TRUE(L) << L.error();
+    EXPECT_EQ(L->pages, 2) << dentar::kit::paper_name(p);
+    EXPECT_EQ(L->tags.size(), s.mannequin_tags.size() + s.mirror_tags.size() + s.pen.tags.size());
+  }
+}
+
 // Six 20 mm tags on a box face around the mouth (coplanar, one orientation): tag x along the
 // mannequin's x, tag y down (mannequin -y), facing the camera (+z of the mannequin).
 StationScene box_station() {

@@ -437,17 +437,7 @@ calibration::CameraIntrinsics default_camera(int width_px, int height_px) {
 StationScene default_station_scene() {
   StationScene s;
   s.name = "default phantom-head station";
-  const MannequinParams& m = s.mannequin;
-  // 12 tags: two on the upper forehead, four across the brow, four on the
-  // cheeks beside the mouth, two on the chin. Ids 0..11, 14 mm border (a
-  // 25 mm printed tagStandard41h12).
-  struct Spot {
-    double az, el;
-  };
-  const Spot spots[12] = {{-20, 50}, {20, 50},   {-45, 25}, {-15, 25}, {15, 25},   {45, 25},
-                          {-70, 5},  {-45, -12}, {45, -12}, {70, 5},   {-18, -48}, {18, -48}};
-  for (int i = 0; i < 12; ++i)
-    s.mannequin_tags.push_back(head_tag(m, i, 0.014, spots[i].az, spots[i].el));
+  set_mannequin_layout(s, MannequinLayout::kFront12);
 
   // Lower-left first molar on the dental arch (synth's arch: x = 25 sin(phi),
   // z = -45 + 35 cos(phi) mm at phi = 56 deg), crown up, mesial toward the
@@ -489,6 +479,33 @@ StationScene default_station_scene() {
   set_mirror_paddle(s, MirrorPaddle::kRoof);
   s.pen = default_pen();
   return s;
+}
+
+void set_mannequin_layout(StationScene& s, MannequinLayout kind) {
+  const MannequinParams& m = s.mannequin;
+  // (azimuth, elevation) in degrees on the head ellipsoid (head_point above).
+  struct Spot {
+    double az, el;
+  };
+  // The first 12 (ids 0..11, both layouts): two on the upper forehead, four
+  // across the brow, four on the cheeks beside the mouth, two on the chin.
+  static const Spot kFront[12] = {{-20, 50}, {20, 50},   {-45, 25}, {-15, 25},
+                                  {15, 25},  {45, 25},   {-70, 5},  {-45, -12},
+                                  {45, -12}, {70, 5},    {-18, -48}, {18, -48}};
+  // kWrap20 adds ids 12..19, in left/right pairs: cheekbones, temples, the
+  // sides above the ears and the jaw, so that a camera 20-60 deg to a side
+  // sees 6-7 tags within 55 deg of face-on (12 tags: 4-5; docs/BENCHMARKS.md,
+  // issue 16 head layout). No two printed patterns (25.2 mm) overlap (their
+  // quiet zones may, as the forehead pair's always did), and every centre is
+  // >= 21 mm from the calibration divots.
+  static const Spot kWrap[8] = {{-45, 5},  {45, 5},  {-50, 45}, {50, 45},
+                                {-70, 25}, {70, 25}, {-40, -30}, {40, -30}};
+  s.mannequin_tags.clear();
+  for (int i = 0; i < 12; ++i)
+    s.mannequin_tags.push_back(head_tag(m, i, 0.014, kFront[i].az, kFront[i].el));
+  if (kind == MannequinLayout::kWrap20)
+    for (int i = 0; i < 8; ++i)
+      s.mannequin_tags.push_back(head_tag(m, 12 + i, 0.014, kWrap[i].az, kWrap[i].el));
 }
 
 void set_mirror_paddle(StationScene& s, MirrorPaddle kind) {

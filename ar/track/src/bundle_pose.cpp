@@ -55,18 +55,21 @@ bool residuals(const Eigen::Isometry3d& T_cam_body, const std::vector<Corner>& c
   return r.allFinite();
 }
 
-// Huber weights per corner (both residuals of a corner share one) and the
-// robust cost sum rho(|r_i|); k <= 0: weights 1, cost = sum r^2.
-double huber(const Eigen::VectorXd& r, double k, Eigen::VectorXd& w) {
-  w.setOnes(r.size());
+// Weights per residual: the prior weight pw (the view-angle weight of the
+// corner's tag, 1 without) times the Huber weight of the corner (both
+// residuals of a corner share one), and the weighted robust cost
+// sum pw_i rho(|r_i|); k <= 0: Huber weights 1, cost = sum pw r^2.
+double huber(const Eigen::VectorXd& r, double k, const Eigen::VectorXd& pw, Eigen::VectorXd& w) {
+  w = pw;
   double cost = 0;
   for (Eigen::Index i = 0; i + 1 < r.size(); i += 2) {
     const double d = std::hypot(r(i), r(i + 1));
     if (k > 0 && d > k) {
-      w(i) = w(i + 1) = k / d;
-      cost += 2 * k * d - k * k;
+      w(i) *= k / d;
+      w(i + 1) *= k / d;
+      cost += pw(i) * (2 * k * d - k * k);
     } else {
-      cost += d * d;
+      cost += pw(i) * d * d;
     }
   }
   return cost;
@@ -129,6 +132,12 @@ std::string BundlePoseOptions::validate() const {
     return "ambiguity_px = " + std::to_string(ambiguity_px) + " must be >= 0";
   if (!std::isfinite(robust_px) || robust_px < 0)
     return "robust_px = " + std::to_string(robust_px) + " must be >= 0 (0 = off)";
+  if (!std::isfinite(view_weight_from_rad) || view_weight_from_rad < 0 || view_weight_from_rad >= 1.5)
+    return "view_weight_from_rad = " + std::to_string(view_weight_from_rad) +
+           " must be in [0, 1.5) (0 = off)";
+  if (!std::isfinite(max_view_angle_rad) || max_view_angle_rad < 0 || max_view_angle_rad >= 1.57)
+    return "max_view_angle_rad = " + std::to_string(max_view_angle_rad) + " must be in [0, 1.57) (0 = off)";
+  if (min_tags_kept < 1) return "min_tags_kept = " + std::to_string(min_tags_kept) + " must be >= 1";
   return {};
 }
 
@@ -275,35 +284,87 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   out.seed_rms_px = seed_rms[chosen];
   Eigen::MatrixXd J;
   Eigen::VectorXd w;
+  // Prior weight of each residual: 1, or its tag's view-angle weight
+  // (BundlePoseOptions::view_weight_from_rad) at the pose T.
+  Eigen::VectorXd pw = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(2 * corners.size()));
+  auto set_view_weights = [&](const Eigen::Isometry3d& T_cam_body) {
+    const double c0 = std::cos(options.view_weight_from_rad);
+    for (std::size_t ti = 0; ti < tags.size(); ++ti) {
+      const Eigen::Isometry3d T_cam_tag = T_cam_body * tags[ti]->T_parent_tag;
+      // z of the tag points into it: cos(view angle) = z . (ray to its centre).
+      const double c = std::max(T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized()), 0.1);
+      const double f = std::min(1.0, c / c0);
+      pw.segment<8>(static_cast<Eigen::Index>(8 * ti)).setConstant(f * f);
+    }
+  };
+  const bool view_weighted = options.view_weight_from_rad > 0;
+  if (view_weighted) set_view_weights(T);
   residuals(T, corners, k, r, &J);
   const double kr = options.robust_px;
-  double cost = huber(r, kr, w);
+  double cost = huber(r, kr, pw, w);
   double lambda = 1e-3;
-  for (int it = 0; it < options.max_iterations; ++it) {
-    out.iterations = it + 1;
-    // IRLS: the Huber weights of the current residuals.
-    const Mat6 H = J.transpose() * w.asDiagonal() * J;
-    const Vec6 g = J.transpose() * w.asDiagonal() * r;
-    Mat6 A = H;
-    A.diagonal() += lambda * H.diagonal().cwiseMax(1e-12);
-    const Vec6 delta = A.ldlt().solve(-g);
-    if (!delta.allFinite()) break;
-    const Eigen::Isometry3d T_try = apply_delta(delta, T);
-    Eigen::VectorXd r_try, w_try;
-    Eigen::MatrixXd J_try;
-    double cost_try = 0;
-    if (residuals(T_try, corners, k, r_try, &J_try) && (cost_try = huber(r_try, kr, w_try)) < cost) {
-      const double gain = cost - cost_try;
-      T = T_try;
-      r = std::move(r_try);
-      J = std::move(J_try);
-      w = std::move(w_try);
-      cost = cost_try;
-      lambda = std::max(lambda / 10, 1e-9);
-      if (gain < 1e-12 * (1 + cost) || delta.norm() < 1e-12) break;
-    } else {
-      lambda *= 10;
-      if (lambda > 1e8) break;  // no descent left: at the minimum
+  auto levenberg_marquardt = [&] {
+    for (int it = 0; it < options.max_iterations; ++it) {
+      out.iterations += 1;
+      // IRLS: the Huber weights of the current residuals.
+      const Mat6 H = J.transpose() * w.asDiagonal() * J;
+      const Vec6 g = J.transpose() * w.asDiagonal() * r;
+      Mat6 A = H;
+      A.diagonal() += lambda * H.diagonal().cwiseMax(1e-12);
+      const Vec6 delta = A.ldlt().solve(-g);
+      if (!delta.allFinite()) break;
+      const Eigen::Isometry3d T_try = apply_delta(delta, T);
+      Eigen::VectorXd r_try, w_try;
+      Eigen::MatrixXd J_try;
+      double cost_try = 0;
+      if (residuals(T_try, corners, k, r_try, &J_try) && (cost_try = huber(r_try, kr, pw, w_try)) < cost) {
+        const double gain = cost - cost_try;
+        T = T_try;
+        r = std::move(r_try);
+        J = std::move(J_try);
+        w = std::move(w_try);
+        cost = cost_try;
+        lambda = std::max(lambda / 10, 1e-9);
+        if (gain < 1e-12 * (1 + cost) || delta.norm() < 1e-12) break;
+      } else {
+        lambda *= 10;
+        if (lambda > 1e8) break;  // no descent left: at the minimum
+      }
+    }
+  };
+  // Starts another pass from T (after the weights or the corners changed).
+  auto restart = [&] {
+    residuals(T, corners, k, r, &J);
+    cost = huber(r, kr, pw, w);
+    lambda = 1e-3;
+  };
+  levenberg_marquardt();
+  // With view weights: a second pass with the weights at the first pass's
+  // optimum (the seed's angles can be off by a few degrees).
+  if (view_weighted) {
+    set_view_weights(T);
+    restart();
+    levenberg_marquardt();
+  }
+  // Tags seen more obliquely than max_view_angle_rad at the optimum leave
+  // the fit, when at least min_tags_kept others remain.
+  if (options.max_view_angle_rad > 0) {
+    const double cmax = std::cos(options.max_view_angle_rad);
+    std::vector<Corner> kc;
+    std::vector<const TagPlacement*> kt;
+    for (std::size_t ti = 0; ti < tags.size(); ++ti) {
+      const Eigen::Isometry3d T_cam_tag = T * tags[ti]->T_parent_tag;
+      if (T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized()) < cmax) continue;
+      kt.push_back(tags[ti]);
+      for (int c = 0; c < 4; ++c) kc.push_back(corners[4 * ti + static_cast<std::size_t>(c)]);
+    }
+    if (kt.size() < tags.size() && static_cast<int>(kt.size()) >= options.min_tags_kept) {
+      tags = std::move(kt);
+      corners = std::move(kc);
+      pw = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(2 * corners.size()));
+      if (view_weighted) set_view_weights(T);
+      restart();
+      levenberg_marquardt();
     }
   }
 
@@ -318,8 +379,10 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   if (dof <= 0 || !lu.isInvertible())
     return fail(BundlePoseStatus::kFailed,
                 who + "the fit is degenerate (singular normal equations)");
-  for (Eigen::Index i = 0; i < w.size(); i += 2) out.downweighted += w(i) < 1 ? 1 : 0;
-  const double wss = r.dot(w.asDiagonal() * r);  // = sum r^2 without down-weighted corners
+  for (Eigen::Index i = 0; i < w.size(); i += 2) out.downweighted += w(i) < pw(i) ? 1 : 0;
+  // = sum r^2 without down-weighted corners; with view weights the noise of
+  // a corner seen within view_weight_from_rad.
+  const double wss = r.dot(w.asDiagonal() * r);
   out.covariance_per_px2 = lu.inverse();
   out.noise_px2 = wss / dof;
   out.noise_dof = static_cast<int>(dof);
@@ -342,6 +405,9 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
       const double ss = rt.dot(wt.asDiagonal() * rt);
       const double s2 = std::max(ss / std::max(8.0 - lev, 0.5), 1e-4 * mean);
       meat += s2 * Jt.transpose() * wt.asDiagonal() * Jt;
+      const Eigen::Isometry3d T_cam_tag = out.T_cam_body * tags[t]->T_parent_tag;
+      const double c = T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized());
+      out.tag_residuals.push_back({tags[t]->id, ss, 8.0 - lev, std::acos(std::clamp(c, -1.0, 1.0))});
     }
     out.covariance_per_tag = C * meat * C;
   }

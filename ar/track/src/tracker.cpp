@@ -484,7 +484,7 @@ struct Tracker::Impl {
   // estimate, or pooled with the mannequin's of the same frame.
   double noise_px2(const Body& b, const BundlePose& p) const {
     if (!o.pool_noise || &b == &mannequin || !noise_ref) return p.noise_px2;
-    return pooled_noise_px2(p, &*noise_ref);
+    return pooled_noise_px2(p, &*noise_ref, o.pool_comparable_tags);
   }
   // Position sigma of the body's gate point (pose_uncertainty.h), the
   // corner noise floored at sigma_floor_px.

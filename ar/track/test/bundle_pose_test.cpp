@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/calib3d.hpp>
@@ -118,6 +119,51 @@ TEST(BundlePose, ExactCornersGiveTheExactPose) {
   EXPECT_LT(trans_err_m(p.T_cam_body, T_cam_man), 1e-7);
   EXPECT_LT(rot_err_rad(p.T_cam_body, T_cam_man), 1e-7);
   EXPECT_LT(p.rms_px, 1e-5);
+}
+
+// The per-tag residual shares add up to the fit's; the view-angle weights
+// and the dropping of grazing tags (issue 16 head layout, measured and off
+// by default) keep exact corners exact and drop what they say.
+TEST(BundlePose, TagResidualsViewWeightsAndGrazingTags) {
+  StationScene s = default_station_scene();
+  set_mannequin_layout(s, MannequinLayout::kWrap20);
+  const TagBundle b = mannequin_bundle(s);
+  std::mt19937 rng(5);
+  const Eigen::Isometry3d T_cam_man = look_at_man(0.35, -0.5, 0.35);
+  const auto dets = synth_detections(b, s.calibration.camera, T_cam_man, 0.15, rng);
+  ASSERT_GE(dets.size(), 6u);
+  const BundlePose p = estimate_bundle_pose(b, s.calibration.camera, dets);
+  ASSERT_TRUE(p.ok()) << p.message;
+  ASSERT_EQ(p.tag_residuals.size(), p.tag_ids.size());
+  double sum = 0, dof = 0, max_angle = 0;
+  for (std::size_t i = 0; i < p.tag_residuals.size(); ++i) {
+    EXPECT_EQ(p.tag_residuals[i].id, p.tag_ids[i]);
+    sum += p.tag_residuals[i].sum_px2;
+    dof += p.tag_residuals[i].dof;
+    max_angle = std::max(max_angle, p.tag_residuals[i].view_angle_rad);
+  }
+  EXPECT_NEAR(dof, p.noise_dof, 1e-6);
+  EXPECT_NEAR(sum / dof, p.noise_px2, 1e-9);
+  ASSERT_GT(max_angle, 60 * M_PI / 180) << "the view should see a grazing tag";
+
+  const auto exact = synth_detections(b, s.calibration.camera, T_cam_man, 0.0, rng);
+  BundlePoseOptions o;
+  o.view_weight_from_rad = 40 * M_PI / 180;
+  const BundlePose w = estimate_bundle_pose(b, s.calibration.camera, exact, o);
+  ASSERT_TRUE(w.ok()) << w.message;
+  EXPECT_LT(trans_err_m(w.T_cam_body, T_cam_man), 1e-7);
+  EXPECT_EQ(w.tags_used, static_cast<int>(exact.size()));
+
+  o = {};
+  o.max_view_angle_rad = 60 * M_PI / 180;
+  const BundlePose d = estimate_bundle_pose(b, s.calibration.camera, dets, o);
+  ASSERT_TRUE(d.ok()) << d.message;
+  EXPECT_LT(d.tags_used, p.tags_used);
+  for (const auto& t : d.tag_residuals) EXPECT_LE(t.view_angle_rad, 61 * M_PI / 180) << t.id;  // judged at the first fit
+  o.min_tags_kept = 99;  // too few would remain: nothing is dropped
+  EXPECT_EQ(estimate_bundle_pose(b, s.calibration.camera, dets, o).tags_used, p.tags_used);
+  o.max_view_angle_rad = -1;
+  EXPECT_EQ(estimate_bundle_pose(b, s.calibration.camera, dets, o).status, BundlePoseStatus::kInvalidInput);
 }
 
 // The reported covariance matches the scatter of the estimates under

@@ -39,12 +39,15 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 using test::Footage;
 using test::run_size;
 
+// The default station; with DENTAR_LAYOUT=wrap20 its 20-tag head (issue 16 head layout).
 const Footage& footage(SynthPreset preset) {
   static std::map<int, Footage> cache;
   auto it = cache.find(static_cast<int>(preset));
   if (it != cache.end()) return it->second;
-  return cache[static_cast<int>(preset)] =
-             test::make_footage(default_station_scene(), test::accuracy_options(preset));
+  StationScene st = default_station_scene();
+  if (const char* l = std::getenv("DENTAR_LAYOUT"); l && std::string(l) == "wrap20")
+    set_mannequin_layout(st, MannequinLayout::kWrap20);
+  return cache[static_cast<int>(preset)] = test::make_footage(st, test::accuracy_options(preset));
 }
 
 // delta of `est` against `truth` in bundle_pose.h's convention (w, v in cam):
@@ -344,9 +347,14 @@ TEST(CovarianceOnFootage, PredictedWithin20PercentOfObserved) {
     o.mirror_max_sigma_m = 0;  // every mirror pose, for its honesty
     if (const char* r = std::getenv("DENTAR_RESPONSE"); r && std::string(r) == "linear")
       o.detector.response = CameraResponse::kLinear;  // the tracker before sRGB decoding
+    // DENTAR_POOL=comparable: the mirror pooled with the mannequin's comparable tags only.
+    if (const char* r = std::getenv("DENTAR_POOL"); r && std::string(r) == "comparable") o.pool_comparable_tags = true;
+    // DENTAR_LAYOUT=wrap20: the 20-tag head (MannequinLayout::kWrap20), printed, not bounded.
     const Honesty h = measure(fo, o);
     print(name.c_str(), h);
-    if (!z.is_default() || only || std::getenv("DENTAR_RESPONSE")) continue;
+    if (!z.is_default() || only || std::getenv("DENTAR_RESPONSE") || std::getenv("DENTAR_POOL") ||
+        std::getenv("DENTAR_LAYOUT"))
+      continue;
     ASSERT_GT(h.measured, 20) << name;
     if (p == SynthPreset::kStandard || p == SynthPreset::kHard || p == SynthPreset::kLowLight) {
       EXPECT_GT(ratio(h.sigma_mm, h.err_mm), 0.8) << name;
@@ -380,11 +388,14 @@ TEST(CovarianceOnFootage, MirrorGateWithPooledNoise) {
       continue;
     const Footage& fo = footage(p);
     ASSERT_TRUE(fo.error.empty()) << fo.error;
-    std::size_t drawn[2] = {0, 0};
-    double p95[2] = {NAN, NAN};
-    for (bool pool : {false, true}) {
+    std::size_t drawn[3] = {0, 0, 0};
+    double p95[3] = {NAN, NAN, NAN};
+    // own noise; pooled with all the mannequin's tags (the default); pooled with its comparable tags.
+    for (int variant : {0, 1, 2}) {
+      const bool pool = variant > 0;
       TrackerOptions o;
       o.pool_noise = pool;
+      o.pool_comparable_tags = variant == 2;
       auto tr = Tracker::create(fo.station, o);
       ASSERT_TRUE(tr.ok()) << tr.error();
       const Eigen::Vector3d c = fo.station.calibration.T_mtag_mir.translation();
@@ -402,17 +413,18 @@ TEST(CovarianceOnFootage, MirrorGateWithPooledNoise) {
         if (f->mirror.state != TrackState::kLost) {
           derr.push_back((f->mirror.T_cam_body * c - s.truth.T_cam_mtag * c).norm() * 1e3);
           if (std::getenv("DENTAR_PRESET_FRAMELOG"))
-            std::printf("  %s %s frame %d %s sigma %.3f err %.3f mm\n", name.c_str(), pool ? "pooled" : "own",
+            std::printf("  %s %s frame %d %s sigma %.3f err %.3f mm\n", name.c_str(),
+                        variant == 0 ? "own" : variant == 1 ? "pooled all" : "pooled comparable",
                         s.truth.frame, track_state_name(f->mirror.state), f->mirror.sigma_m * 1e3, derr.back());
         }
       }
       std::sort(derr.begin(), derr.end());
       auto q = [&](double f) { return derr.empty() ? NAN : derr[std::min(derr.size() - 1, std::size_t(f * derr.size()))]; };
       std::printf("| %s | %s | %zu / %d | %.3f / %.3f | %.3f / %.3f | %.0f %% | %d |\n", name.c_str(),
-                  pool ? "pooled" : "own", derr.size(), in_view, q(0.5), q(0.95), rms(sig), rms(err),
-                  100 * within2(sig, err), man);
-      drawn[pool ? 1 : 0] = derr.size();
-      p95[pool ? 1 : 0] = q(0.95);
+                  variant == 0 ? "own" : variant == 1 ? "pooled, all tags" : "pooled, comparable tags", derr.size(),
+                  in_view, q(0.5), q(0.95), rms(sig), rms(err), 100 * within2(sig, err), man);
+      drawn[variant] = derr.size();
+      p95[variant] = q(0.95);
       // Whatever the noise estimate, every gated measurement claims <= 1 mm.
       for (double sg : sig) EXPECT_LE(sg, 1.0 + 1e-9) << name;
     }
@@ -420,6 +432,9 @@ TEST(CovarianceOnFootage, MirrorGateWithPooledNoise) {
     // Measured (docs/BENCHMARKS.md): standard 11 -> 15 reflections drawn,
     // p95 0.74 -> 0.90 mm; mirror 7 drawn at 1.84 mm p95 (frames whose 10-dof
     // noise estimate was low by chance) -> none.
+    // The comparable tags' pool (TrackerOptions::pool_comparable_tags) is printed for the
+    // 20-tag head's record (docs/BENCHMARKS.md, issue 16 head layout); on the default
+    // 12-tag station it is not bounded.
     if (p == SynthPreset::kStandard) { EXPECT_GE(drawn[1], drawn[0]); }
     if (drawn[1] > 5) { EXPECT_LT(p95[1], 1.1) << name; }
   }

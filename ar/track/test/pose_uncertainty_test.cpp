@@ -354,6 +354,25 @@ TEST(PoseUncertainty, PooledNoiseMirrorSigmaWithin20PercentOfMonteCarlo) {
   EXPECT_EQ(pooled_noise_px2(pm, &failed), pm.noise_px2);
 }
 
+// Pooling only comparable tags (TrackerOptions::pool_comparable_tags): the
+// other body's tags seen more obliquely than the body's own most oblique tag
+// stay out of the pool.
+TEST(PoseUncertainty, PooledNoiseWithComparableTagsOnly) {
+  BundlePose body, other;
+  body.status = other.status = BundlePoseStatus::kOk;
+  body.noise_dof = 10;
+  body.noise_px2 = 0.4 / 10;
+  body.tag_residuals = {{20, 0.2, 5, 0.5}, {22, 0.2, 5, 0.7}};
+  other.noise_dof = 15;
+  other.noise_px2 = 1.1 / 15;
+  other.tag_residuals = {{0, 0.05, 5, 0.3}, {1, 0.05, 5, 0.7}, {2, 1.0, 5, 1.1}};
+  EXPECT_NEAR(pooled_noise_px2(body, &other), (0.4 + 1.1) / 25, 1e-12);
+  EXPECT_NEAR(pooled_noise_px2(body, &other, true), (0.4 + 0.1) / 20, 1e-12);
+  other.tag_residuals = {{2, 1.1, 15, 1.1}};  // none comparable: the body's own
+  EXPECT_NEAR(pooled_noise_px2(body, &other, true), body.noise_px2, 1e-12);
+  EXPECT_NEAR(pooled_noise_px2(body, nullptr, true), body.noise_px2, 1e-12);
+}
+
 TEST(PoseUncertainty, FlooredCovarianceOfAnExactFitIsTheFloor) {
   const StationScene s = default_station_scene();
   const TagBundle b = mirror_bundle(s);

@@ -214,11 +214,26 @@ std::optional<StationScene> builtin_station_scene(std::string_view name);
 CalibrationFixtures default_calibration_fixtures();
 
 // The built-in station (assets/station_default.json is this, written out):
-// 12 tags of 14 mm on the forehead, cheeks and chin; a lower-left first molar
+// 12 tags of 14 mm on the forehead, cheeks and chin (kFront12 below); a lower-left first molar
 // site; the haptic device placed as haptics::default_station() says; a
 // 640x480 head camera with mild barrel distortion; a mirror with two tags
 // (front and back of its paddle).
 StationScene default_station_scene();
+
+// The mannequin's head tag layouts (tagStandard41h12, 14 mm border, 25 mm
+// printed, each on a tangent plate 0.5 mm above the head ellipsoid, image
+// "down" toward the chin). kFront12 (the default station's): ids 0..11 on
+// the forehead, brow, cheeks and chin. kWrap20 (measured 2026-11-27, not the
+// default): the same 12 plus ids 12..19 on the cheekbones (+-45, 5 deg
+// azimuth, elevation), temples (+-50, 45), the sides above the ears
+// (+-70, 25) and the jaw (+-40, -30). On `hard` it draws 52 instead of 46 of
+// 60 frames and halves no error: its p95 is worse (0.838 vs 0.735 mm), and
+// its covariance is 1.3x pessimistic on `lowlight` (docs/BENCHMARKS.md,
+// "issue 16: the head tag layout"). Use it with
+// TrackerOptions::pool_comparable_tags. Ids 20..22 are the mirror's, 30..31
+// the pen's. Rewrites s.mannequin_tags.
+enum class MannequinLayout { kFront12, kWrap20 };
+void set_mannequin_layout(StationScene& s, MannequinLayout kind);
 
 // The mirror paddle's tag layouts. kRoof (the default station's since issue
 // 16): a 30 x 40 x 9 mm paddle with a 35 deg roof, tag 20 on its -y face,

@@ -15,7 +15,8 @@
 //     glare no longer drags the whole bundle.
 //  4. Covariance from the Gauss-Newton normal equations at the optimum,
 //     scaled by the residual variance: sigma^2 (J^T W J)^-1,
-//     sigma^2 = sum w r^2 / (2N - 6) (W = the robust weights).
+//     sigma^2 = sum w r^2 / (2N - 6) (W = the robust weights times the
+//     view-angle weights, view_weight_from_rad).
 //
 // Frames: `cam` (OpenCV optical), `body` (the layout's parent frame: `man`
 // for the mannequin, `mtag` for the mirror). Metres and radians; pixels where
@@ -54,6 +55,22 @@ struct BundlePoseOptions {
   // Huber threshold on a corner's reprojection distance (px): corners
   // farther off count linearly, not quadratically. 0 = plain least squares.
   double robust_px = 0.0;
+  // Corners of tags seen obliquely are noisier (issue 16, generator v2
+  // footage: corner error p50 0.13 px within 40 deg of view angle, 0.15 at
+  // 40-55, 0.24 at 55-70). With view_weight_from_rad > 0 each tag's corners
+  // are weighted by min(1, cos(view angle) / cos(view_weight_from_rad))^2
+  // (view angle: between the tag's normal and the ray to its centre, at the
+  // seed pose, then again at the first fit's; cos floored at 0.1), i.e.
+  // their noise modelled as growing like 1 / cos(view angle) beyond that
+  // angle. noise_px2 and the covariances are then those of this weighted
+  // fit: noise_px2 is the noise of a corner seen within the angle, which
+  // makes it comparable between bodies (TrackerOptions::pool_noise).
+  // 0 = every corner weighs the same.
+  double view_weight_from_rad = 0.0;
+  // Tags seen more obliquely than this at the fit's optimum are dropped and
+  // the rest refitted, when at least min_tags_kept remain (0 = keep all).
+  double max_view_angle_rad = 0.0;
+  int min_tags_kept = 4;
   std::string validate() const;  // empty when valid
 };
 
@@ -93,6 +110,16 @@ struct BundlePose {
   // grazing tags are noisier than large frontal ones (docs/BENCHMARKS.md,
   // issue 16), and one shared noise spreads their noise over the good tags.
   Eigen::Matrix<double, 6, 6> covariance_per_tag = Eigen::Matrix<double, 6, 6>::Zero();
+  // Each used tag's share of the residual: its weighted residual sum (px^2),
+  // its residual degrees of freedom (8 minus its leverage; they add up to
+  // noise_dof) and its view angle at the optimum (between its normal and the
+  // ray to its centre, rad). Lets another body pool only comparable tags'
+  // noise (pose_uncertainty.h, pooled_noise_px2).
+  struct TagResidual {
+    int id = 0;
+    double sum_px2 = 0, dof = 0, view_angle_rad = 0;
+  };
+  std::vector<TagResidual> tag_residuals;  // in tag_ids order
   bool ok() const { return status == BundlePoseStatus::kOk; }
 };
 

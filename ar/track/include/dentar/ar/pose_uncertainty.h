@@ -41,7 +41,14 @@ PoseCovariance floored_covariance(const BundlePose& p, double floor_px);
 // +-45 % and its per-tag outline errors (which its pose barely follows)
 // inflate it by ~25 % on footage (docs/BENCHMARKS.md, issue 16). `other`
 // not ok (or nullptr): body's own noise_px2.
-double pooled_noise_px2(const BundlePose& body, const BundlePose* other);
+// comparable_only: pool only those of other's tags seen no more obliquely
+// than body's most oblique tag (BundlePose::tag_residuals: their residual
+// sums and degrees of freedom). Grazing tags are noisier than frontal ones;
+// the mannequin's 20-tag head layout sees several at 55-70 deg where the
+// mirror's tags are seen at 20-50, and pooling them all over-stated the
+// mirror centre's sigma by 26 % on `mirror` (docs/BENCHMARKS.md, issue 16
+// head layout). No comparable tag: body's own noise_px2.
+double pooled_noise_px2(const BundlePose& body, const BundlePose* other, bool comparable_only = false);
 // covariance_per_px2 of `body` times max(noise_px2, floor_px^2).
 PoseCovariance covariance_with_noise(const BundlePose& body, double noise_px2, double floor_px);
 

@@ -129,6 +129,13 @@ struct TrackerOptions {
   // mirror centre's sigma against its error 1.15-1.3x without, within 20 %
   // with it (docs/BENCHMARKS.md, issue 16). The mannequin keeps its own.
   bool pool_noise = true;
+  // ... and only with the mannequin tags seen no more obliquely than the
+  // body's own most oblique tag (pooled_noise_px2, comparable_only). With
+  // the 20-tag head (MannequinLayout::kWrap20) pooling all its tags
+  // over-stated the mirror centre's sigma 1.26x on `mirror`; comparable
+  // tags: 0.89-1.03 (docs/BENCHMARKS.md, issue 16 head layout). Off: the
+  // default 12-tag station was measured with the plain pool.
+  bool pool_comparable_tags = false;
   PoseFilterOptions filter;
   bool filter_enabled = true;
   double stale_limit_s = 0.2;  // predicted -> lost after this long without a measurement
