@@ -229,8 +229,8 @@ StationScene default_station_scene();
 // (+-70, 25) and the jaw (+-40, -30). On `hard` it draws 52 instead of 46 of
 // 60 frames and halves no error: its p95 is worse (0.838 vs 0.735 mm), and
 // its covariance is 1.3x pessimistic on `lowlight` (docs/BENCHMARKS.md,
-// "issue 16: the head tag layout"). Use it with
-// TrackerOptions::pool_comparable_tags. Ids 20..22 are the mirror's, 30..31
+// "issue 16: the head tag layout"; the mirror's pooled noise with it:
+// TrackerOptions::pool_comparable_tags). Ids 20..22 are the mirror's, 30..31
 // the pen's. Rewrites s.mannequin_tags.
 enum class MannequinLayout { kFront12, kWrap20 };
 void set_mannequin_layout(StationScene& s, MannequinLayout kind);

@@ -133,8 +133,10 @@ struct TrackerOptions {
   // body's own most oblique tag (pooled_noise_px2, comparable_only). With
   // the 20-tag head (MannequinLayout::kWrap20) pooling all its tags
   // over-stated the mirror centre's sigma 1.26x on `mirror`; comparable
-  // tags: 0.89-1.03 (docs/BENCHMARKS.md, issue 16 head layout). Off: the
-  // default 12-tag station was measured with the plain pool.
+  // tags: 0.89-1.03 at 640x480, but at 1280x720 on `standard` the gated
+  // reflections' sigma under-stated their error (0.69x; docs/BENCHMARKS.md,
+  // issue 16 head layout). Off: the default 12-tag station was measured with
+  // the plain pool.
   bool pool_comparable_tags = false;
   PoseFilterOptions filter;
   bool filter_enabled = true;
