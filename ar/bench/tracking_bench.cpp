@@ -3,7 +3,9 @@
 // threads = 1. Every benchmark iteration tracks one frame; per-frame times
 // are recorded and reported as counters (median and p99 in ms), with the
 // recall (mannequin tags found / tags a detector should find, per the
-// truth) and the mannequin pose error against the truth (p95).
+// truth) and the mannequin pose error against the truth (p95). The
+// `_paced` and `_async` rows feed frames every 33.3 ms as a camera does
+// (async: the full-frame search on a worker thread, the live app's default).
 //
 //   build-*/ar/ar_tracking_bench --benchmark_filter=Track
 //   build-*/ar/ar_tracking_bench --benchmark_filter='Jitter|Step'
