@@ -36,6 +36,7 @@ struct OfflineCli {
   double predict_ms = 0, stale_ms = 200;
   double mirror_sigma_mm = 1.0;
   std::string camera_response = "srgb";
+  bool mirror_rim = false;
   std::size_t triangle_budget = 0;
   std::string exercise;  // scoring: exercise name or file ("" = recorded / by the tooth)
   bool no_score = false;
@@ -107,6 +108,7 @@ int run(const OfflineCli& c) {
   o.tracker.filter_enabled = !c.no_filter;
   o.tracker.stale_limit_s = c.stale_ms * 1e-3;
   o.tracker.mirror_max_sigma_m = c.mirror_sigma_mm * 1e-3;
+  o.tracker.mirror_rim_refine = c.mirror_rim;
   if (auto r = ar::parse_camera_response(c.camera_response); !r) {
     print_error("offline", "--camera-response: " + r.error());
     return 2;
@@ -200,7 +202,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--scale-calib] [--quiet]\n"
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
       "                         [--predict-ms MS] [--stale-ms MS] [--mirror-sigma-mm MM] [--no-occlusion]\n"
-      "                         [--camera-response srgb|linear]\n"
+      "                         [--camera-response srgb|linear] [--mirror-rim]\n"
       "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]\n"
       "                         [--exercise NAME|FILE] [--no-score]");
   s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");
@@ -244,6 +246,9 @@ void add_offline(CLI::App& app, int& exit_code) {
                 "How the video's grey levels relate to light: srgb (video cameras, dentar synth) "
                 "or linear (raw machine-vision cameras); tag edges are fitted in linear light")
       ->capture_default_str();
+  s->add_flag("--mirror-rim", c->mirror_rim,
+              "Refine the mirror's pose from its rim ellipse in the image (issue 16; "
+              "docs/BENCHMARKS.md)");
   s->add_option("--stale-ms", c->stale_ms, "Drop the overlay this long after tracking is lost")
       ->check(CLI::Range(0.0, 5000.0))
       ->capture_default_str();

@@ -31,6 +31,7 @@ struct TrackCli {
   double decimate = 2.0;
   int threads = 1;
   std::string camera_response = "srgb";
+  bool mirror_rim = false;
   bool no_roi = false;
   int full_every = 15;
   bool no_filter = false;
@@ -138,6 +139,7 @@ int run(const TrackCli& c) {
   to.detector.families = {station.family};
   to.detector.decimation = c.decimate;
   to.detector.threads = c.threads;
+  to.mirror_rim_refine = c.mirror_rim;
   if (auto r = ar::parse_camera_response(c.camera_response); !r) {
     print_error("track", "--camera-response: " + r.error());
     return 2;
@@ -297,7 +299,7 @@ void add_track(CLI::App& app, int& exit_code) {
       "Synopsis: dentar track --input <video|image folder|camera:N|/dev/videoN|live:VIDEO>\n"
       "                       --calib <camera yaml|station json> --layout <station json>\n"
       "                       --out poses.jsonl [--family F] [--decimate D] [--threads N]\n"
-      "                       [--camera-response srgb|linear]\n"
+      "                       [--camera-response srgb|linear] [--mirror-rim]\n"
       "                       [--no-roi] [--full-every N] [--no-filter] [--stale-ms MS]\n"
       "                       [--display-delay-ms MS] [--scale-calib] [--max-frames N]\n"
       "                       [--tags --tag-size-mm S] [--width W --height H --fps F]");
@@ -320,6 +322,9 @@ void add_track(CLI::App& app, int& exit_code) {
                 "How the video's grey levels relate to light: srgb (video cameras, dentar synth) "
                 "or linear (raw machine-vision cameras); tag edges are fitted in linear light")
       ->capture_default_str();
+  s->add_flag("--mirror-rim", c->mirror_rim,
+              "Refine the mirror's pose from its rim ellipse in the image (issue 16; "
+              "docs/BENCHMARKS.md)");
   s->add_option("--threads", c->threads, "libapriltag threads")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();

@@ -149,6 +149,8 @@ std::string TrackerOptions::validate() const {
     os << "sigma_floor_px = " << sigma_floor_px << " must be finite and >= 0";
   else if (!std::isfinite(stale_limit_s) || stale_limit_s < 0 || stale_limit_s > 10)
     os << "stale_limit_s = " << stale_limit_s << " must be in [0, 10] s";
+  else if (auto e = mirror_rim.validate(); !e.empty())
+    os << "mirror_rim." << e;
   else if (discovery != DiscoveryMode::kInline && !predicted_regions)
     os << "discovery = " << discovery_mode_name(discovery)
        << " needs predicted_regions (without them every frame is a full-frame search)";
@@ -326,6 +328,9 @@ struct Tracker::Impl {
   bool have_last_capture = false;
   double last_capture_s = 0;
   cv::Mat gray;  // scratch
+  // The mirror disc (TrackerOptions::mirror_rim_refine).
+  Eigen::Isometry3d T_mtag_mir = Eigen::Isometry3d::Identity();
+  double mirror_radius_m = 0, mirror_thickness_m = 0;
   // Discovery off the frame path (not kInline).
   std::unique_ptr<DiscoveryWorker> discovery;
   std::map<std::int64_t, Discovered> scheduled;  // kScheduled: started, not merged yet
@@ -517,8 +522,23 @@ struct Tracker::Impl {
                                                          : b.last_meas;
     bool measured = false;
     if (!tags.empty()) {
-      const BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, o.pose, prev);
+      BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, o.pose, prev);
       if (&b == &mannequin) noise_ref = p;
+      if (&b == &mirror && o.mirror_rim_refine && p.ok() && p.rms_px <= o.max_rms_px &&
+          mirror_radius_m > 0) {
+        const double floor2 = o.sigma_floor_px * o.sigma_floor_px;
+        const MirrorRimResult rr = refine_mirror_rim(
+            gray, o.detector.response == CameraResponse::kSrgb, model, p,
+            std::max(noise_px2(b, p), floor2), T_mtag_mir, mirror_radius_m, mirror_thickness_m,
+            o.mirror_rim);
+        if (rr.refined) {
+          p.T_cam_body = rr.T_cam_body;
+          p.covariance_per_px2 = rr.covariance_per_px2;
+          p.covariance_per_tag = rr.covariance_per_tag;
+          p.covariance = rr.covariance_per_px2 * p.noise_px2;
+          out.rim_points = rr.points;
+        }
+      }
       if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(b, p)) {
         measured = true;
         out.T_cam_body_measured = p.T_cam_body;
@@ -530,6 +550,7 @@ struct Tracker::Impl {
         out.sigma_per_tag_m = per_tag_sigma(b, p);
       }
     }
+    if (!measured) out.rim_points = 0;
     pose_ms += ms_since(t0);
     const auto t1 = Clock::now();
     if (measured) {
@@ -617,6 +638,9 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
   m.mannequin.static_in_world = true;
   m.mirror.max_sigma_m = options.mirror_max_sigma_m;
   m.mirror.gate_point = station.calibration.T_mtag_mir.translation();  // mirror centre in mtag
+  m.T_mtag_mir = station.calibration.T_mtag_mir;
+  m.mirror_radius_m = station.calibration.mirror_radius_m;
+  m.mirror_thickness_m = station.mirror.thickness_m;
   m.mannequin.filter = PoseFilter(options.filter);
   m.mirror.filter = PoseFilter(options.filter);
   if (options.track_pen) {

@@ -50,6 +50,7 @@
 #include <vector>
 
 #include "dentar/ar/bundle_pose.h"
+#include "dentar/ar/mirror_rim.h"
 #include "dentar/ar/pose_filter.h"
 #include "dentar/ar/station_scene.h"
 #include "dentar/ar/tag_detector.h"
@@ -167,6 +168,13 @@ struct TrackerOptions {
   // path like the mirror's; a lost pen is found by the full-frame searches.
   bool track_pen = false;
   double pen_max_sigma_m = 0.0;  // as mirror_max_sigma_m (0 = no gate)
+  // Refine each mirror measurement from the disc's rim ellipse in the image
+  // (mirror_rim.h): the tag fit as a prior plus the rim's edges, its
+  // covariance (and so the gate) from the joint fit; the tag pose when too
+  // few rim edges are found. Measured in docs/BENCHMARKS.md (issue 16, the
+  // mirror's rim ellipse).
+  bool mirror_rim_refine = false;
+  MirrorRimOptions mirror_rim;
   // Where the full-frame search runs (see the top of this file).
   DiscoveryMode discovery = DiscoveryMode::kInline;
   // kAsync: called once on the worker thread before its first search (CPU
@@ -203,6 +211,9 @@ struct BodyTrack {
   // uses when TrackerOptions::sigma_per_tag.
   double sigma_per_tag_m = 0;
   double since_measurement_s = 0;  // capture time - last measured capture time
+  // TrackerOptions::mirror_rim_refine: rim edges used (0 = the tag pose,
+  // not refined, or the option off).
+  int rim_points = 0;
 };
 
 struct TrackTimings {

@@ -1,0 +1,371 @@
+#include "dentar/ar/mirror_rim.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <sstream>
+
+#include "dentar/ar/srgb.h"
+
+namespace dentar::ar {
+
+std::string MirrorRimOptions::validate() const {
+  std::ostringstream os;
+  if (samples < 8 || samples > 4096) os << "samples = " << samples << " must be in 8..4096";
+  else if (!(std::isfinite(search_px) && search_px >= 1 && search_px <= 50))
+    os << "search_px = " << search_px << " must be in [1, 50]";
+  else if (!(std::isfinite(min_step) && min_step >= 0 && min_step < 1))
+    os << "min_step = " << min_step << " must be in [0, 1)";
+  else if (!(std::isfinite(ambiguity) && ambiguity > 0 && ambiguity <= 1))
+    os << "ambiguity = " << ambiguity << " must be in (0, 1]";
+  else if (!(std::isfinite(stem_exclude_rad) && stem_exclude_rad >= 0 && stem_exclude_rad < M_PI))
+    os << "stem_exclude_rad = " << stem_exclude_rad << " must be in [0, pi)";
+  else if (min_points < 6) os << "min_points = " << min_points << " must be >= 6";
+  else if (!(std::isfinite(huber_px) && huber_px > 0)) os << "huber_px = " << huber_px << " must be > 0";
+  else if (!(std::isfinite(max_correction_sigma) && max_correction_sigma > 0))
+    os << "max_correction_sigma = " << max_correction_sigma << " must be > 0";
+  else if (iterations < 1 || iterations > 100) os << "iterations = " << iterations << " must be in 1..100";
+  else if (rounds < 1 || rounds > 10) os << "rounds = " << rounds << " must be in 1..10";
+  else if (!(std::isfinite(research_px) && research_px >= 0.5 && research_px <= 50))
+    os << "research_px = " << research_px << " must be in [0.5, 50]";
+  else if (!(std::isfinite(rim_effective_points) && rim_effective_points >= 1))
+    os << "rim_effective_points = " << rim_effective_points << " must be >= 1";
+  return os.str();
+}
+
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+// Linear-light sample (0..1) of an 8-bit image, bilinear; nullopt off the image.
+struct Sampler {
+  const cv::Mat& g;
+  const float* lut;  // 256 entries, or null: levels / 255
+  std::optional<double> operator()(const Eigen::Vector2d& p) const {
+    const int x = static_cast<int>(std::floor(p.x())), y = static_cast<int>(std::floor(p.y()));
+    if (x < 0 || y < 0 || x + 1 >= g.cols || y + 1 >= g.rows) return std::nullopt;
+    const double a = p.x() - x, b = p.y() - y;
+    const std::uint8_t* r0 = g.ptr<std::uint8_t>(y);
+    const std::uint8_t* r1 = g.ptr<std::uint8_t>(y + 1);
+    auto v = [&](std::uint8_t c) { return lut ? double(lut[c]) : c / 255.0; };
+    return (1 - b) * ((1 - a) * v(r0[x]) + a * v(r0[x + 1])) + b * ((1 - a) * v(r1[x]) + a * v(r1[x + 1]));
+  }
+};
+
+// The pose with a delta (w, v) applied as BundlePose defines it.
+Eigen::Isometry3d apply(const Eigen::Isometry3d& T, const Vec6& d) {
+  Eigen::Isometry3d out = T;
+  const Eigen::Vector3d w = d.head<3>();
+  const double a = w.norm();
+  if (a > 0) out.linear() = Eigen::AngleAxisd(a, w / a).toRotationMatrix() * T.linear();
+  out.translation() = T.translation() + d.tail<3>();
+  return out;
+}
+
+}  // namespace
+
+MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraModel& model,
+                                  const BundlePose& tags, double corner_noise_px2,
+                                  const Eigen::Isometry3d& T_mtag_mir, double radius_m,
+                                  double thickness_m, const MirrorRimOptions& o) {
+  MirrorRimResult res;
+  res.T_cam_body = tags.T_cam_body;
+  res.covariance_per_px2 = tags.covariance_per_px2;
+  res.covariance_per_tag = tags.covariance_per_tag;
+  if (!tags.ok()) {
+    res.why = "tag fit not ok";
+    return res;
+  }
+  if (gray.empty() || gray.type() != CV_8UC1 || !o.validate().empty() || !(radius_m > 0)) {
+    res.why = "bad input";
+    return res;
+  }
+  const Mat6 C_t = tags.covariance_per_px2;
+  Eigen::FullPivLU<Mat6> lu(C_t);
+  if (!lu.isInvertible()) {
+    res.why = "tag covariance singular";
+    return res;
+  }
+  const Mat6 H_t = lu.inverse();  // information per px^2 of corner noise
+  const Sampler S{gray, srgb ? srgb_decode_table().ptr<float>() : nullptr};
+
+  const double t = o.silhouette_back ? std::max(0.0, thickness_m) : 0.0;
+  auto rim_pt = [&](double th, double z) {
+    return Eigen::Vector3d(radius_m * std::cos(th), radius_m * std::sin(th), z);
+  };
+
+  // Points in the body (mtag) frame and their measured edge along the normal.
+  struct Obs {
+    double th = 0, z = 0;
+    Eigen::Vector2d e_px, n;
+  };
+  std::vector<Obs> obs;
+  const double step = 0.25;
+  // Searches the rim's edges around its projection at pose T (cam <- mtag)
+  // within +-window px; fills obs and res.edges. False: centre not in front.
+  auto search = [&](const Eigen::Isometry3d& T_body, double window) {
+    obs.clear();
+    res.edges.clear();
+    res.candidates = 0;
+    const Eigen::Isometry3d T0 = T_body * T_mtag_mir;  // cam <- mir
+    const auto c_px = model.project(T0.translation());
+    if (!c_px) return false;
+    const int ns = std::max(2, static_cast<int>(std::round(window / step)));
+    std::vector<double> prof(2 * ns + 1 + 4);
+    for (int i = 0; i < o.samples; ++i) {
+      const double th = 2 * M_PI * (i + 0.5) / o.samples;
+      // The stem leaves the rim along -y (th = -pi/2 = 3pi/2).
+      const double dth = std::remainder(th + M_PI / 2, 2 * M_PI);
+      if (std::abs(dth) < o.stem_exclude_rad) continue;
+      const auto u_f = model.project(T0 * rim_pt(th, 0));
+      const auto u_a = model.project(T0 * rim_pt(th - 1e-3, 0));
+      const auto u_b = model.project(T0 * rim_pt(th + 1e-3, 0));
+      if (!u_f || !u_a || !u_b) continue;
+      const Eigen::Vector2d tan = *u_b - *u_a;
+      if (tan.norm() < 1e-9) continue;
+      Eigen::Vector2d n(-tan.y(), tan.x());
+      n.normalize();
+      if (n.dot(*u_f - *c_px) < 0) n = -n;
+      // Outer silhouette: the face's circle or the back's.
+      bool back = false;
+      Eigen::Vector2d u = *u_f;
+      if (t > 0) {
+        const auto u_k = model.project(T0 * rim_pt(th, -t));
+        if (u_k && (*u_k - *u_f).dot(n) > 0) {
+          back = true;
+          u = *u_f + n * (*u_k - *u_f).dot(n);
+        }
+      }
+      // Profile of linear light along n from -window-0.5 to +window+0.5 px.
+      bool inside = true;
+      for (int k = 0; k < static_cast<int>(prof.size()) && inside; ++k) {
+        const auto v = S(u + n * ((k - ns - 2) * step));
+        inside = v.has_value();
+        if (inside) prof[k] = *v;
+      }
+      if (!inside) continue;
+      ++res.candidates;
+      // Gradient by a central difference over +-0.5 px, at k in [2, size-3].
+      auto grad = [&](int k) { return (prof[k + 2] - prof[k - 2]) / (4 * step); };
+      int best = -1;
+      double gbest = 0;
+      for (int k = 2; k <= 2 * ns + 2; ++k)
+        if (std::abs(grad(k)) > gbest) {
+          gbest = std::abs(grad(k));
+          best = k;
+        }
+      if (best <= 2 || best >= 2 * ns + 2) continue;  // at the window's end
+      double second = 0;
+      for (int k = 2; k <= 2 * ns + 2; ++k)
+        if (std::abs(k - best) * step > 1.5) second = std::max(second, std::abs(grad(k)));
+      if (second >= o.ambiguity * gbest) continue;
+      // Step across the edge: +-1.5 px around the peak (clamped to the profile).
+      const int ka = std::max(0, best - 6), kb = std::min(static_cast<int>(prof.size()) - 1, best + 6);
+      const double dstep = prof[kb] - prof[ka];
+      if (std::abs(dstep) < o.min_step) continue;
+      // Sub-sample peak: parabola through |g| at best-1, best, best+1.
+      const double g0 = std::abs(grad(best - 1)), g1 = gbest, g2 = std::abs(grad(best + 1));
+      double sub = 0;
+      const double den = g0 - 2 * g1 + g2;
+      if (den < 0) sub = std::clamp(0.5 * (g0 - g2) / den, -0.5, 0.5);
+      const double off = (best - ns - 2 + sub) * step;
+      MirrorRimEdge e;
+      e.angle_rad = th;
+      e.back = back;
+      e.model_px = u;
+      e.normal = n;
+      e.offset_px = off;
+      e.step = dstep;
+      res.edges.push_back(e);
+      obs.push_back({th, back ? -t : 0.0, u + n * off, n});
+    }
+    return true;
+  };
+
+  const double sc2 = std::max(corner_noise_px2, 1e-6);
+  double lambda = 1.0;  // rim noise / corner noise (variance ratio), >= 1
+  Vec6 d = Vec6::Zero();
+  double scale = 0;  // the rim's scale - 1 (free_scale)
+  Mat6 H = H_t;
+  const Mat6 H_p = o.centre_only ? Mat6(H_t * 1e-4) : H_t;  // the prior in the rim fit
+  // d(centre . ray)/d(delta) at the tag pose (keep_depth).
+  Vec6 a_ray = Vec6::Zero();
+  {
+    const Eigen::Vector3d pc = T_mtag_mir.translation();
+    const Eigen::Vector3d c0 = tags.T_cam_body * pc, ray = c0.normalized();
+    for (int j = 0; j < 6; ++j) {
+      Vec6 dj = Vec6::Zero();
+      dj[j] = 1e-6;
+      a_ray[j] = ray.dot(apply(tags.T_cam_body, dj) * pc - c0) / 1e-6;
+    }
+  }
+  Eigen::VectorXd w;
+  const int rounds = std::max(1, o.rounds);
+  for (int round = 0; round < rounds; ++round) {
+    const double window = round == 0 ? o.search_px : o.research_px;
+    if (!search(apply(tags.T_cam_body, d), window)) {
+      res.why = "centre behind the camera";
+      res.edges.clear();
+      return res;
+    }
+    res.points = static_cast<int>(obs.size());
+    if (res.points < o.min_points) {
+      res.why = "too few rim edges (" + std::to_string(res.points) + ")";
+      res.edges.clear();
+      return res;
+    }
+    const int N = res.points;
+    Eigen::VectorXd r(N);
+    w = Eigen::VectorXd::Ones(N);
+    Eigen::MatrixXd J(N, 7);
+    // Parameters: the pose delta (6) and, with free_scale, the rim's scale
+    // (1 + s): the ellipse's size, which ties the depth to an edge bias
+    // (0.5 px on a 25 px semi-axis is 2 % of the distance), is then left to
+    // the tags; the rim fixes the disc's image position and tilt.
+    const int np = o.free_scale ? 7 : 6;
+    auto residuals = [&](const Vec6& dd, double sc, Eigen::VectorXd& out) {
+      const Eigen::Isometry3d T = apply(tags.T_cam_body, dd) * T_mtag_mir;
+      for (int i = 0; i < N; ++i) {
+        const Eigen::Vector3d q((1 + sc) * radius_m * std::cos(obs[i].th),
+                                (1 + sc) * radius_m * std::sin(obs[i].th), obs[i].z);
+        const auto u = model.project(T * q);
+        out[i] = u ? obs[i].n.dot(*u - obs[i].e_px) : 1e3;
+      }
+    };
+    for (int pass = 0; pass < 2; ++pass) {
+      for (int it = 0; it < o.iterations; ++it) {
+        residuals(d, scale, r);
+        for (int j = 0; j < np; ++j) {
+          Vec6 dj = d;
+          double sj = scale;
+          const double h = j < 3 ? 1e-6 : (j < 6 ? 1e-7 : 1e-6);
+          if (j < 6) dj[j] += h; else sj += h;
+          Eigen::VectorXd rj(N);
+          residuals(dj, sj, rj);
+          J.col(j) = (rj - r) / h;
+        }
+        for (int i = 0; i < N; ++i) {
+          const double a = std::abs(r[i]);
+          // Huber, and nothing beyond 3 thresholds (a wrong edge).
+          w[i] = a <= o.huber_px ? 1.0 : (a <= 3 * o.huber_px ? o.huber_px / a : 0.0);
+        }
+        const Eigen::MatrixXd Jp = J.leftCols(np);
+        const Eigen::MatrixXd WJ = w.asDiagonal() * Jp;
+        Eigen::MatrixXd Hf = Eigen::MatrixXd::Zero(np, np);
+        Hf.topLeftCorner<6, 6>() = H_p;
+        Hf += (Jp.transpose() * WJ) / lambda;
+        Eigen::VectorXd g = Eigen::VectorXd::Zero(np);
+        g.head<6>() = H_p * d;
+        g += (WJ.transpose() * r) / lambda;
+        Eigen::MatrixXd Hs = Hf;
+        Eigen::VectorXd gs = g;
+        if (o.keep_depth) {
+          // Penalty on the centre's displacement along its line of sight.
+          const double K = 1e6 * std::max(1.0, H_t.bottomRightCorner<3, 3>().trace());
+          Hs.topLeftCorner<6, 6>() += K * a_ray * a_ray.transpose();
+          gs.head<6>() += K * a_ray * a_ray.dot(d);
+        }
+        const Eigen::VectorXd st = Hs.ldlt().solve(-gs);
+        d += st.head<6>();
+        if (np == 7) scale += st[6];
+        // The pose's covariance: the 6x6 marginal of the joint fit's.
+        const Eigen::MatrixXd Cf = Hf.inverse();
+        H = Mat6(Cf.topLeftCorner<6, 6>()).inverse();
+        if (st.head<3>().norm() < 1e-8 && st.segment<3>(3).norm() < 1e-8) break;
+      }
+      // The rim's own noise from its weighted residuals (5 dof it constrains).
+      residuals(d, scale, r);
+      double s = 0, sw = 0;
+      for (int i = 0; i < N; ++i) {
+        s += w[i] * r[i] * r[i];
+        sw += w[i];
+      }
+      const double rim_px2 = s / std::max(1.0, sw - (o.free_scale ? 6.0 : 5.0));
+      res.rms_px = std::sqrt(s / std::max(1e-9, sw));
+      // The rim's points are not independent (one blur, one silhouette
+      // model): their information counts as at most rim_effective_points.
+      const double corr = std::max(1.0, sw / o.rim_effective_points);
+      const double next = std::max(1.0, rim_px2 / sc2) * corr;
+      res.noise_px2 = next * sc2;
+      if (pass == 0 && std::abs(next - lambda) > 1e-3 * lambda) {
+        lambda = next;
+        continue;
+      }
+      break;
+    }
+  }
+  for (int i = 0; i < res.points; ++i) res.edges[i].weight = w[i];
+  if (o.centre_only) {
+    // The rim-only fit's disc centre in the image and its covariance, as one
+    // 2-D measurement joined to the tag prior.
+    const Eigen::Vector3d pc = T_mtag_mir.translation();
+    auto centre = [&](const Vec6& dd) { return model.project(apply(tags.T_cam_body, dd) * pc); };
+    auto jac = [&](const Vec6& dd, Eigen::Matrix<double, 2, 6>& Jc) {
+      const auto c0 = centre(dd);
+      if (!c0) return false;
+      for (int j = 0; j < 6; ++j) {
+        Vec6 dj = dd;
+        const double h = j < 3 ? 1e-6 : 1e-7;
+        dj[j] += h;
+        const auto cj = centre(dj);
+        if (!cj) return false;
+        Jc.col(j) = (*cj - *c0) / h;
+      }
+      return true;
+    };
+    const Mat6 C_rim = H.inverse();
+    const Vec6 d_rim = d;
+    const auto c_rim = centre(d_rim);
+    Eigen::Matrix<double, 2, 6> Jc;
+    if (!c_rim || !jac(d_rim, Jc)) {
+      res.why = "rim centre not projectable";
+      res.edges.clear();
+      return res;
+    }
+    const Eigen::Matrix2d Sc = Jc * C_rim * Jc.transpose();
+    const Eigen::Matrix2d Ic = Sc.inverse();
+    if (!Ic.allFinite()) {
+      res.why = "rim centre covariance singular";
+      res.edges.clear();
+      return res;
+    }
+    d.setZero();
+    for (int it = 0; it < o.iterations; ++it) {
+      const auto c = centre(d);
+      if (!c || !jac(d, Jc)) break;
+      const Eigen::Vector2d rc = *c - *c_rim;
+      H = H_t + Jc.transpose() * Ic * Jc;
+      const Vec6 g = H_t * d + Jc.transpose() * Ic * rc;
+      const Vec6 st = H.ldlt().solve(-g);
+      d += st;
+      if (st.norm() < 1e-9) break;
+    }
+  }
+  res.correction_sigma = std::sqrt(std::max(0.0, d.dot(H_t * d) / sc2));
+  if (!(res.correction_sigma <= o.max_correction_sigma) || !d.allFinite()) {
+    res.why = "correction too far from the tag pose";
+    return res;
+  }
+  Mat6 C = H.inverse();
+  if (o.keep_depth) {
+    // The centre's depth is the tags' (pinned): give it back the tags'
+    // variance along their own correlation, C + beta u u^T with u = C_t a.
+    const Vec6 u = C_t * a_ray;
+    const double vt = a_ray.dot(u), vj = a_ray.dot(C * a_ray);
+    if (vt > vj && std::abs(vt) > 0) C += ((vt - vj) / (vt * vt)) * (u * u.transpose());
+  }
+  res.refined = true;
+  res.T_cam_body = apply(tags.T_cam_body, d);
+  res.covariance_per_px2 = 0.5 * (C + C.transpose());
+  // Per-tag covariance: the tags' part carried through the joint fit (A =
+  // C H_t), plus the rim's at its own noise (in corner-noise units).
+  const Mat6 A = C * H_t;
+  const Mat6 rimH = C.inverse() - H_t;
+  res.covariance_per_tag = A * tags.covariance_per_tag * A.transpose() + C * rimH * C * sc2;
+  return res;
+}
+
+}  // namespace dentar::ar
