@@ -242,13 +242,7 @@ void add_offline(CLI::App& app, int& exit_code) {
                 "(mm; 0 = always draw it)")
       ->check(CLI::Range(0.0, 1000.0))
       ->capture_default_str();
-  s->add_option("--camera-response", c->camera_response,
-                "How the video's grey levels relate to light: srgb (video cameras, dentar synth) "
-                "or linear (raw machine-vision cameras); tag edges are fitted in linear light")
-      ->capture_default_str();
-  s->add_flag("--mirror-rim", c->mirror_rim,
-              "Refine the mirror's pose from its rim ellipse in the image (issue 16; "
-              "docs/BENCHMARKS.md)");
+  add_tracker_image_options(s, c->camera_response, c->mirror_rim);
   s->add_option("--stale-ms", c->stale_ms, "Drop the overlay this long after tracking is lost")
       ->check(CLI::Range(0.0, 5000.0))
       ->capture_default_str();

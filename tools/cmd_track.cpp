@@ -318,13 +318,7 @@ void add_track(CLI::App& app, int& exit_code) {
   s->add_option("--decimate", c->decimate, "Full-frame quad search decimation")
       ->check(CLI::Range(1.0, 16.0))
       ->capture_default_str();
-  s->add_option("--camera-response", c->camera_response,
-                "How the video's grey levels relate to light: srgb (video cameras, dentar synth) "
-                "or linear (raw machine-vision cameras); tag edges are fitted in linear light")
-      ->capture_default_str();
-  s->add_flag("--mirror-rim", c->mirror_rim,
-              "Refine the mirror's pose from its rim ellipse in the image (issue 16; "
-              "docs/BENCHMARKS.md)");
+  add_tracker_image_options(s, c->camera_response, c->mirror_rim);
   s->add_option("--threads", c->threads, "libapriltag threads")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
