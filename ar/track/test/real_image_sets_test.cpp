@@ -571,6 +571,15 @@ std::size_t idx(const std::vector<Pipeline>& p, const std::string& prefix) {
   return 0;
 }
 
+// The six pipelines the assertions compare, found by name once.
+struct PipeIdx {
+  std::size_t a2, o2, ob, ol, a1, o1;
+};
+PipeIdx pipe_idx(const std::vector<Pipeline>& p) {
+  return {idx(p, "anchor d2"),        idx(p, "ours d2 (tracker"), idx(p, "ours d2, one-tag"),
+          idx(p, "ours d2, linear"), idx(p, "anchor d1"),        idx(p, "ours d1")};
+}
+
 // ours with a linear response is libapriltag behind a wrapper: its corners
 // must be the anchor's exactly (the wrapper adds nothing and loses nothing).
 void expect_wrapper_faithful(const Measured& anchor, const Measured& ours_linear) {
@@ -624,9 +633,7 @@ TEST(RealImageSets, ViSPPhotoTwelveTagsOnOneSheet) {
   }
   std::fflush(stdout);
 
-  const std::size_t a2 = idx(pipes, "anchor d2"), o2 = idx(pipes, "ours d2 (tracker"),
-                    ob = idx(pipes, "ours d2, one-tag"), ol = idx(pipes, "ours d2, linear"),
-                    a1 = idx(pipes, "anchor d1"), o1 = idx(pipes, "ours d1");
+  const auto [a2, o2, ob, ol, a1, o1] = pipe_idx(pipes);
   // The wrapper with libapriltag's own (linear) response is the anchor exactly.
   expect_wrapper_faithful(ms[a2], ms[ol]);
   // Measured 2026-11-27 (docs/BENCHMARKS.md, issue 16, real image sets):
@@ -690,9 +697,7 @@ void run_render_set(const std::string& res) {
     std::vector<Pipeline> pipes = make_pipelines(c.family);
     const std::vector<Measured> ms = measure(c, gray, pipes);
     print_rows(c, pipes, ms);
-    const std::size_t a2 = idx(pipes, "anchor d2"), o2 = idx(pipes, "ours d2 (tracker"),
-                      ob = idx(pipes, "ours d2, one-tag"), ol = idx(pipes, "ours d2, linear"),
-                      a1 = idx(pipes, "anchor d1"), o1 = idx(pipes, "ours d1");
+    const auto [a2, o2, ob, ol, a1, o1] = pipe_idx(pipes);
     // These renders' edges are symmetric in the stored grey levels: the
     // linear response is the right one for them, and with it ours is the
     // anchor exactly.
