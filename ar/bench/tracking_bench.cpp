@@ -9,8 +9,14 @@
 //
 //   build-*/ar/ar_tracking_bench --benchmark_filter=Track
 //   build-*/ar/ar_tracking_bench --benchmark_filter='Jitter|Step'
+//   DENTAR_BENCH_FRAMELOG=DIR: one CSV per Track row in DIR, a line per
+//   frame (thread CPU, wall, detect/pose time, regions, searched fraction,
+//   tags), to find what the slow frames are.
 #include <benchmark/benchmark.h>
 #include <time.h>
+
+#include <cstdlib>
+#include <fstream>
 
 #include <algorithm>
 #include <chrono>
@@ -184,6 +190,7 @@ struct Config {
   // starts each frame with the caches another thread left).
   DiscoveryMode discovery = DiscoveryMode::kInline;
   bool paced = false;
+  double motion_across = 1.0;  // TrackerOptions::roi_motion_across
 };
 
 void BM_Track(benchmark::State& state, Kind kind, int w, int h, int frames, Config cfg) {
@@ -199,6 +206,7 @@ void BM_Track(benchmark::State& state, Kind kind, int w, int h, int frames, Conf
   o.roi_decimation = cfg.roi_decimation;
   o.roi_decimate_above_px = cfg.roi_decimate_above_px;
   o.discovery = cfg.discovery;
+  o.roi_motion_across = cfg.motion_across;
   const bool paced = cfg.paced;
   auto tr = Tracker::create(c.station, o);
   if (!tr) {
@@ -209,6 +217,18 @@ void BM_Track(benchmark::State& state, Kind kind, int w, int h, int frames, Conf
   int expected = 0, found = 0, full = 0, visible = 0, measured = 0;
   std::size_t i = 0;
   auto due = std::chrono::steady_clock::now();
+  std::ofstream log;
+  if (const char* dir = std::getenv("DENTAR_BENCH_FRAMELOG")) {
+    const char* kinds[] = {"standard", "hard", "frontal", "static", "static_step"};
+    const std::string name = std::string(kinds[static_cast<int>(kind)]) + "_" + std::to_string(w) + "x" +
+                             std::to_string(h) + "_" + cfg.name;
+    log.open(std::string(dir) + "/" + name + ".csv");
+    if (!log) {
+      state.SkipWithError(("DENTAR_BENCH_FRAMELOG: cannot write in " + std::string(dir)).c_str());
+      return;
+    }
+    log << "frame,cpu_ms,wall_ms,detect_ms,pose_ms,full,regions,searched,tags,measured,merged\n";
+  }
   for (auto _ : state) {
     if (i == c.images.size()) {  // wrap: a new clip for the tracker
       i = 0;
@@ -232,6 +252,11 @@ void BM_Track(benchmark::State& state, Kind kind, int w, int h, int frames, Conf
     }
     total.push_back(f->timing.total_ms);
     detect.push_back(f->timing.detect_ms);
+    if (log)
+      log << i << ',' << cpu.back() << ',' << wall.back() << ',' << f->timing.detect_ms << ','
+          << f->timing.pose_ms << ',' << (f->full_frame ? 1 : 0) << ',' << f->regions << ','
+          << f->searched_fraction << ',' << f->tags_detected << ','
+          << (f->mannequin.measured ? 1 : 0) << ',' << f->discovery_merged << '\n';
     full += f->full_frame ? 1 : 0;
     if (!f->full_frame) cpu_roi.push_back(cpu.back());
     const std::set<int> want = expected_tags(c.truth[i]);
@@ -440,6 +465,11 @@ void register_all() {
       {"roi_dec3", true, 3.0, 3.0, 1e9},
       {"roi_adaptive_paced", true, 2.0, 1.0, 24.0, DiscoveryMode::kInline, true},
       {"roi_adaptive_async", true, 2.0, 1.0, 24.0, DiscoveryMode::kAsync, true},
+      {"roi_adaptive_across0.5", true, 2.0, 1.0, 24.0, DiscoveryMode::kInline, false, 0.5},
+      {"roi_adaptive_across0.25", true, 2.0, 1.0, 24.0, DiscoveryMode::kInline, false, 0.25},
+      {"roi_adaptive_across0", true, 2.0, 1.0, 24.0, DiscoveryMode::kInline, false, 0.0},
+      {"roi_adaptive_async_across0.5", true, 2.0, 1.0, 24.0, DiscoveryMode::kAsync, true, 0.5},
+      {"roi_adaptive_async_across0.25", true, 2.0, 1.0, 24.0, DiscoveryMode::kAsync, true, 0.25},
   };
   struct ClipDef {
     const char* name;

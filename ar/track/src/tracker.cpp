@@ -127,6 +127,8 @@ std::string TrackerOptions::validate() const {
     os << "roi_margin = " << roi_margin << " must be in [0, 10] (times the tag side)";
   else if (!std::isfinite(roi_min_margin_px) || roi_min_margin_px < 0 || roi_min_margin_px > 1000)
     os << "roi_min_margin_px = " << roi_min_margin_px << " must be in [0, 1000]";
+  else if (!std::isfinite(roi_motion_across) || roi_motion_across < 0 || roi_motion_across > 1)
+    os << "roi_motion_across = " << roi_motion_across << " must be in [0, 1] (1 = pad the motion in every direction)";
   else if (!std::isfinite(roi_decimation) || roi_decimation < 1 || roi_decimation > 16)
     os << "roi_decimation = " << roi_decimation << " must be in [1, 16]";
   else if (!std::isfinite(roi_decimate_above_px) || roi_decimate_above_px < 0)
@@ -426,15 +428,33 @@ struct Tracker::Impl {
         area2 += a.x() * bq.y() - bq.x() * a.y();
       }
       const double side = std::sqrt(std::abs(area2) / 2);
+      // The padding for the prediction's error: the motion since the last
+      // measurement plus (1 + frames since it) x one frame's motion, as an
+      // ellipse with that semi-axis along the motion and roi_motion_across
+      // of it across; (mx, my) = its bounding box's half sides.
       double motion = 0;
+      Eigen::Vector2d dir = Eigen::Vector2d::Zero();
       {
         auto p_now = model.project(T_pred * t.T_parent_tag.translation());
         auto p_last = model.project(b.last_meas * t.T_parent_tag.translation());
         auto p_prev = model.project(T_prev * t.T_parent_tag.translation());
-        if (p_now && p_last) motion += (*p_now - *p_last).norm();
-        if (p_now && p_prev) motion += grow * (*p_now - *p_prev).norm();
+        if (p_now && p_last) {
+          motion += (*p_now - *p_last).norm();
+          dir += *p_now - *p_last;
+        }
+        if (p_now && p_prev) {
+          motion += grow * (*p_now - *p_prev).norm();
+          dir += grow * (*p_now - *p_prev);
+        }
       }
-      const double margin = (outer_extent + o.roi_margin) * side + o.roi_min_margin_px + motion;
+      double mx = motion, my = motion;
+      if (const double n = dir.norm(); o.roi_motion_across < 1 && n > 1e-9) {
+        const Eigen::Vector2d u = dir / n;
+        const double c = o.roi_motion_across;
+        mx = motion * std::hypot(u.x(), c * u.y());
+        my = motion * std::hypot(u.y(), c * u.x());
+      }
+      const double margin = (outer_extent + o.roi_margin) * side + o.roi_min_margin_px;
       double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
       for (const auto& p : px) {
         x0 = std::min(x0, p.x());
@@ -443,10 +463,10 @@ struct Tracker::Impl {
         y1 = std::max(y1, p.y());
       }
       Box box;
-      box.x0 = std::max(0, static_cast<int>(std::floor(x0 - margin)));
-      box.y0 = std::max(0, static_cast<int>(std::floor(y0 - margin)));
-      box.x1 = std::min(camera.width, static_cast<int>(std::ceil(x1 + margin)) + 1);
-      box.y1 = std::min(camera.height, static_cast<int>(std::ceil(y1 + margin)) + 1);
+      box.x0 = std::max(0, static_cast<int>(std::floor(x0 - margin - mx)));
+      box.y0 = std::max(0, static_cast<int>(std::floor(y0 - margin - my)));
+      box.x1 = std::min(camera.width, static_cast<int>(std::ceil(x1 + margin + mx)) + 1);
+      box.y1 = std::min(camera.height, static_cast<int>(std::ceil(y1 + margin + my)) + 1);
       box.min_side_px = side;
       if (box.x1 - box.x0 < 16 || box.y1 - box.y0 < 16) continue;  // (almost) off the image
       boxes.push_back(box);

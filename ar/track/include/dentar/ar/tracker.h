@@ -93,6 +93,10 @@ struct TrackerOptions {
   // image motion since its last measurement, times (1 + frames since it).
   double roi_margin = 0.15;
   double roi_min_margin_px = 4.0;
+  // The motion padding across the image motion's direction, as a fraction
+  // of the padding along it, in [0, 1]: 1 pads a square (the motion may
+  // turn any way), less pads an ellipse stretched along the motion.
+  double roi_motion_across = 1.0;
   // Decimation inside the regions (1 = full resolution, libapriltag's quad
   // search is then slowest but sees the smallest tags). Regions whose tags
   // are all predicted larger than roi_decimate_above_px use 2 instead (edge
