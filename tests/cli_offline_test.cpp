@@ -225,4 +225,30 @@ TEST(CliOffline, EmptyOrMissingFootageGivesAClearError) {
   EXPECT_NE(r.out.find("--station"), std::string::npos) << r.out;
 }
 
+// A live recording's recording.json says how the live run tracked
+// (camera_response, mirror_rim); bad values are refused naming the file, the
+// field and the value, before any frame is read.
+TEST(CliOffline, RecordingWithBadTrackingFieldsIsRefused) {
+  const fs::path dir = temp_dir("offline_bad_recording");
+  const fs::path out = dir / "out";
+  fs::create_directories(dir / "rec");
+  auto run_with = [&](const std::string& fields) {
+    dentar::test::write_file(dir / "rec" / "recording.json",
+                             R"({"format": "dentar-recording", "version": 1, "discovery": "inline", )" + fields + "}");
+    return run_command(kDentar + " offline --quiet --footage " + (dir / "rec").string() + " --out " + out.string());
+  };
+  auto r = run_with(R"("camera_response": "gamma22")");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("recording.json"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("camera_response"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("gamma22"), std::string::npos) << r.out;
+  r = run_with(R"("camera_response": 1)");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("camera_response must be"), std::string::npos) << r.out;
+  r = run_with(R"("camera_response": "linear", "mirror_rim": "yes")");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("mirror_rim must be true or false"), std::string::npos) << r.out;
+  expect_no_complete_report(out);
+}
+
 }  // namespace

@@ -18,6 +18,8 @@ void add_live(CLI::App& app, int& exit_code) {
          no_mirror = false, list = false;
     std::string stall;
     std::string discovery = "async";
+    std::string camera_response;  // "" = srgb
+    bool mirror_rim = false;
     bool no_score = false;
     DbCli db;  // --db: store the finished session (needs --record)
   };
@@ -71,6 +73,7 @@ void add_live(CLI::App& app, int& exit_code) {
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--engine-cpu", c->o.engine_cpu, "CPU for the haptic engine (-2 = the last, -1 = no pinning)");
   sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");
+  add_tracker_image_options(sub, c->camera_response, c->mirror_rim);
   sub->add_option("--discovery", c->discovery,
                   "full-frame tag search: async (off the frame path, default) or inline (in the frame that needs it)");
   sub->add_option("--background-cpu", c->o.background_cpu,
@@ -113,6 +116,14 @@ void add_live(CLI::App& app, int& exit_code) {
       return;
     }
     o.pipeline.tracker.discovery = c->discovery == "async" ? ar::DiscoveryMode::kAsync : ar::DiscoveryMode::kInline;
+    o.pipeline.tracker.mirror_rim_refine = c->mirror_rim;
+    if (auto r = ar::parse_camera_response(c->camera_response.empty() ? "srgb" : c->camera_response); !r) {
+      print_error("live", "--camera-response: " + r.error());
+      exit_code = 2;
+      return;
+    } else {
+      o.pipeline.tracker.detector.response = *r;
+    }
     for (const auto& s : c->shots) {
       const auto k = s.find(':');
       try {

@@ -35,7 +35,7 @@ struct OfflineCli {
   int full_every = 15;
   double predict_ms = 0, stale_ms = 200;
   double mirror_sigma_mm = 1.0;
-  std::string camera_response = "srgb";
+  std::string camera_response;  // "" = the recording's, else srgb
   bool mirror_rim = false;
   std::size_t triangle_budget = 0;
   std::string exercise;  // scoring: exercise name or file ("" = recorded / by the tooth)
@@ -109,11 +109,15 @@ int run(const OfflineCli& c) {
   o.tracker.stale_limit_s = c.stale_ms * 1e-3;
   o.tracker.mirror_max_sigma_m = c.mirror_sigma_mm * 1e-3;
   o.tracker.mirror_rim_refine = c.mirror_rim;
-  if (auto r = ar::parse_camera_response(c.camera_response); !r) {
-    print_error("offline", "--camera-response: " + r.error());
-    return 2;
-  } else {
+  o.mirror_rim_given = c.mirror_rim;
+  if (!c.camera_response.empty()) {
+    auto r = ar::parse_camera_response(c.camera_response);
+    if (!r) {
+      print_error("offline", "--camera-response: " + r.error());
+      return 2;
+    }
     o.tracker.detector.response = *r;
+    o.camera_response_given = true;
   }
   o.compositor.phantoms = !c.no_occlusion;
   o.compositor.segmentation = !c.no_occlusion && !c.no_segmentation;

@@ -30,7 +30,7 @@ struct TrackCli {
   std::string family;
   double decimate = 2.0;
   int threads = 1;
-  std::string camera_response = "srgb";
+  std::string camera_response;  // "" = srgb
   bool mirror_rim = false;
   bool no_roi = false;
   int full_every = 15;
@@ -140,7 +140,7 @@ int run(const TrackCli& c) {
   to.detector.decimation = c.decimate;
   to.detector.threads = c.threads;
   to.mirror_rim_refine = c.mirror_rim;
-  if (auto r = ar::parse_camera_response(c.camera_response); !r) {
+  if (auto r = ar::parse_camera_response(c.camera_response.empty() ? "srgb" : c.camera_response); !r) {
     print_error("track", "--camera-response: " + r.error());
     return 2;
   } else {

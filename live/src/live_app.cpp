@@ -380,6 +380,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       return Error{"live: " + s.error()};
     nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
                            {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
+                           {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
+                           {"mirror_rim", popt.tracker.mirror_rim_refine},
                            {"complete", false}};
     if (!o.exercise.empty()) meta["exercise"] = o.exercise;
     std::ofstream(rdir / "recording.json") << meta.dump(2) << "\n";
@@ -900,6 +902,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
     nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
                            {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
+                           {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
+                           {"mirror_rim", popt.tracker.mirror_rim_refine},
                            {"complete", true}, {"frames", recorder->written()},
                            {"frames_not_written", recorder->dropped()},
                            {"frame_files", {{"jpg", recorder->written_jpg()}, {"png", recorder->written_png()},

@@ -208,7 +208,9 @@ TEST(LiveXvfb, WindowMatchesOfflineAndRecordingReplays) {
 
 // A Motion JPEG camera (a webcam at 720p): the recording keeps the camera's
 // own JPEG bytes (no encoding on the live path) and still replays bit for
-// bit: the same final cut and the same poses.
+// bit: the same final cut and the same poses. Run with a linear camera
+// response (not the default): recording.json keeps it, and the replay,
+// told nothing, tracks with it (with sRGB the poses would differ).
 TEST(LiveXvfb, MotionJpegCameraRecordsItsOwnBytesAndReplays) {
   REQUIRE_XVFB();
   const fs::path c = clip();
@@ -217,10 +219,13 @@ TEST(LiveXvfb, MotionJpegCameraRecordsItsOwnBytesAndReplays) {
   ASSERT_TRUE(fs::exists(cam)) << "dentar synth --webcam wrote no camera.avi";
   auto r = run_command(xvfb(kBin + " live --camera live:" + cam.string() + " --station " +
                             (c / "station.json").string() + " --stylus replay:" + (c / "session.dlog").string() +
-                            " --record " + rec.string() + " --no-hud --quiet --loop --frames 12 --summary " +
+                            " --record " + rec.string() +
+                            " --camera-response linear --no-hud --quiet --loop --frames 12 --summary " +
                             (t / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto meta = read_json(rec / "recording.json");
+  EXPECT_EQ(meta["camera_response"], "linear") << meta.dump();
+  EXPECT_EQ(meta["mirror_rim"], false) << meta.dump();
   const int frames = meta["frames"].get<int>();
   EXPECT_GE(frames, 12);
   EXPECT_EQ(meta["frames_not_written"].get<int>(), 0);

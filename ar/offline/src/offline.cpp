@@ -432,6 +432,10 @@ struct Recording {
   std::vector<double> capture_s;            // per frame index
   std::vector<std::uint64_t> haptic_steps;  // per frame index: engine steps done when it was composited
   std::string discovery;                    // "inline" or "async"
+  // How the live run decoded its images and refined the mirror (absent in
+  // recordings older than these fields: the defaults then, srgb and off).
+  CameraResponse camera_response = CameraResponse::kSrgb;
+  bool mirror_rim = false;
   // discovery "async": what the live tracker's full-frame search did at each
   // frame (frames.csv disc_start, disc_merged), replayed with kScheduled.
   std::vector<DiscoveryCue> cues;
@@ -456,6 +460,17 @@ Result<Recording> read_recording(const fs::path& dir) {
   rec.discovery = j.value("discovery", "inline");
   if (rec.discovery != "inline" && rec.discovery != "async")
     return Error{meta.string() + ": discovery = \"" + rec.discovery + "\" must be inline or async"};
+  if (j.contains("camera_response")) {
+    if (!j["camera_response"].is_string())
+      return Error{meta.string() + ": camera_response must be the string \"srgb\" or \"linear\""};
+    auto r = parse_camera_response(j["camera_response"].get<std::string>());
+    if (!r) return Error{meta.string() + ": camera_response: " + r.error()};
+    rec.camera_response = *r;
+  }
+  if (j.contains("mirror_rim")) {
+    if (!j["mirror_rim"].is_boolean()) return Error{meta.string() + ": mirror_rim must be true or false"};
+    rec.mirror_rim = j["mirror_rim"].get<bool>();
+  }
   rec.frames_csv = (dir / "frames.csv").string();
   std::ifstream in(rec.frames_csv);
   if (!in) return Error{rec.frames_csv + ": missing: the recording has no per-frame table"};
@@ -544,6 +559,21 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     if (o.session.empty() && fs::exists(rdir / "session.dlog")) o.session = (rdir / "session.dlog").string();
     if (o.truth.empty()) o.truth = "none";
     if (o.masks.empty()) o.masks = "none";
+    // Track as the live run did, unless told otherwise.
+    if (!o.camera_response_given) {
+      o.tracker.detector.response = rec.camera_response;
+    } else if (o.tracker.detector.response != rec.camera_response) {
+      sum.warnings.push_back(std::string("the recording was tracked with camera response ") +
+                             camera_response_name(rec.camera_response) + ", this replay uses " +
+                             camera_response_name(o.tracker.detector.response) +
+                             ": its poses are not the live run's");
+    }
+    if (!o.mirror_rim_given)
+      o.tracker.mirror_rim_refine = rec.mirror_rim;
+    else if (o.tracker.mirror_rim_refine != rec.mirror_rim)
+      sum.warnings.push_back(std::string("the recording was tracked with the mirror rim refinement ") +
+                             (rec.mirror_rim ? "on" : "off") + ", this replay has it " +
+                             (o.tracker.mirror_rim_refine ? "on" : "off") + ": its poses are not the live run's");
   }
   auto station = read_station_scene(o.station);
   if (!station) return fail("offline: " + station.error());

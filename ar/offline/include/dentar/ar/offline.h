@@ -60,6 +60,13 @@ struct OfflineOptions {
   std::uint64_t seed = 1;
 
   TrackerOptions tracker;
+  // Replaying a `dentar live --record` folder: its recording.json says how
+  // the live run tracked (camera_response, mirror_rim), and the replay does
+  // the same unless these say the caller chose tracker.detector.response /
+  // tracker.mirror_rim_refine itself (then a difference is a warning: the
+  // poses will not be the live run's).
+  bool camera_response_given = false;
+  bool mirror_rim_given = false;
   CompositorOptions compositor;
   // Poses are predicted to capture time + this (video see-through shows the
   // captured frame itself, so 0 is right unless the display adds delay), s.
