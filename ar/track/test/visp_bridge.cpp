@@ -128,8 +128,16 @@ class Impl : public Refiner {
       if (o_.edges) {
         std::list<vpMbtDistanceCircle*> circles;
         tracker_.getLcircle(circles, 0);
+        circle_weight_ = -1;
+        double w = 0;
+        int n = 0;
         for (const vpMbtDistanceCircle* c : circles)
-          if (c->isVisible()) circle_features_ += static_cast<int>(c->nbFeature);
+          if (c->isVisible()) {
+            circle_features_ += c->isTracked() ? static_cast<int>(c->nbFeature) : 0;
+            w += c->getMeanWeight();
+            ++n;
+          }
+        if (n > 0) circle_weight_ = w / n;
       }
     } catch (const std::exception& e) {
       if (error) *error = e.what();
@@ -139,6 +147,7 @@ class Impl : public Refiner {
   }
   int features() const override { return features_; }
   int circle_features() const override { return circle_features_; }
+  double circle_weight() const override { return circle_weight_; }
   std::vector<std::vector<double>> features_for_display() override {
     try {
       return tracker_.getFeaturesForDisplay();
@@ -170,6 +179,7 @@ class Impl : public Refiner {
   vpMbGenericTracker tracker_;
   vpImage<unsigned char> I_, I_prev_;
   int features_ = 0, circle_features_ = 0;
+  double circle_weight_ = -1;
 };
 
 }  // namespace

@@ -62,6 +62,9 @@ class Refiner {
   // circles only), and the circles ViSP loaded from the CAO file.
   virtual int circle_features() const = 0;
   virtual int model_circles() const = 0;
+  // ViSP's mean robust weight of the visible circles' sites in the last
+  // refine (-1: no visible circle), and whether all of them were tracked.
+  virtual double circle_weight() const = 0;
   // Diagnosis (ViSP's own rows, see vpMbGenericTracker): the last refine's
   // moving-edge sites, and the model's lines / ellipses projected at T.
   virtual std::vector<std::vector<double>> features_for_display() = 0;

@@ -74,6 +74,22 @@ std::vector<visp::Circle> rim_circles(const StationScene& st) {
   return {face, back};
 }
 
+// The same rim as two planar N-gons (face and back, outward normals +z / -z
+// of `mir`): ViSP tracks polygon edges as lines, whose residuals are in the
+// same units as the tags' (the circle's are not: see BENCHMARKS). Corners at
+// r (pi/N) / sin(pi/N), so the sides' mean distance from the centre is r.
+std::vector<visp::Face> rim_polygons(const StationScene& st, int n) {
+  const Iso T = st.calibration.T_mtag_mir;
+  const double r = st.calibration.mirror_radius_m * (M_PI / n) / std::sin(M_PI / n), t = st.mirror.thickness_m;
+  visp::Face face, back;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n;
+    face.push_back(T * V3(r * std::cos(a), r * std::sin(a), 0));        // counter-clockwise about +z
+    back.push_back(T * V3(r * std::cos(-a), r * std::sin(-a), -t));     // counter-clockwise about -z
+  }
+  return {face, back};
+}
+
 // The tags' border squares (tag frame: z into the tag; counter-clockwise seen
 // from -z, the side the tag is read from).
 std::vector<visp::Face> tag_faces(const TagBundle& b) {
@@ -141,7 +157,8 @@ struct Variant {
   const char* name;
   enum Kind { kTags, kRim, kVisp } kind;
   bool circle = false, tags = false, paddle = false, klt = false;
-  bool ci = false;  // run by default (the CI case)
+  bool ci = false;      // run by default (the CI case)
+  int rim_polygon = 0;  // > 0: the rim as two polygons of this many sides
 };
 const Variant kVariants[] = {
     {"tags only (tracker)", Variant::kTags, false, false, false, false, true},
@@ -150,7 +167,11 @@ const Variant kVariants[] = {
     {"ViSP rim + tag outlines", Variant::kVisp, true, true, false, false, true},
     {"ViSP rim + tags + paddle", Variant::kVisp, true, true, true, false, true},
     {"ViSP tags + paddle (no rim)", Variant::kVisp, false, true, true, false, false},
+    {"ViSP tag outlines (no rim)", Variant::kVisp, false, true, false, false, false},
     {"ViSP rim + tags + paddle + KLT", Variant::kVisp, true, true, true, true, false},
+    {"ViSP rim 36-gon", Variant::kVisp, false, false, false, false, false, 36},
+    {"ViSP rim 36-gon + tag outlines", Variant::kVisp, false, true, false, false, false, 36},
+    {"ViSP rim 36-gon + tags + paddle", Variant::kVisp, false, true, true, false, false, 36},
 };
 
 struct Stats {
@@ -221,6 +242,7 @@ PresetRun run_preset(const Footage& fo, bool all_variants) {
     if (var.kind != Variant::kVisp) continue;
     visp::Model model;
     if (var.circle) model.circles = rim_circles(st);
+    if (var.rim_polygon > 0) model.faces = rim_polygons(st, var.rim_polygon);
     if (var.tags)
       for (const visp::Face& f : tag_faces(mirror_bundle(st))) model.faces.push_back(f);
     if (var.paddle)
@@ -327,8 +349,9 @@ PresetRun run_preset(const Footage& fo, bool all_variants) {
         cv::imwrite(std::string(dir) + "/visp_" + std::to_string(index) + "_" + std::to_string(v) + ".png", vis(roi));
       }
       if (debug)
-        std::printf("frame %d %s ok %d features %d circle %d moved %.3f mm %.3f deg err %s\n", index, var.name, ok,
-                    refiners[v]->features(), refiners[v]->circle_features(), shift, turn, err.c_str());
+        std::printf("frame %d %s ok %d features %d circle %d (weight %.2f) moved %.3f mm %.3f deg err %s\n", index,
+                    var.name, ok, refiners[v]->features(), refiners[v]->circle_features(),
+                    refiners[v]->circle_weight(), shift, turn, err.c_str());
       if (ok && (shift > max_mm || turn > max_deg)) {
         ++st_v.moved_too_far;
         out = tag_pose;
