@@ -15,11 +15,22 @@
 // - the paddle's outline: the faces of scene::paddle_mesh (the generator's
 //   own paddle geometry, roof or flat), merged into planar polygons.
 // Variants: the rim circle alone; rim + tag outlines; rim + tags + paddle;
-// tags + paddle without the rim (what the rim adds); rim + tags + paddle +
-// KLT (KLT features of the tag and paddle faces carried from the previous
-// frame, seeded there by its tag pose). ViSP's pose is dropped for the tags'
-// when it throws or moves the mirror centre > 4 mm or the rotation > 3 deg
-// from the tag pose (DENTAR_VISP_MAX_MM / _MAX_DEG).
+// the same without the rim (what the rim adds); rim + tags + paddle + KLT
+// (KLT features of the tag and paddle faces carried from the previous frame,
+// seeded there by its tag pose); the rim as two 36-gons instead of circles.
+// ViSP's pose is dropped for the tags' when it throws or moves the mirror
+// centre > 4 mm or the rotation > 3 deg from the tag pose
+// (DENTAR_VISP_MAX_MM / _MAX_DEG). Moving-edge range 2 px
+// (DENTAR_VISP_RANGE; _THRESHOLD, _STEP).
+//
+// Found (docs/BENCHMARKS.md): ViSP 3.5's circle changes nothing next to any
+// line feature (the same pose to 0.01 mm with and without it) and, alone,
+// lets the depth run away; no variant is better than both the tags and the
+// rim refinement; not adopted.
+//
+// Diagnosis: DENTAR_VISP_SEED_TRUTH=1 (seed with the true pose),
+// DENTAR_VISP_DEBUG=1 (per frame), DENTAR_VISP_DEBUG_DIR=DIR (images of the
+// model and the moving-edge sites), DENTAR_VISP_ONE_CIRCLE=face|back.
 //
 // Default (CI): `standard` 640x480, 20 frames, the rim and rim + tags
 // variants, asserting that ViSP ran with the rim in its model and stayed near
@@ -71,6 +82,8 @@ std::vector<visp::Circle> rim_circles(const StationScene& st) {
   const double r = st.calibration.mirror_radius_m, t = st.mirror.thickness_m;
   visp::Circle face{T * V3(0, 0, 0), T * V3(r, 0, 0), T * V3(0, r, 0), r};
   visp::Circle back{T * V3(0, 0, -t), T * V3(0, r, -t), T * V3(r, 0, -t), r};
+  if (const char* one = std::getenv("DENTAR_VISP_ONE_CIRCLE"))  // diagnosis: which one ViSP sees
+    return {std::string(one) == "back" ? back : face};
   return {face, back};
 }
 
@@ -348,6 +361,8 @@ PresetRun run_preset(const Footage& fo, bool all_variants) {
                      std::clamp(static_cast<int>(w * sc) - half, 0, vis.rows - 2 * half), 2 * half, 2 * half);
         cv::imwrite(std::string(dir) + "/visp_" + std::to_string(index) + "_" + std::to_string(v) + ".png", vis(roi));
       }
+      if (debug)
+        std::printf("face toward the camera %d\n", (truth.linear().col(2).dot(truth.translation()) < 0) ? 1 : 0);
       if (debug)
         std::printf("frame %d %s ok %d features %d circle %d (weight %.2f) moved %.3f mm %.3f deg err %s\n", index,
                     var.name, ok, refiners[v]->features(), refiners[v]->circle_features(),
