@@ -15,7 +15,8 @@
 // - the paddle's outline: the faces of scene::paddle_mesh (the generator's
 //   own paddle geometry, roof or flat), merged into planar polygons.
 // Variants: the rim circle alone; rim + tag outlines; rim + tags + paddle;
-// the same without the rim (what the rim adds); rim + tags + paddle + KLT
+// the same without the rim (what the rim adds); the paddle's outline alone;
+// rim + tags + paddle + KLT
 // (KLT features of the tag and paddle faces carried from the previous frame,
 // seeded there by its tag pose); the rim as two 36-gons instead of circles.
 // ViSP's pose is dropped for the tags' when it throws or moves the mirror
@@ -182,6 +183,7 @@ const Variant kVariants[] = {
     {"ViSP rim + tags + paddle", Variant::kVisp, true, true, true, false, true},
     {"ViSP tags + paddle (no rim)", Variant::kVisp, false, true, true, false, false},
     {"ViSP tag outlines (no rim)", Variant::kVisp, false, true, false, false, false},
+    {"ViSP paddle outline only", Variant::kVisp, false, false, true, false, false},
     {"ViSP rim + tags + paddle + KLT", Variant::kVisp, true, true, true, true, false},
     {"ViSP rim 36-gon", Variant::kVisp, false, false, false, false, false, 36},
     {"ViSP rim 36-gon + tag outlines", Variant::kVisp, false, true, false, false, false, 36},
