@@ -581,6 +581,7 @@ int step_check(Session& s) {
   auto gen = ar::SynthGenerator::create(truth_scene, so);
   if (!gen) throw BadInput{"check: " + gen.error()};
   ar::TagDetectorOptions dopt;
+  dopt.response = ar::CameraResponse::kSrgb;  // the generator encodes sRGB, as the tracker assumes
   dopt.families = {s.st.family};
   dopt.decimation = 1.0;
   auto det = ar::TagDetector::create(dopt);

@@ -499,6 +499,7 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   auto track_mirror = [&](const ar::Frame& f) {
     if (!station_det) {
       ar::TagDetectorOptions dopt;
+      dopt.response = ar::CameraResponse::kSrgb;  // as dentar live's tracker decodes the camera
       dopt.families = {st.family};
       auto d = ar::TagDetector::create(dopt);
       if (!d) return;
