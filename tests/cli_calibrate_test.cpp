@@ -286,6 +286,9 @@ TEST(CliCalibrate, AllStepsOnGeneratedDataMeetTheCoLocationGoal) {
     EXPECT_TRUE((*p)["pass"].get<bool>()) << s;
   }
   EXPECT_LE((*step(j, "check"))["figures"]["tip_error_mean_mm"].get<double>(), 0.5);
+  // The check decodes the generator's sRGB footage as the tracker does: 0.186 mm here; with
+  // libapriltag's linear response it was 0.238 (docs/BENCHMARKS.md, calibration, the check).
+  EXPECT_LE((*step(j, "check"))["figures"]["tip_error_mean_mm"].get<double>(), 0.21);
   EXPECT_GE((*step(j, "camera"))["figures"]["views"].get<double>(), 6);
   EXPECT_NE(r.out.find("rejected view 3"), std::string::npos) << r.out;  // the warped board
   EXPECT_LE((*step(j, "check"))["figures"]["threshold_mm"].get<double>(), 0.5);
