@@ -32,6 +32,18 @@ std::string MirrorRimOptions::validate() const {
     os << "research_px = " << research_px << " must be in [0.5, 50]";
   else if (!(std::isfinite(rim_effective_points) && rim_effective_points >= 1))
     os << "rim_effective_points = " << rim_effective_points << " must be >= 1";
+  else if (!(std::isfinite(blur_px) && blur_px >= 0.1 && blur_px <= 10))
+    os << "blur_px = " << blur_px << " must be in [0.1, 10]";
+  else if (!(std::isfinite(max_width_ratio) && max_width_ratio >= 1))
+    os << "max_width_ratio = " << max_width_ratio << " must be >= 1";
+  else if (!(std::isfinite(max_fit_rms) && max_fit_rms > 0))
+    os << "max_fit_rms = " << max_fit_rms << " must be > 0";
+  else if (!(std::isfinite(saturation) && saturation > 0 && saturation <= 1.5))
+    os << "saturation = " << saturation << " must be in (0, 1.5]";
+  else if (parallel_lines < 1 || parallel_lines > 15)
+    os << "parallel_lines = " << parallel_lines << " must be in 1..15";
+  else if (!(std::isfinite(parallel_px) && parallel_px >= 0 && parallel_px <= 5))
+    os << "parallel_px = " << parallel_px << " must be in [0, 5]";
   return os.str();
 }
 
@@ -66,6 +78,114 @@ Eigen::Isometry3d apply(const Eigen::Isometry3d& T, const Vec6& d) {
 }
 
 }  // namespace
+
+RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d& origin,
+                           const Eigen::Vector2d& normal, double window, const MirrorRimOptions& o) {
+  RimEdgeFit res;
+  if (gray.empty() || gray.type() != CV_8UC1 || !(window > 0) || !o.validate().empty() ||
+      !(std::abs(normal.norm() - 1) < 1e-6)) {
+    res.why = "bad input";
+    return res;
+  }
+  const Sampler S{gray, srgb ? srgb_decode_table().ptr<float>() : nullptr};
+  const double step = 0.25;
+  const double reach = 1.5 + 2 * o.blur_px;  // the fit's half-width around the gradient peak
+  const int ns = std::max(2, static_cast<int>(std::round(window / step)));
+  const int nf = static_cast<int>(std::ceil(reach / step));
+  const int pad = nf + 2;
+  const int n = 2 * ns + 1 + 2 * pad;  // sample k at x = (k - ns - pad) * step
+  std::vector<double> prof(n, 0.0);
+  const Eigen::Vector2d tan(-normal.y(), normal.x());
+  const int L = o.parallel_lines;
+  for (int l = 0; l < L; ++l) {
+    const Eigen::Vector2d p0 = origin + tan * ((l - 0.5 * (L - 1)) * o.parallel_px);
+    for (int k = 0; k < n; ++k) {
+      const auto v = S(p0 + normal * ((k - ns - pad) * step));
+      if (!v) {
+        res.why = "off the image";
+        return res;
+      }
+      prof[k] += *v / L;
+    }
+  }
+  auto xk = [&](int k) { return (k - ns - pad) * step; };
+  auto grad = [&](int k) { return (prof[k + 2] - prof[k - 2]) / (4 * step); };
+  int best = -1;
+  double gbest = 0;
+  for (int k = pad; k <= pad + 2 * ns; ++k)
+    if (std::abs(grad(k)) > gbest) {
+      gbest = std::abs(grad(k));
+      best = k;
+    }
+  if (best <= pad || best >= pad + 2 * ns) {
+    res.why = "peak at the window's end";
+    return res;
+  }
+  double second = 0;
+  for (int k = pad; k <= pad + 2 * ns; ++k)
+    if (std::abs(k - best) * step > 1.5) second = std::max(second, std::abs(grad(k)));
+  if (second >= o.ambiguity * gbest) {
+    res.why = "ambiguous";
+    return res;
+  }
+  const int k0 = best - nf, k1 = best + nf;
+  for (int k = k0; k <= k1; ++k)
+    if (prof[k] >= o.saturation) {
+      res.why = "saturated";
+      return res;
+    }
+  // Least squares  a + b Phi((x - x0) / w)  over [k0, k1] (Gauss-Newton, a
+  // little damping, x0 kept within the fit window, w within [0.15, 5] px).
+  double a = prof[k0], b = prof[k1] - prof[k0], x0 = xk(best), w = o.blur_px;
+  const double xlo = xk(best) - reach, xhi = xk(best) + reach;
+  auto Phi = [](double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); };
+  auto cost = [&](double aa, double bb, double xx, double ww) {
+    double c = 0;
+    for (int k = k0; k <= k1; ++k) {
+      const double r = aa + bb * Phi((xk(k) - xx) / ww) - prof[k];
+      c += r * r;
+    }
+    return c;
+  };
+  double c = cost(a, b, x0, w), mu = 1e-4;
+  for (int it = 0; it < 30; ++it) {
+    Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d g = Eigen::Vector4d::Zero();
+    for (int k = k0; k <= k1; ++k) {
+      const double z = (xk(k) - x0) / w, phi = std::exp(-0.5 * z * z) / std::sqrt(2 * M_PI);
+      const double r = a + b * Phi(z) - prof[k];
+      const Eigen::Vector4d J(1.0, Phi(z), -b * phi / w, -b * phi * z / w);
+      H += J * J.transpose();
+      g += J * r;
+    }
+    Eigen::Matrix4d Hd = H;
+    Hd.diagonal() *= 1 + mu;
+    Hd.diagonal().array() += 1e-12;
+    const Eigen::Vector4d d = Hd.ldlt().solve(-g);
+    const double na = a + d[0], nb = b + d[1], nx = std::clamp(x0 + d[2], xlo, xhi),
+                 nw = std::clamp(w + d[3], 0.15, 5.0);
+    const double nc = cost(na, nb, nx, nw);
+    if (nc < c) {
+      const bool done = std::abs(nx - x0) < 1e-5 && std::abs(nw - w) < 1e-5;
+      a = na, b = nb, x0 = nx, w = nw, c = nc;
+      mu = std::max(1e-6, mu * 0.3);
+      if (done) break;
+    } else {
+      mu *= 10;
+      if (mu > 1e4) break;
+    }
+  }
+  res.offset_px = x0;
+  res.width_px = w;
+  res.step = b;
+  res.rms = std::sqrt(c / (k1 - k0 + 1));
+  if (std::abs(b) < o.min_step) res.why = "weak step";
+  else if (x0 <= xlo + 1e-9 || x0 >= xhi - 1e-9 || std::abs(x0) > window) res.why = "step outside the window";
+  else if (w > o.max_width_ratio * o.blur_px) res.why = "too wide (blur)";
+  else if (res.rms > o.max_fit_rms * std::abs(b)) res.why = "not one step";
+  else res.ok = true;
+  return res;
+}
 
 MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraModel& model,
                                   const BundlePose& tags, double corner_noise_px2,
@@ -139,6 +259,21 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
           u = *u_f + n * (*u_k - *u_f).dot(n);
         }
       }
+      if (o.step_fit) {
+        const RimEdgeFit f = locate_rim_edge(gray, srgb, u, n, window, o);
+        if (f.why != "off the image") ++res.candidates;
+        if (!f.ok) continue;
+        MirrorRimEdge e;
+        e.angle_rad = th;
+        e.back = back;
+        e.model_px = u;
+        e.normal = n;
+        e.offset_px = f.offset_px;
+        e.step = f.step;
+        res.edges.push_back(e);
+        obs.push_back({th, back ? -t : 0.0, u + n * f.offset_px, n});
+        continue;
+      }
       // Profile of linear light along n from -window-0.5 to +window+0.5 px.
       bool inside = true;
       for (int k = 0; k < static_cast<int>(prof.size()) && inside; ++k) {
@@ -181,6 +316,25 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
       e.step = dstep;
       res.edges.push_back(e);
       obs.push_back({th, back ? -t : 0.0, u + n * off, n});
+    }
+    if (o.step_fit && o.polarity_check && obs.size() >= 3) {
+      // An edge whose sign differs from both neighbours' is another boundary.
+      const std::size_t m = obs.size();
+      std::vector<char> keep(m, 1);
+      for (std::size_t i = 0; i < m; ++i) {
+        const double sp = res.edges[(i + m - 1) % m].step, sn = res.edges[(i + 1) % m].step;
+        const double si = res.edges[i].step;
+        if (si * sp < 0 && si * sn < 0) keep[i] = 0;
+      }
+      std::size_t j = 0;
+      for (std::size_t i = 0; i < m; ++i)
+        if (keep[i]) {
+          obs[j] = obs[i];
+          res.edges[j] = res.edges[i];
+          ++j;
+        }
+      obs.resize(j);
+      res.edges.resize(j);
     }
     return true;
   };

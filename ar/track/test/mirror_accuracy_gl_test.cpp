@@ -314,6 +314,10 @@ struct MirrorRun {
   int rim_refined = 0;          // ungated frames measured with the rim (rim_points > 0)
   std::vector<double> cpu_ms;   // thread CPU per track() of the gated tracker
   std::vector<double> rim_edge_px;  // rim edges found vs the true silhouette (outward px)
+  // Per edge (same order as rim_edge_px), for DENTAR_RIM_DIAG: |step| in
+  // linear light, back silhouette, the normal's angle to the nearest image
+  // axis (deg), the step's sign (outside - inside).
+  std::vector<double> rim_edge_step, rim_edge_back, rim_edge_axis_deg, rim_edge_sign;
   std::vector<double> lat_mm, ray_mm;  // ungated centre error across / along the line of sight
 };
 
@@ -359,7 +363,38 @@ MirrorRun run_tracker(const Footage& fo, TrackerOptions base) {
         for (const MirrorRimEdge& e : rr.edges) {
           const Eigen::Vector3d q(rad * std::cos(e.angle_rad), rad * std::sin(e.angle_rad), e.back ? -th : 0.0);
           const auto u = cm.project(s.truth.T_cam_mir * q);
-          if (u) r.rim_edge_px.push_back(e.normal.dot(e.model_px + e.normal * e.offset_px - *u));
+          if (u) {
+            r.rim_edge_px.push_back(e.normal.dot(e.model_px + e.normal * e.offset_px - *u));
+            r.rim_edge_step.push_back(std::abs(e.step));
+            r.rim_edge_back.push_back(e.back ? 1 : 0);
+            const double a = std::fmod(std::abs(std::atan2(e.normal.y(), e.normal.x())) * 180 / M_PI, 90.0);
+            r.rim_edge_axis_deg.push_back(std::min(a, 90 - a));
+            r.rim_edge_sign.push_back(e.step > 0 ? 1 : -1);
+            if (const char* csv = std::getenv("DENTAR_RIM_CSV")) {
+              static FILE* f = std::fopen(csv, "w");
+              // The face point at the truth pose too (the side band's inner edge).
+              const Eigen::Vector3d qf(rad * std::cos(e.angle_rad), rad * std::sin(e.angle_rad), 0.0);
+              const auto uf = cm.project(s.truth.T_cam_mir * qf);
+              const auto uc = cm.project(s.truth.T_cam_mir * Eigen::Vector3d(qf.x(), qf.y(), -th));
+              std::fprintf(f, "%d,%.4f,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f", r.frames, e.angle_rad, e.back ? 1 : 0,
+                           e.normal.x(), e.normal.y(), e.normal.dot(e.model_px + e.normal * e.offset_px - *u),
+                           e.step, uf ? e.normal.dot(*uf - *u) : NAN, uc ? e.normal.dot(*uc - *u) : NAN,
+                           e.offset_px);
+              for (double t = -4; t <= 4.001; t += 0.25) {
+                const V2 q = *u + e.normal * t;
+                const int x = static_cast<int>(std::floor(q.x())), y = static_cast<int>(std::floor(q.y()));
+                double v = NAN;
+                if (x >= 0 && y >= 0 && x + 1 < g.cols && y + 1 < g.rows) {
+                  const double a = q.x() - x, b = q.y() - y;
+                  auto L = [&](int yy, int xx) { return srgb_decode(g.at<std::uint8_t>(yy, xx) / 255.0); };
+                  v = (1 - b) * ((1 - a) * L(y, x) + a * L(y, x + 1)) + b * ((1 - a) * L(y + 1, x) + a * L(y + 1, x + 1));
+                }
+                std::fprintf(f, ",%.4f", v);
+              }
+              std::fprintf(f, "\n");
+              std::fflush(f);
+            }
+          }
           if (!vis.empty() && u) {
             const V2 f = e.model_px + e.normal * e.offset_px;
             vis.at<cv::Vec3b>(static_cast<int>(std::lround(u->y())), static_cast<int>(std::lround(u->x()))) = {0, 255, 0};
@@ -373,6 +408,15 @@ MirrorRun run_tracker(const Footage& fo, TrackerOptions base) {
             cv::Rect roi(std::clamp(static_cast<int>(c->x()) - h, 0, g.cols - 2 * h), std::clamp(static_cast<int>(c->y()) - h, 0, g.rows - 2 * h), 2 * h, 2 * h);
             cv::Mat big;
             cv::resize(vis(roi), big, {}, 6, 6, cv::INTER_NEAREST);
+            for (int i = 0; i < 720; ++i) {
+              const double a = 2 * M_PI * i / 720;
+              for (int b = 0; b < 2; ++b) {
+                const auto q = cm.project(s.truth.T_cam_mir * Eigen::Vector3d(rad * std::cos(a), rad * std::sin(a), b ? -th : 0.0));
+                if (!q) continue;
+                const int x = static_cast<int>(std::lround((q->x() - roi.x + 0.5) * 6 - 0.5)), y = static_cast<int>(std::lround((q->y() - roi.y + 0.5) * 6 - 0.5));
+                if (x >= 0 && y >= 0 && x < big.cols && y < big.rows) big.at<cv::Vec3b>(y, x) = b ? cv::Vec3b(0, 255, 255) : cv::Vec3b(255, 0, 0);
+              }
+            }
             cv::imwrite(std::string(dbg) + "/rim_" + std::to_string(r.frames) + ".png", big);
           }
         }
@@ -608,10 +652,36 @@ TEST(MirrorAccuracy, RimEllipseRefinement) {
       if (std::getenv("DENTAR_RIM_CENTRE_ONLY")) o.mirror_rim.centre_only = true;
       if (std::getenv("DENTAR_RIM_FIXED_SCALE")) o.mirror_rim.free_scale = false;
       if (const char* e = std::getenv("DENTAR_RIM_NEFF")) o.mirror_rim.rim_effective_points = std::atof(e);
+      if (const char* e = std::getenv("DENTAR_RIM_STEP_FIT")) o.mirror_rim.step_fit = std::atoi(e) != 0;
+      if (const char* e = std::getenv("DENTAR_RIM_BLUR_PX")) o.mirror_rim.blur_px = std::atof(e);
+      if (const char* e = std::getenv("DENTAR_RIM_WIDTH_RATIO")) o.mirror_rim.max_width_ratio = std::atof(e);
+      if (const char* e = std::getenv("DENTAR_RIM_FIT_RMS")) o.mirror_rim.max_fit_rms = std::atof(e);
+      if (const char* e = std::getenv("DENTAR_RIM_LINES")) o.mirror_rim.parallel_lines = std::atoi(e);
+      if (const char* e = std::getenv("DENTAR_RIM_LINES_PX")) o.mirror_rim.parallel_px = std::atof(e);
+      if (std::getenv("DENTAR_RIM_NO_POLARITY")) o.mirror_rim.polarity_check = false;
+      if (const char* e = std::getenv("DENTAR_RIM_AMBIGUITY")) o.mirror_rim.ambiguity = std::atof(e);
       runs[on] = run_tracker(fo, o);
       const MirrorRun& r = runs[on];
       std::vector<double> ae;
       for (double x : r.rim_edge_px) ae.push_back(std::abs(x));
+      if (std::getenv("DENTAR_RIM_DIAG") && !r.rim_edge_px.empty()) {
+        auto bins = [&](const char* what, const std::vector<double>& key, std::vector<double> edges) {
+          edges.insert(edges.begin(), -1e300);
+          edges.push_back(1e300);
+          for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
+            std::vector<double> in;
+            for (std::size_t i = 0; i < key.size(); ++i)
+              if (key[i] >= edges[b] && key[i] < edges[b + 1]) in.push_back(r.rim_edge_px[i]);
+            if (in.size() < 2) continue;
+            std::printf("[ rim diag ] %s %s %s [%g, %g): %zu edges, mean %+.3f sd %.3f px\n", synth_preset_name(p),
+                        on ? "on" : "off", what, edges[b], edges[b + 1], in.size(), mean(in), stdev(in));
+          }
+        };
+        bins("|step|", r.rim_edge_step, {0.05, 0.1, 0.2, 0.3});
+        bins("back", r.rim_edge_back, {0.5});
+        bins("normal vs axis deg", r.rim_edge_axis_deg, {10, 20, 30, 40});
+        bins("sign", r.rim_edge_sign, {0});
+      }
       std::printf("| %s | %s | %d / %d | %d | %.2f / %.2f / %.2f | %.2f / %.2f / %.2f | %d | %.2f / %.2f | %.2f | %.2f / %.2f | %+.2f / %.2f / %.2f (%zu) | %.2f / %.2f ; %.2f / %.2f |\n",
                   synth_preset_name(p), on ? "on" : "off", static_cast<int>(r.mm.size()), r.seen, r.rim_refined,
                   pct(r.mm, 0.5), pct(r.mm, 0.95), pct(r.mm, 0.99), pct(r.deg, 0.5), pct(r.deg, 0.95),

@@ -77,8 +77,42 @@ struct MirrorRimOptions {
   // The model point: the outer silhouette of the face and back circles
   // (true), or the face's circle only (false).
   bool silhouette_back = true;
+  // The edge locator (issue 16, rim depth): false = the strongest gradient
+  // with a parabola (as before); true = a blurred-step fit (see
+  // locate_rim_edge) on the mean of parallel profiles, with the tests below.
+  bool step_fit = false;
+  double blur_px = 0.6;           // predicted edge blur (Gaussian sigma, px): optics + pixel
+  double max_width_ratio = 2.0;   // fitted blur above this x blur_px: rejected (motion blur, a ramp)
+  double max_fit_rms = 0.12;      // fit residual RMS / |step| above this: rejected (not one step)
+  double saturation = 0.97;       // linear light at or above this in the fit window: rejected (glare)
+  int parallel_lines = 3;         // profiles averaged, spread along the tangent
+  double parallel_px = 0.75;      // spacing of those profiles along the tangent (px)
+  // An edge whose step sign differs from both its accepted neighbours' (a
+  // different boundary) is rejected.
+  bool polarity_check = true;
   std::string validate() const;
 };
+
+// One edge along a line: the blurred-step fit (step_fit).
+struct RimEdgeFit {
+  bool ok = false;
+  std::string why;       // not ok: the reason
+  double offset_px = 0;  // the step's position along the normal, from the line's origin
+  double width_px = 0;   // its fitted blur (Gaussian sigma)
+  double step = 0;       // linear light, signed: outside (+normal) - inside
+  double rms = 0;        // fit residual RMS (linear light)
+};
+
+// The edge nearest to `origin_px` (within +-window_px) along the unit image
+// normal `normal`: the mean of `parallel_lines` bilinear profiles in linear
+// light (sRGB-decoded when `srgb`), spread along the tangent; the strongest
+// gradient seeds a least-squares fit of  a + step * Phi((x - x0) / width)
+// (Phi the normal CDF) over +-(1.5 px + 2 blur_px) around it. Rejected: off
+// the image, a peak at the window's end, |step| < min_step, a second
+// gradient peak >= ambiguity x the best, width > max_width_ratio x blur_px,
+// residual RMS > max_fit_rms x |step|, a sample >= saturation.
+RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d& origin_px,
+                           const Eigen::Vector2d& normal, double window_px, const MirrorRimOptions& options);
 
 struct MirrorRimEdge {
   double angle_rad = 0;          // rim angle in `mir` (x axis = 0)
