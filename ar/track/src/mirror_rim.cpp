@@ -44,6 +44,8 @@ std::string MirrorRimOptions::validate() const {
     os << "parallel_lines = " << parallel_lines << " must be in 1..15";
   else if (!(std::isfinite(parallel_px) && parallel_px >= 0 && parallel_px <= 5))
     os << "parallel_px = " << parallel_px << " must be in [0, 5]";
+  else if (!(std::isfinite(face_level_tol) && face_level_tol >= 0))
+    os << "face_level_tol = " << face_level_tol << " must be >= 0";
   return os.str();
 }
 
@@ -148,7 +150,7 @@ RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d
     return c;
   };
   double c = cost(a, b, x0, w), mu = 1e-4;
-  for (int it = 0; it < 30; ++it) {
+  for (int it = 0; it < 15; ++it) {
     Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
     Eigen::Vector4d g = Eigen::Vector4d::Zero();
     for (int k = k0; k <= k1; ++k) {
@@ -166,7 +168,7 @@ RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d
                  nw = std::clamp(w + d[3], 0.15, 5.0);
     const double nc = cost(na, nb, nx, nw);
     if (nc < c) {
-      const bool done = std::abs(nx - x0) < 1e-5 && std::abs(nw - w) < 1e-5;
+      const bool done = std::abs(nx - x0) < 1e-3 && std::abs(nw - w) < 1e-3;
       a = na, b = nb, x0 = nx, w = nw, c = nc;
       mu = std::max(1e-6, mu * 0.3);
       if (done) break;
@@ -179,6 +181,7 @@ RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d
   res.width_px = w;
   res.step = b;
   res.rms = std::sqrt(c / (k1 - k0 + 1));
+  res.inside = a;
   if (std::abs(b) < o.min_step) res.why = "weak step";
   else if (x0 <= xlo + 1e-9 || x0 >= xhi - 1e-9 || std::abs(x0) > window) res.why = "step outside the window";
   else if (w > o.max_width_ratio * o.blur_px) res.why = "too wide (blur)";
@@ -221,6 +224,7 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
   struct Obs {
     double th = 0, z = 0;
     Eigen::Vector2d e_px, n;
+    double thc = 0;  // exact_silhouette: the angle whose point lies on the edge's line
   };
   std::vector<Obs> obs;
   const double step = 0.25;
@@ -234,6 +238,21 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
     const auto c_px = model.project(T0.translation());
     if (!c_px) return false;
     const int ns = std::max(2, static_cast<int>(std::round(window / step)));
+    // The face's level: the median of the image at half the radius.
+    double face_level = -1;
+    if (o.step_fit && o.face_level_tol > 0) {
+      std::vector<double> lv;
+      for (int i = 0; i < 24; ++i) {
+        const double a = 2 * M_PI * (i + 0.5) / 24;
+        const auto q = model.project(T0 * Eigen::Vector3d(0.5 * radius_m * std::cos(a), 0.5 * radius_m * std::sin(a), 0));
+        if (!q) continue;
+        if (const auto v = S(*q)) lv.push_back(*v);
+      }
+      if (lv.size() >= 12) {
+        std::nth_element(lv.begin(), lv.begin() + lv.size() / 2, lv.end());
+        face_level = lv[lv.size() / 2];
+      }
+    }
     std::vector<double> prof(2 * ns + 1 + 4);
     for (int i = 0; i < o.samples; ++i) {
       const double th = 2 * M_PI * (i + 0.5) / o.samples;
@@ -263,6 +282,9 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
         const RimEdgeFit f = locate_rim_edge(gray, srgb, u, n, window, o);
         if (f.why != "off the image") ++res.candidates;
         if (!f.ok) continue;
+        if (!back && face_level >= 0 &&
+            std::abs(f.inside - face_level) > o.face_level_tol * std::max(face_level, 0.05))
+          continue;
         MirrorRimEdge e;
         e.angle_rad = th;
         e.back = back;
@@ -271,7 +293,7 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
         e.offset_px = f.offset_px;
         e.step = f.step;
         res.edges.push_back(e);
-        obs.push_back({th, back ? -t : 0.0, u + n * f.offset_px, n});
+        obs.push_back({th, back ? -t : 0.0, u + n * f.offset_px, n, th});
         continue;
       }
       // Profile of linear light along n from -window-0.5 to +window+0.5 px.
@@ -315,7 +337,7 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
       e.offset_px = off;
       e.step = dstep;
       res.edges.push_back(e);
-      obs.push_back({th, back ? -t : 0.0, u + n * off, n});
+      obs.push_back({th, back ? -t : 0.0, u + n * off, n, th});
     }
     if (o.step_fit && o.polarity_check && obs.size() >= 3) {
       // An edge whose sign differs from both neighbours' is another boundary.
@@ -380,17 +402,43 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
     // (0.5 px on a 25 px semi-axis is 2 % of the distance), is then left to
     // the tags; the rim fixes the disc's image position and tilt.
     const int np = o.free_scale ? 7 : 6;
+    // exact_silhouette: slide each point along its circle until it lies on
+    // its edge's line (the residual is then the distance along that line to
+    // the modelled outline, not a first-order one).
+    auto correspond = [&](const Vec6& dd, double sc) {
+      if (!o.exact_silhouette) return;
+      const Eigen::Isometry3d T = apply(tags.T_cam_body, dd) * T_mtag_mir;
+      auto P = [&](const Obs& ob, double a) {
+        return model.project(T * Eigen::Vector3d((1 + sc) * radius_m * std::cos(a), (1 + sc) * radius_m * std::sin(a), ob.z));
+      };
+      for (Obs& ob : obs) {
+        const Eigen::Vector2d tn(-ob.n.y(), ob.n.x());
+        double a = ob.thc;
+        for (int k = 0; k < 4; ++k) {
+          const auto p = P(ob, a), q = P(ob, a + 1e-6);
+          if (!p || !q) break;
+          const double f = tn.dot(*p - ob.e_px), df = tn.dot(*q - *p) / 1e-6;
+          if (!(std::abs(df) > 1e-9)) break;
+          const double st = std::clamp(-f / df, -0.15, 0.15);
+          a += st;
+          if (std::abs(st) < 1e-9) break;
+        }
+        // Not further than 0.5 rad from the searched angle (a wrong branch).
+        ob.thc = std::abs(std::remainder(a - ob.th, 2 * M_PI)) < 0.5 ? a : ob.th;
+      }
+    };
     auto residuals = [&](const Vec6& dd, double sc, Eigen::VectorXd& out) {
       const Eigen::Isometry3d T = apply(tags.T_cam_body, dd) * T_mtag_mir;
       for (int i = 0; i < N; ++i) {
-        const Eigen::Vector3d q((1 + sc) * radius_m * std::cos(obs[i].th),
-                                (1 + sc) * radius_m * std::sin(obs[i].th), obs[i].z);
+        const Eigen::Vector3d q((1 + sc) * radius_m * std::cos(obs[i].thc),
+                                (1 + sc) * radius_m * std::sin(obs[i].thc), obs[i].z);
         const auto u = model.project(T * q);
         out[i] = u ? obs[i].n.dot(*u - obs[i].e_px) : 1e3;
       }
     };
     for (int pass = 0; pass < 2; ++pass) {
       for (int it = 0; it < o.iterations; ++it) {
+        correspond(d, scale);
         residuals(d, scale, r);
         for (int j = 0; j < np; ++j) {
           Vec6 dj = d;
@@ -431,6 +479,7 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
         if (st.head<3>().norm() < 1e-8 && st.segment<3>(3).norm() < 1e-8) break;
       }
       // The rim's own noise from its weighted residuals (5 dof it constrains).
+      correspond(d, scale);
       residuals(d, scale, r);
       double s = 0, sw = 0;
       for (int i = 0; i < N; ++i) {

@@ -90,6 +90,14 @@ struct MirrorRimOptions {
   // An edge whose step sign differs from both its accepted neighbours' (a
   // different boundary) is rejected.
   bool polarity_check = true;
+  // The fit's model point slides along its circle onto the edge's line (the
+  // outline's exact crossing, not the first-order one: matters for the
+  // back's circle and where the ellipse is tightly curved).
+  bool exact_silhouette = false;
+  // Where the face's circle is the outline, the level just inside the edge
+  // must be the face's (the median of the image at half the radius):
+  // |inside - face| <= face_level_tol x max(face, 0.05); 0 = off (step_fit only).
+  double face_level_tol = 0;
   std::string validate() const;
 };
 
@@ -101,6 +109,7 @@ struct RimEdgeFit {
   double width_px = 0;   // its fitted blur (Gaussian sigma)
   double step = 0;       // linear light, signed: outside (+normal) - inside
   double rms = 0;        // fit residual RMS (linear light)
+  double inside = 0;     // the fitted level on the inner side (linear light)
 };
 
 // The edge nearest to `origin_px` (within +-window_px) along the unit image
