@@ -44,6 +44,8 @@ std::string MirrorRimOptions::validate() const {
     os << "parallel_lines = " << parallel_lines << " must be in 1..15";
   else if (!(std::isfinite(parallel_px) && parallel_px >= 0 && parallel_px <= 5))
     os << "parallel_px = " << parallel_px << " must be in [0, 5]";
+  else if (!(std::isfinite(max_rim_rms_px) && max_rim_rms_px >= 0))
+    os << "max_rim_rms_px = " << max_rim_rms_px << " must be >= 0";
   else if (!(std::isfinite(face_level_tol) && face_level_tol >= 0))
     os << "face_level_tol = " << face_level_tol << " must be >= 0";
   return os.str();
@@ -550,6 +552,10 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
   res.correction_sigma = std::sqrt(std::max(0.0, d.dot(H_t * d) / sc2));
   if (!(res.correction_sigma <= o.max_correction_sigma) || !d.allFinite()) {
     res.why = "correction too far from the tag pose";
+    return res;
+  }
+  if (o.max_rim_rms_px > 0 && !(res.rms_px <= o.max_rim_rms_px)) {
+    res.why = "rim residual too large";
     return res;
   }
   Mat6 C = H.inverse();

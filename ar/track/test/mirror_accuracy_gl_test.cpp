@@ -708,6 +708,7 @@ TEST(MirrorAccuracy, RimEllipseRefinement) {
       if (std::getenv("DENTAR_RIM_NO_POLARITY")) o.mirror_rim.polarity_check = false;
       if (std::getenv("DENTAR_RIM_EXACT")) o.mirror_rim.exact_silhouette = true;
       if (const char* e = std::getenv("DENTAR_RIM_FACE_TOL")) o.mirror_rim.face_level_tol = std::atof(e);
+      if (const char* e = std::getenv("DENTAR_RIM_MAX_RMS")) o.mirror_rim.max_rim_rms_px = std::atof(e);
       if (const char* e = std::getenv("DENTAR_RIM_AMBIGUITY")) o.mirror_rim.ambiguity = std::atof(e);
       runs[on] = run_tracker(fo, o);
       const MirrorRun& r = runs[on];

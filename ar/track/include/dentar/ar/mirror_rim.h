@@ -98,6 +98,9 @@ struct MirrorRimOptions {
   // must be the face's (the median of the image at half the radius):
   // |inside - face| <= face_level_tol x max(face, 0.05); 0 = off (step_fit only).
   double face_level_tol = 0;
+  // Fallback when the rim's residual RMS at the optimum exceeds this (px;
+  // 0 = off): the outline found is not one ellipse.
+  double max_rim_rms_px = 0;
   std::string validate() const;
 };
 
