@@ -319,6 +319,7 @@ struct MirrorRun {
   // linear light, back silhouette, the normal's angle to the nearest image
   // axis (deg), the step's sign (outside - inside).
   std::vector<double> rim_edge_step, rim_edge_back, rim_edge_axis_deg, rim_edge_sign;
+  std::vector<double> face_visible;  // visible face px / projected face area (DENTAR_RIM_DIAG)
   std::vector<double> lat_mm, ray_mm;  // ungated centre error across / along the line of sight
 };
 
@@ -464,6 +465,21 @@ MirrorRun run_tracker(const Footage& fo, TrackerOptions base) {
           }
         }
       }
+    }
+    if (std::getenv("DENTAR_RIM_DIAG") && base.mirror_rim_refine && s.truth.mirror_in_view) {
+      // Visible face pixels (the generator's id pass) against the projected face's area.
+      const CameraModel cm(fo.station.calibration.camera);
+      const double rad = fo.station.calibration.mirror_radius_m;
+      double area = 0;
+      std::optional<V2> prev, first;
+      for (int i = 0; i <= 720; ++i) {
+        const double a = 2 * M_PI * i / 720;
+        const auto q = cm.project(s.truth.T_cam_mir * Eigen::Vector3d(rad * std::cos(a), rad * std::sin(a), 0));
+        if (!q) { area = NAN; break; }
+        if (prev) area += 0.5 * (prev->x() * q->y() - q->x() * prev->y());
+        prev = q;
+      }
+      r.face_visible.push_back(s.truth.mirror_face_px / std::abs(area));
     }
     r.seen += s.truth.mirror_in_view ? 1 : 0;
     if (fa->mirror.state != TrackState::kLost) {
@@ -731,6 +747,9 @@ TEST(MirrorAccuracy, RimEllipseRefinement) {
         bins("back", r.rim_edge_back, {0.5});
         bins("normal vs axis deg", r.rim_edge_axis_deg, {10, 20, 30, 40});
         bins("sign", r.rim_edge_sign, {0});
+        std::vector<double> fv = r.face_visible;
+        std::printf("[ rim diag ] %s visible face / projected area: p5 %.2f p50 %.2f p95 %.2f (%zu frames)\n",
+                    synth_preset_name(p), pct(fv, 0.05), pct(fv, 0.5), pct(fv, 0.95), fv.size());
       }
       std::printf("| %s | %s | %d / %d | %d | %.2f / %.2f / %.2f | %.2f / %.2f / %.2f | %d | %.2f / %.2f | %.2f | %.2f / %.2f | %+.2f / %.2f / %.2f (%zu) | %.2f / %.2f ; %.2f / %.2f |\n",
                   synth_preset_name(p), names[on], static_cast<int>(r.mm.size()), r.seen, r.rim_refined,
