@@ -83,70 +83,59 @@ Eigen::Isometry3d apply(const Eigen::Isometry3d& T, const Vec6& d) {
 
 }  // namespace
 
-RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d& origin,
-                           const Eigen::Vector2d& normal, double window, const MirrorRimOptions& o) {
-  RimEdgeFit res;
-  if (gray.empty() || gray.type() != CV_8UC1 || !(window > 0) || !o.validate().empty() ||
-      !(std::abs(normal.norm() - 1) < 1e-6)) {
-    res.why = "bad input";
-    return res;
-  }
-  const Sampler S{gray, srgb ? srgb_decode_table().ptr<float>() : nullptr};
-  const double step = 0.25;
-  const double reach = 1.5 + 2 * o.blur_px;  // the fit's half-width around the gradient peak
-  const int ns = std::max(2, static_cast<int>(std::round(window / step)));
-  const int nf = static_cast<int>(std::ceil(reach / step));
-  const int pad = nf + 2;
-  const int n = 2 * ns + 1 + 2 * pad;  // sample k at x = (k - ns - pad) * step
-  std::vector<double> prof(n, 0.0);
+namespace {
+
+// The mean of o.parallel_lines profiles along `normal` around `origin`:
+// sample k at x = (k - ns - pad) * step. False off the image.
+struct Profile {
+  std::vector<double> v;
+  double step = 0.25, reach = 0;
+  int ns = 0, nf = 0, pad = 0;
+  double x(int k) const { return (k - ns - pad) * step; }
+  double grad(int k) const { return (v[k + 2] - v[k - 2]) / (4 * step); }
+};
+
+bool sample_profile(const Sampler& S, const Eigen::Vector2d& origin, const Eigen::Vector2d& normal, double window,
+                    const MirrorRimOptions& o, Profile& p) {
+  p.reach = 1.5 + 2 * o.blur_px;  // the fit's half-width around the gradient peak
+  p.ns = std::max(2, static_cast<int>(std::round(window / p.step)));
+  p.nf = static_cast<int>(std::ceil(p.reach / p.step));
+  p.pad = p.nf + 2;
+  const int n = 2 * p.ns + 1 + 2 * p.pad;
+  p.v.assign(n, 0.0);
   const Eigen::Vector2d tan(-normal.y(), normal.x());
   const int L = o.parallel_lines;
   for (int l = 0; l < L; ++l) {
     const Eigen::Vector2d p0 = origin + tan * ((l - 0.5 * (L - 1)) * o.parallel_px);
     for (int k = 0; k < n; ++k) {
-      const auto v = S(p0 + normal * ((k - ns - pad) * step));
-      if (!v) {
-        res.why = "off the image";
-        return res;
-      }
-      prof[k] += *v / L;
+      const auto v = S(p0 + normal * p.x(k));
+      if (!v) return false;
+      p.v[k] += *v / L;
     }
   }
-  auto xk = [&](int k) { return (k - ns - pad) * step; };
-  auto grad = [&](int k) { return (prof[k + 2] - prof[k - 2]) / (4 * step); };
-  int best = -1;
-  double gbest = 0;
-  for (int k = pad; k <= pad + 2 * ns; ++k)
-    if (std::abs(grad(k)) > gbest) {
-      gbest = std::abs(grad(k));
-      best = k;
-    }
-  if (best <= pad || best >= pad + 2 * ns) {
-    res.why = "peak at the window's end";
-    return res;
-  }
-  double second = 0;
-  for (int k = pad; k <= pad + 2 * ns; ++k)
-    if (std::abs(k - best) * step > 1.5) second = std::max(second, std::abs(grad(k)));
-  if (second >= o.ambiguity * gbest) {
-    res.why = "ambiguous";
-    return res;
-  }
+  return true;
+}
+
+// The blurred-step fit seeded at sample `best`, and its tests.
+RimEdgeFit fit_step(const Profile& P, int best, double window, const MirrorRimOptions& o) {
+  RimEdgeFit res;
+  const int nf = P.nf;
+  const double reach = P.reach;
   const int k0 = best - nf, k1 = best + nf;
   for (int k = k0; k <= k1; ++k)
-    if (prof[k] >= o.saturation) {
+    if (P.v[k] >= o.saturation) {
       res.why = "saturated";
       return res;
     }
   // Least squares  a + b Phi((x - x0) / w)  over [k0, k1] (Gauss-Newton, a
   // little damping, x0 kept within the fit window, w within [0.15, 5] px).
-  double a = prof[k0], b = prof[k1] - prof[k0], x0 = xk(best), w = o.blur_px;
-  const double xlo = xk(best) - reach, xhi = xk(best) + reach;
+  double a = P.v[k0], b = P.v[k1] - P.v[k0], x0 = P.x(best), w = o.blur_px;
+  const double xlo = P.x(best) - reach, xhi = P.x(best) + reach;
   auto Phi = [](double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); };
   auto cost = [&](double aa, double bb, double xx, double ww) {
     double c = 0;
     for (int k = k0; k <= k1; ++k) {
-      const double r = aa + bb * Phi((xk(k) - xx) / ww) - prof[k];
+      const double r = aa + bb * Phi((P.x(k) - xx) / ww) - P.v[k];
       c += r * r;
     }
     return c;
@@ -156,9 +145,9 @@ RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d
     Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
     Eigen::Vector4d g = Eigen::Vector4d::Zero();
     for (int k = k0; k <= k1; ++k) {
-      const double z = (xk(k) - x0) / w, phi = std::exp(-0.5 * z * z) / std::sqrt(2 * M_PI);
-      const double r = a + b * Phi(z) - prof[k];
-      const Eigen::Vector4d J(1.0, Phi(z), -b * phi / w, -b * phi * z / w);
+      const double z = (P.x(k) - x0) / w, phi = std::exp(-0.5 * z * z) / std::sqrt(2 * M_PI), F = Phi(z);
+      const double r = a + b * F - P.v[k];
+      const Eigen::Vector4d J(1.0, F, -b * phi / w, -b * phi * z / w);
       H += J * J.transpose();
       g += J * r;
     }
@@ -190,6 +179,75 @@ RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d
   else if (res.rms > o.max_fit_rms * std::abs(b)) res.why = "not one step";
   else res.ok = true;
   return res;
+}
+
+bool edge_input_ok(const cv::Mat& gray, double window, const Eigen::Vector2d& normal, const MirrorRimOptions& o) {
+  return !gray.empty() && gray.type() == CV_8UC1 && window > 0 && o.validate().empty() &&
+         std::abs(normal.norm() - 1) < 1e-6;
+}
+
+// Every step along the line (local gradient maxima >= 0.25 x the largest,
+// at least 0.75 px apart) that passes the fit's tests (joint_select).
+std::vector<RimEdgeFit> edge_candidates(const Sampler& S, const Eigen::Vector2d& origin, const Eigen::Vector2d& normal,
+                                        double window, const MirrorRimOptions& o, bool& off_image) {
+  std::vector<RimEdgeFit> out;
+  Profile P;
+  off_image = !sample_profile(S, origin, normal, window, o, P);
+  if (off_image) return out;
+  double gmax = 0;
+  for (int k = P.pad; k <= P.pad + 2 * P.ns; ++k) gmax = std::max(gmax, std::abs(P.grad(k)));
+  if (!(gmax > 0)) return out;
+  std::vector<int> peaks;
+  for (int k = P.pad + 1; k < P.pad + 2 * P.ns; ++k) {
+    const double g = std::abs(P.grad(k));
+    if (g < 0.25 * gmax || g < std::abs(P.grad(k - 1)) || g < std::abs(P.grad(k + 1))) continue;
+    if (!peaks.empty() && (k - peaks.back()) * P.step < 0.75) {
+      if (g > std::abs(P.grad(peaks.back()))) peaks.back() = k;
+      continue;
+    }
+    peaks.push_back(k);
+  }
+  for (int k : peaks) {
+    RimEdgeFit f = fit_step(P, k, window, o);
+    if (f.ok) out.push_back(f);
+  }
+  return out;
+}
+
+}  // namespace
+
+RimEdgeFit locate_rim_edge(const cv::Mat& gray, bool srgb, const Eigen::Vector2d& origin,
+                           const Eigen::Vector2d& normal, double window, const MirrorRimOptions& o) {
+  RimEdgeFit res;
+  if (!edge_input_ok(gray, window, normal, o)) {
+    res.why = "bad input";
+    return res;
+  }
+  const Sampler S{gray, srgb ? srgb_decode_table().ptr<float>() : nullptr};
+  Profile P;
+  if (!sample_profile(S, origin, normal, window, o, P)) {
+    res.why = "off the image";
+    return res;
+  }
+  int best = -1;
+  double gbest = 0;
+  for (int k = P.pad; k <= P.pad + 2 * P.ns; ++k)
+    if (std::abs(P.grad(k)) > gbest) {
+      gbest = std::abs(P.grad(k));
+      best = k;
+    }
+  if (best <= P.pad || best >= P.pad + 2 * P.ns) {
+    res.why = "peak at the window's end";
+    return res;
+  }
+  double second = 0;
+  for (int k = P.pad; k <= P.pad + 2 * P.ns; ++k)
+    if (std::abs(k - best) * P.step > 1.5) second = std::max(second, std::abs(P.grad(k)));
+  if (second >= o.ambiguity * gbest) {
+    res.why = "ambiguous";
+    return res;
+  }
+  return fit_step(P, best, window, o);
 }
 
 MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraModel& model,
@@ -240,6 +298,14 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
     const auto c_px = model.project(T0.translation());
     if (!c_px) return false;
     const int ns = std::max(2, static_cast<int>(std::round(window / step)));
+    // joint_select: every candidate step per angle.
+    struct Cands {
+      double th;
+      bool back;
+      Eigen::Vector2d u, n;
+      std::vector<RimEdgeFit> c;
+    };
+    std::vector<Cands> cands;
     // The face's level: the median of the image at half the radius.
     double face_level = -1;
     if (o.step_fit && o.face_level_tol > 0) {
@@ -279,6 +345,13 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
           back = true;
           u = *u_f + n * (*u_k - *u_f).dot(n);
         }
+      }
+      if (o.step_fit && o.joint_select) {
+        bool off = false;
+        std::vector<RimEdgeFit> c = edge_candidates(S, u, n, window, o, off);
+        if (!off) ++res.candidates;
+        if (!c.empty()) cands.push_back({th, back, u, n, std::move(c)});
+        continue;
       }
       if (o.step_fit) {
         const RimEdgeFit f = locate_rim_edge(gray, srgb, u, n, window, o);
@@ -340,6 +413,69 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
       e.step = dstep;
       res.edges.push_back(e);
       obs.push_back({th, back ? -t : 0.0, u + n * off, n, th});
+    }
+    if (o.step_fit && o.joint_select && !cands.empty()) {
+      // One image shift of the predicted outline that most candidates agree
+      // with (within 0.5 px along their normals), from pairs of angles about
+      // a quarter and a third of the rim apart; then, per angle, the candidate
+      // nearest to it (within 1 px).
+      const double tol = 0.5;
+      auto score = [&](const Eigen::Vector2d& dl, int& n_in, double& cost) {
+        n_in = 0;
+        cost = 0;
+        for (const Cands& a : cands) {
+          double m = 1e9;
+          for (const RimEdgeFit& f : a.c) m = std::min(m, std::abs(f.offset_px - a.n.dot(dl)));
+          if (m < tol) ++n_in;
+          cost += std::min(m, tol) * std::min(m, tol);
+        }
+      };
+      Eigen::Vector2d best_d = Eigen::Vector2d::Zero();
+      int best_n = 0;
+      double best_cost = 0;
+      score(best_d, best_n, best_cost);
+      const int M = static_cast<int>(cands.size());
+      for (int i = 0; i < M; ++i)
+        for (int j : {(i + M / 4) % M, (i + M / 3) % M}) {
+          if (j == i) continue;
+          Eigen::Matrix2d A;
+          A.row(0) = cands[i].n.transpose();
+          A.row(1) = cands[j].n.transpose();
+          if (std::abs(A.determinant()) < 0.3) continue;
+          const Eigen::Matrix2d Ai = A.inverse();
+          for (const RimEdgeFit& fi : cands[i].c)
+            for (const RimEdgeFit& fj : cands[j].c) {
+              const Eigen::Vector2d dl = Ai * Eigen::Vector2d(fi.offset_px, fj.offset_px);
+              if (dl.norm() > window) continue;
+              int n_in = 0;
+              double cost = 0;
+              score(dl, n_in, cost);
+              if (n_in > best_n || (n_in == best_n && cost < best_cost)) {
+                best_n = n_in;
+                best_cost = cost;
+                best_d = dl;
+              }
+            }
+        }
+      for (const Cands& a : cands) {
+        const RimEdgeFit* pick = nullptr;
+        double m = 2 * tol;
+        for (const RimEdgeFit& f : a.c)
+          if (std::abs(f.offset_px - a.n.dot(best_d)) < m) {
+            m = std::abs(f.offset_px - a.n.dot(best_d));
+            pick = &f;
+          }
+        if (!pick) continue;
+        MirrorRimEdge e;
+        e.angle_rad = a.th;
+        e.back = a.back;
+        e.model_px = a.u;
+        e.normal = a.n;
+        e.offset_px = pick->offset_px;
+        e.step = pick->step;
+        res.edges.push_back(e);
+        obs.push_back({a.th, a.back ? -t : 0.0, a.u + a.n * pick->offset_px, a.n, a.th});
+      }
     }
     if (o.step_fit && o.polarity_check && obs.size() >= 3) {
       // An edge whose sign differs from both neighbours' is another boundary.

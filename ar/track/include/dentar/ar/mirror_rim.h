@@ -101,6 +101,11 @@ struct MirrorRimOptions {
   // Fallback when the rim's residual RMS at the optimum exceeds this (px;
   // 0 = off): the outline found is not one ellipse.
   double max_rim_rms_px = 0;
+  // step_fit: instead of the strongest step per angle, every step that
+  // passes the fit's tests, then the one image shift of the predicted
+  // outline most of them agree with (a consensus over pairs of angles), and
+  // per angle the step nearest to it.
+  bool joint_select = false;
   std::string validate() const;
 };
 
