@@ -44,6 +44,8 @@ std::string MirrorRimOptions::validate() const {
     os << "parallel_lines = " << parallel_lines << " must be in 1..15";
   else if (!(std::isfinite(parallel_px) && parallel_px >= 0 && parallel_px <= 5))
     os << "parallel_px = " << parallel_px << " must be in [0, 5]";
+  else if (max_candidates < 1 || max_candidates > 64)
+    os << "max_candidates = " << max_candidates << " must be in 1..64";
   else if (!(std::isfinite(max_rim_rms_px) && max_rim_rms_px >= 0))
     os << "max_rim_rms_px = " << max_rim_rms_px << " must be >= 0";
   else if (!(std::isfinite(face_level_tol) && face_level_tol >= 0))
@@ -206,6 +208,12 @@ std::vector<RimEdgeFit> edge_candidates(const Sampler& S, const Eigen::Vector2d&
       continue;
     }
     peaks.push_back(k);
+  }
+  // Only the strongest max_candidates are fitted (the fit is the cost).
+  if (static_cast<int>(peaks.size()) > o.max_candidates) {
+    std::partial_sort(peaks.begin(), peaks.begin() + o.max_candidates, peaks.end(),
+                      [&](int x, int y) { return std::abs(P.grad(x)) > std::abs(P.grad(y)); });
+    peaks.resize(o.max_candidates);
   }
   for (int k : peaks) {
     RimEdgeFit f = fit_step(P, k, window, o);

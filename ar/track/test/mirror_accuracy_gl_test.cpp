@@ -729,6 +729,7 @@ TEST(MirrorAccuracy, RimEllipseRefinement) {
       if (const char* e = std::getenv("DENTAR_RIM_FACE_TOL")) o.mirror_rim.face_level_tol = std::atof(e);
       if (const char* e = std::getenv("DENTAR_RIM_MAX_RMS")) o.mirror_rim.max_rim_rms_px = std::atof(e);
       if (std::getenv("DENTAR_RIM_JOINT") && on == 1) o.mirror_rim.joint_select = true;
+      if (const char* e = std::getenv("DENTAR_RIM_MAX_CANDIDATES")) o.mirror_rim.max_candidates = std::atoi(e);
       if (const char* e = std::getenv("DENTAR_RIM_AMBIGUITY")) o.mirror_rim.ambiguity = std::atof(e);
       runs[on] = run_tracker(fo, o);
       const MirrorRun& r = runs[on];

@@ -157,6 +157,9 @@ TEST(MirrorRimEdge, OptionsValidated) {
   o.max_width_ratio = 0.5;
   EXPECT_NE(o.validate().find("max_width_ratio"), std::string::npos);
   o = {};
+  o.max_candidates = 0;
+  EXPECT_NE(o.validate().find("max_candidates"), std::string::npos);
+  o = {};
   o.saturation = 0;
   EXPECT_NE(o.validate().find("saturation"), std::string::npos);
 }
