@@ -500,9 +500,17 @@ void set_mannequin_layout(StationScene& s, MannequinLayout kind) {
   // >= 21 mm from the calibration divots.
   static const Spot kWrap[8] = {{-45, 5},  {45, 5},  {-50, 45}, {50, 45},
                                 {-70, 25}, {70, 25}, {-40, -30}, {40, -30}};
+  // kFront12Large: the same spots, larger tags on the forehead (16 mm) and
+  // brow (18 mm), the face-on camera's tags (docs/BENCHMARKS.md, issue 16
+  // larger brow tags): no printed pattern overlaps another and every plate
+  // stays >= 4.6 mm clear of the divots (forehead divot: inner brow pair).
+  auto size_m = [kind](int i) {
+    if (kind != MannequinLayout::kFront12Large) return 0.014;
+    return i < 2 ? 0.016 : i < 6 ? 0.018 : 0.014;
+  };
   s.mannequin_tags.clear();
   for (int i = 0; i < 12; ++i)
-    s.mannequin_tags.push_back(head_tag(m, i, 0.014, kFront[i].az, kFront[i].el));
+    s.mannequin_tags.push_back(head_tag(m, i, size_m(i), kFront[i].az, kFront[i].el));
   if (kind == MannequinLayout::kWrap20)
     for (int i = 0; i < 8; ++i)
       s.mannequin_tags.push_back(head_tag(m, 12 + i, 0.014, kWrap[i].az, kWrap[i].el));

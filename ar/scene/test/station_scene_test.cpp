@@ -66,56 +66,80 @@ TEST(StationScene, DefaultIsValidWithTwelveHeadTags) {
             1e-12);
 }
 
-// The head layouts (issue 16): kWrap20 is kFront12 (the default's) plus ids 12..19; no id
-// is the mirror's or the pen's; the printed plates (pattern + quiet zone,
-// 30.8 mm for a 14 mm tagStandard41h12) do not overlap, stay off the open
-// mouth and clear of the calibration divots the stylus must reach.
+// The head layouts (issue 16): kWrap20 is kFront12 (the default's) plus ids 12..19;
+// kFront12Large is kFront12 with larger forehead (16 mm) and brow (18 mm) tags; no id
+// is the mirror's or the pen's; the printed patterns (9/5 of the border: 25.2 mm for a
+// 14 mm tagStandard41h12) do not overlap, stay off the open mouth and the plates
+// (pattern + quiet zone, 11/5 of the border) clear of the calibration divots the
+// stylus must reach.
 TEST(StationScene, HeadLayoutsPrintableAndClear) {
   const StationScene front = default_station_scene();
-  StationScene wrap = default_station_scene();
+  StationScene wrap = default_station_scene(), large = default_station_scene();
   set_mannequin_layout(wrap, MannequinLayout::kWrap20);
+  set_mannequin_layout(large, MannequinLayout::kFront12Large);
   ASSERT_EQ(front.mannequin_tags.size(), 12u);
   ASSERT_EQ(wrap.mannequin_tags.size(), 20u);
-  EXPECT_EQ(wrap.validate(), "");
-  // Written out and read back unchanged.
-  auto r = parse_station_scene(station_scene_to_json(wrap), "wrap.json");
-  ASSERT_TRUE(r.ok()) << r.error();
-  expect_same(wrap, *r);
-  for (std::size_t i = 0; i < wrap.mannequin_tags.size(); ++i) {
-    EXPECT_EQ(wrap.mannequin_tags[i].id, static_cast<int>(i));
-    if (i < 12) {
-      EXPECT_LT((wrap.mannequin_tags[i].T_parent_tag.matrix() - front.mannequin_tags[i].T_parent_tag.matrix())
-                    .cwiseAbs()
-                    .maxCoeff(),
-                1e-15);
-    }
-    for (const auto& t : wrap.mirror_tags) EXPECT_NE(t.id, wrap.mannequin_tags[i].id);
-    for (const auto& t : wrap.pen.tags) EXPECT_NE(t.id, wrap.mannequin_tags[i].id);
+  ASSERT_EQ(large.mannequin_tags.size(), 12u);
+  // kFront12Large: the same ids and centres; forehead 16 mm, brow 18 mm, the rest 14 mm.
+  for (std::size_t i = 0; i < 12; ++i) {
+    const TagPlacement &a = front.mannequin_tags[i], &b = large.mannequin_tags[i];
+    EXPECT_EQ(b.id, a.id);
+    EXPECT_LT((b.T_parent_tag.matrix() - a.T_parent_tag.matrix()).cwiseAbs().maxCoeff(), 1e-15) << i;
+    EXPECT_DOUBLE_EQ(b.size_m, i < 2 ? 0.016 : i < 6 ? 0.018 : 0.014) << i;
   }
-  // 14 mm border = 5 cells of 2.8 mm; the pattern is 9 cells, the kit adds a cell of quiet zone each side.
-  const double pattern = 0.014 * 9.0 / 5.0, plate_half = 0.5 * 0.014 * 11.0 / 5.0;
-  for (const auto& a : wrap.mannequin_tags) {
-    const Eigen::Vector3d pa = a.T_parent_tag.translation();
-    for (const auto& b : wrap.mannequin_tags) {
-      if (&a == &b) continue;
-      // b's centre in a's tag plane: the two (nearly aligned) patterns must not overlap.
-      const Eigen::Vector3d d = a.T_parent_tag.linear().transpose() * (b.T_parent_tag.translation() - pa);
-      EXPECT_TRUE(std::abs(d.x()) > pattern || std::abs(d.y()) > pattern) << a.id << " " << b.id;
+  for (const StationScene* sp : {&wrap, &large}) {
+    const StationScene& lay = *sp;
+    const std::string name = sp == &wrap ? "wrap20" : "front12large";
+    EXPECT_EQ(lay.validate(), "") << name;
+    // Written out and read back unchanged.
+    auto r = parse_station_scene(station_scene_to_json(lay), name + ".json");
+    ASSERT_TRUE(r.ok()) << r.error();
+    expect_same(lay, *r);
+    for (std::size_t i = 0; i < lay.mannequin_tags.size(); ++i) {
+      EXPECT_EQ(lay.mannequin_tags[i].id, static_cast<int>(i));
+      if (i < 12) {
+        EXPECT_LT((lay.mannequin_tags[i].T_parent_tag.matrix() - front.mannequin_tags[i].T_parent_tag.matrix())
+                      .cwiseAbs()
+                      .maxCoeff(),
+                  1e-15);
+      }
+      for (const auto& t : lay.mirror_tags) EXPECT_NE(t.id, lay.mannequin_tags[i].id);
+      for (const auto& t : lay.pen.tags) EXPECT_NE(t.id, lay.mannequin_tags[i].id);
     }
-    for (const auto& d : wrap.fixtures.divots_man) EXPECT_GT((pa - d).norm(), plate_half + 4e-3) << a.id;
-    // Clear of the lips: a tube of lip_radius around the mouth opening on the face (as the
-    // head mesh draws it), farther from the tag's centre than half its printed plate.
-    const auto& m = wrap.mannequin;
-    double lips = 1e9;
-    for (int k = 0; k < 360; ++k) {
-      const double t = k * M_PI / 180, x = m.mouth_half_width_m * std::cos(t), y = m.mouth_half_height_m * std::sin(t);
-      const double q = 1 - std::pow((x - m.head_centre_m.x()) / m.head_radii_m.x(), 2) -
-                       std::pow((y - m.head_centre_m.y()) / m.head_radii_m.y(), 2);
-      const Eigen::Vector3d ring(x, y, m.head_centre_m.z() + m.head_radii_m.z() * std::sqrt(std::max(q, 0.0)));
-      lips = std::min(lips, (pa - ring).norm() - m.lip_radius_m);
+    // Border = 5 cells; the pattern is 9 cells, the kit adds a cell of quiet zone each side.
+    for (const auto& a : lay.mannequin_tags) {
+      const Eigen::Vector3d pa = a.T_parent_tag.translation();
+      const double plate_half = 0.5 * a.size_m * 11.0 / 5.0;
+      for (const auto& b : lay.mannequin_tags) {
+        if (&a == &b) continue;
+        // b's centre in a's tag plane: the two (nearly aligned) patterns must not overlap.
+        const double pattern = 0.5 * (a.size_m + b.size_m) * 9.0 / 5.0;
+        const Eigen::Vector3d d = a.T_parent_tag.linear().transpose() * (b.T_parent_tag.translation() - pa);
+        EXPECT_TRUE(std::abs(d.x()) > pattern || std::abs(d.y()) > pattern) << name << " " << a.id << " " << b.id;
+      }
+      for (const auto& d : lay.fixtures.divots_man) EXPECT_GT((pa - d).norm(), plate_half + 4e-3) << name << " " << a.id;
+      // Clear of the lips: a tube of lip_radius around the mouth opening on the face (as the
+      // head mesh draws it), farther from the tag's centre than half its printed plate.
+      const auto& m = lay.mannequin;
+      double lips = 1e9;
+      for (int k = 0; k < 360; ++k) {
+        const double t = k * M_PI / 180, x = m.mouth_half_width_m * std::cos(t), y = m.mouth_half_height_m * std::sin(t);
+        const double q = 1 - std::pow((x - m.head_centre_m.x()) / m.head_radii_m.x(), 2) -
+                         std::pow((y - m.head_centre_m.y()) / m.head_radii_m.y(), 2);
+        const Eigen::Vector3d ring(x, y, m.head_centre_m.z() + m.head_radii_m.z() * std::sqrt(std::max(q, 0.0)));
+        lips = std::min(lips, (pa - ring).norm() - m.lip_radius_m);
+      }
+      EXPECT_GT(lips, plate_half) << name << " " << a.id;
     }
-    EXPECT_GT(lips, plate_half) << a.id;
   }
+  // One size up does not fit: 18 mm forehead tags overlap each other.
+  StationScene bigger = large;
+  bigger.mannequin_tags[0].size_m = bigger.mannequin_tags[1].size_m = 0.018;
+  const Eigen::Vector3d d01 = bigger.mannequin_tags[0].T_parent_tag.linear().transpose() *
+                              (bigger.mannequin_tags[1].T_parent_tag.translation() -
+                               bigger.mannequin_tags[0].T_parent_tag.translation());
+  EXPECT_LT(std::abs(d01.x()), 0.018 * 9.0 / 5.0);
+  EXPECT_LT(std::abs(d01.y()), 0.018 * 9.0 / 5.0);
 }
 
 TEST(StationScene, JsonRoundTrip) {

@@ -138,6 +138,10 @@ std::string BundlePoseOptions::validate() const {
   if (!std::isfinite(max_view_angle_rad) || max_view_angle_rad < 0 || max_view_angle_rad >= 1.57)
     return "max_view_angle_rad = " + std::to_string(max_view_angle_rad) + " must be in [0, 1.57) (0 = off)";
   if (min_tags_kept < 1) return "min_tags_kept = " + std::to_string(min_tags_kept) + " must be >= 1";
+  if (!std::isfinite(outlier_px) || outlier_px < 0)
+    return "outlier_px = " + std::to_string(outlier_px) + " must be finite and >= 0 (0 = off)";
+  if (!std::isfinite(outlier_ratio) || outlier_ratio < 1)
+    return "outlier_ratio = " + std::to_string(outlier_ratio) + " must be >= 1";
   return {};
 }
 
@@ -365,6 +369,59 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
       if (view_weighted) set_view_weights(T);
       restart();
       levenberg_marquardt();
+    }
+  }
+
+  // Leave-one-out test of the worst-fitting tag (BundlePoseOptions::outlier_px).
+  if (options.outlier_px > 0 && static_cast<int>(tags.size()) > options.min_tags_kept) {
+    std::size_t worst = 0;
+    double worst_ss = -1;
+    for (std::size_t ti = 0; ti < tags.size(); ++ti) {
+      const double ss = r.segment<8>(static_cast<Eigen::Index>(8 * ti)).squaredNorm();
+      if (ss > worst_ss) {
+        worst_ss = ss;
+        worst = ti;
+      }
+    }
+    // Keep the full fit's state to return to.
+    const std::vector<Corner> all_c = corners;
+    const std::vector<const TagPlacement*> all_t = tags;
+    const Eigen::VectorXd all_pw = pw, all_r = r, all_w = w;
+    const Eigen::MatrixXd all_J = J;
+    const Eigen::Isometry3d all_T = T;
+    const double all_cost = cost;
+    std::vector<Corner> kc;
+    std::vector<const TagPlacement*> kt;
+    for (std::size_t ti = 0; ti < all_t.size(); ++ti) {
+      if (ti == worst) continue;
+      kt.push_back(all_t[ti]);
+      for (int c = 0; c < 4; ++c) kc.push_back(all_c[4 * ti + static_cast<std::size_t>(c)]);
+    }
+    tags = std::move(kt);
+    corners = std::move(kc);
+    pw = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(2 * corners.size()));
+    if (view_weighted) set_view_weights(T);
+    restart();
+    levenberg_marquardt();
+    // The left-out tag's corners under the others' pose.
+    std::vector<Corner> out_c(all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst),
+                              all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst + 4));
+    Eigen::VectorXd r_out;
+    const bool in_front = residuals(T, out_c, k, r_out, nullptr);
+    const double rms_out = in_front ? rms_of(r_out) : std::numeric_limits<double>::infinity();
+    const double rms_in = rms_of(r);
+    if (rms_out > options.outlier_px && rms_out > options.outlier_ratio * rms_in) {
+      out.rejected_id = all_t[worst]->id;
+      out.rejected_rms_px = rms_out;
+    } else {
+      corners = all_c;
+      tags = all_t;
+      pw = all_pw;
+      r = all_r;
+      w = all_w;
+      J = all_J;
+      T = all_T;
+      cost = all_cost;
     }
   }
 

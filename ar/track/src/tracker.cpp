@@ -565,6 +565,7 @@ struct Tracker::Impl {
         out.rms_px = p.rms_px;
         out.tags_used = p.tags_used;
         out.tag_ids = p.tag_ids;
+        out.rejected_id = p.rejected_id;
         out.covariance = p.covariance_per_px2 * noise_px2(b, p);
         out.sigma_m = uniform_sigma(b, p);
         out.sigma_per_tag_m = per_tag_sigma(b, p);

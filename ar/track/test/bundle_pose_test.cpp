@@ -166,6 +166,52 @@ TEST(BundlePose, TagResidualsViewWeightsAndGrazingTags) {
   EXPECT_EQ(estimate_bundle_pose(b, s.calibration.camera, dets, o).status, BundlePoseStatus::kInvalidInput);
 }
 
+// The leave-one-out outlier test (BundlePoseOptions::outlier_px, issue 16,
+// off by default): one tag's corners pushed 3 px off leave the fit and the
+// pose comes back; with clean corners nothing leaves; too few tags: nothing
+// leaves; bad thresholds are refused by name.
+TEST(BundlePose, OutlierTestDropsOneShiftedTag) {
+  const StationScene s = default_station_scene();
+  const TagBundle b = mannequin_bundle(s);
+  std::mt19937 rng(5);
+  const Eigen::Isometry3d T_cam_man = look_at_man(0.35, -0.3, 0.4);
+  auto dets = synth_detections(b, s.calibration.camera, T_cam_man, 0.15, rng);
+  ASSERT_GE(dets.size(), 6u);
+  BundlePoseOptions o;
+  o.outlier_px = 1.0;
+  const BundlePose clean = estimate_bundle_pose(b, s.calibration.camera, dets, o);
+  ASSERT_TRUE(clean.ok()) << clean.message;
+  EXPECT_EQ(clean.rejected_id, -1);
+  EXPECT_EQ(clean.tags_used, static_cast<int>(dets.size()));
+
+  // One tag's corners shifted 3 px (a blur-dragged or mis-ordered detection).
+  const int bad = dets[2].id;
+  for (auto& c : dets[2].corners_px) c += Eigen::Vector2d(3.0, -1.5);
+  const BundlePose off = estimate_bundle_pose(b, s.calibration.camera, dets);
+  const BundlePose on = estimate_bundle_pose(b, s.calibration.camera, dets, o);
+  ASSERT_TRUE(off.ok() && on.ok());
+  EXPECT_EQ(off.rejected_id, -1);
+  EXPECT_EQ(on.rejected_id, bad);
+  EXPECT_GT(on.rejected_rms_px, 2.0);
+  EXPECT_EQ(on.tags_used, off.tags_used - 1);
+  EXPECT_EQ(std::count(on.tag_ids.begin(), on.tag_ids.end(), bad), 0);
+  EXPECT_LT(trans_err_m(on.T_cam_body, T_cam_man), 0.5 * trans_err_m(off.T_cam_body, T_cam_man));
+  EXPECT_LT(on.rms_px, 0.5 * off.rms_px);
+
+  o.min_tags_kept = static_cast<int>(dets.size());  // none may leave
+  EXPECT_EQ(estimate_bundle_pose(b, s.calibration.camera, dets, o).rejected_id, -1);
+  o = {};
+  o.outlier_px = -1;
+  BundlePose e = estimate_bundle_pose(b, s.calibration.camera, dets, o);
+  EXPECT_EQ(e.status, BundlePoseStatus::kInvalidInput);
+  EXPECT_NE(e.message.find("outlier_px"), std::string::npos) << e.message;
+  o = {};
+  o.outlier_ratio = 0.5;
+  e = estimate_bundle_pose(b, s.calibration.camera, dets, o);
+  EXPECT_EQ(e.status, BundlePoseStatus::kInvalidInput);
+  EXPECT_NE(e.message.find("outlier_ratio"), std::string::npos) << e.message;
+}
+
 // The reported covariance matches the scatter of the estimates under
 // repeated noise (translation along the optical axis and rotation).
 TEST(BundlePose, CovarianceMatchesMonteCarloScatter) {

@@ -71,6 +71,15 @@ struct BundlePoseOptions {
   // the rest refitted, when at least min_tags_kept remain (0 = keep all).
   double max_view_angle_rad = 0.0;
   int min_tags_kept = 4;
+  // Leave-one-out outlier test for a single tag (issue 16: a blurred or
+  // grazing tag whose corners are off pulls the whole bundle millimetres
+  // away). After the fit, the tag with the largest corner RMS is refitted
+  // out; if its corners, predicted by the pose of the others, are more than
+  // outlier_px RMS and more than outlier_ratio x the others' RMS off, it
+  // leaves the fit (BundlePose::rejected_id), when at least min_tags_kept
+  // others remain. One tag per frame. 0 = off.
+  double outlier_px = 0.0;
+  double outlier_ratio = 4.0;
   std::string validate() const;  // empty when valid
 };
 
@@ -93,6 +102,8 @@ struct BundlePose {
   std::vector<int> tag_ids;  // their ids, ascending
   int iterations = 0;        // LM iterations run
   int downweighted = 0;      // corners beyond robust_px at the optimum (Huber weight < 1)
+  int rejected_id = -1;      // the tag the outlier test removed (outlier_px), -1 = none
+  double rejected_rms_px = 0;  // its corners' RMS under the others' pose
   // Covariance of the pose error delta = (w [rad], v [m]), both in the camera
   // frame: R_true = exp(w) R_cam_body (rotation vector w about the body
   // origin), t_true = t_cam_body + v. So the bottom-right 3x3 block is the

@@ -199,6 +199,7 @@ struct BodyTrack {
   double rms_px = 0;      // reprojection RMS of the measurement (undistorted px)
   int tags_used = 0;
   std::vector<int> tag_ids;  // ids used, ascending
+  int rejected_id = -1;      // a tag the bundle's outlier test left out (BundlePoseOptions::outlier_px), -1 none
   // Covariance of the measurement (bundle_pose.h: (w rad, v m) in `cam`):
   // BundlePose::covariance_per_px2 times the corner noise (the fit's own
   // residual estimate; for the mirror and pen pooled with the mannequin's
