@@ -50,6 +50,14 @@ const Footage& footage(SynthPreset preset, MirrorPaddle paddle = MirrorPaddle::k
   StationScene st = default_station_scene();
   set_mirror_paddle(st, paddle);
   set_mannequin_layout(st, layout);
+  // Measurement only: DENTAR_BROW_MM=f,b sets kFront12Large's forehead (ids
+  // 0, 1) and brow (ids 2..5) tags to f and b mm, printable or not (20,20:
+  // the overlapping upper bound of docs/BENCHMARKS.md).
+  if (const char* e = std::getenv("DENTAR_BROW_MM"); e && layout == MannequinLayout::kFront12Large) {
+    double f = 0, b = 0;
+    if (std::sscanf(e, "%lf,%lf", &f, &b) == 2 && f > 0 && b > 0)
+      for (int i = 0; i < 6; ++i) st.mannequin_tags[static_cast<std::size_t>(i)].size_m = (i < 2 ? f : b) * 1e-3;
+  }
   return cache[key] = make_footage(st, o);
 }
 
@@ -66,6 +74,8 @@ struct PresetRun {
   std::vector<double> man_tags;          // mannequin tags used per measured frame
   std::vector<double> frame_mm;          // per frame: the drawn pose's error, NaN when not drawn
   int man_rejected = 0;                  // measured frames whose fit dropped a tag (BundlePoseOptions::outlier_px)
+  std::vector<int> frame_rejected;       // per frame: the id it dropped, -1 none
+  std::string frame_state;               // per frame: M measured, P predicted (drawn unmeasured), - lost
 };
 
 PresetRun run(const Footage& fo, const TrackerOptions& opt = {}) {
@@ -82,6 +92,8 @@ PresetRun run(const Footage& fo, const TrackerOptions& opt = {}) {
     r.track_ms.push_back(f->timing.total_ms);
     if (f->mannequin.measured) r.man_tags.push_back(f->mannequin.tags_used);
     if (f->mannequin.measured && f->mannequin.rejected_id >= 0) ++r.man_rejected;
+    r.frame_rejected.push_back(f->mannequin.measured ? f->mannequin.rejected_id : -1);
+    r.frame_state.push_back(f->mannequin.measured ? 'M' : f->mannequin.state == TrackState::kPredicted ? 'P' : '-');
     r.frame_mm.push_back(f->mannequin.state != TrackState::kLost
                              ? trans_mm(f->mannequin.T_cam_body, s.truth.T_cam_man)
                              : NAN);
@@ -283,7 +295,8 @@ TEST(PresetAccuracy, MirrorRoofPaddleAgainstFlat) {
 // tracker's default options (for 20 tags with
 // TrackerOptions::pool_comparable_tags) and with a second variant of the
 // bundle fit (environment below; by default the leave-one-out outlier test,
-// BundlePoseOptions::outlier_px; measured, not adopted, docs/BENCHMARKS.md):
+// BundlePoseOptions::outlier_px at 1 px, x4; until 2026-11-27 dropping tags
+// beyond 60 deg; all measured, not adopted, docs/BENCHMARKS.md):
 // drawn frames, drawn pose error (also on the frames every layout draws),
 // tags used, the covariance's honesty (RMS gate sigma / RMS error of the
 // measured poses at the origin) and the tracker's wall time per frame, the
@@ -371,10 +384,12 @@ TEST(PresetAccuracy, HeadLayoutAgainstTheTwelveTags) {
     }
     if (std::getenv("DENTAR_PRESET_FRAMELOG"))
       for (std::size_t i = 0; i < runs[0][0].frame_mm.size(); ++i)
-        std::printf("  %s frame %2zu drawn error mm (default / second variant): 12 tags %.3f / %.3f, "
-                    "20 tags %.3f / %.3f, 12 large %.3f / %.3f\n",
-                    synth_preset_name(p), i, runs[0][0].frame_mm[i], runs[0][1].frame_mm[i], runs[1][0].frame_mm[i],
-                    runs[1][1].frame_mm[i], runs[2][0].frame_mm[i], runs[2][1].frame_mm[i]);
+        std::printf("  %s frame %2zu drawn error mm (default / second variant, dropped id; M measured, P predicted): "
+                    "12 tags %.3f %c / %.3f %d, 20 tags %.3f %c / %.3f %d, 12 large %.3f %c / %.3f %d\n",
+                    synth_preset_name(p), i, runs[0][0].frame_mm[i], runs[0][0].frame_state[i], runs[0][1].frame_mm[i],
+                    runs[0][1].frame_rejected[i], runs[1][0].frame_mm[i], runs[1][0].frame_state[i],
+                    runs[1][1].frame_mm[i], runs[1][1].frame_rejected[i], runs[2][0].frame_mm[i],
+                    runs[2][0].frame_state[i], runs[2][1].frame_mm[i], runs[2][1].frame_rejected[i]);
     std::printf("[ layout ] %s: tracker time per frame p50, ratio to 12 tags default (%zu frames each, alternated): "
                 "20 tags %.2f, 12 large %.2f; second variant (%s): 12 tags %.2f, 20 tags %.2f, 12 large %.2f\n",
                 synth_preset_name(p), ms[0][0].size(), pct(ms[1][0], 0.5) / pct(ms[0][0], 0.5),
@@ -386,6 +401,23 @@ TEST(PresetAccuracy, HeadLayoutAgainstTheTwelveTags) {
     // median error (hard 0.326 -> 0.216 mm, standard 0.165 -> 0.134) than 12.
     EXPECT_GE(runs[1][0].drawn, runs[0][0].drawn) << synth_preset_name(p);
     EXPECT_LT(pct(runs[1][0].t_mm, 0.5), pct(runs[0][0].t_mm, 0.5)) << synth_preset_name(p);
+    // Measured 2026-11-27 (docs/BENCHMARKS.md, issue 16 larger brow tags):
+    // the larger forehead/brow tags cut standard's p95 (0.296 -> 0.193 mm)
+    // and draw more hard frames (46 -> 52 of 60) but at a worse hard p95
+    // (0.735 -> 1.009 mm): why they are not the default.
+    if (p == SynthPreset::kStandard) {
+      EXPECT_LT(pct(runs[2][0].t_mm, 0.95), 0.8 * pct(runs[0][0].t_mm, 0.95));
+    } else {
+      EXPECT_GT(runs[2][0].drawn, runs[0][0].drawn);
+      EXPECT_GT(pct(runs[2][0].t_mm, 0.95), pct(runs[0][0].t_mm, 0.95));
+    }
+    // The outlier test at its measured setting (1 px, x4) leaves 640x480
+    // footage as it was: no tag is that far off there (docs/BENCHMARKS.md).
+    if (kOutlierPx == 1.0 && kOutlierRatio == 4.0 && kViewWeightFrom == 0 && kDropBeyond == 0)
+      for (int li = 0; li < kLayouts; ++li) {
+        EXPECT_EQ(runs[li][1].drawn, runs[li][0].drawn) << names[li];
+        EXPECT_NEAR(pct(runs[li][1].t_mm, 0.95), pct(runs[li][0].t_mm, 0.95), 0.02) << names[li];
+      }
   }
 }
 

@@ -231,12 +231,17 @@ StationScene default_station_scene();
 // its covariance is 1.3x pessimistic on `lowlight` (docs/BENCHMARKS.md,
 // "issue 16: the head tag layout"; the mirror's pooled noise with it:
 // TrackerOptions::pool_comparable_tags). Ids 20..22 are the mirror's, 30..31
-// the pen's. kFront12Large (issue 16, measured 2026-11-27): kFront12's ids
-// and positions with larger tags where a face-on camera looks: the forehead
-// pair (ids 0, 1) 16 mm (28.8 mm printed), the four brow tags (ids 2..5)
-// 18 mm (32.4 mm); the largest the spacing allows (18 mm forehead tags
-// would overlap each other, 19 mm inner brow tags each other and the
-// forehead divot's clearance). Rewrites s.mannequin_tags.
+// the pen's. kFront12Large (issue 16, measured 2026-11-27, not the
+// default): kFront12's ids and positions with larger tags where a face-on
+// camera looks: the forehead pair (ids 0, 1) 16 mm (28.8 mm printed), the
+// four brow tags (ids 2..5) 18 mm (32.4 mm); the largest the spacing allows
+// (18 mm forehead tags would overlap each other, 19 mm inner brow tags each
+// other and the forehead divot's clearance). It cuts the p95 of every
+// preset but `hard` (standard 0.296 -> 0.193 mm) and draws 52 instead of 46
+// `hard` frames, but its `hard` p95 is worse (0.735 -> 1.009 mm; 720p 0.664
+// -> 0.890) and its covariance over-states the error 1.3-1.9x on the easy
+// presets (docs/BENCHMARKS.md, "issue 16: larger brow tags").
+// Rewrites s.mannequin_tags.
 enum class MannequinLayout { kFront12, kWrap20, kFront12Large };
 void set_mannequin_layout(StationScene& s, MannequinLayout kind);
 
