@@ -143,6 +143,8 @@ std::string TrackerOptions::validate() const {
     os << "max_prediction_drift_m = " << max_prediction_drift_m << " must be finite and >= 0 (0 = off)";
   else if (hand_held_measurements_to_predict < 1 || hand_held_measurements_to_predict > 100)
     os << "hand_held_measurements_to_predict = " << hand_held_measurements_to_predict << " must be in [1, 100]";
+  else if (mannequin_measurements_to_predict < 1 || mannequin_measurements_to_predict > 100)
+    os << "mannequin_measurements_to_predict = " << mannequin_measurements_to_predict << " must be in [1, 100]";
   else if (!(std::isfinite(max_prediction_turn_rad) && max_prediction_turn_rad >= 0))
     os << "max_prediction_turn_rad = " << max_prediction_turn_rad << " must be finite and >= 0 (0 = off)";
   else if (!(std::isfinite(min_motion_response) && min_motion_response >= 0 && min_motion_response < 1))
@@ -599,7 +601,8 @@ struct Tracker::Impl {
       const bool drift_ok = o.max_prediction_drift_m <= 0 || drift <= o.max_prediction_drift_m;
       // A hand-held body found by one measurement has no velocity yet: the
       // drift bound above would read 0 while the hand moves it.
-      const bool velocity_known = b.static_in_world || b.meas_in_track >= o.hand_held_measurements_to_predict;
+      const bool velocity_known =
+          b.meas_in_track >= (b.static_in_world ? o.mannequin_measurements_to_predict : o.hand_held_measurements_to_predict);
       if (b.has_measurement && age <= o.stale_limit_s && drift_ok && velocity_known &&
           prediction_matches_image(b, capture_s)) {
         b.state = TrackState::kPredicted;

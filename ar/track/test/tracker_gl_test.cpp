@@ -383,6 +383,16 @@ TEST(Tracker, BadInputGivesClearErrors) {
   auto c = Tracker::create(st, o);
   ASSERT_FALSE(c.ok());
   EXPECT_NE(c.error().find("tagStandard41h12"), std::string::npos) << c.error();
+  o = {};
+  o.mannequin_measurements_to_predict = 0;
+  auto d = Tracker::create(st, o);
+  ASSERT_FALSE(d.ok());
+  EXPECT_NE(d.error().find("mannequin_measurements_to_predict"), std::string::npos) << d.error();
+  o = {};
+  o.pose.outlier_px = -1;
+  auto f = Tracker::create(st, o);
+  ASSERT_FALSE(f.ok());
+  EXPECT_NE(f.error().find("pose.outlier_px"), std::string::npos) << f.error();
 
   auto t = Tracker::create(st, TrackerOptions{});
   ASSERT_TRUE(t.ok()) << t.error();
