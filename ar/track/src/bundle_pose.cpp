@@ -350,6 +350,16 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
     restart();
     levenberg_marquardt();
   }
+  // Refit on a subset of the tags (kept tags, their corners), unweighted
+  // but for the view-angle weights.
+  auto refit = [&](std::vector<const TagPlacement*> kt, std::vector<Corner> kc) {
+    tags = std::move(kt);
+    corners = std::move(kc);
+    pw = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(2 * corners.size()));
+    if (view_weighted) set_view_weights(T);
+    restart();
+    levenberg_marquardt();
+  };
   // Tags seen more obliquely than max_view_angle_rad at the optimum leave
   // the fit, when at least min_tags_kept others remain.
   if (options.max_view_angle_rad > 0) {
@@ -362,14 +372,8 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
       kt.push_back(tags[ti]);
       for (int c = 0; c < 4; ++c) kc.push_back(corners[4 * ti + static_cast<std::size_t>(c)]);
     }
-    if (kt.size() < tags.size() && static_cast<int>(kt.size()) >= options.min_tags_kept) {
-      tags = std::move(kt);
-      corners = std::move(kc);
-      pw = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(2 * corners.size()));
-      if (view_weighted) set_view_weights(T);
-      restart();
-      levenberg_marquardt();
-    }
+    if (kt.size() < tags.size() && static_cast<int>(kt.size()) >= options.min_tags_kept)
+      refit(std::move(kt), std::move(kc));
   }
 
   // Leave-one-out test of the worst-fitting tag (BundlePoseOptions::outlier_px).
@@ -397,12 +401,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
       kt.push_back(all_t[ti]);
       for (int c = 0; c < 4; ++c) kc.push_back(all_c[4 * ti + static_cast<std::size_t>(c)]);
     }
-    tags = std::move(kt);
-    corners = std::move(kc);
-    pw = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(2 * corners.size()));
-    if (view_weighted) set_view_weights(T);
-    restart();
-    levenberg_marquardt();
+    refit(std::move(kt), std::move(kc));
     // The left-out tag's corners under the others' pose.
     std::vector<Corner> out_c(all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst),
                               all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst + 4));
