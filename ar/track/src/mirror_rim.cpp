@@ -329,6 +329,20 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
         face_level = lv[lv.size() / 2];
       }
     }
+    // One edge found at angle th: offset_px along the normal n from the
+    // model point u, its step of linear light.
+    auto add_edge = [&](double th, bool back, const Eigen::Vector2d& u, const Eigen::Vector2d& n, double offset_px,
+                        double step_level) {
+      MirrorRimEdge e;
+      e.angle_rad = th;
+      e.back = back;
+      e.model_px = u;
+      e.normal = n;
+      e.offset_px = offset_px;
+      e.step = step_level;
+      res.edges.push_back(e);
+      obs.push_back({th, back ? -t : 0.0, u + n * offset_px, n, th});
+    };
     std::vector<double> prof(2 * ns + 1 + 4);
     for (int i = 0; i < o.samples; ++i) {
       const double th = 2 * M_PI * (i + 0.5) / o.samples;
@@ -368,15 +382,7 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
         if (!back && face_level >= 0 &&
             std::abs(f.inside - face_level) > o.face_level_tol * std::max(face_level, 0.05))
           continue;
-        MirrorRimEdge e;
-        e.angle_rad = th;
-        e.back = back;
-        e.model_px = u;
-        e.normal = n;
-        e.offset_px = f.offset_px;
-        e.step = f.step;
-        res.edges.push_back(e);
-        obs.push_back({th, back ? -t : 0.0, u + n * f.offset_px, n, th});
+        add_edge(th, back, u, n, f.offset_px, f.step);
         continue;
       }
       // Profile of linear light along n from -window-0.5 to +window+0.5 px.
@@ -411,16 +417,7 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
       double sub = 0;
       const double den = g0 - 2 * g1 + g2;
       if (den < 0) sub = std::clamp(0.5 * (g0 - g2) / den, -0.5, 0.5);
-      const double off = (best - ns - 2 + sub) * step;
-      MirrorRimEdge e;
-      e.angle_rad = th;
-      e.back = back;
-      e.model_px = u;
-      e.normal = n;
-      e.offset_px = off;
-      e.step = dstep;
-      res.edges.push_back(e);
-      obs.push_back({th, back ? -t : 0.0, u + n * off, n, th});
+      add_edge(th, back, u, n, (best - ns - 2 + sub) * step, dstep);
     }
     if (o.step_fit && o.joint_select && !cands.empty()) {
       // One image shift of the predicted outline that most candidates agree
@@ -473,16 +470,7 @@ MirrorRimResult refine_mirror_rim(const cv::Mat& gray, bool srgb, const CameraMo
             m = std::abs(f.offset_px - a.n.dot(best_d));
             pick = &f;
           }
-        if (!pick) continue;
-        MirrorRimEdge e;
-        e.angle_rad = a.th;
-        e.back = a.back;
-        e.model_px = a.u;
-        e.normal = a.n;
-        e.offset_px = pick->offset_px;
-        e.step = pick->step;
-        res.edges.push_back(e);
-        obs.push_back({a.th, a.back ? -t : 0.0, a.u + a.n * pick->offset_px, a.n, a.th});
+        if (pick) add_edge(a.th, a.back, a.u, a.n, pick->offset_px, pick->step);
       }
     }
     if (o.step_fit && o.polarity_check && obs.size() >= 3) {
