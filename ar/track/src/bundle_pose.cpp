@@ -360,18 +360,24 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
     restart();
     levenberg_marquardt();
   };
+  // The tags (and their four corners each) for which keep(index) holds.
+  auto subset = [&](auto keep) {
+    std::pair<std::vector<const TagPlacement*>, std::vector<Corner>> kept;
+    for (std::size_t ti = 0; ti < tags.size(); ++ti) {
+      if (!keep(ti)) continue;
+      kept.first.push_back(tags[ti]);
+      for (int c = 0; c < 4; ++c) kept.second.push_back(corners[4 * ti + static_cast<std::size_t>(c)]);
+    }
+    return kept;
+  };
   // Tags seen more obliquely than max_view_angle_rad at the optimum leave
   // the fit, when at least min_tags_kept others remain.
   if (options.max_view_angle_rad > 0) {
     const double cmax = std::cos(options.max_view_angle_rad);
-    std::vector<Corner> kc;
-    std::vector<const TagPlacement*> kt;
-    for (std::size_t ti = 0; ti < tags.size(); ++ti) {
+    auto [kt, kc] = subset([&](std::size_t ti) {
       const Eigen::Isometry3d T_cam_tag = T * tags[ti]->T_parent_tag;
-      if (T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized()) < cmax) continue;
-      kt.push_back(tags[ti]);
-      for (int c = 0; c < 4; ++c) kc.push_back(corners[4 * ti + static_cast<std::size_t>(c)]);
-    }
+      return !(T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized()) < cmax);
+    });
     if (kt.size() < tags.size() && static_cast<int>(kt.size()) >= options.min_tags_kept)
       refit(std::move(kt), std::move(kc));
   }
@@ -394,13 +400,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
     const Eigen::MatrixXd all_J = J;
     const Eigen::Isometry3d all_T = T;
     const double all_cost = cost;
-    std::vector<Corner> kc;
-    std::vector<const TagPlacement*> kt;
-    for (std::size_t ti = 0; ti < all_t.size(); ++ti) {
-      if (ti == worst) continue;
-      kt.push_back(all_t[ti]);
-      for (int c = 0; c < 4; ++c) kc.push_back(all_c[4 * ti + static_cast<std::size_t>(c)]);
-    }
+    auto [kt, kc] = subset([&](std::size_t ti) { return ti != worst; });
     refit(std::move(kt), std::move(kc));
     // The left-out tag's corners under the others' pose.
     std::vector<Corner> out_c(all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst),
