@@ -193,7 +193,8 @@ struct Config {
   double motion_across = 1.0;  // TrackerOptions::roi_motion_across
 };
 
-void BM_Track(benchmark::State& state, Kind kind, int w, int h, int frames, Config cfg) {
+// clip_name: the registered clip's name (for DENTAR_BENCH_FRAMELOG's file).
+void BM_Track(benchmark::State& state, const char* clip_name, Kind kind, int w, int h, int frames, Config cfg) {
   const Clip& c = clip(kind, w, h, frames);
   if (!c.error.empty()) {
     state.SkipWithError(c.error.c_str());
@@ -219,9 +220,7 @@ void BM_Track(benchmark::State& state, Kind kind, int w, int h, int frames, Conf
   auto due = std::chrono::steady_clock::now();
   std::ofstream log;
   if (const char* dir = std::getenv("DENTAR_BENCH_FRAMELOG")) {
-    const char* kinds[] = {"standard", "hard", "frontal", "static", "static_step"};
-    const std::string name = std::string(kinds[static_cast<int>(kind)]) + "_" + std::to_string(w) + "x" +
-                             std::to_string(h) + "_" + cfg.name;
+    const std::string name = std::string(clip_name) + "_" + cfg.name;
     log.open(std::string(dir) + "/" + name + ".csv");
     if (!log) {
       state.SkipWithError(("DENTAR_BENCH_FRAMELOG: cannot write in " + std::string(dir)).c_str());
@@ -487,7 +486,7 @@ void register_all() {
   for (const ClipDef& cd : clips)
     for (const Config& cfg : configs) {
       const std::string name = std::string("Track/") + cd.name + "/" + cfg.name;
-      benchmark::RegisterBenchmark(name.c_str(), BM_Track, cd.kind, cd.w, cd.h, cd.frames, cfg)
+      benchmark::RegisterBenchmark(name.c_str(), BM_Track, cd.name, cd.kind, cd.w, cd.h, cd.frames, cfg)
           ->Iterations(2 * cd.frames)
           ->Unit(benchmark::kMillisecond)
           ->UseRealTime();
