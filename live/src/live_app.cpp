@@ -372,19 +372,19 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   std::unique_ptr<haptics::SessionLogWriter> log;
   std::unique_ptr<Recorder> recorder;
   const fs::path rdir = o.record_dir;
+  nlohmann::json rec_meta;  // recording.json as written at the start; completed at the end
   if (!o.record_dir.empty()) {
     auto r = Recorder::open(rdir);
     if (!r) return Error{"live: " + r.error()};
     recorder = std::move(*r);
     if (auto s = ar::write_station_scene(st, (rdir / "station.json").string()); !s)
       return Error{"live: " + s.error()};
-    nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
-                           {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
-                           {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
-                           {"mirror_rim", popt.tracker.mirror_rim_refine},
-                           {"complete", false}};
-    if (!o.exercise.empty()) meta["exercise"] = o.exercise;
-    std::ofstream(rdir / "recording.json") << meta.dump(2) << "\n";
+    rec_meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
+                {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
+                {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
+                {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
+    if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
+    std::ofstream(rdir / "recording.json") << rec_meta.dump(2) << "\n";
   }
   std::string header;
   {
@@ -900,17 +900,15 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
                              " frames behind, or the disk refused them): offline replay stops at the first gap");
     char hash[20];
     std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
-    nlohmann::json meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
-                           {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
-                           {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
-                           {"mirror_rim", popt.tracker.mirror_rim_refine},
-                           {"complete", true}, {"frames", recorder->written()},
-                           {"frames_not_written", recorder->dropped()},
-                           {"frame_files", {{"jpg", recorder->written_jpg()}, {"png", recorder->written_png()},
-                                            {"ppm", recorder->written_ppm()}}},
-                           {"volume_hash", hash},
-                           {"engine_steps", es.steps}, {"stop_reason", stop_reason}};
-    if (!o.exercise.empty()) meta["exercise"] = o.exercise;
+    nlohmann::json meta = rec_meta;  // its "started" is the run's start
+    meta["complete"] = true;
+    meta["frames"] = recorder->written();
+    meta["frames_not_written"] = recorder->dropped();
+    meta["frame_files"] = {{"jpg", recorder->written_jpg()}, {"png", recorder->written_png()},
+                           {"ppm", recorder->written_ppm()}};
+    meta["volume_hash"] = hash;
+    meta["engine_steps"] = es.steps;
+    meta["stop_reason"] = stop_reason;
     std::ofstream(rdir / "recording.json.tmp") << meta.dump(2) << "\n";
     std::error_code ec;
     fs::rename(rdir / "recording.json.tmp", rdir / "recording.json", ec);
