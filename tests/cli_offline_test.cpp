@@ -223,6 +223,10 @@ TEST(CliOffline, EmptyOrMissingFootageGivesAClearError) {
   r = run_command(kDentar + " offline --footage " + (clip() / "video.mkv").string() + " --out " + out.string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--station"), std::string::npos) << r.out;
+  r = run_command(offline_on(clip(), out, "--camera-response gamma22"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--camera-response"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("gamma22"), std::string::npos) << r.out;
 }
 
 // A live recording's recording.json says how the live run tracked

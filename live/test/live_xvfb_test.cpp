@@ -484,6 +484,10 @@ TEST(LiveCli, MissingCameraExplains) {
   r = run_command(kBin + " live --stylus wand 2>&1");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("stylus"), std::string::npos) << r.out;
+  r = run_command(kBin + " live --camera-response gamma22 --camera /dev/video97 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--camera-response"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("gamma22"), std::string::npos) << r.out;
 }
 
 // ---- The webcam try-out: the box station and the printed pen ----
