@@ -230,9 +230,23 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
     const double sm = s.force.mean(main) * sign;  // student's force along the experts' main direction
     const std::string dir = axis_direction_name(main, sign);
     const std::string band = num(em, 2) + " +/- " + num(esd, 2) + " N";
-    const bool main_ok = std::abs(sm - em) <= R.band_sd * esd;
+    // Experts that hardly press along any axis give no main direction: only
+    // a student who presses clearly more is told to press more lightly.
+    const bool experts_press = em >= R.min_force_N;
+    const double sv_main = s.force.mean(main);
+    const bool main_ok = experts_press ? std::abs(sm - em) <= R.band_sd * esd
+                                       : std::abs(sv_main) <= em + R.band_sd * esd;
     bool any = false;
-    if (!main_ok && sm < em) {
+    if (!experts_press) {
+      if (!main_ok) {
+        any = true;
+        const int ss = sv_main >= 0 ? 1 : -1;
+        add("instruct", "force_high",
+            "press more lightly along " + axis_direction_name(main, ss) + ": you " + num(std::abs(sv_main), 2) +
+                " N, the experts hardly press (" + band + ").",
+            main, ss);
+      }
+    } else if (!main_ok && sm < em) {
       any = true;
       if (sm < -R.min_force_N) {
         // Pressing the other way: no multiplier makes sense.
@@ -267,17 +281,13 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
       }
     } else if (!main_ok) {
       any = true;
-      if (em >= R.min_force_N && sm / em < 1.1) {
+      if (sm / em < 1.1) {
         add("instruct", "force_high",
             "force in " + dir + " should be a little lower (you: " + num(sm, 2) + " N, experts: " + band + ").", main, sign);
-      } else if (em >= R.min_force_N) {
+      } else {
         add("instruct", "force_high",
             "force in " + dir + " should be " + num(sm / em) + " times lower (you: " + num(sm, 2) + " N, experts: " + band +
                 ").",
-            main, sign);
-      } else {
-        add("instruct", "force_high",
-            "press more lightly along " + dir + ": you " + num(sm, 2) + " N, the experts hardly press (" + band + ").",
             main, sign);
       }
     }
@@ -336,7 +346,9 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
           "drilling took " + num(s.drilling_s) + " s; experts " + num(e.drilling_mean_s) + " +/- " + num(dsd) + " s.", -1, 0);
     }
     if (!any)
-      add("well_done", "force_ok", "well done: force in " + dir + " " + num(sm, 2) + " N, within the experts' " + band + ".",
+      add("well_done", "force_ok",
+          sm >= 0 ? "well done: force in " + dir + " " + num(sm, 2) + " N, within the experts' " + band + "."
+                  : "well done: your force along " + dir + " is within the experts' " + band + ".",
           main, sign);
     mirror_advice(s, e, add);
   }
@@ -356,6 +368,12 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
   }
   return out;
 }
+
+namespace {
+bool experts_press_any(const StepReference& e, const FeedbackRules& R) {
+  return e.force_mean.cwiseAbs().maxCoeff() >= R.min_force_N;
+}
+}  // namespace
 
 std::vector<std::string> feedback_violations(const ProcessMetrics& st, const ExpertReference& ref,
                                              double excessive_force_N, const std::vector<FeedbackMessage>& msgs,
@@ -435,9 +453,12 @@ std::vector<std::string> feedback_violations(const ProcessMetrics& st, const Exp
       if (m.rule == "force_low" && !(s_along < e_along)) fail(m, "'higher' while the student's force is not below the experts'");
       if (m.rule == "force_high" && !(s_along > e_along)) fail(m, "'lower' while the student's force is not above the experts'");
       if (m.rule == "force_opposite" && !(s_along > 0 && e_along < 0)) fail(m, "'the other way' while the forces agree");
+      if (m.rule == "force_opposite" && !experts_press_any(e, R)) fail(m, "'the other way' while the experts hardly press");
       if (m.rule == "force_none" && !(s_along < R.min_force_N && s_along >= -R.min_force_N))
         fail(m, "'almost nothing' for a real force");
-      if ((m.rule == "force_low" || m.rule == "force_high" || m.rule == "force_ok") && !(e_along > 0))
+      const bool experts_press = std::abs(ev) >= R.min_force_N;
+      if ((m.rule == "force_low" || m.rule == "force_opposite" || ((m.rule == "force_high" || m.rule == "force_ok") && experts_press)) &&
+          !(std::abs(ev) > 0 && (m.rule == "force_opposite" ? e_along < 0 : e_along > 0)))
         fail(m, "the main direction is not the experts'");
     }
     if (m.rule == "force_low") {

@@ -484,6 +484,8 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
     sum.reference = *r;
   }
   sum.feedback = tutoring_feedback(sum.process, sum.reference, ex->excessive_force_N);
+  // The feedback checks itself (docs/feedback.md); a broken rule is reported, never hidden.
+  const std::vector<std::string> broken = feedback_violations(sum.process, sum.reference, ex->excessive_force_N, sum.feedback);
   if (o.compare) {
     auto cmp = generated_comparison(*ex, o.write_files ? out_dir : fs::temp_directory_path().string());
     if (!cmp) {
@@ -587,6 +589,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
     }
     j["steps"].push_back(sj);
   }
+  if (!broken.empty()) j["feedback_rule_violations"] = broken;
   j["feedback"] = json::array();
   for (const auto& f : sum.feedback)
     j["feedback"].push_back({{"step", f.step}, {"kind", f.kind}, {"rule", f.rule}, {"text", f.text}});
