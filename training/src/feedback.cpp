@@ -13,6 +13,7 @@ namespace dentar::training {
 namespace {
 
 std::string num(double v, int prec = 1) {
+  if (std::abs(v) < 0.5 * std::pow(10.0, -prec)) v = 0;  // never "-0.00"
   std::ostringstream os;
   os.setf(std::ios::fixed);
   os.precision(prec);
