@@ -97,8 +97,11 @@ int main(int argc, char** argv) {
         auto sc = score_outcome(*ex, *masks, *start, cut);
         if (!sc) return std::fprintf(stderr, "%s\n", sc.error().c_str()), 1;
         rows.push_back({1.0 - sep, *sc, 0});
-        std::fprintf(stderr, "%s skill %.2f %s: %s, coverage %.0f %%, %s\n", name.c_str(), 1.0 - sep, t.subject.c_str(),
-                     sc->headline().c_str(), sc->target_coverage_pct, sc->completion.c_str());
+        std::string costs;
+        for (const auto& p : sc->penalties) costs += ", -" + std::to_string(p.points) + " " + p.name + " (" + p.why + ")";
+        std::fprintf(stderr, "%s skill %.2f %s: %s (earned %.1f), coverage %.0f %%, over-prep %.2f mm3, forbidden %.2f mm3%s; %s\n",
+                     name.c_str(), 1.0 - sep, t.subject.c_str(), sc->headline().c_str(), sc->earned_points,
+                     sc->target_coverage_pct, sc->overprep_mm3, sc->forbidden_mm3, costs.c_str(), sc->completion.c_str());
       }
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       for (std::size_t i = rows.size() - trials->size(); i < rows.size(); ++i) rows[i].seconds = s / trials->size();

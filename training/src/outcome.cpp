@@ -234,7 +234,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
             const int a = i + n[0], b = j + n[1], c = k + n[2];
             const std::uint8_t nd = start.density(a, b, c);
             const auto nm = start.material(a, b, c);
-            if (nm == volume::Material::kPulp && nd > 0) o.pulp_exposed = true;
+            if (nm == volume::Material::kPulp && nd > 0) o.pulp_wall_opened = true;
             if (nd == 0) exterior = true;
           }
           if (exterior && !(bits & m.entry_bits)) {
@@ -373,6 +373,13 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     o.max_points = ex.max_points();
     for (const auto& r : o.regions) o.earned_points += r.points;
   }
+  // Pulp exposure: the bur entered the pulp (pulp tissue removed). Opening
+  // the last dentin voxel over it without removing pulp is reported
+  // (pulp_wall_opened) but not charged: at 0.1-0.2 mm voxels that is a
+  // remaining dentin layer under one voxel, which the voxel grid cannot tell
+  // from an exposure (issue 25: it charged a generated expert's class I
+  // cavity all 10 points with 0.000 mm3 of pulp removed).
+  o.pulp_exposed = o.pulp_removed_mm3 > 0;
   // Costs the exercise charges.
   if (o.pulp_exposed) {
     const double c = ex.pulp_exposure_points();

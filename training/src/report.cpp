@@ -523,7 +523,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   j["outcome"] = {{"points", oc.points}, {"max_points", oc.max_points}, {"removed_mm3", rem},
                   {"removed_total_mm3", oc.removed_total_mm3}, {"target_mm3", oc.target_mm3},
                   {"target_coverage_pct", oc.target_coverage_pct}, {"overprep_mm3", oc.overprep_mm3},
-                  {"forbidden_mm3", oc.forbidden_mm3}, {"pulp_exposed", oc.pulp_exposed},
+                  {"forbidden_mm3", oc.forbidden_mm3}, {"pulp_exposed", oc.pulp_exposed}, {"pulp_wall_opened", oc.pulp_wall_opened},
                   {"perforation", oc.perforation}, {"perforation_mm3", oc.perforation_mm3},
                   {"earned_points", oc.earned_points}, {"complete", oc.complete}, {"completion", oc.completion}};
   j["outcome"]["penalties"] = json::array();

@@ -1,5 +1,5 @@
 // Feedback that checks itself (issue 25): the documented rules
-// (docs/feedback.md) hold on 3000 generated sessions (seeded); the checker
+// (docs/feedback.md) hold on 10000 generated sessions (seeded); the checker
 // catches the messages the issue found wrong. The long run (10^5 sessions,
 // three seeds) is feedback_property_long_test, label "long".
 #include <gtest/gtest.h>
@@ -10,7 +10,7 @@ namespace dentar::training {
 namespace {
 
 TEST(FeedbackProperty, RulesHoldOnGeneratedSessions) {
-  const auto fired = test::check_generated_sessions(25, 3000);
+  const auto fired = test::check_generated_sessions(25, 10000);
   // Every message kind was reached, so every rule was exercised.
   for (const char* r : {"force_low", "force_none", "force_opposite", "force_high", "force_ok", "off_axis", "position", "angle",
                         "drilling_time", "no_contact", "mirror_use", "mirror_ok", "no_sight", "excessive_force", "path"})

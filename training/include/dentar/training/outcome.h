@@ -44,7 +44,8 @@ struct OutcomeScores {
   double overprep_mm3 = 0;   // removed outside every target region
   double forbidden_mm3 = 0;  // removed inside forbidden regions
   std::vector<std::pair<std::string, double>> forbidden_by_region;  // name, mm3
-  bool pulp_exposed = false;     // a pulp voxel borders a voxel the cut opened
+  bool pulp_exposed = false;     // the bur entered the pulp: pulp tissue was removed (pulp_removed_mm3 > 0)
+  bool pulp_wall_opened = false; // a pulp voxel borders a voxel the cut opened (reported, not charged)
   double pulp_removed_mm3 = 0;
   bool perforation = false;      // the cut opened to the outside away from every entry region
   double perforation_mm3 = 0;    // opened voxels that border outside air outside entry regions
