@@ -180,6 +180,15 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
   // Rules and an example of each message: docs/feedback.md.
   std::vector<FeedbackMessage> out;
   const std::size_t S = std::min(st.steps.size(), ref.steps.size());
+  if (ref.sessions < R.min_ref_sessions) {
+    // Say why nothing is compared, rather than nothing at all.
+    out.push_back({-1, "", "caution",
+                   "The expert reference holds " + std::to_string(ref.sessions) + " expert session" +
+                       (ref.sessions == 1 ? "" : "s") + ": at least " + std::to_string(R.min_ref_sessions) +
+                       " are needed for a mean and a spread, so no step is compared with the experts.",
+                   "reference_too_small", -1, 0});
+    return out;
+  }
   auto mirror_advice = [&](const StepMetrics& s, const StepReference& e, const auto& add) {
     if (!st.mirror_tracked || e.view_sessions < R.min_ref_sessions) return;
     const auto& v = s.views;
@@ -353,7 +362,7 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
           main, sign);
     mirror_advice(s, e, add);
   }
-  if (ref.sessions >= R.min_ref_sessions) {
+  {
     const double xsd = std::max(ref.excessive_sd_s, 0.1);
     if (st.excessive_force_s > ref.excessive_mean_s + 2 * xsd && st.excessive_force_s >= 0.05)
       out.push_back({-1, "", "caution",
@@ -395,7 +404,7 @@ std::vector<std::string> feedback_violations(const ProcessMetrics& st, const Exp
   };
   static const char* kRules[] = {"force_low", "force_none", "force_opposite", "force_high", "force_ok", "off_axis",
                                  "position", "angle", "drilling_time", "no_contact", "mirror_use", "mirror_ok",
-                                 "no_sight", "excessive_force", "path"};
+                                 "no_sight", "excessive_force", "path", "reference_too_small"};
   std::map<int, std::vector<const FeedbackMessage*>> by_step;
   for (const auto& m : msgs) {
     by_step[m.step].push_back(&m);
@@ -429,7 +438,9 @@ std::vector<std::string> feedback_violations(const ProcessMetrics& st, const Exp
       fail(m, "the direction named in the text is not " + axis_direction_name(m.axis, m.sign));
     if (m.step < 0) {
       // Rule 5 (whole session): enough expert sessions.
-      if (ref.sessions < R.min_ref_sessions) fail(m, "a whole-session statistic from " + std::to_string(ref.sessions) + " expert sessions");
+      if (m.rule != "reference_too_small" && ref.sessions < R.min_ref_sessions)
+        fail(m, "a whole-session statistic from " + std::to_string(ref.sessions) + " expert sessions");
+      if (m.rule == "reference_too_small" && ref.sessions >= R.min_ref_sessions) fail(m, "'too few experts' with enough");
       continue;
     }
     if (m.step >= static_cast<int>(std::min(st.steps.size(), ref.steps.size()))) {

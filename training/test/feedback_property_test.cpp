@@ -13,7 +13,8 @@ TEST(FeedbackProperty, RulesHoldOnGeneratedSessions) {
   const auto fired = test::check_generated_sessions(25, 10000);
   // Every message kind was reached, so every rule was exercised.
   for (const char* r : {"force_low", "force_none", "force_opposite", "force_high", "force_ok", "off_axis", "position", "angle",
-                        "drilling_time", "no_contact", "mirror_use", "mirror_ok", "no_sight", "excessive_force", "path"})
+                        "drilling_time", "no_contact", "mirror_use", "mirror_ok", "no_sight", "excessive_force", "path",
+                        "reference_too_small"})
     EXPECT_GT(fired.count(r) ? fired.at(r) : 0, 0) << r << " never spoke";
 }
 
@@ -74,8 +75,16 @@ TEST(FeedbackProperty, TheCheckerCatchesTheMessagesTheIssueFound) {
 
 TEST(FeedbackProperty, NothingFromTooFewExpertSessions) {
   const ProcessMetrics st = one_step({0.0, 0.0, -3.0});
-  EXPECT_TRUE(tutoring_feedback(st, experts({0, 0, -1.0}, 2), 3.0).empty());
-  EXPECT_FALSE(tutoring_feedback(st, experts({0, 0, -1.0}, 3), 3.0).empty());
+  const auto two = tutoring_feedback(st, experts({0, 0, -1.0}, 2), 3.0);
+  ASSERT_EQ(two.size(), 1u);  // only why nothing is compared
+  EXPECT_EQ(two[0].rule, "reference_too_small");
+  EXPECT_NE(two[0].text.find("holds 2 expert sessions: at least 3 are needed"), std::string::npos) << two[0].text;
+  // Enough sessions overall, too few behind one step: that step is passed over.
+  ExpertReference r = experts({0, 0, -1.0}, 3);
+  r.steps[0].sessions = 2;
+  EXPECT_TRUE(tutoring_feedback(st, r, 3.0).empty());
+  r.steps[0].sessions = 3;
+  EXPECT_FALSE(tutoring_feedback(st, r, 3.0).empty());
 }
 
 }  // namespace

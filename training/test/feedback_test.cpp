@@ -20,6 +20,7 @@ ProcessMetrics student(const Eigen::Vector3d& force) {
 
 ExpertReference reference(double fz_mean, double fz_sd) {
   ExpertReference r;
+  r.sessions = 5;
   StepReference s;
   s.name = "palatal orifice";
   s.sessions = 5;
