@@ -86,8 +86,12 @@ DriverScore score_after_run(const DriverScoreInput& in) {
       return r;
     }
     r.ok = true;
+    std::string why = s->outcome.completion;  // "incomplete: ... ." -> "..."
+    for (const char* p : {"incomplete: ", "finished: "})
+      if (why.rfind(p, 0) == 0) why = why.substr(std::string(p).size());
+    if (!why.empty() && why.back() == '.') why.pop_back();
     r.line = "score: " + fmt1(s->outcome.points) + " / " + fmt1(s->outcome.max_points) + " points (" + s->exercise_name + ")" +
-             (s->outcome.complete ? "" : ", INCOMPLETE") + ": " + s->outcome.completion + "; " + std::to_string(s->feedback.size()) + " feedback messages; wrote " +
+             (s->outcome.complete ? ", finished (" : ", INCOMPLETE (") + why + "); " + std::to_string(s->feedback.size()) + " feedback messages; wrote " +
              s->report_html + ", " + s->summary_json;
     if (!s->log_warning.empty()) r.line += "\n  score: log warning: " + s->log_warning;
     for (std::size_t i = 1; i < s->comparison.size(); ++i) {  // [0] is this session

@@ -357,7 +357,7 @@ std::string default_exercise_for(const std::string& tooth_json) {
 std::string ScoreSummary::summary_text() const {
   std::ostringstream s;
   s << "exercise: " << exercise_title << "\n";
-  s << "outcome: " << outcome.headline() << " (" << outcome.completion << ")\n";
+  s << "outcome: " << outcome.headline() << "\n  " << outcome.completion << "\n";
   for (const auto& p : outcome.penalties)
     if (p.points > 0) s << "  -" << num(p.points, 1) << " points, " << p.name << ": " << p.why << "\n";
   s << "  removed "
@@ -378,8 +378,8 @@ std::string ScoreSummary::summary_text() const {
     s << "beside finished sessions of the same exercise:\n";
     for (const auto& r : comparison)
       s << "  " << r.label << " (" << num(r.duration_s, 0) << " s, drilling " << num(r.drilling_s, 0) << " s): "
-        << num(r.points, 1) << " / " << num(r.max_points, 0) << " points" << (r.complete ? "" : ", INCOMPLETE") << " ("
-        << r.completion << ")\n";
+        << num(r.points, 1) << " / " << num(r.max_points, 0) << " points" << (r.complete ? ", " : ", INCOMPLETE: ")
+        << (r.completion.rfind("incomplete: ", 0) == 0 ? r.completion.substr(12) : r.completion) << "\n";
   } else if (!comparison_warning.empty()) {
     s << "comparison: " << comparison_warning << "\n";
   }
