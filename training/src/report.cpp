@@ -284,7 +284,17 @@ Result<ExpertReference> generated_reference(const Exercise& ex, const ScoreOptio
 
 Result<std::vector<ComparisonRow>> generated_comparison(const Exercise& ex, const std::string& work_dir) {
   const std::string cdir = reference_cache_dir();
-  const std::string cache = cdir.empty() ? std::string() : cdir + "/comparison_" + reference_key(ex, 2) + ".json";
+  // The scores depend on the exercise's costs and completeness rules too
+  // (bump kScoringVersion when the scoring itself changes).
+  constexpr int kScoringVersion = 1;
+  std::ostringstream sk;
+  sk << reference_key(ex, 2) << '_' << kScoringVersion << '_' << ex.pulp_exposure_points() << '_' << ex.perforation_points()
+     << '_' << ex.complete_coverage_pct << '_' << ex.complete_orifice_sight;
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a of the whole key: a file name
+  for (unsigned char c : sk.str()) h = (h ^ c) * 1099511628211ull;
+  char hx[20];
+  std::snprintf(hx, sizeof hx, "%016llx", static_cast<unsigned long long>(h));
+  const std::string cache = cdir.empty() ? std::string() : cdir + "/comparison_" + ex.name + "_" + hx + ".json";
   auto from_json = [](const json& j) {
     std::vector<ComparisonRow> v;
     for (const auto& r : j.at("rows"))
