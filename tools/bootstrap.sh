@@ -68,9 +68,10 @@ case "$job" in
     "$build/dentar" offline --out "$root/out/offline"
     ;;
   test)
-    # Hardware tests (label hw) need a device and are excluded. GL tests must
+    # Hardware tests (label hw) need a device and are excluded, and so are the
+    # long runs (label long: ctest -L long). GL tests must
     # really render here (Mesa llvmpipe is installed above), not skip.
-    DENTAR_REQUIRE_GL=1 ctest --test-dir "$build" --output-on-failure -j "$jobs" -LE hw
+    DENTAR_REQUIRE_GL=1 ctest --test-dir "$build" --output-on-failure -j "$jobs" -LE "hw|long"
     ;;
   bench)
     for b in "$build"/volume/volume_*_bench; do

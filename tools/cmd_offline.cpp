@@ -144,6 +144,9 @@ int run(const OfflineCli& c) {
       if (std::filesystem::exists(std::filesystem::path(c.footage) / "recording.json")) in.recording = c.footage;
       in.frames_csv = (std::filesystem::path(s.out_dir) / "frames.csv").string();
       in.station = s.station;
+      // Built-in footage drills for a few seconds: its score is shown beside
+      // a whole generated expert and novice session of the same exercise.
+      in.compare = c.footage.empty();
       if (!c.quiet) std::cerr << "scoring the session ...\n";
       const DriverScore d = score_after_run(in);
       if (!d.ok) {

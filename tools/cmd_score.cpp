@@ -76,7 +76,7 @@ void add_score(CLI::App& app, int& exit_code) {
       "exercise, process metrics, steps found automatically, feedback against the experts;\n"
       "writes score.html and score.json.\n"
       "Synopsis: dentar score SESSION_DIR|SESSION.dlog [--exercise NAME|FILE] [--out DIR]\n"
-      "                      [--reference FILE] [--model FILE]");
+      "                      [--reference FILE] [--model FILE] [--compare]");
   s->add_option("session", c->opt.session, "Session folder (holding session.dlog) or a .dlog file")->required();
   s->add_option("--exercise", c->opt.exercise,
                 "Exercise: built-in name (molar_access_opening, molar_class1_cavity, incisor_partial_crown)\n"
@@ -88,6 +88,9 @@ void add_score(CLI::App& app, int& exit_code) {
   s->add_option("--reference-trials", c->opt.reference_trials, "Generated expert sessions for the default reference")
       ->check(CLI::Range(1, 20))
       ->capture_default_str();
+  s->add_flag("--compare", c->opt.compare,
+              "Score a generated whole expert session and a novice session of the same exercise beside it\n"
+              "(generated once, then cached with the expert reference)");
   s->add_flag("--quiet", c->quiet, "Print nothing but errors");
   s->footer("Example:\n  dentar demo --simulated --out out/demo && dentar score out/demo");
   s->callback([c, &exit_code] { exit_code = run_score(*c); });

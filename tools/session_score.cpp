@@ -71,6 +71,7 @@ DriverScore score_after_run(const DriverScoreInput& in) {
     so.session = in.session;
     so.out_dir = in.out_dir;
     so.exercise = !in.exercise.empty() ? in.exercise : recorded_exercise(in.recording);
+    so.compare = in.compare;
     if (!in.frames_csv.empty() && fs::exists(in.frames_csv)) so.frames_csv = in.frames_csv;
     if (!in.station.empty()) {
       auto g = sight_from_station(in.station);
@@ -85,15 +86,32 @@ DriverScore score_after_run(const DriverScoreInput& in) {
       return r;
     }
     r.ok = true;
-    r.line = "score: " + fmt1(s->outcome.points) + " / " + fmt1(s->outcome.max_points) + " points (" +
-             s->exercise_name + "), " + std::to_string(s->feedback.size()) + " feedback messages; wrote " +
+    std::string why = s->outcome.completion;  // "incomplete: ... ." -> "..."
+    for (const char* p : {"incomplete: ", "finished: "})
+      if (why.rfind(p, 0) == 0) why = why.substr(std::string(p).size());
+    if (!why.empty() && why.back() == '.') why.pop_back();
+    r.line = "score: " + fmt1(s->outcome.points) + " / " + fmt1(s->outcome.max_points) + " points (" + s->exercise_name + ")" +
+             (s->outcome.complete ? ", finished (" : ", INCOMPLETE (") + why + "); " + std::to_string(s->feedback.size()) + " feedback messages; wrote " +
              s->report_html + ", " + s->summary_json;
     if (!s->log_warning.empty()) r.line += "\n  score: log warning: " + s->log_warning;
+    for (std::size_t i = 1; i < s->comparison.size(); ++i) {  // [0] is this session
+      const auto& c = s->comparison[i];
+      r.line += "\n  beside it, a " + c.label + " (" + fmt1(c.duration_s) + " s, drilling " + fmt1(c.drilling_s) +
+                " s): " + fmt1(c.points) + " / " + fmt1(c.max_points) + " points" + (c.complete ? "" : ", INCOMPLETE");
+    }
+    if (!s->comparison_warning.empty()) r.line += "\n  score: no comparison: " + s->comparison_warning;
     std::ostringstream h;
-    h << "<p><b>" << fmt1(s->outcome.points) << " / " << fmt1(s->outcome.max_points) << " points</b> on "
-      << esc(s->exercise_title) << "; target coverage " << fmt1(s->outcome.target_coverage_pct) << " %, forbidden "
+    h << "<p><b>" << esc(s->outcome.headline()) << "</b> on " << esc(s->exercise_title) << " ("
+      << esc(s->outcome.completion) << "); target coverage " << fmt1(s->outcome.target_coverage_pct) << " %, forbidden "
       << fmt1(s->outcome.forbidden_mm3) << " mm&sup3;, " << s->feedback.size()
       << " feedback messages. Full report: <a href=\"score.html\">score.html</a> (summary: <a href=\"score.json\">score.json</a>).</p>";
+    if (s->comparison.size() > 1) {
+      h << "<table><tr><th>session</th><th>time</th><th>points</th><th>finished?</th></tr>";
+      for (const auto& c : s->comparison)
+        h << "<tr><td>" << esc(c.label) << "</td><td>" << fmt1(c.duration_s) << " s</td><td>" << fmt1(c.points) << " / "
+          << fmt1(c.max_points) << "</td><td>" << esc(c.completion) << "</td></tr>";
+      h << "</table>";
+    }
     r.html = h.str();
   } catch (const std::exception& e) {
     r.warning = std::string("the session was not scored (the recording is kept): ") + e.what();

@@ -18,6 +18,7 @@ struct DriverScoreInput {
   std::string recording;   // a `dentar live --record` folder the session came from ("" = none)
   std::string frames_csv;  // camera frames for mirror use ("" = none)
   std::string station;     // station.json for mirror use ("" = none)
+  bool compare = false;    // score a generated expert and novice session beside it (ScoreOptions::compare)
 };
 
 struct DriverScore {

@@ -2,6 +2,7 @@
 
 #include <openssl/evp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -399,10 +400,15 @@ Result<SessionRecord> record_from_session_dir(const std::string& path, const Imp
     r.recording_sha256 = rh.hex();
     r.recording_path = fs::absolute(dir, ec).lexically_normal().string();
   }
-  if (r.started_utc.empty()) {  // the log's last write time
+  if (r.started_utc.empty()) {
+    // A bare log has no start time: it was last written when the session
+    // ended, so the start is that time less the session's own duration
+    // (score.json process.duration_s), not the time of the import.
     const auto ft = fs::last_write_time(log, ec);
+    const auto dur = std::chrono::duration_cast<std::chrono::file_clock::duration>(
+        std::chrono::duration<double>(std::max(0.0, r.duration_s)));
     const auto sys = std::chrono::time_point_cast<std::chrono::seconds>(
-        std::chrono::file_clock::to_sys(ft));
+        std::chrono::file_clock::to_sys(ft - dur));
     const std::time_t t = std::chrono::system_clock::to_time_t(sys);
     std::tm tm{};
     gmtime_r(&t, &tm);

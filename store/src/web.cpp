@@ -11,6 +11,7 @@
 #include <mutex>
 #include <set>
 
+#include "dentar/store/metric_names.h"
 #include "dentar/store/store.h"
 #include "html.h"
 
@@ -342,7 +343,10 @@ struct WebServer::Impl {
       row("exercise", "Exercise", html::esc(x.exercise_title.empty() ? x.exercise : x.exercise_title));
       row("station", "Station", html::esc(x.station));
       row("started", "Started (UTC)", html::esc(x.started_utc));
-      row("points", "Points", html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) + " (" + pct(x.points, x.max_points) + " %)");
+      bool incomplete = false;  // score.json outcome.complete (scores before issue 25 have none)
+      for (const auto& m : x.metrics) incomplete |= m.name == "outcome.complete" && m.value == 0;
+      row("points", "Points", html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) + " (" + pct(x.points, x.max_points) + " %)" +
+                                  (incomplete ? " <span class=\"warn\">incomplete: the preparation was not finished</span>" : ""));
       row("coverage", "Target removed", html::fixed(x.coverage_pct, 1) + " %");
       row("overprep", "Over-preparation", html::fixed(x.overprep_mm3, 2) + " mm³");
       row("pulp", "Pulp exposed", x.pulp_exposed ? "<span class=\"warn\">yes</span>" : "no");
@@ -368,8 +372,11 @@ struct WebServer::Impl {
       for (const auto& f : x.feedback)
         b += "<li><b>" + html::esc(f.step.empty() ? "session" : f.step) + "</b> (" + html::esc(f.kind) + "): " + html::esc(f.text) + "</li>";
       b += "</ul><h2>Metrics</h2><table id=\"metrics\"><tr><th>Metric</th><th>Value</th><th>Unit</th></tr>";
-      for (const auto& m : x.metrics)
-        b += "<tr><td>" + html::esc(m.name) + "</td><td class=\"n\">" + html::fixed(m.value, 3) + "</td><td>" + html::esc(m.unit) + "</td></tr>";
+      for (const auto& m : x.metrics) {  // in words with units; the stored key as a tooltip
+        const MetricLabel ml = metric_label(m.name, m.unit);
+        b += "<tr><td title=\"" + html::esc(m.name) + "\">" + html::esc(ml.label) + "</td><td class=\"n\">" +
+             html::esc(metric_value_text(ml, m.value, 3)) + "</td><td>" + html::esc(ml.unit) + "</td></tr>";
+      }
       b += "</table>";
       send(res, 200, html::page("Session #" + ids, b, user));
     }));

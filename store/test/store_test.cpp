@@ -3,6 +3,9 @@
 // file at once, a station killed mid-write, store-and-forward with the
 // server unreachable, password files.
 #include <gtest/gtest.h>
+
+#include <chrono>
+#include <ctime>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -362,6 +365,32 @@ TEST(Record, ImportNeedsAScoredSessionAndSaysHow) {
   EXPECT_EQ(ok->feedback[0].step, "outline");  // score.json gives the step's index
   EXPECT_EQ(ok->feedback[1].step, "");         // the whole session
   EXPECT_EQ(ok->feedback[2].kind, "");         // a mistyped field is dropped, never a crash
+}
+
+TEST(Record, ABareLogStartsWhenItEndedLessItsDurationNotAtImport) {
+  // Issue 25: without recording.json the page showed the log's write time
+  // (the import, for a copied log) as the start. The log was last written
+  // when the session ended; the start is that less process.duration_s.
+  const fs::path dir = dentar::test::temp_dir("store_import_start");
+  dentar::test::write_file(dir / "session.dlog", "a bare log");
+  dentar::test::write_file(dir / "score.json", R"({"format":"dentar-score","version":1,"exercise":{"name":"molar_access_opening"},
+    "outcome":{"points":3,"max_points":18,"complete":false},"process":{"duration_s":304.4}})");
+  std::tm tm{};
+  tm.tm_year = 2026 - 1900;
+  tm.tm_mon = 10;
+  tm.tm_mday = 20;
+  tm.tm_hour = 10;
+  const auto end = std::chrono::system_clock::from_time_t(timegm(&tm));  // 2026-11-20T10:00:00Z
+  fs::last_write_time(dir / "session.dlog", std::chrono::file_clock::from_sys(end));
+  ImportOptions io;
+  io.student = "s1";
+  io.station = "st";
+  auto r = record_from_session_dir(dir.string(), io);
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->started_utc, "2026-11-20T09:54:55Z");  // 10:00:00 less 304.4 s, to the second
+  bool incomplete = false;
+  for (const auto& m : r->metrics) incomplete |= m.name == "outcome.complete" && m.value == 0;
+  EXPECT_TRUE(incomplete);
 }
 
 }  // namespace

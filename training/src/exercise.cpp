@@ -324,6 +324,11 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
     } else {
       return Error{name + ": field 'outcome.kind': unknown kind '" + kind + "' (graded_regions, access_opening)"};
     }
+    if (!get_number(c, o, "pulp_exposure_points", "outcome.", ex.pulp_exposure_cost, false, 0, 1000) ||
+        !get_number(c, o, "perforation_points", "outcome.", ex.perforation_cost, false, 0, 1000) ||
+        !get_number(c, o, "complete_coverage_pct", "outcome.", ex.complete_coverage_pct, false, 0, 100) ||
+        !get_number(c, o, "complete_orifice_sight", "outcome.", ex.complete_orifice_sight, false, 0, 1))
+      return Error{c.err};
   }
   bool any_target = false;
   for (const auto& r : ex.regions) any_target |= r.role == RegionRole::kTarget;

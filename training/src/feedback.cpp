@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <iterator>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -9,6 +13,7 @@ namespace dentar::training {
 namespace {
 
 std::string num(double v, int prec = 1) {
+  if (std::abs(v) < 0.5 * std::pow(10.0, -prec)) v = 0;  // never "-0.00"
   std::ostringstream os;
   os.setf(std::ios::fixed);
   os.precision(prec);
@@ -44,6 +49,7 @@ std::string axis_direction_name(int axis, double sign) {
 ExpertReference build_reference(const std::string& exercise, const std::vector<ProcessMetrics>& experts) {
   ExpertReference r;
   r.exercise = exercise;
+  r.sessions = static_cast<int>(experts.size());
   if (experts.empty()) return r;
   const std::size_t S = experts[0].steps.size();
   r.steps.resize(S);
@@ -105,7 +111,7 @@ ExpertReference build_reference(const std::string& exercise, const std::vector<P
 std::string reference_to_json(const ExpertReference& r) {
   using nlohmann::json;
   auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
-  json j = {{"format", "dentar-expert-reference"}, {"version", 1}, {"exercise", r.exercise},
+  json j = {{"format", "dentar-expert-reference"}, {"version", 1}, {"exercise", r.exercise}, {"sessions", r.sessions},
             {"duration_s", {r.duration_mean_s, r.duration_sd_s}}, {"path_mm", {r.path_mean_mm, r.path_sd_mm}},
             {"drilling_s", {r.drilling_mean_s, r.drilling_sd_s}}, {"excessive_force_s", {r.excessive_mean_s, r.excessive_sd_s}}};
   j["steps"] = json::array();
@@ -157,6 +163,12 @@ Result<ExpertReference> reference_from_json(const std::string& text, const std::
       }
       r.steps.push_back(t);
     }
+    // Older references: the largest step count stands for the whole.
+    if (j.contains("sessions")) {
+      r.sessions = j.at("sessions").get<int>();
+    } else {
+      for (const auto& t : r.steps) r.sessions = std::max(r.sessions, t.sessions);
+    }
   } catch (const json::exception& e) {
     return Error{name + ": " + e.what()};
   }
@@ -165,12 +177,20 @@ Result<ExpertReference> reference_from_json(const std::string& text, const std::
 
 std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const ExpertReference& ref,
                                                double excessive_force_N, const FeedbackRules& R) {
+  // Rules and an example of each message: docs/feedback.md.
   std::vector<FeedbackMessage> out;
   const std::size_t S = std::min(st.steps.size(), ref.steps.size());
-  // Mirror use of a step against the experts' (docs/formats.md, "Tutoring
-  // feedback"): only where both the student's and the experts' views were measured.
-  auto mirror_advice = [&](std::size_t, const StepMetrics& s, const StepReference& e, const auto& add) {
-    if (!st.mirror_tracked || e.view_sessions < 1) return;
+  if (ref.sessions < R.min_ref_sessions) {
+    // Say why nothing is compared, rather than nothing at all.
+    out.push_back({-1, "", "caution",
+                   "The expert reference holds " + std::to_string(ref.sessions) + " expert session" +
+                       (ref.sessions == 1 ? "" : "s") + ": at least " + std::to_string(R.min_ref_sessions) +
+                       " are needed for a mean and a spread, so no step is compared with the experts.",
+                   "reference_too_small", -1, 0});
+    return out;
+  }
+  auto mirror_advice = [&](const StepMetrics& s, const StepReference& e, const auto& add) {
+    if (!st.mirror_tracked || e.view_sessions < R.min_ref_sessions) return;
     const auto& v = s.views;
     const int n = v[0] + v[1] + v[2] + v[3];
     if (n < R.min_view_frames) return;
@@ -182,69 +202,126 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
         std::string how = fd >= fn ? "; you looked at it directly in " + num(fd, 0) +
                                          " % of them: bend less and let the mirror show it"
                                    : "; you worked without sight of it in " + num(fn, 0) + " % of them";
-        add("instruct", "use the mirror for this step: you saw the site in the mirror in " + num(fm, 0) +
-                            " % of your drilling frames, " + experts + how + ".");
+        add("instruct", "mirror_use",
+            "use the mirror for this step: you saw the site in the mirror in " + num(fm, 0) +
+                " % of your drilling frames, " + experts + how + ".", -1, 0);
       } else {
-        add("well_done", "well done: you worked in the mirror in " + num(fm, 0) + " % of your drilling frames (" +
-                             experts + ").");
+        add("well_done", "mirror_ok",
+            "well done: you worked in the mirror in " + num(fm, 0) + " % of your drilling frames (" + experts + ").", -1, 0);
       }
     } else {
       const double nsd = std::max(e.no_sight_pct_sd, R.min_sd_pct);
       if (fn > R.no_sight_pct && fn > e.no_sight_pct_mean + 2 * nsd)
-        add("caution", "you could not see the site in " + num(fn, 0) + " % of your drilling frames (experts " +
-                           num(e.no_sight_pct_mean, 0) + " +/- " + num(nsd, 0) +
-                           " %): use the mirror or change your position.");
+        add("caution", "no_sight",
+            "you could not see the site in " + num(fn, 0) + " % of your drilling frames (experts " +
+                num(e.no_sight_pct_mean, 0) + " +/- " + num(nsd, 0) + " %): use the mirror or change your position.",
+            -1, 0);
     }
   };
   for (std::size_t k = 0; k < S; ++k) {
     const StepMetrics& s = st.steps[k];
     const StepReference& e = ref.steps[k];
     const std::string label = "Step " + std::to_string(k + 1) + " (" + s.name + "): ";
-    auto add = [&](const std::string& kind, const std::string& text) {
-      out.push_back({static_cast<int>(k), s.name, kind, label + text});
+    auto add = [&](const std::string& kind, const std::string& rule, const std::string& text, int axis, int sign) {
+      out.push_back({static_cast<int>(k), s.name, kind, label + text, rule, axis, sign});
     };
-    if (e.sessions < 1) continue;
+    // Too few expert sessions for a mean and an SD: nothing is said.
+    if (e.sessions < R.min_ref_sessions) continue;
     if (s.force.n < R.min_frames) {
-      add("caution", "no drilling with contact found in this step; it was skipped or done elsewhere.");
+      add("caution", "no_contact", "no drilling with contact found in this step; it was skipped or done elsewhere.", -1, 0);
       continue;
     }
     int main = 0;
     for (int a = 1; a < 3; ++a)
       if (std::abs(e.force_mean(a)) > std::abs(e.force_mean(main))) main = a;
-    const double sign = e.force_mean(main) >= 0 ? 1 : -1;
+    const int sign = e.force_mean(main) >= 0 ? 1 : -1;
     const double em = std::abs(e.force_mean(main));
     const double esd = std::max(e.force_sd(main), R.min_sd_N);
     const double sm = s.force.mean(main) * sign;  // student's force along the experts' main direction
     const std::string dir = axis_direction_name(main, sign);
     const std::string band = num(em, 2) + " +/- " + num(esd, 2) + " N";
-    bool main_ok = std::abs(sm - em) <= R.band_sd * esd;
+    // Experts that hardly press along any axis give no main direction: only
+    // a student who presses clearly more is told to press more lightly.
+    const bool experts_press = em >= R.min_force_N;
+    const double sv_main = s.force.mean(main);
+    const bool main_ok = experts_press ? std::abs(sm - em) <= R.band_sd * esd
+                                       : std::abs(sv_main) <= em + R.band_sd * esd;
     bool any = false;
-    if (!main_ok && sm < em) {
+    if (!experts_press) {
+      if (!main_ok) {
+        any = true;
+        const int ss = sv_main >= 0 ? 1 : -1;
+        add("instruct", "force_high",
+            "press more lightly along " + axis_direction_name(main, ss) + ": you " + num(std::abs(sv_main), 2) +
+                " N, the experts hardly press (" + band + ").",
+            main, ss);
+      }
+    } else if (!main_ok && sm < em) {
       any = true;
-      const double cap = std::min(R.max_multiplier, sm > 1e-3 ? excessive_force_N / sm : R.max_multiplier);
-      double mult = sm > 1e-3 ? em / sm : R.max_multiplier;
-      const bool capped = mult > cap;
-      mult = std::min(mult, cap);
-      add("instruct", "force in " + dir + " should be " + num(mult) + " times higher (you: " + num(std::max(sm, 0.0), 2) +
-                          " N, experts: " + band + ")" +
-                          (capped ? "; raise it gradually, more than " + num(cap * sm, 1) + " N could damage the tooth." : "."));
+      if (sm < -R.min_force_N) {
+        // Pressing the other way: no multiplier makes sense.
+        add("instruct", "force_opposite",
+            "your force pointed the other way, " + num(-sm, 2) + " N along " + axis_direction_name(main, -sign) +
+                "; the experts press along " + dir + " (" + band + ").",
+            main, -sign);
+      } else if (sm < R.min_force_N) {
+        add("instruct", "force_none",
+            "you pressed almost nothing along " + dir + " (" + num(std::max(sm, 0.0), 2) + " N, experts " + band +
+                "); press gradually toward the experts' force.",
+            main, sign);
+      } else {
+        // The goal: the experts' mean, never above the exercise's excessive force.
+        const double goal = std::min(em, excessive_force_N);
+        double mult = goal / sm;
+        const bool capped = mult > R.max_multiplier || goal < em;
+        mult = std::min(mult, R.max_multiplier);
+        if (mult >= 1.1) {
+          add("instruct", "force_low",
+              "force in " + dir + " should be " + num(mult) + " times higher (you: " + num(sm, 2) + " N, experts: " + band +
+                  ")" + (capped ? "; raise it gradually, up to " + num(mult * sm, 2) + " N at most this time." : "."),
+              main, sign);
+        } else if (!capped) {
+          add("instruct", "force_low",
+              "force in " + dir + " should be a little higher (you: " + num(sm, 2) + " N, experts: " + band + ").", main,
+              sign);
+        }
+        // else: already at the most the exercise allows: nothing to ask for,
+        // and no "well done" either (the force is still below the experts').
+
+      }
     } else if (!main_ok) {
       any = true;
-      add("instruct", "force in " + dir + " should be " + num(sm / std::max(em, 1e-3)) +
-                          " times lower (you: " + num(sm, 2) + " N, experts: " + band + ").");
+      if (sm / em < 1.1) {
+        add("instruct", "force_high",
+            "force in " + dir + " should be a little lower (you: " + num(sm, 2) + " N, experts: " + band + ").", main, sign);
+      } else {
+        add("instruct", "force_high",
+            "force in " + dir + " should be " + num(sm / em) + " times lower (you: " + num(sm, 2) + " N, experts: " + band +
+                ").",
+            main, sign);
+      }
     }
     for (int a = 0; a < 3; ++a) {
       if (a == main) continue;
       const double sv = s.force.mean(a), ev = e.force_mean(a), sd = std::max(e.force_sd(a), R.min_sd_N);
-      if (std::abs(sv - ev) > 2 * sd && std::abs(sv) > R.off_axis_ratio * std::max(std::abs(sm), 1e-3)) {
+      const int sa = sv >= 0 ? 1 : -1;
+      const double mag = std::abs(sv), ep = ev * sa;  // the experts' force along the student's direction
+      // Only a force larger than the experts' along the same direction is "too much".
+      if (mag - ep > 2 * sd && mag > R.off_axis_ratio * std::max(std::abs(sm), R.min_force_N)) {
         any = true;
+        const std::string theirs = std::abs(ev) < 0.005 ? "experts almost none (+/- " + num(sd, 2) + " N)"
+                                   : ep >= 0 ? "experts " + num(ep, 2) + " +/- " + num(sd, 2) + " N that way"
+                                             : "experts " + num(-ep, 2) + " +/- " + num(sd, 2) + " N the other way, along " +
+                                                   axis_direction_name(a, -sa);
         if (main_ok)
-          add("ask", "do you know that " + dir + " should be the main direction of force in this stage? Your force along " +
-                         axis_direction_name(a, sv) + " was " + num(std::abs(sv), 2) + " N, experts " + num(ev, 2) +
-                         " +/- " + num(sd, 2) + " N.");
+          add("ask", "off_axis",
+              "do you know that " + dir + " should be the main direction of force in this stage? Your force along " +
+                  axis_direction_name(a, sa) + " was " + num(mag, 2) + " N, " + theirs + ".",
+              a, sa);
         else
-          add("instruct", "reduce the force along " + axis_direction_name(a, sv) + ": " + num(std::abs(sv), 2) +
-                              " N, experts " + num(ev, 2) + " +/- " + num(sd, 2) + " N.");
+          add("instruct", "off_axis",
+              "reduce the force along " + axis_direction_name(a, sa) + ": you " + num(mag, 2) + " N, " + theirs + ".", a,
+              sa);
       }
     }
     const Eigen::Vector3d dp = s.tip_mean_mm - e.tip_mean_mm;
@@ -253,8 +330,12 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
       any = true;
       int a = 0;
       dp.cwiseAbs().maxCoeff(&a);
-      add("instruct", "you worked " + num(dist) + " mm away from where the experts work, mostly toward " +
-                          direction_word(a, dp(a)) + " (" + num(std::abs(dp(a))) + " mm).");
+      const std::string where = num(dist) + " mm away from where the experts work, mostly toward " +
+                                direction_word(a, dp(a)) + " (" + num(std::abs(dp(a))) + " mm)";
+      if (main_ok)
+        add("ask", "position", "did you mean to work " + where + "?", -1, 0);
+      else
+        add("instruct", "position", "you worked " + where + ".", -1, 0);
     }
     const double ang = std::acos(std::clamp(s.axis_mean.dot(e.axis_mean), -1.0, 1.0)) * 180 / M_PI;
     if (s.axis_mean.norm() > 0 && ang > R.angle_deg && ang > 2 * e.axis_sd_deg) {
@@ -262,24 +343,174 @@ std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& st, const E
       const Eigen::Vector3d d = s.axis_mean - e.axis_mean;
       int a = 0;
       d.head<2>().cwiseAbs().maxCoeff(&a);
-      add("instruct", "the bur axis was " + num(ang, 0) + " degrees off the experts' axis, tilted toward " +
-                          direction_word(a, -d(a)) + "; hold the handpiece more like the experts.");
+      const std::string tilt = num(ang, 0) + " degrees off the experts' axis, tilted toward " + direction_word(a, -d(a));
+      if (main_ok)
+        add("ask", "angle", "the bur axis was " + tilt + ": is that how the experts hold the handpiece here?", -1, 0);
+      else
+        add("instruct", "angle", "the bur axis was " + tilt + "; hold the handpiece more like the experts.", -1, 0);
     }
-    if (e.drilling_sd_s >= 0 && s.drilling_s > e.drilling_mean_s + 2 * std::max(e.drilling_sd_s, 0.1 * e.drilling_mean_s)) {
+    const double dsd = std::max(e.drilling_sd_s, 0.1 * e.drilling_mean_s);
+    if (e.drilling_mean_s > 0 && s.drilling_s > e.drilling_mean_s + 2 * dsd) {
       any = true;
-      add("instruct", "drilling took " + num(s.drilling_s) + " s; experts " + num(e.drilling_mean_s) + " +/- " +
-                          num(e.drilling_sd_s) + " s.");
+      add("instruct", "drilling_time",
+          "drilling took " + num(s.drilling_s) + " s; experts " + num(e.drilling_mean_s) + " +/- " + num(dsd) + " s.", -1, 0);
     }
-    if (!any) add("well_done", "well done: force in " + dir + " " + num(sm, 2) + " N, within the experts' " + band + ".");
-    mirror_advice(k, s, e, add);
+    if (!any)
+      add("well_done", "force_ok",
+          sm >= 0 ? "well done: force in " + dir + " " + num(sm, 2) + " N, within the experts' " + band + "."
+                  : "well done: your force along " + dir + " is within the experts' " + band + ".",
+          main, sign);
+    mirror_advice(s, e, add);
   }
-  if (st.excessive_force_s > ref.excessive_mean_s + 2 * ref.excessive_sd_s + 0.1)
-    out.push_back({-1, "", "caution", "You drilled with more than " + num(excessive_force_N) + " N for " +
-                                          num(st.excessive_force_s) + " s (experts " + num(ref.excessive_mean_s) + " s)."});
-  if (ref.path_sd_mm >= 0 && st.path_mm > ref.path_mean_mm + 2 * std::max(ref.path_sd_mm, 0.1 * ref.path_mean_mm))
-    out.push_back({-1, "", "instruct", "Your bur travelled " + num(st.path_mm, 0) + " mm, experts " + num(ref.path_mean_mm, 0) +
-                                           " +/- " + num(ref.path_sd_mm, 0) + " mm: plan the path between steps."});
+  {
+    const double xsd = std::max(ref.excessive_sd_s, 0.1);
+    if (st.excessive_force_s > ref.excessive_mean_s + 2 * xsd && st.excessive_force_s >= 0.05)
+      out.push_back({-1, "", "caution",
+                     "You drilled with more than " + num(excessive_force_N) + " N for " + num(st.excessive_force_s) +
+                         " s (experts " + num(ref.excessive_mean_s) + " +/- " + num(xsd) + " s).",
+                     "excessive_force", -1, 0});
+    const double psd = std::max(ref.path_sd_mm, 0.1 * ref.path_mean_mm);
+    if (ref.path_mean_mm > 0 && st.path_mm > ref.path_mean_mm + 2 * psd)
+      out.push_back({-1, "", "instruct",
+                     "Your bur travelled " + num(st.path_mm, 0) + " mm, experts " + num(ref.path_mean_mm, 0) + " +/- " +
+                         num(psd, 0) + " mm: plan the path between steps.",
+                     "path", -1, 0});
+  }
   return out;
+}
+
+namespace {
+bool experts_press_any(const StepReference& e, const FeedbackRules& R) {
+  return e.force_mean.cwiseAbs().maxCoeff() >= R.min_force_N;
+}
+}  // namespace
+
+std::vector<std::string> feedback_violations(const ProcessMetrics& st, const ExpertReference& ref,
+                                             double excessive_force_N, const std::vector<FeedbackMessage>& msgs,
+                                             const FeedbackRules& R) {
+  std::vector<std::string> bad;
+  auto fail = [&](const FeedbackMessage& m, const std::string& why) { bad.push_back(why + ": \"" + m.text + "\""); };
+  // The number right before a word ("3.0 times", "0.38 N").
+  auto numbers_before = [](const std::string& t, const std::string& word) {
+    std::vector<double> v;
+    for (std::size_t p = t.find(word); p != std::string::npos; p = t.find(word, p + 1)) {
+      std::size_t e = p;
+      while (e > 0 && t[e - 1] == ' ') --e;
+      std::size_t b = e;
+      while (b > 0 && (std::isdigit(static_cast<unsigned char>(t[b - 1])) || t[b - 1] == '.')) --b;
+      if (b < e) v.push_back(std::strtod(t.substr(b, e - b).c_str(), nullptr));
+    }
+    return v;
+  };
+  static const char* kRules[] = {"force_low", "force_none", "force_opposite", "force_high", "force_ok", "off_axis",
+                                 "position", "angle", "drilling_time", "no_contact", "mirror_use", "mirror_ok",
+                                 "no_sight", "excessive_force", "path", "reference_too_small"};
+  std::map<int, std::vector<const FeedbackMessage*>> by_step;
+  for (const auto& m : msgs) {
+    by_step[m.step].push_back(&m);
+    if (std::find(std::begin(kRules), std::end(kRules), m.rule) == std::end(kRules)) fail(m, "undocumented rule '" + m.rule + "'");
+    if (m.kind != "well_done" && m.kind != "instruct" && m.kind != "ask" && m.kind != "caution") fail(m, "unknown kind");
+    {
+      std::string word;
+      for (char ch : m.text + " ") {
+        if (std::isalpha(static_cast<unsigned char>(ch))) {
+          word += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+          continue;
+        }
+        if (word == "nan" || word == "inf" || word == "infinity") fail(m, "not a number");
+        word.clear();
+      }
+    }
+    // Rule 1: multipliers finite, >= 1.1.
+    for (double x : numbers_before(m.text, " times"))
+      if (!std::isfinite(x) || x < 1.1) fail(m, "multiplier " + num(x, 2) + " (must be >= 1.1)");
+    // Rule 2: no limit of 0 N.
+    for (const char* w : {"up to ", "more than "})
+      for (std::size_t p = m.text.find(w); p != std::string::npos; p = m.text.find(w, p + 1)) {
+        const double x = std::strtod(m.text.c_str() + p + std::strlen(w), nullptr);
+        if (!(x > 0)) fail(m, std::string("a limit of ") + num(x, 2) + " N");
+      }
+    // Rule 3a: no negative numbers: the direction words carry the sign.
+    for (std::size_t i = 0; i + 1 < m.text.size(); ++i)
+      if (m.text[i] == '-' && std::isdigit(static_cast<unsigned char>(m.text[i + 1])) && (i == 0 || m.text[i - 1] != '/'))
+        fail(m, "a negative number (say the direction instead)");
+    if (m.axis >= 0 && m.text.find(axis_direction_name(m.axis, m.sign)) == std::string::npos)
+      fail(m, "the direction named in the text is not " + axis_direction_name(m.axis, m.sign));
+    if (m.step < 0) {
+      // Rule 5 (whole session): enough expert sessions.
+      if (m.rule != "reference_too_small" && ref.sessions < R.min_ref_sessions)
+        fail(m, "a whole-session statistic from " + std::to_string(ref.sessions) + " expert sessions");
+      if (m.rule == "reference_too_small" && ref.sessions >= R.min_ref_sessions) fail(m, "'too few experts' with enough");
+      continue;
+    }
+    if (m.step >= static_cast<int>(std::min(st.steps.size(), ref.steps.size()))) {
+      fail(m, "a step that has no statistics");
+      continue;
+    }
+    const StepMetrics& s = st.steps[static_cast<std::size_t>(m.step)];
+    const StepReference& e = ref.steps[static_cast<std::size_t>(m.step)];
+    // Rule 5: nothing from too few samples.
+    if (e.sessions < R.min_ref_sessions) fail(m, "an expert band from " + std::to_string(e.sessions) + " sessions");
+    if (m.rule != "no_contact" && s.force.n < R.min_frames) fail(m, "a force from " + num(s.force.n, 0) + " frames");
+    if (m.rule.rfind("mirror", 0) == 0 || m.rule == "no_sight") {
+      const int n = s.views[0] + s.views[1] + s.views[2] + s.views[3];
+      if (!st.mirror_tracked || e.view_sessions < R.min_ref_sessions || n < R.min_view_frames)
+        fail(m, "mirror advice from too few views");
+    }
+    // Rule 3b: the words agree with the numbers.
+    if (m.axis >= 0) {
+      const double sv = s.force.mean(m.axis), ev = e.force_mean(m.axis);
+      const double s_along = sv * m.sign, e_along = ev * m.sign;
+      if (m.rule == "off_axis" && !(s_along > 0 && s_along > e_along)) fail(m, "'reduce' a force that is not larger than the experts' that way");
+      if (m.rule == "force_low" && !(s_along < e_along)) fail(m, "'higher' while the student's force is not below the experts'");
+      if (m.rule == "force_high" && !(s_along > e_along)) fail(m, "'lower' while the student's force is not above the experts'");
+      if (m.rule == "force_opposite" && !(s_along > 0 && e_along < 0)) fail(m, "'the other way' while the forces agree");
+      if (m.rule == "force_opposite" && !experts_press_any(e, R)) fail(m, "'the other way' while the experts hardly press");
+      if (m.rule == "force_none" && !(s_along < R.min_force_N && s_along >= -R.min_force_N))
+        fail(m, "'almost nothing' for a real force");
+      const bool experts_press = std::abs(ev) >= R.min_force_N;
+      if ((m.rule == "force_low" || m.rule == "force_opposite" || ((m.rule == "force_high" || m.rule == "force_ok") && experts_press)) &&
+          !(std::abs(ev) > 0 && (m.rule == "force_opposite" ? e_along < 0 : e_along > 0)))
+        fail(m, "the main direction is not the experts'");
+    }
+    if (m.rule == "force_low") {
+      for (const char* w : {"up to "})
+        for (std::size_t p = m.text.find(w); p != std::string::npos; p = m.text.find(w, p + 1))
+          if (std::strtod(m.text.c_str() + p + std::strlen(w), nullptr) > excessive_force_N + 0.005)
+            fail(m, "asks for more than the exercise's excessive force");
+    }
+  }
+  // Rule 4: no contradictions within a step; rule 6: ask where the main force is right.
+  for (const auto& [step, v] : by_step) {
+    if (step < 0 || step >= static_cast<int>(std::min(st.steps.size(), ref.steps.size()))) continue;
+    std::map<int, int> per_axis;
+    bool ok = false, critic = false, main_msg = false;
+    for (const FeedbackMessage* m : v) {
+      if (m->axis >= 0 && m->rule != "force_ok") ++per_axis[m->axis];
+      if (m->rule == "force_ok") ok = true;
+      if (m->rule.rfind("force_", 0) == 0 && m->rule != "force_ok") main_msg = true;
+      if (m->rule == "off_axis" || m->rule == "position" || m->rule == "angle" || m->rule == "drilling_time" ||
+          (m->rule.rfind("force_", 0) == 0 && m->rule != "force_ok"))
+        critic = true;
+    }
+    for (const auto& [a, n] : per_axis)
+      if (n > 1) fail(*v.front(), "two force messages about the " + std::string(1, static_cast<char>('X' + a)) + " axis in one step");
+    if (ok && critic) fail(*v.front(), "'well done' beside a correction in the same step");
+    const StepMetrics& s = st.steps[static_cast<std::size_t>(step)];
+    const StepReference& e = ref.steps[static_cast<std::size_t>(step)];
+    int main = 0;
+    for (int a = 1; a < 3; ++a)
+      if (std::abs(e.force_mean(a)) > std::abs(e.force_mean(main))) main = a;
+    const double sg = e.force_mean(main) >= 0 ? 1 : -1;
+    const bool main_ok = std::abs(s.force.mean(main) * sg - std::abs(e.force_mean(main))) <=
+                         R.band_sd * std::max(e.force_sd(main), R.min_sd_N);
+    if (main_ok && main_msg) fail(*v.front(), "a correction of a main force that is within the experts' band");
+    if (main_ok)
+      for (const FeedbackMessage* m : v)
+        if ((m->rule == "off_axis" || m->rule == "position" || m->rule == "angle") && m->kind != "ask")
+          fail(*m, "instructs where the main force was right (the seed asks)");
+  }
+  return bad;
 }
 
 }  // namespace dentar::training

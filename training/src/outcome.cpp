@@ -31,6 +31,43 @@ int band(double v, double t3, double t2, double t1) {  // higher is better
 
 }  // namespace
 
+std::string OutcomeScores::headline() const {
+  return fmt(points, 1) + " / " + fmt(max_points, 0) + " points" + (complete ? "" : ", INCOMPLETE");
+}
+
+namespace {
+std::vector<double> ranks(const std::vector<double>& v) {
+  std::vector<std::size_t> idx(v.size());
+  for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+  std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return v[a] < v[b]; });
+  std::vector<double> r(v.size());
+  for (std::size_t i = 0; i < idx.size();) {
+    std::size_t j = i;
+    while (j + 1 < idx.size() && v[idx[j + 1]] == v[idx[i]]) ++j;
+    for (std::size_t k = i; k <= j; ++k) r[idx[k]] = 0.5 * static_cast<double>(i + j) + 1.0;
+    i = j + 1;
+  }
+  return r;
+}
+}  // namespace
+
+double spearman_rho(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != b.size() || a.size() < 2) return std::nan("");
+  const std::vector<double> ra = ranks(a), rb = ranks(b);
+  const double n = static_cast<double>(a.size());
+  double ma = 0, mb = 0;
+  for (std::size_t i = 0; i < ra.size(); ++i) ma += ra[i], mb += rb[i];
+  ma /= n;
+  mb /= n;
+  double sab = 0, saa = 0, sbb = 0;
+  for (std::size_t i = 0; i < ra.size(); ++i) {
+    sab += (ra[i] - ma) * (rb[i] - mb);
+    saa += (ra[i] - ma) * (ra[i] - ma);
+    sbb += (rb[i] - mb) * (rb[i] - mb);
+  }
+  return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : std::nan("");
+}
+
 double line_of_sight(const volume::VoxelVolume& cut, const Eigen::Vector3d& from, double top_z,
                      double cone_deg) {
   if (!open_at(cut, from)) return 0.0;
@@ -197,7 +234,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
             const int a = i + n[0], b = j + n[1], c = k + n[2];
             const std::uint8_t nd = start.density(a, b, c);
             const auto nm = start.material(a, b, c);
-            if (nm == volume::Material::kPulp && nd > 0) o.pulp_exposed = true;
+            if (nm == volume::Material::kPulp && nd > 0) o.pulp_wall_opened = true;
             if (nd == 0) exterior = true;
           }
           if (exterior && !(bits & m.entry_bits)) {
@@ -220,6 +257,17 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       s.max_points = R.points;
       if (R.points > 0 && reg_vol[r] > 0)
         s.points = R.points * std::clamp(reg_rem[r] / reg_vol[r] - reg_over[r] / reg_vol[r], 0.0, 1.0);
+      if (reg_rem[r] <= 0 && reg_over[r] <= 0) {
+        s.why = "nothing of this region was removed.";
+      } else {
+        const double over_pct = reg_vol[r] > 0 ? 100.0 * reg_over[r] / reg_vol[r] : 0;
+        s.why = fmt(s.coverage_pct, 0) + " % of the region removed" +
+                (reg_over[r] > 0 ? ", less " + fmt(over_pct, 0) + " % for " + fmt(reg_over[r]) +
+                                       " mm3 cut too far beyond it (within " + fmt(R.zone_mm, 1) + " mm)"
+                                 : ", nothing cut beyond it") +
+                ": " + fmt(R.points, 0) + " x " + fmt(std::clamp(s.coverage_pct - over_pct, 0.0, 100.0), 0) + " % = " +
+                fmt(s.points, 1) + " points.";
+      }
       o.regions.push_back(s);
     } else if (R.role == RegionRole::kForbidden) {
       o.forbidden_by_region.emplace_back(R.name, reg_rem[r]);
@@ -227,6 +275,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
   }
   o.target_coverage_pct = o.target_mm3 > 0 ? 100.0 * o.target_removed_mm3 / o.target_mm3 : 0;
 
+  std::vector<double> sight;  // access opening: clear fraction per orifice
   if (ex.outcome == OutcomeKind::kAccessOpening && ex.access) {
     const AccessGeometry& a = *ex.access;
     // 1. Orifice visibility.
@@ -234,12 +283,16 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     std::string det;
     for (const auto& f : a.orifices) {
       const double v = line_of_sight(cut, f.position_m, a.opening_z_m, a.sight_cone_deg);
+      sight.push_back(v);
       vis += v;
-      det += f.name + " " + fmt(100 * v, 0) + "% ";
+      det += (det.empty() ? "" : ", ") + f.name + " " + fmt(100 * v, 0) + " %";
     }
     vis /= static_cast<double>(a.orifices.size());
-    o.criteria.push_back({"canal orifices visible", band(vis, 0.9, 0.6, 0.3), 100 * vis, "% of sight lines",
-                          "clear sight lines from each orifice to the opening: " + det});
+    const int vs = band(vis, 0.9, 0.6, 0.3);
+    o.criteria.push_back({"canal orifices visible", vs, 100 * vis, "% of sight lines",
+                          std::to_string(vs) + " of 3: " + fmt(100 * vis, 0) +
+                              " % of the sight lines from the canal orifices to the opening are clear (" + det +
+                              "); 3 needs 90 %, 2 needs 60 %, 1 needs 30 %."});
     // 2-5. Axial walls.
     const struct { const char* name; Eigen::Vector3d dir; } walls[4] = {
         {"mesial wall", {-1, 0, 0}}, {"distal wall", {1, 0, 0}}, {"buccal wall", {0, -1, 0}}, {"palatal wall", {0, 1, 0}}};
@@ -253,23 +306,28 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       const double covered = p.z_m.size() >= 2 ? p.z_m.back() - p.z_m.front() : 0;
       if (covered < needed) {
         c.score = 0;
-        c.detail = "wall not formed: the cavity spans " + fmt(covered * 1e3) + " mm of the " +
-                   fmt((a.opening_z_m - a.walls_from_z_m) * 1e3) + " mm the walls span";
+        c.value = 0;
+        c.detail = "0 of 3: the wall is not formed: the cavity reaches it over " + fmt(covered * 1e3) + " mm of the " +
+                   fmt((a.opening_z_m - a.walls_from_z_m) * 1e3) + " mm it should span (at least half is needed).";
       } else {
         int s = 3;
         std::string why;
-        if (p.divergence_deg < -10) { s -= 2; why += "strong undercut; "; }
-        else if (p.divergence_deg < -2) { s -= 1; why += "undercut (converges occlusally); "; }
-        if (p.divergence_deg > 25) { s -= 1; why += "over-flared; "; }
-        if (p.rms_mm > 0.3) { s -= 2; why += "rough (RMS " + fmt(p.rms_mm) + " mm); "; }
-        else if (p.rms_mm > 0.15) { s -= 1; why += "uneven (RMS " + fmt(p.rms_mm) + " mm); "; }
+        if (p.divergence_deg < -10) { s -= 2; why += "a strong undercut (-2); "; }
+        else if (p.divergence_deg < -2) { s -= 1; why += "an undercut, converging occlusally (-1); "; }
+        if (p.divergence_deg > 25) { s -= 1; why += "over-flared beyond 25 deg (-1); "; }
+        if (p.rms_mm > 0.3) { s -= 2; why += "rough, RMS above 0.3 mm (-2); "; }
+        else if (p.rms_mm > 0.15) { s -= 1; why += "uneven, RMS above 0.15 mm (-1); "; }
         c.score = std::max(0, s);
-        c.detail = "divergence " + fmt(p.divergence_deg, 1) + " deg, smoothness RMS " + fmt(p.rms_mm) + " mm" +
-                   (why.empty() ? "" : ": " + why.substr(0, why.size() - 2));
+        c.detail = std::to_string(c.score) + " of 3: divergence " + fmt(p.divergence_deg, 1) + " deg, smoothness RMS " +
+                   fmt(p.rms_mm) + " mm: " +
+                   (why.empty() ? "straight and opening toward the occlusal surface." : why.substr(0, why.size() - 2) + ".");
       }
       o.criteria.push_back(c);
     }
     // 6. Floor integrity: material removed below the pulpal floor level.
+    // Judged only once the chamber is open (a clear sight line from an
+    // orifice): an intact floor under an untouched roof earns nothing.
+    const bool chamber_open = std::any_of(sight.begin(), sight.end(), [](double v) { return v > 0; });
     double below = 0;
     bool perf_below = false;
     const int kf = static_cast<int>(std::floor((a.floor_z_m - start.origin().z()) / start.spacing().z()));
@@ -295,15 +353,66 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     fl.name = "pulpal floor";
     fl.value = below;
     fl.unit = "mm3 removed below the floor";
-    fl.score = perf_below ? 0 : below < 0.05 ? 3 : below < 0.3 ? 2 : below < 1.0 ? 1 : 0;
-    fl.detail = perf_below ? "floor perforated" : fmt(below, 3) + " mm3 of dentin removed below the floor level";
+    if (perf_below) {
+      fl.score = 0;
+      fl.detail = "0 of 3: the floor is perforated.";
+    } else if (!chamber_open) {
+      fl.score = 0;
+      fl.detail = "0 of 3: the pulp chamber was not opened (no clear sight line from any orifice), so there is no "
+                  "floor to judge yet.";
+    } else {
+      fl.score = below < 0.05 ? 3 : below < 0.3 ? 2 : below < 1.0 ? 1 : 0;
+      fl.detail = std::to_string(fl.score) + " of 3: " + fmt(below, 3) +
+                  " mm3 of dentin removed below the floor level; 3 needs less than 0.05 mm3, 2 less than 0.3, 1 less "
+                  "than 1.0.";
+    }
     o.criteria.push_back(fl);
     o.max_points = 18;
-    for (const auto& c : o.criteria) o.points += c.score;
+    for (const auto& c : o.criteria) o.earned_points += c.score;
   } else {
     o.max_points = ex.max_points();
-    for (const auto& r : o.regions) o.points += r.points;
+    for (const auto& r : o.regions) o.earned_points += r.points;
   }
+  // Pulp exposure: the bur entered the pulp (pulp tissue removed). Opening
+  // the last dentin voxel over it without removing pulp is reported
+  // (pulp_wall_opened) but not charged: at 0.1-0.2 mm voxels that is a
+  // remaining dentin layer under one voxel, which the voxel grid cannot tell
+  // from an exposure (issue 25: it charged a generated expert's class I
+  // cavity all 10 points with 0.000 mm3 of pulp removed).
+  o.pulp_exposed = o.pulp_removed_mm3 > 0;
+  // Costs the exercise charges.
+  if (o.pulp_exposed) {
+    const double c = ex.pulp_exposure_points();
+    o.penalties.push_back(
+        {"pulp exposure", c,
+         c > 0 ? "the cut opened into the pulp (" + fmt(o.pulp_removed_mm3, 3) + " mm3 of pulp removed); this exercise "
+                     "charges " + fmt(c, 1) + " points for it."
+               : "the cut opened into the pulp, as this exercise requires (it charges nothing for it)."});
+  }
+  if (o.perforation) {
+    const double c = ex.perforation_points();
+    o.penalties.push_back({"perforation", c,
+                           "the cut opened the tooth to the outside away from the entry surface (" +
+                               fmt(o.perforation_mm3, 3) + " mm3); this exercise charges " + fmt(c, 1) + " points for it."});
+  }
+  double cost = 0;
+  for (const auto& p : o.penalties) cost += p.points;
+  o.points = std::max(0.0, o.earned_points - cost);
+  // Finished or not.
+  std::string missing;
+  if (o.target_coverage_pct < ex.complete_coverage_pct)
+    missing = fmt(o.target_coverage_pct, 0) + " % of the target was removed, a finished preparation removes at least " +
+              fmt(ex.complete_coverage_pct, 0) + " %";
+  if (ex.outcome == OutcomeKind::kAccessOpening && ex.access)
+    for (std::size_t i = 0; i < sight.size(); ++i)
+      if (sight[i] < ex.complete_orifice_sight) {
+        missing += std::string(missing.empty() ? "" : "; ") + "the " + ex.access->orifices[i].name +
+                   " orifice cannot be seen (" + fmt(100 * sight[i], 0) + " % of its sight lines clear, at least " +
+                   fmt(100 * ex.complete_orifice_sight, 0) + " % needed)";
+      }
+  o.complete = missing.empty();
+  o.completion = o.complete ? "finished: " + fmt(o.target_coverage_pct, 0) + " % of the target removed."
+                            : "incomplete: " + missing + ".";
   return o;
 }
 

@@ -282,6 +282,82 @@ Result<ExpertReference> generated_reference(const Exercise& ex, const ScoreOptio
 
 }  // namespace
 
+Result<std::vector<ComparisonRow>> generated_comparison(const Exercise& ex, const std::string& work_dir) {
+  const std::string cdir = reference_cache_dir();
+  // The scores depend on the exercise's costs and completeness rules too
+  // (bump kScoringVersion when the scoring itself changes).
+  constexpr int kScoringVersion = 1;
+  std::ostringstream sk;
+  sk << reference_key(ex, 2) << '_' << kScoringVersion << '_' << ex.pulp_exposure_points() << '_' << ex.perforation_points()
+     << '_' << ex.complete_coverage_pct << '_' << ex.complete_orifice_sight;
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a of the whole key: a file name
+  for (unsigned char c : sk.str()) h = (h ^ c) * 1099511628211ull;
+  char hx[20];
+  std::snprintf(hx, sizeof hx, "%016llx", static_cast<unsigned long long>(h));
+  const std::string cache = cdir.empty() ? std::string() : cdir + "/comparison_" + ex.name + "_" + hx + ".json";
+  auto from_json = [](const json& j) {
+    std::vector<ComparisonRow> v;
+    for (const auto& r : j.at("rows"))
+      v.push_back({r.at("label").get<std::string>(), r.at("points").get<double>(), r.at("max_points").get<double>(),
+                   r.at("coverage_pct").get<double>(), r.at("duration_s").get<double>(), r.at("drilling_s").get<double>(),
+                   r.at("complete").get<bool>(), r.at("completion").get<std::string>()});
+    return v;
+  };
+  if (!cache.empty() && fs::exists(cache)) {
+    std::ifstream f(cache);
+    const json j = json::parse(f, nullptr, false);
+    if (j.is_object() && j.contains("rows")) {
+      try {
+        return from_json(j);
+      } catch (const json::exception&) {
+        // a damaged cache is regenerated
+      }
+    }
+  }
+  CohortOptions co;
+  co.experts = 1;
+  co.novices = 1;
+  co.trials = 1;
+  co.separation = 1.0;
+  co.voxel_mm = 0.15;
+  co.seed = 25;
+  const std::string dir = work_dir + "/comparison_cohort";
+  auto trials = generate_cohort(ex, co, dir);
+  if (!trials) return Error{"comparison: " + trials.error()};
+  std::vector<ComparisonRow> rows;
+  for (const auto& t : *trials) {
+    auto log = haptics::read_session_log(t.session_path);
+    if (!log) return Error{log.error()};
+    auto setup = haptics::parse_session_header(log->header_json);
+    if (!setup) return Error{t.session_path + ": " + setup.error()};
+    auto start = make_tooth(setup->tooth_json);
+    if (!start) return Error{start.error()};
+    volume::VoxelVolume cut = start->clone();
+    if (auto rp = haptics::replay_session(*log, cut); !rp) return Error{t.session_path + ": replay: " + rp.error()};
+    auto masks = build_masks(ex, *start);
+    if (!masks) return Error{masks.error()};
+    auto oc = score_outcome(ex, *masks, *start, cut);
+    if (!oc) return Error{oc.error()};
+    auto tr = decode_session(*log, t.session_path);
+    if (!tr) return Error{tr.error()};
+    const ProcessMetrics pm = process_metrics(*tr, ex, segment_steps(*tr, ex, &*masks, &*start));
+    rows.push_back({t.label == "expert" ? "generated expert session" : "generated novice session", oc->points, oc->max_points,
+                    oc->target_coverage_pct, pm.duration_s, pm.drilling_s, oc->complete, oc->completion});
+  }
+  fs::remove_all(dir);
+  if (!cache.empty()) {
+    json j = {{"format", "dentar-score-comparison"}, {"version", 1}, {"exercise", ex.name}, {"rows", json::array()}};
+    for (const auto& r : rows)
+      j["rows"].push_back({{"label", r.label}, {"points", r.points}, {"max_points", r.max_points},
+                           {"coverage_pct", r.coverage_pct}, {"duration_s", r.duration_s}, {"drilling_s", r.drilling_s},
+                           {"complete", r.complete}, {"completion", r.completion}});
+    std::error_code ec;
+    fs::create_directories(cdir, ec);
+    if (!ec) (void)write_file_atomic(cache, j.dump(1) + "\n");
+  }
+  return rows;
+}
+
 std::string default_exercise_for(const std::string& tooth_json) {
   auto j = json::parse(tooth_json, nullptr, false);
   if (j.is_object() && j.value("kind", "") == "incisor") return "incisor_partial_crown";
@@ -291,7 +367,10 @@ std::string default_exercise_for(const std::string& tooth_json) {
 std::string ScoreSummary::summary_text() const {
   std::ostringstream s;
   s << "exercise: " << exercise_title << "\n";
-  s << "outcome: " << num(outcome.points, 1) << " / " << num(outcome.max_points, 0) << " points; removed "
+  s << "outcome: " << outcome.headline() << "\n  " << outcome.completion << "\n";
+  for (const auto& p : outcome.penalties)
+    if (p.points > 0) s << "  -" << num(p.points, 1) << " points, " << p.name << ": " << p.why << "\n";
+  s << "  removed "
     << num(outcome.removed_total_mm3) << " mm3, target coverage " << num(outcome.target_coverage_pct, 1)
     << " %, over-preparation " << num(outcome.overprep_mm3) << " mm3, forbidden " << num(outcome.forbidden_mm3) << " mm3"
     << (outcome.pulp_exposed ? ", pulp exposed" : "") << (outcome.perforation ? ", PERFORATION" : "") << "\n";
@@ -304,6 +383,15 @@ std::string ScoreSummary::summary_text() const {
     s << "\n";
   } else {
     s << "mirror use: unavailable (" << mirror.why << ")\n";
+  }
+  if (!comparison.empty()) {
+    s << "beside finished sessions of the same exercise:\n";
+    for (const auto& r : comparison)
+      s << "  " << r.label << " (" << num(r.duration_s, 0) << " s, drilling " << num(r.drilling_s, 0) << " s): "
+        << num(r.points, 1) << " / " << num(r.max_points, 0) << " points" << (r.complete ? ", " : ", INCOMPLETE: ")
+        << (r.completion.rfind("incomplete: ", 0) == 0 ? r.completion.substr(12) : r.completion) << "\n";
+  } else if (!comparison_warning.empty()) {
+    s << "comparison: " << comparison_warning << "\n";
   }
   if (verdict) s << "assessment: " << verdict->label << " (margin " << num(verdict->margin, 3) << ")\n";
   s << "feedback: " << feedback.size() << " messages\n";
@@ -406,6 +494,19 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
     sum.reference = *r;
   }
   sum.feedback = tutoring_feedback(sum.process, sum.reference, ex->excessive_force_N);
+  // The feedback checks itself (docs/feedback.md); a broken rule is reported, never hidden.
+  const std::vector<std::string> broken = feedback_violations(sum.process, sum.reference, ex->excessive_force_N, sum.feedback);
+  if (o.compare) {
+    auto cmp = generated_comparison(*ex, o.write_files ? out_dir : fs::temp_directory_path().string());
+    if (!cmp) {
+      sum.comparison_warning = cmp.error();
+    } else {
+      sum.comparison.push_back({"this session", sum.outcome.points, sum.outcome.max_points, sum.outcome.target_coverage_pct,
+                                sum.process.duration_s, sum.process.drilling_s, sum.outcome.complete,
+                                sum.outcome.completion});
+      for (const auto& r : *cmp) sum.comparison.push_back(r);
+    }
+  }
   if (!o.model.empty()) {
     std::ifstream f(o.model);
     if (!f) return Error{o.model + ": cannot open the skill model"};
@@ -432,12 +533,16 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   j["outcome"] = {{"points", oc.points}, {"max_points", oc.max_points}, {"removed_mm3", rem},
                   {"removed_total_mm3", oc.removed_total_mm3}, {"target_mm3", oc.target_mm3},
                   {"target_coverage_pct", oc.target_coverage_pct}, {"overprep_mm3", oc.overprep_mm3},
-                  {"forbidden_mm3", oc.forbidden_mm3}, {"pulp_exposed", oc.pulp_exposed},
-                  {"perforation", oc.perforation}, {"perforation_mm3", oc.perforation_mm3}};
+                  {"forbidden_mm3", oc.forbidden_mm3}, {"pulp_exposed", oc.pulp_exposed}, {"pulp_wall_opened", oc.pulp_wall_opened},
+                  {"perforation", oc.perforation}, {"perforation_mm3", oc.perforation_mm3},
+                  {"earned_points", oc.earned_points}, {"complete", oc.complete}, {"completion", oc.completion}};
+  j["outcome"]["penalties"] = json::array();
+  for (const auto& pe : oc.penalties)
+    j["outcome"]["penalties"].push_back({{"name", pe.name}, {"points", pe.points}, {"why", pe.why}});
   j["outcome"]["regions"] = json::array();
   for (const auto& r : oc.regions)
     j["outcome"]["regions"].push_back({{"name", r.name}, {"coverage_pct", r.coverage_pct}, {"overprep_mm3", r.overprep_mm3},
-                                       {"points", r.points}, {"max_points", r.max_points}});
+                                       {"points", r.points}, {"max_points", r.max_points}, {"why", r.why}});
   j["outcome"]["criteria"] = json::array();
   for (const auto& c : oc.criteria)
     j["outcome"]["criteria"].push_back({{"name", c.name}, {"score", c.score}, {"value", c.value}, {"unit", c.unit}, {"detail", c.detail}});
@@ -494,8 +599,19 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
     }
     j["steps"].push_back(sj);
   }
+  if (!broken.empty()) j["feedback_rule_violations"] = broken;
   j["feedback"] = json::array();
-  for (const auto& f : sum.feedback) j["feedback"].push_back({{"step", f.step}, {"kind", f.kind}, {"text", f.text}});
+  for (const auto& f : sum.feedback)
+    j["feedback"].push_back({{"step", f.step}, {"kind", f.kind}, {"rule", f.rule}, {"text", f.text}});
+  if (!sum.comparison.empty()) {
+    j["comparison"] = json::array();
+    for (const auto& r : sum.comparison)
+      j["comparison"].push_back({{"label", r.label}, {"points", r.points}, {"max_points", r.max_points},
+                                 {"coverage_pct", r.coverage_pct}, {"duration_s", r.duration_s}, {"drilling_s", r.drilling_s},
+                                 {"complete", r.complete}, {"completion", r.completion}});
+  } else if (!sum.comparison_warning.empty()) {
+    j["comparison_warning"] = sum.comparison_warning;
+  }
   if (sum.verdict) j["assessment"] = {{"label", sum.verdict->label}, {"margin", sum.verdict->margin}, {"scores", sum.verdict->score}};
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   j["scoring_seconds"] = sum.seconds;
@@ -511,7 +627,27 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
        ".well_done{color:#2a7a2a}.ask{color:#1f5fa0}.caution{color:#b03020}</style></head><body>";
   h << "<h1>Session report</h1><p>" << esc(sum.exercise_title) << "<br>session: <code>" << esc(log_path) << "</code></p>";
   if (!sum.log_warning.empty()) h << "<p class='caution'>Log damaged: " << esc(sum.log_warning) << "</p>";
-  h << "<p class='big'>" << num(oc.points, 1) << " / " << num(oc.max_points, 0) << " points</p>";
+  h << "<p class='big'>" << num(oc.points, 1) << " / " << num(oc.max_points, 0) << " points"
+    << (oc.complete ? "" : " <span class='caution'>INCOMPLETE</span>") << "</p><p" << (oc.complete ? "" : " class='caution'")
+    << ">" << esc(oc.completion) << (oc.complete ? "" : " The points are what the unfinished preparation earned so far; "
+                                                      "they do not rank it against finished ones.")
+    << "</p>";
+  if (!oc.penalties.empty()) {
+    h << "<table><tr><th>cost</th><th>points</th><th>why</th></tr>";
+    for (const auto& pe : oc.penalties)
+      h << "<tr><td>" << esc(pe.name) << "</td><td>-" << num(pe.points, 1) << "</td><td>" << esc(pe.why) << "</td></tr>";
+    h << "</table><p>Earned " << num(oc.earned_points, 1) << " points before these costs.</p>";
+  }
+  if (!sum.comparison.empty()) {
+    h << "<h2>Beside finished sessions of the same exercise</h2><table><tr><th>session</th><th>time</th><th>drilling</th>"
+         "<th>target removed</th><th>points</th><th>finished?</th></tr>";
+    for (const auto& r : sum.comparison)
+      h << "<tr><td>" << esc(r.label) << "</td><td>" << num(r.duration_s, 0) << " s</td><td>" << num(r.drilling_s, 0)
+        << " s</td><td>" << num(r.coverage_pct, 0) << " %</td><td>" << num(r.points, 1) << " / " << num(r.max_points, 0)
+        << "</td><td" << (r.complete ? ">" : " class='caution'>") << esc(r.completion) << "</td></tr>";
+    h << "</table><p>The expert and novice sessions are generated (cohort generator, skill separation 0 and 1, 0.15 mm "
+         "voxels) and scored the same way.</p>";
+  }
   if (sum.verdict) h << "<p>Skill assessment: <b>" << esc(sum.verdict->label) << "</b> (score margin " << num(sum.verdict->margin, 3) << ")</p>";
   h << "<h2>Outcome</h2><table><tr><th>measure</th><th>value</th></tr>";
   for (int m = 1; m < volume::kNumMaterials; ++m)
@@ -524,14 +660,15 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
     << "</td></tr><tr><td>perforation</td><td>" << (oc.perforation ? "yes (" + num(oc.perforation_mm3) + " mm&sup3;)" : "no")
     << "</td></tr></table>";
   if (!oc.criteria.empty()) {
-    h << "<table><tr><th>criterion</th><th>score (0-3)</th><th>how</th></tr>";
+    h << "<table><tr><th>criterion</th><th>score (0-3)</th><th>why</th></tr>";
     for (const auto& c : oc.criteria) h << "<tr><td>" << esc(c.name) << "</td><td>" << c.score << "</td><td>" << esc(c.detail) << "</td></tr>";
     h << "</table>";
   } else {
-    h << "<table><tr><th>region</th><th>coverage</th><th>over-preparation nearby</th><th>points</th></tr>";
+    h << "<table><tr><th>region</th><th>coverage</th><th>over-preparation nearby</th><th>points</th><th>why</th></tr>";
     for (const auto& r : oc.regions)
       h << "<tr><td>" << esc(r.name) << "</td><td>" << num(r.coverage_pct, 1) << " %</td><td>" << num(r.overprep_mm3)
-        << " mm&sup3;</td><td>" << num(r.points, 1) << " / " << num(r.max_points, 0) << "</td></tr>";
+        << " mm&sup3;</td><td>" << num(r.points, 1) << " / " << num(r.max_points, 0) << "</td><td>" << esc(r.why)
+        << "</td></tr>";
     h << "</table>";
   }
   h << "<h3>Target map against the cut</h3>"

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace dentar::training {
 namespace {
@@ -222,10 +224,13 @@ TEST(Outcome, OrificeLineOfSightAndAccessCriteria) {
   ASSERT_TRUE(og.ok());
   EXPECT_EQ(og->criteria[5].score, 0) << og->criteria[5].detail;  // pi * 1 * 1.5 = 4.7 mm3 below
   EXPECT_NEAR(og->criteria[5].value, M_PI * 1.6, 0.4);  // 16 voxel layers (z 1.5..3.0 mm)
-  // Nothing cut: no orifice visible, no wall, intact floor.
+  // Nothing cut: no orifice visible, no wall, and no floor to judge (it
+  // used to earn the floor's 3 points for an untouched tooth).
   auto on = score_outcome(ex, *m, start, start);
   ASSERT_TRUE(on.ok());
-  EXPECT_EQ(on->points, 3);  // only the floor
+  EXPECT_EQ(on->points, 0);
+  EXPECT_FALSE(on->complete);
+  EXPECT_NE(on->criteria[5].detail.find("not opened"), std::string::npos) << on->criteria[5].detail;
 }
 
 TEST(Exercise, OverlappingTargetAndForbiddenIsAnErrorNamingBoth) {
@@ -321,6 +326,213 @@ TEST(Outcome, IncisorGradedRegionsOnTheProceduralTooth) {
   }
   EXPECT_NEAR(points_of(*od, "incisal"), 4.0, 0.05) << "a labial over-reduction is not the incisal region's";
   EXPECT_NEAR(points_of(*od, "marginal"), 4.0, 0.05) << "a labial over-reduction above the margin is not the margin's";
+}
+
+}  // namespace
+}  // namespace dentar::training
+
+namespace dentar::training {
+namespace {
+
+// Issue 25: every case of a criterion on hand-made volumes: untouched,
+// complete, over-prepared, exposed, perforated; each with its points, its
+// completeness and a sentence saying why.
+struct Cases {
+  VoxelVolume start = block();
+  Exercise ex = well_exercise();
+  RegionMasks m;
+  Cases() {
+    // A pulp sphere (r 0.8 mm) just under the well's floor at (5, 5, 5).
+    for (int k = 0; k < 100; ++k)
+      for (int j = 0; j < 100; ++j)
+        for (int i = 0; i < 100; ++i)
+          if ((start.voxel_center(i, j, k) * 1e3 - Eigen::Vector3d(5, 5, 5)).norm() <= 0.8)
+            start.set(i, j, k, 70, Material::kPulp);
+    ex.regions.erase(ex.regions.begin() + 1);  // the forbidden slab would hold the pulp
+    ex.pulp_exposure_cost = 2.5;
+    ex.perforation_cost = 1.5;
+    auto mm = build_masks(ex, start);
+    EXPECT_TRUE(mm.ok()) << mm.error();
+    if (mm.ok()) m = *mm;
+  }
+  OutcomeScores score(const VoxelVolume& cut) const {
+    auto o = score_outcome(ex, m, start, cut);
+    EXPECT_TRUE(o.ok()) << o.error();
+    return o.ok() ? *o : OutcomeScores{};
+  }
+  VoxelVolume well(double r_mm, double z0_mm) const {
+    VoxelVolume c = start.clone();
+    carve(c, [&](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= r_mm && p.z() >= z0_mm; });
+    return c;
+  }
+};
+
+bool has(const std::string& s, const std::string& needle) { return s.find(needle) != std::string::npos; }
+
+TEST(OutcomeCases, GradedRegionUntouchedScoresZeroAndIsIncomplete) {
+  const Cases c;
+  const OutcomeScores o = c.score(c.start);
+  EXPECT_EQ(o.points, 0.0);
+  EXPECT_EQ(o.earned_points, 0.0);
+  EXPECT_FALSE(o.complete);
+  EXPECT_TRUE(has(o.completion, "incomplete")) << o.completion;
+  EXPECT_TRUE(has(o.headline(), "INCOMPLETE")) << o.headline();
+  EXPECT_TRUE(o.penalties.empty());
+  ASSERT_EQ(o.regions.size(), 1u);
+  EXPECT_TRUE(has(o.regions[0].why, "nothing")) << o.regions[0].why;
+}
+
+TEST(OutcomeCases, GradedRegionCompleteHalfAndOverPrepared) {
+  const Cases c;
+  const OutcomeScores full = c.score(c.well(2.0, 6.0));
+  EXPECT_NEAR(full.points, 4.0, 0.02);
+  EXPECT_TRUE(full.complete) << full.completion;
+  EXPECT_TRUE(full.penalties.empty());
+  EXPECT_FALSE(has(full.headline(), "INCOMPLETE"));
+  EXPECT_TRUE(has(full.regions[0].why, "100 % of the region removed")) << full.regions[0].why;
+  // Half the depth: the 2 points it earned, never silently: marked incomplete.
+  const OutcomeScores half = c.score(c.well(2.0, 8.0));
+  EXPECT_NEAR(half.points, 2.0, 0.15);
+  EXPECT_FALSE(half.complete);
+  EXPECT_TRUE(has(half.completion, "at least 80 %")) << half.completion;
+  // 0.5 mm too wide: complete, and the excess costs points with a reason.
+  const OutcomeScores wide = c.score(c.well(2.5, 6.0));
+  EXPECT_TRUE(wide.complete);
+  EXPECT_LT(wide.points, 4.0 * 0.6);
+  EXPECT_GT(wide.points, 0.0);
+  EXPECT_TRUE(has(wide.regions[0].why, "cut too far beyond it")) << wide.regions[0].why;
+}
+
+TEST(OutcomeCases, PulpExposureAndPerforationCostWhatTheExerciseSays) {
+  Cases c;
+  // Exposed: the well taken 0.6 mm into the pulp sphere's top (z 5.8 mm).
+  const OutcomeScores exp = c.score(c.well(2.0, 5.5));
+  ASSERT_TRUE(exp.pulp_exposed);
+  EXPECT_FALSE(exp.perforation);
+  ASSERT_EQ(exp.penalties.size(), 1u);
+  EXPECT_EQ(exp.penalties[0].name, "pulp exposure");
+  EXPECT_DOUBLE_EQ(exp.penalties[0].points, 2.5);
+  EXPECT_TRUE(has(exp.penalties[0].why, "2.5 points")) << exp.penalties[0].why;
+  EXPECT_NEAR(exp.points, exp.earned_points - 2.5, 1e-9);
+  // Perforated: a side tunnel out through the x = 10 mm face.
+  VoxelVolume side = c.well(2.0, 6.0);
+  carve(side, [](const Eigen::Vector3d& p) { return p.x() >= 5 && std::hypot(p.y() - 5, p.z() - 7) <= 0.5; });
+  const OutcomeScores per = c.score(side);
+  ASSERT_TRUE(per.perforation);
+  ASSERT_EQ(per.penalties.size(), 1u);
+  EXPECT_EQ(per.penalties[0].name, "perforation");
+  EXPECT_NEAR(per.points, std::max(0.0, per.earned_points - 1.5), 1e-9);
+  // An exercise that names no cost charges all its points: the total is 0.
+  c.ex.pulp_exposure_cost = -1;
+  const OutcomeScores all = c.score(c.well(2.0, 5.5));
+  EXPECT_EQ(all.points, 0.0);
+  EXPECT_DOUBLE_EQ(all.penalties[0].points, 4.0);
+}
+
+// The access opening's six criteria, same cases.
+struct AccessCase {
+  VoxelVolume start = block();
+  Exercise ex;
+  RegionMasks m;
+  AccessCase() {
+    // A pulp chamber (box 3.6..6.4 x 3.6..6.4 x 3.1..4 mm) under the access.
+    for (int k = 0; k < 100; ++k)
+      for (int j = 0; j < 100; ++j)
+        for (int i = 0; i < 100; ++i) {
+          const Eigen::Vector3d p = start.voxel_center(i, j, k) * 1e3;
+          if (std::abs(p.x() - 5) <= 1.4 && std::abs(p.y() - 5) <= 1.4 && p.z() >= 3.1 && p.z() <= 4.0)
+            start.set(i, j, k, 70, Material::kPulp);
+        }
+    ex.source = "access.json";
+    ex.outcome = OutcomeKind::kAccessOpening;
+    ex.regions = {{"access", RegionRole::kTarget, {cylinder({5, 5, 3}, {5, 5, 11}, 2.5)}, 0, 1},
+                  {"top", RegionRole::kEntry, {box({-1, -1, 9.85}, {11, 11, 11})}, 0, 1}};
+    AccessGeometry a;
+    a.orifices = {{"A", Eigen::Vector3d(4e-3, 5e-3, 3.2e-3)}, {"B", Eigen::Vector3d(6e-3, 5e-3, 3.2e-3)}};
+    a.axis_point_m = Eigen::Vector3d(5e-3, 5e-3, 0);
+    a.opening_z_m = 9.5e-3;
+    a.floor_z_m = 3.0e-3;
+    a.walls_from_z_m = 3.0e-3;
+    ex.access = a;
+    ex.pulp_exposure_cost = 0;  // an access opening unroofs the chamber: exposure is the aim
+    ex.perforation_cost = 9;
+    ex.complete_coverage_pct = 60;
+    auto mm = build_masks(ex, start);
+    EXPECT_TRUE(mm.ok()) << mm.error();
+    if (mm.ok()) m = *mm;
+  }
+  OutcomeScores score(const VoxelVolume& cut) const {
+    auto o = score_outcome(ex, m, start, cut);
+    EXPECT_TRUE(o.ok()) << o.error();
+    return o.ok() ? *o : OutcomeScores{};
+  }
+  VoxelVolume ideal() const {
+    VoxelVolume c = start.clone();
+    carve(c, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.5 && p.z() >= 3.05; });
+    return c;
+  }
+};
+
+TEST(OutcomeCases, AccessOpeningUntouchedCompleteOverPreparedExposedPerforated) {
+  const AccessCase c;
+  // Untouched: 0 of 18 on every criterion, incomplete.
+  const OutcomeScores un = c.score(c.start);
+  EXPECT_EQ(un.points, 0.0);
+  EXPECT_FALSE(un.complete);
+  for (const auto& k : un.criteria) {
+    EXPECT_EQ(k.score, 0) << k.name;
+    EXPECT_TRUE(has(k.detail, "0 of 3")) << k.name << ": " << k.detail;
+  }
+  // Complete (the chamber unroofed: the pulp is exposed, which costs 0 here,
+  // said in a sentence).
+  const OutcomeScores id = c.score(c.ideal());
+  EXPECT_EQ(id.points, 18.0);
+  EXPECT_TRUE(id.complete) << id.completion;
+  ASSERT_TRUE(id.pulp_exposed);
+  ASSERT_EQ(id.penalties.size(), 1u);
+  EXPECT_EQ(id.penalties[0].points, 0.0);
+  EXPECT_TRUE(has(id.penalties[0].why, "as this exercise requires")) << id.penalties[0].why;
+  for (const auto& k : id.criteria) EXPECT_TRUE(has(k.detail, "3 of 3")) << k.name << ": " << k.detail;
+  // Roof only (2 mm deep): walls not formed, orifices hidden: incomplete, few points.
+  VoxelVolume roof = c.start.clone();
+  carve(roof, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.5 && p.z() >= 8.0; });
+  const OutcomeScores ro = c.score(roof);
+  EXPECT_FALSE(ro.complete);
+  EXPECT_TRUE(has(ro.completion, "orifice cannot be seen")) << ro.completion;
+  EXPECT_EQ(ro.criteria[5].score, 0) << ro.criteria[5].detail;
+  // Over-prepared floor: gouged 1.5 mm below it.
+  VoxelVolume gouge = c.ideal();
+  carve(gouge, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 1.0 && p.z() >= 1.5; });
+  const OutcomeScores go = c.score(gouge);
+  EXPECT_EQ(go.criteria[5].score, 0);
+  EXPECT_TRUE(has(go.criteria[5].detail, "below the floor level")) << go.criteria[5].detail;
+  EXPECT_LE(go.points, 15.0);
+  // Perforated: through the floor and out of the bottom face.
+  VoxelVolume through = c.ideal();
+  carve(through, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.5; });
+  const OutcomeScores pe = c.score(through);
+  ASSERT_TRUE(pe.perforation);
+  EXPECT_EQ(pe.criteria[5].score, 0);
+  EXPECT_TRUE(has(pe.criteria[5].detail, "perforated")) << pe.criteria[5].detail;
+  bool charged = false;
+  for (const auto& p : pe.penalties) charged |= p.name == "perforation" && p.points == 9.0;
+  EXPECT_TRUE(charged);
+  EXPECT_NEAR(pe.points, std::max(0.0, pe.earned_points - 9.0), 1e-9);
+}
+
+}  // namespace
+}  // namespace dentar::training
+
+namespace dentar::training {
+namespace {
+
+TEST(Outcome, SpearmanRankCorrelationWithTies) {
+  EXPECT_NEAR(spearman_rho({1, 2, 3, 4}, {10, 20, 30, 40}), 1.0, 1e-12);
+  EXPECT_NEAR(spearman_rho({1, 2, 3, 4}, {4, 3, 2, 1}), -1.0, 1e-12);
+  // Ties take their mean rank: x ranks (1, 2.5, 2.5, 4), y ranks (1, 2, 3, 4).
+  EXPECT_NEAR(spearman_rho({1, 2, 2, 3}, {1, 2, 3, 4}), 4.5 / std::sqrt(4.5 * 5.0), 1e-12);
+  EXPECT_TRUE(std::isnan(spearman_rho({1, 1, 1}, {1, 2, 3})));
+  EXPECT_TRUE(std::isnan(spearman_rho({1}, {1})));
 }
 
 }  // namespace

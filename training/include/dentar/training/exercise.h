@@ -93,9 +93,23 @@ struct Exercise {
   std::vector<Region> regions;
   OutcomeKind outcome = OutcomeKind::kGradedRegions;
   std::optional<AccessGeometry> access;
+  // What the exercise charges (outcome fields "pulp_exposure_points",
+  // "perforation_points"; points subtracted from the total, which never
+  // goes below 0). Negative = all the exercise's points (the default: an
+  // unnamed cost is the worst one).
+  double pulp_exposure_cost = -1;
+  double perforation_cost = -1;
+  // A finished preparation removes at least this % of the target (outcome
+  // field "complete_coverage_pct"); below it the score is marked incomplete.
+  double complete_coverage_pct = 80;
+  // Access opening: every orifice must have at least this fraction of clear
+  // sight lines for the opening to count as finished.
+  double complete_orifice_sight = 0.3;
 
   const Region* region(const std::string& n) const;
   double max_points() const;  // 18 for an access opening, sum of points otherwise
+  double pulp_exposure_points() const { return pulp_exposure_cost < 0 ? max_points() : pulp_exposure_cost; }
+  double perforation_points() const { return perforation_cost < 0 ? max_points() : perforation_cost; }
 };
 
 // Parses an exercise; every error names the file (`name`) and the field.

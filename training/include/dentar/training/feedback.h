@@ -30,6 +30,7 @@ struct StepReference {
 };
 struct ExpertReference {
   std::string exercise;
+  int sessions = 0;  // expert sessions behind the whole-session statistics
   std::vector<StepReference> steps;
   // Whole-session process metrics: mean and SD.
   double duration_mean_s = 0, duration_sd_s = 0, path_mean_mm = 0, path_sd_mm = 0;
@@ -41,6 +42,8 @@ Result<ExpertReference> reference_from_json(const std::string& text, const std::
 
 struct FeedbackRules {
   double min_frames = 10;       // a step needs this many drilling frames in contact to be judged
+  int min_ref_sessions = 3;     // an expert mean and SD need this many expert sessions to be used
+  double min_force_N = 0.05;    // a force below this is "almost none": no multiplier is given for it
   double band_sd = 1.0;         // "well done" within this many SDs
   double min_sd_N = 0.05;       // SD floor (N) so a very consistent expert set is not over-strict
   double max_multiplier = 3.0;  // never ask for more than this factor
@@ -59,12 +62,31 @@ struct FeedbackMessage {
   std::string step_name;
   std::string kind;  // "well_done", "instruct", "ask", "caution"
   std::string text;
+  // Which rule spoke (docs/feedback.md): force_low, force_none, force_opposite,
+  // force_high, force_ok, off_axis, position, angle, drilling_time, no_contact,
+  // mirror_use, mirror_ok, no_sight, excessive_force, path.
+  std::string rule;
+  // Force rules: the tooth axis (0 x, 1 y, 2 z) and the direction (+1/-1)
+  // the text names; axis -1 when the message names no force direction.
+  int axis = -1;
+  int sign = 0;
 };
 
 // excessive_force_N caps "press harder" advice: the recommended force never
 // exceeds it (more force could damage the tooth).
 std::vector<FeedbackMessage> tutoring_feedback(const ProcessMetrics& student, const ExpertReference& ref,
                                                double excessive_force_N, const FeedbackRules& rules = {});
+
+// The documented rules every message set must keep (docs/feedback.md),
+// checked against the statistics it was made from: multipliers finite and
+// >= 1.1, no limit of 0 N, no negative number (directions carry the sign)
+// and direction words that agree with the student's and the experts'
+// forces, no two messages that contradict each other in a step, nothing
+// said from too few samples, the seed's "ask" where the main force is
+// right. Empty when all hold; else one line per broken rule.
+std::vector<std::string> feedback_violations(const ProcessMetrics& student, const ExpertReference& ref,
+                                             double excessive_force_N, const std::vector<FeedbackMessage>& messages,
+                                             const FeedbackRules& rules = {});
 
 // Names of the tooth axes as the feedback uses them ("minus Z (long axis, apical)").
 std::string axis_direction_name(int axis, double sign);

@@ -17,6 +17,7 @@ struct RegionScore {
   double coverage_pct = 0;   // 100 * removed / volume
   double overprep_mm3 = 0;   // removed in its zone (region grown by zone_mm) outside every target
   double points = 0, max_points = 0;
+  std::string why;  // one sentence: how the points were reached (report)
 };
 
 // One of the six access-opening criteria, 0..3.
@@ -28,6 +29,14 @@ struct Criterion {
   std::string detail;  // how the score was reached, for the report
 };
 
+// A cost the exercise charges (pulp exposure, perforation): subtracted
+// from the criteria's or regions' sum; the total never goes below 0.
+struct Penalty {
+  std::string name;
+  double points = 0;  // > 0: subtracted
+  std::string why;
+};
+
 struct OutcomeScores {
   std::array<double, volume::kMaxMaterials> removed_mm3{};  // per material of the starting voxel
   double removed_total_mm3 = 0;
@@ -35,19 +44,36 @@ struct OutcomeScores {
   double overprep_mm3 = 0;   // removed outside every target region
   double forbidden_mm3 = 0;  // removed inside forbidden regions
   std::vector<std::pair<std::string, double>> forbidden_by_region;  // name, mm3
-  bool pulp_exposed = false;     // a pulp voxel borders a voxel the cut opened
+  bool pulp_exposed = false;     // the bur entered the pulp: pulp tissue was removed (pulp_removed_mm3 > 0)
+  bool pulp_wall_opened = false; // a pulp voxel borders a voxel the cut opened (reported, not charged)
   double pulp_removed_mm3 = 0;
   bool perforation = false;      // the cut opened to the outside away from every entry region
   double perforation_mm3 = 0;    // opened voxels that border outside air outside entry regions
   std::vector<RegionScore> regions;  // every target region
   std::vector<Criterion> criteria;   // access opening: the six criteria
-  double points = 0, max_points = 0;
+  std::vector<Penalty> penalties;    // every cost charged (none when nothing went wrong)
+  double earned_points = 0;          // criteria or regions, before the penalties
+  double points = 0, max_points = 0; // points = max(0, earned - penalties)
+  // A finished preparation (docs/formats.md "Outcome scores"): the target
+  // coverage reaches the exercise's complete_coverage_pct (and, for an
+  // access opening, every orifice can be seen). An unfinished one keeps the
+  // points it earned but is always shown as incomplete, with `completion`
+  // saying what is missing.
+  bool complete = false;
+  std::string completion;  // one sentence: why complete or what is missing
+  // "12.0 / 16 points" or "3.2 / 16 points, INCOMPLETE"
+  std::string headline() const;
 };
 
 // start: the starting volume the masks were built on; cut: the same geometry
 // after the session. Errors name the mismatch.
 Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& masks,
                                     const volume::VoxelVolume& start, const volume::VoxelVolume& cut);
+
+// Spearman's rank correlation of a and b (same length >= 2; ties get their
+// mean rank); NaN when either has no spread. Used to check that totals rank
+// sessions by skill (issue 25).
+double spearman_rho(const std::vector<double>& a, const std::vector<double>& b);
 
 // Wall profile used by the access criteria (exposed for tests): cavity extent
 // (m) from the axis point along `dir` (unit, horizontal) at each level z in

@@ -33,7 +33,25 @@ struct ScoreOptions {
   std::string frames_csv;
   std::optional<SightGeometry> sight;
   std::string sight_source;  // where the geometry came from (report)
+  // Score beside it a whole generated expert session and a generated novice
+  // session of the same exercise (cohort generator; cached beside the
+  // expert reference), so a short or unfinished session's score can be read
+  // against finished ones (issue 25; `dentar offline` on built-in footage).
+  bool compare = false;
 };
+
+// One session's outcome in a side-by-side comparison.
+struct ComparisonRow {
+  std::string label;  // "generated expert session", ...
+  double points = 0, max_points = 0, coverage_pct = 0, duration_s = 0, drilling_s = 0;
+  bool complete = false;
+  std::string completion;
+};
+
+// A generated expert (skill separation 0) and novice (separation 1) session
+// of `ex`, scored: from the cache ($DENTAR_CACHE_DIR, as the expert
+// reference) when there, else generated in work_dir (removed after).
+Result<std::vector<ComparisonRow>> generated_comparison(const Exercise& ex, const std::string& work_dir);
 
 struct ScoreSummary {
   std::string session_path, exercise_name, exercise_title, report_html, summary_json;
@@ -46,6 +64,8 @@ struct ScoreSummary {
   std::vector<FeedbackMessage> feedback;
   std::optional<Verdict> verdict;
   MirrorUse mirror;
+  std::vector<ComparisonRow> comparison;  // with ScoreOptions::compare: this session first, then the generated ones
+  std::string comparison_warning;         // why the comparison is missing (it never fails the score)
   std::string summary_text() const;  // a few lines for a terminal
 };
 
