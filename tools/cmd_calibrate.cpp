@@ -36,6 +36,7 @@
 #include "dentar/calibration/stylus_poses.h"
 #include "dentar/calibration/hand_eye.h"
 #include "dentar/live/calibrate_app.h"
+#include "dentar/haptics/device_profiles.h"
 #include "dentar/live/station_health.h"
 
 namespace dentar::tools {
@@ -442,6 +443,24 @@ int step_register(Session& s) {
   rep.summary = std::to_string(r.num_points) + " divots";
   rep.figures = {{"fre_mm", r.fre_m * 1e3}, {"tre_mm", r.tre_m * 1e3}, {"fle_mm", r.fle_m * 1e3},
                  {"divots", r.num_points}};
+  // Where the device now stands: can the stylus reach the whole crown? For the profile named by
+  // --haptic, else for the common desktop devices (station_health.h, check_station_reach).
+  auto box = live::crown_box_tooth(s.st);
+  if (!box) throw BadInput{box.error()};
+  const haptics::DeviceProfile* chosen = haptics::find_device_profile(s.cli.haptic);
+  std::vector<const haptics::DeviceProfile*> profiles;
+  if (chosen) profiles.push_back(chosen);
+  else
+    for (const char* id : {"touch", "omni", "falcon"}) profiles.push_back(haptics::find_device_profile(id));
+  std::cout << "stylus reach from the registered device placement"
+            << (chosen ? "" : " (no --haptic profile given: the common devices)") << ":\n";
+  for (const auto* p : profiles) {
+    const live::StationReach reach =
+        live::check_station_reach(s.st, haptics::limits_from_profile(*p), p->display_name, *box);
+    std::cout << "  " << (reach.reach.reachable ? "OK       " : "WARNING  ") << reach.item.message << "\n";
+    if (p == chosen)
+      rep.figures.emplace_back("reach_margin_mm", (reach.reach.reach_m - reach.reach.worst_distance_m) * 1e3);
+  }
   s.st.set_step_report(rep);
   return 0;
 }
@@ -951,7 +970,8 @@ void add_calibrate(CLI::App& app, int& exit_code) {
                 "records it (camera.device_id); the other steps refuse a station file of another camera");
   s->add_option("--haptic", c->haptic,
                 "live: the stylus: sim (the simulated instructor) or a device kind (touch, omni, omega, hd, "
-                "dhd, ...; see `dentar devices`)")
+                "dhd, ...; see `dentar devices`). register: the device profile whose reach is checked "
+                "(default: touch, omni and falcon)")
       ->capture_default_str();
   s->add_option("--haptic-name", c->haptic_name, "live: the device's configuration name or serial");
   s->add_option("--pedal", c->pedal, "live: keyboard (space bar) or a pedal spec (auto, vec, usb:VID:PID, evdev:PATH)")
