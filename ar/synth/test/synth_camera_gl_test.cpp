@@ -156,7 +156,8 @@ TEST(SynthCameraModel, RollingShutterShiftsTheOuterBandsOnly) {
   ASSERT_EQ(a.size(), 3u);
   ASSERT_EQ(b.size(), 3u);
   const int H = a[2].image.rows;
-  const cv::Rect middle(0, 2 * H / 5, a[2].image.cols, H / 5), top(0, 0, a[2].image.cols, H / 5);
+  // (3 rows in from the band's edges: the lens blur, after the readout, mixes neighbouring rows.)
+  const cv::Rect middle(0, 2 * H / 5 + 3, a[2].image.cols, H / 5 - 6), top(0, 0, a[2].image.cols, H / 5);
   EXPECT_EQ(mean_abs_diff(a[2].image(middle), b[2].image(middle)), 0.0);
   EXPECT_GT(mean_abs_diff(a[2].image(top), b[2].image(top)), 0.3);
   // The truth is the middle row's: the same poses.
