@@ -1,6 +1,7 @@
 // dentar devices: what haptic runtimes, haptic devices and foot pedals this
 // machine has, and the reason for every absence.
 #include <algorithm>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -9,6 +10,7 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/haptics/device_profiles.h"
 #include "dentar/haptics/open_device.h"
+#include "dentar/live/station_health.h"
 #include "dentar/volume/procedural_tooth.h"
 
 namespace dentar::tools {
@@ -24,33 +26,24 @@ struct DevicesOptions {
 
 // Can each profile's stylus reach the crown of the station's tooth?
 int print_reach(const std::string& path) {
-  auto st = ar::read_station_scene(path);
+  // A station file, or a built-in station by name ("default", "box").
+  const auto builtin = std::filesystem::exists(path) ? std::nullopt : ar::builtin_station_scene(path);
+  auto st = builtin ? Result<ar::StationScene>(*builtin) : ar::read_station_scene(path);
   if (!st.ok()) {
     print_error("devices", st.error());
     return 2;
   }
-  volume::MolarParams mp;
-  mp.voxel_mm = 1e3 * st->tooth_voxel_m;
-  auto tooth = volume::make_molar(mp);
-  if (!tooth.ok()) {
-    print_error("devices", path + ": tooth: " + tooth.error());
+  auto box = live::crown_box_tooth(*st);
+  if (!box.ok()) {
+    print_error("devices", path + ": " + box.error());
     return 2;
   }
-  // Bounding box of the solid voxels, then its top crown_height (the crown: where the bur works).
-  Eigen::AlignedBox3d box;
-  const volume::VoxelVolume& v = *tooth;
-  for (int k = 0; k < v.dims().z(); ++k)
-    for (int j = 0; j < v.dims().y(); ++j)
-      for (int i = 0; i < v.dims().x(); ++i)
-        if (v.density(i, j, k) > 127)
-          box.extend(Eigen::Vector3d(v.origin() + v.spacing().cwiseProduct(Eigen::Vector3d(i, j, k))));
-  if (!box.isEmpty()) box.min().z() = std::max(box.min().z(), box.max().z() - 1e-3 * mp.crown_height_mm);
+  volume::MolarParams mp;
   std::cout << "Reach from " << path << " (the crown, " << mp.crown_height_mm << " mm):\n";
   for (const auto& p : haptics::device_profiles()) {
-    const auto r = haptics::check_reach(haptics::limits_from_profile(p), st->calibration.T_tooth_dev(),
-                                        st->calibration.T_sty_tip, box);
-    std::cout << "  " << std::left << std::setw(10) << p.id << std::right << (r.reachable ? "OK  " : "NO  ")
-              << r.message << "\n";
+    const auto r = live::check_station_reach(*st, haptics::limits_from_profile(p), p.display_name, *box);
+    std::cout << "  " << std::left << std::setw(10) << p.id << std::right << (r.reach.reachable ? "OK  " : "NO  ")
+              << r.item.message << "\n";
   }
   return 0;
 }
@@ -129,7 +122,8 @@ void add_devices(CLI::App& app, int& exit_code) {
   c->add_flag("--profiles", o->profiles, "Also print the device profile table");
   c->add_option("--station", o->station,
                 "Also check, for every profile, that the stylus reaches the tooth's crown from this "
-                "station file's device placement");
+                "station file's device placement (or a built-in station's: default, box), and say how "
+                "far to move the device when it does not");
   c->footer(
       "Examples:\n  dentar devices\n"
       "  LD_LIBRARY_PATH=build/standin dentar devices   # against the test stand-ins\n"

@@ -219,7 +219,7 @@ void add_offline(CLI::App& app, int& exit_code) {
   s->add_option("--masks", c->masks, "Ground-truth masks folder (default: beside the footage; none = ignore)");
   s->add_option("--out", c->out, "Output folder")->capture_default_str();
   s->add_option("--preset", c->preset, "Built-in footage preset (dentar synth --help)")
-      ->check(CLI::IsMember({"standard", "hard", "mirror", "hand", "glare", "lowlight", "fast", "offframe"}))
+      ->check(CLI::IsMember({"standard", "hard", "mirror", "hand", "glare", "lowlight", "fast", "offframe", "webcam", "headset"}))
       ->capture_default_str();
   s->add_option("--frames", c->frames, "Built-in footage length (frames at 30 fps)")
       ->check(CLI::Range(2, 100000))

@@ -95,6 +95,12 @@ int run(const SynthCli& c, const CLI::App& app) {
   o.width = std::stoi(c.resolution.substr(0, x));
   o.height = std::stoi(c.resolution.substr(x + 1));
   if (c.no_distortion) o.distortion = false;
+  if (app.count("--noise") > 0 && o.camera.enabled) {
+    print_error("synth", "--noise sets the classic sensor model's noise (DN); --preset " + c.preset +
+                             " models the camera's sensor instead (shot and read noise in electrons, "
+                             "docs/synth_camera.md): leave --noise out or use a classic preset");
+    return 2;
+  }
   if (app.count("--noise") > 0) {
     o.read_noise_dn = c.noise_dn;
     o.shot_noise_gain = c.noise_dn > 0 ? 0.03 * c.noise_dn : 0.0;
@@ -181,7 +187,7 @@ void add_synth(CLI::App& app, int& exit_code) {
       "Render footage of the phantom-head station with exact ground truth: video, per-frame\n"
       "poses and tag corners (truth.jsonl), tooth occlusion masks, the station file and the\n"
       "haptic session log of the scripted drilling. Headless (EGL); deterministic per seed.\n"
-      "Synopsis: dentar synth [--preset standard|hard|mirror|hand|glare|lowlight|fast|offframe]\n"
+      "Synopsis: dentar synth [--preset standard|hard|mirror|hand|glare|lowlight|fast|offframe|webcam|headset]\n"
       "                       [--frames N] [--fps F]\n"
       "                       [--resolution 640x480|1280x720|1920x1080] [--seed S] [--out DIR]\n"
       "                       [--png | --webcam] [--no-distortion] [--noise DN] [--motion-blur]\n"
@@ -192,8 +198,10 @@ void add_synth(CLI::App& app, int& exit_code) {
                 "standard, hard (fast motion, blur, grazing/small tags, occlusion), mirror "
                 "(mirror in view), or one failure mode on standard: hand (a finger crosses the "
                 "tooth), glare (on the mirror), lowlight (dim and noisy), fast (head turns "
-                ">= 200 deg/s), offframe (tags cut by the frame edge)")
-      ->check(CLI::IsMember({"standard", "hard", "mirror", "hand", "glare", "lowlight", "fast", "offframe"}))
+                ">= 200 deg/s), offframe (tags cut by the frame edge); or standard through a real camera's "
+                "model (docs/synth_camera.md): webcam (rolling shutter, MJPG, small pixels, auto-exposure "
+                "steps) or headset (global shutter, fixed focus, cos^4 vignetting)")
+      ->check(CLI::IsMember({"standard", "hard", "mirror", "hand", "glare", "lowlight", "fast", "offframe", "webcam", "headset"}))
       ->capture_default_str();
   s->add_option("--frames", c->frames, "Number of frames")
       ->check(CLI::Range(1, 100000))

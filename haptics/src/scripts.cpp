@@ -9,7 +9,12 @@ Station default_station() {
   // Device y up -> tooth +z; device z toward the student -> tooth -y.
   s.T_tooth_dev = Eigen::Isometry3d::Identity();
   s.T_tooth_dev.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  s.T_tooth_dev.translation() = Eigen::Vector3d(0.0, -0.15, -0.12);
+  // The workspace centre (the dev origin) where the stylus origin sits while the bur cuts the
+  // occlusal table: 22 mm (the bur offset) above the ~6 mm crown, so the work happens where the
+  // device is stiffest and the whole crown is within reach of every profile (Falcon: 62 mm of
+  // reach, the crown's farthest corner 29 mm away). Until issue 24 the device stood 19 cm away,
+  // out of reach of all but the Premium 3.0 (docs/devices.md, "Where the device stands").
+  s.T_tooth_dev.translation() = Eigen::Vector3d(0.0, 0.0, kDefaultWorkspaceAboveTooth_m);
   s.T_sty_tip = Eigen::Isometry3d::Identity();
   s.T_sty_tip.translation() = Eigen::Vector3d(0, 0, 0.022);
   return s;

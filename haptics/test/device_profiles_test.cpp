@@ -124,10 +124,30 @@ TEST(DeviceProfiles, ReachCheckSaysWhetherTheStylusReachesTheTooth) {
   EXPECT_NEAR(r.worst_distance_m, std::sqrt(25e-6 + 25e-6 + 0.069 * 0.069), 1e-12);
   EXPECT_NE(r.message.find("cannot reach"), std::string::npos) << r.message;
   EXPECT_NE(r.message.find("move the device closer"), std::string::npos) << r.message;
-  // The default scripted station (device 19 cm from the tooth) is out of a Touch's reach.
+  // The suggested move brings every corner kReachMargin_m inside the reach, and is no longer
+  // than needed: 5 % less leaves the farthest corner short of that margin.
+  ASSERT_TRUE(r.movable);
+  EXPECT_GT(r.move_tooth_m.z(), 0);  // up, toward the tooth
+  EXPECT_NE(r.message.find(" mm toward the tooth"), std::string::npos) << r.message;
+  Eigen::Isometry3d moved = Eigen::Translation3d(r.move_tooth_m) * T_tooth_dev;
+  ReachReport after = check_reach(falcon, moved, T_sty_tip, tooth);
+  EXPECT_TRUE(after.reachable) << after.message;
+  EXPECT_NEAR(after.worst_distance_m, after.reach_m - kReachMargin_m, 1e-6);
+  moved = Eigen::Translation3d(0.95 * r.move_tooth_m) * T_tooth_dev;
+  after = check_reach(falcon, moved, T_sty_tip, tooth);
+  EXPECT_GT(after.worst_distance_m, after.reach_m - kReachMargin_m + 1e-4);
+  // The default scripted station (issue 24: the workspace centre 28 mm above the tooth) is within
+  // reach of every profile, the Falcon's 62 mm included; before, it stood 19 cm away.
   const Station st = default_station();
-  EXPECT_FALSE(check_reach(touch, st.T_tooth_dev, st.T_sty_tip, tooth).reachable);
+  for (const DeviceProfile& p : device_profiles())
+    EXPECT_TRUE(check_reach(limits_from_profile(p), st.T_tooth_dev, st.T_sty_tip, tooth).reachable) << p.id;
   EXPECT_FALSE(check_reach(touch, T_tooth_dev, T_sty_tip, Eigen::AlignedBox3d()).reachable);
+  // A tooth larger than the reach: no move helps, and the message says so.
+  const Eigen::AlignedBox3d huge(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  r = check_reach(falcon, T_tooth_dev, T_sty_tip, huge);
+  EXPECT_FALSE(r.reachable);
+  EXPECT_FALSE(r.movable);
+  EXPECT_NE(r.message.find("larger than this device's reach"), std::string::npos) << r.message;
 }
 
 }  // namespace

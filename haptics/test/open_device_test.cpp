@@ -149,13 +149,18 @@ TEST(DevicesCli, ListsTheStandinsAndExplainsAbsences) {
   EXPECT_NE(none.out.find("\"present\": false"), std::string::npos) << none.out;
   const auto bad = test::run_command(std::string(DENTAR_BINARY) + " devices --bogus 2>&1");
   EXPECT_EQ(bad.code, 2) << bad.out;
-  // The default station puts the device 19 cm from the tooth: out of a Touch's
-  // reach, within a Premium 3.0's.
+  // The default station (issue 24) puts the workspace centre 28 mm above the tooth: every
+  // profile reaches it, the Touch and the Falcon included.
   const auto reach = test::run_command(std::string(DENTAR_BINARY) +
                                        " devices --no-open --station assets/station_default.json 2>&1");
   EXPECT_EQ(reach.code, 0) << reach.out;
-  EXPECT_NE(reach.out.find("touch     NO  the stylus cannot reach the tooth"), std::string::npos) << reach.out;
-  EXPECT_NE(reach.out.find("premium3  OK"), std::string::npos) << reach.out;
+  EXPECT_NE(reach.out.find("touch     OK  3D Systems Touch reaches the whole crown"), std::string::npos) << reach.out;
+  EXPECT_NE(reach.out.find("falcon    OK"), std::string::npos) << reach.out;
+  EXPECT_EQ(reach.out.find(" NO "), std::string::npos) << reach.out;
+  // The built-in box station by name.
+  const auto box = test::run_command(std::string(DENTAR_BINARY) + " devices --no-open --station box 2>&1");
+  EXPECT_EQ(box.code, 0) << box.out;
+  EXPECT_NE(box.out.find("falcon    OK"), std::string::npos) << box.out;
   const auto nofile = test::run_command(std::string(DENTAR_BINARY) +
                                         " devices --no-open --station /nonexistent.json 2>&1");
   EXPECT_EQ(nofile.code, 2) << nofile.out;

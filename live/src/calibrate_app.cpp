@@ -382,6 +382,8 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   cal::StationCalibration truth;
   std::unique_ptr<SimInstructor> instructor;
   std::unique_ptr<Poller> poller;
+  haptics::DeviceLimits real_limits;  // the connected device's (reach check after register)
+  std::string real_name;
   if (sim) {
     truth = cal::simulated_truth(nominal, o.seed);
     instructor = std::make_unique<SimInstructor>(truth, o.seed, o.pace);
@@ -391,6 +393,8 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
     dopt.name_or_serial = o.device_name;
     auto d = haptics::open_haptic_device(o.device, dopt);
     if (!d) return Error{"calibrate live: haptic device " + o.device + ": " + d.error()};
+    real_limits = (*d)->limits();
+    real_name = (*d)->name();
     poller = std::make_unique<Poller>(std::move(*d), false);
   }
   std::unique_ptr<haptics::Pedal> pedal;
@@ -940,6 +944,14 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
         rep.summary = "live: " + std::to_string(r.num_points) + " divots";
         rep.figures = {{"fre_mm", r.fre_m * 1e3}, {"tre_mm", r.tre_m * 1e3}, {"fle_mm", r.fle_m * 1e3},
                        {"divots", r.num_points}, {"refused_touches", touches.refused()}};
+        // Where the device now stands: can its stylus reach the whole crown (station_health.h)?
+        if (!sim) {
+          auto box = crown_box_tooth(st);
+          if (!box) return Error{"calibrate live: " + box.error()};
+          const StationReach reach = check_station_reach(st, real_limits, real_name, *box);
+          say("stylus reach: " + reach.item.message);
+          rep.figures.emplace_back("reach_margin_mm", (reach.reach.reach_m - reach.reach.worst_distance_m) * 1e3);
+        }
       }
     } else if (step == "camera") {
       if (pending.valid()) pending.wait();

@@ -249,6 +249,12 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     if (!d) return Error{"live: --device " + o.device + ": " + d.error()};
     device = std::move(*d);
     pedal_from_device = false;
+    // Station health 4: can this device's stylus reach the crown from where the station puts it?
+    auto box = crown_box_tooth(st);
+    if (!box) return Error{"live: " + box.error()};
+    const HealthItem reach = check_station_reach(st, device->limits(), device->name(), *box).item;
+    health.set(reach);
+    if (reach.level != HealthLevel::kOk) say("station health: " + reach.check + ": " + reach.message);
   } else if (o.stylus.rfind("replay:", 0) == 0) {
     const std::string path = o.stylus.substr(7);
     auto log = haptics::read_session_log(path);

@@ -10,6 +10,7 @@
 
 #include "dentar/ar/bundle_pose.h"
 #include "dentar/ar/camera_model.h"
+#include "dentar/volume/procedural_tooth.h"
 
 namespace dentar::live {
 namespace {
@@ -347,6 +348,94 @@ std::optional<HealthItem> StationHealthMonitor::refusal() const {
   for (const auto& it : health_.items)
     if (it.check == "camera" && it.level == HealthLevel::kInstructor) return it;
   return std::nullopt;
+}
+
+}  // namespace dentar::live
+
+namespace dentar::live {
+
+Result<Eigen::AlignedBox3d> crown_box_tooth(const ar::StationScene& st) {
+  volume::MolarParams mp;
+  mp.voxel_mm = 1e3 * st.tooth_voxel_m;
+  auto tooth = volume::make_molar(mp);
+  if (!tooth) return Error{"tooth (procedural molar, voxel " + mm(st.tooth_voxel_m, 3) + " mm): " + tooth.error()};
+  Eigen::AlignedBox3d box;
+  const volume::VoxelVolume& v = *tooth;
+  for (int k = 0; k < v.dims().z(); ++k)
+    for (int j = 0; j < v.dims().y(); ++j)
+      for (int i = 0; i < v.dims().x(); ++i)
+        if (v.density(i, j, k) > 127)
+          box.extend(Eigen::Vector3d(v.origin() + v.spacing().cwiseProduct(Eigen::Vector3d(i, j, k))));
+  if (box.isEmpty()) return Error{"tooth (procedural molar): no solid voxel"};
+  box.min().z() = std::max(box.min().z(), box.max().z() - 1e-3 * mp.crown_height_mm);
+  return box;
+}
+
+std::string describe_move_man(const ar::StationScene& st, const Eigen::Vector3d& d) {
+  // The box station's mannequin frame is its tag board (station_scene.h, box_station_scene).
+  const bool board = st.name.rfind("box", 0) == 0;
+  static const char* kHead[3][2] = {{"toward the patient's left", "toward the patient's right"},
+                                    {"up", "down"},
+                                    {"toward the face (forward)", "back toward the head"}};
+  static const char* kBoard[3][2] = {{"toward tags 2 and 5", "toward tags 0 and 3"},
+                                     {"toward the tags 0..2 row", "toward the tags 3..5 row"},
+                                     {"up off the board", "down toward the board"}};
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(0) << d.norm() * 1e3 << " mm";
+  const char* sep = ": ";
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(d[a]) < 1e-3) continue;
+    os << sep << std::abs(d[a]) * 1e3 << " mm " << (board ? kBoard : kHead)[a][d[a] > 0 ? 0 : 1];
+    sep = ", ";
+  }
+  os << (board ? " (board frame)" : " (mannequin frame)");
+  return os.str();
+}
+
+StationReach check_station_reach(const ar::StationScene& st, const haptics::DeviceLimits& limits,
+                                 const std::string& device, const Eigen::AlignedBox3d& crown_tooth) {
+  StationReach out;
+  const auto& c = st.calibration;
+  const Eigen::Isometry3d T_tooth_dev = c.T_tooth_dev();
+  out.reach = haptics::check_reach(limits, T_tooth_dev, c.T_sty_tip, crown_tooth);
+  out.move_man_m = c.T_man_tooth.linear() * out.reach.move_tooth_m;
+  // Registration touches the divots: each is a point the tip must reach (a box of no extent).
+  for (std::size_t i = 0; i < st.fixtures.divots_man.size(); ++i) {
+    const Eigen::Vector3d p = c.T_man_tooth.inverse() * st.fixtures.divots_man[i];
+    Eigen::AlignedBox3d pt(p, p);
+    pt.extend(p + Eigen::Vector3d::Constant(1e-9));
+    if (!haptics::check_reach(limits, T_tooth_dev, c.T_sty_tip, pt).reachable)
+      out.divots_out_of_reach.push_back(static_cast<int>(i));
+  }
+  HealthItem& it = out.item;
+  it.check = "stylus reach";
+  std::ostringstream os;
+  if (out.reach.reachable) {
+    it.level = HealthLevel::kOk;
+    os << device << " reaches the whole crown (farthest point " << mm(out.reach.worst_distance_m, 0)
+       << " mm from its workspace centre, reach " << mm(out.reach.reach_m, 0) << " mm)";
+  } else {
+    it.level = HealthLevel::kInstructor;
+    os << device << " cannot reach the whole crown: its farthest point is " << mm(out.reach.worst_distance_m, 0)
+       << " mm from the device's workspace centre, " << mm(out.reach.worst_distance_m - out.reach.reach_m, 0)
+       << " mm beyond its reach of " << mm(out.reach.reach_m, 0) << " mm. ";
+    if (out.reach.movable)
+      os << "Move the device " << describe_move_man(st, out.move_man_m)
+         << ", then an instructor re-runs dentar calibrate register";
+    else
+      os << "No placement of this device reaches all of it: use a device with a larger workspace";
+  }
+  if (!out.divots_out_of_reach.empty()) {
+    os << "; registration divots out of reach from there:";
+    for (int i : out.divots_out_of_reach) os << " " << i;
+  }
+  it.message = os.str();
+  return out;
+}
+
+void StationHealthMonitor::set(const HealthItem& item) {
+  std::lock_guard<std::mutex> lock(m_);
+  health_.set(item);
 }
 
 }  // namespace dentar::live

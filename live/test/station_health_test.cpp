@@ -204,3 +204,74 @@ TEST(StationHealth, StylusTipAtTheHealthDivot) {
 
 }  // namespace
 }  // namespace dentar::live
+
+namespace dentar::live {
+namespace {
+
+// Issue 24: every built-in station's device placement reaches the whole crown with the common
+// profiles (Touch, Omni, Falcon), and every other profile too.
+TEST(StationReach, BuiltInStationsAreReachableByEveryProfile) {
+  for (const char* name : {"default", "box"}) {
+    const ar::StationScene st = *ar::builtin_station_scene(name);
+    const auto box = crown_box_tooth(st);
+    ASSERT_TRUE(box.ok()) << box.error();
+    // The crown: about 11 x 11 mm, 7 mm high, on the tooth frame's cervical plane.
+    EXPECT_NEAR(box->max().z() - box->min().z(), 7e-3, 0.2e-3);
+    EXPECT_GT(box->sizes().x(), 8e-3);
+    for (const auto& p : haptics::device_profiles()) {
+      const StationReach r = check_station_reach(st, haptics::limits_from_profile(p), p.display_name, *box);
+      EXPECT_TRUE(r.reach.reachable) << name << " / " << p.id << ": " << r.item.message;
+      EXPECT_EQ(r.item.level, HealthLevel::kOk) << name << " / " << p.id;
+      EXPECT_NE(r.item.message.find("reaches the whole crown"), std::string::npos) << r.item.message;
+      EXPECT_EQ(r.move_man_m.norm(), 0.0);
+    }
+  }
+}
+
+// A device that stands too far gets the move in the instructor's words, and making that move
+// makes the crown reachable.
+TEST(StationReach, UnreachableStationSaysHowFarAndWhere) {
+  ar::StationScene st = ar::default_station_scene();
+  const auto box = crown_box_tooth(st);
+  ASSERT_TRUE(box.ok()) << box.error();
+  const haptics::DeviceProfile& touch = *haptics::find_device_profile("touch");
+  const haptics::DeviceLimits L = haptics::limits_from_profile(touch);
+  // The device 120 mm toward the patient's right and 40 mm lower than the built-in placement.
+  st.calibration.T_man_dev = Eigen::Translation3d(-0.12, -0.04, 0) * st.calibration.T_man_dev;
+  StationReach r = check_station_reach(st, L, touch.display_name, *box);
+  EXPECT_FALSE(r.reach.reachable);
+  EXPECT_EQ(r.item.level, HealthLevel::kInstructor);
+  EXPECT_EQ(r.item.check, "stylus reach");
+  const std::string& m = r.item.message;
+  EXPECT_NE(m.find("3D Systems Touch cannot reach the whole crown"), std::string::npos) << m;
+  EXPECT_NE(m.find("mm toward the patient's left"), std::string::npos) << m;
+  EXPECT_NE(m.find("mm up"), std::string::npos) << m;
+  EXPECT_NE(m.find("(mannequin frame)"), std::string::npos) << m;
+  EXPECT_NE(m.find("dentar calibrate register"), std::string::npos) << m;
+  EXPECT_GT(r.move_man_m.x(), 0);
+  EXPECT_GT(r.move_man_m.y(), 0);
+  // The move needed: the farthest point's excess over the reach plus the margin, at least.
+  EXPECT_GE(r.move_man_m.norm(), r.reach.worst_distance_m - r.reach.reach_m + haptics::kReachMargin_m - 1e-6);
+  st.calibration.T_man_dev = Eigen::Translation3d(r.move_man_m) * st.calibration.T_man_dev;
+  r = check_station_reach(st, L, touch.display_name, *box);
+  EXPECT_TRUE(r.reach.reachable) << r.item.message;
+  EXPECT_NEAR(r.reach.reach_m - r.reach.worst_distance_m, haptics::kReachMargin_m, 1e-6);
+
+  // The box station speaks of the board: its device lifted 100 mm too high.
+  ar::StationScene bs = ar::box_station_scene();
+  bs.calibration.T_man_dev = Eigen::Translation3d(0, 0, 0.10) * bs.calibration.T_man_dev;
+  const haptics::DeviceProfile& falcon = *haptics::find_device_profile("falcon");
+  r = check_station_reach(bs, haptics::limits_from_profile(falcon), falcon.display_name, *box);
+  EXPECT_FALSE(r.reach.reachable);
+  EXPECT_NE(r.item.message.find("mm down toward the board (board frame)"), std::string::npos) << r.item.message;
+  EXPECT_EQ(r.item.message.find("patient"), std::string::npos) << r.item.message;
+}
+
+TEST(StationReach, DescribeMoveLeavesOutSmallComponents) {
+  const ar::StationScene st = ar::default_station_scene();
+  EXPECT_EQ(describe_move_man(st, Eigen::Vector3d(0.03, -0.0004, -0.04)),
+            "50 mm: 30 mm toward the patient's left, 40 mm back toward the head (mannequin frame)");
+}
+
+}  // namespace
+}  // namespace dentar::live

@@ -385,9 +385,13 @@ StationScene box_station_scene() {
       t.T_parent_tag.translation() = Eigen::Vector3d(x, y, 0);
       s.mannequin_tags.push_back(t);
     }
-  const Eigen::Isometry3d T_tooth_dev = s.calibration.T_man_tooth.inverse() * s.calibration.T_man_dev;
+  Eigen::Isometry3d T_tooth_dev = s.calibration.T_man_tooth.inverse() * s.calibration.T_man_dev;
   s.calibration.T_man_tooth = Eigen::Isometry3d::Identity();
   s.calibration.T_man_tooth.translation() = Eigen::Vector3d(0, 0, 0.014);
+  // The device (or the pen's) workspace over the board: its centre 60 mm above the board's
+  // centre, so the default workspace box (haptics::DeviceLimits, +-60 mm along dev y = up) sits
+  // on the board and the crown (14-21 mm above it) is within every common profile's reach.
+  T_tooth_dev.translation() = Eigen::Vector3d(0, 0, kBoxWorkspaceAboveBoard_m - 0.014);
   s.calibration.T_man_dev = s.calibration.T_man_tooth * T_tooth_dev;
   s.fixtures.divots_man.clear();
   return s;

@@ -62,8 +62,11 @@ TEST(StationScene, DefaultIsValidWithTwelveHeadTags) {
     EXPECT_LT(t.T_parent_tag.linear().col(2).dot(p), 0.0) << t.id;
   }
   // The haptic device is where haptics::default_station puts it.
-  EXPECT_LT((s.calibration.T_tooth_dev().translation() - Eigen::Vector3d(0, -0.15, -0.12)).norm(),
-            1e-12);
+  EXPECT_LT((s.calibration.T_tooth_dev().translation() - Eigen::Vector3d(0, 0, 0.028)).norm(), 1e-12);
+  // The box station (issue 24): the device's workspace centre 60 mm over the board's centre.
+  const StationScene box = box_station_scene();
+  EXPECT_LT((box.calibration.T_man_dev.translation() - Eigen::Vector3d(0, 0, 0.060)).norm(), 1e-12);
+  EXPECT_NEAR((box.calibration.T_man_dev.linear() * Eigen::Vector3d::UnitY()).z(), 1.0, 1e-12);  // dev y up
 }
 
 // The head layouts (issue 16): kWrap20 is kFront12 (the default's) plus ids 12..19;

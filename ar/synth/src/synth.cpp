@@ -44,6 +44,10 @@ const char* synth_preset_name(SynthPreset p) {
       return "fast";
     case SynthPreset::kOffFrame:
       return "offframe";
+    case SynthPreset::kWebcam:
+      return "webcam";
+    case SynthPreset::kHeadset:
+      return "headset";
   }
   return "?";
 }
@@ -51,7 +55,8 @@ const char* synth_preset_name(SynthPreset p) {
 const std::vector<SynthPreset>& all_synth_presets() {
   static const std::vector<SynthPreset> all = {
       SynthPreset::kStandard, SynthPreset::kHard,      SynthPreset::kMirror,    SynthPreset::kHand,
-      SynthPreset::kGlare,    SynthPreset::kLowLight,  SynthPreset::kFastTurns, SynthPreset::kOffFrame};
+      SynthPreset::kGlare,    SynthPreset::kLowLight,  SynthPreset::kFastTurns, SynthPreset::kOffFrame,
+      SynthPreset::kWebcam,   SynthPreset::kHeadset};
   return all;
 }
 
@@ -120,8 +125,72 @@ SynthOptions synth_preset(SynthPreset p) {
     o.shutter_fraction = 0.5;
   } else if (p == SynthPreset::kOffFrame) {
     o.aim_offset_rad = 24.0 * M_PI / 180.0;
+  } else if (p == SynthPreset::kWebcam || p == SynthPreset::kHeadset) {
+    // Issue 24: standard's scene through a real camera's faults (docs/synth_camera.md has the
+    // figures' sources). The scene light drifts (+-30 %: a room, not a lab) and jumps by
+    // +-25 % now and then (a lamp, a shadow); the auto-exposure follows in 1/3 EV steps.
+    CameraSensorModel& c = o.camera;
+    c.enabled = true;
+    o.exposure_variation = 0.3;
+    o.exposure_jumps = true;
+    o.motion_blur = true;
+    o.blur_subframes = 3;
+    c.ae_step_ev = 1.0 / 3.0;
+    c.ae_deadband_ev = 0.25;
+    if (p == SynthPreset::kWebcam) {
+      // A 1080p USB webcam (1/2.9"-1/3" sensor, ~3 um pixels, f ~ 3.7 mm, f/2.0) streaming MJPG,
+      // scaled to the output size: the per-output-pixel full well of the binned pixels.
+      c.full_well_e = 6000;
+      c.read_noise_e = 3.0;
+      c.aperture_m = 3.7e-3 / 2.0;
+      c.focus_distance_m = 0.6;  // autofocus locked a little behind the mouth
+      c.cos_power = 2.0;         // the ISP's lens-shading correction leaves part of cos^4
+      c.jpeg_quality = 80;
+      c.ae_delay_frames = 2;
+      c.rolling_readout_s = 0.020;
+      c.rolling_bands = 5;
+      o.shutter_fraction = 0.5;  // 1/60 s at 30 fps, indoor light
+    } else {
+      // A head-mounted pass-through camera: global shutter, fixed focus, wide uncorrected lens,
+      // raw frames over MIPI (no compression), short exposure against head-motion blur.
+      c.full_well_e = 10000;
+      c.read_noise_e = 4.0;
+      c.aperture_m = 2.4e-3 / 2.0;
+      c.focus_distance_m = 1.0;
+      c.cos_power = 4.0;
+      c.jpeg_quality = 0;
+      c.ae_delay_frames = 1;
+      c.rolling_readout_s = 0;
+      o.shutter_fraction = 0.3;  // 10 ms at 30 fps
+    }
   }
   return o;
+}
+
+std::string CameraSensorModel::validate() const {
+  std::ostringstream os;
+  auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
+  if (!in(full_well_e, 100, 1e6))
+    os << "camera.full_well_e = " << full_well_e << " must be in [100, 1e6] electrons";
+  else if (!in(read_noise_e, 0, 1000))
+    os << "camera.read_noise_e = " << read_noise_e << " must be in [0, 1000] electrons";
+  else if (!in(aperture_m, 0, 0.05))
+    os << "camera.aperture_m = " << aperture_m << " must be in [0, 0.05] m";
+  else if (!in(focus_distance_m, 0.05, 1e4))
+    os << "camera.focus_distance_m = " << focus_distance_m << " must be in [0.05, 10000] m";
+  else if (!in(cos_power, 0, 8))
+    os << "camera.cos_power = " << cos_power << " must be in [0, 8]";
+  else if (jpeg_quality < 0 || jpeg_quality > 100)
+    os << "camera.jpeg_quality = " << jpeg_quality << " must be 0 (off) or 1..100";
+  else if (!in(ae_step_ev, 0, 2) || !in(ae_deadband_ev, 0, 2))
+    os << "camera.ae_step_ev and ae_deadband_ev must be in [0, 2] EV";
+  else if (ae_delay_frames < 0 || ae_delay_frames > 30)
+    os << "camera.ae_delay_frames = " << ae_delay_frames << " must be in 0..30";
+  else if (!in(rolling_readout_s, 0, 1))
+    os << "camera.rolling_readout_s = " << rolling_readout_s << " must be in [0, 1] s";
+  else if (rolling_bands < 1 || rolling_bands > 61 || rolling_bands % 2 == 0)
+    os << "camera.rolling_bands = " << rolling_bands << " must be odd, 1..61";
+  return os.str();
 }
 
 std::string SynthOptions::validate() const {
@@ -181,6 +250,10 @@ std::string SynthOptions::validate() const {
     os << "drill force must be in [0.1, 3] N";
   else if (bur_samples < 500 || bur_samples > 30000)
     os << "bur samples must be in 500..30000";
+  else if (camera.enabled && !camera.validate().empty())
+    os << camera.validate();
+  else if (camera.enabled && camera.rolling_readout_s >= 1.0 / fps)
+    os << "camera.rolling_readout_s = " << camera.rolling_readout_s << " must be shorter than a frame (1/fps)";
   return os.str();
 }
 
@@ -321,6 +394,14 @@ struct SynthGenerator::Impl {
   V3d mirror_out_dir = V3d::UnitZ();  // man frame
 
   cv::Mat vignette;  // CV_32F gain map
+
+  // ---- the physical camera model (issue 24; synth.h CameraSensorModel) ----
+  cv::Mat vignette_cos;  // CV_32F: cos^n of each pixel's field angle
+  double ae_gain = 1.0;          // the auto-exposure loop's exposure factor
+  double ae_target_lin = -1;     // its target: the first frame's centre-weighted mean (linear luma)
+  std::vector<std::pair<int, double>> ae_pending;  // (frame it takes effect, step in EV)
+  int ae_steps = 0;
+
   cv::Mat linear;    // scratch: the frame in linear light (CV_32FC3)
   int frame = 0;
 
@@ -464,6 +545,155 @@ struct SynthGenerator::Impl {
     return s;
   }
   bool surface_dirty = true;
+
+  // Scene light under the camera model: the slow drift times the jumps, which persist (a lamp
+  // switched, a shadow) instead of settling as the classic model's do; the AE answers them.
+  double light_level(double t) const {
+    double g = 1.0 + opt.exposure_variation * s_exposure(t);
+    for (const auto& [tj, a] : exposure_jumps)
+      if (t >= tj) g *= 1.0 + a;
+    return opt.exposure * std::clamp(g, 0.2, 5.0);
+  }
+
+  // One exposure in linear light centred at tc: with motion blur, sub-frames across the
+  // exposure time averaged; `centre` is the middle sub-frame's state.
+  void render_exposure(double tc, cv::Mat& out, State& centre) {
+    cv::Mat lin;
+    if (!opt.motion_blur) {
+      centre = state_at(tc);
+      draw_video(centre);
+      read_video_linear(out);
+      return;
+    }
+    const int K = opt.blur_subframes;
+    const double exposure = opt.shutter_fraction / opt.fps;
+    out.create(station.calibration.camera.height, station.calibration.camera.width, CV_32FC3);
+    out.setTo(cv::Scalar::all(0));
+    for (int j = 0; j < K; ++j) {
+      const double ts = std::max(0.0, tc + (static_cast<double>(j) / (K - 1) - 0.5) * exposure);
+      State s = state_at(ts);
+      if (j == K / 2) centre = s;
+      draw_video(s);
+      read_video_linear(lin);
+      out += lin;
+    }
+    out *= 1.0 / K;
+  }
+
+  // The frame in linear light at time t: one exposure (global shutter), or rolling_bands bands
+  // of rows, each exposed at its own time across the readout; `mid` = the middle row's state.
+  void render_physical(double t, cv::Mat& out, State& mid) {
+    const CameraSensorModel& c = opt.camera;
+    const int H = station.calibration.camera.height;
+    if (c.rolling_readout_s <= 0) {
+      render_exposure(t, out, mid);
+      return;
+    }
+    const int B = c.rolling_bands;
+    cv::Mat band;
+    for (int b = 0; b < B; ++b) {
+      const double tb = std::max(0.0, t + ((b + 0.5) / B - 0.5) * c.rolling_readout_s);
+      State s;
+      render_exposure(tb, band, s);
+      if (b == B / 2) mid = s;
+      if (b == 0) out.create(band.size(), band.type());
+      const int r0 = b * H / B, r1 = (b + 1) * H / B;
+      band.rowRange(r0, r1).copyTo(out.rowRange(r0, r1));
+    }
+  }
+
+  // Defocus: the thin lens's circle of confusion at the tooth's depth, diameter in px.
+  double defocus_px(const State& mid) const {
+    const CameraSensorModel& c = opt.camera;
+    if (c.aperture_m <= 0) return 0;
+    const double depth = (mid.T_cam_man * station.calibration.T_man_tooth).translation().z();
+    if (depth <= 0) return 0;
+    return station.calibration.camera.fx * c.aperture_m * std::abs(1.0 / depth - 1.0 / c.focus_distance_m);
+  }
+
+  // Lens (defocus disc, optical Gaussian), vignetting, exposure, photo-electrons with shot and
+  // read noise, the full well, sRGB, JPEG: linear light in, the camera's 8-bit BGR out.
+  Status sensor(cv::Mat& lin, double gain, double blur_px, int frame_index, cv::Mat& bgr) {
+    const CameraSensorModel& c = opt.camera;
+    if (blur_px >= 0.5) {
+      // A uniform disc of diameter blur_px, its edge pixels weighted by their covered area (4x4).
+      const int r = static_cast<int>(std::ceil(0.5 * blur_px));
+      cv::Mat k(2 * r + 1, 2 * r + 1, CV_32F, cv::Scalar(0));
+      const double R2 = 0.25 * blur_px * blur_px;
+      for (int y = -r; y <= r; ++y)
+        for (int x = -r; x <= r; ++x) {
+          int in = 0;
+          for (int sy = 0; sy < 4; ++sy)
+            for (int sx = 0; sx < 4; ++sx) {
+              const double px = x - 0.375 + 0.25 * sx, py = y - 0.375 + 0.25 * sy;
+              in += px * px + py * py <= R2;
+            }
+          k.at<float>(y + r, x + r) = static_cast<float>(in);
+        }
+      k /= cv::sum(k)[0];
+      cv::filter2D(lin, lin, -1, k, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+    }
+    if (opt.optical_blur_px > 0) cv::GaussianBlur(lin, lin, cv::Size(0, 0), opt.optical_blur_px);
+    Noise rng(opt.seed * 1000003ull + static_cast<std::uint64_t>(frame_index) + 17);
+    const float fw = static_cast<float>(c.full_well_e), read2 = static_cast<float>(c.read_noise_e * c.read_noise_e);
+    bgr.create(lin.size(), CV_8UC3);
+    for (int v = 0; v < lin.rows; ++v) {
+      const float* lp = lin.ptr<float>(v);
+      const float* vg = vignette_cos.ptr<float>(v);
+      auto* p = bgr.ptr<std::uint8_t>(v);
+      for (int u = 0; u < lin.cols; ++u) {
+        const float g = static_cast<float>(gain) * vg[u] * fw;
+        for (int ch = 0; ch < 3; ++ch) {
+          float e = std::max(lp[3 * u + ch], 0.0f) * g;  // photo-electrons
+          e += std::sqrt(e + read2) * rng.gauss();
+          e = std::clamp(e, 0.0f, fw);
+          p[3 * u + ch] = static_cast<std::uint8_t>(std::clamp(std::lround(synth::srgb_encode_dn(e / fw)), 0L, 255L));
+        }
+      }
+    }
+    if (c.jpeg_quality > 0) {
+      std::vector<std::uint8_t> buf;
+      if (!cv::imencode(".jpg", bgr, buf, {cv::IMWRITE_JPEG_QUALITY, c.jpeg_quality}))
+        return Error{"synth: JPEG encoding failed (OpenCV imencode)"};
+      bgr = cv::imdecode(buf, cv::IMREAD_COLOR);
+      if (bgr.empty()) return Error{"synth: JPEG decoding failed (OpenCV imdecode)"};
+    }
+    return {};
+  }
+
+  // The auto-exposure loop, after each frame: the centre-weighted mean (the middle half of the
+  // image, linear luma) against the target; off by more than the deadband, one step the other
+  // way, taking effect ae_delay_frames later (one decision at a time).
+  void ae_update(const cv::Mat& bgr, int frame_index) {
+    const CameraSensorModel& c = opt.camera;
+    for (auto it = ae_pending.begin(); it != ae_pending.end();)
+      if (it->first <= frame_index + 1) {
+        ae_gain = std::clamp(ae_gain * std::exp2(it->second), 1.0 / 16, 16.0);
+        ++ae_steps;
+        it = ae_pending.erase(it);
+      } else {
+        ++it;
+      }
+    if (c.ae_step_ev <= 0) return;
+    const cv::Mat centre = bgr(cv::Rect(bgr.cols / 4, bgr.rows / 4, bgr.cols / 2, bgr.rows / 2));
+    const cv::Mat& dec = srgb_decode_table();
+    double sum = 0;
+    for (int v = 0; v < centre.rows; ++v) {
+      const auto* p = centre.ptr<std::uint8_t>(v);
+      for (int u = 0; u < centre.cols; ++u)
+        sum += 0.114 * dec.at<float>(0, p[3 * u]) + 0.587 * dec.at<float>(0, p[3 * u + 1]) +
+               0.299 * dec.at<float>(0, p[3 * u + 2]);
+    }
+    const double mean = std::max(sum / (static_cast<double>(centre.rows) * centre.cols), 1e-6);
+    if (ae_target_lin < 0) {
+      ae_target_lin = mean;
+      return;
+    }
+    if (!ae_pending.empty()) return;
+    const double err_ev = std::log2(mean / ae_target_lin);
+    if (std::abs(err_ev) > c.ae_deadband_ev)
+      ae_pending.emplace_back(frame_index + c.ae_delay_frames, err_ev > 0 ? -c.ae_step_ev : c.ae_step_ev);
+  }
 
   Eigen::Vector3f light_cam(const State& s, const V3d& dir_man) const {
     return (s.T_cam_man.linear() * dir_man).cast<float>();
@@ -823,6 +1053,16 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
           static_cast<float>(1.0 - o.vignetting * std::min(1.0, 0.6 * (x * x + y * y)));
     }
 
+  if (o.camera.enabled) {
+    im.vignette_cos.create(k.height, k.width, CV_32F);
+    for (int v = 0; v < k.height; ++v)
+      for (int u = 0; u < k.width; ++u) {
+        const double x = (u - k.cx) / k.fx, y = (v - k.cy) / k.fy;
+        const double cos_a = 1.0 / std::sqrt(1.0 + x * x + y * y);
+        im.vignette_cos.at<float>(v, u) = static_cast<float>(std::pow(cos_a, o.camera.cos_power));
+      }
+  }
+
   // Haptics: the molar, the bur, the scripted hand on the stylus and the
   // engine, exactly as `dentar demo` sets them up, in simulated time.
   volume::MolarParams molar;
@@ -922,7 +1162,17 @@ Status SynthGenerator::next(SynthFrame& out) {
   // Video: with motion blur, sub-frames across the exposure (time t is its
   // middle); the truth is the middle sub-frame's state.
   Impl::State mid;
-  if (im.opt.motion_blur) {
+  double gain = 0, blur_px = 0;
+  bool glare = false;
+  if (im.opt.camera.enabled) {
+    cv::Mat lin;
+    im.render_physical(t, lin, mid);
+    gain = im.light_level(t) * im.ae_gain;
+    blur_px = im.defocus_px(mid);
+    if (Status st = im.sensor(lin, gain, blur_px, im.frame, out.image); !st.ok()) return st;
+    glare = im.add_glare(out.image, mid, t);
+    im.ae_update(out.image, im.frame);
+  } else if (im.opt.motion_blur) {
     const int K = im.opt.blur_subframes;
     const double exposure = im.opt.shutter_fraction / im.opt.fps;
     // The sensor integrates light: sub-frames are averaged in linear light
@@ -957,9 +1207,11 @@ Status SynthGenerator::next(SynthFrame& out) {
         o8[i] = static_cast<std::uint8_t>(std::clamp(std::lround(synth::srgb_encode_dn(a[i])), 0L, 255L));
     }
   }
-  const double gain = im.exposure_gain(t);
-  const bool glare = im.add_glare(out.image, mid, t);
-  im.post_process(out.image, gain, im.frame);
+  if (!im.opt.camera.enabled) {
+    gain = im.exposure_gain(t);
+    glare = im.add_glare(out.image, mid, t);
+    im.post_process(out.image, gain, im.frame);
+  }
 
   // Masks and tag visibility from the id passes, with the tooth as cut so far.
   if (im.surface_dirty) {
@@ -986,6 +1238,8 @@ Status SynthGenerator::next(SynthFrame& out) {
   tr.haptic_time_s = mid.haptic_time_s;
   tr.pedal = mid.pedal;
   tr.exposure_gain = gain;
+  tr.defocus_px = blur_px;
+  tr.ae_steps = im.ae_steps;
   tr.camera_speed_deg_s = im.camera_speed(t) * 180.0 / M_PI;
   tr.hand_crossing = mid.finger_in_front;
   tr.glare = glare;
@@ -1090,6 +1344,10 @@ std::string frame_truth_json(const FrameTruth& t) {
   j["tooth_px"] = t.tooth_px;
   j["tooth_hidden_px"] = t.tooth_hidden_px;
   j["exposure_gain"] = t.exposure_gain;
+  if (t.defocus_px > 0 || t.ae_steps > 0) {  // the camera model's (issue 24); absent otherwise
+    j["defocus_px"] = t.defocus_px;
+    j["ae_steps"] = t.ae_steps;
+  }
   j["camera_speed_deg_s"] = t.camera_speed_deg_s;
   j["hand_crossing"] = t.hand_crossing;
   j["glare"] = t.glare;
@@ -1193,6 +1451,15 @@ Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& 
   meta["hand_crossing"] = o.hand_crossing;
   meta["hand_crossing_period_s"] = o.hand_crossing_period_s;
   meta["mirror_glare"] = o.mirror_glare;
+  if (o.camera.enabled) {
+    const CameraSensorModel& c = o.camera;
+    meta["camera_model"] = {{"full_well_e", c.full_well_e},         {"read_noise_e", c.read_noise_e},
+                            {"aperture_mm", c.aperture_m * 1e3},     {"focus_distance_m", c.focus_distance_m},
+                            {"cos_power", c.cos_power},              {"jpeg_quality", c.jpeg_quality},
+                            {"ae_step_ev", c.ae_step_ev},            {"ae_deadband_ev", c.ae_deadband_ev},
+                            {"ae_delay_frames", c.ae_delay_frames},  {"rolling_readout_ms", c.rolling_readout_s * 1e3},
+                            {"rolling_bands", c.rolling_bands},      {"blur_subframes", o.blur_subframes}};
+  }
   meta["video"] = png ? "frames/frame_NNNNNN.png" : "video.mkv";
   meta["summary"] = {{"frames_with_mirror_in_view", sum.frames_with_mirror},
                      {"mean_visible_mannequin_tags", sum.mean_visible_tags},

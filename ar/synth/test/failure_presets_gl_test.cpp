@@ -50,7 +50,7 @@ TEST(SynthFailurePresets, NamesParseAndAreListed) {
     EXPECT_EQ(*q, p);
     EXPECT_TRUE(synth_preset(p).validate().empty()) << synth_preset_name(p);
   }
-  EXPECT_EQ(synth_preset_names(), "standard|hard|mirror|hand|glare|lowlight|fast|offframe");
+  EXPECT_EQ(synth_preset_names(), "standard|hard|mirror|hand|glare|lowlight|fast|offframe|webcam|headset");
   EXPECT_FALSE(parse_synth_preset("easy").has_value());
   SynthOptions o = synth_preset(SynthPreset::kFastTurns);
   o.head_turn_s = 0.5;  // longer than a quarter period

@@ -138,6 +138,32 @@ ReachReport check_reach(const DeviceLimits& limits, const Eigen::Isometry3d& T_t
     }
   }
   r.reachable = box.isEmpty() ? false : r.worst_distance_m <= r.reach_m;
+  // The shortest move toward the box centre that brings every corner kReachMargin_m inside the
+  // reach: the farthest-corner distance is convex along the line, so bisect on the distance moved.
+  const Eigen::Vector3d centre_tooth = T_tooth_dev * centre_dev;
+  auto farthest = [&](const Eigen::Vector3d& c) {
+    double d = 0;
+    for (int k = 0; k < 8; ++k)
+      d = std::max(d, (box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)) - c).norm());
+    return d;
+  };
+  if (!box.isEmpty() && !r.reachable) {
+    const Eigen::Vector3d to_box = box.center() - centre_tooth;
+    const double len = to_box.norm();
+    const double goal = std::max(r.reach_m - kReachMargin_m, 0.5 * box.diagonal().norm());
+    if (farthest(box.center()) > r.reach_m || len <= 0) {
+      r.movable = false;
+    } else if (farthest(box.center()) > goal) {
+      r.move_tooth_m = to_box;  // only the centred placement fits (the margin is not available)
+    } else {
+      double lo = 0, hi = len;
+      for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (farthest(centre_tooth + mid * to_box / len) <= goal ? hi : lo) = mid;
+      }
+      r.move_tooth_m = hi * to_box / len;
+    }
+  }
   std::ostringstream os;
   os.precision(3);
   if (box.isEmpty()) {
@@ -151,7 +177,12 @@ ReachReport check_reach(const DeviceLimits& limits, const Eigen::Isometry3d& T_t
        << 1e3 * r.worst_distance_m << " mm from the device's workspace centre, "
        << 1e3 * (r.worst_distance_m - r.reach_m) << " mm beyond its reach of " << 1e3 * r.reach_m
        << " mm (workspace radius " << 1e3 * radius
-       << " mm + bur offset); move the device closer to the mannequin and recalibrate the station";
+       << " mm + bur offset); ";
+    if (r.movable)
+      os << "move the device closer to the mannequin, " << 1e3 * r.move_tooth_m.norm()
+         << " mm toward the tooth, and recalibrate the station";
+    else
+      os << "the tooth is larger than this device's reach: no placement reaches all of it";
   }
   r.message = os.str();
   return r;

@@ -75,10 +75,19 @@ Status apply_profile(const DeviceProfile& p, const GainRequest& request, DeviceL
 // which it can when |p_dev| <= radius + |t_sty_tip| for every point p of
 // the tooth's bounding box. Errors name the farthest corner and by how much
 // it is out of reach, and say what to move.
+//
+// When the tooth is out of reach, move_tooth_m is the shortest move of the
+// device (straight toward the tooth's box centre, in the tooth frame) after
+// which every corner lies at least kReachMargin_m inside the reach; callers
+// that know the station say it in the instructor's words
+// (live/station_health.h, check_station_reach). Zero when reachable.
+inline constexpr double kReachMargin_m = 5e-3;
 struct ReachReport {
   double worst_distance_m = 0;  // farthest box corner from the workspace centre
   double reach_m = 0;           // radius + tip offset
   bool reachable = false;
+  Eigen::Vector3d move_tooth_m = Eigen::Vector3d::Zero();  // suggested device move (tooth frame)
+  bool movable = true;          // false: the box is larger than the reach (no move helps)
   std::string message;          // one line for the user
 };
 ReachReport check_reach(const DeviceLimits& limits, const Eigen::Isometry3d& T_tooth_dev,

@@ -15,8 +15,15 @@ struct Station {
   Eigen::Isometry3d T_tooth_dev;  // device base in the tooth frame
   Eigen::Isometry3d T_sty_tip;    // bur tip on the stylus
 };
-// A plausible bench: the device base 12 cm below and 15 cm in front of the
-// tooth, its y axis up; the bur tip 22 mm along the stylus axis.
+// A bench as a dental simulator sets it up: the device's workspace centre
+// (the dev origin) 28 mm straight above the tooth frame's origin (the crown's
+// cervical centre), i.e. where the stylus origin sits while the bur works on
+// the occlusal table; dev y up (tooth +z), dev z toward the student (tooth
+// -y); the bur tip 22 mm along the stylus axis. The device's body stands in
+// front of the mannequin with its arm reaching into the mouth. The whole
+// crown is then within reach of the Touch, Omni and Falcon profiles
+// (docs/devices.md, "Where the device stands").
+inline constexpr double kDefaultWorkspaceAboveTooth_m = 0.028;
 Station default_station();
 
 // One keyframe for the bur tip (tooth frame).

@@ -24,6 +24,8 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/ar/tag_detector.h"
 #include "dentar/calibration/touch.h"
+#include "dentar/haptics/device_profiles.h"
+#include "dentar/volume/result.h"
 
 namespace dentar::live {
 
@@ -96,6 +98,30 @@ class DivotTouchCheck {
   calibration::TouchDetector touch_;
 };
 
+// 4. the stylus reach (check_station_reach): can the connected device's stylus (or a chosen
+//    profile's) reach the whole crown from where the station file puts the device? When not,
+//    how far to move the device and in which direction, in the mannequin's words (toward the
+//    patient's left/right, up/down, toward/away from the face) or, for the box station, the
+//    board's (toward which tags, up off the board).
+//
+// The crown's bounding box in the tooth frame: the solid voxels of the station's procedural
+// molar (tooth_voxel_m) above its cervical region (the top crown_height_mm), where the bur works.
+// Builds the molar (a few ms at 0.1 mm). Errors name the tooth's parameters.
+Result<Eigen::AlignedBox3d> crown_box_tooth(const ar::StationScene& st);
+
+struct StationReach {
+  haptics::ReachReport reach;                       // in the tooth frame
+  Eigen::Vector3d move_man_m = Eigen::Vector3d::Zero();  // the suggested device move, mannequin frame
+  std::vector<int> divots_out_of_reach;             // calibration_fixtures.divots indices the tip cannot touch
+  HealthItem item;  // "stylus reach": ok, or instructor needed with the move in mm and words
+};
+// `device` names the device for the message ("3D Systems Touch (profile 'touch')").
+StationReach check_station_reach(const ar::StationScene& st, const haptics::DeviceLimits& limits,
+                                 const std::string& device, const Eigen::AlignedBox3d& crown_tooth);
+// "48 mm: 40 mm toward the patient's left, 26 mm down" (mannequin station) or the board's words
+// (the box station); components under 1 mm are left out.
+std::string describe_move_man(const ar::StationScene& st, const Eigen::Vector3d& move_man_m);
+
 // Everything above for one live session, safe to read from the display thread while the frame
 // thread feeds it. The file checks run at construction.
 class StationHealthMonitor {
@@ -109,6 +135,8 @@ class StationHealthMonitor {
   StationHealth health() const;
   // The file checks' item that must stop the session (a station file of another camera), if any.
   std::optional<HealthItem> refusal() const;
+  // Adds or replaces an item found outside the monitor (the stylus reach, once the device is open).
+  void set(const HealthItem& item);
 
  private:
   mutable std::mutex m_;

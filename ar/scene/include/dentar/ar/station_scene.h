@@ -204,7 +204,12 @@ PenParams default_pen();
 // 25 mm (45 mm printed), ids 0..5, at x = -60, 0, 60 mm and y = +55, -55 mm in
 // the board plane (z = 0 of `man`, facing +z); the tooth stands on the
 // board's centre, occlusal side up (+z), its cervical plane 14 mm above it.
+// The device frame (the haptic device's workspace centre, or the pen's when
+// `--stylus pen`) stands 60 mm above the board's centre, dev y up, dev z
+// toward the tags 3..5 row: the default workspace box (+-60 mm along y)
+// spans from the board up, over its centre.
 // The head mesh is still the mannequin's: run it with occlusion off.
+inline constexpr double kBoxWorkspaceAboveBoard_m = 0.060;
 StationScene box_station_scene();
 // Built-in stations by name: "default" and "box"; nullopt for another name.
 std::optional<StationScene> builtin_station_scene(std::string_view name);

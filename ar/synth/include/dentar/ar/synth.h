@@ -48,13 +48,49 @@ inline constexpr int kSynthGeneratorVersion = 2;
 // The failure-mode presets (hand ... offframe) each add one way tracking
 // fails to an otherwise `standard` scene (glare: to `mirror`), so that an
 // error can be traced to its cause; `hard` mixes several at once.
-enum class SynthPreset { kStandard, kHard, kMirror, kHand, kGlare, kLowLight, kFastTurns, kOffFrame };
-const char* synth_preset_name(SynthPreset p);  // "standard", ..., "hand", "glare", "lowlight", "fast", "offframe"
+// webcam and headset (issue 24) are `standard`'s scene seen through a
+// physical camera model (CameraSensorModel below) of a USB webcam and of a
+// head-mounted camera.
+enum class SynthPreset {
+  kStandard, kHard, kMirror, kHand, kGlare, kLowLight, kFastTurns, kOffFrame, kWebcam, kHeadset
+};
+const char* synth_preset_name(SynthPreset p);  // "standard", ..., "fast", "offframe", "webcam", "headset"
 std::optional<SynthPreset> parse_synth_preset(std::string_view name);
 // Every preset, in the enum's order (for CLI checks and test loops).
 const std::vector<SynthPreset>& all_synth_presets();
-// "standard|hard|mirror|hand|glare|lowlight|fast|offframe"
+// "standard|hard|mirror|hand|glare|lowlight|fast|offframe|webcam|headset"
 std::string synth_preset_names(const char* separator = "|");
+
+// A physical model of the camera (issue 24; docs/synth_camera.md has each
+// effect's source). Off by default: the classic presets keep their sensor
+// model (noise, gain and vignetting on the encoded values; SynthOptions'
+// read_noise_dn, shot_noise_gain, vignetting), and their footage is
+// unchanged. When on, those three are not used; instead, in this order:
+//   scene radiance (linear light), motion blur (sub-frames over the
+//   exposure) and rolling shutter (each band of rows at its own time) ->
+//   defocus (a disc of diameter fx * aperture * |1/depth - 1/focus| px, the
+//   thin-lens circle of confusion at the tooth's depth) and the optical
+//   Gaussian (optical_blur_px) -> vignetting cos^n of the field angle ->
+//   exposure (SynthOptions' drift and jumps x the auto-exposure loop) ->
+//   photo-electrons with shot noise (Poisson, as a Gaussian of variance =
+//   signal) and read noise, clipped at the full well -> sRGB encoding ->
+//   JPEG at a webcam's quality (libjpeg through OpenCV, 4:2:0).
+// The truth of a rolling-shutter frame is the middle row's (time t).
+struct CameraSensorModel {
+  bool enabled = false;
+  double full_well_e = 6000;      // electrons at linear 1.0 (white) and exposure 1, per output pixel
+  double read_noise_e = 3.0;      // read noise, electrons RMS
+  double aperture_m = 0;          // entrance pupil diameter (focal length / f-number); 0 = no defocus
+  double focus_distance_m = 1.0;  // distance the lens is focused at
+  double cos_power = 0;           // vignetting: cos^n of the field angle (4 = natural fall-off; 0 = off)
+  int jpeg_quality = 0;           // 0 = uncompressed; 1..100: JPEG/MJPG quality of each frame
+  double ae_step_ev = 0;          // auto-exposure: step size (EV); 0 = no auto-exposure loop
+  double ae_deadband_ev = 0.3;    // AE acts when the mean is this far (EV) from its target
+  int ae_delay_frames = 2;        // a step takes effect this many frames after it is decided
+  double rolling_readout_s = 0;   // rolling shutter: first to last row; 0 = global shutter
+  int rolling_bands = 7;          // rows rendered in this many bands, each at its own time (odd)
+  std::string validate() const;   // empty or names the field ("camera.jpeg_quality = 0 ...")
+};
 
 struct SynthOptions {
   SynthPreset preset = SynthPreset::kStandard;
@@ -77,6 +113,7 @@ struct SynthOptions {
   double look_at_jitter_m = 0.01;
 
   // Sensor and optics.
+  CameraSensorModel camera;          // physical camera model (off: the classic model below)
   double read_noise_dn = 1.5;        // Gaussian read noise, 8-bit digital numbers (0 = off)
   double shot_noise_gain = 0.04;     // shot-noise variance per DN of signal (0 = off)
   double optical_blur_px = 0.5;      // Gaussian PSF sigma (0 = off)
@@ -135,7 +172,15 @@ struct SynthOptions {
 //  fast: standard + sudden 25 deg head turns in 0.12 s (>= 200 deg/s),
 //   with motion blur;
 //  offframe: standard with the camera aimed 24 deg away from the mouth,
-//   alternating sides: the tags on that side are cut by the frame edge.
+//   alternating sides: the tags on that side are cut by the frame edge;
+//  webcam: standard's scene through a USB webcam (rolling shutter, MJPG at
+//   quality 80, small pixels, autofocus slightly behind the mouth, lens
+//   shading half corrected, 1/3 EV auto-exposure steps following a
+//   +-15 % light drift);
+//  headset: standard's scene through a head-mounted camera (global
+//   shutter, uncompressed, fixed focus at 1 m, natural cos^4 vignetting of a
+//   wide lens, a short exposure with motion blur, 1/3 EV auto-exposure).
+// docs/synth_camera.md gives each figure and its source.
 SynthOptions synth_preset(SynthPreset p);
 
 // One tag's ground truth in one frame.
@@ -164,7 +209,9 @@ struct FrameTruth {
   int mirror_face_px = 0;
   int tooth_px = 0;          // tooth silhouette area
   int tooth_hidden_px = 0;   // of which covered by real foreground
-  double exposure_gain = 1;  // multiplier applied to this frame
+  double exposure_gain = 1;  // multiplier applied to this frame (camera model: light x auto-exposure)
+  double defocus_px = 0;     // camera model: blur-circle diameter at the tooth's depth, px
+  int ae_steps = 0;          // camera model: auto-exposure steps taken so far
   // Camera angular speed at time_s (|rotation rate| of T_man_cam, deg/s).
   double camera_speed_deg_s = 0;
   bool hand_crossing = false;   // the crossing finger is in front of the tooth's region
