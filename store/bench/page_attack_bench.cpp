@@ -53,9 +53,12 @@ struct Run {
   int failed = 0;
 };
 
+// n requests (after 5 warm-up ones), one every 100 ms: each run lasts
+// >= 20 s for n = 200, long enough for the attacks to be in full swing.
 Run time_pages(int port, const std::string& cookie, int n) {
   Run r;
   for (int i = 0; i < n + 5; ++i) {
+    if (i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     httplib::Client c("127.0.0.1", port);
     c.set_connection_timeout(10, 0);
     c.set_read_timeout(10, 0);
@@ -146,18 +149,31 @@ int main(int argc, char** argv) {
     std::vector<int> fds;
     for (int i = 0; i < slow; ++i) fds.push_back(connect_raw(port));
     std::atomic<bool> stop{false};
+    std::atomic<long> reconnects{0};
     std::thread drip([&] {
+      // A persistent attacker: a connection the server closed is opened again.
       const std::string head = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
-      for (std::size_t k = 0; !stop; ++k) {
-        const char c = k < head.size() ? head[k] : 'a';
-        for (int fd : fds)
-          if (fd >= 0) (void)::send(fd, &c, 1, MSG_NOSIGNAL);
+      std::vector<std::size_t> at(fds.size(), 0);
+      while (!stop) {
+        for (std::size_t i = 0; i < fds.size(); ++i) {
+          const char c = at[i] < head.size() ? head[at[i]] : 'a';
+          if (fds[i] < 0 || ::send(fds[i], &c, 1, MSG_NOSIGNAL) != 1) {
+            if (fds[i] >= 0) ::close(fds[i]);
+            fds[i] = connect_raw(port);
+            at[i] = 0;
+            ++reconnects;
+            continue;
+          }
+          ++at[i];
+        }
         for (int t = 0; t < 40 && !stop; ++t) std::this_thread::sleep_for(std::chrono::milliseconds(100));
       }
     });
     std::this_thread::sleep_for(std::chrono::seconds(1));
-    print("slowloris", time_pages(port, cookie, n), n,
-          "  (" + std::to_string(slow) + " connections, 1 header byte / 4 s)");
+    const Run r = time_pages(port, cookie, n);
+    print("slowloris", r, n,
+          "  (" + std::to_string(slow) + " connections, 1 header byte / 4 s, " + std::to_string(reconnects.load()) +
+              " reconnects after the server closed one)");
     stop = true;
     drip.join();
     for (int fd : fds)
