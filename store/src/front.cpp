@@ -367,21 +367,16 @@ struct Front::Impl {
     std::vector<Conn*> polled;
     std::vector<pollfd> fds;
     while (!stopping) {
+      std::vector<Conn*> back;
       {
         std::lock_guard lk(mu);
-        for (Conn* c : returned) polled.push_back(c);
-        returned.clear();
+        back.swap(returned);
       }
-      // A kept-alive connection may already hold its next request.
-      for (std::size_t i = 0; i < polled.size();) {
-        Conn* c = polled[i];
-        if (!c->buf.empty() && complete(c)) {
-          polled[i] = polled.back();
-          polled.pop_back();
-        } else {
-          ++i;
-        }
-      }
+      // A kept-alive connection may already hold its next request. (Only
+      // these are looked at here: rescanning every waiting head on every
+      // wake-up would let many slow clients burn the loop's CPU.)
+      for (Conn* c : back)
+        if (c->buf.empty() || !complete(c)) polled.push_back(c);
       fds.assign({{listen_fd, POLLIN, 0}, {wake_fd, POLLIN, 0}});
       auto next = Clock::now() + std::chrono::seconds(1);
       for (Conn* c : polled) {
