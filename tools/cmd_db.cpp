@@ -42,25 +42,32 @@ void add_db(CLI::App& app, int& exit_code) {
     s->add_option("--db", c->db, "sqlite:PATH or postgresql://USER@HOST[:PORT]/DB")->required();
     s->footer("Example:\n  dentar db " + n + " --db sqlite:school.db");
     s->callback([c, n, &exit_code] {
-      if (auto u = store::parse_db_url(c->db); !u) {
-        print_error("db " + n, u.error());
+      if (!check_db_url("db " + n, c->db)) {
         exit_code = 2;
         return;
       }
+      announce_lock_waits("db " + n);
       store::OpenOptions o;
       o.create = n == "init";
       o.migrate = n != "status";
-      auto st = store::Store::open(c->db, o);
+      store::OpenFault fault = store::OpenFault::None;
+      auto st = store::Store::open(c->db, o, &fault);
       if (!st) {
         print_error("db " + n, st.error());
-        exit_code = 1;
+        exit_code = open_fault_exit_code(fault);
         return;
       }
       auto count = (*st)->count_sessions();
+      if (!count) {  // damage the quick check did not see, found while counting
+        print_error("db " + n, count.error());
+        exit_code = 2;
+        return;
+      }
       auto queued = (*st)->pending_count();
       std::cout << (*st)->url().redacted << ": schema version " << (*st)->schema_version() << " (this program: "
-                << store::kSchemaVersion << "), " << (count ? *count : -1) << " sessions";
+                << store::kSchemaVersion << "), " << *count << " sessions";
       if (queued && *queued) std::cout << ", " << *queued << " queued for the server";
+      if ((*st)->url().kind == store::DbUrl::Kind::Sqlite) std::cout << "; PRAGMA quick_check: ok";
       std::cout << "\n";
       exit_code = 0;
     });
@@ -113,18 +120,18 @@ void add_db(CLI::App& app, int& exit_code) {
     s->add_option("--out", c->out, "output file (default: standard output)");
     s->footer("Example:\n  dentar db export --db sqlite:school.db --out all.jsonl");
     s->callback([c, &exit_code] {
-      if (auto u = store::parse_db_url(c->db); !u) {
-        print_error("db export", u.error());
+      if (!check_db_url("db export", c->db)) {
         exit_code = 2;
         return;
       }
       store::OpenOptions o;
       o.create = false;
       o.migrate = false;
-      auto st = store::Store::open(c->db, o);
+      store::OpenFault fault = store::OpenFault::None;
+      auto st = store::Store::open(c->db, o, &fault);
       if (!st) {
         print_error("db export", st.error());
-        exit_code = 1;
+        exit_code = open_fault_exit_code(fault);
         return;
       }
       std::ofstream file;
@@ -177,11 +184,11 @@ void add_db(CLI::App& app, int& exit_code) {
     s->callback([c, &exit_code] {
       const std::string local = c->station_db.empty() ? default_station_db() : c->station_db;
       for (const auto& u : {c->db, local})
-        if (auto p = store::parse_db_url(u); !p) {
-          print_error("db forward", p.error());
+        if (!check_db_url("db forward", u)) {
           exit_code = 2;
           return;
         }
+      announce_lock_waits("db forward");
       const auto r = store::forward_outbox(local, c->db);
       std::cout << "db forward: " << r.sent << " sent, " << r.already << " already on the server, " << r.queued
                 << " still queued\n";

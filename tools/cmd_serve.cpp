@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "commands.h"
+#include "db_util.h"
 #include "dentar/store/web.h"
 
 namespace dentar::tools {
@@ -36,13 +37,21 @@ void add_serve(CLI::App& app, int& exit_code) {
   s->add_option("--db", c->o.db_url, "sqlite:PATH or postgresql://USER@HOST[:PORT]/DB");
   s->add_option("--passwords", c->o.password_file, "password file (NAME:pbkdf2-sha256:ITER:SALT:HASH lines)")->required();
   s->add_option("--set-password", c->set_user, "add or change USER's password (read from standard input), then exit");
-  s->add_option("--iterations", c->iterations, "PBKDF2 iterations for --set-password")->check(CLI::Range(1000, 100000000))->capture_default_str();
+  s->add_option("--iterations", c->iterations, "PBKDF2 iterations for --set-password")->check(CLI::Range(store::kMinPbkdf2Iterations, 100000000))->capture_default_str();
   s->add_option("--host", c->o.host, "address to listen on")->capture_default_str();
   s->add_option("--port", c->o.port, "port (0: any free port, printed)")->capture_default_str();
   s->add_option("--cert", c->o.cert_file, "PEM certificate: serve HTTPS directly");
   s->add_option("--key", c->o.key_file, "PEM private key for --cert");
   s->add_option("--session-hours", c->o.session_hours, "login lifetime (hours)")->capture_default_str();
   s->add_option("--threads", c->o.threads, "worker threads / database connections")->capture_default_str();
+  s->add_option("--request-timeout", c->o.request_timeout_s,
+                "seconds a client has to send a whole request (TLS handshake, headers, body); slower ones get 408")
+      ->capture_default_str();
+  s->add_option("--max-conn-per-client", c->o.max_conn_per_client, "open connections one client address may hold")
+      ->capture_default_str();
+  s->add_option("--login-max-delay", c->o.login_max_delay_s,
+                "longest wait (s) imposed after repeated failed logins of a user or from an address")
+      ->capture_default_str();
   s->callback([c, &exit_code] {
     if (!c->set_user.empty()) {
       std::string pw;
@@ -62,10 +71,15 @@ void add_serve(CLI::App& app, int& exit_code) {
       exit_code = 2;
       return;
     }
-    auto w = store::WebServer::create(c->o);
+    if (!check_db_url("serve", c->o.db_url)) {
+      exit_code = 2;
+      return;
+    }
+    store::OpenFault fault = store::OpenFault::None;
+    auto w = store::WebServer::create(c->o, &fault);
     if (!w) {
       print_error("serve", w.error());
-      exit_code = 2;
+      exit_code = open_fault_exit_code(fault);
       return;
     }
     if (auto b = (*w)->bind(); !b) {

@@ -32,13 +32,29 @@ void add_db_options(CLI::App* sub, DbCli& c, bool db_required) {
   sub->add_option("--station-id", c.station_id, "this station's code (default: the host name)");
 }
 
-bool check_db_options(const std::string& cmd, DbCli& c) {
-  if (c.db.empty()) return true;
-  auto u = store::parse_db_url(c.db);
+bool check_db_url(const std::string& cmd, const std::string& url, const std::string& option) {
+  auto u = store::parse_db_url(url);
   if (!u) {
-    print_error(cmd, "--db: " + u.error());
+    print_error(cmd, option + ": " + u.error());
     return false;
   }
+  if (auto e = store::password_on_command_line(*u, option); !e.empty()) {
+    print_error(cmd, e);
+    return false;
+  }
+  return true;
+}
+
+void announce_lock_waits(const std::string& cmd) {
+  store::set_lock_wait_notice([cmd](const std::string& text) { std::cerr << cmd << ": " << text << std::endl; });
+}
+
+int open_fault_exit_code(store::OpenFault fault) { return fault == store::OpenFault::Unavailable ? 1 : 2; }
+
+bool check_db_options(const std::string& cmd, DbCli& c) {
+  if (c.db.empty()) return true;
+  if (!check_db_url(cmd, c.db)) return false;
+  auto u = store::parse_db_url(c.db);
   if (c.student.empty()) {
     print_error(cmd, "--db needs --student CODE (whose session this is)");
     return false;
@@ -60,6 +76,7 @@ bool check_db_options(const std::string& cmd, DbCli& c) {
   }
   if (u->kind == store::DbUrl::Kind::Postgres && c.station_db.empty()) c.station_db = default_station_db();
   if (!c.station_db.empty()) {
+    if (!check_db_url(cmd, c.station_db, "--station-db")) return false;
     auto s = store::parse_db_url(c.station_db);
     if (!s || s->kind != store::DbUrl::Kind::Sqlite) {
       print_error(cmd, "--station-db " + c.station_db + ": must be sqlite:PATH");
@@ -95,10 +112,12 @@ int store_finished_session(const std::string& cmd, const DbCli& c, const std::st
     return 2;
   }
   const bool local_only = c.station_db.empty();
+  announce_lock_waits(cmd);
   auto r = store::store_session(*rec, local_only ? c.db : c.station_db, local_only ? "" : c.db);
   if (!r) {
     print_error(cmd, "storing the session: " + r.error() + " (the session folder " + dir.string() + " is kept)");
-    return 1;
+    // A damaged database file is bad input (exit 2), like in `db status` and `serve`.
+    return r.error().find("the database file is damaged") != std::string::npos ? 2 : 1;
   }
   std::cout << cmd << ": session " << rec->key.substr(0, 12) << " of " << rec->student << " ("
             << rec->exercise << ", " << rec->points << " / " << rec->max_points << " points): " << r->message << "\n";

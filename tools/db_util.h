@@ -6,6 +6,8 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "dentar/store/store.h"
+
 namespace dentar::tools {
 
 struct DbCli {
@@ -26,6 +28,16 @@ bool check_db_options(const std::string& cmd, DbCli& c);
 // Prints one line for the student. Returns the exit code (0, 1, 2).
 int store_finished_session(const std::string& cmd, const DbCli& c, const std::string& session,
                            const std::string& report_dir, bool quiet);
+
+// A --db URL that parses and holds no password (PGPASSWORD or a pgpass file
+// instead); prints the message and returns false otherwise (exit 2).
+bool check_db_url(const std::string& cmd, const std::string& url, const std::string& option = "--db");
+
+// SQLite lock waits are printed at once ("cmd: ... waiting up to 60 s").
+void announce_lock_waits(const std::string& cmd);
+
+// Store::open's fault to the exit-code policy: bad input 2, unavailable 1.
+int open_fault_exit_code(store::OpenFault fault);
 
 // The station's own queue when --db is a server and --station-db is not
 // given: $DENTAR_STATION_DB, else ~/.local/share/dentar/station.db.

@@ -69,7 +69,7 @@ void page_time(const std::string& name, const std::string& url, const fs::path& 
                                             k % 3 ? "molar_access_opening" : "incisor_partial_crown", 5000000 + k, 37 * k));
   }
   const std::string pw = (dir / (name + "_pw.txt")).string();
-  (void)set_password(pw, "bench", "bench-password", 2000);
+  (void)set_password(pw, "bench", "bench-password", 100000);
   ServeOptions o;
   o.db_url = url;
   o.password_file = pw;

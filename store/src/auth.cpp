@@ -88,12 +88,17 @@ Result<PasswordFile> parse_password_file(std::string_view text) {
     if (parts[1] != "pbkdf2-sha256") return Error{ln + "scheme '" + std::string(parts[1].substr(0, 32)) + "' unknown; expected pbkdf2-sha256"};
     PasswordEntry e;
     long long it = 0;
-    if (parts[2].empty() || parts[2].size() > 9) return Error{ln + "iterations must be a number 1000-100000000"};
+    const std::string range = std::to_string(kMinPbkdf2Iterations) + "-100000000";
+    if (parts[2].empty() || parts[2].size() > 9) return Error{ln + "field 3 (iterations) must be a number " + range};
     for (char c : parts[2]) {
-      if (c < '0' || c > '9') return Error{ln + "iterations '" + std::string(parts[2]) + "' is not a number"};
+      if (c < '0' || c > '9') return Error{ln + "field 3 (iterations) '" + std::string(parts[2]) + "' is not a number"};
       it = it * 10 + (c - '0');
     }
-    if (it < 1000 || it > 100000000) return Error{ln + "iterations must be 1000-100000000"};
+    if (it < kMinPbkdf2Iterations)
+      return Error{ln + "field 3 (iterations) is " + std::to_string(it) + ", fewer than " +
+                   std::to_string(kMinPbkdf2Iterations) + " PBKDF2 iterations are too quick to guess through; set the "
+                   "password again with `dentar serve --passwords FILE --set-password " + name + "`"};
+    if (it > 100000000) return Error{ln + "field 3 (iterations) must be " + range};
     e.iterations = static_cast<int>(it);
     if (!unhex(parts[3], e.salt) || e.salt.size() < 8 || e.salt.size() > 64)
       return Error{ln + "salt must be 16-128 hex digits"};
@@ -150,7 +155,12 @@ Status set_password(const std::string& path, const std::string& user, const std:
     return Error{"user name '" + user + "': must be 1-64 characters without ':'"};
   for (unsigned char c : user)
     if (c <= 0x20 || c == 0x7f) return Error{"user name: contains a space or control character"};
-  if (password.size() < 8) return Error{"password: at least 8 characters"};
+  if (password.size() < kMinPasswordLength)
+    return Error{"password: " + std::to_string(password.size()) + " characters, at least " +
+                 std::to_string(kMinPasswordLength) + " are needed (a passphrase of several words is easiest)"};
+  if (iterations < kMinPbkdf2Iterations || iterations > 100000000)
+    return Error{"iterations " + std::to_string(iterations) + ": must be " + std::to_string(kMinPbkdf2Iterations) +
+                 "-100000000"};
   f[user] = hash_password(password, iterations);
   const std::string tmp = path + ".tmp";
   {

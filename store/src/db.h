@@ -28,7 +28,8 @@ class Db {
   void rollback() { (void)exec("ROLLBACK"); }
 };
 
-Result<std::unique_ptr<Db>> open_sqlite(const DbUrl& url, bool create);
+// check: PRAGMA quick_check on an existing file (a damaged one is refused).
+Result<std::unique_ptr<Db>> open_sqlite(const DbUrl& url, bool create, bool check);
 Result<std::unique_ptr<Db>> open_postgres(const DbUrl& url, int connect_timeout_s);
 
 }  // namespace dentar::store

@@ -44,6 +44,7 @@ Result<DbUrl> parse_db_url(std::string_view text) {
     const std::string_view userinfo = authority.substr(0, at);
     const std::size_t colon = userinfo.find(':');
     red += std::string(userinfo.substr(0, colon)) + (colon != std::string_view::npos ? ":***" : "") + "@";
+    u.has_password = colon != std::string_view::npos;
     hostport = authority.substr(at + 1);
   }
   red += std::string(hostport);
@@ -51,7 +52,16 @@ Result<DbUrl> parse_db_url(std::string_view text) {
     std::string_view tail = rest.substr(slash);
     const std::size_t q = tail.find('?');
     red += std::string(tail.substr(0, q));
-    if (q != std::string_view::npos) red += "?...";
+    if (q != std::string_view::npos) {
+      red += "?...";
+      const std::string_view query = tail.substr(q + 1);
+      for (std::size_t s = 0; s <= query.size();) {
+        std::size_t amp = query.find('&', s);
+        if (amp == std::string_view::npos) amp = query.size();
+        if (starts_with(query.substr(s, amp - s), "password=")) u.has_password = true;
+        s = amp + 1;
+      }
+    }
   }
   u.redacted = red;
   // Port, when given, must be a number 1..65535 (IPv6 hosts are in brackets).
@@ -73,6 +83,14 @@ Result<DbUrl> parse_db_url(std::string_view text) {
       return Error{"database URL '" + red + "': port '" + std::string(port.substr(0, 16)) + "' must be 1-65535"};
   }
   return u;
+}
+
+std::string password_on_command_line(const DbUrl& url, const std::string& option) {
+  if (!url.has_password) return "";
+  return option + " " + url.redacted +
+         ": a password on the command line shows in `ps` and in the shell's history; remove it from the URL and "
+         "give it in the environment (PGPASSWORD=...) or in a pgpass file (~/.pgpass or $PGPASSFILE, mode 0600, "
+         "lines HOST:PORT:DB:USER:PASSWORD)";
 }
 
 }  // namespace dentar::store

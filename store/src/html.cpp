@@ -52,23 +52,27 @@ const char* kStyle =
     "text-align:left}th{background:#eef1f5}td.n{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}"
     ".warn{color:#a33;font-weight:600}.ok{color:#286b2a}.muted{color:#667}svg{background:#fff;border:1px solid #d5dae1;"
     "margin:6px 0}form.login{background:#fff;padding:20px;border:1px solid #d5dae1;max-width:320px}"
-    "form.login input{display:block;margin:6px 0 12px;width:100%;padding:6px}";
+    "form.login input{display:block;margin:6px 0 12px;width:100%;padding:6px}"
+    "form.logout{display:inline;margin:0}form.logout button{background:none;border:0;color:#fff;text-decoration:underline;"
+    "cursor:pointer;font:inherit;padding:0}";
 }  // namespace
 
-std::string page(const std::string& title, const std::string& body, const std::string& user) {
+std::string page(const std::string& title, const std::string& body, const std::string& user, const std::string& csrf) {
   std::string h = "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>" + esc(title) +
                   " · DentAR</title><style>" + kStyle + "</style></head><body><header><a href=\"/\">DentAR</a>";
   if (!user.empty())
     h += "<a href=\"/\">Students</a><a href=\"/cohort\">Cohort</a><span class=\"user\">" + esc(user) +
-         " · <a href=\"/logout\">Log out</a></span>";
+         " · <form class=\"logout\" method=\"post\" action=\"/logout\"><input type=\"hidden\" name=\"csrf\" value=\"" +
+         esc(csrf) + "\"><button type=\"submit\">Log out</button></form></span>";
   h += "</header><main>" + body + "</main></body></html>";
   return h;
 }
 
-std::string message_page(int status, const std::string& title, const std::string& text, const std::string& user) {
+std::string message_page(int status, const std::string& title, const std::string& text, const std::string& user,
+                         const std::string& csrf) {
   return page(title, "<h1 id=\"status\" data-status=\"" + std::to_string(status) + "\">" + std::to_string(status) +
                          " · " + esc(title) + "</h1><p>" + esc(text) + "</p><p><a href=\"/\">Back to the students</a></p>",
-              user);
+              user, csrf);
 }
 
 std::string login_page(const std::string& next, const std::string& error) {

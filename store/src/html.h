@@ -10,8 +10,11 @@ namespace dentar::store::html {
 std::string esc(const std::string& s);          // text and attribute values
 std::string url_part(const std::string& s);     // one path segment / query value
 std::string fixed(double v, int decimals);
-std::string page(const std::string& title, const std::string& body, const std::string& user);
-std::string message_page(int status, const std::string& title, const std::string& text, const std::string& user);
+// csrf: the session's token, carried by the header's logout form (a POST).
+std::string page(const std::string& title, const std::string& body, const std::string& user,
+                 const std::string& csrf = "");
+std::string message_page(int status, const std::string& title, const std::string& text, const std::string& user,
+                         const std::string& csrf = "");
 std::string login_page(const std::string& next, const std::string& error);
 
 struct Series {

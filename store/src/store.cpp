@@ -195,18 +195,34 @@ SessionSummary summary_from(const Row& r) {
 
 Store::~Store() = default;
 
-Result<std::unique_ptr<Store>> Store::open(const std::string& url_text, const OpenOptions& opt) {
+Result<std::unique_ptr<Store>> Store::open(const std::string& url_text, const OpenOptions& opt, OpenFault* fault) {
+  OpenFault dummy;
+  OpenFault& f = fault ? *fault : dummy;
+  f = OpenFault::BadInput;
   auto url = parse_db_url(url_text);
   if (!url) return Error{url.error()};
   if (opt.target_version < 1 || opt.target_version > kSchemaVersion)
     return Error{"schema version " + std::to_string(opt.target_version) + " does not exist (1-" +
                  std::to_string(kSchemaVersion) + ")"};
-  auto db = url->kind == DbUrl::Kind::Sqlite ? open_sqlite(*url, opt.create) : open_postgres(*url, opt.connect_timeout_s);
-  if (!db) return Error{db.error()};
+  const bool pg = url->kind == DbUrl::Kind::Postgres;
+  auto db = pg ? open_postgres(*url, opt.connect_timeout_s) : open_sqlite(*url, opt.create, opt.check);
+  if (!db) {
+    const std::string& e = db.error();
+    if (pg || e.find("locked") != std::string::npos || e.find("busy") != std::string::npos) f = OpenFault::Unavailable;
+    return Error{e};
+  }
   std::unique_ptr<Store> s(new Store());
   s->url_ = *url;
   s->db_ = std::move(*db);
-  if (auto m = migrate(*s->db_, s->url_, opt, s->version_); !m) return Error{m.error()};
+  if (auto m = migrate(*s->db_, s->url_, opt, s->version_); !m) {
+    const std::string& e = m.error();
+    if (e.find("malformed") != std::string::npos)
+      f = OpenFault::BadInput;
+    else if (e.find("schema version") == std::string::npos && e.find("newer") == std::string::npos)
+      f = OpenFault::Unavailable;  // the server or the lock, not the data
+    return Error{e};
+  }
+  f = OpenFault::None;
   return s;
 }
 

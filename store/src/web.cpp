@@ -3,8 +3,13 @@
 #include "dentar/store/web.h"
 
 #include <httplib.h>
+#include <openssl/crypto.h>
+#include <openssl/err.h>
+#include <openssl/ssl.h>
 
 #include <chrono>
+#include <ctime>
+#include <iostream>
 #include <condition_variable>
 #include <filesystem>
 #include <map>
@@ -13,6 +18,7 @@
 
 #include "dentar/store/metric_names.h"
 #include "dentar/store/store.h"
+#include "front.h"
 #include "html.h"
 
 namespace dentar::store {
@@ -24,6 +30,12 @@ std::string ServeOptions::validate() const {
   if (cert_file.empty() != key_file.empty()) return "--cert and --key: give both for HTTPS, or neither";
   if (session_hours < 1 || session_hours > 24 * 30) return "--session-hours: must be 1-720";
   if (threads < 1 || threads > 64) return "--threads: must be 1-64";
+  if (!(request_timeout_s >= 1 && request_timeout_s <= 600)) return "--request-timeout: must be 1-600 s";
+  if (max_conn_per_client < 1 || max_conn_per_client > 1000) return "--max-conn-per-client: must be 1-1000";
+  if (max_header_bytes < 1024 || max_header_bytes > (1u << 20)) return "max_header_bytes: must be 1 KiB-1 MiB";
+  if (max_headers < 8 || max_headers > 1000) return "max_headers: must be 8-1000";
+  if (login_free_tries < 1 || login_free_tries > 100) return "login_free_tries: must be 1-100";
+  if (login_max_delay_s < 1 || login_max_delay_s > 24 * 3600) return "--login-max-delay: must be 1-86400 s";
   return "";
 }
 
@@ -31,6 +43,36 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr const char* kCookie = "dentar_session";
+
+// Who is looking: the login and the session's CSRF token (the logout form
+// carries it; a POST without it is refused).
+struct Viewer {
+  std::string name, csrf;
+};
+
+std::string utc_stamp() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char b[32];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return b;
+}
+
+// A user name as typed by a stranger, fit for one log line.
+std::string loggable(const std::string& s) {
+  std::string o;
+  for (unsigned char c : s.substr(0, 64)) {
+    if (c < 0x20 || c == 0x7f || c == '\'' || c == '\\') {
+      char b[8];
+      std::snprintf(b, sizeof b, "\\x%02x", c);
+      o += b;
+    } else {
+      o += static_cast<char>(c);
+    }
+  }
+  return o;
+}
 
 bool is_id(const std::string& s) {
   if (s.empty() || s.size() > 18) return false;
@@ -115,18 +157,73 @@ OpenOptions readonly_open() {
 struct WebServer::Impl {
   ServeOptions opt;
   PasswordFile users;
-  std::unique_ptr<httplib::Server> svr;
-  int port = 0;
+  PasswordEntry dummy;  // checked for unknown users: as slow as a known one
+  std::unique_ptr<RoutedServer> svr;
+  std::unique_ptr<Front> front;
+  SSL_CTX* ssl_ctx = nullptr;
   bool tls = false;
 
-  std::mutex mu;  // guards cookies and the pool
+  ~Impl() {
+    front.reset();
+    if (ssl_ctx) SSL_CTX_free(ssl_ctx);
+  }
+
+  std::mutex mu;  // guards cookies, the pool and the login throttle
   struct CookieSession {
-    std::string user;
+    std::string user, csrf;
     Clock::time_point expires;
   };
   std::map<std::string, CookieSession> cookies;
   std::vector<std::unique_ptr<Store>> pool;
   std::condition_variable pool_cv;
+
+  // Login throttling, per account and per client address: the first
+  // login_free_tries failures cost nothing; each further one doubles the
+  // wait before the next try is even checked (1 s, 2 s, 4 s, ... up to
+  // login_max_delay_s), so guessing slows to one try per max delay and a
+  // throttled try costs no PBKDF2 work. Never a permanent lockout: the wait
+  // ends, a success clears the count, and a count is forgotten after an hour
+  // without failures.
+  struct Throttle {
+    int failures = 0;
+    int refused = 0;  // tries refused while waiting, reported with the next log line
+    Clock::time_point last_failure, next_try;
+  };
+  std::map<std::string, Throttle> throttle;  // "user:NAME" and "addr:IP"
+
+  void log(const std::string& line) {
+    if (opt.log) opt.log(line);
+    else std::cerr << "serve: " << utc_stamp() << " " << line << std::endl;
+  }
+
+  // Seconds until `key` may try again (0: now). Caller holds mu.
+  long wait_s(const std::string& key, Clock::time_point now) {
+    auto it = throttle.find(key);
+    if (it == throttle.end()) return 0;
+    if (now - it->second.last_failure > std::chrono::hours(1) && now >= it->second.next_try) {
+      throttle.erase(it);
+      return 0;
+    }
+    if (now >= it->second.next_try) return 0;
+    return static_cast<long>(std::chrono::ceil<std::chrono::seconds>(it->second.next_try - now).count());
+  }
+  // Records a failure; returns the new wait in seconds. Caller holds mu.
+  long fail_login(const std::string& key, Clock::time_point now) {
+    if (throttle.size() > 100000) {  // bounded memory under a flood of names
+      for (auto it = throttle.begin(); it != throttle.end();)
+        it = now >= it->second.next_try ? throttle.erase(it) : std::next(it);
+    }
+    Throttle& t = throttle[key];
+    ++t.failures;
+    t.last_failure = now;
+    long d = 0;
+    if (t.failures > opt.login_free_tries) {
+      const int k = std::min(t.failures - opt.login_free_tries - 1, 30);
+      d = std::min<long>(1L << k, opt.login_max_delay_s);
+    }
+    t.next_try = now + std::chrono::seconds(d);
+    return d;
+  }
 
   struct Lease {
     Impl* impl;
@@ -149,57 +246,75 @@ struct WebServer::Impl {
         return l;
       }
     }
-    auto s = Store::open(opt.db_url, readonly_open());
+    OpenOptions o = readonly_open();
+    o.check = false;  // checked once when the server started
+    auto s = Store::open(opt.db_url, o);
     if (!s) return Error{s.error()};
     return Lease{this, std::move(*s)};
   }
 
-  std::string user_of(const httplib::Request& req) {
+  // The cookie's token, or "".
+  static std::string cookie_token(const httplib::Request& req) {
     const std::string c = req.get_header_value("Cookie");
     const std::string key = std::string(kCookie) + "=";
     std::size_t p = 0;
     while ((p = c.find(key, p)) != std::string::npos) {
       if (p == 0 || c[p - 1] == ' ' || c[p - 1] == ';') {
         std::size_t e = c.find(';', p);
-        const std::string tok = c.substr(p + key.size(), e == std::string::npos ? std::string::npos : e - p - key.size());
-        std::lock_guard lk(mu);
-        auto it = cookies.find(tok);
-        if (it != cookies.end()) {
-          if (it->second.expires > Clock::now()) return it->second.user;
-          cookies.erase(it);
-        }
-        return "";
+        return c.substr(p + key.size(), e == std::string::npos ? std::string::npos : e - p - key.size());
       }
       p += key.size();
     }
     return "";
   }
 
-  static void headers(httplib::Response& res) {
+  Viewer viewer_of(const httplib::Request& req) {
+    const std::string tok = cookie_token(req);
+    if (tok.empty()) return {};
+    std::lock_guard lk(mu);
+    auto it = cookies.find(tok);
+    if (it == cookies.end()) return {};
+    if (it->second.expires > Clock::now()) return {it->second.user, it->second.csrf};
+    cookies.erase(it);
+    return {};
+  }
+
+  // sandbox (stored reports): the document runs without scripts, forms,
+  // navigation of its own (a <meta http-equiv=refresh> does nothing) and in
+  // an opaque origin, whatever an imported score.html holds.
+  void headers(httplib::Response& res, bool sandbox = false) const {
     res.set_header("Content-Security-Policy",
-                   "default-src 'none'; style-src 'unsafe-inline'; img-src data:; form-action 'self'; frame-ancestors 'none'");
+                   std::string("default-src 'none'; style-src 'unsafe-inline'; img-src data:; form-action 'self'; "
+                               "frame-ancestors 'none'") + (sandbox ? "; sandbox" : ""));
     res.set_header("X-Content-Type-Options", "nosniff");
     res.set_header("Referrer-Policy", "no-referrer");
     res.set_header("X-Frame-Options", "DENY");
     res.set_header("Cache-Control", "no-store");
+    if (tls) res.set_header("Strict-Transport-Security", "max-age=31536000");
   }
-  static void send(httplib::Response& res, int status, const std::string& body) {
+  void send(httplib::Response& res, int status, const std::string& body) const {
     res.status = status;
     headers(res);
     res.set_content(body, "text/html; charset=utf-8");
   }
-  static void fail(httplib::Response& res, int status, const std::string& user, const std::string& text) {
+  void fail(httplib::Response& res, int status, const Viewer& v, const std::string& text) const {
     const char* title = status == 404 ? "Not found" : status == 400 ? "Bad request" : status == 401 ? "Login needed"
-                                                                                                   : "Server error";
-    send(res, status, html::message_page(status, title, text, user));
+                        : status == 403 ? "Forbidden" : status == 429 ? "Too many tries" : "Server error";
+    send(res, status, html::message_page(status, title, text, v.name, v.csrf));
+  }
+  // A server error: the page says it was logged, and it is (with the cause).
+  void fail500(const httplib::Request& req, httplib::Response& res, const Viewer& v, const std::string& text,
+               const std::string& cause) {
+    log("error on " + req.method + " " + loggable(req.path) + ": " + text + " " + cause);
+    fail(res, 500, v, text + " The error was logged.");
   }
 
   // Wraps a page: login required, a database connection, errors as pages.
-  using PageFn = std::function<void(const httplib::Request&, httplib::Response&, Store&, const std::string& user)>;
+  using PageFn = std::function<void(const httplib::Request&, httplib::Response&, Store&, const Viewer& user)>;
   httplib::Server::Handler guarded(PageFn fn) {
     return [this, fn](const httplib::Request& req, httplib::Response& res) {
-      const std::string user = user_of(req);
-      if (user.empty()) {
+      const Viewer user = viewer_of(req);
+      if (user.name.empty()) {
         headers(res);
         res.set_redirect("/login?next=" + html::url_part(safe_next(req.path)), 303);
         return;
@@ -212,7 +327,7 @@ struct WebServer::Impl {
       }
       auto l = lease();
       if (!l) {
-        fail(res, 500, user, "The session database cannot be reached right now; try again in a minute.");
+        fail500(req, res, user, "The session database cannot be reached right now; try again in a minute.", l.error());
         return;
       }
       fn(req, res, *l->store, user);
@@ -222,12 +337,19 @@ struct WebServer::Impl {
   void routes() {
     auto& s = *svr;
     s.set_payload_max_length(64 * 1024);
-    s.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr) {
-      fail(res, 500, "", "Something went wrong on the server; the error was logged.");
+    s.set_exception_handler([this](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+      std::string what = "unknown exception";
+      try {
+        if (ep) std::rethrow_exception(ep);
+      } catch (const std::exception& e) {
+        what = e.what();
+      } catch (...) {
+      }
+      fail500(req, res, {}, "Something went wrong on the server.", "(exception: " + what + ")");
     });
-    s.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
+    s.set_error_handler(httplib::Server::HandlerWithResponse([this](const httplib::Request&, httplib::Response& res) {
       if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;  // our own page
-      fail(res, res.status == 404 ? 404 : res.status, "",
+      fail(res, res.status == 404 ? 404 : res.status, {},
            res.status == 404 ? "There is no such page." : "The request could not be handled.");
       return httplib::Server::HandlerResponse::Handled;
     }));
@@ -238,41 +360,89 @@ struct WebServer::Impl {
     s.Post("/login", [this](const httplib::Request& req, httplib::Response& res) {
       const std::string user = req.get_param_value("user"), pw = req.get_param_value("password");
       const std::string next = safe_next(req.get_param_value("next"));
+      const std::string ukey = "user:" + user, akey = "addr:" + req.remote_addr;
+      const std::string who = "user '" + loggable(user) + "' from " + req.remote_addr;
+      long wait = 0;
+      int refused = 0;
+      {
+        std::lock_guard lk(mu);
+        const auto now = Clock::now();
+        wait = std::max(wait_s(ukey, now), wait_s(akey, now));
+        if (wait > 0)
+          for (const auto& k : {ukey, akey})
+            if (auto t = throttle.find(k); t != throttle.end()) refused = ++t->second.refused;
+      }
+      if (wait > 0) {  // no password check at all: a throttled guess costs nothing
+        if (refused == 1)
+          log("login refused for " + who + ": throttled after failed logins, next try in " + std::to_string(wait) + " s");
+        headers(res);
+        res.set_header("Retry-After", std::to_string(wait));
+        send(res, 429, html::login_page(next, "Too many failed logins for this user or from this computer; try again in " +
+                                                  std::to_string(wait) + " s."));
+        return;
+      }
       auto it = users.find(user);
       // Unknown users cost the same PBKDF2 work as known ones.
-      static const PasswordEntry dummy = hash_password("not-a-password", kDefaultPbkdf2Iterations);
       const bool ok = verify_password(it != users.end() ? it->second : dummy, pw) && it != users.end();
       if (!ok) {
+        long du = 0, da = 0;
+        int fu = 0, fa = 0, ru = 0, ra = 0;
+        {
+          std::lock_guard lk(mu);
+          const auto now = Clock::now();
+          du = fail_login(ukey, now);
+          da = fail_login(akey, now);
+          auto& tu = throttle[ukey];
+          auto& ta = throttle[akey];
+          fu = tu.failures, fa = ta.failures, ru = tu.refused, ra = ta.refused;
+          tu.refused = ta.refused = 0;
+        }
+        log("login failed for " + who + (it == users.end() ? " (no such user)" : "") + ": failure " + std::to_string(fu) +
+            " of the user, " + std::to_string(fa) + " from the address" +
+            (ru + ra ? " (" + std::to_string(std::max(ru, ra)) + " tries refused while throttled)" : ""));
+        if (const long d = std::max(du, da); d > 0)
+          log("login throttled for " + who + ": next try in " + std::to_string(d) + " s");
         send(res, 401, html::login_page(next, "Wrong user name or password."));
         return;
       }
       const std::string tok = random_token_hex(32);
       {
         std::lock_guard lk(mu);
+        throttle.erase(ukey);
+        throttle.erase(akey);
         for (auto c = cookies.begin(); c != cookies.end();)  // drop expired sessions
           c = c->second.expires < Clock::now() ? cookies.erase(c) : std::next(c);
-        cookies[tok] = {user, Clock::now() + std::chrono::hours(opt.session_hours)};
+        cookies[tok] = {user, random_token_hex(16), Clock::now() + std::chrono::hours(opt.session_hours)};
       }
+      log("login of " + who);
       headers(res);
       res.set_header("Set-Cookie", std::string(kCookie) + "=" + tok + "; Path=/; HttpOnly; SameSite=Lax; Max-Age=" +
                                        std::to_string(opt.session_hours * 3600) + (tls ? "; Secure" : ""));
       res.set_redirect(next, 303);
     });
-    s.Get("/logout", [this](const httplib::Request& req, httplib::Response& res) {
-      const std::string c = req.get_header_value("Cookie");
-      {
+    // Logout is a POST carrying the session's CSRF token (a GET, or a POST
+    // from another site, cannot end the session).
+    s.Post("/logout", [this](const httplib::Request& req, httplib::Response& res) {
+      const std::string tok = cookie_token(req);
+      const Viewer v = viewer_of(req);
+      if (!v.name.empty()) {
+        const std::string given = req.get_param_value("csrf");
+        if (given.size() != v.csrf.size() || CRYPTO_memcmp(given.data(), v.csrf.data(), given.size()) != 0) {
+          log("logout refused for user '" + loggable(v.name) + "' from " + req.remote_addr + ": no or a wrong CSRF token");
+          fail(res, 403, v, "This form has expired or came from another site; reload the page and try again.");
+          return;
+        }
         std::lock_guard lk(mu);
-        for (auto it = cookies.begin(); it != cookies.end();)
-          it = c.find(it->first) != std::string::npos ? cookies.erase(it) : std::next(it);
+        cookies.erase(tok);
       }
       headers(res);
       res.set_header("Set-Cookie", std::string(kCookie) + "=; Path=/; HttpOnly; SameSite=Lax; Max-Age=0");
       res.set_redirect("/login", 303);
     });
 
-    s.Get("/", guarded([](const httplib::Request&, httplib::Response& res, Store& st, const std::string& user) {
+    s.Get("/", guarded([this](const httplib::Request& req, httplib::Response& res, Store& st, const Viewer& user) {
       auto students = st.students();
-      if (!students) return fail(res, 500, user, "The student list could not be read.");
+      if (!students) return fail500(req, res, user, "The student list could not be read.", students.error());
       std::string b = "<h1>Students</h1><table id=\"students\"><tr><th>Student</th><th>Sessions</th><th>Mean score</th>"
                       "<th>Last score</th><th>Last session</th></tr>";
       for (const auto& x : *students)
@@ -283,16 +453,16 @@ struct WebServer::Impl {
              "</td><td>" + html::esc(x.last_utc) + "</td></tr>";
       b += "</table>";
       if (students->empty()) b += "<p class=\"muted\">No sessions stored yet (<code>dentar db import</code>).</p>";
-      send(res, 200, html::page("Students", b, user));
+      send(res, 200, html::page("Students", b, user.name, user.csrf));
     }));
 
-    s.Get(R"(/student/([^/]+))", guarded([](const httplib::Request& req, httplib::Response& res, Store& st,
-                                             const std::string& user) {
+    s.Get(R"(/student/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res, Store& st,
+                                             const Viewer& user) {
       const std::string code = req.matches[1];
       if (!validate_code("student", code).empty()) return fail(res, 400, user, "That is not a student code.");
       const std::string ex = req.get_param_value("exercise");
       auto ss = st.sessions(filter(code, ex));
-      if (!ss) return fail(res, 500, user, "The sessions could not be read.");
+      if (!ss) return fail500(req, res, user, "The sessions could not be read.", ss.error());
       if (ss->empty()) {
         auto any = st.sessions(filter(code, "", 1));
         if (!any || any->empty()) return fail(res, 404, user, "There is no student with that code.");
@@ -324,15 +494,15 @@ struct WebServer::Impl {
              (x.has_report ? "<a href=\"/session/" + id + "/report\">report</a>" : "–") + "</td></tr>";
       }
       b += "</table>";
-      send(res, 200, html::page("Student " + code, b, user));
+      send(res, 200, html::page("Student " + code, b, user.name, user.csrf));
     }));
 
-    s.Get(R"(/session/([^/]+))", guarded([](const httplib::Request& req, httplib::Response& res, Store& st,
-                                             const std::string& user) {
+    s.Get(R"(/session/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res, Store& st,
+                                             const Viewer& user) {
       const std::string ids = req.matches[1];
       if (!is_id(ids)) return fail(res, 400, user, "A session number is digits only.");
       auto r = st.session(std::stoll(ids));
-      if (!r) return fail(res, 500, user, "The session could not be read.");
+      if (!r) return fail500(req, res, user, "The session could not be read.", r.error());
       if (!*r) return fail(res, 404, user, "There is no session #" + ids + ".");
       const SessionRecord& x = **r;
       std::string b = "<h1>Session #" + ids + "</h1><table id=\"summary\">";
@@ -378,28 +548,31 @@ struct WebServer::Impl {
              html::esc(metric_value_text(ml, m.value, 3)) + "</td><td>" + html::esc(ml.unit) + "</td></tr>";
       }
       b += "</table>";
-      send(res, 200, html::page("Session #" + ids, b, user));
+      send(res, 200, html::page("Session #" + ids, b, user.name, user.csrf));
     }));
 
-    s.Get(R"(/session/([^/]+)/report)", guarded([](const httplib::Request& req, httplib::Response& res, Store& st,
-                                                    const std::string& user) {
+    s.Get(R"(/session/([^/]+)/report)", guarded([this](const httplib::Request& req, httplib::Response& res, Store& st,
+                                                    const Viewer& user) {
       const std::string ids = req.matches[1];
       if (!is_id(ids)) return fail(res, 400, user, "A session number is digits only.");
       auto r = st.session(std::stoll(ids));
-      if (!r) return fail(res, 500, user, "The session could not be read.");
+      if (!r) return fail500(req, res, user, "The session could not be read.", r.error());
       if (!*r) return fail(res, 404, user, "There is no session #" + ids + ".");
       if ((*r)->score_html.empty()) return fail(res, 404, user, "Session #" + ids + " was stored without its report.");
-      send(res, 200, (*r)->score_html);  // the stored score.html; never a file from disk
+      // The stored score.html (never a file from disk), sandboxed.
+      res.status = 200;
+      headers(res, true);
+      res.set_content((*r)->score_html, "text/html; charset=utf-8");
     }));
 
-    s.Get("/cohort", guarded([](const httplib::Request&, httplib::Response& res, Store& st, const std::string& user) {
+    s.Get("/cohort", guarded([this](const httplib::Request& req, httplib::Response& res, Store& st, const Viewer& user) {
       auto exs = st.exercises();
-      if (!exs) return fail(res, 500, user, "The exercises could not be read.");
+      if (!exs) return fail500(req, res, user, "The exercises could not be read.", exs.error());
       std::string b = "<h1>Cohort</h1>";
       if (exs->empty()) b += "<p class=\"muted\">No sessions stored yet.</p>";
       for (const auto& e : *exs) {
         auto ss = st.sessions(filter("", e));
-        if (!ss) return fail(res, 500, user, "The sessions could not be read.");
+        if (!ss) return fail500(req, res, user, "The sessions could not be read.", ss.error());
         std::map<std::string, std::vector<double>> per;
         for (const auto& x : *ss)
           if (x.max_points > 0) per[x.student].push_back(100.0 * x.points / x.max_points);
@@ -419,15 +592,15 @@ struct WebServer::Impl {
         }
         b += "</table>";
       }
-      send(res, 200, html::page("Cohort", b, user));
+      send(res, 200, html::page("Cohort", b, user.name, user.csrf));
     }));
 
-    s.Get(R"(/exercise/([^/]+))", guarded([](const httplib::Request& req, httplib::Response& res, Store& st,
-                                              const std::string& user) {
+    s.Get(R"(/exercise/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res, Store& st,
+                                              const Viewer& user) {
       const std::string e = req.matches[1];
       if (!validate_code("exercise", e).empty()) return fail(res, 400, user, "That is not an exercise name.");
       auto ss = st.sessions(filter("", e));
-      if (!ss) return fail(res, 500, user, "The sessions could not be read.");
+      if (!ss) return fail500(req, res, user, "The sessions could not be read.", ss.error());
       if (ss->empty()) return fail(res, 404, user, "No session of that exercise is stored.");
       std::map<std::string, html::Series> per;
       for (const auto& x : *ss) {
@@ -439,72 +612,88 @@ struct WebServer::Impl {
       for (auto& [k, v] : per) all.push_back(v);
       std::string b = "<h1>Exercise " + html::esc(e) + "</h1><p>" + std::to_string(ss->size()) + " sessions by " +
                       std::to_string(per.size()) + " students</p>" + html::trend_svg(all, "Score over time, one line per student");
-      send(res, 200, html::page("Exercise " + e, b, user));
+      send(res, 200, html::page("Exercise " + e, b, user.name, user.csrf));
     }));
   }
 };
 
 WebServer::~WebServer() { stop(); }
 
-Result<std::unique_ptr<WebServer>> WebServer::create(const ServeOptions& opt) {
+Result<std::unique_ptr<WebServer>> WebServer::create(const ServeOptions& opt, OpenFault* fault) {
+  OpenFault dummy;
+  OpenFault& f = fault ? *fault : dummy;
+  f = OpenFault::BadInput;
   if (auto v = opt.validate(); !v.empty()) return Error{v};
   auto users = load_password_file(opt.password_file);
   if (!users) return Error{users.error()};
   if (users->empty()) return Error{opt.password_file + ": no user; add one with --set-password USER"};
-  // The database must exist and be at this program's schema (no migration
-  // from a read-only server: `dentar db migrate`).
-  auto probe = Store::open(opt.db_url, readonly_open());
+  // The database must exist, be undamaged (PRAGMA quick_check) and be at this
+  // program's schema (no migration from a read-only server: `dentar db migrate`).
+  auto probe = Store::open(opt.db_url, readonly_open(), &f);
   if (!probe) return Error{probe.error()};
+  f = OpenFault::BadInput;
   std::unique_ptr<WebServer> w(new WebServer());
   w->impl_ = std::make_unique<Impl>();
   Impl& m = *w->impl_;
   m.opt = opt;
   m.users = *users;
+  m.dummy = hash_password(random_token_hex(16), m.users.begin()->second.iterations);
   m.pool.push_back(std::move(*probe));
   if (!opt.cert_file.empty()) {
     std::error_code ec;
-    for (const auto& f : {opt.cert_file, opt.key_file})
-      if (!std::filesystem::is_regular_file(f, ec)) return Error{f + ": no such certificate/key file"};
-    auto s = std::make_unique<httplib::SSLServer>(opt.cert_file.c_str(), opt.key_file.c_str());
-    if (!s->is_valid()) return Error{opt.cert_file + " / " + opt.key_file + ": not a usable PEM certificate and key"};
-    m.svr = std::move(s);
+    for (const auto& file : {opt.cert_file, opt.key_file})
+      if (!std::filesystem::is_regular_file(file, ec)) return Error{file + ": no such certificate/key file"};
+    // TLS 1.2 and 1.3 only; for TLS 1.2 only ECDHE key exchange with AEAD
+    // ciphers (forward secrecy: a stolen key does not open recorded
+    // traffic). TLS 1.3's suites are all forward-secret.
+    m.ssl_ctx = SSL_CTX_new(TLS_server_method());
+    if (!m.ssl_ctx) return Error{"OpenSSL: cannot create a TLS context"};
+    SSL_CTX_set_min_proto_version(m.ssl_ctx, TLS1_2_VERSION);
+    SSL_CTX_set_options(m.ssl_ctx, SSL_OP_NO_COMPRESSION | SSL_OP_NO_RENEGOTIATION | SSL_OP_CIPHER_SERVER_PREFERENCE);
+    const bool ok = SSL_CTX_set_cipher_list(m.ssl_ctx, "ECDHE+AESGCM:ECDHE+CHACHA20") == 1 &&
+                    SSL_CTX_use_certificate_chain_file(m.ssl_ctx, opt.cert_file.c_str()) == 1 &&
+                    SSL_CTX_use_PrivateKey_file(m.ssl_ctx, opt.key_file.c_str(), SSL_FILETYPE_PEM) == 1 &&
+                    SSL_CTX_check_private_key(m.ssl_ctx) == 1;
+    ERR_clear_error();
+    if (!ok) return Error{opt.cert_file + " / " + opt.key_file + ": not a usable PEM certificate and key"};
     m.tls = true;
-  } else {
-    m.svr = std::make_unique<httplib::Server>();
   }
-  const int threads = opt.threads;
-  m.svr->new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<std::size_t>(threads)); };
+  m.svr = std::make_unique<RoutedServer>();
+  m.svr->set_keep_alive_max_count(100);  // what the front allows (the Keep-Alive header says so)
+  m.svr->set_keep_alive_timeout(static_cast<time_t>(opt.request_timeout_s));
   m.routes();
+  FrontOptions fo;
+  fo.host = opt.host;
+  fo.port = opt.port;
+  fo.workers = opt.threads;
+  fo.request_timeout_s = opt.request_timeout_s;
+  fo.max_header_bytes = opt.max_header_bytes;
+  fo.max_headers = opt.max_headers;
+  fo.max_body_bytes = 64 * 1024;
+  fo.max_conn_per_client = opt.max_conn_per_client;
+  fo.tls = m.ssl_ctx;
+  Impl* mp = &m;
+  fo.log = [mp](const std::string& line) { mp->log(line); };
+  m.front = std::make_unique<Front>(fo, [mp](httplib::Stream& s, bool last, bool& close) {
+    return mp->svr->serve_one(s, last, close);
+  });
+  f = OpenFault::None;
   return w;
 }
 
-Status WebServer::bind() {
-  auto& m = *impl_;
-  if (m.opt.port == 0) {
-    m.port = m.svr->bind_to_any_port(m.opt.host);
-    if (m.port <= 0) return Error{m.opt.host + ": cannot listen on any port"};
-  } else {
-    if (!m.svr->bind_to_port(m.opt.host, m.opt.port))
-      return Error{m.opt.host + ":" + std::to_string(m.opt.port) + ": cannot listen (port in use? another --port)"};
-    m.port = m.opt.port;
-  }
-  return {};
-}
+Status WebServer::bind() { return impl_->front->bind(); }
 
-Status WebServer::listen_after_bind() {
-  if (!impl_->svr->listen_after_bind()) return Error{"the server stopped with an error"};
-  return {};
-}
+Status WebServer::listen_after_bind() { return impl_->front->run(); }
 
 Status WebServer::listen() {
   if (auto s = bind(); !s) return s;
   return listen_after_bind();
 }
 
-int WebServer::port() const { return impl_->port; }
+int WebServer::port() const { return impl_->front->port(); }
 
 void WebServer::stop() {
-  if (impl_ && impl_->svr) impl_->svr->stop();
+  if (impl_ && impl_->front) impl_->front->stop();
 }
 
 }  // namespace dentar::store

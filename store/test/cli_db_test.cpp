@@ -3,9 +3,13 @@
 // a station whose server is down, bad input with clear messages.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
+#include "dentar/store/auth.h"
 #include "dentar/store/store.h"
 #include "testkit.h"
 #include "testutil.h"
@@ -116,7 +120,7 @@ TEST(CliDb, BadInputIsExit2WithAMessage) {
   EXPECT_EQ(missing.code, 2);
   EXPECT_NE(missing.out.find("no such session folder"), std::string::npos) << missing.out;
   const CommandResult nodb = run("db status --db sqlite:" + (d / "absent.db").string());
-  EXPECT_EQ(nodb.code, 1);
+  EXPECT_EQ(nodb.code, 2);  // bad input, as in `serve` (issue 26)
   EXPECT_NE(nodb.out.find("dentar db init"), std::string::npos) << nodb.out;
   // A database from a newer DentAR is refused by every command.
   {
@@ -125,7 +129,7 @@ TEST(CliDb, BadInputIsExit2WithAMessage) {
     ASSERT_TRUE((*st)->exec_raw("INSERT INTO dentar_schema(version, applied_utc) VALUES(42, 'x')").ok());
   }
   const CommandResult newer = run("db migrate --db sqlite:" + (d / "newer.db").string());
-  EXPECT_EQ(newer.code, 1);
+  EXPECT_EQ(newer.code, 2);
   EXPECT_NE(newer.out.find("newer than this program's"), std::string::npos) << newer.out;
   const CommandResult live = run("live --db sqlite:x.db --student s1 --seconds 1");
   EXPECT_EQ(live.code, 2);
@@ -179,9 +183,9 @@ TEST(CliServe, SetPasswordThenRefusesBadSetups) {
   const fs::path d = dentar::test::temp_dir("cli_serve");
   const std::string pw = (d / "pw.txt").string();
   const CommandResult s = dentar::test::run_command("echo 'a-long-password' | " + std::string(DENTAR_BINARY) +
-                                                    " serve --passwords " + pw + " --set-password alice --iterations 2000");
+                                                    " serve --passwords " + pw + " --set-password alice --iterations 100000");
   ASSERT_EQ(s.code, 0) << s.out;
-  EXPECT_NE(dentar::test::read_file(pw).find("alice:pbkdf2-sha256:2000:"), std::string::npos);
+  EXPECT_NE(dentar::test::read_file(pw).find("alice:pbkdf2-sha256:100000:"), std::string::npos);
   const CommandResult nodb = run("serve --passwords " + pw + " --db sqlite:" + (d / "absent.db").string());
   EXPECT_EQ(nodb.code, 2);
   EXPECT_NE(nodb.out.find("no such database file"), std::string::npos) << nodb.out;
@@ -191,6 +195,89 @@ TEST(CliServe, SetPasswordThenRefusesBadSetups) {
   const CommandResult certs = run("serve --passwords " + pw + " --db sqlite:x.db --cert a.pem");
   EXPECT_EQ(certs.code, 2);
   EXPECT_NE(certs.out.find("--cert and --key"), std::string::npos) << certs.out;
+}
+
+// Issue 26: a page overwritten in the middle of the file. `db status`,
+// `serve` and `db import` all refuse it with exit 2 and the reason
+// (PRAGMA quick_check); the same file undamaged passes.
+TEST(CliDb, CorruptedPageInTheMiddleIsRefusedEverywhere) {
+  const fs::path d = dentar::test::temp_dir("cli_db_corrupt");
+  const fs::path file = d / "school.db";
+  const std::string db = "sqlite:" + file.string();
+  {
+    auto st = dentar::store::Store::open(db);
+    ASSERT_TRUE(st.ok()) << st.error();
+    for (int k = 0; k < 120; ++k)
+      ASSERT_TRUE((*st)->put(dentar::store::testkit::make_record("s" + std::to_string(k % 7), "st-1",
+                                                                 "molar_access_opening", 500 + k, k))
+                      .ok());
+  }
+  const std::string pw = (d / "pw.txt").string();
+  ASSERT_TRUE(dentar::store::set_password(pw, "alice", "correct-horse-battery", 100000).ok());
+  const CommandResult good = run("db status --db " + db);
+  ASSERT_EQ(good.code, 0) << good.out;
+  EXPECT_NE(good.out.find("120 sessions; PRAGMA quick_check: ok"), std::string::npos) << good.out;
+  // Overwrite one 4 KiB page half way through the file.
+  const auto size = fs::file_size(file);
+  ASSERT_GT(size, 40u * 4096u);
+  {
+    std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(static_cast<std::streamoff>(size / 2 / 4096 * 4096));
+    const std::string junk(4096, '\xa5');
+    f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+  }
+  const CommandResult status = run("db status --db " + db);
+  EXPECT_EQ(status.code, 2) << status.out;
+  EXPECT_NE(status.out.find(db + ": the database file is damaged (PRAGMA quick_check"), std::string::npos) << status.out;
+  EXPECT_NE(status.out.find("Restore it from a backup"), std::string::npos) << status.out;
+  const CommandResult serve = dentar::test::run_command("timeout 30 " + std::string(DENTAR_BINARY) + " serve --db " + db +
+                                                        " --passwords " + pw + " --port 0");
+  EXPECT_EQ(serve.code, 2) << serve.out;
+  EXPECT_NE(serve.out.find(db + ": the database file is damaged (PRAGMA quick_check"), std::string::npos) << serve.out;
+  const CommandResult imp = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
+  EXPECT_EQ(imp.code, 2) << imp.out;
+  EXPECT_NE(imp.out.find("the database file is damaged"), std::string::npos) << imp.out;
+}
+
+// The SQLite file is created readable by its owner only; a password in a
+// PostgreSQL URL is refused (it would show in `ps`) with what to do instead.
+TEST(CliDb, PrivateFileAndNoPasswordOnTheCommandLine) {
+  const fs::path d = dentar::test::temp_dir("cli_db_private");
+  ASSERT_EQ(run("db init --db sqlite:" + (d / "s.db").string()).code, 0);
+  struct stat sb {};
+  ASSERT_EQ(::stat((d / "s.db").c_str(), &sb), 0);
+  EXPECT_EQ(sb.st_mode & 0777, 0600u);
+  for (const std::string cmd : {"db status --db ", "db init --db ", "serve --passwords x.txt --db "}) {
+    const CommandResult r = run(cmd + "postgresql://dentar:s3cret-pw@127.0.0.1:1/dentar");
+    EXPECT_EQ(r.code, 2) << cmd << r.out;
+    EXPECT_NE(r.out.find("postgresql://dentar:***@127.0.0.1:1/dentar: a password on the command line"), std::string::npos)
+        << cmd << r.out;
+    EXPECT_NE(r.out.find("PGPASSWORD"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("s3cret"), std::string::npos) << r.out;
+  }
+  const CommandResult q = run("db status --db 'postgresql://dentar@127.0.0.1:1/dentar?password=s3cret'");
+  EXPECT_EQ(q.code, 2) << q.out;
+  EXPECT_EQ(q.out.find("s3cret"), std::string::npos) << q.out;
+}
+
+// An importer that finds the database locked says so at once, then stores
+// the session when the lock is released.
+TEST(CliDb, ImporterWaitingOnALockSaysSo) {
+  const fs::path d = dentar::test::temp_dir("cli_db_lock");
+  const std::string db = "sqlite:" + (d / "school.db").string();
+  ASSERT_EQ(run("db init --db " + db).code, 0);
+  auto holder = dentar::store::Store::open(db);
+  ASSERT_TRUE(holder.ok());
+  ASSERT_TRUE((*holder)->exec_raw("BEGIN IMMEDIATE").ok());
+  std::thread release([&] {
+    std::this_thread::sleep_for(std::chrono::seconds(3));
+    (void)(*holder)->exec_raw("COMMIT");
+  });
+  const CommandResult r = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
+  release.join();
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("db import: " + db + ": the database is locked by another program"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("stored in " + db), std::string::npos) << r.out;
 }
 
 }  // namespace

@@ -316,8 +316,8 @@ TEST(Auth, HashVerifyAndPasswordFileErrorsNameTheLine) {
   EXPECT_EQ(e.hash.size(), 32u);
   const fs::path dir = dentar::test::temp_dir("store_auth");
   const std::string pf = (dir / "pw.txt").string();
-  ASSERT_TRUE(set_password(pf, "alice", "alice-password", 2000).ok());
-  ASSERT_TRUE(set_password(pf, "bob", "bob-password", 2000).ok());
+  ASSERT_TRUE(set_password(pf, "alice", "alice-password", 100000).ok());
+  ASSERT_TRUE(set_password(pf, "bob", "bob-password", 100000).ok());
   EXPECT_EQ(fs::status(pf).permissions() & fs::perms::others_read, fs::perms::none);
   auto f = load_password_file(pf);
   ASSERT_TRUE(f.ok()) << f.error();
@@ -325,7 +325,21 @@ TEST(Auth, HashVerifyAndPasswordFileErrorsNameTheLine) {
   EXPECT_TRUE(verify_password(f->at("alice"), "alice-password"));
   EXPECT_FALSE(verify_password(f->at("bob"), "alice-password"));
   EXPECT_FALSE(set_password(pf, "carol", "short", 2000).ok());
-  auto bad = parse_password_file("# c\nalice:pbkdf2-sha256:1000:0011:00\n");
+  // Issue 26: at least 12 characters, at least 100,000 iterations.
+  const auto eleven = set_password(pf, "carol", "eleven-char", 100000);
+  ASSERT_FALSE(eleven.ok());
+  EXPECT_NE(eleven.error().find("11 characters, at least 12"), std::string::npos) << eleven.error();
+  EXPECT_TRUE(set_password(pf, "carol", "twelve-chars", 100000).ok());
+  EXPECT_FALSE(set_password(pf, "dave", "a-long-enough-password", 99999).ok());
+  const std::string weak = (dir / "weak.txt").string();
+  dentar::test::write_file(weak, "# old file\nalice:pbkdf2-sha256:1000:00112233445566778899aabbccddeeff:"
+                                 "00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff\n");
+  auto few = load_password_file(weak);
+  ASSERT_FALSE(few.ok());
+  EXPECT_NE(few.error().find(weak + ": line 2: field 3 (iterations) is 1000, fewer than 100000"), std::string::npos)
+      << few.error();
+  EXPECT_NE(few.error().find("--set-password alice"), std::string::npos) << few.error();
+  auto bad = parse_password_file("# c\nalice:pbkdf2-sha256:100000:0011:00\n");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().find("line 2: salt"), std::string::npos) << bad.error();
   auto scheme = parse_password_file("a:md5:1:00:00\n");

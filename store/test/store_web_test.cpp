@@ -37,7 +37,7 @@ class Web : public ::testing::Test {
                                                      60 * 24 * k + n))
                           .ok());
     }
-    ASSERT_TRUE(set_password((*dir_ / "pw.txt").string(), kUser, kPassword, 20000).ok());
+    ASSERT_TRUE(set_password((*dir_ / "pw.txt").string(), kUser, kPassword, 100000).ok());
     ServeOptions o;
     o.db_url = db_;
     o.password_file = (*dir_ / "pw.txt").string();
@@ -202,7 +202,7 @@ TEST(WebTls, ServesHttpsWithASecureCookie) {
       " -out " + (d / "cert.pem").string() + " 2>&1");
   ASSERT_EQ(gen.code, 0) << gen.out;
   ASSERT_TRUE(Store::open("sqlite:" + (d / "s.db").string()).ok());
-  ASSERT_TRUE(set_password((d / "pw.txt").string(), "bob", "bob-password-1", 2000).ok());
+  ASSERT_TRUE(set_password((d / "pw.txt").string(), "bob", "bob-password-1", 100000).ok());
   ServeOptions o;
   o.db_url = "sqlite:" + (d / "s.db").string();
   o.password_file = (d / "pw.txt").string();

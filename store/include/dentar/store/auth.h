@@ -1,7 +1,8 @@
 // Instructor logins: a password file, one user a line,
 //   name:pbkdf2-sha256:ITERATIONS:SALT_HEX:HASH_HEX
 // ('#' comments and blank lines allowed), hashed with OpenSSL's PBKDF2-HMAC-
-// SHA256 (600,000 iterations by default, 16-byte random salt, 32-byte key).
+// SHA256 (600,000 iterations by default, at least 100,000; 16-byte random
+// salt, 32-byte key).
 #pragma once
 
 #include <map>
@@ -18,6 +19,11 @@ struct PasswordEntry {
 };
 
 constexpr int kDefaultPbkdf2Iterations = 600000;
+// The password file refuses fewer iterations (naming the line and field), and
+// set_password refuses shorter passwords (application security standards ask
+// 12 characters for a password-only login).
+constexpr int kMinPbkdf2Iterations = 100000;
+constexpr std::size_t kMinPasswordLength = 12;
 
 using PasswordFile = std::map<std::string, PasswordEntry>;
 

@@ -26,7 +26,18 @@ struct OpenOptions {
   bool migrate = true;     // false: refuse a database older than kSchemaVersion
   int target_version = kSchemaVersion;  // tests: build an older schema
   int connect_timeout_s = 5;            // postgres
+  bool check = true;       // sqlite: PRAGMA quick_check when an existing file opens
 };
+
+// Why an open failed, for the exit code: BadInput (a damaged or foreign file,
+// a schema newer or older than this program, no such file: exit 2) or
+// Unavailable (the server cannot be reached, the file stays locked: exit 1).
+enum class OpenFault { None, BadInput, Unavailable };
+
+// Called (from the waiting thread) when a SQLite open or write has waited
+// ~0.3 s for another program's lock, with a line to show the user. The
+// command line prints it at once; the default is silence.
+void set_lock_wait_notice(std::function<void(const std::string&)> fn);
 
 struct StudentSummary {
   std::string code, name;
@@ -53,7 +64,8 @@ class Db;  // private: the backend
 
 class Store {
  public:
-  static Result<std::unique_ptr<Store>> open(const std::string& url, const OpenOptions& opt = {});
+  static Result<std::unique_ptr<Store>> open(const std::string& url, const OpenOptions& opt = {},
+                                             OpenFault* fault = nullptr);
   ~Store();
   Store(const Store&) = delete;
   Store& operator=(const Store&) = delete;
