@@ -83,6 +83,16 @@ class TextMeasure {
     cairo_text_extents(cr_, s.c_str(), &e);
     return e.x_advance;
   }
+  // Ink extents at the weight the text is drawn with.
+  cairo_text_extents_t extents(const std::string& s, double font_mm, bool bold) {
+    cairo_select_font_face(cr_, "sans-serif", CAIRO_FONT_SLANT_NORMAL,
+                           bold ? CAIRO_FONT_WEIGHT_BOLD : CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr_, font_mm);
+    cairo_text_extents_t e;
+    cairo_text_extents(cr_, s.c_str(), &e);
+    cairo_select_font_face(cr_, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    return e;
+  }
 
  private:
   cairo_surface_t* surface_;
@@ -491,6 +501,24 @@ Result<Plan> make_plan(const ar::StationScene& s, const KitOptions& o) {
     L.scale_bars.push_back(bar);
     plan.texts.push_back({pg, M + 50.0 + 6.0, M + 11.0 + 2.4, kTextFont, false,
                           "<- this bar must measure 50 mm; if not, the printer scaled the page"});
+  }
+
+  // Every line inside the margins: one that would run past the right margin (a long station
+  // name in the title, a long instruction) is drawn in the font size that fits.
+  for (Text& t : plan.texts) {
+    cairo_text_extents_t e = tm.extents(t.text, t.font_mm, t.bold);
+    const double right = t.x_mm + e.x_bearing + e.width, room = (W - M) - (t.x_mm + e.x_bearing);
+    if (right > W - M && room > 0 && e.width > 0) {
+      t.font_mm *= 0.995 * room / e.width;  // extents scale with the font size
+      e = tm.extents(t.text, t.font_mm, t.bold);
+    }
+    KitText k;
+    k.page = t.page;
+    k.text = t.text;
+    k.font_m = t.font_mm * 1e-3;
+    k.ink_min_m = Eigen::Vector2d(t.x_mm + e.x_bearing, t.y_mm + e.y_bearing) * 1e-3;
+    k.ink_max_m = Eigen::Vector2d(t.x_mm + e.x_bearing + e.width, t.y_mm + e.y_bearing + e.height) * 1e-3;
+    L.texts.push_back(k);
   }
   return plan;
 }
