@@ -16,7 +16,7 @@ void add_db(CLI::App& app, int& exit_code) {
       "db",
       "The session store: SQLite (one file, the default) or PostgreSQL 15 for a school with many stations.\n"
       "Synopsis: dentar db init|migrate --db URL\n"
-      "          dentar db import SESSION_DIR... --db URL --student CODE [--station-id CODE] [--station-db sqlite:PATH]\n"
+      "          dentar db import SESSION_DIR... --db URL --student CODE [--station-id CODE] [--station-db sqlite:PATH] [--move]\n"
       "          dentar db export --db URL [--out FILE.jsonl]\n"
       "          dentar db forward --station-db sqlite:PATH --db URL\n"
       "          dentar db status --db URL");
@@ -51,9 +51,9 @@ void add_db(CLI::App& app, int& exit_code) {
       o.create = n == "init";
       o.migrate = n != "status";
       auto st = store::Store::open(c->db, o);
-      if (!st) {
+      if (!st) {  // damaged, not a database, newer schema, unreachable: bad --db, as in serve
         print_error("db " + n, st.error());
-        exit_code = 1;
+        exit_code = 2;
         return;
       }
       auto count = (*st)->count_sessions();
@@ -78,7 +78,15 @@ void add_db(CLI::App& app, int& exit_code) {
         ->required();
     add_db_options(s, c->d, true);
     s->add_flag("--quiet", c->quiet, "no progress lines");
-    s->footer("Example:\n  dentar db import out/rec --db sqlite:school.db --student s042 --station-id station-3");
+    s->add_flag("--move", c->d.move,
+                "a session already stored under another student is moved to --student (without it, it is refused "
+                "and both students are named)");
+    s->footer(
+        "SESSION_DIR: a live recording (dentar live --record DIR), a demo folder (dentar demo --out DIR), an offline\n"
+        "run folder (dentar offline --out DIR: its log in footage/), a scored folder, or a .dlog.\n"
+        "Example:\n  dentar db import out/rec --db sqlite:school.db --student s042 --station-id station-3\n"
+        "  dentar db import out/offline --db sqlite:school.db --student s042\n"
+        "  dentar db import out/rec --db sqlite:school.db --student s043 --move   # stored under s042 by mistake");
     s->callback([c, &exit_code] {
       if (c->d.student.empty()) {
         print_error("db import", "--student CODE is required (whose sessions these are)");
@@ -124,7 +132,7 @@ void add_db(CLI::App& app, int& exit_code) {
       auto st = store::Store::open(c->db, o);
       if (!st) {
         print_error("db export", st.error());
-        exit_code = 1;
+        exit_code = 2;
         return;
       }
       std::ofstream file;
