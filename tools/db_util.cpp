@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "dentar/haptics/session_log.h"
 #include "dentar/store/db_url.h"
 #include "dentar/store/station.h"
 #include "dentar/store/store.h"
@@ -126,7 +127,9 @@ int store_finished_session(const std::string& cmd, const DbCli& c, const std::st
     auto sc = training::score_session(so);
     if (!sc) {
       print_error(cmd, "scoring " + session + " for the store: " + sc.error() + " (the session folder is kept)");
-      return 1;
+      // A damaged or foreign log is bad input (2); a log that reads but cannot be scored, a failed job (1).
+      const fs::path log = fs::is_directory(session, ec) ? fs::path(session) / "session.dlog" : fs::path(session);
+      return haptics::read_session_log(log.string()) ? 1 : 2;
     }
   }
   store::ImportOptions io;
