@@ -119,9 +119,9 @@ case "$mode" in
     [[ -f "$r/box/camera.avi" ]] || "$bin" synth --station box --frames "$n" --resolution 1280x720 --webcam --out "$r/box" >/dev/null
     [[ -f "$r/clip480/video.mkv" ]] || "$bin" synth --frames "$n" --out "$r/clip480" >/dev/null
     header
-    run_cam "720p camera.avi (MJPG), README / help / no-camera message" "$r/clip/camera.avi" "$r/clip/station.json" \
+    run_cam "720p camera.avi (MJPG), as README, --help and the no-camera message suggest" "$r/clip/camera.avi" "$r/clip/station.json" \
       --stylus replay:"$r/clip/session.dlog"
-    run_cam "box: 720p camera.avi, --station box (built-in, cropped intrinsics)" "$r/box/camera.avi" box \
+    run_cam "box: 720p camera.avi, --station box (built-in, cropped intrinsics), replay" "$r/box/camera.avi" box \
       --stylus replay:"$r/box/session.dlog" --no-occlusion
     run_cam "box: 720p camera.avi, --station box, --stylus sim" "$r/box/camera.avi" box --stylus sim --no-occlusion
     run_cam "before: 720p video.mkv (FFV1)" "$r/clip/video.mkv" "$r/clip/station.json" --stylus replay:"$r/clip/session.dlog"
