@@ -85,9 +85,10 @@ std::size_t LibraryLogFilter::finish() {
   finished_ = true;
   std::cerr.flush();
   std::fflush(stderr);
-  dup2(saved_fd_, 2);  // the pipe's last writer is gone once children have exited: the reader ends
+  // fd 2 was the pipe's only write end (dentar starts no child processes): restoring it
+  // closes the pipe, the reader sees end of file, passes on what is left and ends.
+  dup2(saved_fd_, 2);
   auto* t = static_cast<std::thread*>(thread_);
-  // Children (e.g. a forked helper) may still hold the pipe; do not wait for them forever.
   if (t->joinable()) t->join();
   delete t;
   thread_ = nullptr;
