@@ -620,7 +620,7 @@ TEST(LiveXvfb, BoxTryOutRehearsedWithoutACameraAt720p) {
   EXPECT_EQ(r.out.find("cannot open the station file"), std::string::npos) << r.out;
   r = run_command(xvfb(kBin + " live --camera live:" + (t / "box" / "camera.avi").string() +
                        " --station box --stylus replay:" + (t / "box" / "session.dlog").string() +
-                       " --no-occlusion --no-score --record " + (t / "rec").string() + " --summary " +
+                       " --no-occlusion --no-score --loop --frames 30 --record " + (t / "rec").string() + " --summary " +
                        (t / "sum.json").string() + " --quiet 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto sum = read_json(t / "sum.json");
