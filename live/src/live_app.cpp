@@ -355,7 +355,6 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     usb_pedal = std::move(*p);
   }
   const haptics::Pedal& pedal = usb_pedal ? *usb_pedal : static_cast<const haptics::Pedal&>(key_pedal);
-
   haptics::PedalDevice pedal_device(*device, pedal, pedal_from_device);
   haptics::HapticDevice& engine_device = pedal_device;
   const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
