@@ -164,7 +164,7 @@ void add_live(CLI::App& app, int& exit_code) {
     {
       namespace fs = std::filesystem;
       std::error_code ec;
-      if (!o.station.empty() && (fs::exists(o.station, ec) || !ar::builtin_station_scene(o.station))) {
+      if (!o.station.empty() && (fs::is_regular_file(o.station, ec) || !ar::builtin_station_scene(o.station))) {
         if (auto st = ar::read_station_scene(o.station); !st) {
           print_error("live", "--station: " + st.error() + " (or a built-in station: default, box)");
           exit_code = 2;

@@ -111,7 +111,7 @@ int run(const SynthCli& c, const CLI::App& app) {
     return 2;
   }
   ar::StationScene station = ar::default_station_scene();
-  if (!c.station.empty() && !std::filesystem::exists(c.station) && ar::builtin_station_scene(c.station)) {
+  if (!c.station.empty() && !std::filesystem::is_regular_file(c.station) && ar::builtin_station_scene(c.station)) {
     station = *ar::builtin_station_scene(c.station);  // `--station box`, as dentar live and dentar tags
   } else if (!c.station.empty()) {
     auto s = ar::read_station_scene(c.station);

@@ -206,7 +206,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
 
   // ---- station ----
   ar::StationScene st;
-  const bool builtin = o.station.empty() || (!fs::exists(o.station) && ar::builtin_station_scene(o.station));
+  const bool builtin = o.station.empty() || (!fs::is_regular_file(o.station) && ar::builtin_station_scene(o.station));
   if (builtin) {
     st = *ar::builtin_station_scene(o.station.empty() ? "default" : o.station);
   } else {
