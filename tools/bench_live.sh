@@ -6,6 +6,7 @@
 #   tools/bench_live.sh table [SECONDS]        latency / fps vs resolution, occlusion, mirror
 #   tools/bench_live.sh engine [SECONDS]       engine timing with/without isolation, with/without stress
 #   tools/bench_live.sh memory [SECONDS]       RSS growth over a long run
+#   tools/bench_live.sh rehearsal [SECONDS]    issue 26: each footage suggested for a camera-free try
 #   tools/bench_live.sh discovery [SECONDS]    720p: tag discovery inline vs async; background threads' CPU
 #   tools/bench_live.sh display [SECONDS]      720p: CPU display path vs GPU (GL-resident) path, alternating
 #                                              runs of the same binary (PAIRS pairs, default 2)
@@ -36,6 +37,21 @@ clip() {  # clip W H -> folder with camera.avi (MJPG), station.json, session.dlo
 run() {  # run NAME CLIP [live options...] -> prints a table row
   local name="$1" c="$2"; shift 2
   xvfb-run -a -s '-screen 0 1920x1200x24' "$bin" live --camera "live:$c/camera.avi" --station "$c/station.json" \
+    --loop --seconds "$secs" --quiet --summary "$out/$name.json" "$@" >/dev/null
+  python3 - "$out/$name.json" "$name" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); e = s["engine"]; f = s["frames"]
+mins = s["wall_s"] / 60
+print(f"| {sys.argv[2]} | {s['latency_ms']['p50']:.1f} | {s['latency_ms']['p99']:.1f} | {s['displayed_fps']:.1f} | "
+      f"{f['dropped_source']} / {f['dropped_consumer']} | {s['process_ms']['p50']:.1f} / {s['process_ms']['p99']:.1f} | "
+      f"{e['step_us']['p999']:.0f} / {e['step_us']['max']:.0f} | {e['missed_deadlines']/mins:.2f} | {e['watchdog_trips']} | "
+      f"{s['rss_mb']['growth_after_10s']:.1f} |")
+PY
+}
+
+run_cam() {  # run_cam NAME CAMERA_FILE STATION [live options...]: any footage, any station
+  local name="$1" cam="$2" st="$3"; shift 3
+  xvfb-run -a -s '-screen 0 1920x1200x24' "$bin" live --camera "live:$cam" --station "$st" \
     --loop --seconds "$secs" --quiet --summary "$out/$name.json" "$@" >/dev/null
   python3 - "$out/$name.json" "$name" <<'PY'
 import json, sys
@@ -94,10 +110,28 @@ case "$mode" in
       done
     done
     ;;
+  rehearsal)
+    # Issue 26: every footage the program suggests for trying `dentar live` without a camera
+    # (the no-camera message, `dentar live --help`, the README), made as suggested, and the
+    # old suggestion (the lossless video.mkv) for comparison.
+    r="$out/rehearsal"; mkdir -p "$r"; n="${REHEARSAL_FRAMES:-300}"  # played with --loop
+    [[ -f "$r/clip/camera.avi" ]] || "$bin" synth --frames "$n" --resolution 1280x720 --webcam --out "$r/clip" >/dev/null
+    [[ -f "$r/box/camera.avi" ]] || "$bin" synth --station box --frames "$n" --resolution 1280x720 --webcam --out "$r/box" >/dev/null
+    [[ -f "$r/clip480/video.mkv" ]] || "$bin" synth --frames "$n" --out "$r/clip480" >/dev/null
+    header
+    run_cam "720p camera.avi (MJPG), as README, --help and the no-camera message suggest" "$r/clip/camera.avi" "$r/clip/station.json" \
+      --stylus replay:"$r/clip/session.dlog"
+    run_cam "box: 720p camera.avi, --station box (built-in, cropped intrinsics), replay" "$r/box/camera.avi" box \
+      --stylus replay:"$r/box/session.dlog" --no-occlusion
+    run_cam "box: 720p camera.avi, --station box, --stylus sim" "$r/box/camera.avi" box --stylus sim --no-occlusion
+    run_cam "before: 720p video.mkv (FFV1)" "$r/clip/video.mkv" "$r/clip/station.json" --stylus replay:"$r/clip/session.dlog"
+    run_cam "before: 640x480 video.mkv (FFV1, synth's default size)" "$r/clip480/video.mkv" "$r/clip480/station.json" \
+      --stylus replay:"$r/clip480/session.dlog"
+    ;;
   memory)
     c720=$(clip 1280 720)
     header
     run "memory ${secs}s" "$c720" --stylus sim
     ;;
-  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display [SECONDS]" >&2; exit 2 ;;
+  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal [SECONDS]" >&2; exit 2 ;;
 esac

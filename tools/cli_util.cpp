@@ -1,10 +1,28 @@
 // Helpers shared by the subcommands (kept out of main.cpp so no subcommand
 // depends on the file that registers it).
+#include <cmath>
+#include <cstdlib>
 #include <iostream>
+#include <sstream>
 
 #include "commands.h"
 
 namespace dentar::tools {
+CLI::Validator at_least(double min) {
+  std::ostringstream m;
+  m << min;
+  const std::string lo = m.str();
+  return CLI::Validator(
+      [min, lo](std::string& v) -> std::string {
+        char* end = nullptr;
+        const double x = std::strtod(v.c_str(), &end);
+        if (end == v.c_str() || *end != '\0' || !std::isfinite(x)) return "must be a number (" + lo + " or more), got " + v;
+        if (x < min) return "must be " + lo + " or more, got " + v;
+        return {};
+      },
+      "NUMBER >= " + lo);
+}
+
 void print_error(const std::string& cmd, const std::string& message) {
   std::cerr << "dentar " << cmd << ": " << message << "\n";
 }

@@ -1004,7 +1004,7 @@ void add_calibrate(CLI::App& app, int& exit_code) {
   s->add_option("--pace", c->pace, "live --haptic sim: the instructor's travel speed (1 = human pace)")
       ->check(CLI::Range(0.25, 20.0))
       ->capture_default_str();
-  s->add_option("--seconds", c->seconds, "live: give up after S seconds (0 = no limit)")->check(CLI::NonNegativeNumber);
+  s->add_option("--seconds", c->seconds, "live: give up after S seconds (0 = no limit)")->check(at_least(0));
   s->add_option("--screenshots", c->screenshots, "live: save the window at the end of each step into DIR/<step>.png");
   s->add_option("--summary", c->summary, "live: write the run's summary JSON here");
   s->add_option("--display", c->display, "live: monitor for fullscreen (-1 = a window)");

@@ -16,7 +16,7 @@ void add_db(CLI::App& app, int& exit_code) {
       "db",
       "The session store: SQLite (one file, the default) or PostgreSQL 15 for a school with many stations.\n"
       "Synopsis: dentar db init|migrate --db URL\n"
-      "          dentar db import SESSION_DIR... --db URL --student CODE [--station-id CODE] [--station-db sqlite:PATH]\n"
+      "          dentar db import SESSION_DIR... --db URL --student CODE [--station-id CODE] [--station-db sqlite:PATH] [--move]\n"
       "          dentar db export --db URL [--out FILE.jsonl]\n"
       "          dentar db forward --station-db sqlite:PATH --db URL\n"
       "          dentar db status --db URL");
@@ -85,7 +85,15 @@ void add_db(CLI::App& app, int& exit_code) {
         ->required();
     add_db_options(s, c->d, true);
     s->add_flag("--quiet", c->quiet, "no progress lines");
-    s->footer("Example:\n  dentar db import out/rec --db sqlite:school.db --student s042 --station-id station-3");
+    s->add_flag("--move", c->d.move,
+                "a session already stored under another student is moved to --student (without it, it is refused "
+                "and both students are named)");
+    s->footer(
+        "SESSION_DIR: a live recording (dentar live --record DIR), a demo folder (dentar demo --out DIR), an offline\n"
+        "run folder (dentar offline --out DIR: its log in footage/), a scored folder, or a .dlog.\n"
+        "Example:\n  dentar db import out/rec --db sqlite:school.db --student s042 --station-id station-3\n"
+        "  dentar db import out/offline --db sqlite:school.db --student s042\n"
+        "  dentar db import out/rec --db sqlite:school.db --student s043 --move   # stored under s042 by mistake");
     s->callback([c, &exit_code] {
       if (c->d.student.empty()) {
         print_error("db import", "--student CODE is required (whose sessions these are)");

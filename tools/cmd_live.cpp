@@ -2,9 +2,11 @@
 // engine (live/live_app.h). A thin driver over the shared FramePipeline.
 #include <filesystem>
 #include <iostream>
+#include <tuple>
 
 #include "commands.h"
 #include "db_util.h"
+#include "dentar/ar/station_scene.h"
 #include "dentar/live/live_app.h"
 #include "session_score.h"
 
@@ -33,15 +35,15 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->footer(
       "Examples:\n"
       "  dentar live --camera camera:0 --stylus pen --scale-calib     # webcam, printed kit (dentar tags)\n"
-      "  dentar synth --frames 300 --out out/clip\n"
-      "  dentar live --camera live:out/clip/video.mkv --station out/clip/station.json \\\n"
+      "  dentar synth --frames 300 --resolution 1280x720 --webcam --out out/clip   # camera.avi: Motion JPEG\n"
+      "  dentar live --camera live:out/clip/camera.avi --station out/clip/station.json \\\n"
       "              --stylus replay:out/clip/session.dlog --record out/rec\n"
       "  dentar offline --footage out/rec --out out/rec_offline      # replays the recording\n"
       "Keys: space = pedal (drill), Esc or closing the window = stop.");
   sub->add_option("--camera", c->o.camera, "camera:N, /dev/videoN, or live:VIDEO (footage paced as a camera)");
-  sub->add_option("--width", c->o.width, "requested camera width (px)")->check(CLI::NonNegativeNumber);
-  sub->add_option("--height", c->o.height, "requested camera height (px)")->check(CLI::NonNegativeNumber);
-  sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
+  sub->add_option("--height", c->o.height, "requested camera height (px)")->check(at_least(0));
+  sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(at_least(0));
   sub->add_option("--station", c->o.station,
                   "station file, or a built-in station: default (phantom head), box (flat tag board)");
   sub->add_flag("--scale-calib", c->o.scale_calib, "accept a camera of another size (intrinsics scaled)");
@@ -68,9 +70,9 @@ void add_live(CLI::App& app, int& exit_code) {
                 "test hook: make the window's context with GLX, which cannot share with the compositor (the fallback)");
   sub->add_option("--record", c->o.record_dir, "record footage, session log, station and per-frame CSV into DIR");
   sub->add_flag("--loop", c->o.loop, "live:PATH footage: play it again from the start at its end");
-  sub->add_option("--seconds", c->o.seconds, "stop after S seconds (default: until closed)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--seconds", c->o.seconds, "stop after S seconds (default: until closed)")->check(at_least(0));
   sub->add_option("--frames", c->o.frames, "stop after N new frames have been shown (default: no limit)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(at_least(0));
   sub->add_option("--engine-cpu", c->o.engine_cpu, "CPU for the haptic engine (-2 = the last, -1 = no pinning)");
   sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");
   add_tracker_image_options(sub, c->camera_response, c->mirror_rim);
@@ -156,6 +158,28 @@ void add_live(CLI::App& app, int& exit_code) {
       print_error("live", e);
       exit_code = 2;
       return;
+    }
+    // Inputs named on the command line that are missing or unreadable are bad input (exit 2),
+    // caught before anything starts, as in `dentar offline` and `dentar calibrate`.
+    {
+      namespace fs = std::filesystem;
+      std::error_code ec;
+      if (!o.station.empty() && (fs::is_regular_file(o.station, ec) || !ar::builtin_station_scene(o.station))) {
+        if (auto st = ar::read_station_scene(o.station); !st) {
+          print_error("live", "--station: " + st.error() + " (or a built-in station: default, box)");
+          exit_code = 2;
+          return;
+        }
+      }
+      for (auto [flag, prefix, value] : {std::tuple{"--camera", "live:", o.camera},
+                                         std::tuple{"--stylus", "replay:", o.stylus}}) {
+        const std::string v = value, pre = prefix;
+        if (v.rfind(pre, 0) == 0 && !fs::is_regular_file(v.substr(pre.size()), ec)) {
+          print_error("live", std::string(flag) + " " + v + ": " + v.substr(pre.size()) + ": no such file");
+          exit_code = 2;
+          return;
+        }
+      }
     }
     if (!o.record_dir.empty() && !c->no_score) remove_old_score(o.record_dir);
     if (!c->db.db.empty() && o.record_dir.empty()) {

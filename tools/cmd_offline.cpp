@@ -14,6 +14,7 @@
 #include "commands.h"
 #include "db_util.h"
 #include "dentar/ar/offline.h"
+#include "dentar/ar/station_scene.h"
 #include "session_score.h"
 
 namespace dentar::tools {
@@ -287,6 +288,13 @@ void add_offline(CLI::App& app, int& exit_code) {
                               std::pair{"--session", c->session}}) {
       if (!path.empty() && !std::filesystem::exists(path)) {
         print_error("offline", std::string(flag) + " " + path + ": no such file or folder");
+        exit_code = 2;
+        return;
+      }
+    }
+    if (!c->station.empty()) {  // a station file that cannot be read is bad input, as in calibrate and live
+      if (auto st = ar::read_station_scene(c->station); !st) {
+        print_error("offline", "--station: " + st.error());
         exit_code = 2;
         return;
       }

@@ -117,7 +117,9 @@ int run(const SynthCli& c, const CLI::App& app) {
     return 2;
   }
   ar::StationScene station = ar::default_station_scene();
-  if (!c.station.empty()) {
+  if (!c.station.empty() && !std::filesystem::is_regular_file(c.station) && ar::builtin_station_scene(c.station)) {
+    station = *ar::builtin_station_scene(c.station);  // `--station box`, as dentar live and dentar tags
+  } else if (!c.station.empty()) {
     auto s = ar::read_station_scene(c.station);
     if (!s) {
       print_error("synth", s.error());
@@ -235,7 +237,9 @@ void add_synth(CLI::App& app, int& exit_code) {
   s->add_option("--mirror-fraction", c->mirror_fraction,
                 "Fraction of time the mirror is in the mouth")
       ->check(CLI::Range(0.0, 1.0));
-  s->add_option("--station", c->station, "Station scene JSON (default: the built-in station)");
+  s->add_option("--station", c->station,
+                "Station file, or a built-in station: default (the phantom head), box (the flat tag board of "
+                "`dentar tags --station box`, drawn on a box)");
   s->add_option("--tag-family", c->family, "Override the station's tag family")
       ->check(CLI::IsMember({"tagStandard41h12", "tag36h11"}));
   s->add_option("--board", c->board,

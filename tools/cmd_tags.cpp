@@ -23,7 +23,7 @@ int run(const TagsCli& c) {
     return 2;
   }
   ar::StationScene station = ar::default_station_scene();
-  if (!c.station.empty() && !std::filesystem::exists(c.station) && ar::builtin_station_scene(c.station)) {
+  if (!c.station.empty() && !std::filesystem::is_regular_file(c.station) && ar::builtin_station_scene(c.station)) {
     station = *ar::builtin_station_scene(c.station);
   } else if (!c.station.empty()) {
     auto s = ar::read_station_scene(c.station);

@@ -28,6 +28,10 @@ void add_serve(CLI::App& app, int& exit_code);
 // given, so a replay can take the recording's) and --mirror-rim.
 void add_tracker_image_options(CLI::App* sub, std::string& camera_response, bool& mirror_rim);
 
+// A number of at least `min`, with a message for people ("must be 0 or more, got -1"), not
+// CLI11's range with std::numeric_limits' 300-digit bound.
+CLI::Validator at_least(double min);
+
 // Prints "dentar <cmd>: <message>" to stderr.
 void print_error(const std::string& cmd, const std::string& message);
 

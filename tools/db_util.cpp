@@ -4,11 +4,15 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "dentar/haptics/session_log.h"
 #include "dentar/store/db_url.h"
 #include "dentar/store/station.h"
+#include "dentar/store/store.h"
 #include "dentar/training/report.h"
 
 namespace dentar::tools {
@@ -86,8 +90,49 @@ bool check_db_options(const std::string& cmd, DbCli& c) {
   return true;
 }
 
-int store_finished_session(const std::string& cmd, const DbCli& c, const std::string& session,
-                           const std::string& report_dir, bool quiet) {
+Result<SessionPaths> find_session(const std::string& path) {
+  std::error_code ec;
+  const fs::path p = path;
+  if (fs::is_regular_file(p, ec)) return SessionPaths{path, ""};
+  if (!fs::is_directory(p, ec)) return Error{path + ": no such session folder or log"};
+  if (fs::is_regular_file(p / "session.dlog", ec)) return SessionPaths{path, ""};
+  // A `dentar offline` run: the footage (and its session log) in footage/ when it was
+  // generated, else where summary.json's inputs.session says; score.json in the run folder.
+  std::string looked = (p / "session.dlog").string() + " (a live recording, a demo folder)";
+  if (fs::is_regular_file(p / "summary.json", ec)) {
+    if (fs::is_regular_file(p / "footage" / "session.dlog", ec))
+      return SessionPaths{(p / "footage" / "session.dlog").string(), path};
+    looked += ", " + (p / "footage" / "session.dlog").string() + " (an offline run on built-in footage)";
+    std::ifstream in(p / "summary.json");
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_object() && j.contains("inputs") && j["inputs"].is_object() && j["inputs"].contains("session") &&
+        j["inputs"]["session"].is_string()) {
+      const fs::path log = j["inputs"]["session"].get<std::string>();
+      if (fs::is_regular_file(log, ec)) return SessionPaths{log.string(), path};
+      looked += ", " + log.string() + " (summary.json's inputs.session)";
+    } else {
+      looked += "; summary.json names no session log (the offline run had no --session)";
+    }
+  } else {
+    looked += ", " + (p / "footage" / "session.dlog").string() + " (with summary.json: an offline run)";
+    if (fs::is_regular_file(p / "footage" / "session.dlog", ec))
+      looked += "; footage/session.dlog is there but summary.json is not: the offline run did not finish";
+  }
+  return Error{path + ": no session log here: looked for " + looked};
+}
+
+int store_finished_session(const std::string& cmd, const DbCli& c, const std::string& session_arg,
+                           const std::string& report_dir_arg, bool quiet) {
+  std::string session = session_arg, report_dir = report_dir_arg;
+  if (report_dir.empty()) {
+    auto found = find_session(session_arg);
+    if (!found) {
+      print_error(cmd, found.error());
+      return 2;
+    }
+    session = found->session;
+    report_dir = found->report_dir;
+  }
   std::error_code ec;
   const fs::path dir = fs::is_directory(session, ec) ? fs::path(session) : fs::path(session).parent_path();
   const fs::path rep = report_dir.empty() ? dir : fs::path(report_dir);
@@ -99,7 +144,9 @@ int store_finished_session(const std::string& cmd, const DbCli& c, const std::st
     auto sc = training::score_session(so);
     if (!sc) {
       print_error(cmd, "scoring " + session + " for the store: " + sc.error() + " (the session folder is kept)");
-      return 1;
+      // A damaged or foreign log is bad input (2); a log that reads but cannot be scored, a failed job (1).
+      const fs::path log = fs::is_directory(session, ec) ? fs::path(session) / "session.dlog" : fs::path(session);
+      return haptics::read_session_log(log.string()) ? 1 : 2;
     }
   }
   store::ImportOptions io;
@@ -113,6 +160,44 @@ int store_finished_session(const std::string& cmd, const DbCli& c, const std::st
   }
   const bool local_only = c.station_db.empty();
   announce_lock_waits(cmd);
+  // The same session (the same log) stored under another student: refused, naming both,
+  // unless --move. Checked in the store written to (this station's own store for a server).
+  std::string moved_from;
+  {
+    // A database that cannot be opened (damaged, not a database, newer schema, refused) is
+    // bad input: exit 2, as `dentar serve` and `dentar db status` say for the same file.
+    const std::string target = local_only ? c.db : c.station_db;
+    auto st = store::Store::open(target);
+    if (!st) {
+      print_error(cmd, st.error() + " (the session folder " + dir.string() + " is kept)");
+      return 2;
+    }
+    {
+      auto had = (*st)->session_by_key(rec->key);
+      if (had && *had && (**had).student != rec->student) {
+        const std::string old_student = (**had).student;
+        if (!c.move) {
+          print_error(cmd, "session " + rec->key.substr(0, 12) + " (" + session + ") is already stored under student " +
+                               old_student + ", not " + rec->student + ": nothing was changed. Pass --move to move it to " +
+                               rec->student + ", or give --student " + old_student);
+          return 2;
+        }
+        if (auto m = (*st)->move_session(rec->key, rec->student); !m) {
+          print_error(cmd, "moving the session to " + rec->student + ": " + m.error());
+          return 1;
+        }
+        moved_from = old_student;
+        store::OpenOptions oo;
+        oo.create = false;
+        if (!local_only)  // the school's server keeps its own copy: move it there too when it answers
+          if (auto sv = store::Store::open(c.db, oo)) {
+            if (auto hs = (*sv)->session_by_key(rec->key); hs && *hs && (**hs).student != rec->student)
+              if (auto m = (*sv)->move_session(rec->key, rec->student); !m)
+                print_error(cmd, "warning: moving the session on " + (*sv)->url().redacted + ": " + m.error());
+          }
+      }
+    }
+  }
   auto r = store::store_session(*rec, local_only ? c.db : c.station_db, local_only ? "" : c.db);
   if (!r) {
     print_error(cmd, "storing the session: " + r.error() + " (the session folder " + dir.string() + " is kept)");
@@ -120,7 +205,8 @@ int store_finished_session(const std::string& cmd, const DbCli& c, const std::st
     return r.error().find("the database file is damaged") != std::string::npos ? 2 : 1;
   }
   std::cout << cmd << ": session " << rec->key.substr(0, 12) << " of " << rec->student << " ("
-            << rec->exercise << ", " << rec->points << " / " << rec->max_points << " points): " << r->message << "\n";
+            << rec->exercise << ", " << rec->points << " / " << rec->max_points << " points): "
+            << (moved_from.empty() ? "" : "moved from student " + moved_from + "; ") << r->message << "\n";
   return 0;
 }
 

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "dentar/store/store.h"
+#include "dentar/volume/result.h"
 
 namespace dentar::tools {
 
@@ -15,7 +16,18 @@ struct DbCli {
   std::string station_db;  // --station-db sqlite:PATH: this station's own queue (server targets)
   std::string student;     // --student CODE
   std::string station_id;  // --station-id CODE (default: the host name)
+  bool move = false;       // --move (db import): a session stored under another student moves to --student
 };
+
+// What `dentar db import PATH` stores: the session log and the folder with its score.json.
+// PATH may be a .dlog, a folder holding session.dlog (a `dentar live --record` recording, a
+// `dentar demo` folder, a `dentar score` folder), or a `dentar offline` run folder (its
+// session log in footage/, or where its summary.json's inputs.session says; score.json in
+// the run folder). Error (bad input) names what was looked for.
+struct SessionPaths {
+  std::string session, report_dir;  // report_dir empty: the log's folder
+};
+Result<SessionPaths> find_session(const std::string& path);
 
 // Adds --db, --station-db, --student, --station-id to a subcommand.
 void add_db_options(CLI::App* sub, DbCli& c, bool db_required);

@@ -83,6 +83,25 @@ class TextMeasure {
     cairo_text_extents(cr_, s.c_str(), &e);
     return e.x_advance;
   }
+  // Ink extents at the weight the text is drawn with, unhinted: measured at 100 times the size
+  // (on this 1-unit-per-mm surface a 3.6 mm font is 3.6 device pixels, whose hinted metrics
+  // are far from the PDF's vector glyphs) and scaled back.
+  cairo_text_extents_t extents(const std::string& s, double font_mm, bool bold) {
+    constexpr double kUp = 100.0;
+    cairo_font_options_t* fo = cairo_font_options_create();
+    cairo_font_options_set_hint_metrics(fo, CAIRO_HINT_METRICS_OFF);
+    cairo_font_options_set_hint_style(fo, CAIRO_HINT_STYLE_NONE);
+    cairo_set_font_options(cr_, fo);
+    cairo_font_options_destroy(fo);
+    cairo_select_font_face(cr_, "sans-serif", CAIRO_FONT_SLANT_NORMAL,
+                           bold ? CAIRO_FONT_WEIGHT_BOLD : CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr_, font_mm * kUp);
+    cairo_text_extents_t e;
+    cairo_text_extents(cr_, s.c_str(), &e);
+    cairo_select_font_face(cr_, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    for (double* v : {&e.x_bearing, &e.y_bearing, &e.width, &e.height, &e.x_advance, &e.y_advance}) *v /= kUp;
+    return e;
+  }
 
  private:
   cairo_surface_t* surface_;
@@ -491,6 +510,24 @@ Result<Plan> make_plan(const ar::StationScene& s, const KitOptions& o) {
     L.scale_bars.push_back(bar);
     plan.texts.push_back({pg, M + 50.0 + 6.0, M + 11.0 + 2.4, kTextFont, false,
                           "<- this bar must measure 50 mm; if not, the printer scaled the page"});
+  }
+
+  // Every line inside the margins: one that would run past the right margin (a long station
+  // name in the title, a long instruction) is drawn in the font size that fits.
+  for (Text& t : plan.texts) {
+    cairo_text_extents_t e = tm.extents(t.text, t.font_mm, t.bold);
+    const double room = (W - M) - (t.x_mm + e.x_bearing);
+    for (int k = 0; k < 4 && t.x_mm + e.x_bearing + e.width > W - M && room > 0 && e.width > 0; ++k) {
+      t.font_mm *= 0.995 * room / e.width;  // unhinted extents scale with the font size
+      e = tm.extents(t.text, t.font_mm, t.bold);
+    }
+    KitText k;
+    k.page = t.page;
+    k.text = t.text;
+    k.font_m = t.font_mm * 1e-3;
+    k.ink_min_m = Eigen::Vector2d(t.x_mm + e.x_bearing, t.y_mm + e.y_bearing) * 1e-3;
+    k.ink_max_m = Eigen::Vector2d(t.x_mm + e.x_bearing + e.width, t.y_mm + e.y_bearing + e.height) * 1e-3;
+    L.texts.push_back(k);
   }
   return plan;
 }

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "dentar/ar/tag_detector.h"
@@ -272,6 +273,49 @@ TEST(StationKit, LayoutStaysInsideThePageMarginsOnBothPapers) {
   StationScene big = dentar::ar::default_station_scene();
   for (auto& t : big.mannequin_tags) t.size_m = 0.05;  // 90 mm printed: several pages
   check_layout(big, KitOptions{});
+}
+
+// Issue 26: the kit's title ran off the page. Every line of text (its ink box at the weight it
+// is drawn with) lies inside the page's margins, for the built-in stations and a station with
+// a long name, on both papers; and the PDF as printed has no ink outside the margins.
+TEST(StationKit, EveryLineOfTextFitsInsideThePageMargins) {
+  StationScene long_name = dentar::ar::box_station_scene();
+  long_name.name = "box: a flat board of 6 tags, printed for the third-floor skills laboratory, bench 12 of 24";
+  int checked = 0;
+  for (const StationScene& s : {dentar::ar::default_station_scene(), dentar::ar::box_station_scene(), long_name})
+    for (Paper p : {Paper::kA4, Paper::kLetter}) {
+      KitOptions o;
+      o.paper = p;
+      auto L = dentar::kit::layout_station_kit(s, o);
+      ASSERT_TRUE(L) << L.error();
+      ASSERT_FALSE(L->texts.empty());
+      const Eigen::Vector2d lo = Eigen::Vector2d::Constant(o.margin_m), hi = L->page_size_m - lo;
+      bool title_seen = false;
+      for (const auto& t : L->texts) {
+        EXPECT_GE(t.ink_min_m.x(), lo.x() - 1e-6) << s.name << ": " << t.text;
+        EXPECT_GE(t.ink_min_m.y(), lo.y() - 1e-6) << s.name << ": " << t.text;
+        EXPECT_LE(t.ink_max_m.x(), hi.x() + 1e-6) << s.name << ": " << t.text << " ends at "
+                                                 << t.ink_max_m.x() * 1e3 << " mm, margin at " << hi.x() * 1e3;
+        EXPECT_LE(t.ink_max_m.y(), hi.y() + 1e-6) << s.name << ": " << t.text;
+        EXPECT_GT(t.ink_max_m.x(), t.ink_min_m.x()) << t.text;
+        if (t.text.find(s.name) != std::string::npos) title_seen = true;
+        ++checked;
+      }
+      EXPECT_TRUE(title_seen) << "the title names the station: " << s.name;
+    }
+  EXPECT_GT(checked, 50);
+  // What cairo drew: the long-named kit's first page has no ink right of the margin.
+  const fs::path dir = dentar::test::temp_dir("kit_text_fits");
+  auto files = dentar::kit::write_station_kit(long_name, KitOptions{}, dir.string());
+  ASSERT_TRUE(files) << files.error();
+  const double dpi = 150, px_per_m = dpi / 0.0254;
+  const cv::Mat img = render_pdf_page(files->pdf, 0, dir, dpi);
+  ASSERT_FALSE(img.empty());
+  const int x0 = static_cast<int>(std::ceil((files->layout.page_size_m.x() - KitOptions{}.margin_m) * px_per_m)) + 1;
+  ASSERT_LT(x0, img.cols);
+  double darkest = 255;
+  cv::minMaxLoc(img.colRange(x0, img.cols), &darkest);
+  EXPECT_GT(darkest, 200) << "ink right of the page margin (column " << x0 << " of " << img.cols << ")";
 }
 
 // The 20-tag head layout measured for issue 16 (MannequinLayout::kWrap20) prints on

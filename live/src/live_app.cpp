@@ -163,6 +163,34 @@ bool software_renderer(const std::string& gl_renderer) {
   return false;
 }
 
+// Intrinsics for an image of another aspect ratio, at the same horizontal field of view: the
+// calibrated image scaled by width / k.width, then cropped (or extended) top and bottom about
+// the same principal-point offset from the centre. Most webcams make their 16:9 modes this way
+// from a 4:3 sensor (full width, top and bottom cut), and `dentar synth` renders footage of
+// another size with the same model (ar/synth), so built-in stations match generated footage.
+// For the same aspect ratio it equals ar::scale_intrinsics.
+static calibration::CameraIntrinsics crop_intrinsics(const calibration::CameraIntrinsics& k, int width, int height) {
+  const double s = double(width) / k.width;
+  calibration::CameraIntrinsics out = k;
+  out.width = width;
+  out.height = height;
+  out.fx = k.fx * s;
+  out.fy = k.fy * s;
+  out.cx = 0.5 * (width - 1) + (k.cx - 0.5 * (k.width - 1)) * s;
+  out.cy = 0.5 * (height - 1) + (k.cy - 0.5 * (k.height - 1)) * s;
+  return out;
+}
+
+std::string hud_drill_line(bool drill_on, bool in_contact, const std::string& pedal_status, bool pedal_pressed,
+                           bool device_pedal, const std::string& stylus) {
+  std::string s = std::string("drill: ") + (drill_on ? "ON" : "off") + (in_contact ? "  (contact)" : "") +
+                  "   pedal: " + pedal_status;
+  if (drill_on && !pedal_pressed && device_pedal)
+    s += stylus.rfind("replay:", 0) == 0 ? "  (the replayed session drills with its recorded pedal)"
+                                         : "  (the simulated hand drills without the pedal)";
+  return s;
+}
+
 Result<LiveSummary> run_live(const LiveOptions& o) {
   if (auto v = o.validate(); !v.empty()) return Error{"live: " + v};
   // SIGINT/SIGTERM from here on end the run cleanly (zero force, logs,
@@ -178,7 +206,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
 
   // ---- station ----
   ar::StationScene st;
-  const bool builtin = o.station.empty() || (!fs::exists(o.station) && ar::builtin_station_scene(o.station));
+  const bool builtin = o.station.empty() || (!fs::is_regular_file(o.station) && ar::builtin_station_scene(o.station));
   if (builtin) {
     st = *ar::builtin_station_scene(o.station.empty() ? "default" : o.station);
   } else {
@@ -198,8 +226,22 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     return Error{"live: " + src.error() +
                  (is_cam ? "\nCameras found:\n" + list_cameras() : std::string()) +
                  "\nTo try without a camera, play recorded footage as a camera: --camera live:PATH "
-                 "(for example footage made by `dentar synth --out out/clip`: --camera live:out/clip/video.mkv "
-                 "--station out/clip/station.json)"};
+                 "(for example footage made by `dentar synth --webcam --resolution 1280x720 --out out/clip`: "
+                 "--camera live:out/clip/camera.avi --station out/clip/station.json; camera.avi is Motion JPEG, "
+                 "which decodes in real time, as a webcam delivers it)"};
+  }
+  {
+    // The generator's lossless FFV1 (video.mkv) decodes slower than a 30 fps camera at 720p
+    // and more (docs/BENCHMARKS.md, issue 26): say what plays in real time.
+    const int W = (*src)->width(), H = (*src)->height();
+    const std::string ext = fs::path(o.camera).extension().string();
+    if (o.camera.rfind("live:", 0) == 0 && ext == ".mkv" && W * H >= 1280 * 720) {
+      const std::string w = o.camera + ": lossless footage decodes slower than real time at " + std::to_string(W) + "x" +
+                            std::to_string(H) + " on a small machine (frames are dropped, latency grows); play "
+                            "the Motion JPEG copy instead: `dentar synth --webcam` writes camera.avi beside video.mkv";
+      say("warning: " + w);
+      sum.warnings.push_back(w);
+    }
   }
   {
     auto& cam = st.calibration.camera;
@@ -211,10 +253,19 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       if (!o.scale_calib && !builtin)
         return Error{"live: " + sizes + ": use the station calibrated for this camera mode (dentar calibrate camera), "
                      "ask for its mode with --width/--height, or pass --scale-calib"};
+      // Same aspect ratio: scaled. Another one (a 4:3 calibration, a 720p or 1080p webcam):
+      // the same horizontal field of view with top and bottom cropped, as most webcams make
+      // their 16:9 modes (crop_intrinsics above; the model synth renders other sizes with).
       auto scaled = ar::scale_intrinsics(cam, W, H);
+      const bool cropped = !scaled;
+      if (cropped && W > 0 && H > 0 && cam.width > 0 && cam.height > 0) scaled = crop_intrinsics(cam, W, H);
       if (!scaled) return Error{"live: " + sizes + ": " + scaled.error()};
       cam = *scaled;
-      sum.warnings.push_back(sizes + "; intrinsics scaled: calibrate this camera for accurate placement");
+      say("warning: " + sizes + (cropped ? "; another aspect ratio: intrinsics scaled to the width and cropped" : "; intrinsics scaled"));
+      sum.warnings.push_back(sizes + (cropped ? "; another aspect ratio: intrinsics scaled to the width and cropped "
+                                                "top and bottom (same horizontal field of view)"
+                                              : "; intrinsics scaled") +
+                             ": calibrate this camera for accurate placement (dentar calibrate camera)");
     }
   }
 
@@ -764,8 +815,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       ImGui::Begin("DentAR", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
       const ImVec4 col[] = {ImVec4(0.3f, 1, 0.3f, 1), ImVec4(1, 0.85f, 0.2f, 1), ImVec4(1, 0.3f, 0.3f, 1)};
       {
+        // ok green, note grey-blue (not an alarm), warning yellow, instructor needed red.
+        const ImVec4 health_col[] = {col[0], ImVec4(0.75f, 0.82f, 0.95f, 1), col[1], col[2]};
         const StationHealth h = health.health();
-        ImGui::TextColored(col[static_cast<int>(h.worst())], "%s", h.headline().c_str());
+        ImGui::TextColored(health_col[static_cast<int>(h.worst())], "%s", h.headline().c_str());
       }
       ImGui::TextColored(col[r.man_state], "mannequin: %s", kState[r.man_state]);
       ImGui::SameLine();
@@ -782,8 +835,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       ImGui::Text("force");
       ImGui::SameLine();
       ImGui::ProgressBar(static_cast<float>(std::min(1.0, f / fmax)), ImVec2(200, 0), buf);
-      ImGui::Text("drill: %s%s   pedal: %s", snap.pedal ? "ON" : "off", snap.in_contact ? "  (contact)" : "",
-                  pedal.status().c_str());
+      ImGui::TextUnformatted(
+          hud_drill_line(snap.pedal, snap.in_contact, pedal.status(), pedal.pressed(), pedal_from_device, o.stylus)
+              .c_str());
       if (const std::string ds = engine_device.status(); !ds.empty()) ImGui::TextColored(col[1], "device: %s", ds.c_str());
       ImGui::Text("removed mm3: enamel %.2f  dentin %.2f  pulp %.2f",
                   snap.removed_mm3[static_cast<int>(volume::Material::kEnamel)],

@@ -33,6 +33,7 @@ double median(std::vector<double> v) {
 const char* health_level_name(HealthLevel l) {
   switch (l) {
     case HealthLevel::kOk: return "ok";
+    case HealthLevel::kNote: return "note";
     case HealthLevel::kWarning: return "warning";
     case HealthLevel::kInstructor: return "instructor needed";
   }
@@ -57,10 +58,12 @@ HealthLevel StationHealth::worst() const {
 bool StationHealth::instructor_needed() const { return worst() == HealthLevel::kInstructor; }
 
 std::string StationHealth::headline() const {
-  for (HealthLevel l : {HealthLevel::kInstructor, HealthLevel::kWarning})
+  for (HealthLevel l : {HealthLevel::kInstructor, HealthLevel::kWarning, HealthLevel::kNote})
     for (const auto& i : items)
       if (i.level == l)
-        return std::string(l == HealthLevel::kInstructor ? "INSTRUCTOR NEEDED: " : "station warning: ") +
+        return std::string(l == HealthLevel::kInstructor ? "INSTRUCTOR NEEDED: "
+                           : l == HealthLevel::kWarning  ? "station warning: "
+                                                         : "") +
                i.check + ": " + i.message;
   return "station OK";
 }
@@ -86,9 +89,9 @@ std::vector<HealthItem> check_station_file(const ar::StationScene& st, bool buil
                                            const std::string& camera_identity) {
   std::vector<HealthItem> out;
   if (builtin) {
-    out.push_back({"calibration", HealthLevel::kWarning,
-                   "built-in station \"" + st.name +
-                       "\": not calibrated for this bench (fine for a try-out; for training, an instructor "
+    out.push_back({"station", HealthLevel::kNote,
+                   "uncalibrated (built-in intrinsics): the built-in station \"" + st.name +
+                       "\" is not calibrated for this bench; fine for a try-out (for training, an instructor "
                        "calibrates the station: dentar calibrate)"});
     return out;
   }
@@ -227,7 +230,7 @@ std::map<int, double> TagLayoutCheck::displacement_m() const {
 HealthItem TagLayoutCheck::result() const {
   HealthItem it{"tag layout", HealthLevel::kOk, ""};
   if (!done()) {
-    it.level = HealthLevel::kWarning;
+    it.level = HealthLevel::kNote;  // still looking: nothing is wrong yet
     it.message = "not checked yet: the mannequin was seen with 3 or more tags in " + std::to_string(frames_) +
                  " of the " + std::to_string(frames_needed_) + " frames needed";
     return it;
@@ -327,7 +330,15 @@ std::vector<HealthItem> StationHealthMonitor::on_frame(const std::vector<ar::Det
   std::vector<HealthItem> changed;
   if (!layout_.done()) {
     layout_.add(detections);
-    if (layout_.done()) changed.push_back(layout_.result());
+    if (layout_.done()) {
+      HealthItem it = layout_.result();
+      if (builtin_ && it.level == HealthLevel::kInstructor) {
+        it.level = HealthLevel::kWarning;  // nothing was calibrated: no alarm, placement is approximate
+        it.message += " (a built-in station: the tooth is placed approximately; check that the kit was "
+                      "printed at 100 % and taped flat)";
+      }
+      changed.push_back(it);
+    }
   }
   if (!builtin_)
     if (auto it = divot_.add(t_s, T_dev_sty, stylus_valid)) changed.push_back(*it);

@@ -26,6 +26,20 @@ TEST(LiveOptions, FrameLimitMustNotBeNegative) {
   EXPECT_NE(o.validate().find("frames = -1"), std::string::npos) << o.validate();
 }
 
+TEST(HudDrillLine, DrillAndPedalAgreeOrTheLineSaysWhy) {
+  // The pedal drives the drill: the two agree, nothing to explain.
+  EXPECT_EQ(hud_drill_line(true, false, "pressed", true, false, "pen"), "drill: ON   pedal: pressed");
+  EXPECT_EQ(hud_drill_line(false, false, "released", false, false, "pen"), "drill: off   pedal: released");
+  // The simulated hand drills without the pedal: said beside "released".
+  const std::string sim = hud_drill_line(true, true, "released", false, true, "sim");
+  EXPECT_NE(sim.find("drill: ON  (contact)   pedal: released"), std::string::npos) << sim;
+  EXPECT_NE(sim.find("the simulated hand drills without the pedal"), std::string::npos) << sim;
+  const std::string rep = hud_drill_line(true, false, "released", false, true, "replay:out/clip/session.dlog");
+  EXPECT_NE(rep.find("recorded pedal"), std::string::npos) << rep;
+  // The simulated hand resting: nothing to explain.
+  EXPECT_EQ(hud_drill_line(false, false, "released", false, true, "sim"), "drill: off   pedal: released");
+}
+
 TEST(SoftwareRenderer, MesaSoftwareRasterisersAndOthersByName) {
   // GL_RENDERER strings as drivers report them.
   EXPECT_TRUE(software_renderer("llvmpipe (LLVM 15.0.6, 256 bits)"));

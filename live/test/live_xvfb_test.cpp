@@ -604,3 +604,44 @@ TEST(LiveXvfb, PenCutsTheToothWhileTheSpaceBarIsHeld) {
   EXPECT_EQ(sum0["removed_mm3"]["total"].get<double>(), 0.0);
 }
 
+
+// Issue 26: "Try it live" rehearsed without a camera. `dentar synth --station box` makes 720p
+// footage of the box station (the board on a box), and `dentar live --station box` plays it as
+// a 1280x720 webcam against the built-in 640x480 intrinsics: accepted with the intrinsics scaled
+// to the width and cropped (a warning says so), which is exactly the camera the footage was made
+// with; the board is tracked; the station is a note, never INSTRUCTOR NEEDED.
+TEST(LiveXvfb, BoxTryOutRehearsedWithoutACameraAt720p) {
+  REQUIRE_XVFB();
+  const fs::path t = dentar::test::temp_dir("live_box_rehearsal");
+  auto r = run_command(kBin + " synth --station box --frames 45 --resolution 1280x720 --seed 4 --webcam --out " +
+                       (t / "box").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_TRUE(fs::exists(t / "box" / "camera.avi"));
+  EXPECT_EQ(r.out.find("cannot open the station file"), std::string::npos) << r.out;
+  r = run_command(xvfb(kBin + " live --camera live:" + (t / "box" / "camera.avi").string() +
+                       " --station box --stylus replay:" + (t / "box" / "session.dlog").string() +
+                       " --no-occlusion --no-score --loop --frames 30 --record " + (t / "rec").string() + " --summary " +
+                       (t / "sum.json").string() + " --quiet 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto sum = read_json(t / "sum.json");
+  bool cropped = false;
+  for (const auto& w : sum["warnings"]) cropped |= w.get<std::string>().find("cropped top and bottom") != std::string::npos;
+  EXPECT_TRUE(cropped) << sum["warnings"].dump(2);
+  EXPECT_FALSE(sum["station_health"]["instructor_needed"].get<bool>()) << sum["station_health"].dump(2);
+  bool note = false;
+  for (const auto& s : sum["station_health"]["items"])
+    note |= s.get<std::string>().find("note: station: uncalibrated (built-in intrinsics)") == 0;
+  EXPECT_TRUE(note) << sum["station_health"].dump(2);
+  // The intrinsics live used (the recording's station) are the footage's true camera.
+  const auto used = read_json(t / "rec" / "station.json")["camera"];
+  const auto truth = read_json(t / "box" / "station.json")["camera"];
+  ASSERT_TRUE(used.is_object() && truth.is_object()) << used.dump() << truth.dump();
+  for (const char* k : {"width", "height", "fx", "fy", "cx", "cy"})
+    EXPECT_NEAR(used[k].get<double>(), truth[k].get<double>(), 1e-6) << k;
+  const auto rows = read_csv(t / "rec" / "frames.csv");
+  ASSERT_GT(rows.size(), 20u);
+  const int ms = col(rows[0], "man_state");
+  int seen = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) seen += rows[i][ms] != "lost" ? 1 : 0;
+  EXPECT_GT(seen, 0.8 * static_cast<double>(rows.size() - 1)) << "the box board is tracked";
+}

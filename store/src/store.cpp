@@ -419,6 +419,23 @@ Result<std::vector<std::string>> Store::exercises() {
   return out;
 }
 
+Status Store::move_session(const std::string& key, const std::string& student) {
+  if (auto e = validate_code("student", student); !e.empty()) return Error{e};
+  Db& db = *db_;
+  if (auto s = db.begin_write(); !s) return Error{s.error()};
+  auto id = upsert(db, "students", "code", student);
+  if (!id) {
+    db.rollback();
+    return Error{id.error()};
+  }
+  auto r = db.query("UPDATE sessions SET student_id = $1 WHERE key = $2 RETURNING id", {I(*id), S(key)});
+  if (!r || r->empty()) {
+    db.rollback();
+    return Error{r ? "session " + key.substr(0, 12) + ": not stored in " + url_.redacted : r.error()};
+  }
+  return db.commit();
+}
+
 Result<std::optional<SessionRecord>> Store::session_by_key(const std::string& key) {
   auto r = db_->query("SELECT id FROM sessions WHERE key = $1", {S(key)});
   if (!r) return Error{r.error()};

@@ -156,6 +156,69 @@ TEST(CliDb, OfflineStoresTheReplayedSession) {
   EXPECT_FALSE((**rec).score_html.empty());
 }
 
+// Issue 26: `dentar db import` takes the folders the program makes: an offline run (its log
+// in footage/, score.json in the run folder) and a demo folder; the same session under another
+// student is refused with both names unless --move, which moves it.
+TEST(CliDb, ImportTakesOfflineAndDemoFoldersAndRefusesAnotherStudentUnlessMove) {
+  const fs::path d = dentar::test::temp_dir("cli_db_folders");
+  const std::string db = "sqlite:" + (d / "school.db").string();
+  const CommandResult off = run("offline --out " + (d / "offline").string() +
+                                " --frames 20 --resolution 640x480 --no-video --quiet");
+  ASSERT_EQ(off.code, 0) << off.out;
+  const CommandResult demo = run("demo --simulated --seconds 2 --voxel-mm 0.2 --samples 2000 --out " + (d / "demo").string());
+  ASSERT_EQ(demo.code, 0) << demo.out;
+  const CommandResult a = run("db import " + (d / "offline").string() + " --db " + db + " --student s1 --station-id st");
+  ASSERT_EQ(a.code, 0) << a.out;
+  EXPECT_NE(a.out.find("of s1 ("), std::string::npos) << a.out;
+  EXPECT_EQ(a.out.find("no session log"), std::string::npos) << a.out;
+  const CommandResult b = run("db import " + (d / "demo").string() + " --db " + db + " --student s1 --station-id st");
+  ASSERT_EQ(b.code, 0) << b.out;
+  const std::string key = *dentar::store::sha256_file((d / "offline" / "footage" / "session.dlog").string());
+  {
+    auto st = dentar::store::Store::open(db);
+    ASSERT_TRUE(st.ok());
+    EXPECT_EQ(*(*st)->count_sessions(), 2);
+    auto rec = (*st)->session_by_key(key);
+    ASSERT_TRUE(rec.ok() && rec->has_value());
+    EXPECT_EQ((**rec).student, "s1");
+    EXPECT_EQ(fs::path((**rec).report_dir).filename(), "offline");  // score.json of the run folder
+  }
+  // The same offline run under s2: refused, both named, nothing changed.
+  const CommandResult other = run("db import " + (d / "offline").string() + " --db " + db + " --student s2 --station-id st");
+  EXPECT_EQ(other.code, 2) << other.out;
+  EXPECT_NE(other.out.find("already stored under student s1, not s2"), std::string::npos) << other.out;
+  EXPECT_NE(other.out.find("--move"), std::string::npos) << other.out;
+  {
+    auto st = dentar::store::Store::open(db);
+    EXPECT_EQ((**(*st)->session_by_key(key)).student, "s1");
+  }
+  // --move: stored under s2 now, and the message says from whom.
+  const CommandResult moved =
+      run("db import " + (d / "offline").string() + " --db " + db + " --student s2 --station-id st --move");
+  ASSERT_EQ(moved.code, 0) << moved.out;
+  EXPECT_NE(moved.out.find("of s2 ("), std::string::npos) << moved.out;
+  EXPECT_NE(moved.out.find("moved from student s1"), std::string::npos) << moved.out;
+  {
+    auto st = dentar::store::Store::open(db);
+    EXPECT_EQ((**(*st)->session_by_key(key)).student, "s2");
+    EXPECT_EQ(*(*st)->count_sessions(), 2);
+  }
+  // A folder that is none of these: the message says what was looked for.
+  fs::create_directories(d / "empty");
+  const CommandResult none = run("db import " + (d / "empty").string() + " --db " + db + " --student s1");
+  EXPECT_EQ(none.code, 2);
+  EXPECT_NE(none.out.find("footage/session.dlog"), std::string::npos) << none.out;
+  // A damaged database: bad input (2), as db status and serve.
+  {
+    std::ofstream bad(d / "bad.db", std::ios::binary);
+    bad << std::string(8192, 'x');
+  }
+  const CommandResult dmg = run("db import " + (d / "demo").string() + " --db sqlite:" + (d / "bad.db").string() +
+                                " --student s1 --station-id st");
+  EXPECT_EQ(dmg.code, 2) << dmg.out;
+  EXPECT_EQ(run("db status --db sqlite:" + (d / "bad.db").string()).code, 2);
+}
+
 // `dentar live --record --db` in a real window (Xvfb): the recording is
 // scored and stored with its recording hash.
 TEST(CliDb, LiveStoresTheRecordedSession) {

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -889,6 +890,36 @@ Status SynthGenerator::finish() {
   return {};
 }
 
+namespace {
+// A board station (`dentar live --station box`, the printed kit taped onto a box): every
+// mannequin tag on one plane, facing one way, that plane normal to a mannequin axis. Such a
+// station is drawn as a cardboard box whose top is the board (the tags' outline plus 15 mm,
+// 80 mm deep), not as the phantom head. nullopt: any other layout (the head is drawn).
+std::optional<synth::Mesh> board_box(const StationScene& st) {
+  if (st.mannequin_tags.size() < 3) return std::nullopt;
+  const V3d n = st.mannequin_tags[0].T_parent_tag.linear().col(2);  // into the tags
+  int axis = -1;
+  for (int a = 0; a < 3; ++a)
+    if (std::abs(std::abs(n[a]) - 1.0) < 1e-6) axis = a;
+  if (axis < 0) return std::nullopt;
+  const double plane = st.mannequin_tags[0].T_parent_tag.translation()[axis];
+  Eigen::Vector3d lo = V3d::Constant(1e9), hi = V3d::Constant(-1e9);
+  for (const auto& t : st.mannequin_tags) {
+    if ((t.T_parent_tag.linear().col(2) - n).norm() > 1e-6) return std::nullopt;
+    if (std::abs(t.T_parent_tag.translation()[axis] - plane) > 1e-4) return std::nullopt;
+    const double r = 0.5 * std::sqrt(2.0) * t.size_m * 1.8 + 0.015;  // pattern + quiet zone, margin
+    lo = lo.cwiseMin(t.T_parent_tag.translation() - V3d::Constant(r));
+    hi = hi.cwiseMax(t.T_parent_tag.translation() + V3d::Constant(r));
+  }
+  // The box lies behind the tags (along n, into them), its top 0.2 mm behind the tag plane
+  // so the tags are never z-fought.
+  const double top = plane + n[axis] * 0.2e-3, bottom = plane + n[axis] * 0.08;
+  lo[axis] = std::min(top, bottom);
+  hi[axis] = std::max(top, bottom);
+  return synth::box(lo.cast<float>(), hi.cast<float>(), {0.72f, 0.58f, 0.40f});
+}
+}  // namespace
+
 Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScene& station_in,
                                                                const SynthOptions& o,
                                                                const std::string& log_path) {
@@ -950,7 +981,10 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
   // Meshes.
   const StationScene& st = im.station;
   im.room = synth::upload(synth::room_mesh());
-  im.mannequin = synth::upload(synth::mannequin_mesh(st.mannequin));
+  if (auto board = board_box(st))
+    im.mannequin = synth::upload(*board);
+  else
+    im.mannequin = synth::upload(synth::mannequin_mesh(st.mannequin));
   const volume::BurParams bp = volume::BurParams::capsule(0.5, 3.0);
   const HandpieceParams hp;
   const double head_z = bur_shank_end_z_m(bp) - 0.5 * hp.head_height_m;

@@ -76,6 +76,16 @@ struct KitPenFlag {
   double tip_distance_m = 0;  // |T_ptag_tip.translation()|
 };
 
+// One line of text as drawn: its ink box (cairo's text extents at the font and weight used),
+// page frame. Every line fits inside the page's margins: a line that would not (a long
+// station name in the title) is drawn in a smaller font, never past the edge.
+struct KitText {
+  int page = 0;
+  std::string text;
+  double font_m = 0;  // as drawn (after any shrinking)
+  Eigen::Vector2d ink_min_m = Eigen::Vector2d::Zero(), ink_max_m = Eigen::Vector2d::Zero();
+};
+
 struct KitLayout {
   Paper paper = Paper::kA4;
   Eigen::Vector2d page_size_m = Eigen::Vector2d::Zero();
@@ -90,6 +100,7 @@ struct KitLayout {
   // Things the user should know (e.g. the pen flag printed larger than flag_size_m because
   // the tag and its quiet zone do not fit on it).
   std::vector<std::string> notes;
+  std::vector<KitText> texts;  // every line of text, as drawn
 };
 
 // Places everything on pages; no item is cut by a page margin. Errors name the station field

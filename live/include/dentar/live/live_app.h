@@ -147,6 +147,14 @@ Result<LiveSummary> run_live(const LiveOptions& options);
 // llvmpipe or softpipe, SwiftShader, Microsoft's Basic Render Driver).
 bool software_renderer(const std::string& gl_renderer);
 
+// The HUD's drill line: "drill: ON  (contact)   pedal: released" and, when the drill runs
+// while the pedal is up because the stylus brings its own pedal (stylus "sim": the simulated
+// hand; "replay:FILE": the recorded pedal), the reason in brackets, so the two never disagree
+// silently. pedal_status = haptics::Pedal::status(); device_pedal = the stylus's own pedal
+// drives the drill too.
+std::string hud_drill_line(bool drill_on, bool in_contact, const std::string& pedal_status, bool pedal_pressed,
+                           bool device_pedal, const std::string& stylus);
+
 // The V4L2 cameras on this machine with their modes, one line each
 // ("/dev/video0 (HD Webcam): MJPG 1280x720, YUYV 640x480"); or why none.
 std::string list_cameras();

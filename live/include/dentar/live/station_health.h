@@ -29,8 +29,10 @@
 
 namespace dentar::live {
 
-enum class HealthLevel { kOk = 0, kWarning = 1, kInstructor = 2 };
-const char* health_level_name(HealthLevel l);  // "ok", "warning", "instructor needed"
+// kNote: worth knowing, nothing wrong (a built-in station: "uncalibrated (built-in
+// intrinsics)"); kWarning: something to fix soon; kInstructor: the alarm, an instructor must act.
+enum class HealthLevel { kOk = 0, kNote = 1, kWarning = 2, kInstructor = 3 };
+const char* health_level_name(HealthLevel l);  // "ok", "note", "warning", "instructor needed"
 
 struct HealthItem {
   std::string check;  // "calibration age", "station check", "camera", "tag layout", "stylus tip"
@@ -43,7 +45,8 @@ struct StationHealth {
   void set(const HealthItem& item);  // adds or replaces the item of item.check
   bool instructor_needed() const;
   HealthLevel worst() const;
-  // One line for the HUD and the log: "station OK" or "INSTRUCTOR NEEDED: <first reason>".
+  // One line for the HUD and the log: "station OK", "INSTRUCTOR NEEDED: <first reason>",
+  // "station warning: <first reason>" or, for a note, "<check>: <message>".
   std::string headline() const;
 };
 
@@ -51,8 +54,8 @@ struct StationHealth {
 // nullopt when the text is not such a date.
 std::optional<double> age_days(const std::string& iso_date, double now_unix);
 
-// The file checks. `builtin` = a built-in station (never calibrated for a bench: a warning,
-// fine for a try-out); camera_identity = ar::FrameSource's identity of the opened camera
+// The file checks. `builtin` = a built-in station (never calibrated for a bench: a note,
+// "uncalibrated (built-in intrinsics)", fine for a try-out); camera_identity = ar::FrameSource's identity of the opened camera
 // (empty: unknown, not compared).
 std::vector<HealthItem> check_station_file(const ar::StationScene& st, bool builtin,
                                            double now_unix, const std::string& camera_identity);
@@ -123,7 +126,9 @@ StationReach check_station_reach(const ar::StationScene& st, const haptics::Devi
 std::string describe_move_man(const ar::StationScene& st, const Eigen::Vector3d& move_man_m);
 
 // Everything above for one live session, safe to read from the display thread while the frame
-// thread feeds it. The file checks run at construction.
+// thread feeds it. The file checks run at construction. On a built-in station nothing was
+// calibrated for this bench, so no check raises the alarm: a tag layout that differs from the
+// built-in one (a kit taped by hand) is a warning that placement is approximate.
 class StationHealthMonitor {
  public:
   StationHealthMonitor(const ar::StationScene& st, bool builtin, double now_unix,

@@ -84,6 +84,9 @@ class Store {
   // Full record by id (nullopt: no such session).
   Result<std::optional<SessionRecord>> session(std::int64_t id);
   Result<std::optional<SessionRecord>> session_by_key(const std::string& key);
+  // Moves a stored session to another student (`dentar db import --move`): the student is
+  // created on first use. Error when no session has this key.
+  Status move_session(const std::string& key, const std::string& student);
   Result<std::int64_t> count_sessions();
   Result<bool> has_key(const std::string& key);
   // Every session, oldest first, one at a time (export).
