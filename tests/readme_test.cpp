@@ -121,6 +121,12 @@ const std::vector<Step>& contract() {
        .window = true},
       {.readme = "build/dentar offline --footage out/rec --out out/rec_offline",
        .produces = {"out/rec_offline/composite.mkv", "out/rec_offline/report.html"}},
+      {.readme = "build/dentar synth --station box --frames 300 --resolution 1280x720 --webcam "
+                 "--out out/box",
+       .produces = {"out/box/camera.avi", "out/box/station.json", "out/box/session.dlog"}},
+      {.readme = "build/dentar live --camera live:out/box/camera.avi --station box "
+                 "--stylus replay:out/box/session.dlog --no-occlusion",
+       .window = true},
       {.readme = "build/dentar tags --out out/kit",
        .produces = {"out/kit/station_kit.pdf", "out/kit/station_kit.svg"}},
       {.readme = "build/dentar tags --station my_station.json --out out/kit",
