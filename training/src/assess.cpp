@@ -71,8 +71,11 @@ void wilson_interval(int k, int n, double& lo, double& hi) {
   hi = std::min(1.0, c + h);
 }
 
-Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vector<std::string>& names,
-                               const AssessOptions& opt) {
+namespace {
+// Trials by pointer with their labels (cross-validation folds and person
+// identification without copying the sequences).
+Result<SkillModel> train_impl(const std::vector<const Trial*>& trials, const std::vector<std::string>& label_of,
+                              const std::vector<std::string>& names, const AssessOptions& opt) {
   if (std::string why = opt.validate(); !why.empty()) return Error{"assessment options: " + why};
   if (trials.empty()) return Error{"assessment: no training trial"};
   SkillModel m;
@@ -80,7 +83,7 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
   m.options = opt;
   m.feature_names = names;
   std::set<std::string> labels;
-  for (const auto& t : trials) labels.insert(t.label);
+  for (const auto& l : label_of) labels.insert(l);
   if (labels.size() < 2) return Error{"assessment: training needs trials of at least two skill labels (got only '" + *labels.begin() + "')"};
   m.labels.assign(labels.begin(), labels.end());
   if (is_summary(opt.method)) {
@@ -88,9 +91,9 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
     const auto fn = summary_feature_names(set, names);
     Sequence F(static_cast<Eigen::Index>(trials.size()), static_cast<Eigen::Index>(fn.size()));
     for (std::size_t i = 0; i < trials.size(); ++i) {
-      if (Status st = check_finite(trials[i].x, trials[i].source, names); !st) return Error{st.error()};
-      auto f = summary_features(set, trials[i].x, names, trials[i].rate_hz);
-      if (!f) return Error{"assessment: " + trials[i].source + ": " + f.error()};
+      if (Status st = check_finite(trials[i]->x, trials[i]->source, names); !st) return Error{st.error()};
+      auto f = summary_features(set, trials[i]->x, names, trials[i]->rate_hz);
+      if (!f) return Error{"assessment: " + trials[i]->source + ": " + f.error()};
       F.row(static_cast<Eigen::Index>(i)) = f->transpose();
     }
     m.scaler.mean = F.colwise().mean().transpose();
@@ -103,7 +106,7 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
     for (std::size_t li = 0; li < m.labels.size(); ++li) {
       double n = 0;
       for (std::size_t i = 0; i < trials.size(); ++i)
-        if (trials[i].label == m.labels[li]) {
+        if (label_of[i] == m.labels[li]) {
           m.centroids.row(static_cast<Eigen::Index>(li)) += Z.row(static_cast<Eigen::Index>(i));
           n += 1;
         }
@@ -112,10 +115,10 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
     return m;
   }
   std::vector<Sequence> raw;
-  for (const auto& t : trials) {
-    if (t.x.rows() < 2) return Error{"assessment: trial " + t.source + " has fewer than 2 frames"};
-    if (Status st = check_finite(t.x, t.source, names); !st) return Error{st.error()};
-    raw.push_back(prepare(t.x, names, opt));
+  for (const Trial* t : trials) {
+    if (t->x.rows() < 2) return Error{"assessment: trial " + t->source + " has fewer than 2 frames"};
+    if (Status st = check_finite(t->x, t->source, names); !st) return Error{st.error()};
+    raw.push_back(prepare(t->x, names, opt));
   }
   auto sc = ZScaler::fit(raw, names);
   if (!sc) return Error{"assessment: " + sc.error()};
@@ -138,7 +141,7 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
   for (std::size_t li = 0; li < m.labels.size(); ++li) {
     std::vector<Sequence> mine;
     for (std::size_t i = 0; i < trials.size(); ++i)
-      if (trials[i].label == m.labels[li]) mine.push_back(z[i]);
+      if (label_of[i] == m.labels[li]) mine.push_back(z[i]);
     switch (opt.method) {
       case Method::kDiscreteHmm: {
         std::vector<std::vector<int>> sym;
@@ -171,6 +174,18 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
     }
   }
   return m;
+}
+}  // namespace
+
+Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vector<std::string>& names,
+                               const AssessOptions& opt) {
+  std::vector<const Trial*> p;
+  std::vector<std::string> l;
+  for (const auto& t : trials) {
+    p.push_back(&t);
+    l.push_back(t.label);
+  }
+  return train_impl(p, l, names, opt);
 }
 
 Result<Verdict> classify(const SkillModel& m, const Sequence& x_in, double rate_hz) {
@@ -248,14 +263,14 @@ Result<CvResult> cross_validate_subjects(const std::vector<Trial>& trials, const
 
 Result<CvResult> cross_validate(const std::vector<Trial>& trials_in, const std::vector<std::string>& names,
                                 const AssessOptions& opt, CvMode mode) {
-  std::vector<Trial> trials = trials_in;
-  if (mode == CvMode::kIdentity)
-    for (auto& t : trials) t.label = t.subject;
+  const std::vector<Trial>& trials = trials_in;
+  // The label cross-validated: the skill, or the person (identification).
+  auto label = [&](const Trial& t) -> const std::string& { return mode == CvMode::kIdentity ? t.subject : t.label; };
   std::set<std::string> subjects, labels;
   std::set<int> trial_numbers;
   for (const auto& t : trials) {
     subjects.insert(t.subject);
-    labels.insert(t.label);
+    labels.insert(label(t));
     trial_numbers.insert(t.trial);
   }
   if (mode == CvMode::kSubject && subjects.size() < 3)
@@ -277,15 +292,17 @@ Result<CvResult> cross_validate(const std::vector<Trial>& trials_in, const std::
   r.predicted.assign(trials.size(), "");
   const std::string fold_word = mode == CvMode::kSubject ? "person " : "trial ";
   for (const auto& s : folds) {
-    std::vector<Trial> train;
+    std::vector<const Trial*> train;
+    std::vector<std::string> train_label;
     std::set<std::string> train_labels;
     for (const auto& t : trials)
       if (!in_fold(t, s)) {
-        train.push_back(t);
-        train_labels.insert(t.label);
+        train.push_back(&t);
+        train_label.push_back(label(t));
+        train_labels.insert(label(t));
       }
     for (const auto& t : trials)
-      if (in_fold(t, s) && !train_labels.count(t.label)) {
+      if (in_fold(t, s) && !train_labels.count(label(t))) {
         if (mode == CvMode::kIdentity)
           return Error{"cross-validation (identity): person '" + t.subject + "' has no other trial than number " + s +
                        " to train on: person identification needs every person's trials numbered alike, 2 or more each"};
@@ -295,18 +312,18 @@ Result<CvResult> cross_validate(const std::vector<Trial>& trials_in, const std::
                                                : "every label needs trials numbered alike") + "); " +
                      t.source + " is one of its trials"};
       }
-    auto m = train_model(train, names, opt);
+    auto m = train_impl(train, train_label, names, opt);
     if (!m) return Error{"cross-validation (leaving out " + fold_word + s + "): " + m.error()};
     for (std::size_t i = 0; i < trials.size(); ++i) {
       if (!in_fold(trials[i], s)) continue;
       auto v = classify(*m, trials[i].x, trials[i].rate_hz);
       if (!v) return Error{"cross-validation: " + trials[i].source + ": " + v.error()};
       r.predicted[i] = v->label;
-      const auto ti = static_cast<std::size_t>(std::find(r.labels.begin(), r.labels.end(), trials[i].label) - r.labels.begin());
+      const auto ti = static_cast<std::size_t>(std::find(r.labels.begin(), r.labels.end(), label(trials[i])) - r.labels.begin());
       const auto pi = static_cast<std::size_t>(std::find(r.labels.begin(), r.labels.end(), v->label) - r.labels.begin());
       if (pi < r.labels.size()) ++r.confusion[ti][pi];
       ++r.n;
-      if (v->label == trials[i].label) ++r.correct;
+      if (v->label == label(trials[i])) ++r.correct;
     }
   }
   r.accuracy = r.n ? static_cast<double>(r.correct) / r.n : 0;
