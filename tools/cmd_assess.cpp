@@ -170,7 +170,8 @@ int run_assess(const AssessCli& c) {
     const double cv_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::cout << std::fixed << std::setprecision(1) << "method " << method_name(o.method)
               << (o.normalise ? " (per-trial normalisation)" : "")
-              << (c.cv == "subject" ? ", leave one person out: accuracy " : ", leave one trial of every person out: accuracy ")
+              << (c.cv == "subject" ? ", leave-one-subject-out: accuracy "
+                                    : ", leave-one-trial-out (the k-th trial of every person): accuracy ")
               << 100 * r->accuracy << " % (" << r->correct << "/" << r->n << "), 95 % CI [" << 100 * r->ci_low << ", "
               << 100 * r->ci_high << "] %, " << std::setprecision(2) << cv_s << " s\n" << std::setprecision(1);
     if (c.cv == "trial")
