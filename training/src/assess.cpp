@@ -210,7 +210,10 @@ Result<Verdict> classify(const SkillModel& m, const Sequence& x_in, double rate_
     v.margin = v.score.size() > 1 ? v.score[best] - second : 0;
     return v;
   }
-  const Sequence x = prepare(x_in, m.feature_names, m.options);
+  // No copy unless the model normalises or decimates (classify time unchanged for the seed's models).
+  Sequence prepared;
+  if (m.options.normalise || m.options.decimate > 1) prepared = prepare(x_in, m.feature_names, m.options);
+  const Sequence& x = m.options.normalise || m.options.decimate > 1 ? prepared : x_in;
   if (x.cols() != m.scaler.mean.size())
     return Error{"classify: the sequence has " + std::to_string(x.cols()) + " features, the model expects " +
                  std::to_string(m.scaler.mean.size())};
