@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   double style = 1.0, separation = 1.0;
   std::string methods = "hmm,hmm-norm,ghmm,ghmm-norm,dtw,dtw-norm,skill,time,timepath";
   std::string exercise = "molar_access_opening", out = "/tmp/dentar_loso_bench";
-  bool identity = true;
+  bool identity = true, trial_cv = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -66,10 +66,11 @@ int main(int argc, char** argv) {
     else if (a == "--exercise") exercise = next();
     else if (a == "--out") out = next();
     else if (a == "--no-identity") identity = false;
+    else if (a == "--cv-trial") trial_cv = true;
     else {
       std::cerr << "unknown option " << a
                 << " (--seeds --first-seed --classes 2|3 --per-class --trials --decimate --style --separation --methods "
-                   "--exercise --out --no-identity)\n";
+                   "--exercise --out --no-identity --cv-trial)\n";
       return 2;
     }
   }
@@ -96,7 +97,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   struct Acc {
-    std::vector<double> loso, id, secs;
+    std::vector<double> loso, id, secs, loto;
     int k = 0, n = 0, kid = 0, nid = 0;
   };
   std::map<std::string, Acc> acc;
@@ -189,8 +190,18 @@ int main(int argc, char** argv) {
         A.kid += id->correct;
         A.nid += id->n;
       }
-      std::printf("  %-10s leave one person out %5.1f %% (%d/%d), identity %5.1f %%, %.2f s\n", sp.name.c_str(),
+      if (trial_cv) {
+        auto lt = cross_validate(*tr, names, a, CvMode::kTrial);
+        if (!lt) {
+          std::cerr << sp.name << " (trial): " << lt.error() << "\n";
+          return 1;
+        }
+        A.loto.push_back(lt->accuracy);
+      }
+      std::printf("  %-10s leave one person out %5.1f %% (%d/%d), identity %5.1f %%, %.2f s", sp.name.c_str(),
                   100 * r->accuracy, r->correct, r->n, identity ? 100 * A.id.back() : 0.0, secs);
+      if (trial_cv) std::printf(", leave one trial out %5.1f %%", 100 * A.loto.back());
+      std::printf("\n");
       std::fflush(stdout);
     }
     std::filesystem::remove_all(dir);
@@ -222,9 +233,15 @@ int main(int argc, char** argv) {
     stats(A.secs, tm, tsd, tlo, thi);
     wilson_interval(A.k, A.n, wlo, whi);
     const double h = t975(static_cast<int>(A.loso.size()) - 1) * sd / std::sqrt(static_cast<double>(A.loso.size()));
-    std::printf("| %s | %.1f ± %.1f %% (%.1f–%.1f) | [%.1f, %.1f] %% | %d/%d [%.1f, %.1f] %% | %.1f ± %.1f %% | %.2f |\n",
+    std::printf("| %s | %.1f ± %.1f %% (%.1f–%.1f) | [%.1f, %.1f] %% | %d/%d [%.1f, %.1f] %% | %.1f ± %.1f %% | %.2f |",
                 sp.name.c_str(), 100 * m, 100 * sd, 100 * lo, 100 * hi, 100 * std::max(0.0, m - h),
                 100 * std::min(1.0, m + h), A.k, A.n, 100 * wlo, 100 * whi, 100 * im, 100 * isd, tm);
+    if (!A.loto.empty()) {
+      double lm, lsd, llo, lhi;
+      stats(A.loto, lm, lsd, llo, lhi);
+      std::printf(" leave one trial out %.1f ± %.1f %% |", 100 * lm, 100 * lsd);
+    }
+    std::printf("\n");
   }
   return 0;
 }
