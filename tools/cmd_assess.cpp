@@ -1,6 +1,7 @@
 // dentar assess: skill assessment (discrete HMM, Gaussian HMM, DTW):
 // generate a cohort, train with leave-one-subject-out cross-validation, save
 // a model, classify sessions or kinematics tables, build an expert reference.
+#include <chrono>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -24,8 +25,9 @@ struct AssessCli {
   std::vector<std::string> sessions;
   std::string method = "hmm";
   int states = 13, symbols = 13, iterations = 30;
-  int experts = 5, novices = 5, trials = 3;
-  double separation = 1.0, voxel_mm = 0.15;
+  int experts = 5, novices = 5, trials = 3, intermediates = 0, decimate = 1;
+  double separation = 1.0, voxel_mm = 0.15, style = 1.0;
+  bool kinematics_only = false, normalise = false, no_identity = false;
   std::uint64_t seed = 1;
 };
 
@@ -35,7 +37,7 @@ Result<Trial> session_trial(const std::string& path, const std::string& subject,
   if (!log->warning.empty()) std::cerr << "dentar assess: warning: " << log->warning << "\n";
   auto t = decode_session(*log, path);
   if (!t) return Error{t.error()};
-  return Trial{subject, label, path, trial, track_features(*t)};
+  return Trial{subject, label, path, trial, track_features(*t), t->rate_hz};
 }
 
 int run_assess(const AssessCli& c) {
@@ -50,6 +52,8 @@ int run_assess(const AssessCli& c) {
   o.symbols = c.symbols;
   o.iterations = c.iterations;
   o.seed = c.seed;
+  o.normalise = c.normalise;
+  o.decimate = c.decimate;
   if (std::string why = o.validate(); !why.empty()) {
     print_error("assess", why);
     return 2;
@@ -67,19 +71,32 @@ int run_assess(const AssessCli& c) {
     co.separation = c.separation;
     co.seed = c.seed;
     co.voxel_mm = c.voxel_mm;
+    co.intermediates = c.intermediates;
+    co.style = c.style;
+    co.kinematics_only = c.kinematics_only;
     auto t = generate_cohort(*ex, co, c.generate);
     if (!t) {
       print_error("assess", t.error());
       return 1;
     }
-    std::cout << "generated " << t->size() << " sessions of '" << ex->name << "' in " << c.generate << " (trials.csv)\n";
+    std::cout << "generated " << t->size() << (c.kinematics_only ? " kinematics tables" : " sessions") << " of '" << ex->name
+              << "' in " << c.generate << " (trials.csv" << (c.kinematics_only ? ", columns.json" : "")
+              << "), personal style " << c.style << "\n";
   }
   std::vector<Trial> trials;
   std::vector<std::string> names = track_feature_names();
+  std::string trials_file;  // named in cross-validation errors
   if (!c.train.empty()) {
     auto cohort = read_cohort(c.train);
     if (!cohort) {
       print_error("assess", cohort.error());
+      return 2;
+    }
+    trials_file = c.train + "/trials.csv";
+    if (!cohort->empty() && cohort->front().session_path.size() > 4 &&
+        cohort->front().session_path.substr(cohort->front().session_path.size() - 4) == ".csv") {
+      print_error("assess", c.train + " holds kinematics tables (a --kinematics-only cohort): use --kinematics " +
+                                c.train + "/trials.csv --columns " + c.train + "/columns.json");
       return 2;
     }
     for (const auto& ct : *cohort) {
@@ -100,6 +117,7 @@ int run_assess(const AssessCli& c) {
       print_error("assess", map.error());
       return 2;
     }
+    trials_file = c.kinematics;
     auto t = import_trials(c.kinematics, *map, &names);
     if (!t) {
       print_error("assess", t.error());
@@ -133,27 +151,47 @@ int run_assess(const AssessCli& c) {
     std::cout << "expert reference of " << pm.size() << " sessions: " << c.make_reference << "\n";
   }
   if (!c.cv.empty()) {
-    if (c.cv != "subject") {
-      print_error("assess", "--cv: only 'subject' (leave-one-subject-out) is supported");
+    if (c.cv != "subject" && c.cv != "trial") {
+      print_error("assess", "--cv: '" + c.cv + "' is not a mode: subject (leave one person out) or trial (leave the k-th trial "
+                            "of every person out)");
       return 2;
     }
     if (trials.empty()) {
       print_error("assess", "--cv needs --train DIR or --kinematics TRIALS.csv");
       return 2;
     }
-    auto r = cross_validate_subjects(trials, names, o);
+    const auto t0 = std::chrono::steady_clock::now();
+    auto r = cross_validate(trials, names, o, c.cv == "subject" ? CvMode::kSubject : CvMode::kTrial);
     if (!r) {
-      print_error("assess", r.error());
-      return 1;
+      // A fold without a label, too few persons: the input, not the job.
+      print_error("assess", trials_file + ": " + r.error());
+      return 2;
     }
-    std::cout << std::fixed << std::setprecision(1) << "method " << method_name(o.method) << ", leave-one-subject-out: accuracy "
+    const double cv_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::cout << std::fixed << std::setprecision(1) << "method " << method_name(o.method)
+              << (o.normalise ? " (per-trial normalisation)" : "")
+              << (c.cv == "subject" ? ", leave-one-subject-out: accuracy "
+                                    : ", leave-one-trial-out (the k-th trial of every person): accuracy ")
               << 100 * r->accuracy << " % (" << r->correct << "/" << r->n << "), 95 % CI [" << 100 * r->ci_low << ", "
-              << 100 * r->ci_high << "] %\nconfusion (rows: true, columns: predicted)\n" << std::setw(12) << "";
-    for (const auto& l : r->labels) std::cout << std::setw(10) << l;
+              << 100 * r->ci_high << "] %, " << std::setprecision(2) << cv_s << " s\n" << std::setprecision(1);
+    if (c.cv == "trial")
+      std::cout << "note: the left-out trial's person is in training: this accuracy can measure who is operating, not how "
+                   "well; a new student is measured by --cv subject\n";
+    if (!c.no_identity) {
+      auto id = cross_validate(trials, names, o, CvMode::kIdentity);
+      if (id)
+        std::cout << "person identification with the same features and method (leakage check, chance "
+                  << 100.0 / static_cast<double>(id->labels.size()) << " %): " << 100 * id->accuracy << " % (" << id->correct
+                  << "/" << id->n << "), 95 % CI [" << 100 * id->ci_low << ", " << 100 * id->ci_high << "] %\n";
+      else
+        std::cout << "person identification not measured: " << id.error() << "\n";
+    }
+    std::cout << "confusion (rows: true, columns: predicted)\n" << std::setw(14) << "";
+    for (const auto& l : r->labels) std::cout << std::setw(14) << l;
     std::cout << "\n";
     for (std::size_t i = 0; i < r->labels.size(); ++i) {
-      std::cout << std::setw(12) << r->labels[i];
-      for (int v : r->confusion[i]) std::cout << std::setw(10) << v;
+      std::cout << std::setw(14) << r->labels[i];
+      for (int v : r->confusion[i]) std::cout << std::setw(14) << v;
       std::cout << "\n";
     }
   }
@@ -210,13 +248,13 @@ int run_assess(const AssessCli& c) {
         }
         auto k = read_kinematics(path, *map);
         if (!k) t = Error{k.error()};
-        else t = Trial{"", "", path, 0, k->x};
+        else t = Trial{"", "", path, 0, k->x, k->rate_hz};
       }
       if (!t) {
         print_error("assess", t.error());
         return 2;
       }
-      auto v = classify(*model, t->x);
+      auto v = classify(*model, t->x, t->rate_hz);
       if (!v) {
         print_error("assess", s + ": " + v.error());
         return 2;
@@ -239,8 +277,14 @@ void add_assess(CLI::App& app, int& exit_code) {
       "assess",
       "Skill assessment with a discrete HMM (k-means symbols), a Gaussian HMM or DTW.\n"
       "Synopsis: dentar assess --generate DIR [--experts N --novices N --trials N --separation S]\n"
-      "          dentar assess --train DIR --cv subject [--method hmm|ghmm|dtw] [--save MODEL.json]\n"
-      "          dentar assess --kinematics TRIALS.csv --columns MAP.json --cv subject\n"
+      "                               [--intermediates N --style S --kinematics-only]\n"
+      "          dentar assess --train DIR --cv subject|trial [--method M] [--normalise] [--save MODEL.json]\n"
+      "          dentar assess --kinematics TRIALS.csv --columns MAP.json --cv subject|trial [--method M]\n"
+      "Methods: hmm (the seed's discrete HMM), ghmm, dtw (on frames); skill (per-trial skill features, nearest\n"
+      "centroid); time, timepath (baselines: task time; task time and path length).\n"
+      "--cv subject leaves one person out (a new student); --cv trial leaves the k-th trial of every person out, so\n"
+      "the person stays in training and the accuracy can measure identity. Both print person identification\n"
+      "(the same features and method told to name the person) as a leakage check.\n"
       "          dentar assess --model MODEL.json SESSION...\n"
       "          dentar assess --train DIR --make-reference REF.json [--exercise NAME]");
   s->add_option("sessions", c->sessions, "Sessions to classify with --model (.dlog, folders, or tables with --columns)");
@@ -248,12 +292,22 @@ void add_assess(CLI::App& app, int& exit_code) {
   s->add_option("--train", c->train, "Cohort folder with trials.csv (file,subject,trial,label) and session logs");
   s->add_option("--kinematics", c->kinematics, "Trials table (file,subject,trial,label) of kinematics tables");
   s->add_option("--columns", c->columns, "Column map JSON for kinematics tables");
-  s->add_option("--cv", c->cv, "Cross-validation: 'subject' (leave one subject out)");
+  s->add_option("--cv", c->cv, "Cross-validation: 'subject' (leave one person out) or 'trial' (leave the k-th trial of "
+                                "every person out; can measure identity)");
+  s->add_flag("--normalise", c->normalise, "Sequence methods: per-trial normalisation (posture, orientation, force level, speed)");
+  s->add_option("--decimate", c->decimate, "Sequence methods: keep every n-th frame")->capture_default_str();
+  s->add_flag("--no-identity", c->no_identity, "Skip the person-identification check after --cv");
+  s->add_option("--intermediates", c->intermediates, "Intermediate subjects, a third class (--generate)")->capture_default_str();
+  s->add_option("--style", c->style, "Personal style strength: 0 none, 1 documented (--generate)")
+      ->check(CLI::Range(0.0, 3.0))
+      ->capture_default_str();
+  s->add_flag("--kinematics-only", c->kinematics_only,
+              "Write 100 Hz kinematics tables (bur and mirror hands) instead of engine sessions (--generate)");
   s->add_option("--save", c->save, "Train on all trials and save the model (JSON)");
   s->add_option("--model", c->model, "Classify SESSION... with this model");
   s->add_option("--make-reference", c->make_reference, "Write the expert reference (feedback statistics) of --train's experts");
   s->add_option("--exercise", c->exercise, "Exercise for --generate / --make-reference")->capture_default_str();
-  s->add_option("--method", c->method, "hmm, ghmm or dtw")->capture_default_str();
+  s->add_option("--method", c->method, "hmm, ghmm, dtw, skill, time or timepath")->capture_default_str();
   s->add_option("--states", c->states, "Hidden states")->capture_default_str();
   s->add_option("--symbols", c->symbols, "k-means symbols (hmm)")->capture_default_str();
   s->add_option("--iterations", c->iterations, "Baum-Welch iterations at most")->capture_default_str();
@@ -267,6 +321,8 @@ void add_assess(CLI::App& app, int& exit_code) {
   s->add_option("--seed", c->seed, "Random seed")->capture_default_str();
   s->footer(
       "Example:\n  dentar assess --generate out/cohort --experts 5 --novices 5 --trials 2\n"
+      "  dentar assess --generate out/kin --kinematics-only --experts 8 --intermediates 8 --novices 8\n"
+      "  dentar assess --kinematics out/kin/trials.csv --columns out/kin/columns.json --cv subject --method skill\n"
       "  dentar assess --train out/cohort --cv subject --method hmm --save out/hmm.json\n"
       "  dentar assess --model out/hmm.json out/demo");
   s->callback([c, &exit_code] { exit_code = run_assess(*c); });

@@ -7,13 +7,32 @@
 #include <limits>
 #include <set>
 
+#include "dentar/training/skill_features.h"
+
 namespace dentar::training {
+namespace {
+bool is_summary(Method m) { return m == Method::kSkill || m == Method::kTime || m == Method::kTimePath; }
+SummarySet summary_set(Method m) {
+  return m == Method::kTime ? SummarySet::kTime : m == Method::kTimePath ? SummarySet::kTimePath : SummarySet::kSkill;
+}
+// Sequence methods: per-trial normalisation and decimation.
+Sequence prepare(const Sequence& x, const std::vector<std::string>& names, const AssessOptions& o) {
+  Sequence y = o.normalise && static_cast<std::size_t>(x.cols()) == names.size() ? normalise_trial(x, names) : x;
+  if (o.decimate <= 1 || y.rows() < 2 * o.decimate) return y;
+  Sequence d((y.rows() + o.decimate - 1) / o.decimate, y.cols());
+  for (Eigen::Index i = 0; i < d.rows(); ++i) d.row(i) = y.row(i * o.decimate);
+  return d;
+}
+}  // namespace
 
 std::string method_name(Method m) {
   switch (m) {
     case Method::kDiscreteHmm: return "hmm";
     case Method::kGaussianHmm: return "ghmm";
     case Method::kDtw: return "dtw";
+    case Method::kSkill: return "skill";
+    case Method::kTime: return "time";
+    case Method::kTimePath: return "timepath";
   }
   return "?";
 }
@@ -22,7 +41,10 @@ Result<Method> parse_method(const std::string& s) {
   if (s == "hmm") return Method::kDiscreteHmm;
   if (s == "ghmm") return Method::kGaussianHmm;
   if (s == "dtw") return Method::kDtw;
-  return Error{"unknown method '" + s + "' (hmm, ghmm, dtw)"};
+  if (s == "skill") return Method::kSkill;
+  if (s == "time") return Method::kTime;
+  if (s == "timepath") return Method::kTimePath;
+  return Error{"unknown method '" + s + "' (hmm, ghmm, dtw, skill, time, timepath)"};
 }
 
 std::string AssessOptions::validate() const {
@@ -32,6 +54,7 @@ std::string AssessOptions::validate() const {
   if (!(floor >= 0 && floor * symbols < 1)) return "floor must be in [0, 1/symbols)";
   if (!(var_floor > 0)) return "var_floor must be > 0";
   if (dtw_length < 2 || dtw_length > 100000) return "dtw_length must be in [2, 100000]";
+  if (decimate < 1 || decimate > 1000) return "decimate must be in [1, 1000]";
   return {};
 }
 
@@ -48,8 +71,11 @@ void wilson_interval(int k, int n, double& lo, double& hi) {
   hi = std::min(1.0, c + h);
 }
 
-Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vector<std::string>& names,
-                               const AssessOptions& opt) {
+namespace {
+// Trials by pointer with their labels (cross-validation folds and person
+// identification without copying the sequences).
+Result<SkillModel> train_impl(const std::vector<const Trial*>& trials, const std::vector<std::string>& label_of,
+                              const std::vector<std::string>& names, const AssessOptions& opt) {
   if (std::string why = opt.validate(); !why.empty()) return Error{"assessment options: " + why};
   if (trials.empty()) return Error{"assessment: no training trial"};
   SkillModel m;
@@ -57,14 +83,42 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
   m.options = opt;
   m.feature_names = names;
   std::set<std::string> labels;
-  for (const auto& t : trials) labels.insert(t.label);
+  for (const auto& l : label_of) labels.insert(l);
   if (labels.size() < 2) return Error{"assessment: training needs trials of at least two skill labels (got only '" + *labels.begin() + "')"};
   m.labels.assign(labels.begin(), labels.end());
+  if (is_summary(opt.method)) {
+    const SummarySet set = summary_set(opt.method);
+    const auto fn = summary_feature_names(set, names);
+    Sequence F(static_cast<Eigen::Index>(trials.size()), static_cast<Eigen::Index>(fn.size()));
+    for (std::size_t i = 0; i < trials.size(); ++i) {
+      if (Status st = check_finite(trials[i]->x, trials[i]->source, names); !st) return Error{st.error()};
+      auto f = summary_features(set, trials[i]->x, names, trials[i]->rate_hz);
+      if (!f) return Error{"assessment: " + trials[i]->source + ": " + f.error()};
+      F.row(static_cast<Eigen::Index>(i)) = f->transpose();
+    }
+    m.scaler.mean = F.colwise().mean().transpose();
+    m.scaler.std = ((F.rowwise() - m.scaler.mean.transpose()).colwise().squaredNorm() /
+                    std::max<double>(1.0, static_cast<double>(F.rows() - 1))).cwiseSqrt().transpose();
+    for (Eigen::Index k = 0; k < m.scaler.std.size(); ++k)
+      if (!(m.scaler.std(k) > 1e-12)) m.scaler.std(k) = 1.0;  // constant over training: carries nothing
+    const Sequence Z = m.scaler.apply(F);
+    m.centroids = Sequence::Zero(static_cast<Eigen::Index>(m.labels.size()), Z.cols());
+    for (std::size_t li = 0; li < m.labels.size(); ++li) {
+      double n = 0;
+      for (std::size_t i = 0; i < trials.size(); ++i)
+        if (label_of[i] == m.labels[li]) {
+          m.centroids.row(static_cast<Eigen::Index>(li)) += Z.row(static_cast<Eigen::Index>(i));
+          n += 1;
+        }
+      m.centroids.row(static_cast<Eigen::Index>(li)) /= n;
+    }
+    return m;
+  }
   std::vector<Sequence> raw;
-  for (const auto& t : trials) {
-    if (t.x.rows() < 2) return Error{"assessment: trial " + t.source + " has fewer than 2 frames"};
-    if (Status st = check_finite(t.x, t.source, names); !st) return Error{st.error()};
-    raw.push_back(t.x);
+  for (const Trial* t : trials) {
+    if (t->x.rows() < 2) return Error{"assessment: trial " + t->source + " has fewer than 2 frames"};
+    if (Status st = check_finite(t->x, t->source, names); !st) return Error{st.error()};
+    raw.push_back(prepare(t->x, names, opt));
   }
   auto sc = ZScaler::fit(raw, names);
   if (!sc) return Error{"assessment: " + sc.error()};
@@ -87,7 +141,7 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
   for (std::size_t li = 0; li < m.labels.size(); ++li) {
     std::vector<Sequence> mine;
     for (std::size_t i = 0; i < trials.size(); ++i)
-      if (trials[i].label == m.labels[li]) mine.push_back(z[i]);
+      if (label_of[i] == m.labels[li]) mine.push_back(z[i]);
     switch (opt.method) {
       case Method::kDiscreteHmm: {
         std::vector<std::vector<int>> sym;
@@ -114,13 +168,52 @@ Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vect
         m.templates.push_back(tpl);
         break;
       }
+      case Method::kSkill:
+      case Method::kTime:
+      case Method::kTimePath: break;  // handled above
     }
   }
   return m;
 }
+}  // namespace
 
-Result<Verdict> classify(const SkillModel& m, const Sequence& x) {
-  if (x.rows() < 1) return Error{"classify: empty sequence"};
+Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vector<std::string>& names,
+                               const AssessOptions& opt) {
+  std::vector<const Trial*> p;
+  std::vector<std::string> l;
+  for (const auto& t : trials) {
+    p.push_back(&t);
+    l.push_back(t.label);
+  }
+  return train_impl(p, l, names, opt);
+}
+
+Result<Verdict> classify(const SkillModel& m, const Sequence& x_in, double rate_hz) {
+  if (x_in.rows() < 1) return Error{"classify: empty sequence"};
+  if (is_summary(m.method)) {
+    if (static_cast<std::size_t>(x_in.cols()) != m.feature_names.size())
+      return Error{"classify: the sequence has " + std::to_string(x_in.cols()) + " columns, the model expects " +
+                   std::to_string(m.feature_names.size())};
+    if (Status st = check_finite(x_in, "classify", m.feature_names); !st) return Error{st.error()};
+    auto f = summary_features(summary_set(m.method), x_in, m.feature_names, rate_hz);
+    if (!f) return Error{"classify: " + f.error()};
+    if (f->size() != m.scaler.mean.size()) return Error{"classify: summary features do not match the model"};
+    const Eigen::RowVectorXd z = ((*f - m.scaler.mean).array() / m.scaler.std.array()).matrix().transpose();
+    Verdict v;
+    for (std::size_t li = 0; li < m.labels.size(); ++li)
+      v.score.push_back(-(z - m.centroids.row(static_cast<Eigen::Index>(li))).squaredNorm() / static_cast<double>(z.size()));
+    const auto best = static_cast<std::size_t>(std::max_element(v.score.begin(), v.score.end()) - v.score.begin());
+    v.label = m.labels[best];
+    double second = -std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < v.score.size(); ++i)
+      if (i != best) second = std::max(second, v.score[i]);
+    v.margin = v.score.size() > 1 ? v.score[best] - second : 0;
+    return v;
+  }
+  // No copy unless the model normalises or decimates (classify time unchanged for the seed's models).
+  Sequence prepared;
+  if (m.options.normalise || m.options.decimate > 1) prepared = prepare(x_in, m.feature_names, m.options);
+  const Sequence& x = m.options.normalise || m.options.decimate > 1 ? prepared : x_in;
   if (x.cols() != m.scaler.mean.size())
     return Error{"classify: the sequence has " + std::to_string(x.cols()) + " features, the model expects " +
                  std::to_string(m.scaler.mean.size())};
@@ -152,6 +245,9 @@ Result<Verdict> classify(const SkillModel& m, const Sequence& x) {
         s = -best;
         break;
       }
+      case Method::kSkill:
+      case Method::kTime:
+      case Method::kTimePath: break;  // handled above
     }
     v.score.push_back(s);
   }
@@ -165,32 +261,72 @@ Result<Verdict> classify(const SkillModel& m, const Sequence& x) {
 
 Result<CvResult> cross_validate_subjects(const std::vector<Trial>& trials, const std::vector<std::string>& names,
                                          const AssessOptions& opt) {
+  return cross_validate(trials, names, opt, CvMode::kSubject);
+}
+
+Result<CvResult> cross_validate(const std::vector<Trial>& trials_in, const std::vector<std::string>& names,
+                                const AssessOptions& opt, CvMode mode) {
+  const std::vector<Trial>& trials = trials_in;
+  // The label cross-validated: the skill, or the person (identification).
+  auto label = [&](const Trial& t) -> const std::string& { return mode == CvMode::kIdentity ? t.subject : t.label; };
   std::set<std::string> subjects, labels;
+  std::set<int> trial_numbers;
   for (const auto& t : trials) {
     subjects.insert(t.subject);
-    labels.insert(t.label);
+    labels.insert(label(t));
+    trial_numbers.insert(t.trial);
   }
-  if (subjects.size() < 3) return Error{"cross-validation: needs at least 3 subjects, got " + std::to_string(subjects.size())};
+  if (mode == CvMode::kSubject && subjects.size() < 3)
+    return Error{"cross-validation: needs at least 3 subjects, got " + std::to_string(subjects.size())};
+  if (mode != CvMode::kSubject && trial_numbers.size() < 2)
+    return Error{"cross-validation by trial: needs at least 2 trial numbers per person, got " +
+                 std::to_string(trial_numbers.size())};
+  // Folds: one per person (kSubject) or per trial number (kTrial, kIdentity).
+  std::vector<std::string> folds;
+  if (mode == CvMode::kSubject) folds.assign(subjects.begin(), subjects.end());
+  else
+    for (int k : trial_numbers) folds.push_back(std::to_string(k));
+  auto in_fold = [&](const Trial& t, const std::string& f) {
+    return mode == CvMode::kSubject ? t.subject == f : std::to_string(t.trial) == f;
+  };
   CvResult r;
   r.labels.assign(labels.begin(), labels.end());
   r.confusion.assign(r.labels.size(), std::vector<int>(r.labels.size(), 0));
   r.predicted.assign(trials.size(), "");
-  for (const auto& s : subjects) {
-    std::vector<Trial> train;
+  const std::string fold_word = mode == CvMode::kSubject ? "person " : "trial ";
+  for (const auto& s : folds) {
+    std::vector<const Trial*> train;
+    std::vector<std::string> train_label;
+    std::set<std::string> train_labels;
     for (const auto& t : trials)
-      if (t.subject != s) train.push_back(t);
-    auto m = train_model(train, names, opt);
-    if (!m) return Error{"cross-validation (leaving out subject " + s + "): " + m.error()};
+      if (!in_fold(t, s)) {
+        train.push_back(&t);
+        train_label.push_back(label(t));
+        train_labels.insert(label(t));
+      }
+    for (const auto& t : trials)
+      if (in_fold(t, s) && !train_labels.count(label(t))) {
+        if (mode == CvMode::kIdentity)
+          return Error{"cross-validation (identity): person '" + t.subject + "' has no other trial than number " + s +
+                       " to train on: person identification needs every person's trials numbered alike, 2 or more each"};
+        return Error{"cross-validation: label '" + t.label + "': leaving out " + fold_word + s +
+                     " leaves no '" + t.label + "' trial to train on (" +
+                     (mode == CvMode::kSubject ? "every label needs trials of at least 2 persons"
+                                               : "every label needs trials numbered alike") + "); " +
+                     t.source + " is one of its trials"};
+      }
+    auto m = train_impl(train, train_label, names, opt);
+    if (!m) return Error{"cross-validation (leaving out " + fold_word + s + "): " + m.error()};
     for (std::size_t i = 0; i < trials.size(); ++i) {
-      if (trials[i].subject != s) continue;
-      auto v = classify(*m, trials[i].x);
+      if (!in_fold(trials[i], s)) continue;
+      auto v = classify(*m, trials[i].x, trials[i].rate_hz);
       if (!v) return Error{"cross-validation: " + trials[i].source + ": " + v.error()};
       r.predicted[i] = v->label;
-      const auto ti = static_cast<std::size_t>(std::find(r.labels.begin(), r.labels.end(), trials[i].label) - r.labels.begin());
+      const auto ti = static_cast<std::size_t>(std::find(r.labels.begin(), r.labels.end(), label(trials[i])) - r.labels.begin());
       const auto pi = static_cast<std::size_t>(std::find(r.labels.begin(), r.labels.end(), v->label) - r.labels.begin());
       if (pi < r.labels.size()) ++r.confusion[ti][pi];
       ++r.n;
-      if (v->label == trials[i].label) ++r.correct;
+      if (v->label == label(trials[i])) ++r.correct;
     }
   }
   r.accuracy = r.n ? static_cast<double>(r.correct) / r.n : 0;
@@ -246,7 +382,8 @@ std::string model_to_json(const SkillModel& m) {
   j["labels"] = m.labels;
   j["options"] = {{"states", m.options.states}, {"symbols", m.options.symbols}, {"iterations", m.options.iterations},
                   {"floor", m.options.floor}, {"var_floor", m.options.var_floor}, {"dtw_length", m.options.dtw_length},
-                  {"dtw_window", m.options.dtw_window}, {"seed", m.options.seed}};
+                  {"dtw_window", m.options.dtw_window}, {"seed", m.options.seed},
+                  {"normalise", m.options.normalise}, {"decimate", m.options.decimate}};
   j["scaler"] = {{"mean", vec(m.scaler.mean)}, {"std", vec(m.scaler.std)}};
   if (m.method == Method::kDiscreteHmm) j["codebook"] = mat(m.codebook.centroids);
   json models = json::array();
@@ -256,6 +393,8 @@ std::string model_to_json(const SkillModel& m) {
       mj = {{"pi", vec(m.dhmm[i].pi)}, {"A", mat(m.dhmm[i].A)}, {"B", mat(m.dhmm[i].B)}, {"floor", m.dhmm[i].floor}};
     else if (m.method == Method::kGaussianHmm)
       mj = {{"pi", vec(m.ghmm[i].pi)}, {"A", mat(m.ghmm[i].A)}, {"mean", mat(m.ghmm[i].mean)}, {"var", mat(m.ghmm[i].var)}};
+    else if (is_summary(m.method))
+      mj = {{"centroid", vec(m.centroids.row(static_cast<Eigen::Index>(i)).transpose())}};
     else {
       mj["templates"] = json::array();
       for (const auto& t : m.templates[i]) mj["templates"].push_back(mat(t));
@@ -285,6 +424,9 @@ Result<SkillModel> model_from_json(const std::string& text, const std::string& n
     m.options.symbols = o.at("symbols").get<int>();
     m.options.dtw_length = o.at("dtw_length").get<int>();
     m.options.dtw_window = o.at("dtw_window").get<int>();
+    m.options.normalise = o.value("normalise", false);
+    m.options.decimate = o.value("decimate", 1);
+    if (m.options.decimate < 1 || m.options.decimate > 1000) return bad("options.decimate");
   } catch (const json::exception& e) {
     return Error{name + ": " + e.what()};
   }
@@ -310,6 +452,11 @@ Result<SkillModel> model_from_json(const std::string& text, const std::string& n
       if (std::string why = h.validate(); !why.empty()) return Error{name + ": " + f + ": " + why};
       if (h.symbols() != m.codebook.centroids.rows()) return Error{name + ": " + f + ": B has the wrong number of symbols"};
       m.dhmm.push_back(h);
+    } else if (is_summary(m.method)) {
+      Eigen::VectorXd c;
+      if (!to_vec(mj["centroid"], c) || c.size() != m.scaler.mean.size()) return bad(f + ".centroid");
+      if (m.centroids.rows() == 0) m.centroids.resize(static_cast<Eigen::Index>(m.labels.size()), c.size());
+      m.centroids.row(static_cast<Eigen::Index>(i)) = c.transpose();
     } else if (m.method == Method::kGaussianHmm) {
       GaussianHmm g;
       Eigen::MatrixXd A, mu, var;

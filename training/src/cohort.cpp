@@ -56,13 +56,36 @@ SkillParams novice_skill(double s) {
 }
 
 std::string CohortOptions::validate() const {
-  if (experts < 0 || novices < 0 || experts > 100 || novices > 100 || experts + novices < 1)
-    return "experts and novices must be in [0, 100], at least one subject";
+  if (experts < 0 || novices < 0 || intermediates < 0 || experts > 100 || novices > 100 || intermediates > 100 ||
+      experts + novices + intermediates < 1)
+    return "experts, intermediates and novices must be in [0, 100], at least one subject";
+  if (!(style >= 0 && style <= 3)) return "style must be in [0, 3]";
   if (trials < 1 || trials > 50) return "trials must be in [1, 50]";
   if (!(separation >= 0 && separation <= 1)) return "separation must be in [0, 1]";
   if (!(voxel_mm >= 0.05 && voxel_mm <= 0.5)) return "voxel_mm must be in [0.05, 0.5]";
   if (bur_samples < 100 || bur_samples > 30000) return "bur_samples must be in [100, 30000]";
   return {};
+}
+
+StyleParams draw_style(double s, std::uint64_t seed) {
+  StyleParams st;
+  if (!(s > 0)) return st;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01(0, 1);
+  std::uniform_real_distribution<double> u01(0, 1);
+  // Spreads at strength 1 (log factors: SD; skill gap expert -> novice beside it):
+  st.time_scale = std::exp(s * 0.6 * n01(rng));   // sweep speed gap log(3/2) = 0.41
+  st.tremor_hz = 6.0 + 6.0 * u01(rng);             // no skill gap in frequency
+  st.tremor_gain = std::exp(s * 0.5 * n01(rng));
+  st.tremor_h2 = std::min(1.0, s * 0.5 * u01(rng));
+  st.force_bias = std::exp(s * 0.8 * n01(rng));    // force gap log(1.8) = 0.59
+  st.pause_gain = std::exp(s * 1.2 * n01(rng));    // pause length gap log(1.0/0.3) = 1.2
+  for (int a = 0; a < 3; ++a) st.rest_offset_mm(a) = s * 3.0 * n01(rng);   // detour gap: 1.5 mm SD
+  const double az = 6.283185307179586 * u01(rng);
+  st.tilt_axis = Eigen::Vector3d(std::cos(az), std::sin(az), 0);
+  st.tilt_bias_deg = s * 12.0 * n01(rng);          // tilt gap: SD 2 -> 10 deg
+  for (int a = 0; a < 3; ++a) st.mirror_rest_mm(a) = s * 5.0 * n01(rng);
+  return st;
 }
 
 int CohortTrial::true_step_at(double t) const {
@@ -337,11 +360,13 @@ std::vector<Rows> plan_sweep(const StepGeom& g, const volume::BurParams& bur, do
 
 struct Script {
   std::vector<haptics::TipWaypoint> tips;
+  std::vector<double> force_N;  // per tip: the force the hand means to press with (0: not pressing)
   std::vector<int> order;
   std::vector<double> start, end;
 };
 
-Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rng, const std::vector<StepGeom>* geom) {
+Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rng, const std::vector<StepGeom>* geom,
+                   const StyleParams& style) {
   std::normal_distribution<double> n01(0, 1);
   std::uniform_real_distribution<double> u01(0, 1);
   Script sc;
@@ -352,14 +377,24 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
   const double z_top = 7.5e-3;
   const Eigen::Vector3d down(0, 0, -1);
   double t = 0;
-  const double tremor_hz = 9.0 + 2.0 * u01(rng), phase = 6.28 * u01(rng);
+  double tremor_hz = 9.0 + 2.0 * u01(rng);
+  const double phase = 6.28 * u01(rng);
+  // A person's tremor band: their centre frequency +- 0.5 Hz from trial to trial.
+  if (style.tremor_hz > 0) tremor_hz = style.tremor_hz + (tremor_hz - 10.0) * 0.5;
+  const double h2 = style.tremor_h2;
   auto tremor = [&](double tt) {
     const double a = p.tremor_mm * 1e-3;
-    return Eigen::Vector3d(a * std::sin(2 * M_PI * tremor_hz * tt + phase) + 0.3 * a * n01(rng),
-                           a * std::cos(2 * M_PI * tremor_hz * tt + 1.3 * phase) + 0.3 * a * n01(rng), 0);
+    const double w = 2 * M_PI * tremor_hz * tt;
+    return Eigen::Vector3d(a * (std::sin(w + phase) + h2 * std::sin(2 * w + 0.7 * phase)) + 0.3 * a * n01(rng),
+                           a * (std::cos(w + 1.3 * phase) + h2 * std::cos(2 * w + 0.4 * phase)) + 0.3 * a * n01(rng), 0);
   };
+  // The tool-orientation habit: a constant rotation of every planned axis.
+  const Eigen::Matrix3d habit =
+      Eigen::AngleAxisd(style.tilt_bias_deg * M_PI / 180.0, style.tilt_axis.normalized()).toRotationMatrix();
+  const Eigen::Vector3d rest = style.rest_offset_mm * 1e-3;
   // pos and axis by value: callers pass elements of sc.tips, which push_back moves.
-  auto add = [&](double dt, Eigen::Vector3d pos, Eigen::Vector3d axis, bool pedal) {
+  auto add = [&](double dt, Eigen::Vector3d pos, Eigen::Vector3d axis, bool pedal, double force_N = 0.0) {
+    dt *= style.time_scale;
     // Dense waypoints (10 ms) so the tremor acts on the whole path.
     const Eigen::Vector3d from = sc.tips.empty() ? pos : sc.tips.back().tip_tooth_m;
     const Eigen::Vector3d afrom = sc.tips.empty() ? axis : sc.tips.back().axis_tooth;
@@ -368,10 +403,12 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
       const double f = static_cast<double>(i) / n;
       const double tt = t + f * dt;
       sc.tips.push_back({tt, from + f * (pos - from) + tremor(tt), (afrom + f * (axis - afrom)).normalized(), pedal});
+      sc.force_N.push_back(force_N);
     }
     t += dt;
   };
-  sc.tips.push_back({0.0, Eigen::Vector3d(0, 0, 9e-3), down, false});
+  sc.tips.push_back({0.0, Eigen::Vector3d(0, 0, 9e-3) + rest, down, false});
+  sc.force_N.push_back(0.0);
   t = 0.0;
   const std::vector<Eigen::Vector3d> focus = step_focus(ex, nullptr, nullptr);
   for (int s : order) {
@@ -381,19 +418,21 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
     // at least 1.5 mm clear above the occlusal level when approaching from +z.
     Eigen::Vector3d retract = f + 5.5e-3 * app;
     if (app.z() > 0.9) retract.z() = std::max(retract.z(), z_top);
+    retract += rest;
     const double start = t;
-    if (u01(rng) < p.pause_prob) add(p.pause_s, sc.tips.back().tip_tooth_m, sc.tips.back().axis_tooth, false);
+    if (u01(rng) < p.pause_prob)
+      add(p.pause_s * style.pause_gain, sc.tips.back().tip_tooth_m, sc.tips.back().axis_tooth, false);
     if (p.detour_mm > 0) {
       const Eigen::Vector3d d(p.detour_mm * 1e-3 * n01(rng), p.detour_mm * 1e-3 * n01(rng), p.detour_mm * 1e-3 * n01(rng));
-      add(0.3, retract + d - (d.dot(app)) * app, -app, false);
+      add(0.3, retract + d - (d.dot(app)) * app, habit * -app, false);
     }
     // Tilt: a random direction perpendicular to the planned axis.
     const double tilt = p.tilt_deg * M_PI / 180.0 * n01(rng);
     Eigen::Vector3d perp = app.unitOrthogonal();
     perp = Eigen::AngleAxisd(6.28 * u01(rng), app) * perp;
-    const Eigen::Vector3d axis = (-app * std::cos(tilt) + perp * std::sin(tilt)).normalized();
+    const Eigen::Vector3d axis = (habit * (-app * std::cos(tilt) + perp * std::sin(tilt))).normalized();
     add(0.3, retract, axis, true);
-    const double force = 1.0 * p.force_factor * std::max(0.2, 1.0 + p.force_jitter * n01(rng));
+    const double force = 1.0 * p.force_factor * style.force_bias * std::max(0.2, 1.0 + p.force_jitter * n01(rng));
     // The hand with a finger rest (3000 N/m) in series with the proxy coupling
     // (0.8 x 2000 N/m): a target this far past the surface asks for `force`.
     const double lead = force / haptics::kFingerRestStiffness_N_per_m + force / 1600.0;
@@ -425,7 +464,7 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
         const double fr = static_cast<double>(i) / n;
         const double a = 2 * M_PI * 4.0 * fr * work_s;
         const Eigen::Vector3d c = top + fr * (f - top) + 0.3e-3 * (std::cos(a) * u + std::sin(a) * v) + lead * axis;
-        add(work_s / n, c, axis, true);
+        add(work_s / n, c, axis, true, force);
       }
     } else {
       // Sweep the step's part of the target layer by layer; the hand aims
@@ -437,7 +476,7 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
       auto go = [&](const Eigen::Vector3d& target, bool press) {
         const Eigen::Vector3d dst = target + (press ? over : 0.0) * axis;
         const double dist = (dst - cur).norm();
-        add(std::max(0.02, dist / speed), dst, axis, true);
+        add(std::max(0.02, dist / speed), dst, axis, true, press ? force : 0.0);
         cur = dst;
       };
       const Eigen::Vector3d first = at(layers.front().front().front());
@@ -460,16 +499,73 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
           last = at(row.back());
         }
     }
-    add(0.3, retract, -app, false);
+    add(0.3, retract, habit * -app, false);
     sc.order.push_back(s);
     sc.start.push_back(start);
     sc.end.push_back(t);
   }
-  add(0.2, Eigen::Vector3d(0, 0, 9e-3), down, false);
+  add(0.2, Eigen::Vector3d(0, 0, 9e-3) + rest, down, false);
   return sc;
 }
 
+// The bur's hand and the mirror's hand as a 100 Hz table: the script's tip
+// targets (resampled), a first-order hand lag of 30 ms, 5 um of measurement
+// noise; the force the hand means to press with, along the bur axis, with 5 %
+// noise per frame; the mirror held at the person's rest posture near the
+// tooth, drifting slowly (skill: the novice's hand wanders 5x more) with the
+// person's tremor.
+Status write_kinematics(const Script& sc, const StyleParams& style, const SkillParams& p, std::mt19937_64& rng,
+                        const std::string& path) {
+  std::ofstream f(path);
+  if (!f) return Error{"cannot write " + path};
+  std::normal_distribution<double> n01(0, 1);
+  const double rate = 100.0, T = sc.tips.back().time_s;
+  const double tremor_hz = style.tremor_hz > 0 ? style.tremor_hz : 10.0;
+  // The mirror's drift: 0.3 mm (expert) to 1.5 mm (novice at separation 1), from the skill's tremor amplitude.
+  const double drift_mm = 0.3 + 12.0 * std::max(0.0, p.tremor_mm / std::max(1e-9, style.tremor_gain) - 0.02);
+  const Eigen::Vector3d mirror0 = Eigen::Vector3d(-8.0, 6.0, 6.0) + style.mirror_rest_mm;
+  f << "t_s,tip_x_mm,tip_y_mm,tip_z_mm,axis_x,axis_y,axis_z,force_x_N,force_y_N,force_z_N,pedal,"
+       "mirror_x_mm,mirror_y_mm,mirror_z_mm\n";
+  f.setf(std::ios::fixed);
+  f.precision(4);
+  std::size_t k = 0;
+  Eigen::Vector3d hand = sc.tips.front().tip_tooth_m * 1e3, drift = Eigen::Vector3d::Zero();
+  const double lag = 1.0 - std::exp(-1.0 / (rate * 0.030));
+  const double phase = 6.28 * std::uniform_real_distribution<double>(0, 1)(rng);
+  for (int i = 0; i * (1.0 / rate) <= T; ++i) {
+    const double t = i / rate;
+    while (k + 1 < sc.tips.size() && sc.tips[k + 1].time_s <= t) ++k;
+    const auto& a = sc.tips[k];
+    const auto& b = sc.tips[std::min(k + 1, sc.tips.size() - 1)];
+    const double w = b.time_s > a.time_s ? std::clamp((t - a.time_s) / (b.time_s - a.time_s), 0.0, 1.0) : 0.0;
+    const Eigen::Vector3d target = (a.tip_tooth_m + w * (b.tip_tooth_m - a.tip_tooth_m)) * 1e3;
+    const Eigen::Vector3d axis = (a.axis_tooth + w * (b.axis_tooth - a.axis_tooth)).normalized();
+    hand += lag * (target - hand);
+    const double F = sc.force_N[k] * (1.0 + 0.05 * n01(rng));
+    const Eigen::Vector3d force = sc.force_N[k] > 0 ? Eigen::Vector3d(F * axis) : Eigen::Vector3d::Zero();
+    // Drift: an Ornstein-Uhlenbeck walk (time constant 2 s) whose SD is drift_mm.
+    for (int c = 0; c < 3; ++c) drift(c) += -drift(c) * (1.0 / rate) / 2.0 + drift_mm * std::sqrt(2.0 / rate / 2.0) * n01(rng);
+    const double tw = 2 * M_PI * tremor_hz * t;
+    const Eigen::Vector3d tremor = 1e3 * p.tremor_mm * 0.5 *
+        Eigen::Vector3d(std::sin(tw + phase) + style.tremor_h2 * std::sin(2 * tw), std::cos(tw + 0.5 * phase), 0);
+    const Eigen::Vector3d mirror = mirror0 + drift + tremor;
+    const Eigen::Vector3d meas = hand + 0.005 * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
+    f << t << ',' << meas.x() << ',' << meas.y() << ',' << meas.z() << ',' << axis.x() << ',' << axis.y() << ','
+      << axis.z() << ',' << force.x() << ',' << force.y() << ',' << force.z() << ',' << (a.pedal ? 1 : 0) << ','
+      << mirror.x() << ',' << mirror.y() << ',' << mirror.z() << '\n';
+  }
+  if (!f) return Error{"write failed: " + path};
+  return {};
+}
+
 }  // namespace
+
+std::string kinematics_column_map_json() {
+  return R"({"time": "t_s", "pedal": "pedal",
+ "tools": [{"name": "bur", "position": ["tip_x_mm", "tip_y_mm", "tip_z_mm"], "axis": ["axis_x", "axis_y", "axis_z"],
+            "force": ["force_x_N", "force_y_N", "force_z_N"]},
+           {"name": "mirror", "position": ["mirror_x_mm", "mirror_y_mm", "mirror_z_mm"]}]})";
+}
 
 Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const CohortOptions& opt, const std::string& out_dir) {
   if (std::string why = opt.validate(); !why.empty()) return Error{"cohort: " + why};
@@ -491,13 +587,41 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
   if (!csv) return Error{"cohort: cannot write " + out_dir + "/trials.csv"};
   csv << "file,subject,trial,label\n";
   std::mt19937_64 rng(opt.seed);
-  const int n_subjects = opt.experts + opt.novices;
+  const int n_subjects = opt.experts + opt.intermediates + opt.novices;
+  if (opt.kinematics_only) {
+    std::ofstream(out_dir + "/columns.json") << kinematics_column_map_json() << "\n";
+    if (!fs::exists(out_dir + "/columns.json")) return Error{"cohort: cannot write " + out_dir + "/columns.json"};
+  }
   for (int sub = 0; sub < n_subjects; ++sub) {
     const bool expert = sub < opt.experts;
-    const std::string subject = (expert ? "E" : "N") + std::to_string(expert ? sub + 1 : sub - opt.experts + 1);
-    const SkillParams base = vary(expert ? expert_skill() : novice_skill(opt.separation), rng);
+    const bool inter = !expert && sub < opt.experts + opt.intermediates;
+    const std::string subject = expert  ? "E" + std::to_string(sub + 1)
+                                : inter ? "I" + std::to_string(sub - opt.experts + 1)
+                                        : "N" + std::to_string(sub - opt.experts - opt.intermediates + 1);
+    const std::string label = expert ? "expert" : inter ? "intermediate" : "novice";
+    SkillParams base = vary(expert ? expert_skill() : novice_skill(inter ? 0.5 * opt.separation : opt.separation), rng);
+    // The style has its own random stream, so style 0 leaves the sessions of earlier versions unchanged.
+    const StyleParams style = draw_style(opt.style, opt.seed * 1000003ull + static_cast<std::uint64_t>(sub) * 7919ull + 11ull);
+    base.tremor_mm *= style.tremor_gain;
     for (int tr = 1; tr <= opt.trials; ++tr) {
-      const Script sc = make_script(ex, base, rng, &geom);
+      const Script sc = make_script(ex, base, rng, &geom, style);
+      const std::string rel = subject + "_t" + std::to_string(tr);
+      if (opt.kinematics_only) {
+        fs::create_directories(out_dir + "/" + rel, ec);
+        const std::string path = out_dir + "/" + rel + "/kinematics.csv";
+        if (Status st = write_kinematics(sc, style, base, rng, path); !st) return Error{"cohort: " + st.error()};
+        CohortTrial ct;
+        ct.subject = subject;
+        ct.label = label;
+        ct.trial = tr;
+        ct.session_path = path;
+        ct.step_order = sc.order;
+        ct.step_start_s = sc.start;
+        ct.step_end_s = sc.end;
+        csv << rel << "/kinematics.csv," << subject << "," << tr << "," << label << "\n";
+        out.push_back(std::move(ct));
+        continue;
+      }
       volume::VoxelVolume vol = tooth0->clone();
       haptics::HandParams hand;
       hand.stiffness_N_per_m = haptics::kFingerRestStiffness_N_per_m;  // finger rest on the neighbouring teeth
@@ -513,7 +637,6 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
         if (!probe) return Error{"cohort: " + probe.error()};
         header = (*probe)->header_json(tj.dump());
       }
-      const std::string rel = subject + "_t" + std::to_string(tr);
       fs::create_directories(out_dir + "/" + rel, ec);
       const std::string path = out_dir + "/" + rel + "/session.dlog";
       haptics::LogWriterOptions lo;
@@ -528,7 +651,7 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
       if (Status st = (*log)->close(); !st) return Error{"cohort: " + st.error()};
       CohortTrial ct;
       ct.subject = subject;
-      ct.label = expert ? "expert" : "novice";
+      ct.label = label;
       ct.trial = tr;
       ct.session_path = path;
       ct.step_order = sc.order;

@@ -12,7 +12,10 @@
 
 namespace dentar::training {
 
-enum class Method { kDiscreteHmm, kGaussianHmm, kDtw };
+// kSkill, kTime, kTimePath: nearest class centroid (z-scaled, diagonal
+// pooled variance) on per-trial summary features (skill_features.h): the
+// skill features, task time alone, task time and path length (baselines).
+enum class Method { kDiscreteHmm, kGaussianHmm, kDtw, kSkill, kTime, kTimePath };
 std::string method_name(Method m);
 Result<Method> parse_method(const std::string& s);
 
@@ -20,6 +23,7 @@ struct Trial {
   std::string subject, label, source;
   int trial = 0;
   Sequence x;  // T x D features
+  double rate_hz = 100;  // frames per second of x (summary features need it)
 };
 
 struct AssessOptions {
@@ -32,6 +36,11 @@ struct AssessOptions {
   int dtw_length = 200;    // DTW: sequences resampled to this many rows
   int dtw_window = 20;     // Sakoe-Chiba band (rows)
   std::uint64_t seed = 1;
+  // Sequence methods: per-trial normalisation (skill_features.h,
+  // normalise_trial) before the z-scaling: removes a person's posture,
+  // orientation habit, force level and speed.
+  bool normalise = false;
+  int decimate = 1;  // sequence methods: keep every n-th frame (HMM time)
   std::string validate() const;
 };
 
@@ -45,6 +54,7 @@ struct SkillModel {
   std::vector<DiscreteHmm> dhmm;     // per label
   std::vector<GaussianHmm> ghmm;     // per label
   std::vector<std::vector<Sequence>> templates;  // DTW: per label, z-scaled and resampled
+  Sequence centroids;                // summary methods: per label, in z units of `scaler`
 };
 
 Result<SkillModel> train_model(const std::vector<Trial>& trials, const std::vector<std::string>& feature_names,
@@ -55,7 +65,8 @@ struct Verdict {
   std::vector<double> score;  // per model label: log-likelihood per step (HMMs) or minus the DTW distance to the label's nearest template
   double margin = 0;          // best minus second best score
 };
-Result<Verdict> classify(const SkillModel& m, const Sequence& x);
+// rate_hz: frames per second of x (summary methods; the sequence methods ignore it).
+Result<Verdict> classify(const SkillModel& m, const Sequence& x, double rate_hz = 100);
 
 struct CvResult {
   int n = 0, correct = 0;
@@ -64,6 +75,16 @@ struct CvResult {
   std::vector<std::vector<int>> confusion;  // [true][predicted]
   std::vector<std::string> predicted;       // per trial, in input order
 };
+// kSubject: leave one person out (what a trainer meeting a new student
+// faces). kTrial: leave the k-th trial of every person out, k = 1.. (the
+// person stays in training: this can measure who is operating, not how
+// well). kIdentity: as kTrial, but the label is the person (the leakage
+// check: how well the same features identify the person).
+// A fold whose test trials have a label absent from its training trials is
+// an error naming the label and the person (or trial number).
+enum class CvMode { kSubject, kTrial, kIdentity };
+Result<CvResult> cross_validate(const std::vector<Trial>& trials, const std::vector<std::string>& feature_names,
+                                const AssessOptions& opt, CvMode mode);
 Result<CvResult> cross_validate_subjects(const std::vector<Trial>& trials,
                                          const std::vector<std::string>& feature_names, const AssessOptions& opt);
 // Wilson score interval for k successes in n trials (z = 1.96).

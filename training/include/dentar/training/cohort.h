@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "dentar/training/exercise.h"
 
 namespace dentar::training {
@@ -38,9 +40,34 @@ SkillParams expert_skill();
 // Novice skill at a separation in [0, 1] (0 = the expert's values).
 SkillParams novice_skill(double separation);
 
+// A person's style: habits that do not change with skill, drawn once per
+// simulated person (docs/formats.md, "Personal style"). At strength 1 each
+// habit varies between people by more than the expert-novice gap in the
+// factor it touches.
+struct StyleParams {
+  double time_scale = 1.0;      // every move and sweep takes this much longer (speed habit)
+  double tremor_hz = 0.0;       // centre of the person's tremor band (0: 9-11 Hz drawn per trial, no style)
+  double tremor_gain = 1.0;     // tremor amplitude factor (skill sets the rest)
+  double tremor_h2 = 0.0;       // relative weight of the tremor's second harmonic (spectrum shape)
+  double force_bias = 1.0;      // pressing force factor
+  double pause_gain = 1.0;      // length of the person's pauses (how often: skill)
+  Eigen::Vector3d rest_offset_mm = Eigen::Vector3d::Zero();  // posture: where the hand waits between steps
+  Eigen::Vector3d tilt_axis = Eigen::Vector3d::UnitX();       // tool-orientation habit: a constant rotation
+  double tilt_bias_deg = 0.0;                                 // of the bur axis about tilt_axis
+  Eigen::Vector3d mirror_rest_mm = Eigen::Vector3d::Zero();   // posture of the second tool (the mirror hand)
+};
+// Draws one person's style at `strength` (0: none, the identity).
+StyleParams draw_style(double strength, std::uint64_t seed);
+
 struct CohortOptions {
   int experts = 5, novices = 5, trials = 3;
+  int intermediates = 0;  // a third class, "intermediate": novice factors at half the separation
   double separation = 1.0;
+  double style = 0.0;     // personal style strength (0: none, the generator before issue 25; 1: documented)
+  // true: no engine; write each trial's hand kinematics (bur and mirror,
+  // 100 Hz) as kinematics.csv, with columns.json, for `dentar assess
+  // --kinematics` (seconds per cohort instead of minutes).
+  bool kinematics_only = false;
   std::uint64_t seed = 1;
   double voxel_mm = 0.15;  // coarser than the exercise's tooth, for speed
   int bur_samples = 1000;
@@ -48,9 +75,9 @@ struct CohortOptions {
 };
 
 struct CohortTrial {
-  std::string subject, label;  // label "expert" | "novice"
+  std::string subject, label;  // label "expert" | "intermediate" | "novice"
   int trial = 0;
-  std::string session_path;    // session.dlog
+  std::string session_path;    // session.dlog (kinematics.csv with kinematics_only)
   // Generator's step labels: step k runs over [step_start_s[k], step_end_s[k]).
   std::vector<int> step_order;
   std::vector<double> step_start_s, step_end_s;
@@ -62,6 +89,9 @@ struct CohortTrial {
 // steps (focus points) and the bur; the tooth is rebuilt at opt.voxel_mm.
 Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const CohortOptions& opt,
                                                  const std::string& out_dir);
+// The column map of a kinematics_only cohort's tables (docs/formats.md).
+std::string kinematics_column_map_json();
+
 // Reads trials.csv (and steps.json where present) of a cohort folder.
 Result<std::vector<CohortTrial>> read_cohort(const std::string& dir);
 
