@@ -52,7 +52,7 @@ TEST(CliCalibrate, SimulatedPivotWritesAVersionedStationFile) {
   EXPECT_NE(r.out.find("pose 12: spread"), std::string::npos) << r.out;  // live figures
   ASSERT_TRUE(fs::exists(st));
   const auto j = load(st);
-  EXPECT_EQ(j["version"], 3);
+  EXPECT_EQ(j["version"], 4);
   const auto* p = step(j, "pivot");
   ASSERT_NE(p, nullptr);
   EXPECT_TRUE((*p)["pass"].get<bool>());
@@ -149,7 +149,7 @@ TEST(CliCalibrate, ReadsVersionOneStationFilesAndUpgradesThem) {
   CommandResult r = run("register --simulate --station " + (d / "v1.json").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("file version 1"), std::string::npos) << r.out;
-  EXPECT_EQ(load(d / "v1.json")["version"], 3);
+  EXPECT_EQ(load(d / "v1.json")["version"], 4);
   // And without any version field (written before the field existed).
   j.erase("version");
   write_file(d / "v0.json", j.dump(2));
@@ -318,7 +318,7 @@ TEST(CliCalibrate, MigrateKeepsTheOriginal) {
   CommandResult r = run("migrate --station " + (d / "s.json").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("from version 2 to 3"), std::string::npos) << r.out;
-  EXPECT_EQ(load(d / "s.json")["version"], 3);
+  EXPECT_EQ(load(d / "s.json")["version"], 4);
   EXPECT_TRUE(load(d / "s.json").contains("station_policy"));
   EXPECT_EQ(load(d / "s.json.v2.bak")["version"], 2);
   r = run("migrate --station " + (d / "s.json").string());
