@@ -144,6 +144,7 @@ TEST(CliCalibrate, ReadsVersionOneStationFilesAndUpgradesThem) {
   j.erase("calibration_fixtures");
   j.erase("calibration_report");
   j.erase("station_policy");  // a version 3 field
+  j["camera"].erase("response");  // a version 4 field
   j["version"] = 1;
   write_file(d / "v1.json", j.dump(2));
   CommandResult r = run("register --simulate --station " + (d / "v1.json").string());
@@ -313,11 +314,12 @@ TEST(CliCalibrate, MigrateKeepsTheOriginal) {
   auto j = load(std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json");
   j.erase("station_policy");
   j.erase("hand_eye");
+  j["camera"].erase("response");  // a version 4 field
   j["version"] = 2;
   write_file(d / "s.json", j.dump(2));
   CommandResult r = run("migrate --station " + (d / "s.json").string());
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("from version 2 to 3"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("from version 2 to 4"), std::string::npos) << r.out;
   EXPECT_EQ(load(d / "s.json")["version"], 4);
   EXPECT_TRUE(load(d / "s.json").contains("station_policy"));
   EXPECT_EQ(load(d / "s.json.v2.bak")["version"], 2);

@@ -212,7 +212,7 @@ TEST(StationScene, BadFieldsAreNamed) {
   };
   const Case cases[] = {
       {"/format", "nope", "format"},
-      {"/version", 4, "version"},
+      {"/version", 5, "version"},
       {"/station_policy/check_threshold_mm", 50.0, "station_policy.check_threshold_mm"},
       {"/station_policy/health_divot", 20, "station_policy.health_divot"},
       {"/camera/device_id", 7, "camera.device_id"},
@@ -308,8 +308,10 @@ TEST(StationScene, OlderVersionsAreMigrated) {
   nlohmann::json j = nlohmann::json::parse(station_scene_to_json(default_station_scene()));
   j.erase("hand_eye");
   j.erase("station_policy");
-  for (int v : {2, 1, 0}) {
+  j["camera"].erase("response");  // a version 4 field
+  for (int v : {3, 2, 1, 0}) {
     nlohmann::json old = j;
+    if (v == 3) old["station_policy"] = nlohmann::json::object();
     if (v < 2) {
       old.erase("calibration_fixtures");
       old.erase("calibration_report");
@@ -328,12 +330,14 @@ TEST(StationScene, OlderVersionsAreMigrated) {
   }
   nlohmann::json bad = j;
   bad["version"] = 2;
+  bad["camera"].erase("response");
   bad["station_policy"] = {{"max_age_days", 5}};
   auto r = parse_station_scene(bad.dump(), "old.json");
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().find("station_policy: needs version 3"), std::string::npos) << r.error();
   bad = j;
   bad["version"] = 2;
+  bad["camera"].erase("response");
   bad["camera"]["device_id"] = "cam";
   r = parse_station_scene(bad.dump(), "old.json");
   ASSERT_FALSE(r.ok());
