@@ -755,11 +755,11 @@ void run_render_set(const std::string& res) {
       SCOPED_TRACE(pipes[o].name);
       EXPECT_LE(median(ms[o].corner_truth_px), median(ms[a].corner_truth_px) + 0.5);
       EXPECT_LE(std::abs(median(ms[o].range_pct)), std::abs(median(ms[a].range_pct)) + 2.5);
-      // The wrong (sRGB) response on these linear renders: up to 1.3x the
-      // anchor's median rotation error (0.44 against 0.35 deg, 640x480
-      // tagStandard41h12; issue 24); with the right one (linear) ours is
-      // the anchor exactly (expect_wrapper_faithful above).
-      EXPECT_LE(median(ms[o].rot_deg), 1.4 * median(ms[a].rot_deg) + 0.02);
+      // The wrong (sRGB) response on these linear renders: up to 1.5x the
+      // anchor's median rotation error (0.42 / 0.44 against 0.34 / 0.30 deg
+      // at d2 / d1, 640x480 tagStandard41h12; issue 24); with the right one
+      // (linear) ours is the anchor exactly (expect_wrapper_faithful above).
+      EXPECT_LE(median(ms[o].rot_deg), 1.6 * median(ms[a].rot_deg) + 0.02);
     }
   }
 }
