@@ -218,6 +218,16 @@ TEST(CliCalibrate, CameraFromRealChessboardPhotos) {
                                 " --station " + (d / "other.json").string());
   EXPECT_EQ(imp.code, 0) << imp.out;
   EXPECT_EQ(load(d / "other.json")["camera"]["fx"], j["camera"]["fx"]);
+  // Issue 24: the response is measured from the board's edges and kept in the station
+  // (OpenCV's sample camera: gamma 1.19 +- 0.07, docs/BENCHMARKS.md); an imported camera has
+  // none, and says so.
+  EXPECT_NE(r.out.find("camera response"), std::string::npos) << r.out;
+  ASSERT_TRUE(j["camera"].contains("response")) << j["camera"].dump();
+  EXPECT_GT(j["camera"]["response"]["gamma"].get<double>(), 0.9);
+  EXPECT_LT(j["camera"]["response"]["gamma"].get<double>(), 1.5);
+  EXPECT_GT(j["camera"]["response"]["gamma_sigma"].get<double>(), 0.0);
+  EXPECT_FALSE(load(d / "other.json")["camera"].contains("response"));
+  EXPECT_NE(imp.out.find("response not measured (imported camera)"), std::string::npos) << imp.out;
   // A board of the wrong size: the photos mostly do not show it, and the message says to
   // check --board.
   const CommandResult wrong = run("camera --images " + (d / "photos").string() +

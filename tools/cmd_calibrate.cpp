@@ -155,6 +155,7 @@ int step_camera(Session& s) {
               << cf.camera.height << (cf.rms_px >= 0 ? ", RMS " + fmt(cf.rms_px, 3) + " px" : "")
               << "\n";
     if (!cf.warning.empty()) std::cout << "WARNING: " << cf.warning << "\n";
+    std::cout << "camera " << response_summary << "\n";
   } else {
     auto spec = ar::parse_board_spec(c.board);
     if (!spec) throw BadInput{spec.error()};
