@@ -202,6 +202,28 @@ TEST(CliTrack, TagsModeGivesEveryTagsPose) {
   EXPECT_GT(checked, 10);
 }
 
+// Issue 24: --camera-response auto (the default) takes the station's measured response; a
+// station without one tracks with no linear-light refit and says so in one line.
+TEST(CliTrack, AutoResponseFromTheStationAndANoteWhenUnknown) {
+  NEED_SYNTH();
+  json st;
+  std::ifstream(S.dir / "station.json") >> st;
+  ASSERT_EQ(st["camera"]["response"]["kind"], "srgb");  // the generator's camera
+  const fs::path known = S.dir / "station_known.json", unknown = S.dir / "station_unknown.json";
+  std::ofstream(known) << st.dump(2);
+  st["camera"].erase("response");
+  std::ofstream(unknown) << st.dump(2);
+  for (const fs::path& p : {known, unknown}) {
+    const fs::path out = S.dir / ("auto_" + p.stem().string() + ".jsonl");
+    const CommandResult r = run("track --input " + (S.dir / "video.mkv").string() + " --layout " +
+                                p.string() + " --max-frames 3 --out " + out.string() + " 2>&1");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const bool noted = r.out.find("camera response unknown") != std::string::npos;
+    EXPECT_EQ(noted, p == unknown) << r.out;
+    EXPECT_EQ(read_jsonl(out).size(), 3u);
+  }
+}
+
 TEST(CliTrack, BadInputsGiveClearErrorsAndNoOutput) {
   const fs::path d = dentar::test::temp_dir("cli_track_bad");
   const fs::path out = d / "poses.jsonl";

@@ -29,9 +29,11 @@ void print_error(const std::string& cmd, const std::string& message) {
 
 void add_tracker_image_options(CLI::App* sub, std::string& camera_response, bool& mirror_rim) {
   sub->add_option("--camera-response", camera_response,
-                  "How the video's grey levels relate to light: srgb (video cameras, dentar synth; the "
-                  "default) or linear (raw machine-vision cameras); tag edges are fitted in linear light. "
-                  "Replaying a dentar live recording: the recording's own, unless given");
+                  "How the video's grey levels relate to light, for the linear-light refit of tag edges "
+                  "(tags are always searched on the image as delivered): auto (the default: the "
+                  "station's camera.response, measured by dentar calibrate camera; unknown = no refit, "
+                  "with a note), srgb (video cameras, dentar synth) or linear (raw machine-vision "
+                  "cameras). Replaying a dentar live recording: the recording's own, unless given");
   sub->add_flag("--mirror-rim", mirror_rim,
                 "Refine the mirror's pose from its rim ellipse in the image (issue 16; "
                 "docs/BENCHMARKS.md)");

@@ -16,6 +16,7 @@
 #include <optional>
 #include <sstream>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "commands.h"
@@ -33,6 +34,7 @@
 #include "dentar/calibration/mirror.h"
 #include "dentar/calibration/pivot.h"
 #include "dentar/calibration/registration.h"
+#include "dentar/calibration/response.h"
 #include "dentar/calibration/stylus_poses.h"
 #include "dentar/calibration/hand_eye.h"
 #include "dentar/live/calibrate_app.h"
@@ -142,6 +144,9 @@ int step_camera(Session& s) {
                "edges and in the middle (where the tooth is drawn). Needs >= 6 usable views.");
   cal::CameraFile cf;
   std::optional<cal::ModelSelection> selection;  // when calibrated here (not imported)
+  // The camera's response (issue 24), measured from chessboard views; unknown otherwise.
+  cal::CameraResponseCurve response;
+  std::string response_summary = "response not measured (imported camera)";
   if (!c.import_camera.empty()) {
     auto r = cal::read_camera_file(c.import_camera);
     if (!r) throw BadInput{r.error()};
@@ -151,10 +156,13 @@ int step_camera(Session& s) {
               << cf.camera.height << (cf.rms_px >= 0 ? ", RMS " + fmt(cf.rms_px, 3) + " px" : "")
               << "\n";
     if (!cf.warning.empty()) std::cout << "WARNING: " << cf.warning << "\n";
+    std::cout << "camera " << response_summary << "\n";
   } else {
     auto spec = ar::parse_board_spec(c.board);
     if (!spec) throw BadInput{spec.error()};
     std::vector<cal::BoardView> views;
+    std::vector<cv::Mat> view_images;  // chessboard views' grey images, for the response
+    const bool chessboard = std::holds_alternative<cal::ChessboardSpec>(*spec);
     int width = 0, height = 0;
     int photos_skipped = 0;  // photos where the board was not found
     cal::IntrinsicsOptions io;  // live figures: the 5-coefficient fit
@@ -208,6 +216,7 @@ int step_camera(Session& s) {
           continue;
         }
         views.push_back(*v);
+        if (chessboard) view_images.push_back(img);
         live(name + ": " + std::to_string(v->image_points.size()) + " points");
       }
     } else {
@@ -243,6 +252,7 @@ int step_camera(Session& s) {
         }
         v->name = f.filename().string();
         views.push_back(*v);
+        if (chessboard) view_images.push_back(cv::imread(f.string(), cv::IMREAD_GRAYSCALE));
         live(f.filename().string() + ": " + std::to_string(v->image_points.size()) + " points");
       }
       if (views.empty())
@@ -268,11 +278,40 @@ int step_camera(Session& s) {
                 << " px; error fx " << fmt(r.camera.fx - s.truth.camera.fx) << " px\n";
     cf = sel.to_camera_file(c.simulate ? "simulated head camera" : c.device);
     selection = sel;
+    if (!chessboard) {
+      response_summary = "response not measured (measured on chessboards only)";
+    } else {
+      std::vector<cal::ResponseView> rv;
+      for (std::size_t i = 0; i < views.size() && i < view_images.size(); ++i) {
+        const cv::Mat& g = view_images[i];
+        if (g.empty() || g.type() != CV_8UC1) continue;
+        cal::ResponseView v{g.data, g.cols, g.rows, static_cast<int>(g.step), {}, views[i].name};
+        for (const auto& p : views[i].image_points) {
+          v.corners_xy.push_back(p.x());
+          v.corners_xy.push_back(p.y());
+        }
+        rv.push_back(std::move(v));
+      }
+      const auto& cb = std::get<cal::ChessboardSpec>(*spec);
+      const cal::ResponseEstimate est = cal::estimate_response_chessboard(rv, cb.cols, cb.rows);
+      if (est.ok) {
+        response = cal::response_from_estimate(est);
+        response_summary = "response " + response.kind + ": gamma " + fmt(est.gamma, 2) + " +- " +
+                           fmt(est.gamma_sigma, 2) + " over " + std::to_string(est.edges) +
+                           " edges in " + std::to_string(est.views) + " views (edge-level rms: fitted " +
+                           fmt(est.rms_gamma, 3) + ", sRGB " + fmt(est.rms_srgb, 3) + ", linear " +
+                           fmt(est.rms_linear, 3) + ")";
+      } else {
+        response_summary = "response not measured: " + est.message;
+      }
+    }
+    std::cout << "camera " << response_summary << "\n";
   }
   s.st.calibration.camera = cf.camera;
   const std::string keep_id = s.st.camera_provenance.device_id;
   s.st.camera_provenance = ar::CameraProvenance{};
   s.st.camera_provenance.model = cf.model;
+  s.st.camera_provenance.response = response;
   s.st.camera_provenance.rms_px = cf.rms_px;
   s.st.camera_provenance.std_devs = cf.std_devs;
   s.st.camera_provenance.date = cf.date;
@@ -290,6 +329,11 @@ int step_camera(Session& s) {
                    fmt(selection->trust.trusted_fraction * 100, 0) + "% of the image)";
   else
     rep.summary += " (imported from " + c.import_camera + ")";
+  rep.summary += "; " + response_summary;
+  if (response.gamma > 0) {
+    rep.figures.emplace_back("response_gamma", response.gamma);
+    rep.figures.emplace_back("response_gamma_sd", response.gamma_sigma);
+  }
   if (cf.rms_px >= 0) rep.figures.emplace_back("rms_px", cf.rms_px);
   if (cf.std_devs.size() >= 4) {
     rep.figures.emplace_back("fx_sd_px", cf.std_devs[0]);

@@ -20,7 +20,7 @@ void add_live(CLI::App& app, int& exit_code) {
          no_mirror = false, list = false;
     std::string stall;
     std::string discovery = "async";
-    std::string camera_response;  // "" = srgb
+    std::string camera_response;  // "" = auto (the station's)
     bool mirror_rim = false;
     bool no_score = false;
     DbCli db;  // --db: store the finished session (needs --record)
@@ -119,7 +119,7 @@ void add_live(CLI::App& app, int& exit_code) {
     }
     o.pipeline.tracker.discovery = c->discovery == "async" ? ar::DiscoveryMode::kAsync : ar::DiscoveryMode::kInline;
     o.pipeline.tracker.mirror_rim_refine = c->mirror_rim;
-    if (auto r = ar::parse_camera_response(c->camera_response.empty() ? "srgb" : c->camera_response); !r) {
+    if (auto r = ar::parse_camera_response(c->camera_response.empty() ? "auto" : c->camera_response); !r) {
       print_error("live", "--camera-response: " + r.error());
       exit_code = 2;
       return;

@@ -36,7 +36,7 @@ struct OfflineCli {
   int full_every = 15;
   double predict_ms = 0, stale_ms = 200;
   double mirror_sigma_mm = 1.0;
-  std::string camera_response;  // "" = the recording's, else srgb
+  std::string camera_response;  // "" = the recording's, else auto|srgb|linear
   bool mirror_rim = false;
   std::size_t triangle_budget = 0;
   std::string exercise;  // scoring: exercise name or file ("" = recorded / by the tooth)
@@ -210,7 +210,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--scale-calib] [--quiet]\n"
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
       "                         [--predict-ms MS] [--stale-ms MS] [--mirror-sigma-mm MM] [--no-occlusion]\n"
-      "                         [--camera-response srgb|linear] [--mirror-rim]\n"
+      "                         [--camera-response auto|srgb|linear] [--mirror-rim]\n"
       "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]\n"
       "                         [--exercise NAME|FILE] [--no-score]");
   s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");

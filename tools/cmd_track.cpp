@@ -30,7 +30,7 @@ struct TrackCli {
   std::string family;
   double decimate = 2.0;
   int threads = 1;
-  std::string camera_response;  // "" = srgb
+  std::string camera_response;  // "" = auto
   bool mirror_rim = false;
   bool no_roi = false;
   int full_every = 15;
@@ -140,12 +140,15 @@ int run(const TrackCli& c) {
   to.detector.decimation = c.decimate;
   to.detector.threads = c.threads;
   to.mirror_rim_refine = c.mirror_rim;
-  if (auto r = ar::parse_camera_response(c.camera_response.empty() ? "srgb" : c.camera_response); !r) {
+  if (auto r = ar::parse_camera_response(c.camera_response.empty() ? "auto" : c.camera_response); !r) {
     print_error("track", "--camera-response: " + r.error());
     return 2;
   } else {
     to.detector.response = *r;
   }
+  // auto: the station's measured response; unknown -> no linear-light refit, said once.
+  if (const std::string note = ar::resolve_camera_response(to.detector, station); !note.empty())
+    std::cerr << "dentar track: note: " << note << "\n";
   to.predicted_regions = !c.no_roi;
   to.full_frame_interval = c.full_every;
   to.filter_enabled = !c.no_filter;
@@ -299,7 +302,7 @@ void add_track(CLI::App& app, int& exit_code) {
       "Synopsis: dentar track --input <video|image folder|camera:N|/dev/videoN|live:VIDEO>\n"
       "                       --calib <camera yaml|station json> --layout <station json>\n"
       "                       --out poses.jsonl [--family F] [--decimate D] [--threads N]\n"
-      "                       [--camera-response srgb|linear] [--mirror-rim]\n"
+      "                       [--camera-response auto|srgb|linear] [--mirror-rim]\n"
       "                       [--no-roi] [--full-every N] [--no-filter] [--stale-ms MS]\n"
       "                       [--display-delay-ms MS] [--scale-calib] [--max-frames N]\n"
       "                       [--tags --tag-size-mm S] [--width W --height H --fps F]");

@@ -24,7 +24,7 @@ void add_db(CLI::App& app, int& exit_code);
 void add_serve(CLI::App& app, int& exit_code);
 
 // The tracker's image options shared by `offline` and `track`:
-// --camera-response (srgb|linear, parsed by the caller; left empty when not
+// --camera-response (auto|srgb|linear, parsed by the caller; left empty when not
 // given, so a replay can take the recording's) and --mirror-rim.
 void add_tracker_image_options(CLI::App* sub, std::string& camera_response, bool& mirror_rim);
 

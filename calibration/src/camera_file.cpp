@@ -243,9 +243,10 @@ Result<CameraFile> parse(const std::string& path, const std::string& text) {
   if (cv::FileNode m = root["model"]; !m.empty()) {
     if (!m.isString()) return Error{path + ": model must be a string"};
     model_name = static_cast<std::string>(m);
-    if (model_name != kModelRadTan5 && model_name != kModelRational8)
-      return Error{path + ": model \"" + model_name + "\" is not supported (use " +
-                   kModelRadTan5 + " or " + kModelRational8 + ")"};
+    if (model_name != kModelRadTan5 && model_name != kModelRational8 && model_name != kModelK1 &&
+        model_name != kModelK1K2)
+      return Error{path + ": model \"" + model_name + "\" is not supported (use " + kModelK1 +
+                   ", " + kModelK1K2 + ", " + kModelRadTan5 + " or " + kModelRational8 + ")"};
   }
 
   cv::FileNode dn = find(root, {"distortion_coefficients", "Distortion_Coefficients", "D"});
@@ -267,7 +268,13 @@ Result<CameraFile> parse(const std::string& path, const std::string& text) {
   if ((model_name == "rational_polynomial" || model_name == kModelRational8) && !rational)
     return Error{path + ": distortion model " + model_name +
                  " needs 8 distortion_coefficients, the file has " + std::to_string(nd)};
-  f.model = rational ? kModelRational8 : kModelRadTan5;
+  if ((model_name == kModelK1 || model_name == kModelK1K2) && rational)
+    return Error{path + ": model " + model_name + " needs 5 distortion_coefficients, the file has 8"};
+  f.model = rational ? kModelRational8
+                     : (model_name == kModelK1 || model_name == kModelK1K2 ? model_name
+                                                                          : std::string(kModelRadTan5));
+  if (std::string e = check_model_coefficients(f.model, f.dist); !e.empty())
+    return Error{path + ": model: " + e};
   for (int i = 0; i < 5; ++i) f.camera.dist[i] = f.dist[i];
   if (rational && (f.dist[5] != 0 || f.dist[6] != 0 || f.dist[7] != 0))
     f.warning = "rational model: the tracker and renderer use only k1 k2 p1 p2 k3; k4..k6 are "
@@ -304,15 +311,37 @@ std::string ext_of(const std::string& path) {
 
 }  // namespace
 
+std::string check_model_coefficients(const std::string& model, const std::vector<double>& dist) {
+  if (model != kModelRadTan5 && model != kModelRational8 && model != kModelK1 && model != kModelK1K2)
+    return "model \"" + model + "\" must be " + kModelK1 + ", " + kModelK1K2 + ", " +
+           kModelRadTan5 + " or " + kModelRational8;
+  const std::size_t want = model == kModelRational8 ? 8 : 5;
+  if (dist.size() != want)
+    return "model " + model + " needs " + std::to_string(want) + " distortion coefficients, there are " +
+           std::to_string(dist.size());
+  static const char* names[] = {"k1", "k2", "p1", "p2", "k3"};
+  const std::size_t first_zero = model == kModelK1 ? 1 : model == kModelK1K2 ? 2 : 5;
+  for (std::size_t i = first_zero; i < 5; ++i)
+    if (dist[i] != 0.0) {
+      std::ostringstream os;
+      os << "model " << model << " has " << names[i] << " = " << dist[i] << ", which that model "
+         << "holds at 0; name the model " << kModelRadTan5 << " or recalibrate";
+      return os.str();
+    }
+  return {};
+}
+
 std::string CameraFile::validate() const {
   if (std::string e = camera.validate(); !e.empty()) return e;
-  if (model != kModelRadTan5 && model != kModelRational8)
-    return "model \"" + model + "\" must be " + kModelRadTan5 + " or " + kModelRational8;
+  if (model != kModelRadTan5 && model != kModelRational8 && model != kModelK1 && model != kModelK1K2)
+    return "model \"" + model + "\" must be " + kModelK1 + ", " + kModelK1K2 + ", " + kModelRadTan5 +
+           " or " + kModelRational8;
   const std::size_t want = model == kModelRational8 ? 8 : 5;
   if (!dist.empty()) {
     if (dist.size() != want)
       return "dist has " + std::to_string(dist.size()) + " coefficients, model " + model +
              " needs " + std::to_string(want);
+    if (std::string e = check_model_coefficients(model, dist); !e.empty()) return "model: " + e;
     for (int i = 0; i < 5; ++i)
       if (dist[i] != camera.dist[i])
         return "dist[" + std::to_string(i) + "] differs from camera.dist[" + std::to_string(i) + "]";

@@ -258,7 +258,11 @@ CameraFile IntrinsicsSummary::to_camera_file(const std::string& device, const st
 IntrinsicsSummary calibrate_intrinsics(const std::vector<BoardView>& views, int width, int height,
                                        const IntrinsicsOptions& o) {
   IntrinsicsSummary s;
-  s.model = o.model == DistortionModel::kRational8 ? kModelRational8 : kModelRadTan5;
+  // The file names the model as fitted (issue 24): a k1-only fit is not radtan5.
+  s.model = o.model == DistortionModel::kRational8 ? kModelRational8
+            : o.model == DistortionModel::kK1      ? kModelK1
+            : o.model == DistortionModel::kK1K2    ? kModelK1K2
+                                                   : kModelRadTan5;
   s.terms = o.model;
   s.per_view_rms_px.assign(views.size(), 0.0);
   if (std::string e = o.validate(); !e.empty()) {

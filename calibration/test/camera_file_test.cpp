@@ -215,6 +215,21 @@ INSTANTIATE_TEST_SUITE_P(
                 "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [600, 0, 320, 0, 600, 240, 0, 0, 1]\n"
                 "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [0, 0, 0, 0, 0]\n",
                 "needs 8"},
+        // Issue 24: the model name must agree with the coefficients.
+        BadCase{"k1_model_with_k2",
+                "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nmodel: pinhole-k1\n"
+                "camera_matrix: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+                "  data: [600, 0, 320, 0, 600, 240, 0, 0, 1]\n"
+                "distortion_coefficients: !!opencv-matrix\n  rows: 1\n  cols: 5\n  dt: d\n"
+                "  data: [-0.2, 0.1, 0, 0, 0]\n",
+                "model: model pinhole-k1 has k2 = 0.1"},
+        BadCase{"k1k2_model_with_p1",
+                "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nmodel: pinhole-k1k2\n"
+                "camera_matrix: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+                "  data: [600, 0, 320, 0, 600, 240, 0, 0, 1]\n"
+                "distortion_coefficients: !!opencv-matrix\n  rows: 1\n  cols: 5\n  dt: d\n"
+                "  data: [-0.2, 0.1, 0.001, 0, 0]\n",
+                "has p1 = 0.001"},
         BadCase{"unknown_model",
                 "image_width: 640\nimage_height: 480\ndistortion_model: equidistant\n"
                 "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [600, 0, 320, 0, 600, 240, 0, 0, 1]\n"
@@ -314,3 +329,35 @@ TEST(CameraFile, RosExportKeepsLargeIntegralValues) {
 }  // namespace
 }  // namespace dentar::calibration
 
+
+namespace dentar::calibration {
+// Issue 24: a k1-only calibration is written and read back as pinhole-k1, not
+// pinhole-radtan5; the k1k2 name likewise.
+TEST(CameraFile, NamesTheModelAsFitted) {
+  const fs::path d = temp_dir("camfile_k1");
+  CameraFile f;
+  f.camera.width = 640;
+  f.camera.height = 480;
+  f.camera.fx = f.camera.fy = 600;
+  f.camera.cx = 320;
+  f.camera.cy = 240;
+  f.camera.dist = {-0.21, 0, 0, 0, 0};
+  f.model = kModelK1;
+  f.dist = {-0.21, 0, 0, 0, 0};
+  ASSERT_TRUE(write_camera_file((d / "k1.yaml").string(), f).ok());
+  auto r = read_camera_file((d / "k1.yaml").string());
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->model, kModelK1);
+  f.model = kModelK1K2;
+  f.camera.dist[1] = f.dist[1] = 0.05;
+  ASSERT_TRUE(write_camera_file((d / "k1k2.yaml").string(), f).ok());
+  r = read_camera_file((d / "k1k2.yaml").string());
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->model, kModelK1K2);
+  // The struct itself refuses a mismatch, naming the model and the coefficient.
+  f.model = kModelK1;
+  const std::string e = f.validate();
+  EXPECT_NE(e.find("pinhole-k1 has k2"), std::string::npos) << e;
+  EXPECT_FALSE(write_camera_file((d / "bad.yaml").string(), f).ok());
+}
+}  // namespace dentar::calibration

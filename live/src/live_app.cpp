@@ -33,6 +33,7 @@
 #include "dentar/ar/egl_context.h"
 #include "dentar/ar/gl_handoff.h"
 #include "dentar/ar/frame_source.h"
+#include "dentar/ar/tracker.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/open_device.h"
 #include "dentar/haptics/pedal.h"
@@ -714,6 +715,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     grant += "; background threads with the frame thread";
   const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name();
   say("camera " + cam_desc + "; " + stylus_desc + "; pedal " + pedal.name());
+  {
+    ar::TagDetectorOptions d = popt.tracker.detector;  // auto: the station's measured response
+    if (const std::string note = ar::resolve_camera_response(d, st); !note.empty()) say("note: " + note);
+  }
   say(grant);
   if (recorder) recorder->log(grant);
   const bool rt_ok = !o.realtime || (engine.realtime_granted_now() && sum.memory_locked);

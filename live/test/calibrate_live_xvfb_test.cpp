@@ -53,7 +53,7 @@ TEST(CalibrateLiveXvfb, StylusStepsWithTheSimulatedInstructor) {
   EXPECT_TRUE(said) << s.dump(2);
   // The station file against the hidden truth.
   const auto j = read_json(st);
-  EXPECT_EQ(j["version"], 3);
+  EXPECT_EQ(j["version"], 4);
   for (const char* name : {"pivot", "register", "tooth"}) {
     const auto* p = step(j, name);
     ASSERT_NE(p, nullptr) << name;
@@ -154,7 +154,7 @@ TEST_F(CalibrateLiveCameraXvfb, WholeStationWithTheSimulatedInstructor) {
   EXPECT_LE(s["truth"]["camera_tooth_max_error_px"].get<double>(), 0.3) << s.dump(2);
   // The station file: every step passed and dated, the camera recorded.
   const auto j = read_json(st);
-  EXPECT_EQ(j["version"], 3);
+  EXPECT_EQ(j["version"], 4);
   for (const char* name : {"camera", "pivot", "register", "tooth", "mirror", "check"}) {
     const auto* p = step(j, name);
     ASSERT_NE(p, nullptr) << name;

@@ -691,6 +691,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   auto pipeline = FramePipeline::create(st, po);
   if (!pipeline) return fail("offline: " + pipeline.error());
   FramePipeline& pipe = **pipeline;
+  if (!pipe.tracker().response_note().empty()) sum.warnings.push_back(pipe.tracker().response_note());
   if (auto w = pipe.warm_up(meshes); !w) return fail("offline: " + w.error());
 
   // The tooth's box corners in its frame (registration error in pixels).

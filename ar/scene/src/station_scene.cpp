@@ -458,6 +458,9 @@ StationScene default_station_scene() {
 
   calibration::StationCalibration& c = s.calibration;
   c.camera = default_camera(640, 480);
+  // The built-in camera is the footage generator's, which encodes sRGB (generator v2):
+  // its response is known, not measured.
+  s.camera_provenance.response.kind = "srgb";
   c.T_man_tooth = T_man_tooth;
   const haptics::Station hs = haptics::default_station();
   c.T_man_dev = T_man_tooth * hs.T_tooth_dev;
@@ -581,6 +584,17 @@ std::string station_scene_to_json(const StationScene& s) {
     if (!cp.device.empty()) j["camera"]["device"] = cp.device;
   }
   if (!cp.device_id.empty()) j["camera"]["device_id"] = cp.device_id;
+  if (!cp.response.kind.empty()) {
+    const calibration::CameraResponseCurve& r = cp.response;
+    ojson rj;
+    rj["kind"] = r.kind;
+    if (r.kind == "curve") rj["curve"] = r.table;
+    if (r.gamma > 0) rj["gamma"] = r.gamma;
+    if (r.gamma_sigma >= 0) rj["gamma_sigma"] = r.gamma_sigma;
+    if (r.views > 0) rj["views"] = r.views;
+    if (r.edges > 0) rj["edges"] = r.edges;
+    j["camera"]["response"] = rj;
+  }
   j["tag_family"] = tag_family_name(s.family);
   j["mannequin"] = {
       {"head_centre_mm", v3(m.head_centre_m, 1e3)},
@@ -686,10 +700,40 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     }
     const json& cam0 = req(j, "", "camera");
     json cam = cam0;
+    bool cam0_response_seen = false;
     auto& cp = s.camera_provenance;
+    if (cam0.is_object() && cam0.contains("response")) {
+      // v4: the measured response curve (calibration/response.h).
+      if (s.version < 4) throw ParseError{"camera.response", "needs version 4 (set \"version\": 4)"};
+      const json& rj = cam0["response"];
+      check_keys(rj, "camera.response", {"kind", "curve", "gamma", "gamma_sigma", "views", "edges"});
+      auto& r = cp.response;
+      const json& kind = req(rj, "camera.response", "kind");
+      if (!kind.is_string()) throw ParseError{"camera.response.kind", "must be a string"};
+      r.kind = kind.get<std::string>();
+      if (rj.contains("curve")) {
+        const json& cv = rj["curve"];
+        if (!cv.is_array() || cv.size() > 4096)
+          throw ParseError{"camera.response.curve", "must be an array of 256 numbers"};
+        for (std::size_t i = 0; i < cv.size(); ++i)
+          r.table.push_back(number(cv[i], "camera.response.curve[" + std::to_string(i) + "]", 0, 1));
+      }
+      if (r.kind == "curve" && r.table.empty())
+        throw ParseError{"camera.response.curve", "is required with kind \"curve\" (256 numbers)"};
+      if (rj.contains("gamma")) r.gamma = number(rj["gamma"], "camera.response.gamma", 0, 10);
+      if (rj.contains("gamma_sigma"))
+        r.gamma_sigma = number(rj["gamma_sigma"], "camera.response.gamma_sigma", 0, 10);
+      if (rj.contains("views")) r.views = integer(rj["views"], "camera.response.views", 0, 1000000);
+      if (rj.contains("edges")) r.edges = integer(rj["edges"], "camera.response.edges", 0, 100000000);
+      if (std::string e = r.validate("camera.response"); !e.empty()) {
+        const auto colon = e.find(' ');
+        throw ParseError{e.substr(0, colon), e.substr(colon + 1)};
+      }
+      cam0_response_seen = true;
+    }
     if (cam0.is_object() && cam0.contains("file")) {
       // A referenced camera file (OpenCV FileStorage or ROS camera_info YAML).
-      check_keys(cam0, "camera", {"file", "device_id"});
+      check_keys(cam0, "camera", {"file", "device_id", "response"});
       if (!cam0["file"].is_string() || cam0["file"].get<std::string>().empty())
         throw ParseError{"camera.file", "must be a non-empty file name"};
       cp.file = cam0["file"].get<std::string>();
@@ -706,6 +750,7 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
       cp.date = cf->date;
       cp.device = cf->device;
     }
+    if (cam0_response_seen) cam.erase("response");
     if (cam0.is_object() && cam0.contains("device_id")) {
       if (!cam0["device_id"].is_string() || cam0["device_id"].get<std::string>().size() > 256)
         throw ParseError{"camera.device_id", "must be a string of at most 256 characters"};
@@ -743,6 +788,14 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     k.cy = number(req(cam, "camera", "cy"), "camera.cy", 0, k.height);
     const auto d = vec<5>(req(cam, "camera", "dist"), "camera.dist", -100, 100);
     for (int i = 0; i < 5; ++i) k.dist[static_cast<std::size_t>(i)] = d[i];
+    // The model named must be what the coefficients are (issue 24: a k1 fit is pinhole-k1).
+    if (!cp.model.empty()) {
+      std::vector<double> dv(k.dist.begin(), k.dist.end());
+      if (cp.model == calibration::kModelRational8) dv.clear();  // the file's 8 were checked on read
+      if (!dv.empty())
+        if (std::string e = calibration::check_model_coefficients(cp.model, dv); !e.empty())
+          throw ParseError{cp.file.empty() ? "camera.model" : "camera.file", e};
+    }
 
     const json& fam = req(j, "", "tag_family");
     auto f = fam.is_string() ? parse_tag_family(fam.get<std::string>()) : std::nullopt;

@@ -215,7 +215,7 @@ TEST(StationScene, BadFieldsAreNamed) {
   };
   const Case cases[] = {
       {"/format", "nope", "format"},
-      {"/version", 4, "version"},
+      {"/version", 5, "version"},
       {"/station_policy/check_threshold_mm", 50.0, "station_policy.check_threshold_mm"},
       {"/station_policy/health_divot", 20, "station_policy.health_divot"},
       {"/camera/device_id", 7, "camera.device_id"},
@@ -311,8 +311,10 @@ TEST(StationScene, OlderVersionsAreMigrated) {
   nlohmann::json j = nlohmann::json::parse(station_scene_to_json(default_station_scene()));
   j.erase("hand_eye");
   j.erase("station_policy");
-  for (int v : {2, 1, 0}) {
+  j["camera"].erase("response");  // a version 4 field
+  for (int v : {3, 2, 1, 0}) {
     nlohmann::json old = j;
+    if (v == 3) old["station_policy"] = nlohmann::json::object();
     if (v < 2) {
       old.erase("calibration_fixtures");
       old.erase("calibration_report");
@@ -331,12 +333,14 @@ TEST(StationScene, OlderVersionsAreMigrated) {
   }
   nlohmann::json bad = j;
   bad["version"] = 2;
+  bad["camera"].erase("response");
   bad["station_policy"] = {{"max_age_days", 5}};
   auto r = parse_station_scene(bad.dump(), "old.json");
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().find("station_policy: needs version 3"), std::string::npos) << r.error();
   bad = j;
   bad["version"] = 2;
+  bad["camera"].erase("response");
   bad["camera"]["device_id"] = "cam";
   r = parse_station_scene(bad.dump(), "old.json");
   ASSERT_FALSE(r.ok());
@@ -352,4 +356,55 @@ TEST(StationScene, OlderVersionsAreMigrated) {
 }
 
 }  // namespace
+}  // namespace dentar::ar
+
+namespace dentar::ar {
+// Issue 24: the camera's measured response (v4 field camera.response) round-trips; a curve that
+// is not monotonic, has the wrong length or an unknown kind is refused naming the field; an
+// older file may not carry it; a model name that disagrees with the coefficients is refused.
+TEST(StationScene, CameraResponseFieldAndModelName) {
+  StationScene st = default_station_scene();
+  st.camera_provenance.response.kind = "curve";
+  for (int i = 0; i < 256; ++i) st.camera_provenance.response.table.push_back(std::pow(i / 255.0, 2.1));
+  st.camera_provenance.response.gamma = 2.1;
+  st.camera_provenance.response.gamma_sigma = 0.04;
+  st.camera_provenance.response.views = 12;
+  auto r = parse_station_scene(station_scene_to_json(st), "resp.json");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->camera_provenance.response.kind, "curve");
+  ASSERT_EQ(r->camera_provenance.response.table.size(), 256u);
+  EXPECT_NEAR(r->camera_provenance.response.table[128], std::pow(128 / 255.0, 2.1), 1e-12);
+  EXPECT_NEAR(r->camera_provenance.response.gamma_sigma, 0.04, 1e-12);
+  const nlohmann::json good = nlohmann::json::parse(station_scene_to_json(st));
+  auto refused = [&](nlohmann::json j, const std::string& field) {
+    auto p = parse_station_scene(j.dump(), "bad.json");
+    ASSERT_FALSE(p.ok()) << field;
+    EXPECT_NE(p.error().find(field), std::string::npos) << p.error();
+  };
+  nlohmann::json j = good;
+  j["camera"]["response"]["curve"][100] = 0.0;  // not monotonic
+  refused(j, "camera.response.curve[100]");
+  j = good;
+  j["camera"]["response"]["curve"].erase(j["camera"]["response"]["curve"].size() - 1);  // 255 entries
+  refused(j, "camera.response.curve");
+  j = good;
+  j["camera"]["response"]["kind"] = "gamma22";
+  refused(j, "camera.response.kind");
+  j = good;
+  j["version"] = 3;
+  refused(j, "camera.response: needs version 4");
+  // Named kinds carry no curve.
+  j = good;
+  j["camera"]["response"] = {{"kind", "srgb"}, {"gamma", 2.2}, {"gamma_sigma", 0.05}};
+  r = parse_station_scene(j.dump(), "srgb.json");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->camera_provenance.response.kind, "srgb");
+  // A k1-only model with a k2 coefficient.
+  j = good;
+  j["camera"]["model"] = "pinhole-k1";
+  j["camera"]["dist"] = {-0.2, 0.05, 0, 0, 0};
+  refused(j, "camera.model");
+  j["camera"]["dist"] = {-0.2, 0, 0, 0, 0};
+  EXPECT_TRUE(parse_station_scene(j.dump(), "k1.json").ok());
+}
 }  // namespace dentar::ar

@@ -28,25 +28,121 @@ std::string check_threads(int n) {
   return {};
 }
 
-// srgb_decode of 8-bit codes to 8-bit linear light.
-const cv::Mat& srgb_to_linear_lut() {
-  static const cv::Mat lut = [] {
-    cv::Mat t(1, 256, CV_8U);
-    for (int i = 0; i < 256; ++i)
-      t.at<std::uint8_t>(0, i) = static_cast<std::uint8_t>(std::lround(255.0 * srgb_decode(i / 255.0)));
-    return t;
-  }();
-  return lut;
+// An 8-bit image read through a response table: grey code -> linear light
+// scaled to 0..255 (float: no rounding of the dark codes, which sRGB
+// spreads over few linear levels). Bilinear in linear light.
+struct LinearView {
+  const cv::Mat& im;
+  const std::array<float, 256>& lut;
+  // NaN outside the image; OpenCV coordinates.
+  double at(double x, double y) const {
+    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+    if (x0 < 0 || y0 < 0 || x0 + 1 >= im.cols || y0 + 1 >= im.rows) return NAN;
+    const double a = x - x0, b = y - y0;
+    const std::uint8_t* r0 = im.ptr<std::uint8_t>(y0);
+    const std::uint8_t* r1 = im.ptr<std::uint8_t>(y0 + 1);
+    return (1 - b) * ((1 - a) * lut[r0[x0]] + a * lut[r0[x0 + 1]]) +
+           b * ((1 - a) * lut[r1[x0]] + a * lut[r1[x0 + 1]]);
+  }
+};
+
+// Total least-squares line through points: (n, d) with n.x + d = 0.
+Eigen::Vector3d fit_line(const std::vector<Eigen::Vector2d>& pts) {
+  Eigen::Vector2d m = Eigen::Vector2d::Zero();
+  for (const auto& q : pts) m += q;
+  m /= static_cast<double>(pts.size());
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (const auto& q : pts) cov += (q - m) * (q - m).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
+  const Eigen::Vector2d normal = es.eigenvectors().col(0);  // smallest spread
+  return {normal.x(), normal.y(), -normal.dot(m)};
 }
 
-// Bilinear sample of an 8-bit image at OpenCV coordinates; NaN outside.
-double sample_px(const cv::Mat& im, double x, double y) {
-  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-  if (x0 < 0 || y0 < 0 || x0 + 1 >= im.cols || y0 + 1 >= im.rows) return NAN;
-  const double a = x - x0, b = y - y0;
-  const std::uint8_t* r0 = im.ptr<std::uint8_t>(y0);
-  const std::uint8_t* r1 = im.ptr<std::uint8_t>(y0 + 1);
-  return (1 - b) * ((1 - a) * r0[x0] + a * r0[x0 + 1]) + b * ((1 - a) * r1[x0] + a * r1[x0 + 1]);
+// Corners where consecutive lines meet; false when two are parallel or a
+// corner moves more than max_move_px from `c`.
+bool intersect_lines(const std::array<Eigen::Vector3d, 4>& lines, double max_move_px,
+                     std::array<Eigen::Vector2d, 4>& c) {
+  std::array<Eigen::Vector2d, 4> out;
+  for (int k = 0; k < 4; ++k) {
+    // Corner k joins edge k-1 (corner k-1 -> k) and edge k.
+    const Eigen::Vector3d x = lines[(k + 3) % 4].cross(lines[k]);
+    if (std::abs(x.z()) < 1e-9) return false;
+    out[k] = x.head<2>() / x.z();
+    if (!out[k].allFinite() || (out[k] - c[k]).norm() > max_move_px) return false;
+  }
+  c = out;
+  return true;
+}
+
+// The gradient-peak edge refit libapriltag does (refine_edges), but on the
+// linear light `im`: for points along each edge, the centroid of the
+// squared gradient across it (central difference over +-1 px) within
+// +-range px, counting only gradients of the edge's own sign (read from
+// the levels a cell inside and a cell outside); a line through the points,
+// corners where the lines meet. In linear light a blurred edge's gradient
+// peaks where the edge is; on sRGB-encoded grey levels it moves toward the
+// bright side. False (corners unchanged) when an edge gives too few points
+// or a corner would move more than 1.5 px.
+bool refit_edges_gradient(const LinearView& im, int width_at_border, double range,
+                          std::array<Eigen::Vector2d, 4>& c) {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const auto& p : c) centre += p / 4;
+  std::array<Eigen::Vector3d, 4> lines;
+  std::vector<Eigen::Vector2d> pts;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d a = c[k], b = c[(k + 1) % 4];
+    const double len = (b - a).norm();
+    if (len < 4.0) return false;
+    const double cell = len / width_at_border;
+    Eigen::Vector2d n((a - b).y(), (b - a).x());
+    n /= len;
+    if (n.dot((a + b) / 2 - centre) < 0) n = -n;  // outward
+    // Polarity: the mean level half a cell outside minus half a cell inside.
+    const double probe = std::clamp(0.5 * cell, 1.0, 4.0);
+    double sign_sum = 0;
+    const int samples = std::max(8, static_cast<int>(len / 4));
+    for (int s = 0; s < samples; ++s) {
+      const Eigen::Vector2d p = a + ((s + 0.5) / samples) * (b - a);
+      const Eigen::Vector2d po = p + n * probe, pi = p - n * probe;
+      const double vo = im.at(po.x(), po.y()), vi = im.at(pi.x(), pi.y());
+      if (!std::isnan(vo) && !std::isnan(vi)) sign_sum += vo - vi;
+    }
+    const double polarity = sign_sum >= 0 ? 1.0 : -1.0;
+    pts.clear();
+    for (int s = 0; s < samples; ++s) {
+      // Stay off the corners' own blur (1 px either end at least).
+      const double alpha = (s + 0.5) / samples;
+      const Eigen::Vector2d p = a + alpha * (b - a);
+      if (alpha * len < 1.0 || (1 - alpha) * len < 1.0) continue;
+      // Twice: the second window centred on the first estimate (the start,
+      // libapriltag's edge on the encoded image, can be 0.3-0.6 px off, and a
+      // window off-centre pulls the centroid toward its middle).
+      double centre_off = 0;
+      bool ok = true;
+      for (int it = 0; it < 2 && ok; ++it) {
+        double mn = 0, mw = 0;
+        for (double x = centre_off - range; x <= centre_off + range + 1e-9; x += 0.25) {
+          const Eigen::Vector2d p1 = p + n * (x + 1), p2 = p + n * (x - 1);
+          const double g = polarity * (im.at(p1.x(), p1.y()) - im.at(p2.x(), p2.y()));
+          if (std::isnan(g)) {
+            mw = 0;
+            break;
+          }
+          if (g <= 0) continue;  // a gradient the wrong way: another edge
+          mn += g * g * x;
+          mw += g * g;
+        }
+        if (mw <= 0) ok = false;
+        else centre_off = mn / mw;
+        if (std::abs(centre_off) > range) ok = false;
+      }
+      if (!ok) continue;
+      pts.push_back(p + n * centre_off);
+    }
+    if (pts.size() < 4) return false;
+    lines[k] = fit_line(pts);
+  }
+  return intersect_lines(lines, 1.5, c);
 }
 
 // Re-fits the border square's four edges of one detection in the (linear)
@@ -58,7 +154,7 @@ double sample_px(const cv::Mat& im, double x, double y) {
 // centred on the first estimate), a line through them, corners where the
 // lines meet. False (corners unchanged) for small tags, low contrast, or a
 // corner moving more than 1 px.
-bool refit_edges_linear(const cv::Mat& im, int width_at_border, std::array<Eigen::Vector2d, 4>& c) {
+bool refit_edges_linear(const LinearView& im, int width_at_border, std::array<Eigen::Vector2d, 4>& c) {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   for (const auto& p : c) centre += p / 4;
   std::array<Eigen::Vector3d, 4> lines;  // (n, -n.p0): n.x + d = 0
@@ -77,7 +173,7 @@ bool refit_edges_linear(const cv::Mat& im, int width_at_border, std::array<Eigen
     for (int s = 0; s < samples; ++s) {
       const Eigen::Vector2d p = a + (0.15 + 0.7 * (s + 0.5) / samples) * (b - a);
       const Eigen::Vector2d pi = p - n * w, po = p + n * w;
-      const double vi = sample_px(im, pi.x(), pi.y()), vo = sample_px(im, po.x(), po.y());
+      const double vi = im.at(pi.x(), pi.y()), vo = im.at(po.x(), po.y());
       if (std::isnan(vi) || std::isnan(vo)) return false;
       lin.push_back(vi);
       lout.push_back(vo);
@@ -86,7 +182,6 @@ bool refit_edges_linear(const cv::Mat& im, int width_at_border, std::array<Eigen
     std::nth_element(lout.begin(), lout.begin() + samples / 2, lout.end());
     const double vin = lin[samples / 2], vout = lout[samples / 2];
     if (std::abs(vin - vout) < 8.0) return false;
-    Eigen::Vector2d m = Eigen::Vector2d::Zero();
     std::vector<Eigen::Vector2d> pts;
     for (int s = 0; s < samples; ++s) {
       const Eigen::Vector2d p = a + (0.15 + 0.7 * (s + 0.5) / samples) * (b - a);
@@ -96,7 +191,7 @@ bool refit_edges_linear(const cv::Mat& im, int width_at_border, std::array<Eigen
         double sum = 0;
         for (double x = -w + step / 2; x < w; x += step) {
           const Eigen::Vector2d q = p + n * (e + x);
-          const double v = sample_px(im, q.x(), q.y());
+          const double v = im.at(q.x(), q.y());
           if (std::isnan(v)) {
             ok = false;
             break;
@@ -109,38 +204,33 @@ bool refit_edges_linear(const cv::Mat& im, int width_at_border, std::array<Eigen
       }
       if (!ok) continue;
       pts.push_back(p + n * e);
-      m += pts.back();
     }
     if (pts.size() < 4) return false;
-    m /= static_cast<double>(pts.size());
-    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-    for (const auto& q : pts) cov += (q - m) * (q - m).transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
-    const Eigen::Vector2d normal = es.eigenvectors().col(0);  // smallest spread
-    lines[k] = Eigen::Vector3d(normal.x(), normal.y(), -normal.dot(m));
+    lines[k] = fit_line(pts);
   }
-  std::array<Eigen::Vector2d, 4> out;
-  for (int k = 0; k < 4; ++k) {
-    // Corner k joins edge k-1 (corner k-1 -> k) and edge k.
-    const Eigen::Vector3d x = lines[(k + 3) % 4].cross(lines[k]);
-    if (std::abs(x.z()) < 1e-9) return false;
-    out[k] = x.head<2>() / x.z();
-    if ((out[k] - c[k]).norm() > 1.0) return false;
-  }
-  c = out;
-  return true;
+  return intersect_lines(lines, 1.0, c);
 }
 
 }  // namespace
 
 const char* camera_response_name(CameraResponse r) {
-  return r == CameraResponse::kSrgb ? "srgb" : "linear";
+  switch (r) {
+    case CameraResponse::kLinear: return "linear";
+    case CameraResponse::kSrgb: return "srgb";
+    case CameraResponse::kCurve: return "curve";
+    case CameraResponse::kAuto: return "auto";
+  }
+  return "?";
 }
 
 Result<CameraResponse> parse_camera_response(const std::string& name) {
+  if (name == "auto") return CameraResponse::kAuto;
   if (name == "srgb") return CameraResponse::kSrgb;
   if (name == "linear") return CameraResponse::kLinear;
-  return Error{"camera response \"" + name + "\" is not one of: srgb, linear"};
+  if (name == "curve")
+    return Error{"camera response \"curve\": a measured curve comes from the station file "
+                 "(camera.response, written by dentar calibrate camera); use auto"};
+  return Error{"camera response \"" + name + "\" is not one of: auto, srgb, linear"};
 }
 
 std::string TagDetectorOptions::validate() const {
@@ -154,8 +244,21 @@ std::string TagDetectorOptions::validate() const {
   if (auto e = check_threads(threads); !e.empty()) return e;
   if (!std::isfinite(blur_sigma) || blur_sigma < 0 || blur_sigma > 10)
     return "blur_sigma = " + std::to_string(blur_sigma) + " px must be in [0, 10]";
-  if (response != CameraResponse::kLinear && response != CameraResponse::kSrgb)
-    return "response = " + std::to_string(static_cast<int>(response)) + " is not linear or srgb";
+  if (response == CameraResponse::kAuto)
+    return "response = auto must be resolved from the station first (resolve_camera_response)";
+  if (response != CameraResponse::kLinear && response != CameraResponse::kSrgb &&
+      response != CameraResponse::kCurve)
+    return "response = " + std::to_string(static_cast<int>(response)) + " is not linear, srgb or curve";
+  if (response == CameraResponse::kCurve) {
+    if (response_curve.size() != 256)
+      return "response_curve has " + std::to_string(response_curve.size()) + " entries, needs 256";
+    for (std::size_t i = 0; i < 256; ++i)
+      if (!std::isfinite(response_curve[i]) || response_curve[i] < 0 || response_curve[i] > 1 ||
+          (i > 0 && response_curve[i] < response_curve[i - 1]))
+        return "response_curve[" + std::to_string(i) +
+               "] is outside [0, 1] or below the entry before (the curve must not decrease)";
+    if (!(response_curve[255] > response_curve[0])) return "response_curve is flat";
+  }
   if (max_bits_corrected < 0 || max_bits_corrected > 3)
     return "max_bits_corrected = " + std::to_string(max_bits_corrected) + " must be in 0..3";
   return {};
@@ -190,6 +293,11 @@ Result<TagDetector> TagDetector::create(const TagDetectorOptions& options) {
   t.detector_->refine_edges = options.refine_edges;
   t.detector_->decode_sharpening = 0.25;  // libapriltag's default, set explicitly
   t.detector_->debug = false;
+  for (int i = 0; i < 256; ++i)
+    t.to_linear_[static_cast<std::size_t>(i)] = static_cast<float>(
+        options.response == CameraResponse::kSrgb    ? 255.0 * srgb_decode(i / 255.0)
+        : options.response == CameraResponse::kCurve ? 255.0 * options.response_curve[static_cast<std::size_t>(i)]
+                                                     : i);
   return t;
 }
 
@@ -197,7 +305,7 @@ TagDetector::TagDetector(TagDetector&& o) noexcept
     : options_(std::move(o.options_)),
       families_(std::move(o.families_)),
       detector_(std::move(o.detector_)),
-      linear_(std::move(o.linear_)) {}
+      to_linear_(o.to_linear_) {}
 
 TagDetector& TagDetector::operator=(TagDetector&& o) noexcept {
   if (this != &o) {
@@ -205,7 +313,7 @@ TagDetector& TagDetector::operator=(TagDetector&& o) noexcept {
     options_ = std::move(o.options_);
     families_ = std::move(o.families_);
     detector_ = std::move(o.detector_);
-    linear_ = std::move(o.linear_);
+    to_linear_ = o.to_linear_;
   }
   return *this;
 }
@@ -247,14 +355,12 @@ Result<std::vector<DetectedTag>> TagDetector::detect(const cv::Mat& gray) {
   if (gray.dims != 2 || gray.cols < 8 || gray.rows < 8)
     return Error{"TagDetector::detect: image " + std::to_string(gray.cols) + "x" +
                  std::to_string(gray.rows) + " px is smaller than 8x8 px"};
-  // libapriltag reads rows through `stride`; a ROI view of a larger Mat works
-  // as is, only a non-uniform layout would need a copy (never for 2-D Mats).
-  const cv::Mat* src = &gray;
-  if (options_.response == CameraResponse::kSrgb) {
-    cv::LUT(gray, srgb_to_linear_lut(), linear_);  // reuses the buffer at the same size
-    src = &linear_;
-  }
-  image_u8_t im{src->cols, src->rows, static_cast<int32_t>(src->step[0]), src->data};
+  // libapriltag searches and decodes the image as the camera delivered it
+  // (its thresholds and decoding are tuned for that; a linearised copy is
+  // darker and lost 36 of 47 tags on real photographs, issue 24). Linear
+  // light is used only below, to refit the edges. libapriltag reads rows
+  // through `stride`: a ROI view of a larger Mat works as is.
+  image_u8_t im{gray.cols, gray.rows, static_cast<int32_t>(gray.step[0]), gray.data};
   zarray_t* found = apriltag_detector_detect(detector_.get(), &im);
   if (found == nullptr) return Error{"TagDetector::detect: libapriltag failed"};
   std::vector<DetectedTag> out;
@@ -271,9 +377,19 @@ Result<std::vector<DetectedTag>> TagDetector::detect(const cv::Mat& gray) {
     // libapriltag puts pixel centres at (0.5, 0.5), OpenCV at (0, 0).
     for (int k = 0; k < 4; ++k)
       t.corners_px[k] = Eigen::Vector2d(d->p[k][0] - 0.5, d->p[k][1] - 0.5);
-    if (options_.refit_edges_linear) {
+    if (options_.response != CameraResponse::kLinear) {
+      const LinearView lin{gray, to_linear_};
+      for (const TagFamily& f : families_) {
+        if (f.raw() != d->family) continue;
+        // libapriltag's gradient-peak refit again, now in linear light.
+        if (options_.refine_edges)
+          refit_edges_gradient(lin, f.width_at_border(), options_.decimation + 1, t.corners_px);
+        if (options_.refit_edges_linear) refit_edges_linear(lin, f.width_at_border(), t.corners_px);
+      }
+    } else if (options_.refit_edges_linear) {
+      const LinearView lin{gray, to_linear_};
       for (const TagFamily& f : families_)
-        if (f.raw() == d->family) refit_edges_linear(*src, f.width_at_border(), t.corners_px);
+        if (f.raw() == d->family) refit_edges_linear(lin, f.width_at_border(), t.corners_px);
     }
     out.push_back(t);
   }

@@ -117,7 +117,11 @@ const char* track_state_name(TrackState s) {
 }
 
 std::string TrackerOptions::validate() const {
-  if (auto e = detector.validate(); !e.empty()) return "detector." + e;
+  {
+    TagDetectorOptions d = detector;  // auto is resolved at create() from the station
+    if (d.response == CameraResponse::kAuto) d.response = CameraResponse::kLinear;
+    if (auto e = d.validate(); !e.empty()) return "detector." + e;
+  }
   if (auto e = pose.validate(); !e.empty()) return "pose." + e;
   if (auto e = filter.validate(); !e.empty()) return "filter." + e;
   std::ostringstream os;
@@ -318,6 +322,7 @@ class DiscoveryWorker {
 
 struct Tracker::Impl {
   TrackerOptions o;
+  std::string response_note;  // Tracker::response_note()
   calibration::CameraIntrinsics camera;
   CameraModel model{calibration::CameraIntrinsics{}};
   std::optional<TagDetector> detector;
@@ -625,7 +630,27 @@ Tracker::Tracker(Tracker&&) noexcept = default;
 Tracker& Tracker::operator=(Tracker&&) noexcept = default;
 Tracker::~Tracker() = default;
 
-Result<Tracker> Tracker::create(const StationScene& station, const TrackerOptions& options) {
+std::string resolve_camera_response(TagDetectorOptions& d, const StationScene& station) {
+  if (d.response != CameraResponse::kAuto) return {};
+  const calibration::CameraResponseCurve& r = station.camera_provenance.response;
+  if (r.kind == "srgb") {
+    d.response = CameraResponse::kSrgb;
+  } else if (r.kind == "linear") {
+    d.response = CameraResponse::kLinear;
+  } else if (r.kind == "curve" && r.validate().empty()) {
+    d.response = CameraResponse::kCurve;
+    d.response_curve = r.table;
+  } else {
+    d.response = CameraResponse::kLinear;
+    return "camera response unknown (the station has no camera.response; dentar calibrate camera "
+           "measures it): tag corners as libapriltag finds them, no linear-light refit";
+  }
+  return {};
+}
+
+Result<Tracker> Tracker::create(const StationScene& station, const TrackerOptions& options_in) {
+  TrackerOptions options = options_in;
+  std::string response_note = resolve_camera_response(options.detector, station);
   if (auto e = options.validate(); !e.empty()) return Error{"TrackerOptions: " + e};
   if (auto e = station.calibration.camera.validate(); !e.empty())
     return Error{"Tracker: station calibration.camera: " + e};
@@ -641,6 +666,7 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
   t.impl_ = std::make_unique<Impl>();
   Impl& m = *t.impl_;
   m.o = options;
+  m.response_note = std::move(response_note);
   m.camera = station.calibration.camera;
   m.model = CameraModel(m.camera);
   m.detector.emplace(std::move(det).value());
@@ -695,6 +721,7 @@ void Tracker::reset() {
 }
 
 const TrackerOptions& Tracker::options() const { return impl_->o; }
+const std::string& Tracker::response_note() const { return impl_->response_note; }
 const calibration::CameraIntrinsics& Tracker::camera() const { return impl_->camera; }
 
 Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,

@@ -157,12 +157,35 @@ TEST(CornerBias, CameraResponseNames) {
   const auto bad = parse_camera_response("gamma");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().find("gamma"), std::string::npos);
-  EXPECT_NE(bad.error().find("srgb, linear"), std::string::npos);
+  EXPECT_NE(bad.error().find("auto, srgb, linear"), std::string::npos);
   TagDetectorOptions o;
   o.response = static_cast<CameraResponse>(7);
   EXPECT_NE(o.validate().find("response"), std::string::npos);
-  // The tracker takes video as sRGB unless told otherwise.
-  EXPECT_EQ(TrackerOptions{}.detector.response, CameraResponse::kSrgb);
+  // The tracker takes the station's measured response (issue 24); a bare
+  // TagDetector refuses "auto" unresolved, and a station without a response
+  // resolves to linear with a note.
+  EXPECT_EQ(TrackerOptions{}.detector.response, CameraResponse::kAuto);
+  EXPECT_EQ(*parse_camera_response("auto"), CameraResponse::kAuto);
+  EXPECT_NE(parse_camera_response("curve").error().find("station"), std::string::npos);
+  o.response = CameraResponse::kAuto;
+  EXPECT_NE(o.validate().find("auto"), std::string::npos);
+  StationScene st = default_station_scene();
+  TagDetectorOptions d = TrackerOptions{}.detector;
+  EXPECT_EQ(resolve_camera_response(d, st), "");
+  EXPECT_EQ(d.response, CameraResponse::kSrgb);  // the built-in (generator's) camera is sRGB
+  st.camera_provenance.response = {};
+  d = TrackerOptions{}.detector;
+  EXPECT_NE(resolve_camera_response(d, st).find("unknown"), std::string::npos);
+  EXPECT_EQ(d.response, CameraResponse::kLinear);
+  st.camera_provenance.response.kind = "curve";
+  for (int i = 0; i < 256; ++i) st.camera_provenance.response.table.push_back(std::pow(i / 255.0, 2.0));
+  d = TrackerOptions{}.detector;
+  EXPECT_EQ(resolve_camera_response(d, st), "");
+  EXPECT_EQ(d.response, CameraResponse::kCurve);
+  EXPECT_EQ(d.response_curve.size(), 256u);
+  EXPECT_TRUE(TagDetector::create(d).ok());
+  d.response_curve[3] = 0.9;  // decreasing after it
+  EXPECT_NE(d.validate().find("response_curve"), std::string::npos);
   EXPECT_EQ(TagDetectorOptions{}.response, CameraResponse::kLinear);
 }
 

@@ -16,6 +16,13 @@ namespace dentar::calibration {
 // warning when its k4..k6 are not zero (the tracker then drops them).
 inline constexpr const char* kModelRadTan5 = "pinhole-radtan5";  // OpenCV k1 k2 p1 p2 k3 (ROS plumb_bob)
 inline constexpr const char* kModelRational8 = "rational8";  // + k4 k5 k6 (ROS rational_polynomial)
+// The radtan5 model with fewer coefficients fitted (issue 24: a file names its model as it
+// is): k1 only (k2 p1 p2 k3 are 0), k1 k2 only (p1 p2 k3 are 0). Stored as 5 coefficients.
+inline constexpr const char* kModelK1 = "pinhole-k1";
+inline constexpr const char* kModelK1K2 = "pinhole-k1k2";
+// Empty when `model` is one of the four names above and `dist` (5 or 8 coefficients) is what
+// it allows; else says which coefficient disagrees ("model pinhole-k1 has k2 = 0.1; ...").
+std::string check_model_coefficients(const std::string& model, const std::vector<double>& dist);
 
 struct CameraFile {
   CameraIntrinsics camera;  // image size, fx fy cx cy (px), k1 k2 p1 p2 k3

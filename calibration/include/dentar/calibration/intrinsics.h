@@ -68,7 +68,7 @@ Result<BoardView> detect_chessboard(const std::uint8_t* gray, int width, int hei
 
 // Distortion models, simplest last in this list but ordered by coefficient count in
 // camera_model.h. kK1 and kK1K2 are the radtan5 model with the other coefficients held at 0
-// (their files say pinhole-radtan5 with zeros).
+// (their files say pinhole-k1 / pinhole-k1k2, camera_file.h).
 enum class DistortionModel { kRadTan5, kRational8, kK1, kK1K2 };
 // "k1", "k1k2", "radtan5", "rational8".
 const char* distortion_model_name(DistortionModel m);
@@ -117,7 +117,7 @@ struct IntrinsicsSummary {
   std::vector<std::string> warnings;  // e.g. poor coverage of the tooth region
 
   CameraIntrinsics camera;   // dist = k1 k2 p1 p2 k3 (valid when the fit ran)
-  std::string model = kModelRadTan5;  // the file-level model (k1, k1k2 are radtan5 with zeros)
+  std::string model = kModelRadTan5;  // the file-level model: pinhole-k1, pinhole-k1k2, pinhole-radtan5, rational8
   DistortionModel terms = DistortionModel::kRadTan5;  // the coefficients that were fitted
   std::vector<double> dist;  // all coefficients of the model (5 or 8)
   // Std devs of fx fy cx cy k1 k2 p1 p2 k3 [k4 k5 k6] (OpenCV's stdDeviationsIntrinsics: from

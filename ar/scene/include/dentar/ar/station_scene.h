@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "dentar/calibration/response.h"
 #include "dentar/calibration/station.h"
 #include "dentar/volume/result.h"
 
@@ -109,7 +110,7 @@ struct PenParams {
 
 // Where the camera intrinsics came from (file "camera" block extras; all optional).
 struct CameraProvenance {
-  std::string model;  // "pinhole-radtan5" / "rational8"; empty when unknown
+  std::string model;  // "pinhole-k1" / "pinhole-k1k2" / "pinhole-radtan5" / "rational8"; empty when unknown
   double rms_px = -1;  // calibration reprojection RMS, px; < 0 unknown
   std::vector<double> std_devs;  // fx fy cx cy k1 k2 p1 p2 k3 (px for the first four)
   std::string date, device;
@@ -117,6 +118,9 @@ struct CameraProvenance {
   // or the footage file for live:PATH); empty when unknown. A station file calibrated with
   // another camera is refused by `dentar live` and `dentar calibrate` (station health).
   std::string device_id;
+  // v4: the camera's response curve as measured by `dentar calibrate camera` (issue 24);
+  // kind empty = unknown (the tracker then refits no edges in linear light and says so).
+  calibration::CameraResponseCurve response;
   // Non-empty when the station references a camera file ({"file": "cam.yaml"}) instead of
   // embedding the numbers: the path as written (relative to the station file's directory).
   std::string file;
@@ -163,7 +167,7 @@ struct StationPolicy {
 // and a "hand_eye" step in the report). Older versions are read and migrated in memory (the
 // missing parts get their defaults; `migrated_from` says from which); writers always write
 // the current version.
-inline constexpr int kStationFileVersion = 3;
+inline constexpr int kStationFileVersion = 4;
 
 struct StationScene {
   int version = kStationFileVersion;  // as read (writers always write the current version)

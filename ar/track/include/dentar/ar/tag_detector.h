@@ -30,12 +30,21 @@ namespace dentar::ar {
 // blurred ramp, and an edge fitted to the encoded grey levels moves toward
 // the bright side by a fraction of the blur width (~0.1-0.3 px; on the
 // mirror's 12 mm tags millimetres at its centre, docs/BENCHMARKS.md issue
-// 16). kSrgb undoes the sRGB curve (a 256-entry table) before libapriltag
-// sees the image; kLinear passes the grey levels as they are (libapriltag's
+// 16). libapriltag always searches and decodes the image as delivered
+// (issue 24: a linearised copy is darker and lost most tags on real
+// photographs); a known response only changes the edge refit: with kSrgb
+// each detection's edges are refit in linear light (libapriltag's
+// gradient-peak refit done again on the sRGB-decoded grey levels, and the
+// area refit below when asked). kLinear keeps libapriltag's corners (its
 // own assumption; right for linear-coverage test drawings).
-enum class CameraResponse { kLinear, kSrgb };
-const char* camera_response_name(CameraResponse r);  // "linear", "srgb"
-// Parses the names above; the error names the value and the choices.
+// kCurve: a measured curve (TagDetectorOptions::response_curve, from the
+// station's camera.response, `dentar calibrate camera`). kAuto: the station's
+// response, resolved by the Tracker (resolve_camera_response, tracker.h); a
+// TagDetector refuses it unresolved.
+enum class CameraResponse { kLinear, kSrgb, kCurve, kAuto };
+const char* camera_response_name(CameraResponse r);  // "linear", "srgb", "curve", "auto"
+// Parses "auto", "srgb", "linear"; the error names the value and the choices
+// ("curve" is refused: a measured curve comes from the station, use auto).
 Result<CameraResponse> parse_camera_response(const std::string& name);
 
 struct TagDetectorOptions {
@@ -56,7 +65,11 @@ struct TagDetectorOptions {
   // The images' response curve (above). The default keeps libapriltag's
   // behaviour; the tracker (TrackerOptions) defaults to kSrgb.
   CameraResponse response = CameraResponse::kLinear;
-  // Re-fit the border square's edges after libapriltag, in linear light,
+  // response == kCurve: grey code i -> relative linear light, 256 entries in
+  // [0, 1], non-decreasing, curve[255] > curve[0]. Ignored otherwise.
+  std::vector<double> response_curve;
+  // Re-fit the border square's edges after libapriltag, in linear light
+  // (from `response`),
   // with an estimator that blur cannot move (the area under the edge across
   // the border's two one-cell rings). libapriltag's own refinement (gradient
   // peak within +-2 px) moves blurred edges of small or grazing tags by
@@ -113,7 +126,8 @@ class TagDetector {
   // first (reset()).
   std::vector<TagFamily> families_;
   std::unique_ptr<apriltag_detector, DetectorDeleter> detector_;
-  cv::Mat linear_;  // scratch: the linearised image (response != kLinear)
+  // Grey code -> linear light (0..255) from options_.response.
+  std::array<float, 256> to_linear_{};
 };
 
 }  // namespace dentar::ar

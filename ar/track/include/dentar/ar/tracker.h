@@ -72,18 +72,27 @@ struct DiscoveryCue {
 };
 const char* track_state_name(TrackState s);  // "tracking", "predicted", "lost"
 
-// TagDetectorOptions{} with response = kSrgb: the tracker's default.
-inline TagDetectorOptions srgb_detector_options() {
+// TagDetectorOptions{} with response = kAuto: the tracker's default (the
+// station's measured response, resolve_camera_response below).
+inline TagDetectorOptions auto_detector_options() {
   TagDetectorOptions d;
-  d.response = CameraResponse::kSrgb;
+  d.response = CameraResponse::kAuto;
   return d;
 }
 
+// Resolves response == kAuto from the station's camera.response (issue 24):
+// "srgb" -> kSrgb, "linear" -> kLinear, "curve" -> kCurve with its table;
+// unknown -> kLinear (libapriltag's corners as they are, no linear-light
+// refit). Returns a one-line note when the response is unknown, else "".
+// Other responses are left as given.
+std::string resolve_camera_response(TagDetectorOptions& d, const StationScene& station);
+
 struct TrackerOptions {
   // Full-frame detection settings (families must include the station's).
-  // The tracker takes its images as a video camera encodes them: sRGB
-  // (tag_detector.h, CameraResponse); kLinear for a linear camera.
-  TagDetectorOptions detector = srgb_detector_options();
+  // libapriltag searches and decodes the image as delivered; the response
+  // (tag_detector.h, CameraResponse) only decides the linear-light edge
+  // refit. Default kAuto: the station's measured response (unknown: none).
+  TagDetectorOptions detector = auto_detector_options();
   BundlePoseOptions pose;
   bool predicted_regions = true;  // the fast path above
   int full_frame_interval = 15;   // frames between full-frame searches, >= 1
@@ -275,7 +284,11 @@ class Tracker {
   // Forgets all bodies (next frame is a full-frame search); waits for and
   // drops a running discovery.
   void reset();
+  // The options in use: detector.response resolved (never kAuto).
   const TrackerOptions& options() const;
+  // The one-line note when detector.response was auto and the station's
+  // response is unknown (resolve_camera_response); else empty.
+  const std::string& response_note() const;
   const calibration::CameraIntrinsics& camera() const;
 
   struct Impl;
