@@ -180,15 +180,18 @@ const std::vector<Step>& contract() {
       {.readme = "dentar score out/demo",
        .produces = {"out/demo/score.html", "out/demo/score.json"}},
       {.readme = "dentar assess --generate out/cohort --experts 5 --novices 5 --trials 2 "
-                 "[--separation 0..1]",
-       .run = "build/dentar assess --generate out/cohort --experts 5 --novices 5 --trials 2"},
-      {.readme = "dentar assess --train out/cohort --cv subject --method hmm|ghmm|dtw "
-                 "--save out/model.json",
-       .run = "build/dentar assess --train out/cohort --cv subject --method hmm --save out/model.json",
+                 "--kinematics-only",
+       .produces = {"out/cohort/trials.csv", "out/cohort/columns.json"}},
+      {.readme = "dentar assess --kinematics out/cohort/trials.csv --columns out/cohort/columns.json "
+                 "--cv subject --method skill",
+       .says = "person identification"},
+      {.readme = "dentar assess --generate out/sessions --experts 2 --novices 2 --trials 1",
+       .produces = {"out/sessions/trials.csv"}},
+      {.readme = "dentar assess --train out/sessions --cv subject --method skill --save out/model.json",
        .produces = {"out/model.json"}},
-      {.readme = "dentar assess --model out/model.json out/demo"},
+      {.readme = "dentar assess --model out/model.json out/demo", .says = "out/demo: "},
       {.readme = "dentar assess --kinematics trials.csv --columns map.json --cv subject",
-       .skip_why = "needs your own kinematics table; the import is tested in training's tests"},
+       .skip_why = "your own kinematics table; the same import runs above on the generated tables"},
       {.readme = "dentar db init --db sqlite:school.db", .produces = {"school.db"}},
       {.readme = "dentar score out/rec", .produces = {"out/rec/score.json"}},
       {.readme = "dentar db import out/rec --db sqlite:school.db --student s042 "
