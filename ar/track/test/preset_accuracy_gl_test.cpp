@@ -417,20 +417,24 @@ TEST(PresetAccuracy, HeadLayoutAgainstTheTwelveTags) {
                 pct(ms[2][0], 0.5) / pct(ms[0][0], 0.5), variant, pct(ms[0][1], 0.5) / pct(ms[0][0], 0.5),
                 pct(ms[1][1], 0.5) / pct(ms[0][0], 0.5), pct(ms[2][1], 0.5) / pct(ms[0][0], 0.5));
     if (!z.is_default() || only) continue;
-    // Measured 2026-11-27 (docs/BENCHMARKS.md, issue 16 head layout): 20
-    // tags draw at least as many frames (hard 46 -> 52 of 60) and a smaller
-    // median error (hard 0.326 -> 0.216 mm, standard 0.165 -> 0.134) than 12.
-    EXPECT_GE(runs[1][0].drawn, runs[0][0].drawn) << synth_preset_name(p);
+    // Measured 2026-11-27 after issue 24 (tags searched on the image as
+    // delivered, edges refit in linear light; before it, docs/BENCHMARKS.md
+    // issue 16 head layout): 20 tags give a smaller median error than 12
+    // (standard 0.177 -> 0.160 mm, hard 0.318 -> 0.178) but on hard no
+    // longer draw more frames (29 -> 23 of 60; 46 -> 52 before issue 24).
     EXPECT_LT(pct(runs[1][0].t_mm, 0.5), pct(runs[0][0].t_mm, 0.5)) << synth_preset_name(p);
-    // Measured 2026-11-27 (docs/BENCHMARKS.md, issue 16 larger brow tags):
-    // the larger forehead/brow tags cut standard's p95 (0.296 -> 0.193 mm)
-    // and draw more hard frames (46 -> 52 of 60) but at a worse hard p95
-    // (0.735 -> 1.009 mm): why they are not the default.
     if (p == SynthPreset::kStandard) {
-      EXPECT_LT(pct(runs[2][0].t_mm, 0.95), 0.8 * pct(runs[0][0].t_mm, 0.95));
+      EXPECT_GE(runs[1][0].drawn, runs[0][0].drawn);
+    }
+    // The larger forehead/brow tags: standard p95 0.239 -> 0.224 mm (0.296 ->
+    // 0.193 before issue 24); hard 29 -> 38 frames drawn at p95 0.976 ->
+    // 0.909 mm (before issue 24: 46 -> 52 frames at a worse p95, 0.735 ->
+    // 1.009 mm, why they were not adopted; that reason no longer holds, and
+    // the choice is open: BENCHMARKS issue 24).
+    if (p == SynthPreset::kStandard) {
+      EXPECT_LE(pct(runs[2][0].t_mm, 0.95), pct(runs[0][0].t_mm, 0.95));
     } else {
       EXPECT_GT(runs[2][0].drawn, runs[0][0].drawn);
-      EXPECT_GT(pct(runs[2][0].t_mm, 0.95), pct(runs[0][0].t_mm, 0.95));
     }
     // The outlier test at its measured setting (1 px, x4) leaves 640x480
     // footage as it was: no tag is that far off there (docs/BENCHMARKS.md).
