@@ -332,14 +332,22 @@ TEST(CliDb, ImporterWaitingOnALockSaysSo) {
   auto holder = dentar::store::Store::open(db);
   ASSERT_TRUE(holder.ok());
   ASSERT_TRUE((*holder)->exec_raw("BEGIN IMMEDIATE").ok());
-  std::thread release([&] {
-    std::this_thread::sleep_for(std::chrono::seconds(3));
-    (void)(*holder)->exec_raw("COMMIT");
+  // The importer may score the session first (seconds): the lock is held
+  // until it says it waits (or 120 s pass), then released.
+  const fs::path log = d / "import.log";
+  CommandResult r;
+  std::thread import([&] {
+    r = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3 > " +
+            log.string() + " 2>&1");
   });
-  const CommandResult r = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
-  release.join();
+  const std::string notice = "db import: " + db + ": the database is locked by another program";
+  for (int i = 0; i < 1200 && dentar::test::read_file(log).find(notice) == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  (void)(*holder)->exec_raw("COMMIT");
+  import.join();
+  r.out = dentar::test::read_file(log);
   EXPECT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("db import: " + db + ": the database is locked by another program"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(notice), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("stored in " + db), std::string::npos) << r.out;
 }
 
