@@ -28,11 +28,13 @@ endfunction()
 # dentar_test(<name> SOURCES ... DEPS ... [LABELS ...]): one GoogleTest binary,
 # registered with ctest per test case. Working directory is the source root so
 # tests find ../shared/data the same way the README does.
+# COST: ctest starts higher-cost tests first (a long test then overlaps the
+# others instead of running alone at the end).
 # SERIAL: the test runs alone (ctest RUN_SERIAL), for tests that measure
 # real-time behaviour (frames a live run processes) and fail when another
 # heavy test shares the two cores.
 function(dentar_test name)
-  cmake_parse_arguments(T "SERIAL" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(T "SERIAL" "TIMEOUT;COST" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   target_link_libraries(${name} PRIVATE ${T_DEPS} dentar_testutil GTest::gtest GTest::gtest_main)
   dentar_warnings(${name})
@@ -42,6 +44,9 @@ function(dentar_test name)
   set(_serial "")
   if(T_SERIAL)
     set(_serial RUN_SERIAL TRUE)
+  endif()
+  if(T_COST)
+    list(APPEND _serial COST ${T_COST})
   endif()
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
