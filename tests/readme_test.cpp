@@ -112,7 +112,7 @@ const std::vector<Step>& contract() {
        .produces = {"out/scan.ply"}},
       {.readme = "build/dentar live --camera camera:0 --station box --stylus pen --no-occlusion",
        .skip_why = "needs a webcam and a pen (hw); its rehearsal without a camera is below"},
-      {.readme = "build/dentar synth --frames 300 --resolution 1280x720 --webcam --out out/clip",
+      {.readme = "build/dentar synth --frames 150 --resolution 1280x720 --webcam --out out/clip",
        .produces = {"out/clip/camera.avi", "out/clip/video.mkv", "out/clip/station.json",
                     "out/clip/session.dlog", "out/clip/truth.jsonl"}},
       {.readme = "build/dentar live --camera live:out/clip/camera.avi --station out/clip/station.json "
@@ -121,7 +121,7 @@ const std::vector<Step>& contract() {
        .window = true},
       {.readme = "build/dentar offline --footage out/rec --out out/rec_offline",
        .produces = {"out/rec_offline/composite.mkv", "out/rec_offline/report.html"}},
-      {.readme = "build/dentar synth --station box --frames 300 --resolution 1280x720 --webcam "
+      {.readme = "build/dentar synth --station box --frames 150 --resolution 1280x720 --webcam "
                  "--out out/box",
        .produces = {"out/box/camera.avi", "out/box/station.json", "out/box/session.dlog"}},
       {.readme = "build/dentar live --camera live:out/box/camera.avi --station box "
@@ -171,7 +171,7 @@ const std::vector<Step>& contract() {
        .skip_why = "needs a camera, a Touch and a pedal (hw); rehearsed below with --haptic sim"},
       {.readme = "dentar synth --board aprilgrid:6x5:24:8 --seed 3 --out out/clip",
        .produces = {"out/clip/video.mkv"}},
-      {.readme = "dentar calibrate live --haptic sim --seed 3 --camera live:out/clip/video.mkv "
+      {.readme = "dentar calibrate live --haptic sim --pace 4 --seed 3 --camera live:out/clip/video.mkv "
                  "--station out/s.json",
        .produces = {"out/s.json"},
        .window = true},
