@@ -35,7 +35,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->footer(
       "Examples:\n"
       "  dentar live --camera camera:0 --stylus pen --scale-calib     # webcam, printed kit (dentar tags)\n"
-      "  dentar synth --frames 300 --resolution 1280x720 --webcam --out out/clip   # camera.avi: Motion JPEG\n"
+      "  dentar synth --frames 150 --resolution 1280x720 --webcam --out out/clip   # camera.avi: Motion JPEG\n"
       "  dentar live --camera live:out/clip/camera.avi --station out/clip/station.json \\\n"
       "              --stylus replay:out/clip/session.dlog --record out/rec\n"
       "  dentar offline --footage out/rec --out out/rec_offline      # replays the recording\n"
