@@ -64,6 +64,18 @@ Result<std::unique_ptr<Engine>> Engine::create(const EngineConfig& cfg, HapticDe
   if (std::string e = device.limits().validate(); !e.empty())
     return Error{"device '" + device.name() + "' limits: " + e};
   if (bur.size() == 0) return Error{"engine: the bur has no sample points"};
+  if (cfg.training) {
+    // A guidance field is a virtual spring and damper: the device's stable limits hold.
+    const GuidanceParams& g = cfg.training->params().guidance;
+    const DeviceLimits& l = device.limits();
+    if (g.k_N_per_m > l.max_stiffness_N_per_m)
+      return Error{"training mode: guidance stiffness " + std::to_string(g.k_N_per_m) + " N/m is above what '" +
+                   device.name() + "' renders stably (" + std::to_string(l.max_stiffness_N_per_m) + " N/m); lower k"};
+    if (g.damping_N_s_per_m > l.max_damping_N_s_per_m)
+      return Error{"training mode: guidance damping " + std::to_string(g.damping_N_s_per_m) + " N s/m is above what '" +
+                   device.name() + "' renders stably (" + std::to_string(l.max_damping_N_s_per_m) +
+                   " N s/m); lower it"};
+  }
   auto model = make_force_model(cfg.model, cfg.model_params, device.limits(), bur.size());
   if (!model) return Error{"engine: " + model.error()};
   return std::unique_ptr<Engine>(
@@ -120,6 +132,9 @@ bool Engine::step(double late_s) noexcept {
   Eigen::Vector3d f_dev = Eigen::Vector3d::Zero();
   const Eigen::Isometry3d T_tooth_sty = cfg_.T_tooth_dev * st.T_dev_sty;
   const Eigen::Isometry3d T_tooth_tip = T_tooth_sty * cfg_.T_sty_tip;
+  TrainingStep train;  // defaults: no mode (contact on, the student cuts)
+  if (!fault && cfg_.training)
+    train = cfg_.training->step(T_tooth_tip, cfg_.T_tooth_dev.linear() * st.velocity_m_per_s, dt_s_);
   if (!fault) {
     ForceInput in;
     in.volume = volume_;
@@ -127,13 +142,24 @@ bool Engine::step(double late_s) noexcept {
     in.T_tooth_tip = T_tooth_tip;
     in.velocity_m_per_s = cfg_.T_tooth_dev.linear() * st.velocity_m_per_s;
     in.dt_s = dt_s_;
+    // The model runs in every mode so that its proxy keeps up with the tip; a mode that
+    // turns contact off fades its force out (and in again when it ends): no kick.
     out = model_->compute(in);
-    if (st.pedal) {
+    contact_gain_.set_target(train.contact_forces ? 1.0 : 0.0);
+    const double gain = contact_gain_.step(dt_s_);
+    if (st.pedal && train.student_cuts) {
       cut = cutter_.step(*bur_, out.T_tooth_tip_cut, out.force_N.norm(), dt_s_);
       if (cut.touched_pulp) flags |= kFlagPulpTouched;
     }
-    f_dev = cfg_.T_tooth_dev.linear().transpose() * out.force_N;
-    if (out.in_contact) flags |= kFlagContact;
+    if (train.expert_cuts) {
+      // The expert's bur cuts where the recording drilled, as long as its clock moved.
+      const volume::CutResult ec =
+          cutter_.step(*bur_, train.expert.T_tooth_tip, train.expert.force_N.norm(), train.expert_cut_dt_s);
+      if (ec.touched_pulp) flags |= kFlagPulpTouched;
+      if (cut.total_removed() == 0) cut = ec;
+    }
+    f_dev = cfg_.T_tooth_dev.linear().transpose() * (gain * out.force_N + train.force_tooth_N);
+    if (out.in_contact && gain > 0) flags |= kFlagContact;
   }
 
   Eigen::Vector3d sent;
@@ -165,11 +191,19 @@ bool Engine::step(double late_s) noexcept {
   snap.in_contact = out.in_contact;
   snap.fault = fault;
   snap.watchdog = watchdog_tripped_;
-  if (cut.touched_pulp && st.pedal && !pulp_exposed_) {
+  if (cut.touched_pulp && (st.pedal || train.expert_cuts) && !pulp_exposed_) {
     pulp_exposed_ = true;
     pulp_exposed_at_s_ = st.time_s;
   }
   snap.pulp_exposed = pulp_exposed_;
+  if (cfg_.training) {
+    snap.mode = static_cast<std::uint8_t>(cfg_.training->params().mode);
+    snap.expert_drilling = train.expert.drilling;
+    snap.expert_waiting = train.expert_waiting;
+    snap.expert_time_s = train.expert_time_s;
+    to_array(train.expert.T_tooth_tip, snap.T_tooth_expert_tip);
+    snap.follow_error_m = train.error.position_m;
+  }
   snap.pulp_exposed_at_s = pulp_exposed_at_s_;
   // The totals change only on steps that removed something.
   if (cut.total_removed() > 0) {

@@ -20,6 +20,7 @@
 #include "dentar/haptics/device.h"
 #include "dentar/haptics/force_guard.h"
 #include "dentar/haptics/force_model.h"
+#include "dentar/haptics/guidance.h"
 #include "dentar/haptics/seqlock.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/haptics/timing.h"
@@ -47,6 +48,9 @@ struct EngineConfig {
   // no page fault lands inside a step (with mlockall the pages stay).
   int cpu = -1;
   std::size_t prefault_stack_bytes = 256 * 1024;
+  // A training mode (issue 27; not owned, must outlive the engine; the haptic thread calls
+  // it every step): its forces go through the same guard and watchdog as contact forces.
+  TrainingMode* training = nullptr;
   std::string validate() const;  // empty when valid, else names the field
 };
 
@@ -63,6 +67,11 @@ struct HapticSnapshot {
   std::uint8_t pulp_exposed = 0;
   double pulp_exposed_at_s = 0;  // device time of the exposure (valid when pulp_exposed)
   double removed_mm3[8] = {};  // cumulative, per material label
+  // Training mode (mode 0: none): where the expert's tool is, for the second handpiece.
+  std::uint8_t mode = 0, expert_drilling = 0, expert_waiting = 0;
+  double expert_time_s = 0;
+  double T_tooth_expert_tip[16] = {};  // column-major 4x4
+  double follow_error_m = 0;           // student tip to expert tip
 };
 
 struct EngineStats {
@@ -134,6 +143,7 @@ class Engine {
   std::unique_ptr<ForceModel> model_;
   volume::Cutter cutter_;
   ForceGuard guard_;
+  Ramp contact_gain_{0.25, 1.0};  // contact force fades out/in when a mode turns it off/on
   double dt_s_;
 
   // Haptic-thread state.
