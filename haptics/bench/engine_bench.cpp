@@ -10,6 +10,9 @@
 // BM_ModelQuality: closed loop with the simulated hand; behaviour, not speed:
 //   max force rate, oscillation amplitude, penetration, and the lag the
 //   model adds to a step in penetration.
+// BM_EngineStepTrainingMode: BM_EngineStep's 10k capsule proxy session with each training
+//   mode on (issue 27), the expert being a recording of the same session: what a mode adds
+//   to a step (goal: <= 10 us at p99.9 against mode 0, plain drilling, same run).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -19,6 +22,7 @@
 #include <vector>
 
 #include "dentar/haptics/engine.h"
+#include "dentar/haptics/guidance.h"
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/simulated_device.h"
 #include "dentar/volume/procedural_tooth.h"
@@ -50,7 +54,7 @@ struct Session {
   std::unique_ptr<SimulatedDevice> device;
   std::unique_ptr<Engine> engine;
   Session(const std::string& model, const BurParams& bp, int samples, const std::string& script,
-          double force_N, double seconds, double hand_k) {
+          double force_N, double seconds, double hand_k, TrainingMode* training = nullptr) {
     bur = std::move(volume::sample_bur(bp, samples)).value();
     const Station st = default_station();
     HandParams hand;
@@ -62,6 +66,7 @@ struct Session {
     cfg.model = model;
     cfg.T_tooth_dev = st.T_tooth_dev;
     cfg.T_sty_tip = st.T_sty_tip;
+    cfg.training = training;
     engine = std::move(Engine::create(cfg, *device, tooth, bur)).value();
   }
 };
@@ -101,6 +106,55 @@ BENCHMARK(BM_EngineStep)
     ->ArgsProduct({{0, 1, 2, 3}, {1000, 3000, 10000, 30000}, {0, 1}})
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
+
+// The expert: the same access session, recorded from the engine's snapshots.
+const std::vector<StepRecord>& expert_access_recording() {
+  static const std::vector<StepRecord> rec = [] {
+    Session s("proxy", bur_of(2), 10000, "access", 2.5, 0.0, kFingerRestStiffness_N_per_m);
+    std::vector<StepRecord> out;
+    for (int i = 0; i < 4400 && s.engine->run_steps(1) == 1; ++i) {
+      const HapticSnapshot h = s.engine->snapshot();
+      StepRecord r;
+      r.step = static_cast<std::uint64_t>(i);
+      r.time_s = h.time_s;
+      for (int a = 0; a < 3; ++a) {
+        r.position_m[a] = h.T_dev_sty[12 + a];  // column-major translation
+        r.force_dev_N[a] = h.force_dev_N[a];
+        for (int b = 0; b < 3; ++b) r.rotation[3 * a + b] = h.T_dev_sty[4 * b + a];
+      }
+      r.pedal = h.pedal;
+      out.push_back(r);
+    }
+    return out;
+  }();
+  return rec;
+}
+
+void BM_EngineStepTrainingMode(benchmark::State& state) {
+  const auto mode = static_cast<TrainingModeKind>(state.range(0));
+  const Station st = default_station();
+  const ExpertTrack track =
+      std::move(ExpertTrack::from_records(expert_access_recording(), st.T_tooth_dev, st.T_sty_tip, "expert")).value();
+  EngineStats total;
+  for (auto _ : state) {
+    state.PauseTiming();
+    TrainingParams p;
+    p.mode = mode;
+    p.guidance.k_N_per_m = 150;
+    TrainingMode tm = std::move(TrainingMode::create(p, track)).value();
+    Session s("proxy", bur_of(2), 10000, "access", 2.5, 0.0, kFingerRestStiffness_N_per_m,
+              mode == TrainingModeKind::kNone ? nullptr : &tm);
+    s.engine->run_steps(400);
+    state.ResumeTiming();
+    s.engine->run_steps(4000);
+    state.PauseTiming();
+    total = s.engine->stats();
+    state.ResumeTiming();
+  }
+  report(state, total);
+  state.SetLabel(training_mode_name(mode));
+}
+BENCHMARK(BM_EngineStepTrainingMode)->DenseRange(0, 5)->Iterations(3)->Unit(benchmark::kMillisecond);
 
 // 10k-sample capsule, proxy: the engine step alone and with a mesher thread
 // re-meshing dirty chunks as fast as it can (the display side of the demo).
