@@ -68,9 +68,12 @@ Result<std::unique_ptr<Engine>> Engine::create(const EngineConfig& cfg, HapticDe
     // A guidance field is a virtual spring and damper: the device's stable limits hold.
     const GuidanceParams& g = cfg.training->params().guidance;
     const DeviceLimits& l = device.limits();
-    if (g.k_N_per_m > l.max_stiffness_N_per_m)
-      return Error{"training mode: guidance stiffness " + std::to_string(g.k_N_per_m) + " N/m is above what '" +
-                   device.name() + "' renders stably (" + std::to_string(l.max_stiffness_N_per_m) + " N/m); lower k"};
+    const double k_max = guidance_stiffness_limit(l.max_stiffness_N_per_m);
+    if (g.k_N_per_m > k_max)
+      return Error{"training mode: guidance stiffness " + std::to_string(static_cast<int>(g.k_N_per_m)) +
+                   " N/m is above what '" + device.name() + "' renders stably as guidance (" +
+                   std::to_string(static_cast<int>(k_max)) +
+                   " N/m: 0.4 x its contact stiffness limit, docs/training_modes.md); lower k"};
     if (g.damping_N_s_per_m > l.max_damping_N_s_per_m)
       return Error{"training mode: guidance damping " + std::to_string(g.damping_N_s_per_m) + " N s/m is above what '" +
                    device.name() + "' renders stably (" + std::to_string(l.max_damping_N_s_per_m) +

@@ -28,8 +28,24 @@ std::string GuidanceParams::validate() const {
     os << "eps2 = " << eps2_m * 1e3 << " mm must be greater than eps1 = " << eps1_m * 1e3 << " mm";
   else if (!std::isfinite(damping_N_s_per_m) || damping_N_s_per_m < 0)
     os << "guidance damping = " << damping_N_s_per_m << " N s/m must be >= 0";
+  else if (!std::isfinite(as_needed_gain) || as_needed_gain <= 0)
+    os << "as_needed_gain = " << as_needed_gain << " must be > 0";
+  else if (!std::isfinite(as_needed_min) || as_needed_min < 0 || as_needed_min > 1)
+    os << "as_needed_min = " << as_needed_min << " must be in [0, 1]";
+  else if (!std::isfinite(as_needed_tau_s) || as_needed_tau_s <= 0)
+    os << "as_needed_tau = " << as_needed_tau_s << " s must be > 0";
+  else if (!std::isfinite(fade) || fade <= 0 || fade > 1)
+    os << "fade = " << fade << " must be in (0, 1]";
+  else if (repetition < 0)
+    os << "repetition = " << repetition << " must be >= 0";
+  else if (!std::isfinite(amplify) || amplify < 0 || amplify > 1)
+    os << "amplify = " << amplify << " must be in [0, 1]";
   return os.str();
 }
+
+double guidance_stiffness_limit(double contact_max_stiffness_N_per_m) { return 0.4 * contact_max_stiffness_N_per_m; }
+
+double GuidanceParams::faded_k() const { return k_N_per_m * std::pow(fade, repetition); }
 
 Eigen::Vector3d guidance_force(const Eigen::Vector3d& delta_m, const GuidanceParams& p,
                                const Eigen::Vector3d& tangent) noexcept {
@@ -45,7 +61,7 @@ Eigen::Vector3d guidance_force(const Eigen::Vector3d& delta_m, const GuidancePar
   if (!(r > 0) || r > p.eps2_m || !std::isfinite(r)) return Eigen::Vector3d::Zero();
   // Magnitude k r beyond eps1, k r^2 / eps1 inside: both k eps1 at eps1 (continuous), and
   // the slope falls to zero as the tools coincide, so the loop does not buzz there.
-  const double mag = r >= p.eps1_m ? p.k_N_per_m * r : p.k_N_per_m * r * r / p.eps1_m;
+  const double mag = r >= p.eps1_m || !p.quadratic_core ? p.k_N_per_m * r : p.k_N_per_m * r * r / p.eps1_m;
   return d * (mag / r);
 }
 
@@ -203,9 +219,19 @@ TrainingStep TrainingMode::step(const Eigen::Isometry3d& T_tooth_student_tip, co
       s.student_cuts = false;
       s.expert_cuts = active && s.expert.drilling;
       const Eigen::Vector3d delta = s.expert.T_tooth_tip.translation() - T_tooth_student_tip.translation();
-      Eigen::Vector3d f = guidance_force(delta, p_.guidance, s.expert.velocity_m_per_s);
-      if (delta.norm() <= p_.guidance.eps2_m && v_tooth_student.allFinite())
-        f += p_.guidance.damping_N_s_per_m * (s.expert.velocity_m_per_s * p_.speed - v_tooth_student);
+      const GuidanceParams& gp = p_.guidance;
+      // The stiffness this step: faded over repetitions, and as needed by the recent error.
+      const double a = dt / (gp.as_needed_tau_s + dt);
+      error_lp_m_ += a * (std::min(s.error.position_m, gp.eps2_m) - error_lp_m_);
+      double scale = std::pow(gp.fade, gp.repetition);
+      if (gp.as_needed) scale *= std::clamp(error_lp_m_ / gp.eps2_m * gp.as_needed_gain, gp.as_needed_min, 1.0);
+      Eigen::Vector3d f = scale * guidance_force(delta, gp, s.expert.velocity_m_per_s);
+      if (gp.amplify > 0) {
+        // Error amplification: the same field, pushing away from the path (no damper).
+        f = -gp.amplify * f;
+      } else if (delta.norm() <= gp.eps2_m && v_tooth_student.allFinite()) {
+        f += gp.damping_N_s_per_m * (s.expert.velocity_m_per_s * p_.speed - v_tooth_student);
+      }
       s.force_tooth_N = g * f;
       break;
     }

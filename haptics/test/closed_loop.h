@@ -7,11 +7,13 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 #include <string>
 #include <vector>
 
 #include "dentar/haptics/device_profiles.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/haptics/guidance.h"
 #include "dentar/haptics/profile_sim_device.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/voxel_volume.h"
@@ -171,6 +173,126 @@ inline Result run(const Config& c) {
     r.buzz_N = (hi - lo) / 2;
   }
   r.end_force_N = r.force_N.empty() ? 0 : r.force_N.back();
+  return r;
+}
+
+// ---- Training mode 2 (issue 27): the expert's tip drags a relaxed hand ----
+
+// Tip pointing down (bur axis -z of the tooth).
+inline const Eigen::Quaterniond kDown(Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX()));
+
+inline double smoothstep(double a, double b, double t) {
+  const double x = std::clamp((t - a) / (b - a), 0.0, 1.0);
+  return x * x * (3 - 2 * x);
+}
+
+// The expert's path (tooth frame = device frame, tip = stylus origin): still for 0.5 s,
+// along an 8 mm S over 2 s (up to 11 mm/s), still again until 3.5 s, at height z (above
+// the enamel half-space's surface, 0.05 mm, it touches nothing).
+inline Eigen::Vector3d expert_path(double t, double z) {
+  const double s = smoothstep(0.5, 2.5, t);
+  return {8e-3 * s - 4e-3, 2e-3 * std::sin(2 * std::numbers::pi * s), z};
+}
+
+// A 1 kHz recording of that path: force (0.3, -0.2, 0.8) N scaled by the progress, pedal
+// down in [1.0, 2.0) s, on a device clock starting at 10 s.
+inline std::vector<StepRecord> expert_recording(double z, double seconds = 3.5) {
+  std::vector<StepRecord> out;
+  const Eigen::Matrix3d R = kDown.toRotationMatrix();
+  for (int i = 0; i <= static_cast<int>(seconds * 1000); ++i) {
+    const double t = i * 1e-3;
+    StepRecord r;
+    r.step = static_cast<std::uint64_t>(i);
+    r.time_s = 10.0 + t;
+    const Eigen::Vector3d p = expert_path(t, z), v = (expert_path(t + 1e-4, z) - expert_path(t - 1e-4, z)) / 2e-4;
+    for (int a = 0; a < 3; ++a) {
+      r.position_m[a] = p[a];
+      r.velocity_m_per_s[a] = v[a];
+      for (int b = 0; b < 3; ++b) r.rotation[3 * a + b] = R(a, b);
+    }
+    const double g = smoothstep(0.5, 2.5, t);
+    r.force_dev_N[0] = 0.3 * g;
+    r.force_dev_N[1] = -0.2 * g;
+    r.force_dev_N[2] = 0.8 * g;
+    r.pedal = t >= 1.0 && t < 2.0;
+    out.push_back(r);
+  }
+  return out;
+}
+
+struct GuidanceResult {
+  std::string error;
+  double mean_m = 0, p95_m = 0;  // following error while the expert moves and after
+  double start_peak_N = 0;       // largest force in the expert's first 0.5 s (the start)
+  double rest_ripple_N = 0;      // (max - min) / 2 of |f| while both rest (3.0 .. 3.45 s)
+  double max_step_N = 0;         // largest per-step change of |f|
+};
+
+// Mode 2 on a ProfileSimDevice: a relaxed hand (10 N/m to where it started, 1 mm beside
+// the expert's start), `jitter_s` on every period, HD's one-period delay.
+// `lift_limit`: raise the device's stiffness limit so that the engine accepts g.k above the
+// guidance limit (the bench's sweep past it; a real device keeps its limit).
+inline GuidanceResult guidance_run(const DeviceProfile& prof, const GuidanceParams& g, double jitter_s,
+                                   bool lift_limit = false) {
+  GuidanceResult r;
+  TrainingParams p;
+  p.mode = TrainingModeKind::kPassiveGuidance;
+  p.guidance = g;
+  ProfileSimParams sim;
+  sim.hand_stiffness_N_per_m = 10;
+  sim.hand_damping_ratio = 0.3;
+  sim.jitter_s = jitter_s;
+  sim.delay_steps = prof.backend == "hd" ? 1 : 0;
+  HandWaypoint w;
+  w.position_m = expert_path(0, 2e-3) + Eigen::Vector3d(0, 1e-3, 0);
+  w.orientation = kDown;
+  DeviceLimits limits = limits_from_profile(prof);
+  if (lift_limit) limits.max_stiffness_N_per_m = std::max(limits.max_stiffness_N_per_m, g.k_N_per_m / 0.4);
+  auto dev = ProfileSimDevice::create(prof, limits, {w}, sim);
+  const std::vector<StepRecord> rec = expert_recording(2e-3);
+  auto track = ExpertTrack::from_records(rec, Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity(), "expert");
+  if (!dev.ok() || !track.ok()) {
+    r.error = !dev.ok() ? dev.error() : track.error();
+    return r;
+  }
+  auto mode = TrainingMode::create(p, *track);
+  if (!mode.ok()) {
+    r.error = mode.error();
+    return r;
+  }
+  volume::VoxelVolume vol = enamel_half_space().clone();
+  auto bur = volume::sample_bur(volume::BurParams::sphere(0.5), 2000);
+  EngineConfig cfg;
+  cfg.try_realtime = false;
+  cfg.training = &*mode;
+  auto eng = Engine::create(cfg, **dev, vol, *bur);
+  if (!eng.ok()) {
+    r.error = eng.error();
+    return r;
+  }
+  std::vector<double> err;
+  double prev = 0, lo = 1e9, hi = -1e9;
+  for (int i = 0; i < 5000 && !mode->finished(); ++i) {
+    if ((*eng)->run_steps(1) != 1) break;
+    const HapticSnapshot s = (*eng)->snapshot();
+    const double f = Eigen::Vector3d(s.force_dev_N[0], s.force_dev_N[1], s.force_dev_N[2]).norm();
+    r.max_step_N = std::max(r.max_step_N, std::abs(f - prev));
+    prev = f;
+    if (s.expert_time_s < 0.5) r.start_peak_N = std::max(r.start_peak_N, f);
+    if (s.expert_time_s >= 0.6) err.push_back(s.follow_error_m);
+    if (s.expert_time_s >= 3.0 && s.expert_time_s < 3.45) {
+      lo = std::min(lo, f);
+      hi = std::max(hi, f);
+    }
+  }
+  if (err.empty() || hi < lo) {
+    r.error = "the run ended early";
+    return r;
+  }
+  std::sort(err.begin(), err.end());
+  r.mean_m = std::accumulate(err.begin(), err.end(), 0.0) / static_cast<double>(err.size());
+  r.p95_m = err[err.size() * 95 / 100];
+  r.rest_ripple_N = (hi - lo) / 2;
   return r;
 }
 

@@ -44,11 +44,12 @@ enum class TrainingModeKind : std::uint8_t {
 };
 const char* training_mode_name(TrainingModeKind m);
 
-// The seed's guidance field. Defaults: k 200 N/m (a firm but overridable pull: 2 N at
-// eps2), eps1 0.5 mm (the quadratic core, about a bur radius), eps2 10 mm (beyond this the
-// student has let go of the lesson: no force rather than a large one).
+// The seed's guidance field. Defaults: k 150 N/m (a firm but overridable pull: 1.5 N at
+// eps2, and within every profile's guidance limit below), eps1 0.5 mm (the quadratic core,
+// about a bur radius), eps2 10 mm (beyond this the student has let go of the lesson: no
+// force rather than a large one).
 struct GuidanceParams {
-  double k_N_per_m = 200.0;
+  double k_N_per_m = 150.0;
   double eps1_m = 0.5e-3;
   double eps2_m = 10e-3;
   // Beyond the seed: a damper on the velocity relative to the expert's tip, inside eps2.
@@ -57,8 +58,32 @@ struct GuidanceParams {
   double damping_N_s_per_m = 1.0;
   // Beyond the seed: only the component across the expert's path (free along it).
   bool across_path_only = false;
+  // The seed's quadratic core below eps1; false: k|dx| down to zero (the comparison the
+  // issue asks for: a linear field's slope stays k where the tools coincide).
+  bool quadratic_core = true;
+  // Beyond the seed, from the motor-learning literature:
+  //  - guidance as needed: the stiffness follows the student's recent error, k * clamp(
+  //    e / eps2 * as_needed_gain, as_needed_min, 1), e the error low-passed over
+  //    as_needed_tau_s (a student on the path feels little, one who strays the full field);
+  //  - fading: k * fade^repetition over a lesson's repetitions;
+  //  - error amplification (skilled learners): the field pushes away from the path,
+  //    scaled by `amplify` (0: off), still zero beyond eps2.
+  bool as_needed = false;
+  double as_needed_gain = 4.0, as_needed_min = 0.1, as_needed_tau_s = 1.0;
+  double fade = 1.0;
+  int repetition = 0;
+  double amplify = 0.0;
   std::string validate() const;  // empty when valid, else names the field
+  // k after fading (N/m).
+  double faded_k() const;
 };
+
+// The stiffest guidance field a device may render (N/m): 0.4 x its contact limit. A
+// guidance spring is two-sided and the hand on it is relaxed, so it is less damped than a
+// press on the tooth: with 2 ms of jitter the largest stable guidance stiffness measured
+// was 0.51-0.95 x the contact limit across the profiles (haptics_guidance_bench,
+// docs/BENCHMARKS.md); 0.4 keeps a margin on every one.
+double guidance_stiffness_limit(double contact_max_stiffness_N_per_m);
 
 // Force on the student's tip (N) for delta = expert tip - student tip (m). With a unit
 // `tangent` (the expert's direction of travel) and across_path_only, the part of delta
@@ -175,6 +200,7 @@ class TrainingMode {
   const ExpertTrack* track_;
   Ramp ramp_;
   double clock_s_ = 0;
+  double error_lp_m_ = 0;  // low-passed following error (guidance as needed)
   bool paused_ = false;
 };
 
