@@ -398,6 +398,31 @@ std::string Engine::header_json(const std::string& tooth_description_json) const
                  {"workspace_min_m", {L.workspace_min_m.x(), L.workspace_min_m.y(), L.workspace_min_m.z()}},
                  {"workspace_max_m", {L.workspace_max_m.x(), L.workspace_max_m.y(), L.workspace_max_m.z()}}};
   j["tooth"] = nlohmann::json::parse(tooth_description_json, nullptr, false);
+  if (cfg_.training) {
+    // Enough to rebuild the mode on replay: the student's poses drive it deterministically.
+    const TrainingParams& t = cfg_.training->params();
+    const GuidanceParams& g = t.guidance;
+    const ExpertTrack& tr = cfg_.training->track();
+    char eh[17];
+    std::snprintf(eh, sizeof eh, "%016llx", static_cast<unsigned long long>(tr.content_hash()));
+    j["training"] = {
+        {"mode", static_cast<int>(t.mode)},
+        {"mode_name", training_mode_name(t.mode)},
+        {"guidance",
+         {{"k_N_per_m", g.k_N_per_m}, {"eps1_m", g.eps1_m}, {"eps2_m", g.eps2_m},
+          {"damping_N_s_per_m", g.damping_N_s_per_m}, {"across_path_only", g.across_path_only},
+          {"quadratic_core", g.quadratic_core}, {"as_needed", g.as_needed}, {"as_needed_gain", g.as_needed_gain},
+          {"as_needed_min", g.as_needed_min}, {"as_needed_tau_s", g.as_needed_tau_s}, {"fade", g.fade},
+          {"repetition", g.repetition}, {"amplify", g.amplify}}},
+        {"tolerance",
+         {{"eps_m", t.tolerance.eps_m},
+          {"theta_rad", {t.tolerance.theta_rad[0], t.tolerance.theta_rad[1], t.tolerance.theta_rad[2]}}}},
+        {"conditional_replay", t.conditional_replay},
+        {"speed", t.speed},
+        {"ramp_s", t.ramp_s},
+        {"expert", {{"file", t.expert_file}, {"hash", eh}, {"T_tooth_dev", iso_json(tr.T_tooth_dev())},
+                    {"T_sty_tip", iso_json(tr.T_sty_tip())}}}};
+  }
   char hash[17];
   std::snprintf(hash, sizeof hash, "%016llx",
                 static_cast<unsigned long long>(volume_->content_hash()));

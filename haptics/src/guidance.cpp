@@ -109,6 +109,13 @@ Result<ExpertTrack> ExpertTrack::from_records(const std::vector<StepRecord>& rec
   tr.v_.reserve(n);
   tr.f_.reserve(n);
   tr.drill_.reserve(n);
+  tr.T_tooth_dev_ = T_tooth_dev;
+  tr.T_sty_tip_ = T_sty_tip;
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
   const double t0 = records.front().time_s;
   for (std::size_t i = 0; i < n; ++i) {
     const StepRecord& r = records[i];
@@ -132,7 +139,13 @@ Result<ExpertTrack> ExpertTrack::from_records(const std::vector<StepRecord>& rec
     tr.v_.push_back(T_tooth_dev.linear() * v);
     tr.f_.push_back(T_tooth_dev.linear() * f);
     tr.drill_.push_back(r.pedal ? 1 : 0);
+    mix(&r.time_s, sizeof r.time_s);
+    mix(r.position_m, sizeof r.position_m);
+    mix(r.rotation, sizeof r.rotation);
+    mix(r.force_dev_N, sizeof r.force_dev_N);
+    mix(&r.pedal, sizeof r.pedal);
   }
+  tr.hash_ = h;
   return tr;
 }
 

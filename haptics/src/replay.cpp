@@ -93,6 +93,40 @@ Result<SessionSetup> parse_session_header(const std::string& text) {
   s.volume_hash_start = std::strtoull(hash.c_str(), &end, 16);
   if (hash.size() != 16 || !end || *end) return Error{"session header: volume_hash_start must be 16 hex digits"};
   s.tooth_json = j.contains("tooth") ? j["tooth"].dump() : "null";
+  if (j.contains("training")) {
+    json tj, g, tol, ex;
+    TrainingSetup t;
+    int mode = 0;
+    std::vector<double> theta;
+    std::string ehash;
+    if (!get(j, "training", tj, err) || !get(tj, "mode", mode, err) || !get(tj, "guidance", g, err) ||
+        !get(tj, "tolerance", tol, err) || !get(tj, "expert", ex, err) ||
+        !get(tj, "conditional_replay", t.params.conditional_replay, err) || !get(tj, "speed", t.params.speed, err) ||
+        !get(tj, "ramp_s", t.params.ramp_s, err))
+      return Error{"session header: training: " + err};
+    auto& gp = t.params.guidance;
+    if (!get(g, "k_N_per_m", gp.k_N_per_m, err) || !get(g, "eps1_m", gp.eps1_m, err) ||
+        !get(g, "eps2_m", gp.eps2_m, err) || !get(g, "damping_N_s_per_m", gp.damping_N_s_per_m, err) ||
+        !get(g, "across_path_only", gp.across_path_only, err) || !get(g, "quadratic_core", gp.quadratic_core, err) ||
+        !get(g, "as_needed", gp.as_needed, err) || !get(g, "as_needed_gain", gp.as_needed_gain, err) ||
+        !get(g, "as_needed_min", gp.as_needed_min, err) || !get(g, "as_needed_tau_s", gp.as_needed_tau_s, err) ||
+        !get(g, "fade", gp.fade, err) || !get(g, "repetition", gp.repetition, err) ||
+        !get(g, "amplify", gp.amplify, err) || !get(tol, "eps_m", t.params.tolerance.eps_m, err) ||
+        !get(tol, "theta_rad", theta, err) || !get(ex, "file", t.params.expert_file, err) ||
+        !get(ex, "hash", ehash, err) || !get_iso(ex, "T_tooth_dev", t.expert_T_tooth_dev, err) ||
+        !get_iso(ex, "T_sty_tip", t.expert_T_sty_tip, err))
+      return Error{"session header: training: " + err};
+    if (theta.size() != 3) return Error{"session header: training: tolerance.theta_rad needs 3 numbers"};
+    for (int i = 0; i < 3; ++i) t.params.tolerance.theta_rad[i] = theta[static_cast<std::size_t>(i)];
+    if (mode < 1 || mode > 5) return Error{"session header: training: mode " + std::to_string(mode) + " must be 1..5"};
+    t.params.mode = static_cast<TrainingModeKind>(mode);
+    char* hend = nullptr;
+    t.expert_hash = std::strtoull(ehash.c_str(), &hend, 16);
+    if (ehash.size() != 16 || !hend || *hend)
+      return Error{"session header: training: expert.hash must be 16 hex digits"};
+    if (std::string v = t.params.validate(); !v.empty()) return Error{"session header: training: " + v};
+    s.training = t;
+  }
   if (std::string v = e.validate(); !v.empty()) return Error{"session header: " + v};
   if (std::string v = s.limits.validate(); !v.empty()) return Error{"session header: device " + v};
   return s;
@@ -111,6 +145,25 @@ Result<ReplayResult> replay_session(const SessionLog& log, volume::VoxelVolume& 
   auto bur = volume::sample_bur(setup->bur, setup->bur_samples);
   if (!bur) return Error{"replay: " + bur.error()};
   ReplayDevice dev(log.records, setup->limits);
+  // A trained session: the expert recording it replayed, checked, and the mode rebuilt.
+  std::optional<ExpertTrack> track;
+  std::optional<TrainingMode> mode;
+  if (setup->training) {
+    const TrainingSetup& t = *setup->training;
+    auto expert = read_session_log(t.params.expert_file);
+    if (!expert) return Error{"replay: the session was trained on " + t.params.expert_file + ": " + expert.error()};
+    auto tr = ExpertTrack::from_records(expert->records, t.expert_T_tooth_dev, t.expert_T_sty_tip, t.params.expert_file);
+    if (!tr) return Error{"replay: " + tr.error()};
+    if (tr->content_hash() != t.expert_hash)
+      return Error{"replay: " + t.params.expert_file +
+                   " is not the expert recording this session was trained on (its content differs); "
+                   "give the lesson's own recording"};
+    track.emplace(std::move(tr).value());
+    auto m = TrainingMode::create(t.params, *track);
+    if (!m) return Error{"replay: " + m.error()};
+    mode.emplace(std::move(m).value());
+    setup->engine.training = &*mode;
+  }
   auto engine = Engine::create(setup->engine, dev, vol, *bur, nullptr);
   if (!engine) return Error{"replay: " + engine.error()};
   ReplayResult r;

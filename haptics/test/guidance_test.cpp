@@ -6,17 +6,24 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <thread>
 #include <cmath>
 #include <numbers>
 
 #include "closed_loop.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/haptics/replay.h"
+#include "dentar/haptics/session_log.h"
 #include "dentar/haptics/profile_sim_device.h"
 #include "dentar/haptics/simulated_device.h"
+#include "testutil.h"
 
 namespace dentar::haptics {
 namespace {
 
+namespace fs = std::filesystem;
 using closed_loop::expert_path;
 using closed_loop::expert_recording;
 using closed_loop::kDown;
@@ -402,6 +409,100 @@ TEST(TrainingModes, GuidanceStifferThanTheDeviceIsRefused) {
             std::string::npos)
       << rig.error;
   EXPECT_NE(rig.error.find("lower k"), std::string::npos) << rig.error;
+}
+
+}  // namespace
+}  // namespace dentar::haptics
+
+namespace dentar::haptics {
+namespace {
+
+// Writes records as a session log file (the expert's recording, as `dentar live --record`
+// would keep it).
+void write_log(const std::string& path, const std::string& header, const std::vector<StepRecord>& rec) {
+  LogWriterOptions o;
+  o.ring_capacity = 1 << 13;
+  o.fsync = false;
+  auto w = SessionLogWriter::open(path, header, o);
+  ASSERT_TRUE(w.ok()) << w.error();
+  for (const auto& r : rec)
+    while (!(*w)->push(r)) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_TRUE((*w)->close().ok());
+}
+
+// A session trained in mode 3 (the expert drills 0.2 mm into the enamel, waits while the
+// student strays) is recorded, then replayed from its log alone: the header names the mode
+// and the expert's recording, and the replay recomputes the expert's cut bit-exactly.
+TEST(TrainingModes, ATrainedSessionReplaysBitExactly) {
+  const fs::path dir = dentar::test::temp_dir("guidance_replay");
+  const std::string expert_file = (dir / "expert.dlog").string(), student_file = (dir / "student.dlog").string();
+  const auto rec = expert_recording(-0.2e-3);
+  write_log(expert_file, R"({"format":"dentar-session","note":"expert"})", rec);
+  const ExpertTrack tr = track_of(rec);
+  TrainingParams p;
+  p.mode = TrainingModeKind::kActiveFollowing;
+  p.expert_file = expert_file;
+  // The student follows 1 mm beside the expert's path, strays 6 mm at 1.2-1.5 s, comes back.
+  std::vector<HandWaypoint> script;
+  for (double t = 0; t <= 4.0; t += 0.05) {
+    const double stray = t >= 1.2 && t < 1.5 ? 6e-3 : 1e-3;
+    script.push_back(wp(t, expert_path(std::min(t, 3.5), -0.2e-3) + Eigen::Vector3d(0, stray, 0)));
+  }
+  volume::VoxelVolume vol = closed_loop::enamel_half_space().clone();
+  const volume::BurSamples bur = std::move(volume::sample_bur(volume::BurParams::sphere(0.5), 2000)).value();
+  auto mode = TrainingMode::create(p, tr);
+  ASSERT_TRUE(mode.ok()) << mode.error();
+  auto dev = hand_at(script);
+  EngineConfig cfg;
+  cfg.try_realtime = false;
+  cfg.training = &*mode;
+  std::uint64_t live_hash = 0;
+  {
+    volume::VoxelVolume probe_vol = vol.clone();
+    auto probe = Engine::create(cfg, *dev, probe_vol, bur);
+    ASSERT_TRUE(probe.ok()) << probe.error();
+    LogWriterOptions o;
+    o.fsync = false;
+    auto w = SessionLogWriter::open(student_file, (*probe)->header_json(R"({"kind":"half-space"})"), o);
+    ASSERT_TRUE(w.ok()) << w.error();
+    auto eng = Engine::create(cfg, *dev, vol, bur, w->get());
+    ASSERT_TRUE(eng.ok()) << eng.error();
+    int waited = 0;
+    for (int i = 0; i < 4000; ++i) {
+      ASSERT_EQ((*eng)->run_steps(1), 1u);
+      waited += (*eng)->snapshot().expert_waiting;
+    }
+    EXPECT_GT(waited, 100) << "the expert waited for the straying student";
+    ASSERT_TRUE((*w)->close().ok());
+    live_hash = vol.content_hash();
+  }
+  auto log = read_session_log(student_file);
+  ASSERT_TRUE(log.ok()) << log.error();
+  auto setup = parse_session_header(log->header_json);
+  ASSERT_TRUE(setup.ok()) << setup.error();
+  ASSERT_TRUE(setup->training.has_value());
+  EXPECT_EQ(setup->training->params.mode, TrainingModeKind::kActiveFollowing);
+  EXPECT_EQ(setup->training->params.expert_file, expert_file);
+  volume::VoxelVolume again = closed_loop::enamel_half_space().clone();
+  auto r = replay_session(*log, again);
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->volume_hash, live_hash);
+  EXPECT_GT(r->metrics.removed_total_mm3, 0.01) << "the expert's cut, recomputed";
+  EXPECT_NE(live_hash, closed_loop::enamel_half_space().content_hash());
+  // Without its expert recording, or with another one, the replay refuses and says why.
+  fs::rename(expert_file, dir / "moved.dlog");
+  volume::VoxelVolume v2 = closed_loop::enamel_half_space().clone();
+  auto missing = replay_session(*log, v2);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("the session was trained on " + expert_file), std::string::npos) << missing.error();
+  auto other = rec;
+  other[5].force_dev_N[0] += 0.01;
+  write_log(expert_file, R"({"format":"dentar-session","note":"another"})", other);
+  volume::VoxelVolume v3 = closed_loop::enamel_half_space().clone();
+  auto wrong = replay_session(*log, v3);
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.error().find("is not the expert recording this session was trained on"), std::string::npos)
+      << wrong.error();
 }
 
 }  // namespace

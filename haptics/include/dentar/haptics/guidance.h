@@ -129,8 +129,15 @@ class ExpertTrack {
   // Clamped to [0, duration]. No allocation.
   ExpertSample at(double t_s) const noexcept;
   std::size_t size() const { return t_.size(); }
+  // FNV-1a over the records' times, poses, forces and pedals: a replay checks that it has
+  // the recording the session was trained on.
+  std::uint64_t content_hash() const { return hash_; }
+  const Eigen::Isometry3d& T_tooth_dev() const { return T_tooth_dev_; }  // the recording's
+  const Eigen::Isometry3d& T_sty_tip() const { return T_sty_tip_; }
 
  private:
+  std::uint64_t hash_ = 0;
+  Eigen::Isometry3d T_tooth_dev_ = Eigen::Isometry3d::Identity(), T_sty_tip_ = Eigen::Isometry3d::Identity();
   std::vector<double> t_;  // from 0
   std::vector<Eigen::Vector3d> p_;
   std::vector<Eigen::Quaterniond> q_;
@@ -162,6 +169,9 @@ struct TrainingParams {
   bool conditional_replay = true;  // mode 3: the expert waits for the student
   double speed = 1.0;              // expert time per real time (0.25 .. 2)
   double ramp_s = 0.25;            // force fade in/out, s (0.05 .. 2)
+  // Where the expert's recording is (written into the session log's header, so that a
+  // replay rebuilds the mode; docs/formats.md). Not read by the engine.
+  std::string expert_file;
   std::string validate() const;
 };
 
@@ -193,6 +203,7 @@ class TrainingMode {
   bool paused() const noexcept { return paused_; }
   bool finished() const noexcept { return clock_s_ >= track_->duration_s(); }
   const TrainingParams& params() const { return p_; }
+  const ExpertTrack& track() const { return *track_; }
 
  private:
   TrainingMode(const TrainingParams& p, const ExpertTrack& track) : p_(p), track_(&track), ramp_(p.ramp_s) {}

@@ -5,13 +5,24 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "dentar/haptics/engine.h"
+#include "dentar/haptics/guidance.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/volume/bur.h"
 
 namespace dentar::haptics {
+
+// A training mode recorded in the header (issue 27): the mode's parameters and the expert
+// recording it replayed (file, content hash, that recording's station).
+struct TrainingSetup {
+  TrainingParams params;  // params.expert_file: the recording
+  std::uint64_t expert_hash = 0;
+  Eigen::Isometry3d expert_T_tooth_dev = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d expert_T_sty_tip = Eigen::Isometry3d::Identity();
+};
 
 // Engine settings recovered from a session log header.
 struct SessionSetup {
@@ -21,6 +32,7 @@ struct SessionSetup {
   DeviceLimits limits;
   std::string tooth_json;        // the "tooth" object as written (how to rebuild the volume)
   std::uint64_t volume_hash_start = 0;
+  std::optional<TrainingSetup> training;  // absent: plain drilling
 };
 // Errors name the missing or bad field of the header.
 Result<SessionSetup> parse_session_header(const std::string& header_json);
@@ -34,7 +46,9 @@ struct ReplayResult {
 };
 
 // Replays `log` on `volume`, which must be the session's starting volume
-// (checked against the header's hash). The volume is cut in place.
+// (checked against the header's hash). The volume is cut in place. A session trained in a
+// mode replays the mode too: the expert recording named in the header is read (and its
+// hash checked), so the expert's cut is recomputed from the student's recorded poses.
 Result<ReplayResult> replay_session(const SessionLog& log, volume::VoxelVolume& volume);
 
 }  // namespace dentar::haptics
