@@ -5,7 +5,8 @@
 //   slowloris   SLOW connections each sending one header byte every 4 s
 //               (more than the server's 8 worker threads);
 //   login flood FLOOD threads posting wrong passwords as fast as they can
-//               (each with the login form's CSRF token, fetched first).
+//               (each with the login form's CSRF token, fetched first);
+//   forged flood the same without the form's cookie and token (refused 403).
 // Prints p50/p99 per run and how many normal requests were answered within
 // the client's 10 s timeout.
 //
@@ -136,24 +137,26 @@ int main(int argc, char** argv) {
               " reconnects after the server closed one)");
   }
   std::this_thread::sleep_for(std::chrono::seconds(1));
-  {  // login flood
+  // Login floods. forged = false: the guesser fetches the login form first, as
+  // a browser would (the CSRF token does not stop guessing, throttling does;
+  // each unthrottled guess costs the password check). forged = true: posts
+  // without the form's cookie and token (another site's form, or a bot that
+  // skips the page): refused 403 before any password work.
+  auto login_flood = [&](const char* name, bool forged_posts) {
     std::atomic<bool> stop{false};
-    std::atomic<long> tries{0}, checked{0}, throttled{0};
-    std::atomic<long> forged{0};
+    std::atomic<long> tries{0}, checked{0}, throttled{0}, forged{0};
     std::vector<std::thread> fl;
     for (int i = 0; i < flood; ++i)
       fl.emplace_back([&, i] {
-        // The guesser fetches the login form first, as a browser would: the
-        // CSRF token does not stop guessing (throttling does), and each
-        // guess with it costs the server the password check.
-        const testkit::LoginForm form = testkit::get_login_form(port);
+        const testkit::LoginForm form = forged_posts ? testkit::LoginForm{} : testkit::get_login_form(port);
         httplib::Client c("127.0.0.1", port);
         c.set_read_timeout(10, 0);
-        const httplib::Headers h = {{"Cookie", form.cookie}};
+        httplib::Headers h;
+        if (!form.cookie.empty()) h.emplace("Cookie", form.cookie);
         for (long k = 0; !stop; ++k) {
           auto r = c.Post("/login", h,
-                          "user=alice&password=guess-" + std::to_string(i) + "-" + std::to_string(k) + "&next=/&csrf=" +
-                              form.csrf,
+                          "user=alice&password=guess-" + std::to_string(i) + "-" + std::to_string(k) + "&next=/" +
+                              (form.csrf.empty() ? "" : "&csrf=" + form.csrf),
                           "application/x-www-form-urlencoded");
           ++tries;
           if (r && r->status == 401) ++checked;
@@ -167,12 +170,15 @@ int main(int argc, char** argv) {
     const double s = std::chrono::duration<double>(Clock::now() - a).count();
     stop = true;
     for (auto& t : fl) t.join();
-    print("login flood", r, n,
+    print(name, r, n,
           "  (" + std::to_string(flood) + " threads: " + std::to_string(tries.load()) + " wrong logins in " +
               std::to_string(static_cast<int>(s + 0.5)) + " s, " + std::to_string(checked.load()) + " checked, " +
               std::to_string(throttled.load()) + " throttled, " + std::to_string(forged.load()) +
               " refused for their CSRF token)");
-  }
+  };
+  login_flood("login flood", false);
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  login_flood("forged flood", true);
   kill(pid, SIGTERM);
   int status = 0;
   waitpid(pid, &status, 0);

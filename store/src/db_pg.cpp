@@ -94,8 +94,7 @@ class PgDb final : public Db {
   // Every result of the statement sent, waiting on the socket; a wait over
   // kFirstProbe is checked for a lock (once told, not again for this statement).
   std::vector<PGresult*> results() {
-    const auto start = Clock::now();
-    auto next_probe = start + kFirstProbe;
+    auto next_probe = Clock::now() + kFirstProbe;
     bool told = false, can_probe = true;
     while (PQisBusy(c_)) {
       const int sock = PQsocket(c_);
@@ -114,10 +113,8 @@ class PgDb final : public Db {
       const std::string holder = blocker(&can_probe);
       if (!holder.empty()) {
         told = true;
-        const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start).count();
-        lock_wait_notice(name_ + ": waiting for a lock held by another connection (" + holder + ") for " +
-                         std::to_string(waited / 1000) + "." + std::to_string(waited % 1000 / 100) +
-                         " s; waiting up to " + std::to_string(kLockTimeoutS) + " s");
+        lock_wait_notice(name_ + ": a lock is held by another connection (" + holder + "); waiting up to " +
+                         std::to_string(kLockTimeoutS) + " s");
       }
       next_probe = Clock::now() + kProbeEvery;
     }

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 
 #include <fstream>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -380,7 +381,7 @@ TEST(CliDb, PgImporterWaitingOnALockSaysSo) {
     r = run("db import " + sess.string() + " --db " + db + " --station-db sqlite:" + (d / "station.db").string() +
             " --student s042 --station-id st-3 > " + log.string() + " 2>&1");
   });
-  const std::string notice = "db import: " + db + ": waiting for a lock held by another connection (process ";
+  const std::string notice = "db import: " + db + ": a lock is held by another connection (process ";
   const auto t0 = std::chrono::steady_clock::now();
   for (int i = 0; i < 600 && dentar::test::read_file(log).find(notice) == std::string::npos; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -388,6 +389,7 @@ TEST(CliDb, PgImporterWaitingOnALockSaysSo) {
   (void)(*holder)->exec_raw("COMMIT");
   import.join();
   r.out = dentar::test::read_file(log);
+  std::cout << "the notice " << waited_s << " s after the import started:\n" << r.out;
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find(notice), std::string::npos) << r.out;
   // The holder named: our Store's connection, idle in its open transaction.
