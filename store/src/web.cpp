@@ -207,7 +207,8 @@ struct WebServer::Impl {
     long unlogged = 0;
   };
   std::map<std::string, LogGate> csrf_log;
-  // "" when the line is to be kept quiet; else " (N more since the last line)" or "".
+  // nullopt: keep this refusal quiet (it is counted); else the line's
+  // suffix, " (N more from this address since the last line)" or "".
   std::optional<std::string> csrf_log_gate(const std::string& addr) {
     std::lock_guard lk(mu);
     const auto now = Clock::now();
