@@ -202,6 +202,10 @@ BrowserResult chromium(const std::string& flags, const std::string& url) {
 
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
+// Generous: on this shared 2-core machine under load ~25 a DevTools answer
+// has taken over 10 s. A command that does not answer within these fails
+// the test with the command's name.
+constexpr double kStartTimeoutS = 90, kCallTimeoutS = 45;
 
 struct Browser::Impl {
   pid_t pid = -1;
@@ -328,18 +332,18 @@ Browser::Browser(int width, int height) : impl_(std::make_unique<Impl>()) {
     error_ = "fork failed";
     return;
   }
-  auto t = m.call("Target.createTarget", {{"url", "about:blank"}}, false, 30, &error_);
+  auto t = m.call("Target.createTarget", {{"url", "about:blank"}}, false, kStartTimeoutS, &error_);
   if (t.is_null()) return;
   m.target = t.value("targetId", "");
-  auto a = m.call("Target.attachToTarget", {{"targetId", m.target}, {"flatten", true}}, false, 10, &error_);
+  auto a = m.call("Target.attachToTarget", {{"targetId", m.target}, {"flatten", true}}, false, kCallTimeoutS, &error_);
   if (a.is_null()) return;
   m.session = a.value("sessionId", "");
-  if (m.call("Page.enable", {}, true, 10, &error_).is_null()) return;
+  if (m.call("Page.enable", {}, true, kCallTimeoutS, &error_).is_null()) return;
   if (m.call("Emulation.setDeviceMetricsOverride",
-             {{"width", width}, {"height", height}, {"deviceScaleFactor", 1}, {"mobile", false}}, true, 10, &error_)
+             {{"width", width}, {"height", height}, {"deviceScaleFactor", 1}, {"mobile", false}}, true, kCallTimeoutS, &error_)
           .is_null())
     return;
-  auto ft = m.call("Page.getFrameTree", {}, true, 10, &error_);
+  auto ft = m.call("Page.getFrameTree", {}, true, kCallTimeoutS, &error_);
   if (ft.is_null()) return;
   m.main_frame = ft["frameTree"]["frame"].value("id", "");
 }
@@ -383,16 +387,16 @@ bool Browser::open(const std::string& url, double timeout_s) {
 bool Browser::type(const std::string& selector, const std::string& text) {
   if (!ok()) return false;
   Impl& m = *impl_;
-  auto doc = m.call("DOM.getDocument", {{"depth", 0}}, true, 10, &error_);
+  auto doc = m.call("DOM.getDocument", {{"depth", 0}}, true, kCallTimeoutS, &error_);
   if (doc.is_null()) return false;
-  auto q = m.call("DOM.querySelector", {{"nodeId", doc["root"]["nodeId"]}, {"selector", selector}}, true, 10, &error_);
+  auto q = m.call("DOM.querySelector", {{"nodeId", doc["root"]["nodeId"]}, {"selector", selector}}, true, kCallTimeoutS, &error_);
   if (q.is_null()) return false;
   if (q.value("nodeId", 0) == 0) {
     error_ = "no element matches " + selector + " on " + url();
     return false;
   }
-  if (m.call("DOM.focus", {{"nodeId", q["nodeId"]}}, true, 10, &error_).is_null()) return false;
-  return !m.call("Input.insertText", {{"text", text}}, true, 10, &error_).is_null();
+  if (m.call("DOM.focus", {{"nodeId", q["nodeId"]}}, true, kCallTimeoutS, &error_).is_null()) return false;
+  return !m.call("Input.insertText", {{"text", text}}, true, kCallTimeoutS, &error_).is_null();
 }
 
 bool Browser::press_enter(double timeout_s) {
@@ -405,8 +409,8 @@ bool Browser::press_enter(double timeout_s) {
   down["text"] = "\r";
   json up = key;
   up["type"] = "keyUp";
-  if (m.call("Input.dispatchKeyEvent", down, true, 10, &error_).is_null()) return false;
-  if (m.call("Input.dispatchKeyEvent", up, true, 10, &error_).is_null()) return false;
+  if (m.call("Input.dispatchKeyEvent", down, true, kCallTimeoutS, &error_).is_null()) return false;
+  if (m.call("Input.dispatchKeyEvent", up, true, kCallTimeoutS, &error_).is_null()) return false;
   if (!m.wait_event("Page.loadEventFired", timeout_s)) {
     error_ = "no page loaded within " + std::to_string(timeout_s) + " s after Enter";
     return false;
@@ -425,21 +429,21 @@ bool Browser::navigates_within(double s) {
 std::string Browser::dom() {
   if (!ok()) return "";
   Impl& m = *impl_;
-  auto doc = m.call("DOM.getDocument", {{"depth", 0}}, true, 10, &error_);
+  auto doc = m.call("DOM.getDocument", {{"depth", 0}}, true, kCallTimeoutS, &error_);
   if (doc.is_null()) return "";
-  auto h = m.call("DOM.getOuterHTML", {{"nodeId", doc["root"]["nodeId"]}}, true, 10, &error_);
+  auto h = m.call("DOM.getOuterHTML", {{"nodeId", doc["root"]["nodeId"]}}, true, kCallTimeoutS, &error_);
   return h.is_null() ? "" : h.value("outerHTML", "");
 }
 
 std::string Browser::url() {
   Impl& m = *impl_;
-  auto i = m.call("Target.getTargetInfo", {{"targetId", m.target}}, false, 10, nullptr);
+  auto i = m.call("Target.getTargetInfo", {{"targetId", m.target}}, false, kCallTimeoutS, nullptr);
   return i.is_null() ? "" : i["targetInfo"].value("url", "");
 }
 
 bool Browser::screenshot(const fs::path& png) {
   if (!ok()) return false;
-  auto r = impl_->call("Page.captureScreenshot", {{"format", "png"}}, true, 30, &error_);
+  auto r = impl_->call("Page.captureScreenshot", {{"format", "png"}}, true, kCallTimeoutS, &error_);
   if (r.is_null()) return false;
   const std::string b64 = r.value("data", "");
   std::string bytes(b64.size() / 4 * 3 + 3, '\0');

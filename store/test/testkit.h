@@ -73,12 +73,12 @@ class Browser {
   bool ok() const { return error_.empty(); }
   const std::string& error() const { return error_; }
   // Navigates and waits for the page's load event.
-  bool open(const std::string& url, double timeout_s = 30);
+  bool open(const std::string& url, double timeout_s = 60);
   // Focuses the first element matching the CSS selector and types the text.
   bool type(const std::string& selector, const std::string& text);
   // Presses Enter in the focused field (a form's implicit submission) and
   // waits for the next page's load event.
-  bool press_enter(double timeout_s = 30);
+  bool press_enter(double timeout_s = 60);
   // Whether the page navigates within `s` seconds (a main-frame navigation).
   bool navigates_within(double s);
   std::string dom();  // the document's outerHTML ("" on failure)
