@@ -13,6 +13,7 @@
 #include <libpq-fe.h>
 #include <poll.h>
 
+#include <cerrno>
 #include <chrono>
 
 #include "db.h"
@@ -109,7 +110,10 @@ class PgDb final : public Db {
         if (!PQconsumeInput(c_)) break;  // the connection broke: PQgetResult says why
         continue;
       }
-      if (n < 0) continue;  // EINTR
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        break;  // PQgetResult reports what is left
+      }
       const std::string holder = blocker(&can_probe);
       if (!holder.empty()) {
         told = true;
