@@ -1,5 +1,7 @@
-// Shared by the store tests and store_bench: a throwaway PostgreSQL 15
-// cluster, synthetic session records, headless Chromium.
+// Shared by the store tests and the benchmarks (store_bench,
+// page_attack_bench): a throwaway PostgreSQL 15 cluster, synthetic session
+// records, headless Chromium (driven over the DevTools protocol), the login
+// form over HTTP, raw sockets and slow clients.
 #pragma once
 
 #include <atomic>
