@@ -36,17 +36,17 @@ void add_db_options(CLI::App* sub, DbCli& c, bool db_required) {
   sub->add_option("--station-id", c.station_id, "this station's code (default: the host name)");
 }
 
-bool check_db_url(const std::string& cmd, const std::string& url, const std::string& option) {
+std::optional<store::DbUrl> check_db_url(const std::string& cmd, const std::string& url, const std::string& option) {
   auto u = store::parse_db_url(url);
   if (!u) {
     print_error(cmd, option + ": " + u.error());
-    return false;
+    return std::nullopt;
   }
   if (auto e = store::password_on_command_line(*u, option); !e.empty()) {
     print_error(cmd, e);
-    return false;
+    return std::nullopt;
   }
-  return true;
+  return *u;
 }
 
 void announce_lock_waits(const std::string& cmd) {
@@ -57,8 +57,8 @@ int open_fault_exit_code(store::OpenFault fault) { return fault == store::OpenFa
 
 bool check_db_options(const std::string& cmd, DbCli& c) {
   if (c.db.empty()) return true;
-  if (!check_db_url(cmd, c.db)) return false;
-  auto u = store::parse_db_url(c.db);
+  const auto u = check_db_url(cmd, c.db);
+  if (!u) return false;
   if (c.student.empty()) {
     print_error(cmd, "--db needs --student CODE (whose session this is)");
     return false;
@@ -80,9 +80,9 @@ bool check_db_options(const std::string& cmd, DbCli& c) {
   }
   if (u->kind == store::DbUrl::Kind::Postgres && c.station_db.empty()) c.station_db = default_station_db();
   if (!c.station_db.empty()) {
-    if (!check_db_url(cmd, c.station_db, "--station-db")) return false;
-    auto s = store::parse_db_url(c.station_db);
-    if (!s || s->kind != store::DbUrl::Kind::Sqlite) {
+    const auto s = check_db_url(cmd, c.station_db, "--station-db");
+    if (!s) return false;
+    if (s->kind != store::DbUrl::Kind::Sqlite) {
       print_error(cmd, "--station-db " + c.station_db + ": must be sqlite:PATH");
       return false;
     }
@@ -160,50 +160,20 @@ int store_finished_session(const std::string& cmd, const DbCli& c, const std::st
   }
   const bool local_only = c.station_db.empty();
   announce_lock_waits(cmd);
-  // The same session (the same log) stored under another student: refused, naming both,
-  // unless --move. Checked in the store written to (this station's own store for a server).
-  std::string moved_from;
-  {
-    // A database that cannot be opened (damaged, not a database, newer schema, refused) is
-    // bad input: exit 2, as `dentar serve` and `dentar db status` say for the same file.
-    const std::string target = local_only ? c.db : c.station_db;
-    auto st = store::Store::open(target);
-    if (!st) {
-      print_error(cmd, st.error() + " (the session folder " + dir.string() + " is kept)");
-      return 2;
-    }
-    {
-      auto had = (*st)->session_by_key(rec->key);
-      if (had && *had && (**had).student != rec->student) {
-        const std::string old_student = (**had).student;
-        if (!c.move) {
-          print_error(cmd, "session " + rec->key.substr(0, 12) + " (" + session + ") is already stored under student " +
-                               old_student + ", not " + rec->student + ": nothing was changed. Pass --move to move it to " +
-                               rec->student + ", or give --student " + old_student);
-          return 2;
-        }
-        if (auto m = (*st)->move_session(rec->key, rec->student); !m) {
-          print_error(cmd, "moving the session to " + rec->student + ": " + m.error());
-          return 1;
-        }
-        moved_from = old_student;
-        store::OpenOptions oo;
-        oo.create = false;
-        if (!local_only)  // the school's server keeps its own copy: move it there too when it answers
-          if (auto sv = store::Store::open(c.db, oo)) {
-            if (auto hs = (*sv)->session_by_key(rec->key); hs && *hs && (**hs).student != rec->student)
-              if (auto m = (*sv)->move_session(rec->key, rec->student); !m)
-                print_error(cmd, "warning: moving the session on " + (*sv)->url().redacted + ": " + m.error());
-          }
-      }
-    }
-  }
-  auto r = store::store_session(*rec, local_only ? c.db : c.station_db, local_only ? "" : c.db);
+  // One open of the store written to (this station's own store for a server): the
+  // another-student / --move check, the write and the forward happen on it. A store
+  // that is damaged, foreign or newer is bad input (2, as `db status` and `serve` say
+  // for the same file); one that is locked or cannot be reached, a failed job (1).
+  store::StoreOptions so;
+  so.move = c.move;
+  store::OpenFault fault = store::OpenFault::None;
+  auto r = store::store_session(*rec, local_only ? c.db : c.station_db, local_only ? "" : c.db, so, &fault);
   if (!r) {
-    print_error(cmd, "storing the session: " + r.error() + " (the session folder " + dir.string() + " is kept)");
-    // A damaged database file is bad input (exit 2), like in `db status` and `serve`.
-    return r.error().find("the database file is damaged") != std::string::npos ? 2 : 1;
+    print_error(cmd, "storing " + session + ": " + r.error() + " (the session folder " + dir.string() + " is kept)");
+    return open_fault_exit_code(fault);
   }
+  if (!r->warning.empty()) print_error(cmd, "warning: " + r->warning);
+  const std::string& moved_from = r->moved_from;
   std::cout << cmd << ": session " << rec->key.substr(0, 12) << " of " << rec->student << " ("
             << rec->exercise << ", " << rec->points << " / " << rec->max_points << " points): "
             << (moved_from.empty() ? "" : "moved from student " + moved_from + "; ") << r->message << "\n";

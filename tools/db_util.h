@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <optional>
 #include <string>
 
 #include "dentar/store/store.h"
@@ -36,14 +37,18 @@ void add_db_options(CLI::App* sub, DbCli& c, bool db_required);
 bool check_db_options(const std::string& cmd, DbCli& c);
 
 // Scores `session` (a folder with session.dlog, or a .dlog) into report_dir
-// (empty: the session's folder) unless score.json is there, then stores it.
-// Prints one line for the student. Returns the exit code (0, 1, 2).
+// (empty: the session's folder) unless score.json is there, then stores it
+// (store::store_session: the store opened once, the another-student / --move
+// check inside). Prints one line for the student. Returns the exit code (0;
+// 1 for a locked or unreachable store or a failed write; 2 for bad input).
 int store_finished_session(const std::string& cmd, const DbCli& c, const std::string& session,
                            const std::string& report_dir, bool quiet);
 
 // A --db URL that parses and holds no password (PGPASSWORD or a pgpass file
-// instead); prints the message and returns false otherwise (exit 2).
-bool check_db_url(const std::string& cmd, const std::string& url, const std::string& option = "--db");
+// instead): the parsed URL; prints the message and returns nullopt otherwise
+// (exit 2).
+std::optional<store::DbUrl> check_db_url(const std::string& cmd, const std::string& url,
+                                         const std::string& option = "--db");
 
 // SQLite lock waits are printed at once ("cmd: ... waiting up to 60 s").
 void announce_lock_waits(const std::string& cmd);

@@ -4,16 +4,15 @@
 //   quiet       nothing else going on;
 //   slowloris   SLOW connections each sending one header byte every 4 s
 //               (more than the server's 8 worker threads);
-//   login flood FLOOD threads posting wrong passwords as fast as they can.
+//   login flood FLOOD threads posting wrong passwords as fast as they can
+//               (each with the login form's CSRF token, fetched first);
+//   forged flood the same without the form's cookie and token (refused 403).
 // Prints p50/p99 per run and how many normal requests were answered within
 // the client's 10 s timeout.
 //
 // Usage: page_attack_bench DENTAR_BINARY [WORKDIR] [REQUESTS=200] [SLOW=12] [FLOOD=4]
-#include <arpa/inet.h>
 #include <httplib.h>
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -34,19 +33,6 @@ namespace {
 namespace fs = std::filesystem;
 using namespace dentar::store;
 using Clock = std::chrono::steady_clock;
-
-int connect_raw(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(static_cast<std::uint16_t>(port));
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
 
 struct Run {
   std::vector<double> ms;
@@ -126,15 +112,11 @@ int main(int argc, char** argv) {
           "--threads", "8", static_cast<char*>(nullptr));
     _exit(127);
   }
+  // The login form as a browser gets it (GET /login: its CSRF token), then posted.
   std::string cookie;
   for (int i = 0; i < 100 && cookie.empty(); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    httplib::Client c("127.0.0.1", port);
-    auto r = c.Post("/login", "user=alice&password=correct-horse-battery&next=/", "application/x-www-form-urlencoded");
-    if (r && r->status == 303) {
-      const std::string sc = r->get_header_value("Set-Cookie");
-      cookie = sc.substr(0, sc.find(';'));
-    }
+    cookie = testkit::login_cookie(port, "alice", "correct-horse-battery");
   }
   if (cookie.empty()) {
     std::fprintf(stderr, "the server did not come up (see %s)\n", (dir / "serve.log").c_str());
@@ -146,54 +128,40 @@ int main(int argc, char** argv) {
   print("quiet", time_pages(port, cookie, n), n, "");
 
   {  // slowloris
-    std::vector<int> fds;
-    for (int i = 0; i < slow; ++i) fds.push_back(connect_raw(port));
-    std::atomic<bool> stop{false};
-    std::atomic<long> reconnects{0};
-    std::thread drip([&] {
-      // A persistent attacker: a connection the server closed is opened again.
-      const std::string head = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
-      std::vector<std::size_t> at(fds.size(), 0);
-      while (!stop) {
-        for (std::size_t i = 0; i < fds.size(); ++i) {
-          const char c = at[i] < head.size() ? head[at[i]] : 'a';
-          if (fds[i] < 0 || ::send(fds[i], &c, 1, MSG_NOSIGNAL) != 1) {
-            if (fds[i] >= 0) ::close(fds[i]);
-            fds[i] = connect_raw(port);
-            at[i] = 0;
-            ++reconnects;
-            continue;
-          }
-          ++at[i];
-        }
-        for (int t = 0; t < 40 && !stop; ++t) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      }
-    });
+    // A persistent attacker: a connection the server closed is opened again.
+    testkit::SlowClients attack(port, slow, std::chrono::seconds(4), true);
     std::this_thread::sleep_for(std::chrono::seconds(1));
     const Run r = time_pages(port, cookie, n);
     print("slowloris", r, n,
-          "  (" + std::to_string(slow) + " connections, 1 header byte / 4 s, " + std::to_string(reconnects.load()) +
+          "  (" + std::to_string(slow) + " connections, 1 header byte / 4 s, " + std::to_string(attack.reconnects()) +
               " reconnects after the server closed one)");
-    stop = true;
-    drip.join();
-    for (int fd : fds)
-      if (fd >= 0) ::close(fd);
   }
   std::this_thread::sleep_for(std::chrono::seconds(1));
-  {  // login flood
+  // Login floods. forged = false: the guesser fetches the login form first, as
+  // a browser would (the CSRF token does not stop guessing, throttling does;
+  // each unthrottled guess costs the password check). forged = true: posts
+  // without the form's cookie and token (another site's form, or a bot that
+  // skips the page): refused 403 before any password work.
+  auto login_flood = [&](const char* name, bool forged_posts) {
     std::atomic<bool> stop{false};
-    std::atomic<long> tries{0}, checked{0}, throttled{0};
+    std::atomic<long> tries{0}, checked{0}, throttled{0}, forged{0};
     std::vector<std::thread> fl;
     for (int i = 0; i < flood; ++i)
       fl.emplace_back([&, i] {
+        const testkit::LoginForm form = forged_posts ? testkit::LoginForm{} : testkit::get_login_form(port);
         httplib::Client c("127.0.0.1", port);
         c.set_read_timeout(10, 0);
+        httplib::Headers h;
+        if (!form.cookie.empty()) h.emplace("Cookie", form.cookie);
         for (long k = 0; !stop; ++k) {
-          auto r = c.Post("/login", "user=alice&password=guess-" + std::to_string(i) + "-" + std::to_string(k) + "&next=/",
+          auto r = c.Post("/login", h,
+                          "user=alice&password=guess-" + std::to_string(i) + "-" + std::to_string(k) + "&next=/" +
+                              (form.csrf.empty() ? "" : "&csrf=" + form.csrf),
                           "application/x-www-form-urlencoded");
           ++tries;
           if (r && r->status == 401) ++checked;
           if (r && r->status == 429) ++throttled;
+          if (r && r->status == 403) ++forged;
         }
       });
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -202,11 +170,15 @@ int main(int argc, char** argv) {
     const double s = std::chrono::duration<double>(Clock::now() - a).count();
     stop = true;
     for (auto& t : fl) t.join();
-    print("login flood", r, n,
+    print(name, r, n,
           "  (" + std::to_string(flood) + " threads: " + std::to_string(tries.load()) + " wrong logins in " +
               std::to_string(static_cast<int>(s + 0.5)) + " s, " + std::to_string(checked.load()) + " checked, " +
-              std::to_string(throttled.load()) + " throttled)");
-  }
+              std::to_string(throttled.load()) + " throttled, " + std::to_string(forged.load()) +
+              " refused for their CSRF token)");
+  };
+  login_flood("login flood", false);
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  login_flood("forged flood", true);
   kill(pid, SIGTERM);
   int status = 0;
   waitpid(pid, &status, 0);

@@ -82,9 +82,7 @@ void page_time(const std::string& name, const std::string& url, const fs::path& 
   (void)(*w)->bind();
   std::thread t([&] { (void)(*w)->listen_after_bind(); });
   httplib::Client c("127.0.0.1", (*w)->port());
-  auto login = c.Post("/login", "user=bench&password=bench-password&next=/", "application/x-www-form-urlencoded");
-  const std::string sc = login ? login->get_header_value("Set-Cookie") : "";
-  httplib::Headers h = {{"Cookie", sc.substr(0, sc.find(';'))}};
+  httplib::Headers h = {{"Cookie", testkit::login_cookie((*w)->port(), "bench", "bench-password")}};
   for (const char* page : {"/student/p500", "/", "/cohort"}) {
     std::vector<double> ms;
     std::size_t bytes = 0;

@@ -28,6 +28,10 @@ class Db {
   void rollback() { (void)exec("ROLLBACK"); }
 };
 
+// Tells the user (set_lock_wait_notice's callback) that a statement waits
+// for another program's lock. Any thread.
+void lock_wait_notice(const std::string& text);
+
 // check: PRAGMA quick_check on an existing file (a damaged one is refused).
 Result<std::unique_ptr<Db>> open_sqlite(const DbUrl& url, bool create, bool check);
 Result<std::unique_ptr<Db>> open_postgres(const DbUrl& url, int connect_timeout_s);

@@ -19,10 +19,6 @@ namespace {
 std::mutex g_notice_mu;
 std::function<void(const std::string&)> g_notice;
 
-void notice(const std::string& text) {
-  std::lock_guard lk(g_notice_mu);
-  if (g_notice) g_notice(text);
-}
 
 std::string damaged(const std::string& name, const std::string& detail) {
   return name + ": the database file is damaged (" + detail +
@@ -90,6 +86,11 @@ class SqliteDb final : public Db {
 
 }  // namespace
 
+void lock_wait_notice(const std::string& text) {
+  std::lock_guard lk(g_notice_mu);
+  if (g_notice) g_notice(text);
+}
+
 void set_lock_wait_notice(std::function<void(const std::string&)> fn) {
   std::lock_guard lk(g_notice_mu);
   g_notice = std::move(fn);
@@ -130,7 +131,7 @@ Result<std::unique_ptr<Db>> open_sqlite(const DbUrl& url, bool create, bool chec
       db,
       [](void* name, int n) -> int {
         if (n == 200)
-          notice(*static_cast<const std::string*>(name) +
+          lock_wait_notice(*static_cast<const std::string*>(name) +
                  ": the database is locked by another program (an import or a migration); waiting up to 60 s");
         if (n >= 40000) return 0;
         thread_local unsigned seed = static_cast<unsigned>(reinterpret_cast<std::uintptr_t>(&n));

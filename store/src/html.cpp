@@ -75,13 +75,13 @@ std::string message_page(int status, const std::string& title, const std::string
               user, csrf);
 }
 
-std::string login_page(const std::string& next, const std::string& error) {
+std::string login_page(const std::string& next, const std::string& error, const std::string& csrf) {
   std::string b = "<h1>Instructor login</h1>";
   if (!error.empty()) b += "<p class=\"warn\" id=\"login-error\">" + esc(error) + "</p>";
   b += "<form class=\"login\" method=\"post\" action=\"/login\"><label>User<input name=\"user\" autocomplete=\"username\" "
        "required></label><label>Password<input name=\"password\" type=\"password\" autocomplete=\"current-password\" "
        "required></label><input type=\"hidden\" name=\"next\" value=\"" +
-       esc(next) + "\"><button type=\"submit\">Log in</button></form>";
+       esc(next) + "\"><input type=\"hidden\" name=\"csrf\" value=\"" + esc(csrf) + "\"><button type=\"submit\">Log in</button></form>";
   return page("Login", b, "");
 }
 

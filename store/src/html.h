@@ -15,7 +15,8 @@ std::string page(const std::string& title, const std::string& body, const std::s
                  const std::string& csrf = "");
 std::string message_page(int status, const std::string& title, const std::string& text, const std::string& user,
                          const std::string& csrf = "");
-std::string login_page(const std::string& next, const std::string& error);
+// csrf: the login form's token (bound to the browser's pre-session cookie).
+std::string login_page(const std::string& next, const std::string& error, const std::string& csrf);
 
 struct Series {
   std::string label;

@@ -5,6 +5,8 @@
 #include <httplib.h>
 #include <openssl/crypto.h>
 #include <openssl/err.h>
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
 #include <openssl/ssl.h>
 
 #include <chrono>
@@ -14,6 +16,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 
 #include "dentar/store/metric_names.h"
@@ -43,6 +46,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr const char* kCookie = "dentar_session";
+// The login form's pre-session cookie: 128 random bits, set by GET /login.
+// The form carries HMAC-SHA256(server key, cookie) as its CSRF token, so a
+// login POST must come from a page this server gave to this browser (a
+// signed double submit: no server state, nothing to fill under a flood).
+constexpr const char* kLoginCookie = "dentar_login";
 
 // Who is looking: the login and the session's CSRF token (the logout form
 // carries it; a POST without it is refused).
@@ -162,6 +170,7 @@ struct WebServer::Impl {
   std::unique_ptr<Front> front;
   SSL_CTX* ssl_ctx = nullptr;
   bool tls = false;
+  std::string login_key;  // random per server start: signs the login forms' CSRF tokens
 
   ~Impl() {
     front.reset();
@@ -190,6 +199,60 @@ struct WebServer::Impl {
     Clock::time_point last_failure, next_try;
   };
   std::map<std::string, Throttle> throttle;  // "user:NAME" and "addr:IP"
+
+  // CSRF refusals are logged once a minute per address (with how many were
+  // not), so a flood of forged posts cannot flood the log.
+  struct LogGate {
+    Clock::time_point last;
+    long unlogged = 0;
+  };
+  std::map<std::string, LogGate> csrf_log;
+  // nullopt: keep this refusal quiet (it is counted); else the line's
+  // suffix, " (N more from this address since the last line)" or "".
+  std::optional<std::string> csrf_log_gate(const std::string& addr) {
+    std::lock_guard lk(mu);
+    const auto now = Clock::now();
+    if (csrf_log.size() > 10000) csrf_log.clear();
+    auto [it, fresh] = csrf_log.try_emplace(addr);
+    if (!fresh && now - it->second.last < std::chrono::minutes(1)) {
+      ++it->second.unlogged;
+      return std::nullopt;
+    }
+    const long n = it->second.unlogged;
+    it->second = {now, 0};
+    return n ? " (" + std::to_string(n) + " more from this address since the last line)" : std::string();
+  }
+
+  // The login form's token for a pre-session cookie value.
+  std::string login_csrf(const std::string& pre) const {
+    unsigned char mac[EVP_MAX_MD_SIZE];
+    unsigned int n = 0;
+    const std::string msg = "dentar-login-form:" + pre;
+    HMAC(EVP_sha256(), login_key.data(), static_cast<int>(login_key.size()),
+         reinterpret_cast<const unsigned char*>(msg.data()), msg.size(), mac, &n);
+    static const char* hex = "0123456789abcdef";
+    std::string o;
+    for (unsigned int i = 0; i < n; ++i) o += hex[mac[i] >> 4], o += hex[mac[i] & 15];
+    return o;
+  }
+  static bool is_pre_session(const std::string& v) {
+    if (v.size() != 32) return false;
+    for (char c : v)
+      if (hexval(c) < 0) return false;
+    return true;
+  }
+  // The login page with its token; sets a pre-session cookie when the
+  // request has none (a reload or a second tab keeps the one it has).
+  void send_login(const httplib::Request& req, httplib::Response& res, int status, const std::string& next,
+                  const std::string& error) {
+    std::string pre = cookie_value(req, kLoginCookie);
+    if (!is_pre_session(pre)) {
+      pre = random_token_hex(16);
+      res.set_header("Set-Cookie", std::string(kLoginCookie) + "=" + pre +
+                                       "; Path=/login; HttpOnly; SameSite=Strict; Max-Age=3600" + (tls ? "; Secure" : ""));
+    }
+    send(res, status, html::login_page(next, error, login_csrf(pre)));
+  }
 
   void log(const std::string& line) {
     if (opt.log) opt.log(line);
@@ -253,10 +316,11 @@ struct WebServer::Impl {
     return Lease{this, std::move(*s)};
   }
 
-  // The cookie's token, or "".
-  static std::string cookie_token(const httplib::Request& req) {
+  // The session cookie's token, or "".
+  static std::string cookie_token(const httplib::Request& req) { return cookie_value(req, kCookie); }
+  static std::string cookie_value(const httplib::Request& req, const char* name) {
     const std::string c = req.get_header_value("Cookie");
-    const std::string key = std::string(kCookie) + "=";
+    const std::string key = std::string(name) + "=";
     std::size_t p = 0;
     while ((p = c.find(key, p)) != std::string::npos) {
       if (p == 0 || c[p - 1] == ' ' || c[p - 1] == ';') {
@@ -355,13 +419,28 @@ struct WebServer::Impl {
     }));
 
     s.Get("/login", [this](const httplib::Request& req, httplib::Response& res) {
-      send(res, 200, html::login_page(safe_next(req.get_param_value("next")), ""));
+      send_login(req, res, 200, safe_next(req.get_param_value("next")), "");
     });
     s.Post("/login", [this](const httplib::Request& req, httplib::Response& res) {
       const std::string user = req.get_param_value("user"), pw = req.get_param_value("password");
       const std::string next = safe_next(req.get_param_value("next"));
       const std::string ukey = "user:" + user, akey = "addr:" + req.remote_addr;
       const std::string who = "user '" + loggable(user) + "' from " + req.remote_addr;
+      // Login CSRF: the form must be the one this server gave this browser
+      // (its token signs the browser's pre-session cookie). Checked first: a
+      // forged post costs no password work and does not count as a guess.
+      {
+        const std::string pre = cookie_value(req, kLoginCookie), given = req.get_param_value("csrf");
+        const std::string want = is_pre_session(pre) ? login_csrf(pre) : "";
+        if (want.empty() || given.size() != want.size() || CRYPTO_memcmp(given.data(), want.data(), want.size()) != 0) {
+          if (auto more = csrf_log_gate(req.remote_addr))
+            log("login refused for " + who + ": " +
+                (want.empty() ? "no login cookie" : given.empty() ? "no CSRF token" : "a wrong CSRF token") +
+                " (the form did not come from this server's login page)" + *more);
+          send_login(req, res, 403, next, "This login form has expired or came from another site; log in again here.");
+          return;
+        }
+      }
       long wait = 0;
       int refused = 0;
       {
@@ -375,10 +454,9 @@ struct WebServer::Impl {
       if (wait > 0) {  // no password check at all: a throttled guess costs nothing
         if (refused == 1)
           log("login refused for " + who + ": throttled after failed logins, next try in " + std::to_string(wait) + " s");
-        headers(res);
         res.set_header("Retry-After", std::to_string(wait));
-        send(res, 429, html::login_page(next, "Too many failed logins for this user or from this computer; try again in " +
-                                                  std::to_string(wait) + " s."));
+        send_login(req, res, 429, next,
+                   "Too many failed logins for this user or from this computer; try again in " + std::to_string(wait) + " s.");
         return;
       }
       auto it = users.find(user);
@@ -402,7 +480,7 @@ struct WebServer::Impl {
             (ru + ra ? " (" + std::to_string(std::max(ru, ra)) + " tries refused while throttled)" : ""));
         if (const long d = std::max(du, da); d > 0)
           log("login throttled for " + who + ": next try in " + std::to_string(d) + " s");
-        send(res, 401, html::login_page(next, "Wrong user name or password."));
+        send_login(req, res, 401, next, "Wrong user name or password.");
         return;
       }
       const std::string tok = random_token_hex(32);
@@ -418,6 +496,9 @@ struct WebServer::Impl {
       headers(res);
       res.set_header("Set-Cookie", std::string(kCookie) + "=" + tok + "; Path=/; HttpOnly; SameSite=Lax; Max-Age=" +
                                        std::to_string(opt.session_hours * 3600) + (tls ? "; Secure" : ""));
+      // The pre-session cookie has done its job.
+      res.set_header("Set-Cookie", std::string(kLoginCookie) + "=; Path=/login; HttpOnly; SameSite=Strict; Max-Age=0" +
+                                       (tls ? "; Secure" : ""));
       res.set_redirect(next, 303);
     });
     // Logout is a POST carrying the session's CSRF token (a GET, or a POST
@@ -638,6 +719,7 @@ Result<std::unique_ptr<WebServer>> WebServer::create(const ServeOptions& opt, Op
   m.opt = opt;
   m.users = *users;
   m.dummy = hash_password(random_token_hex(16), m.users.begin()->second.iterations);
+  m.login_key = random_token_hex(32);
   m.pool.push_back(std::move(*probe));
   if (!opt.cert_file.empty()) {
     std::error_code ec;

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 
 #include <fstream>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -20,15 +21,18 @@ using dentar::test::CommandResult;
 
 CommandResult run(const std::string& args) { return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args); }
 
-// One generated session, scored (1 expert reference trial: quick).
+// One scored session: a `dentar demo` folder (the simulated hand, 2 s;
+// session.dlog + score.json + score.html, ~3 s). Each test runs in its own
+// process, so this is made once per test: it replaced a generated cohort
+// scored against a reference trial (~13 s CPU, 33 s on a loaded machine,
+// per test).
 const fs::path& session() {
   static const fs::path dir = [] {
-    const fs::path d = dentar::test::temp_dir("cli_db_cohort");
-    const CommandResult g = run("assess --generate " + d.string() + " --experts 1 --novices 1 --trials 1 --voxel-mm 0.25 --seed 5");
+    const fs::path d = dentar::test::temp_dir("cli_db_demo");
+    const CommandResult g = run("demo --simulated --seconds 2 --voxel-mm 0.2 --samples 2000 --out " + (d / "demo").string());
     EXPECT_EQ(g.code, 0) << g.out;
-    const CommandResult s = run("score " + (d / "N1_t1").string() + " --reference-trials 1 --quiet");
-    EXPECT_EQ(s.code, 0) << s.out;
-    return d / "N1_t1";
+    EXPECT_TRUE(fs::exists(d / "demo" / "score.json"));
+    return d / "demo";
   }();
   return dir;
 }
@@ -77,7 +81,7 @@ TEST(CliDb, UnscoredSessionIsScoredOnImport) {
   const fs::path d = dentar::test::temp_dir("cli_db_unscored");
   const fs::path s = d / "sess";
   fs::create_directories(s);
-  fs::copy_file(session().parent_path() / "E1_t1" / "session.dlog", s / "session.dlog");
+  fs::copy_file(session() / "session.dlog", s / "session.dlog");  // the log alone: not scored
   const std::string db = "sqlite:" + (d / "school.db").string();
   const CommandResult r = run("db import " + s.string() + " --db " + db + " --student s1 --station-id st");
   ASSERT_EQ(r.code, 0) << r.out;
@@ -349,6 +353,54 @@ TEST(CliDb, ImporterWaitingOnALockSaysSo) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find(notice), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("stored in " + db), std::string::npos) << r.out;
+}
+
+// The same on PostgreSQL (issue 26): another connection holds a lock on the
+// sessions table in an open transaction. The importer (through this
+// station's queue to the server) says at once that it waits and who holds
+// the lock, then sends the session when the lock is released.
+TEST(CliDb, PgImporterWaitingOnALockSaysSo) {
+  const fs::path sess = session();  // scored before the clock starts
+  dentar::store::testkit::PgCluster pg;
+  ASSERT_TRUE(pg.ok()) << pg.error();
+  {
+    auto admin = dentar::store::Store::open(pg.url("postgres"));
+    ASSERT_TRUE(admin.ok()) << admin.error();
+    ASSERT_TRUE((*admin)->exec_raw("CREATE DATABASE school").ok());
+  }
+  const std::string db = pg.url("school");
+  const CommandResult init = run("db init --db " + db);
+  ASSERT_EQ(init.code, 0) << init.out;
+  const fs::path d = dentar::test::temp_dir("cli_db_pglock");
+  auto holder = dentar::store::Store::open(db);
+  ASSERT_TRUE(holder.ok()) << holder.error();
+  ASSERT_TRUE((*holder)->exec_raw("BEGIN; LOCK TABLE sessions IN EXCLUSIVE MODE").ok());
+  const fs::path log = d / "import.log";
+  CommandResult r;
+  std::thread import([&] {
+    r = run("db import " + sess.string() + " --db " + db + " --station-db sqlite:" + (d / "station.db").string() +
+            " --student s042 --station-id st-3 > " + log.string() + " 2>&1");
+  });
+  const std::string notice = "db import: " + db + ": a lock is held by another connection (process ";
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int i = 0; i < 600 && dentar::test::read_file(log).find(notice) == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const double waited_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  (void)(*holder)->exec_raw("COMMIT");
+  import.join();
+  r.out = dentar::test::read_file(log);
+  std::cout << "the notice " << waited_s << " s after the import started:\n" << r.out;
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find(notice), std::string::npos) << r.out;
+  // The holder named: our Store's connection, idle in its open transaction.
+  EXPECT_NE(r.out.find(", 'dentar' as dentar, idle in transaction for "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("; waiting up to 60 s"), std::string::npos) << r.out;
+  EXPECT_LT(waited_s, 30.0) << "the notice came late (the lock timeout is 60 s)";
+  EXPECT_NE(r.out.find("stored at the station"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("and sent to " + db), std::string::npos) << r.out;
+  auto st = dentar::store::Store::open(db);
+  ASSERT_TRUE(st.ok());
+  EXPECT_EQ(*(*st)->count_sessions(), 1);
 }
 
 }  // namespace

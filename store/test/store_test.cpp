@@ -309,6 +309,56 @@ TEST(Station, ServerUnreachableKeepsTheSessionQueuedThenSendsItOnce) {
   EXPECT_EQ(*open_ok(server)->count_sessions(), 1);
 }
 
+// store_session says why it failed, for the exit code (issue 26 review): a
+// store that cannot be reached is Unavailable (exit 1), a damaged file or
+// the session under another student without move is BadInput (exit 2, both
+// students named, nothing changed); with move it moves, on the station's
+// store and on the server.
+TEST(Station, StoreSessionSaysWhyItFailedAndMovesOnlyWhenAsked) {
+  const fs::path dir = dentar::test::temp_dir("store_session_fault");
+  const auto r = make_record("s1", "st-1", "molar_access_opening", 5, 1);
+  OpenFault f = OpenFault::None;
+  const std::string down = "postgresql://dentar@127.0.0.1:" + std::to_string(testkit::free_port()) + "/dentar";
+  auto unreachable = store_session(r, down, "", {}, &f);
+  ASSERT_FALSE(unreachable.ok());
+  EXPECT_EQ(f, OpenFault::Unavailable) << unreachable.error();
+  {
+    std::FILE* junk = std::fopen((dir / "junk.db").c_str(), "wb");
+    ASSERT_NE(junk, nullptr);
+    for (int i = 0; i < 8192; ++i) std::fputc('x', junk);
+    std::fclose(junk);
+  }
+  f = OpenFault::None;
+  auto damaged = store_session(r, "sqlite:" + (dir / "junk.db").string(), "", {}, &f);
+  ASSERT_FALSE(damaged.ok());
+  EXPECT_EQ(f, OpenFault::BadInput) << damaged.error();
+
+  const std::string local = "sqlite:" + (dir / "station.db").string();
+  const std::string server = "sqlite:" + (dir / "server.db").string();
+  auto first = store_session(r, local, server, {}, &f);
+  ASSERT_TRUE(first.ok()) << first.error();
+  EXPECT_EQ(f, OpenFault::None);
+  EXPECT_EQ(first->forward.sent, 1u);
+  SessionRecord other = r;
+  other.student = "s2";
+  auto refused = store_session(other, local, server, {}, &f);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(f, OpenFault::BadInput);
+  EXPECT_NE(refused.error().find("already stored under student s1, not s2: nothing was changed"), std::string::npos)
+      << refused.error();
+  EXPECT_EQ((**open_ok(local)->session_by_key(r.key)).student, "s1");
+  StoreOptions move;
+  move.move = true;
+  auto moved = store_session(other, local, server, move, &f);
+  ASSERT_TRUE(moved.ok()) << moved.error();
+  EXPECT_EQ(f, OpenFault::None);
+  EXPECT_EQ(moved->moved_from, "s1");
+  EXPECT_TRUE(moved->already);
+  EXPECT_EQ((**open_ok(local)->session_by_key(r.key)).student, "s2");
+  EXPECT_EQ((**open_ok(server)->session_by_key(r.key)).student, "s2");
+  EXPECT_EQ(*open_ok(server)->count_sessions(), 1);
+}
+
 TEST(Auth, HashVerifyAndPasswordFileErrorsNameTheLine) {
   const auto e = hash_password("correct horse", 2000);
   EXPECT_TRUE(verify_password(e, "correct horse"));

@@ -1,11 +1,13 @@
-// The instructor's page: login enforced, numbers on the pages match the
-// database, path traversal and SQL injection in every parameter refused,
-// unknown sessions give the 404 page, and headless Chromium renders it.
+// The instructor's page: login enforced (with the login form's CSRF token),
+// numbers on the pages match the database, path traversal and SQL injection
+// in every parameter refused, unknown sessions give the 404 page, and
+// headless Chromium (logging in as a user does) renders it.
 #include <gtest/gtest.h>
 #include <httplib.h>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <mutex>
 #include <regex>
 #include <thread>
 
@@ -42,19 +44,20 @@ class Web : public ::testing::Test {
     o.db_url = db_;
     o.password_file = (*dir_ / "pw.txt").string();
     o.port = 0;
+    log_ = new std::vector<std::string>();
+    log_mu_ = new std::mutex();
+    o.log = [](const std::string& l) {
+      std::lock_guard lk(*log_mu_);
+      log_->push_back(l);
+    };
     auto w = WebServer::create(o);
     ASSERT_TRUE(w.ok()) << w.error();
     server_ = w->release();
     ASSERT_TRUE(server_->bind().ok());
     thread_ = new std::thread([] { (void)server_->listen_after_bind(); });
     base_ = "http://127.0.0.1:" + std::to_string(server_->port());
-    // One logged-in cookie for the HTTP-level tests.
-    httplib::Client c("127.0.0.1", server_->port());
-    auto r = c.Post("/login", "user=alice&password=correct-horse-battery&next=/", "application/x-www-form-urlencoded");
-    ASSERT_TRUE(r);
-    ASSERT_EQ(r->status, 303);
-    const std::string sc = r->get_header_value("Set-Cookie");
-    cookie_ = sc.substr(0, sc.find(';'));
+    // One logged-in cookie for the HTTP-level tests (the login page's form, posted).
+    cookie_ = testkit::login_cookie(server_->port(), kUser, kPassword);
     ASSERT_NE(cookie_.find("dentar_session="), std::string::npos);
   }
   static void TearDownTestSuite() {
@@ -75,8 +78,22 @@ class Web : public ::testing::Test {
   }
   static inline fs::path* dir_ = nullptr;
   static inline std::string db_, base_, cookie_;
+  static bool logged(const std::string& part) {
+    std::lock_guard lk(*log_mu_);
+    for (const auto& l : *log_)
+      if (l.find(part) != std::string::npos) return true;
+    return false;
+  }
+  static std::string all_log() {
+    std::lock_guard lk(*log_mu_);
+    std::string s;
+    for (const auto& l : *log_) s += l + "\n";
+    return s;
+  }
   static inline WebServer* server_ = nullptr;
   static inline std::thread* thread_ = nullptr;
+  static inline std::vector<std::string>* log_ = nullptr;
+  static inline std::mutex* log_mu_ = nullptr;
 };
 
 TEST_F(Web, LoginIsEnforcedOnEveryPage) {
@@ -87,20 +104,107 @@ TEST_F(Web, LoginIsEnforcedOnEveryPage) {
     EXPECT_EQ(r->get_header_value("Location").rfind("/login?next=", 0), 0u) << p;
     EXPECT_EQ(r->body.find("s01"), std::string::npos) << p;
   }
-  httplib::Client c("127.0.0.1", server_->port());
-  auto bad = c.Post("/login", "user=alice&password=wrong&next=/", "application/x-www-form-urlencoded");
-  ASSERT_TRUE(bad);
-  EXPECT_EQ(bad->status, 401);
-  EXPECT_TRUE(bad->get_header_value("Set-Cookie").empty());
-  EXPECT_NE(bad->body.find("Wrong user name or password"), std::string::npos);
+  const testkit::LoginForm form = testkit::get_login_form(server_->port());
+  const testkit::LoginReply bad = testkit::post_login(server_->port(), form, kUser, "wrong-password-1");
+  EXPECT_EQ(bad.status, 401);
+  EXPECT_TRUE(bad.session.empty());
+  EXPECT_NE(bad.body.find("Wrong user name or password"), std::string::npos);
   auto forged = httplib::Client("127.0.0.1", server_->port()).Get("/", {{"Cookie", "dentar_session=00ff"}});
   ASSERT_TRUE(forged);
   EXPECT_EQ(forged->status, 303);
   // An open redirect through next= is not possible.
-  auto off = c.Post("/login", "user=alice&password=correct-horse-battery&next=//evil.example/x",
+  httplib::Client c("127.0.0.1", server_->port());
+  auto off = c.Post("/login", {{"Cookie", form.cookie}},
+                    "user=alice&password=correct-horse-battery&next=//evil.example/x&csrf=" + form.csrf,
                     "application/x-www-form-urlencoded");
   ASSERT_TRUE(off);
+  EXPECT_EQ(off->status, 303);
   EXPECT_EQ(off->get_header_value("Location"), "/");
+}
+
+// Login CSRF (issue 26): the login form carries a token bound to the
+// browser's pre-session cookie (HMAC with the server's key). A login post
+// without the cookie, without the token, with a wrong one, or with another
+// browser's token is refused (403, a fresh form, no password checked) and
+// logged; the page's own token logs in, and the pre-session cookie is then
+// cleared. The login does not touch the database, so this holds the same for
+// a PostgreSQL store.
+TEST_F(Web, LoginFormCarriesACsrfTokenAndForgedLoginsAreRefused) {
+  const int port = server_->port();
+  httplib::Client c("127.0.0.1", port);
+  auto page = c.Get("/login?next=/cohort");
+  ASSERT_TRUE(page);
+  ASSERT_EQ(page->status, 200);
+  const std::string sc = page->get_header_value("Set-Cookie");
+  EXPECT_EQ(sc.rfind("dentar_login=", 0), 0u) << sc;
+  EXPECT_NE(sc.find("HttpOnly"), std::string::npos) << sc;
+  EXPECT_NE(sc.find("SameSite=Strict"), std::string::npos) << sc;
+  const testkit::LoginForm form = testkit::get_login_form(port);
+  ASSERT_FALSE(form.cookie.empty());
+  ASSERT_EQ(form.csrf.size(), 64u) << "HMAC-SHA256, hex";
+  // The same browser reloading the page keeps its cookie and gets the same token.
+  auto again = c.Get("/login", {{"Cookie", form.cookie}});
+  ASSERT_TRUE(again);
+  EXPECT_TRUE(again->get_header_value("Set-Cookie").empty());
+  EXPECT_NE(again->body.find("value=\"" + form.csrf + "\""), std::string::npos);
+  const testkit::LoginForm other = testkit::get_login_form(port);
+  ASSERT_NE(other.csrf, form.csrf) << "each browser its own token";
+
+  auto refused = [&](const testkit::LoginForm& f, const std::string& why) {
+    const testkit::LoginReply r = testkit::post_login(port, f, kUser, kPassword);
+    EXPECT_EQ(r.status, 403) << why;
+    EXPECT_TRUE(r.session.empty()) << why;
+    EXPECT_NE(r.body.find("came from another site"), std::string::npos) << why << r.body.substr(0, 800);
+    EXPECT_NE(r.body.find("name=\"csrf\""), std::string::npos) << why << ": the 403 page is a fresh form";
+  };
+  refused({"", ""}, "no cookie, no token (a form on another site)");
+  refused({form.cookie, ""}, "no token");
+  refused({"", form.csrf}, "the token without its cookie");
+  std::string wrong = form.csrf;
+  wrong[10] = wrong[10] == 'a' ? 'b' : 'a';
+  refused({form.cookie, wrong}, "a wrong token");
+  refused({form.cookie, other.csrf}, "another browser's token");
+  refused({"dentar_login=" + std::string(32, '0'), form.csrf}, "a cookie the attacker chose");
+  EXPECT_TRUE(logged("login refused for user 'alice' from 127.0.0.1: no login cookie")) << all_log();
+  // Refusals are logged at most once a minute per address, with the count.
+  // (The first refusal of this address is logged; the later ones are counted.)
+
+  const testkit::LoginReply ok = testkit::post_login(port, form, kUser, kPassword, "/cohort");
+  EXPECT_EQ(ok.status, 303) << ok.body.substr(0, 500);
+  EXPECT_NE(ok.session.find("dentar_session="), std::string::npos);
+  // The page's token with a wrong password is an ordinary failed login (401).
+  EXPECT_EQ(testkit::post_login(port, other, kUser, "not-the-password").status, 401);
+}
+
+// The first CSRF refusal from an address is logged at once, with the reason.
+TEST_F(Web, ForgedLoginIsLoggedWithItsReason) {
+  ServeOptions o;
+  std::vector<std::string> lines;
+  std::mutex mu;
+  o.db_url = db_;
+  o.password_file = (*dir_ / "pw.txt").string();
+  o.port = 0;
+  o.log = [&](const std::string& l) {
+    std::lock_guard lk(mu);
+    lines.push_back(l);
+  };
+  auto w = WebServer::create(o);
+  ASSERT_TRUE(w.ok()) << w.error();
+  ASSERT_TRUE((*w)->bind().ok());
+  std::thread t([&] { (void)(*w)->listen_after_bind(); });
+  const testkit::LoginForm form = testkit::get_login_form((*w)->port());
+  EXPECT_EQ(testkit::post_login((*w)->port(), {form.cookie, std::string(64, 'f')}, kUser, kPassword).status, 403);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(testkit::post_login((*w)->port(), {}, kUser, kPassword).status, 403);
+  EXPECT_EQ(testkit::post_login((*w)->port(), form, kUser, kPassword).status, 303);
+  (*w)->stop();
+  t.join();
+  int csrf_lines = 0;
+  for (const auto& l : lines) csrf_lines += l.find("the form did not come from this server's login page") != std::string::npos;
+  ASSERT_FALSE(lines.empty());
+  EXPECT_EQ(lines[0], "login refused for user 'alice' from 127.0.0.1: a wrong CSRF token (the form did not come from "
+                      "this server's login page)");
+  EXPECT_EQ(csrf_lines, 1) << "one line a minute per address under a flood of forged posts";
+  EXPECT_EQ(lines.back(), "login of user 'alice' from 127.0.0.1");
 }
 
 TEST_F(Web, NumbersOnThePagesMatchTheDatabase) {
@@ -185,10 +289,9 @@ TEST_F(Web, PathTraversalAndSqlInjectionAreRefused) {
     EXPECT_EQ(r->body.find("root:"), std::string::npos) << a;
     EXPECT_EQ(r->body.find("data-id="), std::string::npos) << a;  // no session rows leaked
   }
-  httplib::Client c("127.0.0.1", server_->port());
-  auto inj = c.Post("/login", "user=alice'%20OR%201=1--&password='%20OR%20'1'='1&next=/", "application/x-www-form-urlencoded");
-  ASSERT_TRUE(inj);
-  EXPECT_EQ(inj->status, 401);
+  const testkit::LoginReply inj =
+      testkit::post_login(server_->port(), testkit::get_login_form(server_->port()), "alice' OR 1=1--", "' OR '1'='1");
+  EXPECT_EQ(inj.status, 401);
   EXPECT_EQ(*store()->count_sessions(), before);
   EXPECT_TRUE(store()->students().ok());
 }
@@ -215,10 +318,22 @@ TEST(WebTls, ServesHttpsWithASecureCookie) {
   std::thread t([&] { (void)(*w)->listen_after_bind(); });
   httplib::SSLClient c("127.0.0.1", (*w)->port());
   c.enable_server_certificate_verification(false);
-  auto r = c.Post("/login", "user=bob&password=bob-password-1&next=/", "application/x-www-form-urlencoded");
+  auto page = c.Get("/login");
+  ASSERT_TRUE(page) << httplib::to_string(page.error());
+  const std::string pre = page->get_header_value("Set-Cookie");
+  EXPECT_NE(pre.find("; Secure"), std::string::npos) << pre;
+  const std::string mark = "name=\"csrf\" value=\"";
+  const auto at = page->body.find(mark);
+  ASSERT_NE(at, std::string::npos);
+  const std::string csrf = page->body.substr(at + mark.size(), 64);
+  auto r = c.Post("/login", {{"Cookie", pre.substr(0, pre.find(';'))}},
+                  "user=bob&password=bob-password-1&next=/&csrf=" + csrf, "application/x-www-form-urlencoded");
   ASSERT_TRUE(r) << httplib::to_string(r.error());
   EXPECT_EQ(r->status, 303);
-  EXPECT_NE(r->get_header_value("Set-Cookie").find("; Secure"), std::string::npos);
+  bool secure_session = false;
+  for (auto [a, e] = r->headers.equal_range("Set-Cookie"); a != e; ++a)
+    secure_session |= a->second.rfind("dentar_session=", 0) == 0 && a->second.find("; Secure") != std::string::npos;
+  EXPECT_TRUE(secure_session);
   // Plain HTTP to the HTTPS port gets no page.
   httplib::Client plain("127.0.0.1", (*w)->port());
   auto p = plain.Get("/login");
@@ -239,12 +354,11 @@ class Browser : public Web {
     ASSERT_FALSE(testkit::chromium_binary().empty())
         << "Debian's chromium is not installed (tools/bootstrap.sh installs it); the browser tests need it";
   }
+  // Logs in as a user does (the server's login page, typed, Enter) and lands on `next`.
   static std::string dom_after_login(const std::string& next) {
-    const fs::path d = dentar::test::temp_dir("store_web_login");
-    const fs::path page = testkit::login_page_file(d, base_, kUser, kPassword, next);
-    const auto r = testkit::chromium("--virtual-time-budget=10000 --dump-dom", "file://" + page.string());
-    EXPECT_EQ(r.code, 0);
-    return r.out;
+    testkit::Browser b;
+    EXPECT_TRUE(testkit::browser_login(b, base_, kUser, kPassword, next)) << b.error();
+    return b.dom();
   }
 };
 
@@ -280,11 +394,11 @@ TEST_F(Browser, UnknownSessionShowsThe404Page) {
 
 TEST_F(Browser, ScreenshotOfTheStudentPageRenders) {
   const fs::path d = dentar::test::temp_dir("store_web_shot");
-  const fs::path page = testkit::login_page_file(d, base_, kUser, kPassword, "/student/s01");
   const fs::path png = d / "student.png";
-  const auto r = testkit::chromium("--virtual-time-budget=10000 --window-size=1200,900 --screenshot=" + png.string(),
-                                   "file://" + page.string());
-  EXPECT_EQ(r.code, 0) << r.out;
+  testkit::Browser b(1200, 900);
+  ASSERT_TRUE(testkit::browser_login(b, base_, kUser, kPassword, "/student/s01")) << b.error();
+  EXPECT_NE(b.url().find("/student/s01"), std::string::npos) << b.url();
+  ASSERT_TRUE(b.screenshot(png)) << b.error();
   const cv::Mat img = cv::imread(png.string(), cv::IMREAD_COLOR);
   ASSERT_FALSE(img.empty()) << png;
   EXPECT_EQ(img.cols, 1200);

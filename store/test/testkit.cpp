@@ -1,14 +1,23 @@
 #include "testkit.h"
 
 #include <arpa/inet.h>
+#include <fcntl.h>
+#include <httplib.h>
 #include <netinet/in.h>
+#include <openssl/evp.h>
+#include <poll.h>
 #include <pwd.h>
+#include <signal.h>
 #include <sys/socket.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
+#include <deque>
+#include <functional>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 
@@ -189,15 +198,396 @@ BrowserResult chromium(const std::string& flags, const std::string& url) {
   return {r.code, r.out};
 }
 
-fs::path login_page_file(const fs::path& dir, const std::string& base, const std::string& user,
-                         const std::string& password, const std::string& next) {
-  const fs::path p = dir / "login.html";
-  std::ofstream f(p);
-  f << "<!DOCTYPE html><html><body><form id=\"f\" method=\"post\" action=\"" << base << "/login\">"
-    << "<input name=\"user\" value=\"" << user << "\"><input name=\"password\" value=\"" << password
-    << "\"><input name=\"next\" value=\"" << next << "\"></form>"
-    << "<script>document.getElementById('f').submit();</script></body></html>";
-  return p;
+// --- Chromium over the DevTools protocol (messages are JSON, each ended by a NUL byte) ---
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+// Generous: on this shared 2-core machine under load ~25 a DevTools answer
+// has taken over 10 s. A command that does not answer within these fails
+// the test with the command's name.
+constexpr double kStartTimeoutS = 90, kCallTimeoutS = 45;
+
+struct Browser::Impl {
+  pid_t pid = -1;
+  int to = -1, from = -1;  // our ends: commands to fd 3, replies from fd 4
+  std::string buf;
+  int next_id = 1;
+  std::string target, session;
+  std::deque<json> events;
+  fs::path profile;
+
+  bool write_all(const std::string& m) {
+    std::size_t off = 0;
+    while (off < m.size()) {
+      const ssize_t n = ::write(to, m.data() + off, m.size() - off);
+      if (n <= 0) return false;
+      off += static_cast<std::size_t>(n);
+    }
+    return true;
+  }
+  // One message, or null on timeout or a closed pipe.
+  json read_one(Clock::time_point until) {
+    for (;;) {
+      if (const auto z = buf.find('\0'); z != std::string::npos) {
+        json j = json::parse(buf.substr(0, z), nullptr, false);
+        buf.erase(0, z + 1);
+        if (!j.is_discarded()) return j;
+        continue;
+      }
+      const int left = static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now()).count());
+      if (left <= 0) return nullptr;
+      pollfd p{from, POLLIN, 0};
+      if (::poll(&p, 1, left) <= 0) return nullptr;
+      char b[65536];
+      const ssize_t n = ::read(from, b, sizeof b);
+      if (n <= 0) return nullptr;
+      buf.append(b, static_cast<std::size_t>(n));
+    }
+  }
+  // A command's result; null with *err set on an error or a timeout.
+  json call(const std::string& method, const json& params, bool in_page, double timeout_s, std::string* err) {
+    const int id = next_id++;
+    json m = {{"id", id}, {"method", method}, {"params", params.is_null() ? json::object() : params}};
+    if (in_page) m["sessionId"] = session;
+    if (!write_all(m.dump() + std::string(1, '\0'))) {
+      if (err) *err = method + ": the browser is gone";
+      return nullptr;
+    }
+    const auto until = Clock::now() + std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+    for (;;) {
+      json r = read_one(until);
+      if (r.is_null()) {
+        if (err) *err = method + ": no answer from the browser";
+        return nullptr;
+      }
+      if (r.contains("id") && r["id"] == id) {
+        if (r.contains("error")) {
+          if (err) *err = method + ": " + r["error"].dump();
+          return nullptr;
+        }
+        return r.value("result", json::object());
+      }
+      if (r.contains("method")) events.push_back(std::move(r));
+    }
+  }
+  // Waits for an event of this page; true if it came.
+  bool wait_event(const std::string& method, double timeout_s, const std::function<bool(const json&)>& also = {}) {
+    const auto until = Clock::now() + std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+    for (;;) {
+      while (!events.empty()) {
+        json e = std::move(events.front());
+        events.pop_front();
+        if (e.value("method", "") == method && e.value("sessionId", "") == session &&
+            (!also || also(e.value("params", json::object()))))
+          return true;
+      }
+      json r = read_one(until);
+      if (r.is_null()) return false;
+      if (r.contains("method")) events.push_back(std::move(r));
+    }
+  }
+  std::string main_frame;
+};
+
+Browser::Browser(int width, int height) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  if (chromium_binary().empty()) {
+    error_ = "Debian's chromium is not installed (tools/bootstrap.sh installs it)";
+    return;
+  }
+  ::signal(SIGPIPE, SIG_IGN);  // a browser that died is an error, not the end of the test
+  static std::atomic<int> n{0};
+  m.profile = fs::temp_directory_path() / ("dentar_cdp_" + std::to_string(getpid()) + "_" + std::to_string(n++));
+  fs::remove_all(m.profile);
+  fs::create_directories(m.profile);
+  int cmd[2], rep[2];
+  if (::pipe2(cmd, O_CLOEXEC) != 0 || ::pipe2(rep, O_CLOEXEC) != 0) {
+    error_ = "pipe failed";
+    return;
+  }
+  const std::vector<std::string> args = {chromium_binary(), "--headless", "--no-sandbox", "--disable-gpu",
+                                         "--disable-quic", "--no-first-run", "--disable-background-networking",
+                                         "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage",
+                                         "--remote-debugging-pipe", "--user-data-dir=" + m.profile.string(),
+                                         "about:blank"};
+  m.pid = ::fork();
+  if (m.pid == 0) {
+    ::setpgid(0, 0);
+    // Above 10 first (the pipes may be 3 or 4 themselves), then onto 3 and 4 without close-on-exec.
+    const int a = ::fcntl(cmd[0], F_DUPFD, 10), b = ::fcntl(rep[1], F_DUPFD, 10);
+    if (a < 0 || b < 0 || ::dup2(a, 3) < 0 || ::dup2(b, 4) < 0) _exit(127);
+    const int null = ::open("/dev/null", O_RDWR);
+    if (null >= 0) ::dup2(null, 1), ::dup2(null, 2);
+    std::vector<char*> argv;
+    for (const auto& x : args) argv.push_back(const_cast<char*>(x.c_str()));
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    _exit(127);
+  }
+  ::close(cmd[0]);
+  ::close(rep[1]);
+  m.to = cmd[1];
+  m.from = rep[0];
+  if (m.pid < 0) {
+    error_ = "fork failed";
+    return;
+  }
+  auto t = m.call("Target.createTarget", {{"url", "about:blank"}}, false, kStartTimeoutS, &error_);
+  if (t.is_null()) return;
+  m.target = t.value("targetId", "");
+  auto a = m.call("Target.attachToTarget", {{"targetId", m.target}, {"flatten", true}}, false, kCallTimeoutS, &error_);
+  if (a.is_null()) return;
+  m.session = a.value("sessionId", "");
+  if (m.call("Page.enable", {}, true, kCallTimeoutS, &error_).is_null()) return;
+  if (m.call("Emulation.setDeviceMetricsOverride",
+             {{"width", width}, {"height", height}, {"deviceScaleFactor", 1}, {"mobile", false}}, true, kCallTimeoutS, &error_)
+          .is_null())
+    return;
+  auto ft = m.call("Page.getFrameTree", {}, true, kCallTimeoutS, &error_);
+  if (ft.is_null()) return;
+  m.main_frame = ft["frameTree"]["frame"].value("id", "");
+}
+
+Browser::~Browser() {
+  Impl& m = *impl_;
+  if (m.pid > 0) {
+    if (m.to >= 0) (void)m.call("Browser.close", {}, false, 3, nullptr);
+    int status = 0;
+    bool gone = false;
+    for (int i = 0; i < 30 && !gone; ++i) {
+      gone = ::waitpid(m.pid, &status, WNOHANG) == m.pid;
+      if (!gone) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    ::kill(-m.pid, SIGKILL);  // the browser's own process group (its helpers)
+    if (!gone) ::waitpid(m.pid, &status, 0);
+  }
+  if (m.to >= 0) ::close(m.to);
+  if (m.from >= 0) ::close(m.from);
+  std::error_code ec;
+  if (!m.profile.empty()) fs::remove_all(m.profile, ec);
+}
+
+bool Browser::open(const std::string& url, double timeout_s) {
+  if (!ok()) return false;
+  Impl& m = *impl_;
+  m.events.clear();
+  auto r = m.call("Page.navigate", {{"url", url}}, true, timeout_s, &error_);
+  if (r.is_null()) return false;
+  if (r.contains("errorText")) {
+    error_ = "Page.navigate " + url + ": " + r["errorText"].dump();
+    return false;
+  }
+  if (!m.wait_event("Page.loadEventFired", timeout_s)) {
+    error_ = url + ": the page did not load within " + std::to_string(timeout_s) + " s";
+    return false;
+  }
+  return true;
+}
+
+bool Browser::type(const std::string& selector, const std::string& text) {
+  if (!ok()) return false;
+  Impl& m = *impl_;
+  auto doc = m.call("DOM.getDocument", {{"depth", 0}}, true, kCallTimeoutS, &error_);
+  if (doc.is_null()) return false;
+  auto q = m.call("DOM.querySelector", {{"nodeId", doc["root"]["nodeId"]}, {"selector", selector}}, true, kCallTimeoutS, &error_);
+  if (q.is_null()) return false;
+  if (q.value("nodeId", 0) == 0) {
+    error_ = "no element matches " + selector + " on " + url();
+    return false;
+  }
+  if (m.call("DOM.focus", {{"nodeId", q["nodeId"]}}, true, kCallTimeoutS, &error_).is_null()) return false;
+  return !m.call("Input.insertText", {{"text", text}}, true, kCallTimeoutS, &error_).is_null();
+}
+
+bool Browser::press_enter(double timeout_s) {
+  if (!ok()) return false;
+  Impl& m = *impl_;
+  m.events.clear();
+  const json key = {{"key", "Enter"}, {"code", "Enter"}, {"windowsVirtualKeyCode", 13}, {"nativeVirtualKeyCode", 13}};
+  json down = key;
+  down["type"] = "keyDown";
+  down["text"] = "\r";
+  json up = key;
+  up["type"] = "keyUp";
+  if (m.call("Input.dispatchKeyEvent", down, true, kCallTimeoutS, &error_).is_null()) return false;
+  if (m.call("Input.dispatchKeyEvent", up, true, kCallTimeoutS, &error_).is_null()) return false;
+  if (!m.wait_event("Page.loadEventFired", timeout_s)) {
+    error_ = "no page loaded within " + std::to_string(timeout_s) + " s after Enter";
+    return false;
+  }
+  return true;
+}
+
+bool Browser::navigates_within(double s) {
+  Impl& m = *impl_;
+  const std::string frame = m.main_frame;
+  return m.wait_event("Page.frameNavigated", s, [&](const json& p) {
+    return p.contains("frame") && p["frame"].value("id", "") == frame;
+  });
+}
+
+std::string Browser::dom() {
+  if (!ok()) return "";
+  Impl& m = *impl_;
+  auto doc = m.call("DOM.getDocument", {{"depth", 0}}, true, kCallTimeoutS, &error_);
+  if (doc.is_null()) return "";
+  auto h = m.call("DOM.getOuterHTML", {{"nodeId", doc["root"]["nodeId"]}}, true, kCallTimeoutS, &error_);
+  return h.is_null() ? "" : h.value("outerHTML", "");
+}
+
+std::string Browser::url() {
+  Impl& m = *impl_;
+  auto i = m.call("Target.getTargetInfo", {{"targetId", m.target}}, false, kCallTimeoutS, nullptr);
+  return i.is_null() ? "" : i["targetInfo"].value("url", "");
+}
+
+bool Browser::screenshot(const fs::path& png) {
+  if (!ok()) return false;
+  auto r = impl_->call("Page.captureScreenshot", {{"format", "png"}}, true, kCallTimeoutS, &error_);
+  if (r.is_null()) return false;
+  const std::string b64 = r.value("data", "");
+  std::string bytes(b64.size() / 4 * 3 + 3, '\0');
+  const int n = EVP_DecodeBlock(reinterpret_cast<unsigned char*>(bytes.data()),
+                                reinterpret_cast<const unsigned char*>(b64.data()), static_cast<int>(b64.size()));
+  if (n < 0) {
+    error_ = "Page.captureScreenshot: not base64";
+    return false;
+  }
+  std::size_t len = static_cast<std::size_t>(n);
+  for (std::size_t i = b64.size(); i > 0 && b64[i - 1] == '='; --i) --len;  // EVP_DecodeBlock counts the padding
+  std::ofstream f(png, std::ios::binary);
+  f.write(bytes.data(), static_cast<std::streamsize>(len));
+  return static_cast<bool>(f);
+}
+
+bool browser_login(Browser& b, const std::string& base, const std::string& user, const std::string& password,
+                   const std::string& next) {
+  return b.open(base + "/login?next=" + next) && b.type("input[name=user]", user) &&
+         b.type("input[name=password]", password) && b.press_enter();
+}
+
+// --- the login over plain HTTP ---
+
+LoginForm get_login_form(int port) {
+  httplib::Client c("127.0.0.1", port);
+  auto r = c.Get("/login");
+  LoginForm f;
+  if (!r) return f;
+  for (auto [a, e] = r->headers.equal_range("Set-Cookie"); a != e; ++a)
+    if (a->second.rfind("dentar_login=", 0) == 0) f.cookie = a->second.substr(0, a->second.find(';'));
+  const std::string mark = "name=\"csrf\" value=\"";
+  if (const auto at = r->body.find(mark); at != std::string::npos) {
+    const auto end = r->body.find('"', at + mark.size());
+    f.csrf = r->body.substr(at + mark.size(), end - at - mark.size());
+  }
+  return f;
+}
+
+LoginReply post_login(int port, const LoginForm& form, const std::string& user, const std::string& password,
+                      const std::string& next) {
+  httplib::Client c("127.0.0.1", port);
+  httplib::Headers h;
+  if (!form.cookie.empty()) h.emplace("Cookie", form.cookie);
+  httplib::Params p = {{"user", user}, {"password", password}, {"next", next}};
+  if (!form.csrf.empty()) p.emplace("csrf", form.csrf);
+  auto r = c.Post("/login", h, p);
+  LoginReply o;
+  if (!r) return o;
+  o.status = r->status;
+  o.body = r->body;
+  o.retry_after = r->get_header_value("Retry-After");
+  for (auto [a, e] = r->headers.equal_range("Set-Cookie"); a != e; ++a)
+    if (a->second.rfind("dentar_session=", 0) == 0) o.session = a->second.substr(0, a->second.find(';'));
+  return o;
+}
+
+std::string login_cookie(int port, const std::string& user, const std::string& password) {
+  const LoginReply r = post_login(port, get_login_form(port), user, password);
+  return r.status == 303 ? r.session : "";
+}
+
+// --- raw sockets ---
+
+int connect_raw(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+std::string read_until_close(int fd, int ms) {
+  std::string out;
+  const auto end = Clock::now() + std::chrono::milliseconds(ms);
+  char b[4096];
+  for (;;) {
+    const int left = static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now()).count());
+    if (left <= 0) break;
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, left) <= 0) break;
+    const ssize_t n = ::recv(fd, b, sizeof b, 0);
+    if (n <= 0) break;
+    out.append(b, static_cast<std::size_t>(n));
+  }
+  return out;
+}
+
+SlowClients::SlowClients(int port, int n, std::chrono::milliseconds every, bool reconnect, std::size_t max_bytes)
+    : port_(port) {
+  for (int i = 0; i < n; ++i) fds_.push_back(connect_raw(port));
+  drip_ = std::thread([this, every, reconnect, max_bytes] {
+    const std::string head = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
+    std::vector<std::size_t> at(fds_.size(), 0);
+    while (!stop_) {
+      {
+        std::lock_guard lk(mu_);
+        for (std::size_t i = 0; i < fds_.size(); ++i) {
+          if (!reconnect && at[i] >= max_bytes) continue;
+          const char c = at[i] < head.size() ? head[at[i]] : 'a';
+          if (fds_[i] < 0 || ::send(fds_[i], &c, 1, MSG_NOSIGNAL) != 1) {
+            if (!reconnect) continue;
+            if (fds_[i] >= 0) ::close(fds_[i]);
+            fds_[i] = connect_raw(port_);
+            at[i] = 0;
+            ++reconnects_;
+            continue;
+          }
+          ++at[i];
+        }
+      }
+      // Sleep in small steps so that stop() is quick.
+      const auto until = Clock::now() + every;
+      while (!stop_ && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+}
+
+void SlowClients::stop() {
+  stop_ = true;
+  if (drip_.joinable()) drip_.join();
+}
+
+SlowClients::~SlowClients() {
+  stop();
+  for (int fd : fds_)
+    if (fd >= 0) ::close(fd);
+}
+
+int SlowClients::connected() const {
+  std::lock_guard lk(mu_);
+  int k = 0;
+  for (int fd : fds_) k += fd >= 0;
+  return k;
+}
+
+std::vector<int> SlowClients::fds() {
+  std::lock_guard lk(mu_);
+  return fds_;
 }
 
 }  // namespace dentar::store::testkit

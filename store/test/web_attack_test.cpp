@@ -2,12 +2,11 @@
 // Slow clients (more than worker threads, plain and TLS), a header flood with
 // the server's memory watched, 100 wrong logins then the right one, logout
 // only by POST with the CSRF token, a stored report that tries to navigate
-// away in headless Chromium, HSTS and forward-secret TLS 1.2 ciphers.
-#include <arpa/inet.h>
+// away in headless Chromium, HSTS and forward-secret TLS 1.2 ciphers. The
+// raw sockets, slow clients and login form come from testkit (shared with
+// page_attack_bench).
 #include <gtest/gtest.h>
 #include <httplib.h>
-#include <netinet/in.h>
-#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -40,35 +39,8 @@ long rss_kb() {
   return -1;
 }
 
-int connect_raw(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(static_cast<std::uint16_t>(port));
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
-
-// What the server sent until it closed or `ms` passed.
-std::string read_until_close(int fd, int ms) {
-  std::string out;
-  const auto end = Clock::now() + std::chrono::milliseconds(ms);
-  char b[4096];
-  for (;;) {
-    const int left = static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now()).count());
-    if (left <= 0) break;
-    pollfd p{fd, POLLIN, 0};
-    if (::poll(&p, 1, left) <= 0) break;
-    const ssize_t n = ::recv(fd, b, sizeof b, 0);
-    if (n <= 0) break;
-    out.append(b, static_cast<std::size_t>(n));
-  }
-  return out;
-}
+using testkit::connect_raw;
+using testkit::read_until_close;
 
 // A server over a small store, in this process (its memory is ours).
 struct Served {
@@ -148,21 +120,10 @@ TEST(WebAttack, SlowClientsDoNotHoldTheWorkers) {
   Served s("web_slow", o);
   ASSERT_TRUE(s.server);
   constexpr int kSlow = 12;
-  std::vector<int> fds;
-  for (int i = 0; i < kSlow; ++i) {
-    const int fd = connect_raw(s.port());
-    ASSERT_GE(fd, 0);
-    fds.push_back(fd);
-  }
-  std::atomic<bool> stop{false};
-  std::thread drip([&] {
-    const std::string head = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
-    for (std::size_t k = 0; k < head.size() + 40 && !stop; ++k) {
-      const char c = k < head.size() ? head[k] : 'a';
-      for (int fd : fds) (void)::send(fd, &c, 1, MSG_NOSIGNAL);
-      std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    }
-  });
+  // Each sends the request line, Host and 40 bytes of an X-Slow header, one
+  // byte every 0.5 s, then waits.
+  testkit::SlowClients slow(s.port(), kSlow, std::chrono::milliseconds(500), false, 80);
+  ASSERT_EQ(slow.connected(), kSlow);
   std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // the slow clients are in
   for (int round = 0; round < 3; ++round) {
     httplib::Client c("127.0.0.1", s.port());
@@ -176,14 +137,12 @@ TEST(WebAttack, SlowClientsDoNotHoldTheWorkers) {
   }
   // The deadline ends each slow request (3 s after it connected). The
   // clients stop sending first, so the server's close is a FIN, not a reset.
-  stop = true;
-  drip.join();
+  slow.stop();
   int timed_out = 0;
-  for (int fd : fds) {
+  for (int fd : slow.fds()) {
     const std::string got = read_until_close(fd, 4000);
     if (got.find("408 Request Timeout") != std::string::npos) ++timed_out;
   }
-  for (int fd : fds) ::close(fd);
   EXPECT_EQ(timed_out, kSlow);
   EXPECT_TRUE(s.logged("127.0.0.1: the request was not complete within 3 s")) << s.all_log();
 }
@@ -268,45 +227,38 @@ TEST(WebAttack, LoginThrottlingDelaysWithoutLockingOut) {
   o.login_max_delay_s = 2;
   Served s("web_throttle", o);
   ASSERT_TRUE(s.server);
-  httplib::Client c("127.0.0.1", s.port());
+  // The guesser fetches the login form like a browser (its CSRF token is no
+  // secret from the one who asks for it; it only stops other sites' forms).
+  const testkit::LoginForm form = testkit::get_login_form(s.port());
+  ASSERT_FALSE(form.csrf.empty());
   int checked = 0, throttled = 0;
   for (int i = 0; i < 100; ++i) {
-    auto r = c.Post("/login", "user=alice&password=wrong-guess-" + std::to_string(i) + "&next=/",
-                    "application/x-www-form-urlencoded");
-    ASSERT_TRUE(r);
-    ASSERT_TRUE(r->status == 401 || r->status == 429) << r->status;
-    (r->status == 401 ? checked : throttled)++;
+    const auto r = testkit::post_login(s.port(), form, kUser, "wrong-guess-" + std::to_string(i));
+    ASSERT_TRUE(r.status == 401 || r.status == 429) << r.status;
+    (r.status == 401 ? checked : throttled)++;
   }
   EXPECT_GE(checked, 5);
   EXPECT_LE(checked, 20) << "most guesses must be refused unchecked";
-  auto right = c.Post("/login", "user=alice&password=correct-horse-battery&next=/", "application/x-www-form-urlencoded");
-  ASSERT_TRUE(right);
-  EXPECT_EQ(right->status, 429);
-  EXPECT_TRUE(right->get_header_value("Set-Cookie").empty());
-  const int wait = std::stoi(right->get_header_value("Retry-After"));
+  const auto right = testkit::post_login(s.port(), form, kUser, kPassword);
+  EXPECT_EQ(right.status, 429);
+  EXPECT_TRUE(right.session.empty());
+  const int wait = std::stoi(right.retry_after);
   EXPECT_GE(wait, 1);
   EXPECT_LE(wait, 2);
-  EXPECT_NE(right->body.find("try again in"), std::string::npos);
-  auto bob = c.Post("/login", "user=bob&password=whatever-it-is&next=/", "application/x-www-form-urlencoded");
-  ASSERT_TRUE(bob);
-  EXPECT_EQ(bob->status, 429) << "the address is throttled, whatever the user name";
+  EXPECT_NE(right.body.find("try again in"), std::string::npos);
+  EXPECT_NE(right.body.find("name=\"csrf\" value=\"" + form.csrf + "\""), std::string::npos) << "the form still works";
+  const auto bob = testkit::post_login(s.port(), form, "bob", "whatever-it-is");
+  EXPECT_EQ(bob.status, 429) << "the address is throttled, whatever the user name";
   std::this_thread::sleep_for(std::chrono::milliseconds(wait * 1000 + 200));
-  auto later = c.Post("/login", "user=alice&password=correct-horse-battery&next=/", "application/x-www-form-urlencoded");
-  ASSERT_TRUE(later);
-  EXPECT_EQ(later->status, 303) << later->body.substr(0, 500);
-  EXPECT_NE(later->get_header_value("Set-Cookie").find("dentar_session="), std::string::npos);
+  const auto later = testkit::post_login(s.port(), form, kUser, kPassword);
+  EXPECT_EQ(later.status, 303) << later.body.substr(0, 500);
+  EXPECT_NE(later.session.find("dentar_session="), std::string::npos);
   EXPECT_TRUE(s.logged("login failed for user 'alice' from 127.0.0.1: failure 1 of the user")) << s.all_log();
   EXPECT_TRUE(s.logged("login throttled for user 'alice' from 127.0.0.1: next try in")) << s.all_log();
   EXPECT_TRUE(s.logged("login of user 'alice' from 127.0.0.1")) << s.all_log();
 }
 
-std::string login_cookie(Served& s) {
-  httplib::Client c("127.0.0.1", s.port());
-  auto r = c.Post("/login", "user=alice&password=correct-horse-battery&next=/", "application/x-www-form-urlencoded");
-  if (!r || r->status != 303) return "";
-  const std::string sc = r->get_header_value("Set-Cookie");
-  return sc.substr(0, sc.find(';'));
-}
+std::string login_cookie(Served& s) { return testkit::login_cookie(s.port(), kUser, kPassword); }
 
 // Logout is a form (POST) with the session's CSRF token; a GET does nothing,
 // a POST without the token (another site's form) is refused.
@@ -365,12 +317,16 @@ TEST(WebAttack, StoredReportCannotNavigate) {
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200);
   EXPECT_NE(r->get_header_value("Content-Security-Policy").find("; sandbox"), std::string::npos);
-  ASSERT_FALSE(testkit::chromium_binary().empty()) << "Debian's chromium is needed (tools/bootstrap.sh installs it)";
-  const fs::path page = testkit::login_page_file(s.dir, s.base(), kUser, kPassword, path);
-  const auto b = testkit::chromium("--virtual-time-budget=8000 --dump-dom", "file://" + page.string());
-  EXPECT_EQ(b.code, 0);
-  EXPECT_NE(b.out.find("the report stays"), std::string::npos) << b.out.substr(0, 2000);
-  EXPECT_EQ(b.out.find("<h1>Cohort</h1>"), std::string::npos) << "the report navigated away";
+  // The instructor logs in on the server's login page and lands on the
+  // report; its refresh (0 s) would navigate at once: nothing in 3 s.
+  testkit::Browser b;
+  ASSERT_TRUE(testkit::browser_login(b, s.base(), kUser, kPassword, path)) << b.error();
+  EXPECT_NE(b.url().find(path), std::string::npos) << b.url();
+  EXPECT_FALSE(b.navigates_within(3.0)) << "the report navigated away to " << b.url();
+  EXPECT_NE(b.url().find(path), std::string::npos) << b.url();
+  const std::string dom = b.dom();
+  EXPECT_NE(dom.find("the report stays"), std::string::npos) << dom.substr(0, 2000);
+  EXPECT_EQ(dom.find("<h1>Cohort</h1>"), std::string::npos) << "the report navigated away";
 }
 
 // HTTPS: slow handshakes do not hold the workers either, HSTS is sent, and

@@ -34,9 +34,11 @@ struct OpenOptions {
 // Unavailable (the server cannot be reached, the file stays locked: exit 1).
 enum class OpenFault { None, BadInput, Unavailable };
 
-// Called (from the waiting thread) when a SQLite open or write has waited
-// ~0.3 s for another program's lock, with a line to show the user. The
-// command line prints it at once; the default is silence.
+// Called (from the waiting thread) when an open or a write has waited ~0.3 s
+// for another program's lock (SQLite: its busy handler; PostgreSQL: the
+// statement found in pg_blocking_pids from a second connection, naming the
+// holder), with a line to show the user. The command line prints it at
+// once; the default is silence.
 void set_lock_wait_notice(std::function<void(const std::string&)> fn);
 
 struct StudentSummary {

@@ -1,6 +1,7 @@
 // The instructor's read-only web page over a session store (cpp-httplib).
 // Pages: / (students), /student/CODE, /session/ID, /session/ID/report (the
-// stored score.html), /cohort, /exercise/NAME, /login, /logout (POST with the CSRF token). Everything but
+// stored score.html), /cohort, /exercise/NAME, /login (its form's CSRF token bound to a pre-session
+// cookie), /logout (POST with the session's CSRF token). Everything but
 // /login needs a cookie session; parameters are checked against a strict
 // alphabet (bad ones: 400 page) and only ever bound as SQL parameters; an
 // unknown student/session is the 404 page. No file is served from disk.
