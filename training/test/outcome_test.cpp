@@ -285,8 +285,8 @@ namespace {
 TEST(Outcome, IncisorGradedRegionsOnTheProceduralTooth) {
   auto ex = load_builtin_exercise("incisor_partial_crown");
   ASSERT_TRUE(ex.ok()) << ex.error();
-  // Every voxel beyond the target charged (the shipped 0.2 mm tolerance
-  // would spare this 0.2 mm over-reduction whole; its own test is
+  // Every voxel beyond the target charged (a 0.2 mm tolerance would spare
+  // this 0.2 mm over-reduction whole; its own test is
   // OutcomeCases.ToleranceAndOverReductionChargeOnlyWhatIsBeyondThem).
   ex->tolerance_mm = 0;
   auto start = make_tooth(R"({"kind": "incisor", "voxel_mm": 0.2})");
