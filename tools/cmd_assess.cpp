@@ -281,7 +281,8 @@ void add_assess(CLI::App& app, int& exit_code) {
       "          dentar assess --train DIR --cv subject|trial [--method M] [--normalise] [--save MODEL.json]\n"
       "          dentar assess --kinematics TRIALS.csv --columns MAP.json --cv subject|trial [--method M]\n"
       "Methods: hmm (the seed's discrete HMM), ghmm, dtw (on frames); skill (per-trial skill features, nearest\n"
-      "centroid); time, timepath (baselines: task time; task time and path length).\n"
+      "centroid), skill-lda (the same in units of the within-class SD: diagonal LDA); time, timepath (baselines:\n"
+      "task time; task time and path length).\n"
       "--cv subject leaves one person out (a new student); --cv trial leaves the k-th trial of every person out, so\n"
       "the person stays in training and the accuracy can measure identity. Both print person identification\n"
       "(the same features and method told to name the person) as a leakage check.\n"
@@ -307,7 +308,7 @@ void add_assess(CLI::App& app, int& exit_code) {
   s->add_option("--model", c->model, "Classify SESSION... with this model");
   s->add_option("--make-reference", c->make_reference, "Write the expert reference (feedback statistics) of --train's experts");
   s->add_option("--exercise", c->exercise, "Exercise for --generate / --make-reference")->capture_default_str();
-  s->add_option("--method", c->method, "hmm, ghmm, dtw, skill, time or timepath")->capture_default_str();
+  s->add_option("--method", c->method, "hmm, ghmm, dtw, skill, skill-lda, time or timepath")->capture_default_str();
   s->add_option("--states", c->states, "Hidden states")->capture_default_str();
   s->add_option("--symbols", c->symbols, "k-means symbols (hmm)")->capture_default_str();
   s->add_option("--iterations", c->iterations, "Baum-Welch iterations at most")->capture_default_str();

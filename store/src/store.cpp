@@ -167,7 +167,8 @@ Result<std::int64_t> upsert(Db& db, const char* table, const char* col, const st
 const char* kSummaryCols =
     "s.id, s.key, st.code, sta.code, e.name, e.title, s.started_utc, sc.points, sc.max_points, sc.duration_s, "
     "sc.coverage_pct, sc.pulp_exposed, sc.perforation, (SELECT COUNT(*) FROM reports r WHERE r.session_id = s.id "
-    "AND r.score_html IS NOT NULL)";
+    "AND r.score_html IS NOT NULL), (SELECT COUNT(*) FROM metrics m WHERE m.session_id = s.id AND "
+    "m.name = 'outcome.complete' AND m.value = 0)";
 const char* kSummaryFrom =
     " FROM sessions s JOIN students st ON st.id = s.student_id JOIN stations sta ON sta.id = s.station_id "
     "JOIN exercises e ON e.id = s.exercise_id LEFT JOIN scores sc ON sc.session_id = s.id";
@@ -188,6 +189,7 @@ SessionSummary summary_from(const Row& r) {
   s.pulp_exposed = flag(r[11]);
   s.perforation = flag(r[12]);
   s.has_report = i64(r[13]) > 0;
+  s.incomplete = i64(r[14]) > 0;
   return s;
 }
 
@@ -376,13 +378,17 @@ Result<std::vector<StudentSummary>> Store::students() {
   }
   // Last session's score per student (one more query, not one per student).
   auto last = db_->query(
-      "SELECT st.code, sc.points, sc.max_points FROM sessions s JOIN students st ON st.id = s.student_id "
+      "SELECT st.code, sc.points, sc.max_points, (SELECT COUNT(*) FROM metrics m WHERE m.session_id = s.id AND "
+      "m.name = 'outcome.complete' AND m.value = 0) FROM sessions s JOIN students st ON st.id = s.student_id "
       "JOIN scores sc ON sc.session_id = s.id WHERE s.id = (SELECT s2.id FROM sessions s2 WHERE s2.student_id = "
       "s.student_id ORDER BY s2.started_utc DESC, s2.id DESC LIMIT 1)");
   if (!last) return Error{last.error()};
   for (const auto& row : *last)
     for (auto& s : out)
-      if (s.code == str(row[0]) && dbl(row[2]) > 0) s.last_pct = 100.0 * dbl(row[1]) / dbl(row[2]);
+      if (s.code == str(row[0])) {
+        if (dbl(row[2]) > 0) s.last_pct = 100.0 * dbl(row[1]) / dbl(row[2]);
+        s.last_incomplete = i64(row[3]) > 0;
+      }
   return out;
 }
 

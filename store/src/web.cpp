@@ -143,6 +143,12 @@ bool query_ok(const std::string& target) {
   return true;
 }
 
+// Beside a score whose preparation was not finished (score.json
+// outcome.complete false, issue 25): the points it earned are shown, never
+// without this mark.
+constexpr const char* kIncompleteMark =
+    " <span class=\"warn\" data-k=\"incomplete\" title=\"the preparation was not finished\">INCOMPLETE</span>";
+
 SessionFilter filter(const std::string& student, const std::string& exercise, std::size_t limit = 0) {
   SessionFilter f;
   f.student = student;
@@ -531,6 +537,7 @@ struct WebServer::Impl {
              html::esc(x.code) + "</a></td><td class=\"n\" data-k=\"sessions\">" + std::to_string(x.sessions) +
              "</td><td class=\"n\" data-k=\"mean_pct\">" + (x.sessions ? html::fixed(x.mean_pct, 1) + " %" : "–") +
              "</td><td class=\"n\" data-k=\"last_pct\">" + (x.sessions ? html::fixed(x.last_pct, 1) + " %" : "–") +
+             (x.sessions && x.last_incomplete ? kIncompleteMark : "") +
              "</td><td>" + html::esc(x.last_utc) + "</td></tr>";
       b += "</table>";
       if (students->empty()) b += "<p class=\"muted\">No sessions stored yet (<code>dentar db import</code>).</p>";
@@ -569,7 +576,8 @@ struct WebServer::Impl {
              html::esc(x.started_utc) + "</td><td><a href=\"/student/" + html::url_part(code) + "?exercise=" +
              html::url_part(x.exercise) + "\">" + html::esc(x.exercise) + "</a></td><td>" + html::esc(x.station) +
              "</td><td class=\"n\" data-k=\"points\">" + html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) +
-             "</td><td class=\"n\" data-k=\"pct\">" + pct(x.points, x.max_points) + " %</td><td class=\"n\">" +
+             "</td><td class=\"n\" data-k=\"pct\">" + pct(x.points, x.max_points) + " %" +
+             (x.incomplete ? kIncompleteMark : "") + "</td><td class=\"n\">" +
              html::fixed(x.coverage_pct, 1) + " %</td><td class=\"n\">" + html::fixed(x.duration_s, 1) + " s</td><td>" +
              (x.pulp_exposed ? "<span class=\"warn\">exposed</span>" : "–") + "</td><td>" +
              (x.has_report ? "<a href=\"/session/" + id + "/report\">report</a>" : "–") + "</td></tr>";

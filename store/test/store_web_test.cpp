@@ -258,6 +258,63 @@ TEST_F(Web, NumbersOnThePagesMatchTheDatabase) {
   EXPECT_NE(cohort->body.find("data-exercise=\"incisor_partial_crown\""), std::string::npos);
 }
 
+// Issue 25: a session whose preparation was not finished (score.json
+// outcome.complete false) keeps its points but is marked INCOMPLETE on the
+// student's session list and beside the last score on the student list, as
+// on its own page; a finished one and a score without the metric (stored
+// before issue 25) are not marked.
+TEST_F(Web, StudentListsMarkUnfinishedSessionsIncomplete) {
+  auto st = store();
+  auto with_complete = [](dentar::store::SessionRecord r, double complete) {
+    r.metrics.push_back({"outcome.complete", complete, "bool"});
+    return r;
+  };
+  // s08: an old finished session, then an unfinished last one; s09: an
+  // unfinished session, then a finished last one; s10: no metric at all.
+  ASSERT_TRUE(st->put(with_complete(testkit::make_record("s08", "st-0", "molar_access_opening", 801, 10), 1)).ok());
+  ASSERT_TRUE(st->put(with_complete(testkit::make_record("s08", "st-0", "molar_access_opening", 802, 20), 0)).ok());
+  ASSERT_TRUE(st->put(with_complete(testkit::make_record("s09", "st-0", "molar_access_opening", 901, 10), 0)).ok());
+  ASSERT_TRUE(st->put(with_complete(testkit::make_record("s09", "st-0", "molar_access_opening", 902, 20), 1)).ok());
+  ASSERT_TRUE(st->put(testkit::make_record("s10", "st-0", "molar_access_opening", 1001, 10)).ok());
+  SessionFilter f;
+  f.student = "s08";
+  auto s08 = st->sessions(f);
+  ASSERT_TRUE(s08.ok()) << s08.error();
+  ASSERT_EQ(s08->size(), 2u);
+  EXPECT_FALSE((*s08)[0].incomplete);
+  EXPECT_TRUE((*s08)[1].incomplete);
+  const std::string mark = "data-k=\"incomplete\"";
+  auto page = get("/student/s08");
+  ASSERT_TRUE(page);
+  ASSERT_EQ(page->status, 200);
+  auto row_of = [&](const std::string& body, const std::string& start) {
+    const auto at = body.find(start);
+    if (at == std::string::npos) return std::string();
+    return body.substr(at, body.find("</tr>", at) - at);
+  };
+  const std::string unfinished = row_of(page->body, "<tr data-id=\"" + std::to_string((*s08)[1].id) + "\">");
+  const std::string finished = row_of(page->body, "<tr data-id=\"" + std::to_string((*s08)[0].id) + "\">");
+  ASSERT_FALSE(unfinished.empty());
+  ASSERT_FALSE(finished.empty());
+  EXPECT_NE(unfinished.find(mark), std::string::npos) << unfinished;
+  EXPECT_NE(unfinished.find("INCOMPLETE"), std::string::npos);
+  EXPECT_EQ(finished.find(mark), std::string::npos) << finished;
+  // The student list: the last session's mark only.
+  auto home = get("/");
+  ASSERT_TRUE(home);
+  ASSERT_EQ(home->status, 200);
+  EXPECT_NE(row_of(home->body, "<tr data-student=\"s08\"").find(mark), std::string::npos);
+  EXPECT_EQ(row_of(home->body, "<tr data-student=\"s09\"").find(mark), std::string::npos);
+  EXPECT_EQ(row_of(home->body, "<tr data-student=\"s10\"").find(mark), std::string::npos);
+  EXPECT_FALSE(row_of(home->body, "<tr data-student=\"s10\"").empty());
+  auto students = st->students();
+  ASSERT_TRUE(students.ok());
+  for (const auto& x : *students) EXPECT_EQ(x.last_incomplete, x.code == "s08") << x.code;
+  auto s10 = get("/student/s10");
+  ASSERT_TRUE(s10);
+  EXPECT_EQ(s10->body.find(mark), std::string::npos);
+}
+
 TEST_F(Web, UnknownSessionsAndPagesAreThe404Page) {
   for (const char* p : {"/session/999999", "/session/999999/report", "/student/nobody", "/exercise/none", "/nope", "/session"}) {
     auto r = get(p);

@@ -11,7 +11,9 @@
 
 namespace dentar::training {
 namespace {
-bool is_summary(Method m) { return m == Method::kSkill || m == Method::kTime || m == Method::kTimePath; }
+bool is_summary(Method m) {
+  return m == Method::kSkill || m == Method::kSkillLda || m == Method::kTime || m == Method::kTimePath;
+}
 SummarySet summary_set(Method m) {
   return m == Method::kTime ? SummarySet::kTime : m == Method::kTimePath ? SummarySet::kTimePath : SummarySet::kSkill;
 }
@@ -31,6 +33,7 @@ std::string method_name(Method m) {
     case Method::kGaussianHmm: return "ghmm";
     case Method::kDtw: return "dtw";
     case Method::kSkill: return "skill";
+    case Method::kSkillLda: return "skill-lda";
     case Method::kTime: return "time";
     case Method::kTimePath: return "timepath";
   }
@@ -42,9 +45,10 @@ Result<Method> parse_method(const std::string& s) {
   if (s == "ghmm") return Method::kGaussianHmm;
   if (s == "dtw") return Method::kDtw;
   if (s == "skill") return Method::kSkill;
+  if (s == "skill-lda") return Method::kSkillLda;
   if (s == "time") return Method::kTime;
   if (s == "timepath") return Method::kTimePath;
-  return Error{"unknown method '" + s + "' (hmm, ghmm, dtw, skill, time, timepath)"};
+  return Error{"unknown method '" + s + "' (hmm, ghmm, dtw, skill, skill-lda, time, timepath)"};
 }
 
 std::string AssessOptions::validate() const {
@@ -99,6 +103,26 @@ Result<SkillModel> train_impl(const std::vector<const Trial*>& trials, const std
     m.scaler.mean = F.colwise().mean().transpose();
     m.scaler.std = ((F.rowwise() - m.scaler.mean.transpose()).colwise().squaredNorm() /
                     std::max<double>(1.0, static_cast<double>(F.rows() - 1))).cwiseSqrt().transpose();
+    if (opt.method == Method::kSkillLda) {
+      // Diagonal LDA: each feature in units of its pooled within-class SD
+      // (not the total SD), so a feature whose classes lie far apart for
+      // their spread weighs more than one that mostly varies between persons
+      // of a class. Equal priors, shared diagonal covariance.
+      std::map<std::string, std::pair<Eigen::VectorXd, double>> cls;
+      for (std::size_t i = 0; i < trials.size(); ++i) {
+        auto& c = cls[label_of[i]];
+        if (c.first.size() == 0) c.first = Eigen::VectorXd::Zero(F.cols());
+        c.first += F.row(static_cast<Eigen::Index>(i)).transpose();
+        c.second += 1;
+      }
+      Eigen::VectorXd ss = Eigen::VectorXd::Zero(F.cols());
+      for (std::size_t i = 0; i < trials.size(); ++i) {
+        const auto& c = cls[label_of[i]];
+        ss += (F.row(static_cast<Eigen::Index>(i)).transpose() - c.first / c.second).cwiseAbs2();
+      }
+      const double dof = static_cast<double>(trials.size()) - static_cast<double>(cls.size());
+      if (dof >= 1) m.scaler.std = (ss / dof).cwiseSqrt();
+    }
     for (Eigen::Index k = 0; k < m.scaler.std.size(); ++k)
       if (!(m.scaler.std(k) > 1e-12)) m.scaler.std(k) = 1.0;  // constant over training: carries nothing
     const Sequence Z = m.scaler.apply(F);
@@ -169,6 +193,7 @@ Result<SkillModel> train_impl(const std::vector<const Trial*>& trials, const std
         break;
       }
       case Method::kSkill:
+      case Method::kSkillLda:
       case Method::kTime:
       case Method::kTimePath: break;  // handled above
     }
@@ -246,6 +271,7 @@ Result<Verdict> classify(const SkillModel& m, const Sequence& x_in, double rate_
         break;
       }
       case Method::kSkill:
+      case Method::kSkillLda:
       case Method::kTime:
       case Method::kTimePath: break;  // handled above
     }

@@ -151,12 +151,19 @@ std::vector<StepGeom> step_geometry(const Exercise& ex, const RegionMasks& m, co
     for (std::size_t r = 0; r < ex.regions.size(); ++r)
       if (ex.regions[r].name == ex.steps[k].region && ex.regions[r].role == RegionRole::kTarget) region_of[k] = static_cast<int>(r);
   }
+  // The plan follows the solid voxels of `solid`/`shell` targets, as before
+  // the masks took in the tooth's partial-volume skin (issue 25, session 11):
+  // the generator's sessions are unchanged by that scoring fix.
+  std::uint32_t skin_free = 0;
+  for (std::size_t r = 0; r < ex.regions.size() && r < 32; ++r)
+    for (const auto& pr : ex.regions[r].all)
+      if (!pr.negate && (pr.kind == PrimitiveKind::kShell || pr.kind == PrimitiveKind::kSolid)) skin_free |= 1u << r;
   const auto d = m.dims;
   for (int kk = 0; kk < d.z(); ++kk)
     for (int j = 0; j < d.y(); ++j)
       for (int i = 0; i < d.x(); ++i) {
-        const std::uint32_t bits = m.bits[m.index(i, j, kk)];
         const bool solid = start.density(i, j, kk) > volume::kIsoDensity;
+        const std::uint32_t bits = m.bits[m.index(i, j, kk)] & (solid ? ~0u : ~skin_free);
         if (!(bits & m.target_bits)) {
           if (!solid) continue;
           const Eigen::Vector3d p = start.voxel_center(i, j, kk);

@@ -327,7 +327,9 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
     if (!get_number(c, o, "pulp_exposure_points", "outcome.", ex.pulp_exposure_cost, false, 0, 1000) ||
         !get_number(c, o, "perforation_points", "outcome.", ex.perforation_cost, false, 0, 1000) ||
         !get_number(c, o, "complete_coverage_pct", "outcome.", ex.complete_coverage_pct, false, 0, 100) ||
-        !get_number(c, o, "complete_orifice_sight", "outcome.", ex.complete_orifice_sight, false, 0, 1))
+        !get_number(c, o, "complete_orifice_sight", "outcome.", ex.complete_orifice_sight, false, 0, 1) ||
+        !get_number(c, o, "over_reduction_rate", "outcome.", ex.over_reduction_rate, false, 0, 100) ||
+        !get_number(c, o, "tolerance_mm", "outcome.", ex.tolerance_mm, false, 0, 5))
       return Error{c.err};
   }
   bool any_target = false;
@@ -455,7 +457,12 @@ Result<RegionMasks> build_masks(const Exercise& ex, const volume::VoxelVolume& s
         const Eigen::Vector3d p = start.voxel_center(i, j, k);
         const std::size_t id = m.index(i, j, k);
         const std::uint8_t dens = start.density(i, j, k);
-        const bool solid = dens > kIsoDensity;
+        // Tooth: every voxel with material in it, the partial-volume skin
+        // (0 < density <= iso) included. Before issue 25 (session 11) the
+        // skin over a target was in no region: shaving it off counted as
+        // over-preparation outside every target (4-7 mm3 of an incisor
+        // preparation at every skill level, 0.15 mm voxels).
+        const bool solid = dens > 0;
         std::uint32_t b = 0;
         for (std::size_t r = 0; r < ex.regions.size(); ++r) {
           bool in = true;

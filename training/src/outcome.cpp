@@ -164,8 +164,8 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       bool v;
       switch (pr.kind) {
         case PrimitiveKind::kMaterial: v = d0 > 0 && start.material(i, j, k) == pr.material; break;
-        case PrimitiveKind::kShell: v = d0 > kIsoDensity && dist[id] <= pr.depth_m + g; break;
-        case PrimitiveKind::kSolid: v = d0 > kIsoDensity; break;
+        case PrimitiveKind::kShell: v = d0 > 0 && dist[id] <= pr.depth_m + g; break;  // as build_masks: skin included
+        case PrimitiveKind::kSolid: v = d0 > 0; break;
         default:
           // contains() applies `negate` itself; a complement grows when its shape shrinks.
           if (!pr.contains(p, pr.negate ? -g : g)) return false;
@@ -176,6 +176,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     }
     return true;
   };
+  const AccessGeometry* access = ex.outcome == OutcomeKind::kAccessOpening && ex.access ? &*ex.access : nullptr;
   const Eigen::Vector3i d = start.dims();
   static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   for (int k = 0; k < d.z(); ++k)
@@ -220,10 +221,22 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
               break;
             }
           }
-          if (who) {
+          if (who && best <= ex.tolerance_mm * 1e-3 + 1e-12) {
+            o.tolerated_mm3 += rem;  // within the clinical tolerance of the outline: not charged
+          } else if (who) {
             const double share = rem / std::popcount(who);
             for (std::size_t r = 0; r < nr; ++r)
               if (who >> r & 1u) reg_over[r] += share;
+          } else if (mat != static_cast<std::size_t>(volume::Material::kPulp) &&
+                     !(access && start.voxel_center(i, j, k).z() < access->floor_z_m)) {
+            // Beyond every zone: over-reduction (pulp has its own cost, the
+            // access opening's floor its own criterion).
+            bool near = false;
+            for (std::size_t r = 0; r < nr && !near; ++r) {
+              const Region& R = ex.regions[r];
+              near = R.role == RegionRole::kTarget && R.points <= 0 && in_zone(r, i, j, k, id, R.zone_mm * 1e-3);
+            }
+            if (!near) o.beyond_zone_mm3 += rem;
           }
         }
         if (bits & m.forbidden_bits) o.forbidden_mm3 += rem;
@@ -394,6 +407,21 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     o.penalties.push_back({"perforation", c,
                            "the cut opened the tooth to the outside away from the entry surface (" +
                                fmt(o.perforation_mm3, 3) + " mm3); this exercise charges " + fmt(c, 1) + " points for it."});
+  }
+  // Over-reduction: sound tooth cut away beyond the tolerance around the
+  // outline, at the exercise's price per mm3 of target (issue 25, session 11).
+  if (ex.over_reduction_rate > 0 && o.beyond_zone_mm3 > 0 && o.target_mm3 > 0) {
+    const double per_mm3 = ex.over_reduction_rate * o.max_points / o.target_mm3;
+    const double c = std::min(o.max_points, per_mm3 * o.beyond_zone_mm3);
+    std::string zones;
+    for (const auto& R : ex.regions)
+      if (R.role == RegionRole::kTarget)
+        zones += (zones.empty() ? "" : ", ") + R.name + " " + fmt(R.zone_mm, 1) + " mm";
+    o.penalties.push_back(
+        {"over-reduction", c,
+         fmt(o.beyond_zone_mm3) + " mm3 of sound tooth was cut away beyond the tolerance around the outline (" + zones +
+             "); this exercise charges " + fmt(per_mm3, 3) + " points per mm3 (" + fmt(ex.over_reduction_rate, 2) +
+             " x what a mm3 of target left standing costs): " + fmt(c, 1) + " points."});
   }
   double cost = 0;
   for (const auto& p : o.penalties) cost += p.points;

@@ -285,6 +285,10 @@ namespace {
 TEST(Outcome, IncisorGradedRegionsOnTheProceduralTooth) {
   auto ex = load_builtin_exercise("incisor_partial_crown");
   ASSERT_TRUE(ex.ok()) << ex.error();
+  // Every voxel beyond the target charged (a 0.2 mm tolerance would spare
+  // this 0.2 mm over-reduction whole; its own test is
+  // OutcomeCases.ToleranceAndOverReductionChargeOnlyWhatIsBeyondThem).
+  ex->tolerance_mm = 0;
   auto start = make_tooth(R"({"kind": "incisor", "voxel_mm": 0.2})");
   ASSERT_TRUE(start.ok()) << start.error();
   auto m = build_masks(*ex, *start);
@@ -427,6 +431,76 @@ TEST(OutcomeCases, PulpExposureAndPerforationCostWhatTheExerciseSays) {
   const OutcomeScores all = c.score(c.well(2.0, 5.5));
   EXPECT_EQ(all.points, 0.0);
   EXPECT_DOUBLE_EQ(all.penalties[0].points, 4.0);
+}
+
+// Issue 25, session 11: the clinical tolerance around the outline, the
+// over-reduction beyond the zone, and the tooth's partial-volume skin.
+TEST(OutcomeCases, ToleranceAndOverReductionChargeOnlyWhatIsBeyondThem) {
+  Cases c;
+  const double target = cyl_mm3(2.0, 4.0);  // the well, z 6..10 mm
+  // 0.15 mm too wide: charged without a tolerance, within a 0.2 mm one.
+  const VoxelVolume wide = c.well(2.15, 6.0);
+  const OutcomeScores strict = c.score(wide);
+  EXPECT_LT(strict.points, 3.8);
+  EXPECT_EQ(strict.tolerated_mm3, 0.0);
+  c.ex.tolerance_mm = 0.2;
+  const OutcomeScores tol = c.score(wide);
+  EXPECT_NEAR(tol.points, 4.0, 0.02);
+  EXPECT_NEAR(tol.tolerated_mm3, strict.overprep_mm3, 1e-9);
+  EXPECT_NEAR(tol.tolerated_mm3, cyl_mm3(2.15, 4.0) - target, 0.15 * (cyl_mm3(2.15, 4.0) - target));
+  // 0.5 mm too wide: the tolerance spares the first 0.2 mm only.
+  const OutcomeScores wider = c.score(c.well(2.5, 6.0));
+  EXPECT_GT(wider.points, 0.0);
+  EXPECT_LT(wider.points, 4.0 * (1 - (cyl_mm3(2.4, 4.0) - cyl_mm3(2.2, 4.0)) / target));
+  // Beyond the 1 mm zone (r 3.5 mm): not charged while over_reduction_rate is 0 ...
+  const VoxelVolume gouged = c.well(3.5, 6.0);
+  const OutcomeScores free_of_charge = c.score(gouged);
+  const double beyond = cyl_mm3(3.5, 4.0) - cyl_mm3(3.0, 4.0);
+  EXPECT_NEAR(free_of_charge.beyond_zone_mm3, beyond, 0.05 * beyond);
+  EXPECT_TRUE(free_of_charge.penalties.empty());
+  // ... and at rate 1 each mm3 costs what a mm3 of target left standing costs.
+  c.ex.over_reduction_rate = 1.0;
+  const OutcomeScores charged = c.score(gouged);
+  ASSERT_EQ(charged.penalties.size(), 1u);
+  EXPECT_EQ(charged.penalties[0].name, "over-reduction");
+  EXPECT_NEAR(charged.penalties[0].points, std::min(4.0, 4.0 / charged.target_mm3 * charged.beyond_zone_mm3), 1e-9);
+  EXPECT_TRUE(has(charged.penalties[0].why, "beyond the tolerance")) << charged.penalties[0].why;
+  EXPECT_EQ(charged.points, 0.0);  // 18 mm3 beyond a 50 mm3 target: the zone's excess already took the rest
+  // A small gouge 1.5 mm outside the zone (a 0.5 mm bore, 1 mm deep, at r 4 mm).
+  VoxelVolume spot = c.well(2.0, 6.0);
+  carve(spot, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 9, p.y() - 5) <= 0.5 && p.z() >= 9.0; });
+  const OutcomeScores sp = c.score(spot);
+  ASSERT_EQ(sp.penalties.size(), 1u);
+  EXPECT_NEAR(sp.beyond_zone_mm3, cyl_mm3(0.5, 1.0), 0.1 * cyl_mm3(0.5, 1.0));
+  EXPECT_NEAR(sp.points, 4.0 - 4.0 / sp.target_mm3 * sp.beyond_zone_mm3, 0.03);
+  // Nothing removed: still 0 points, no penalty, incomplete.
+  const OutcomeScores un = c.score(c.start);
+  EXPECT_EQ(un.points, 0.0);
+  EXPECT_TRUE(un.penalties.empty());
+  EXPECT_FALSE(un.complete);
+}
+
+TEST(OutcomeCases, ThePartialVolumeSkinOverATargetIsTarget) {
+  // A solid-shell target on a block whose top layer is partial-volume skin
+  // (density 100 < iso): removing the target with its skin is not
+  // over-preparation, and the skin counts toward the coverage.
+  VoxelVolume start = block();
+  for (int j = 0; j < 100; ++j)
+    for (int i = 0; i < 100; ++i) start.set(i, j, 99, 100, Material::kDentin);
+  Exercise ex = well_exercise();
+  Primitive solid;
+  solid.kind = PrimitiveKind::kSolid;
+  ex.regions[0].all.push_back(solid);
+  ex.regions.erase(ex.regions.begin() + 1);
+  auto m = build_masks(ex, start);
+  ASSERT_TRUE(m.ok()) << m.error();
+  VoxelVolume cut = start.clone();
+  carve(cut, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.0 && p.z() >= 6.0; });
+  auto o = score_outcome(ex, *m, start, cut);
+  ASSERT_TRUE(o.ok()) << o.error();
+  EXPECT_NEAR(o->overprep_mm3, 0.0, 1e-9);
+  EXPECT_NEAR(o->target_coverage_pct, 100.0, 0.5);
+  EXPECT_NEAR(o->points, 4.0, 0.02);
 }
 
 // The access opening's six criteria, same cases.

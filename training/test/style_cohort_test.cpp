@@ -142,10 +142,48 @@ TEST(StyleCohort, LeaveOnePersonOutSkillFeaturesBeatChanceWithIdentityReported) 
   EXPECT_EQ(id->labels.size(), 8u);
 }
 
+// skill-lda (issue 25, session 11): the skill features in units of the
+// pooled within-class SD (diagonal LDA), checked against the features
+// computed here; leaving one person out it must beat chance by the same
+// stated margin as `skill`.
+TEST(StyleCohort, SkillLdaScalesByTheWithinClassSdAndBeatsChance) {
+  const Imported& c = small();
+  ASSERT_EQ(c.trials.size(), 16u);
+  AssessOptions o;
+  o.method = Method::kSkillLda;
+  auto model = train_model(c.trials, c.names, o);
+  ASSERT_TRUE(model.ok()) << model.error();
+  std::map<std::string, std::vector<Eigen::VectorXd>> by;
+  for (const auto& t : c.trials) {
+    auto f = summary_features(SummarySet::kSkill, t.x, c.names, t.rate_hz);
+    ASSERT_TRUE(f.ok()) << f.error();
+    by[t.label].push_back(*f);
+  }
+  ASSERT_EQ(by.size(), 2u);
+  const Eigen::Index nf = model->scaler.std.size();
+  Eigen::VectorXd ss = Eigen::VectorXd::Zero(nf);
+  for (const auto& [l, v] : by) {
+    Eigen::VectorXd m = Eigen::VectorXd::Zero(nf);
+    for (const auto& f : v) m += f;
+    m /= static_cast<double>(v.size());
+    for (const auto& f : v) ss += (f - m).cwiseAbs2();
+  }
+  const Eigen::VectorXd within = (ss / (16.0 - 2.0)).cwiseSqrt();
+  for (Eigen::Index k = 0; k < nf; ++k)
+    if (within(k) > 1e-12) EXPECT_NEAR(model->scaler.std(k), within(k), 1e-9 * std::max(1.0, within(k))) << k;
+  auto r = cross_validate(c.trials, c.names, o, CvMode::kSubject);
+  ASSERT_TRUE(r.ok()) << r.error();
+  std::cerr << "skill-lda, leave one person out: " << r->correct << "/" << r->n << "\n";
+  EXPECT_GE(r->accuracy, 0.8);
+  EXPECT_EQ(method_name(Method::kSkillLda), "skill-lda");
+  ASSERT_TRUE(parse_method("skill-lda").ok());
+  EXPECT_EQ(*parse_method("skill-lda"), Method::kSkillLda);
+}
+
 TEST(StyleCohort, SummaryModelRoundTripsThroughJsonAndClassifiesAlike) {
   const Imported& c = small();
   ASSERT_FALSE(c.trials.empty());
-  for (Method m : {Method::kSkill, Method::kTime, Method::kTimePath}) {
+  for (Method m : {Method::kSkill, Method::kSkillLda, Method::kTime, Method::kTimePath}) {
     AssessOptions o;
     o.method = m;
     auto model = train_model(c.trials, c.names, o);

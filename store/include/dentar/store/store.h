@@ -46,6 +46,7 @@ struct StudentSummary {
   std::int64_t sessions = 0;
   double mean_pct = 0, last_pct = 0;  // points / max_points, %
   std::string last_utc;
+  bool last_incomplete = false;  // the last session's score says the preparation was not finished
 };
 
 struct SessionSummary {
@@ -53,6 +54,9 @@ struct SessionSummary {
   std::string key, student, station, exercise, exercise_title, started_utc;
   double points = 0, max_points = 0, duration_s = 0, coverage_pct = 0;
   bool pulp_exposed = false, perforation = false, has_report = false;
+  // The score says the preparation was not finished (metric outcome.complete
+  // = 0, issue 25); sessions scored before issue 25 have no such metric.
+  bool incomplete = false;
 };
 
 struct SessionFilter {

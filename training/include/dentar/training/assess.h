@@ -15,7 +15,9 @@ namespace dentar::training {
 // kSkill, kTime, kTimePath: nearest class centroid (z-scaled, diagonal
 // pooled variance) on per-trial summary features (skill_features.h): the
 // skill features, task time alone, task time and path length (baselines).
-enum class Method { kDiscreteHmm, kGaussianHmm, kDtw, kSkill, kTime, kTimePath };
+// kSkillLda: the skill features, nearest class centroid in units of the
+// pooled within-class SD (diagonal LDA) instead of the total SD.
+enum class Method { kDiscreteHmm, kGaussianHmm, kDtw, kSkill, kSkillLda, kTime, kTimePath };
 std::string method_name(Method m);
 Result<Method> parse_method(const std::string& s);
 

@@ -23,8 +23,8 @@ enum class PrimitiveKind : std::uint8_t {
   kCylinder,   // axis from a to b, radius (flat ends)
   kHalfSpace,  // point a, outward normal b: keeps (p - a)·b <= 0
   kMaterial,   // voxels of `material` in the starting volume
-  kShell,      // solid voxels of the starting volume within `depth` of its surface
-  kSolid,      // solid voxels (density > iso) of the starting volume
+  kShell,      // tooth voxels of the starting volume within `depth` of its surface
+  kSolid,      // tooth voxels (density > 0: the partial-volume skin included) of the starting volume
 };
 
 // One analytic shape (tooth frame, metres). `negate` takes its complement.
@@ -99,6 +99,19 @@ struct Exercise {
   // unnamed cost is the worst one).
   double pulp_exposure_cost = -1;
   double perforation_cost = -1;
+  // Over-reduction (outcome field "over_reduction_rate", issue 25 session
+  // 11): tooth (not pulp) removed outside every target region and beyond
+  // every target's zone_mm is charged rate x (the exercise's points per mm3
+  // of target) per mm3: with 1, a mm3 of sound tooth cut away beyond the
+  // tolerance costs what a mm3 of target left standing costs. 0 (default):
+  // not charged (reported only). Access openings: removal below floor_z is
+  // the floor criterion's, not charged again.
+  double over_reduction_rate = 0;
+  // Graded regions: removal outside the targets but within this distance
+  // (mm) of a target region is within clinical tolerance and not charged
+  // (outcome field "tolerance_mm"; 0: every voxel beyond the target is
+  // charged, the rule before session 11).
+  double tolerance_mm = 0;
   // A finished preparation removes at least this % of the target (outcome
   // field "complete_coverage_pct"); below it the score is marked incomplete.
   double complete_coverage_pct = 80;

@@ -42,6 +42,13 @@ struct OutcomeScores {
   double removed_total_mm3 = 0;
   double target_mm3 = 0, target_removed_mm3 = 0, target_coverage_pct = 0;
   double overprep_mm3 = 0;   // removed outside every target region
+  // Of overprep_mm3: tooth (not pulp) removed beyond every target's zone_mm
+  // (access opening: above floor_z); charged when the exercise sets
+  // over_reduction_rate (penalty "over-reduction").
+  double beyond_zone_mm3 = 0;
+  // Of overprep_mm3: removed within the exercise's tolerance_mm of a target
+  // (not charged).
+  double tolerated_mm3 = 0;
   double forbidden_mm3 = 0;  // removed inside forbidden regions
   std::vector<std::pair<std::string, double>> forbidden_by_region;  // name, mm3
   bool pulp_exposed = false;     // the bur entered the pulp: pulp tissue was removed (pulp_removed_mm3 > 0)
