@@ -21,8 +21,12 @@ namespace dentar::calibration {
 // Chessboard: cols x rows inner corners (OpenCV's patternSize), squares of square_m.
 // Corner (r, c) is at (c * square_m, r * square_m, 0); points are listed row-major.
 enum class ChessboardDetector {
-  kSectorBased,  // findChessboardCornersSB (more accurate; falls back to kClassic)
+  // findChessboardCornersSB finds the board, cornerSubPix (window inside the squares) places
+  // the corners; falls back to kClassic. The SB corners alone bias the principal point on
+  // generated views (intrinsics.cpp, docs/BENCHMARKS.md issue 24 session 11).
+  kSectorBased,
   kClassic,      // findChessboardCorners + cornerSubPix (11x11), as OpenCV's calibration sample
+  kSectorBasedUnrefined,  // findChessboardCornersSB's own corners (the default before session 11)
 };
 struct ChessboardSpec {
   int cols = 9, rows = 6;
