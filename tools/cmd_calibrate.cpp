@@ -738,7 +738,9 @@ int step_check(Session& s) {
   for (std::size_t i = 0; i < keep.size(); ++i) {
     if (i + 1 < keep.size()) {
       const double dt = keep[i + 1].t - keep[i].t;
-      const auto tip_man = [&](const FrameKeep& k) { return (s.truth.T_man_dev * k.T_dev_sty * s.truth.T_sty_tip).translation(); };
+      const auto tip_man = [&](const FrameKeep& k) -> Eigen::Vector3d {
+        return (s.truth.T_man_dev * k.T_dev_sty * s.truth.T_sty_tip).translation();
+      };
       if (dt > 0) tip_speed.push_back((tip_man(keep[i + 1]) - tip_man(keep[i])).norm() / dt);
     }
     if (!keep[i].tracked || lat <= 0) continue;

@@ -573,12 +573,12 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
            << rt5.tangential_chi2 << " chi-square, above " << o.tangential_chi2
            << "): without them the principal point shifts to absorb them and the camera frame turns, "
               "which held-out reprojection cannot see";
-        tangential_note = os.str();
         for (std::size_t i = 0; i < 2; ++i) {
           CandidateModel& c = sel.candidates[i];
           if (c.fitted && c.check.ok && c.as_good) {
             c.as_good = false;
-            c.verdict = "set aside: " + tangential_note;
+            c.verdict = "set aside: " + os.str();
+            tangential_note = os.str();  // said in `why` only when it changed the choice
           }
         }
       }
