@@ -167,11 +167,11 @@ TEST(CalibBoard, SimulatedAprilGridSessionRecoversTheCamera) {
 // Issue 24 (session 11): findChessboardCornersSB's own corners pull the calibrated principal
 // point to the left on generated views (truth known), on every seed and with more views too;
 // refined by cornerSubPix (the default now) the error is centred on zero. The station's
-// simulated head camera (seeds 1-3 of the calibration workflow's hidden truth), 12 views each as
+// simulated head camera (seeds 1-2 of the calibration workflow's hidden truth), 12 views each as
 // `dentar calibrate camera --simulate` renders them (no warped view), radtan5 fitted.
 TEST(CalibBoard, RefinedSectorCornersDoNotBiasThePrincipalPoint) {
   double mean_dcx[2] = {0, 0}, mean_abs_dcx[2] = {0, 0}, corner_rms[2] = {0, 0};
-  const int seeds = 3;
+  const int seeds = 2;
   for (int seed = 1; seed <= seeds; ++seed) {
     const auto truth = calibration::simulated_truth(default_station_scene().calibration, seed);
     const auto& k = truth.camera;
@@ -210,10 +210,10 @@ TEST(CalibBoard, RefinedSectorCornersDoNotBiasThePrincipalPoint) {
       corner_rms[d] += std::sqrt(se[d] / n[d]) / seeds;
     }
   }
-  // Measured: refined |cx error| 0.09 px mean (-0.00, -0.27, -0.00), sector-based -0.32 px mean
-  // (-0.22, -0.55, -0.20); corners 0.041 against 0.054 px RMS.
-  EXPECT_LT(mean_dcx[1], -0.2);
-  EXPECT_LT(mean_abs_dcx[0], 0.15);
+  // Measured: refined |cx error| 0.14 px mean (-0.00, -0.27), sector-based -0.39 px mean
+  // (-0.22, -0.55); corners 0.040 against 0.051 px RMS.
+  EXPECT_LT(mean_dcx[1], -0.3);
+  EXPECT_LT(mean_abs_dcx[0], 0.2);
   EXPECT_LT(mean_abs_dcx[0], 0.5 * mean_abs_dcx[1]);
   EXPECT_LT(corner_rms[0], corner_rms[1]);
 }
