@@ -64,8 +64,8 @@ struct BoardView {
 };
 
 // Finds the chessboard's inner corners in an 8-bit grayscale image (row stride in bytes),
-// refined to sub-pixel accuracy (findChessboardCornersSB, falling back to
-// findChessboardCorners + cornerSubPix). Error "board not found in <name>" with what to do.
+// refined to sub-pixel accuracy as spec.detector says (default: findChessboardCornersSB, its
+// corners placed by cornerSubPix; falling back to findChessboardCorners + cornerSubPix). Error "board not found in <name>" with what to do.
 Result<BoardView> detect_chessboard(const std::uint8_t* gray, int width, int height,
                                     int stride_bytes, const ChessboardSpec& spec,
                                     const std::string& name);
