@@ -63,8 +63,10 @@ struct CalibCli {
   bool board_given = false;  // --board on the command line (live: else its AprilTag grid default)
   int camera_views = 12;     // live camera step  // simulated camera step: boards inside this % of the image
   int check_frames = 20;
+  double latency_ms = 33;  // check: the camera's latency against the haptic pose drawn with its frame
   bool rational = false;
   std::string model = "auto";  // camera: auto, k1, k1k2, radtan5, rational8
+  std::string corners = "sb-subpix";  // camera, chessboards: sb-subpix, sb, classic
   bool instructor_time = false;
   std::string camera;  // --camera SPEC: which physical camera (camera.device_id)
   std::string hand = "HMD";  // hand_eye: what carries the camera
@@ -160,6 +162,10 @@ int step_camera(Session& s) {
   } else {
     auto spec = ar::parse_board_spec(c.board);
     if (!spec) throw BadInput{spec.error()};
+    if (auto* cb = std::get_if<cal::ChessboardSpec>(&*spec))
+      cb->detector = c.corners == "sb" ? cal::ChessboardDetector::kSectorBasedUnrefined
+                     : c.corners == "classic" ? cal::ChessboardDetector::kClassic
+                                              : cal::ChessboardDetector::kSectorBased;
     std::vector<cal::BoardView> views;
     std::vector<cv::Mat> view_images;  // chessboard views' grey images, for the response
     const bool chessboard = std::holds_alternative<cal::ChessboardSpec>(*spec);
@@ -663,6 +669,18 @@ int step_check(Session& s) {
   // bundle fit), + the camera calibration (the calibrated camera, the true station), + the
   // station calibration (both calibrated: the total above).
   std::vector<double> err_track, err_track_cam;
+  // Timing (issue 24): the live path draws each frame with the haptic pose of the moment the
+  // frame is taken from the capture queue (live_app.cpp: engine.snapshot() after wait_take),
+  // while the image shows the stylus at its exposure: the bur leads the real handpiece by the
+  // stylus's motion over the camera's latency. Simulated here: the haptic pose latency_ms after
+  // the frame (interpolated between the generated frames' truths) is drawn on the frame.
+  struct FrameKeep {
+    double t = 0;
+    Eigen::Isometry3d T_dev_sty, T_cam_man_true, T_cam_man_cal;
+    Eigen::Vector3d tip_true_cam;
+    bool tracked = false;
+  };
+  std::vector<FrameKeep> keep;
   for (int f = 0; f < so.frames; ++f) {
     ar::SynthFrame fr;
     if (Status st = (*gen)->next(fr); !st) throw BadInput{"check: " + st.error()};
@@ -673,6 +691,7 @@ int step_check(Session& s) {
     const auto pose = ar::estimate_bundle_pose(bundle, s.st.calibration.camera, *d);
     const auto pose_nom = ar::estimate_bundle_pose(bundle, nominal.camera, *d);
     const Eigen::Vector3d tip_true = fr.truth.T_cam_tip.translation();
+    keep.push_back({fr.truth.time_s, fr.truth.T_dev_sty, fr.truth.T_cam_man, pose.T_cam_body, tip_true, pose.ok()});
     std::cout << "  frame " << f;
     if (pose.ok()) {
       const Eigen::Vector3d tip_drawn = cal::chain_tip_cam(pose.T_cam_body, s.st.calibration, fr.truth.T_dev_sty);
@@ -711,6 +730,34 @@ int step_check(Session& s) {
               << so.frames << " frames; check the camera calibration and tag layout\n";
     return 1;
   }
+  // The timing term: for each tracked frame whose time + latency lies inside the clip, the
+  // haptic pose at that time (translation linear, rotation slerp between the frames around it);
+  // timing alone (everything else true) and the total with timing; the stylus tip's speed.
+  std::vector<double> err_timing, err_total_timing, tip_speed;
+  const double lat = s.cli.latency_ms * 1e-3;
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    if (i + 1 < keep.size()) {
+      const double dt = keep[i + 1].t - keep[i].t;
+      const auto tip_man = [&](const FrameKeep& k) -> Eigen::Vector3d {
+        return (s.truth.T_man_dev * k.T_dev_sty * s.truth.T_sty_tip).translation();
+      };
+      if (dt > 0) tip_speed.push_back((tip_man(keep[i + 1]) - tip_man(keep[i])).norm() / dt);
+    }
+    if (!keep[i].tracked || lat <= 0) continue;
+    const double tq = keep[i].t + lat;
+    std::size_t j = i;
+    while (j + 1 < keep.size() && keep[j + 1].t < tq) ++j;
+    if (j + 1 >= keep.size()) break;  // past the clip's end
+    const double a = (tq - keep[j].t) / (keep[j + 1].t - keep[j].t);
+    Eigen::Isometry3d T_late = Eigen::Isometry3d::Identity();
+    T_late.linear() = Eigen::Quaterniond(keep[j].T_dev_sty.linear())
+                          .slerp(a, Eigen::Quaterniond(keep[j + 1].T_dev_sty.linear()))
+                          .toRotationMatrix();
+    T_late.translation() = (1 - a) * keep[j].T_dev_sty.translation() + a * keep[j + 1].T_dev_sty.translation();
+    err_timing.push_back((cal::chain_tip_cam(keep[i].T_cam_man_true, s.truth, T_late) - keep[i].tip_true_cam).norm());
+    err_total_timing.push_back(
+        (cal::chain_tip_cam(keep[i].T_cam_man_cal, s.st.calibration, T_late) - keep[i].tip_true_cam).norm());
+  }
   const double m = mean(err), mx = maxv(err);
   std::cout << "co-location at the tooth over " << err.size() << " frames: bur tip error mean "
             << fmt(m * 1e3, 3) << " mm, max " << fmt(mx * 1e3, 3) << " mm (goal: mean <= 0.5 mm)\n"
@@ -726,8 +773,16 @@ int step_check(Session& s) {
             << fmt(mean(err_track) * 1e3, 3) << " mm; + camera calibration (calibrated camera, true station) "
             << fmt(mean(err_track_cam) * 1e3, 3) << " mm; + station calibration (pivot, register, tooth) = the "
                "total " << fmt(m * 1e3, 3) << " mm. Hand-eye is not in this chain (the camera is tracked "
-               "against the mannequin directly) and timing is 0 here: the truth's tip is the haptic step "
-               "drawn with the frame\n";
+               "against the mannequin directly)\n";
+  if (lat > 0 && !err_timing.empty())
+    std::cout << "  timing (the haptic pose " << fmt(s.cli.latency_ms, 0) << " ms after the frame's exposure drawn "
+              << "on it, as the live path does; --latency-ms): timing alone mean " << fmt(mean(err_timing) * 1e3, 3)
+              << " mm; the total with timing " << fmt(mean(err_total_timing) * 1e3, 3) << " mm over "
+              << err_timing.size() << " frames; the stylus tip moved at " << fmt(mean(tip_speed) * 1e3, 1)
+              << " mm/s mean, " << fmt(maxv(tip_speed) * 1e3, 1) << " max (at 50 mm/s, " << fmt(s.cli.latency_ms, 0)
+              << " ms is " << fmt(50 * s.cli.latency_ms * 1e-3, 2) << " mm)\n";
+  else
+    std::cout << "  timing: not simulated (--latency-ms 0: the haptic pose drawn is the one of the frame's exposure)\n";
   const double threshold = s.st.policy.check_threshold_m;
   const bool pass = m <= threshold;
   std::cout << (pass ? "check PASSED" : "check FAILED") << " against this station's threshold: mean "
@@ -743,8 +798,14 @@ int step_check(Session& s) {
                  {"uncalibrated_mean_mm", mean(err_nom) * 1e3},
                  {"tracking_only_mean_mm", mean(err_track) * 1e3},
                  {"tracking_camera_mean_mm", mean(err_track_cam) * 1e3},
+                 {"latency_ms", s.cli.latency_ms},
+                 {"tip_speed_mean_mm_s", mean(tip_speed) * 1e3},
                  {"frames", static_cast<double>(err.size())},
                  {"threshold_mm", threshold * 1e3}};
+  if (!err_timing.empty()) {
+    rep.figures.push_back({"timing_only_mean_mm", mean(err_timing) * 1e3});
+    rep.figures.push_back({"total_with_timing_mean_mm", mean(err_total_timing) * 1e3});
+  }
   s.st.set_step_report(rep);
   if (!pass) {
     std::cout << "check FAILED: mean error above the threshold; repeat the steps with the worst "
@@ -1081,6 +1142,13 @@ void add_calibrate(CLI::App& app, int& exit_code) {
                 "requested model that folds over is refused and auto is used)")
       ->check(CLI::IsMember({"auto", "k1", "k1k2", "radtan5", "rational8"}))
       ->capture_default_str();
+  s->add_option("--corners", c->corners,
+                "camera, chessboards: how the corners are placed: sb-subpix (default: OpenCV's "
+                "sector-based detector finds the board, cornerSubPix places the corners), sb (the "
+                "sector-based corners alone, the default before issue 24 session 11) or classic "
+                "(findChessboardCorners + cornerSubPix)")
+      ->check(CLI::IsMember({"sb-subpix", "sb", "classic"}))
+      ->capture_default_str();
   s->add_flag("--rational", c->rational,
               "camera: same as --model rational8 (the tracker uses only k1 k2 p1 p2 k3)");
   s->add_option("--poses", c->poses,
@@ -1100,6 +1168,12 @@ void add_calibrate(CLI::App& app, int& exit_code) {
                 "--simulate camera: keep every board inside the centred part of the image holding "
                 "this % of it (a user who never moved the board to the edges)")
       ->check(CLI::Range(10.0, 100.0))
+      ->capture_default_str();
+  s->add_option("--latency-ms", c->latency_ms,
+                "check: the camera's latency against the haptic pose drawn on its frame, ms (the "
+                "live path draws the pose of the moment it takes the frame; reported as the timing "
+                "term, beside the total; 0: not simulated)")
+      ->check(CLI::Range(0.0, 500.0))
       ->capture_default_str();
   s->add_option("--frames", c->check_frames, "check: generated frames")
       ->check(CLI::Range(3, 1000))

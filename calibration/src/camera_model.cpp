@@ -462,6 +462,7 @@ std::string ModelSelectionOptions::validate() const {
   else if (!(significance_t > 0)) os << "significance_t must be > 0";
   else if (!(as_good_ratio >= 1 && as_good_ratio < 2)) os << "as_good_ratio must be in [1, 2)";
   else if (!(as_good_px >= 0)) os << "as_good_px must be >= 0";
+  else if (!(tangential_chi2 >= 0)) os << "tangential_chi2 must be >= 0 (0: off)";
   else if (!(max_error_px > 0)) os << "max_error_px must be > 0";
   else if (!(sigma_k >= 0)) os << "sigma_k must be >= 0";
   else if (!(extrapolation_margin >= 1)) os << "extrapolation_margin must be >= 1";
@@ -557,6 +558,32 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
     c.as_good = &c == &ref || (c.t_vs_best < o.significance_t &&
                                c.heldout_rms_px <= ref.heldout_rms_px * o.as_good_ratio + o.as_good_px);
   }
+  // Tangential terms the data determine: a model without them is not "as good" (the principal
+  // point would absorb them; held-out reprojection cannot see it, ModelSelectionOptions).
+  std::string tangential_note;
+  {
+    CandidateModel& rt5 = sel.candidates[2];
+    if (rt5.fitted && rt5.check.ok && rt5.heldout_rms_px > 0 && rt5.fit.std_devs.size() >= 8 &&
+        rt5.fit.dist.size() >= 4 && rt5.fit.std_devs[6] > 0 && rt5.fit.std_devs[7] > 0) {
+      const double z1 = rt5.fit.dist[2] / rt5.fit.std_devs[6], z2 = rt5.fit.dist[3] / rt5.fit.std_devs[7];
+      rt5.tangential_chi2 = z1 * z1 + z2 * z2;
+      if (o.tangential_chi2 > 0 && rt5.tangential_chi2 > o.tangential_chi2 && rt5.as_good) {
+        std::ostringstream os;
+        os << std::fixed << std::setprecision(1) << "radtan5's tangential terms are significant (p1 p2 at "
+           << rt5.tangential_chi2 << " chi-square, above " << o.tangential_chi2
+           << "): without them the principal point shifts to absorb them and the camera frame turns, "
+              "which held-out reprojection cannot see";
+        for (std::size_t i = 0; i < 2; ++i) {
+          CandidateModel& c = sel.candidates[i];
+          if (c.fitted && c.check.ok && c.as_good) {
+            c.as_good = false;
+            c.verdict = "set aside: " + os.str();
+            tangential_note = os.str();  // said in `why` only when it changed the choice
+          }
+        }
+      }
+    }
+  }
   int chosen = -1;
   std::string forced_note;
   if (o.force) {
@@ -609,6 +636,8 @@ ModelSelection select_camera_model(const std::vector<BoardView>& views, int widt
          << distortion_model_name(sel.candidates[best_usable_i].model) << "; paired t over the "
          << "views " << std::setprecision(1) << ch.t_vs_best << " < " << o.significance_t
          << " and within " << std::setprecision(0) << (o.as_good_ratio - 1) * 100 << "%)";
+    if (!tangential_note.empty() && ch.model == DistortionModel::kRadTan5 && !(o.force && *o.force == ch.model))
+      os << "; k1 and k1k2 set aside: " << tangential_note;
     std::vector<std::string> refused;
     for (const auto& c : sel.candidates)
       if (c.fitted && !c.check.ok) refused.push_back(distortion_model_name(c.model));

@@ -140,6 +140,34 @@ std::array<Eigen::Vector3d, 4> AprilGridSpec::tag_corners(int id) const {
           centre + Eigen::Vector3d(h, -h, 0), centre + Eigen::Vector3d(-h, -h, 0)};
 }
 
+namespace {
+// findChessboardCornersSB's corners carry a bias that varies over the image: on generated views
+// (ar::render_board_view, truth known) it pulls the calibrated principal point 0.2-0.6 px to the
+// left on every seed, with 12 views as with 36, while the same views' corners refined by
+// cornerSubPix (the saddle of the image gradient in a window) give errors centred on zero
+// (docs/BENCHMARKS.md, issue 24 session 11). So the sector-based detector finds the board
+// (robust ordering, blur and perspective) and cornerSubPix places the corners. Its window is
+// kept inside the squares: half-width 0.4x the smallest corner spacing in the view, at most 11
+// px (OpenCV's sample uses 11 at any size) and at least 2; a corner the refinement moves
+// farther than half that window (it slid to another edge) keeps the sector-based position.
+void refine_sector_corners(const cv::Mat& img, const ChessboardSpec& spec, std::vector<cv::Point2f>& corners) {
+  double spacing = 1e9;
+  for (int r = 0; r < spec.rows; ++r)
+    for (int c = 0; c < spec.cols; ++c) {
+      const cv::Point2f& p = corners[static_cast<std::size_t>(r * spec.cols + c)];
+      if (c + 1 < spec.cols) spacing = std::min(spacing, static_cast<double>(cv::norm(corners[r * spec.cols + c + 1] - p)));
+      if (r + 1 < spec.rows) spacing = std::min(spacing, static_cast<double>(cv::norm(corners[(r + 1) * spec.cols + c] - p)));
+    }
+  const int half = std::clamp(static_cast<int>(0.4 * spacing), 2, 11);
+  std::vector<cv::Point2f> refined = corners;
+  cv::cornerSubPix(img, refined, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+  for (std::size_t i = 0; i < corners.size(); ++i)
+    if (std::isfinite(refined[i].x) && std::isfinite(refined[i].y) && cv::norm(refined[i] - corners[i]) <= 0.5 * half)
+      corners[i] = refined[i];
+}
+}  // namespace
+
 Result<BoardView> detect_chessboard(const std::uint8_t* gray, int width, int height,
                                     int stride_bytes, const ChessboardSpec& spec,
                                     const std::string& name) {
@@ -152,9 +180,10 @@ Result<BoardView> detect_chessboard(const std::uint8_t* gray, int width, int hei
   std::vector<cv::Point2f> corners;
   bool found = false;
   try {
-    if (spec.detector == ChessboardDetector::kSectorBased)
+    if (spec.detector != ChessboardDetector::kClassic)
       found = cv::findChessboardCornersSB(img, pattern, corners,
                                           cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY);
+    if (found && spec.detector == ChessboardDetector::kSectorBased) refine_sector_corners(img, spec, corners);
     if (!found) {
       corners.clear();
       found = cv::findChessboardCorners(

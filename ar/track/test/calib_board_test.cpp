@@ -2,11 +2,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "dentar/ar/station_scene.h"
+#include "dentar/calibration/co_location.h"
 
 namespace dentar::ar {
 namespace {
@@ -160,6 +164,60 @@ TEST(CalibBoard, SimulatedAprilGridSessionRecoversTheCamera) {
   EXPECT_LT(r.rms_px, 0.3);
 }
 
+// Issue 24 (session 11): findChessboardCornersSB's own corners pull the calibrated principal
+// point to the left on generated views (truth known), on every seed and with more views too;
+// refined by cornerSubPix (the default now) the error is centred on zero. The station's
+// simulated head camera (seeds 1-2 of the calibration workflow's hidden truth), 12 views each as
+// `dentar calibrate camera --simulate` renders them (no warped view), radtan5 fitted.
+TEST(CalibBoard, RefinedSectorCornersDoNotBiasThePrincipalPoint) {
+  double mean_dcx[2] = {0, 0}, mean_abs_dcx[2] = {0, 0}, corner_rms[2] = {0, 0};
+  const int seeds = 2;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const auto truth = calibration::simulated_truth(default_station_scene().calibration, seed);
+    const auto& k = truth.camera;
+    ChessboardSpec refined{9, 6, 0.02}, plain{9, 6, 0.02};
+    plain.detector = calibration::ChessboardDetector::kSectorBasedUnrefined;
+    const BoardTexture tex = make_board_texture(BoardSpec(refined));
+    const auto poses = calibration::plan_board_poses(k, 0.16, 0.1, 12, seed);
+    std::vector<calibration::BoardView> views[2];
+    double se[2] = {0, 0};
+    int n[2] = {0, 0};
+    for (int i = 0; i < 12; ++i) {
+      BoardRenderOptions ro;
+      ro.supersample = 2;
+      ro.seed = seed * 1000 + i;
+      const cv::Mat img = render_board_view(tex, k, poses[i], ro);
+      auto truth_px = project_board_points(BoardSpec(refined), k, poses[i]);
+      for (int d = 0; d < 2; ++d) {
+        auto v = detect_board(img, BoardSpec(d == 0 ? refined : plain), "v");
+        ASSERT_TRUE(v.ok()) << v.error();
+        // The detector may list the corners from the other end (the board is symmetric).
+        auto t = truth_px;
+        if ((v->image_points[0] - t[0]).norm() > (v->image_points[0] - t.back()).norm())
+          std::reverse(t.begin(), t.end());
+        for (std::size_t j = 0; j < t.size(); ++j, ++n[d]) se[d] += (v->image_points[j] - t[j]).squaredNorm();
+        views[d].push_back(*v);
+      }
+    }
+    for (int d = 0; d < 2; ++d) {
+      const auto r = calibration::calibrate_intrinsics(views[d], k.width, k.height);
+      ASSERT_TRUE(r.ok) << r.report();
+      const double dcx = r.camera.cx - k.cx;
+      std::printf("seed %d, %s corners: %.3f px from the truth (RMS), cx off by %+.3f px, cy %+.3f px\n", seed,
+                  d == 0 ? "refined" : "sector-based", std::sqrt(se[d] / n[d]), dcx, r.camera.cy - k.cy);
+      mean_dcx[d] += dcx / seeds;
+      mean_abs_dcx[d] += std::abs(dcx) / seeds;
+      corner_rms[d] += std::sqrt(se[d] / n[d]) / seeds;
+    }
+  }
+  // Measured: refined |cx error| 0.14 px mean (-0.00, -0.27), sector-based -0.39 px mean
+  // (-0.22, -0.55); corners 0.040 against 0.051 px RMS.
+  EXPECT_LT(mean_dcx[1], -0.3);
+  EXPECT_LT(mean_abs_dcx[0], 0.2);
+  EXPECT_LT(mean_abs_dcx[0], 0.5 * mean_abs_dcx[1]);
+  EXPECT_LT(corner_rms[0], corner_rms[1]);
+}
+
 // Real photographs: OpenCV's sample chessboard set (Debian opencv-doc, left01..left14.jpg,
 // 9x6 inner corners, provenance in tests/data_provenance.md). With the corners OpenCV's
 // calibration sample finds (findChessboardCorners + cornerSubPix), plain calibrateCamera on all
@@ -218,6 +276,15 @@ TEST(CalibBoard, RealChessboardPhotosSectorBasedDetector) {
   std::printf("sector-based corners, ours:\n%s", ours.report().c_str());
   EXPECT_LE(ours.rms_px, 0.25);
   EXPECT_LE(ours.std_devs[0], 1.0);
+  // The default places the corners with cornerSubPix after the sector-based detector: on the
+  // real photos the fit's RMS falls (measured 0.179 against 0.230 px with radtan5, 13 views,
+  // none rejected either way).
+  const auto plain_views = load_left_set(calibration::ChessboardDetector::kSectorBasedUnrefined, w, h);
+  const auto plain = calibration::calibrate_intrinsics(plain_views, w, h);
+  ASSERT_TRUE(plain.ok) << plain.report();
+  std::printf("sector-based corners unrefined: RMS %.3f px; refined %.3f px\n", plain.rms_px, ours.rms_px);
+  EXPECT_EQ(plain_views.size(), views.size());
+  EXPECT_LT(ours.rms_px, plain.rms_px - 0.03);
 }
 
 }  // namespace

@@ -77,6 +77,7 @@ struct CandidateModel {
   LensCheck check;
   bool as_good = false;        // valid and not significantly worse than the best on held-out views
   std::string verdict;         // "chosen: ...", "refused: ...", "worse on held-out views ..."
+  double tangential_chi2 = -1;  // radtan5: (p1/sd_p1)^2 + (p2/sd_p2)^2 (-1: not computed)
 };
 
 // The error bound over the image, on the coverage map's grid.
@@ -114,6 +115,12 @@ struct ModelSelectionOptions {
   // held-out views (higher-order distortion is evident) and the boards cover at least this
   // fraction of the image.
   double rational_min_coverage = 0.5;
+  // k1 and k1k2 are set aside when radtan5's tangential coefficients are significantly non-zero:
+  // (p1/sd_p1)^2 + (p2/sd_p2)^2 above this (chi-square, 2 degrees of freedom; 13.8: p = 0.001).
+  // Held-out reprojection cannot see what dropping them costs: the principal point shifts to
+  // absorb them and the board poses turn with it, so the images agree while the camera frame is
+  // turned (the camera-frame co-location, issue 24; docs/BENCHMARKS.md session 11). 0: off.
+  double tangential_chi2 = 13.8;
   double max_reversal_px = 0.5;  // check_lens
   double max_error_px = 1.0;     // trust threshold of the map
   double sigma_k = 3.0;          // noise part of the bound: sigma_k * sigma

@@ -21,8 +21,12 @@ namespace dentar::calibration {
 // Chessboard: cols x rows inner corners (OpenCV's patternSize), squares of square_m.
 // Corner (r, c) is at (c * square_m, r * square_m, 0); points are listed row-major.
 enum class ChessboardDetector {
-  kSectorBased,  // findChessboardCornersSB (more accurate; falls back to kClassic)
+  // findChessboardCornersSB finds the board, cornerSubPix (window inside the squares) places
+  // the corners; falls back to kClassic. The SB corners alone bias the principal point on
+  // generated views (intrinsics.cpp, docs/BENCHMARKS.md issue 24 session 11).
+  kSectorBased,
   kClassic,      // findChessboardCorners + cornerSubPix (11x11), as OpenCV's calibration sample
+  kSectorBasedUnrefined,  // findChessboardCornersSB's own corners (the default before session 11)
 };
 struct ChessboardSpec {
   int cols = 9, rows = 6;
@@ -60,8 +64,8 @@ struct BoardView {
 };
 
 // Finds the chessboard's inner corners in an 8-bit grayscale image (row stride in bytes),
-// refined to sub-pixel accuracy (findChessboardCornersSB, falling back to
-// findChessboardCorners + cornerSubPix). Error "board not found in <name>" with what to do.
+// refined to sub-pixel accuracy as spec.detector says (default: findChessboardCornersSB, its
+// corners placed by cornerSubPix; falling back to findChessboardCorners + cornerSubPix). Error "board not found in <name>" with what to do.
 Result<BoardView> detect_chessboard(const std::uint8_t* gray, int width, int height,
                                     int stride_bytes, const ChessboardSpec& spec,
                                     const std::string& name);
