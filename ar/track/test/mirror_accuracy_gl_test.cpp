@@ -670,8 +670,11 @@ TEST(MirrorAccuracy, MirrorPoseByCameraResponse) {
     // Measured 2026-11-25 (generator v2, sRGB response): p50 0.92, p95 2.69 mm;
     // with the 1 mm gate 11 frames drawn at 0.74 mm p95. Before (generator v1,
     // libapriltag on the encoded image): 1.48 / 3.68 mm, gated 1.95 mm.
+    // Issue 24 session 11 (the tracker's second look in linear light adds
+    // small mirror tags to these ungated fits): p50 1.02, p95 3.25 mm; gated
+    // 13 frames at 0.97 mm p95, unchanged (docs/BENCHMARKS.md).
     EXPECT_LT(pct(srgb.mm, 0.5), 1.2);
-    EXPECT_LT(pct(srgb.mm, 0.95), 3.2);
+    EXPECT_LT(pct(srgb.mm, 0.95), 3.5);
     EXPECT_GE(srgb.drawn_gated, 5);
     if (srgb.drawn_gated >= 5) { EXPECT_LT(pct(srgb.gated_mm, 0.95), 1.2); }
     // The mannequin keeps its preset bound (PresetAccuracy: 0.35 mm / 0.4 deg).
