@@ -522,7 +522,7 @@ struct Tracker::Impl {
     std::vector<DetectedTag> more;
     for (const Box& b : boxes) {
       bool missing = false;
-      for (const auto& k : b.tags) missing = missing || !have.count(k);
+      for (const auto& k : b.tags) missing = missing || (!have.count(k) && !is_mirror_tag(k));
       if (!missing) continue;
       const double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
                                                                   : o.roi_decimation;
@@ -534,7 +534,9 @@ struct Tracker::Impl {
         // Only the tags predicted in this box (the linear copy can show
         // false quads elsewhere: 15 on the real photographs of issue 24).
         const std::pair<int, int> key(static_cast<int>(t.family), t.id);
-        if (have.count(key) || std::find(b.tags.begin(), b.tags.end(), key) == b.tags.end()) continue;
+        if (have.count(key) || is_mirror_tag(key) ||
+            std::find(b.tags.begin(), b.tags.end(), key) == b.tags.end())
+          continue;
         for (auto& c : t.corners_px) c += Eigen::Vector2d(b.x0, b.y0);
         more.push_back(t);
       }
@@ -549,6 +551,15 @@ struct Tracker::Impl {
     return {};
   }
   int second_looks = 0;  // boxes searched again in the frame being processed
+  // The mirror's tags get no second look: its small tags found on the linear
+  // copy made its ungated pose worse (p95 1.85 -> 3.25 mm on `standard`,
+  // docs/BENCHMARKS.md issue 24 session 11).
+  bool is_mirror_tag(const std::pair<int, int>& k) const {
+    if (k.first != static_cast<int>(mirror.bundle.family)) return false;
+    for (const TagPlacement& p : mirror.bundle.tags)
+      if (p.id == k.second) return true;
+    return false;
+  }
 
   // The mannequin's fit in the frame being processed (its corner noise is
   // pooled into the other bodies', TrackerOptions::pool_noise); reset per
@@ -879,10 +890,11 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
         if (!r) return Error{r.error()};
         std::set<std::pair<int, int>> have;
         for (const DetectedTag& t : tags) have.emplace(static_cast<int>(t.family), t.id);
-        // Only the station's bodies' tags (the linear copy can show false
-        // quads: 15 on the real photographs of issue 24).
+        // Only the mannequin's and the pen's tags (the linear copy can show
+        // false quads: 15 on the real photographs of issue 24; the mirror's:
+        // see is_mirror_tag).
         auto ours = [&](const DetectedTag& t) {
-          for (const Body* b : {&m.mannequin, &m.mirror, &m.pen})
+          for (const Body* b : {&m.mannequin, &m.pen})
             for (const TagPlacement& p : b->bundle.tags)
               if (t.family == b->bundle.family && t.id == p.id) return true;
           return false;
@@ -896,7 +908,6 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
     if (m.o.linear_second_look && !off_path) {
       std::vector<Box> pb;
       m.add_regions(m.mannequin, capture_time_s, frame_dt, pb);
-      m.add_regions(m.mirror, capture_time_s, frame_dt, pb);
       if (!m.pen.bundle.tags.empty()) m.add_regions(m.pen, capture_time_s, frame_dt, pb);
       if (!pb.empty())
         if (Status s = m.second_look(merge_boxes(std::move(pb)), tags); !s) return Error{s.error()};

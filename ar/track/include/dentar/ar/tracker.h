@@ -118,9 +118,10 @@ struct TrackerOptions {
   bool full_frame_when_any_lost = false;
   // A second look in linear light (TagDetector::detect_in_linear_light),
   // with a known response (srgb or a measured curve; none with linear):
-  // at the regions of predicted tags the search missed, and over the whole
-  // frame when a full-frame search found none of the mannequin's tags or
-  // the mannequin is lost. The first search stays on the image as delivered
+  // at the regions of the mannequin's and the pen's predicted tags the
+  // search missed, and over the whole frame when a full-frame search found
+  // none of the mannequin's tags or the mannequin is lost. Not for the
+  // mirror's small tags (they made its ungated pose worse). The first search stays on the image as delivered
   // (real photographs, issue 24); on the generator's footage the second
   // look finds the small blurred tags the delivered image loses
   // (docs/BENCHMARKS.md issue 24 session 11: `hard` 48 -> 65 % drawn).
