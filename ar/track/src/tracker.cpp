@@ -901,6 +901,9 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
         };
         for (const DetectedTag& t : *r)
           if (!have.count({static_cast<int>(t.family), t.id}) && ours(t)) tags.push_back(t);
+        std::sort(tags.begin(), tags.end(), [](const DetectedTag& a, const DetectedTag& b) {
+          return a.family != b.family ? a.family < b.family : a.id < b.id;
+        });
         ++m.second_looks;
       }
     }
