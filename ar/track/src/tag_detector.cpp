@@ -360,7 +360,27 @@ Result<std::vector<DetectedTag>> TagDetector::detect(const cv::Mat& gray) {
   // darker and lost 36 of 47 tags on real photographs, issue 24). Linear
   // light is used only below, to refit the edges. libapriltag reads rows
   // through `stride`: a ROI view of a larger Mat works as is.
-  image_u8_t im{gray.cols, gray.rows, static_cast<int32_t>(gray.step[0]), gray.data};
+  return run(gray, gray);
+}
+
+Result<std::vector<DetectedTag>> TagDetector::detect_in_linear_light(const cv::Mat& gray) {
+  if (!detector_) return Error{"TagDetector::detect_in_linear_light: detector was moved from"};
+  if (options_.response == CameraResponse::kLinear)
+    return Error{"TagDetector::detect_in_linear_light: the response is linear (the image already is)"};
+  if (gray.empty() || gray.type() != CV_8UC1 || gray.dims != 2 || gray.cols < 8 || gray.rows < 8)
+    return detect(gray);  // the same errors
+  if (search_lut_.empty()) {
+    search_lut_.create(1, 256, CV_8U);
+    for (int i = 0; i < 256; ++i)
+      search_lut_.at<std::uint8_t>(i) = static_cast<std::uint8_t>(
+          std::lround(std::clamp(to_linear_[static_cast<std::size_t>(i)], 0.0f, 255.0f)));
+  }
+  cv::LUT(gray, search_lut_, linear_);  // reuses the buffer at the same size
+  return run(gray, linear_);
+}
+
+Result<std::vector<DetectedTag>> TagDetector::run(const cv::Mat& gray, const cv::Mat& search) {
+  image_u8_t im{search.cols, search.rows, static_cast<int32_t>(search.step[0]), search.data};
   zarray_t* found = apriltag_detector_detect(detector_.get(), &im);
   if (found == nullptr) return Error{"TagDetector::detect: libapriltag failed"};
   std::vector<DetectedTag> out;

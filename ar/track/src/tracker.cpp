@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <fstream>
 #include <map>
+#include <set>
 #include <mutex>
 #include <thread>
 #include <opencv2/calib3d.hpp>
@@ -53,6 +54,7 @@ struct Body {
 struct Box {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
   double min_side_px = 1e9;  // smallest predicted tag side inside
+  std::vector<std::pair<int, int>> tags;  // (family, id) of the tags predicted inside
   int area() const { return std::max(0, x1 - x0) * std::max(0, y1 - y0); }
   bool overlaps(const Box& o) const {
     return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1;
@@ -63,6 +65,7 @@ struct Box {
     x1 = std::max(x1, o.x1);
     y1 = std::max(y1, o.y1);
     min_side_px = std::min(min_side_px, o.min_side_px);
+    tags.insert(tags.end(), o.tags.begin(), o.tags.end());
   }
 };
 
@@ -475,6 +478,7 @@ struct Tracker::Impl {
       box.x1 = std::min(camera.width, static_cast<int>(std::ceil(x1 + margin + mx)) + 1);
       box.y1 = std::min(camera.height, static_cast<int>(std::ceil(y1 + margin + my)) + 1);
       box.min_side_px = side;
+      box.tags.emplace_back(static_cast<int>(b.bundle.family), t.id);
       if (box.x1 - box.x0 < 16 || box.y1 - box.y0 < 16) continue;  // (almost) off the image
       boxes.push_back(box);
     }
@@ -504,7 +508,57 @@ struct Tracker::Impl {
       }
     }
     out = dedup(std::move(all));
+    return second_look(boxes, out);
+  }
+
+  // Where a tag predicted inside a box was not found, libapriltag looks again
+  // at that box in linear light (TagDetector::detect_in_linear_light; only
+  // with a known response, TrackerOptions::linear_second_look); tags found
+  // there are added when not already found. `boxes` are merged boxes.
+  Status second_look(const std::vector<Box>& boxes, std::vector<DetectedTag>& tags) {
+    if (!o.linear_second_look || o.detector.response == CameraResponse::kLinear) return {};
+    std::set<std::pair<int, int>> have;
+    for (const DetectedTag& t : tags) have.emplace(static_cast<int>(t.family), t.id);
+    std::vector<DetectedTag> more;
+    for (const Box& b : boxes) {
+      bool missing = false;
+      for (const auto& k : b.tags) missing = missing || (!have.count(k) && !is_mirror_tag(k));
+      if (!missing) continue;
+      const double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
+                                                                  : o.roi_decimation;
+      if (Status s = detector->set_decimation(dec); !s) return s;
+      const cv::Mat crop = gray(cv::Rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0));
+      auto r = detector->detect_in_linear_light(crop);
+      if (!r) return Error{r.error()};
+      for (DetectedTag t : *r) {
+        // Only the tags predicted in this box (the linear copy can show
+        // false quads elsewhere: 15 on the real photographs of issue 24).
+        const std::pair<int, int> key(static_cast<int>(t.family), t.id);
+        if (have.count(key) || is_mirror_tag(key) ||
+            std::find(b.tags.begin(), b.tags.end(), key) == b.tags.end())
+          continue;
+        for (auto& c : t.corners_px) c += Eigen::Vector2d(b.x0, b.y0);
+        more.push_back(t);
+      }
+      ++second_looks;
+    }
+    if (more.empty()) return {};
+    more = dedup(std::move(more));
+    tags.insert(tags.end(), more.begin(), more.end());
+    std::sort(tags.begin(), tags.end(), [](const DetectedTag& a, const DetectedTag& b) {
+      return a.family != b.family ? a.family < b.family : a.id < b.id;
+    });
     return {};
+  }
+  int second_looks = 0;  // boxes searched again in the frame being processed
+  // The mirror's tags get no second look: its small tags found on the linear
+  // copy made its ungated pose worse (p95 1.85 -> 3.25 mm on `standard`,
+  // docs/BENCHMARKS.md issue 24 session 11).
+  bool is_mirror_tag(const std::pair<int, int>& k) const {
+    if (k.first != static_cast<int>(mirror.bundle.family)) return false;
+    for (const TagPlacement& p : mirror.bundle.tags)
+      if (p.id == k.second) return true;
+    return false;
   }
 
   // The mannequin's fit in the frame being processed (its corner noise is
@@ -799,6 +853,7 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
     if (!off_path) full = !man_ok || (m.o.full_frame_when_any_lost && !mir_ok) || boxes.empty();
   }
   const auto t_det = Clock::now();
+  m.second_looks = 0;
   std::vector<DetectedTag> tags;
   bool man_missed = false;  // the mannequin was expected in its regions but not found
   if (!full && !boxes.empty()) {
@@ -822,6 +877,44 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
   }
   if (full) {
     if (Status s = m.detect_full(tags); !s) return Error{s.error()};
+    // The mannequin lost, or none of its tags found: the whole frame again
+    // in linear light (TrackerOptions::linear_second_look); a frame whose
+    // delivered image shows the mannequin costs nothing more.
+    if (m.o.linear_second_look && m.o.detector.response != CameraResponse::kLinear && !off_path) {
+      bool any_man = false;
+      for (const DetectedTag& t : tags)
+        for (const TagPlacement& p : m.mannequin.bundle.tags)
+          any_man = any_man || (t.family == m.mannequin.bundle.family && t.id == p.id);
+      if (!any_man || m.mannequin.state == TrackState::kLost) {
+        auto r = m.detector->detect_in_linear_light(m.gray);
+        if (!r) return Error{r.error()};
+        std::set<std::pair<int, int>> have;
+        for (const DetectedTag& t : tags) have.emplace(static_cast<int>(t.family), t.id);
+        // Only the mannequin's and the pen's tags (the linear copy can show
+        // false quads: 15 on the real photographs of issue 24; the mirror's:
+        // see is_mirror_tag).
+        auto ours = [&](const DetectedTag& t) {
+          for (const Body* b : {&m.mannequin, &m.pen})
+            for (const TagPlacement& p : b->bundle.tags)
+              if (t.family == b->bundle.family && t.id == p.id) return true;
+          return false;
+        };
+        for (const DetectedTag& t : *r)
+          if (!have.count({static_cast<int>(t.family), t.id}) && ours(t)) tags.push_back(t);
+        std::sort(tags.begin(), tags.end(), [](const DetectedTag& a, const DetectedTag& b) {
+          return a.family != b.family ? a.family < b.family : a.id < b.id;
+        });
+        ++m.second_looks;
+      }
+    }
+    // The bodies still predicted: a second look where their tags were missed.
+    if (m.o.linear_second_look && !off_path) {
+      std::vector<Box> pb;
+      m.add_regions(m.mannequin, capture_time_s, frame_dt, pb);
+      if (!m.pen.bundle.tags.empty()) m.add_regions(m.pen, capture_time_s, frame_dt, pb);
+      if (!pb.empty())
+        if (Status s = m.second_look(merge_boxes(std::move(pb)), tags); !s) return Error{s.error()};
+    }
     f.regions = 0;
     f.searched_fraction = 1;
     m.frames_since_full = 0;
@@ -831,6 +924,7 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
   f.timing.detect_ms = ms_since(t_det);
   f.full_frame = full;
   f.tags_detected = static_cast<int>(tags.size());
+  f.second_looks = m.second_looks;
 
   m.noise_ref.reset();
   m.update_body(m.mannequin, tags, capture_time_s, display_time_s, f.mannequin, f.timing.pose_ms,

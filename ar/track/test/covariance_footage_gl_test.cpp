@@ -367,7 +367,10 @@ TEST(CovarianceOnFootage, PredictedWithin20PercentOfObserved) {
       // Issue 24: 1.72 (standard) / 2.32 (mirror) since libapriltag searches
       // the image as delivered and the sRGB refit follows: the mirror's
       // sigma is now pessimistic (safe side, but not honest to 20 %); open
-      // (docs/BENCHMARKS.md issue 24, section 6).
+      // (docs/BENCHMARKS.md issue 24, section 6). Session 11: 1.79 / 2.50
+      // (the mannequin's tags get a second look in linear light, the
+      // mirror's do not; with the mirror's too it was 1.01 / 1.05 but its
+      // ungated pose p95 1.85 -> 3.25 mm: BENCHMARKS issue 24 session 11).
       EXPECT_LT(ratio(h.mir_sig_tracker, h.mir_err), 2.6) << name << " mirror";
       EXPECT_GE(within2(h.mir_sig_tracker, h.mir_err), 0.9) << name << " mirror";
     }

@@ -171,16 +171,18 @@ TEST(PresetAccuracy, EveryPresetWithinItsBounds) {
       // v1's outline bias had cancelled part of libapriltag's own error).
       // Issue 24 (libapriltag on the image as delivered, the sRGB refit
       // after): 48.3 % drawn, 0.976 mm / 0.351 deg p95 (was 76.7 %, 0.735 /
-      // 0.199 with the search on the linearised image). A measured loss on
-      // this generated preset, kept because the real sets decide
-      // (docs/BENCHMARKS.md issue 24, section 6); open.
-      {SynthPreset::kHard, 0.45, 1.0, 0.6, 3.0},
+      // 0.199 with the search on the linearised image). Session 11: with the
+      // tracker's second look in linear light where tags are missed
+      // (TrackerOptions::linear_second_look) 65.0 %, 0.626 mm / 0.265 deg
+      // (docs/BENCHMARKS.md issue 24 session 11); drawn still below 76.7 %.
+      {SynthPreset::kHard, 0.6, 0.95, 0.4, 3.0},
       {SynthPreset::kMirror, 1.0, 0.4, 0.4, 3.0},
       {SynthPreset::kHand, 1.0, 0.35, 0.4, 3.0},
       {SynthPreset::kGlare, 1.0, 0.4, 0.4, 3.0},
       // Issue 24: 0.377 mm p95 (was 0.302) after the search moved to the image
-      // as delivered (docs/BENCHMARKS.md issue 24, section 6); open.
-      {SynthPreset::kLowLight, 1.0, 0.40, 0.45, 3.0},
+      // as delivered; 0.335 mm / 0.207 deg with the second look in linear
+      // light (docs/BENCHMARKS.md issue 24 session 11).
+      {SynthPreset::kLowLight, 1.0, 0.37, 0.4, 3.0},
       {SynthPreset::kFastTurns, 0.5, 3.0, 1.5, 3.0},
       // offframe (24 deg aim): measured drawn in 50 % of frames, 0.273 mm /
       // 0.111 deg p95 (2026-11-25): in the other half too few tags stay in the
@@ -417,24 +419,27 @@ TEST(PresetAccuracy, HeadLayoutAgainstTheTwelveTags) {
                 pct(ms[2][0], 0.5) / pct(ms[0][0], 0.5), variant, pct(ms[0][1], 0.5) / pct(ms[0][0], 0.5),
                 pct(ms[1][1], 0.5) / pct(ms[0][0], 0.5), pct(ms[2][1], 0.5) / pct(ms[0][0], 0.5));
     if (!z.is_default() || only) continue;
-    // Measured 2026-11-27 after issue 24 (tags searched on the image as
-    // delivered, edges refit in linear light; before it, docs/BENCHMARKS.md
-    // issue 16 head layout): 20 tags give a smaller median error than 12
-    // (standard 0.177 -> 0.160 mm, hard 0.318 -> 0.178) but on hard no
-    // longer draw more frames (29 -> 23 of 60; 46 -> 52 before issue 24).
+    // Measured 2026-11-27, issue 24 session 11 (tags searched on the image
+    // as delivered, a second look in linear light where tags are missed,
+    // edges refit in linear light; before issue 24 and after its first
+    // part: docs/BENCHMARKS.md issue 16 head layout, issue 24): 20 tags give
+    // a smaller median error than 12 (standard 0.177 -> 0.169 mm, hard 0.348
+    // -> 0.237) and on hard draw more frames again (39 -> 50 of 60; 46 -> 52
+    // before issue 24, 29 -> 23 after its first part).
     EXPECT_LT(pct(runs[1][0].t_mm, 0.5), pct(runs[0][0].t_mm, 0.5)) << synth_preset_name(p);
-    if (p == SynthPreset::kStandard) {
-      EXPECT_GE(runs[1][0].drawn, runs[0][0].drawn);
+    EXPECT_GE(runs[1][0].drawn, runs[0][0].drawn) << synth_preset_name(p);
+    if (p == SynthPreset::kHard) {
+      EXPECT_GT(runs[1][0].drawn, runs[0][0].drawn + 5);
     }
-    // The larger forehead/brow tags: standard p95 0.239 -> 0.224 mm (0.296 ->
-    // 0.193 before issue 24); hard 29 -> 38 frames drawn at p95 0.976 ->
-    // 0.909 mm (before issue 24: 46 -> 52 frames at a worse p95, 0.735 ->
-    // 1.009 mm, why they were not adopted; that reason no longer holds, and
-    // the choice is open: BENCHMARKS issue 24).
+    // The larger forehead/brow tags: standard p95 0.240 -> 0.211 mm (0.296 ->
+    // 0.193 before issue 24); hard 39 -> 40 frames drawn at a worse p95,
+    // 0.626 -> 0.895 mm (before issue 24: 46 -> 52 frames, 0.735 -> 1.009
+    // mm, why they were not adopted: that holds again).
     if (p == SynthPreset::kStandard) {
       EXPECT_LE(pct(runs[2][0].t_mm, 0.95), pct(runs[0][0].t_mm, 0.95));
     } else {
-      EXPECT_GT(runs[2][0].drawn, runs[0][0].drawn);
+      EXPECT_GE(runs[2][0].drawn, runs[0][0].drawn);
+      EXPECT_GT(pct(runs[2][0].t_mm, 0.95), pct(runs[0][0].t_mm, 0.95));
     }
     // The outlier test at its measured setting (1 px, x4) leaves 640x480
     // footage as it was: no tag is that far off there (docs/BENCHMARKS.md).

@@ -208,10 +208,11 @@ TEST(Tracker, HardFootageReportedSeparately) {
   print("hard 640x480 full frame dec 2", b);
   ASSERT_EQ(a.frames, 60);
   // Blur, small grazing tags, occluders: looser, but never a wild pose.
-  // Issue 24: 28 of 60 measured (was > 45) since libapriltag searches the
-  // image as delivered (docs/BENCHMARKS.md issue 24, section 6: the measured
-  // loss on `hard`, open).
-  EXPECT_GT(a.measured, 25);
+  // Issue 24: 28 of 60 measured (was > 45) once libapriltag searched the
+  // image as delivered; 39 with the second look in linear light where tags
+  // are missed (TrackerOptions::linear_second_look; docs/BENCHMARKS.md
+  // issue 24 session 11).
+  EXPECT_GT(a.measured, 35);
   EXPECT_GE(a.found, b.found - 3);
   EXPECT_LT(percentile(a.t_mm, 0.95), 5.0);
   EXPECT_LT(percentile(a.r_deg, 0.95), 2.0);

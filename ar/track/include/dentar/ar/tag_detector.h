@@ -114,10 +114,23 @@ class TagDetector {
   // 8x8 px). Error for an empty or wrong-type image. The image is only read
   // during the call. An image without tags gives an empty list.
   Result<std::vector<DetectedTag>> detect(const cv::Mat& gray);
+  // The same, but libapriltag's quad search and decoding run on a linear-
+  // light copy of `gray` (8-bit, from the response); the corners are then
+  // refit as detect() does. Not a first search: on real photographs the
+  // linear copy lost 36 of 47 tags (issue 24). It is the second look the
+  // Tracker takes where a tag it expects was missed: on small tags blurred
+  // in linear light (defocus, motion, the pixel area) sRGB encoding lifts
+  // the blurred black border above libapriltag's threshold (the mean of
+  // the tile's extremes), and on the linear copy it stays dark
+  // (docs/BENCHMARKS.md, issue 24 session 11). Error when the response is
+  // linear (the image already is), or as detect().
+  Result<std::vector<DetectedTag>> detect_in_linear_light(const cv::Mat& gray);
 
  private:
   TagDetector() = default;
   void reset() noexcept;
+  // libapriltag on `search` (gray or its linear copy), corners refit on gray.
+  Result<std::vector<DetectedTag>> run(const cv::Mat& gray, const cv::Mat& search);
   struct DetectorDeleter {
     void operator()(apriltag_detector* d) const noexcept;
   };
@@ -128,6 +141,9 @@ class TagDetector {
   std::unique_ptr<apriltag_detector, DetectorDeleter> detector_;
   // Grey code -> linear light (0..255) from options_.response.
   std::array<float, 256> to_linear_{};
+  // detect_in_linear_light: grey code -> linear light as 8-bit codes, and
+  // the linearised copy (reused while the size stays).
+  cv::Mat search_lut_, linear_;
 };
 
 }  // namespace dentar::ar

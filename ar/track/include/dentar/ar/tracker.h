@@ -116,6 +116,17 @@ struct TrackerOptions {
   // is lost. Off by default: the mirror is out of view for long stretches
   // and would force the slow path on every one of those frames.
   bool full_frame_when_any_lost = false;
+  // A second look in linear light (TagDetector::detect_in_linear_light),
+  // with a known response (srgb or a measured curve; none with linear):
+  // at the regions of the mannequin's and the pen's predicted tags the
+  // search missed, and over the whole frame when a full-frame search found
+  // none of the mannequin's tags or the mannequin is lost. Not for the
+  // mirror's small tags (they made its ungated pose worse). The first search stays on the image as delivered
+  // (real photographs, issue 24); on the generator's footage the second
+  // look finds the small blurred tags the delivered image loses
+  // (docs/BENCHMARKS.md issue 24 session 11: `hard` 48 -> 65 % drawn).
+  // Costs only where a tag is missing (up to 2x detection on lost frames).
+  bool linear_second_look = true;
   // Measurements whose reprojection RMS exceeds this are rejected (px).
   double max_rms_px = 3.0;
   // Measurements whose position uncertainty (sqrt of the trace of the
@@ -247,6 +258,9 @@ struct TrackFrame {
   int regions = 0;         // crops searched (0 on a full frame)
   double searched_fraction = 1;  // searched pixels / image pixels
   int tags_detected = 0;
+  // Searches repeated in linear light this frame (TrackerOptions::linear_second_look):
+  // regions plus the whole frame, 0 when every expected tag was found.
+  int second_looks = 0;
   std::vector<DetectedTag> tags;  // all detections, full-image OpenCV pixels
   BodyTrack mannequin, mirror;
   BodyTrack pen;  // lost unless options.track_pen
