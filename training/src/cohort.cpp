@@ -613,10 +613,8 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
     for (int tr = 1; tr <= opt.trials; ++tr) {
       const Script sc = make_script(ex, base, rng, &geom, style);
       const std::string rel = subject + "_t" + std::to_string(tr);
-      if (opt.kinematics_only) {
-        fs::create_directories(out_dir + "/" + rel, ec);
-        const std::string path = out_dir + "/" + rel + "/kinematics.csv";
-        if (Status st = write_kinematics(sc, style, base, rng, path); !st) return Error{"cohort: " + st.error()};
+      // What the cohort lists for this trial, whichever file (kinematics or session log) holds it.
+      auto trial_of = [&](const std::string& path) {
         CohortTrial ct;
         ct.subject = subject;
         ct.label = label;
@@ -625,6 +623,13 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
         ct.step_order = sc.order;
         ct.step_start_s = sc.start;
         ct.step_end_s = sc.end;
+        return ct;
+      };
+      if (opt.kinematics_only) {
+        fs::create_directories(out_dir + "/" + rel, ec);
+        const std::string path = out_dir + "/" + rel + "/kinematics.csv";
+        if (Status st = write_kinematics(sc, style, base, rng, path); !st) return Error{"cohort: " + st.error()};
+        CohortTrial ct = trial_of(path);
         csv << rel << "/kinematics.csv," << subject << "," << tr << "," << label << "\n";
         out.push_back(std::move(ct));
         continue;
@@ -656,14 +661,7 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
       const auto steps = static_cast<std::uint64_t>((*dev)->script_end_s() * 1000.0);
       for (std::uint64_t done = 0; done < steps; done += 1000) (*eng)->run_steps(std::min<std::uint64_t>(1000, steps - done));
       if (Status st = (*log)->close(); !st) return Error{"cohort: " + st.error()};
-      CohortTrial ct;
-      ct.subject = subject;
-      ct.label = label;
-      ct.trial = tr;
-      ct.session_path = path;
-      ct.step_order = sc.order;
-      ct.step_start_s = sc.start;
-      ct.step_end_s = sc.end;
+      CohortTrial ct = trial_of(path);
       nlohmann::json sj = {{"subject", subject}, {"trial", tr}, {"label", ct.label}, {"step_order", sc.order},
                            {"step_start_s", sc.start}, {"step_end_s", sc.end}};
       std::ofstream(out_dir + "/" + rel + "/steps.json") << sj.dump(1) << "\n";
