@@ -493,19 +493,26 @@ struct Tracker::Impl {
     return {};
   }
 
+  // The tags in one box, corners in full-image pixels: on the image as delivered, or
+  // (second look) on its linear-light copy. Large boxes are searched decimated.
+  Result<std::vector<DetectedTag>> detect_box(const Box& b, bool linear_light) {
+    const double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
+                                                                : o.roi_decimation;
+    if (Status s = detector->set_decimation(dec); !s) return Error{s.error()};
+    const cv::Mat crop = gray(cv::Rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0));
+    auto r = linear_light ? detector->detect_in_linear_light(crop) : detector->detect(crop);
+    if (!r) return Error{r.error()};
+    for (DetectedTag& t : *r)
+      for (auto& c : t.corners_px) c += Eigen::Vector2d(b.x0, b.y0);
+    return r;
+  }
+
   Status detect_regions(const std::vector<Box>& boxes, std::vector<DetectedTag>& out) {
     std::vector<DetectedTag> all;
     for (const Box& b : boxes) {
-      const double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
-                                                                  : o.roi_decimation;
-      if (Status s = detector->set_decimation(dec); !s) return s;
-      const cv::Mat crop = gray(cv::Rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0));
-      auto r = detector->detect(crop);
+      auto r = detect_box(b, false);
       if (!r) return Error{r.error()};
-      for (DetectedTag t : *r) {
-        for (auto& c : t.corners_px) c += Eigen::Vector2d(b.x0, b.y0);
-        all.push_back(t);
-      }
+      all.insert(all.end(), r->begin(), r->end());
     }
     out = dedup(std::move(all));
     return second_look(boxes, out);
@@ -524,20 +531,15 @@ struct Tracker::Impl {
       bool missing = false;
       for (const auto& k : b.tags) missing = missing || (!have.count(k) && !is_mirror_tag(k));
       if (!missing) continue;
-      const double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
-                                                                  : o.roi_decimation;
-      if (Status s = detector->set_decimation(dec); !s) return s;
-      const cv::Mat crop = gray(cv::Rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0));
-      auto r = detector->detect_in_linear_light(crop);
+      auto r = detect_box(b, true);
       if (!r) return Error{r.error()};
-      for (DetectedTag t : *r) {
+      for (const DetectedTag& t : *r) {
         // Only the tags predicted in this box (the linear copy can show
         // false quads elsewhere: 15 on the real photographs of issue 24).
         const std::pair<int, int> key(static_cast<int>(t.family), t.id);
         if (have.count(key) || is_mirror_tag(key) ||
             std::find(b.tags.begin(), b.tags.end(), key) == b.tags.end())
           continue;
-        for (auto& c : t.corners_px) c += Eigen::Vector2d(b.x0, b.y0);
         more.push_back(t);
       }
       ++second_looks;
