@@ -45,8 +45,6 @@ std::string GuidanceParams::validate() const {
 
 double guidance_stiffness_limit(double contact_max_stiffness_N_per_m) { return 0.4 * contact_max_stiffness_N_per_m; }
 
-double GuidanceParams::faded_k() const { return k_N_per_m * std::pow(fade, repetition); }
-
 Eigen::Vector3d guidance_force(const Eigen::Vector3d& delta_m, const GuidanceParams& p,
                                const Eigen::Vector3d& tangent) noexcept {
   Eigen::Vector3d d = delta_m;

@@ -74,8 +74,6 @@ struct GuidanceParams {
   int repetition = 0;
   double amplify = 0.0;
   std::string validate() const;  // empty when valid, else names the field
-  // k after fading (N/m).
-  double faded_k() const;
 };
 
 // The stiffest guidance field a device may render (N/m): 0.4 x its contact limit. A
