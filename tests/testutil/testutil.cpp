@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 
 #include <fstream>
 #include <sstream>
@@ -20,6 +21,32 @@ std::filesystem::path shared_data_dir() {
   return {};
 }
 
+namespace {
+// Every temp_dir of this process sits under one root. It is removed when the
+// process exits, unless a test failed (left for inspection, path printed) or
+// DENTAR_KEEP_TMP is set. Registered after gtest's UnitTest exists, so atexit
+// runs this before gtest is torn down. Without it, each suite run left GBs in /tmp.
+std::filesystem::path process_root() {
+  static const std::filesystem::path root = [] {
+    auto p = std::filesystem::temp_directory_path() / ("dentar_test_" + std::to_string(::getpid()));
+    (void)::testing::UnitTest::GetInstance();
+    std::atexit([] {
+      namespace fs = std::filesystem;
+      const auto r = fs::temp_directory_path() / ("dentar_test_" + std::to_string(::getpid()));
+      const char* keep = std::getenv("DENTAR_KEEP_TMP");
+      if ((keep && *keep) || ::testing::UnitTest::GetInstance()->Failed()) {
+        std::fprintf(stderr, "test files kept in %s\n", r.c_str());
+        return;
+      }
+      std::error_code ec;
+      fs::remove_all(r, ec);
+    });
+    return p;
+  }();
+  return root;
+}
+}  // namespace
+
 std::filesystem::path temp_dir(const std::string& name) {
   namespace fs = std::filesystem;
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -27,7 +54,7 @@ std::filesystem::path temp_dir(const std::string& name) {
   if (info) tag = std::string(info->test_suite_name()) + "_" + info->name() + "_" + name;
   for (char& c : tag)
     if (c == '/') c = '_';
-  fs::path p = fs::temp_directory_path() / ("dentar_test_" + std::to_string(::getpid())) / tag;
+  fs::path p = process_root() / tag;
   fs::remove_all(p);
   fs::create_directories(p);
   return p;

@@ -10,8 +10,8 @@ namespace dentar::test {
 // need it call GTEST_SKIP() with a message when this is empty.
 std::filesystem::path shared_data_dir();
 
-// A fresh, empty temporary directory unique to the calling test; removed by
-// the caller or left for inspection on failure.
+// A fresh, empty temporary directory unique to the calling test. All of a
+// process's are removed at exit, unless a test failed or DENTAR_KEEP_TMP is set.
 std::filesystem::path temp_dir(const std::string& name);
 
 // Whole file as bytes/text (empty on failure).

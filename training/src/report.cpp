@@ -239,6 +239,23 @@ std::string reference_cache_dir() {
   return {};
 }
 
+// A private folder for work that is not kept (score without --out): unique per
+// process, so concurrent runs never share one, and removed on every return.
+struct Scratch {
+  std::string path;
+  explicit Scratch(bool make) {
+    if (!make) return;
+    std::string t = (fs::temp_directory_path() / "dentar_score_XXXXXX").string();
+    if (::mkdtemp(t.data())) path = t;
+  }
+  ~Scratch() {
+    std::error_code ec;
+    if (!path.empty()) fs::remove_all(path, ec);
+  }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+};
+
 Result<ExpertReference> generated_reference(const Exercise& ex, const ScoreOptions& o, const std::string& out_dir) {
   const std::string cdir = reference_cache_dir();
   const std::string cache = cdir.empty() ? std::string() : cdir + "/expert_reference_" + reference_key(ex, o.reference_trials) + ".json";
@@ -488,8 +505,13 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
       return Error{o.reference + ": " + std::to_string(r->steps.size()) + " steps, the exercise '" + ex->name + "' has " +
                    std::to_string(ex->steps.size())};
     sum.reference = *r;
-  } else {
-    auto r = generated_reference(*ex, o, o.write_files ? out_dir : (fs::temp_directory_path() / "dentar_reference").string());
+  }
+  Scratch scratch(!o.write_files);
+  if (!o.write_files && scratch.path.empty())
+    return Error{"score: cannot create a scratch folder in " + fs::temp_directory_path().string() + " (set TMPDIR)"};
+  const std::string work_dir = o.write_files ? out_dir : scratch.path;
+  if (o.reference.empty()) {
+    auto r = generated_reference(*ex, o, work_dir);
     if (!r) return Error{r.error()};
     sum.reference = *r;
   }
@@ -497,7 +519,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   // The feedback checks itself (docs/feedback.md); a broken rule is reported, never hidden.
   const std::vector<std::string> broken = feedback_violations(sum.process, sum.reference, ex->excessive_force_N, sum.feedback);
   if (o.compare) {
-    auto cmp = generated_comparison(*ex, o.write_files ? out_dir : fs::temp_directory_path().string());
+    auto cmp = generated_comparison(*ex, work_dir);
     if (!cmp) {
       sum.comparison_warning = cmp.error();
     } else {

@@ -11,6 +11,7 @@
 #include "dentar/haptics/session_log.h"
 #include "dentar/training/cohort.h"
 #include "dentar/training/outcome.h"
+#include "testutil.h"
 
 namespace dentar::training {
 namespace {
@@ -32,7 +33,7 @@ std::vector<Scored> generate_and_score(const std::string& exercise, int experts,
   o.bur_samples = 500;
   o.seed = seed;
   const std::string dir =
-      ::testing::TempDir() + "/dentar_cohort_outcome_" + exercise + "_" + std::to_string(::getpid());
+      dentar::test::temp_dir("cohort_outcome_" + exercise).string();
   std::filesystem::remove_all(dir);
   auto trials = generate_cohort(*ex, o, dir);
   EXPECT_TRUE(trials.ok()) << trials.error();

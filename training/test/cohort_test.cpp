@@ -37,7 +37,7 @@ const Cohort& cohort() {
     o.voxel_mm = 0.2;
     o.bur_samples = 500;
     // One folder per process: ctest runs these tests as parallel processes.
-    const std::string dir = ::testing::TempDir() + "/dentar_cohort_test_" + std::to_string(::getpid());
+    const std::string dir = dentar::test::temp_dir("cohort").string();
     std::filesystem::remove_all(dir);
     auto t = generate_cohort(c.ex, o, dir);
     EXPECT_TRUE(t.ok()) << t.error();
@@ -168,7 +168,7 @@ TEST(Cohort, AutomaticStepsOnTheThirteenStepIncisorPreparation) {
   o.voxel_mm = 0.2;
   o.bur_samples = 500;
   o.seed = 5;
-  const std::string dir = ::testing::TempDir() + "/dentar_incisor_cohort_" + std::to_string(::getpid());
+  const std::string dir = dentar::test::temp_dir("incisor_cohort").string();
   std::filesystem::remove_all(dir);
   auto t = generate_cohort(*ex, o, dir);
   ASSERT_TRUE(t.ok()) << t.error();

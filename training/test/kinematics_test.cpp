@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include "testutil.h"
 
 namespace dentar::training {
 namespace {
@@ -77,7 +78,7 @@ TEST(Kinematics, BadTablesNameFileLineAndColumn) {
 
 TEST(Kinematics, TrialsTableFeedsCrossValidation) {
   // Six subjects, two trials each: "expert" moves smoothly, "novice" jitters.
-  const std::string dir = ::testing::TempDir() + "/dentar_kin_test_" + std::to_string(::getpid());
+  const std::string dir = dentar::test::temp_dir("kin").string();
   std::filesystem::create_directories(dir);
   std::ofstream trials(dir + "/trials.csv");
   trials << "file,subject,trial,label\n";

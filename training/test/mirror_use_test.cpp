@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include "testutil.h"
 
 namespace dentar::training {
 namespace {
@@ -93,7 +94,7 @@ TEST(MirrorUse, FieldOfViewLimitsTheDirectView) {
 }
 
 std::string temp_file(const std::string& name, const std::string& text) {
-  const auto dir = std::filesystem::path(::testing::TempDir()) / ("dentar_mirror_use_" + std::to_string(::getpid()));
+  const auto dir = dentar::test::temp_dir("mirror_use_" + name);
   std::filesystem::create_directories(dir);
   const auto p = dir / name;
   std::ofstream(p) << text;

@@ -10,6 +10,7 @@
 #include "dentar/training/assess.h"
 #include "dentar/training/cohort.h"
 #include "dentar/training/kinematics.h"
+#include "testutil.h"
 
 namespace dentar::training {
 namespace {
@@ -28,7 +29,7 @@ TEST(StyleCohortLong, ThreeClassesLeaveOnePersonOut) {
   o.kinematics_only = true;
   auto ex = load_builtin_exercise("molar_access_opening");
   ASSERT_TRUE(ex.ok()) << ex.error();
-  const std::string dir = ::testing::TempDir() + "/dentar_style_long_" + std::to_string(::getpid());
+  const std::string dir = dentar::test::temp_dir("style_long").string();
   std::filesystem::remove_all(dir);
   auto gen = generate_cohort(*ex, o, dir);
   ASSERT_TRUE(gen.ok()) << gen.error();

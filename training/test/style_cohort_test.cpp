@@ -17,6 +17,7 @@
 #include "dentar/training/cohort.h"
 #include "dentar/training/kinematics.h"
 #include "dentar/training/skill_features.h"
+#include "testutil.h"
 
 namespace dentar::training {
 namespace {
@@ -30,7 +31,7 @@ Imported make_cohort(const CohortOptions& o, const std::string& tag) {
   Imported c;
   auto ex = load_builtin_exercise("molar_access_opening");
   EXPECT_TRUE(ex.ok()) << ex.error();
-  const std::string dir = ::testing::TempDir() + "/dentar_style_" + tag + "_" + std::to_string(::getpid());
+  const std::string dir = dentar::test::temp_dir("style_" + tag).string();
   std::filesystem::remove_all(dir);
   auto t = generate_cohort(*ex, o, dir);
   EXPECT_TRUE(t.ok()) << t.error();
