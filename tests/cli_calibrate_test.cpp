@@ -20,9 +20,7 @@ using dentar::test::read_file;
 using dentar::test::temp_dir;
 using dentar::test::write_file;
 
-CommandResult run(const std::string& args) {
-  return dentar::test::run_command(std::string(DENTAR_BINARY) + " calibrate " + args);
-}
+dentar::test::CommandResult run_calibrate(const std::string& args) { return dentar::test::run_dentar("calibrate " + args); }
 
 nlohmann::json load(const fs::path& p) { return nlohmann::json::parse(read_file(p)); }
 
@@ -37,17 +35,17 @@ TEST(CliCalibrate, HelpHasSynopsisAndExample) {
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("Synopsis"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("Example"), std::string::npos) << r.out;
-  const CommandResult t = run("--instructor-time");
+  const CommandResult t = run_calibrate("--instructor-time");
   EXPECT_EQ(t.code, 0);
   EXPECT_NE(t.out.find("total     6 steps"), std::string::npos) << t.out;
-  EXPECT_EQ(run("wobble --station x.json").code, 2);
-  EXPECT_EQ(run("").code, 2);
+  EXPECT_EQ(run_calibrate("wobble --station x.json").code, 2);
+  EXPECT_EQ(run_calibrate("").code, 2);
 }
 
 TEST(CliCalibrate, SimulatedPivotWritesAVersionedStationFile) {
   const fs::path d = temp_dir("pivot");
   const fs::path st = d / "station.json";
-  const CommandResult r = run("pivot --simulate --station " + st.string());
+  const CommandResult r = run_calibrate("pivot --simulate --station " + st.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("pose 12: spread"), std::string::npos) << r.out;  // live figures
   ASSERT_TRUE(fs::exists(st));
@@ -76,7 +74,7 @@ TEST(CliCalibrate, DegenerateDataIsRefusedAndNothingIsWritten) {
   };
   for (const Case& c : cases) {
     const fs::path st = d / "station.json";
-    const CommandResult r = run(c.args + " --station " + st.string());
+    const CommandResult r = run_calibrate(c.args + " --station " + st.string());
     EXPECT_EQ(r.code, 1) << c.args << "\n" << r.out;
     EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.args << "\n" << r.out;
     EXPECT_NE(r.out.find("was NOT written"), std::string::npos) << c.args;
@@ -89,22 +87,22 @@ TEST(CliCalibrate, WrongFileKindsAreBadInput) {
   const fs::path st = d / "station.json";
   const std::string asset = std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json";
   // The station JSON given where a camera YAML is expected.
-  CommandResult r = run("camera --import " + asset + " --station " + st.string());
+  CommandResult r = run_calibrate("camera --import " + asset + " --station " + st.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("station scene JSON"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(st));
   // A camera YAML given as the station file.
   write_file(d / "cam.yaml", "%YAML:1.0\nimage_width: 640\n");
-  r = run("pivot --simulate --station " + (d / "cam.yaml").string());
+  r = run_calibrate("pivot --simulate --station " + (d / "cam.yaml").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("cam.yaml"), std::string::npos) << r.out;
   // A poses file that is not CSV.
   write_file(d / "poses.csv", "label,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg\npivot,1,2,x,0,0,0\n");
-  r = run("pivot --poses " + (d / "poses.csv").string() + " --station " + st.string());
+  r = run_calibrate("pivot --poses " + (d / "poses.csv").string() + " --station " + st.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("poses.csv:2: column 4"), std::string::npos) << r.out;
   write_file(d / "noheader.csv", "pivot,1,2,3,0,0,0\n");
-  r = run("pivot --poses " + (d / "noheader.csv").string() + " --station " + st.string());
+  r = run_calibrate("pivot --poses " + (d / "noheader.csv").string() + " --station " + st.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("header"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(st));
@@ -128,7 +126,7 @@ TEST(CliCalibrate, PivotFromAPosesFileRecoversTheTip) {
   }
   csv.close();
   const fs::path st = d / "station.json";
-  const CommandResult r = run("pivot --poses " + (d / "pivot.csv").string() + " --station " + st.string());
+  const CommandResult r = run_calibrate("pivot --poses " + (d / "pivot.csv").string() + " --station " + st.string());
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = load(st);
   const auto t = j["haptics"]["T_sty_tip"]["translation_mm"];
@@ -147,14 +145,14 @@ TEST(CliCalibrate, ReadsVersionOneStationFilesAndUpgradesThem) {
   j["camera"].erase("response");  // a version 4 field
   j["version"] = 1;
   write_file(d / "v1.json", j.dump(2));
-  CommandResult r = run("register --simulate --station " + (d / "v1.json").string());
+  CommandResult r = run_calibrate("register --simulate --station " + (d / "v1.json").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("file version 1"), std::string::npos) << r.out;
   EXPECT_EQ(load(d / "v1.json")["version"], 4);
   // And without any version field (written before the field existed).
   j.erase("version");
   write_file(d / "v0.json", j.dump(2));
-  r = run("register --simulate --station " + (d / "v0.json").string());
+  r = run_calibrate("register --simulate --station " + (d / "v0.json").string());
   EXPECT_EQ(r.code, 0) << r.out;
 }
 
@@ -171,19 +169,19 @@ TEST(CliCalibrate, StationReferencingACameraFile) {
   auto j = load(std::string(DENTAR_SOURCE_DIR) + "/assets/station_default.json");
   j["camera"] = {{"file", "cam_ros.yaml"}};
   write_file(d / "station.json", j.dump(2));
-  CommandResult r = run("pivot --simulate --station " + (d / "station.json").string());
+  CommandResult r = run_calibrate("pivot --simulate --station " + (d / "station.json").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(load(d / "station.json")["camera"], nlohmann::json({{"file", "cam_ros.yaml"}}));
   // A missing referenced file is bad input naming the field; nothing is written.
   j["camera"] = {{"file", "absent.yaml"}};
   write_file(d / "broken.json", j.dump(2));
   const std::string before = read_file(d / "broken.json");
-  r = run("pivot --simulate --station " + (d / "broken.json").string());
+  r = run_calibrate("pivot --simulate --station " + (d / "broken.json").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("camera.file"), std::string::npos) << r.out;
   EXPECT_EQ(read_file(d / "broken.json"), before);
   // Importing a camera file embeds its numbers (the reference is replaced).
-  r = run("camera --import " + (d / "cam_ros.yaml").string() + " --station " +
+  r = run_calibrate("camera --import " + (d / "cam_ros.yaml").string() + " --station " +
           (d / "station.json").string());
   ASSERT_EQ(r.code, 0) << r.out;
   const auto cam = load(d / "station.json")["camera"];
@@ -203,7 +201,7 @@ TEST(CliCalibrate, CameraFromRealChessboardPhotos) {
     if (fs::exists(src / name)) fs::copy_file(src / name, d / "photos" / name);
   }
   const fs::path st = d / "station.json";
-  const CommandResult r = run("camera --images " + (d / "photos").string() +
+  const CommandResult r = run_calibrate("camera --images " + (d / "photos").string() +
                               " --board chessboard:9x6:25 --device opencv-sample --export-ros " +
                               (d / "ros.yaml").string() + " --station " + st.string());
   ASSERT_EQ(r.code, 0) << r.out;
@@ -214,7 +212,7 @@ TEST(CliCalibrate, CameraFromRealChessboardPhotos) {
   EXPECT_TRUE(fs::exists(d / "station.camera.yaml"));
   EXPECT_NE(read_file(d / "ros.yaml").find("plumb_bob"), std::string::npos);
   // The saved camera file can be imported back into another station.
-  const CommandResult imp = run("camera --import " + (d / "station.camera.yaml").string() +
+  const CommandResult imp = run_calibrate("camera --import " + (d / "station.camera.yaml").string() +
                                 " --station " + (d / "other.json").string());
   EXPECT_EQ(imp.code, 0) << imp.out;
   EXPECT_EQ(load(d / "other.json")["camera"]["fx"], j["camera"]["fx"]);
@@ -230,7 +228,7 @@ TEST(CliCalibrate, CameraFromRealChessboardPhotos) {
   EXPECT_NE(imp.out.find("response not measured (imported camera)"), std::string::npos) << imp.out;
   // A board of the wrong size: the photos mostly do not show it, and the message says to
   // check --board.
-  const CommandResult wrong = run("camera --images " + (d / "photos").string() +
+  const CommandResult wrong = run_calibrate("camera --images " + (d / "photos").string() +
                                   " --board chessboard:8x5:25 --station " + (d / "wrong.json").string());
   EXPECT_EQ(wrong.code, 1) << wrong.out;
   EXPECT_NE(wrong.out.find("check that --board chessboard:8x5:25 matches the printed board"),
@@ -243,7 +241,7 @@ TEST(CliCalibrate, CameraFromRealChessboardPhotos) {
 TEST(CliCalibrate, CameraChoosesTheModelAndSaysWhereItHolds) {
   const fs::path d = temp_dir("model");
   const fs::path st = d / "station.json";
-  const CommandResult r = run("camera --simulate --sim-board-area 30 --bad-view -1 --station " + st.string());
+  const CommandResult r = run_calibrate("camera --simulate --sim-board-area 30 --bad-view -1 --station " + st.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("camera calibration OK: model "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("  why "), std::string::npos) << r.out;
@@ -264,18 +262,18 @@ TEST(CliCalibrate, CameraChoosesTheModelAndSaysWhereItHolds) {
   EXPECT_FALSE((*cam)["date"].get<std::string>().empty());
   // The whole image covered: more of it is trusted.
   const fs::path st2 = d / "full.json";
-  const CommandResult f = run("camera --simulate --bad-view -1 --count 16 --station " + st2.string());
+  const CommandResult f = run_calibrate("camera --simulate --bad-view -1 --count 16 --station " + st2.string());
   ASSERT_EQ(f.code, 0) << f.out;
   EXPECT_GT((*step(load(st2), "camera"))["figures"]["trusted_image_pct"].get<double>(), trusted) << f.out;
   // A model that is not a model name is bad input.
-  EXPECT_EQ(run("camera --simulate --model k9 --station " + (d / "x.json").string()).code, 2);
+  EXPECT_EQ(run_calibrate("camera --simulate --model k9 --station " + (d / "x.json").string()).code, 2);
 }
 
 // The stylus poses file: bad rows are bad input naming file:line and the column.
 TEST(CliCalibrate, BadPosesFileNamesTheLine) {
   const fs::path d = temp_dir("posesbad");
   write_file(d / "p.csv", "label,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg\npivot,1,2,3,0,0,0\npivot,1,zz,3,0,0,0\n");
-  const CommandResult r = run("pivot --poses " + (d / "p.csv").string() + " --station " + (d / "s.json").string());
+  const CommandResult r = run_calibrate("pivot --poses " + (d / "p.csv").string() + " --station " + (d / "s.json").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("p.csv:3: column 3 (ty_mm) \"zz\""), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(d / "s.json"));
@@ -286,7 +284,7 @@ TEST(CliCalibrate, BadPosesFileNamesTheLine) {
 TEST(CliCalibrate, AllStepsOnGeneratedDataMeetTheCoLocationGoal) {
   const fs::path d = temp_dir("all");
   const fs::path st = d / "station.json";
-  const CommandResult r = run("all --simulate --frames 6 --station " + st.string());
+  const CommandResult r = run_calibrate("all --simulate --frames 6 --station " + st.string());
   if (r.out.find("no headless EGL context") != std::string::npos)
     GTEST_SKIP() << "no EGL: " << r.out;
   ASSERT_EQ(r.code, 0) << r.out;
@@ -318,7 +316,7 @@ TEST(CliCalibrate, AllStepsOnGeneratedDataMeetTheCoLocationGoal) {
   // An uncalibrated station (the nominal values) fails the check against the station's
   // threshold; the failure is recorded with its date (dentar live then asks for an instructor).
   const fs::path raw = d / "raw.json";
-  const CommandResult c = run("check --simulate --frames 4 --latency-ms 0 --station " + raw.string());
+  const CommandResult c = run_calibrate("check --simulate --frames 4 --latency-ms 0 --station " + raw.string());
   EXPECT_EQ(c.code, 1) << c.out;
   EXPECT_NE(c.out.find("timing: not simulated (--latency-ms 0"), std::string::npos) << c.out;
   EXPECT_NE(c.out.find("check FAILED against this station's threshold"), std::string::npos) << c.out;
@@ -340,16 +338,16 @@ TEST(CliCalibrate, MigrateKeepsTheOriginal) {
   j["camera"].erase("response");  // a version 4 field
   j["version"] = 2;
   write_file(d / "s.json", j.dump(2));
-  CommandResult r = run("migrate --station " + (d / "s.json").string());
+  CommandResult r = run_calibrate("migrate --station " + (d / "s.json").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("from version 2 to 4"), std::string::npos) << r.out;
   EXPECT_EQ(load(d / "s.json")["version"], 4);
   EXPECT_TRUE(load(d / "s.json").contains("station_policy"));
   EXPECT_EQ(load(d / "s.json.v2.bak")["version"], 2);
-  r = run("migrate --station " + (d / "s.json").string());
+  r = run_calibrate("migrate --station " + (d / "s.json").string());
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("nothing to do"), std::string::npos) << r.out;
-  EXPECT_EQ(run("migrate --station " + (d / "none.json").string()).code, 2);
+  EXPECT_EQ(run_calibrate("migrate --station " + (d / "none.json").string()).code, 2);
 }
 
 // Hand-eye on generated head motions with large rotations: ours recovers the camera on the
@@ -357,7 +355,7 @@ TEST(CliCalibrate, MigrateKeepsTheOriginal) {
 TEST(CliCalibrate, HandEyeSimulatedWritesItsFields) {
   const fs::path d = temp_dir("handeye");
   const fs::path st = d / "station.json";
-  const CommandResult r = run("hand_eye --simulate --station " + st.string());
+  const CommandResult r = run_calibrate("hand_eye --simulate --station " + st.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("OpenCV TSAI"), std::string::npos) << r.out;
   const auto j = load(st);
@@ -380,12 +378,12 @@ TEST(CliCalibrate, StationFileOfAnotherCameraIsBadInput) {
   j["camera"]["device_id"] = "footage camA/video.mkv";
   write_file(d / "s.json", j.dump(2));
   const std::string before = read_file(d / "s.json");
-  CommandResult r = run("pivot --simulate --camera live:/tmp/camB/video.mkv --station " + (d / "s.json").string());
+  CommandResult r = run_calibrate("pivot --simulate --camera live:/tmp/camB/video.mkv --station " + (d / "s.json").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("calibrated with camera \"footage camA/video.mkv\""), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("\"footage camB/video.mkv\""), std::string::npos) << r.out;
   EXPECT_EQ(read_file(d / "s.json"), before);
-  r = run("pivot --simulate --camera live:/tmp/camA/video.mkv --station " + (d / "s.json").string());
+  r = run_calibrate("pivot --simulate --camera live:/tmp/camA/video.mkv --station " + (d / "s.json").string());
   EXPECT_EQ(r.code, 0) << r.out;
 }
 

@@ -18,9 +18,7 @@
 namespace {
 namespace fs = std::filesystem;
 
-dentar::test::CommandResult run(const std::string& args) {
-  return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args);
-}
+using dentar::test::run_dentar;
 
 struct Fixtures {
   fs::path dir, garbage_json, garbage_dlog, garbage_db, missing, garbage_yaml, passwords;
@@ -58,7 +56,7 @@ struct Row {
 
 void check(const std::vector<Row>& rows) {
   for (const Row& r : rows) {
-    const auto res = run(r.args + " 2>&1");
+    const auto res = run_dentar(r.args + " 2>&1");
     EXPECT_EQ(res.code, 2) << r.fault << ": dentar " << r.args << "\n" << res.out;
     EXPECT_NE(res.out.find(r.names), std::string::npos)
         << r.fault << ": dentar " << r.args << "\nshould name " << r.names << "\n" << res.out;
@@ -89,7 +87,7 @@ TEST(CliExitCodes, AValueOutOfRangeIsTwoWithABoundForPeople) {
          {"range", "tags --paper a3", "--paper"},
          {"invalid value", "tooth --voxel-mm 0.2 --enamel-mm 9", "enamel_mm"}});
   // No 300-digit bound (CLI11's range with std::numeric_limits<double>::max()).
-  const auto r = run("live --frames -1 2>&1");
+  const auto r = run_dentar("live --frames -1 2>&1");
   EXPECT_LT(r.out.size(), 400u) << r.out;
   EXPECT_EQ(r.out.find("1797693"), std::string::npos) << r.out;
 }
@@ -168,12 +166,12 @@ TEST(CliExitCodes, LibraryLogLinesOnlyWithVerbose) {
     ASSERT_GT(bytes.size(), 60000u);
     std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 20);  // a frame and a half
   }
-  ASSERT_EQ(run("synth --write-default-station " + station.string()).code, 0);
+  ASSERT_EQ(run_dentar("synth --write-default-station " + station.string()).code, 0);
   const std::string args = "offline --footage " + cut.string() + " --station " + station.string() + " --out " +
                            (f.dir / "cut_run").string() + " --no-score --quiet";
-  const auto quiet = run(args + " 2>&1");
-  const auto verbose = run("--verbose " + args + " 2>&1");
-  const auto verbose_after = run(args + " --verbose 2>&1");
+  const auto quiet = run_dentar(args + " 2>&1");
+  const auto verbose = run_dentar("--verbose " + args + " 2>&1");
+  const auto verbose_after = run_dentar(args + " --verbose 2>&1");
   for (const auto* r : {&quiet, &verbose, &verbose_after}) {
     EXPECT_EQ(r->code, 1) << r->out;
     EXPECT_NE(r->out.find("dentar offline: "), std::string::npos) << r->out;

@@ -15,13 +15,13 @@ namespace {
 namespace fs = std::filesystem;
 using dentar::test::CommandResult;
 
-CommandResult run(const std::string& args) { return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args); }
+using dentar::test::run_dentar;
 
 // One small cohort shared by the tests (2 experts, 2 novices, 1 trial, coarse tooth).
 const fs::path& cohort() {
   static const fs::path dir = [] {
     const fs::path d = dentar::test::temp_dir("cli_score_cohort");
-    const CommandResult r = run("assess --generate " + d.string() +
+    const CommandResult r = run_dentar("assess --generate " + d.string() +
                                 " --experts 2 --novices 2 --trials 1 --voxel-mm 0.25 --seed 3");
     EXPECT_EQ(r.code, 0) << r.out;
     EXPECT_NE(r.out.find("generated 4 sessions"), std::string::npos) << r.out;
@@ -32,7 +32,7 @@ const fs::path& cohort() {
 
 TEST(CliScore, HelpHasSynopsisAndExample) {
   for (const char* sub : {"score", "assess"}) {
-    const CommandResult r = run(std::string(sub) + " --help");
+    const CommandResult r = run_dentar(std::string(sub) + " --help");
     EXPECT_EQ(r.code, 0) << sub;
     EXPECT_NE(r.out.find("Synopsis"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("Example"), std::string::npos) << r.out;
@@ -41,7 +41,7 @@ TEST(CliScore, HelpHasSynopsisAndExample) {
 
 TEST(CliScore, ScoresASessionFolderAndWritesReportAndSummary) {
   const fs::path s = cohort() / "N1_t1";
-  const CommandResult r = run("score " + s.string() + " --reference-trials 1");
+  const CommandResult r = run_dentar("score " + s.string() + " --reference-trials 1");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("/ 18 points"), std::string::npos) << r.out;
   const std::string html = dentar::test::read_file(s / "score.html");
@@ -57,20 +57,20 @@ TEST(CliScore, ScoresASessionFolderAndWritesReportAndSummary) {
   EXPECT_FALSE(j["feedback"].empty());
   // A .dlog path directly, output elsewhere.
   const fs::path out = dentar::test::temp_dir("cli_score_out");
-  const CommandResult r2 = run("score " + (s / "session.dlog").string() + " --out " + out.string() + " --quiet");
+  const CommandResult r2 = run_dentar("score " + (s / "session.dlog").string() + " --out " + out.string() + " --quiet");
   ASSERT_EQ(r2.code, 0) << r2.out;
   EXPECT_TRUE(fs::exists(out / "score.html"));
 }
 
 TEST(CliScore, CrossValidationModelAndClassification) {
   const fs::path m = cohort() / "model.json";
-  CommandResult r = run("assess --train " + cohort().string() + " --cv subject --method ghmm --states 3 --save " + m.string());
+  CommandResult r = run_dentar("assess --train " + cohort().string() + " --cv subject --method ghmm --states 3 --save " + m.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("leave-one-subject-out: accuracy"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("95 % CI"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("confusion"), std::string::npos) << r.out;
   ASSERT_TRUE(fs::exists(m));
-  r = run("assess --model " + m.string() + " " + (cohort() / "E1_t1").string());
+  r = run_dentar("assess --model " + m.string() + " " + (cohort() / "E1_t1").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(r.out.find(": expert") != std::string::npos || r.out.find(": novice") != std::string::npos) << r.out;
 }
@@ -82,36 +82,36 @@ TEST(CliScore, DamagedLogsAndBadArguments) {
   for (const char* sub : {"cut", "head", "k"}) fs::create_directories(d / sub);
   // Cut inside the last block: the good blocks are scored, with a warning.
   dentar::test::write_file(d / "cut" / "session.dlog", bytes.substr(0, bytes.size() - 700));
-  CommandResult r = run("score " + (d / "cut").string() + " --reference-trials 1");
+  CommandResult r = run_dentar("score " + (d / "cut").string() + " --reference-trials 1");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("warning"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("byte offset"), std::string::npos) << r.out;
   // Cut inside the header: an error naming the file.
   dentar::test::write_file(d / "head" / "session.dlog", bytes.substr(0, 30));
-  r = run("score " + (d / "head").string());
+  r = run_dentar("score " + (d / "head").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find((d / "head" / "session.dlog").string()), std::string::npos) << r.out;
-  r = run("score /nonexistent/session");
+  r = run_dentar("score /nonexistent/session");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("no such file or folder"), std::string::npos) << r.out;
-  r = run("score " + (cohort() / "E1_t1").string() + " --exercise incisor_partial_crown");
+  r = run_dentar("score " + (cohort() / "E1_t1").string() + " --exercise incisor_partial_crown");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("drilled on a molar"), std::string::npos) << r.out;
-  r = run("score " + (cohort() / "E1_t1").string() + " --exercise no_such_exercise");
+  r = run_dentar("score " + (cohort() / "E1_t1").string() + " --exercise no_such_exercise");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("no built-in exercise 'no_such_exercise'"), std::string::npos) << r.out;
-  r = run("assess --train " + cohort().string() + " --cv subject --method svm");
+  r = run_dentar("assess --train " + cohort().string() + " --cv subject --method svm");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("unknown method 'svm'"), std::string::npos) << r.out;
-  r = run("assess");
+  r = run_dentar("assess");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("nothing to do"), std::string::npos) << r.out;
-  r = run("assess --separation 3 --generate " + d.string());
+  r = run_dentar("assess --separation 3 --generate " + d.string());
   EXPECT_EQ(r.code, 2);
   dentar::test::write_file(d / "k" / "trials.csv", "file,subject,trial,label\na.csv,S1,1,expert\n");
   dentar::test::write_file(d / "k" / "a.csv", "t,x,y,z\n0,1,2,3\n1,1,2\n");
   dentar::test::write_file(d / "k" / "map.json", R"({"time":"t","position":["x","y","z"]})");
-  r = run("assess --kinematics " + (d / "k" / "trials.csv").string() + " --columns " + (d / "k" / "map.json").string() +
+  r = run_dentar("assess --kinematics " + (d / "k" / "trials.csv").string() + " --columns " + (d / "k" / "map.json").string() +
           " --cv subject");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("a.csv: line 3: 3 columns, expected 4"), std::string::npos) << r.out;

@@ -15,7 +15,7 @@ namespace {
 namespace fs = std::filesystem;
 using dentar::test::CommandResult;
 
-CommandResult run(const std::string& args) { return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args); }
+using dentar::test::run_dentar;
 
 // cut: the session removed material (the demo's does; 1 s of built-in footage may end before the bur reaches the tooth).
 void expect_sane_score(const fs::path& dir, const std::string& exercise, double max_points, bool cut) {
@@ -45,7 +45,7 @@ TEST(CliSessionScore, OfflineOnBuiltInFootageScoresAndLinksTheReport) {
   // use) whatever its pose uncertainty; with the default 1 mm gate the
   // 640x480 footage's 12 mm mirror tags (roof paddle) pass in ~1 frame of 5.
   const CommandResult r =
-      run("offline --quiet --frames 30 --resolution 640x480 --no-video --mirror-sigma-mm 0 --out " + out.string());
+      run_dentar("offline --quiet --frames 30 --resolution 640x480 --no-video --mirror-sigma-mm 0 --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("score: "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("/ 18.0 points (molar_access_opening)"), std::string::npos) << r.out;
@@ -79,13 +79,13 @@ TEST(CliSessionScore, OfflineOnBuiltInFootageScoresAndLinksTheReport) {
   EXPECT_EQ(sum, mu["frames_tracked"].get<int>());
   EXPECT_GT(sum, 0);
   // Re-scoring the run folder with `dentar score` finds the session and station through summary.json.
-  const CommandResult again = run("score " + out.string() + " --quiet");
+  const CommandResult again = run_dentar("score " + out.string() + " --quiet");
   EXPECT_EQ(again.code, 0) << again.out;
 }
 
 TEST(CliSessionScore, DemoSimulatedScoresTheSession) {
   const fs::path out = dentar::test::temp_dir("demo_score");
-  const CommandResult r = run("demo --simulated --voxel-mm 0.15 --samples 2000 --seconds 3 --out " + out.string());
+  const CommandResult r = run_dentar("demo --simulated --voxel-mm 0.15 --samples 2000 --seconds 3 --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("score: "), std::string::npos) << r.out;
   expect_sane_score(out, "molar_access_opening", 18.0, true);
@@ -99,7 +99,7 @@ TEST(CliSessionScore, AFailedScoreKeepsTheRunAndWarns) {
   const fs::path out = dentar::test::temp_dir("offline_score_fail");
   dentar::test::write_file(out / "score.json", "{\"old\": true}");  // from an earlier run: must not pass for this one
   // The incisor exercise cannot score a molar session: the run still succeeds.
-  const CommandResult r = run("offline --quiet --frames 12 --resolution 640x480 --no-video --exercise incisor_partial_crown --out " +
+  const CommandResult r = run_dentar("offline --quiet --frames 12 --resolution 640x480 --no-video --exercise incisor_partial_crown --out " +
                               out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("warning: the session was not scored (the recording is kept)"), std::string::npos) << r.out;
@@ -113,11 +113,11 @@ TEST(CliSessionScore, AFailedScoreKeepsTheRunAndWarns) {
 
 TEST(CliSessionScore, BadExerciseIsRefusedBeforeTheRun) {
   const fs::path out = dentar::test::temp_dir("offline_bad_exercise");
-  CommandResult r = run("offline --quiet --frames 12 --exercise no_such_exercise --out " + out.string());
+  CommandResult r = run_dentar("offline --quiet --frames 12 --exercise no_such_exercise --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--exercise no_such_exercise"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(out / "summary.json"));
-  r = run("demo --simulated --exercise /nonexistent/ex.json --out " + out.string());
+  r = run_dentar("demo --simulated --exercise /nonexistent/ex.json --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("/nonexistent/ex.json"), std::string::npos) << r.out;
 }

@@ -9,44 +9,42 @@
 namespace {
 
 using CmdResult = dentar::test::CommandResult;
+using dentar::test::run_dentar;
 
-CmdResult run(const std::string& args) {
-  return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args);
-}
 
 TEST(Cli, EverySubcommandHasHelpWithSynopsisAndExample) {
   for (const char* sub : {"demo", "tooth", "ct"}) {
-    const CmdResult r = run(std::string(sub) + " --help");
+    const CmdResult r = run_dentar(std::string(sub) + " --help");
     EXPECT_EQ(r.code, 0) << sub;
     EXPECT_NE(r.out.find("Synopsis"), std::string::npos) << sub << r.out;
     EXPECT_NE(r.out.find("Example"), std::string::npos) << sub << r.out;
   }
-  EXPECT_EQ(run("--help").code, 0);
+  EXPECT_EQ(run_dentar("--help").code, 0);
 }
 
 TEST(Cli, BadArgumentsExitTwoWithAClearMessage) {
-  CmdResult r = run("");
+  CmdResult r = run_dentar("");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("subcommand is required"), std::string::npos) << r.out;
-  r = run("demo --samples 5");
+  r = run_dentar("demo --samples 5");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--samples"), std::string::npos) << r.out;
-  r = run("demo --bur drill");
+  r = run_dentar("demo --bur drill");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--bur"), std::string::npos) << r.out;
-  r = run("frobnicate");
+  r = run_dentar("frobnicate");
   EXPECT_EQ(r.code, 2);
-  r = run("ct --input /nonexistent/volume.json");
+  r = run_dentar("ct --input /nonexistent/volume.json");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("/nonexistent/volume.json"), std::string::npos) << r.out;
-  r = run("tooth --voxel-mm 0.2 --enamel-mm 9");
+  r = run_dentar("tooth --voxel-mm 0.2 --enamel-mm 9");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("enamel_mm"), std::string::npos) << r.out;
 }
 
 TEST(Cli, DemoCutsTheToothWritesAPlyAndReportsRemovedVolume) {
   const auto dir = dentar::test::temp_dir("demo");
-  const CmdResult r = run("demo --simulated --voxel-mm 0.15 --samples 3000 --out " + dir.string());
+  const CmdResult r = run_dentar("demo --simulated --voxel-mm 0.15 --samples 3000 --out " + dir.string());
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* s : {"enamel", "dentin", "pulp", "total", "pulp exposed", "cut_tooth.ply"})
     EXPECT_NE(r.out.find(s), std::string::npos) << s << "\n" << r.out;
@@ -58,7 +56,7 @@ TEST(Cli, DemoCutsTheToothWritesAPlyAndReportsRemovedVolume) {
   EXPECT_NE(r.out.find("(match)"), std::string::npos) << r.out;
   EXPECT_GT(dentar::test::read_file(dir / "session.dlog").size(), 100000u);
   // ...and the same run prints the same live hash (deterministic).
-  const CmdResult again = run("demo --simulated --voxel-mm 0.15 --samples 3000 --out " + dir.string());
+  const CmdResult again = run_dentar("demo --simulated --voxel-mm 0.15 --samples 3000 --out " + dir.string());
   auto hash = [](const std::string& s) {
     const auto p = s.find(", live ");
     return p == std::string::npos ? std::string() : s.substr(p, 23);
@@ -70,7 +68,7 @@ TEST(Cli, DemoCutsTheToothWritesAPlyAndReportsRemovedVolume) {
 TEST(Cli, DemoInRealTimeReportsPercentilesAndPriorityAndReplaysExactly) {
   const auto dir = dentar::test::temp_dir("demo_rt");
   const CmdResult r =
-      run("demo --seconds 1 --voxel-mm 0.15 --samples 2000 --out " + dir.string());
+      run_dentar("demo --seconds 1 --voxel-mm 0.15 --samples 2000 --out " + dir.string());
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* s : {"real-time priority (SCHED_FIFO):", "step compute p50", "p99.9",
                         "period jitter", "(match)"})
@@ -80,10 +78,10 @@ TEST(Cli, DemoInRealTimeReportsPercentilesAndPriorityAndReplaysExactly) {
 TEST(Cli, ToothExportsMeshAndVolumeThatCtReadsBack) {
   const auto dir = dentar::test::temp_dir("tooth");
   const std::string vol = (dir / "density.json").string();
-  CmdResult r = run("tooth --voxel-mm 0.2 --ply " + (dir / "t.ply").string() + " --density " + vol);
+  CmdResult r = run_dentar("tooth --voxel-mm 0.2 --ply " + (dir / "t.ply").string() + " --density " + vol);
   ASSERT_EQ(r.code, 0) << r.out;
   // The density volume is a valid CT-like input: 200 dentin, 250 enamel.
-  r = run("ct --input " + vol + " --thresholds 40,128,225 --ply " + (dir / "ct.ply").string());
+  r = run_dentar("ct --input " + vol + " --thresholds 40,128,225 --ply " + (dir / "ct.ply").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("enamel"), std::string::npos) << r.out;
   EXPECT_GT(dentar::test::read_file(dir / "ct.ply").size(), 1000u);
@@ -97,7 +95,7 @@ TEST(Cli, CtSegmentsTheRealScan) {
   std::ofstream(dir / "tooth.json")
       << R"({"format":"dentar-raw","version":1,"data":")" << raw.string()
       << R"(","dims":[103,94,161],"type":"uint8","spacing_mm":[0.1,0.1,0.1],"origin_mm":[0,0,0]})";
-  const CmdResult r = run("ct --input " + (dir / "tooth.json").string() + " --ply " +
+  const CmdResult r = run_dentar("ct --input " + (dir / "tooth.json").string() + " --ply " +
                     (dir / "ct.ply").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("automatic"), std::string::npos) << r.out;

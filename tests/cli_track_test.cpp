@@ -20,9 +20,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using dentar::test::CommandResult;
 
-CommandResult run(const std::string& args) {
-  return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args);
-}
+using dentar::test::run_dentar;
 
 std::vector<json> read_jsonl(const fs::path& p) {
   std::vector<json> out;
@@ -60,7 +58,7 @@ const Synth& synth() {
   static const Synth s = [] {
     Synth r;
     const fs::path d = dentar::test::temp_dir("cli_track_synth");
-    const CommandResult c = run("synth --preset standard --frames " + std::to_string(kFrames) +
+    const CommandResult c = run_dentar("synth --preset standard --frames " + std::to_string(kFrames) +
                                 " --seed 3 --out " + d.string());
     if (c.code != 0)
       r.why = "dentar synth failed (no headless EGL here?): " + c.out;
@@ -79,7 +77,7 @@ const Synth& synth() {
   }
 
 TEST(CliTrack, HelpHasSynopsisAndExample) {
-  const CommandResult r = run("track --help");
+  const CommandResult r = run_dentar("track --help");
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("Synopsis"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("Example"), std::string::npos) << r.out;
@@ -90,7 +88,7 @@ TEST(CliTrack, PosesMatchTheTruth) {
   NEED_SYNTH();
   const fs::path out = S.dir / "poses.jsonl";
   const std::string st = (S.dir / "station.json").string();
-  const CommandResult r = run("track --input " + (S.dir / "video.mkv").string() + " --calib " +
+  const CommandResult r = run_dentar("track --input " + (S.dir / "video.mkv").string() + " --calib " +
                               st + " --layout " + st + " --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find(std::to_string(kFrames) + " frames"), std::string::npos) << r.out;
@@ -142,7 +140,7 @@ TEST(CliTrack, LiveCameraPathWithAStandInVideo) {
   NEED_SYNTH();
   const fs::path out = S.dir / "live.jsonl";
   const std::string st = (S.dir / "station.json").string();
-  const CommandResult r = run("track --input live:" + (S.dir / "video.mkv").string() +
+  const CommandResult r = run_dentar("track --input live:" + (S.dir / "video.mkv").string() +
                               " --calib " + st + " --layout " + st + " --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("live"), std::string::npos) << r.out;
@@ -169,7 +167,7 @@ TEST(CliTrack, TagsModeGivesEveryTagsPose) {
   NEED_SYNTH();
   const fs::path out = S.dir / "tags.jsonl";
   const CommandResult r =
-      run("track --input " + (S.dir / "video.mkv").string() + " --calib " +
+      run_dentar("track --input " + (S.dir / "video.mkv").string() + " --calib " +
           (S.dir / "station.json").string() + " --tags --tag-size-mm 14 --decimate 1 " +
           "--max-frames 5 --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
@@ -215,7 +213,7 @@ TEST(CliTrack, AutoResponseFromTheStationAndANoteWhenUnknown) {
   std::ofstream(unknown) << st.dump(2);
   for (const fs::path& p : {known, unknown}) {
     const fs::path out = S.dir / ("auto_" + p.stem().string() + ".jsonl");
-    const CommandResult r = run("track --input " + (S.dir / "video.mkv").string() + " --layout " +
+    const CommandResult r = run_dentar("track --input " + (S.dir / "video.mkv").string() + " --layout " +
                                 p.string() + " --max-frames 3 --out " + out.string() + " 2>&1");
     ASSERT_EQ(r.code, 0) << r.out;
     const bool noted = r.out.find("camera response unknown") != std::string::npos;
@@ -228,27 +226,27 @@ TEST(CliTrack, BadInputsGiveClearErrorsAndNoOutput) {
   const fs::path d = dentar::test::temp_dir("cli_track_bad");
   const fs::path out = d / "poses.jsonl";
   // Missing input.
-  CommandResult r = run("track --input " + (d / "missing.mkv").string() +
+  CommandResult r = run_dentar("track --input " + (d / "missing.mkv").string() +
                         " --out " + out.string() + " --calib " + (d / "nocal.yaml").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("nocal.yaml"), std::string::npos) << r.out;  // calibration read first
-  r = run("track --input " + (d / "missing.mkv").string() + " --out " + out.string());
+  r = run_dentar("track --input " + (d / "missing.mkv").string() + " --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--calib"), std::string::npos) << r.out;
   // Bad arguments.
-  r = run("track --input x.mkv --out o.jsonl --decimate 0");
+  r = run_dentar("track --input x.mkv --out o.jsonl --decimate 0");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--decimate"), std::string::npos) << r.out;
-  r = run("track --out o.jsonl");
+  r = run_dentar("track --out o.jsonl");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--input"), std::string::npos) << r.out;
-  r = run("track --input x.mkv --out o.jsonl --family tag99");
+  r = run_dentar("track --input x.mkv --out o.jsonl --family tag99");
   EXPECT_EQ(r.code, 2);
   EXPECT_FALSE(fs::exists(out));
 
   NEED_SYNTH();
   const std::string st = (S.dir / "station.json").string();
-  r = run("track --input " + (d / "missing.mkv").string() + " --calib " + st + " --out " +
+  r = run_dentar("track --input " + (d / "missing.mkv").string() + " --calib " + st + " --out " +
           out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("missing.mkv"), std::string::npos) << r.out;
@@ -258,7 +256,7 @@ TEST(CliTrack, BadInputsGiveClearErrorsAndNoOutput) {
   const std::string bytes = dentar::test::read_file(S.dir / "video.mkv");
   ASSERT_GT(bytes.size(), 10000u);
   dentar::test::write_file(d / "cut.mkv", bytes.substr(0, bytes.size() / 3));
-  r = run("track --input " + (d / "cut.mkv").string() + " --calib " + st + " --out " +
+  r = run_dentar("track --input " + (d / "cut.mkv").string() + " --calib " + st + " --out " +
           out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("cut.mkv"), std::string::npos) << r.out;
@@ -267,7 +265,7 @@ TEST(CliTrack, BadInputsGiveClearErrorsAndNoOutput) {
   std::string garbled = bytes;
   for (std::size_t i = 0; i < 4096; ++i) garbled[i] = static_cast<char>((i * 131) % 256);
   dentar::test::write_file(d / "garbled.mkv", garbled);
-  r = run("track --input " + (d / "garbled.mkv").string() + " --calib " + st + " --out " +
+  r = run_dentar("track --input " + (d / "garbled.mkv").string() + " --calib " + st + " --out " +
           out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("garbled.mkv"), std::string::npos) << r.out;
@@ -287,14 +285,14 @@ TEST(CliTrack, BadInputsGiveClearErrorsAndNoOutput) {
   };
   write_yaml(d / "cam1280.yaml", 1280, 960, 2.0);
   const std::string video = (S.dir / "video.mkv").string();
-  r = run("track --input " + video + " --calib " + (d / "cam1280.yaml").string() + " --layout " +
+  r = run_dentar("track --input " + video + " --calib " + (d / "cam1280.yaml").string() + " --layout " +
           st + " --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("1280x960"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("640x480"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("--scale-calib"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(out));
-  r = run("track --input " + video + " --calib " + (d / "cam1280.yaml").string() + " --layout " +
+  r = run_dentar("track --input " + video + " --calib " + (d / "cam1280.yaml").string() + " --layout " +
           st + " --scale-calib --max-frames 10 --out " + out.string());
   EXPECT_EQ(r.code, 0) << r.out;
   const auto scaled = read_jsonl(out);
@@ -308,11 +306,11 @@ TEST(CliTrack, BadInputsGiveClearErrorsAndNoOutput) {
   }
   fs::remove(out);
   write_yaml(d / "cam_wide.yaml", 1280, 720, 2.0);
-  r = run("track --input " + video + " --calib " + (d / "cam_wide.yaml").string() + " --layout " +
+  r = run_dentar("track --input " + video + " --calib " + (d / "cam_wide.yaml").string() + " --layout " +
           st + " --scale-calib --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("aspect"), std::string::npos) << r.out;
-  r = run("track --input " + video + " --calib " + st + " --tags --out " + out.string());
+  r = run_dentar("track --input " + video + " --calib " + st + " --tags --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--tag-size-mm"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(out));

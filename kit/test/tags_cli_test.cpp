@@ -12,9 +12,7 @@ namespace {
 namespace fs = std::filesystem;
 using dentar::test::CommandResult;
 
-CommandResult run(const std::string& args) {
-  return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args);
-}
+using dentar::test::run_dentar;
 
 bool starts_with(const std::string& s, const std::string& prefix) {
   return s.rfind(prefix, 0) == 0;
@@ -22,7 +20,7 @@ bool starts_with(const std::string& s, const std::string& prefix) {
 
 TEST(TagsCli, WritesThePdfAndSvgOfTheBuiltInStation) {
   const fs::path dir = dentar::test::temp_dir("tags_cli");
-  const CommandResult r = run("tags --out " + (dir / "kit").string());
+  const CommandResult r = run_dentar("tags --out " + (dir / "kit").string());
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string pdf = dentar::test::read_file(dir / "kit" / "station_kit.pdf");
   const std::string svg = dentar::test::read_file(dir / "kit" / "station_kit.svg");
@@ -43,7 +41,7 @@ TEST(TagsCli, LetterPaperAndAStationFile) {
   const fs::path station = dir / "station.json";
   ASSERT_TRUE(dentar::ar::write_station_scene(s, station.string()));
   const CommandResult r =
-      run("tags --station " + station.string() + " --paper letter --out " + (dir / "k").string());
+      run_dentar("tags --station " + station.string() + " --paper letter --out " + (dir / "k").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("\"my box\""), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("2 pages letter"), std::string::npos) << r.out;
@@ -56,7 +54,7 @@ TEST(TagsCli, LetterPaperAndAStationFile) {
 }
 
 TEST(TagsCli, HelpHasASynopsisAndAnExample) {
-  const CommandResult r = run("tags --help");
+  const CommandResult r = run_dentar("tags --help");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("Synopsis: dentar tags"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("Example:"), std::string::npos) << r.out;
@@ -65,11 +63,11 @@ TEST(TagsCli, HelpHasASynopsisAndAnExample) {
 
 TEST(TagsCli, BadArgumentsExit2WithTheOptionOrFileNamed) {
   const fs::path dir = dentar::test::temp_dir("tags_cli_bad");
-  CommandResult r = run("tags --paper a5 --out " + (dir / "k").string());
+  CommandResult r = run_dentar("tags --paper a5 --out " + (dir / "k").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--paper a5"), std::string::npos) << r.out;
 
-  r = run("tags --station " + (dir / "missing.json").string() + " --out " + (dir / "k").string());
+  r = run_dentar("tags --station " + (dir / "missing.json").string() + " --out " + (dir / "k").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("missing.json"), std::string::npos) << r.out;
 
@@ -77,17 +75,17 @@ TEST(TagsCli, BadArgumentsExit2WithTheOptionOrFileNamed) {
   dentar::ar::StationScene s = dentar::ar::default_station_scene();
   s.mannequin_tags[2].size_m = 0.15;
   ASSERT_TRUE(dentar::ar::write_station_scene(s, (dir / "big.json").string()));
-  r = run("tags --station " + (dir / "big.json").string() + " --out " + (dir / "k").string());
+  r = run_dentar("tags --station " + (dir / "big.json").string() + " --out " + (dir / "k").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("mannequin_tags[2]"), std::string::npos) << r.out;
 
   // An output folder that cannot be made: the job fails (1) naming the path.
   dentar::test::write_file(dir / "file", "x");
-  r = run("tags --out " + (dir / "file").string());
+  r = run_dentar("tags --out " + (dir / "file").string());
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find((dir / "file").string()), std::string::npos) << r.out;
 
-  r = run("tags --bogus");
+  r = run_dentar("tags --bogus");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_FALSE(fs::exists(dir / "k"));
   fs::remove_all(dir);

@@ -19,7 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 using dentar::test::CommandResult;
 
-CommandResult run(const std::string& args) { return dentar::test::run_command(std::string(DENTAR_BINARY) + " " + args); }
+using dentar::test::run_dentar;
 
 // One scored session: a `dentar demo` folder (the simulated hand, 2 s;
 // session.dlog + score.json + score.html, ~3 s). Each test runs in its own
@@ -29,7 +29,7 @@ CommandResult run(const std::string& args) { return dentar::test::run_command(st
 const fs::path& session() {
   static const fs::path dir = [] {
     const fs::path d = dentar::test::temp_dir("cli_db_demo");
-    const CommandResult g = run("demo --simulated --seconds 2 --voxel-mm 0.2 --samples 2000 --out " + (d / "demo").string());
+    const CommandResult g = run_dentar("demo --simulated --seconds 2 --voxel-mm 0.2 --samples 2000 --out " + (d / "demo").string());
     EXPECT_EQ(g.code, 0) << g.out;
     EXPECT_TRUE(fs::exists(d / "demo" / "score.json"));
     return d / "demo";
@@ -39,29 +39,29 @@ const fs::path& session() {
 
 TEST(CliDb, HelpHasSynopsisAndExample) {
   for (const char* sub : {"db", "serve", "db import", "db export"}) {
-    const CommandResult r = run(std::string(sub) + " --help");
+    const CommandResult r = run_dentar(std::string(sub) + " --help");
     EXPECT_EQ(r.code, 0) << sub;
     EXPECT_NE(r.out.find("Example"), std::string::npos) << sub << r.out;
   }
-  EXPECT_NE(run("db --help").out.find("Synopsis"), std::string::npos);
-  EXPECT_NE(run("serve --help").out.find("Synopsis"), std::string::npos);
+  EXPECT_NE(run_dentar("db --help").out.find("Synopsis"), std::string::npos);
+  EXPECT_NE(run_dentar("serve --help").out.find("Synopsis"), std::string::npos);
 }
 
 TEST(CliDb, ImportStatusExportAndReimportOnce) {
   const fs::path d = dentar::test::temp_dir("cli_db_import");
   const std::string db = "sqlite:" + (d / "school.db").string();
-  ASSERT_EQ(run("db init --db " + db).code, 0);
-  const CommandResult r = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
+  ASSERT_EQ(run_dentar("db init --db " + db).code, 0);
+  const CommandResult r = run_dentar("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("of s042 (molar_access_opening"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("stored in " + db), std::string::npos) << r.out;
-  const CommandResult again = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
+  const CommandResult again = run_dentar("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_NE(again.out.find("already stored"), std::string::npos) << again.out;
-  const CommandResult st = run("db status --db " + db);
+  const CommandResult st = run_dentar("db status --db " + db);
   EXPECT_EQ(st.code, 0);
   EXPECT_NE(st.out.find("schema version 3 (this program: 3), 1 sessions"), std::string::npos) << st.out;
-  const CommandResult ex = run("db export --db " + db + " --out " + (d / "all.jsonl").string());
+  const CommandResult ex = run_dentar("db export --db " + db + " --out " + (d / "all.jsonl").string());
   ASSERT_EQ(ex.code, 0) << ex.out;
   std::ifstream in(d / "all.jsonl");
   std::string line;
@@ -83,7 +83,7 @@ TEST(CliDb, UnscoredSessionIsScoredOnImport) {
   fs::create_directories(s);
   fs::copy_file(session() / "session.dlog", s / "session.dlog");  // the log alone: not scored
   const std::string db = "sqlite:" + (d / "school.db").string();
-  const CommandResult r = run("db import " + s.string() + " --db " + db + " --student s1 --station-id st");
+  const CommandResult r = run_dentar("db import " + s.string() + " --db " + db + " --student s1 --station-id st");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("scoring"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::exists(s / "score.json"));
@@ -94,36 +94,36 @@ TEST(CliDb, StationWithTheServerDownKeepsTheSessionQueued) {
   const fs::path d = dentar::test::temp_dir("cli_db_down");
   const std::string server = "postgresql://dentar@127.0.0.1:" + std::to_string(dentar::store::testkit::free_port()) + "/dentar";
   const std::string local = "sqlite:" + (d / "station.db").string();
-  const CommandResult r = run("db import " + session().string() + " --db " + server + " --station-db " + local +
+  const CommandResult r = run_dentar("db import " + session().string() + " --db " + server + " --station-db " + local +
                               " --student s9 --station-id st-9");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("kept at this station"), std::string::npos) << r.out;
-  const CommandResult f = run("db forward --db " + server + " --station-db " + local);
+  const CommandResult f = run_dentar("db forward --db " + server + " --station-db " + local);
   EXPECT_EQ(f.code, 1);
   EXPECT_NE(f.out.find("1 still queued"), std::string::npos) << f.out;
   EXPECT_NE(f.out.find("the queued sessions are kept"), std::string::npos) << f.out;
   // The queue goes to a reachable store, once.
   const std::string other = "sqlite:" + (d / "school.db").string();
-  const CommandResult ok = run("db forward --db " + other + " --station-db " + local);
+  const CommandResult ok = run_dentar("db forward --db " + other + " --station-db " + local);
   EXPECT_EQ(ok.code, 0) << ok.out;
   EXPECT_NE(ok.out.find("1 sent"), std::string::npos) << ok.out;
-  EXPECT_NE(run("db forward --db " + other + " --station-db " + local).out.find("0 sent"), std::string::npos);
+  EXPECT_NE(run_dentar("db forward --db " + other + " --station-db " + local).out.find("0 sent"), std::string::npos);
 }
 
 TEST(CliDb, BadInputIsExit2WithAMessage) {
   const fs::path d = dentar::test::temp_dir("cli_db_bad");
-  const CommandResult url = run("db init --db mysql://x/y");
+  const CommandResult url = run_dentar("db init --db mysql://x/y");
   EXPECT_EQ(url.code, 2);
   EXPECT_NE(url.out.find("expected sqlite:PATH or postgresql://"), std::string::npos) << url.out;
-  const CommandResult nostu = run("db import " + session().string() + " --db sqlite:" + (d / "a.db").string());
+  const CommandResult nostu = run_dentar("db import " + session().string() + " --db sqlite:" + (d / "a.db").string());
   EXPECT_EQ(nostu.code, 2);
   EXPECT_NE(nostu.out.find("--student"), std::string::npos) << nostu.out;
-  const CommandResult badstu = run("db import " + session().string() + " --db sqlite:" + (d / "a.db").string() + " --student 'a b'");
+  const CommandResult badstu = run_dentar("db import " + session().string() + " --db sqlite:" + (d / "a.db").string() + " --student 'a b'");
   EXPECT_EQ(badstu.code, 2);
-  const CommandResult missing = run("db import " + (d / "nope").string() + " --db sqlite:" + (d / "a.db").string() + " --student s1");
+  const CommandResult missing = run_dentar("db import " + (d / "nope").string() + " --db sqlite:" + (d / "a.db").string() + " --student s1");
   EXPECT_EQ(missing.code, 2);
   EXPECT_NE(missing.out.find("no such session folder"), std::string::npos) << missing.out;
-  const CommandResult nodb = run("db status --db sqlite:" + (d / "absent.db").string());
+  const CommandResult nodb = run_dentar("db status --db sqlite:" + (d / "absent.db").string());
   EXPECT_EQ(nodb.code, 2);  // bad input, as in `serve` (issue 26)
   EXPECT_NE(nodb.out.find("dentar db init"), std::string::npos) << nodb.out;
   // A database from a newer DentAR is refused by every command.
@@ -132,10 +132,10 @@ TEST(CliDb, BadInputIsExit2WithAMessage) {
     ASSERT_TRUE(st.ok());
     ASSERT_TRUE((*st)->exec_raw("INSERT INTO dentar_schema(version, applied_utc) VALUES(42, 'x')").ok());
   }
-  const CommandResult newer = run("db migrate --db sqlite:" + (d / "newer.db").string());
+  const CommandResult newer = run_dentar("db migrate --db sqlite:" + (d / "newer.db").string());
   EXPECT_EQ(newer.code, 2);
   EXPECT_NE(newer.out.find("newer than this program's"), std::string::npos) << newer.out;
-  const CommandResult live = run("live --db sqlite:x.db --student s1 --seconds 1");
+  const CommandResult live = run_dentar("live --db sqlite:x.db --student s1 --seconds 1");
   EXPECT_EQ(live.code, 2);
   EXPECT_NE(live.out.find("--db needs --record DIR"), std::string::npos) << live.out;
 }
@@ -144,7 +144,7 @@ TEST(CliDb, BadInputIsExit2WithAMessage) {
 TEST(CliDb, OfflineStoresTheReplayedSession) {
   const fs::path d = dentar::test::temp_dir("cli_db_offline");
   const std::string db = "sqlite:" + (d / "school.db").string();
-  const CommandResult r = run("offline --out " + (d / "run").string() +
+  const CommandResult r = run_dentar("offline --out " + (d / "run").string() +
                               " --frames 20 --resolution 640x480 --no-video --quiet --db " + db +
                               " --student s5 --station-id st-off");
   ASSERT_EQ(r.code, 0) << r.out;
@@ -166,16 +166,16 @@ TEST(CliDb, OfflineStoresTheReplayedSession) {
 TEST(CliDb, ImportTakesOfflineAndDemoFoldersAndRefusesAnotherStudentUnlessMove) {
   const fs::path d = dentar::test::temp_dir("cli_db_folders");
   const std::string db = "sqlite:" + (d / "school.db").string();
-  const CommandResult off = run("offline --out " + (d / "offline").string() +
+  const CommandResult off = run_dentar("offline --out " + (d / "offline").string() +
                                 " --frames 20 --resolution 640x480 --no-video --quiet");
   ASSERT_EQ(off.code, 0) << off.out;
-  const CommandResult demo = run("demo --simulated --seconds 2 --voxel-mm 0.2 --samples 2000 --out " + (d / "demo").string());
+  const CommandResult demo = run_dentar("demo --simulated --seconds 2 --voxel-mm 0.2 --samples 2000 --out " + (d / "demo").string());
   ASSERT_EQ(demo.code, 0) << demo.out;
-  const CommandResult a = run("db import " + (d / "offline").string() + " --db " + db + " --student s1 --station-id st");
+  const CommandResult a = run_dentar("db import " + (d / "offline").string() + " --db " + db + " --student s1 --station-id st");
   ASSERT_EQ(a.code, 0) << a.out;
   EXPECT_NE(a.out.find("of s1 ("), std::string::npos) << a.out;
   EXPECT_EQ(a.out.find("no session log"), std::string::npos) << a.out;
-  const CommandResult b = run("db import " + (d / "demo").string() + " --db " + db + " --student s1 --station-id st");
+  const CommandResult b = run_dentar("db import " + (d / "demo").string() + " --db " + db + " --student s1 --station-id st");
   ASSERT_EQ(b.code, 0) << b.out;
   const std::string key = *dentar::store::sha256_file((d / "offline" / "footage" / "session.dlog").string());
   {
@@ -188,7 +188,7 @@ TEST(CliDb, ImportTakesOfflineAndDemoFoldersAndRefusesAnotherStudentUnlessMove) 
     EXPECT_EQ(fs::path((**rec).report_dir).filename(), "offline");  // score.json of the run folder
   }
   // The same offline run under s2: refused, both named, nothing changed.
-  const CommandResult other = run("db import " + (d / "offline").string() + " --db " + db + " --student s2 --station-id st");
+  const CommandResult other = run_dentar("db import " + (d / "offline").string() + " --db " + db + " --student s2 --station-id st");
   EXPECT_EQ(other.code, 2) << other.out;
   EXPECT_NE(other.out.find("already stored under student s1, not s2"), std::string::npos) << other.out;
   EXPECT_NE(other.out.find("--move"), std::string::npos) << other.out;
@@ -198,7 +198,7 @@ TEST(CliDb, ImportTakesOfflineAndDemoFoldersAndRefusesAnotherStudentUnlessMove) 
   }
   // --move: stored under s2 now, and the message says from whom.
   const CommandResult moved =
-      run("db import " + (d / "offline").string() + " --db " + db + " --student s2 --station-id st --move");
+      run_dentar("db import " + (d / "offline").string() + " --db " + db + " --student s2 --station-id st --move");
   ASSERT_EQ(moved.code, 0) << moved.out;
   EXPECT_NE(moved.out.find("of s2 ("), std::string::npos) << moved.out;
   EXPECT_NE(moved.out.find("moved from student s1"), std::string::npos) << moved.out;
@@ -209,7 +209,7 @@ TEST(CliDb, ImportTakesOfflineAndDemoFoldersAndRefusesAnotherStudentUnlessMove) 
   }
   // A folder that is none of these: the message says what was looked for.
   fs::create_directories(d / "empty");
-  const CommandResult none = run("db import " + (d / "empty").string() + " --db " + db + " --student s1");
+  const CommandResult none = run_dentar("db import " + (d / "empty").string() + " --db " + db + " --student s1");
   EXPECT_EQ(none.code, 2);
   EXPECT_NE(none.out.find("footage/session.dlog"), std::string::npos) << none.out;
   // A damaged database: bad input (2), as db status and serve.
@@ -217,10 +217,10 @@ TEST(CliDb, ImportTakesOfflineAndDemoFoldersAndRefusesAnotherStudentUnlessMove) 
     std::ofstream bad(d / "bad.db", std::ios::binary);
     bad << std::string(8192, 'x');
   }
-  const CommandResult dmg = run("db import " + (d / "demo").string() + " --db sqlite:" + (d / "bad.db").string() +
+  const CommandResult dmg = run_dentar("db import " + (d / "demo").string() + " --db sqlite:" + (d / "bad.db").string() +
                                 " --student s1 --station-id st");
   EXPECT_EQ(dmg.code, 2) << dmg.out;
-  EXPECT_EQ(run("db status --db sqlite:" + (d / "bad.db").string()).code, 2);
+  EXPECT_EQ(run_dentar("db status --db sqlite:" + (d / "bad.db").string()).code, 2);
 }
 
 // `dentar live --record --db` in a real window (Xvfb): the recording is
@@ -228,7 +228,7 @@ TEST(CliDb, ImportTakesOfflineAndDemoFoldersAndRefusesAnotherStudentUnlessMove) 
 TEST(CliDb, LiveStoresTheRecordedSession) {
   ASSERT_EQ(std::system("command -v xvfb-run >/dev/null 2>&1"), 0) << "xvfb-run missing (tools/bootstrap.sh installs xvfb)";
   const fs::path d = dentar::test::temp_dir("cli_db_live");
-  ASSERT_EQ(run("synth --preset standard --frames 30 --resolution 640x480 --seed 3 --out " + (d / "clip").string()).code, 0);
+  ASSERT_EQ(run_dentar("synth --preset standard --frames 30 --resolution 640x480 --seed 3 --out " + (d / "clip").string()).code, 0);
   const std::string db = "sqlite:" + (d / "school.db").string();
   const CommandResult r = dentar::test::run_command(
       "xvfb-run -a -s '-screen 0 1280x1024x24' " + std::string(DENTAR_BINARY) + " live --camera live:" +
@@ -253,13 +253,13 @@ TEST(CliServe, SetPasswordThenRefusesBadSetups) {
                                                     " serve --passwords " + pw + " --set-password alice --iterations 100000");
   ASSERT_EQ(s.code, 0) << s.out;
   EXPECT_NE(dentar::test::read_file(pw).find("alice:pbkdf2-sha256:100000:"), std::string::npos);
-  const CommandResult nodb = run("serve --passwords " + pw + " --db sqlite:" + (d / "absent.db").string());
+  const CommandResult nodb = run_dentar("serve --passwords " + pw + " --db sqlite:" + (d / "absent.db").string());
   EXPECT_EQ(nodb.code, 2);
   EXPECT_NE(nodb.out.find("no such database file"), std::string::npos) << nodb.out;
-  const CommandResult nopw = run("serve --passwords " + (d / "none.txt").string() + " --db sqlite:x.db");
+  const CommandResult nopw = run_dentar("serve --passwords " + (d / "none.txt").string() + " --db sqlite:x.db");
   EXPECT_EQ(nopw.code, 2);
   EXPECT_NE(nopw.out.find("cannot read the password file"), std::string::npos) << nopw.out;
-  const CommandResult certs = run("serve --passwords " + pw + " --db sqlite:x.db --cert a.pem");
+  const CommandResult certs = run_dentar("serve --passwords " + pw + " --db sqlite:x.db --cert a.pem");
   EXPECT_EQ(certs.code, 2);
   EXPECT_NE(certs.out.find("--cert and --key"), std::string::npos) << certs.out;
 }
@@ -281,7 +281,7 @@ TEST(CliDb, CorruptedPageInTheMiddleIsRefusedEverywhere) {
   }
   const std::string pw = (d / "pw.txt").string();
   ASSERT_TRUE(dentar::store::set_password(pw, "alice", "correct-horse-battery", 100000).ok());
-  const CommandResult good = run("db status --db " + db);
+  const CommandResult good = run_dentar("db status --db " + db);
   ASSERT_EQ(good.code, 0) << good.out;
   EXPECT_NE(good.out.find("120 sessions; PRAGMA quick_check: ok"), std::string::npos) << good.out;
   // Overwrite one 4 KiB page half way through the file.
@@ -293,7 +293,7 @@ TEST(CliDb, CorruptedPageInTheMiddleIsRefusedEverywhere) {
     const std::string junk(4096, '\xa5');
     f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
   }
-  const CommandResult status = run("db status --db " + db);
+  const CommandResult status = run_dentar("db status --db " + db);
   EXPECT_EQ(status.code, 2) << status.out;
   EXPECT_NE(status.out.find(db + ": the database file is damaged (PRAGMA quick_check"), std::string::npos) << status.out;
   EXPECT_NE(status.out.find("Restore it from a backup"), std::string::npos) << status.out;
@@ -301,7 +301,7 @@ TEST(CliDb, CorruptedPageInTheMiddleIsRefusedEverywhere) {
                                                         " --passwords " + pw + " --port 0");
   EXPECT_EQ(serve.code, 2) << serve.out;
   EXPECT_NE(serve.out.find(db + ": the database file is damaged (PRAGMA quick_check"), std::string::npos) << serve.out;
-  const CommandResult imp = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
+  const CommandResult imp = run_dentar("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3");
   EXPECT_EQ(imp.code, 2) << imp.out;
   EXPECT_NE(imp.out.find("the database file is damaged"), std::string::npos) << imp.out;
 }
@@ -310,19 +310,19 @@ TEST(CliDb, CorruptedPageInTheMiddleIsRefusedEverywhere) {
 // PostgreSQL URL is refused (it would show in `ps`) with what to do instead.
 TEST(CliDb, PrivateFileAndNoPasswordOnTheCommandLine) {
   const fs::path d = dentar::test::temp_dir("cli_db_private");
-  ASSERT_EQ(run("db init --db sqlite:" + (d / "s.db").string()).code, 0);
+  ASSERT_EQ(run_dentar("db init --db sqlite:" + (d / "s.db").string()).code, 0);
   struct stat sb {};
   ASSERT_EQ(::stat((d / "s.db").c_str(), &sb), 0);
   EXPECT_EQ(sb.st_mode & 0777, 0600u);
   for (const std::string cmd : {"db status --db ", "db init --db ", "serve --passwords x.txt --db "}) {
-    const CommandResult r = run(cmd + "postgresql://dentar:s3cret-pw@127.0.0.1:1/dentar");
+    const CommandResult r = run_dentar(cmd + "postgresql://dentar:s3cret-pw@127.0.0.1:1/dentar");
     EXPECT_EQ(r.code, 2) << cmd << r.out;
     EXPECT_NE(r.out.find("postgresql://dentar:***@127.0.0.1:1/dentar: a password on the command line"), std::string::npos)
         << cmd << r.out;
     EXPECT_NE(r.out.find("PGPASSWORD"), std::string::npos) << r.out;
     EXPECT_EQ(r.out.find("s3cret"), std::string::npos) << r.out;
   }
-  const CommandResult q = run("db status --db 'postgresql://dentar@127.0.0.1:1/dentar?password=s3cret'");
+  const CommandResult q = run_dentar("db status --db 'postgresql://dentar@127.0.0.1:1/dentar?password=s3cret'");
   EXPECT_EQ(q.code, 2) << q.out;
   EXPECT_EQ(q.out.find("s3cret"), std::string::npos) << q.out;
 }
@@ -332,7 +332,7 @@ TEST(CliDb, PrivateFileAndNoPasswordOnTheCommandLine) {
 TEST(CliDb, ImporterWaitingOnALockSaysSo) {
   const fs::path d = dentar::test::temp_dir("cli_db_lock");
   const std::string db = "sqlite:" + (d / "school.db").string();
-  ASSERT_EQ(run("db init --db " + db).code, 0);
+  ASSERT_EQ(run_dentar("db init --db " + db).code, 0);
   auto holder = dentar::store::Store::open(db);
   ASSERT_TRUE(holder.ok());
   ASSERT_TRUE((*holder)->exec_raw("BEGIN IMMEDIATE").ok());
@@ -341,7 +341,7 @@ TEST(CliDb, ImporterWaitingOnALockSaysSo) {
   const fs::path log = d / "import.log";
   CommandResult r;
   std::thread import([&] {
-    r = run("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3 > " +
+    r = run_dentar("db import " + session().string() + " --db " + db + " --student s042 --station-id st-3 > " +
             log.string() + " 2>&1");
   });
   const std::string notice = "db import: " + db + ": the database is locked by another program";
@@ -369,7 +369,7 @@ TEST(CliDb, PgImporterWaitingOnALockSaysSo) {
     ASSERT_TRUE((*admin)->exec_raw("CREATE DATABASE school").ok());
   }
   const std::string db = pg.url("school");
-  const CommandResult init = run("db init --db " + db);
+  const CommandResult init = run_dentar("db init --db " + db);
   ASSERT_EQ(init.code, 0) << init.out;
   const fs::path d = dentar::test::temp_dir("cli_db_pglock");
   auto holder = dentar::store::Store::open(db);
@@ -378,7 +378,7 @@ TEST(CliDb, PgImporterWaitingOnALockSaysSo) {
   const fs::path log = d / "import.log";
   CommandResult r;
   std::thread import([&] {
-    r = run("db import " + sess.string() + " --db " + db + " --station-db sqlite:" + (d / "station.db").string() +
+    r = run_dentar("db import " + sess.string() + " --db " + db + " --station-db sqlite:" + (d / "station.db").string() +
             " --student s042 --station-id st-3 > " + log.string() + " 2>&1");
   });
   const std::string notice = "db import: " + db + ": a lock is held by another connection (process ";

@@ -26,4 +26,10 @@ struct CommandResult {
 };
 CommandResult run_command(const std::string& command);
 
+#ifdef DENTAR_BINARY
+// `dentar ARGS` with the binary the calling test target was built against
+// (DENTAR_BINARY is a per-target define, so this is inline here).
+inline CommandResult run_dentar(const std::string& args) { return run_command(std::string(DENTAR_BINARY) + " " + args); }
+#endif
+
 }  // namespace dentar::test
