@@ -44,6 +44,38 @@ struct LinearView {
     return (1 - b) * ((1 - a) * lut[r0[x0]] + a * lut[r0[x0 + 1]]) +
            b * ((1 - a) * lut[r1[x0]] + a * lut[r1[x0 + 1]]);
   }
+  // at(start + i * step) for i = 0 .. count - 1 into out; false when any is
+  // outside the image. The points lie on a segment: when both ends are
+  // inside, all are, and the per-point checks are skipped.
+  bool along(const Eigen::Vector2d& start, const Eigen::Vector2d& step, int count,
+             std::vector<double>& out) const {
+    out.resize(static_cast<std::size_t>(count));
+    const Eigen::Vector2d end = start + step * (count - 1);
+    auto inside = [&](const Eigen::Vector2d& q) {
+      return q.x() >= 0 && q.y() >= 0 && q.x() < im.cols - 1 && q.y() < im.rows - 1;
+    };
+    if (!inside(start) || !inside(end)) {
+      for (int i = 0; i < count; ++i) {
+        const Eigen::Vector2d q = start + step * i;
+        const double v = at(q.x(), q.y());
+        if (std::isnan(v)) return false;
+        out[static_cast<std::size_t>(i)] = v;
+      }
+      return true;
+    }
+    const std::size_t stride = im.step[0];
+    const std::uint8_t* base = im.ptr<std::uint8_t>(0);
+    for (int i = 0; i < count; ++i) {
+      const double x = start.x() + step.x() * i, y = start.y() + step.y() * i;
+      const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);  // >= 0: floor
+      const double a = x - x0, b = y - y0;
+      const std::uint8_t* r0 = base + static_cast<std::size_t>(y0) * stride + x0;
+      const std::uint8_t* r1 = r0 + stride;
+      out[static_cast<std::size_t>(i)] = (1 - b) * ((1 - a) * lut[r0[0]] + a * lut[r0[1]]) +
+                                         b * ((1 - a) * lut[r1[0]] + a * lut[r1[1]]);
+    }
+    return true;
+  }
 };
 
 // Total least-squares line through points: (n, d) with n.x + d = 0.
@@ -89,6 +121,7 @@ bool refit_edges_gradient(const LinearView& im, int width_at_border, double rang
   for (const auto& p : c) centre += p / 4;
   std::array<Eigen::Vector3d, 4> lines;
   std::vector<Eigen::Vector2d> pts;
+  std::vector<double> levels;
   for (int k = 0; k < 4; ++k) {
     const Eigen::Vector2d a = c[k], b = c[(k + 1) % 4];
     const double len = (b - a).norm();
@@ -120,15 +153,23 @@ bool refit_edges_gradient(const LinearView& im, int width_at_border, double rang
       double centre_off = 0;
       bool ok = true;
       for (int it = 0; it < 2 && ok; ++it) {
+        // The gradient at x (0.25 px steps over centre_off +- range) is
+        // I(x + 1) - I(x - 1): both lie on the same 0.25 px grid, so each
+        // level is read once, at x0 - 1 + j / 4 (j = 0 .. steps + 7), not
+        // twice (issue 24 session 12: the same corners, 2.0x (d1) and 2.3x
+        // (d2) fewer instructions in the refit).
+        const double x0 = centre_off - range;
+        const int steps = static_cast<int>(std::floor(8 * range + 4e-8)) + 1;
+        if (!im.along(p + n * (x0 - 1), n * 0.25, steps + 8, levels)) {
+          ok = false;
+          break;
+        }
         double mn = 0, mw = 0;
-        for (double x = centre_off - range; x <= centre_off + range + 1e-9; x += 0.25) {
-          const Eigen::Vector2d p1 = p + n * (x + 1), p2 = p + n * (x - 1);
-          const double g = polarity * (im.at(p1.x(), p1.y()) - im.at(p2.x(), p2.y()));
-          if (std::isnan(g)) {
-            mw = 0;
-            break;
-          }
+        for (int i = 0; i < steps; ++i) {
+          const double g = polarity * (levels[static_cast<std::size_t>(i + 8)] -
+                                       levels[static_cast<std::size_t>(i)]);
           if (g <= 0) continue;  // a gradient the wrong way: another edge
+          const double x = x0 + 0.25 * i;
           mn += g * g * x;
           mw += g * g;
         }
