@@ -307,8 +307,8 @@ Result<Lesson> load_lesson(const std::string& path_in) {
   auto ex = resolve_exercise(l->exercise);
   if (!ex) return Error{file + ": exercise: " + ex.error()};
   if (tooth_kind(ex->tooth_json) != tooth_kind(l->tooth_json))
-    return Error{file + ": exercise: '" + l->exercise + "' is for a " + tooth_kind(ex->tooth_json) +
-                 ", the lesson's recording is of a " + tooth_kind(l->tooth_json) +
+    return Error{file + ": exercise: '" + l->exercise + "' is for tooth kind '" + tooth_kind(ex->tooth_json) +
+                 "', the lesson's recording is of a '" + tooth_kind(l->tooth_json) + "'" +
                  " (a lesson for another tooth; pick the exercise the recording was made for)"};
   // Steps into times.
   const auto& recs = rec->log.records;
@@ -347,8 +347,8 @@ Result<Lesson> make_lesson(const std::string& recording_in, const std::string& o
   auto rec = read_recording(recording);
   if (!rec) return Error{rec.error()};
   if (tooth_kind(rec->setup.tooth_json) != tooth_kind(ex->tooth_json))
-    return Error{recording + ": the recording is of a " + tooth_kind(rec->setup.tooth_json) + " (" +
-                 rec->setup.tooth_json + "), exercise '" + ex->name + "' is for a " + tooth_kind(ex->tooth_json) +
+    return Error{recording + ": the recording is of tooth kind '" + tooth_kind(rec->setup.tooth_json) + "' (" +
+                 rec->setup.tooth_json + "), exercise '" + ex->name + "' is for '" + tooth_kind(ex->tooth_json) + "'" +
                  " (pick the exercise the recording was made for)"};
   auto track = haptics::ExpertTrack::from_records(rec->log.records, rec->setup.engine.T_tooth_dev,
                                                   rec->setup.engine.T_sty_tip, recording);

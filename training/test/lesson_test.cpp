@@ -132,7 +132,7 @@ TEST(LessonFile, BadInputNamesTheFileAndField) {
     expect_has(l.error(), "exercise: unknown exercise 'molar_class9' (built-in: ");
     l = load_lesson(copy("incisor", replace(good, "\"molar_class1_cavity\"", "\"incisor_partial_crown\"")).string());
     ASSERT_FALSE(l.ok());
-    expect_has(l.error(), "exercise: 'incisor_partial_crown' is for a incisor, the lesson's recording is of a molar");
+    expect_has(l.error(), "exercise: 'incisor_partial_crown' is for tooth kind 'incisor', the lesson's recording is of a 'molar'");
   }
   {  // A truncated lesson.json.
     auto l = load_lesson(copy("truncated", good.substr(0, good.size() / 2)).string());
@@ -166,7 +166,7 @@ TEST(LessonFile, BadInputNamesTheFileAndField) {
   o.exercise = "incisor_partial_crown";
   auto m = make_lesson(g.recording_path(), (d / "made").string(), o);
   ASSERT_FALSE(m.ok());
-  expect_has(m.error(), "the recording is of a molar");
+  expect_has(m.error(), "the recording is of tooth kind 'molar'");
   o.exercise = "molar_class1_cavity";
   o.annotations.push_back(*parse_annotation_arg("1e5:too late", false, "--note"));
   m = make_lesson(g.recording_path(), (d / "made").string(), o);
