@@ -80,11 +80,10 @@ void SimStudentDevice::see(const Eigen::Isometry3d& T_tooth_expert_tip, bool dri
   seen_[head_] = T_tooth_expert_tip;
   seen_drill_[head_] = drilling ? 1 : 0;
   head_ = (head_ + 1) % seen_.size();
-  count_ = std::min(count_ + 1, seen_.size());
-  // The oldest entry is what was seen lag_s ago (the start pose until then).
-  const std::size_t oldest = count_ < seen_.size() ? 0 : head_;
-  aim_ = seen_[count_ < seen_.size() ? 0 : oldest];
-  aim_drill_ = seen_drill_[count_ < seen_.size() ? 0 : oldest] != 0;
+  // The slot to be written next holds the oldest entry: what was seen lag_s ago (the start
+  // pose the line was filled with, until lag_s has passed).
+  aim_ = seen_[head_];
+  aim_drill_ = seen_drill_[head_] != 0;
 }
 
 Eigen::Vector3d SimStudentDevice::tip_tooth() const {

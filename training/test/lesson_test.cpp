@@ -283,8 +283,18 @@ TEST(LessonModes, NoKickAtModeStartOnEveryProfile) {
 TEST(LessonModes, NoKickWhenForceReversalPausesOnEveryProfile) {
   Lesson l = shared_lesson();
   ASSERT_FALSE(l.path.empty());
+  // The pause 0.2 s after the expert first presses with 0.5 N.
+  auto log = haptics::read_session_log(l.recording_path());
+  ASSERT_TRUE(log.ok()) << log.error();
+  auto setup = haptics::parse_session_header(log->header_json);
+  ASSERT_TRUE(setup.ok()) << setup.error();
+  auto track = haptics::ExpertTrack::from_records(log->records, setup->engine.T_tooth_dev, setup->engine.T_sty_tip, "x");
+  ASSERT_TRUE(track.ok()) << track.error();
+  double press = 0;
+  while (press < track->duration_s() && track->at(press).force_N.norm() < 0.5) press += 0.01;
+  ASSERT_LT(press, 10.0);
   Annotation pause;
-  pause.time_s = 4.0;
+  pause.time_s = press + 0.2;
   pause.pause_s = 0.4;
   l.annotations.insert(l.annotations.begin(), pause);
   for (const auto& prof : haptics::device_profiles()) {
@@ -293,7 +303,7 @@ TEST(LessonModes, NoKickWhenForceReversalPausesOnEveryProfile) {
     o.mode = 4;
     o.device = prof.id;
     o.jitter_s = 2e-3;
-    o.seconds = 4.5;
+    o.seconds = pause.time_s + 0.4;
     auto r = run_lesson(l, o);
     ASSERT_TRUE(r.ok()) << r.error();
     EXPECT_EQ(r->pauses_taken, 1);

@@ -79,7 +79,7 @@ class SimStudentDevice final : public haptics::HapticDevice {
   // The delay line of what was seen (one entry per step).
   std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> seen_;
   std::vector<std::uint8_t> seen_drill_;
-  std::size_t head_ = 0, count_ = 0;
+  std::size_t head_ = 0;
   Eigen::Isometry3d aim_ = Eigen::Isometry3d::Identity();  // the tip pose aimed at now
   bool aim_drill_ = false;
   std::mt19937_64 rng_;
