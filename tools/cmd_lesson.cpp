@@ -82,7 +82,9 @@ int do_builtin(const LessonArgs& a) {
 }
 
 int do_show(const LessonArgs& a) {
-  auto l = training::load_lesson(a.lesson);
+  auto path = training::resolve_lesson_path(a.lesson);
+  if (!path) return print_error("lesson show", path.error()), 2;
+  auto l = training::load_lesson(*path);
   if (!l) return print_error("lesson show", l.error()), 2;
   std::cout << training::describe_lesson(*l);
   return 0;
@@ -105,7 +107,9 @@ int do_run(const LessonArgs& a) {
   o.out_dir = a.out;
   if (std::string v = o.validate(); !v.empty()) return print_error("lesson run", v), 2;
   if (a.out.empty()) return print_error("lesson run", "--out DIR is required (the session is recorded there)"), 2;
-  auto l = training::load_lesson(a.lesson);
+  auto path = training::resolve_lesson_path(a.lesson);
+  if (!path) return print_error("lesson run", path.error()), 2;
+  auto l = training::load_lesson(*path);
   if (!l) return print_error("lesson run", l.error()), 2;
   if (fs::exists(fs::path(a.out) / "session.dlog"))
     return print_error("lesson run", a.out + " already holds a session.dlog; give a new --out folder"), 2;
@@ -159,6 +163,7 @@ void add_lesson(CLI::App& app, int& exit_code) {
       "  dentar lesson make rec/session.dlog --exercise molar_class1_cavity --out my_lesson --note 3.5:'enter here' "
       "--pause 10:2\n"
       "  dentar lesson show lessons/molar_class1_cavity\n"
+      "  dentar lesson run builtin:molar_access_opening --mode 3 --out run3\n"
       "  dentar lesson run lessons/molar_class1_cavity --mode 2 --student passive --seed 3 --out run1\n"
       "Format: docs/formats.md (\"Lesson\"); modes: docs/training_modes.md");
 
@@ -180,11 +185,12 @@ void add_lesson(CLI::App& app, int& exit_code) {
   bi->callback([a, &exit_code] { exit_code = do_builtin(*a); });
 
   CLI::App* sh = s->add_subcommand("show", "Check a lesson (recording, hash, exercise) and print it");
-  sh->add_option("lesson", a->lesson, "Lesson folder or its lesson.json")->required();
+  sh->add_option("lesson", a->lesson, "Lesson folder, its lesson.json, or builtin:EXERCISE (made in the cache on first use)")->required();
   sh->callback([a, &exit_code] { exit_code = do_show(*a); });
 
   CLI::App* rn = s->add_subcommand("run", "Run a lesson offline in a mode with a simulated student; record and score it");
-  rn->add_option("lesson", a->lesson, "Lesson folder or its lesson.json")->required();
+  rn->add_option("lesson", a->lesson, "Lesson folder, its lesson.json, or builtin:EXERCISE (made in the cache on first use)")
+      ->required();
   rn->add_option("--mode", a->mode, "1 visual replay, 2 passive guidance, 3 active following, 4 force reversal, 5 hints")
       ->required();
   rn->add_option("--student", a->student, "sim student: active (grips, follows with lag) or passive (relaxed hand)")

@@ -1,6 +1,7 @@
 #include "dentar/training/lesson.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -454,6 +455,25 @@ Result<Lesson> make_generated_lesson(const std::string& exercise, const std::str
   auto l = make_lesson(trials->front().session_path, out_dir, mo);
   cleanup();
   return l;
+}
+
+Result<std::string> resolve_lesson_path(const std::string& lesson) {
+  if (lesson.rfind("builtin:", 0) != 0) return lesson;
+  const std::string name = lesson.substr(8);
+  std::string cache;
+  if (const char* d = std::getenv("DENTAR_CACHE_DIR"); d && *d)
+    cache = d;
+  else if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x)
+    cache = std::string(x) + "/dentar";
+  else if (const char* h = std::getenv("HOME"); h && *h)
+    cache = std::string(h) + "/.cache/dentar";
+  if (cache.empty()) return Error{lesson + ": no cache folder (set DENTAR_CACHE_DIR, or make it with `dentar lesson builtin`)"};
+  const std::string dir = cache + "/lessons/cohort-v" + std::to_string(kCohortGeneratorVersion) + "/" + name;
+  if (fs::exists(fs::path(dir) / kLessonFile)) return dir;
+  auto made = make_generated_lesson(name, dir, 1);
+  // Another process may have made it meanwhile: its folder wins.
+  if (!made && !fs::exists(fs::path(dir) / kLessonFile)) return Error{lesson + ": " + made.error()};
+  return dir;
 }
 
 std::string describe_lesson(const Lesson& l) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -194,6 +195,28 @@ TEST(LessonFile, BadInputNamesTheFileAndField) {
   auto r = run_lesson(g, bad);
   ASSERT_FALSE(r.ok());
   expect_has(r.error(), "--device 'phantom9' is not a device profile");
+}
+
+// builtin:NAME makes the generated lesson in the cache once and reuses it; an unknown
+// exercise is refused.
+TEST(LessonFile, BuiltinLessonsAreMadeInTheCacheOnFirstUse) {
+  const fs::path cache = test::temp_dir("lesson_cache");
+  ::setenv("DENTAR_CACHE_DIR", cache.c_str(), 1);
+  auto p = resolve_lesson_path("builtin:molar_class1_cavity");
+  ASSERT_TRUE(p.ok()) << p.error();
+  EXPECT_EQ(fs::path(*p).parent_path().parent_path(), cache / "lessons");
+  auto l = load_lesson(*p);
+  ASSERT_TRUE(l.ok()) << l.error();
+  const auto when = fs::last_write_time(fs::path(*p) / kLessonFile);
+  auto again = resolve_lesson_path("builtin:molar_class1_cavity");
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(*again, *p);
+  EXPECT_EQ(fs::last_write_time(fs::path(*p) / kLessonFile), when) << "reused, not made again";
+  auto bad = resolve_lesson_path("builtin:molar_class9");
+  ASSERT_FALSE(bad.ok());
+  expect_has(bad.error(), "builtin:molar_class9: --exercise: unknown exercise 'molar_class9'");
+  EXPECT_EQ(*resolve_lesson_path("some/folder"), "some/folder");
+  ::unsetenv("DENTAR_CACHE_DIR");
 }
 
 // Mode 2 pulls a passive (relaxed, lagging, noisy) hand along the expert's path: within

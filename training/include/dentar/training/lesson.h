@@ -89,6 +89,12 @@ Result<Lesson> make_lesson(const std::string& recording, const std::string& out_
 // with no download. Scratch files go into a temporary folder that is removed.
 Result<Lesson> make_generated_lesson(const std::string& exercise, const std::string& out_dir, std::uint64_t seed = 1);
 
+// "builtin:NAME": the generated expert lesson of built-in exercise NAME, made on first use in
+// the cache ($DENTAR_CACHE_DIR, else $XDG_CACHE_HOME/dentar, else ~/.cache/dentar;
+// lessons/cohort-v<kCohortGeneratorVersion>/NAME) and reused after. Any other text is
+// returned as is. Errors: an unknown exercise, no cache folder.
+Result<std::string> resolve_lesson_path(const std::string& lesson);
+
 // Human-readable summary (`dentar lesson show`): exercise, recording, duration, drilling
 // time, the modes' options in mm/deg, the annotations.
 std::string describe_lesson(const Lesson& l);
