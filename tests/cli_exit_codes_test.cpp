@@ -183,4 +183,25 @@ TEST(CliExitCodes, LibraryLogLinesOnlyWithVerbose) {
   EXPECT_NE(verbose_after.out.find("[mjpeg @ 0x"), std::string::npos) << verbose_after.out;
 }
 
+// Issue 27 (session 12): dentar lesson's faults, each found before any work: a bad option, a
+// mode out of range, a missing or damaged lesson, an unknown exercise, a recording that is not
+// a session log. Nothing is written.
+TEST(CliExitCodes, LessonFaultsAreTwo) {
+  const Fixtures& f = fixtures();
+  const std::string m = f.missing.string();
+  fs::create_directories(f.dir / "bad_lesson");
+  std::ofstream(f.dir / "bad_lesson" / "lesson.json") << "{\"format\": \"dentar-lesson\", \"version\": 1, \"exer";
+  check({{"unknown option", "lesson show x --no-such-option", "--no-such-option"},
+         {"range", "lesson run " + m + " --mode 6 --out " + (f.dir / "l6").string(), "--mode 6 must be 1..5"},
+         {"range", "lesson run " + m + " --mode 2 --student lazy --out " + (f.dir / "l7").string(), "--student 'lazy'"},
+         {"missing input", "lesson show " + m, m},
+         {"missing input", "lesson run " + m + " --mode 2 --out " + (f.dir / "l8").string(), m},
+         {"damaged lesson", "lesson show " + (f.dir / "bad_lesson").string(), "lesson.json: not valid JSON"},
+         {"damaged recording", "lesson make " + f.garbage_dlog.string() + " --exercise molar_class1_cavity --out " +
+                                   (f.dir / "l9").string(), f.garbage_dlog.string()},
+         {"unknown exercise", "lesson make " + f.garbage_dlog.string() + " --exercise molar_class9 --out " +
+                                  (f.dir / "l9").string(), "unknown exercise 'molar_class9'"}});
+  for (const char* d : {"l6", "l7", "l8", "l9"}) EXPECT_FALSE(fs::exists(f.dir / d)) << d << " was written";
+}
+
 }  // namespace

@@ -136,8 +136,10 @@ bool Engine::step(double late_s) noexcept {
   const Eigen::Isometry3d T_tooth_sty = cfg_.T_tooth_dev * st.T_dev_sty;
   const Eigen::Isometry3d T_tooth_tip = T_tooth_sty * cfg_.T_sty_tip;
   TrainingStep train;  // defaults: no mode (contact on, the student cuts)
-  if (!fault && cfg_.training)
+  if (!fault && cfg_.training) {
+    cfg_.training->set_held((st.buttons & kButtonSecondary) != 0);
     train = cfg_.training->step(T_tooth_tip, cfg_.T_tooth_dev.linear() * st.velocity_m_per_s, dt_s_);
+  }
   if (!fault) {
     ForceInput in;
     in.volume = volume_;

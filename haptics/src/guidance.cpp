@@ -204,7 +204,8 @@ TrainingStep TrainingMode::step(const Eigen::Isometry3d& T_tooth_student_tip, co
   // The student against where the expert is now, then the expert's clock moves on.
   const ExpertSample now = track_->at(clock_s_);
   s.error = follow_error(now.T_tooth_tip, T_tooth_student_tip);
-  bool run = !paused_;
+  const bool paused = paused_ || held_;
+  bool run = !paused;
   if (p_.mode == TrainingModeKind::kActiveFollowing && p_.conditional_replay && !s.error.within(p_.tolerance)) {
     run = false;
     s.expert_waiting = true;
@@ -215,7 +216,7 @@ TrainingStep TrainingMode::step(const Eigen::Isometry3d& T_tooth_student_tip, co
   s.expert_time_s = clock_s_;
   s.expert = run ? track_->at(clock_s_) : now;
   const bool active = s.expert_cut_dt_s > 0;
-  ramp_.set_target(paused_ || finished() ? 0.0 : 1.0);
+  ramp_.set_target(paused || finished() ? 0.0 : 1.0);
   const double g = ramp_.step(dt);
   switch (p_.mode) {
     case TrainingModeKind::kNone: break;

@@ -198,7 +198,10 @@ class TrainingMode {
   // the mode's force fades out; on resume it fades in again. No jump: the expert's pose is
   // a function of its clock, which does not move while paused.
   void set_paused(bool paused) noexcept { paused_ = paused; }
-  bool paused() const noexcept { return paused_; }
+  // The engine holds the mode paused while the stylus's pause button (kButtonSecondary) is
+  // down: a pause that comes through the device state is recorded, so a replay repeats it.
+  void set_held(bool held) noexcept { held_ = held; }
+  bool paused() const noexcept { return paused_ || held_; }
   bool finished() const noexcept { return clock_s_ >= track_->duration_s(); }
   const TrainingParams& params() const { return p_; }
   const ExpertTrack& track() const { return *track_; }
@@ -211,6 +214,7 @@ class TrainingMode {
   double clock_s_ = 0;
   double error_lp_m_ = 0;  // low-passed following error (guidance as needed)
   bool paused_ = false;
+  bool held_ = false;
 };
 
 }  // namespace dentar::haptics
