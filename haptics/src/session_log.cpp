@@ -380,6 +380,10 @@ std::string LogWriterOptions::validate() const {
        << kMaxRingCapacity << "]";
   else if (!std::isfinite(flush_interval_s) || flush_interval_s <= 0 || flush_interval_s > 0.1)
     os << "flush_interval_s = " << flush_interval_s << " s must be in (0, 0.1]";
+  else if (block_records > kWriterMaxBlockRecords || block_records > ring_capacity / 2)
+    os << "block_records = " << block_records << " must be 0 (cut by time) or at most "
+       << std::min(kWriterMaxBlockRecords, ring_capacity / 2)
+       << " (4096 and half the ring_capacity)";
   return os.str();
 }
 
@@ -413,7 +417,7 @@ struct SessionLogWriter::Impl {
   Status status;
 
   void run();
-  void drain();
+  void drain(bool final);
   void write_block(std::size_t count);
 };
 
@@ -434,17 +438,21 @@ void SessionLogWriter::Impl::run() {
     // Flushing one slice early keeps the gap between blocks within interval.
     if (now - last_flush >= interval - slice || ring.size_approx() >= high_water) {
       last_flush = now;
-      drain();
+      drain(false);
     }
   }
-  drain();  // close(): the producer has stopped; write everything left
+  drain(true);  // close(): the producer has stopped; write everything left
 }
 
-void SessionLogWriter::Impl::drain() {
+void SessionLogWriter::Impl::drain(bool final) {
+  // Fixed-size blocks: only whole blocks until close(), so where a block ends
+  // depends on the record count, never on when the logger woke up.
+  const std::size_t per_block = opt.block_records > 0 ? opt.block_records : max_block_records;
   for (;;) {
+    if (opt.block_records > 0 && !final && ring.size_approx() < per_block) return;
     std::size_t filled = 0;
     const std::size_t n =
-        ring.consume(max_block_records, [&](const StepRecord* first, std::size_t count) {
+        ring.consume(per_block, [&](const StepRecord* first, std::size_t count) {
           std::memcpy(block.data() + kLogBlockHeaderBytes + filled * kStepRecordBytes, first,
                       count * kStepRecordBytes);
           filled += count;

@@ -8,6 +8,7 @@
 // one table (docs/BENCHMARKS.md, "Issue 25: scores and feedback").
 //   build/training/training_score_rank_bench [--levels 5] [--subjects 3] [--voxel-mm 0.15] [--seed 1]
 //                                            [--exercise NAME]... [--keep DIR] [--over-reduction-rate X] [--tolerance-mm T]
+//                                            [--overprep-price exercise|region] [--access-zone-rate R]
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
 // seconds on the same sessions (the first run generates them).
@@ -46,6 +47,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> exercises;
   std::string keep;
   double over_rate = -1, tol = -1;  // --over-reduction-rate: overrides the exercises' (comparison runs)
+  std::string price;                // --overprep-price exercise|region: the same
+  double zone_rate = -1;            // --access-zone-rate: the same
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--levels") levels = std::atoi(v.c_str());
@@ -56,10 +59,16 @@ int main(int argc, char** argv) {
     else if (a == "--keep") keep = v;
     else if (a == "--over-reduction-rate") over_rate = std::atof(v.c_str());
     else if (a == "--tolerance-mm") tol = std::atof(v.c_str());
+    else if (a == "--overprep-price") price = v;
+    else if (a == "--access-zone-rate") zone_rate = std::atof(v.c_str());
     else {
       std::fprintf(stderr, "score_rank_bench: unknown option %s\n", a.c_str());
       return 2;
     }
+  }
+  if (!price.empty() && price != "exercise" && price != "region") {
+    std::fprintf(stderr, "score_rank_bench: --overprep-price must be exercise or region, not %s\n", price.c_str());
+    return 2;
   }
   if (levels < 2 || subjects < 1) {
     std::fprintf(stderr, "score_rank_bench: --levels must be >= 2 and --subjects >= 1\n");
@@ -77,6 +86,8 @@ int main(int argc, char** argv) {
     }
     if (over_rate >= 0) ex->over_reduction_rate = over_rate;
     if (tol >= 0) ex->tolerance_mm = tol;
+    if (!price.empty()) ex->overprep_exercise_price = price == "exercise";
+    if (zone_rate >= 0) ex->access_zone_rate = zone_rate;
     std::vector<Row> rows;
     for (int l = 0; l < levels; ++l) {
       const double sep = static_cast<double>(l) / (levels - 1);

@@ -654,6 +654,9 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
       haptics::LogWriterOptions lo;
       lo.fsync = false;
       lo.ring_capacity = 1 << 18;
+      // Blocks of a fixed record count: the same seed gives the same bytes (cut by
+      // wall time, two runs wrote the same records in differently sized blocks).
+      lo.block_records = 4096;
       auto log = haptics::SessionLogWriter::open(path, header, lo);
       if (!log) return Error{"cohort: " + log.error()};
       auto eng = haptics::Engine::create(cfg, **dev, vol, *bur, log->get());
@@ -661,6 +664,11 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
       const auto steps = static_cast<std::uint64_t>((*dev)->script_end_s() * 1000.0);
       for (std::uint64_t done = 0; done < steps; done += 1000) (*eng)->run_steps(std::min<std::uint64_t>(1000, steps - done));
       if (Status st = (*log)->close(); !st) return Error{"cohort: " + st.error()};
+      // The engine runs faster than real time here; a record the writer refused
+      // would make the session depend on the machine's load, so it is an error.
+      if (const std::uint64_t lost = (*log)->dropped(); lost > 0)
+        return Error{"cohort: " + path + ": the session log writer dropped " + std::to_string(lost) +
+                     " of " + std::to_string(steps) + " records (ring full: the machine too loaded?); run again"};
       CohortTrial ct = trial_of(path);
       nlohmann::json sj = {{"subject", subject}, {"trial", tr}, {"label", ct.label}, {"step_order", sc.order},
                            {"step_start_s", sc.start}, {"step_end_s", sc.end}};

@@ -329,8 +329,18 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
         !get_number(c, o, "complete_coverage_pct", "outcome.", ex.complete_coverage_pct, false, 0, 100) ||
         !get_number(c, o, "complete_orifice_sight", "outcome.", ex.complete_orifice_sight, false, 0, 1) ||
         !get_number(c, o, "over_reduction_rate", "outcome.", ex.over_reduction_rate, false, 0, 100) ||
-        !get_number(c, o, "tolerance_mm", "outcome.", ex.tolerance_mm, false, 0, 5))
+        !get_number(c, o, "tolerance_mm", "outcome.", ex.tolerance_mm, false, 0, 5) ||
+        !get_number(c, o, "access_zone_rate", "outcome.", ex.access_zone_rate, false, 0, 100))
       return Error{c.err};
+    if (o.contains("overprep_price")) {
+      const auto& v = o["overprep_price"];
+      const std::string pv = v.is_string() ? v.get<std::string>() : v.dump();
+      if (pv != "exercise" && pv != "region")
+        return Error{name + ": field 'outcome.overprep_price': '" + pv +
+                     "' is not a price rule (\"region\": each region's points per mm3 of that region, the default; "
+                     "\"exercise\": the exercise's points per mm3 of target in every region)"};
+      ex.overprep_exercise_price = pv == "exercise";
+    }
   }
   bool any_target = false;
   for (const auto& r : ex.regions) any_target |= r.role == RegionRole::kTarget;

@@ -237,6 +237,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
               near = R.role == RegionRole::kTarget && R.points <= 0 && in_zone(r, i, j, k, id, R.zone_mm * 1e-3);
             }
             if (!near) o.beyond_zone_mm3 += rem;
+            else if (access) o.access_zone_mm3 += rem;
           }
         }
         if (bits & m.forbidden_bits) o.forbidden_mm3 += rem;
@@ -256,6 +257,16 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
           }
         }
       }
+  // The exercise's price of a mm3 (its graded points over its whole target
+  // volume): what a mm3 cut too far costs in every region with
+  // overprep_exercise_price, and what over-reduction costs at rate 1.
+  double graded_points = 0, graded_vol = 0;
+  for (std::size_t r = 0; r < nr; ++r)
+    if (ex.regions[r].role == RegionRole::kTarget && ex.regions[r].points > 0) {
+      graded_points += ex.regions[r].points;
+      graded_vol += reg_vol[r];
+    }
+  const double exercise_price = graded_vol > 0 ? graded_points / graded_vol : 0;
   for (std::size_t r = 0; r < nr; ++r) {
     const Region& R = ex.regions[r];
     if (R.role == RegionRole::kTarget) {
@@ -268,18 +279,22 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       s.coverage_pct = reg_vol[r] > 0 ? 100.0 * reg_rem[r] / reg_vol[r] : 0;
       s.overprep_mm3 = reg_over[r];
       s.max_points = R.points;
+      // Points per mm3 cut too far: this region's own (the default) or the exercise's (overprep_price "exercise").
+      const double price = ex.overprep_exercise_price ? exercise_price : reg_vol[r] > 0 ? R.points / reg_vol[r] : 0;
       if (R.points > 0 && reg_vol[r] > 0)
-        s.points = R.points * std::clamp(reg_rem[r] / reg_vol[r] - reg_over[r] / reg_vol[r], 0.0, 1.0);
+        s.points = std::clamp(R.points * reg_rem[r] / reg_vol[r] - price * reg_over[r], 0.0, R.points);
       if (reg_rem[r] <= 0 && reg_over[r] <= 0) {
         s.why = "nothing of this region was removed.";
       } else {
-        const double over_pct = reg_vol[r] > 0 ? 100.0 * reg_over[r] / reg_vol[r] : 0;
-        s.why = fmt(s.coverage_pct, 0) + " % of the region removed" +
-                (reg_over[r] > 0 ? ", less " + fmt(over_pct, 0) + " % for " + fmt(reg_over[r]) +
-                                       " mm3 cut too far beyond it (within " + fmt(R.zone_mm, 1) + " mm)"
+        s.why = fmt(s.coverage_pct, 0) + " % of the region removed (" + fmt(R.points, 0) + " x " +
+                fmt(s.coverage_pct, 0) + " % = " + fmt(R.points * s.coverage_pct / 100, 1) + " points)" +
+                (reg_over[r] > 0 ? ", less " + fmt(price * reg_over[r], 1) + " for " + fmt(reg_over[r]) +
+                                       " mm3 cut too far beyond it (within " + fmt(R.zone_mm, 1) + " mm, " +
+                                       fmt(price, 3) +
+                                       (ex.overprep_exercise_price ? " points per mm3, the exercise's price)"
+                                                                   : " points per mm3 of this region)")
                                  : ", nothing cut beyond it") +
-                ": " + fmt(R.points, 0) + " x " + fmt(std::clamp(s.coverage_pct - over_pct, 0.0, 100.0), 0) + " % = " +
-                fmt(s.points, 1) + " points.";
+                " = " + fmt(s.points, 1) + " points.";
       }
       o.regions.push_back(s);
     } else if (R.role == RegionRole::kForbidden) {
@@ -422,6 +437,19 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
          fmt(o.beyond_zone_mm3) + " mm3 of sound tooth was cut away beyond the tolerance around the outline (" + zones +
              "); this exercise charges " + fmt(per_mm3, 3) + " points per mm3 (" + fmt(ex.over_reduction_rate, 2) +
              " x what a mm3 of target left standing costs): " + fmt(c, 1) + " points."});
+  }
+  if (access && ex.access_zone_rate > 0 && o.access_zone_mm3 > 0 && o.target_mm3 > 0) {
+    double access_zone = 0;
+    for (const auto& R : ex.regions)
+      if (R.role == RegionRole::kTarget) access_zone = std::max(access_zone, R.zone_mm);
+    const double per_mm3 = ex.access_zone_rate * o.max_points / o.target_mm3;
+    const double c = std::min(o.max_points, per_mm3 * o.access_zone_mm3);
+    o.penalties.push_back(
+        {"over-extended outline", c,
+         fmt(o.access_zone_mm3) + " mm3 of sound tooth above the floor was cut away outside the access outline (within " +
+             "its " + fmt(access_zone, 1) + " mm zone); this exercise charges " +
+             fmt(per_mm3, 3) + " points per mm3 (" + fmt(ex.access_zone_rate, 2) +
+             " x what a mm3 of the access left standing would cost): " + fmt(c, 1) + " points."});
   }
   double cost = 0;
   for (const auto& p : o.penalties) cost += p.points;

@@ -269,6 +269,14 @@ TEST(Exercise, ParserErrorsNameFileAndField) {
   expect_err(replace("\"region\":\"a\"", "\"region\":\"zz\""), "steps[0].region");
   expect_err(replace("\"kind\":\"molar\"", "\"kind\":\"canine\""), "tooth.kind");
   expect_err(replace("\"role\":\"target\"", "\"role\":\"forbidden\""), "no region has role \"target\"");
+  expect_err(replace("\"time_limit_s\":60", "\"time_limit_s\":60,\"outcome\":{\"kind\":\"graded_regions\",\"overprep_price\":\"cheap\"}"),
+             "outcome.overprep_price': 'cheap'");
+  auto priced = parse_exercise(
+      replace("\"time_limit_s\":60", "\"time_limit_s\":60,\"outcome\":{\"kind\":\"graded_regions\",\"overprep_price\":\"exercise\"}"),
+      "t.json");
+  ASSERT_TRUE(priced.ok()) << priced.error();
+  EXPECT_TRUE(priced->overprep_exercise_price);
+  EXPECT_FALSE(ok->overprep_exercise_price);
   expect_err(good.substr(0, 60), "line 1");
 }
 
@@ -323,11 +331,36 @@ TEST(Outcome, IncisorGradedRegionsOnTheProceduralTooth) {
   });
   auto od = score_outcome(*ex, *m, *start, deep);
   ASSERT_TRUE(od.ok()) << od.error();
+  // With overprep_price "exercise" a mm3 too far costs the exercise's price,
+  // 16 points over the whole target volume, in every region (session 12);
+  // the shipped "region" rule charges each region's points over its own volume.
+  EXPECT_FALSE(ex->overprep_exercise_price) << "the shipped rule";
+  ex->overprep_exercise_price = true;
+  od = score_outcome(*ex, *m, *start, deep);
+  ASSERT_TRUE(od.ok()) << od.error();
+  double target_vol = 0;
+  for (const auto& r : od->regions) target_vol += r.volume_mm3;
+  const double price = 16.0 / target_vol;
   for (const char* n : {"labial_incisal", "labial_gingival"}) {
     const double p = points_of(*od, n);
-    EXPECT_GT(p, 4.0 * (1 - 0.35)) << n;
+    EXPECT_GT(p, 4.0 * (1 - 0.45)) << n;
     EXPECT_LT(p, 4.0 * (1 - 0.1)) << n;
+    for (const auto& r : od->regions) {
+      if (r.name == n) {
+        EXPECT_NEAR(p, 4.0 * r.coverage_pct / 100 - price * r.overprep_mm3, 1e-9) << n;
+      }
+    }
   }
+  ex->overprep_exercise_price = false;  // the rule before: the region's own points per mm3
+  auto odr = score_outcome(*ex, *m, *start, deep);
+  ASSERT_TRUE(odr.ok()) << odr.error();
+  for (const auto& r : odr->regions) {
+    if (r.name == "labial_gingival") {
+      EXPECT_NEAR(r.points, 4.0 * (r.coverage_pct / 100 - r.overprep_mm3 / r.volume_mm3), 1e-9);
+    }
+  }
+  EXPECT_GT(points_of(*odr, "labial_gingival"), points_of(*od, "labial_gingival"))
+      << "the labial face is larger than the average region: its own price is lower";
   EXPECT_NEAR(points_of(*od, "incisal"), 4.0, 0.05) << "a labial over-reduction is not the incisal region's";
   EXPECT_NEAR(points_of(*od, "marginal"), 4.0, 0.05) << "a labial over-reduction above the margin is not the margin's";
 }
@@ -592,6 +625,30 @@ TEST(OutcomeCases, AccessOpeningUntouchedCompleteOverPreparedExposedPerforated) 
   for (const auto& p : pe.penalties) charged |= p.name == "perforation" && p.points == 9.0;
   EXPECT_TRUE(charged);
   EXPECT_NEAR(pe.points, std::max(0.0, pe.earned_points - 9.0), 1e-9);
+}
+
+TEST(OutcomeCases, AccessOpeningFlaredOutlineIsMeasuredAndChargedOnlyWithARate) {
+  AccessCase c;
+  EXPECT_EQ(c.score(c.ideal()).access_zone_mm3, 0.0);
+  // The walls flared 0.6 mm beyond the 2.5 mm outline from z 6 mm up (inside the 1 mm zone).
+  VoxelVolume flared = c.ideal();
+  carve(flared, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 3.1 && p.z() >= 6.0; });
+  const OutcomeScores free = c.score(flared);
+  // Ring volume pi (3.1^2 - 2.5^2) x (10 - 6) mm = 42 mm3, within a voxel layer.
+  EXPECT_GT(free.access_zone_mm3, 30.0);
+  EXPECT_LT(free.access_zone_mm3, 55.0);
+  EXPECT_EQ(free.beyond_zone_mm3, 0.0);
+  for (const auto& p : free.penalties) EXPECT_NE(p.name, "over-extended outline") << "rate 0 (shipped): reported only";
+  c.ex.access_zone_rate = 1;
+  const OutcomeScores charged = c.score(flared);
+  double cost = -1;
+  for (const auto& p : charged.penalties)
+    if (p.name == "over-extended outline") {
+      cost = p.points;
+      EXPECT_TRUE(has(p.why, "outside the access outline")) << p.why;
+    }
+  EXPECT_NEAR(cost, std::min(18.0, 18.0 / charged.target_mm3 * charged.access_zone_mm3), 1e-9);
+  EXPECT_NEAR(charged.points, std::max(0.0, free.points - cost), 1e-9);
 }
 
 }  // namespace

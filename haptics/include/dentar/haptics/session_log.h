@@ -89,6 +89,12 @@ struct LogWriterOptions {
   std::size_t ring_capacity = 1 << 14;  // records (16 s at 1 kHz); power of two in [2, 2^24]
   double flush_interval_s = 0.05;       // (0, 0.1] s: bounds what a crash can lose
   bool fsync = true;                    // fdatasync each block (survives power loss)
+  // 0: blocks are cut by wall time (every flush, whatever the ring holds), as a
+  // live session needs. N > 0: every block holds exactly N records (the last one
+  // the rest), so the same records give the same bytes whatever the timing
+  // (offline generation: the cohort generator). A crash then loses up to N
+  // records more. At most 4096 and at most ring_capacity / 2.
+  std::size_t block_records = 0;
 
   // Empty, or a message naming the field and the constraint.
   std::string validate() const;

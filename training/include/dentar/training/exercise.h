@@ -112,6 +112,21 @@ struct Exercise {
   // (outcome field "tolerance_mm"; 0: every voxel beyond the target is
   // charged, the rule before session 11).
   double tolerance_mm = 0;
+  // Graded regions: what a mm3 cut beyond a target region (within its zone)
+  // costs. false (outcome field "overprep_price": "region", the default and
+  // the shipped rule): the region's points over the region's volume, so a mm3
+  // cut at the incisor's 3 mm3 cervical band costs 7x what it costs at the
+  // 36 mm3 labial face next to it. true ("exercise", issue 25 session 12):
+  // the exercise's own price, its graded points over its whole target volume,
+  // in every region (as over_reduction_rate 1 charges beyond the zones);
+  // measured on generated sessions, not shipped: no real or new-user incisor
+  // session exists to show it on (docs/BENCHMARKS.md).
+  bool overprep_exercise_price = false;
+  // Access opening: tooth cut away outside the access outline but within its
+  // zone (above the floor) costs rate x (18 points over the access target's
+  // volume) per mm3 (outcome field "access_zone_rate"; 0, the default: only
+  // the walls' divergence sees it).
+  double access_zone_rate = 0;
   // A finished preparation removes at least this % of the target (outcome
   // field "complete_coverage_pct"); below it the score is marked incomplete.
   double complete_coverage_pct = 80;

@@ -49,6 +49,10 @@ struct OutcomeScores {
   // Of overprep_mm3: removed within the exercise's tolerance_mm of a target
   // (not charged).
   double tolerated_mm3 = 0;
+  // Of overprep_mm3, access opening: tooth (not pulp) removed outside the
+  // target but within a target's zone_mm, above floor_z (the walls flared
+  // wider than the outline); charged with the exercise's access_zone_rate.
+  double access_zone_mm3 = 0;
   double forbidden_mm3 = 0;  // removed inside forbidden regions
   std::vector<std::pair<std::string, double>> forbidden_by_region;  // name, mm3
   bool pulp_exposed = false;     // the bur entered the pulp: pulp tissue was removed (pulp_removed_mm3 > 0)
