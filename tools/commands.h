@@ -22,6 +22,7 @@ void add_tags(CLI::App& app, int& exit_code);
 void add_live(CLI::App& app, int& exit_code);
 void add_db(CLI::App& app, int& exit_code);
 void add_serve(CLI::App& app, int& exit_code);
+void add_sound(CLI::App& app, int& exit_code);
 
 // The tracker's image options shared by `offline` and `track`:
 // --camera-response (auto|srgb|linear, parsed by the caller; left empty when not
