@@ -1,6 +1,6 @@
 // Contact-to-sound latency on OpenAL Soft's loopback device, and the haptic
 // engine's step time with the sound on and off (docs/BENCHMARKS.md, issue 29).
-//   ./build/sound/sound_latency_bench [events]
+//   ./build/sound/sound_latency_bench [events (100)] [engine rounds (3)]
 //
 // Latency: a 1 kHz publisher thread writes HapticSnapshots into the engine's own
 // SeqLock type, as the engine does, with the pedal up; the bur touches (in_contact
@@ -100,7 +100,7 @@ void latency(int period, int queue, int events) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     stop.store(true);
   });
-  int heard = 0;
+  int heard = 0, missed = 0;
   bool silent_before = true;
   std::size_t silent_run = 0;
   card_loop(player, period, stop, [&](Clock::time_point t_mix, const std::vector<float>& st) {
@@ -108,8 +108,14 @@ void latency(int period, int queue, int events) {
       const bool nz = st[static_cast<std::size_t>(2 * i)] != 0.0f;
       if (nz && silent_before && heard < published.load()) {
         const auto t_out = t_mix + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(i / 48000.0));
-        lat_ms.push_back(std::chrono::duration<double, std::milli>(t_out - t_event[static_cast<std::size_t>(heard)]).count());
-        ++heard;
+        // The tick belongs to the latest event published before it (an event whose contact
+        // the player never saw, e.g. the card thread descheduled for longer than the 40 ms
+        // touch, is counted as missed, not paired with a later tick).
+        int e = published.load() - 1;
+        while (e > heard && t_event[static_cast<std::size_t>(e)] > t_out) --e;
+        missed += e - heard;
+        lat_ms.push_back(std::chrono::duration<double, std::milli>(t_out - t_event[static_cast<std::size_t>(e)]).count());
+        heard = e + 1;
         silent_before = false;
         silent_run = 0;
       }
@@ -121,8 +127,8 @@ void latency(int period, int queue, int events) {
     }
   });
   publisher.join();
-  std::printf("latency period %d frames (%.2f ms), %d blocks queued: %d/%d events heard; median %.2f ms, p99 %.2f ms, max %.2f ms; underruns %zu\n",
-              period, period / 48.0, queue, heard, events, pct(lat_ms, 0.5), pct(lat_ms, 0.99), pct(lat_ms, 1.0),
+  std::printf("latency period %d frames (%.2f ms), %d blocks queued: %d/%d events heard (%d missed); median %.2f ms, p99 %.2f ms, max %.2f ms; underruns %zu\n",
+              period, period / 48.0, queue, static_cast<int>(lat_ms.size()), events, missed, pct(lat_ms, 0.5), pct(lat_ms, 0.99), pct(lat_ms, 1.0),
               player.output().underruns());
 }
 
@@ -149,7 +155,7 @@ void engine_runs(int rounds) {
       auto out = std::move(sound::AudioOutput::open_loopback({})).value();
       player = std::make_unique<sound::SoundPlayer>(std::move(out), sound::default_drill_params(),
                                                     [&engine] { return engine->snapshot(); });
-      card = std::thread([&] { card_loop(*player, 256, stop, [](Clock::time_point, const std::vector<float>&) {}); });
+      card = std::thread([&] { card_loop(*player, player->output().options().period_frames, stop, [](Clock::time_point, const std::vector<float>&) {}); });
     }
     if (auto s = engine->start(); !s) {
       std::printf("engine: %s\n", s.error().c_str());
@@ -173,9 +179,10 @@ void engine_runs(int rounds) {
 
 int main(int argc, char** argv) {
   const int events = argc > 1 ? std::max(10, std::atoi(argv[1])) : 100;
+  const int rounds = argc > 2 ? std::max(1, std::atoi(argv[2])) : 3;
   latency(256, 3, events);
   latency(128, 3, events);
   latency(128, 2, events);
-  engine_runs(2);
+  engine_runs(rounds);
   return 0;
 }

@@ -20,6 +20,9 @@
 #include "dentar/volume/procedural_tooth.h"
 #include "testutil.h"
 
+// GCC 12 pairs the inlined std::free below with `new` expressions in this file and warns
+// (-Wmismatched-new-delete): a false positive for a replaced global operator new.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 // Counts heap allocations made by the calling thread (the engine's, here the
 // test thread running the steps inline); the sound's thread is not counted.
 static thread_local long t_allocs = 0;
@@ -80,8 +83,9 @@ TEST(SoundWithEngine, NoAllocationInTheEngineStepsWithSoundOn) {
   });
   {  // the counter counts this thread's allocations
     const long c0 = t_allocs;
-    delete new int(1);
-    ASSERT_EQ(t_allocs - c0, 1);
+    std::vector<int> v(16);
+    v[3] = 1;
+    ASSERT_GE(t_allocs - c0, 1);
   }
   rig.engine->run_steps(10);  // warm-up outside the count (first-touch of lazily built state)
   const long before = t_allocs;
@@ -120,7 +124,10 @@ TEST(SoundWithEngine, SessionLogRendersTheSameWavEveryTimeAndFollowsTheMaterial)
   for (int k = 0; k < 2; ++k) {
     auto mixed = render_through_openal(*a);
     ASSERT_TRUE(mixed.ok()) << mixed.error();
-    const std::string wav = (dir / ("r" + std::to_string(k) + ".wav")).string();
+    std::string name = "r";
+    name += std::to_string(k);
+    name += ".wav";
+    const std::string wav = (dir / name).string();
     ASSERT_TRUE(write_wav(wav, *mixed, 48000).ok());
     bytes[k] = test::read_file(wav);
   }

@@ -33,7 +33,9 @@ std::vector<AudioDeviceInfo> list_audio_outputs();
 
 struct OutputOptions {
   int sample_rate_hz = 48000;
-  int period_frames = 256;  // samples per queued block
+  // Samples per queued block: 128 (2.7 ms) keeps contact-to-sound under 20 ms at p99 on the
+  // loopback (256 did not: 22 ms; docs/BENCHMARKS.md, issue 29).
+  int period_frames = 128;
   int queue_buffers = 3;    // blocks queued ahead of the mixer (>= 2)
   std::string validate() const;
 };
