@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace dentar::sound {
 
@@ -86,6 +88,35 @@ double rms(const float* x, std::size_t n) {
   double acc = 0;
   for (std::size_t i = 0; i < n; ++i) acc += static_cast<double>(x[i]) * x[i];
   return std::sqrt(acc / static_cast<double>(n));
+}
+
+Status write_spectrogram_png(const std::string& path, const std::vector<float>& x, double sample_rate_hz) {
+  constexpr int kWin = 1024, kHop = 256, kBins = kWin / 2;
+  if (x.size() < static_cast<std::size_t>(kWin)) return Error{path + ": fewer than 1024 samples to analyse"};
+  const int cols = static_cast<int>((x.size() - kWin) / kHop) + 1;
+  cv::Mat db(kBins, cols, CV_32F);
+  double top = -300;
+  for (int c = 0; c < cols; ++c) {
+    const Spectrum s = magnitude_spectrum(x.data() + static_cast<std::size_t>(c) * kHop, kWin, sample_rate_hz);
+    for (int k = 0; k < kBins; ++k) {
+      const double v = to_db(s.magnitude[static_cast<std::size_t>(k)] + 1e-12);
+      db.at<float>(kBins - 1 - k, c) = static_cast<float>(v);
+      top = std::max(top, v);
+    }
+  }
+  cv::Mat grey;
+  db.convertTo(grey, CV_8U, 255.0 / 80.0, -255.0 / 80.0 * (top - 80.0));  // [top-80, top] dB -> 0..255
+  // 128 frequency rows (187.5 Hz each at 48 kHz) keep the file small and the bands readable.
+  cv::Mat small;
+  cv::resize(grey, small, cv::Size(cols, kBins / 4), 0, 0, cv::INTER_AREA);
+  cv::Mat colour;
+  cv::applyColorMap(small, colour, cv::COLORMAP_INFERNO);
+  try {
+    if (!cv::imwrite(path, colour)) return Error{path + ": cannot write the PNG; check the folder exists"};
+  } catch (const cv::Exception& e) {
+    return Error{path + ": cannot write the PNG (" + std::string(e.what()) + ")"};
+  }
+  return {};
 }
 
 }  // namespace dentar::sound

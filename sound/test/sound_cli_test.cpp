@@ -84,6 +84,18 @@ TEST(SoundCli, RenderIsRepeatableAndBadInputIsExit2) {
   EXPECT_EQ(wm.find_first_not_of('\0', 44), std::string::npos) << "muted render is all zeros";
 }
 
+TEST(SoundCli, MaterialsWritesAClipAndASpectrogramEach) {
+  const auto dir = test::temp_dir("materials");
+  const auto r = test::run_command(dentar() + " sound materials --out " + dir.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* c : {"enamel", "dentin", "pulp", "breakthrough", "probe"}) {
+    EXPECT_GT(std::filesystem::file_size(dir / (std::string(c) + ".wav")), 44u) << c;
+    const std::string png = test::read_file(dir / (std::string(c) + ".png"));
+    ASSERT_GT(png.size(), 8u) << c;
+    EXPECT_EQ(png.substr(1, 3), "PNG") << c;
+  }
+}
+
 TEST(SoundCli, DevicesListsAudioOutputsAndWarnsWhenNoneOpens) {
   const auto r = test::run_command(dentar() + " devices --no-open");
   EXPECT_EQ(r.code, 0) << r.out;

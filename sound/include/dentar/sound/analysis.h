@@ -4,7 +4,10 @@
 
 #include <cmath>
 #include <cstddef>
+#include <string>
 #include <vector>
+
+#include "dentar/volume/result.h"
 
 namespace dentar::sound {
 
@@ -24,6 +27,10 @@ double fundamental_hz(const Spectrum& s, double fmin_hz, double fmax_hz, int har
 double centroid_hz(const Spectrum& s, double fmin_hz, double fmax_hz);
 // Root mean square of x[0, n).
 double rms(const float* x, std::size_t n);
+// A spectrogram as a PNG: time left to right (hop 256 samples, window 1024, Hann),
+// frequency 0 (bottom) to fs/2 (top) in 128 rows, level in dB over 80 dB of range, colour-mapped.
+// Errors name the file.
+Status write_spectrogram_png(const std::string& path, const std::vector<float>& x, double sample_rate_hz);
 inline double to_db(double v) { return v > 0 ? 20.0 * std::log10(v) : -300.0; }
 
 }  // namespace dentar::sound
