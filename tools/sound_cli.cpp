@@ -21,6 +21,10 @@ void add_sound_options(CLI::App* sub, SoundCli& s, bool live) {
   sub->add_option("--drill-sample-rpm", s.drill_sample_rpm, "Bur speed the --drill-sample was recorded at")
       ->check(CLI::Range(1000.0, 1000000.0))
       ->capture_default_str();
+  sub->add_option("--teach-force-limit", s.teach_force_limit_N,
+                  "Sound as a teacher: a pulsed 880 Hz beep, distinct from the drill, while the force "
+                  "exceeds this many newtons, faster the further above (0 = off, the default)")
+      ->check(CLI::Range(0.0, 20.0));
   if (live)
     sub->add_option("--audio-device", s.device,
                     "Sound output device by name (dentar devices lists them; default: the system's). "
@@ -30,6 +34,7 @@ void add_sound_options(CLI::App* sub, SoundCli& s, bool live) {
 Result<sound::DrillParams> drill_params_from(const SoundCli& s) {
   sound::DrillParams p = sound::default_drill_params();
   p.gain = s.mute ? 0.0 : s.volume_pct / 100.0;
+  p.teacher_force_limit_N = s.teach_force_limit_N;
   if (!s.drill_sample.empty()) {
     auto clip = sound::read_audio(s.drill_sample);
     if (!clip) return Error{"--drill-sample: " + clip.error()};

@@ -22,6 +22,7 @@ struct SoundCli {
   bool mute = false;
   std::string drill_sample;  // optional user recording of the running drill
   double drill_sample_rpm = 320000;
+  double teach_force_limit_N = 0;  // sound as a teacher: beep above this force (0 = off)
 };
 
 // Adds --volume, --mute, --drill-sample, --drill-sample-rpm; `live` adds

@@ -65,6 +65,11 @@ std::string DrillParams::validate() const {
       return field_error(f + "mode_hz", m.mode_hz, "> 0 and below half the sample rate");
     if (!finite_pos(m.mode_decay_s)) return field_error(f + "mode_decay_s", m.mode_decay_s, "finite and > 0");
   }
+  if (!finite_nonneg(teacher_force_limit_N))
+    return field_error("teacher_force_limit_N", teacher_force_limit_N, "finite and >= 0 (0 = off)");
+  if (!finite_nonneg(teacher_level)) return field_error("teacher_level", teacher_level, "finite and >= 0");
+  if (!(finite_pos(teacher_tone_hz) && teacher_tone_hz < 0.5 * sample_rate_hz))
+    return field_error("teacher_tone_hz", teacher_tone_hz, "> 0 and below half the sample rate");
   if (!user_sample.empty() && !finite_pos(user_sample_rpm))
     return field_error("user_sample_rpm", user_sample_rpm, "finite and > 0");
   return {};
@@ -148,6 +153,11 @@ void DrillSynth::render(float* out, std::size_t frames) noexcept {
   const bool user = !p_.user_sample.empty();
   const double user_len = static_cast<double>(p_.user_sample.size());
 
+  // The teacher: force above the limit (contact or not: the force is what the student feels).
+  const bool teach = p_.teacher_force_limit_N > 0 && !in_.fault && force > p_.teacher_force_limit_N;
+  const double pulse_hz = teach ? std::min(16.0, 4.0 + 12.0 * (force - p_.teacher_force_limit_N)) : 0.0;
+  const double k_gate = 1.0 - std::exp(-dt_ / 0.003);  // 3 ms ramps: no clicks
+
   for (std::size_t n = 0; n < frames; ++n) {
     // Speed: spin-up from rest, load changes, coasting down.
     double k;
@@ -211,6 +221,21 @@ void DrillSynth::render(float* out, std::size_t frames) noexcept {
     if (pending_tick_ > 0 || probe_.y1 != 0 || probe_.y2 != 0) {
       y += probe_.tick(pending_tick_);
       pending_tick_ = 0;
+    }
+    // Teacher's beep: on for the first half of each pulse period.
+    if (teach || teach_env_ > 0) {
+      bool gate = false;
+      if (teach) {
+        teach_pulse_ += pulse_hz * dt_;
+        if (teach_pulse_ >= 1.0) teach_pulse_ -= 1.0;
+        gate = teach_pulse_ < 0.5;
+      }
+      teach_env_ += k_gate * ((gate ? 1.0 : 0.0) - teach_env_);
+      if (!teach && teach_env_ < 1e-4) teach_env_ = 0;
+      if (gate) ++teacher_samples_;
+      teach_phase_ += kTwoPi * p_.teacher_tone_hz * dt_;
+      if (teach_phase_ >= kTwoPi) teach_phase_ -= kTwoPi;
+      y += p_.teacher_level * teach_env_ * std::sin(teach_phase_);
     }
     out[n] = static_cast<float>(p_.gain * std::tanh(y));
   }

@@ -211,6 +211,36 @@ TEST(DrillSynth, DeterministicForTheSameInputs) {
   EXPECT_NE(a, c) << "the seed changes the grains";
 }
 
+TEST(DrillSynth, TeacherBeepsAboveTheForceLimitAndIsOffByDefault) {
+  EXPECT_EQ(default_drill_params().teacher_force_limit_N, 0.0) << "off by default";
+  DrillParams p = default_drill_params();
+  p.teacher_force_limit_N = 1.5;
+  auto band_db = [](const std::vector<float>& x, double f) {
+    const auto s = magnitude_spectrum(x.data() + at_s(0.8), at_s(0.5), kFs);
+    double acc = 0;
+    for (std::size_t k = 0; k < s.magnitude.size(); ++k) {
+      const double fk = static_cast<double>(k) * s.bin_hz;
+      if (std::abs(fk - f) < 60) acc += s.magnitude[k] * s.magnitude[k];
+    }
+    return 10 * std::log10(acc + 1e-30);
+  };
+  const std::vector<Segment> below = {{0.6, true, false, 0, -1}, {0.8, true, true, 1.2, 2}};
+  const std::vector<Segment> above = {{0.6, true, false, 0, -1}, {0.8, true, true, 2.0, 2}};
+  DrillSynth* s = nullptr;
+  const auto quiet = render(below, p, 1, &s);
+  EXPECT_EQ(s->teacher_samples(), 0u);
+  const auto beep = render(above, p, 1, &s);
+  // Gate open about half of the time while above the limit (pulses at 10 Hz here).
+  EXPECT_NEAR(static_cast<double>(s->teacher_samples()), 0.5 * 0.8 * kFs, 0.05 * kFs);
+  const auto plain = render(above, default_drill_params());
+  EXPECT_GT(band_db(beep, p.teacher_tone_hz) - band_db(plain, p.teacher_tone_hz), 15.0)
+      << "the beep stands out at its tone";
+  EXPECT_LT(std::abs(band_db(quiet, p.teacher_tone_hz) - band_db(render(below, default_drill_params()), p.teacher_tone_hz)), 0.5)
+      << "below the limit the teacher adds nothing";
+  // Distinct from the drill: its tone is below the lowest whine fundamental (0.3 x 5333 Hz).
+  EXPECT_LT(p.teacher_tone_hz, p.min_speed_fraction * p.free_speed_rpm / 60);
+}
+
 TEST(DrillSynth, UserSampleReplacesTheWhineAndIsPitchedBySpeed) {
   DrillParams p = default_drill_params();
   p.hiss_level = 0;

@@ -59,6 +59,13 @@ struct DrillParams {
   double probe_mode_hz = 4200;     // steel tip on enamel
   double probe_decay_s = 0.003;
   double gain = 0.7;               // master gain (0..1): --volume
+  // Sound as a teacher (issue 29), off by default: while the force exceeds this limit a
+  // pulsed pure tone (teacher_tone_hz, far below the whine's 1.6-5.3 kHz and without its
+  // partials) beeps, faster the further above: 4 Hz at the limit, +12 Hz per newton over
+  // it, up to 16 Hz. 0 = off.
+  double teacher_force_limit_N = 0;
+  double teacher_tone_hz = 880;
+  double teacher_level = 0.2;
   std::array<MaterialSound, kSoundMaterials> materials{};
   // Optional user sample of the running drill (mono, at sample_rate_hz), looped and
   // resampled by the speed instead of the synthesised whine; recorded at user_sample_rpm.
@@ -100,6 +107,8 @@ class DrillSynth {
   int cutting_material() const { return cut_active_ ? material_ : -1; }
   std::uint64_t contact_onsets() const { return onsets_; }
   std::uint64_t probe_ticks() const { return ticks_; }
+  // Samples during which the teacher's beep sounded (its gate open).
+  std::uint64_t teacher_samples() const { return teacher_samples_; }
   const DrillParams& params() const { return p_; }
 
  private:
@@ -134,6 +143,8 @@ class DrillSynth {
   std::array<Resonator, kSoundMaterials> modes_{};
   Resonator probe_;
   double hiss_lp_ = 0;
+  double teach_phase_ = 0, teach_pulse_ = 0, teach_env_ = 0;
+  std::uint64_t teacher_samples_ = 0;
   std::uint64_t onsets_ = 0, ticks_ = 0;
 };
 
