@@ -190,7 +190,8 @@ int run(const OfflineCli& c) {
     // The replayed session's drill sound, time-aligned with composite.mkv (step n at n / rate_hz).
     if (s.session.empty()) {
       std::cout << "  warning: --audio " << c.sound.audio << ": no session log was replayed (no drilling): no sound written\n";
-    } else if (int rc = render_session_wav("offline", s.session, c.sound.audio, c.sound, c.quiet); rc != 0) {
+    } else if (int rc = render_session_wav("offline", s.session, c.sound.audio, c.sound, c.quiet,
+                                         s.haptic_steps); rc != 0) {
       return rc == 2 ? 1 : rc;  // the session was read once already: a failure here is the job's
     }
   }

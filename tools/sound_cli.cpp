@@ -48,7 +48,7 @@ Result<sound::DrillParams> drill_params_from(const SoundCli& s) {
 }
 
 int render_session_wav(const std::string& cmd, const std::string& session_log, const std::string& wav,
-                       const SoundCli& s, bool quiet) {
+                       const SoundCli& s, bool quiet, std::uint64_t max_steps) {
   auto params = drill_params_from(s);
   if (!params) {
     print_error(cmd, params.error());
@@ -60,6 +60,8 @@ int render_session_wav(const std::string& cmd, const std::string& session_log, c
     return 2;
   }
   if (!log->warning.empty()) std::cerr << "dentar " << cmd << ": warning: " << log->warning << "\n";
+  if (max_steps > 0)
+    std::erase_if(log->records, [max_steps](const haptics::StepRecord& r) { return r.step >= max_steps; });
   auto mono = sound::render_session(*log, *params);
   if (!mono) {
     print_error(cmd, session_log + ": " + mono.error());

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -35,8 +36,10 @@ Result<sound::DrillParams> drill_params_from(const SoundCli& s);
 // Renders `session_log` to `wav` (time-aligned: step n at n / rate_hz) through
 // OpenAL's loopback mixer. Returns an exit code (0, 1 job failed, 2 bad input)
 // after printing the reason as "dentar <cmd>: ...".
+// `max_steps` > 0: only the first max_steps steps (what a run replayed, e.g. `dentar offline`
+// stopped by --max-frames), so the file ends with the video.
 int render_session_wav(const std::string& cmd, const std::string& session_log, const std::string& wav,
-                       const SoundCli& s, bool quiet);
+                       const SoundCli& s, bool quiet, std::uint64_t max_steps = 0);
 // Live playback beside a running engine: opens the device (falling back to the
 // default; none at all is a warning and returns null), starts the audio thread.
 std::unique_ptr<sound::SoundPlayer> start_live_sound(const std::string& cmd, const SoundCli& s,
