@@ -72,7 +72,8 @@ TEST(CliExitCodes, AnUnknownOptionIsTwoInEverySubcommand) {
   for (const char* sub : {"demo", "tooth", "ct --input x.json", "synth", "track --input x --out y", "calibrate check",
                           "offline", "score x", "assess", "devices", "tags", "live", "db init --db sqlite:x",
                           "db migrate --db sqlite:x", "db status --db sqlite:x", "db import x --db sqlite:x",
-                          "db export --db sqlite:x", "db forward --db sqlite:x", "serve --db sqlite:x --passwords y"})
+                          "db export --db sqlite:x", "db forward --db sqlite:x", "serve --db sqlite:x --passwords y",
+                          "sound render x --out y", "sound materials --out y"})
     rows.push_back({"unknown option", std::string(sub) + " --no-such-option", "--no-such-option"});
   check(rows);
 }
@@ -85,7 +86,8 @@ TEST(CliExitCodes, AValueOutOfRangeIsTwoWithABoundForPeople) {
          {"range", "live --width -640", "--width"},
          {"range", "calibrate live --seconds -1", "--seconds"},
          {"range", "tags --paper a3", "--paper"},
-         {"invalid value", "tooth --voxel-mm 0.2 --enamel-mm 9", "enamel_mm"}});
+         {"invalid value", "tooth --voxel-mm 0.2 --enamel-mm 9", "enamel_mm"},
+         {"range", "sound render x --out y --volume 150", "--volume"}});
   // No 300-digit bound (CLI11's range with std::numeric_limits<double>::max()).
   const auto r = run_dentar("live --frames -1 2>&1");
   EXPECT_LT(r.out.size(), 400u) << r.out;

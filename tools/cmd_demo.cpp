@@ -20,6 +20,7 @@
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/simulated_device.h"
+#include "sound_cli.h"
 #include "dentar/volume/procedural_tooth.h"
 #include "dentar/volume/surface.h"
 
@@ -44,6 +45,7 @@ struct DemoOptions {
   bool obj = false;
   std::string exercise;  // scoring ("" = by the tooth: the molar access opening)
   bool no_score = false;
+  SoundCli sound;  // issue 29: the drill's sound (live playback, --audio render)
 };
 
 std::string hex(std::uint64_t h) {
@@ -165,6 +167,7 @@ int run_demo(const DemoOptions& o) {
   const double script_s = (*device)->script_end_s();
   std::size_t remeshed = 0;
   const auto t0 = Clock::now();
+  std::unique_ptr<sound::SoundPlayer> player;
   // The pulp-exposure event as it happens (the snapshot's flag), as the
   // display would show it.
   bool announced = false;
@@ -189,12 +192,16 @@ int run_demo(const DemoOptions& o) {
       print_error("demo", st.error());
       return 1;
     }
+    // The drill's sound reads the engine's snapshot on its own thread, as the display does.
+    Engine* eng = engine->get();
+    player = start_live_sound("demo", o.sound, [eng] { return eng->snapshot(); });
     // Display side: re-mesh dirty chunks at ~30 Hz while the haptic thread cuts.
     while ((*engine)->snapshot().time_s < script_s) {
       std::this_thread::sleep_for(std::chrono::milliseconds(33));
       remeshed += surface.update().size();
       announce();
     }
+    if (player) player->stop();
     (*engine)->stop();
   }
   remeshed += surface.update().size();
@@ -260,6 +267,8 @@ int run_demo(const DemoOptions& o) {
   std::cout << std::setprecision(2) << "replay: " << rep->steps << " steps in " << rep_s << " s ("
             << rep->steps * 1e-3 / std::max(rep_s, 1e-9) << "x real time), max force difference "
             << rep->max_force_difference_N << " N\n";
+  if (!o.sound.audio.empty())
+    if (int rc = render_session_wav("demo", log_path, o.sound.audio, o.sound, false); rc != 0) return 1;
   if (!o.no_score) {
     // The demo's drilling is an occlusal access on the molar: scored against
     // the molar access opening unless --exercise says otherwise. A failure
@@ -287,7 +296,11 @@ void add_demo(CLI::App& app, int& exit_code) {
       "pedal), write the session log and the cut mesh, replay the log and check the hash;\n"
       "then score the session (score.json, score.html; see dentar score).\n"
       "Synopsis: dentar demo [--model proxy|seed] [--bur SHAPE] [--samples N] [--seconds S]\n"
-      "                      [--simulated] [--out DIR] [--exercise NAME|FILE] [--no-score]");
+      "                      [--simulated] [--out DIR] [--exercise NAME|FILE] [--no-score]\n"
+      "                      [--audio FILE.wav] [--audio-device NAME] [--volume PCT] [--mute]\n"
+      "                      [--drill-sample FILE]\n"
+      "In real time (not --simulated) the drill's sound plays through the audio device while the\n"
+      "engine runs (no device: a warning, the demo runs silent); --audio renders it to a WAV file.");
   c->add_option("--voxel-mm", o->voxel_mm, "Voxel size of the procedural molar (mm)")
       ->check(CLI::Range(0.02, 0.5))
       ->capture_default_str();
@@ -318,10 +331,18 @@ void add_demo(CLI::App& app, int& exit_code) {
   c->add_option("--exercise", o->exercise,
                 "Exercise the session is scored against (default: by the tooth, molar_access_opening)");
   c->add_flag("--no-score", o->no_score, "Do not score the session (score.json, score.html)");
-  c->footer("Example:\n  dentar demo --model proxy --bur capsule --samples 10000 --out out/demo");
+  c->add_option("--audio", o->sound.audio, "Also render the session's drill sound to this WAV file (docs/sound.md)");
+  add_sound_options(c, o->sound, true);
+  c->footer("Example:\n  dentar demo --model proxy --bur capsule --samples 10000 --out out/demo\n"
+            "  dentar demo --simulated --out out/demo --audio out/demo/drill.wav");
   c->callback([o, &exit_code] {
     if (std::string e = check_exercise(o->exercise); !e.empty()) {
       print_error("demo", e);
+      exit_code = 2;
+      return;
+    }
+    if (auto p = drill_params_from(o->sound); !p) {  // a user sample that is not audio: bad input
+      print_error("demo", p.error());
       exit_code = 2;
       return;
     }

@@ -11,6 +11,7 @@
 #include "dentar/haptics/device_profiles.h"
 #include "dentar/haptics/open_device.h"
 #include "dentar/live/station_health.h"
+#include "dentar/sound/audio_output.h"
 #include "dentar/volume/procedural_tooth.h"
 
 namespace dentar::tools {
@@ -76,6 +77,9 @@ int run_devices(const DevicesOptions& o) {
       j["pedals"].push_back({{"id", p.id}, {"vid_pid", p.vid_pid}, {"path", p.path},
                              {"permission_ok", p.permission_ok}, {"note", p.note}});
     j["pedal_absent"] = r.pedal_absent;
+    j["audio_outputs"] = nlohmann::json::array();
+    for (const auto& d : sound::list_audio_outputs())
+      j["audio_outputs"].push_back({{"name", d.name}, {"default", d.is_default}, {"opens", d.opens}});
     std::cout << j.dump(2) << "\n";
     return 0;
   }
@@ -97,6 +101,18 @@ int run_devices(const DevicesOptions& o) {
     std::cout << "  " << p.vid_pid << (p.id.empty() ? "" : " (" + p.id + ")") << " at " << p.path
               << ": permission " << (p.permission_ok ? "OK" : "DENIED") << "; " << p.note << "\n";
   for (const auto& a : r.pedal_absent) std::cout << "  none: " << a << "\n";
+  // Audio outputs for the drill's sound (issue 29): none is a warning, never an error.
+  std::cout << "Audio outputs (OpenAL Soft):\n";
+  const auto outputs = sound::list_audio_outputs();
+  bool any = false;
+  for (const auto& d : outputs) {
+    std::cout << "  " << d.name << (d.is_default ? " (default)" : "") << ": "
+              << (d.opens ? "OK" : "listed but cannot be opened") << "\n";
+    any = any || d.opens;
+  }
+  if (!any)
+    std::cout << "  warning: no audio output can be opened" << (outputs.empty() ? " (none listed)" : "")
+              << ": the drill's sound is off (renders to WAV still work: dentar sound render)\n";
   if (o.profiles) print_profiles();
   if (!o.station.empty()) return print_reach(o.station);
   return 0;

@@ -9,6 +9,7 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/live/live_app.h"
 #include "session_score.h"
+#include "sound_cli.h"
 
 namespace dentar::tools {
 
@@ -24,6 +25,7 @@ void add_live(CLI::App& app, int& exit_code) {
     bool mirror_rim = false;
     bool no_score = false;
     DbCli db;  // --db: store the finished session (needs --record)
+    SoundCli sound;  // the drill's sound (issue 29)
   };
   auto c = std::make_shared<Cli>();
   auto* sub = app.add_subcommand(
@@ -94,6 +96,7 @@ void add_live(CLI::App& app, int& exit_code) {
                   "against it into DIR/score.json and score.html): a built-in name or a JSON file; default by the tooth");
   sub->add_flag("--no-score", c->no_score, "with --record: do not score the session");
   add_db_options(sub, c->db, false);
+  add_sound_options(sub, c->sound, true);
   sub->callback([c, &exit_code] {
     if (c->list) {
       std::cout << live::list_cameras() << "\n";
@@ -104,6 +107,17 @@ void add_live(CLI::App& app, int& exit_code) {
     if (o.device == "sim") {  // --device sim: the simulated hand, as --stylus sim
       o.device.clear();
       o.stylus = "sim";
+    }
+    if (auto p = drill_params_from(c->sound); !p) {  // a user sample that is not audio: bad input
+      print_error("live", p.error());
+      exit_code = 2;
+      return;
+    }
+    if (!c->sound.mute) {
+      const SoundCli sc = c->sound;
+      o.start_sound = [sc](std::function<haptics::HapticSnapshot()> snap) -> std::shared_ptr<void> {
+        return start_live_sound("live", sc, std::move(snap));
+      };
     }
     o.hud = !c->no_hud;
     o.vsync = !c->no_vsync;

@@ -16,6 +16,7 @@
 #include "dentar/ar/offline.h"
 #include "dentar/ar/station_scene.h"
 #include "session_score.h"
+#include "sound_cli.h"
 
 namespace dentar::tools {
 namespace {
@@ -41,6 +42,7 @@ struct OfflineCli {
   std::size_t triangle_budget = 0;
   std::string exercise;  // scoring: exercise name or file ("" = recorded / by the tooth)
   bool no_score = false;
+  SoundCli sound;  // --audio FILE.wav: the session's drill sound (issue 29)
 };
 
 // One progress line: a bar on a terminal (redrawn in place), else a line
@@ -184,6 +186,15 @@ int run(const OfflineCli& c) {
             << " / " << f3(s.latency_ms.p99) << "\n";
   for (const auto& w : s.warnings) std::cout << "  warning: " << w << "\n";
   if (!score_line.empty()) std::cout << score_line << "\n";
+  if (!c.sound.audio.empty()) {
+    // The replayed session's drill sound, time-aligned with composite.mkv (step n at n / rate_hz).
+    if (s.session.empty()) {
+      std::cout << "  warning: --audio " << c.sound.audio << ": no session log was replayed (no drilling): no sound written\n";
+    } else if (int rc = render_session_wav("offline", s.session, c.sound.audio, c.sound, c.quiet,
+                                         s.haptic_steps); rc != 0) {
+      return rc == 2 ? 1 : rc;  // the session was read once already: a failure here is the job's
+    }
+  }
   std::cout << "wrote " << s.out_dir << "/report.html, summary.json, frames.csv"
             << (o.write_video ? ", composite.mkv" : "") << "\n";
   return 0;
@@ -212,7 +223,8 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--predict-ms MS] [--stale-ms MS] [--mirror-sigma-mm MM] [--no-occlusion]\n"
       "                         [--camera-response auto|srgb|linear] [--mirror-rim]\n"
       "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]\n"
-      "                         [--exercise NAME|FILE] [--no-score]");
+      "                         [--exercise NAME|FILE] [--no-score]\n"
+      "                         [--audio FILE.wav [--volume PCT] [--mute] [--drill-sample FILE]]");
   s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");
   s->add_option("--station", c->station, "Station file (JSON) the footage was recorded with");
   s->add_option("--session", c->session, "Haptic session log (.dlog) to replay in step with the video");
@@ -263,6 +275,10 @@ void add_offline(CLI::App& app, int& exit_code) {
                 "incisor_partial_crown) or a JSON file; default: the recording's, else by the tooth (the\n"
                 "built-in footage drills the molar access opening)");
   s->add_flag("--no-score", c->no_score, "Do not score the session (no score.json / score.html)");
+  s->add_option("--audio", c->sound.audio,
+                "Also render the session's drill sound to this WAV file, time-aligned with composite.mkv "
+                "(docs/sound.md)");
+  add_sound_options(s, c->sound, false);
   s->footer(
       "Examples:\n"
       "  dentar offline --out out/offline                 # built-in footage, the README job\n"
@@ -303,6 +319,13 @@ void add_offline(CLI::App& app, int& exit_code) {
       print_error("offline", e);
       exit_code = 2;
       return;
+    }
+    if (!c->sound.audio.empty()) {  // a user sample that is not audio is bad input, caught first
+      if (auto p = drill_params_from(c->sound); !p) {
+        print_error("offline", p.error());
+        exit_code = 2;
+        return;
+      }
     }
     exit_code = run(*c);
     if (exit_code == 0 && !db->db.empty()) {  // the session log the run replayed

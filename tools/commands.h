@@ -24,6 +24,8 @@ void add_db(CLI::App& app, int& exit_code);
 void add_serve(CLI::App& app, int& exit_code);
 void add_lesson(CLI::App& app, int& exit_code);
 
+void add_sound(CLI::App& app, int& exit_code);
+
 // The tracker's image options shared by `offline` and `track`:
 // --camera-response (auto|srgb|linear, parsed by the caller; left empty when not
 // given, so a replay can take the recording's) and --mirror-rim.

@@ -27,6 +27,9 @@ bool is_library_log_line(std::string_view l) {
   if (has("(): WRN: ") || has("(): ERR: ")) return true;
   // libpng through OpenCV: "libpng warning: ..." / "libpng error: ...".
   if (starts("libpng warning:") || starts("libpng error:")) return true;
+  // ALSA and OpenAL Soft probing for a sound card (dentar devices, the drill's sound): "ALSA lib
+  // pcm.c:2666:(snd_pcm_open_noupdate) Unknown PCM default", "AL lib: (EE) ALCplaybackAlsa_open: ...".
+  if (starts("ALSA lib ") || starts("AL lib: ")) return true;
   return false;
 }
 

@@ -43,6 +43,8 @@ int main(int argc, char** argv) {
   dentar::tools::add_db(app, exit_code);
   dentar::tools::add_serve(app, exit_code);
   dentar::tools::add_lesson(app, exit_code);
+
+  dentar::tools::add_sound(app, exit_code);
   int rc = 0;
   try {
     app.parse(argc, argv);

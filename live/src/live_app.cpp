@@ -694,6 +694,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     frame_thread.join();
     return Error{"live: engine: " + s.error()};
   }
+  // The drill's sound reads the snapshot on its own thread (off the engine's CPU, as this one).
+  std::shared_ptr<void> sound;
+  if (o.start_sound) sound = o.start_sound([&engine] { return engine.snapshot(); });
   // What the system granted, and what to do when it did not.
   for (int i = 0; i < 100 && engine.snapshot().step == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
   std::string grant = "engine: ";

@@ -24,6 +24,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -93,6 +95,10 @@ struct LiveOptions {
   std::string summary_path;  // also write the summary JSON here
   bool window_glx_for_test = false;  // make the window's context with GLX (cannot share): the fallback
   bool quiet = false;
+  // The drill's sound (issue 29; tools/ supplies it, live/ does not depend on sound/): called
+  // once the engine runs, with a lock-free snapshot reader; what it returns (the player) is
+  // kept until the run ends. Empty: no sound.
+  std::function<std::shared_ptr<void>(std::function<haptics::HapticSnapshot()>)> start_sound;
   std::string validate() const;
 };
 
