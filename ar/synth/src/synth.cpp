@@ -1158,6 +1158,7 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
     haptics::LogWriterOptions lo;
     lo.fsync = false;  // offline footage: no power-loss guarantee needed
     lo.ring_capacity = std::size_t{1} << 16;
+    lo.block_records = 4096;  // blocks of a fixed size, not cut by wall time: the same seed gives the same bytes
     auto log = haptics::SessionLogWriter::open(log_path, header, lo);
     if (!log) return Error{log.error()};
     im.log = std::move(log).value();
