@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -180,6 +181,43 @@ TEST(PoseHistory, EngineStoresEveryStepsPose) {
   const auto e = engine->pose_history().sample(snap.time_s - 0.1);
   ASSERT_EQ(e.lookup, PoseHistory::Lookup::kInterpolated);
   EXPECT_NEAR(e.t0_s, snap.time_s - 0.1, 1e-6);
+}
+
+// In its own thread the engine stamps the poses with CLOCK_MONOTONIC, the clock of the camera
+// frames' capture times (std::chrono::steady_clock, ar::steady_now_s()): the newest and the
+// oldest stored pose lie between the steady clock's readings before start() and after stop().
+TEST(PoseHistory, EngineThreadStampsWithTheSteadyClock) {
+  volume::MolarParams mp;
+  mp.voxel_mm = 0.2;
+  volume::VoxelVolume tooth = std::move(volume::make_molar(mp)).value();
+  auto bur = std::move(volume::sample_bur(volume::BurParams::capsule(0.5, 3.0), 500)).value();
+  const Station st = default_station();
+  HandParams hand;
+  hand.stiffness_N_per_m = kFingerRestStiffness_N_per_m;
+  auto dev = std::move(SimulatedDevice::create(to_hand_script(tip_script("access", 2.5, 1.0), st),
+                                               DeviceLimits{}, hand))
+                 .value();
+  EngineConfig cfg;
+  cfg.T_tooth_dev = st.T_tooth_dev;
+  cfg.T_sty_tip = st.T_sty_tip;
+  cfg.try_realtime = false;
+  cfg.watchdog_missed_deadlines = 1000000;
+  auto engine = std::move(Engine::create(cfg, *dev, tooth, bur)).value();
+  auto steady = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
+  const double before = steady();
+  ASSERT_TRUE(engine->start().ok());
+  while (engine->pose_history().pushes() < 20) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  engine->stop();
+  const double after = steady();
+  const auto& h = engine->pose_history();
+  const auto newest = h.latest();
+  ASSERT_EQ(newest.lookup, PoseHistory::Lookup::kInterpolated);
+  EXPECT_GE(newest.t0_s, before);
+  EXPECT_LE(newest.t0_s, after);
+  const auto first = h.sample(before);  // before the first step: the oldest pose
+  EXPECT_EQ(first.lookup, PoseHistory::Lookup::kBeforeOldest);
+  EXPECT_GE(first.t0_s, before);
+  EXPECT_LE(first.t0_s, newest.t0_s);
 }
 
 }  // namespace
