@@ -672,7 +672,7 @@ int step_check(Session& s) {
   // (issue 24): tracking alone (the true camera and the true station: detector noise and the
   // bundle fit), + the camera calibration (the calibrated camera, the true station), + the
   // station calibration (both calibrated: the total above).
-  std::vector<double> err_track, err_track_cam;
+  std::vector<double> err_track, err_track_cam, err_track_station;
   // Timing (issue 24): the image shows the stylus at its exposure, but the frame reaches the
   // frame path the camera's latency later (exposure -> readout -> USB -> grab). Drawn with the
   // newest haptic pose (the live path before session 12), the bur leads the real handpiece by
@@ -706,13 +706,14 @@ int step_check(Session& s) {
       const auto at_grab = history.sample(k.t_grab);
       const auto at_exposure = history.sample(k.t_grab - lat_est);
       if (!at_grab.usable()) continue;
-      err_timing.push_back((cal::chain_tip_cam(k.T_cam_man_true, s.truth, at_grab.T_dev_sty) - k.tip_true_cam).norm());
-      err_total_timing.push_back(
-          (cal::chain_tip_cam(k.T_cam_man_cal, s.st.calibration, at_grab.T_dev_sty) - k.tip_true_cam).norm());
-      if (!at_exposure.usable()) {
+      if (!at_exposure.usable()) {  // the clip's first frames: no pose before the engine's first step
         ++comp_not_usable;
         continue;
       }
+      // Both over the same frames.
+      err_timing.push_back((cal::chain_tip_cam(k.T_cam_man_true, s.truth, at_grab.T_dev_sty) - k.tip_true_cam).norm());
+      err_total_timing.push_back(
+          (cal::chain_tip_cam(k.T_cam_man_cal, s.st.calibration, at_grab.T_dev_sty) - k.tip_true_cam).norm());
       err_timing_comp.push_back(
           (cal::chain_tip_cam(k.T_cam_man_true, s.truth, at_exposure.T_dev_sty) - k.tip_true_cam).norm());
       err_total_comp.push_back(
@@ -738,8 +739,12 @@ int step_check(Session& s) {
       err.push_back((tip_drawn - tip_true).norm());
       err_track_cam.push_back((cal::chain_tip_cam(pose.T_cam_body, s.truth, fr.truth.T_dev_sty) - tip_true).norm());
       const auto pose_true_cam = ar::estimate_bundle_pose(bundle, s.truth.camera, *d);
-      if (pose_true_cam.ok())
+      if (pose_true_cam.ok()) {
         err_track.push_back((cal::chain_tip_cam(pose_true_cam.T_cam_body, s.truth, fr.truth.T_dev_sty) - tip_true).norm());
+        // The other order (session 12): the true camera with the calibrated station.
+        err_track_station.push_back(
+            (cal::chain_tip_cam(pose_true_cam.T_cam_body, s.st.calibration, fr.truth.T_dev_sty) - tip_true).norm());
+      }
       Eigen::Vector2d px_drawn, px_true;
       if (cal::project_point(s.st.calibration.camera, tip_drawn, px_drawn) && cal::project_point(s.truth.camera, tip_true, px_true)) {
         err_img_px.push_back((px_drawn - px_true).norm());
@@ -794,8 +799,9 @@ int step_check(Session& s) {
                "true station) mean "
             << fmt(mean(err_track) * 1e3, 3) << " mm; + camera calibration (calibrated camera, true station) "
             << fmt(mean(err_track_cam) * 1e3, 3) << " mm; + station calibration (pivot, register, tooth) = the "
-               "total " << fmt(m * 1e3, 3) << " mm. Hand-eye is not in this chain (the camera is tracked "
-               "against the mannequin directly)\n";
+               "total " << fmt(m * 1e3, 3) << " mm; the other order: + station calibration alone (true camera, "
+               "calibrated station) " << fmt(mean(err_track_station) * 1e3, 3) << " mm. Hand-eye is not in this "
+               "chain (the camera is tracked against the mannequin directly)\n";
   if (lat > 0 && !err_timing.empty()) {
     std::cout << "  timing (each frame grabbed " << fmt(s.cli.latency_ms, 0) << " ms +- "
               << fmt(s.cli.latency_jitter_ms, 1) << " ms (1 sigma) after its exposure; --latency-ms, "
@@ -809,7 +815,9 @@ int step_check(Session& s) {
               << (lat_known ? "measured (camera.latency_ms)" : "assumed: not measured for this station")
               << "): timing alone mean " << fmt(mean(err_timing_comp) * 1e3, 3) << " mm; the total with timing "
               << fmt(mean(err_total_comp) * 1e3, 3) << " mm over " << err_timing_comp.size() << " frames";
-    if (comp_not_usable > 0) std::cout << " (" << comp_not_usable << " frames had no pose at their exposure)";
+    if (comp_not_usable > 0)
+      std::cout << " (" << comp_not_usable << " frames left out of both: no pose at their exposure, before the "
+                << "engine's first step)";
     std::cout << "\n";
   } else
     std::cout << "  timing: not simulated (--latency-ms 0: the haptic pose drawn is the one of the frame's exposure)\n";
@@ -828,6 +836,7 @@ int step_check(Session& s) {
                  {"uncalibrated_mean_mm", mean(err_nom) * 1e3},
                  {"tracking_only_mean_mm", mean(err_track) * 1e3},
                  {"tracking_camera_mean_mm", mean(err_track_cam) * 1e3},
+                 {"tracking_station_mean_mm", mean(err_track_station) * 1e3},
                  {"latency_ms", s.cli.latency_ms},
                  {"tip_speed_mean_mm_s", mean(tip_speed) * 1e3},
                  {"frames", static_cast<double>(err.size())},
