@@ -59,6 +59,50 @@ Eigen::Isometry3d PoseHistory::pose(const Entry& e) {
   return T;
 }
 
+Eigen::Isometry3d PoseHistory::blend(const Entry& a, const Entry& b, double w) {
+  const Eigen::Quaterniond qa(a.q[0], a.q[1], a.q[2], a.q[3]), qb(b.q[0], b.q[1], b.q[2], b.q[3]);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = qa.slerp(w, qb).toRotationMatrix();
+  for (int k = 0; k < 3; ++k) T.translation()[k] = (1 - w) * a.p[k] + w * b.p[k];
+  return T;
+}
+
+PoseHistory::Sample PoseHistory::at_index(double x) const noexcept {
+  Sample out;
+  if (!std::isfinite(x) || x < 0 || x > 1e15) return out;
+  const auto i = static_cast<std::uint64_t>(std::floor(x));
+  const double w = x - static_cast<double>(i);
+  const std::uint64_t n = count_.load(std::memory_order_acquire);
+  if (n == 0) return out;
+  Entry a, b;
+  const bool need_b = w > 0;
+  if (i >= n) {  // not pushed yet: the newest
+    if (!read(n - 1, a)) return out;
+    out.lookup = a.valid != 0 ? Lookup::kAfterNewest : Lookup::kInvalid;
+    out.index = static_cast<double>(n - 1);
+  } else if (!read(i, a)) {
+    out.lookup = Lookup::kBeforeOldest;  // overwritten
+    return out;
+  } else if (need_b && (i + 1 >= n || !read(i + 1, b))) {
+    out.lookup = a.valid != 0 ? Lookup::kAfterNewest : Lookup::kInvalid;
+    out.index = static_cast<double>(i);
+  } else {
+    out.index = x;
+    out.t0_s = a.t;
+    out.t1_s = need_b ? b.t : a.t;
+    if (a.valid == 0 || (need_b && b.valid == 0)) {
+      out.lookup = Lookup::kInvalid;
+      return out;
+    }
+    out.lookup = Lookup::kInterpolated;
+    out.T_dev_sty = need_b ? blend(a, b, w) : pose(a);
+    return out;
+  }
+  out.t0_s = out.t1_s = a.t;
+  if (out.lookup != Lookup::kInvalid) out.T_dev_sty = pose(a);
+  return out;
+}
+
 PoseHistory::Sample PoseHistory::latest() const noexcept {
   Sample out;
   for (int attempt = 0; attempt < 4; ++attempt) {
@@ -67,6 +111,7 @@ PoseHistory::Sample PoseHistory::latest() const noexcept {
     Entry e;
     if (!read(n - 1, e)) continue;  // lapped between the two loads
     out.t0_s = out.t1_s = e.t;
+    out.index = static_cast<double>(n - 1);
     if (e.valid == 0) {
       out.lookup = Lookup::kInvalid;
       return out;
@@ -89,6 +134,7 @@ PoseHistory::Sample PoseHistory::sample(double t_s) const noexcept {
     if (!read(newest, hi)) continue;  // the writer lapped the ring since the count was read
     if (t_s >= hi.t) {
       out.t0_s = out.t1_s = hi.t;
+      out.index = static_cast<double>(newest);
       if (hi.valid == 0) {
         out.lookup = Lookup::kInvalid;
         return out;
@@ -116,6 +162,7 @@ PoseHistory::Sample PoseHistory::sample(double t_s) const noexcept {
     if (lo == oldest || !read(lo - 1, a)) {
       out.lookup = Lookup::kBeforeOldest;
       out.t0_s = out.t1_s = b.t;
+      out.index = static_cast<double>(lo);
       if (b.valid == 0) {
         out.lookup = Lookup::kInvalid;
         return out;
@@ -125,17 +172,15 @@ PoseHistory::Sample PoseHistory::sample(double t_s) const noexcept {
     }
     out.t0_s = a.t;
     out.t1_s = b.t;
+    const double w = (t_s - a.t) / (b.t - a.t);  // b.t > t_s >= a.t
+    out.index = static_cast<double>(lo - 1) + w;
     if (a.valid == 0 || b.valid == 0) {
       out.lookup = Lookup::kInvalid;
       if (a.valid != 0) out.T_dev_sty = pose(a);
       if (b.valid != 0) out.T_dev_sty = pose(b);
       return out;
     }
-    const double w = (t_s - a.t) / (b.t - a.t);  // b.t > t_s >= a.t
-    const Eigen::Quaterniond qa(a.q[0], a.q[1], a.q[2], a.q[3]), qb(b.q[0], b.q[1], b.q[2], b.q[3]);
-    out.T_dev_sty = Eigen::Isometry3d::Identity();
-    out.T_dev_sty.linear() = qa.slerp(w, qb).toRotationMatrix();
-    for (int k = 0; k < 3; ++k) out.T_dev_sty.translation()[k] = (1 - w) * a.p[k] + w * b.p[k];
+    out.T_dev_sty = blend(a, b, w);
     out.lookup = Lookup::kInterpolated;
     return out;
   }

@@ -62,6 +62,27 @@ TEST(PoseHistory, InterpolatesBetweenStepsAndHitsStepsExactly) {
   EXPECT_NEAR((now.T_dev_sty.translation() - then.T_dev_sty.translation()).norm(), kV.norm() * 0.033, 1e-9);
 }
 
+// A replay that pushed the same sequence gets the same pose back from the lookup's index
+// (offline replays of a live recording draw what the live window drew).
+TEST(PoseHistory, TheIndexOfALookupGivesThePoseBack) {
+  auto h = std::make_unique<PoseHistory>();
+  for (int i = 0; i < 700; ++i) h->push(3.0 + i * 1e-3 + (i % 3) * 1e-5, truth(i * 1e-3));
+  auto replay = std::make_unique<PoseHistory>();  // the same poses, another clock
+  for (int i = 0; i < 700; ++i) replay->push(i * 1e-3, truth(i * 1e-3));
+  for (double t : {3.1234567, 3.5, 3.0, 3.6989}) {
+    const auto s = h->sample(t);
+    ASSERT_EQ(s.lookup, PoseHistory::Lookup::kInterpolated) << t;
+    const auto r = replay->at_index(s.index);
+    ASSERT_EQ(r.lookup, PoseHistory::Lookup::kInterpolated) << t;
+    EXPECT_LT((r.T_dev_sty.matrix() - s.T_dev_sty.matrix()).norm(), 1e-12) << t;
+  }
+  EXPECT_EQ(replay->at_index(-1).lookup, PoseHistory::Lookup::kEmpty);
+  EXPECT_EQ(replay->at_index(699.5).lookup, PoseHistory::Lookup::kAfterNewest);
+  EXPECT_EQ(replay->at_index(5000).lookup, PoseHistory::Lookup::kAfterNewest);
+  for (int i = 700; i < 3000; ++i) replay->push(i * 1e-3, truth(i * 1e-3));
+  EXPECT_EQ(replay->at_index(10.5).lookup, PoseHistory::Lookup::kBeforeOldest);
+}
+
 TEST(PoseHistory, OutsideTheStoredSpanSaysWhichSide) {
   auto h = std::make_unique<PoseHistory>();
   const int n = static_cast<int>(PoseHistory::kCapacity) * 3 + 17;  // the ring wraps 3 times

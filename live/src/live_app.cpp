@@ -617,11 +617,13 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         continue;
       }
       haptics::HapticSnapshot snap = engine.snapshot();
+      double pose_step = -1;
       if (comp_latency_s > 0) {
         // The stylus as it was when this frame was exposed, not as it is now (issue 24).
         const auto h = engine.pose_history().sample(f.steady_s - comp_latency_s);
-        if (h.usable()) {
+        if (h.usable() && h.index >= 0) {
           Eigen::Map<Eigen::Matrix4d>(snap.T_dev_sty) = h.T_dev_sty.matrix();
+          pose_step = h.index;
           ++comp_at_exposure;
         } else {
           ++comp_newest;
@@ -644,6 +646,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         err = std::string("pipeline threw: ") + e.what();
       }
       process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      rec.pose_step = pose_step;
       for (const auto& it : health.on_frame(pipe->get()->last_detections(), f.steady_s, rec.T_dev_sty,
                                             in.stylus_valid)) {
         say("station health: " + it.check + ": " + health_level_name(it.level) + ": " + it.message);

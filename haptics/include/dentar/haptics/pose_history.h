@@ -45,6 +45,11 @@ class PoseHistory {
     Eigen::Isometry3d T_dev_sty = Eigen::Isometry3d::Identity();
     double t0_s = 0, t1_s = 0;  // the bracketing poses' times (equal when one pose was used)
     double age_s = 0;           // kAfterNewest: t minus the newest time; else 0
+    // The pose's place in the push sequence: push index of the earlier bracket + the weight of
+    // the later one (Engine: the step index, fractional). A replay that pushed the same
+    // sequence gets the same pose back from at_index() (offline replays of live recordings).
+    // -1 for kEmpty.
+    double index = -1;
     // True for kInterpolated and kAfterNewest (a pose the caller can draw); false otherwise.
     bool usable() const { return lookup == Lookup::kInterpolated || lookup == Lookup::kAfterNewest; }
   };
@@ -61,6 +66,11 @@ class PoseHistory {
   // Lock-free and bounded: O(log kCapacity) slot reads; retries at most a few times when the
   // writer laps the whole ring during the call (a reader descheduled for > 1 s).
   Sample sample(double t_s) const noexcept;
+  // Any thread. The pose at a fractional push index (Sample::index of an earlier lookup, in
+  // this or a replayed history): interpolated between pushes floor(x) and floor(x) + 1 with the
+  // weight x - floor(x). kBeforeOldest / kAfterNewest (with that push's pose) when one of the
+  // two is no longer / not yet stored; kEmpty for x < 0 or not finite.
+  Sample at_index(double x) const noexcept;
   // Any thread. The newest complete pose (lookup kInterpolated, t0 = t1 = its time; kInvalid
   // when it was stored invalid), or kEmpty.
   Sample latest() const noexcept;
@@ -84,6 +94,8 @@ class PoseHistory {
   // Reads entry `index` into e; false when its slot does not hold that complete entry.
   bool read(std::uint64_t index, Entry& e) const noexcept;
   static Eigen::Isometry3d pose(const Entry& e);
+  // a + w (b - a): translation linear, rotation slerp; w in [0, 1].
+  static Eigen::Isometry3d blend(const Entry& a, const Entry& b, double w);
 
   std::array<Slot, kCapacity> slots_;
   std::atomic<std::uint64_t> count_{0};
