@@ -189,10 +189,19 @@ TEST(LiveXvfb, WindowMatchesOfflineAndRecordingReplays) {
   {
     const int ps = col(lr[0], "pose_step"), hs = col(lr[0], "haptic_steps");
     ASSERT_GE(ps, 0);
-    int behind = 0;
-    for (std::size_t i = 1; i < lr.size(); ++i)
-      if (std::stod(lr[i][ps]) >= 0 && std::stod(lr[i][ps]) < std::stod(lr[i][hs]) - 20) ++behind;
-    EXPECT_GT(behind, 10);  // ~33 steps before the frame was taken, not the newest
+    // A pose the engine had made when the frame was drawn (the newest is haptic_steps - 1), and
+    // on some frames an older one than the newest (33 steps at 1 kHz; fewer when the loaded
+    // engine misses deadlines, so no number is asserted).
+    int drawn_at_exposure = 0, older = 0;
+    for (std::size_t i = 1; i < lr.size(); ++i) {
+      const double p = std::stod(lr[i][ps]), h = std::stod(lr[i][hs]);
+      if (p < 0) continue;
+      ++drawn_at_exposure;
+      EXPECT_LE(p, h - 1) << "row " << i;
+      if (p < h - 2) ++older;
+    }
+    EXPECT_GT(drawn_at_exposure, static_cast<int>(lr.size()) / 2);
+    EXPECT_GT(older, 0);
   }
 
   // The window showed the composite of frame 8: compare with the offline
