@@ -313,6 +313,25 @@ TEST(CliCalibrate, AllStepsOnGeneratedDataMeetTheCoLocationGoal) {
   EXPECT_NEAR(fig["timing_only_mean_mm"].get<double>(), speed * 0.033, 0.2 * speed * 0.033);
   EXPECT_GT(fig["total_with_timing_mean_mm"].get<double>(), 0.0);
   EXPECT_NE(r.out.find("timing alone mean"), std::string::npos) << r.out;
+  // Session 12: compensated (the generator's 1 kHz pose history sampled at each frame's grab
+  // minus the station's camera latency: none measured here, so the assumed 33 ms) only the
+  // latency's jitter (2 ms, 1 sigma) and the 1 ms steps are left of the timing term.
+  EXPECT_EQ(fig["compensation_latency_ms"].get<double>(), 33.0);
+  EXPECT_NE(r.out.find("assumed: not measured for this station"), std::string::npos) << r.out;
+  EXPECT_LT(fig["timing_compensated_mean_mm"].get<double>(), 0.25 * fig["timing_only_mean_mm"].get<double>());
+  EXPECT_LT(fig["total_compensated_mean_mm"].get<double>(), fig["total_with_timing_mean_mm"].get<double>());
+  // A slower camera, its latency measured and recorded in the station file: the check
+  // compensates with the recorded value, which the station file keeps.
+  const CommandResult slow =
+      run("check --simulate --frames 6 --latency-ms 60 --camera-latency-ms 60 --station " + st.string());
+  ASSERT_EQ(slow.code, 0) << slow.out;
+  const auto js = load(st);
+  EXPECT_EQ(js["camera"]["latency_ms"].get<double>(), 60.0);
+  const auto& fs60 = (*step(js, "check"))["figures"];
+  EXPECT_EQ(fs60["compensation_latency_ms"].get<double>(), 60.0);
+  EXPECT_NE(slow.out.find("measured (camera.latency_ms)"), std::string::npos) << slow.out;
+  EXPECT_NEAR(fs60["timing_only_mean_mm"].get<double>(), speed * 0.060, 0.25 * speed * 0.060);
+  EXPECT_LT(fs60["timing_compensated_mean_mm"].get<double>(), 0.25 * fs60["timing_only_mean_mm"].get<double>());
   // An uncalibrated station (the nominal values) fails the check against the station's
   // threshold; the failure is recorded with its date (dentar live then asks for an instructor).
   const fs::path raw = d / "raw.json";

@@ -14,6 +14,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <random>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
@@ -39,6 +40,7 @@
 #include "dentar/calibration/hand_eye.h"
 #include "dentar/live/calibrate_app.h"
 #include "dentar/haptics/device_profiles.h"
+#include "dentar/haptics/pose_history.h"
 #include "dentar/live/station_health.h"
 
 namespace dentar::tools {
@@ -64,6 +66,8 @@ struct CalibCli {
   int camera_views = 12;     // live camera step  // simulated camera step: boards inside this % of the image
   int check_frames = 20;
   double latency_ms = 33;  // check: the camera's latency against the haptic pose drawn with its frame
+  double latency_jitter_ms = 2;  // check: its per-frame spread (1 sigma)
+  double camera_latency_ms = -1;  // any step: record the station camera's measured latency (< 0: keep)
   bool rational = false;
   std::string model = "auto";  // camera: auto, k1, k1k2, radtan5, rational8
   std::string corners = "sb-subpix";  // camera, chessboards: sb-subpix, sb, classic
@@ -668,22 +672,58 @@ int step_check(Session& s) {
   // (issue 24): tracking alone (the true camera and the true station: detector noise and the
   // bundle fit), + the camera calibration (the calibrated camera, the true station), + the
   // station calibration (both calibrated: the total above).
-  std::vector<double> err_track, err_track_cam;
-  // Timing (issue 24): the live path draws each frame with the haptic pose of the moment the
-  // frame is taken from the capture queue (live_app.cpp: engine.snapshot() after wait_take),
-  // while the image shows the stylus at its exposure: the bur leads the real handpiece by the
-  // stylus's motion over the camera's latency. Simulated here: the haptic pose latency_ms after
-  // the frame (interpolated between the generated frames' truths) is drawn on the frame.
+  std::vector<double> err_track, err_track_cam, err_track_station;
+  // Timing (issue 24): the image shows the stylus at its exposure, but the frame reaches the
+  // frame path the camera's latency later (exposure -> readout -> USB -> grab). Drawn with the
+  // newest haptic pose (the live path before session 12), the bur leads the real handpiece by
+  // the stylus's motion over that latency. Simulated here with the generator's own 1 kHz haptic
+  // engine: each frame is grabbed --latency-ms (+ a per-frame jitter, --latency-jitter-ms, 1 σ)
+  // after its exposure; uncompensated = the pose at the grab, compensated = the engine's pose
+  // history sampled at the grab minus the station's camera latency (camera.latency_ms, or the
+  // assumed 33 ms), as dentar live now draws it.
   struct FrameKeep {
-    double t = 0;
+    double t = 0, t_grab = 0;
     Eigen::Isometry3d T_dev_sty, T_cam_man_true, T_cam_man_cal;
     Eigen::Vector3d tip_true_cam;
-    bool tracked = false;
+    bool tracked = false, timed = false;
   };
   std::vector<FrameKeep> keep;
+  const double lat = s.cli.latency_ms * 1e-3;
+  const bool lat_known = s.st.camera_provenance.latency_ms >= 0;
+  const double lat_est =
+      (lat_known ? s.st.camera_provenance.latency_ms : ar::kAssumedCameraLatency_ms) * 1e-3;
+  std::mt19937_64 lat_rng(s.cli.seed * 2654435761ULL + 24);
+  std::normal_distribution<double> lat_jitter(0.0, s.cli.latency_jitter_ms * 1e-3);
+  std::vector<double> err_timing, err_total_timing, err_timing_comp, err_total_comp, tip_speed;
+  int comp_not_usable = 0;
+  const haptics::PoseHistory& history = (*gen)->haptic_history();
+  // Frames whose grab time the generator's haptic clock has passed get both poses.
+  auto time_frames = [&] {
+    const double newest = history.latest().t1_s;
+    for (auto& k : keep) {
+      if (k.timed || !k.tracked || lat <= 0 || k.t_grab > newest) continue;
+      k.timed = true;
+      const auto at_grab = history.sample(k.t_grab);
+      const auto at_exposure = history.sample(k.t_grab - lat_est);
+      if (!at_grab.usable()) continue;
+      if (!at_exposure.usable()) {  // the clip's first frames: no pose before the engine's first step
+        ++comp_not_usable;
+        continue;
+      }
+      // Both over the same frames.
+      err_timing.push_back((cal::chain_tip_cam(k.T_cam_man_true, s.truth, at_grab.T_dev_sty) - k.tip_true_cam).norm());
+      err_total_timing.push_back(
+          (cal::chain_tip_cam(k.T_cam_man_cal, s.st.calibration, at_grab.T_dev_sty) - k.tip_true_cam).norm());
+      err_timing_comp.push_back(
+          (cal::chain_tip_cam(k.T_cam_man_true, s.truth, at_exposure.T_dev_sty) - k.tip_true_cam).norm());
+      err_total_comp.push_back(
+          (cal::chain_tip_cam(k.T_cam_man_cal, s.st.calibration, at_exposure.T_dev_sty) - k.tip_true_cam).norm());
+    }
+  };
   for (int f = 0; f < so.frames; ++f) {
     ar::SynthFrame fr;
     if (Status st = (*gen)->next(fr); !st) throw BadInput{"check: " + st.error()};
+    time_frames();
     cv::Mat gray;
     cv::cvtColor(fr.image, gray, cv::COLOR_BGR2GRAY);
     auto d = det->detect(gray);
@@ -691,15 +731,20 @@ int step_check(Session& s) {
     const auto pose = ar::estimate_bundle_pose(bundle, s.st.calibration.camera, *d);
     const auto pose_nom = ar::estimate_bundle_pose(bundle, nominal.camera, *d);
     const Eigen::Vector3d tip_true = fr.truth.T_cam_tip.translation();
-    keep.push_back({fr.truth.time_s, fr.truth.T_dev_sty, fr.truth.T_cam_man, pose.T_cam_body, tip_true, pose.ok()});
+    keep.push_back({fr.truth.time_s, fr.truth.time_s + std::max(0.0, lat + lat_jitter(lat_rng)), fr.truth.T_dev_sty,
+                    fr.truth.T_cam_man, pose.T_cam_body, tip_true, pose.ok(), false});
     std::cout << "  frame " << f;
     if (pose.ok()) {
       const Eigen::Vector3d tip_drawn = cal::chain_tip_cam(pose.T_cam_body, s.st.calibration, fr.truth.T_dev_sty);
       err.push_back((tip_drawn - tip_true).norm());
       err_track_cam.push_back((cal::chain_tip_cam(pose.T_cam_body, s.truth, fr.truth.T_dev_sty) - tip_true).norm());
       const auto pose_true_cam = ar::estimate_bundle_pose(bundle, s.truth.camera, *d);
-      if (pose_true_cam.ok())
+      if (pose_true_cam.ok()) {
         err_track.push_back((cal::chain_tip_cam(pose_true_cam.T_cam_body, s.truth, fr.truth.T_dev_sty) - tip_true).norm());
+        // The other order (session 12): the true camera with the calibrated station.
+        err_track_station.push_back(
+            (cal::chain_tip_cam(pose_true_cam.T_cam_body, s.st.calibration, fr.truth.T_dev_sty) - tip_true).norm());
+      }
       Eigen::Vector2d px_drawn, px_true;
       if (cal::project_point(s.st.calibration.camera, tip_drawn, px_drawn) && cal::project_point(s.truth.camera, tip_true, px_true)) {
         err_img_px.push_back((px_drawn - px_true).norm());
@@ -730,33 +775,15 @@ int step_check(Session& s) {
               << so.frames << " frames; check the camera calibration and tag layout\n";
     return 1;
   }
-  // The timing term: for each tracked frame whose time + latency lies inside the clip, the
-  // haptic pose at that time (translation linear, rotation slerp between the frames around it);
-  // timing alone (everything else true) and the total with timing; the stylus tip's speed.
-  std::vector<double> err_timing, err_total_timing, tip_speed;
-  const double lat = s.cli.latency_ms * 1e-3;
-  for (std::size_t i = 0; i < keep.size(); ++i) {
-    if (i + 1 < keep.size()) {
-      const double dt = keep[i + 1].t - keep[i].t;
-      const auto tip_man = [&](const FrameKeep& k) -> Eigen::Vector3d {
-        return (s.truth.T_man_dev * k.T_dev_sty * s.truth.T_sty_tip).translation();
-      };
-      if (dt > 0) tip_speed.push_back((tip_man(keep[i + 1]) - tip_man(keep[i])).norm() / dt);
-    }
-    if (!keep[i].tracked || lat <= 0) continue;
-    const double tq = keep[i].t + lat;
-    std::size_t j = i;
-    while (j + 1 < keep.size() && keep[j + 1].t < tq) ++j;
-    if (j + 1 >= keep.size()) break;  // past the clip's end
-    const double a = (tq - keep[j].t) / (keep[j + 1].t - keep[j].t);
-    Eigen::Isometry3d T_late = Eigen::Isometry3d::Identity();
-    T_late.linear() = Eigen::Quaterniond(keep[j].T_dev_sty.linear())
-                          .slerp(a, Eigen::Quaterniond(keep[j + 1].T_dev_sty.linear()))
-                          .toRotationMatrix();
-    T_late.translation() = (1 - a) * keep[j].T_dev_sty.translation() + a * keep[j + 1].T_dev_sty.translation();
-    err_timing.push_back((cal::chain_tip_cam(keep[i].T_cam_man_true, s.truth, T_late) - keep[i].tip_true_cam).norm());
-    err_total_timing.push_back(
-        (cal::chain_tip_cam(keep[i].T_cam_man_cal, s.st.calibration, T_late) - keep[i].tip_true_cam).norm());
+  // The timing term (frames grabbed after the clip's last haptic step are left out of both);
+  // the stylus tip's speed between frames.
+  time_frames();
+  for (std::size_t i = 0; i + 1 < keep.size(); ++i) {
+    const double dt = keep[i + 1].t - keep[i].t;
+    const auto tip_man = [&](const FrameKeep& k) -> Eigen::Vector3d {
+      return (s.truth.T_man_dev * k.T_dev_sty * s.truth.T_sty_tip).translation();
+    };
+    if (dt > 0) tip_speed.push_back((tip_man(keep[i + 1]) - tip_man(keep[i])).norm() / dt);
   }
   const double m = mean(err), mx = maxv(err);
   std::cout << "co-location at the tooth over " << err.size() << " frames: bur tip error mean "
@@ -772,16 +799,27 @@ int step_check(Session& s) {
                "true station) mean "
             << fmt(mean(err_track) * 1e3, 3) << " mm; + camera calibration (calibrated camera, true station) "
             << fmt(mean(err_track_cam) * 1e3, 3) << " mm; + station calibration (pivot, register, tooth) = the "
-               "total " << fmt(m * 1e3, 3) << " mm. Hand-eye is not in this chain (the camera is tracked "
-               "against the mannequin directly)\n";
-  if (lat > 0 && !err_timing.empty())
-    std::cout << "  timing (the haptic pose " << fmt(s.cli.latency_ms, 0) << " ms after the frame's exposure drawn "
-              << "on it, as the live path does; --latency-ms): timing alone mean " << fmt(mean(err_timing) * 1e3, 3)
-              << " mm; the total with timing " << fmt(mean(err_total_timing) * 1e3, 3) << " mm over "
-              << err_timing.size() << " frames; the stylus tip moved at " << fmt(mean(tip_speed) * 1e3, 1)
+               "total " << fmt(m * 1e3, 3) << " mm; the other order: + station calibration alone (true camera, "
+               "calibrated station) " << fmt(mean(err_track_station) * 1e3, 3) << " mm. Hand-eye is not in this "
+               "chain (the camera is tracked against the mannequin directly)\n";
+  if (lat > 0 && !err_timing.empty()) {
+    std::cout << "  timing (each frame grabbed " << fmt(s.cli.latency_ms, 0) << " ms +- "
+              << fmt(s.cli.latency_jitter_ms, 1) << " ms (1 sigma) after its exposure; --latency-ms, "
+              << "--latency-jitter-ms): uncompensated (the haptic pose at the grab drawn on it): timing alone mean "
+              << fmt(mean(err_timing) * 1e3, 3) << " mm; the total with timing " << fmt(mean(err_total_timing) * 1e3, 3)
+              << " mm over " << err_timing.size() << " frames; the stylus tip moved at " << fmt(mean(tip_speed) * 1e3, 1)
               << " mm/s mean, " << fmt(maxv(tip_speed) * 1e3, 1) << " max (at 50 mm/s, " << fmt(s.cli.latency_ms, 0)
               << " ms is " << fmt(50 * s.cli.latency_ms * 1e-3, 2) << " mm)\n";
-  else
+    std::cout << "  compensated (the 1 kHz pose history sampled at the grab minus the station's camera latency, "
+              << fmt(lat_est * 1e3, 1) << " ms, "
+              << (lat_known ? "measured (camera.latency_ms)" : "assumed: not measured for this station")
+              << "): timing alone mean " << fmt(mean(err_timing_comp) * 1e3, 3) << " mm; the total with timing "
+              << fmt(mean(err_total_comp) * 1e3, 3) << " mm over " << err_timing_comp.size() << " frames";
+    if (comp_not_usable > 0)
+      std::cout << " (" << comp_not_usable << " frames left out of both: no pose at their exposure, before the "
+                << "engine's first step)";
+    std::cout << "\n";
+  } else
     std::cout << "  timing: not simulated (--latency-ms 0: the haptic pose drawn is the one of the frame's exposure)\n";
   const double threshold = s.st.policy.check_threshold_m;
   const bool pass = m <= threshold;
@@ -798,6 +836,7 @@ int step_check(Session& s) {
                  {"uncalibrated_mean_mm", mean(err_nom) * 1e3},
                  {"tracking_only_mean_mm", mean(err_track) * 1e3},
                  {"tracking_camera_mean_mm", mean(err_track_cam) * 1e3},
+                 {"tracking_station_mean_mm", mean(err_track_station) * 1e3},
                  {"latency_ms", s.cli.latency_ms},
                  {"tip_speed_mean_mm_s", mean(tip_speed) * 1e3},
                  {"frames", static_cast<double>(err.size())},
@@ -805,6 +844,12 @@ int step_check(Session& s) {
   if (!err_timing.empty()) {
     rep.figures.push_back({"timing_only_mean_mm", mean(err_timing) * 1e3});
     rep.figures.push_back({"total_with_timing_mean_mm", mean(err_total_timing) * 1e3});
+    rep.figures.push_back({"latency_jitter_ms", s.cli.latency_jitter_ms});
+    rep.figures.push_back({"compensation_latency_ms", lat_est * 1e3});
+  }
+  if (!err_timing_comp.empty()) {
+    rep.figures.push_back({"timing_compensated_mean_mm", mean(err_timing_comp) * 1e3});
+    rep.figures.push_back({"total_compensated_mean_mm", mean(err_total_comp) * 1e3});
   }
   s.st.set_step_report(rep);
   if (!pass) {
@@ -997,6 +1042,11 @@ int run(const CalibCli& c) {
                    "using the default divots and tooth landmarks\n";
       s.st.fixtures = ar::default_calibration_fixtures();
     }
+    if (c.camera_latency_ms >= 0) {
+      s.st.camera_provenance.latency_ms = c.camera_latency_ms;
+      std::cout << "camera latency " << fmt(c.camera_latency_ms, 1)
+                << " ms (mid-exposure to grab, as measured) recorded for this station (camera.latency_ms)\n";
+    }
     if (c.simulate) {
       s.truth = cal::simulated_truth(ar::default_station_scene().calibration, c.seed);
       std::cout << "simulation: the hidden truth is the built-in station perturbed with seed "
@@ -1175,6 +1225,16 @@ void add_calibrate(CLI::App& app, int& exit_code) {
                 "term, beside the total; 0: not simulated)")
       ->check(CLI::Range(0.0, 500.0))
       ->capture_default_str();
+  s->add_option("--latency-jitter-ms", c->latency_jitter_ms,
+                "check: the per-frame spread of that latency, ms, 1 sigma (USB transfer and grab "
+                "scheduling; assumed, not measured)")
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
+  s->add_option("--camera-latency-ms", c->camera_latency_ms,
+                "Record this station camera's latency in the station file (camera.latency_ms: "
+                "mid-exposure to the grab, ms, as measured at the station); dentar live draws each "
+                "frame with the stylus pose of its exposure from it (unset: 33 ms assumed)")
+      ->check(CLI::Range(0.0, 1000.0));
   s->add_option("--frames", c->check_frames, "check: generated frames")
       ->check(CLI::Range(3, 1000))
       ->capture_default_str();

@@ -50,6 +50,11 @@ void add_live(CLI::App& app, int& exit_code) {
                   "station file, or a built-in station: default (phantom head), box (flat tag board)");
   sub->add_flag("--scale-calib", c->o.scale_calib, "accept a camera of another size (intrinsics scaled)");
   sub->add_option("--stylus", c->o.stylus, "sim (simulated hand), pen (printed pen tag), replay:FILE.dlog, none");
+  sub->add_option("--camera-latency-ms", c->o.camera_latency_ms,
+                  "the camera's latency, mid-exposure to grab, ms: each frame is drawn with the stylus "
+                  "pose of its exposure from the engine's 1 kHz pose history (default: the station's "
+                  "camera.latency_ms, else 33 ms assumed; 0: the newest pose, no compensation)")
+      ->check(CLI::Range(0.0, 1000.0));
   sub->add_option("--model", c->o.model, "force model: proxy or seed");
   sub->add_option("--device", c->o.device,
                   "a real haptic device instead of --stylus: touch, omni, desktop, premium, premium3, hd, "

@@ -100,7 +100,7 @@ Engine::Engine(const EngineConfig& cfg, HapticDevice& device, volume::VoxelVolum
 
 Engine::~Engine() { stop(); }
 
-bool Engine::step(double late_s) noexcept {
+bool Engine::step(double late_s, bool in_thread) noexcept {
   const double t0 = now_s();
   DeviceState st;
   const bool ok = device_->read(st);
@@ -217,6 +217,7 @@ bool Engine::step(double late_s) noexcept {
   }
   for (int i = 0; i < 8; ++i) snap.removed_mm3[i] = removed_mm3_[i];
   snapshot_.store(snap);
+  pose_history_.push(in_thread ? t0 : st.time_s, st.T_dev_sty, !fault);
 
   // Record.
   if (log_) {
@@ -248,7 +249,7 @@ bool Engine::step(double late_s) noexcept {
 std::uint64_t Engine::run_steps(std::uint64_t n, double late_s) {
   if (running()) return 0;
   std::uint64_t done = 0;
-  while (done < n && step(late_s)) ++done;
+  while (done < n && step(late_s, false)) ++done;
   return done;
 }
 
@@ -334,7 +335,7 @@ void Engine::thread_main() {
     const double late = static_cast<double>(woke.tv_sec - next.tv_sec) +
                         1e-9 * static_cast<double>(woke.tv_nsec - next.tv_nsec);
     stats_.jitter.record(late);
-    if (!step(late)) {
+    if (!step(late, true)) {
       finished_.store(true, std::memory_order_release);
       break;
     }

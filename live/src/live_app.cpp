@@ -109,6 +109,8 @@ std::string LiveOptions::validate() const {
     return "window size must be within 0..8192";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
   if (frames < 0) return "frames = " + std::to_string(frames) + " must be >= 0 (0 = no limit)";
+  if (!(std::isfinite(camera_latency_ms) && camera_latency_ms <= 1000))
+    return "camera_latency_ms must be <= 1000 ms (< 0: the station's, 0: no compensation)";
   if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
   if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
   if (display_path != "gl" && display_path != "cpu" && display_path != "auto")
@@ -132,6 +134,9 @@ std::string LiveSummary::json() const {
       {"stop_reason", stop_reason},
       {"displayed_fps", displayed_fps},
       {"latency_ms", {{"p50", latency_p50_ms}, {"p99", latency_p99_ms}, {"max", latency_max_ms}}},
+      {"latency_compensation", {{"camera_latency_ms", compensation_latency_ms}, {"source", compensation_source},
+                                {"frames_pose_at_exposure", frames_pose_at_exposure},
+                                {"frames_pose_newest", frames_pose_newest}}},
       {"process_ms", {{"p50", process_p50_ms}, {"p99", process_p99_ms}}},
       {"engine", {{"steps", engine_steps}, {"missed_deadlines", missed_deadlines}, {"watchdog_trips", watchdog_trips},
                   {"step_us", {{"p50", step_p50_us}, {"p99", step_p99_us}, {"p999", step_p999_us}, {"max", step_max_us}}},
@@ -520,6 +525,24 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   std::int64_t processed = 0;
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;  // frame thread; read after join
   std::int64_t ring_stats[3] = {0, 0, 0};
+  // Latency compensation (issue 24): the camera's latency (mid-exposure to Frame::steady_s).
+  double comp_latency_s = 0;
+  std::string comp_source;
+  if (o.stylus == "pen" && o.device.empty()) {
+    comp_source = "pen";  // the pen's pose is measured in the camera's own frames
+  } else if (o.camera_latency_ms == 0) {
+    comp_source = "off";
+  } else if (o.camera_latency_ms > 0) {
+    comp_source = "option";
+    comp_latency_s = o.camera_latency_ms * 1e-3;
+  } else if (st.camera_provenance.latency_ms >= 0) {
+    comp_source = st.camera_provenance.latency_ms > 0 ? "measured" : "off";
+    comp_latency_s = st.camera_provenance.latency_ms * 1e-3;
+  } else {
+    comp_source = "assumed";
+    comp_latency_s = ar::kAssumedCameraLatency_ms * 1e-3;
+  }
+  std::int64_t comp_at_exposure = 0, comp_newest = 0;  // frame thread; read after join
 
   std::thread frame_thread([&] {
     // llvmpipe starts its rasteriser thread when the context is made, with
@@ -593,7 +616,19 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         if (capture.ended()) break;
         continue;
       }
-      const haptics::HapticSnapshot snap = engine.snapshot();
+      haptics::HapticSnapshot snap = engine.snapshot();
+      double pose_step = -1;
+      if (comp_latency_s > 0) {
+        // The stylus as it was when this frame was exposed, not as it is now (issue 24).
+        const auto h = engine.pose_history().sample(f.steady_s - comp_latency_s);
+        if (h.usable() && h.index >= 0) {
+          Eigen::Map<Eigen::Matrix4d>(snap.T_dev_sty) = h.T_dev_sty.matrix();
+          pose_step = h.index;
+          ++comp_at_exposure;
+        } else {
+          ++comp_newest;
+        }
+      }
       ar::FrameInput in;
       in.image = &f.image;
       in.index = processed;
@@ -611,6 +646,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         err = std::string("pipeline threw: ") + e.what();
       }
       process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      rec.pose_step = pose_step;
       for (const auto& it : health.on_frame(pipe->get()->last_detections(), f.steady_s, rec.T_dev_sty,
                                             in.stylus_valid)) {
         say("station health: " + it.check + ": " + health_level_name(it.level) + ": " + it.message);
@@ -718,6 +754,20 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     grant += "; background threads with the frame thread";
   const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name();
   say("camera " + cam_desc + "; " + stylus_desc + "; pedal " + pedal.name());
+  if (o.stylus != "none" || !o.device.empty()) {
+    if (comp_source == "pen")
+      say("stylus pose: the pen's, tracked in the camera's own frames (no latency compensation)");
+    else if (comp_latency_s > 0)
+      say("stylus pose drawn at each frame's exposure: capture time minus a camera latency of " +
+          std::to_string(static_cast<int>(std::lround(comp_latency_s * 1e3))) + " ms (" +
+          (comp_source == "measured" ? std::string("measured: the station's camera.latency_ms")
+           : comp_source == "option" ? std::string("--camera-latency-ms")
+                                     : std::string("assumed: not measured for this station; record it with "
+                                                   "`dentar calibrate --camera-latency-ms MS`")) +
+          ")");
+    else
+      say("stylus pose: the newest at each frame (latency compensation off)");
+  }
   {
     ar::TagDetectorOptions d = popt.tracker.detector;  // auto: the station's measured response
     if (const std::string note = ar::resolve_camera_response(d, st); !note.empty()) say("note: " + note);
@@ -917,6 +967,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   sum.frames_processed = processed;
   sum.frames_displayed = displayed;
   sum.gpu_frames = gpu_frames;
+  sum.compensation_latency_ms = comp_latency_s * 1e3;
+  sum.compensation_source = comp_source;
+  sum.frames_pose_at_exposure = comp_at_exposure;
+  sum.frames_pose_newest = comp_newest;
   sum.readback_px = readback_px;
   sum.cpu_blend_px = cpu_blend_px;
   sum.gl_frames_replaced = ring_stats[0];

@@ -46,7 +46,7 @@ Result<std::unique_ptr<Recorder>> Recorder::open(const fs::path& dir) {
   r->csv_.open(dir / "frames.csv");
   if (!r->csv_) return Error{(dir / "frames.csv").string() + ": cannot write"};
   r->csv_ << "frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,"
-             "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms,disc_start,disc_merged\n";
+             "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms,disc_start,disc_merged,pose_step\n";
   r->csv_.flush();
   r->log_.open(dir / "live.log");
   r->thread_ = std::thread([p = r.get()] { p->main(); });
@@ -132,7 +132,7 @@ void Recorder::main() {
          << state_name(r.pen_state) << ',' << pose(r.man_state, r.T_cam_man) << ','
          << pose(r.mir_state, r.T_cam_mtag) << ',' << (r.pedal ? 1 : 0) << ',' << std::setprecision(6) << r.force_N
          << ',' << (r.overlay ? 1 : 0) << ',' << r.track_ms << ',' << r.mesh_ms << ',' << r.composite_ms << ','
-         << (r.disc_start ? 1 : 0) << ',' << r.disc_merged << '\n';
+         << (r.disc_start ? 1 : 0) << ',' << r.disc_merged << ',' << std::setprecision(17) << r.pose_step << '\n';
     csv_.flush();
     ++written_;
   }

@@ -431,6 +431,7 @@ struct Recording {
   std::string frames_csv;
   std::vector<double> capture_s;            // per frame index
   std::vector<std::uint64_t> haptic_steps;  // per frame index: engine steps done when it was composited
+  std::vector<double> pose_step;            // per frame index: the drawn pose's step (-1: newest); may be empty
   std::string discovery;                    // "inline" or "async"
   // How the live run decoded its images and refined the mirror (absent in
   // recordings older than these fields: the defaults then, srgb and off).
@@ -478,6 +479,7 @@ Result<Recording> read_recording(const fs::path& dir) {
   if (!table) return Error{table.error()};
   rec.capture_s = std::move(table->capture_s);
   rec.haptic_steps = std::move(table->haptic_steps);
+  rec.pose_step = std::move(table->pose_step);
   rec.cues = std::move(table->cues);
   rec.cues_exact = table->cues_exact;
   return rec;
@@ -780,6 +782,12 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
       const std::uint64_t done = engine->stats().steps;
       if (want > done) engine->run_steps(want - done);
       snap = engine->snapshot();
+      // The live run drew the stylus pose of the frame's exposure (issue 24): the same one.
+      const auto fi = static_cast<std::size_t>(frame.index);
+      if (fi < rec.pose_step.size() && rec.pose_step[fi] >= 0) {
+        const auto h = engine->pose_history().at_index(rec.pose_step[fi]);
+        if (h.usable()) Eigen::Map<Eigen::Matrix4d>(snap.T_dev_sty) = h.T_dev_sty.matrix();
+      }
     }
     r.haptics_ms = ms_since(t0);
 

@@ -49,11 +49,11 @@ Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const
   };
   const int cf = col("frame"), ct = col("time_s"), ch = col("haptic_steps");
   if (cf < 0 || ct < 0 || ch < 0) return Error{name + ": line 1: needs the columns frame, time_s and haptic_steps"};
-  const int cs = col("disc_start"), cm = col("disc_merged");
+  const int cs = col("disc_start"), cm = col("disc_merged"), cp = col("pose_step");
   if (async && (cs < 0 || cm < 0))
     return Error{name + ": line 1: recording.json says discovery async, which needs the columns "
                  "disc_start and disc_merged (what the live tracker's search did per frame)"};
-  const int need = std::max({cf, ct, ch, async ? std::max(cs, cm) : 0});
+  const int need = std::max({cf, ct, ch, async ? std::max(cs, cm) : 0, cp});
   int lineno = 1;
   while (std::getline(in, line)) {
     ++lineno;
@@ -109,6 +109,12 @@ Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const
         t.cues_exact = false;
       }
       t.cues.push_back(cue);
+    }
+    if (cp >= 0) {
+      double ps = 0;
+      if (!parse_finite(at(cp), ps) || (ps < 0 && ps != -1) || ps > static_cast<double>(steps))
+        return bad(cp, "must be -1 or a step between 0 and the row's haptic_steps");
+      t.pose_step.push_back(ps);
     }
     t.capture_s.push_back(time_s);
     t.haptic_steps.push_back(steps);

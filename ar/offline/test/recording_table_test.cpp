@@ -89,5 +89,24 @@ TEST(RecordingTable, BadValuesNameLineColumnAndWhy) {
   EXPECT_EQ(r.error(), "f.csv: empty");
 }
 
+// Issue 24: the drawn stylus pose's step (dentar live's latency compensation), optional: older
+// recordings have no column; -1 = the newest pose; a step after the row's haptic_steps (a pose
+// the engine had not made yet) or a negative one is refused.
+TEST(RecordingTable, PoseStepIsOptionalAndBounded) {
+  std::istringstream in("frame,time_s,haptic_steps,pose_step\n0,0,10,-1\n1,0.033,43,9.25\n");
+  auto r = parse_recording_table(in, false, "p.csv");
+  ASSERT_TRUE(r) << r.error();
+  ASSERT_EQ(r->pose_step.size(), 2u);
+  EXPECT_EQ(r->pose_step[0], -1);
+  EXPECT_DOUBLE_EQ(r->pose_step[1], 9.25);
+  EXPECT_TRUE(parse("0,0,5.0,0,lost,1,-1\n")->pose_step.empty());
+  for (const char* row : {"0,0,10,10.5\n", "0,0,10,-0.5\n", "0,0,10,x\n"}) {
+    std::istringstream bad(std::string("frame,time_s,haptic_steps,pose_step\n") + row);
+    auto b = parse_recording_table(bad, false, "p.csv");
+    ASSERT_FALSE(b) << row;
+    EXPECT_NE(b.error().find("column pose_step"), std::string::npos) << b.error();
+  }
+}
+
 }  // namespace
 }  // namespace dentar::ar

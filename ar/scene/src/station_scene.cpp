@@ -584,6 +584,7 @@ std::string station_scene_to_json(const StationScene& s) {
     if (!cp.device.empty()) j["camera"]["device"] = cp.device;
   }
   if (!cp.device_id.empty()) j["camera"]["device_id"] = cp.device_id;
+  if (cp.latency_ms >= 0) j["camera"]["latency_ms"] = cp.latency_ms;
   if (!cp.response.kind.empty()) {
     const calibration::CameraResponseCurve& r = cp.response;
     ojson rj;
@@ -733,7 +734,7 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     }
     if (cam0.is_object() && cam0.contains("file")) {
       // A referenced camera file (OpenCV FileStorage or ROS camera_info YAML).
-      check_keys(cam0, "camera", {"file", "device_id", "response"});
+      check_keys(cam0, "camera", {"file", "device_id", "response", "latency_ms"});
       if (!cam0["file"].is_string() || cam0["file"].get<std::string>().empty())
         throw ParseError{"camera.file", "must be a non-empty file name"};
       cp.file = cam0["file"].get<std::string>();
@@ -756,6 +757,11 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
         throw ParseError{"camera.device_id", "must be a string of at most 256 characters"};
       cp.device_id = cam0["device_id"].get<std::string>();
       cam.erase("device_id");
+    }
+    if (cam0.is_object() && cam0.contains("latency_ms")) {
+      // Optional in version 4 (issue 24, session 12): absent = unknown (the assumed 33 ms).
+      cp.latency_ms = number(cam0["latency_ms"], "camera.latency_ms", 0, 1000);
+      cam.erase("latency_ms");
     }
     check_keys(cam, "camera",
                {"width", "height", "fx", "fy", "cx", "cy", "dist", "model", "rms_px", "std_devs",

@@ -219,6 +219,8 @@ TEST(StationScene, BadFieldsAreNamed) {
       {"/station_policy/check_threshold_mm", 50.0, "station_policy.check_threshold_mm"},
       {"/station_policy/health_divot", 20, "station_policy.health_divot"},
       {"/camera/device_id", 7, "camera.device_id"},
+      {"/camera/latency_ms", -5.0, "camera.latency_ms"},
+      {"/camera/latency_ms", "33", "camera.latency_ms"},
       {"/camera/fx", -3.0, "camera.fx"},
       {"/camera/dist", nlohmann::json::array({1, 2}), "camera.dist"},
       {"/tag_family", "tag25h9", "tag_family"},
@@ -258,6 +260,31 @@ TEST(StationScene, BadFieldsAreNamed) {
   auto f = read_station_scene("/nonexistent/station.json");
   ASSERT_FALSE(f.ok());
   EXPECT_NE(f.error().find("/nonexistent/station.json"), std::string::npos);
+}
+
+// The camera's latency (issue 24, session 12): optional in version 4, absent = unknown (the
+// frame path assumes kAssumedCameraLatency_ms); a measured value survives a round trip, in
+// embedded and in referenced-camera stations alike.
+TEST(StationScene, CameraLatencyIsOptionalAndRoundTrips) {
+  StationScene s = default_station_scene();
+  EXPECT_LT(s.camera_provenance.latency_ms, 0);
+  nlohmann::json j = nlohmann::json::parse(station_scene_to_json(s));
+  EXPECT_FALSE(j["camera"].contains("latency_ms"));  // unknown is not written
+  s.camera_provenance.latency_ms = 47.5;
+  j = nlohmann::json::parse(station_scene_to_json(s));
+  EXPECT_EQ(j["camera"]["latency_ms"].get<double>(), 47.5);
+  auto r = parse_station_scene(j.dump(), "lat.json");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->camera_provenance.latency_ms, 47.5);
+  // An older version-4 file without the field reads as unknown.
+  j["camera"].erase("latency_ms");
+  r = parse_station_scene(j.dump(), "old.json");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_LT(r->camera_provenance.latency_ms, 0);
+  j["camera"]["latency_ms"] = 2000;
+  r = parse_station_scene(j.dump(), "bad.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("camera.latency_ms"), std::string::npos) << r.error();
 }
 
 // Version 3: the hand-eye result with its uncertainty and date, the camera's identity and the

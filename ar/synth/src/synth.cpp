@@ -881,6 +881,7 @@ SynthGenerator::~SynthGenerator() {
 
 const StationScene& SynthGenerator::station() const { return impl_->station; }
 const SynthOptions& SynthGenerator::options() const { return impl_->opt; }
+const haptics::PoseHistory& SynthGenerator::haptic_history() const { return impl_->engine->pose_history(); }
 int SynthGenerator::frames_done() const { return impl_->frame; }
 
 Status SynthGenerator::finish() {

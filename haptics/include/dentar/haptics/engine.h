@@ -21,6 +21,7 @@
 #include "dentar/haptics/force_guard.h"
 #include "dentar/haptics/force_model.h"
 #include "dentar/haptics/guidance.h"
+#include "dentar/haptics/pose_history.h"
 #include "dentar/haptics/seqlock.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/haptics/timing.h"
@@ -117,6 +118,12 @@ class Engine {
   std::uint64_t run_steps(std::uint64_t n, double late_s = 0.0);
 
   HapticSnapshot snapshot() const { return snapshot_.load(); }
+  // The stylus poses of the last ~1 s, one per step (issue 24: the frame path draws the pose of
+  // a frame's exposure, not the newest one). Lock-free for readers; the haptic thread writes it
+  // without waiting. Times: CLOCK_MONOTONIC seconds (= steady_clock, ar::steady_now_s()) taken
+  // when the step read the device, while the thread runs; the device's own time_s under
+  // run_steps() (simulated time). A faulted step is stored invalid.
+  const PoseHistory& pose_history() const { return pose_history_; }
   // Copy of the statistics. While the thread runs only `steps` is filled
   // (the rest belongs to the haptic thread); call after stop() for all.
   // Other threads may call it between start() and stop(), not concurrently
@@ -131,8 +138,9 @@ class Engine {
   Engine(const EngineConfig& cfg, HapticDevice& device, volume::VoxelVolume& volume,
          const volume::BurSamples& bur, SessionLogWriter* log,
          std::unique_ptr<ForceModel> model);
-  // One haptic step; false when the device source has ended.
-  bool step(double late_s) noexcept;
+  // One haptic step; false when the device source has ended. `in_thread`: the real-time thread
+  // (the pose history is stamped with CLOCK_MONOTONIC, else with the device's time).
+  bool step(double late_s, bool in_thread) noexcept;
   void thread_main();
 
   EngineConfig cfg_;
@@ -157,6 +165,7 @@ class Engine {
   EngineStats stats_;
 
   SeqLock<HapticSnapshot> snapshot_;
+  PoseHistory pose_history_;
   std::atomic<std::uint64_t> steps_published_{0};
   std::atomic<bool> running_{false}, stop_{false}, finished_{false};
   std::atomic<bool> rt_granted_{false}, cpu_pinned_{false};

@@ -45,6 +45,13 @@ struct LiveOptions {
   // (the printed pen tag), "replay:FILE.dlog" (a session log in real time),
   // "none" (no bur).
   std::string stylus = "sim";
+  // Latency compensation (issue 24): each frame is drawn with the stylus pose of its exposure,
+  // sampled from the engine's 1 kHz pose history at Frame::steady_s minus the camera's latency
+  // (mid-exposure to grab), ms. < 0: the station's camera.latency_ms, or
+  // ar::kAssumedCameraLatency_ms (33) when the station has none measured; 0: no compensation
+  // (the newest pose, as before). Not applied to --stylus pen: its pose comes from the camera
+  // image itself.
+  double camera_latency_ms = -1;
   // A real haptic device instead of the stylus stand-ins: a kind of
   // haptics::open_haptic_device ("touch", "omega", "hd", "dhd", ...); empty =
   // use `stylus`. device_name: its configuration name or serial ("" = first).
@@ -111,6 +118,13 @@ struct LiveSummary {
   std::string stop_reason;
   // Capture (Frame::steady_s) to buffer swap, per frame on its first display, ms.
   double latency_p50_ms = 0, latency_p99_ms = 0, latency_max_ms = 0;
+  // Latency compensation (LiveOptions::camera_latency_ms): the latency used, ms; where it came
+  // from ("measured" (the station file), "option", "assumed", "off", "pen"); frames drawn with the
+  // pose of their exposure, and frames that fell back to the newest pose (the history had no
+  // usable pose at the exposure: the engine faulted, or had not run that long).
+  double compensation_latency_ms = 0;
+  std::string compensation_source = "off";
+  std::int64_t frames_pose_at_exposure = 0, frames_pose_newest = 0;
   double process_p50_ms = 0, process_p99_ms = 0;
   std::uint64_t engine_steps = 0, missed_deadlines = 0, watchdog_trips = 0;
   double step_p50_us = 0, step_p99_us = 0, step_p999_us = 0, step_max_us = 0;

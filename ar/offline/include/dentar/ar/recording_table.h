@@ -18,6 +18,9 @@ struct RecordingTable {
   std::vector<double> capture_s;            // per frame index, s, finite, non-decreasing
   std::vector<std::uint64_t> haptic_steps;  // per frame index, non-decreasing
   std::vector<DiscoveryCue> cues;           // discovery "async" only, per frame index
+  // Per frame index: the drawn stylus pose's step (fractional, at most haptic_steps; -1 = the
+  // newest pose). Empty for recordings without the column (before issue 24's compensation).
+  std::vector<double> pose_step;
   bool cues_exact = true;  // false: a merge named a frame whose search the table lacks (dropped)
   bool truncated = false;  // the last row was cut short (a crash): the rows before it are kept
 };

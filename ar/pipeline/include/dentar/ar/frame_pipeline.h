@@ -131,6 +131,10 @@ struct FrameRecord {
   double force_N = 0;
   double removed_mm3[8] = {};
   Eigen::Isometry3d T_dev_sty = Eigen::Isometry3d::Identity();
+  // The drawn stylus pose's place in the engine's steps (haptics::PoseHistory::Sample::index,
+  // fractional) when the driver drew the pose of the frame's exposure (dentar live's latency
+  // compensation, issue 24); -1: the snapshot's newest pose. Set by the driver, not process().
+  double pose_step = -1;
   // Stage times, ms.
   double track_ms = 0, detect_ms = 0, pose_ms = 0, filter_ms = 0, mesh_ms = 0, composite_ms = 0;
   int mesh_chunks = 0;

@@ -121,10 +121,21 @@ struct CameraProvenance {
   // v4: the camera's response curve as measured by `dentar calibrate camera` (issue 24);
   // kind empty = unknown (the tracker then refits no edges in linear light and says so).
   calibration::CameraResponseCurve response;
+  // v4, optional (issue 24, session 12): the camera's latency, ms: from the middle of a frame's
+  // exposure to the moment the frame source stamps it (ar::Frame::steady_s, the grab), as
+  // measured at this station (`dentar calibrate --camera-latency-ms MS` records it). < 0 =
+  // unknown: the frame path then assumes kAssumedCameraLatency_ms and says so.
+  double latency_ms = -1;
   // Non-empty when the station references a camera file ({"file": "cam.yaml"}) instead of
   // embedding the numbers: the path as written (relative to the station file's directory).
   std::string file;
 };
+
+// The camera latency assumed when a station has none measured (issue 24): one frame period at
+// 30 fps, the least a UVC camera's exposure -> readout -> USB -> grab takes (mid-exposure to
+// grab: half an exposure + readout + transfer). A guess, not a measurement: measure it at the
+// station (docs/formats.md, camera.latency_ms).
+inline constexpr double kAssumedCameraLatency_ms = 33.0;
 
 // One step of the station calibration as recorded in the file ("calibration_report").
 struct CalibrationStepReport {

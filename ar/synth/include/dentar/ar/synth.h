@@ -31,6 +31,10 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/volume/result.h"
 
+namespace dentar::haptics {
+class PoseHistory;
+}
+
 namespace dentar::ar {
 
 // The rendering model's version, written to synth.json as "generator".
@@ -253,6 +257,10 @@ class SynthGenerator {
   // The station as rendered (camera actually used).
   const StationScene& station() const;
   const SynthOptions& options() const;
+  // The scripted stylus's poses of the last ~1 s, one per 1 kHz haptic step, stamped with the
+  // footage's time (FrameTruth::time_s's clock): what a live station's engine keeps for drawing
+  // a frame with the pose of its exposure (issue 24). Valid while the generator lives.
+  const haptics::PoseHistory& haptic_history() const;
 
   // The tooth silhouette alone (CV_8UC1, 255 inside) at a given pose, drawn
   // by the same tooth renderer the masks use (tests).
