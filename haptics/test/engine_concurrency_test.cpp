@@ -13,37 +13,25 @@
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/simulated_device.h"
 #include "dentar/volume/procedural_tooth.h"
+#include "scripted_rig.h"
 #include "testutil.h"
 
 namespace dentar::haptics {
 namespace {
 
 TEST(EngineConcurrency, HapticThreadLoggerAndSnapshotReadersRunTogether) {
-  volume::MolarParams mp;
-  mp.voxel_mm = 0.2;
-  volume::VoxelVolume tooth = std::move(volume::make_molar(mp)).value();
-  const volume::VoxelVolume start = tooth.clone();
-  auto bur = std::move(volume::sample_bur(volume::BurParams::capsule(0.5, 3.0), 2000)).value();
-  const Station st = default_station();
-  HandParams hand;
-  hand.stiffness_N_per_m = kFingerRestStiffness_N_per_m;
-  auto dev = std::move(SimulatedDevice::create(to_hand_script(tip_script("access", 2.5, 1.0), st),
-                                               DeviceLimits{}, hand))
-                 .value();
-  EngineConfig cfg;
-  cfg.T_tooth_dev = st.T_tooth_dev;
-  cfg.T_sty_tip = st.T_sty_tip;
-  cfg.try_realtime = false;
-  cfg.watchdog_missed_deadlines = 1000000;  // sanitizer slowness is not a fault here
+  test::ScriptedRig rig(0.2, 2000);
+  const volume::VoxelVolume start = rig.tooth.clone();
+  rig.cfg.watchdog_missed_deadlines = 1000000;  // sanitizer slowness is not a fault here
   const auto dir = test::temp_dir("engine_tsan");
   const std::string path = (dir / "s.dlog").string();
   std::string header;
   {
-    auto probe = std::move(Engine::create(cfg, *dev, tooth, bur)).value();
+    auto probe = rig.engine();
     header = probe->header_json(R"({"kind":"molar","voxel_mm":0.2})");
   }
   auto log = std::move(SessionLogWriter::open(path, header)).value();
-  auto engine = std::move(Engine::create(cfg, *dev, tooth, bur, log.get())).value();
+  auto engine = rig.engine(log.get());
 
   std::atomic<bool> stop{false};
   std::uint64_t reads = 0, last_step = 0;
@@ -78,7 +66,7 @@ TEST(EngineConcurrency, HapticThreadLoggerAndSnapshotReadersRunTogether) {
   volume::VoxelVolume fresh = start.clone();
   auto r = replay_session(*rec, fresh);
   ASSERT_TRUE(r.ok()) << r.error();
-  EXPECT_EQ(r->volume_hash, tooth.content_hash());
+  EXPECT_EQ(r->volume_hash, rig.tooth.content_hash());
 }
 
 }  // namespace

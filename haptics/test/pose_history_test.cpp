@@ -16,6 +16,7 @@
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/simulated_device.h"
 #include "dentar/volume/procedural_tooth.h"
+#include "scripted_rig.h"
 
 namespace dentar::haptics {
 namespace {
@@ -176,21 +177,8 @@ TEST(PoseHistory, ConcurrentReadersSeeWholePosesAndNeverHoldTheWriterUp) {
 
 // The engine keeps one pose per step: under run_steps, stamped with the device's time.
 TEST(PoseHistory, EngineStoresEveryStepsPose) {
-  volume::MolarParams mp;
-  mp.voxel_mm = 0.2;
-  volume::VoxelVolume tooth = std::move(volume::make_molar(mp)).value();
-  auto bur = std::move(volume::sample_bur(volume::BurParams::capsule(0.5, 3.0), 500)).value();
-  const Station st = default_station();
-  HandParams hand;
-  hand.stiffness_N_per_m = kFingerRestStiffness_N_per_m;
-  auto dev = std::move(SimulatedDevice::create(to_hand_script(tip_script("access", 2.5, 1.0), st),
-                                               DeviceLimits{}, hand))
-                 .value();
-  EngineConfig cfg;
-  cfg.T_tooth_dev = st.T_tooth_dev;
-  cfg.T_sty_tip = st.T_sty_tip;
-  cfg.try_realtime = false;
-  auto engine = std::move(Engine::create(cfg, *dev, tooth, bur)).value();
+  test::ScriptedRig rig;
+  auto engine = rig.engine();
   ASSERT_EQ(engine->run_steps(300), 300u);
   const HapticSnapshot snap = engine->snapshot();
   EXPECT_EQ(engine->pose_history().pushes(), 300u);
@@ -208,22 +196,9 @@ TEST(PoseHistory, EngineStoresEveryStepsPose) {
 // frames' capture times (std::chrono::steady_clock, ar::steady_now_s()): the newest and the
 // oldest stored pose lie between the steady clock's readings before start() and after stop().
 TEST(PoseHistory, EngineThreadStampsWithTheSteadyClock) {
-  volume::MolarParams mp;
-  mp.voxel_mm = 0.2;
-  volume::VoxelVolume tooth = std::move(volume::make_molar(mp)).value();
-  auto bur = std::move(volume::sample_bur(volume::BurParams::capsule(0.5, 3.0), 500)).value();
-  const Station st = default_station();
-  HandParams hand;
-  hand.stiffness_N_per_m = kFingerRestStiffness_N_per_m;
-  auto dev = std::move(SimulatedDevice::create(to_hand_script(tip_script("access", 2.5, 1.0), st),
-                                               DeviceLimits{}, hand))
-                 .value();
-  EngineConfig cfg;
-  cfg.T_tooth_dev = st.T_tooth_dev;
-  cfg.T_sty_tip = st.T_sty_tip;
-  cfg.try_realtime = false;
-  cfg.watchdog_missed_deadlines = 1000000;
-  auto engine = std::move(Engine::create(cfg, *dev, tooth, bur)).value();
+  test::ScriptedRig rig;
+  rig.cfg.watchdog_missed_deadlines = 1000000;
+  auto engine = rig.engine();
   auto steady = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
   const double before = steady();
   ASSERT_TRUE(engine->start().ok());
