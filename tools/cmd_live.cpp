@@ -7,6 +7,8 @@
 #include "commands.h"
 #include "db_util.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/haptics/replay.h"
+#include "dentar/haptics/session_log.h"
 #include "dentar/live/live_app.h"
 #include "session_score.h"
 #include "sound_cli.h"
@@ -193,6 +195,22 @@ void add_live(CLI::App& app, int& exit_code) {
           exit_code = 2;
           return;
         }
+      }
+    }
+    // An exercise for another tooth than the replayed log drilled is bad input (exit 2).
+    if (!o.exercise.empty() && o.stylus.rfind("replay:", 0) == 0 && o.device.empty()) {
+      const std::string path = o.stylus.substr(7);
+      auto log = haptics::read_session_log(path);
+      auto setup = log ? haptics::parse_session_header(log->header_json) : Result<haptics::SessionSetup>(Error{log.error()});
+      if (!setup) {
+        print_error("live", "--stylus " + o.stylus + ": " + setup.error());
+        exit_code = 2;
+        return;
+      }
+      if (auto t = live::live_tooth_json(o.exercise, setup->tooth_json, 0); !t) {
+        print_error("live", "--stylus " + o.stylus + ": " + t.error());
+        exit_code = 2;
+        return;
       }
     }
     if (!o.record_dir.empty() && !c->no_score) remove_old_score(o.record_dir);
