@@ -46,6 +46,7 @@
 #include "dentar/live/pen_device.h"
 #include "dentar/live/station_health.h"
 #include "dentar/training/exercise.h"
+#include "dentar/training/hand_script.h"
 #include "recorder.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/material.h"
@@ -193,15 +194,23 @@ std::string hud_drill_line(bool drill_on, bool in_contact, const std::string& pe
   return s;
 }
 
+namespace {
+// The exercise named as the drivers name it (tools/session_score.cpp check_exercise).
+Result<training::Exercise> named_exercise(const std::string& exercise) {
+  auto ex = exercise.find(".json") != std::string::npos ? training::load_exercise(exercise)
+                                                        : training::load_builtin_exercise(exercise);
+  if (!ex) return Error{"--exercise " + exercise + ": " + ex.error()};
+  return ex;
+}
+}  // namespace
+
 Result<std::string> live_tooth_json(const std::string& exercise, const std::string& replayed_tooth_json,
                                     double station_voxel_mm) {
   auto kind_of = [](const nlohmann::json& j) { return j.is_object() ? j.value("kind", std::string()) : std::string(); };
   std::string ex_kind, ex_name = exercise;
   if (!exercise.empty()) {
-    // The exercise named as the drivers name it (tools/session_score.cpp check_exercise).
-    auto ex = exercise.find(".json") != std::string::npos ? training::load_exercise(exercise)
-                                                          : training::load_builtin_exercise(exercise);
-    if (!ex) return Error{"--exercise " + exercise + ": " + ex.error()};
+    auto ex = named_exercise(exercise);
+    if (!ex) return Error{ex.error()};
     ex_kind = kind_of(nlohmann::json::parse(ex->tooth_json, nullptr, false));
     ex_name = ex->name;
   }
@@ -372,11 +381,20 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       haptics::HandParams hand;
       hand.stiffness_N_per_m = haptics::kFingerRestStiffness_N_per_m;
       const haptics::Station hs{cfg.T_tooth_dev, cfg.T_sty_tip};
-      // The simulated hand's scripted access preparation is written for the molar's occlusal
-      // surface (haptics/scripts.h); on the incisor it works the same tooth-frame path, which
-      // reaches the incisal edge (the crown centre is the origin of both tooth frames).
-      auto d = haptics::SimulatedDevice::create(haptics::to_hand_script(haptics::tip_script("access", 3.0, 0), hs),
-                                                limits, hand);
+      // The simulated hand: without an exercise the molar's scripted access preparation
+      // (haptics/scripts.h, as before); with one, an expert session of that exercise's steps
+      // on its tooth, as the cohort generator scripts it (training/hand_script.h).
+      std::vector<haptics::TipWaypoint> tips;
+      if (o.exercise.empty()) {
+        tips = haptics::tip_script("access", 3.0, 0);
+      } else {
+        auto ex = named_exercise(o.exercise);
+        if (!ex) return Error{"live: " + ex.error()};
+        auto t = training::expert_tip_script(*ex, *vol);
+        if (!t) return Error{"live: simulated hand: " + t.error()};
+        tips = std::move(*t);
+      }
+      auto d = haptics::SimulatedDevice::create(haptics::to_hand_script(tips, hs), limits, hand);
       if (!d) return Error{"live: simulated hand: " + d.error()};
       device = std::move(*d);
       pedal_from_device = true;
