@@ -94,8 +94,9 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_flag("--list-cameras", c->list, "list the V4L2 cameras and their modes, then exit");
   sub->add_flag("--quiet", c->o.quiet, "no progress lines");
   sub->add_option("--exercise", c->o.exercise,
-                  "exercise of the session (recorded in recording.json; with --record the session is scored\n"
-                  "against it into DIR/score.json and score.html): a built-in name or a JSON file; default by the tooth");
+                  "exercise of the session: its tooth is drilled (incisor_partial_crown: the incisor) and\n"
+                  "--stylus sim works its steps; recorded in recording.json; with --record the session is scored\n"
+                  "against it into DIR/score.json and score.html; a built-in name or a JSON file; default: the molar");
   sub->add_flag("--no-score", c->no_score, "with --record: do not score the session");
   add_db_options(sub, c->db, false);
   add_sound_options(sub, c->sound, true);
