@@ -7,6 +7,8 @@
 #include "commands.h"
 #include "db_util.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/haptics/replay.h"
+#include "dentar/haptics/session_log.h"
 #include "dentar/live/live_app.h"
 #include "session_score.h"
 #include "sound_cli.h"
@@ -97,8 +99,9 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_flag("--list-cameras", c->list, "list the V4L2 cameras and their modes, then exit");
   sub->add_flag("--quiet", c->o.quiet, "no progress lines");
   sub->add_option("--exercise", c->o.exercise,
-                  "exercise of the session (recorded in recording.json; with --record the session is scored\n"
-                  "against it into DIR/score.json and score.html): a built-in name or a JSON file; default by the tooth");
+                  "exercise of the session: its tooth is drilled (incisor_partial_crown: the incisor) and\n"
+                  "--stylus sim works its steps; recorded in recording.json; with --record the session is scored\n"
+                  "against it into DIR/score.json and score.html; a built-in name or a JSON file; default: the molar");
   sub->add_flag("--no-score", c->no_score, "with --record: do not score the session");
   add_db_options(sub, c->db, false);
   add_sound_options(sub, c->sound, true);
@@ -198,6 +201,22 @@ void add_live(CLI::App& app, int& exit_code) {
           exit_code = 2;
           return;
         }
+      }
+    }
+    // An exercise for another tooth than the replayed log drilled is bad input (exit 2).
+    if (!o.exercise.empty() && o.stylus.rfind("replay:", 0) == 0 && o.device.empty()) {
+      const std::string path = o.stylus.substr(7);
+      auto log = haptics::read_session_log(path);
+      auto setup = log ? haptics::parse_session_header(log->header_json) : Result<haptics::SessionSetup>(Error{log.error()});
+      if (!setup) {
+        print_error("live", "--stylus " + o.stylus + ": " + setup.error());
+        exit_code = 2;
+        return;
+      }
+      if (auto t = live::live_tooth_json(o.exercise, setup->tooth_json, 0); !t) {
+        print_error("live", "--stylus " + o.stylus + ": " + t.error());
+        exit_code = 2;
+        return;
       }
     }
     if (!o.record_dir.empty() && !c->no_score) remove_old_score(o.record_dir);

@@ -45,6 +45,8 @@
 #include "dentar/live/hud_window.h"
 #include "dentar/live/pen_device.h"
 #include "dentar/live/station_health.h"
+#include "dentar/training/exercise.h"
+#include "dentar/training/hand_script.h"
 #include "recorder.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/material.h"
@@ -197,6 +199,40 @@ std::string hud_drill_line(bool drill_on, bool in_contact, const std::string& pe
   return s;
 }
 
+namespace {
+// The exercise named as the drivers name it (tools/session_score.cpp check_exercise).
+Result<training::Exercise> named_exercise(const std::string& exercise) {
+  auto ex = exercise.find(".json") != std::string::npos ? training::load_exercise(exercise)
+                                                        : training::load_builtin_exercise(exercise);
+  if (!ex) return Error{"--exercise " + exercise + ": " + ex.error()};
+  return ex;
+}
+}  // namespace
+
+Result<std::string> live_tooth_json(const std::string& exercise, const std::string& replayed_tooth_json,
+                                    double station_voxel_mm) {
+  auto kind_of = [](const nlohmann::json& j) { return j.is_object() ? j.value("kind", std::string()) : std::string(); };
+  std::string ex_kind, ex_name = exercise;
+  if (!exercise.empty()) {
+    auto ex = named_exercise(exercise);
+    if (!ex) return Error{ex.error()};
+    ex_kind = kind_of(nlohmann::json::parse(ex->tooth_json, nullptr, false));
+    ex_name = ex->name;
+  }
+  if (!replayed_tooth_json.empty()) {
+    const std::string log_kind = kind_of(nlohmann::json::parse(replayed_tooth_json, nullptr, false));
+    if (!ex_kind.empty() && ex_kind != log_kind)
+      return Error{"--exercise " + exercise + ": exercise '" + ex_name + "' is for a" +
+                   (ex_kind == "incisor" ? "n " : " ") + ex_kind + ", but the replayed session log's tooth is " +
+                   replayed_tooth_json + ": replay a session of that exercise, or give an exercise for the log's tooth "
+                   "(or none: the log's tooth is drilled)"};
+    return replayed_tooth_json;
+  }
+  // nlohmann::json keeps keys sorted: a molar here dumps to the bytes earlier live runs wrote.
+  nlohmann::json d = {{"kind", ex_kind.empty() ? "molar" : ex_kind}, {"voxel_mm", station_voxel_mm}};
+  return d.dump();
+}
+
 Result<LiveSummary> run_live(const LiveOptions& o) {
   if (auto v = o.validate(); !v.empty()) return Error{"live: " + v};
   // SIGINT/SIGTERM from here on end the run cleanly (zero force, logs,
@@ -291,23 +327,31 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cfg.model = o.model;
   cfg.T_tooth_dev = st.calibration.T_tooth_dev();
   cfg.T_sty_tip = st.calibration.T_sty_tip;
-  nlohmann::json tooth_desc = {{"kind", "molar"}, {"voxel_mm", st.tooth_voxel_m * 1e3}};
+  std::string tooth_desc;  // the session header's "tooth" (live_tooth_json)
   haptics::ManualPedal key_pedal;
   bool pedal_from_device = false;
-  if (!o.device.empty()) {
-    volume::MolarParams mp;
-    mp.voxel_mm = st.tooth_voxel_m * 1e3;
-    auto t = volume::make_molar(mp);
-    if (!t) return Error{"live: tooth: " + t.error()};
+  // The tooth named by tooth_desc, built by training::make_tooth (as the scorer and the
+  // cohort generator build it).
+  auto build_tooth = [&]() -> Status {
+    auto t = training::make_tooth(tooth_desc);
+    if (!t) return Error{"live: tooth " + tooth_desc + ": " + t.error()};
     vol.emplace(std::move(*t));
+    return {};
+  };
+  if (!o.device.empty()) {
+    auto td = live_tooth_json(o.exercise, "", st.tooth_voxel_m * 1e3);
+    if (!td) return Error{"live: " + td.error()};
+    tooth_desc = *td;
+    if (auto b = build_tooth(); !b) return Error{b.error()};
     haptics::DeviceOpenOptions dopt;
     dopt.name_or_serial = o.device_name;
     auto d = haptics::open_haptic_device(o.device, dopt);
     if (!d) return Error{"live: --device " + o.device + ": " + d.error()};
     device = std::move(*d);
     pedal_from_device = false;
-    // Station health 4: can this device's stylus reach the crown from where the station puts it?
-    auto box = crown_box_tooth(st);
+    // Station health 4: can this device's stylus reach the crown of the tooth drilled from where
+    // the station puts it?
+    auto box = crown_box_tooth(tooth_desc);
     if (!box) return Error{"live: " + box.error()};
     const HealthItem reach = check_station_reach(st, device->limits(), device->name(), *box).item;
     health.set(reach);
@@ -318,15 +362,13 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     if (!log) return Error{"live: --stylus: " + log.error()};
     auto setup = haptics::parse_session_header(log->header_json);
     if (!setup) return Error{"live: --stylus: " + path + ": " + setup.error()};
-    auto j = nlohmann::json::parse(setup->tooth_json, nullptr, false);
-    if (j.is_discarded() || j.value("kind", "") != "molar" || !j.contains("voxel_mm"))
-      return Error{"live: --stylus: " + path + ": header field tooth is not a procedural molar"};
-    tooth_desc = j;
-    volume::MolarParams mp;
-    mp.voxel_mm = j["voxel_mm"].get<double>();
-    auto t = volume::make_molar(mp);
-    if (!t) return Error{"live: tooth: " + t.error()};
-    vol.emplace(std::move(*t));
+    auto td = live_tooth_json(o.exercise, setup->tooth_json, st.tooth_voxel_m * 1e3);
+    if (!td) return Error{"live: --stylus " + o.stylus + ": " + td.error()};
+    tooth_desc = *td;
+    if (auto t = training::make_tooth(tooth_desc); !t)
+      return Error{"live: --stylus: " + path + ": header field tooth: " + t.error()};
+    else
+      vol.emplace(std::move(*t));
     if (vol->content_hash() != setup->volume_hash_start)
       return Error{"live: --stylus: " + path + ": the rebuilt tooth does not match the log's volume_hash_start"};
     bur_params = setup->bur;
@@ -335,18 +377,29 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     device = std::make_unique<haptics::ReplayDevice>(std::move(log->records), setup->limits);
     pedal_from_device = true;
   } else {
-    volume::MolarParams mp;
-    mp.voxel_mm = st.tooth_voxel_m * 1e3;
-    auto t = volume::make_molar(mp);
-    if (!t) return Error{"live: tooth: " + t.error()};
-    vol.emplace(std::move(*t));
+    auto td = live_tooth_json(o.exercise, "", st.tooth_voxel_m * 1e3);
+    if (!td) return Error{"live: " + td.error()};
+    tooth_desc = *td;
+    if (auto b = build_tooth(); !b) return Error{b.error()};
     haptics::DeviceLimits limits;
     if (o.stylus == "sim" || o.stylus == "none") {
       haptics::HandParams hand;
       hand.stiffness_N_per_m = haptics::kFingerRestStiffness_N_per_m;
       const haptics::Station hs{cfg.T_tooth_dev, cfg.T_sty_tip};
-      auto d = haptics::SimulatedDevice::create(haptics::to_hand_script(haptics::tip_script("access", 3.0, 0), hs),
-                                                limits, hand);
+      // The simulated hand: without an exercise the molar's scripted access preparation
+      // (haptics/scripts.h, as before); with one, an expert session of that exercise's steps
+      // on its tooth, as the cohort generator scripts it (training/hand_script.h).
+      std::vector<haptics::TipWaypoint> tips;
+      if (o.exercise.empty()) {
+        tips = haptics::tip_script("access", 3.0, 0);
+      } else {
+        auto ex = named_exercise(o.exercise);
+        if (!ex) return Error{"live: " + ex.error()};
+        auto t = training::expert_tip_script(*ex, *vol);
+        if (!t) return Error{"live: simulated hand: " + t.error()};
+        tips = std::move(*t);
+      }
+      auto d = haptics::SimulatedDevice::create(haptics::to_hand_script(tips, hs), limits, hand);
       if (!d) return Error{"live: simulated hand: " + d.error()};
       device = std::move(*d);
       pedal_from_device = true;
@@ -453,7 +506,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   {
     auto probe = haptics::Engine::create(cfg, engine_device, *vol, *bur, nullptr);
     if (!probe) return Error{"live: engine: " + probe.error()};
-    header = (*probe)->header_json(tooth_desc.dump());
+    header = (*probe)->header_json(tooth_desc);
   }
   if (recorder) {
     auto w = haptics::SessionLogWriter::open((rdir / "session.dlog").string(), header);

@@ -6,10 +6,13 @@
 #include <cstdio>
 #include <ctime>
 #include <iomanip>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "dentar/ar/bundle_pose.h"
 #include "dentar/ar/camera_model.h"
+#include "dentar/training/exercise.h"
+#include "dentar/volume/procedural_incisor.h"
 #include "dentar/volume/procedural_tooth.h"
 
 namespace dentar::live {
@@ -368,8 +371,19 @@ namespace dentar::live {
 Result<Eigen::AlignedBox3d> crown_box_tooth(const ar::StationScene& st) {
   volume::MolarParams mp;
   mp.voxel_mm = 1e3 * st.tooth_voxel_m;
-  auto tooth = volume::make_molar(mp);
-  if (!tooth) return Error{"tooth (procedural molar, voxel " + mm(st.tooth_voxel_m, 3) + " mm): " + tooth.error()};
+  return crown_box_tooth(nlohmann::json{{"kind", "molar"}, {"voxel_mm", mp.voxel_mm}}.dump());
+}
+
+Result<Eigen::AlignedBox3d> crown_box_tooth(const std::string& tooth_json) {
+  auto j = nlohmann::json::parse(tooth_json, nullptr, false);
+  const std::string kind = j.is_object() ? j.value("kind", std::string()) : std::string();
+  // The crown's height above the cervical line, from the tooth's own parameters.
+  double crown_mm = 0;
+  if (kind == "molar") crown_mm = volume::MolarParams{}.crown_height_mm;
+  else if (kind == "incisor") crown_mm = volume::IncisorParams{}.crown_length_mm;
+  else return Error{"tooth " + tooth_json + ": no crown height known for this kind (molar, incisor)"};
+  auto tooth = training::make_tooth(tooth_json);
+  if (!tooth) return Error{"tooth " + tooth_json + ": " + tooth.error()};
   Eigen::AlignedBox3d box;
   const volume::VoxelVolume& v = *tooth;
   for (int k = 0; k < v.dims().z(); ++k)
@@ -377,8 +391,8 @@ Result<Eigen::AlignedBox3d> crown_box_tooth(const ar::StationScene& st) {
       for (int i = 0; i < v.dims().x(); ++i)
         if (v.density(i, j, k) > 127)
           box.extend(Eigen::Vector3d(v.origin() + v.spacing().cwiseProduct(Eigen::Vector3d(i, j, k))));
-  if (box.isEmpty()) return Error{"tooth (procedural molar): no solid voxel"};
-  box.min().z() = std::max(box.min().z(), box.max().z() - 1e-3 * mp.crown_height_mm);
+  if (box.isEmpty()) return Error{"tooth " + tooth_json + ": no solid voxel"};
+  box.min().z() = std::max(box.min().z(), box.max().z() - 1e-3 * crown_mm);
   return box;
 }
 

@@ -26,6 +26,36 @@ TEST(LiveOptions, FrameLimitMustNotBeNegative) {
   EXPECT_NE(o.validate().find("frames = -1"), std::string::npos) << o.validate();
 }
 
+// The tooth a live run drills: the molar (the bytes every earlier run wrote in its header)
+// without an exercise or with a molar exercise, the incisor for the incisor's exercise, both
+// at the station's voxel size; a replayed log's own tooth, refused under an exercise for another.
+TEST(LiveTooth, FollowsTheExerciseAndTheReplayedLog) {
+  auto t = live_tooth_json("", "", 0.1);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_EQ(*t, R"({"kind":"molar","voxel_mm":0.1})");
+  t = live_tooth_json("molar_access_opening", "", 0.1);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_EQ(*t, R"({"kind":"molar","voxel_mm":0.1})");
+  t = live_tooth_json("incisor_partial_crown", "", 0.15);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_EQ(*t, R"({"kind":"incisor","voxel_mm":0.15})");
+  const std::string log_incisor = R"({"kind":"incisor","voxel_mm":0.2})";
+  t = live_tooth_json("", log_incisor, 0.1);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_EQ(*t, log_incisor);
+  t = live_tooth_json("incisor_partial_crown", log_incisor, 0.1);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_EQ(*t, log_incisor);
+  t = live_tooth_json("molar_class1_cavity", log_incisor, 0.1);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("molar_class1_cavity"), std::string::npos) << t.error();
+  EXPECT_NE(t.error().find("is for a molar"), std::string::npos) << t.error();
+  EXPECT_NE(t.error().find(log_incisor), std::string::npos) << t.error();
+  t = live_tooth_json("no_such_exercise", "", 0.1);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("--exercise no_such_exercise"), std::string::npos) << t.error();
+}
+
 TEST(HudDrillLine, DrillAndPedalAgreeOrTheLineSaysWhy) {
   // The pedal drives the drill: the two agree, nothing to explain.
   EXPECT_EQ(hud_drill_line(true, false, "pressed", true, false, "pen"), "drill: ON   pedal: pressed");

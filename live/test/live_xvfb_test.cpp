@@ -21,6 +21,8 @@
 
 #include "dentar/ar/apriltags.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/haptics/replay.h"
+#include "dentar/haptics/session_log.h"
 #include "tag_drawing.h"
 #include "testutil.h"
 #include "xvfb_util.h"
@@ -512,6 +514,60 @@ TEST(LiveCli, MissingCameraExplains) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--camera-response"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("gamma22"), std::string::npos) << r.out;
+}
+
+// An exercise names the tooth drilled (issue: `--exercise incisor_partial_crown` used to drill
+// a molar and then refuse to score): the simulated hand works the exercise's steps on the
+// incisor, the session header names it, the session scores as the incisor, and the recording
+// replays to the same cut on a rebuilt incisor.
+TEST(LiveXvfb, ExerciseChoosesTheToothAndTheRecordingReplays) {
+  REQUIRE_XVFB();
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_incisor");
+  const fs::path rec = t / "rec", off = t / "off";
+  auto r = run_command(xvfb(kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
+                            (c / "station.json").string() + " --stylus sim --exercise incisor_partial_crown --record " +
+                            rec.string() + " --no-hud --quiet --loop --seconds 4 --summary " + (t / "live.json").string() +
+                            " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  // Sized in seconds, not frames: the engine runs in real time, and the simulated hand's expert
+  // script of the exercise reaches the incisor's labial surface after about 2 s.
+  const auto live_sum = read_json(t / "live.json");
+  EXPECT_GT(live_sum["removed_mm3"]["enamel"].get<double>(), 0.0) << live_sum.dump(2);
+  // The session header names the incisor at the station's voxel size.
+  auto log = dentar::haptics::read_session_log((rec / "session.dlog").string());
+  ASSERT_TRUE(log.ok()) << log.error();
+  auto setup = dentar::haptics::parse_session_header(log->header_json);
+  ASSERT_TRUE(setup.ok()) << setup.error();
+  const auto tooth = nlohmann::json::parse(setup->tooth_json);
+  EXPECT_EQ(tooth["kind"], "incisor") << setup->tooth_json;
+  EXPECT_TRUE(tooth["voxel_mm"].is_number()) << setup->tooth_json;
+  // Scored as the incisor by the run itself (exit 0 above; a failure to score is only a warning).
+  EXPECT_NE(r.out.find("(incisor_partial_crown)"), std::string::npos) << r.out;
+  ASSERT_TRUE(fs::exists(rec / "score.json")) << r.out;
+  EXPECT_EQ(read_json(rec / "score.json")["exercise"]["name"], "incisor_partial_crown") << r.out;
+  EXPECT_GT(read_json(rec / "score.json")["outcome"]["removed_total_mm3"].get<double>(), 0.0);
+  // The replay rebuilds the incisor from the header (volume_hash_start checked), ends on the
+  // same cut bit for bit, and scores it as the incisor again (by the recorded exercise).
+  r = run_command(kBin + " offline --footage " + rec.string() + " --out " + off.string() + " --quiet 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(read_json(off / "summary.json")["volume_hash"], live_sum["volume_hash"]);
+  EXPECT_EQ(read_json(off / "score.json")["exercise"]["name"], "incisor_partial_crown");
+  EXPECT_EQ(read_json(rec / "recording.json")["volume_hash"], live_sum["volume_hash"]);
+}
+
+// An exercise for another tooth than the replayed log's: refused at once as bad input (exit 2),
+// naming both teeth; no window is opened.
+TEST(LiveCli, ExerciseForAnotherToothThanTheReplayedLogIsRefused) {
+  const fs::path c = clip();
+  auto r = run_command(kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
+                       (c / "station.json").string() + " --stylus replay:" + (c / "session.dlog").string() +
+                       " --exercise incisor_partial_crown --quiet 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("incisor_partial_crown"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("incisor"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("molar"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("session.dlog"), std::string::npos) << r.out;
 }
 
 // ---- The webcam try-out: the box station and the printed pen ----

@@ -267,6 +267,30 @@ TEST(StationReach, BuiltInStationsAreReachableByEveryProfile) {
   }
 }
 
+// The reach check follows the tooth a session drills (`dentar live --exercise`): the incisor's
+// crown, 10.5 mm long and 8.5 mm wide, on the same cervical plane; a description without a known
+// kind is an error naming it. The molar's box from its description is the station's.
+TEST(StationReach, CrownBoxFollowsTheTooth) {
+  const ar::StationScene st = ar::default_station_scene();
+  const auto molar = crown_box_tooth(st);
+  const auto molar_desc = crown_box_tooth(R"({"kind":"molar","voxel_mm":0.1})");
+  ASSERT_TRUE(molar.ok() && molar_desc.ok());
+  EXPECT_TRUE(molar->min().isApprox(molar_desc->min()) && molar->max().isApprox(molar_desc->max()));
+  const auto inc = crown_box_tooth(R"({"kind":"incisor","voxel_mm":0.1})");
+  ASSERT_TRUE(inc.ok()) << inc.error();
+  EXPECT_NEAR(inc->max().z() - inc->min().z(), 10.5e-3, 0.3e-3);
+  EXPECT_NEAR(inc->min().z(), 0.0, 0.3e-3);  // the cervical plane
+  EXPECT_NEAR(inc->sizes().x(), 8.5e-3, 0.5e-3);
+  EXPECT_LT(inc->sizes().y(), molar->sizes().y());
+  for (const auto& p : haptics::device_profiles()) {
+    const StationReach r = check_station_reach(st, haptics::limits_from_profile(p), p.display_name, *inc);
+    EXPECT_TRUE(r.reach.reachable) << p.id << ": " << r.item.message;
+  }
+  const auto bad = crown_box_tooth(R"({"kind":"canine","voxel_mm":0.1})");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("canine"), std::string::npos) << bad.error();
+}
+
 // A device that stands too far gets the move in the instructor's words, and making that move
 // makes the crown reachable.
 TEST(StationReach, UnreachableStationSaysHowFarAndWhere) {

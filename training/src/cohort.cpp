@@ -1,4 +1,5 @@
 #include "dentar/training/cohort.h"
+#include "dentar/training/hand_script.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -720,6 +721,15 @@ Result<std::vector<CohortTrial>> read_cohort(const std::string& dir) {
   }
   if (out.empty()) return Error{path + ": no trial listed"};
   return out;
+}
+
+Result<std::vector<haptics::TipWaypoint>> expert_tip_script(const Exercise& ex, const volume::VoxelVolume& start,
+                                                            std::uint64_t seed) {
+  auto masks = build_masks(ex, start);
+  if (!masks) return Error{"hand script for " + ex.name + ": " + masks.error()};
+  const std::vector<StepGeom> geom = step_geometry(ex, *masks, start);
+  std::mt19937_64 rng(seed);
+  return make_script(ex, expert_skill(), rng, &geom, StyleParams{}).tips;
 }
 
 }  // namespace dentar::training

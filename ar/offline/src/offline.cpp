@@ -25,6 +25,7 @@
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/replay_device.h"
 #include "dentar/haptics/session_log.h"
+#include "dentar/training/exercise.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/material.h"
 #include "dentar/volume/procedural_tooth.h"
@@ -128,18 +129,15 @@ Result<std::vector<TruthFrame>> read_truth(const std::string& path) {
   return out;
 }
 
-// The session's starting tooth, from the header's "tooth" description.
+// The session's starting tooth, from the header's "tooth" description (any tooth
+// training::make_tooth builds: the procedural molar or incisor).
 Result<volume::VoxelVolume> tooth_from_header(const std::string& tooth_json, const std::string& log_path) {
   auto j = nlohmann::json::parse(tooth_json, nullptr, false);
-  if (j.is_discarded() || !j.is_object() || j.value("kind", "") != "molar")
+  if (j.is_discarded() || !j.is_object() || !j.contains("voxel_mm") || !j["voxel_mm"].is_number())
     return Error{log_path + ": header field tooth = " + tooth_json +
-                 " does not describe a tooth this build can rebuild (only {\"kind\": \"molar\", \"voxel_mm\": ...})"};
-  volume::MolarParams mp;
-  if (!j.contains("voxel_mm") || !j["voxel_mm"].is_number())
-    return Error{log_path + ": header field tooth.voxel_mm is missing or not a number"};
-  mp.voxel_mm = j["voxel_mm"].get<double>();
-  auto v = volume::make_molar(mp);
-  if (!v) return Error{log_path + ": tooth: " + v.error()};
+                 " does not describe a tooth this build can rebuild ({\"kind\": \"molar\"|\"incisor\", \"voxel_mm\": ...})"};
+  auto v = training::make_tooth(tooth_json);
+  if (!v) return Error{log_path + ": header field tooth: " + v.error()};
   return v;
 }
 

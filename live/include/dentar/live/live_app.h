@@ -76,7 +76,10 @@ struct LiveOptions {
   // from a throw-away EGL context before the window opens.
   std::string display_path = "auto";
   std::string record_dir;  // empty = no recording
-  std::string exercise;    // exercise the session is for (recorded in recording.json; scored by the driver)
+  // Exercise the session is for (a built-in name or a .json file; recorded in recording.json,
+  // scored by the driver). Its tooth is the tooth drilled (live_tooth_json); "" = the station's
+  // procedural molar.
+  std::string exercise;
   double seconds = 0;      // stop after this long (0 = until closed)
   // Stop once this many new frames have been shown (0 = no limit). A run
   // sized in frames does the same work on a fast or a slow machine (tests,
@@ -162,6 +165,18 @@ struct LiveSummary {
 // frames have been shown, or the footage ends. Errors: no camera (the message lists the V4L2 cameras and
 // their modes and suggests --camera live:PATH), no display, bad station.
 Result<LiveSummary> run_live(const LiveOptions& options);
+
+// The tooth a live run drills, as its session header's "tooth" object describes it
+// ({"kind": "molar"|"incisor", "voxel_mm": ...}, rebuilt by training::make_tooth):
+// - replayed_tooth_json non-empty (--stylus replay:LOG): the log's own tooth; an exercise, when
+//   given, must be for the same tooth kind;
+// - otherwise the exercise's tooth kind ("" = the procedural molar) at the station's voxel size
+//   (station_voxel_mm), as the cohort generator builds an exercise's tooth at its own voxel size.
+//   Without an exercise, or with a molar exercise, this is the molar every earlier live run drilled.
+// Errors (bad input): an exercise that cannot be loaded; an exercise for another tooth kind than
+// the replayed log's (the message names both and what to do).
+Result<std::string> live_tooth_json(const std::string& exercise, const std::string& replayed_tooth_json,
+                                    double station_voxel_mm);
 
 // Whether an OpenGL renderer string names a software rasteriser (Mesa's
 // llvmpipe or softpipe, SwiftShader, Microsoft's Basic Render Driver).

@@ -111,6 +111,10 @@ class DivotTouchCheck {
 // molar (tooth_voxel_m) above its cervical region (the top crown_height_mm), where the bur works.
 // Builds the molar (a few ms at 0.1 mm). Errors name the tooth's parameters.
 Result<Eigen::AlignedBox3d> crown_box_tooth(const ar::StationScene& st);
+// The same for any tooth a session drills, from its description ({"kind": "molar"|"incisor",
+// "voxel_mm": ...}, as in the session header): the top crown_height_mm of the molar, the top
+// crown_length_mm of the incisor (their default parameters, as training::make_tooth builds them).
+Result<Eigen::AlignedBox3d> crown_box_tooth(const std::string& tooth_json);
 
 struct StationReach {
   haptics::ReachReport reach;                       // in the tooth frame
