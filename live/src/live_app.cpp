@@ -411,6 +411,12 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       device = std::move(p);
     }
   }
+  // The exercise names its bur (the incisor's is a cone); a replay keeps the log's.
+  if (!o.exercise.empty() && o.stylus.rfind("replay:", 0) != 0) {
+    auto ex = named_exercise(o.exercise);
+    if (!ex) return Error{"live: " + ex.error()};
+    bur_params = ex->bur;
+  }
   auto bur = volume::sample_bur(bur_params, bur_samples);
   if (!bur) return Error{"live: bur: " + bur.error()};
   std::unique_ptr<haptics::Pedal> usb_pedal;
@@ -452,6 +458,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // the ~85 % of that core the engine leaves idle instead of queueing with
   // the frame thread and the display on the others.
   ar::PipelineOptions popt = o.pipeline;
+  popt.compositor.bur = bur_params;  // draw the bur the engine cuts with
   const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
   std::atomic<int> bg_placed{0}, bg_refused{0};  // background threads pinned / refused
   std::function<void()> to_engine_cpu;

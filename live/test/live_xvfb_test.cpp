@@ -542,6 +542,9 @@ TEST(LiveXvfb, ExerciseChoosesTheToothAndTheRecordingReplays) {
   const auto tooth = nlohmann::json::parse(setup->tooth_json);
   EXPECT_EQ(tooth["kind"], "incisor") << setup->tooth_json;
   EXPECT_TRUE(tooth["voxel_mm"].is_number()) << setup->tooth_json;
+  // With the exercise's bur (a cone, 0.4 to 0.6 mm), not live's default capsule.
+  EXPECT_EQ(setup->bur.shape, dentar::volume::BurShape::kCone);
+  EXPECT_NEAR(setup->bur.radius_m, 0.6e-3, 1e-9);
   // Scored as the incisor by the run itself (exit 0 above; a failure to score is only a warning).
   EXPECT_NE(r.out.find("(incisor_partial_crown)"), std::string::npos) << r.out;
   ASSERT_TRUE(fs::exists(rec / "score.json")) << r.out;
