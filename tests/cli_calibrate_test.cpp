@@ -323,7 +323,7 @@ TEST(CliCalibrate, AllStepsOnGeneratedDataMeetTheCoLocationGoal) {
   // A slower camera, its latency measured and recorded in the station file: the check
   // compensates with the recorded value, which the station file keeps.
   const CommandResult slow =
-      run("check --simulate --frames 6 --latency-ms 60 --camera-latency-ms 60 --station " + st.string());
+      run_calibrate("check --simulate --frames 6 --latency-ms 60 --camera-latency-ms 60 --station " + st.string());
   ASSERT_EQ(slow.code, 0) << slow.out;
   const auto js = load(st);
   EXPECT_EQ(js["camera"]["latency_ms"].get<double>(), 60.0);
