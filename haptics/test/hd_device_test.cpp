@@ -16,17 +16,7 @@
 #include "dentar/volume/procedural_tooth.h"
 #include "standin_util.h"
 
-// Counts heap allocations made by the calling thread (the servo thread of the
-// stand-in allocates; only the engine side is checked).
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-static thread_local long t_allocs = 0;
-void* operator new(std::size_t n) {
-  ++t_allocs;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "alloc_counter.h"  // counts this thread's heap allocations
 
 namespace dentar::haptics {
 namespace {
@@ -191,14 +181,14 @@ TEST_F(HdStandin, ReadAndWriteDoNotAllocateEvenWhenFaulted) {
   DeviceState st;
   ASSERT_TRUE(wait_for([&] { return d->read(st); }));
   inject(4, ticks() + 2, 8.0);  // a jump: the fault path runs too
-  const long before = t_allocs;
+  const long before = dentar::test::this_thread_allocations();
   bool faulted = false;
   for (int i = 0; i < 2000; ++i) {
     faulted |= !d->read(st);
     d->write_force({0.5, 0, 0});
     if (i % 10 == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
-  EXPECT_EQ(t_allocs - before, 0);
+  EXPECT_EQ(dentar::test::this_thread_allocations() - before, 0);
   EXPECT_TRUE(faulted);
 }
 

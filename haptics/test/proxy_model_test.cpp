@@ -14,18 +14,7 @@
 #include "test_blocks.h"
 #include "dentar/volume/procedural_tooth.h"
 
-// Counts heap allocations so compute() can be checked allocation-free.
-// GCC flags free() in a replaced operator delete as mismatched; it is not:
-// the replaced operator new uses malloc.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-static std::atomic<long> g_allocs{0};
-void* operator new(std::size_t n) {
-  ++g_allocs;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "alloc_counter.h"  // counts this thread's heap allocations
 
 namespace dentar::haptics {
 namespace {
@@ -424,13 +413,13 @@ TEST(ProxyModel, ComputeDoesNotAllocate) {
   ForceInput in;
   in.volume = &vol;
   in.bur = &*bur;
-  const long before = g_allocs.load();
+  const long before = dentar::test::this_thread_allocations();
   double sink = 0;
   for (int i = 0; i < 400; ++i) {
     in.T_tooth_tip = down_at({0.001e-3 * i, 0, 0.2e-3 - 0.001e-3 * i});
     sink += m->compute(in).force_N.z();
   }
-  EXPECT_EQ(g_allocs.load() - before, 0);
+  EXPECT_EQ(dentar::test::this_thread_allocations() - before, 0);
   EXPECT_GT(sink, 0);
 }
 

@@ -13,18 +13,7 @@
 #include "dentar/haptics/force_model.h"
 #include "test_blocks.h"
 
-// Counts heap allocations so compute() can be checked allocation-free.
-// GCC flags free() in a replaced operator delete as mismatched; it is not:
-// the replaced operator new uses malloc.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-static std::atomic<long> g_allocs{0};
-void* operator new(std::size_t n) {
-  ++g_allocs;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "alloc_counter.h"  // counts this thread's heap allocations
 
 namespace dentar::haptics {
 namespace {
@@ -334,13 +323,13 @@ TEST(SeedModel, ComputeDoesNotAllocate) {
   const auto bur = volume::sample_bur(BurParams::capsule(0.5, 3.0), 10000);
   ASSERT_TRUE(bur.ok());
   auto m = make_seed();
-  const long before = g_allocs.load();
+  const long before = dentar::test::this_thread_allocations();
   double sink = 0;
   for (int i = 0; i < 300; ++i) {
     const ForceOutput o = m->compute(input(vol, *bur, down_at({0, 0, -0.1e-3 * (i % 5)})));
     sink += o.force_N.z();
   }
-  EXPECT_EQ(g_allocs.load() - before, 0);
+  EXPECT_EQ(dentar::test::this_thread_allocations() - before, 0);
   EXPECT_GT(sink, 0);
 }
 

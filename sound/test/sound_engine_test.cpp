@@ -20,19 +20,7 @@
 #include "dentar/volume/procedural_tooth.h"
 #include "testutil.h"
 
-// GCC 12 pairs the inlined std::free below with `new` expressions in this file and warns
-// (-Wmismatched-new-delete): a false positive for a replaced global operator new.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-// Counts heap allocations made by the calling thread (the engine's, here the
-// test thread running the steps inline); the sound's thread is not counted.
-static thread_local long t_allocs = 0;
-void* operator new(std::size_t n) {
-  ++t_allocs;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "alloc_counter.h"  // counts this thread's heap allocations
 
 namespace dentar::sound {
 namespace {
@@ -82,15 +70,15 @@ TEST(SoundWithEngine, NoAllocationInTheEngineStepsWithSoundOn) {
     }
   });
   {  // the counter counts this thread's allocations
-    const long c0 = t_allocs;
+    const long c0 = dentar::test::this_thread_allocations();
     std::vector<int> v(16);
     v[3] = 1;
-    ASSERT_GE(t_allocs - c0, 1);
+    ASSERT_GE(dentar::test::this_thread_allocations() - c0, 1);
   }
   rig.engine->run_steps(10);  // warm-up outside the count (first-touch of lazily built state)
-  const long before = t_allocs;
+  const long before = dentar::test::this_thread_allocations();
   const std::uint64_t n = rig.engine->run_steps(4000);
-  const long during = t_allocs - before;
+  const long during = dentar::test::this_thread_allocations() - before;
   stop.store(true);
   audio.join();
   EXPECT_EQ(n, 4000u);
