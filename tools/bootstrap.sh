@@ -40,8 +40,9 @@ packages=(
   # pg_ctl: the store tests make a throwaway cluster) and Chromium (headless page tests).
   libpq-dev libssl-dev libcpp-httplib-dev libbrotli-dev postgresql-15 chromium
   # The drill's sound (sound/): OpenAL Soft (its loopback device renders without a
-  # sound card) and libsndfile (WAV renders, optional user samples).
-  libopenal-dev libsndfile1-dev
+  # sound card) and libsndfile (WAV renders, optional user samples); FFmpeg's libraries mux
+  # the sound track into the composite video (dentar offline --audio-mux).
+  libopenal-dev libsndfile1-dev libavformat-dev libavcodec-dev libavutil-dev
 )
 # bench: VTK for the surface comparison; ffmpeg and stress for the live benchmarks.
 if [[ "$job" == bench ]]; then packages+=(libvtk9-dev ffmpeg stress); fi
