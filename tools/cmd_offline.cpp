@@ -15,6 +15,7 @@
 #include "db_util.h"
 #include "dentar/ar/offline.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/sound/mux.h"
 #include "session_score.h"
 #include "sound_cli.h"
 
@@ -43,6 +44,7 @@ struct OfflineCli {
   std::string exercise;  // scoring: exercise name or file ("" = recorded / by the tooth)
   bool no_score = false;
   SoundCli sound;  // --audio FILE.wav: the session's drill sound (issue 29)
+  bool audio_mux = false;  // --audio-mux: also composite_audio.mkv (the video with the sound)
 };
 
 // One progress line: a bar on a terminal (redrawn in place), else a line
@@ -137,6 +139,10 @@ int run(const OfflineCli& c) {
   // linked from report.html). A failure to score is a warning, not a failed run.
   std::string score_line;
   if (!c.no_score) remove_old_score(c.out);
+  if (c.audio_mux) {  // a muxed file from an earlier run must not pass for this run's
+    std::error_code ec;
+    std::filesystem::remove(std::filesystem::path(c.out) / "composite_audio.mkv", ec);
+  }
   if (!c.no_score)
     o.after_run = [&](ar::OfflineSummary& s) -> std::string {
       if (s.session.empty()) return {};
@@ -193,6 +199,20 @@ int run(const OfflineCli& c) {
     } else if (int rc = render_session_wav("offline", s.session, c.sound.audio, c.sound, c.quiet,
                                          s.haptic_steps); rc != 0) {
       return rc == 2 ? 1 : rc;  // the session was read once already: a failure here is the job's
+    } else if (c.audio_mux) {
+      // composite.mkv stays as it was (silent); the copy with the sound is composite_audio.mkv.
+      const std::string video = (std::filesystem::path(s.out_dir) / "composite.mkv").string();
+      const std::string muxed = (std::filesystem::path(s.out_dir) / "composite_audio.mkv").string();
+      auto m = sound::mux_wav_into_video(video, c.sound.audio, muxed);
+      if (!m) {
+        print_error("offline", "--audio-mux: " + m.error());
+        return 1;
+      }
+      if (!c.quiet)
+        std::cout << "wrote " << muxed << " (composite.mkv's " << m->video_frames << " frames, not re-encoded, "
+                  << "with the drill sound as 16-bit PCM, " << f3(m->video_s) << " s"
+                  << (m->padded_samples > 0 ? ", the sound padded with silence to the video's end" : "")
+                  << (m->trimmed_samples > 0 ? ", the sound cut at the video's end" : "") << ")\n";
     }
   }
   std::cout << "wrote " << s.out_dir << "/report.html, summary.json, frames.csv"
@@ -224,7 +244,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--camera-response auto|srgb|linear] [--mirror-rim]\n"
       "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]\n"
       "                         [--exercise NAME|FILE] [--no-score]\n"
-      "                         [--audio FILE.wav [--volume PCT] [--mute] [--drill-sample FILE]]");
+      "                         [--audio FILE.wav [--audio-mux] [--volume PCT] [--mute] [--drill-sample FILE]]");
   s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");
   s->add_option("--station", c->station, "Station file (JSON) the footage was recorded with");
   s->add_option("--session", c->session, "Haptic session log (.dlog) to replay in step with the video");
@@ -278,6 +298,9 @@ void add_offline(CLI::App& app, int& exit_code) {
   s->add_option("--audio", c->sound.audio,
                 "Also render the session's drill sound to this WAV file, time-aligned with composite.mkv "
                 "(docs/sound.md)");
+  s->add_flag("--audio-mux", c->audio_mux,
+              "With --audio: also write composite_audio.mkv, composite.mkv (not re-encoded) with the sound "
+              "as a 16-bit PCM track, cut or padded to the video's length");
   add_sound_options(s, c->sound, false);
   s->footer(
       "Examples:\n"
@@ -317,6 +340,12 @@ void add_offline(CLI::App& app, int& exit_code) {
     }
     if (std::string e = check_exercise(c->exercise); !e.empty()) {
       print_error("offline", e);
+      exit_code = 2;
+      return;
+    }
+    if (c->audio_mux && (c->sound.audio.empty() || c->no_video)) {
+      print_error("offline", c->no_video ? "--audio-mux needs the video: drop --no-video"
+                                         : "--audio-mux needs --audio FILE.wav (the sound track to mux)");
       exit_code = 2;
       return;
     }

@@ -8,6 +8,7 @@
 
 #include <opencv2/videoio.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -154,6 +155,42 @@ TEST(Mux, BadInputNamesItAndLeavesNoFile) {
   EXPECT_NE(r.error().find("sound track"), std::string::npos) << r.error();
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(out + ".part"));
+}
+
+// `dentar offline --audio FILE.wav --audio-mux` end to end, on 12 frames of the built-in footage.
+TEST(Mux, OfflineAudioMuxWritesTheCompositeWithItsSound) {
+  const fs::path dir = dentar::test::temp_dir("mux_offline");
+  const fs::path out = dir / "o", wav = dir / "drill.wav";
+  auto r = dentar::test::run_dentar("offline --quiet --frames 12 --resolution 640x480 --no-score --out " + out.string() +
+                                    " --audio " + wav.string() + " --audio-mux");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Probe video = probe(out / "composite.mkv");
+  const Probe muxed = probe(out / "composite_audio.mkv");
+  EXPECT_EQ(video.audio_streams, 0);  // composite.mkv itself is left as it was
+  ASSERT_EQ(muxed.video_streams, 1);
+  ASSERT_EQ(muxed.audio_streams, 1);
+  EXPECT_EQ(muxed.video_packets, video.video_packets);
+  ASSERT_EQ(muxed.video_frames, 12);
+  const double frame_s = 1.0 / 30;
+  const double audio_s = static_cast<double>(muxed.samples.size()) / muxed.rate;
+  EXPECT_NEAR(audio_s, muxed.video_end_s, frame_s);
+  // The rendered WAV itself already ends with the video (within a frame): the mux does not hide a misalignment.
+  const auto want = wav_pcm16(wav);
+  EXPECT_NEAR(static_cast<double>(want.size()) / 48000, muxed.video_end_s, frame_s);
+  const std::size_t common = std::min(want.size(), muxed.samples.size());
+  ASSERT_GT(common, 0u);
+  EXPECT_TRUE(std::equal(want.begin(), want.begin() + static_cast<long>(common), muxed.samples.begin()));
+  EXPECT_TRUE(std::any_of(want.begin(), want.end(), [](std::int16_t v) { return v != 0; }));  // the drill is heard
+
+  // Bad arguments: exit 2, a message naming the option, and nothing written.
+  r = dentar::test::run_dentar("offline --quiet --frames 12 --no-video --out " + (dir / "o2").string() + " --audio " +
+                               wav.string() + " --audio-mux");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--audio-mux needs the video"), std::string::npos) << r.out;
+  r = dentar::test::run_dentar("offline --quiet --frames 12 --out " + (dir / "o2").string() + " --audio-mux");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--audio-mux needs --audio"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "o2"));
 }
 
 }  // namespace
