@@ -341,6 +341,7 @@ void add_demo(CLI::App& app, int& exit_code) {
       exit_code = 2;
       return;
     }
+    o->sound.exercise = o->exercise;  // --teach-force-limit exercise
     if (auto p = drill_params_from(o->sound); !p) {  // a user sample that is not audio: bad input
       print_error("demo", p.error());
       exit_code = 2;

@@ -116,6 +116,7 @@ void add_live(CLI::App& app, int& exit_code) {
       o.device.clear();
       o.stylus = "sim";
     }
+    c->sound.exercise = o.exercise;  // --teach-force-limit exercise
     if (auto p = drill_params_from(c->sound); !p) {  // a user sample that is not audio: bad input
       print_error("live", p.error());
       exit_code = 2;

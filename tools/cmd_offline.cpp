@@ -349,6 +349,8 @@ void add_offline(CLI::App& app, int& exit_code) {
       exit_code = 2;
       return;
     }
+    // --teach-force-limit exercise: the exercise the session is scored against (given, or the recording's).
+    c->sound.exercise = !c->exercise.empty() ? c->exercise : recording ? recorded_exercise(c->footage) : "";
     if (!c->sound.audio.empty()) {  // a user sample that is not audio is bad input, caught first
       if (auto p = drill_params_from(c->sound); !p) {
         print_error("offline", p.error());

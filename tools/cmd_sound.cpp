@@ -105,6 +105,7 @@ void add_sound(CLI::App& app, int& exit_code) {
       "force, material under the bur; docs/sound.md).\n"
       "Synopsis: dentar sound render SESSION.dlog --out FILE.wav [--volume PCT] [--mute]\n"
       "                             [--drill-sample FILE [--drill-sample-rpm RPM]] [--quiet]\n"
+      "                             [--teach-force-limit N|exercise [--exercise NAME|FILE]]\n"
       "          dentar sound materials --out DIR [--force N] [--volume PCT]");
   s->require_subcommand(1, 1);
   struct RenderCli {
@@ -123,6 +124,8 @@ void add_sound(CLI::App& app, int& exit_code) {
   r->add_option("--out", c->out, "WAV file to write")->required();
   r->add_flag("--quiet", c->quiet, "No summary line");
   add_sound_options(r, c->sound, false);
+  r->add_option("--exercise", c->sound.exercise,
+                "The session's exercise (built-in name or JSON file), for --teach-force-limit exercise");
   r->footer(
       "Example:\n"
       "  dentar demo --out out/demo --simulated\n"

@@ -1,5 +1,6 @@
 #include "sound_cli.h"
 
+#include <cstdlib>
 #include <iostream>
 
 #include "commands.h"
@@ -7,6 +8,7 @@
 #include "dentar/sound/audio_file.h"
 #include "dentar/sound/audio_output.h"
 #include "dentar/sound/feed.h"
+#include "dentar/training/exercise.h"
 
 namespace dentar::tools {
 
@@ -21,20 +23,47 @@ void add_sound_options(CLI::App* sub, SoundCli& s, bool live) {
   sub->add_option("--drill-sample-rpm", s.drill_sample_rpm, "Bur speed the --drill-sample was recorded at")
       ->check(CLI::Range(1000.0, 1000000.0))
       ->capture_default_str();
-  sub->add_option("--teach-force-limit", s.teach_force_limit_N,
+  sub->add_option("--teach-force-limit", s.teach_force_limit,
                   "Sound as a teacher: a pulsed 880 Hz beep, distinct from the drill, while the force "
-                  "exceeds this many newtons, faster the further above (0 = off, the default)")
-      ->check(CLI::Range(0.0, 20.0));
+                  "exceeds this many newtons, faster the further above (0 = off, the default); "
+                  "`exercise`: the session's exercise's excessive_force_N (needs --exercise or a "
+                  "recording that names it)")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            if (v == "exercise") return {};
+            char* end = nullptr;
+            const double n = std::strtod(v.c_str(), &end);
+            if (v.empty() || *end != '\0' || !(n >= 0 && n <= 20))
+              return "got '" + v + "': give newtons from 0 to 20, or `exercise`";
+            return {};
+          },
+          "N|exercise"));
   if (live)
     sub->add_option("--audio-device", s.device,
                     "Sound output device by name (dentar devices lists them; default: the system's). "
                     "An unknown device falls back to the default; no device at all is a warning");
 }
 
+Result<std::pair<double, std::string>> teacher_force_limit(const SoundCli& s) {
+  if (s.teach_force_limit != "exercise") {
+    const double n = s.teach_force_limit.empty() ? 0.0 : std::strtod(s.teach_force_limit.c_str(), nullptr);
+    return std::pair<double, std::string>{n, n > 0 ? "--teach-force-limit" : ""};
+  }
+  if (s.exercise.empty())
+    return Error{"--teach-force-limit exercise: the session has no exercise; give --exercise NAME|FILE, "
+                 "or a limit in newtons"};
+  auto ex = s.exercise.find(".json") != std::string::npos ? training::load_exercise(s.exercise)
+                                                         : training::load_builtin_exercise(s.exercise);
+  if (!ex) return Error{"--teach-force-limit exercise: --exercise " + s.exercise + ": " + ex.error()};
+  return std::pair<double, std::string>{ex->excessive_force_N, "excessive_force_N of exercise " + s.exercise};
+}
+
 Result<sound::DrillParams> drill_params_from(const SoundCli& s) {
   sound::DrillParams p = sound::default_drill_params();
   p.gain = s.mute ? 0.0 : s.volume_pct / 100.0;
-  p.teacher_force_limit_N = s.teach_force_limit_N;
+  auto limit = teacher_force_limit(s);
+  if (!limit) return Error{limit.error()};
+  p.teacher_force_limit_N = limit->first;
   if (!s.drill_sample.empty()) {
     auto clip = sound::read_audio(s.drill_sample);
     if (!clip) return Error{"--drill-sample: " + clip.error()};
@@ -80,6 +109,9 @@ int render_session_wav(const std::string& cmd, const std::string& session_log, c
     std::cout << "wrote " << wav << " (" << static_cast<double>(mixed->size()) / params->sample_rate_hz
               << " s of drill sound at " << static_cast<int>(params->sample_rate_hz) << " Hz, " << log->records.size()
               << " haptic steps" << (s.mute ? ", muted" : "") << ")\n";
+  if (!quiet && params->teacher_force_limit_N > 0)
+    std::cout << "sound as a teacher: beeps while the force is above " << params->teacher_force_limit_N << " N ("
+              << teacher_force_limit(s)->second << ")\n";
   return 0;
 }
 
@@ -98,6 +130,9 @@ std::unique_ptr<sound::SoundPlayer> start_live_sound(const std::string& cmd, con
     return nullptr;
   }
   std::cout << note << "\n";
+  if (params->teacher_force_limit_N > 0)
+    std::cout << "sound as a teacher: beeps while the force is above " << params->teacher_force_limit_N << " N ("
+              << teacher_force_limit(s)->second << ")\n";
   auto player = std::make_unique<sound::SoundPlayer>(std::move(out), *params, std::move(snapshot));
   player->start();
   return player;

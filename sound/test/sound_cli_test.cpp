@@ -84,6 +84,50 @@ TEST(SoundCli, RenderIsRepeatableAndBadInputIsExit2) {
   EXPECT_EQ(wm.find_first_not_of('\0', 44), std::string::npos) << "muted render is all zeros";
 }
 
+// --teach-force-limit exercise takes the exercise's excessive_force_N: with a copy of the molar
+// access opening whose limit is 0.5 N, the render equals --teach-force-limit 0.5 (and not the
+// shipped 3 N, nor no teacher).
+TEST(SoundCli, TeacherTakesTheExercisesForceLimit) {
+  const auto dir = test::temp_dir("sound_teach");
+  const std::string log = make_session(dir);
+  std::string ex = test::read_file(std::string(DENTAR_ASSETS_DIR) + "/exercises/molar_access_opening.json");
+  const auto at = ex.find("\"excessive_force_N\": 3.0");
+  ASSERT_NE(at, std::string::npos);
+  ex.replace(at, std::string("\"excessive_force_N\": 3.0").size(), "\"excessive_force_N\": 0.5");
+  const std::string exf = (dir / "low_limit.json").string();
+  test::write_file(exf, ex);
+  auto render = [&](const std::string& name, const std::string& args) {
+    const std::string out = (dir / name).string();
+    auto r = test::run_command(dentar() + " sound render " + log + " --out " + out + " " + args);
+    EXPECT_EQ(r.code, 0) << r.out;
+    return std::pair{test::read_file(out), r.out};
+  };
+  const auto [from_ex, said] = render("ex.wav", "--teach-force-limit exercise --exercise " + exf);
+  EXPECT_NE(said.find("above 0.5 N (excessive_force_N of exercise " + exf + ")"), std::string::npos) << said;
+  const auto number = render("n.wav", "--teach-force-limit 0.5 --quiet").first;
+  const auto shipped = render("s.wav", "--teach-force-limit exercise --exercise molar_access_opening --quiet").first;
+  const auto none = render("none.wav", "--quiet").first;
+  ASSERT_GT(from_ex.size(), 3000u * 48u * 2u);
+  EXPECT_EQ(from_ex, number);
+  EXPECT_NE(from_ex, shipped);
+  EXPECT_NE(from_ex, none) << "the session drills above 0.5 N: the teacher must be heard";
+
+  // Bad input: no exercise, an exercise that does not exist, a limit that is neither.
+  auto r = test::run_command(dentar() + " sound render " + log + " --out " + (dir / "x.wav").string() +
+                             " --teach-force-limit exercise");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--teach-force-limit exercise: the session has no exercise"), std::string::npos) << r.out;
+  r = test::run_command(dentar() + " sound render " + log + " --out " + (dir / "x.wav").string() +
+                        " --teach-force-limit exercise --exercise no_such_exercise");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("no_such_exercise"), std::string::npos) << r.out;
+  r = test::run_command(dentar() + " sound render " + log + " --out " + (dir / "x.wav").string() +
+                        " --teach-force-limit loud");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("'loud'"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.wav"));
+}
+
 TEST(SoundCli, MaterialsWritesAClipAndASpectrogramEach) {
   const auto dir = test::temp_dir("materials");
   const auto r = test::run_command(dentar() + " sound materials --out " + dir.string());
