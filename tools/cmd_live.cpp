@@ -2,6 +2,7 @@
 // engine (live/live_app.h). A thin driver over the shared FramePipeline.
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <tuple>
 
 #include "commands.h"
@@ -122,7 +123,12 @@ void add_live(CLI::App& app, int& exit_code) {
       exit_code = 2;
       return;
     }
+    o.sound_muted = c->sound.mute;
     if (!c->sound.mute) {
+      std::ostringstream d;
+      d << "volume " << c->sound.volume_pct << " %";
+      if (auto lim = teacher_force_limit(c->sound); lim && lim->first > 0) d << ", teacher above " << lim->first << " N";
+      o.sound_detail = d.str();
       const SoundCli sc = c->sound;
       o.start_sound = [sc](std::function<haptics::HapticSnapshot()> snap) -> std::shared_ptr<void> {
         return start_live_sound("live", sc, std::move(snap));

@@ -189,6 +189,13 @@ static calibration::CameraIntrinsics crop_intrinsics(const calibration::CameraIn
   return out;
 }
 
+std::string hud_sound_line(bool hooked, bool started, bool muted, const std::string& detail) {
+  if (muted) return "sound: muted";
+  if (!hooked) return {};
+  if (!started) return "sound: no device (silent)";
+  return detail.empty() ? "sound: on" : "sound: on (" + detail + ")";
+}
+
 std::string hud_drill_line(bool drill_on, bool in_contact, const std::string& pedal_status, bool pedal_pressed,
                            bool device_pedal, const std::string& stylus) {
   std::string s = std::string("drill: ") + (drill_on ? "ON" : "off") + (in_contact ? "  (contact)" : "") +
@@ -793,6 +800,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // The drill's sound reads the snapshot on its own thread (off the engine's CPU, as this one).
   std::shared_ptr<void> sound;
   if (o.start_sound) sound = o.start_sound([&engine] { return engine.snapshot(); });
+  const std::string sound_line = hud_sound_line(static_cast<bool>(o.start_sound), sound != nullptr, o.sound_muted, o.sound_detail);
   // What the system granted, and what to do when it did not.
   for (int i = 0; i < 100 && engine.snapshot().step == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
   std::string grant = "engine: ";
@@ -957,6 +965,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
           hud_drill_line(snap.pedal, snap.in_contact, pedal.status(), pedal.pressed(), pedal_from_device, o.stylus)
               .c_str());
       if (const std::string ds = engine_device.status(); !ds.empty()) ImGui::TextColored(col[1], "device: %s", ds.c_str());
+      if (!sound_line.empty()) {
+        if (sound_line == "sound: no device (silent)") ImGui::TextColored(col[1], "%s", sound_line.c_str());
+        else ImGui::TextUnformatted(sound_line.c_str());
+      }
       ImGui::Text("removed mm3: enamel %.2f  dentin %.2f  pulp %.2f",
                   snap.removed_mm3[static_cast<int>(volume::Material::kEnamel)],
                   snap.removed_mm3[static_cast<int>(volume::Material::kDentin)],

@@ -70,6 +70,14 @@ TEST(HudDrillLine, DrillAndPedalAgreeOrTheLineSaysWhy) {
   EXPECT_EQ(hud_drill_line(false, false, "released", false, true, "sim"), "drill: off   pedal: released");
 }
 
+TEST(HudSoundLine, OnMutedOrNoDevice) {
+  EXPECT_EQ(hud_sound_line(true, true, false, "volume 70 %"), "sound: on (volume 70 %)");
+  EXPECT_EQ(hud_sound_line(true, true, false, ""), "sound: on");
+  EXPECT_EQ(hud_sound_line(true, false, false, "volume 70 %"), "sound: no device (silent)");
+  EXPECT_EQ(hud_sound_line(false, false, true, ""), "sound: muted");
+  EXPECT_EQ(hud_sound_line(false, false, false, ""), "") << "no sound hook (tests, tools without sound): no line";
+}
+
 TEST(SoftwareRenderer, MesaSoftwareRasterisersAndOthersByName) {
   // GL_RENDERER strings as drivers report them.
   EXPECT_TRUE(software_renderer("llvmpipe (LLVM 15.0.6, 256 bits)"));

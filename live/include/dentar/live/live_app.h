@@ -109,6 +109,10 @@ struct LiveOptions {
   // once the engine runs, with a lock-free snapshot reader; what it returns (the player) is
   // kept until the run ends. Empty: no sound.
   std::function<std::shared_ptr<void>(std::function<haptics::HapticSnapshot()>)> start_sound;
+  // For the HUD's sound line: --mute was given (then start_sound is empty), and what to show
+  // beside "on" (the volume, the teacher's limit).
+  bool sound_muted = false;
+  std::string sound_detail;
   std::string validate() const;
 };
 
@@ -189,6 +193,11 @@ bool software_renderer(const std::string& gl_renderer);
 // drives the drill too.
 std::string hud_drill_line(bool drill_on, bool in_contact, const std::string& pedal_status, bool pedal_pressed,
                            bool device_pedal, const std::string& stylus);
+
+// The HUD's sound line: "sound: on (detail)", "sound: muted", or "sound: no device (silent)"
+// when the hook ran and opened no output (a warning, never an error); "" when the run has no
+// sound hook and is not muted (nothing to say).
+std::string hud_sound_line(bool hooked, bool started, bool muted, const std::string& detail);
 
 // The V4L2 cameras on this machine with their modes, one line each
 // ("/dev/video0 (HD Webcam): MJPG 1280x720, YUYV 640x480"); or why none.
