@@ -95,6 +95,28 @@ TEST(CliSessionScore, DemoSimulatedScoresTheSession) {
   EXPECT_NE(j["process"]["mirror_use"]["why"].get<std::string>().find("no camera"), std::string::npos);
 }
 
+// `demo --exercise` drills that exercise's tooth with its bur (until session 13 it drilled the
+// molar and scored it against the named exercise, so an incisor exercise could not score).
+TEST(CliSessionScore, DemoDrillsTheExercisesToothAndScoresIt) {
+  const fs::path out = dentar::test::temp_dir("demo_incisor");
+  const CommandResult r = run_dentar("demo --simulated --exercise incisor_partial_crown --voxel-mm 0.25 --samples 1000 --out " +
+                                     out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("tooth: the incisor of exercise incisor_partial_crown"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("bur: cone"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(match)"), std::string::npos) << r.out;
+  // The expert pass earns points on the incisor (11.7 of 16 at 0.08 mm, 8.8 at this coarse 0.25 mm), not zero.
+  expect_sane_score(out, "incisor_partial_crown", 16.0, true);
+  const auto j = nlohmann::json::parse(dentar::test::read_file(out / "score.json"));
+  EXPECT_GT(j["outcome"]["points"].get<double>(), 6.0) << j["outcome"].dump();
+  // --force/--seconds shape only the molar's script: refused with --exercise, nothing written.
+  const fs::path out2 = dentar::test::temp_dir("demo_incisor_force");
+  const CommandResult bad = run_dentar("demo --simulated --exercise incisor_partial_crown --force 2 --out " + out2.string());
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("--force and --seconds"), std::string::npos) << bad.out;
+  EXPECT_FALSE(fs::exists(out2 / "session.dlog"));
+}
+
 TEST(CliSessionScore, AFailedScoreKeepsTheRunAndWarns) {
   const fs::path out = dentar::test::temp_dir("offline_score_fail");
   dentar::test::write_file(out / "score.json", "{\"old\": true}");  // from an earlier run: must not pass for this one

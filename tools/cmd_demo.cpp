@@ -12,6 +12,7 @@
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "commands.h"
@@ -21,6 +22,8 @@
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/simulated_device.h"
 #include "sound_cli.h"
+#include "dentar/training/exercise.h"
+#include "dentar/training/hand_script.h"
 #include "dentar/volume/procedural_tooth.h"
 #include "dentar/volume/surface.h"
 
@@ -43,7 +46,11 @@ struct DemoOptions {
   bool simulated = false;
   std::string out = "out/demo";
   bool obj = false;
-  std::string exercise;  // scoring ("" = by the tooth: the molar access opening)
+  // The exercise drilled and scored: its tooth, its bur (unless --bur is given) and the
+  // simulated hand's path through its steps. "" = the molar's scripted access, scored as
+  // the molar access opening.
+  std::string exercise;
+  bool bur_given = false;  // --bur on the command line (overrides the exercise's bur)
   bool no_score = false;
   SoundCli sound;  // issue 29: the drill's sound (live playback, --audio render)
 };
@@ -89,16 +96,30 @@ void print_metrics(const CutMetrics& m, double exposure_s) {
 
 int run_demo(const DemoOptions& o) {
   namespace fs = std::filesystem;
-  MolarParams mp;
-  mp.voxel_mm = o.voxel_mm;
-  auto tooth = make_molar(mp);
+  // The tooth drilled: the exercise's (its kind at --voxel-mm), else the procedural molar.
+  std::optional<training::Exercise> ex;
+  nlohmann::json tooth_desc = {{"kind", "molar"}, {"voxel_mm", o.voxel_mm}};
+  if (!o.exercise.empty()) {
+    auto e = o.exercise.find(".json") != std::string::npos ? training::load_exercise(o.exercise)
+                                                          : training::load_builtin_exercise(o.exercise);
+    if (!e) {
+      print_error("demo", "--exercise " + o.exercise + ": " + e.error());
+      return 2;
+    }
+    ex = std::move(*e);
+    auto td = nlohmann::json::parse(ex->tooth_json, nullptr, false);
+    if (!td.is_object()) td = nlohmann::json::object();
+    td["voxel_mm"] = o.voxel_mm;
+    tooth_desc = td;
+  }
+  auto tooth = training::make_tooth(tooth_desc.dump());
   if (!tooth) {
     print_error("demo", tooth.error());
     return 2;
   }
   VoxelVolume& vol = *tooth;
   const std::uint64_t start_hash = vol.content_hash();
-  auto bp = bur_params(o);
+  auto bp = ex && !o.bur_given ? Result<BurParams>(ex->bur) : bur_params(o);
   if (!bp) {
     print_error("demo", bp.error());
     return 2;
@@ -115,7 +136,9 @@ int run_demo(const DemoOptions& o) {
     return 1;
   }
   remove_old_score(o.out);
-  std::cout << "tooth: procedural maxillary molar, " << vol.dims().x() << "x" << vol.dims().y()
+  std::cout << "tooth: " << (ex ? "the " + tooth_desc.value("kind", std::string("molar")) + " of exercise " + ex->name
+                              : std::string("procedural maxillary molar"))
+            << ", " << vol.dims().x() << "x" << vol.dims().y()
             << "x" << vol.dims().z() << " voxels of " << o.voxel_mm << " mm, "
             << vol.allocated_chunks() << "/" << vol.num_chunks() << " chunks allocated ("
             << vol.memory_bytes() / 1e6 << " MB vs " << vol.dense_bytes() / 1e6 << " MB dense)\n";
@@ -127,8 +150,20 @@ int run_demo(const DemoOptions& o) {
   DeviceLimits limits;
   HandParams hand;
   hand.stiffness_N_per_m = kFingerRestStiffness_N_per_m;
-  auto device = SimulatedDevice::create(
-      to_hand_script(tip_script("access", o.force_N, o.seconds), station), limits, hand);
+  // The simulated hand: the molar's scripted access, or an expert pass through the
+  // exercise's steps (training/hand_script.h, as `dentar live --stylus sim --exercise`).
+  std::vector<TipWaypoint> tips;
+  if (ex) {
+    auto t = training::expert_tip_script(*ex, vol);
+    if (!t) {
+      print_error("demo", "--exercise " + o.exercise + ": simulated hand: " + t.error());
+      return 1;
+    }
+    tips = std::move(*t);
+  } else {
+    tips = tip_script("access", o.force_N, o.seconds);
+  }
+  auto device = SimulatedDevice::create(to_hand_script(tips, station), limits, hand);
   if (!device) {
     print_error("demo", device.error());
     return 1;
@@ -139,7 +174,6 @@ int run_demo(const DemoOptions& o) {
   cfg.T_sty_tip = station.T_sty_tip;
   // The header is written before the engine runs; a throwaway engine on the
   // same inputs produces it (the configuration, not the state, goes in it).
-  nlohmann::json tooth_desc = {{"kind", "molar"}, {"voxel_mm", o.voxel_mm}};
   std::string header;
   {
     auto probe = Engine::create(cfg, **device, vol, *bur, nullptr);
@@ -252,7 +286,11 @@ int run_demo(const DemoOptions& o) {
     return 1;
   }
   if (!rec->warning.empty()) std::cout << "warning: " << rec->warning << "\n";
-  auto fresh = make_molar(mp);
+  auto fresh = training::make_tooth(tooth_desc.dump());
+  if (!fresh) {
+    print_error("demo", fresh.error());
+    return 1;
+  }
   const auto r0 = Clock::now();
   auto rep = replay_session(*rec, *fresh);
   const double rep_s = std::chrono::duration<double>(Clock::now() - r0).count();
@@ -270,9 +308,9 @@ int run_demo(const DemoOptions& o) {
   if (!o.sound.audio.empty())
     if (int rc = render_session_wav("demo", log_path, o.sound.audio, o.sound, false); rc != 0) return 1;
   if (!o.no_score) {
-    // The demo's drilling is an occlusal access on the molar: scored against
-    // the molar access opening unless --exercise says otherwise. A failure
-    // to score is a warning; the session and the hash check stand.
+    // Scored against the exercise drilled (without --exercise: the molar's
+    // occlusal access, as the molar access opening). A failure to score is a
+    // warning; the session and the hash check stand.
     DriverScoreInput in;
     in.session = log_path;
     in.out_dir = o.out;
@@ -292,8 +330,8 @@ void add_demo(CLI::App& app, int& exit_code) {
   auto o = std::make_shared<DemoOptions>();
   CLI::App* c = app.add_subcommand(
       "demo",
-      "Drill the built-in molar through the 1 kHz haptic engine (simulated hand, scripted\n"
-      "pedal), write the session log and the cut mesh, replay the log and check the hash;\n"
+      "Drill the built-in molar, or the tooth of --exercise, through the 1 kHz haptic engine\n"
+      "(simulated hand, scripted pedal), write the session log and the cut mesh, replay the log and check the hash;\n"
       "then score the session (score.json, score.html; see dentar score).\n"
       "Synopsis: dentar demo [--model proxy|seed] [--bur SHAPE] [--samples N] [--seconds S]\n"
       "                      [--simulated] [--out DIR] [--exercise NAME|FILE] [--no-score]\n"
@@ -304,7 +342,7 @@ void add_demo(CLI::App& app, int& exit_code) {
   c->add_option("--voxel-mm", o->voxel_mm, "Voxel size of the procedural molar (mm)")
       ->check(CLI::Range(0.02, 0.5))
       ->capture_default_str();
-  c->add_option("--bur", o->bur, "Bur shape: sphere, cylinder, capsule, cone")
+  c->add_option("--bur", o->bur, "Bur shape: sphere, cylinder, capsule, cone (default: the exercise's bur with --exercise)")
       ->check(CLI::IsMember({"sphere", "cylinder", "capsule", "cone"}))
       ->capture_default_str();
   c->add_option("--bur-radius-mm", o->bur_radius_mm, "Bur radius (mm)")
@@ -319,29 +357,37 @@ void add_demo(CLI::App& app, int& exit_code) {
   c->add_option("--model", o->model, "Force model: proxy (ours) or seed (the 2012 model)")
       ->check(CLI::IsMember({"proxy", "seed"}))
       ->capture_default_str();
-  c->add_option("--force", o->force_N, "Pressing force the scripted hand asks for (N)")
+  c->add_option("--force", o->force_N, "Pressing force the molar's scripted hand asks for (N; not with --exercise)")
       ->check(CLI::Range(0.1, 3.0))
       ->capture_default_str();
-  c->add_option("--seconds", o->seconds, "Length of the drilling passes (s); 0 = default 12 s")
+  c->add_option("--seconds", o->seconds, "Length of the molar's drilling passes (s); 0 = default 12 s (not with --exercise)")
       ->check(CLI::Range(0.0, 600.0))
       ->capture_default_str();
   c->add_flag("--simulated", o->simulated, "Run in simulated time (as fast as possible)");
   c->add_option("--out", o->out, "Output folder")->capture_default_str();
   c->add_flag("--obj", o->obj, "Also write cut_tooth.obj");
   c->add_option("--exercise", o->exercise,
-                "Exercise the session is scored against (default: by the tooth, molar_access_opening)");
+                "Exercise drilled and scored: its tooth, its bur and an expert pass through its steps\n"
+                "(default: the molar's scripted access, scored as molar_access_opening)");
   c->add_flag("--no-score", o->no_score, "Do not score the session (score.json, score.html)");
   c->add_option("--audio", o->sound.audio, "Also render the session's drill sound to this WAV file (docs/sound.md)");
   add_sound_options(c, o->sound, true);
   c->footer("Example:\n  dentar demo --model proxy --bur capsule --samples 10000 --out out/demo\n"
             "  dentar demo --simulated --out out/demo --audio out/demo/drill.wav");
-  c->callback([o, &exit_code] {
+  c->callback([o, c, &exit_code] {
     if (std::string e = check_exercise(o->exercise); !e.empty()) {
       print_error("demo", e);
       exit_code = 2;
       return;
     }
     o->sound.exercise = o->exercise;  // --teach-force-limit exercise
+    o->bur_given = c->count("--bur") > 0;
+    if (!o->exercise.empty() && (c->count("--force") > 0 || c->count("--seconds") > 0)) {
+      print_error("demo", "--force and --seconds shape the molar's scripted pass; with --exercise the simulated "
+                          "hand follows the exercise's own steps: leave them out");
+      exit_code = 2;
+      return;
+    }
     if (auto p = drill_params_from(o->sound); !p) {  // a user sample that is not audio: bad input
       print_error("demo", p.error());
       exit_code = 2;
