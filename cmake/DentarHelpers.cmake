@@ -33,8 +33,12 @@ endfunction()
 # SERIAL: the test runs alone (ctest RUN_SERIAL), for tests that measure
 # real-time behaviour (frames a live run processes) and fail when another
 # heavy test shares the two cores.
+# ONE_PROCESS <ctest name>: the binary's tests run as one ctest in one process, for
+# binaries whose tests share an expensive fixture in a static cache (generated footage,
+# a generated cohort): per-test processes would each build it again. Filter inside it with
+# --gtest_filter.
 function(dentar_test name)
-  cmake_parse_arguments(T "SERIAL" "TIMEOUT;COST" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(T "SERIAL" "TIMEOUT;COST;ONE_PROCESS" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   target_link_libraries(${name} PRIVATE ${T_DEPS} dentar_testutil GTest::gtest GTest::gtest_main)
   dentar_warnings(${name})
@@ -47,6 +51,11 @@ function(dentar_test name)
   endif()
   if(T_COST)
     list(APPEND _serial COST ${T_COST})
+  endif()
+  if(T_ONE_PROCESS)
+    add_test(NAME ${T_ONE_PROCESS} COMMAND ${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
+    set_tests_properties(${T_ONE_PROCESS} PROPERTIES LABELS "${T_LABELS}" TIMEOUT ${T_TIMEOUT} ${_serial})
+    return()
   endif()
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
