@@ -9,7 +9,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <system_error>
+#include <signal.h>
 #include <unistd.h>
+
+#include <cerrno>
 
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
@@ -397,7 +400,21 @@ Result<Lesson> make_lesson(const std::string& recording_in, const std::string& o
   const fs::path out = fs::absolute(out_dir).lexically_normal();
   std::error_code ec;
   if (!out.parent_path().empty()) fs::create_directories(out.parent_path(), ec);
-  const fs::path tmp = out.parent_path() / (out.filename().string() + ".part" + std::to_string(::getpid()));
+  const std::string part = out.filename().string() + ".part";
+  // A `lesson make` that was killed leaves OUT.part<pid>: removed here once that process is gone.
+  for (fs::directory_iterator it(out.parent_path(), ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string n = it->path().filename().string();
+    if (n.size() <= part.size() || n.compare(0, part.size(), part) != 0) continue;
+    const std::string digits = n.substr(part.size());
+    if (digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9) continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(digits));
+    if (pid != ::getpid() && ::kill(pid, 0) != 0 && errno == ESRCH) {
+      std::error_code e2;
+      fs::remove_all(it->path(), e2);
+    }
+  }
+  ec.clear();
+  const fs::path tmp = out.parent_path() / (part + std::to_string(::getpid()));
   fs::remove_all(tmp, ec);
   auto cleanup = [&] { std::error_code e2; fs::remove_all(tmp, e2); };
   if (!fs::create_directories(tmp, ec) || ec) return Error{tmp.string() + ": cannot create: " + ec.message()};

@@ -4,6 +4,7 @@
 #include "dentar/training/lesson.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -62,8 +63,15 @@ TEST(LessonFile, MakeReadBackAndShow) {
   auto l = make_lesson(g.path, (d / "mine").string(), o);  // a folder: not a session.dlog folder
   ASSERT_FALSE(l.ok());
   expect_has(l.error(), "holds no session.dlog");
+  // Left by a killed `lesson make` (no such process): removed. Another live process's: kept.
+  fs::create_directories(d / "mine.part999999999");
+  fs::create_directories(d / ("mine.part" + std::to_string(::getppid())));
+  fs::create_directories(d / "mine.partial_notes");
   l = make_lesson(g.recording_path(), (d / "mine").string(), o);
   ASSERT_TRUE(l.ok()) << l.error();
+  EXPECT_FALSE(fs::exists(d / "mine.part999999999"));
+  EXPECT_TRUE(fs::exists(d / ("mine.part" + std::to_string(::getppid()))));
+  EXPECT_TRUE(fs::exists(d / "mine.partial_notes"));
   auto back = load_lesson((d / "mine").string());
   ASSERT_TRUE(back.ok()) << back.error();
   EXPECT_EQ(back->recording_hash, g.recording_hash);
