@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -46,6 +47,15 @@ const fs::path& clip() {
     const auto stamp = fs::last_write_time(kBin).time_since_epoch().count();
     const fs::path d = fs::temp_directory_path() / ("dentar_live_clip_" + std::to_string(stamp));
     if (fs::exists(d / "session.dlog")) return d;
+    // Clips of earlier builds (33 MB each) are removed after a day; a day-old one is no longer
+    // in use by a parallel run of the same build.
+    std::error_code e1;
+    for (fs::directory_iterator it(fs::temp_directory_path(), e1), end; !e1 && it != end; it.increment(e1)) {
+      if (it->path().filename().string().rfind("dentar_live_clip_", 0) != 0 || it->path() == d) continue;
+      std::error_code e2;
+      const auto age = fs::file_time_type::clock::now() - fs::last_write_time(it->path(), e2);
+      if (!e2 && age > std::chrono::hours(24)) fs::remove_all(it->path(), e2);
+    }
     const fs::path tmp = fs::temp_directory_path() / ("dentar_live_clip_tmp_" + std::to_string(getpid()));
     fs::remove_all(tmp);
     auto r = run_command(kBin + " synth --preset standard --frames 60 --resolution 640x480 --seed 3 --webcam --out " +
