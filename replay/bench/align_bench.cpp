@@ -57,3 +57,5 @@ BENCHMARK(BM_StepDtwTenMinutes)->Arg(100)->Arg(1000)->Unit(benchmark::kMilliseco
 
 }  // namespace
 }  // namespace dentar::replay
+
+BENCHMARK_MAIN();

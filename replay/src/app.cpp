@@ -540,6 +540,7 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     if (r.b) r.plot_b = make_texture(force_plot_image(r.b->rec, pw, ph));
   }
   Ui ui;
+  std::vector<double> last_key;
   ui.playing = opt.play;
   ui.speed = opt.speed;
   std::vector<double> frame_ms, seek_ms, scene_ms, hud_ms;
@@ -582,7 +583,14 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     if (t != r.t_s)
       if (Status s = seek(r, t); !s) return {1, s.error()};
     const auto c1 = Clock::now();
-    render_views(r);
+    // The view is rendered again only when what it shows changed (time, camera, opacities,
+    // layout); paused and untouched, the last render is blitted again.
+    const std::vector<double> key = {r.t_s, r.cam.yaw_rad, r.cam.pitch_rad, r.cam.distance_m, r.cam.target_m.x(),
+                                     r.cam.target_m.y(), r.cam.target_m.z(), r.alphas.enamel, r.alphas.dentin,
+                                     r.alphas.pulp, r.ghost_alpha, r.superimpose ? 1.0 : 0.0,
+                                     static_cast<double>(reinterpret_cast<std::uintptr_t>(r.view_a.get()))};
+    if (key != last_key) render_views(r);
+    last_key = key;
     // With --stats, the view's rendering is waited for, so its time is measured apart from
     // the window's (a frame then costs the sum; without, the two can overlap).
     if (!opt.stats.empty()) finish_gl();
