@@ -21,10 +21,14 @@ namespace fs = std::filesystem;
 
 const Recording& rec() {
   static const Recording r = [] {
-    const fs::path d = test::temp_dir("cut_player");
-    auto l = training::make_generated_lesson("molar_class1_cavity", (d / "lesson").string(), 1);
-    EXPECT_TRUE(l.ok()) << l.error();
-    auto x = open_recording((d / "lesson").string());
+    // The fixture's lesson (replay/CMakeLists.txt) when ctest made it, else one made here.
+    fs::path lesson = DENTAR_REPLAY_TEST_LESSON;
+    if (!fs::exists(lesson / "lesson.json")) {
+      lesson = test::temp_dir("cut_player") / "lesson";
+      auto l = training::make_generated_lesson("molar_class1_cavity", lesson.string(), 1);
+      EXPECT_TRUE(l.ok()) << l.error();
+    }
+    auto x = open_recording(lesson.string());
     EXPECT_TRUE(x.ok()) << x.error();
     return x.ok() ? std::move(x).value() : Recording{};
   }();

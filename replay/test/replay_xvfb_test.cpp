@@ -2,8 +2,8 @@
 // against the headless offline render of the same state, the student-against-expert views,
 // and bad input. The window tests skip without xvfb-run unless DENTAR_REQUIRE_GL=1.
 //
-// Fixture: one generated expert lesson (molar class I cavity, 35 s of drilling), made once
-// per test process in a temporary folder (removed at exit).
+// Fixture: one generated expert lesson (molar class I cavity, 53 s), made once by ctest's
+// fixture in the build folder (replay/CMakeLists.txt), or here in a temporary folder.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -23,8 +23,11 @@ namespace {
 
 const std::string kBin = DENTAR_BINARY;
 
+// The fixture's lesson (replay/CMakeLists.txt) when ctest made it, else one made here.
 const fs::path& lesson() {
   static const fs::path p = [] {
+    const fs::path fixture = DENTAR_REPLAY_TEST_LESSON;
+    if (fs::exists(fixture / "lesson.json")) return fixture;
     const fs::path d = dentar::test::temp_dir("replay_lesson") / "lesson";
     auto r = run_command(kBin + " lesson make --generated --exercise molar_class1_cavity --out " + d.string() + " 2>&1");
     EXPECT_EQ(r.code, 0) << r.out;
