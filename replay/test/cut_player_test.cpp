@@ -103,10 +103,30 @@ TEST(Recording, BadInputNamesTheFile) {
   x = open_recording((d / "junk.dlog").string());
   ASSERT_FALSE(x.ok());
   EXPECT_NE(x.error().find((d / "junk.dlog").string()), std::string::npos) << x.error();
-  // (An exercise for another tooth: replay_xvfb_test's bad input, on a real lesson.)
   x = open_recording("builtin:no_such_exercise");
   ASSERT_FALSE(x.ok());
   EXPECT_NE(x.error().find("builtin:no_such_exercise"), std::string::npos) << x.error();
+  // (An exercise for another tooth: replay_xvfb_test's bad input, on a real lesson.)
+}
+
+// --against: a recording of another tooth, voxel size or exercise is refused, naming both.
+TEST(Recording, AgainstNeedsTheSameToothAndExercise) {
+  Recording a, b;
+  a.input = "student.dlog";
+  b.input = "lesson_b";
+  a.setup.tooth_json = R"({"kind":"molar","voxel_mm":0.15})";
+  a.exercise.name = b.exercise.name = "molar_class1_cavity";
+  b.setup.tooth_json = a.setup.tooth_json;
+  EXPECT_EQ(check_comparable(a, b), "");
+  b.setup.tooth_json = R"({"kind":"incisor","voxel_mm":0.15})";
+  EXPECT_EQ(check_comparable(a, b),
+            "lesson_b is a recording of tooth kind 'incisor', student.dlog of 'molar': --against needs a recording of "
+            "the same tooth (a lesson for the molar)");
+  b.setup.tooth_json = R"({"kind":"molar","voxel_mm":0.1})";
+  EXPECT_NE(check_comparable(a, b).find("the same tooth at the same voxel size"), std::string::npos);
+  b.setup.tooth_json = a.setup.tooth_json;
+  b.exercise.name = "molar_access_opening";
+  EXPECT_NE(check_comparable(a, b).find("lesson_b is for the exercise 'molar_access_opening'"), std::string::npos);
 }
 
 }  // namespace
