@@ -35,6 +35,7 @@ void add_replay(CLI::App& app, int& exit_code) {
   sub->add_option("--screenshot", o->screenshot, "with --frames: save the window's pixels after the last frame (PNG)");
   sub->add_option("--render", o->render, "no window: render the view at --at to this PNG (headless EGL) and exit");
   sub->add_option("--stats", o->stats, "write frame times (median, p99) and the alignment to this JSON");
+  sub->add_option("--keys", o->keys, "scripted key presses, one per frame (tests): e.g. --keys n n space")->expected(0, -1);
   sub->add_flag("--no-vsync", *no_vsync, "do not wait for the display's refresh (benchmarks)");
   sub->footer(
       "Mouse: left drag orbits, right drag pans, wheel zooms. Keys: arrows orbit, +/- zoom, W/A/S/D pan, R resets,\n"

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <cctype>
 #include <cstdlib>
 #include <cmath>
 #include <filesystem>
@@ -323,8 +324,27 @@ struct Ui {
 
 double seek_target = -1;
 
-void handle_keys(Replay& r, Ui& ui, ReplayWindow& w) {
-  for (int k : w.take_presses()) {
+// GLFW key code of a key's name (--keys), -1 when unknown.
+int key_code(std::string n) {
+  for (auto& c : n) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (n.size() == 1 && n[0] >= 'a' && n[0] <= 'z') return GLFW_KEY_A + (n[0] - 'a');
+  if (n.size() == 1 && n[0] >= '0' && n[0] <= '9') return GLFW_KEY_0 + (n[0] - '0');
+  static const std::pair<const char*, int> named[] = {
+      {"space", GLFW_KEY_SPACE}, {"left", GLFW_KEY_LEFT},   {"right", GLFW_KEY_RIGHT},
+      {"up", GLFW_KEY_UP},       {"down", GLFW_KEY_DOWN},   {"+", GLFW_KEY_EQUAL},
+      {"-", GLFW_KEY_MINUS},     {",", GLFW_KEY_COMMA},     {".", GLFW_KEY_PERIOD},
+      {"[", GLFW_KEY_LEFT_BRACKET}, {"]", GLFW_KEY_RIGHT_BRACKET}, {"home", GLFW_KEY_HOME},
+      {"end", GLFW_KEY_END},     {"tab", GLFW_KEY_TAB},     {"pagedown", GLFW_KEY_PAGE_DOWN},
+      {"pageup", GLFW_KEY_PAGE_UP}, {"escape", GLFW_KEY_ESCAPE}};
+  for (const auto& [name, code] : named)
+    if (n == name) return code;
+  return -1;
+}
+
+void handle_keys(Replay& r, Ui& ui, ReplayWindow& w, int scripted) {
+  std::vector<int> presses = w.take_presses();
+  if (scripted >= 0) presses.push_back(scripted);
+  for (int k : presses) {
     const double step = 10 * M_PI / 180;
     switch (k) {
       case GLFW_KEY_ESCAPE: case GLFW_KEY_Q: ui.quit = true; break;
@@ -486,6 +506,8 @@ std::string ReplayOptions::validate() const {
   for (float a : {enamel_alpha, dentin_alpha, pulp_alpha})
     if (!(a >= 0 && a <= 1)) return "--enamel/--dentin/--pulp: opacity " + fmt(a, 3) + " must be 0 to 1";
   if (!std::isfinite(at_s)) return "--at: must be a number of seconds";
+  for (const auto& k : keys)
+    if (key_code(k) < 0) return "--keys: unknown key '" + k + "' (letters, digits, space, left, right, up, down, +, -, ',', '.', [, ], home, end, tab, pageup, pagedown, escape)";
   if (!screenshot.empty() && frames <= 0) return "--screenshot needs --frames N (the window is captured after frame N)";
   if (!render.empty() && !screenshot.empty()) return "--render (headless) and --screenshot (the window's) exclude each other";
   return {};
@@ -550,7 +572,8 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
   cv::Mat shot;
   for (int n = 0; (opt.frames == 0 || n < opt.frames) && !(*win)->should_close() && !ui.quit; ++n) {
     (*win)->poll();
-    handle_keys(r, ui, **win);
+    handle_keys(r, ui, **win, n >= 1 && n - 1 < static_cast<int>(opt.keys.size())
+                                  ? key_code(opt.keys[static_cast<std::size_t>(n - 1)]) : -1);
     const auto now = Clock::now();
     const double dt = std::chrono::duration<double>(now - last).count();
     last = now;
@@ -631,6 +654,13 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
            fmt(med > 0 ? 1e3 / med : 0, 0) + " fps), p99 " + fmt(p99, 2) + " ms";
   }
   stats["end_s"] = r.t_s;
+  stats["speed"] = ui.speed;
+  stats["camera"] = {{"yaw_rad", r.cam.yaw_rad}, {"pitch_rad", r.cam.pitch_rad}, {"distance_m", r.cam.distance_m}};
+  {
+    std::vector<double> starts;
+    for (const auto& s : r.a.rec.steps) starts.push_back(s.start_s);
+    stats["step_starts_s"] = starts;
+  }
   if (!opt.screenshot.empty()) {
     if (shot.empty()) return {1, "no screenshot: the window closed before frame " + std::to_string(opt.frames)};
     if (auto w = write_png(opt.screenshot, shot); w.exit_code != 0) return w;

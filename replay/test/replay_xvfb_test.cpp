@@ -6,6 +6,7 @@
 // fixture in the build folder (replay/CMakeLists.txt), or here in a temporary folder.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
@@ -103,6 +104,25 @@ TEST(ReplayXvfb, WindowMatchesTheOfflineRenderAtATime) {
   const auto stats = dentar::test::read_json(d / "stats.json");
   EXPECT_EQ(stats.at("frames").get<int>(), 4);
   EXPECT_NEAR(stats.at("end_s").get<double>(), 30.0, 1e-9) << "paused: the clock stays at --at";
+}
+
+// The keyboard drives the same code as a user's keys: N twice jumps two steps on (to the
+// third span's start, paused), Left orbits 10 degrees, ] doubles the speed.
+TEST(ReplayXvfb, KeysJumpToStepsOrbitAndChangeSpeed) {
+  REQUIRE_XVFB();
+  const fs::path d = dentar::test::temp_dir("replay_keys");
+  auto r = run_command(xvfb(kBin + " replay " + lesson().string() + " --at 0 --yaw -35 --frames 6 --no-vsync --stats " +
+                            (d / "k.json").string() + " --keys n n left ] 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto s = dentar::test::read_json(d / "k.json");
+  const auto starts = s.at("step_starts_s").get<std::vector<double>>();
+  ASSERT_GE(starts.size(), 3u);
+  EXPECT_NEAR(s.at("end_s").get<double>(), starts[2], 1e-9);
+  EXPECT_NEAR(s.at("camera").at("yaw_rad").get<double>(), (-35.0 - 10.0) * M_PI / 180, 1e-9);
+  EXPECT_DOUBLE_EQ(s.at("speed").get<double>(), 2.0);
+  r = run_command(kBin + " replay " + lesson().string() + " --render " + (d / "x.png").string() + " --keys f13 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  expect_has(r.out, "--keys: unknown key 'f13'");
 }
 
 // Student against expert: side by side and superimposed render, the alignment ran per step

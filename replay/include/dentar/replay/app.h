@@ -48,6 +48,9 @@ struct ReplayOptions {
   std::string render;     // headless: no window; the offline render at at_s to this PNG
   std::string stats;      // JSON of the frame times and alignment (optional)
   bool vsync = true;
+  // Scripted key presses, one per frame from the second frame on, through the same code as
+  // the user's keys (tests): names as in the key list above ("space", "n", "left", "1", ...).
+  std::vector<std::string> keys;
   // The view (degrees and mm at this boundary): yaw/pitch of the orbit camera; zoom > 0
   // scales the framing distance (2 = twice as close).
   double yaw_deg = -35, pitch_deg = 45, zoom = 1.0;
