@@ -320,9 +320,8 @@ struct Ui {
   const training::Annotation* shown = nullptr;
   double shown_until = -1;
   bool quit = false;
+  double seek_target = -1;  // a jump asked for this frame (keys, clicks), applied by the loop
 };
-
-double seek_target = -1;
 
 // GLFW key code of a key's name (--keys), -1 when unknown.
 int key_code(std::string n) {
@@ -360,16 +359,16 @@ void handle_keys(Replay& r, Ui& ui, ReplayWindow& w, int scripted) {
       case GLFW_KEY_A: r.cam.pan(-0.05, 0); break;
       case GLFW_KEY_D: r.cam.pan(0.05, 0); break;
       case GLFW_KEY_R: r.cam = r.home; break;
-      case GLFW_KEY_COMMA: seek_target = std::max(0.0, r.t_s - 5); break;
-      case GLFW_KEY_PERIOD: seek_target = r.t_s + 5; break;
+      case GLFW_KEY_COMMA: ui.seek_target = std::max(0.0, r.t_s - 5); break;
+      case GLFW_KEY_PERIOD: ui.seek_target = r.t_s + 5; break;
       case GLFW_KEY_LEFT_BRACKET: ui.speed = std::max(0.0625, ui.speed / 2); break;
       case GLFW_KEY_RIGHT_BRACKET: ui.speed = std::min(16.0, ui.speed * 2); break;
-      case GLFW_KEY_HOME: seek_target = 0; break;
-      case GLFW_KEY_END: seek_target = r.a.rec.duration_s; break;
+      case GLFW_KEY_HOME: ui.seek_target = 0; break;
+      case GLFW_KEY_END: ui.seek_target = r.a.rec.duration_s; break;
       case GLFW_KEY_TAB: if (r.b) { r.superimpose = !r.superimpose; (void)make_views(r); } break;
       case GLFW_KEY_N: case GLFW_KEY_PAGE_DOWN: case GLFW_KEY_P: case GLFW_KEY_PAGE_UP: {
         const int s = next_step(r.a.rec, r.t_s, (k == GLFW_KEY_N || k == GLFW_KEY_PAGE_DOWN) ? 1 : -1);
-        if (s >= 0) seek_target = r.a.rec.steps[static_cast<std::size_t>(s)].start_s;
+        if (s >= 0) ui.seek_target = r.a.rec.steps[static_cast<std::size_t>(s)].start_s;
         break;
       }
       default:
@@ -377,7 +376,7 @@ void handle_keys(Replay& r, Ui& ui, ReplayWindow& w, int scripted) {
           const int want = k - GLFW_KEY_1;  // the exercise's step index
           for (const auto& s : r.a.rec.steps)
             if (s.index == want) {
-              seek_target = s.start_s;
+              ui.seek_target = s.start_s;
               break;
             }
         }
@@ -405,7 +404,7 @@ void draw_hud(Replay& r, Ui& ui, double frame_ms) {
   ImGui::Text("%s / %s s   %.0f ms/frame", fmt(r.t_s).c_str(), fmt(r.a.rec.duration_s).c_str(), frame_ms);
   if (ImGui::Button(ui.playing ? "Pause" : "Play")) ui.playing = !ui.playing;
   ImGui::SameLine();
-  if (ImGui::Button("|<")) seek_target = 0;
+  if (ImGui::Button("|<")) ui.seek_target = 0;
   ImGui::SameLine();
   if (ImGui::Button("Reset view")) r.cam = r.home;
   float sp = static_cast<float>(ui.speed);
@@ -445,7 +444,7 @@ void draw_hud(Replay& r, Ui& ui, double frame_ms) {
       const std::string line = std::to_string(k + 1) + " " + r.a.rec.exercise.steps[k].name +
                                (first ? "  " + fmt(first->start_s) + " s" : "  (not found)");
       ImGui::PushID(static_cast<int>(k));
-      if (ImGui::Selectable(line.c_str(), cur_index == static_cast<int>(k)) && first) seek_target = first->start_s;
+      if (ImGui::Selectable(line.c_str(), cur_index == static_cast<int>(k)) && first) ui.seek_target = first->start_s;
       ImGui::PopID();
     }
   }
@@ -455,7 +454,7 @@ void draw_hud(Replay& r, Ui& ui, double frame_ms) {
     for (const auto& a : r.a.rec.annotations) {
       ImGui::PushID(&a);
       const std::string line = fmt(a.time_s) + " s  " + (a.pause_s > 0 ? "[pause " + fmt(a.pause_s) + " s] " : "") + a.text;
-      if (ImGui::Selectable(line.c_str(), &a == ui.shown)) seek_target = a.time_s;
+      if (ImGui::Selectable(line.c_str(), &a == ui.shown)) ui.seek_target = a.time_s;
       ImGui::PopID();
     }
   }
@@ -466,7 +465,7 @@ void draw_hud(Replay& r, Ui& ui, double frame_ms) {
   ImGui::Begin("Timeline", nullptr, fixed | ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoScrollbar);
   const float pw = static_cast<float>(static_cast<int>(W) - 16);
   const double clicked = timeline(r.a.rec, r.t_s, pw, 22);
-  if (clicked >= 0) seek_target = clicked;
+  if (clicked >= 0) ui.seek_target = clicked;
   const float ph = static_cast<float>(r.b ? (kTimelineHeight - 50) / 2 : kTimelineHeight - 46);
   force_plot(r.a.rec, r.plot_a, r.t_s, pw, ph, r.b ? "force (this recording)" : "force on the tooth");
   if (r.b) force_plot(r.b->rec, r.plot_b, r.b_time(r.t_s), pw, ph, "force (--against, at the aligned time)");
@@ -581,9 +580,9 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     shown_ms = 0.9 * shown_ms + 0.1 * dt * 1e3;
     // The clock: playing advances by wall time x speed; a lesson's pause point holds it.
     double t = r.t_s;
-    if (seek_target >= 0) {
-      t = seek_target;
-      seek_target = -1;
+    if (ui.seek_target >= 0) {
+      t = ui.seek_target;
+      ui.seek_target = -1;
       ui.pause_left_s = 0;
     } else if (ui.playing && n > 0) {
       if (ui.pause_left_s > 0) {
