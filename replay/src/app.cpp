@@ -227,9 +227,12 @@ double timeline(const Recording& rec, double t, float width, float height) {
   for (const auto& s : rec.steps) {
     dl->AddRectFilled(ImVec2(X(s.start_s), p0.y), ImVec2(std::max(X(s.end_s), X(s.start_s) + 1), p0.y + height),
                       step_colour(s.index, 0.55f));
-    if (X(s.end_s) - X(s.start_s) > 60)
-      dl->AddText(ImVec2(X(s.start_s) + 3, p0.y + 2), IM_COL32(255, 255, 255, 230),
-                  (std::to_string(s.index + 1) + " " + s.name).c_str());
+    if (X(s.end_s) - X(s.start_s) > 30) {  // the name, cut at the span's end
+      const ImVec4 clip(X(s.start_s), p0.y, X(s.end_s) - 2, p0.y + height);
+      const std::string label = std::to_string(s.index + 1) + " " + s.name;
+      dl->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(X(s.start_s) + 3, p0.y + 2), IM_COL32(255, 255, 255, 230),
+                  label.c_str(), nullptr, 0.0f, &clip);
+    }
   }
   for (const auto& a : rec.annotations) {
     const float x = X(a.time_s);
