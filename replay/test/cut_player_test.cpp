@@ -107,6 +107,16 @@ TEST(Recording, BadInputNamesTheFile) {
   ASSERT_FALSE(x.ok());
   EXPECT_NE(x.error().find("builtin:no_such_exercise"), std::string::npos) << x.error();
   // (An exercise for another tooth: replay_xvfb_test's bad input, on a real lesson.)
+  // A log damaged after its header plays what was kept, and says so.
+  const fs::path rec_path = fs::path(DENTAR_REPLAY_TEST_LESSON) / "expert.dlog";
+  if (fs::exists(rec_path)) {
+    const std::string bytes = test::read_file(rec_path);
+    test::write_file(d / "cut.dlog", bytes.substr(0, bytes.size() / 3));
+    auto t = open_recording((d / "cut.dlog").string());
+    ASSERT_TRUE(t.ok()) << t.error();
+    EXPECT_NE(t->warning.find((d / "cut.dlog").string() + ": byte offset "), std::string::npos) << t->warning;
+    EXPECT_GT(t->duration_s, 1.0);
+  }
 }
 
 // --against: a recording of another tooth, voxel size or exercise is refused, naming both.
