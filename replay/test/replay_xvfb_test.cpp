@@ -143,7 +143,7 @@ TEST(ReplayXvfb, AgainstAlignsPerStepSideBySideAndSuperimposed) {
   const fs::path d = dentar::test::temp_dir("replay_against");
   for (const std::string mode : {"", " --superimpose"}) {
     auto r = run_command(kBin + " replay " + lesson().string() + " --against " + lesson().string() + mode +
-                         " --at 20 --render " + (d / "a.png").string() + " --stats " + (d / "s.json").string() + " 2>&1");
+                         " --at 5 --render " + (d / "a.png").string() + " --stats " + (d / "s.json").string() + " 2>&1");
     SKIP_WITHOUT_EGL(r);
     ASSERT_EQ(r.code, 0) << r.out;
     expect_has(r.out, "aligned by DTW in");
