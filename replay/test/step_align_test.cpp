@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace dentar::replay {
@@ -56,7 +57,9 @@ TEST(StepAlign, RecoversADifferentWarpInEachStep) {
   std::vector<double> err;
   for (std::size_t i = 0; i < p.truth.size(); ++i) {
     err.push_back(std::abs(w->b_row[i] - p.truth[i]));
-    if (i > 0) EXPECT_GE(w->b_row[i], w->b_row[i - 1]) << "monotone at row " << i;
+    if (i > 0) {
+      EXPECT_GE(w->b_row[i], w->b_row[i - 1]) << "monotone at row " << i;
+    }
   }
   std::sort(err.begin(), err.end());
   // Bounds in rows of b: a DTW path is integer and b is sampled up to 2x denser than a in
