@@ -206,4 +206,18 @@ TEST(CliExitCodes, LessonFaultsAreTwo) {
   for (const char* d : {"l6", "l7", "l8", "l9"}) EXPECT_FALSE(fs::exists(f.dir / d)) << d << " was written";
 }
 
+// dentar replay (issue 27, mode 1's window): every fault is found before a window opens.
+TEST(CliExitCodes, ReplayRefusesBadInputWithTwo) {
+  const Fixtures& f = fixtures();
+  const std::string m = f.missing.string();
+  fs::create_directories(f.dir / "bad_lesson");
+  std::ofstream(f.dir / "bad_lesson" / "lesson.json") << "{\"format\": \"dentar-lesson\", \"version\": 1, \"exer";
+  check({{"unknown option", "replay x --no-such-option", "--no-such-option"},
+         {"missing input", "replay " + m, m},
+         {"damaged session log", "replay " + f.garbage_dlog.string(), f.garbage_dlog.string()},
+         {"damaged lesson", "replay " + (f.dir / "bad_lesson").string(), "lesson.json: not valid JSON"},
+         {"range", "replay " + m + " --speed 100", "--speed 100.000: must be 0.0625 to 16"},
+         {"range", "replay " + m + " --size 10x10", "--size 10x10"}});
+}
+
 }  // namespace

@@ -6,6 +6,11 @@
 #include "commands.h"
 #include "log_filter.h"
 
+// tools/cmd_replay.cpp (issue 27): declared here, beside its one caller.
+namespace dentar::tools {
+void add_replay(CLI::App& app, int& exit_code);
+}
+
 int main(int argc, char** argv) {
   // Library log lines (FFmpeg, libjpeg, libapriltag, OpenCV) are held back unless --verbose
   // (log_filter.h); decided before anything runs, so the filter is up before any thread.
@@ -43,6 +48,7 @@ int main(int argc, char** argv) {
   dentar::tools::add_db(app, exit_code);
   dentar::tools::add_serve(app, exit_code);
   dentar::tools::add_lesson(app, exit_code);
+  dentar::tools::add_replay(app, exit_code);
 
   dentar::tools::add_sound(app, exit_code);
   int rc = 0;
