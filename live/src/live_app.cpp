@@ -121,9 +121,12 @@ std::string LiveOptions::validate() const {
     return "background_cpu = \"" + background_cpu + "\" must be others or engine";
   if (hand_skill != 1.0 || hand_style != 0.0 || hand_seed != 1) {
     if (stylus != "sim" || exercise.empty())
-      return "hand_skill, hand_style and hand_seed shape the simulated hand of an exercise: give --stylus sim and --exercise";
-    if (!(hand_skill >= 0 && hand_skill <= 1)) return "hand_skill must be in [0, 1] (1 = expert, 0 = novice)";
-    if (!(hand_style >= 0 && hand_style <= 3)) return "hand_style must be in [0, 3] (0 = no personal style)";
+      return "--hand-skill, --hand-style and --hand-seed shape the simulated hand of an exercise: give --stylus sim and "
+             "--exercise";
+    if (!(hand_skill >= 0 && hand_skill <= 1))
+      return "--hand-skill " + std::to_string(hand_skill) + ": must be in [0, 1] (1 = expert, 0 = novice)";
+    if (!(hand_style >= 0 && hand_style <= 3))
+      return "--hand-style " + std::to_string(hand_style) + ": must be in [0, 3] (0 = no personal style)";
   }
   if (pipeline.tracker.discovery == ar::DiscoveryMode::kScheduled)
     return "pipeline.tracker.discovery = scheduled is for replays (dentar offline), not a live run";
