@@ -44,6 +44,8 @@ void add_live(CLI::App& app, int& exit_code) {
       "  dentar live --camera live:out/clip/camera.avi --station out/clip/station.json \\\n"
       "              --stylus replay:out/clip/session.dlog --record out/rec\n"
       "  dentar offline --footage out/rec --out out/rec_offline      # replays the recording\n"
+      "  dentar live --camera live:out/clip/camera.avi --station out/clip/station.json --loop --stylus sim \\\n"
+      "              --exercise incisor_partial_crown --hand-skill 0.5 --hand-style 1 --hand-seed 7 --record out/inc\n"
       "Keys: space = pedal (drill), Esc or closing the window = stop.");
   sub->add_option("--camera", c->o.camera, "camera:N, /dev/videoN, or live:VIDEO (footage paced as a camera)");
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
@@ -103,6 +105,11 @@ void add_live(CLI::App& app, int& exit_code) {
                   "exercise of the session: its tooth is drilled (incisor_partial_crown: the incisor) and\n"
                   "--stylus sim works its steps; recorded in recording.json; with --record the session is scored\n"
                   "against it into DIR/score.json and score.html; a built-in name or a JSON file; default: the molar");
+  sub->add_option("--hand-skill", c->o.hand_skill,
+                  "--stylus sim with --exercise: the simulated person's skill, 1 = expert (default) .. 0 = novice");
+  sub->add_option("--hand-style", c->o.hand_style,
+                  "--stylus sim with --exercise: personal style strength (speed, tremor, force, posture, tilt), 0 = none (default) .. 3");
+  sub->add_option("--hand-seed", c->o.hand_seed, "--stylus sim with --exercise: the simulated person (default 1)");
   sub->add_flag("--no-score", c->no_score, "with --record: do not score the session");
   add_db_options(sub, c->db, false);
   add_sound_options(sub, c->sound, true);

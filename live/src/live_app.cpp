@@ -119,6 +119,15 @@ std::string LiveOptions::validate() const {
     return "display_path = \"" + display_path + "\" must be auto, gl or cpu";
   if (background_cpu != "others" && background_cpu != "engine")
     return "background_cpu = \"" + background_cpu + "\" must be others or engine";
+  if (hand_skill != 1.0 || hand_style != 0.0 || hand_seed != 1) {
+    if (stylus != "sim" || exercise.empty())
+      return "--hand-skill, --hand-style and --hand-seed shape the simulated hand of an exercise: give --stylus sim and "
+             "--exercise";
+    if (!(hand_skill >= 0 && hand_skill <= 1))
+      return "--hand-skill " + std::to_string(hand_skill) + ": must be in [0, 1] (1 = expert, 0 = novice)";
+    if (!(hand_style >= 0 && hand_style <= 3))
+      return "--hand-style " + std::to_string(hand_style) + ": must be in [0, 3] (0 = no personal style)";
+  }
   if (pipeline.tracker.discovery == ar::DiscoveryMode::kScheduled)
     return "pipeline.tracker.discovery = scheduled is for replays (dentar offline), not a live run";
   if (auto v = pipeline.validate(); !v.empty()) return "pipeline: " + v;
@@ -337,6 +346,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   std::string tooth_desc;  // the session header's "tooth" (live_tooth_json)
   haptics::ManualPedal key_pedal;
   bool pedal_from_device = false;
+  // The simulated hand's script length with an exercise (s of engine time; 0 = none): the run
+  // ends once the engine has stepped through it, as a student stops when the preparation is done.
+  double hand_end_s = 0;
   // The tooth named by tooth_desc, built by training::make_tooth (as the scorer and the
   // cohort generator build it).
   auto build_tooth = [&]() -> Status {
@@ -402,9 +414,17 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       } else {
         auto ex = named_exercise(o.exercise);
         if (!ex) return Error{"live: " + ex.error()};
-        auto t = training::expert_tip_script(*ex, *vol);
+        training::HandOptions ho;
+        ho.skill = o.hand_skill;
+        ho.style = o.hand_style;
+        ho.seed = o.hand_seed;
+        auto t = training::hand_tip_script(*ex, *vol, ho);
         if (!t) return Error{"live: simulated hand: " + t.error()};
         tips = std::move(*t);
+        if (!tips.empty()) hand_end_s = tips.back().time_s;
+        if (!tips.empty() && !o.quiet)
+          std::fprintf(stderr, "dentar live: the simulated hand (skill %.2f, style %.2f, seed %llu) works the exercise for %.1f s\n",
+                       o.hand_skill, o.hand_style, static_cast<unsigned long long>(o.hand_seed), tips.back().time_s);
       }
       auto d = haptics::SimulatedDevice::create(haptics::to_hand_script(tips, hs), limits, hand);
       if (!d) return Error{"live: simulated hand: " + d.error()};
@@ -514,6 +534,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
                 {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
                 {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
     if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
+    if (o.stylus == "sim" && !o.exercise.empty())
+      rec_meta["hand"] = {{"skill", o.hand_skill}, {"style", o.hand_style}, {"seed", o.hand_seed}};
     std::ofstream(rdir / "recording.json") << rec_meta.dump(2) << "\n";
   }
   std::string header;
@@ -878,6 +900,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     }
     if (o.seconds > 0 && now_s() - t_start >= o.seconds) {
       stop_reason = "time limit";
+      break;
+    }
+    if (hand_end_s > 0 && static_cast<double>(engine.stats().steps) / cfg.rate_hz >= hand_end_s + 1.0) {
+      stop_reason = "the simulated hand finished the exercise";
       break;
     }
     if (o.frames > 0 && displayed >= o.frames) {

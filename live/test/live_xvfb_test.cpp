@@ -567,6 +567,13 @@ TEST(LiveXvfb, ExerciseChoosesTheToothAndTheRecordingReplays) {
   EXPECT_EQ(read_json(off / "summary.json")["volume_hash"], live_sum["volume_hash"]);
   EXPECT_EQ(read_json(off / "score.json")["exercise"]["name"], "incisor_partial_crown");
   EXPECT_EQ(read_json(rec / "recording.json")["volume_hash"], live_sum["volume_hash"]);
+  // The simulated person is recorded: the defaults, the expert script of seed 1 without style.
+  const auto hand = read_json(rec / "recording.json")["hand"];
+  EXPECT_EQ(hand["skill"].get<double>(), 1.0) << hand.dump();
+  EXPECT_EQ(hand["style"].get<double>(), 0.0) << hand.dump();
+  EXPECT_EQ(hand["seed"].get<int>(), 1) << hand.dump();
+  // Stopped by the time limit: the hand's script of 13 steps takes minutes.
+  EXPECT_EQ(live_sum["stop_reason"], "time limit") << live_sum.dump(2);
 }
 
 // An exercise for another tooth than the replayed log's: refused at once as bad input (exit 2),

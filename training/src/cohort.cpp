@@ -732,4 +732,25 @@ Result<std::vector<haptics::TipWaypoint>> expert_tip_script(const Exercise& ex, 
   return make_script(ex, expert_skill(), rng, &geom, StyleParams{}).tips;
 }
 
+std::string HandOptions::validate() const {
+  if (!(skill >= 0 && skill <= 1)) return "hand skill = " + std::to_string(skill) + " must be in [0, 1] (1 = expert)";
+  if (!(style >= 0 && style <= 3)) return "hand style = " + std::to_string(style) + " must be in [0, 3] (0 = none)";
+  return {};
+}
+
+Result<std::vector<haptics::TipWaypoint>> hand_tip_script(const Exercise& ex, const volume::VoxelVolume& start,
+                                                          const HandOptions& o) {
+  if (auto v = o.validate(); !v.empty()) return Error{"hand script for " + ex.name + ": " + v};
+  if (o.skill >= 1.0 && !(o.style > 0)) return expert_tip_script(ex, start, o.seed);
+  auto masks = build_masks(ex, start);
+  if (!masks) return Error{"hand script for " + ex.name + ": " + masks.error()};
+  const std::vector<StepGeom> geom = step_geometry(ex, *masks, start);
+  std::mt19937_64 rng(o.seed);
+  // As generate_cohort draws a subject: the skill varied per person, the style on its own stream.
+  SkillParams p = vary(o.skill >= 1.0 ? expert_skill() : novice_skill(1.0 - o.skill), rng);
+  const StyleParams style = draw_style(o.style, o.seed * 1000003ull + 11ull);
+  p.tremor_mm *= style.tremor_gain;
+  return make_script(ex, p, rng, &geom, style).tips;
+}
+
 }  // namespace dentar::training

@@ -80,6 +80,14 @@ struct LiveOptions {
   // scored by the driver). Its tooth is the tooth drilled (live_tooth_json); "" = the station's
   // procedural molar.
   std::string exercise;
+  // The simulated hand (--stylus sim with an exercise) as a person: skill in [0, 1] (1 = the
+  // expert), personal style strength in [0, 3] (0 = none), and the person's seed
+  // (training/hand_script.h, hand_tip_script). The defaults are the expert script of seed 1.
+  // The run stops by itself once the engine has stepped through the hand's whole script
+  // (stop_reason "the simulated hand finished the exercise"), or earlier at `seconds`.
+  double hand_skill = 1.0;
+  double hand_style = 0.0;
+  std::uint64_t hand_seed = 1;
   double seconds = 0;      // stop after this long (0 = until closed)
   // Stop once this many new frames have been shown (0 = no limit). A run
   // sized in frames does the same work on a fast or a slow machine (tests,
