@@ -300,6 +300,10 @@ struct SynthSummary {
 //   masks/mask_NNNNNN.png
 //   session.dlog  the haptic session log of the scripted drilling
 //   synth.json    the options used and a summary
+// With options.stereo (issue 28): video.mkv (or the PNGs) side by side
+// (left | right, 2W x H), truth.jsonl and masks/ of the left eye (the rig
+// frame), truth_right.jsonl and masks_right/ of the right eye, the rig in
+// station.json ("stereo") and synth.json ("stereo").
 // Needs a current EGL context. `progress` (may be empty) is called after
 // each frame with the frame count.
 Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& options,
