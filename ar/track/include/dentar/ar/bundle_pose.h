@@ -30,6 +30,14 @@
 // covariances are the steps above over every (tag, view) observation; the
 // covariance is then in `rig`. Depth along one eye's line of sight is seen
 // across by the other eye, which is what a 60-65 mm baseline buys.
+// Libraries: OpenCV does the per-eye undistortion (cv::undistortPoints) and
+// the per-tag seeds (cv::solvePnPGeneric, SOLVEPNP_IPPE_SQUARE, in each
+// eye); the joint refinement is this file's Levenberg-Marquardt, because
+// neither OpenCV 4.6 (solvePnP is one camera; triangulatePoints + a 3-D
+// alignment would drop the per-corner image noise model and its
+// covariance) nor ViSP 3.5 (vpPose is one camera; its multi-camera
+// model-based tracker needs CAD models, not tag bundles) fits one rigid
+// body to corners of several calibrated cameras with the covariance.
 #pragma once
 
 #include <Eigen/Core>
