@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <vector>
 
@@ -313,6 +315,82 @@ TEST(CliTrack, BadInputsGiveClearErrorsAndNoOutput) {
   r = run_dentar("track --input " + video + " --calib " + st + " --tags --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--tag-size-mm"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// Issue 28: stereo footage (`dentar synth --stereo`, side by side) tracked
+// from both eyes (`dentar track --stereo`): poses in the left eye's frame
+// against truth.jsonl (the left eye's); bad stereo input is exit 2 with the
+// reason: mono footage, a side-by-side frame of odd width, eyes of two sizes.
+TEST(CliTrack, StereoSideBySideFootage) {
+  const fs::path d = dentar::test::temp_dir("cli_track_stereo");
+  CommandResult r = run_dentar("synth --preset mirror --stereo --baseline-mm 63 --frames 6 --seed 3 --out " +
+                               (d / "st").string());
+  if (r.code != 0) {
+    if (std::getenv("DENTAR_REQUIRE_GL")) FAIL() << r.out;
+    GTEST_SKIP() << "dentar synth failed (no headless EGL here?): " << r.out;
+  }
+  const json meta = json::parse(dentar::test::read_file(d / "st" / "synth.json"));
+  EXPECT_EQ(meta.at("stereo").at("layout"), "side_by_side");
+  EXPECT_NEAR(meta.at("stereo").at("baseline_mm").get<double>(), 63.0, 1e-9);
+  const auto truth = read_jsonl(d / "st" / "truth.jsonl");
+  const auto truth_r = read_jsonl(d / "st" / "truth_right.jsonl");
+  ASSERT_EQ(truth.size(), 6u);
+  ASSERT_EQ(truth_r.size(), 6u);
+  EXPECT_TRUE(fs::exists(d / "st" / "masks_right" / "mask_000005.png"));
+  const std::string st = (d / "st" / "station.json").string();
+  const fs::path out = d / "poses.jsonl";
+  r = run_dentar("track --input " + (d / "st" / "video.mkv").string() + " --layout " + st + " --stereo --out " +
+                 out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("stereo side by side, baseline 63"), std::string::npos) << r.out;
+  const auto poses = read_jsonl(out);
+  ASSERT_EQ(poses.size(), 6u);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const json& m = poses[i].at("bodies").at("mannequin");
+    ASSERT_EQ(m.at("state"), "tracking") << i;
+    EXPECT_EQ(m.at("views").get<int>(), 2) << i;
+    EXPECT_LT(trans_mm(to_iso(m.at("T_cam_body_measured")), to_iso(truth[i].at("T_cam_man"))), 0.5) << i;
+    // The right eye's truth is the left's seen from 63 mm to the right.
+    const Eigen::Isometry3d Tl = to_iso(truth[i].at("T_cam_man")), Tr = to_iso(truth_r[i].at("T_cam_man"));
+    EXPECT_NEAR((Tl.translation() - Tr.translation()).x(), 0.063, 1e-9);
+  }
+  fs::remove(out);  // the bad runs below must leave no poses file
+  // Mono footage given as stereo: the station has no rig.
+  r = run_dentar("synth --preset standard --frames 2 --seed 3 --png --out " + (d / "mono").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run_dentar("track --input " + (d / "mono" / "frames").string() + " --layout " +
+                 (d / "mono" / "station.json").string() + " --stereo --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("no stereo rig"), std::string::npos) << r.out;
+  // A side-by-side frame of odd width (one column cut off).
+  fs::create_directories(d / "odd");
+  const cv::Mat wide = cv::imread((d / "mono" / "frames" / "frame_000000.png").string());
+  ASSERT_FALSE(wide.empty());
+  cv::Mat sbs;
+  cv::hconcat(wide, wide, sbs);
+  ASSERT_TRUE(cv::imwrite((d / "odd" / "frame_000000.png").string(), sbs(cv::Rect(0, 0, sbs.cols - 1, sbs.rows))));
+  r = run_dentar("track --input " + (d / "odd").string() + " --layout " + st + " --stereo --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("even width"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("1279x480"), std::string::npos) << r.out;
+  // Eyes of two sizes in the station: refused where it is read.
+  json sj = json::parse(dentar::test::read_file(st));
+  sj["stereo"]["camera_right"]["width"] = 320;
+  sj["stereo"]["camera_right"]["height"] = 240;
+  sj["stereo"]["camera_right"]["cx"] = 160;
+  sj["stereo"]["camera_right"]["cy"] = 120;
+  dentar::test::write_file(d / "sizes.json", sj.dump());
+  r = run_dentar("track --input " + (d / "st" / "video.mkv").string() + " --layout " + (d / "sizes.json").string() +
+                 " --stereo --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("stereo.camera_right is 320x240"), std::string::npos) << r.out;
+  r = run_dentar("synth --stereo --frames 2 --station " + (d / "sizes.json").string() + " --out " + (d / "x").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("stereo.camera_right is 320x240"), std::string::npos) << r.out;
+  r = run_dentar("synth --stereo --baseline-mm 5 --frames 2 --out " + (d / "x").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("stereo_baseline_m"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(out));
 }
 

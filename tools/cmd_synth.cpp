@@ -5,6 +5,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <opencv2/videoio.hpp>
 
 #include "commands.h"
@@ -39,6 +40,9 @@ struct SynthCli {
   std::string board;
   int holds = 16;
   double hold_s = 2.0, move_s = 1.2;
+  // Stereo (issue 28): both eyes of a head, side by side in one video.
+  bool stereo = false;
+  double baseline_mm = 63;
 };
 
 // `dentar synth --board SPEC`: the hand-held board clip (ar/board_clip.h). The camera is the
@@ -128,6 +132,31 @@ int run(const SynthCli& c, const CLI::App& app) {
     station = std::move(s).value();
   }
   if (!c.family.empty()) station.family = *ar::parse_tag_family(c.family);
+  if (app.count("--baseline-mm") > 0 && !c.stereo) {
+    print_error("synth", "--baseline-mm " + std::to_string(c.baseline_mm) + " needs --stereo");
+    return 2;
+  }
+  if (c.webcam && c.stereo) {
+    print_error("synth", "--webcam writes one camera's Motion JPEG; leave it out with --stereo");
+    return 2;
+  }
+  if (c.stereo) {
+    o.stereo = true;
+    o.stereo_baseline_m = c.baseline_mm * 1e-3;
+    // The station's own rig unless --baseline-mm replaces its baseline (the right eye's intrinsics kept).
+    if (!station.stereo.present || app.count("--baseline-mm") > 0)
+      station.stereo = ar::make_stereo_rig(
+          station.calibration.camera, o.stereo_baseline_m,
+          station.stereo.present ? std::optional(station.stereo.camera_right) : std::nullopt);
+    if (std::string e = o.validate(); !e.empty()) {
+      print_error("synth", "--baseline-mm: " + e);
+      return 2;
+    }
+    if (std::string e = station.validate(); !e.empty()) {
+      print_error("synth", (c.station.empty() ? std::string("station") : c.station) + ": " + e);
+      return 2;
+    }
+  }
 
   auto ctx = ar::EglContext::create();
   if (!ctx) {
@@ -137,6 +166,7 @@ int run(const SynthCli& c, const CLI::App& app) {
   std::cout << "synth: preset " << c.preset << ", " << o.frames << " frames at " << o.fps
             << " fps, " << o.width << "x" << o.height << ", seed " << o.seed
             << (o.distortion ? "" : ", no distortion") << (o.motion_blur ? ", motion blur" : "")
+            << (o.stereo ? ", stereo side by side, baseline " + std::to_string(station.stereo.baseline_m() * 1e3).substr(0, 5) + " mm" : "")
             << "; " << ctx->description() << "\n";
   const int every = std::max(1, o.frames / 10);
   auto sum = ar::run_synth(station, o, c.out, c.png, [&](int n) {
@@ -155,7 +185,9 @@ int run(const SynthCli& c, const CLI::App& app) {
   }
   std::cout << std::fixed << std::setprecision(1) << "wrote " << c.out << ": "
             << (c.png ? "frames/*.png" : c.webcam ? "video.mkv (FFV1), camera.avi (Motion JPEG)" : "video.mkv (FFV1)")
-            << ", truth.jsonl, masks/, station.json, session.dlog, synth.json\n"
+            << (c.stereo ? " (left | right)" : "")
+            << ", truth.jsonl, masks/" << (c.stereo ? ", truth_right.jsonl, masks_right/" : "")
+            << ", station.json, session.dlog, synth.json\n"
             << sum->frames << " frames in " << sum->seconds << " s ("
             << sum->frames / std::max(sum->seconds, 1e-9) << " fps); mirror in view in "
             << sum->frames_with_mirror << " frames; " << sum->mean_visible_tags
@@ -195,6 +227,7 @@ void add_synth(CLI::App& app, int& exit_code) {
       "                       [--png | --webcam] [--no-distortion] [--noise DN] [--motion-blur]\n"
       "                       [--exposure-variation A] [--exposure-jumps] [--occluders N]\n"
       "                       [--station FILE] [--tag-family tagStandard41h12|tag36h11]\n"
+      "                       [--stereo [--baseline-mm MM]]\n"
       "       dentar synth --board SPEC [--holds N] [--hold S] [--move S] [--fps F] [--seed S] [--out DIR]");
   s->add_option("--preset", c->preset,
                 "standard, hard (fast motion, blur, grazing/small tags, occlusion), mirror "
@@ -240,6 +273,12 @@ void add_synth(CLI::App& app, int& exit_code) {
   s->add_option("--station", c->station,
                 "Station file, or a built-in station: default (the phantom head), box (the flat tag board of "
                 "`dentar tags --station box`, drawn on a box)");
+  s->add_flag("--stereo", c->stereo,
+             "Both eyes of a stereo head (issue 28): video.mkv side by side (left | right), truth.jsonl "
+             "and masks/ of the left eye (the rig frame), truth_right.jsonl and masks_right/ of the right, "
+             "the rig in station.json (\"stereo\"); docs/formats.md");
+  s->add_option("--baseline-mm", c->baseline_mm, "--stereo: the distance between the eyes (mm)")
+      ->capture_default_str();
   s->add_option("--tag-family", c->family, "Override the station's tag family")
       ->check(CLI::IsMember({"tagStandard41h12", "tag36h11"}));
   s->add_option("--board", c->board,
@@ -256,6 +295,7 @@ void add_synth(CLI::App& app, int& exit_code) {
       "  dentar synth --preset standard --frames 300 --fps 30 --resolution 1280x720 --seed 7 \\\n"
       "               --out out/synth_std\n"
       "  dentar synth --preset hard --frames 60 --png --out out/synth_hard\n"
+      "  dentar synth --preset mirror --stereo --baseline-mm 63 --frames 60 --out out/synth_stereo\n"
       "  dentar synth --board aprilgrid:6x5:24:8 --holds 16 --seed 3 --out out/board_clip");
   s->callback([c, s, &exit_code] { exit_code = run(*c, *s); });
 }

@@ -17,6 +17,8 @@
 
 #include "commands.h"
 #include "dentar/ar/frame_source.h"
+#include "dentar/ar/stereo_tracker.h"
+#include "dentar/ar/synth.h"
 #include "dentar/ar/tracker.h"
 
 namespace dentar::tools {
@@ -43,6 +45,7 @@ struct TrackCli {
   double tag_size_mm = 0;
   int width = 0, height = 0;
   double fps = 0, folder_fps = 30;
+  bool stereo = false;  // side-by-side footage of the station's stereo rig (issue 28)
 };
 
 json matrix_json(const Eigen::Isometry3d& T) {
@@ -127,13 +130,43 @@ int run(const TrackCli& c) {
     return 2;
   }
   ar::FrameSource& source = **src;
-  auto cam = ar::camera_for_image(station.calibration.camera, source.width(), source.height(),
+  int eye_w = source.width();
+  if (c.stereo) {
+    // Side by side (docs/formats.md): the left eye | the right eye.
+    if (c.tags) {
+      print_error("track", "--stereo tracks the station's bodies from both eyes; leave out --tags");
+      return 2;
+    }
+    if (!station.stereo.present) {
+      print_error("track", "--stereo: " + calib_source +
+                               " has no stereo rig (station file \"stereo\": camera_right, T_left_right); "
+                               "give --layout with the rig (dentar synth --stereo writes one)");
+      return 2;
+    }
+    if (source.width() % 2 != 0) {
+      cv::Mat l, r;
+      print_error("track", ar::split_side_by_side(cv::Mat(source.height(), source.width(), CV_8UC3), l, r,
+                                                  "--stereo: " + c.input).error());
+      return 2;
+    }
+    eye_w = source.width() / 2;
+  }
+  auto cam = ar::camera_for_image(station.calibration.camera, eye_w, source.height(),
                                   c.scale_calib, calib_source);
   if (!cam) {
     print_error("track", cam.error());
     return 2;
   }
   station.calibration.camera = *cam;
+  if (c.stereo) {
+    auto cr = ar::camera_for_image(station.stereo.camera_right, eye_w, source.height(), c.scale_calib,
+                                   calib_source + " (stereo.camera_right)");
+    if (!cr) {
+      print_error("track", cr.error());
+      return 2;
+    }
+    station.stereo.camera_right = *cr;
+  }
 
   ar::TrackerOptions to;
   to.detector.families = {station.family};
@@ -154,8 +187,16 @@ int run(const TrackCli& c) {
   to.filter_enabled = !c.no_filter;
   to.stale_limit_s = c.stale_ms * 1e-3;
   std::optional<ar::Tracker> tracker;
+  std::optional<ar::StereoTracker> stereo;
   std::optional<ar::TagDetector> detector;
-  if (c.tags) {
+  if (c.stereo) {
+    auto t = ar::StereoTracker::create(station, to);
+    if (!t) {
+      print_error("track", t.error());
+      return 2;
+    }
+    stereo.emplace(std::move(t).value());
+  } else if (c.tags) {
     auto d = ar::TagDetector::create(to.detector);
     if (!d) {
       print_error("track", d.error());
@@ -193,6 +234,7 @@ int run(const TrackCli& c) {
   std::cout << "track: " << source.description() << "; camera from " << calib_source << " ("
             << station.calibration.camera.width << "x" << station.calibration.camera.height
             << (c.scale_calib ? ", scaled if needed" : "") << "); "
+            << (c.stereo ? "stereo side by side, baseline " + std::to_string(station.stereo.baseline_m() * 1e3).substr(0, 5) + " mm; " : "")
             << (c.tags ? "per-tag poses" : (c.no_roi ? "full-frame search" : "predicted regions"))
             << ", decimate " << c.decimate << ", " << c.threads << " thread(s)\n";
 
@@ -210,7 +252,23 @@ int run(const TrackCli& c) {
     line["frame"] = fr.index;
     line["time_s"] = fr.time_s;
     line["dropped_before"] = fr.dropped_before;
-    if (c.tags) {
+    if (c.stereo) {
+      cv::Mat left, right;
+      if (Status st = ar::split_side_by_side(fr.image, left, right, c.input); !st) return abandon(st.error(), 2);
+      auto f = stereo->track(left, right, fr.time_s, fr.time_s + c.display_delay_ms * 1e-3);
+      if (!f) return abandon(f.error(), 1);
+      line["display_time_s"] = f->left.display_time_s;
+      line["tags_detected"] = {f->left.tags_detected, f->right.tags_detected};
+      json man = body_json(f->mannequin.track), mir = body_json(f->mirror.track);
+      man["views"] = f->mannequin.views_used;
+      mir["views"] = f->mirror.views_used;
+      line["bodies"] = {{"mannequin", man}, {"mirror", mir}};
+      line["timing_ms"] = {{"pose", round_to(f->pose_ms, 1e-4)}, {"total", round_to(f->total_ms, 1e-4)}};
+      ++man_counts[static_cast<int>(f->mannequin.track.state)];
+      ++mir_counts[static_cast<int>(f->mirror.track.state)];
+      total_ms.push_back(f->total_ms);
+      detect_ms.push_back(f->left.timing.detect_ms + f->right.timing.detect_ms);
+    } else if (c.tags) {
       const auto t0 = std::chrono::steady_clock::now();
       cv::cvtColor(fr.image, gray, cv::COLOR_BGR2GRAY);
       auto d = detector->detect(gray);
@@ -305,7 +363,7 @@ void add_track(CLI::App& app, int& exit_code) {
       "                       [--camera-response auto|srgb|linear] [--mirror-rim]\n"
       "                       [--no-roi] [--full-every N] [--no-filter] [--stale-ms MS]\n"
       "                       [--display-delay-ms MS] [--scale-calib] [--max-frames N]\n"
-      "                       [--tags --tag-size-mm S] [--width W --height H --fps F]");
+      "                       [--tags --tag-size-mm S] [--width W --height H --fps F] [--stereo]");
   s->add_option("--input", c->input,
                 "Video file, image folder, camera:N, /dev/videoN, or live:VIDEO (a video played "
                 "as a live camera)")
@@ -325,6 +383,10 @@ void add_track(CLI::App& app, int& exit_code) {
   s->add_option("--threads", c->threads, "libapriltag threads")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
+  s->add_flag("--stereo", c->stereo,
+             "Side-by-side footage of a stereo head (left eye | right eye, docs/formats.md): each body fitted "
+             "once to both eyes' corners; poses in the left eye's frame (the rig), \"views\" per body. "
+             "Needs --layout with the station's rig (\"stereo\")");
   s->add_flag("--no-roi", c->no_roi, "Search the full frame every frame (no predicted regions)");
   s->add_option("--full-every", c->full_every, "Full-frame search interval, frames")
       ->check(CLI::Range(1, 100000))
@@ -360,6 +422,8 @@ void add_track(CLI::App& app, int& exit_code) {
       "               --layout out/std/station.json --out out/std/poses.jsonl\n"
       "  dentar track --input photos/ --calib cam.yaml --tags --family tag36h11 \\\n"
       "               --tag-size-mm 53 --out tags.jsonl\n"
+      "  dentar synth --preset mirror --stereo --frames 60 --out out/st\n"
+      "  dentar track --input out/st/video.mkv --layout out/st/station.json --stereo --out out/st/poses.jsonl\n"
       "Exit status: 0 ok, 1 the job failed, 2 bad input or arguments.");
   s->callback([c, &exit_code] { exit_code = run(*c); });
 }

@@ -290,7 +290,34 @@ std::string StationPolicy::validate() const {
   return os.str();
 }
 
+std::string StereoRig::validate(const calibration::CameraIntrinsics& left) const {
+  if (!present) return {};
+  if (std::string e = camera_right.validate(); !e.empty()) return "stereo.camera_right: " + e;
+  if (camera_right.width != left.width || camera_right.height != left.height)
+    return "stereo.camera_right is " + std::to_string(camera_right.width) + "x" +
+           std::to_string(camera_right.height) + " px but camera (the left eye) is " +
+           std::to_string(left.width) + "x" + std::to_string(left.height) +
+           " px: both eyes must deliver the same size (the side-by-side frame); calibrate both at one size";
+  if (std::string e = calibration::check_rigid(T_caml_camr, "stereo.T_left_right"); !e.empty()) return e;
+  const double b = baseline_m();
+  if (!(b >= 0.01 && b <= 0.3))
+    return "stereo.T_left_right: the baseline is " + std::to_string(b * 1e3) +
+           " mm; a head's eyes are 10..300 mm apart (typically 60-65 mm)";
+  return {};
+}
+
+StereoRig make_stereo_rig(const calibration::CameraIntrinsics& left, double baseline_m,
+                          const std::optional<calibration::CameraIntrinsics>& right) {
+  StereoRig r;
+  r.present = true;
+  r.camera_right = right ? *right : left;
+  r.T_caml_camr = Eigen::Isometry3d::Identity();
+  r.T_caml_camr.translation() = Eigen::Vector3d(baseline_m, 0, 0);
+  return r;
+}
+
 std::string StationScene::validate() const {
+  if (std::string e = stereo.validate(calibration.camera); !e.empty()) return e;
   if (std::string e = mannequin.validate(); !e.empty()) return e;
   if (std::string e = policy.validate(); !e.empty()) return e;
   if (!fixtures.divots_man.empty() && policy.health_divot >= static_cast<int>(fixtures.divots_man.size()))
@@ -653,6 +680,13 @@ std::string station_scene_to_json(const StationScene& s) {
                          {"tag_moved_mm", po.tag_moved_m * 1e3},
                          {"tip_check_mm", po.tip_check_m * 1e3},
                          {"health_divot", po.health_divot}};
+  if (s.stereo.present) {
+    const auto& r = s.stereo.camera_right;
+    j["stereo"] = {{"camera_right",
+                    {{"width", r.width}, {"height", r.height}, {"fx", r.fx}, {"fy", r.fy},
+                     {"cx", r.cx}, {"cy", r.cy}, {"dist", r.dist}}},
+                   {"T_left_right", pose_json(s.stereo.T_caml_camr)}};
+  }
   // No pen tags: no "pen" block (a file without one reads as the default pen).
   if (!s.pen.tags.empty())
     j["pen"] = {{"flag_size_mm", s.pen.flag_size_m * 1e3},
@@ -675,7 +709,7 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
     check_keys(j, "",
                {"format", "version", "name", "camera", "tag_family", "mannequin", "tooth", "mirror",
                 "haptics", "calibration_fixtures", "calibration_report", "pen", "hand_eye",
-                "station_policy"});
+                "station_policy", "stereo"});
     if (req(j, "", "format") != "dentar-station")
       throw ParseError{"format", "must be \"dentar-station\""};
     // Files without a version are version 1 (written before the field was required).
@@ -949,6 +983,24 @@ Result<StationScene> parse_station_scene(std::string_view text, const std::strin
         po.tip_check_m = number(pj["tip_check_mm"], "station_policy.tip_check_mm", 0.01, 10) * 1e-3;
       if (pj.contains("health_divot"))
         po.health_divot = integer(pj["health_divot"], "station_policy.health_divot", 0, 63);
+    }
+    if (auto it = j.find("stereo"); it != j.end()) {
+      // Issue 28 (optional in version 4): the right eye and the rig's extrinsics.
+      check_keys(*it, "stereo", {"camera_right", "T_left_right"});
+      const json& cr = req(*it, "stereo", "camera_right");
+      check_keys(cr, "stereo.camera_right", {"width", "height", "fx", "fy", "cx", "cy", "dist"});
+      auto& r = s.stereo.camera_right;
+      const std::string p = "stereo.camera_right";
+      r.width = integer(req(cr, p, "width"), p + ".width", 1, 16384);
+      r.height = integer(req(cr, p, "height"), p + ".height", 1, 16384);
+      r.fx = number(req(cr, p, "fx"), p + ".fx", 1e-3, 1e6);
+      r.fy = number(req(cr, p, "fy"), p + ".fy", 1e-3, 1e6);
+      r.cx = number(req(cr, p, "cx"), p + ".cx", 0, r.width);
+      r.cy = number(req(cr, p, "cy"), p + ".cy", 0, r.height);
+      const auto d = vec<5>(req(cr, p, "dist"), p + ".dist", -100, 100);
+      for (int i = 0; i < 5; ++i) r.dist[static_cast<std::size_t>(i)] = d[i];
+      s.stereo.T_caml_camr = pose(req(*it, "stereo", "T_left_right"), "stereo.T_left_right");
+      s.stereo.present = true;
     }
     if (auto it = j.find("pen"); it != j.end()) {
       check_keys(*it, "pen", {"flag_size_mm", "T_ptag_tip", "tags"});

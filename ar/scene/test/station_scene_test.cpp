@@ -287,6 +287,44 @@ TEST(StationScene, CameraLatencyIsOptionalAndRoundTrips) {
   EXPECT_NE(r.error().find("camera.latency_ms"), std::string::npos) << r.error();
 }
 
+// Issue 28: the stereo rig (right eye's intrinsics, T_left_right) round-trips; a file
+// without it reads as one camera; a right eye of another size or a baseline no head has is
+// refused, naming the field.
+TEST(StationScene, StereoRigIsOptionalAndRoundTrips) {
+  StationScene s = default_station_scene();
+  EXPECT_FALSE(s.stereo.present);
+  nlohmann::json j = nlohmann::json::parse(station_scene_to_json(s));
+  EXPECT_FALSE(j.contains("stereo"));
+  calibration::CameraIntrinsics right = s.calibration.camera;
+  right.fx *= 1.01;
+  right.cx += 2.5;
+  s.stereo = make_stereo_rig(s.calibration.camera, 0.063, right);
+  s.stereo.T_caml_camr.linear() = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  auto r = parse_station_scene(station_scene_to_json(s), "stereo.json");
+  ASSERT_TRUE(r.ok()) << r.error();
+  ASSERT_TRUE(r->stereo.present);
+  EXPECT_NEAR(r->stereo.baseline_m(), 0.063, 1e-12);
+  EXPECT_NEAR(r->stereo.camera_right.fx, right.fx, 1e-9);
+  EXPECT_NEAR(r->stereo.camera_right.cx, right.cx, 1e-9);
+  EXPECT_TRUE(r->stereo.T_caml_camr.isApprox(s.stereo.T_caml_camr, 1e-12));
+  j = nlohmann::json::parse(station_scene_to_json(s));
+  j["stereo"]["camera_right"]["width"] = 1280;
+  j["stereo"]["camera_right"]["cx"] = 640;
+  r = parse_station_scene(j.dump(), "sizes.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("stereo.camera_right is 1280x480"), std::string::npos) << r.error();
+  j = nlohmann::json::parse(station_scene_to_json(s));
+  j["stereo"]["T_left_right"]["translation_mm"] = {0.5, 0, 0};
+  r = parse_station_scene(j.dump(), "baseline.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("stereo.T_left_right"), std::string::npos) << r.error();
+  j = nlohmann::json::parse(station_scene_to_json(s));
+  j["stereo"].erase("T_left_right");
+  r = parse_station_scene(j.dump(), "missing.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("T_left_right"), std::string::npos) << r.error();
+}
+
 // Version 3: the hand-eye result with its uncertainty and date, the camera's identity and the
 // station policy survive a round trip.
 TEST(StationScene, VersionThreeFieldsRoundTrip) {

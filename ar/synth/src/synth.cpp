@@ -212,6 +212,13 @@ std::string SynthOptions::validate() const {
            !in(elevation_centre_rad - elevation_amplitude_rad, -1.5, 1.5) ||
            elevation_amplitude_rad < 0)
     os << "elevation centre +- amplitude must stay within [-1.5, 1.5] rad";
+  else if (!in(stereo_baseline_m, 0.01, 0.3))
+    os << "stereo_baseline_m = " << stereo_baseline_m << " m must be in [0.01, 0.3] (a head's eyes: 60-65 mm)";
+  else if (eye < 0 || eye > 1)
+    os << "eye = " << eye << " must be 0 (left) or 1 (right)";
+  else if (!T_rig_eye.matrix().allFinite() ||
+           !(T_rig_eye.linear() * T_rig_eye.linear().transpose()).isIdentity(1e-6) || T_rig_eye.translation().norm() > 0.3)
+    os << "T_rig_eye must be a rigid transform within 0.3 m of the rig";
   else if (!in(roll_amplitude_rad, 0, 1.0))
     os << "roll amplitude must be in [0, 1] rad";
   else if (!in(motion_speed, 0, 20))
@@ -417,6 +424,9 @@ struct SynthGenerator::Impl {
     bool pedal = false;
   };
 
+  // Each eye's sensor has its own noise (the left eye's is the mono footage's).
+  std::uint64_t eye_noise_salt() const { return opt.eye == 0 ? 0 : 0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(opt.eye); }
+
   Iso T_man_cam(double t) const {
     const SynthOptions& o = opt;
     const double d = 0.5 * (o.distance_min_m + o.distance_max_m) +
@@ -538,8 +548,10 @@ struct SynthGenerator::Impl {
     s.T_dev_sty = from_colmajor(snap.T_dev_sty);
     const auto& c = station.calibration;
     s.T_man_tip = c.T_man_dev * s.T_dev_sty * c.T_sty_tip;
+    // T_man_cam(t) is the head (the rig's left eye); this generator's eye
+    // sits at T_rig_eye on it (identity: the left eye, mono footage).
     const Iso T_man_cam_t = T_man_cam(t);
-    s.T_cam_man = T_man_cam_t.inverse();
+    s.T_cam_man = (T_man_cam_t * opt.T_rig_eye).inverse();
     s.T_man_finger = T_man_finger(t, T_man_cam_t, s.finger_in_front);
     s.T_man_mir = T_man_mir(t);
     for (std::size_t i = 0; i < occluders.size(); ++i) s.T_man_occ.push_back(T_man_occ(i, t));
@@ -635,7 +647,7 @@ struct SynthGenerator::Impl {
       cv::filter2D(lin, lin, -1, k, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
     }
     if (opt.optical_blur_px > 0) cv::GaussianBlur(lin, lin, cv::Size(0, 0), opt.optical_blur_px);
-    Noise rng(opt.seed * 1000003ull + static_cast<std::uint64_t>(frame_index) + 17);
+    Noise rng(opt.seed * 1000003ull + static_cast<std::uint64_t>(frame_index) + 17 + eye_noise_salt());
     const float fw = static_cast<float>(c.full_well_e), read2 = static_cast<float>(c.read_noise_e * c.read_noise_e);
     bgr.create(lin.size(), CV_8UC3);
     for (int v = 0; v < lin.rows; ++v) {
@@ -855,7 +867,7 @@ struct SynthGenerator::Impl {
       cv::LUT(bgr, srgb_decode_table(), linear);
       cv::GaussianBlur(linear, linear, cv::Size(0, 0), opt.optical_blur_px);
     }
-    Noise rng(opt.seed * 1000003ull + static_cast<std::uint64_t>(frame_index) + 17);
+    Noise rng(opt.seed * 1000003ull + static_cast<std::uint64_t>(frame_index) + 17 + eye_noise_salt());
     const float read2 = static_cast<float>(opt.read_noise_dn * opt.read_noise_dn);
     const float shot = static_cast<float>(opt.shot_noise_gain);
     const bool noisy = read2 > 0 || shot > 0;
@@ -945,6 +957,22 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
     k = n;
   }
   if (!o.distortion) k.dist = {0, 0, 0, 0, 0};
+  // The other eye of a stereo rig (issue 28) at the same size.
+  if (im.station.stereo.present) {
+    auto& kr = im.station.stereo.camera_right;
+    if (kr.width != o.width || kr.height != o.height) {
+      const double s = static_cast<double>(o.width) / kr.width;
+      calibration::CameraIntrinsics n = kr;
+      n.width = o.width;
+      n.height = o.height;
+      n.fx = kr.fx * s;
+      n.fy = kr.fy * s;
+      n.cx = 0.5 * (o.width - 1) + (kr.cx - 0.5 * (kr.width - 1)) * s;
+      n.cy = 0.5 * (o.height - 1) + (kr.cy - 0.5 * (kr.height - 1)) * s;
+      kr = n;
+    }
+    if (!o.distortion) kr.dist = {0, 0, 0, 0, 0};
+  }
   im.camera = std::make_unique<CameraModel>(k);
 
   RendererOptions ro;
@@ -1413,40 +1441,74 @@ Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& 
   if (!ec && png) fs::create_directories(fs::path(out_dir) / "frames", ec);
   if (ec) return Error{"cannot create output folder '" + out_dir + "': " + ec.message()};
   const fs::path dir(out_dir);
-  auto gen = SynthGenerator::create(station, o, (dir / "session.dlog").string());
-  if (!gen) return Error{gen.error()};
-  SynthGenerator& g = **gen;
-  if (Status s = write_station_scene(g.station(), (dir / "station.json").string()); !s)
+  // Stereo (issue 28): both eyes, the side-by-side video, truth and masks per eye.
+  const bool stereo = o.stereo;
+  StationScene st = station;
+  if (stereo && !st.stereo.present) st.stereo = make_stereo_rig(st.calibration.camera, o.stereo_baseline_m);
+  if (stereo) {
+    fs::create_directories(dir / "masks_right", ec);
+    if (ec) return Error{"cannot create output folder '" + (dir / "masks_right").string() + "': " + ec.message()};
+  }
+  std::unique_ptr<SynthGenerator> mono;
+  std::unique_ptr<StereoSynthGenerator> pair;
+  if (stereo) {
+    auto g = StereoSynthGenerator::create(st, o, (dir / "session.dlog").string());
+    if (!g) return Error{g.error()};
+    pair = std::move(g).value();
+  } else {
+    auto g = SynthGenerator::create(st, o, (dir / "session.dlog").string());
+    if (!g) return Error{g.error()};
+    mono = std::move(g).value();
+  }
+  const StationScene& rendered = stereo ? pair->station() : mono->station();
+  if (Status s = write_station_scene(rendered, (dir / "station.json").string()); !s)
     return Error{s.error()};
 
   SynthSummary sum;
   cv::VideoWriter video;
+  const int eye_w = rendered.calibration.camera.width, eye_h = rendered.calibration.camera.height;
   if (png) {
     sum.video_path = (dir / "frames").string();
   } else {
     sum.video_path = (dir / "video.mkv").string();
-    video.open(
-        sum.video_path, cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), o.fps,
-        cv::Size(g.station().calibration.camera.width, g.station().calibration.camera.height));
+    video.open(sum.video_path, cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), o.fps,
+               cv::Size(stereo ? 2 * eye_w : eye_w, eye_h));
     if (!video.isOpened())
       return Error{sum.video_path + ": OpenCV cannot open an FFV1 video writer here (use --png)"};
   }
   std::ofstream truth(dir / "truth.jsonl", std::ios::binary | std::ios::trunc);
   if (!truth) return Error{(dir / "truth.jsonl").string() + ": cannot open for writing"};
-  SynthFrame f;
+  std::ofstream truth_r;
+  if (stereo) {
+    truth_r.open(dir / "truth_right.jsonl", std::ios::binary | std::ios::trunc);
+    if (!truth_r) return Error{(dir / "truth_right.jsonl").string() + ": cannot open for writing"};
+  }
+  StereoSynthFrame sf;
+  SynthFrame& f = sf.left;
   long visible = 0;
   const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 1};
   for (int i = 0; i < o.frames; ++i) {
-    if (Status s = g.next(f); !s) return Error{s.error()};
+    if (Status s = stereo ? pair->next(sf) : mono->next(f); !s) return Error{s.error()};
+    cv::Mat image = f.image;
+    if (stereo) {
+      auto sbs = side_by_side(sf.left.image, sf.right.image);
+      if (!sbs) return Error{sbs.error()};
+      image = std::move(sbs).value();
+    }
     if (png) {
       const std::string p = (dir / "frames" / frame_name("frame", i, "png")).string();
-      if (!cv::imwrite(p, f.image, png_params)) return Error{p + ": cannot write"};
+      if (!cv::imwrite(p, image, png_params)) return Error{p + ": cannot write"};
     } else {
-      video.write(f.image);
+      video.write(image);
     }
     const std::string mp = (dir / "masks" / frame_name("mask", i, "png")).string();
     if (!cv::imwrite(mp, f.mask, png_params)) return Error{mp + ": cannot write"};
     truth << frame_truth_json(f.truth) << "\n";
+    if (stereo) {
+      const std::string mr = (dir / "masks_right" / frame_name("mask", i, "png")).string();
+      if (!cv::imwrite(mr, sf.right.mask, png_params)) return Error{mr + ": cannot write"};
+      truth_r << frame_truth_json(sf.right.truth) << "\n";
+    }
     sum.frames_with_mirror += f.truth.mirror_in_view ? 1 : 0;
     for (const auto& t : f.truth.tags)
       visible += (!t.on_mirror && t.visible_fraction > 0.5) ? 1 : 0;
@@ -1455,7 +1517,11 @@ Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& 
   video.release();
   truth.close();
   if (!truth) return Error{(dir / "truth.jsonl").string() + ": write failed"};
-  if (Status s = g.finish(); !s) return Error{s.error()};
+  if (stereo) {
+    truth_r.close();
+    if (!truth_r) return Error{(dir / "truth_right.jsonl").string() + ": write failed"};
+  }
+  if (Status s = stereo ? pair->finish() : mono->finish(); !s) return Error{s.error()};
   sum.frames = o.frames;
   sum.mean_visible_tags = static_cast<double>(visible) / o.frames;
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -1497,6 +1563,16 @@ Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& 
                             {"rolling_bands", c.rolling_bands},      {"blur_subframes", o.blur_subframes}};
   }
   meta["video"] = png ? "frames/frame_NNNNNN.png" : "video.mkv";
+  if (stereo) {
+    const Eigen::Isometry3d& T = rendered.stereo.T_caml_camr;
+    const Eigen::AngleAxisd aa(T.linear());
+    const Eigen::Vector3d rv = aa.axis() * (aa.angle() * 180.0 / M_PI), tv = T.translation() * 1e3;
+    meta["stereo"] = {{"layout", "side_by_side"},
+                      {"baseline_mm", rendered.stereo.baseline_m() * 1e3},
+                      {"T_left_right", {{"translation_mm", {tv.x(), tv.y(), tv.z()}}, {"rvec_deg", {rv.x(), rv.y(), rv.z()}}}},
+                      {"truth_right", "truth_right.jsonl"},
+                      {"masks_right", "masks_right/mask_NNNNNN.png"}};
+  }
   meta["summary"] = {{"frames_with_mirror_in_view", sum.frames_with_mirror},
                      {"mean_visible_mannequin_tags", sum.mean_visible_tags},
                      {"wall_seconds", sum.seconds}};

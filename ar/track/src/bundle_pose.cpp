@@ -16,27 +16,41 @@ namespace {
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
-// One kept corner: its point in the body frame and its undistorted pixel.
+// One kept corner: its point in the body frame, its undistorted pixel and
+// the view that saw it.
 struct Corner {
   Eigen::Vector3d p_body;
   Eigen::Vector2d uv_px;
+  int view = 0;
 };
 
 struct Pinhole {
   double fx, fy, cx, cy;
 };
 
+// One view's projection: its pinhole (after undistortion) and T_view_rig.
+struct ViewGeom {
+  Pinhole k;
+  Eigen::Isometry3d T_view_rig = Eigen::Isometry3d::Identity();
+  bool identity = true;  // T_view_rig is the identity (the single-camera fit)
+};
+
 // Residuals (projection - observation) and, when J is given, their
-// Jacobian w.r.t. delta = (w, v): R <- exp(w) R, t <- t + v (rotation about
-// the body origin, so v is the error of the reported translation itself).
-// Returns false when a corner lies behind the camera.
-bool residuals(const Eigen::Isometry3d& T_cam_body, const std::vector<Corner>& corners,
-               const Pinhole& k, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
+// Jacobian w.r.t. delta = (w, v) in the rig frame: R <- exp(w) R,
+// t <- t + v (rotation about the body origin, so v is the error of the
+// reported translation itself). A corner of view c projects
+// p_c = T_c_rig (R p_body + t), so dp_c/d(w, v) = R_c_rig [-[R p_body]x, I].
+// Returns false when a corner lies behind its camera.
+bool residuals(const Eigen::Isometry3d& T_rig_body, const std::vector<Corner>& corners,
+               const std::vector<ViewGeom>& views, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
   const auto n = static_cast<Eigen::Index>(corners.size());
   r.resize(2 * n);
   if (J) J->resize(2 * n, 6);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const Eigen::Vector3d p = T_cam_body * corners[i].p_body;
+    const ViewGeom& vg = views[static_cast<std::size_t>(corners[i].view)];
+    const Pinhole& k = vg.k;
+    const Eigen::Vector3d p_rig = T_rig_body * corners[i].p_body;
+    const Eigen::Vector3d p = vg.identity ? p_rig : Eigen::Vector3d(vg.T_view_rig * p_rig);
     if (!(p.z() > 1e-4)) return false;  // 0.1 mm: behind or on the camera
     const double iz = 1.0 / p.z();
     r(2 * i) = k.fx * p.x() * iz + k.cx - corners[i].uv_px.x();
@@ -44,8 +58,9 @@ bool residuals(const Eigen::Isometry3d& T_cam_body, const std::vector<Corner>& c
     if (J) {
       Eigen::Matrix<double, 2, 3> du_dp;
       du_dp << k.fx * iz, 0, -k.fx * p.x() * iz * iz, 0, k.fy * iz, -k.fy * p.y() * iz * iz;
-      // p = exp(w) R p_body + t + v: dp/d(w, v) at 0 = [-[R p_body]x, I].
-      const Eigen::Vector3d q = p - T_cam_body.translation();
+      if (!vg.identity) du_dp = du_dp * vg.T_view_rig.linear();
+      // p_rig = exp(w) R p_body + t + v: dp_rig/d(w, v) at 0 = [-[R p_body]x, I].
+      const Eigen::Vector3d q = p_rig - T_rig_body.translation();
       Eigen::Matrix3d skew;
       skew << 0, -q.z(), q.y(), q.z(), 0, -q.x(), -q.y(), q.x(), 0;
       J->block<2, 3>(2 * i, 0) = -du_dp * skew;
@@ -166,11 +181,34 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
                                 const std::vector<DetectedTag>& detections,
                                 const BundlePoseOptions& options,
                                 const std::optional<Eigen::Isometry3d>& T_cam_body_prev) {
+  return estimate_bundle_pose_views(bundle, {BundleView{&camera, Eigen::Isometry3d::Identity(), &detections}},
+                                    options, T_cam_body_prev);
+}
+
+BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector<BundleView>& views,
+                                      const BundlePoseOptions& options,
+                                      const std::optional<Eigen::Isometry3d>& T_cam_body_prev) {
   const std::string who = "estimate_bundle_pose(" + bundle.name + "): ";
   if (auto e = options.validate(); !e.empty())
     return fail(BundlePoseStatus::kInvalidInput, who + "options: " + e);
-  if (auto e = camera.validate(); !e.empty())
-    return fail(BundlePoseStatus::kInvalidInput, who + "camera: " + e);
+  if (views.empty()) return fail(BundlePoseStatus::kInvalidInput, who + "no views");
+  const bool multi = views.size() > 1;
+  auto view_name = [&](std::size_t v) { return multi ? "views[" + std::to_string(v) + "]." : std::string(); };
+  std::vector<ViewGeom> geoms;
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    const BundleView& bv = views[v];
+    if (bv.camera == nullptr || bv.detections == nullptr)
+      return fail(BundlePoseStatus::kInvalidInput, who + "views[" + std::to_string(v) + "] has no camera or detections");
+    if (auto e = bv.camera->validate(); !e.empty())
+      return fail(BundlePoseStatus::kInvalidInput, who + view_name(v) + "camera: " + e);
+    if (!bv.T_view_rig.matrix().allFinite())
+      return fail(BundlePoseStatus::kInvalidInput, who + "views[" + std::to_string(v) + "].T_view_rig is not finite");
+    ViewGeom g;
+    g.k = Pinhole{bv.camera->fx, bv.camera->fy, bv.camera->cx, bv.camera->cy};
+    g.T_view_rig = bv.T_view_rig;
+    g.identity = bv.T_view_rig.matrix().isIdentity(0.0);
+    geoms.push_back(g);
+  }
   if (bundle.tags.empty())
     return fail(BundlePoseStatus::kInvalidInput, who + "the bundle has no tags");
   std::map<int, const TagPlacement*> layout;
@@ -185,54 +223,66 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   }
   if (T_cam_body_prev && !T_cam_body_prev->matrix().allFinite())
     return fail(BundlePoseStatus::kInvalidInput, who + "T_cam_body_prev is not finite");
-  if (detections.empty()) return fail(BundlePoseStatus::kNoDetections, who + "no detections");
+  std::size_t n_detections = 0;
+  for (const BundleView& bv : views) n_detections += bv.detections->size();
+  if (n_detections == 0) return fail(BundlePoseStatus::kNoDetections, who + "no detections");
 
-  // Keep one detection per layout id (the most confident if seen twice).
-  std::map<int, const DetectedTag*> kept;
-  for (const DetectedTag& d : detections) {
-    if (d.family != bundle.family || !layout.count(d.id) || d.hamming > options.max_hamming ||
-        d.decision_margin < options.min_decision_margin)
-      continue;
-    bool finite = true;
-    for (const auto& c : d.corners_px) finite = finite && c.allFinite();
-    if (!finite) continue;
-    auto [it, added] = kept.emplace(d.id, &d);
-    if (!added && d.decision_margin > it->second->decision_margin) it->second = &d;
-  }
-  if (kept.empty())
-    return fail(BundlePoseStatus::kNoBundleTags,
-                who + std::to_string(detections.size()) + " detection(s), none of the bundle's " +
-                    tag_family_name(bundle.family) + " ids (or all below the thresholds)");
-
-  const Pinhole k{camera.fx, camera.fy, camera.cx, camera.cy};
-  const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
-  const std::vector<double> dist(camera.dist.begin(), camera.dist.end());
-
-  // Undistort every kept corner into the ideal pinhole image with the same K.
-  std::vector<cv::Point2d> distorted, undistorted;
-  for (const auto& [id, d] : kept)
-    for (const auto& c : d->corners_px) distorted.emplace_back(c.x(), c.y());
-  try {
-    cv::undistortPoints(distorted, undistorted, K, dist, cv::noArray(), K);
-  } catch (const cv::Exception& e) {
-    return fail(BundlePoseStatus::kFailed, who + "cv::undistortPoints: " + e.what());
-  }
-
+  // One tag seen by one view: the unit of the fit (its 4 corners).
+  struct Obs {
+    const TagPlacement* t;
+    int view;
+  };
   std::vector<Corner> corners;
-  std::vector<const TagPlacement*> tags;
-  for (const auto& [id, d] : kept) {
-    const TagPlacement* t = layout.at(id);
-    for (int c = 0; c < 4; ++c) {
-      const cv::Point2d& u = undistorted[corners.size()];
-      corners.push_back(Corner{t->corner(c), Eigen::Vector2d(u.x, u.y)});
+  std::vector<Obs> tags;
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    // Keep one detection per layout id (the most confident if seen twice).
+    std::map<int, const DetectedTag*> kept;
+    for (const DetectedTag& d : *views[v].detections) {
+      if (d.family != bundle.family || !layout.count(d.id) || d.hamming > options.max_hamming ||
+          d.decision_margin < options.min_decision_margin)
+        continue;
+      bool finite = true;
+      for (const auto& c : d.corners_px) finite = finite && c.allFinite();
+      if (!finite) continue;
+      auto [it, added] = kept.emplace(d.id, &d);
+      if (!added && d.decision_margin > it->second->decision_margin) it->second = &d;
     }
-    tags.push_back(t);
+    if (kept.empty()) continue;
+    const calibration::CameraIntrinsics& camera = *views[v].camera;
+    const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+    const std::vector<double> dist(camera.dist.begin(), camera.dist.end());
+    // Undistort every kept corner into the ideal pinhole image with the same K.
+    std::vector<cv::Point2d> distorted, undistorted;
+    for (const auto& [id, d] : kept)
+      for (const auto& c : d->corners_px) distorted.emplace_back(c.x(), c.y());
+    try {
+      cv::undistortPoints(distorted, undistorted, K, dist, cv::noArray(), K);
+    } catch (const cv::Exception& e) {
+      return fail(BundlePoseStatus::kFailed, who + view_name(v) + "cv::undistortPoints: " + e.what());
+    }
+    std::size_t u = 0;
+    for (const auto& [id, d] : kept) {
+      const TagPlacement* t = layout.at(id);
+      for (int c = 0; c < 4; ++c, ++u)
+        corners.push_back(Corner{t->corner(c), Eigen::Vector2d(undistorted[u].x, undistorted[u].y),
+                                 static_cast<int>(v)});
+      tags.push_back(Obs{t, static_cast<int>(v)});
+    }
   }
+  if (tags.empty())
+    return fail(BundlePoseStatus::kNoBundleTags,
+                who + std::to_string(n_detections) + " detection(s), none of the bundle's " +
+                    tag_family_name(bundle.family) + " ids (or all below the thresholds)");
+  auto T_view = [&](const Obs& o, const Eigen::Isometry3d& T_rig_body) {
+    return Eigen::Isometry3d(geoms[static_cast<std::size_t>(o.view)].T_view_rig * T_rig_body * o.t->T_parent_tag);
+  };
 
-  // Seeds: both IPPE_SQUARE solutions of every tag, as T_cam_body.
+  // Seeds: both IPPE_SQUARE solutions of every tag in every view, as T_rig_body.
   std::vector<Eigen::Isometry3d> seeds;
   for (std::size_t ti = 0; ti < tags.size(); ++ti) {
-    const double h = tags[ti]->size_m / 2;
+    const double h = tags[ti].t->size_m / 2;
+    const ViewGeom& g = geoms[static_cast<std::size_t>(tags[ti].view)];
+    const cv::Matx33d K(g.k.fx, 0, g.k.cx, 0, g.k.fy, g.k.cy, 0, 0, 1);
     // IPPE_SQUARE's required object points: libapriltag's corner order.
     const std::vector<cv::Point3d> obj = {{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
     std::vector<cv::Point2d> img;
@@ -248,9 +298,11 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
       continue;  // degenerate quad (collinear corners): the other tags may still seed
     }
     for (std::size_t s = 0; s < rvecs.size(); ++s) {
-      const Eigen::Isometry3d T_cam_tag = from_rvec_tvec(rvecs[s], tvecs[s]);
-      const Eigen::Isometry3d T_cam_body = T_cam_tag * tags[ti]->T_parent_tag.inverse();
-      if (T_cam_body.matrix().allFinite()) seeds.push_back(T_cam_body);
+      const Eigen::Isometry3d T_view_tag = from_rvec_tvec(rvecs[s], tvecs[s]);
+      const Eigen::Isometry3d T_rig_body =
+          (g.identity ? T_view_tag : Eigen::Isometry3d(g.T_view_rig.inverse() * T_view_tag)) *
+          tags[ti].t->T_parent_tag.inverse();
+      if (T_rig_body.matrix().allFinite()) seeds.push_back(T_rig_body);
     }
   }
   if (T_cam_body_prev) seeds.push_back(*T_cam_body_prev);
@@ -260,7 +312,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   Eigen::VectorXd r;
   double best_rms = std::numeric_limits<double>::infinity();
   for (std::size_t s = 0; s < seeds.size(); ++s) {
-    if (residuals(seeds[s], corners, k, r, nullptr)) seed_rms[s] = rms_of(r);
+    if (residuals(seeds[s], corners, geoms, r, nullptr)) seed_rms[s] = rms_of(r);
     best_rms = std::min(best_rms, seed_rms[s]);
   }
   if (!std::isfinite(best_rms))
@@ -294,7 +346,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   auto set_view_weights = [&](const Eigen::Isometry3d& T_cam_body) {
     const double c0 = std::cos(options.view_weight_from_rad);
     for (std::size_t ti = 0; ti < tags.size(); ++ti) {
-      const Eigen::Isometry3d T_cam_tag = T_cam_body * tags[ti]->T_parent_tag;
+      const Eigen::Isometry3d T_cam_tag = T_view(tags[ti], T_cam_body);
       // z of the tag points into it: cos(view angle) = z . (ray to its centre).
       const double c = std::max(T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized()), 0.1);
       const double f = std::min(1.0, c / c0);
@@ -303,7 +355,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   };
   const bool view_weighted = options.view_weight_from_rad > 0;
   if (view_weighted) set_view_weights(T);
-  residuals(T, corners, k, r, &J);
+  residuals(T, corners, geoms, r, &J);
   const double kr = options.robust_px;
   double cost = huber(r, kr, pw, w);
   double lambda = 1e-3;
@@ -321,7 +373,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
       Eigen::VectorXd r_try, w_try;
       Eigen::MatrixXd J_try;
       double cost_try = 0;
-      if (residuals(T_try, corners, k, r_try, &J_try) && (cost_try = huber(r_try, kr, pw, w_try)) < cost) {
+      if (residuals(T_try, corners, geoms, r_try, &J_try) && (cost_try = huber(r_try, kr, pw, w_try)) < cost) {
         const double gain = cost - cost_try;
         T = T_try;
         r = std::move(r_try);
@@ -338,7 +390,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   };
   // Starts another pass from T (after the weights or the corners changed).
   auto restart = [&] {
-    residuals(T, corners, k, r, &J);
+    residuals(T, corners, geoms, r, &J);
     cost = huber(r, kr, pw, w);
     lambda = 1e-3;
   };
@@ -352,7 +404,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   }
   // Refit on a subset of the tags (kept tags, their corners), unweighted
   // but for the view-angle weights.
-  auto refit = [&](std::vector<const TagPlacement*> kt, std::vector<Corner> kc) {
+  auto refit = [&](std::vector<Obs> kt, std::vector<Corner> kc) {
     tags = std::move(kt);
     corners = std::move(kc);
     pw = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(2 * corners.size()));
@@ -362,7 +414,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   };
   // The tags (and their four corners each) for which keep(index) holds.
   auto subset = [&](auto keep) {
-    std::pair<std::vector<const TagPlacement*>, std::vector<Corner>> kept;
+    std::pair<std::vector<Obs>, std::vector<Corner>> kept;
     for (std::size_t ti = 0; ti < tags.size(); ++ti) {
       if (!keep(ti)) continue;
       kept.first.push_back(tags[ti]);
@@ -375,7 +427,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   if (options.max_view_angle_rad > 0) {
     const double cmax = std::cos(options.max_view_angle_rad);
     auto [kt, kc] = subset([&](std::size_t ti) {
-      const Eigen::Isometry3d T_cam_tag = T * tags[ti]->T_parent_tag;
+      const Eigen::Isometry3d T_cam_tag = T_view(tags[ti], T);
       return !(T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized()) < cmax);
     });
     if (kt.size() < tags.size() && static_cast<int>(kt.size()) >= options.min_tags_kept)
@@ -395,7 +447,7 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
     }
     // Keep the full fit's state to return to.
     const std::vector<Corner> all_c = corners;
-    const std::vector<const TagPlacement*> all_t = tags;
+    const std::vector<Obs> all_t = tags;
     const Eigen::VectorXd all_pw = pw, all_r = r, all_w = w;
     const Eigen::MatrixXd all_J = J;
     const Eigen::Isometry3d all_T = T;
@@ -406,11 +458,11 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
     std::vector<Corner> out_c(all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst),
                               all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst + 4));
     Eigen::VectorXd r_out;
-    const bool in_front = residuals(T, out_c, k, r_out, nullptr);
+    const bool in_front = residuals(T, out_c, geoms, r_out, nullptr);
     const double rms_out = in_front ? rms_of(r_out) : std::numeric_limits<double>::infinity();
     const double rms_in = rms_of(r);
     if (rms_out > options.outlier_px && rms_out > options.outlier_ratio * rms_in) {
-      out.rejected_id = all_t[worst]->id;
+      out.rejected_id = all_t[worst].t->id;
       out.rejected_rms_px = rms_out;
     } else {
       corners = all_c;
@@ -427,7 +479,12 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
   out.T_cam_body = T;
   out.rms_px = rms_of(r);
   out.tags_used = static_cast<int>(tags.size());
-  for (const TagPlacement* t : tags) out.tag_ids.push_back(t->id);
+  std::vector<bool> view_used(views.size(), false);
+  for (const Obs& o : tags) {
+    out.tag_ids.push_back(o.t->id);
+    view_used[static_cast<std::size_t>(o.view)] = true;
+  }
+  out.views_used = static_cast<int>(std::count(view_used.begin(), view_used.end(), true));
   std::sort(out.tag_ids.begin(), out.tag_ids.end());
   const double dof = static_cast<double>(r.size()) - 6;
   const Mat6 H = J.transpose() * w.asDiagonal() * J;
@@ -461,9 +518,9 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
       const double ss = rt.dot(wt.asDiagonal() * rt);
       const double s2 = std::max(ss / std::max(8.0 - lev, 0.5), 1e-4 * mean);
       meat += s2 * Jt.transpose() * wt.asDiagonal() * Jt;
-      const Eigen::Isometry3d T_cam_tag = out.T_cam_body * tags[t]->T_parent_tag;
+      const Eigen::Isometry3d T_cam_tag = T_view(tags[t], out.T_cam_body);
       const double c = T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized());
-      out.tag_residuals.push_back({tags[t]->id, ss, 8.0 - lev, std::acos(std::clamp(c, -1.0, 1.0))});
+      out.tag_residuals.push_back({tags[t].t->id, ss, 8.0 - lev, std::acos(std::clamp(c, -1.0, 1.0)), tags[t].view});
     }
     out.covariance_per_tag = C * meat * C;
   }

@@ -173,6 +173,27 @@ struct StationPolicy {
   std::string validate() const;
 };
 
+// Issue 28: a stereo head, two cameras fixed to each other (file: "stereo",
+// optional; absent = one camera, as every older file). The left eye is the
+// station's camera (calibration.camera) and the rig frame (`rig` = `cam_l`);
+// the right eye has its own intrinsics. T_caml_camr (file "T_left_right")
+// maps the right eye's optical frame into the left's: the right eye's centre
+// is T_caml_camr.translation() in `cam_l` (+x by the baseline for a
+// side-by-side head). Both eyes must have the same image size (the
+// side-by-side frame, docs/formats.md).
+struct StereoRig {
+  bool present = false;
+  calibration::CameraIntrinsics camera_right;
+  Eigen::Isometry3d T_caml_camr = Eigen::Isometry3d::Identity();
+  double baseline_m() const { return T_caml_camr.translation().norm(); }
+  // Empty when valid; else names the field (left = the station's camera).
+  std::string validate(const calibration::CameraIntrinsics& left) const;
+};
+// A side-by-side head: the right eye `baseline_m` along the left eye's +x,
+// the same orientation, with the intrinsics `right` (the left's when empty).
+StereoRig make_stereo_rig(const calibration::CameraIntrinsics& left, double baseline_m,
+                          const std::optional<calibration::CameraIntrinsics>& right = std::nullopt);
+
 // File versions: 1 (no calibration_fixtures / calibration_report; files without "version" are
 // read as 1), 2 (fixtures and report), 3 (current: camera.device_id, hand_eye, station_policy,
 // and a "hand_eye" step in the report). Older versions are read and migrated in memory (the
@@ -198,6 +219,7 @@ struct StationScene {
   std::vector<CalibrationStepReport> calibration_report;  // latest entry per step
   HandEyeRecord hand_eye;  // v3, optional
   StationPolicy policy;    // v3, optional in the file
+  StereoRig stereo;        // issue 28, optional in the file ("stereo")
   // Adds or replaces the report of r.step (one entry per step, in workflow order).
   void set_step_report(const CalibrationStepReport& r);
   const CalibrationStepReport* step_report(const std::string& step) const;

@@ -159,6 +159,18 @@ struct SynthOptions {
   double drill_force_N = 2.5;
   int bur_samples = 4000;
 
+  // Stereo footage (issue 28): run_synth writes both eyes of the station's
+  // stereo rig, or of make_stereo_rig(camera, stereo_baseline_m) when the
+  // station has none (docs/formats.md: one side-by-side video, truth per eye).
+  bool stereo = false;
+  double stereo_baseline_m = 0.063;  // 63 mm: a typical head's; 60-65 mm in headsets
+  // The eye this generator renders (StereoSynthGenerator sets both): 0 = the
+  // left eye, which is the rig frame and the mono footage; 1 = the right eye
+  // at T_rig_eye (= T_caml_camr) on the head. Each eye has its own sensor
+  // noise and auto-exposure; the scene, head path and light are shared.
+  int eye = 0;
+  Eigen::Isometry3d T_rig_eye = Eigen::Isometry3d::Identity();
+
   // Empty when valid; else names the option ("frames = 0 must be in 1..100000").
   std::string validate() const;
 };
@@ -288,11 +300,47 @@ struct SynthSummary {
 //   masks/mask_NNNNNN.png
 //   session.dlog  the haptic session log of the scripted drilling
 //   synth.json    the options used and a summary
+// With options.stereo (issue 28): video.mkv (or the PNGs) side by side
+// (left | right, 2W x H), truth.jsonl and masks/ of the left eye (the rig
+// frame), truth_right.jsonl and masks_right/ of the right eye, the rig in
+// station.json ("stereo") and synth.json ("stereo").
 // Needs a current EGL context. `progress` (may be empty) is called after
 // each frame with the frame count.
 Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& options,
                                const std::string& out_dir, bool png,
                                const std::function<void(int)>& progress = {});
+
+// Both eyes of a stereo head (issue 28) over the same scene: two generators,
+// the left one (the rig frame) writing the session log, the right one at the
+// station's stereo.T_caml_camr with station.stereo.camera_right as its
+// camera. Each eye's frame carries its own truth (FrameTruth in that eye's
+// optical frame) and mask. The station must have a stereo rig.
+struct StereoSynthFrame {
+  SynthFrame left, right;
+};
+class StereoSynthGenerator {
+ public:
+  static Result<std::unique_ptr<StereoSynthGenerator>> create(const StationScene& station,
+                                                              const SynthOptions& options,
+                                                              const std::string& session_log_path = {});
+  Status next(StereoSynthFrame& out);
+  Status finish();
+  // The station as rendered: the left eye's camera, stereo.camera_right the right's.
+  const StationScene& station() const { return station_; }
+  SynthGenerator& left() { return *left_; }
+  SynthGenerator& right() { return *right_; }
+
+ private:
+  std::unique_ptr<SynthGenerator> left_, right_;
+  StationScene station_;
+};
+
+// The side-by-side frame of a stereo pair (left | right), both the same size
+// and type; an error names both sizes otherwise.
+Result<cv::Mat> side_by_side(const cv::Mat& left, const cv::Mat& right);
+// Splits a side-by-side frame into its halves (views, no copy). An odd width
+// or an empty frame is an error that says so (`what` names the source).
+Status split_side_by_side(const cv::Mat& frame, cv::Mat& left, cv::Mat& right, const std::string& what);
 
 // One truth.jsonl line (no newline).
 std::string frame_truth_json(const FrameTruth& t);

@@ -21,6 +21,23 @@
 // Frames: `cam` (OpenCV optical), `body` (the layout's parent frame: `man`
 // for the mannequin, `mtag` for the mirror). Metres and radians; pixels where
 // the name says _px. Thread-safe (pure function).
+//
+// Several views (issue 28, a stereo head): estimate_bundle_pose_views fits
+// the same body once to the corners seen in any of the rig's cameras, in the
+// rig's frame (`rig` = the left eye `cam_l` by convention): each corner's
+// residual is its projection through its own view's intrinsics at
+// T_view_rig * T_rig_body. Seeds, weights, the outlier test and the
+// covariances are the steps above over every (tag, view) observation; the
+// covariance is then in `rig`. Depth along one eye's line of sight is seen
+// across by the other eye, which is what a 60-65 mm baseline buys.
+// Libraries: OpenCV does the per-eye undistortion (cv::undistortPoints) and
+// the per-tag seeds (cv::solvePnPGeneric, SOLVEPNP_IPPE_SQUARE, in each
+// eye); the joint refinement is this file's Levenberg-Marquardt, because
+// neither OpenCV 4.6 (solvePnP is one camera; triangulatePoints + a 3-D
+// alignment would drop the per-corner image noise model and its
+// covariance) nor ViSP 3.5 (vpPose is one camera; its multi-camera
+// model-based tracker needs CAD models, not tag bundles) fits one rigid
+// body to corners of several calibrated cameras with the covariance.
 #pragma once
 
 #include <Eigen/Core>
@@ -98,8 +115,9 @@ struct BundlePose {
   Eigen::Isometry3d T_cam_body = Eigen::Isometry3d::Identity();
   double rms_px = 0;         // corner reprojection RMS after refinement (undistorted px)
   double seed_rms_px = 0;    // the chosen seed's RMS before refinement
-  int tags_used = 0;         // tags whose corners entered the fit
-  std::vector<int> tag_ids;  // their ids, ascending
+  int tags_used = 0;         // tag observations whose corners entered the fit (a tag seen by two views counts twice)
+  std::vector<int> tag_ids;  // their ids, ascending (a tag seen by two views appears twice)
+  int views_used = 0;        // views that contributed corners (1 for the single-camera fit)
   int iterations = 0;        // LM iterations run
   int downweighted = 0;      // corners beyond robust_px at the optimum (Huber weight < 1)
   int rejected_id = -1;      // the tag the outlier test removed (outlier_px), -1 = none
@@ -129,8 +147,9 @@ struct BundlePose {
   struct TagResidual {
     int id = 0;
     double sum_px2 = 0, dof = 0, view_angle_rad = 0;
+    int view = 0;  // the view (index into estimate_bundle_pose_views' list) that saw it
   };
-  std::vector<TagResidual> tag_residuals;  // in tag_ids order
+  std::vector<TagResidual> tag_residuals;  // in fit order (by view, then id)
   bool ok() const { return status == BundlePoseStatus::kOk; }
 };
 
@@ -142,5 +161,25 @@ BundlePose estimate_bundle_pose(const TagBundle& bundle,
                                 const std::vector<DetectedTag>& detections,
                                 const BundlePoseOptions& options = {},
                                 const std::optional<Eigen::Isometry3d>& T_cam_body_prev = {});
+
+// One camera of a rig: its intrinsics (its own image size and distortion),
+// where it sits on the rig (T_view_rig maps the rig frame into this camera's
+// optical frame: identity for the left eye, T_camr_caml = T_caml_camr^-1 for
+// the right) and what it detected (full-image OpenCV pixels). The pointers
+// are borrowed for the call.
+struct BundleView {
+  const calibration::CameraIntrinsics* camera = nullptr;
+  Eigen::Isometry3d T_view_rig = Eigen::Isometry3d::Identity();
+  const std::vector<DetectedTag>* detections = nullptr;
+};
+// The bundle's pose in the rig frame (BundlePose::T_cam_body is T_rig_body,
+// its covariances in `rig`) from every view's corners at once. One view with
+// T_view_rig = identity is estimate_bundle_pose above, to the bit. Views
+// without a detection of the bundle add nothing: a frame that one eye sees
+// and the other does not is the single-view fit (in the rig's frame).
+// T_rig_body_prev as above. Bad input: kInvalidInput naming views[i].
+BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector<BundleView>& views,
+                                      const BundlePoseOptions& options = {},
+                                      const std::optional<Eigen::Isometry3d>& T_rig_body_prev = {});
 
 }  // namespace dentar::ar

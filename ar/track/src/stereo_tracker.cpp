@@ -1,0 +1,259 @@
+#include "dentar/ar/stereo_tracker.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <optional>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <utility>
+
+#include "dentar/ar/bundle_pose.h"
+#include "dentar/ar/camera_model.h"
+#include "dentar/ar/image_motion.h"
+#include "dentar/ar/pose_filter.h"
+#include "dentar/ar/pose_uncertainty.h"
+
+namespace dentar::ar {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// One body in the rig frame (the mono tracker's Body, for the joint fit).
+struct RigBody {
+  TagBundle bundle;
+  PoseFilter filter;
+  bool has_measurement = false;
+  double last_meas_time_s = 0;
+  Eigen::Isometry3d last_meas = Eigen::Isometry3d::Identity();
+  int meas_in_track = 0;
+  TrackState state = TrackState::kLost;
+  double max_sigma_m = 0;
+  Eigen::Vector3d gate_point = Eigen::Vector3d::Zero();
+  bool static_in_world = false;
+  cv::Mat thumb_at_meas;
+};
+
+}  // namespace
+
+struct StereoTracker::Impl {
+  TrackerOptions o;  // as resolved by the left eye's tracker
+  std::optional<Tracker> left, right;
+  calibration::CameraIntrinsics cam_l, cam_r;
+  Eigen::Isometry3d T_camr_caml = Eigen::Isometry3d::Identity();
+  CameraModel model_l{calibration::CameraIntrinsics{}};
+  RigBody mannequin, mirror, pen;
+  std::optional<BundlePose> noise_ref;  // the mannequin's joint fit this frame
+  cv::Mat gray;
+  ImageMotion motion;
+  bool motion_set = false;
+
+  double noise_px2(const RigBody& b, const BundlePose& p) const {
+    if (!o.pool_noise || &b == &mannequin || !noise_ref) return p.noise_px2;
+    return pooled_noise_px2(p, &*noise_ref, o.pool_comparable_tags);
+  }
+  double uniform_sigma(const RigBody& b, const BundlePose& p) const {
+    return point_sigma_m(covariance_with_noise(p, noise_px2(b, p), o.sigma_floor_px), p.T_cam_body, b.gate_point);
+  }
+  double per_tag_sigma(const RigBody& b, const BundlePose& p) const {
+    const double floor = point_sigma_m(p.covariance_per_px2 * (o.sigma_floor_px * o.sigma_floor_px),
+                                       p.T_cam_body, b.gate_point);
+    return std::max(floor, point_sigma_m(p.covariance_per_tag, p.T_cam_body, b.gate_point));
+  }
+  bool precise_enough(const RigBody& b, const BundlePose& p) const {
+    const double s = o.sigma_per_tag ? per_tag_sigma(b, p) : uniform_sigma(b, p);
+    return b.max_sigma_m <= 0 || s <= b.max_sigma_m;
+  }
+
+  // The mono tracker's image-motion check on the left eye's image
+  // (TrackerOptions::max_prediction_turn_rad).
+  bool prediction_matches_image(const RigBody& b, double capture_s) {
+    if (o.max_prediction_turn_rad <= 0 || b.thumb_at_meas.empty()) return true;
+    const ImageMotion::Shift sh = motion.shift_since(b.thumb_at_meas);
+    if (!sh.valid || sh.response < o.min_motion_response) return false;
+    Eigen::Vector2d expect = Eigen::Vector2d::Zero();
+    if (o.filter_enabled && b.filter.initialised()) {
+      auto a = model_l.project(b.filter.predict(capture_s).translation());
+      auto c = model_l.project(b.last_meas.translation());
+      if (a && c) expect = *a - *c;
+    }
+    const double unexplained = b.static_in_world ? (sh.px - expect).norm()
+                                                 : std::max(0.0, sh.px.norm() - expect.norm());
+    return unexplained / cam_l.fx <= o.max_prediction_turn_rad;
+  }
+
+  void update_body(RigBody& b, const std::vector<DetectedTag>& tags_l, const std::vector<DetectedTag>& tags_r,
+                   double capture_s, double display_s, StereoBodyTrack& out) {
+    out = StereoBodyTrack{};
+    out.track.name = b.bundle.name;
+    std::optional<Eigen::Isometry3d> prev;
+    if (b.state != TrackState::kLost)
+      prev = o.filter_enabled && b.filter.initialised() ? b.filter.predict(capture_s) : b.last_meas;
+    bool measured = false;
+    if (!tags_l.empty() || !tags_r.empty()) {
+      const BundlePose p = estimate_bundle_pose_views(
+          b.bundle, {BundleView{&cam_l, Eigen::Isometry3d::Identity(), &tags_l}, BundleView{&cam_r, T_camr_caml, &tags_r}},
+          o.pose, prev);
+      if (&b == &mannequin) noise_ref = p;
+      if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(b, p)) {
+        measured = true;
+        BodyTrack& t = out.track;
+        t.T_cam_body_measured = p.T_cam_body;
+        t.rms_px = p.rms_px;
+        t.tags_used = p.tags_used;
+        t.tag_ids = p.tag_ids;
+        t.rejected_id = p.rejected_id;
+        t.covariance = p.covariance_per_px2 * noise_px2(b, p);
+        t.sigma_m = uniform_sigma(b, p);
+        t.sigma_per_tag_m = per_tag_sigma(b, p);
+        out.views_used = p.views_used;
+      }
+    }
+    if (measured) {
+      if (b.state == TrackState::kLost) {
+        b.filter.reset();
+        b.meas_in_track = 0;
+      }
+      b.filter.update(out.track.T_cam_body_measured, capture_s);
+      ++b.meas_in_track;
+      b.has_measurement = true;
+      b.last_meas = out.track.T_cam_body_measured;
+      b.last_meas_time_s = capture_s;
+      b.state = TrackState::kTracking;
+      if (o.max_prediction_turn_rad > 0) motion.keep(b.thumb_at_meas);
+    } else {
+      const double age = capture_s - b.last_meas_time_s;
+      double drift = 0;
+      if (o.filter_enabled && b.filter.initialised())
+        drift = (b.filter.linear_velocity().norm() + 0.1 * b.filter.angular_velocity().norm()) * age;
+      const bool drift_ok = o.max_prediction_drift_m <= 0 || drift <= o.max_prediction_drift_m;
+      const bool velocity_known =
+          b.meas_in_track >= (b.static_in_world ? o.mannequin_measurements_to_predict : o.hand_held_measurements_to_predict);
+      if (b.has_measurement && age <= o.stale_limit_s && drift_ok && velocity_known &&
+          prediction_matches_image(b, capture_s)) {
+        b.state = TrackState::kPredicted;
+      } else {
+        b.state = TrackState::kLost;
+        b.has_measurement = false;
+        b.filter.reset();
+      }
+    }
+    out.track.measured = measured;
+    out.track.state = b.state;
+    out.track.since_measurement_s = b.has_measurement ? capture_s - b.last_meas_time_s : 0;
+    if (b.state != TrackState::kLost)
+      out.track.T_cam_body = o.filter_enabled ? b.filter.predict(display_s) : b.last_meas;
+  }
+};
+
+StereoTracker::StereoTracker(StereoTracker&&) noexcept = default;
+StereoTracker& StereoTracker::operator=(StereoTracker&&) noexcept = default;
+StereoTracker::~StereoTracker() = default;
+
+Result<StereoTracker> StereoTracker::create(const StationScene& station, const TrackerOptions& options) {
+  if (!station.stereo.present)
+    return Error{"StereoTracker: the station has no stereo rig (station file \"stereo\": camera_right, "
+                 "T_left_right); use Tracker for one camera"};
+  if (auto e = station.stereo.validate(station.calibration.camera); !e.empty())
+    return Error{"StereoTracker: station " + e};
+  if (options.discovery != DiscoveryMode::kInline)
+    return Error{std::string("StereoTracker: TrackerOptions.discovery = ") + discovery_mode_name(options.discovery) +
+                 ": only inline discovery is supported with two eyes"};
+  if (options.track_pen && station.pen.tags.empty())
+    return Error{"StereoTracker: track_pen is set but the station has no pen (station file \"pen\".tags)"};
+  // The eyes' trackers find the tags; the gates act on the joint fit.
+  TrackerOptions eye = options;
+  eye.mannequin_max_sigma_m = 0;
+  eye.mirror_max_sigma_m = 0;
+  eye.pen_max_sigma_m = 0;
+  eye.mirror_rim_refine = false;
+  auto l = Tracker::create(station, eye);
+  if (!l) return Error{"StereoTracker (left eye): " + l.error()};
+  StationScene sr = station;
+  sr.calibration.camera = station.stereo.camera_right;
+  auto r = Tracker::create(sr, eye);
+  if (!r) return Error{"StereoTracker (right eye): " + r.error()};
+  StereoTracker t;
+  t.impl_ = std::make_unique<Impl>();
+  Impl& m = *t.impl_;
+  m.o = options;
+  m.o.detector = l->options().detector;  // the response as resolved
+  m.left.emplace(std::move(l).value());
+  m.right.emplace(std::move(r).value());
+  m.cam_l = station.calibration.camera;
+  m.cam_r = station.stereo.camera_right;
+  m.T_camr_caml = station.stereo.T_caml_camr.inverse();
+  m.model_l = CameraModel(m.cam_l);
+  m.mannequin.bundle = mannequin_bundle(station);
+  m.mannequin.max_sigma_m = options.mannequin_max_sigma_m;
+  m.mannequin.static_in_world = true;
+  m.mirror.bundle = mirror_bundle(station);
+  m.mirror.max_sigma_m = options.mirror_max_sigma_m;
+  m.mirror.gate_point = station.calibration.T_mtag_mir.translation();
+  if (options.track_pen) {
+    m.pen.bundle = TagBundle{"pen", station.family, station.pen.tags};
+    m.pen.max_sigma_m = options.pen_max_sigma_m;
+  }
+  for (RigBody* b : {&m.mannequin, &m.mirror, &m.pen}) b->filter = PoseFilter(options.filter);
+  return t;
+}
+
+void StereoTracker::reset() {
+  impl_->left->reset();
+  impl_->right->reset();
+  for (RigBody* b : {&impl_->mannequin, &impl_->mirror, &impl_->pen}) {
+    b->filter.reset();
+    b->has_measurement = false;
+    b->state = TrackState::kLost;
+    b->meas_in_track = 0;
+    b->thumb_at_meas.release();
+  }
+}
+
+const TrackerOptions& StereoTracker::options() const { return impl_->o; }
+
+Result<StereoTrackFrame> StereoTracker::track(const cv::Mat& left, const cv::Mat& right, double capture_time_s,
+                                              double display_time_s) {
+  Impl& m = *impl_;
+  const auto t0 = Clock::now();
+  if (left.empty() || right.empty())
+    return Error{std::string("StereoTracker::track: the ") + (left.empty() ? "left" : "right") + " eye's image is empty"};
+  if (left.size() != right.size())
+    return Error{"StereoTracker::track: the eyes' images differ in size (left " + std::to_string(left.cols) + "x" +
+                 std::to_string(left.rows) + ", right " + std::to_string(right.cols) + "x" +
+                 std::to_string(right.rows) + " px): a stereo pair must be two images of one size"};
+  StereoTrackFrame f;
+  auto fl = m.left->track(left, capture_time_s, display_time_s);
+  if (!fl) return Error{"left eye: " + fl.error()};
+  auto fr = m.right->track(right, capture_time_s, display_time_s);
+  if (!fr) return Error{"right eye: " + fr.error()};
+  f.left = std::move(fl).value();
+  f.right = std::move(fr).value();
+  display_time_s = std::max(display_time_s, capture_time_s);
+  const auto t1 = Clock::now();
+  if (m.o.max_prediction_turn_rad > 0) {
+    if (left.type() == CV_8UC3)
+      cv::cvtColor(left, m.gray, cv::COLOR_BGR2GRAY);
+    else
+      m.gray = left;
+    m.motion.set_frame(m.gray);
+  }
+  m.noise_ref.reset();
+  m.update_body(m.mannequin, f.left.tags, f.right.tags, capture_time_s, display_time_s, f.mannequin);
+  if (!m.mirror.bundle.tags.empty())
+    m.update_body(m.mirror, f.left.tags, f.right.tags, capture_time_s, display_time_s, f.mirror);
+  f.mirror.track.name = "mirror";
+  if (!m.pen.bundle.tags.empty())
+    m.update_body(m.pen, f.left.tags, f.right.tags, capture_time_s, display_time_s, f.pen);
+  f.pen.track.name = "pen";
+  f.pose_ms = ms_since(t1);
+  f.total_ms = ms_since(t0);
+  return f;
+}
+
+}  // namespace dentar::ar
