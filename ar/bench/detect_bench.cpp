@@ -5,6 +5,7 @@
 // the per-call times give a median and a p99.
 //
 //   build/ar/ar_detect_bench [--reps N] [--pipe all|anchor|ours|linear] [--dec 1|2|both]
+//                            [--image TEXT]   (only images whose name contains TEXT)
 //
 // Images: the Swarmathon photos (tests/data/apriltag_photos, 47 tag36h11,
 // sRGB JPEGs) and ViSP's photograph (visp-images-data, 12 tag36h11), each
@@ -114,7 +115,7 @@ double quantile(std::vector<double> v, double q) {
 
 int usage(const char* msg) {
   std::fprintf(stderr, "ar_detect_bench: %s\nusage: ar_detect_bench [--reps N (1..10000)] "
-               "[--pipe all|anchor|ours|linear] [--dec 1|2|both]\n", msg);
+               "[--pipe all|anchor|ours|linear] [--dec 1|2|both] [--image TEXT]\n", msg);
   return 2;
 }
 
@@ -122,7 +123,7 @@ int usage(const char* msg) {
 
 int main(int argc, char** argv) {
   int reps = 30;
-  std::string pipe_sel = "all", dec_sel = "both";
+  std::string pipe_sel = "all", dec_sel = "both", image_sel;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage(("missing value after " + a).c_str());
@@ -139,16 +140,20 @@ int main(int argc, char** argv) {
     } else if (a == "--dec") {
       if (v != "1" && v != "2" && v != "both") return usage(("--dec " + v + " is not 1, 2 or both").c_str());
       dec_sel = v;
+    } else if (a == "--image") {
+      image_sel = v;
     } else {
       return usage(("unknown argument " + a).c_str());
     }
   }
   cv::setNumThreads(1);
-  const std::vector<Image> images = load_images();
+  std::vector<Image> images = load_images();
   if (images.empty()) {
     std::fprintf(stderr, "ar_detect_bench: no image found (tests/data/apriltag_photos, visp-images-data)\n");
     return 1;
   }
+  std::erase_if(images, [&](const Image& im) { return im.name.find(image_sel) == std::string::npos; });
+  if (images.empty()) return usage(("--image " + image_sel + " matches no image").c_str());
   std::printf("| image | decimation | pipeline | tags found | time ms median / p99 | median ÷ anchor |\n"
               "|---|---|---|---|---|---|\n");
   for (int dec : {1, 2}) {
