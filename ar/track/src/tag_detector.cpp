@@ -133,10 +133,7 @@ bool refit_edges_gradient(const LinearView& im, int width_at_border, double rang
     // Polarity: the mean level half a cell outside minus half a cell inside.
     const double probe = std::clamp(0.5 * cell, 1.0, 4.0);
     double sign_sum = 0;
-    // 8 points along every edge (was max(8, len / 4): on large tags up to
-    // 25; the line through 8 gradient centroids is as good on every real set
-    // and preset, issue 24 session 13).
-    constexpr int samples = 8;
+    const int samples = std::max(8, static_cast<int>(len / 4));
     for (int s = 0; s < samples; ++s) {
       const Eigen::Vector2d p = a + ((s + 0.5) / samples) * (b - a);
       const Eigen::Vector2d po = p + n * probe, pi = p - n * probe;
@@ -156,28 +153,23 @@ bool refit_edges_gradient(const LinearView& im, int width_at_border, double rang
       double centre_off = 0;
       bool ok = true;
       for (int it = 0; it < 2 && ok; ++it) {
-        // The gradient at x (1/q px steps over centre_off +- range) is
-        // I(x + 1) - I(x - 1): both lie on the same 1/q px grid, so each
-        // level is read once, at x0 - 1 + j / q (j = 0 .. steps + 2q - 1),
-        // not twice (issue 24 session 12: the same corners, 2.0x (d1) and
-        // 2.3x (d2) fewer instructions in the refit).
-        // The first pass only centres the second one's window: 0.5 px steps
-        // there, 0.25 px in the second (issue 24 session 13: with the 8
-        // points above the refit costs 0.4x, corners as good or better).
-        const int q = it == 0 ? 2 : 4;  // levels per px
-        const double st = 1.0 / q;
+        // The gradient at x (0.25 px steps over centre_off +- range) is
+        // I(x + 1) - I(x - 1): both lie on the same 0.25 px grid, so each
+        // level is read once, at x0 - 1 + j / 4 (j = 0 .. steps + 7), not
+        // twice (issue 24 session 12: the same corners, 2.0x (d1) and 2.3x
+        // (d2) fewer instructions in the refit).
         const double x0 = centre_off - range;
-        const int steps = static_cast<int>(std::floor(2 * q * range + 4e-8)) + 1;
-        if (!im.along(p + n * (x0 - 1), n * st, steps + 2 * q, levels)) {
+        const int steps = static_cast<int>(std::floor(8 * range + 4e-8)) + 1;
+        if (!im.along(p + n * (x0 - 1), n * 0.25, steps + 8, levels)) {
           ok = false;
           break;
         }
         double mn = 0, mw = 0;
         for (int i = 0; i < steps; ++i) {
-          const double g = polarity * (levels[static_cast<std::size_t>(i + 2 * q)] -
+          const double g = polarity * (levels[static_cast<std::size_t>(i + 8)] -
                                        levels[static_cast<std::size_t>(i)]);
           if (g <= 0) continue;  // a gradient the wrong way: another edge
-          const double x = x0 + st * i;
+          const double x = x0 + 0.25 * i;
           mn += g * g * x;
           mw += g * g;
         }
