@@ -934,7 +934,7 @@ TEST(RealImageSets, SwarmathonPhotosOursFindsWhatLibapriltagFinds) {
 
 // The tracker keeps 7 corner candidates per outline in libapriltag's quad
 // fit instead of its 10 (TagDetectorOptions::corner_candidates, issue 24
-// session 13: 4-5 % less detection work). On every real photograph the
+// session 13: about 4 % less detection work). On every real photograph the
 // project has, at decimation 1 and 2, that finds the same tags with the
 // same corners (the refit included) as 10. 6 candidates lose a real tag
 // at decimation 1 (34139872896: 9 of 10), so this test can fail.

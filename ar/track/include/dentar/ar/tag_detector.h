@@ -67,7 +67,7 @@ struct TagDetectorOptions {
   // outline; every 4 of them are tried, C(n, 4) line fits). 4..20. The
   // default is libapriltag's 10; the tracker uses 7 (auto_detector_options,
   // tracker.h): 35 combinations instead of 210, the same tags and corners
-  // on every real set, 4-5 % less detection work (docs/BENCHMARKS.md,
+  // on every real set, about 4 % less detection work (docs/BENCHMARKS.md,
   // "Issue 24 (session 13): detection time").
   int corner_candidates = 10;
   // The images' response curve (above). The default keeps libapriltag's
