@@ -5,6 +5,7 @@
 // the per-call times give a median and a p99.
 //
 //   build/ar/ar_detect_bench [--reps N] [--pipe all|anchor|ours|linear] [--dec 1|2|both]
+//                            [--image TEXT]   (only images whose name contains TEXT)
 //
 // Images: the Swarmathon photos (tests/data/apriltag_photos, 47 tag36h11,
 // sRGB JPEGs) and ViSP's photograph (visp-images-data, 12 tag36h11), each
@@ -20,6 +21,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -102,9 +104,18 @@ struct Pipe {
   std::string name;
   bool anchor;
   std::function<int(const cv::Mat&)> run;
-  std::vector<std::vector<double>> ms;  // per image
+  std::vector<std::vector<double>> ms;   // per image, wall clock
+  std::vector<std::vector<double>> cpu;  // per image, this thread's CPU time
   std::vector<int> found;               // per image
 };
+
+// CPU time of the calling thread (the detectors run single-threaded): less
+// disturbed than wall time by other processes on a loaded machine.
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
 
 double quantile(std::vector<double> v, double q) {
   std::sort(v.begin(), v.end());
@@ -114,7 +125,7 @@ double quantile(std::vector<double> v, double q) {
 
 int usage(const char* msg) {
   std::fprintf(stderr, "ar_detect_bench: %s\nusage: ar_detect_bench [--reps N (1..10000)] "
-               "[--pipe all|anchor|ours|linear] [--dec 1|2|both]\n", msg);
+               "[--pipe all|anchor|ours|linear] [--dec 1|2|both] [--image TEXT]\n", msg);
   return 2;
 }
 
@@ -122,7 +133,7 @@ int usage(const char* msg) {
 
 int main(int argc, char** argv) {
   int reps = 30;
-  std::string pipe_sel = "all", dec_sel = "both";
+  std::string pipe_sel = "all", dec_sel = "both", image_sel;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage(("missing value after " + a).c_str());
@@ -139,18 +150,22 @@ int main(int argc, char** argv) {
     } else if (a == "--dec") {
       if (v != "1" && v != "2" && v != "both") return usage(("--dec " + v + " is not 1, 2 or both").c_str());
       dec_sel = v;
+    } else if (a == "--image") {
+      image_sel = v;
     } else {
       return usage(("unknown argument " + a).c_str());
     }
   }
   cv::setNumThreads(1);
-  const std::vector<Image> images = load_images();
+  std::vector<Image> images = load_images();
   if (images.empty()) {
     std::fprintf(stderr, "ar_detect_bench: no image found (tests/data/apriltag_photos, visp-images-data)\n");
     return 1;
   }
-  std::printf("| image | decimation | pipeline | tags found | time ms median / p99 | median ÷ anchor |\n"
-              "|---|---|---|---|---|---|\n");
+  std::erase_if(images, [&](const Image& im) { return im.name.find(image_sel) == std::string::npos; });
+  if (images.empty()) return usage(("--image " + image_sel + " matches no image").c_str());
+  std::printf("| image | decimation | pipeline | tags found | time ms median / p99 | median ÷ anchor "
+              "| thread CPU ms median / p99 | CPU median ÷ anchor |\n|---|---|---|---|---|---|---|---|\n");
   for (int dec : {1, 2}) {
     if (dec_sel != "both" && std::to_string(dec) != dec_sel) continue;
     std::vector<Pipe> pipes;
@@ -158,7 +173,7 @@ int main(int argc, char** argv) {
     if (pipe_sel == "all" || pipe_sel == "anchor") {
       auto a = std::make_shared<Anchor>(static_cast<float>(dec));
       keep.push_back(a);
-      pipes.push_back({"anchor (libapriltag)", true, [a](const cv::Mat& g) { return detect_all(*a, g); }, {}, {}});
+      pipes.push_back({"anchor (libapriltag)", true, [a](const cv::Mat& g) { return detect_all(*a, g); }, {}, {}, {}});
     }
     for (auto [name, resp] : {std::pair{"ours (sRGB refit)", CameraResponse::kSrgb},
                               std::pair{"ours, linear response", CameraResponse::kLinear}}) {
@@ -177,44 +192,52 @@ int main(int argc, char** argv) {
       }
       auto det = std::make_shared<TagDetector>(std::move(d).value());
       keep.push_back(det);
-      pipes.push_back({name, false, [det](const cv::Mat& g) { return detect_all(*det, g); }, {}, {}});
+      pipes.push_back({name, false, [det](const cv::Mat& g) { return detect_all(*det, g); }, {}, {}, {}});
     }
     for (Pipe& p : pipes) {
       p.ms.assign(images.size(), {});
+      p.cpu.assign(images.size(), {});
       p.found.assign(images.size(), 0);
     }
     for (std::size_t im = 0; im < images.size(); ++im)
       for (int rep = 0; rep < reps; ++rep)
         for (std::size_t k = 0; k < pipes.size(); ++k) {
           Pipe& p = pipes[(k + static_cast<std::size_t>(rep)) % pipes.size()];
+          const double c0 = thread_cpu_ms();
           const auto t0 = std::chrono::steady_clock::now();
           p.found[im] = p.run(images[im].gray);
           p.ms[im].push_back(
               std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+          p.cpu[im].push_back(thread_cpu_ms() - c0);
         }
     for (std::size_t im = 0; im <= images.size(); ++im) {
       const bool all = im == images.size();
-      auto times = [&](const Pipe& p) {
-        if (!all) return p.ms[im];
+      auto times = [&](const Pipe& p, bool cpu) {
+        const auto& per = cpu ? p.cpu : p.ms;
+        if (!all) return per[im];
         std::vector<double> v;  // all images: the per-repetition sum
         for (int r = 0; r < reps; ++r) {
           double s = 0;
-          for (const auto& m : p.ms) s += m[static_cast<std::size_t>(r)];
+          for (const auto& m : per) s += m[static_cast<std::size_t>(r)];
           v.push_back(s);
         }
         return v;
       };
-      double anchor_ms = NAN;
+      double anchor_ms = NAN, anchor_cpu = NAN;
       for (const Pipe& p : pipes)
-        if (p.anchor) anchor_ms = quantile(times(p), 0.5);
+        if (p.anchor) {
+          anchor_ms = quantile(times(p, false), 0.5);
+          anchor_cpu = quantile(times(p, true), 0.5);
+        }
       for (const Pipe& p : pipes) {
         int found = 0;
         for (std::size_t j = 0; j < images.size(); ++j)
           if (all || j == im) found += p.found[j];
-        const std::vector<double> t = times(p);
-        std::printf("| %s | %d | %s | %d | %.2f / %.2f | %.3f |\n",
+        const std::vector<double> t = times(p, false), c = times(p, true);
+        std::printf("| %s | %d | %s | %d | %.2f / %.2f | %.3f | %.2f / %.2f | %.3f |\n",
                     all ? "all (sum per repetition)" : images[im].name.c_str(), dec, p.name.c_str(),
-                    found, quantile(t, 0.5), quantile(t, 0.99), quantile(t, 0.5) / anchor_ms);
+                    found, quantile(t, 0.5), quantile(t, 0.99), quantile(t, 0.5) / anchor_ms,
+                    quantile(c, 0.5), quantile(c, 0.99), quantile(c, 0.5) / anchor_cpu);
       }
     }
     std::fflush(stdout);

@@ -302,6 +302,9 @@ std::string TagDetectorOptions::validate() const {
   }
   if (max_bits_corrected < 0 || max_bits_corrected > 3)
     return "max_bits_corrected = " + std::to_string(max_bits_corrected) + " must be in 0..3";
+  if (corner_candidates < 4 || corner_candidates > 20)
+    return "corner_candidates = " + std::to_string(corner_candidates) +
+           " must be in 4..20 (a quad needs 4 corners)";
   return {};
 }
 
@@ -334,6 +337,7 @@ Result<TagDetector> TagDetector::create(const TagDetectorOptions& options) {
   t.detector_->refine_edges = options.refine_edges;
   t.detector_->decode_sharpening = 0.25;  // libapriltag's default, set explicitly
   t.detector_->debug = false;
+  t.detector_->qtp.max_nmaxima = options.corner_candidates;
   for (int i = 0; i < 256; ++i)
     t.to_linear_[static_cast<std::size_t>(i)] = static_cast<float>(
         options.response == CameraResponse::kSrgb    ? 255.0 * srgb_decode(i / 255.0)

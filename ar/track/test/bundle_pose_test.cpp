@@ -354,6 +354,15 @@ TEST(TagDetector, BadImagesAndOptionsGiveClearErrors) {
   o = TagDetectorOptions{};
   o.families.clear();
   EXPECT_FALSE(TagDetector::create(o).ok());
+  o = TagDetectorOptions{};
+  o.corner_candidates = 3;
+  bad = TagDetector::create(o);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("corner_candidates = 3"), std::string::npos) << bad.error();
+  o.corner_candidates = 21;
+  EXPECT_FALSE(TagDetector::create(o).ok());
+  o.corner_candidates = 4;
+  EXPECT_TRUE(TagDetector::create(o).ok());
 
   auto d = TagDetector::create();
   ASSERT_TRUE(d.ok()) << d.error();

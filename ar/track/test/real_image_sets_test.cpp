@@ -932,5 +932,54 @@ TEST(RealImageSets, SwarmathonPhotosOursFindsWhatLibapriltagFinds) {
   EXPECT_GE(all[0].found, 30);
 }
 
+// The tracker keeps 7 corner candidates per outline in libapriltag's quad
+// fit instead of its 10 (TagDetectorOptions::corner_candidates, issue 24
+// session 13: about 4 % less detection work). On every real photograph the
+// project has, at decimation 1 and 2, that finds the same tags with the
+// same corners (the refit included) as 10. 6 candidates lose a real tag
+// at decimation 1 (34139872896: 9 of 10), so this test can fail.
+TEST(RealImageSets, SevenCornerCandidatesFindTheSameTagsAndCorners) {
+  std::vector<std::pair<std::string, cv::Mat>> images;
+  for (const PhotoRef& p : load_swarmathon()) images.emplace_back(p.name, p.gray);
+  const cv::Mat visp = cv::imread((kViSP / "AprilTag.pgm").string(), cv::IMREAD_GRAYSCALE);
+  if (!visp.empty()) images.emplace_back("ViSP AprilTag.pgm", visp);
+  if (images.empty()) GTEST_SKIP() << kSwarm << " and " << kViSP << " are absent";
+  ASSERT_EQ(TrackerOptions{}.detector.corner_candidates, 7);
+  int compared = 0;
+  for (double dec : {1.0, 2.0}) {
+    auto make = [&](int candidates) {
+      TagDetectorOptions o = TrackerOptions{}.detector;
+      o.families = {TagFamilyId::kTag36h11};
+      o.decimation = dec;
+      o.response = CameraResponse::kSrgb;
+      o.corner_candidates = candidates;
+      return TagDetector::create(o);
+    };
+    auto seven = make(7), ten = make(10);
+    ASSERT_TRUE(seven.ok()) << seven.error();
+    ASSERT_TRUE(ten.ok()) << ten.error();
+    for (const auto& [name, gray] : images) {
+      SCOPED_TRACE(name + " decimation " + std::to_string(dec));
+      auto a = seven->detect(gray), b = ten->detect(gray);
+      ASSERT_TRUE(a.ok() && b.ok());
+      ASSERT_EQ(a->size(), b->size());
+      // Same ids; match by position (the Swarmathon tags are all id 0).
+      for (const DetectedTag& t : *b) {
+        double best = 1e9;
+        for (const DetectedTag& u : *a)
+          if (u.id == t.id) {
+            double d = 0;
+            for (int k = 0; k < 4; ++k) d = std::max(d, (u.corners_px[k] - t.corners_px[k]).norm());
+            best = std::min(best, d);
+          }
+        EXPECT_LT(best, 1e-6) << "tag id " << t.id;
+        ++compared;
+      }
+    }
+  }
+  // 58 tags at decimation 1 and 46 at 2 when every image is present.
+  EXPECT_GE(compared, 1);
+}
+
 }  // namespace
 }  // namespace dentar::ar

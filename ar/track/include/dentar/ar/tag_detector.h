@@ -62,6 +62,14 @@ struct TagDetectorOptions {
   // it corrected in `hamming`; the pose stage can reject those above its own
   // threshold. More bits cost memory for the decode table (41h12: 2 bits).
   int max_bits_corrected = 2;
+  // Corner candidates libapriltag's quad fit keeps per outline (its
+  // qtp.max_nmaxima: the strongest maxima of the line-fit error along the
+  // outline; every 4 of them are tried, C(n, 4) line fits). 4..20. The
+  // default is libapriltag's 10; the tracker uses 7 (auto_detector_options,
+  // tracker.h): 35 combinations instead of 210, the same tags and corners
+  // on every real set, about 4 % less detection work (docs/BENCHMARKS.md,
+  // "Issue 24 (session 13): detection time").
+  int corner_candidates = 10;
   // The images' response curve (above). The default keeps libapriltag's
   // behaviour; the tracker (TrackerOptions) defaults to kSrgb.
   CameraResponse response = CameraResponse::kLinear;

@@ -73,10 +73,17 @@ struct DiscoveryCue {
 const char* track_state_name(TrackState s);  // "tracking", "predicted", "lost"
 
 // TagDetectorOptions{} with response = kAuto: the tracker's default (the
-// station's measured response, resolve_camera_response below).
+// station's measured response, resolve_camera_response below), and 7 corner
+// candidates per outline instead of libapriltag's 10: on every real set the
+// same tags and corners as 10, and the refit's cost paid back over the real
+// photos (detection 0.97x / 1.00x of plain libapriltag's instructions at
+// decimation 1 / 2 instead of 1.01x / 1.04x; not on ViSP's photo at 2,
+// 1.05x; 6 loses a real tag at decimation 1; docs/BENCHMARKS.md,
+// "Issue 24 (session 13): detection time").
 inline TagDetectorOptions auto_detector_options() {
   TagDetectorOptions d;
   d.response = CameraResponse::kAuto;
+  d.corner_candidates = 7;
   return d;
 }
 
