@@ -47,7 +47,8 @@
 #include "dentar/live/station_health.h"
 #include "dentar/training/exercise.h"
 #include "dentar/training/hand_script.h"
-#include "recorder.h"
+#include "dentar/session/frames_csv.h"
+#include "dentar/session/recorder.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/material.h"
 #include "dentar/volume/procedural_tooth.h"
@@ -83,8 +84,6 @@ std::string iso_now() {
   std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
   return b;
 }
-
-const char* kState[] = {"tracking", "predicted", "lost"};
 
 // What the frame thread hands the window: the newest composite and its raw
 // frame (shown without overlay when the camera stalls).
@@ -500,11 +499,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   }
 
   std::unique_ptr<haptics::SessionLogWriter> log;
-  std::unique_ptr<Recorder> recorder;
+  std::unique_ptr<session::Recorder> recorder;
   const fs::path rdir = o.record_dir;
   nlohmann::json rec_meta;  // recording.json as written at the start; completed at the end
   if (!o.record_dir.empty()) {
-    auto r = Recorder::open(rdir);
+    auto r = session::Recorder::open(rdir);
     if (!r) return Error{"live: " + r.error()};
     recorder = std::move(*r);
     if (auto s = ar::write_station_scene(st, (rdir / "station.json").string()); !s)
@@ -946,12 +945,12 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         const StationHealth h = health.health();
         ImGui::TextColored(health_col[static_cast<int>(h.worst())], "%s", h.headline().c_str());
       }
-      ImGui::TextColored(col[r.man_state], "mannequin: %s", kState[r.man_state]);
+      ImGui::TextColored(col[r.man_state], "mannequin: %s", session::state_name(r.man_state));
       ImGui::SameLine();
-      ImGui::TextColored(col[r.mir_state], "  mirror: %s", kState[r.mir_state]);
+      ImGui::TextColored(col[r.mir_state], "  mirror: %s", session::state_name(r.mir_state));
       if (pen) {
         ImGui::SameLine();
-        ImGui::TextColored(col[r.pen_state], "  pen: %s", kState[r.pen_state]);
+        ImGui::TextColored(col[r.pen_state], "  pen: %s", session::state_name(r.pen_state));
       }
       const double f = std::sqrt(snap.force_dev_N[0] * snap.force_dev_N[0] + snap.force_dev_N[1] * snap.force_dev_N[1] +
                                  snap.force_dev_N[2] * snap.force_dev_N[2]);
@@ -1090,7 +1089,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     recorder->close();
     if (recorder->dropped() > 0)
       sum.warnings.push_back("recording: " + std::to_string(recorder->dropped()) +
-                             " frames not written (the writer fell more than " + std::to_string(Recorder::kMaxQueued) +
+                             " frames not written (the writer fell more than " + std::to_string(session::Recorder::kMaxQueued) +
                              " frames behind, or the disk refused them): offline replay stops at the first gap");
     char hash[20];
     std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));

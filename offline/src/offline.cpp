@@ -1,7 +1,6 @@
 // The offline run: footage + session log through tracking, haptic replay,
 // meshing and compositing; CSV, summary JSON and HTML report. See offline.h.
-#include "dentar/ar/offline.h"
-#include "dentar/ar/recording_table.h"
+#include "dentar/offline/offline.h"
 
 #include <algorithm>
 #include <chrono>
@@ -30,8 +29,12 @@
 #include "dentar/volume/material.h"
 #include "dentar/volume/procedural_tooth.h"
 #include "dentar/volume/surface.h"
+#include "dentar/session/frames_csv.h"
+#include "dentar/session/recording.h"
+#include "dentar/session/run.h"
 
-namespace dentar::ar {
+namespace dentar::offline {
+using namespace dentar::ar;
 namespace fs = std::filesystem;
 using Iso = Eigen::Isometry3d;
 using Clock = std::chrono::steady_clock;
@@ -129,18 +132,6 @@ Result<std::vector<TruthFrame>> read_truth(const std::string& path) {
   return out;
 }
 
-// The session's starting tooth, from the header's "tooth" description (any tooth
-// training::make_tooth builds: the procedural molar or incisor).
-Result<volume::VoxelVolume> tooth_from_header(const std::string& tooth_json, const std::string& log_path) {
-  auto j = nlohmann::json::parse(tooth_json, nullptr, false);
-  if (j.is_discarded() || !j.is_object() || !j.contains("voxel_mm") || !j["voxel_mm"].is_number())
-    return Error{log_path + ": header field tooth = " + tooth_json +
-                 " does not describe a tooth this build can rebuild ({\"kind\": \"molar\"|\"incisor\", \"voxel_mm\": ...})"};
-  auto v = training::make_tooth(tooth_json);
-  if (!v) return Error{log_path + ": header field tooth: " + v.error()};
-  return v;
-}
-
 // Writes text to path via a temporary file and a rename (never half a file).
 Status write_atomic(const fs::path& path, const std::string& text) {
   const fs::path tmp = path.string() + ".partial";
@@ -155,75 +146,8 @@ Status write_atomic(const fs::path& path, const std::string& text) {
   return {};
 }
 
-const char* kStateName[] = {"tracking", "predicted", "lost"};
-
 // Per-frame record (one CSV row; also feeds the plots).
-struct Row {
-  int frame = 0;
-  double time_s = 0;
-  int man_state = 2, mir_state = 2;
-  Iso T_cam_man = Iso::Identity(), T_cam_mtag = Iso::Identity();
-  double man_rms_px = kNaN;
-  int man_tags = 0, mir_tags = 0, tags_detected = 0;
-  bool full_frame = true;
-  std::uint64_t haptic_step = 0;
-  bool pedal = false, overlay = false, mirror_drawn = false;
-  double removed_mm3[volume::kNumMaterials] = {};
-  double man_err_mm = kNaN, man_err_deg = kNaN, tooth_err_px = kNaN, tip_err_mm = kNaN, iou = kNaN;
-  // Mirror plane pose (T_cam_mir = T_cam_mtag T_mtag_mir, the frame the
-  // reflection is drawn from) against truth: centre distance and rotation.
-  double mir_err_mm = kNaN, mir_err_deg = kNaN;
-  double read_ms = 0, detect_ms = 0, pose_ms = 0, filter_ms = 0, track_ms = 0, haptics_ms = 0,
-         mesh_ms = 0, composite_ms = 0, write_ms = 0, latency_ms = 0;
-  std::size_t triangles = 0;
-};
-
-std::string csv_header() {
-  std::string h =
-      "frame,time_s,man_state,man_tx_mm,man_ty_mm,man_tz_mm,man_qw,man_qx,man_qy,man_qz,man_rms_px,"
-      "man_tags,mirror_state,mirror_tx_mm,mirror_ty_mm,mirror_tz_mm,mirror_qw,mirror_qx,mirror_qy,"
-      "mirror_qz,mirror_tags,tags_detected,full_frame,haptic_step,pedal,overlay,mirror_drawn,triangles";
-  for (int m = 1; m < volume::kNumMaterials; ++m)
-    h += ",removed_" + std::string(volume::material_info(m).name) + "_mm3";
-  h += ",man_err_mm,man_err_deg,tooth_err_px,tip_err_mm,silhouette_iou,mir_err_mm,mir_err_deg,"
-       "read_ms,detect_ms,pose_ms,filter_ms,track_ms,haptics_ms,mesh_ms,composite_ms,write_ms,latency_ms\n";
-  return h;
-}
-
-std::string csv_row(const Row& r) {
-  std::ostringstream s;
-  s << std::setprecision(9);
-  auto num = [&](double x) {
-    if (std::isfinite(x)) s << x;
-    s << ',';
-  };
-  auto pose = [&](int state, const Iso& T) {
-    if (state == 2) {
-      s << ",,,,,,,";
-      return;
-    }
-    const Eigen::Quaterniond q(T.linear());
-    for (int i = 0; i < 3; ++i) num(T.translation()[i] * 1e3);
-    num(q.w()), num(q.x()), num(q.y()), num(q.z());
-  };
-  s << r.frame << ',' << r.time_s << ',' << kStateName[r.man_state] << ',';
-  pose(r.man_state, r.T_cam_man);
-  num(r.man_rms_px);
-  s << r.man_tags << ',' << kStateName[r.mir_state] << ',';
-  pose(r.mir_state, r.T_cam_mtag);
-  s << r.mir_tags << ',' << r.tags_detected << ',' << (r.full_frame ? 1 : 0) << ',' << r.haptic_step
-    << ',' << (r.pedal ? 1 : 0) << ',' << (r.overlay ? 1 : 0) << ',' << (r.mirror_drawn ? 1 : 0) << ','
-    << r.triangles << ',';
-  for (int m = 1; m < volume::kNumMaterials; ++m) num(r.removed_mm3[m]);
-  for (double x : {r.man_err_mm, r.man_err_deg, r.tooth_err_px, r.tip_err_mm, r.iou, r.mir_err_mm,
-                   r.mir_err_deg, r.read_ms,
-                   r.detect_ms, r.pose_ms, r.filter_ms, r.track_ms, r.haptics_ms, r.mesh_ms,
-                   r.composite_ms, r.write_ms})
-    num(x);
-  s << r.latency_ms << '\n';
-  return s.str();
-}
-
+using Row = session::OfflineFrameRow;
 
 std::string fmt(double v, int prec = 3) {
   if (!std::isfinite(v)) return "–";
@@ -422,67 +346,6 @@ std::string make_report(const OfflineOptions& o, const OfflineSummary& sum, cons
   return h.str();
 }
 
-// A `dentar live --record` folder (recording.json): footage as frames/,
-// capture times and the haptic step each frame was drawn at in frames.csv.
-struct Recording {
-  bool present = false;
-  std::string frames_csv;
-  std::vector<double> capture_s;            // per frame index
-  std::vector<std::uint64_t> haptic_steps;  // per frame index: engine steps done when it was composited
-  std::vector<double> pose_step;            // per frame index: the drawn pose's step (-1: newest); may be empty
-  std::string discovery;                    // "inline" or "async"
-  // How the live run decoded its images and refined the mirror (absent in
-  // recordings older than these fields: the defaults then, srgb and off).
-  CameraResponse camera_response = CameraResponse::kSrgb;
-  bool mirror_rim = false;
-  // discovery "async": what the live tracker's full-frame search did at each
-  // frame (frames.csv disc_start, disc_merged), replayed with kScheduled.
-  std::vector<DiscoveryCue> cues;
-  bool cues_exact = true;  // false: a merge names a frame the recording lacks (dropped)
-};
-
-Result<Recording> read_recording(const fs::path& dir) {
-  Recording rec;
-  rec.present = true;
-  const fs::path meta = dir / "recording.json";
-  std::ifstream mj(meta);
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(mj);
-  } catch (const std::exception& e) {
-    return Error{meta.string() + ": not valid JSON (" + e.what() + ")"};
-  }
-  if (!j.is_object() || !j.contains("format") || !j["format"].is_string() || j["format"] != "dentar-recording")
-    return Error{meta.string() + ": format must be \"dentar-recording\""};
-  if (j.contains("discovery") && !j["discovery"].is_string())
-    return Error{meta.string() + ": discovery must be the string \"inline\" or \"async\""};
-  rec.discovery = j.value("discovery", "inline");
-  if (rec.discovery != "inline" && rec.discovery != "async")
-    return Error{meta.string() + ": discovery = \"" + rec.discovery + "\" must be inline or async"};
-  if (j.contains("camera_response")) {
-    if (!j["camera_response"].is_string())
-      return Error{meta.string() + ": camera_response must be the string \"srgb\" or \"linear\""};
-    auto r = parse_camera_response(j["camera_response"].get<std::string>());
-    if (!r) return Error{meta.string() + ": camera_response: " + r.error()};
-    rec.camera_response = *r;
-  }
-  if (j.contains("mirror_rim")) {
-    if (!j["mirror_rim"].is_boolean()) return Error{meta.string() + ": mirror_rim must be true or false"};
-    rec.mirror_rim = j["mirror_rim"].get<bool>();
-  }
-  rec.frames_csv = (dir / "frames.csv").string();
-  std::ifstream in(rec.frames_csv);
-  if (!in) return Error{rec.frames_csv + ": missing: the recording has no per-frame table"};
-  auto table = parse_recording_table(in, rec.discovery == "async", rec.frames_csv);
-  if (!table) return Error{table.error()};
-  rec.capture_s = std::move(table->capture_s);
-  rec.haptic_steps = std::move(table->haptic_steps);
-  rec.pose_step = std::move(table->pose_step);
-  rec.cues = std::move(table->cues);
-  rec.cues_exact = table->cues_exact;
-  return rec;
-}
-
 }  // namespace
 
 std::string OfflineOptions::validate() const {
@@ -548,10 +411,10 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   }
 
   // A live recording folder: its frames, station, session and timing.
-  Recording rec;
+  session::Recording rec;
   if (!o.footage.empty() && fs::is_directory(o.footage) && fs::exists(fs::path(o.footage) / "recording.json")) {
     const fs::path rdir = o.footage;
-    auto r = read_recording(rdir);
+    auto r = session::read_recording(rdir);
     if (!r) return fail("offline: " + r.error());
     rec = std::move(*r);
     o.footage = (rdir / "frames").string();
@@ -621,62 +484,40 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     else if (!o.masks.empty()) return fail("offline: " + m + ": the masks folder does not exist");
   }
 
-  // The tooth and the haptic replay.
-  std::optional<volume::VoxelVolume> vol;
-  std::optional<volume::BurSamples> bur;
-  std::unique_ptr<haptics::ReplayDevice> device;
-  std::unique_ptr<haptics::Engine> engine;
-  double rate_hz = 1000.0;
-  std::size_t session_steps = 0;
+  // The run: the tooth and the haptic replay (a session log), or an uncut tooth.
+  std::unique_ptr<session::Run> run;
   if (!o.session.empty()) {
-    auto log = haptics::read_session_log(o.session);
+    auto log = session::read_session_setup(o.session);
     if (!log) return fail("offline: " + log.error());
     if (!log->warning.empty()) sum.warnings.push_back(log->warning);
-    auto setup = haptics::parse_session_header(log->header_json);
-    if (!setup) return fail("offline: " + o.session + ": " + setup.error());
-    rate_hz = setup->engine.rate_hz;
-    session_steps = log->records.size();
-    const double session_s = static_cast<double>(session_steps) / rate_hz;
+    const double session_s = static_cast<double>(log->records.size()) / log->setup.engine.rate_hz;
     const double footage_s = source.frame_count() > 0 ? static_cast<double>(source.frame_count()) / fps : -1;
     if (!rec.present && footage_s >= 0 && session_s > footage_s + 1.0 / fps + 1e-9) {
       std::ostringstream m;
       m << std::setprecision(4) << "offline: the footage " << o.footage << " (" << source.frame_count()
         << " frames, " << footage_s << " s) is shorter than the session log " << o.session << " ("
-        << session_steps << " steps, " << session_s
+        << log->records.size() << " steps, " << session_s
         << " s): the cuts after the last frame would never be shown. Use the footage recorded with "
            "this session, or trim the log";
       return fail(m.str());
     }
-    auto tooth = tooth_from_header(setup->tooth_json, o.session);
-    if (!tooth) return fail("offline: " + tooth.error());
-    vol.emplace(std::move(*tooth));
-    if (vol->content_hash() != setup->volume_hash_start)
-      return fail("offline: " + o.session + ": the rebuilt tooth does not match the log's volume_hash_start "
-                  "(the log was recorded on another tooth or another build)");
-    o.compositor.bur = setup->bur;  // draw the bur the session cut with
-    auto samples = volume::sample_bur(setup->bur, setup->bur_samples);
-    if (!samples) return fail("offline: " + o.session + ": bur: " + samples.error());
-    bur.emplace(std::move(*samples));
-    const Iso T_tooth_dev_station = st.calibration.T_tooth_dev();
-    if ((T_tooth_dev_station.matrix() - setup->engine.T_tooth_dev.matrix()).norm() > 1e-6)
-      sum.warnings.push_back(o.session + " was recorded with another station registration (T_tooth_dev) than " +
-                             o.station + ": the bur is drawn with the station's");
-    device = std::make_unique<haptics::ReplayDevice>(std::move(log->records), setup->limits);
-    haptics::EngineConfig cfg = setup->engine;
-    cfg.try_realtime = false;
-    auto eng = haptics::Engine::create(cfg, *device, *vol, *bur, nullptr);
-    if (!eng) return fail("offline: " + o.session + ": " + eng.error());
-    engine = std::move(*eng);
+    o.compositor.bur = log->setup.bur;  // draw the bur the session cut with
+    auto r = session::Run::from_session_log(std::move(*log), st, o.station);
+    if (!r) return fail("offline: " + r.error());
+    run = std::move(*r);
   } else {
-    volume::MolarParams mp;
-    mp.voxel_mm = st.tooth_voxel_m * 1e3;
-    auto tooth = volume::make_molar(mp);
-    if (!tooth) return fail("offline: tooth: " + tooth.error());
-    vol.emplace(std::move(*tooth));
+    auto r = session::Run::from_station(st);
+    if (!r) return fail("offline: " + r.error());
+    run = std::move(*r);
     sum.warnings.push_back("no session log: the tooth is shown uncut and no bur is drawn");
   }
+  for (const auto& w : run->warnings()) sum.warnings.push_back(w);
+  volume::VoxelVolume* vol = &run->volume();
+  haptics::Engine* engine = run->engine();
+  haptics::ReplayDevice* device = run->replay_device();
+  const double rate_hz = run->rate_hz();
+  const std::size_t session_steps = run->session_steps();
   // The shared per-frame pipeline, meshing inline (deterministic).
-  ToothMeshes meshes(*vol);
   PipelineOptions po;
   po.tracker = o.tracker;
   // A live run whose tag search ran off the frame path: replay its decisions.
@@ -688,11 +529,10 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   }
   po.compositor = o.compositor;
   po.predict_s = o.predict_s;
-  auto pipeline = FramePipeline::create(st, po);
-  if (!pipeline) return fail("offline: " + pipeline.error());
-  FramePipeline& pipe = **pipeline;
+  if (auto w = run->make_pipeline(st, po); !w) return fail("offline: " + w.error());
+  FramePipeline& pipe = run->pipeline();
+  ToothMeshes& meshes = run->meshes();
   if (!pipe.tracker().response_note().empty()) sum.warnings.push_back(pipe.tracker().response_note());
-  if (auto w = pipe.warm_up(meshes); !w) return fail("offline: " + w.error());
 
   // The tooth's box corners in its frame (registration error in pixels).
   std::vector<Eigen::Vector3d> box;
@@ -730,7 +570,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   }
   std::ofstream csv(out / "frames.csv.partial");
   if (!csv) return fail("offline: " + (out / "frames.csv.partial").string() + ": cannot write");
-  csv << csv_header();
+  csv << session::offline_csv_header();
 
   std::vector<Row> rows;
   const int total = o.max_frames > 0 && source.frame_count() > 0
@@ -879,7 +719,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
       }
     }
     r.write_ms = ms_since(t0);
-    csv << csv_row(r);
+    csv << session::offline_csv_row(r);
     rows.push_back(r);
     if (progress) progress("pipeline", k + 1, total);
   }
@@ -1006,4 +846,4 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   return sum;
 }
 
-}  // namespace dentar::ar
+}  // namespace dentar::offline
