@@ -368,184 +368,48 @@ std::string OfflineOptions::validate() const {
   return {};
 }
 
-Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
-                                   const std::function<void(const std::string&, int, int)>& progress) {
-  const auto wall0 = Clock::now();
-  OfflineOptions o = o_in;
-  if (auto v = o.validate(); !v.empty()) return Error{"offline: " + v};
-  const fs::path out = o.out_dir;
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) return Error{out.string() + ": cannot create the output folder: " + ec.message()};
-  // Nothing from an earlier run may pass for this run's result.
-  for (const char* f : {"summary.json", "report.html", "FAILED.txt", "frames.csv", "composite.mkv"})
-    fs::remove(out / f, ec);
+// One `dentar offline` job: its inputs, the run, the outputs being written
+// and the per-frame rows. Each step returns the error that fails the job
+// (fail() has written FAILED.txt).
+struct Job {
+  OfflineOptions o;
+  std::function<void(const std::string&, int, int)> progress;
+  fs::path out;
+  Clock::time_point wall0;
+  OfflineSummary sum;
+  session::Recording rec;
+  StationScene st;
+  std::unique_ptr<FrameSource> src;
+  double fps = 30.0;
+  std::vector<TruthFrame> truth;
+  std::string mask_dir;
+  std::unique_ptr<session::Run> run;
+  volume::VoxelVolume* vol = nullptr;
+  haptics::Engine* engine = nullptr;
+  haptics::ReplayDevice* device = nullptr;
+  double rate_hz = 1000.0;
+  std::size_t session_steps = 0;
+  FramePipeline* pipe = nullptr;
+  ToothMeshes* meshes = nullptr;
+  std::vector<Eigen::Vector3d> box;  // the tooth's box corners in its frame
+  cv::Mat K, D;
+  fs::path video_tmp;
+  cv::VideoWriter writer;
+  std::ofstream csv;
+  std::vector<Row> rows;
+  int total = 0;
+  Frame frame;
+  CompositeResult cres;
+  std::vector<std::string> stills;
+  std::vector<int> still_frames;
+  haptics::HapticSnapshot snap{};
 
-  auto fail = [&](const std::string& msg) -> Result<OfflineSummary> {
+  Error fail(const std::string& msg) {
     std::ofstream(out / "FAILED.txt") << msg << "\n";
     return Error{msg};
-  };
-
-  auto egl = EglContext::create();
-  if (!egl) return fail("offline: headless rendering: " + egl.error());
-  if (auto st = egl->make_current(); !st) return fail("offline: " + st.error());
-
-  OfflineSummary sum;
-  sum.out_dir = out.string();
-
-  // Built-in footage: the generator's scene, session log and truth.
-  if (o.footage.empty()) {
-    SynthOptions so = synth_preset(o.preset);
-    so.frames = o.builtin_frames;
-    so.width = o.builtin_width;
-    so.height = o.builtin_height;
-    so.seed = o.seed;
-    const fs::path fdir = out / "footage";
-    auto synth = run_synth(default_station_scene(), so, fdir.string(), false, [&](int k) {
-      if (progress) progress("footage", k, so.frames);
-    });
-    if (!synth) return fail("offline: generating the built-in footage: " + synth.error());
-    o.footage = (fdir / "video.mkv").string();
-    o.station = (fdir / "station.json").string();
-    if (o.session.empty()) o.session = (fdir / "session.dlog").string();
   }
-
-  // A live recording folder: its frames, station, session and timing.
-  session::Recording rec;
-  if (!o.footage.empty() && fs::is_directory(o.footage) && fs::exists(fs::path(o.footage) / "recording.json")) {
-    const fs::path rdir = o.footage;
-    auto r = session::read_recording(rdir);
-    if (!r) return fail("offline: " + r.error());
-    rec = std::move(*r);
-    o.footage = (rdir / "frames").string();
-    if (o.station.empty() || o.station == (rdir / "station.json").string()) o.station = (rdir / "station.json").string();
-    if (o.session.empty() && fs::exists(rdir / "session.dlog")) o.session = (rdir / "session.dlog").string();
-    if (o.truth.empty()) o.truth = "none";
-    if (o.masks.empty()) o.masks = "none";
-    // Track as the live run did, unless told otherwise.
-    if (!o.camera_response_given) {
-      o.tracker.detector.response = rec.camera_response;
-    } else if (o.tracker.detector.response != rec.camera_response) {
-      sum.warnings.push_back(std::string("the recording was tracked with camera response ") +
-                             camera_response_name(rec.camera_response) + ", this replay uses " +
-                             camera_response_name(o.tracker.detector.response) +
-                             ": its poses are not the live run's");
-    }
-    if (!o.mirror_rim_given)
-      o.tracker.mirror_rim_refine = rec.mirror_rim;
-    else if (o.tracker.mirror_rim_refine != rec.mirror_rim)
-      sum.warnings.push_back(std::string("the recording was tracked with the mirror rim refinement ") +
-                             (rec.mirror_rim ? "on" : "off") + ", this replay has it " +
-                             (o.tracker.mirror_rim_refine ? "on" : "off") + ": its poses are not the live run's");
-  }
-  auto station = read_station_scene(o.station);
-  if (!station) return fail("offline: " + station.error());
-  sum.session = o.session;
-  sum.station = o.station;
-  StationScene& st = *station;
-
-  auto src = FrameSource::open(o.footage, {});
-  if (!src) return fail("offline: " + src.error());
-  FrameSource& source = **src;
-  const auto& cam = st.calibration.camera;
-  if (source.width() != cam.width || source.height() != cam.height) {
-    const std::string sizes = o.footage + " is " + std::to_string(source.width()) + "x" +
-                              std::to_string(source.height()) + " but the station camera (" + o.station +
-                              ", camera.width/height) is calibrated for " + std::to_string(cam.width) + "x" +
-                              std::to_string(cam.height);
-    if (!o.scale_calib)
-      return fail("offline: " + sizes +
-                  ": use the station file calibrated for this camera mode, or pass --scale-calib if "
-                  "the footage is the same camera scaled");
-    auto scaled = scale_intrinsics(cam, source.width(), source.height());
-    if (!scaled) return fail("offline: " + sizes + ": " + scaled.error());
-    st.calibration.camera = *scaled;
-    sum.warnings.push_back(sizes + "; intrinsics scaled (--scale-calib)");
-  }
-  if (source.frame_count() == 0) return fail("offline: " + o.footage + ": the video holds no frames");
-  const double fps = source.fps() > 0 ? source.fps() : 30.0;
-
-  // Ground truth beside the footage, if any.
-  const fs::path fdir = fs::is_directory(o.footage) ? fs::path(o.footage) : fs::path(o.footage).parent_path();
-  std::vector<TruthFrame> truth;
-  if (o.truth != "none") {
-    const std::string tpath = o.truth.empty() ? (fdir / "truth.jsonl").string() : o.truth;
-    if (!o.truth.empty() || fs::exists(tpath)) {
-      auto t = read_truth(tpath);
-      if (!t) return fail("offline: " + t.error());
-      truth = std::move(*t);
-      sum.has_truth = !truth.empty();
-    }
-  }
-  std::string mask_dir;
-  if (o.masks != "none") {
-    const std::string m = o.masks.empty() ? (fdir / "masks").string() : o.masks;
-    if (fs::is_directory(m)) mask_dir = m;
-    else if (!o.masks.empty()) return fail("offline: " + m + ": the masks folder does not exist");
-  }
-
-  // The run: the tooth and the haptic replay (a session log), or an uncut tooth.
-  std::unique_ptr<session::Run> run;
-  if (!o.session.empty()) {
-    auto log = session::read_session_setup(o.session);
-    if (!log) return fail("offline: " + log.error());
-    if (!log->warning.empty()) sum.warnings.push_back(log->warning);
-    const double session_s = static_cast<double>(log->records.size()) / log->setup.engine.rate_hz;
-    const double footage_s = source.frame_count() > 0 ? static_cast<double>(source.frame_count()) / fps : -1;
-    if (!rec.present && footage_s >= 0 && session_s > footage_s + 1.0 / fps + 1e-9) {
-      std::ostringstream m;
-      m << std::setprecision(4) << "offline: the footage " << o.footage << " (" << source.frame_count()
-        << " frames, " << footage_s << " s) is shorter than the session log " << o.session << " ("
-        << log->records.size() << " steps, " << session_s
-        << " s): the cuts after the last frame would never be shown. Use the footage recorded with "
-           "this session, or trim the log";
-      return fail(m.str());
-    }
-    o.compositor.bur = log->setup.bur;  // draw the bur the session cut with
-    auto r = session::Run::from_session_log(std::move(*log), st, o.station);
-    if (!r) return fail("offline: " + r.error());
-    run = std::move(*r);
-  } else {
-    auto r = session::Run::from_station(st);
-    if (!r) return fail("offline: " + r.error());
-    run = std::move(*r);
-    sum.warnings.push_back("no session log: the tooth is shown uncut and no bur is drawn");
-  }
-  for (const auto& w : run->warnings()) sum.warnings.push_back(w);
-  volume::VoxelVolume* vol = &run->volume();
-  haptics::Engine* engine = run->engine();
-  haptics::ReplayDevice* device = run->replay_device();
-  const double rate_hz = run->rate_hz();
-  const std::size_t session_steps = run->session_steps();
-  // The shared per-frame pipeline, meshing inline (deterministic).
-  PipelineOptions po;
-  po.tracker = o.tracker;
-  // A live run whose tag search ran off the frame path: replay its decisions.
-  if (!rec.cues.empty()) {
-    po.tracker.discovery = DiscoveryMode::kScheduled;
-    if (!rec.cues_exact)
-      sum.warnings.push_back(rec.frames_csv + ": a tag search merged in the live run started on a frame the "
-                             "recording lacks; poses near it may differ from the live run's");
-  }
-  po.compositor = o.compositor;
-  po.predict_s = o.predict_s;
-  if (auto w = run->make_pipeline(st, po); !w) return fail("offline: " + w.error());
-  FramePipeline& pipe = run->pipeline();
-  ToothMeshes& meshes = run->meshes();
-  if (!pipe.tracker().response_note().empty()) sum.warnings.push_back(pipe.tracker().response_note());
-
-  // The tooth's box corners in its frame (registration error in pixels).
-  std::vector<Eigen::Vector3d> box;
-  {
-    const Eigen::Vector3d lo = vol->origin(),
-                          hi = vol->origin() + vol->spacing().cwiseProduct(vol->dims().cast<double>());
-    for (int k = 0; k < 8; ++k)
-      box.emplace_back(k & 1 ? hi.x() : lo.x(), k & 2 ? hi.y() : lo.y(), k & 4 ? hi.z() : lo.z());
-  }
-  const cv::Mat K = (cv::Mat_<double>(3, 3) << st.calibration.camera.fx, 0, st.calibration.camera.cx, 0,
-                     st.calibration.camera.fy, st.calibration.camera.cy, 0, 0, 1);
-  const cv::Mat D(1, 5, CV_64F, const_cast<double*>(st.calibration.camera.dist.data()));
-  auto project = [&](const Iso& T_cam_tooth) {
+  // The tooth's box corners projected into the image (registration error in pixels).
+  std::vector<cv::Point2d> project(const Iso& T_cam_tooth) const {
     std::vector<cv::Point3d> p;
     for (const auto& b : box) {
       const Eigen::Vector3d c = T_cam_tooth * b;
@@ -554,49 +418,215 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     std::vector<cv::Point2d> uv;
     cv::projectPoints(p, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D, uv);
     return uv;
-  };
-
-  const fs::path video_tmp = out / "composite.partial.mkv";
-  cv::VideoWriter writer;
-  if (o.write_video) {
-    const bool ffv1 = o.video_codec == "ffv1";
-    const int fourcc = ffv1 ? cv::VideoWriter::fourcc('F', 'F', 'V', '1') : cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
-    writer.open(video_tmp.string(), cv::CAP_FFMPEG, fourcc, fps,
-                cv::Size(st.calibration.camera.width, st.calibration.camera.height));
-    if (!writer.isOpened())
-      return fail("offline: " + video_tmp.string() + ": OpenCV cannot open a " + o.video_codec +
-                  " video writer here (use --no-video)");
-    if (!ffv1) writer.set(cv::VIDEOWRITER_PROP_QUALITY, 95);
   }
-  std::ofstream csv(out / "frames.csv.partial");
-  if (!csv) return fail("offline: " + (out / "frames.csv.partial").string() + ": cannot write");
-  csv << session::offline_csv_header();
 
-  std::vector<Row> rows;
-  const int total = o.max_frames > 0 && source.frame_count() > 0
-                        ? static_cast<int>(std::min<std::int64_t>(o.max_frames, source.frame_count()))
-                        : (o.max_frames > 0 ? o.max_frames : static_cast<int>(source.frame_count()));
-  const std::uint64_t vhash0 = vol->content_hash();
-  (void)vhash0;
-  Frame frame;
-  CompositeResult cres;
-  fs::create_directories(out / "stills", ec);
-  std::vector<std::string> stills;
-  std::vector<int> still_frames;
-  for (int k = 0; k < o.stills && total > 0; ++k) still_frames.push_back((2 * k + 1) * total / (2 * o.stills));
-  haptics::HapticSnapshot snap{};
+  Status builtin_footage() {
+    // Built-in footage: the generator's scene, session log and truth.
+    if (o.footage.empty()) {
+      SynthOptions so = synth_preset(o.preset);
+      so.frames = o.builtin_frames;
+      so.width = o.builtin_width;
+      so.height = o.builtin_height;
+      so.seed = o.seed;
+      const fs::path fdir = out / "footage";
+      auto synth = run_synth(default_station_scene(), so, fdir.string(), false, [&](int k) {
+        if (progress) progress("footage", k, so.frames);
+      });
+      if (!synth) return fail("offline: generating the built-in footage: " + synth.error());
+      o.footage = (fdir / "video.mkv").string();
+      o.station = (fdir / "station.json").string();
+      if (o.session.empty()) o.session = (fdir / "session.dlog").string();
+    }
 
-  for (int k = 0; o.max_frames == 0 || k < o.max_frames; ++k) {
+    return {};
+  }
+
+  Status live_recording() {
+    // A live recording folder: its frames, station, session and timing.
+    if (!o.footage.empty() && fs::is_directory(o.footage) && fs::exists(fs::path(o.footage) / "recording.json")) {
+      const fs::path rdir = o.footage;
+      auto r = session::read_recording(rdir);
+      if (!r) return fail("offline: " + r.error());
+      rec = std::move(*r);
+      o.footage = (rdir / "frames").string();
+      if (o.station.empty() || o.station == (rdir / "station.json").string()) o.station = (rdir / "station.json").string();
+      if (o.session.empty() && fs::exists(rdir / "session.dlog")) o.session = (rdir / "session.dlog").string();
+      if (o.truth.empty()) o.truth = "none";
+      if (o.masks.empty()) o.masks = "none";
+      // Track as the live run did, unless told otherwise.
+      if (!o.camera_response_given) {
+        o.tracker.detector.response = rec.camera_response;
+      } else if (o.tracker.detector.response != rec.camera_response) {
+        sum.warnings.push_back(std::string("the recording was tracked with camera response ") +
+                               camera_response_name(rec.camera_response) + ", this replay uses " +
+                               camera_response_name(o.tracker.detector.response) +
+                               ": its poses are not the live run's");
+      }
+      if (!o.mirror_rim_given)
+        o.tracker.mirror_rim_refine = rec.mirror_rim;
+      else if (o.tracker.mirror_rim_refine != rec.mirror_rim)
+        sum.warnings.push_back(std::string("the recording was tracked with the mirror rim refinement ") +
+                               (rec.mirror_rim ? "on" : "off") + ", this replay has it " +
+                               (o.tracker.mirror_rim_refine ? "on" : "off") + ": its poses are not the live run's");
+    }
+    return {};
+  }
+
+  Status open_footage() {
+    auto station = read_station_scene(o.station);
+    if (!station) return fail("offline: " + station.error());
+    sum.session = o.session;
+    sum.station = o.station;
+    st = std::move(*station);
+
+    auto opened = FrameSource::open(o.footage, {});
+    if (!opened) return fail("offline: " + opened.error());
+    src = std::move(*opened);
+    FrameSource& source = *src;
+    const auto& cam = st.calibration.camera;
+    if (source.width() != cam.width || source.height() != cam.height) {
+      const std::string sizes = o.footage + " is " + std::to_string(source.width()) + "x" +
+                                std::to_string(source.height()) + " but the station camera (" + o.station +
+                                ", camera.width/height) is calibrated for " + std::to_string(cam.width) + "x" +
+                                std::to_string(cam.height);
+      if (!o.scale_calib)
+        return fail("offline: " + sizes +
+                    ": use the station file calibrated for this camera mode, or pass --scale-calib if "
+                    "the footage is the same camera scaled");
+      auto scaled = scale_intrinsics(cam, source.width(), source.height());
+      if (!scaled) return fail("offline: " + sizes + ": " + scaled.error());
+      st.calibration.camera = *scaled;
+      sum.warnings.push_back(sizes + "; intrinsics scaled (--scale-calib)");
+    }
+    if (source.frame_count() == 0) return fail("offline: " + o.footage + ": the video holds no frames");
+    fps = source.fps() > 0 ? source.fps() : 30.0;
+
+    return {};
+  }
+
+  Status truth_and_masks() {
+    // Ground truth beside the footage, if any.
+    const fs::path fdir = fs::is_directory(o.footage) ? fs::path(o.footage) : fs::path(o.footage).parent_path();
+    if (o.truth != "none") {
+      const std::string tpath = o.truth.empty() ? (fdir / "truth.jsonl").string() : o.truth;
+      if (!o.truth.empty() || fs::exists(tpath)) {
+        auto t = read_truth(tpath);
+        if (!t) return fail("offline: " + t.error());
+        truth = std::move(*t);
+        sum.has_truth = !truth.empty();
+      }
+    }
+    if (o.masks != "none") {
+      const std::string m = o.masks.empty() ? (fdir / "masks").string() : o.masks;
+      if (fs::is_directory(m)) mask_dir = m;
+      else if (!o.masks.empty()) return fail("offline: " + m + ": the masks folder does not exist");
+    }
+
+    return {};
+  }
+
+  Status make_run() {
+    // The run: the tooth and the haptic replay (a session log), or an uncut tooth.
+    if (!o.session.empty()) {
+      auto log = session::read_session_setup(o.session);
+      if (!log) return fail("offline: " + log.error());
+      if (!log->warning.empty()) sum.warnings.push_back(log->warning);
+      const double session_s = static_cast<double>(log->records.size()) / log->setup.engine.rate_hz;
+      const double footage_s = src->frame_count() > 0 ? static_cast<double>(src->frame_count()) / fps : -1;
+      if (!rec.present && footage_s >= 0 && session_s > footage_s + 1.0 / fps + 1e-9) {
+        std::ostringstream m;
+        m << std::setprecision(4) << "offline: the footage " << o.footage << " (" << src->frame_count()
+          << " frames, " << footage_s << " s) is shorter than the session log " << o.session << " ("
+          << log->records.size() << " steps, " << session_s
+          << " s): the cuts after the last frame would never be shown. Use the footage recorded with "
+             "this session, or trim the log";
+        return fail(m.str());
+      }
+      o.compositor.bur = log->setup.bur;  // draw the bur the session cut with
+      auto r = session::Run::from_session_log(std::move(*log), st, o.station);
+      if (!r) return fail("offline: " + r.error());
+      run = std::move(*r);
+    } else {
+      auto r = session::Run::from_station(st);
+      if (!r) return fail("offline: " + r.error());
+      run = std::move(*r);
+      sum.warnings.push_back("no session log: the tooth is shown uncut and no bur is drawn");
+    }
+    for (const auto& w : run->warnings()) sum.warnings.push_back(w);
+    vol = &run->volume();
+    engine = run->engine();
+    device = run->replay_device();
+    rate_hz = run->rate_hz();
+    session_steps = run->session_steps();
+    // The shared per-frame pipeline, meshing inline (deterministic).
+    PipelineOptions po;
+    po.tracker = o.tracker;
+    // A live run whose tag search ran off the frame path: replay its decisions.
+    if (!rec.cues.empty()) {
+      po.tracker.discovery = DiscoveryMode::kScheduled;
+      if (!rec.cues_exact)
+        sum.warnings.push_back(rec.frames_csv + ": a tag search merged in the live run started on a frame the "
+                               "recording lacks; poses near it may differ from the live run's");
+    }
+    po.compositor = o.compositor;
+    po.predict_s = o.predict_s;
+    if (auto w = run->make_pipeline(st, po); !w) return fail("offline: " + w.error());
+    pipe = &run->pipeline();
+    meshes = &run->meshes();
+    if (!pipe->tracker().response_note().empty()) sum.warnings.push_back(pipe->tracker().response_note());
+
+    return {};
+  }
+
+  Status open_outputs() {
+    // The tooth's box corners in its frame (registration error in pixels).
+    {
+      const Eigen::Vector3d lo = vol->origin(),
+                            hi = vol->origin() + vol->spacing().cwiseProduct(vol->dims().cast<double>());
+      for (int k = 0; k < 8; ++k)
+        box.emplace_back(k & 1 ? hi.x() : lo.x(), k & 2 ? hi.y() : lo.y(), k & 4 ? hi.z() : lo.z());
+    }
+    K = (cv::Mat_<double>(3, 3) << st.calibration.camera.fx, 0, st.calibration.camera.cx, 0,
+                       st.calibration.camera.fy, st.calibration.camera.cy, 0, 0, 1);
+    D = cv::Mat(1, 5, CV_64F, const_cast<double*>(st.calibration.camera.dist.data()));
+
+    video_tmp = out / "composite.partial.mkv";
+    if (o.write_video) {
+      const bool ffv1 = o.video_codec == "ffv1";
+      const int fourcc = ffv1 ? cv::VideoWriter::fourcc('F', 'F', 'V', '1') : cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+      writer.open(video_tmp.string(), cv::CAP_FFMPEG, fourcc, fps,
+                  cv::Size(st.calibration.camera.width, st.calibration.camera.height));
+      if (!writer.isOpened())
+        return fail("offline: " + video_tmp.string() + ": OpenCV cannot open a " + o.video_codec +
+                    " video writer here (use --no-video)");
+      if (!ffv1) writer.set(cv::VIDEOWRITER_PROP_QUALITY, 95);
+    }
+    csv.open(out / "frames.csv.partial");
+    if (!csv) return fail("offline: " + (out / "frames.csv.partial").string() + ": cannot write");
+    csv << session::offline_csv_header();
+
+    total = o.max_frames > 0 && src->frame_count() > 0
+                          ? static_cast<int>(std::min<std::int64_t>(o.max_frames, src->frame_count()))
+                          : (o.max_frames > 0 ? o.max_frames : static_cast<int>(src->frame_count()));
+    std::error_code ec;
+    fs::create_directories(out / "stills", ec);
+    for (int k = 0; k < o.stills && total > 0; ++k) still_frames.push_back((2 * k + 1) * total / (2 * o.stills));
+
+    return {};
+  }
+
+  // One frame: false when the footage (or the recording's table) ended.
+  Result<bool> next_frame(int k) {
     Row r;
     const auto t_req = Clock::now();
-    auto got = source.read(frame);
+    auto got = src->read(frame);
     if (!got) return fail("offline: " + got.error());
-    if (!*got) break;
+    if (!*got) return false;
     r.read_ms = ms_since(t_req);
     const auto t_frame = Clock::now();  // the frame is in memory: latency starts here
     if (rec.present) {
       const auto fi = static_cast<std::size_t>(frame.index);
-      if (fi >= rec.capture_s.size()) break;  // frames beyond the table (a crash mid-row): stop
+      if (fi >= rec.capture_s.size()) return false;  // frames beyond the table (a crash mid-row): stop
       frame.time_s = rec.capture_s[fi];
     }
     r.frame = static_cast<int>(frame.index);
@@ -638,7 +668,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     fin.stylus_valid = engine && device && device->position() < device->size();
     if (!rec.haptic_steps.empty()) fin.stylus_valid = engine != nullptr && !snap.fault;
     FrameRecord fr;
-    if (auto ps = pipe.process(fin, meshes, cres, fr); !ps) return fail("offline: " + ps.error());
+    if (auto ps = pipe->process(fin, *meshes, cres, fr); !ps) return fail("offline: " + ps.error());
     r.haptic_step = fr.haptic_step;
     r.pedal = fr.pedal;
     for (int m = 0; m < volume::kNumMaterials; ++m) r.removed_mm3[m] = fr.removed_mm3[m];
@@ -722,128 +752,182 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
     csv << session::offline_csv_row(r);
     rows.push_back(r);
     if (progress) progress("pipeline", k + 1, total);
+  return true;
   }
-  if (rows.empty()) return fail("offline: " + o.footage + ": no frame could be read (empty video?)");
-  if (o.write_video) writer.release();
-  csv.close();
-  if (!csv) return fail("offline: frames.csv: write failed (disk full?)");
 
-  // Totals.
-  sum.frames = static_cast<int>(rows.size());
-  sum.footage_s = rows.back().time_s - rows.front().time_s + 1.0 / fps;
-  auto col = [&](auto get) {
-    std::vector<double> v;
-    for (const auto& r : rows) v.push_back(get(r));
-    return v;
-  };
-  for (const auto& r : rows) {
-    (r.man_state == 0 ? sum.tracking : r.man_state == 1 ? sum.predicted : sum.lost)++;
-    if (r.mir_state == 0) ++sum.mirror_tracking;
-    if (r.overlay) ++sum.overlays;
-  }
-  sum.man_err_mm = make_stat(col([](const Row& r) { return r.man_err_mm; }));
-  sum.man_err_deg = make_stat(col([](const Row& r) { return r.man_err_deg; }));
-  sum.tooth_err_px = make_stat(col([](const Row& r) { return r.tooth_err_px; }));
-  sum.tip_err_mm = make_stat(col([](const Row& r) { return r.tip_err_mm; }));
-  sum.silhouette_iou = make_stat(col([](const Row& r) { return r.iou; }));
-  sum.mir_err_mm = make_stat(col([](const Row& r) { return r.mir_err_mm; }));
-  sum.mir_err_deg = make_stat(col([](const Row& r) { return r.mir_err_deg; }));
-  sum.read_ms = make_stat(col([](const Row& r) { return r.read_ms; }));
-  sum.track_ms = make_stat(col([](const Row& r) { return r.track_ms; }));
-  sum.haptics_ms = make_stat(col([](const Row& r) { return r.haptics_ms; }));
-  sum.mesh_ms = make_stat(col([](const Row& r) { return r.mesh_ms; }));
-  sum.composite_ms = make_stat(col([](const Row& r) { return r.composite_ms; }));
-  sum.write_ms = make_stat(col([](const Row& r) { return r.write_ms; }));
-  sum.latency_ms = make_stat(col([](const Row& r) { return r.latency_ms; }));
-  // A live recording: the rest of the session log after the last frame, so
-  // the final cut is the one the student made.
-  if (engine && rec.present) {
-    const std::uint64_t done = engine->stats().steps;
-    if (session_steps > done) engine->run_steps(session_steps - done);
-  }
-  if (engine) {
-    sum.haptic_steps = engine->stats().steps;
-    snap = engine->snapshot();
-    sum.pulp_exposed = snap.pulp_exposed != 0;
-    sum.pulp_exposed_at_s = snap.pulp_exposed_at_s;
-    // Up to one frame period of steps may follow the last frame (exposure
-    // time); more means the footage stopped early (--max-frames).
-    if (static_cast<double>(session_steps - std::min<std::uint64_t>(session_steps, sum.haptic_steps)) >
-        rate_hz / fps + 1)
-      sum.warnings.push_back("the footage ended " + std::to_string(session_steps - sum.haptic_steps) +
-                             " haptic steps before the session log did (--max-frames?)");
-  }
-  sum.removed_mm3.assign(volume::kNumMaterials, 0.0);
-  for (int m = 0; m < volume::kNumMaterials; ++m) sum.removed_mm3[static_cast<std::size_t>(m)] = snap.removed_mm3[m];
-  sum.volume_hash = vol->content_hash();
-  sum.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+  Status totals() {
+    if (rows.empty()) return fail("offline: " + o.footage + ": no frame could be read (empty video?)");
+    if (o.write_video) writer.release();
+    csv.close();
+    if (!csv) return fail("offline: frames.csv: write failed (disk full?)");
 
-  // Files: CSV and video into place, then the summary, the report last.
-  fs::rename(out / "frames.csv.partial", out / "frames.csv", ec);
-  if (ec) return fail("offline: frames.csv: " + ec.message());
-  if (o.write_video) {
-    fs::rename(video_tmp, out / "composite.mkv", ec);
-    if (ec) return fail("offline: composite.mkv: " + ec.message());
+    // Totals.
+    sum.frames = static_cast<int>(rows.size());
+    sum.footage_s = rows.back().time_s - rows.front().time_s + 1.0 / fps;
+    auto col = [&](auto get) {
+      std::vector<double> v;
+      for (const auto& r : rows) v.push_back(get(r));
+      return v;
+    };
+    for (const auto& r : rows) {
+      (r.man_state == 0 ? sum.tracking : r.man_state == 1 ? sum.predicted : sum.lost)++;
+      if (r.mir_state == 0) ++sum.mirror_tracking;
+      if (r.overlay) ++sum.overlays;
+    }
+    sum.man_err_mm = make_stat(col([](const Row& r) { return r.man_err_mm; }));
+    sum.man_err_deg = make_stat(col([](const Row& r) { return r.man_err_deg; }));
+    sum.tooth_err_px = make_stat(col([](const Row& r) { return r.tooth_err_px; }));
+    sum.tip_err_mm = make_stat(col([](const Row& r) { return r.tip_err_mm; }));
+    sum.silhouette_iou = make_stat(col([](const Row& r) { return r.iou; }));
+    sum.mir_err_mm = make_stat(col([](const Row& r) { return r.mir_err_mm; }));
+    sum.mir_err_deg = make_stat(col([](const Row& r) { return r.mir_err_deg; }));
+    sum.read_ms = make_stat(col([](const Row& r) { return r.read_ms; }));
+    sum.track_ms = make_stat(col([](const Row& r) { return r.track_ms; }));
+    sum.haptics_ms = make_stat(col([](const Row& r) { return r.haptics_ms; }));
+    sum.mesh_ms = make_stat(col([](const Row& r) { return r.mesh_ms; }));
+    sum.composite_ms = make_stat(col([](const Row& r) { return r.composite_ms; }));
+    sum.write_ms = make_stat(col([](const Row& r) { return r.write_ms; }));
+    sum.latency_ms = make_stat(col([](const Row& r) { return r.latency_ms; }));
+    // A live recording: the rest of the session log after the last frame, so
+    // the final cut is the one the student made.
+    if (engine && rec.present) {
+      const std::uint64_t done = engine->stats().steps;
+      if (session_steps > done) engine->run_steps(session_steps - done);
+    }
+    if (engine) {
+      sum.haptic_steps = engine->stats().steps;
+      snap = engine->snapshot();
+      sum.pulp_exposed = snap.pulp_exposed != 0;
+      sum.pulp_exposed_at_s = snap.pulp_exposed_at_s;
+      // Up to one frame period of steps may follow the last frame (exposure
+      // time); more means the footage stopped early (--max-frames).
+      if (static_cast<double>(session_steps - std::min<std::uint64_t>(session_steps, sum.haptic_steps)) >
+          rate_hz / fps + 1)
+        sum.warnings.push_back("the footage ended " + std::to_string(session_steps - sum.haptic_steps) +
+                               " haptic steps before the session log did (--max-frames?)");
+    }
+    sum.removed_mm3.assign(volume::kNumMaterials, 0.0);
+    for (int m = 0; m < volume::kNumMaterials; ++m) sum.removed_mm3[static_cast<std::size_t>(m)] = snap.removed_mm3[m];
+    sum.volume_hash = vol->content_hash();
+    sum.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+
+    return {};
   }
-  // The drivers' hook (scoring): its HTML goes into the report, its warnings into both files.
-  std::string extra_html;
-  if (o.after_run) extra_html = o.after_run(sum);
-  nlohmann::json inputs = {{"footage", o.footage},
-                           {"station", o.station},
-                           {"session", o.session.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.session)},
-                           {"truth", sum.has_truth},
-                           {"masks", mask_dir.empty() ? nlohmann::json(nullptr) : nlohmann::json(mask_dir)},
-                           {"camera", {st.calibration.camera.width, st.calibration.camera.height}},
-                           {"fps", fps},
-                           {"predict_ms", o.predict_s * 1e3},
-                           {"tracker",
-                            {{"decimation", o.tracker.detector.decimation},
-                             {"predicted_regions", o.tracker.predicted_regions},
-                             {"full_frame_interval", o.tracker.full_frame_interval},
-                             {"filter", o.tracker.filter_enabled},
-                             {"stale_limit_ms", o.tracker.stale_limit_s * 1e3},
-                             {"mirror_max_sigma_mm", o.tracker.mirror_max_sigma_m * 1e3}}}};
-  char hash[20];
-  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
-  nlohmann::json removed = nlohmann::json::object();
-  for (int m = 1; m < volume::kNumMaterials; ++m)
-    removed[std::string(volume::material_info(m).name)] = sum.removed_mm3[static_cast<std::size_t>(m)];
-  nlohmann::json js = {
-      {"complete", true},
-      {"frames", sum.frames},
-      {"footage_s", sum.footage_s},
-      {"wall_s", sum.wall_s},
-      {"states", {{"tracking", sum.tracking}, {"predicted", sum.predicted}, {"lost", sum.lost}}},
-      {"mirror_tracking", sum.mirror_tracking},
-      {"overlays", sum.overlays},
-      {"has_truth", sum.has_truth},
-      {"errors",
-       {{"man_mm", stat_json(sum.man_err_mm)},
-        {"man_deg", stat_json(sum.man_err_deg)},
-        {"tooth_px", stat_json(sum.tooth_err_px)},
-        {"tip_mm", stat_json(sum.tip_err_mm)},
-        {"silhouette_iou", stat_json(sum.silhouette_iou)},
-        {"mir_mm", stat_json(sum.mir_err_mm)},
-        {"mir_deg", stat_json(sum.mir_err_deg)}}},
-      {"stage_ms",
-       {{"read", stat_json(sum.read_ms)},
-        {"track", stat_json(sum.track_ms)},
-        {"haptics", stat_json(sum.haptics_ms)},
-        {"mesh", stat_json(sum.mesh_ms)},
-        {"composite", stat_json(sum.composite_ms)},
-        {"write", stat_json(sum.write_ms)}}},
-      {"latency_ms", stat_json(sum.latency_ms)},
-      {"haptic_steps", sum.haptic_steps},
-      {"volume_hash", hash},
-      {"removed_mm3", removed},
-      {"pulp_exposed", sum.pulp_exposed},
-      {"pulp_exposed_at_s", sum.pulp_exposed ? nlohmann::json(sum.pulp_exposed_at_s) : nlohmann::json(nullptr)},
-      {"warnings", sum.warnings},
-      {"inputs", inputs}};
-  if (auto s = write_atomic(out / "summary.json", js.dump(2) + "\n"); !s) return fail("offline: " + s.error());
-  if (auto s = write_atomic(out / "report.html", make_report(o, sum, rows, stills, inputs, extra_html)); !s)
-    return fail("offline: " + s.error());
-  return sum;
+
+  Status write_files() {
+    // Files: CSV and video into place, then the summary, the report last.
+    std::error_code ec;
+    fs::rename(out / "frames.csv.partial", out / "frames.csv", ec);
+    if (ec) return fail("offline: frames.csv: " + ec.message());
+    if (o.write_video) {
+      fs::rename(video_tmp, out / "composite.mkv", ec);
+      if (ec) return fail("offline: composite.mkv: " + ec.message());
+    }
+    // The drivers' hook (scoring): its HTML goes into the report, its warnings into both files.
+    std::string extra_html;
+    if (o.after_run) extra_html = o.after_run(sum);
+    nlohmann::json inputs = {{"footage", o.footage},
+                             {"station", o.station},
+                             {"session", o.session.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.session)},
+                             {"truth", sum.has_truth},
+                             {"masks", mask_dir.empty() ? nlohmann::json(nullptr) : nlohmann::json(mask_dir)},
+                             {"camera", {st.calibration.camera.width, st.calibration.camera.height}},
+                             {"fps", fps},
+                             {"predict_ms", o.predict_s * 1e3},
+                             {"tracker",
+                              {{"decimation", o.tracker.detector.decimation},
+                               {"predicted_regions", o.tracker.predicted_regions},
+                               {"full_frame_interval", o.tracker.full_frame_interval},
+                               {"filter", o.tracker.filter_enabled},
+                               {"stale_limit_ms", o.tracker.stale_limit_s * 1e3},
+                               {"mirror_max_sigma_mm", o.tracker.mirror_max_sigma_m * 1e3}}}};
+    char hash[20];
+    std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
+    nlohmann::json removed = nlohmann::json::object();
+    for (int m = 1; m < volume::kNumMaterials; ++m)
+      removed[std::string(volume::material_info(m).name)] = sum.removed_mm3[static_cast<std::size_t>(m)];
+    nlohmann::json js = {
+        {"complete", true},
+        {"frames", sum.frames},
+        {"footage_s", sum.footage_s},
+        {"wall_s", sum.wall_s},
+        {"states", {{"tracking", sum.tracking}, {"predicted", sum.predicted}, {"lost", sum.lost}}},
+        {"mirror_tracking", sum.mirror_tracking},
+        {"overlays", sum.overlays},
+        {"has_truth", sum.has_truth},
+        {"errors",
+         {{"man_mm", stat_json(sum.man_err_mm)},
+          {"man_deg", stat_json(sum.man_err_deg)},
+          {"tooth_px", stat_json(sum.tooth_err_px)},
+          {"tip_mm", stat_json(sum.tip_err_mm)},
+          {"silhouette_iou", stat_json(sum.silhouette_iou)},
+          {"mir_mm", stat_json(sum.mir_err_mm)},
+          {"mir_deg", stat_json(sum.mir_err_deg)}}},
+        {"stage_ms",
+         {{"read", stat_json(sum.read_ms)},
+          {"track", stat_json(sum.track_ms)},
+          {"haptics", stat_json(sum.haptics_ms)},
+          {"mesh", stat_json(sum.mesh_ms)},
+          {"composite", stat_json(sum.composite_ms)},
+          {"write", stat_json(sum.write_ms)}}},
+        {"latency_ms", stat_json(sum.latency_ms)},
+        {"haptic_steps", sum.haptic_steps},
+        {"volume_hash", hash},
+        {"removed_mm3", removed},
+        {"pulp_exposed", sum.pulp_exposed},
+        {"pulp_exposed_at_s", sum.pulp_exposed ? nlohmann::json(sum.pulp_exposed_at_s) : nlohmann::json(nullptr)},
+        {"warnings", sum.warnings},
+        {"inputs", inputs}};
+    if (auto s = write_atomic(out / "summary.json", js.dump(2) + "\n"); !s) return fail("offline: " + s.error());
+    if (auto s = write_atomic(out / "report.html", make_report(o, sum, rows, stills, inputs, extra_html)); !s)
+      return fail("offline: " + s.error());
+    return {};
+  }
+};
+
+Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
+                                   const std::function<void(const std::string&, int, int)>& progress) {
+  Job job;
+  job.wall0 = Clock::now();
+  job.o = o_in;
+  job.progress = progress;
+  if (auto v = job.o.validate(); !v.empty()) return Error{"offline: " + v};
+  const fs::path out = job.o.out_dir;
+  job.out = out;
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) return Error{out.string() + ": cannot create the output folder: " + ec.message()};
+  // Nothing from an earlier run may pass for this run's result.
+  for (const char* f : {"summary.json", "report.html", "FAILED.txt", "frames.csv", "composite.mkv"})
+    fs::remove(out / f, ec);
+
+  auto egl = EglContext::create();
+  if (!egl) return job.fail("offline: headless rendering: " + egl.error());
+  if (auto st = egl->make_current(); !st) return job.fail("offline: " + st.error());
+  // The run's GL objects go while the context is current (before egl).
+  struct ReleaseRun {
+    Job& job;
+    ~ReleaseRun() { job.run.reset(); }
+  } release_run{job};
+  job.sum.out_dir = out.string();
+
+  // Inputs: the built-in footage (generated first) or the given one; a live
+  // recording folder's frames, station, session and timing; truth and masks.
+  if (auto s = job.builtin_footage(); !s) return Error{s.error()};
+  if (auto s = job.live_recording(); !s) return Error{s.error()};
+  if (auto s = job.open_footage(); !s) return Error{s.error()};
+  if (auto s = job.truth_and_masks(); !s) return Error{s.error()};
+  // The run (session::Run): tooth, replayed engine, meshes, pipeline.
+  if (auto s = job.make_run(); !s) return Error{s.error()};
+  if (auto s = job.open_outputs(); !s) return Error{s.error()};
+  for (int k = 0; job.o.max_frames == 0 || k < job.o.max_frames; ++k) {
+    auto more = job.next_frame(k);
+    if (!more) return Error{more.error()};
+    if (!*more) break;
+  }
+  if (auto s = job.totals(); !s) return Error{s.error()};
+  if (auto s = job.write_files(); !s) return Error{s.error()};
+  return job.sum;
 }
 
 }  // namespace dentar::offline
