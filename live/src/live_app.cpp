@@ -240,6 +240,8 @@ Result<std::string> live_tooth_json(const std::string& exercise, const std::stri
   return d.dump();
 }
 
+namespace {
+
 // The station (a file, or a built-in one by name) and the camera, opened;
 // intrinsics scaled (or cropped) to the camera's mode when allowed.
 struct StationCamera {
@@ -522,6 +524,8 @@ Status start_recording(const LiveOptions& o, const ar::StationScene& st, const a
   std::ofstream(rdir / "recording.json") << rec_meta.dump(2) << "\n";
   return {};
 }
+
+}  // namespace
 
 Result<LiveSummary> run_live(const LiveOptions& o) {
   if (auto v = o.validate(); !v.empty()) return Error{"live: " + v};
