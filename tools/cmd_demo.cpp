@@ -16,7 +16,7 @@
 #include <thread>
 
 #include "commands.h"
-#include "session_score.h"
+#include "dentar/session/finish.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/scripts.h"
@@ -135,7 +135,7 @@ int run_demo(const DemoOptions& o) {
     print_error("demo", "cannot create output folder '" + o.out + "': " + ec.message());
     return 1;
   }
-  remove_old_score(o.out);
+  session::remove_old_score(o.out);
   std::cout << "tooth: " << (ex ? "the " + tooth_desc.value("kind", std::string("molar")) + " of exercise " + ex->name
                               : std::string("procedural maxillary molar"))
             << ", " << vol.dims().x() << "x" << vol.dims().y()
@@ -311,11 +311,11 @@ int run_demo(const DemoOptions& o) {
     // Scored against the exercise drilled (without --exercise: the molar's
     // occlusal access, as the molar access opening). A failure to score is a
     // warning; the session and the hash check stand.
-    DriverScoreInput in;
+    session::DriverScoreInput in;
     in.session = log_path;
     in.out_dir = o.out;
     in.exercise = o.exercise;
-    const DriverScore d = score_after_run(in);
+    const session::DriverScore d = session::score_after_run(in);
     if (d.ok)
       std::cout << d.line << "\n";
     else
@@ -375,7 +375,7 @@ void add_demo(CLI::App& app, int& exit_code) {
   c->footer("Example:\n  dentar demo --model proxy --bur capsule --samples 10000 --out out/demo\n"
             "  dentar demo --simulated --out out/demo --audio out/demo/drill.wav");
   c->callback([o, c, &exit_code] {
-    if (std::string e = check_exercise(o->exercise); !e.empty()) {
+    if (std::string e = session::check_exercise(o->exercise); !e.empty()) {
       print_error("demo", e);
       exit_code = 2;
       return;

@@ -11,7 +11,7 @@
 #include "dentar/training/exercise.h"
 #include "dentar/training/lesson.h"
 #include "dentar/training/lesson_run.h"
-#include "session_score.h"
+#include "dentar/session/finish.h"
 
 namespace dentar::tools {
 namespace {
@@ -141,11 +141,11 @@ int do_run(const LessonArgs& a) {
     std::cout << "replay: " << rep->steps << " steps reproduce the run's volume bit-exactly\n";
   }
   if (!a.no_score) {
-    DriverScoreInput in;
+    session::DriverScoreInput in;
     in.session = r->session_path;
     in.out_dir = a.out;
     in.exercise = l->exercise;
-    const DriverScore d = score_after_run(in);
+    const session::DriverScore d = session::score_after_run(in);
     std::cout << (d.ok ? d.line : "warning: " + d.warning) << "\n";
   }
   return 0;

@@ -11,7 +11,7 @@
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/live/live_app.h"
-#include "session_score.h"
+#include "dentar/session/finish.h"
 #include "sound_cli.h"
 
 namespace dentar::tools {
@@ -190,7 +190,7 @@ void add_live(CLI::App& app, int& exit_code) {
       exit_code = 2;
       return;
     }
-    if (std::string e = check_exercise(o.exercise); !e.empty()) {
+    if (std::string e = session::check_exercise(o.exercise); !e.empty()) {
       print_error("live", e);
       exit_code = 2;
       return;
@@ -233,7 +233,7 @@ void add_live(CLI::App& app, int& exit_code) {
         return;
       }
     }
-    if (!o.record_dir.empty() && !c->no_score) remove_old_score(o.record_dir);
+    if (!o.record_dir.empty() && !c->no_score) session::remove_old_score(o.record_dir);
     if (!c->db.db.empty() && o.record_dir.empty()) {
       print_error("live", "--db needs --record DIR: the recorded session folder is what is scored and stored");
       exit_code = 2;
@@ -267,13 +267,13 @@ void add_live(CLI::App& app, int& exit_code) {
     // before this; a failure to score is a warning, never a failed run).
     if (!o.record_dir.empty() && !c->no_score) {
       namespace fs = std::filesystem;
-      DriverScoreInput in;
+      session::DriverScoreInput in;
       in.session = (fs::path(o.record_dir) / "session.dlog").string();
       in.out_dir = o.record_dir;
       in.exercise = o.exercise;
       in.frames_csv = (fs::path(o.record_dir) / "frames.csv").string();
       in.station = (fs::path(o.record_dir) / "station.json").string();
-      const DriverScore d = score_after_run(in);
+      const session::DriverScore d = session::score_after_run(in);
       if (d.ok)
         std::cout << d.line << "\n";
       else

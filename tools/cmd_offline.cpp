@@ -13,10 +13,10 @@
 
 #include "commands.h"
 #include "db_util.h"
-#include "dentar/ar/offline.h"
+#include "dentar/offline/offline.h"
 #include "dentar/ar/station_scene.h"
 #include "dentar/sound/mux.h"
-#include "session_score.h"
+#include "dentar/session/finish.h"
 #include "sound_cli.h"
 
 namespace dentar::tools {
@@ -89,7 +89,7 @@ std::string f3(double v) {
 }
 
 int run(const OfflineCli& c) {
-  ar::OfflineOptions o;
+  offline::OfflineOptions o;
   o.footage = c.footage;
   o.station = c.station;
   o.session = c.session;
@@ -138,15 +138,15 @@ int run(const OfflineCli& c) {
   // Score the replayed session into the same folder (score.json, score.html,
   // linked from report.html). A failure to score is a warning, not a failed run.
   std::string score_line;
-  if (!c.no_score) remove_old_score(c.out);
+  if (!c.no_score) session::remove_old_score(c.out);
   if (c.audio_mux) {  // a muxed file from an earlier run must not pass for this run's
     std::error_code ec;
     std::filesystem::remove(std::filesystem::path(c.out) / "composite_audio.mkv", ec);
   }
   if (!c.no_score)
-    o.after_run = [&](ar::OfflineSummary& s) -> std::string {
+    o.after_run = [&](offline::OfflineSummary& s) -> std::string {
       if (s.session.empty()) return {};
-      DriverScoreInput in;
+      session::DriverScoreInput in;
       in.session = s.session;
       in.out_dir = s.out_dir;
       in.exercise = c.exercise;
@@ -157,7 +157,7 @@ int run(const OfflineCli& c) {
       // a whole generated expert and novice session of the same exercise.
       in.compare = c.footage.empty();
       if (!c.quiet) std::cerr << "scoring the session ...\n";
-      const DriverScore d = score_after_run(in);
+      const session::DriverScore d = session::score_after_run(in);
       if (!d.ok) {
         s.warnings.push_back(d.warning);
         return "<p class=\"bad\">" + d.warning + "</p>";
@@ -166,7 +166,7 @@ int run(const OfflineCli& c) {
       return d.html;
     };
   ProgressBar bar(c.quiet);
-  auto sum = ar::run_offline(o, [&](const std::string& phase, int done, int total) {
+  auto sum = offline::run_offline(o, [&](const std::string& phase, int done, int total) {
     bar.update(phase, done, total);
   });
   if (!sum) {
@@ -338,7 +338,7 @@ void add_offline(CLI::App& app, int& exit_code) {
         return;
       }
     }
-    if (std::string e = check_exercise(c->exercise); !e.empty()) {
+    if (std::string e = session::check_exercise(c->exercise); !e.empty()) {
       print_error("offline", e);
       exit_code = 2;
       return;
@@ -350,7 +350,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       return;
     }
     // --teach-force-limit exercise: the exercise the session is scored against (given, or the recording's).
-    c->sound.exercise = !c->exercise.empty() ? c->exercise : recording ? recorded_exercise(c->footage) : "";
+    c->sound.exercise = !c->exercise.empty() ? c->exercise : recording ? session::recorded_exercise(c->footage) : "";
     if (!c->sound.audio.empty()) {  // a user sample that is not audio is bad input, caught first
       if (auto p = drill_params_from(c->sound); !p) {
         print_error("offline", p.error());

@@ -8,7 +8,7 @@
 
 #include "commands.h"
 #include "dentar/training/report.h"
-#include "session_score.h"
+#include "dentar/session/finish.h"
 
 namespace dentar::tools {
 namespace {
@@ -40,9 +40,9 @@ void fill_from_folder(training::ScoreOptions& o) {
       if (station.empty() && in.contains("station") && in["station"].is_string()) station = in["station"].get<std::string>();
     }
   }
-  if (o.exercise.empty()) o.exercise = recorded_exercise(d.string());
+  if (o.exercise.empty()) o.exercise = session::recorded_exercise(d.string());
   if (!station.empty() && !o.sight) {
-    auto g = sight_from_station(station);
+    auto g = session::sight_from_station(station);
     if (!g) {
       std::cerr << "dentar score: warning: " << g.error() << " (mirror use not measured)\n";
       return;

@@ -15,6 +15,7 @@
 #include <future>
 #include <ctime>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <iomanip>
 #include <limits>
@@ -345,15 +346,63 @@ std::string CalibrateLiveSummary::json() const {
   return j.dump(2) + "\n";
 }
 
-Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
-  if (auto v = o.validate(); !v.empty()) return Error{"calibrate live: " + v};
-  CalibrateLiveSummary sum;
-  auto say = [&](const std::string& s) {
-    sum.log.push_back(s);
-    if (!o.quiet) std::fprintf(stderr, "dentar calibrate live: %s\n", s.c_str());
-  };
+namespace {
 
-  // ---- station ----
+// Camera step, per new frame: detect the board, feed the step, draw the overlay (coverage or
+// trust map, the suggested place, the detected points) into the frame shown.
+cv::Mat camera_view(const ar::Frame& f, cal::LiveCameraViews& c, ar::TagDetector* det, const ar::BoardSpec& board_spec) {
+  cv::Mat gray;
+  cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
+  Result<cal::BoardView> v = det ? ar::detect_aprilgrid(*det, gray, std::get<cal::AprilGridSpec>(board_spec), "the live view")
+                                 : ar::detect_board(gray, board_spec, "the live view");
+  double sharp = 0;
+  if (v && !v->image_points.empty()) {
+    // Focus measure: variance of the Laplacian over the board's bounding box.
+    cv::Rect2d bb(v->image_points[0].x(), v->image_points[0].y(), 0, 0);
+    for (const auto& p : v->image_points) bb |= cv::Rect2d(p.x(), p.y(), 1, 1);
+    const cv::Rect box = cv::Rect(bb) & cv::Rect(0, 0, gray.cols, gray.rows);
+    if (box.area() > 16) {
+      cv::Mat lap;
+      cv::Laplacian(gray(box), lap, CV_32F);
+      cv::Scalar mu, sd;
+      cv::meanStdDev(lap, mu, sd);
+      sharp = sd[0] * sd[0];
+    }
+  }
+  c.add_frame(f.time_s, v ? &*v : nullptr, v ? std::string() : v.error(), sharp);
+  cv::Mat img = f.image.clone(), tint = f.image.clone();
+  const cal::CoverageMap cm = c.coverage();
+  const bool trust = c.trust_views() > 0 && c.trust().cols == cm.cols && c.trust().rows == cm.rows;
+  for (int r = 0; r < cm.rows; ++r)
+    for (int k = 0; k < cm.cols; ++k) {
+      const int i = r * cm.cols + k;
+      const cv::Rect cell(k * img.cols / cm.cols, r * img.rows / cm.rows, img.cols / cm.cols, img.rows / cm.rows);
+      cv::Scalar col(-1, 0, 0);
+      if (trust) col = c.trust().trusted[i] ? cv::Scalar(0, 200, 0) : c.trust().extrapolated[i] ? cv::Scalar(128, 128, 128) : cv::Scalar(0, 0, 220);
+      else if (cm.counts[i] >= 5) col = cv::Scalar(0, 200, 0);
+      else if (cm.counts[i] > 0) col = cv::Scalar(0, 200, 220);
+      if (col[0] >= 0) cv::rectangle(tint, cell, col, cv::FILLED);
+      cv::rectangle(img, cell, cv::Scalar(90, 90, 90), 1);
+    }
+  cv::addWeighted(tint, 0.25, img, 0.75, 0, img);
+  int sc = 0, sr = 0;
+  std::string sug;
+  if (c.suggestion(sc, sr, sug)) {
+    const cv::Rect cell(sc * img.cols / cm.cols, sr * img.rows / cm.rows, img.cols / cm.cols, img.rows / cm.rows);
+    cv::rectangle(img, cell, cv::Scalar(255, 230, 0), 3);
+    cv::putText(img, "board here", cell.tl() + cv::Point(4, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 230, 0), 1);
+  }
+  const cv::Scalar pc = !c.last_layout_ok() ? cv::Scalar(0, 0, 255) : c.still() ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 220, 255);
+  for (const auto& p : c.last_view().image_points) cv::circle(img, cv::Point(cvRound(p.x()), cvRound(p.y())), 3, pc, 1);
+  return img;
+}
+
+
+// The station to calibrate: the file, or the built-in default when it does not exist yet
+// (with the default calibration fixtures when it has none); refused when it was
+// calibrated with another camera than --camera and this run does not redo the camera.
+Result<ar::StationScene> calibration_station(const CalibrateLiveOptions& o,
+                                             const std::function<void(const std::string&)>& say) {
   ar::StationScene st;
   if (fs::exists(o.station)) {
     auto r = ar::read_station_scene(o.station);
@@ -375,6 +424,23 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
                    "\", but --camera " + o.camera + " is \"" + have +
                    "\": add the camera step (--steps camera,...) for this camera, or use the station file made for it"};
   }
+  return st;
+}
+
+}  // namespace
+
+Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
+  if (auto v = o.validate(); !v.empty()) return Error{"calibrate live: " + v};
+  CalibrateLiveSummary sum;
+  auto say = [&](const std::string& s) {
+    sum.log.push_back(s);
+    if (!o.quiet) std::fprintf(stderr, "dentar calibrate live: %s\n", s.c_str());
+  };
+
+  // ---- station ----
+  auto str = calibration_station(o, say);
+  if (!str) return Error{str.error()};
+  ar::StationScene st = std::move(*str);
   const cal::StationCalibration nominal = st.calibration;
 
   // ---- device ----
@@ -445,54 +511,6 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   const ar::BoardSpec board_spec = *ar::parse_board_spec(o.board);
   std::mt19937_64 mirror_rng(o.seed * 131 + 7);
 
-  // Camera step, per new frame: detect the board, feed the step, draw the overlay (coverage or
-  // trust map, the suggested place, the detected points) into the frame shown.
-  auto camera_view = [&](const ar::Frame& f, cal::LiveCameraViews& c, ar::TagDetector* det) -> cv::Mat {
-    cv::Mat gray;
-    cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
-    Result<cal::BoardView> v = det ? ar::detect_aprilgrid(*det, gray, std::get<cal::AprilGridSpec>(board_spec), "the live view")
-                                   : ar::detect_board(gray, board_spec, "the live view");
-    double sharp = 0;
-    if (v && !v->image_points.empty()) {
-      // Focus measure: variance of the Laplacian over the board's bounding box.
-      cv::Rect2d bb(v->image_points[0].x(), v->image_points[0].y(), 0, 0);
-      for (const auto& p : v->image_points) bb |= cv::Rect2d(p.x(), p.y(), 1, 1);
-      const cv::Rect box = cv::Rect(bb) & cv::Rect(0, 0, gray.cols, gray.rows);
-      if (box.area() > 16) {
-        cv::Mat lap;
-        cv::Laplacian(gray(box), lap, CV_32F);
-        cv::Scalar mu, sd;
-        cv::meanStdDev(lap, mu, sd);
-        sharp = sd[0] * sd[0];
-      }
-    }
-    c.add_frame(f.time_s, v ? &*v : nullptr, v ? std::string() : v.error(), sharp);
-    cv::Mat img = f.image.clone(), tint = f.image.clone();
-    const cal::CoverageMap cm = c.coverage();
-    const bool trust = c.trust_views() > 0 && c.trust().cols == cm.cols && c.trust().rows == cm.rows;
-    for (int r = 0; r < cm.rows; ++r)
-      for (int k = 0; k < cm.cols; ++k) {
-        const int i = r * cm.cols + k;
-        const cv::Rect cell(k * img.cols / cm.cols, r * img.rows / cm.rows, img.cols / cm.cols, img.rows / cm.rows);
-        cv::Scalar col(-1, 0, 0);
-        if (trust) col = c.trust().trusted[i] ? cv::Scalar(0, 200, 0) : c.trust().extrapolated[i] ? cv::Scalar(128, 128, 128) : cv::Scalar(0, 0, 220);
-        else if (cm.counts[i] >= 5) col = cv::Scalar(0, 200, 0);
-        else if (cm.counts[i] > 0) col = cv::Scalar(0, 200, 220);
-        if (col[0] >= 0) cv::rectangle(tint, cell, col, cv::FILLED);
-        cv::rectangle(img, cell, cv::Scalar(90, 90, 90), 1);
-      }
-    cv::addWeighted(tint, 0.25, img, 0.75, 0, img);
-    int sc = 0, sr = 0;
-    std::string sug;
-    if (c.suggestion(sc, sr, sug)) {
-      const cv::Rect cell(sc * img.cols / cm.cols, sr * img.rows / cm.rows, img.cols / cm.cols, img.rows / cm.rows);
-      cv::rectangle(img, cell, cv::Scalar(255, 230, 0), 3);
-      cv::putText(img, "board here", cell.tl() + cv::Point(4, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 230, 0), 1);
-    }
-    const cv::Scalar pc = !c.last_layout_ok() ? cv::Scalar(0, 0, 255) : c.still() ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 220, 255);
-    for (const auto& p : c.last_view().image_points) cv::circle(img, cv::Point(cvRound(p.x()), cvRound(p.y())), 3, pc, 1);
-    return img;
-  };
   // Mirror step with a real camera: the mirror tag's pose against the mannequin's, per frame.
   struct {
     bool valid = false;
@@ -687,7 +705,7 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       if (capture) {
         ar::Frame f;
         if (capture->wait_take(f, 0.0)) {
-          if (cam) win.set_video(camera_view(f, *cam, grid_det.get()));
+          if (cam) win.set_video(camera_view(f, *cam, grid_det.get(), board_spec));
           else {
             if (step == "mirror" && !sim) track_mirror(f);
             win.set_video(f.image);

@@ -47,7 +47,9 @@
 #include "dentar/live/station_health.h"
 #include "dentar/training/exercise.h"
 #include "dentar/training/hand_script.h"
-#include "recorder.h"
+#include "dentar/session/frames_csv.h"
+#include "dentar/session/recorder.h"
+#include "dentar/session/run.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/material.h"
 #include "dentar/volume/procedural_tooth.h"
@@ -83,8 +85,6 @@ std::string iso_now() {
   std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
   return b;
 }
-
-const char* kState[] = {"tracking", "predicted", "lost"};
 
 // What the frame thread hands the window: the newest composite and its raw
 // frame (shown without overlay when the camera stalls).
@@ -249,22 +249,22 @@ Result<std::string> live_tooth_json(const std::string& exercise, const std::stri
   return d.dump();
 }
 
-Result<LiveSummary> run_live(const LiveOptions& o) {
-  if (auto v = o.validate(); !v.empty()) return Error{"live: " + v};
-  // SIGINT/SIGTERM from here on end the run cleanly (zero force, logs,
-  // recording), also when they arrive during the set-up below.
-  g_signal.store(0);
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  LiveSummary sum;
-  sum.rss_start_mb = rss_mb();
-  auto say = [&](const std::string& s) {
-    if (!o.quiet) std::fprintf(stderr, "dentar live: %s\n", s.c_str());
-  };
+namespace {
 
-  // ---- station ----
+// The station (a file, or a built-in one by name) and the camera, opened;
+// intrinsics scaled (or cropped) to the camera's mode when allowed.
+struct StationCamera {
   ar::StationScene st;
-  const bool builtin = o.station.empty() || (!fs::is_regular_file(o.station) && ar::builtin_station_scene(o.station));
+  bool builtin = false;
+  ar::FrameSourceOptions so;
+  std::unique_ptr<ar::FrameSource> src;
+};
+Result<StationCamera> open_station_and_camera(const LiveOptions& o, LiveSummary& sum,
+                                              const std::function<void(const std::string&)>& say) {
+  // ---- station ----
+  StationCamera sc;
+  ar::StationScene& st = sc.st;
+  const bool builtin = sc.builtin = o.station.empty() || (!fs::is_regular_file(o.station) && ar::builtin_station_scene(o.station));
   if (builtin) {
     st = *ar::builtin_station_scene(o.station.empty() ? "default" : o.station);
   } else {
@@ -274,7 +274,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   }
 
   // ---- camera ----
-  ar::FrameSourceOptions so;
+  ar::FrameSourceOptions& so = sc.so;
   so.width = o.width;
   so.height = o.height;
   so.fps = o.fps;
@@ -326,29 +326,42 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
                              ": calibrate this camera for accurate placement (dentar calibrate camera)");
     }
   }
+  sc.src = std::move(*src);
+  return sc;
+}
 
-  // ---- station health (station_health.h): file checks now, tags and stylus tip per frame ----
-  StationHealthMonitor health(st, builtin, static_cast<double>(std::time(nullptr)), camera_identity(o.camera));
-  if (auto r = health.refusal()) return Error{"live: " + o.station + ": " + r->message};
-  for (const auto& it : health.health().items)
-    if (it.level != HealthLevel::kOk) say("station health: " + it.check + ": " + it.message);
-
-  // ---- tooth, stylus, engine ----
+// The tooth (by exercise, or the replayed log's), the stylus device (a
+// haptic device, a replayed session log, the simulated hand, or the pen) and
+// the engine's configuration from the station.
+struct StylusSetup {
   std::optional<volume::VoxelVolume> vol;
   volume::BurParams bur_params = volume::BurParams::capsule(0.5, 3.0);
   int bur_samples = 10000;
   std::unique_ptr<haptics::HapticDevice> device;
   PenDevice* pen = nullptr;
   haptics::EngineConfig cfg;
-  cfg.model = o.model;
-  cfg.T_tooth_dev = st.calibration.T_tooth_dev();
-  cfg.T_sty_tip = st.calibration.T_sty_tip;
   std::string tooth_desc;  // the session header's "tooth" (live_tooth_json)
-  haptics::ManualPedal key_pedal;
   bool pedal_from_device = false;
   // The simulated hand's script length with an exercise (s of engine time; 0 = none): the run
   // ends once the engine has stepped through it, as a student stops when the preparation is done.
   double hand_end_s = 0;
+};
+Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st, StationHealthMonitor& health,
+                                const std::function<void(const std::string&)>& say) {
+  // ---- tooth, stylus, engine ----
+  StylusSetup ss;
+  std::optional<volume::VoxelVolume>& vol = ss.vol;
+  volume::BurParams& bur_params = ss.bur_params;
+  int& bur_samples = ss.bur_samples;
+  std::unique_ptr<haptics::HapticDevice>& device = ss.device;
+  PenDevice*& pen = ss.pen;
+  haptics::EngineConfig& cfg = ss.cfg;
+  cfg.model = o.model;
+  cfg.T_tooth_dev = st.calibration.T_tooth_dev();
+  cfg.T_sty_tip = st.calibration.T_sty_tip;
+  std::string& tooth_desc = ss.tooth_desc;
+  bool& pedal_from_device = ss.pedal_from_device;
+  double& hand_end_s = ss.hand_end_s;
   // The tooth named by tooth_desc, built by training::make_tooth (as the scorer and the
   // cohort generator build it).
   auto build_tooth = [&]() -> Status {
@@ -377,10 +390,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     if (reach.level != HealthLevel::kOk) say("station health: " + reach.check + ": " + reach.message);
   } else if (o.stylus.rfind("replay:", 0) == 0) {
     const std::string path = o.stylus.substr(7);
-    auto log = haptics::read_session_log(path);
+    auto log = session::read_session_setup(path);
     if (!log) return Error{"live: --stylus: " + log.error()};
-    auto setup = haptics::parse_session_header(log->header_json);
-    if (!setup) return Error{"live: --stylus: " + path + ": " + setup.error()};
+    const haptics::SessionSetup* setup = &log->setup;
     auto td = live_tooth_json(o.exercise, setup->tooth_json, st.tooth_voxel_m * 1e3);
     if (!td) return Error{"live: --stylus " + o.stylus + ": " + td.error()};
     tooth_desc = *td;
@@ -444,22 +456,55 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     if (!ex) return Error{"live: " + ex.error()};
     bur_params = ex->bur;
   }
-  auto bur = volume::sample_bur(bur_params, bur_samples);
-  if (!bur) return Error{"live: bur: " + bur.error()};
-  std::unique_ptr<haptics::Pedal> usb_pedal;
-  if (o.pedal != "keyboard") {
-    auto p = haptics::open_pedal(o.pedal);
-    if (!p) return Error{"live: --pedal " + o.pedal + ": " + p.error()};
-    usb_pedal = std::move(*p);
-  }
-  const haptics::Pedal& pedal = usb_pedal ? *usb_pedal : static_cast<const haptics::Pedal&>(key_pedal);
-  haptics::PedalDevice pedal_device(*device, pedal, pedal_from_device);
-  haptics::HapticDevice& engine_device = pedal_device;
-  const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
-  cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
-  cfg.try_realtime = o.realtime;
+  return ss;
+}
 
-  // ---- isolation: everything but the engine off its core; memory locked ----
+// The engine's figures at the end of a run, into the summary.
+void engine_figures(const haptics::EngineStats& es, LiveSummary& sum) {
+  sum.engine_steps = es.steps;
+  sum.missed_deadlines = es.missed_deadlines;
+  sum.watchdog_trips = es.watchdog_trips;
+  sum.step_p50_us = es.compute.percentile_s(0.5) * 1e6;
+  sum.step_p99_us = es.compute.percentile_s(0.99) * 1e6;
+  sum.step_p999_us = es.compute.percentile_s(0.999) * 1e6;
+  sum.step_max_us = es.compute.max_s() * 1e6;
+  sum.jitter_p99_us = es.jitter.percentile_s(0.99) * 1e6;
+  sum.jitter_max_us = es.jitter.max_s() * 1e6;
+  sum.realtime_granted = es.realtime_granted;
+  sum.cpu_pinned = es.cpu_pinned;
+}
+
+// The recording closed: its writer joined, recording.json completed (written
+// aside, then renamed), and the run's summary beside it.
+void finish_recording(session::Recorder& rec, const nlohmann::json& rec_meta, const std::string& stop_reason,
+                      const haptics::EngineStats& es, const fs::path& rdir, LiveSummary& sum) {
+  session::Recorder* recorder = &rec;
+  recorder->log("stopped: " + stop_reason);
+  recorder->close();
+  if (recorder->dropped() > 0)
+    sum.warnings.push_back("recording: " + std::to_string(recorder->dropped()) +
+                           " frames not written (the writer fell more than " + std::to_string(session::Recorder::kMaxQueued) +
+                           " frames behind, or the disk refused them): offline replay stops at the first gap");
+  char hash[20];
+  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
+  nlohmann::json meta = rec_meta;  // its "started" is the run's start
+  meta["complete"] = true;
+  meta["frames"] = recorder->written();
+  meta["frames_not_written"] = recorder->dropped();
+  meta["frame_files"] = {{"jpg", recorder->written_jpg()}, {"png", recorder->written_png()},
+                         {"ppm", recorder->written_ppm()}};
+  meta["volume_hash"] = hash;
+  meta["engine_steps"] = es.steps;
+  meta["stop_reason"] = stop_reason;
+  std::ofstream(rdir / "recording.json.tmp") << meta.dump(2) << "\n";
+  std::error_code ec;
+  fs::rename(rdir / "recording.json.tmp", rdir / "recording.json", ec);
+  std::ofstream(rdir / "summary.json") << sum.json();
+}
+
+// Everything but the engine off its CPU (threads made from now on inherit the
+// mask), and memory locked with real time: what was done, for the summary.
+std::string isolate_engine(const LiveOptions& o, const haptics::EngineConfig& cfg, int ncpu, LiveSummary& sum) {
   std::string iso;
   if (cfg.cpu >= 0 && ncpu > 1) {
     cpu_set_t others;
@@ -478,6 +523,90 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
       iso += std::string("mlockall refused (") + std::strerror(errno) +
              "): raise the memlock limit (ulimit -l unlimited, or memlock in /etc/security/limits.conf); ";
   }
+  return iso;
+}
+
+// A recording's start (`--record DIR`): the writer, the station as used, and
+// recording.json as at the start (completed by finish_recording).
+Status start_recording(const LiveOptions& o, const ar::StationScene& st, const ar::PipelineOptions& popt,
+                       const std::string& discovery_name, std::unique_ptr<session::Recorder>& recorder,
+                       nlohmann::json& rec_meta) {
+  const fs::path rdir = o.record_dir;
+  auto r = session::Recorder::open(rdir);
+  if (!r) return Error{"live: " + r.error()};
+  recorder = std::move(*r);
+  if (auto s = ar::write_station_scene(st, (rdir / "station.json").string()); !s)
+    return Error{"live: " + s.error()};
+  rec_meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
+              {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
+              {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
+              {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
+  if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
+  if (o.stylus == "sim" && !o.exercise.empty())
+    rec_meta["hand"] = {{"skill", o.hand_skill}, {"style", o.hand_style}, {"seed", o.hand_seed}};
+  std::ofstream(rdir / "recording.json") << rec_meta.dump(2) << "\n";
+  return {};
+}
+
+}  // namespace
+
+Result<LiveSummary> run_live(const LiveOptions& o) {
+  if (auto v = o.validate(); !v.empty()) return Error{"live: " + v};
+  // SIGINT/SIGTERM from here on end the run cleanly (zero force, logs,
+  // recording), also when they arrive during the set-up below.
+  g_signal.store(0);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  LiveSummary sum;
+  sum.rss_start_mb = rss_mb();
+  auto say = [&](const std::string& s) {
+    if (!o.quiet) std::fprintf(stderr, "dentar live: %s\n", s.c_str());
+  };
+
+  // ---- station, camera ----
+  auto scr = open_station_and_camera(o, sum, say);
+  if (!scr) return Error{scr.error()};
+  ar::StationScene& st = scr->st;
+  const bool builtin = scr->builtin;
+  const ar::FrameSourceOptions so = scr->so;
+  std::unique_ptr<ar::FrameSource>& src = scr->src;
+
+  // ---- station health (station_health.h): file checks now, tags and stylus tip per frame ----
+  StationHealthMonitor health(st, builtin, static_cast<double>(std::time(nullptr)), camera_identity(o.camera));
+  if (auto r = health.refusal()) return Error{"live: " + o.station + ": " + r->message};
+  for (const auto& it : health.health().items)
+    if (it.level != HealthLevel::kOk) say("station health: " + it.check + ": " + it.message);
+
+  // ---- tooth, stylus, engine ----
+  auto ssr = make_stylus(o, st, health, say);
+  if (!ssr) return Error{ssr.error()};
+  StylusSetup& ss = *ssr;
+  std::optional<volume::VoxelVolume>& vol = ss.vol;
+  volume::BurParams& bur_params = ss.bur_params;
+  std::unique_ptr<haptics::HapticDevice>& device = ss.device;
+  PenDevice* pen = ss.pen;
+  haptics::EngineConfig& cfg = ss.cfg;
+  const std::string& tooth_desc = ss.tooth_desc;
+  const bool pedal_from_device = ss.pedal_from_device;
+  const double hand_end_s = ss.hand_end_s;
+  haptics::ManualPedal key_pedal;
+  auto bur = volume::sample_bur(bur_params, ss.bur_samples);
+  if (!bur) return Error{"live: bur: " + bur.error()};
+  std::unique_ptr<haptics::Pedal> usb_pedal;
+  if (o.pedal != "keyboard") {
+    auto p = haptics::open_pedal(o.pedal);
+    if (!p) return Error{"live: --pedal " + o.pedal + ": " + p.error()};
+    usb_pedal = std::move(*p);
+  }
+  const haptics::Pedal& pedal = usb_pedal ? *usb_pedal : static_cast<const haptics::Pedal&>(key_pedal);
+  haptics::PedalDevice pedal_device(*device, pedal, pedal_from_device);
+  haptics::HapticDevice& engine_device = pedal_device;
+  const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
+  cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
+  cfg.try_realtime = o.realtime;
+
+  // ---- isolation: everything but the engine off its core; memory locked ----
+  const std::string iso = isolate_engine(o, cfg, ncpu, sum);
 
   // Background threads (the tracker's full-frame search, tracker.h
   // "Discovery"; capture with its decoding; the mesher) on the engine's CPU,
@@ -520,24 +649,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   }
 
   std::unique_ptr<haptics::SessionLogWriter> log;
-  std::unique_ptr<Recorder> recorder;
+  std::unique_ptr<session::Recorder> recorder;
   const fs::path rdir = o.record_dir;
   nlohmann::json rec_meta;  // recording.json as written at the start; completed at the end
-  if (!o.record_dir.empty()) {
-    auto r = Recorder::open(rdir);
-    if (!r) return Error{"live: " + r.error()};
-    recorder = std::move(*r);
-    if (auto s = ar::write_station_scene(st, (rdir / "station.json").string()); !s)
-      return Error{"live: " + s.error()};
-    rec_meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
-                {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
-                {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
-                {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
-    if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
-    if (o.stylus == "sim" && !o.exercise.empty())
-      rec_meta["hand"] = {{"skill", o.hand_skill}, {"style", o.hand_style}, {"seed", o.hand_seed}};
-    std::ofstream(rdir / "recording.json") << rec_meta.dump(2) << "\n";
-  }
+  if (!o.record_dir.empty())
+    if (auto s = start_recording(o, st, popt, discovery_name, recorder, rec_meta); !s) return Error{s.error()};
   std::string header;
   {
     auto probe = haptics::Engine::create(cfg, engine_device, *vol, *bur, nullptr);
@@ -554,7 +670,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   haptics::Engine& engine = **engine_r;
 
   // ---- window ----
-  const int W = (*src)->width(), H = (*src)->height();
+  const int W = src->width(), H = src->height();
   // "auto": ask the renderer first (a throw-away context on the default EGL
   // platform, the one the compositor would get).
   std::string auto_note;
@@ -598,7 +714,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cto.thread_init = to_engine_cpu;
   // Reopen the source now, after the slow set-up (tooth, window): a paced
   // stand-in starts its clock at open, and a camera's first frames would be stale.
-  src->reset();
+  src.reset();
   std::unique_ptr<ar::CaptureThread> capture_holder;  // made once the pipeline is ready
   std::atomic<ar::CaptureThread*> capture_ptr{nullptr};
   std::string cam_desc = o.camera;
@@ -972,12 +1088,12 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
         const StationHealth h = health.health();
         ImGui::TextColored(health_col[static_cast<int>(h.worst())], "%s", h.headline().c_str());
       }
-      ImGui::TextColored(col[r.man_state], "mannequin: %s", kState[r.man_state]);
+      ImGui::TextColored(col[r.man_state], "mannequin: %s", session::state_name(r.man_state));
       ImGui::SameLine();
-      ImGui::TextColored(col[r.mir_state], "  mirror: %s", kState[r.mir_state]);
+      ImGui::TextColored(col[r.mir_state], "  mirror: %s", session::state_name(r.mir_state));
       if (pen) {
         ImGui::SameLine();
-        ImGui::TextColored(col[r.pen_state], "  pen: %s", kState[r.pen_state]);
+        ImGui::TextColored(col[r.pen_state], "  pen: %s", session::state_name(r.pen_state));
       }
       const double f = std::sqrt(snap.force_dev_N[0] * snap.force_dev_N[0] + snap.force_dev_N[1] * snap.force_dev_N[1] +
                                  snap.force_dev_N[2] * snap.force_dev_N[2]);
@@ -1083,17 +1199,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   sum.latency_max_ms = latency_ms.empty() ? 0 : *std::max_element(latency_ms.begin(), latency_ms.end());
   sum.process_p50_ms = percentile(process_ms, 0.5);
   sum.process_p99_ms = percentile(process_ms, 0.99);
-  sum.engine_steps = es.steps;
-  sum.missed_deadlines = es.missed_deadlines;
-  sum.watchdog_trips = es.watchdog_trips;
-  sum.step_p50_us = es.compute.percentile_s(0.5) * 1e6;
-  sum.step_p99_us = es.compute.percentile_s(0.99) * 1e6;
-  sum.step_p999_us = es.compute.percentile_s(0.999) * 1e6;
-  sum.step_max_us = es.compute.max_s() * 1e6;
-  sum.jitter_p99_us = es.jitter.percentile_s(0.99) * 1e6;
-  sum.jitter_max_us = es.jitter.max_s() * 1e6;
-  sum.realtime_granted = es.realtime_granted;
-  sum.cpu_pinned = es.cpu_pinned;
+  engine_figures(es, sum);
   sum.isolation_note = iso + es.realtime_note + (bg_note.empty() ? std::string() : "; " + bg_note);
   sum.volume_hash = vol->content_hash();
   {
@@ -1111,29 +1217,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     if (it.level != HealthLevel::kOk) sum.warnings.push_back("station health: " + it.check + ": " + it.message);
   }
   sum.instructor_needed = health.health().instructor_needed();
-  if (recorder) {
-    recorder->log("stopped: " + stop_reason);
-    recorder->close();
-    if (recorder->dropped() > 0)
-      sum.warnings.push_back("recording: " + std::to_string(recorder->dropped()) +
-                             " frames not written (the writer fell more than " + std::to_string(Recorder::kMaxQueued) +
-                             " frames behind, or the disk refused them): offline replay stops at the first gap");
-    char hash[20];
-    std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
-    nlohmann::json meta = rec_meta;  // its "started" is the run's start
-    meta["complete"] = true;
-    meta["frames"] = recorder->written();
-    meta["frames_not_written"] = recorder->dropped();
-    meta["frame_files"] = {{"jpg", recorder->written_jpg()}, {"png", recorder->written_png()},
-                           {"ppm", recorder->written_ppm()}};
-    meta["volume_hash"] = hash;
-    meta["engine_steps"] = es.steps;
-    meta["stop_reason"] = stop_reason;
-    std::ofstream(rdir / "recording.json.tmp") << meta.dump(2) << "\n";
-    std::error_code ec;
-    fs::rename(rdir / "recording.json.tmp", rdir / "recording.json", ec);
-    std::ofstream(rdir / "summary.json") << sum.json();
-  }
+  if (recorder) finish_recording(*recorder, rec_meta, stop_reason, es, rdir, sum);
   if (!o.summary_path.empty()) std::ofstream(o.summary_path) << sum.json();
   return sum;
 }

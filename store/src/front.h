@@ -21,7 +21,7 @@
 
 #include <httplib.h>
 
-#include "dentar/volume/result.h"
+#include "dentar/core/result.h"
 
 namespace dentar::store {
 

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "dentar/calibration/station.h"
-#include "dentar/volume/result.h"
+#include "dentar/core/result.h"
 
 namespace dentar::calibration {
 

@@ -14,7 +14,7 @@
 
 #include "dentar/calibration/camera_file.h"
 #include "dentar/calibration/station.h"
-#include "dentar/volume/result.h"
+#include "dentar/core/result.h"
 
 namespace dentar::calibration {
 

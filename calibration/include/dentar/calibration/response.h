@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "dentar/volume/result.h"
+#include "dentar/core/result.h"
 
 namespace dentar::calibration {
 

@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-#include "dentar/volume/result.h"
+#include "dentar/core/result.h"
 
 namespace dentar::calibration {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <string_view>
 
-#include "dentar/volume/result.h"
+#include "dentar/core/result.h"
 
 namespace dentar::store {
 

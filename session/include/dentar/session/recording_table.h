@@ -12,12 +12,12 @@
 #include "dentar/ar/tracker.h"
 #include "dentar/volume/result.h"
 
-namespace dentar::ar {
+namespace dentar::session {
 
 struct RecordingTable {
   std::vector<double> capture_s;            // per frame index, s, finite, non-decreasing
   std::vector<std::uint64_t> haptic_steps;  // per frame index, non-decreasing
-  std::vector<DiscoveryCue> cues;           // discovery "async" only, per frame index
+  std::vector<ar::DiscoveryCue> cues;           // discovery "async" only, per frame index
   // Per frame index: the drawn stylus pose's step (fractional, at most haptic_steps; -1 = the
   // newest pose). Empty for recordings without the column (before issue 24's compensation).
   std::vector<double> pose_step;
@@ -36,4 +36,4 @@ inline constexpr std::uint64_t kMaxRecordedHapticSteps = 10'000'000'000ULL;
 // is wrong with the value.
 Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const std::string& name);
 
-}  // namespace dentar::ar
+}  // namespace dentar::session

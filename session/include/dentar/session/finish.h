@@ -9,7 +9,7 @@
 #include "dentar/training/mirror_use.h"
 #include "dentar/volume/result.h"
 
-namespace dentar::tools {
+namespace dentar::session {
 
 struct DriverScoreInput {
   std::string session;     // the session log (.dlog) of the run
@@ -45,4 +45,4 @@ Result<training::SightGeometry> sight_from_station(const std::string& station_js
 // The exercise recorded in a `dentar live --record` folder's recording.json ("" = none).
 std::string recorded_exercise(const std::string& recording_dir);
 
-}  // namespace dentar::tools
+}  // namespace dentar::session

@@ -1,4 +1,4 @@
-#include "session_score.h"
+#include "dentar/session/finish.h"
 
 #include <cmath>
 #include <exception>
@@ -10,7 +10,7 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/training/report.h"
 
-namespace dentar::tools {
+namespace dentar::session {
 namespace fs = std::filesystem;
 
 namespace {
@@ -119,4 +119,4 @@ DriverScore score_after_run(const DriverScoreInput& in) {
   return r;
 }
 
-}  // namespace dentar::tools
+}  // namespace dentar::session

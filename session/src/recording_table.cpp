@@ -1,5 +1,5 @@
 // See recording_table.h.
-#include "dentar/ar/recording_table.h"
+#include "dentar/session/recording_table.h"
 
 #include <algorithm>
 #include <charconv>
@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <sstream>
 
-namespace dentar::ar {
+namespace dentar::session {
 namespace {
 
 std::vector<std::string> split(const std::string& line) {
@@ -95,7 +95,7 @@ Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const
     if (!t.haptic_steps.empty() && steps < t.haptic_steps.back())
       return bad(ch, "goes back (the engine's step count only grows)");
     if (async) {
-      DiscoveryCue cue;
+      ar::DiscoveryCue cue;
       int start = 0;
       if (!parse_int(at(cs), start) || (start != 0 && start != 1)) return bad(cs, "must be 0 or 1");
       cue.start = start == 1;
@@ -123,4 +123,4 @@ Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const
   return t;
 }
 
-}  // namespace dentar::ar
+}  // namespace dentar::session

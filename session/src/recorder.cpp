@@ -1,5 +1,7 @@
 // The live recording's writer thread. See recorder.h.
-#include "recorder.h"
+#include "dentar/session/recorder.h"
+
+#include "dentar/session/frames_csv.h"
 
 #include <cstdio>
 #include <ctime>
@@ -8,7 +10,7 @@
 #include <sstream>
 #include <vector>
 
-namespace dentar::live {
+namespace dentar::session {
 namespace fs = std::filesystem;
 
 namespace {
@@ -18,21 +20,6 @@ std::string utc_now() {
   char b[32];
   std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
   return b;
-}
-
-const char* state_name(int s) {
-  static const char* kNames[] = {"tracking", "predicted", "lost"};
-  return s >= 0 && s <= 2 ? kNames[s] : "lost";
-}
-
-// 12 numbers, row-major 3x4, or empty when lost.
-std::string pose(int state, const Eigen::Isometry3d& T) {
-  if (state == 2) return {};
-  std::ostringstream s;
-  s << std::setprecision(17);
-  const Eigen::Matrix4d m = T.matrix();
-  for (int i = 0; i < 12; ++i) s << (i ? " " : "") << m(i / 4, i % 4);
-  return s.str();
 }
 
 }  // namespace
@@ -45,8 +32,7 @@ Result<std::unique_ptr<Recorder>> Recorder::open(const fs::path& dir) {
   if (ec) return Error{dir.string() + ": cannot create the recording folder: " + ec.message()};
   r->csv_.open(dir / "frames.csv");
   if (!r->csv_) return Error{(dir / "frames.csv").string() + ": cannot write"};
-  r->csv_ << "frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,"
-             "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms,disc_start,disc_merged,pose_step\n";
+  r->csv_ << recording_csv_header();
   r->csv_.flush();
   r->log_.open(dir / "live.log");
   r->thread_ = std::thread([p = r.get()] { p->main(); });
@@ -126,16 +112,10 @@ void Recorder::main() {
       ++dropped_;
       continue;
     }
-    const ar::FrameRecord& r = it.rec;
-    csv_ << std::setprecision(17) << it.index << ',' << r.time_s << ',' << it.steady_s << ',' << it.source_index
-         << ',' << r.haptic_steps_done << ',' << state_name(r.man_state) << ',' << state_name(r.mir_state) << ','
-         << state_name(r.pen_state) << ',' << pose(r.man_state, r.T_cam_man) << ','
-         << pose(r.mir_state, r.T_cam_mtag) << ',' << (r.pedal ? 1 : 0) << ',' << std::setprecision(6) << r.force_N
-         << ',' << (r.overlay ? 1 : 0) << ',' << r.track_ms << ',' << r.mesh_ms << ',' << r.composite_ms << ','
-         << (r.disc_start ? 1 : 0) << ',' << r.disc_merged << ',' << std::setprecision(17) << r.pose_step << '\n';
+    csv_ << recording_csv_row(it.rec, it.index, it.steady_s, it.source_index);
     csv_.flush();
     ++written_;
   }
 }
 
-}  // namespace dentar::live
+}  // namespace dentar::session

@@ -2,7 +2,7 @@
 // frame reaches the disk with its row, in order; JPEG bytes are written as
 // they came; a writer that falls behind switches to uncompressed PPM instead
 // of losing frames; no partial file is left with an image name.
-#include "recorder.h"
+#include "dentar/session/recorder.h"
 
 #include <gtest/gtest.h>
 
@@ -16,7 +16,7 @@
 #include "testutil.h"
 
 namespace fs = std::filesystem;
-using dentar::live::Recorder;
+using dentar::session::Recorder;
 
 namespace {
 

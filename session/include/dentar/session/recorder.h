@@ -1,4 +1,4 @@
-// The live recording's writer thread (private to live/): every processed
+// The live recording's writer thread (owned by session::Run): every processed
 // camera frame as a file, then its row of frames.csv, and the text log.
 //
 // Frame files (frames/frame_NNNNNN.EXT, docs/formats.md "live recording"):
@@ -32,7 +32,7 @@
 #include "dentar/ar/frame_pipeline.h"
 #include "dentar/volume/result.h"
 
-namespace dentar::live {
+namespace dentar::session {
 
 class Recorder {
  public:
@@ -83,4 +83,4 @@ class Recorder {
   std::thread thread_;
 };
 
-}  // namespace dentar::live
+}  // namespace dentar::session

@@ -36,7 +36,7 @@
 #include "dentar/ar/tracker.h"
 #include "dentar/volume/result.h"
 
-namespace dentar::ar {
+namespace dentar::offline {
 
 struct OfflineSummary;
 
@@ -54,12 +54,12 @@ struct OfflineOptions {
   std::string out_dir;
 
   // Built-in footage (used only when footage is empty).
-  SynthPreset preset = SynthPreset::kStandard;
+  ar::SynthPreset preset = ar::SynthPreset::kStandard;
   int builtin_frames = 90;
   int builtin_width = 1280, builtin_height = 720;
   std::uint64_t seed = 1;
 
-  TrackerOptions tracker;
+  ar::TrackerOptions tracker;
   // Replaying a `dentar live --record` folder: its recording.json says how
   // the live run tracked (camera_response, mirror_rim), and the replay does
   // the same unless these say the caller chose tracker.detector.response /
@@ -67,7 +67,7 @@ struct OfflineOptions {
   // poses will not be the live run's).
   bool camera_response_given = false;
   bool mirror_rim_given = false;
-  CompositorOptions compositor;
+  ar::CompositorOptions compositor;
   // Poses are predicted to capture time + this (video see-through shows the
   // captured frame itself, so 0 is right unless the display adds delay), s.
   double predict_s = 0.0;
@@ -130,4 +130,4 @@ struct OfflineSummary {
 Result<OfflineSummary> run_offline(const OfflineOptions& options,
                                    const std::function<void(const std::string&, int, int)>& progress = {});
 
-}  // namespace dentar::ar
+}  // namespace dentar::offline

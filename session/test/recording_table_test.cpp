@@ -5,9 +5,9 @@
 
 #include <sstream>
 
-#include "dentar/ar/recording_table.h"
+#include "dentar/session/recording_table.h"
 
-namespace dentar::ar {
+namespace dentar::session {
 namespace {
 
 const char* kHeader = "frame,time_s,steady_s,haptic_steps,man_state,disc_start,disc_merged\n";
@@ -109,4 +109,4 @@ TEST(RecordingTable, PoseStepIsOptionalAndBounded) {
 }
 
 }  // namespace
-}  // namespace dentar::ar
+}  // namespace dentar::session

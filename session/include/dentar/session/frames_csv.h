@@ -1,0 +1,67 @@
+// frames.csv, the per-frame table of a run (docs/formats.md): the one place
+// that names the tracking states and writes the rows, in the two layouts the
+// runs keep:
+//  - the live recording's (`dentar live --record`): capture times, haptic
+//    steps and the poses as 3x4 row-major numbers (full precision), read back
+//    by parse_recording_table (recording_table.h) when the recording is
+//    replayed;
+//  - the offline run's (`dentar offline`): poses in mm and quaternions,
+//    errors against the footage's truth, and every stage time.
+// A pose cell is empty while its body is lost.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "dentar/ar/frame_pipeline.h"
+#include "dentar/ar/tracker.h"
+#include "dentar/volume/material.h"
+#include "dentar/volume/result.h"
+
+namespace dentar::session {
+
+// The states a tracked body is in (ar::TrackState: tracking, predicted, lost).
+using TrackState = ar::TrackState;
+
+// "tracking", "predicted" or "lost"; FrameRecord keeps a state as its int
+// (0, 1, 2): anything else is "lost".
+const char* state_name(TrackState s);
+const char* state_name(int s);
+// The state named by `name` (one of the three names); error names the value.
+Result<TrackState> parse_state(const std::string& name);
+
+// ---- the live recording's layout ----
+std::string recording_csv_header();  // with its newline
+// One row: `index` the recording's frame number, `steady_s` the capture
+// clock, `source_index` the camera's frame number.
+std::string recording_csv_row(const ar::FrameRecord& r, std::int64_t index, double steady_s,
+                              std::int64_t source_index);
+
+// ---- the offline run's layout ----
+struct OfflineFrameRow {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  int frame = 0;
+  double time_s = 0;
+  int man_state = 2, mir_state = 2;
+  Eigen::Isometry3d T_cam_man = Eigen::Isometry3d::Identity(), T_cam_mtag = Eigen::Isometry3d::Identity();
+  double man_rms_px = kNaN;
+  int man_tags = 0, mir_tags = 0, tags_detected = 0;
+  bool full_frame = true;
+  std::uint64_t haptic_step = 0;
+  bool pedal = false, overlay = false, mirror_drawn = false;
+  double removed_mm3[volume::kNumMaterials] = {};
+  double man_err_mm = kNaN, man_err_deg = kNaN, tooth_err_px = kNaN, tip_err_mm = kNaN, iou = kNaN;
+  // Mirror plane pose (T_cam_mir = T_cam_mtag T_mtag_mir, the frame the
+  // reflection is drawn from) against truth: centre distance and rotation.
+  double mir_err_mm = kNaN, mir_err_deg = kNaN;
+  double read_ms = 0, detect_ms = 0, pose_ms = 0, filter_ms = 0, track_ms = 0, haptics_ms = 0, mesh_ms = 0,
+         composite_ms = 0, write_ms = 0, latency_ms = 0;
+  std::size_t triangles = 0;
+};
+std::string offline_csv_header();  // with its newline
+std::string offline_csv_row(const OfflineFrameRow& r);
+
+}  // namespace dentar::session

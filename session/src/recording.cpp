@@ -1,0 +1,56 @@
+// Reading a live recording folder back. See recording.h.
+#include "dentar/session/recording.h"
+
+#include <exception>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "dentar/session/recording_table.h"
+
+namespace dentar::session {
+namespace fs = std::filesystem;
+
+Result<Recording> read_recording(const fs::path& dir) {
+  Recording rec;
+  rec.present = true;
+  const fs::path meta = dir / "recording.json";
+  std::ifstream mj(meta);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(mj);
+  } catch (const std::exception& e) {
+    return Error{meta.string() + ": not valid JSON (" + e.what() + ")"};
+  }
+  if (!j.is_object() || !j.contains("format") || !j["format"].is_string() || j["format"] != "dentar-recording")
+    return Error{meta.string() + ": format must be \"dentar-recording\""};
+  if (j.contains("discovery") && !j["discovery"].is_string())
+    return Error{meta.string() + ": discovery must be the string \"inline\" or \"async\""};
+  rec.discovery = j.value("discovery", "inline");
+  if (rec.discovery != "inline" && rec.discovery != "async")
+    return Error{meta.string() + ": discovery = \"" + rec.discovery + "\" must be inline or async"};
+  if (j.contains("camera_response")) {
+    if (!j["camera_response"].is_string())
+      return Error{meta.string() + ": camera_response must be the string \"srgb\" or \"linear\""};
+    auto r = ar::parse_camera_response(j["camera_response"].get<std::string>());
+    if (!r) return Error{meta.string() + ": camera_response: " + r.error()};
+    rec.camera_response = *r;
+  }
+  if (j.contains("mirror_rim")) {
+    if (!j["mirror_rim"].is_boolean()) return Error{meta.string() + ": mirror_rim must be true or false"};
+    rec.mirror_rim = j["mirror_rim"].get<bool>();
+  }
+  rec.frames_csv = (dir / "frames.csv").string();
+  std::ifstream in(rec.frames_csv);
+  if (!in) return Error{rec.frames_csv + ": missing: the recording has no per-frame table"};
+  auto table = parse_recording_table(in, rec.discovery == "async", rec.frames_csv);
+  if (!table) return Error{table.error()};
+  rec.capture_s = std::move(table->capture_s);
+  rec.haptic_steps = std::move(table->haptic_steps);
+  rec.pose_step = std::move(table->pose_step);
+  rec.cues = std::move(table->cues);
+  rec.cues_exact = table->cues_exact;
+  return rec;
+}
+
+
+}  // namespace dentar::session

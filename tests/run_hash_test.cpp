@@ -1,0 +1,195 @@
+// The run outputs stay bit for bit (issue 27, "a run room"): `dentar offline`
+// on generated footage, and `dentar offline` replaying a `dentar live
+// --record` folder, hashed against values taken on main before the drivers
+// were rebuilt over session::Run. A change to these hashes is a change of
+// behaviour: if it is meant (a tracking or rendering change), say so in the
+// commit and put the new hashes (printed below) here.
+//
+// What is hashed: frames.csv without its stage-time columns (the *_ms
+// columns: wall-clock, never repeatable), summary.json without its times and
+// input paths (wall_s, stage_ms, latency_ms, inputs), and the decoded pixels
+// of every composite.mkv frame. The session score (score.json) is training's
+// output, not the run's, and is left out.
+//
+// The live recording is tests/data/live_recording_10f (data_provenance.md):
+// its frames.csv, recording.json, session.dlog and station.json as `dentar
+// live --record` wrote them; the frame images are re-made here from the same
+// generated webcam footage (source_index of each row), as lossless PNG.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "testutil.h"
+
+namespace fs = std::filesystem;
+using dentar::test::read_file;
+using dentar::test::run_command;
+using dentar::test::temp_dir;
+
+namespace {
+
+const std::string kDentar = DENTAR_BINARY;
+
+struct Fnv {
+  std::uint64_t h = 1469598103934665603ULL;
+  void add(const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ULL;
+  }
+  void add(const std::string& s) { add(s.data(), s.size()); }
+  std::string hex() const {
+    char b[20];
+    std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(h));
+    return b;
+  }
+};
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string c;
+  std::stringstream ss(line);
+  while (std::getline(ss, c, ',')) cells.push_back(c);
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+// frames.csv without the columns named *_ms.
+std::string csv_hash(const fs::path& p) {
+  std::ifstream in(p);
+  std::string line;
+  std::vector<bool> keep;
+  Fnv f;
+  int rows = 0;
+  while (std::getline(in, line)) {
+    const auto cells = split(line);
+    if (keep.empty()) {
+      for (const auto& c : cells) keep.push_back(!(c.size() > 3 && c.compare(c.size() - 3, 3, "_ms") == 0));
+    }
+    EXPECT_EQ(cells.size(), keep.size()) << p << " row " << rows;
+    for (std::size_t i = 0; i < cells.size() && i < keep.size(); ++i)
+      if (keep[i]) f.add(cells[i] + ",");
+    f.add("\n");
+    ++rows;
+  }
+  EXPECT_GT(rows, 1) << p;
+  return f.hex();
+}
+
+std::string summary_hash(const fs::path& p, const fs::path& tmp) {
+  auto js = nlohmann::json::parse(read_file(p));
+  for (const char* k : {"wall_s", "stage_ms", "latency_ms", "inputs"}) js.erase(k);
+  std::string s = js.dump();
+  for (std::size_t at; (at = s.find(tmp.string())) != std::string::npos;) s.replace(at, tmp.string().size(), "<tmp>");
+  Fnv f;
+  f.add(s);
+  return f.hex();
+}
+
+std::string video_hash(const fs::path& p, int* frames) {
+  cv::VideoCapture v(p.string());
+  EXPECT_TRUE(v.isOpened()) << p;
+  Fnv f;
+  cv::Mat m;
+  *frames = 0;
+  while (v.read(m)) {
+    const cv::Mat c = m.isContinuous() ? m : m.clone();
+    f.add(c.data, c.total() * c.elemSize());
+    ++*frames;
+  }
+  return f.hex();
+}
+
+// The webcam footage both runs use (generated once per process).
+const fs::path& clip() {
+  static const fs::path dir = [] {
+    fs::path d = temp_dir("run_hash_clip");
+    const auto r =
+        run_command(kDentar + " synth --frames 10 --resolution 640x480 --webcam --out " + d.string() + " 2>&1");
+    EXPECT_EQ(r.code, 0) << r.out;
+    return d;
+  }();
+  return dir;
+}
+
+struct Hashes {
+  std::string csv, summary, video;
+  int frames = 0;
+};
+
+Hashes hashes(const fs::path& out) {
+  Hashes h;
+  h.csv = csv_hash(out / "frames.csv");
+  h.summary = summary_hash(out / "summary.json", out.parent_path());
+  h.video = video_hash(out / "composite.mkv", &h.frames);
+  return h;
+}
+
+}  // namespace
+
+TEST(OfflineHash, GeneratedFootageRunIsUnchanged) {
+  const fs::path t = temp_dir("run_hash_offline");
+  const fs::path out = t / "off";
+  const auto r = run_command(kDentar + " offline --quiet --no-score --footage " + (clip() / "video.mkv").string() +
+                             " --station " + (clip() / "station.json").string() + " --session " +
+                             (clip() / "session.dlog").string() + " --out " + out.string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Hashes h = hashes(out);
+  EXPECT_EQ(h.frames, 10);
+  EXPECT_EQ(h.csv, "e65f946ff741a394") << "frames.csv changed";
+  EXPECT_EQ(h.summary, "0282e318781b09e5") << "summary.json changed: " << read_file(out / "summary.json");
+  EXPECT_EQ(h.video, "824393745507769d") << "composite.mkv frames changed";
+}
+
+TEST(OfflineHash, LiveRecordingReplayIsUnchanged) {
+  const fs::path t = temp_dir("run_hash_replay");
+  const fs::path rec = t / "rec", out = t / "off";
+  const fs::path data = fs::path(DENTAR_SOURCE_DIR) / "tests" / "data" / "live_recording_10f";
+  fs::create_directories(rec / "frames");
+  for (const char* f : {"frames.csv", "recording.json", "session.dlog", "station.json"})
+    fs::copy_file(data / f, rec / f);
+  // Each row's frame image: the footage's frame source_index.
+  std::vector<cv::Mat> footage;
+  {
+    cv::VideoCapture v((clip() / "camera.avi").string());
+    ASSERT_TRUE(v.isOpened());
+    for (cv::Mat m; v.read(m);) footage.push_back(m.clone());
+  }
+  std::ifstream in(rec / "frames.csv");
+  std::string line;
+  std::getline(in, line);
+  const auto head = split(line);
+  const auto col = std::find(head.begin(), head.end(), "source_index") - head.begin();
+  ASSERT_LT(static_cast<std::size_t>(col), head.size());
+  int n = 0;
+  while (std::getline(in, line)) {
+    const auto cells = split(line);
+    const std::size_t src = std::stoul(cells[static_cast<std::size_t>(col)]);
+    ASSERT_LT(src, footage.size());
+    char name[40];
+    std::snprintf(name, sizeof name, "frame_%06d.png", std::stoi(cells[0]));
+    ASSERT_TRUE(cv::imwrite((rec / "frames" / name).string(), footage[src]));
+    ++n;
+  }
+  ASSERT_EQ(n, 10);
+  const auto r =
+      run_command(kDentar + " offline --quiet --no-score --footage " + rec.string() + " --out " + out.string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Hashes h = hashes(out);
+  EXPECT_EQ(h.frames, 10);
+  EXPECT_EQ(h.csv, "84e6ce1f4739eaaa") << "frames.csv changed";
+  EXPECT_EQ(h.summary, "5ee57606c83bbd8d") << "summary.json changed: " << read_file(out / "summary.json");
+  EXPECT_EQ(h.video, "5c4d758cec5d2c79") << "composite.mkv frames changed";
+  // The replay cuts the tooth the live run cut.
+  EXPECT_EQ(nlohmann::json::parse(read_file(out / "summary.json"))["volume_hash"],
+            nlohmann::json::parse(read_file(rec / "recording.json"))["volume_hash"]);
+}
