@@ -356,6 +356,21 @@ TEST(CliTrack, StereoSideBySideFootage) {
     EXPECT_NEAR((Tl.translation() - Tr.translation()).x(), 0.063, 1e-9);
   }
   fs::remove(out);  // the bad runs below must leave no poses file
+  // dentar offline and live run one camera: stereo footage is refused naming stereo, not as a
+  // size mismatch to scale away; a synth folder given as --footage names its video.
+  r = run_dentar("offline --quiet --footage " + (d / "st").string() + " --station " + st + " --out " +
+                 (d / "off1").string());
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("is a `dentar synth` folder: give its video"), std::string::npos) << r.out;
+  r = run_dentar("offline --quiet --footage " + (d / "st" / "video.mkv").string() + " --station " + st + " --out " +
+                 (d / "off2").string());
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("side-by-side stereo footage"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(d / "off2" / "composite.mkv"));
+  r = run_dentar("live --camera live:" + (d / "st" / "video.mkv").string() + " --station " + st +
+                 " --stylus replay:" + (d / "st" / "session.dlog").string() + " --frames 2");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("delivers side-by-side stereo frames"), std::string::npos) << r.out;
   // Mono footage given as stereo: the station has no rig.
   r = run_dentar("synth --preset standard --frames 2 --seed 3 --png --out " + (d / "mono").string());
   ASSERT_EQ(r.code, 0) << r.out;

@@ -304,6 +304,13 @@ Result<StationCamera> open_station_and_camera(const LiveOptions& o, LiveSummary&
   {
     auto& cam = st.calibration.camera;
     const int W = (*src)->width(), H = (*src)->height();
+    // Side-by-side stereo (a station with a stereo rig, two eyes of its camera's size in one
+    // frame): live tracks one camera; scaling that frame as one image would be wrong.
+    if (st.stereo.present && W == 2 * cam.width && H == cam.height)
+      return Error{"live: " + o.camera + " delivers side-by-side stereo frames (" + std::to_string(W) + "x" +
+                   std::to_string(H) + ", two " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                   " eyes, the station's \"stereo\" rig): dentar live tracks one camera; stereo footage is read by "
+                   "`dentar track --stereo` (issue 28). Play mono footage here (dentar synth without --stereo)"};
     if (W != cam.width || H != cam.height) {
       const std::string sizes = o.camera + " delivers " + std::to_string(W) + "x" + std::to_string(H) +
                                 " but the station camera is calibrated for " + std::to_string(cam.width) + "x" +

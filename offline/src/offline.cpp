@@ -479,11 +479,23 @@ struct Job {
     sum.station = o.station;
     st = std::move(*station);
 
+    // A `dentar synth` folder holds its footage as video.mkv, not as images: say which file to give.
+    if (fs::is_directory(o.footage) && fs::exists(fs::path(o.footage) / "video.mkv") &&
+        !fs::exists(fs::path(o.footage) / "frames")) {
+      const fs::path d = o.footage;
+      return fail("offline: " + o.footage + " is a `dentar synth` folder: give its video, --footage " +
+                  (d / "video.mkv").string() + " --station " + (d / "station.json").string() + " --session " +
+                  (d / "session.dlog").string());
+    }
     auto opened = FrameSource::open(o.footage, {});
     if (!opened) return fail("offline: " + opened.error());
     src = std::move(*opened);
     FrameSource& source = *src;
     const auto& cam = st.calibration.camera;
+    if (st.stereo.present && source.width() == 2 * cam.width && source.height() == cam.height)
+      return fail("offline: " + o.footage + " is side-by-side stereo footage (two " + std::to_string(cam.width) + "x" +
+                  std::to_string(cam.height) + " eyes, the station's \"stereo\" rig): dentar offline runs one camera; "
+                  "stereo footage is read by `dentar track --stereo` (issue 28)");
     if (source.width() != cam.width || source.height() != cam.height) {
       const std::string sizes = o.footage + " is " + std::to_string(source.width()) + "x" +
                                 std::to_string(source.height()) + " but the station camera (" + o.station +
