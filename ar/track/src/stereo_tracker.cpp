@@ -13,6 +13,7 @@
 #include "dentar/ar/image_motion.h"
 #include "dentar/ar/pose_filter.h"
 #include "dentar/ar/pose_uncertainty.h"
+#include "track_rules.h"
 
 namespace dentar::ar {
 
@@ -115,33 +116,10 @@ struct StereoTracker::Impl {
       }
     }
     if (measured) {
-      if (b.state == TrackState::kLost) {
-        b.filter.reset();
-        b.meas_in_track = 0;
-      }
-      b.filter.update(out.track.T_cam_body_measured, capture_s);
-      ++b.meas_in_track;
-      b.has_measurement = true;
-      b.last_meas = out.track.T_cam_body_measured;
-      b.last_meas_time_s = capture_s;
-      b.state = TrackState::kTracking;
+      track_rules::accept_measurement(b, out.track.T_cam_body_measured, capture_s);
       if (o.max_prediction_turn_rad > 0) motion.keep(b.thumb_at_meas);
     } else {
-      const double age = capture_s - b.last_meas_time_s;
-      double drift = 0;
-      if (o.filter_enabled && b.filter.initialised())
-        drift = (b.filter.linear_velocity().norm() + 0.1 * b.filter.angular_velocity().norm()) * age;
-      const bool drift_ok = o.max_prediction_drift_m <= 0 || drift <= o.max_prediction_drift_m;
-      const bool velocity_known =
-          b.meas_in_track >= (b.static_in_world ? o.mannequin_measurements_to_predict : o.hand_held_measurements_to_predict);
-      if (b.has_measurement && age <= o.stale_limit_s && drift_ok && velocity_known &&
-          prediction_matches_image(b, capture_s)) {
-        b.state = TrackState::kPredicted;
-      } else {
-        b.state = TrackState::kLost;
-        b.has_measurement = false;
-        b.filter.reset();
-      }
+      track_rules::predict_or_lose(b, o, capture_s, [&] { return prediction_matches_image(b, capture_s); });
     }
     out.track.measured = measured;
     out.track.state = b.state;
