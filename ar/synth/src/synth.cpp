@@ -943,36 +943,25 @@ Result<std::unique_ptr<SynthGenerator>> SynthGenerator::create(const StationScen
   Impl& im = *g->impl_;
   im.opt = o;
   im.station = station_in;
-  // Camera at the requested size: same horizontal field of view.
-  auto& k = im.station.calibration.camera;
-  if (k.width != o.width || k.height != o.height) {
-    const double s = static_cast<double>(o.width) / k.width;
-    calibration::CameraIntrinsics n = k;
-    n.width = o.width;
-    n.height = o.height;
-    n.fx = k.fx * s;
-    n.fy = k.fy * s;
-    n.cx = 0.5 * (o.width - 1) + (k.cx - 0.5 * (k.width - 1)) * s;
-    n.cy = 0.5 * (o.height - 1) + (k.cy - 0.5 * (k.height - 1)) * s;
-    k = n;
-  }
-  if (!o.distortion) k.dist = {0, 0, 0, 0, 0};
-  // The other eye of a stereo rig (issue 28) at the same size.
-  if (im.station.stereo.present) {
-    auto& kr = im.station.stereo.camera_right;
-    if (kr.width != o.width || kr.height != o.height) {
-      const double s = static_cast<double>(o.width) / kr.width;
-      calibration::CameraIntrinsics n = kr;
+  // Each eye's camera at the requested size: same horizontal field of view.
+  auto to_size = [&o](calibration::CameraIntrinsics& c) {
+    if (c.width != o.width || c.height != o.height) {
+      const double s = static_cast<double>(o.width) / c.width;
+      calibration::CameraIntrinsics n = c;
       n.width = o.width;
       n.height = o.height;
-      n.fx = kr.fx * s;
-      n.fy = kr.fy * s;
-      n.cx = 0.5 * (o.width - 1) + (kr.cx - 0.5 * (kr.width - 1)) * s;
-      n.cy = 0.5 * (o.height - 1) + (kr.cy - 0.5 * (kr.height - 1)) * s;
-      kr = n;
+      n.fx = c.fx * s;
+      n.fy = c.fy * s;
+      n.cx = 0.5 * (o.width - 1) + (c.cx - 0.5 * (c.width - 1)) * s;
+      n.cy = 0.5 * (o.height - 1) + (c.cy - 0.5 * (c.height - 1)) * s;
+      c = n;
     }
-    if (!o.distortion) kr.dist = {0, 0, 0, 0, 0};
-  }
+    if (!o.distortion) c.dist = {0, 0, 0, 0, 0};
+  };
+  auto& k = im.station.calibration.camera;
+  to_size(k);
+  // The other eye of a stereo rig (issue 28) at the same size.
+  if (im.station.stereo.present) to_size(im.station.stereo.camera_right);
   im.camera = std::make_unique<CameraModel>(k);
 
   RendererOptions ro;
