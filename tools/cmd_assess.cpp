@@ -59,7 +59,7 @@ int run_assess(const AssessCli& c) {
     return 2;
   }
   if (!c.generate.empty()) {
-    auto ex = c.exercise.find(".json") != std::string::npos ? load_exercise(c.exercise) : load_builtin_exercise(c.exercise);
+    auto ex = load_named_exercise(c.exercise);
     if (!ex) {
       print_error("assess", ex.error());
       return 2;
@@ -126,7 +126,7 @@ int run_assess(const AssessCli& c) {
     trials = std::move(*t);
   }
   if (!c.make_reference.empty()) {
-    auto ex = c.exercise.find(".json") != std::string::npos ? load_exercise(c.exercise) : load_builtin_exercise(c.exercise);
+    auto ex = load_named_exercise(c.exercise);
     if (!ex || c.train.empty()) {
       print_error("assess", ex ? "--make-reference needs --train DIR (its expert sessions)" : ex.error());
       return 2;

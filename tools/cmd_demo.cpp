@@ -100,8 +100,7 @@ int run_demo(const DemoOptions& o) {
   std::optional<training::Exercise> ex;
   nlohmann::json tooth_desc = {{"kind", "molar"}, {"voxel_mm", o.voxel_mm}};
   if (!o.exercise.empty()) {
-    auto e = o.exercise.find(".json") != std::string::npos ? training::load_exercise(o.exercise)
-                                                          : training::load_builtin_exercise(o.exercise);
+    auto e = training::load_named_exercise(o.exercise);
     if (!e) {
       print_error("demo", "--exercise " + o.exercise + ": " + e.error());
       return 2;

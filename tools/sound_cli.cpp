@@ -52,8 +52,7 @@ Result<std::pair<double, std::string>> teacher_force_limit(const SoundCli& s) {
   if (s.exercise.empty())
     return Error{"--teach-force-limit exercise: the session has no exercise; give --exercise NAME|FILE, "
                  "or a limit in newtons"};
-  auto ex = s.exercise.find(".json") != std::string::npos ? training::load_exercise(s.exercise)
-                                                         : training::load_builtin_exercise(s.exercise);
+  auto ex = training::load_named_exercise(s.exercise);
   if (!ex) return Error{"--teach-force-limit exercise: --exercise " + s.exercise + ": " + ex.error()};
   return std::pair<double, std::string>{ex->excessive_force_N, "excessive_force_N of exercise " + s.exercise};
 }

@@ -218,8 +218,7 @@ std::string hud_drill_line(bool drill_on, bool in_contact, const std::string& pe
 namespace {
 // The exercise named as the drivers name it (tools/session_score.cpp check_exercise).
 Result<training::Exercise> named_exercise(const std::string& exercise) {
-  auto ex = exercise.find(".json") != std::string::npos ? training::load_exercise(exercise)
-                                                        : training::load_builtin_exercise(exercise);
+  auto ex = training::load_named_exercise(exercise);
   if (!ex) return Error{"--exercise " + exercise + ": " + ex.error()};
   return ex;
 }

@@ -45,8 +45,7 @@ Result<training::SightGeometry> sight_from_station(const std::string& station_js
 
 std::string check_exercise(const std::string& exercise) {
   if (exercise.empty()) return {};
-  auto ex = exercise.find(".json") != std::string::npos ? training::load_exercise(exercise)
-                                                        : training::load_builtin_exercise(exercise);
+  auto ex = training::load_named_exercise(exercise);
   return ex ? std::string() : "--exercise " + exercise + ": " + ex.error();
 }
 

@@ -515,4 +515,9 @@ Result<RegionMasks> build_masks(const Exercise& ex, const volume::VoxelVolume& s
   return m;
 }
 
+Result<Exercise> load_named_exercise(const std::string& name_or_path) {
+  return name_or_path.find(".json") != std::string::npos ? load_exercise(name_or_path)
+                                                         : load_builtin_exercise(name_or_path);
+}
+
 }  // namespace dentar::training

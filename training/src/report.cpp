@@ -443,7 +443,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   auto setup = haptics::parse_session_header(log->header_json);
   if (!setup) return Error{log_path + ": " + setup.error()};
   const std::string ex_name = o.exercise.empty() ? default_exercise_for(setup->tooth_json) : o.exercise;
-  auto ex = ex_name.find(".json") != std::string::npos ? load_exercise(ex_name) : load_builtin_exercise(ex_name);
+  auto ex = load_named_exercise(ex_name);
   if (!ex) return Error{ex.error()};
   {
     auto a = json::parse(setup->tooth_json, nullptr, false), b = json::parse(ex->tooth_json, nullptr, false);
