@@ -126,7 +126,9 @@ std::vector<int> segment_steps(const SessionTrack& s, const Exercise& ex, const 
   std::vector<int> back(T * static_cast<std::size_t>(S), 0);
   // Start: the first step is free, others cost a jump.
   for (int k = 0; k < S; ++k) cost[static_cast<std::size_t>(k)] = k == 0 ? 0 : o.jump_cost;
-  const double inv_s2 = 1.0 / (o.sigma_m * o.sigma_m);
+  // Emission per 10 ms of track, so the switch costs mean the same at any decimation.
+  const double per_frame = s.rate_hz > 0 ? 100.0 / s.rate_hz : 1.0;
+  const double inv_s2 = per_frame / (o.sigma_m * o.sigma_m);
   for (std::size_t t = 0; t < T; ++t) {
     const bool cutting = s.removed_total(t) > 0;
     for (int k = 0; k < S; ++k) {

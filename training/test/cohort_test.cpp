@@ -76,19 +76,31 @@ TEST(Cohort, SessionsCutTheToothAndNovicesDifferFromExperts) {
 TEST(Cohort, AutomaticStepsAgreeWithTheGeneratorsLabels) {
   const Cohort& c = cohort();
   double agree = 0, n = 0;
+  int spans = 0, true_spans = 0;
   for (std::size_t i = 0; i < c.trials.size(); ++i) {
     const auto steps = segment_steps(c.tracks[i], c.ex, nullptr, nullptr);
+    int last_truth = -1;
     for (std::size_t f = 0; f < steps.size(); ++f) {
+      spans += f == 0 || steps[f] != steps[f - 1];
       const int truth = c.trials[i].true_step_at(c.tracks[i].t_s[f]);
+      if (truth >= 0 && truth != last_truth) {
+        ++true_spans;
+        last_truth = truth;
+      }
       if (truth < 0 || c.tracks[i].removed_total(f) <= 0) continue;  // judged where material is removed
       agree += steps[f] == truth;
       n += 1;
     }
   }
   ASSERT_GT(n, 100);
-  // Sweeping scripts (generator v2): frames cut at the border between two
-  // steps' parts go to the nearer focus; 75 % measured (docs/BENCHMARKS.md).
-  EXPECT_GT(agree / n, 0.7) << "agreement " << agree / n;
+  std::cerr << "access opening: step agreement " << agree / n << ", " << spans << " spans for " << true_spans
+            << " generated steps\n";
+  // Frames cut at the border between two steps' parts can go to the nearer focus. With the
+  // session 14 switch costs, held-out cohorts agree on 0.89-0.93 of cutting frames (0.60-0.66
+  // before) and the steps no longer flicker: 31 spans for 32 steps where 4 / 40 gave 707
+  // (docs/BENCHMARKS.md, "the steps' flicker").
+  EXPECT_GT(agree / n, 0.8) << "agreement " << agree / n;
+  EXPECT_LE(spans, true_spans + true_spans / 2) << "the steps flicker";
 }
 
 TEST(Cohort, LeaveOneSubjectOutSeparatesClearlyDifferentCohorts) {
@@ -185,13 +197,16 @@ TEST(Cohort, AutomaticStepsOnTheThirteenStepIncisorPreparation) {
       agree += steps[f] == truth;
       n += 1;
     }
-    std::cerr << tr.label << " incisor step agreement " << agree / n << " over " << n << " frames\n";
+    int spans = 0;
+    for (std::size_t f = 0; f < steps.size(); ++f) spans += f == 0 || steps[f] != steps[f - 1];
+    std::cerr << tr.label << " incisor step agreement " << agree / n << " over " << n << " frames, " << spans
+              << " spans for 13 steps\n";
     ASSERT_GT(n, 50);
-    // Generator v4 measured 67 % expert, 58 % novice (v3: 78 %, 67 %): the
-    // sweeps now reach the strips between neighbouring targets, and a step
-    // cutting near another step's focus is labelled with the nearer one
-    // (13 steps, chance 8 %; docs/BENCHMARKS.md).
-    EXPECT_GT(agree / n, 0.5);
+    // Generator v4 with the 4 / 40 switch costs: 67 % expert, 58 % novice, ~200
+    // spans for 13 steps. The session 14 costs: 0.89-0.96 over held-out cohorts,
+    // experts 0.95-1.0 with 13 spans (13 steps, chance 8 %; docs/BENCHMARKS.md).
+    EXPECT_GT(agree / n, tr.label == "expert" ? 0.85 : 0.6);
+    if (tr.label == "expert") EXPECT_LE(spans, 16) << "the steps flicker";
   }
 }
 

@@ -39,12 +39,18 @@ const std::vector<std::string>& track_feature_names();
 Sequence track_features(const SessionTrack& s);
 
 // Automatic steps: Viterbi over the exercise's steps. Frames that remove
-// material cost |tip - focus|^2 / sigma^2; staying costs 0, moving to the next
-// step `next_cost`, to any other step `jump_cost`. Returns the step index per frame.
+// material cost |tip - focus|^2 / sigma^2 per 10 ms of track (scaled by the
+// track's rate); staying costs 0, moving to the next step `next_cost`, to any
+// other step `jump_cost`. Returns the step index per frame.
+// The switch costs (session 14) make a step change need about a second of
+// cutting nearer another focus: at 4 / 40 the steps flickered (707 spans for
+// 32 true steps on a generated cohort); at 100 / 10000 the spans match the
+// generator's (31 of 32) and frame agreement on held-out cohorts rose from
+// 0.60-0.66 to 0.89-0.93 (docs/BENCHMARKS.md, "the steps' flicker").
 struct SegmentOptions {
   double sigma_m = 1.0e-3;
-  double next_cost = 4.0;
-  double jump_cost = 40.0;
+  double next_cost = 100.0;
+  double jump_cost = 10000.0;
 };
 std::vector<int> segment_steps(const SessionTrack& s, const Exercise& ex, const RegionMasks* masks,
                                const volume::VoxelVolume* start, const SegmentOptions& o = {});
