@@ -205,7 +205,7 @@ TEST(CliExitCodes, LessonFaultsAreTwo) {
          {"damaged recording", "lesson make " + f.garbage_dlog.string() + " --exercise molar_class1_cavity --out " +
                                    (f.dir / "l9").string(), f.garbage_dlog.string()},
          {"unknown exercise", "lesson make " + f.garbage_dlog.string() + " --exercise molar_class9 --out " +
-                                  (f.dir / "l9").string(), "unknown exercise 'molar_class9'"}});
+                                  (f.dir / "l9").string(), "no built-in exercise 'molar_class9'"}});
   for (const char* d : {"l6", "l7", "l8", "l9"}) EXPECT_FALSE(fs::exists(f.dir / d)) << d << " was written";
 }
 

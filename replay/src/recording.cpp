@@ -13,11 +13,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-Result<training::Exercise> exercise_named(const std::string& name) {
-  const bool file = name.find(".json") != std::string::npos || name.find('/') != std::string::npos;
-  return file ? training::load_exercise(name) : training::load_builtin_exercise(name);
-}
-
 // {"kind", "voxel_mm"} of a tooth description, for messages and comparisons.
 std::string tooth_kind(const std::string& tooth_json) {
   const json j = json::parse(tooth_json, nullptr, false);
@@ -92,7 +87,7 @@ Result<Recording> open_recording(const std::string& input, const std::string& ex
   if (!setup) return Error{rec.log_path + ": " + setup.error()};
   rec.setup = *setup;
   if (exercise_name.empty()) exercise_name = training::default_exercise_for(setup->tooth_json);
-  auto ex = exercise_named(exercise_name);
+  auto ex = training::load_named_exercise(exercise_name);
   if (!ex) return Error{ex.error()};
   rec.exercise = std::move(ex).value();
   if (tooth_kind(setup->tooth_json) != tooth_kind(rec.exercise.tooth_json))

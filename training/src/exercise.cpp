@@ -366,9 +366,19 @@ std::string builtin_exercise_dir() {
 
 Result<Exercise> load_builtin_exercise(const std::string& name) {
   const std::string path = builtin_exercise_dir() + "/" + name + ".json";
-  if (!std::filesystem::exists(path))
-    return Error{"no built-in exercise '" + name + "' (looked for " + path +
-                 "; set DENTAR_ASSETS to the assets folder, or give an exercise file)"};
+  if (!std::filesystem::exists(path)) {
+    std::vector<std::string> names;
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(builtin_exercise_dir(), ec))
+      if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
+    std::sort(names.begin(), names.end());
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+    if (names.empty())
+      return Error{"no built-in exercise '" + name + "' (looked for " + path +
+                   "; set DENTAR_ASSETS to the assets folder, or give an exercise .json file)"};
+    return Error{"no built-in exercise '" + name + "' (built-in: " + list + "; or give an exercise .json file)"};
+  }
   return load_exercise(path);
 }
 
@@ -516,8 +526,8 @@ Result<RegionMasks> build_masks(const Exercise& ex, const volume::VoxelVolume& s
 }
 
 Result<Exercise> load_named_exercise(const std::string& name_or_path) {
-  return name_or_path.find(".json") != std::string::npos ? load_exercise(name_or_path)
-                                                         : load_builtin_exercise(name_or_path);
+  const bool file = name_or_path.find(".json") != std::string::npos || name_or_path.find('/') != std::string::npos;
+  return file ? load_exercise(name_or_path) : load_builtin_exercise(name_or_path);
 }
 
 }  // namespace dentar::training

@@ -78,22 +78,6 @@ std::string tooth_kind(const std::string& tooth_json) {
   return "";
 }
 
-Result<Exercise> resolve_exercise(const std::string& exercise) {
-  const bool file = exercise.find('/') != std::string::npos ||
-                    (exercise.size() > 5 && exercise.compare(exercise.size() - 5, 5, ".json") == 0);
-  if (file) return load_exercise(exercise);
-  auto ex = load_builtin_exercise(exercise);
-  if (ex) return ex;
-  std::vector<std::string> names;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(builtin_exercise_dir(), ec))
-    if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
-  std::sort(names.begin(), names.end());
-  std::string list;
-  for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-  return Error{"unknown exercise '" + exercise + "' (built-in: " + list + "; or give an exercise .json file)"};
-}
-
 // The recording's setup and records, refusing any damage.
 struct Recording {
   haptics::SessionLog log;
@@ -308,7 +292,7 @@ Result<Lesson> load_lesson(const std::string& path_in) {
   if (tooth_kind(rec->setup.tooth_json) != tooth_kind(l->tooth_json))
     return Error{file + ": recording.tooth: the lesson says " + l->tooth_json + ", the recording is of " +
                  rec->setup.tooth_json};
-  auto ex = resolve_exercise(l->exercise);
+  auto ex = load_named_exercise(l->exercise);
   if (!ex) return Error{file + ": exercise: " + ex.error()};
   if (tooth_kind(ex->tooth_json) != tooth_kind(l->tooth_json))
     return Error{file + ": exercise: '" + l->exercise + "' is for tooth kind '" + tooth_kind(ex->tooth_json) +
@@ -345,7 +329,7 @@ Result<Lesson> make_lesson(const std::string& recording_in, const std::string& o
       return Error{recording_in + ": the folder holds no session.dlog (give the session log itself)"};
   }
   if (opt.exercise.empty()) return Error{"--exercise is required (a built-in exercise name or an exercise file)"};
-  auto ex = resolve_exercise(opt.exercise);
+  auto ex = load_named_exercise(opt.exercise);
   if (!ex) return Error{"--exercise: " + ex.error()};
   if (fs::exists(out_dir)) return Error{out_dir + ": already exists (lesson make writes a new folder; remove it or pick another name)"};
   auto rec = read_recording(recording);
@@ -447,7 +431,7 @@ Result<Lesson> make_lesson(const std::string& recording_in, const std::string& o
 }
 
 Result<Lesson> make_generated_lesson(const std::string& exercise, const std::string& out_dir, std::uint64_t seed) {
-  auto ex = resolve_exercise(exercise);
+  auto ex = load_named_exercise(exercise);
   if (!ex) return Error{"--exercise: " + ex.error()};
   char tmpl[] = "/tmp/dentar_lesson_XXXXXX";
   const char* scratch = ::mkdtemp(tmpl);

@@ -138,7 +138,7 @@ TEST(LessonFile, BadInputNamesTheFileAndField) {
   {  // An unknown exercise, and a lesson for another tooth.
     auto l = load_lesson(copy("unknown", replace(good, "\"molar_class1_cavity\"", "\"molar_class9\"")).string());
     ASSERT_FALSE(l.ok());
-    expect_has(l.error(), "exercise: unknown exercise 'molar_class9' (built-in: ");
+    expect_has(l.error(), "exercise: no built-in exercise 'molar_class9' (built-in: ");
     l = load_lesson(copy("incisor", replace(good, "\"molar_class1_cavity\"", "\"incisor_partial_crown\"")).string());
     ASSERT_FALSE(l.ok());
     expect_has(l.error(), "exercise: 'incisor_partial_crown' is for tooth kind 'incisor', the lesson's recording is of a 'molar'");
@@ -222,7 +222,7 @@ TEST(LessonFile, BuiltinLessonsAreMadeInTheCacheOnFirstUse) {
   EXPECT_EQ(fs::last_write_time(fs::path(*p) / kLessonFile), when) << "reused, not made again";
   auto bad = resolve_lesson_path("builtin:molar_class9");
   ASSERT_FALSE(bad.ok());
-  expect_has(bad.error(), "builtin:molar_class9: --exercise: unknown exercise 'molar_class9'");
+  expect_has(bad.error(), "builtin:molar_class9: --exercise: no built-in exercise 'molar_class9'");
   EXPECT_EQ(*resolve_lesson_path("some/folder"), "some/folder");
   ::unsetenv("DENTAR_CACHE_DIR");
 }

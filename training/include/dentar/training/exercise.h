@@ -146,8 +146,9 @@ Result<Exercise> load_exercise(const std::string& path);
 // The exercises shipped in assets/exercises (name without .json). The
 // assets folder is found beside the source tree, or through DENTAR_ASSETS.
 Result<Exercise> load_builtin_exercise(const std::string& name);
-// An exercise as the command line names it: a path when it contains ".json", else a built-in
-// name (load_builtin_exercise).
+// An exercise as the command line, a lesson or a replay names it: a path when it contains
+// ".json" or a '/', else a built-in name (load_builtin_exercise, whose error lists the names).
+// The one rule for every command (session 14: lesson and replay had their own).
 Result<Exercise> load_named_exercise(const std::string& name_or_path);
 std::string builtin_exercise_dir();
 
