@@ -29,6 +29,7 @@
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/replay_device.h"
+#include "dentar/haptics/session_log.h"
 #include "dentar/session/recorder.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/result.h"
@@ -65,9 +66,24 @@ class Run {
   Run& operator=(const Run&) = delete;
   ~Run();
 
+  // A live run: the tooth drilled and the bur; the engine comes with make_engine.
+  static std::unique_ptr<Run> from_tooth(volume::VoxelVolume tooth, volume::BurSamples bur);
+  // The engine of a live run over `device` (not owned: it must outlive the Run), whose
+  // session log (header: the engine's, with `tooth_json`) is written to `log_path` ("" = no
+  // log). Errors: "engine: ..." (the configuration), or the log file's.
+  Status make_engine(const haptics::EngineConfig& cfg, haptics::HapticDevice& device, const std::string& tooth_json,
+                     const std::string& log_path);
+  // Closes the session log (after the engine stopped); ok when there is none.
+  Status close_session_log();
+
   // The tooth meshes and the pipeline (on the frame thread, with its GL
-  // context current): FramePipeline::create, then warm_up.
+  // context current): create_pipeline, then warm_up (into `target` when the
+  // composite stays on the GPU).
   Status make_pipeline(const ar::StationScene& station, const ar::PipelineOptions& options);
+  Status create_pipeline(const ar::StationScene& station, const ar::PipelineOptions& options);
+  Status warm_up(const ar::GlFrameTarget& target = {});
+  // The pipeline and the meshes released (on the frame thread, before its GL context goes).
+  void drop_pipeline();
   // Opens the recorder of a `dentar live --record` folder.
   Status record_to(const std::string& dir);
 
@@ -89,6 +105,7 @@ class Run {
   std::optional<volume::BurSamples> bur_;
   std::optional<haptics::SessionSetup> setup_;
   std::unique_ptr<haptics::ReplayDevice> replay_;
+  std::unique_ptr<haptics::SessionLogWriter> log_;
   std::unique_ptr<haptics::Engine> engine_;
   std::size_t session_steps_ = 0;
   std::unique_ptr<ar::ToothMeshes> meshes_;
