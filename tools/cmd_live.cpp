@@ -263,25 +263,33 @@ void add_live(CLI::App& app, int& exit_code) {
                 << "\n";
       for (const auto& w : s.warnings) std::cout << "warning: " << w << "\n";
     }
-    // A finished recorded session is scored (the recording is complete
-    // before this; a failure to score is a warning, never a failed run).
-    if (!o.record_dir.empty() && !c->no_score) {
-      namespace fs = std::filesystem;
-      session::DriverScoreInput in;
-      in.session = (fs::path(o.record_dir) / "session.dlog").string();
-      in.out_dir = o.record_dir;
-      in.exercise = o.exercise;
-      in.frames_csv = (fs::path(o.record_dir) / "frames.csv").string();
-      in.station = (fs::path(o.record_dir) / "station.json").string();
-      const session::DriverScore d = session::score_after_run(in);
-      if (d.ok)
-        std::cout << d.line << "\n";
-      else
-        std::cout << "warning: " << d.warning << "\n";
-    } else if (o.record_dir.empty() && !o.quiet) {
+    // The finish step (session/finish.h): a finished recorded session is scored
+    // (the recording is complete before this; a failure to score is a warning,
+    // never a failed run), then stored with --db.
+    namespace fs = std::filesystem;
+    session::DriverScoreInput in;
+    in.session = (fs::path(o.record_dir) / "session.dlog").string();
+    in.out_dir = o.record_dir;
+    in.exercise = o.exercise;
+    in.frames_csv = (fs::path(o.record_dir) / "frames.csv").string();
+    in.station = (fs::path(o.record_dir) / "station.json").string();
+    const bool score = !o.record_dir.empty() && !c->no_score;
+    if (o.record_dir.empty() && !o.quiet)
       std::cout << "not scored: the session is kept only with --record DIR (then DIR/score.html)\n";
+    if (!c->db.db.empty()) announce_lock_waits("live");
+    const session::StoreTarget target{c->db.db, c->db.station_db, c->db.student, c->db.station_id, c->db.move};
+    const session::FinishOutcome f = session::finish_run(score ? &in : nullptr, target, o.record_dir, "",
+                                                         [&](const std::string& s) {
+                                                           if (!o.quiet) std::cout << "live: " << s << "\n";
+                                                         });
+    if (f.scored) std::cout << (f.score.ok ? f.score.line : "warning: " + f.score.warning) << "\n";
+    exit_code = 0;
+    if (f.stored) {
+      if (f.store.exit_code != 0) print_error("live", f.store.error);
+      else if (!f.store.warning.empty()) print_error("live", "warning: " + f.store.warning);
+      if (f.store.exit_code == 0) std::cout << "live: " << f.store.line << "\n";
+      exit_code = f.store.exit_code;
     }
-    exit_code = c->db.db.empty() ? 0 : store_finished_session("live", c->db, o.record_dir, "", o.quiet);
   });
 }
 
