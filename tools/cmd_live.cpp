@@ -46,6 +46,8 @@ void add_live(CLI::App& app, int& exit_code) {
       "  dentar offline --footage out/rec --out out/rec_offline      # replays the recording\n"
       "  dentar live --camera live:out/clip/camera.avi --station out/clip/station.json --loop --stylus sim \\\n"
       "              --exercise incisor_partial_crown --hand-skill 0.5 --hand-style 1 --hand-seed 7 --record out/inc\n"
+      "  dentar live --camera live:out/clip/camera.avi --station out/clip/station.json --stylus sim \\\n"
+      "              --lesson builtin:molar_access_opening --mode 2 --record out/lesson   # a lesson, mode 2\n"
       "Keys: space = pedal (drill), Esc or closing the window = stop.");
   sub->add_option("--camera", c->o.camera, "camera:N, /dev/videoN, or live:VIDEO (footage paced as a camera)");
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
@@ -105,6 +107,13 @@ void add_live(CLI::App& app, int& exit_code) {
                   "exercise of the session: its tooth is drilled (incisor_partial_crown: the incisor) and\n"
                   "--stylus sim works its steps; recorded in recording.json; with --record the session is scored\n"
                   "against it into DIR/score.json and score.html; a built-in name or a JSON file; default: the molar");
+  sub->add_option("--lesson", c->o.lesson,
+                  "train on a lesson (a folder made by `dentar lesson make`, or builtin:EXERCISE): the expert's tool\n"
+                  "is replayed in the engine in --mode; --stylus sim is a simulated student following it");
+  sub->add_option("--mode", c->o.lesson_mode,
+                  "the lesson's training mode: 1 visual replay, 2 passive guidance, 3 active following, 4 force "
+                  "reversal, 5 hints (docs/training_modes.md)")
+      ->check(CLI::Range(1, 5));
   sub->add_option("--hand-skill", c->o.hand_skill,
                   "--stylus sim with --exercise: the simulated person's skill, 1 = expert (default) .. 0 = novice");
   sub->add_option("--hand-style", c->o.hand_style,

@@ -49,6 +49,7 @@
 #include "dentar/training/exercise.h"
 #include "dentar/training/hand_script.h"
 #include "dentar/session/frames_csv.h"
+#include "dentar/session/lesson_clock.h"
 #include "dentar/session/recorder.h"
 #include "dentar/session/run.h"
 #include "dentar/volume/bur.h"
@@ -102,6 +103,17 @@ std::string LiveOptions::validate() const {
     if (!(hand_style >= 0 && hand_style <= 3))
       return "--hand-style " + std::to_string(hand_style) + ": must be in [0, 3] (0 = no personal style)";
   }
+  if (!lesson.empty()) {
+    if (lesson_mode < 1 || lesson_mode > 5)
+      return "--lesson needs --mode 1..5 (1 visual replay, 2 passive guidance, 3 active following, 4 force reversal, "
+             "5 hints)";
+    if (!exercise.empty()) return "--exercise with --lesson: the lesson names its exercise (dentar lesson show LESSON)";
+    if (device.empty() && stylus != "sim" && stylus != "pen")
+      return "--lesson with --stylus " + stylus + ": a lesson is trained with --stylus sim (a simulated student), pen, "
+             "or a --device";
+  } else if (lesson_mode != 0) {
+    return "--mode " + std::to_string(lesson_mode) + " needs --lesson LESSON";
+  }
   if (pipeline.tracker.discovery == ar::DiscoveryMode::kScheduled)
     return "pipeline.tracker.discovery = scheduled is for replays (dentar offline), not a live run";
   if (auto v = pipeline.validate(); !v.empty()) return "pipeline: " + v;
@@ -143,6 +155,13 @@ std::string LiveSummary::json() const {
                    {"gl_release_timeouts", gl_release_timeouts}}},
       {"station_health", {{"instructor_needed", instructor_needed}, {"items", station_health}}},
       {"warnings", warnings}};
+  if (lesson_mode != 0)
+    j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
+                   {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
+                   {"fallback", lesson_fallback}, {"expert_s", lesson_expert_s}, {"expert_end_s", lesson_expert_end_s},
+                   {"frames_expert_waiting", lesson_frames_waiting},
+                   {"follow_error_mm", {{"samples", follow_samples}, {"mean", follow_mean_mm}, {"p95", follow_p95_mm},
+                                        {"max", follow_max_mm}}}};
   return j.dump(2) + "\n";
 }
 
@@ -325,9 +344,70 @@ struct StylusSetup {
   // The simulated hand's script length with an exercise (s of engine time; 0 = none): the run
   // ends once the engine has stepped through it, as a student stops when the preparation is done.
   double hand_end_s = 0;
+  // A lesson (LiveOptions::lesson): its clock (handed to the run) and the simulated student.
+  std::unique_ptr<session::LessonClock> lesson;
+  session::LessonStudentDevice* student = nullptr;
 };
+
+// The stylus of a lesson: a real device, the pen, or the simulated student following the
+// expert; the lesson's tooth and the recording's bur.
+Result<StylusSetup> lesson_stylus(const LiveOptions& o, const ar::StationScene& st, StationHealthMonitor& health,
+                                  const std::function<void(const std::string&)>& say) {
+  StylusSetup ss;
+  ss.cfg.model = o.model;
+  ss.cfg.T_tooth_dev = st.calibration.T_tooth_dev();
+  ss.cfg.T_sty_tip = st.calibration.T_sty_tip;
+  haptics::DeviceLimits limits;
+  bool renders_force = true;
+  if (!o.device.empty()) {
+    haptics::DeviceOpenOptions dopt;
+    dopt.name_or_serial = o.device_name;
+    auto d = haptics::open_haptic_device(o.device, dopt);
+    if (!d) return Error{"live: --device " + o.device + ": " + d.error()};
+    ss.device = std::move(*d);
+    limits = ss.device->limits();
+  } else if (o.stylus == "pen") {
+    if (st.pen.tags.empty())
+      return Error{"live: --stylus pen: the station file has no pen (\"pen\".tags); print the kit with `dentar tags`"};
+    auto p = std::make_unique<PenDevice>(limits);
+    ss.pen = p.get();
+    ss.device = std::move(p);
+    renders_force = false;
+  } else {
+    auto l = session::lesson_student_limits();
+    if (!l) return Error{"live: --lesson: " + l.error()};
+    limits = *l;
+  }
+  auto lesson = session::LessonClock::open(o.lesson, o.lesson_mode, limits, renders_force);
+  if (!lesson) return Error{"live: " + lesson.error()};
+  if (!(*lesson)->fallback().empty()) say("lesson: " + (*lesson)->fallback());
+  for (const auto& n : (*lesson)->notes()) say("lesson: " + n);
+  ss.tooth_desc = (*lesson)->lesson().tooth_json;
+  auto t = training::make_tooth(ss.tooth_desc);
+  if (!t) return Error{"live: --lesson " + o.lesson + ": tooth " + ss.tooth_desc + ": " + t.error()};
+  ss.vol.emplace(std::move(*t));
+  ss.bur_params = (*lesson)->bur();
+  ss.bur_samples = (*lesson)->bur_samples();
+  if (!ss.device) {  // the simulated student
+    auto d = session::make_lesson_student(ss.cfg.T_tooth_dev, ss.cfg.T_sty_tip, (*lesson)->expert_start());
+    if (!d) return Error{"live: --lesson: " + d.error()};
+    ss.student = d->get();
+    ss.device = std::move(*d);
+    ss.pedal_from_device = true;
+  } else if (!o.device.empty()) {
+    auto box = crown_box_tooth(ss.tooth_desc);
+    if (!box) return Error{"live: " + box.error()};
+    const HealthItem reach = check_station_reach(st, ss.device->limits(), ss.device->name(), *box).item;
+    health.set(reach);
+    if (reach.level != HealthLevel::kOk) say("station health: " + reach.check + ": " + reach.message);
+  }
+  ss.lesson = std::move(*lesson);
+  return ss;
+}
+
 Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st, StationHealthMonitor& health,
                                 const std::function<void(const std::string&)>& say) {
+  if (!o.lesson.empty()) return lesson_stylus(o, st, health, say);
   // ---- tooth, stylus, engine ----
   StylusSetup ss;
   std::optional<volume::VoxelVolume>& vol = ss.vol;
@@ -521,6 +601,11 @@ Status start_recording(const LiveOptions& o, const ar::StationScene& st, const a
               {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
               {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
   if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
+  if (session::LessonClock* l = run.lesson()) {  // the lesson's exercise is the session's (the finish step scores it)
+    rec_meta["exercise"] = l->lesson().exercise;
+    rec_meta["lesson"] = {{"lesson", o.lesson}, {"path", l->lesson().path}, {"mode_asked", l->mode_asked()},
+                          {"mode", l->mode_run()}, {"fallback", l->fallback()}};
+  }
   if (o.stylus == "sim" && !o.exercise.empty())
     rec_meta["hand"] = {{"skill", o.hand_skill}, {"style", o.hand_style}, {"seed", o.hand_seed}};
   std::ofstream(rdir / "recording.json") << rec_meta.dump(2) << "\n";
@@ -710,6 +795,24 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
     if (it.level != HealthLevel::kOk) sum.warnings.push_back("station health: " + it.check + ": " + it.message);
   }
   sum.instructor_needed = c.health.health().instructor_needed();
+  if (session::LessonClock* l = c.run.lesson()) {
+    sum.lesson = c.o.lesson;
+    sum.lesson_mode_asked = l->mode_asked();
+    sum.lesson_mode = l->mode_run();
+    sum.lesson_fallback = l->fallback();
+    if (!l->fallback().empty()) sum.warnings.push_back("lesson: " + l->fallback());
+    sum.lesson_expert_s = last.expert_time_s;
+    sum.lesson_expert_end_s = l->track().duration_s();
+    sum.lesson_frames_waiting = ff.frames_expert_waiting;
+    sum.follow_samples = static_cast<std::int64_t>(ff.follow_m.size());
+    if (!ff.follow_m.empty()) {
+      double m = 0;
+      for (double e : ff.follow_m) m += e;
+      sum.follow_mean_mm = m / ff.follow_m.size() * 1e3;
+      sum.follow_p95_mm = percentile(ff.follow_m, 0.95) * 1e3;
+      sum.follow_max_mm = *std::max_element(ff.follow_m.begin(), ff.follow_m.end()) * 1e3;
+    }
+  }
 }
 
 }  // namespace
@@ -750,6 +853,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const haptics::Pedal& pedal = usb_pedal ? *usb_pedal : static_cast<const haptics::Pedal&>(key_pedal);
   haptics::PedalDevice pedal_device(*ss.device, pedal, ss.pedal_from_device);
   std::unique_ptr<session::Run> run = session::Run::from_tooth(std::move(*ss.vol), std::move(*bur));
+  run->set_lesson(std::move(ss.lesson));  // its training mode becomes the engine's
   haptics::EngineConfig& cfg = ss.cfg;
   const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
   cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
@@ -767,6 +871,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const std::string log_path = run->recorder() ? (fs::path(o.record_dir) / "session.dlog").string() : std::string();
   if (auto s = run->make_engine(cfg, pedal_device, ss.tooth_desc, log_path); !s) return Error{"live: " + s.error()};
   haptics::Engine& engine = *run->engine();
+  if (ss.student) ss.student->attach(&engine);  // the simulated student sees the expert's tool
   // ---- window ----
   const DisplayChoice dc = choose_display(o);
   // GPU path: the window's EGL display is the one the compositor shares, so
@@ -832,6 +937,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   if (run->recorder()) run->recorder()->log(din.grant);
   din.rt_ok = !o.realtime || (engine.realtime_granted_now() && sum.memory_locked);
   din.hand_end_s = ss.hand_end_s;
+  din.lesson_end_s = run->lesson() ? run->lesson()->track().duration_s() : 0;
   din.rate_hz = cfg.rate_hz;
   din.signal = &g_signal;
   report_display_path(o, sh.gl_path.load(), dc.want_gl, dc.auto_note, sh.display_note, run->recorder(), say, sum);

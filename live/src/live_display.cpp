@@ -62,6 +62,8 @@ class DisplayLoop {
     if (in_.hand_end_s > 0 && static_cast<double>(engine_.stats().steps) / in_.rate_hz >= in_.hand_end_s + 1.0)
       return stop("the simulated hand finished the exercise");
     if (o.frames > 0 && fig_.displayed >= o.frames) return stop("frame limit");
+    if (in_.lesson_end_s > 0 && engine_.snapshot().expert_time_s >= in_.lesson_end_s)
+      return stop("the lesson's recording ended");
     bool fresh_pending = false;
     {
       std::lock_guard<std::mutex> lock(sh_.shown_m);

@@ -89,6 +89,10 @@ struct FrameFigures {
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
   std::int64_t ring_replaced = 0, ring_ready_timeouts = 0, ring_release_timeouts = 0;
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
+  // A lesson: the student's tip against the expert's at each frame (after the expert's
+  // first 0.5 s), m; frames while the expert waited for the student.
+  std::vector<double> follow_m;
+  std::int64_t frames_expert_waiting = 0;
 };
 
 // The frame thread: until LiveShared::stop or the footage ends.
@@ -101,6 +105,7 @@ struct DisplayInputs {
   std::string grant;       // what the system granted the engine (shown when not real time)
   bool rt_ok = true;
   double hand_end_s = 0;  // the simulated hand's script length (0 = none)
+  double lesson_end_s = 0;  // a lesson: the expert recording's length, s (0 = none)
   double rate_hz = 1000;
   const std::atomic<int>* signal = nullptr;  // SIGINT / SIGTERM seen
 };

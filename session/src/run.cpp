@@ -39,6 +39,7 @@ Run::~Run() {
   meshes_.reset();
   engine_.reset();
   log_.reset();
+  lesson_.reset();
 }
 
 Result<std::unique_ptr<Run>> Run::from_station(const ar::StationScene& station) {
@@ -71,6 +72,12 @@ Result<std::unique_ptr<Run>> Run::from_session_log(SessionLogSetup log, const ar
   run->replay_ = std::make_unique<haptics::ReplayDevice>(std::move(log.records), setup.limits);
   haptics::EngineConfig cfg = setup.engine;
   cfg.try_realtime = false;
+  if (setup.training) {  // a lesson's session: its mode, rebuilt from the expert's recording
+    auto lesson = LessonClock::from_header(*setup.training);
+    if (!lesson) return Error{log.path + ": training: " + lesson.error()};
+    run->lesson_ = std::move(*lesson);
+    cfg.training = run->lesson_->mode();
+  }
   auto eng = haptics::Engine::create(cfg, *run->replay_, *run->volume_, *run->bur_, nullptr);
   if (!eng) return Error{log.path + ": " + eng.error()};
   run->engine_ = std::move(*eng);
@@ -85,8 +92,10 @@ std::unique_ptr<Run> Run::from_tooth(volume::VoxelVolume tooth, volume::BurSampl
   return run;
 }
 
-Status Run::make_engine(const haptics::EngineConfig& cfg, haptics::HapticDevice& device, const std::string& tooth_json,
+Status Run::make_engine(const haptics::EngineConfig& config, haptics::HapticDevice& device, const std::string& tooth_json,
                         const std::string& log_path) {
+  haptics::EngineConfig cfg = config;
+  if (lesson_) cfg.training = lesson_->mode();
   if (!log_path.empty()) {
     // The header is the engine's own: a probe engine writes it, the log opens with it.
     std::string header;
