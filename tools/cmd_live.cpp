@@ -12,6 +12,7 @@
 #include "dentar/haptics/session_log.h"
 #include "dentar/live/live_app.h"
 #include "dentar/session/finish.h"
+#include "dentar/training/lesson.h"
 #include "sound_cli.h"
 
 namespace dentar::tools {
@@ -238,6 +239,15 @@ void add_live(CLI::App& app, int& exit_code) {
       }
       if (auto t = live::live_tooth_json(o.exercise, setup->tooth_json, 0); !t) {
         print_error("live", "--stylus " + o.stylus + ": " + t.error());
+        exit_code = 2;
+        return;
+      }
+    }
+    if (!o.lesson.empty()) {  // a lesson that does not load is bad input (exit 2), before any window
+      auto p = training::resolve_lesson_path(o.lesson);
+      auto l = p ? training::load_lesson(*p) : Result<training::Lesson>(Error{p.error()});
+      if (!l) {
+        print_error("live", "--lesson " + o.lesson + ": " + l.error());
         exit_code = 2;
         return;
       }

@@ -159,7 +159,7 @@ std::string LiveSummary::json() const {
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
                    {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
                    {"fallback", lesson_fallback}, {"expert_s", lesson_expert_s}, {"expert_end_s", lesson_expert_end_s},
-                   {"frames_expert_waiting", lesson_frames_waiting},
+                   {"expert_waiting_pct", lesson_waiting_pct},
                    {"follow_error_mm", {{"samples", follow_samples}, {"mean", follow_mean_mm}, {"p95", follow_p95_mm},
                                         {"max", follow_max_mm}}}};
   return j.dump(2) + "\n";
@@ -803,14 +803,14 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
     if (!l->fallback().empty()) sum.warnings.push_back("lesson: " + l->fallback());
     sum.lesson_expert_s = last.expert_time_s;
     sum.lesson_expert_end_s = l->track().duration_s();
-    sum.lesson_frames_waiting = ff.frames_expert_waiting;
-    sum.follow_samples = static_cast<std::int64_t>(ff.follow_m.size());
-    if (!ff.follow_m.empty()) {
+    sum.lesson_waiting_pct = df.passes > 0 ? 100.0 * df.passes_expert_waiting / df.passes : 0.0;
+    sum.follow_samples = static_cast<std::int64_t>(df.follow_m.size());
+    if (!df.follow_m.empty()) {
       double m = 0;
-      for (double e : ff.follow_m) m += e;
-      sum.follow_mean_mm = m / ff.follow_m.size() * 1e3;
-      sum.follow_p95_mm = percentile(ff.follow_m, 0.95) * 1e3;
-      sum.follow_max_mm = *std::max_element(ff.follow_m.begin(), ff.follow_m.end()) * 1e3;
+      for (double e : df.follow_m) m += e;
+      sum.follow_mean_mm = m / df.follow_m.size() * 1e3;
+      sum.follow_p95_mm = percentile(df.follow_m, 0.95) * 1e3;
+      sum.follow_max_mm = *std::max_element(df.follow_m.begin(), df.follow_m.end()) * 1e3;
     }
   }
 }

@@ -102,6 +102,12 @@ class DisplayLoop {
   void frame() {
     int new_slot = -1;
     const bool fresh = take_shown(new_slot);
+    if (const haptics::HapticSnapshot snap = engine_.snapshot(); snap.mode != 0) {
+      // A lesson: how closely the student follows the expert.
+      ++fig_.passes;
+      if (snap.expert_time_s >= 0.5) fig_.follow_m.push_back(snap.follow_error_m);
+      fig_.passes_expert_waiting += snap.expert_waiting ? 1 : 0;
+    }
     HudWindow& hw = c_.hw;
     hw.poll();
     for (const int key : hw.take_presses())

@@ -132,10 +132,6 @@ class FrameThread {
     const std::int64_t processed = sh_.processed.load();
     haptics::HapticSnapshot snap = c_.run.engine()->snapshot();
     const double pose_step = pose_at_exposure(f, snap);
-    if (snap.mode != 0) {  // a lesson: how closely the student follows the expert
-      if (snap.expert_time_s >= 0.5) fig_.follow_m.push_back(snap.follow_error_m);
-      fig_.frames_expert_waiting += snap.expert_waiting ? 1 : 0;
-    }
     ar::FrameInput in;
     in.image = &f.image;
     in.index = processed;

@@ -89,10 +89,6 @@ struct FrameFigures {
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
   std::int64_t ring_replaced = 0, ring_ready_timeouts = 0, ring_release_timeouts = 0;
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
-  // A lesson: the student's tip against the expert's at each frame (after the expert's
-  // first 0.5 s), m; frames while the expert waited for the student.
-  std::vector<double> follow_m;
-  std::int64_t frames_expert_waiting = 0;
 };
 
 // The frame thread: until LiveShared::stop or the footage ends.
@@ -116,6 +112,11 @@ struct DisplayFigures {
   double t_start = 0;
   std::vector<double> latency_ms;
   std::int64_t displayed = 0;
+  // A lesson: the student's tip against the expert's at each pass of the loop (>= 30 Hz,
+  // whatever the camera's rate) after the expert's first 0.5 s, m; passes while the expert
+  // waited for the student.
+  std::vector<double> follow_m;
+  std::int64_t passes = 0, passes_expert_waiting = 0;
 };
 
 // Runs the window until a stop condition; the summary gets the stall and memory figures.

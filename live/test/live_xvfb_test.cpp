@@ -24,6 +24,7 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
+#include "dentar/training/exercise.h"
 #include "tag_drawing.h"
 #include "testutil.h"
 #include "xvfb_util.h"
@@ -744,4 +745,83 @@ TEST(LiveXvfb, BoxTryOutRehearsedWithoutACameraAt720p) {
   int seen = 0;
   for (std::size_t i = 1; i < rows.size(); ++i) seen += rows[i][ms] != "lost" ? 1 : 0;
   EXPECT_GT(seen, 0.8 * static_cast<double>(rows.size() - 1)) << "the box board is tracked";
+}
+
+// ---- Lessons (issue 27): `dentar live --lesson LESSON --mode N` ----
+
+// A lesson made from the clip's own 2 s session, trained live in mode 2 (passive guidance)
+// with the simulated student: the mode ran (the summary's lesson section, its following error
+// from the display loop; the session log's training section), the run stopped by itself when
+// the expert's recording ended, the session was scored as the lesson's exercise, and it
+// replays bit-exactly with the mode rebuilt from the header.
+TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
+  REQUIRE_XVFB();
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_lesson");
+  const fs::path lesson = t / "lesson", rec = t / "rec";
+  auto r = run_command(kBin + " lesson make " + (c / "session.dlog").string() +
+                       " --exercise molar_access_opening --out " + lesson.string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run_command(xvfb(kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
+                       (c / "station.json").string() + " --stylus sim --lesson " + lesson.string() +
+                       " --mode 2 --record " + rec.string() + " --no-hud --quiet --loop --seconds 20 --summary " +
+                       (t / "live.json").string() + " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto sum = read_json(t / "live.json");
+  ASSERT_TRUE(sum.contains("lesson")) << sum.dump(2);
+  const auto& l = sum["lesson"];
+  EXPECT_EQ(l["mode"], 2) << l.dump();
+  EXPECT_EQ(l["mode_name"], "passive guidance") << l.dump();
+  EXPECT_EQ(l["fallback"], "") << l.dump();
+  // The expert's clock reached the end of its 2 s recording: the run stopped itself.
+  EXPECT_EQ(sum["stop_reason"], "the lesson's recording ended") << sum.dump(2);
+  EXPECT_GE(l["expert_s"].get<double>(), l["expert_end_s"].get<double>()) << l.dump();
+  EXPECT_GT(l["expert_end_s"].get<double>(), 1.5) << l.dump();
+  // The student (1 mm beside the expert at the start, 0.2 mm aim wander, 0.25 s lag) is held
+  // on the expert's path: sampled, and within a few millimetres (measured ~0.3-0.5 mm).
+  EXPECT_GT(l["follow_error_mm"]["samples"].get<int>(), 0) << l.dump();
+  EXPECT_GT(l["follow_error_mm"]["max"].get<double>(), 0.0) << l.dump();
+  EXPECT_LT(l["follow_error_mm"]["mean"].get<double>(), 3.0) << l.dump();
+  // The session log's header records the mode and the expert recording it replayed.
+  auto log = dentar::haptics::read_session_log((rec / "session.dlog").string());
+  ASSERT_TRUE(log.ok()) << log.error();
+  auto setup = dentar::haptics::parse_session_header(log->header_json);
+  ASSERT_TRUE(setup.ok()) << setup.error();
+  ASSERT_TRUE(setup->training.has_value()) << log->header_json;
+  EXPECT_EQ(static_cast<int>(setup->training->params.mode), 2);
+  EXPECT_NE(setup->training->params.expert_file.find("expert.dlog"), std::string::npos);
+  const auto meta = read_json(rec / "recording.json");
+  EXPECT_EQ(meta["lesson"]["mode"], 2) << meta.dump(2);
+  EXPECT_EQ(meta["exercise"], "molar_access_opening") << meta.dump(2);
+  // Scored by the finish step as the lesson's exercise.
+  ASSERT_TRUE(fs::exists(rec / "score.json")) << r.out;
+  EXPECT_EQ(read_json(rec / "score.json")["exercise"]["name"], "molar_access_opening");
+  // Replayable: the log alone, with the mode rebuilt, ends on the live run's cut bit for bit.
+  auto fresh = dentar::training::make_tooth(setup->tooth_json);
+  ASSERT_TRUE(fresh.ok()) << fresh.error();
+  auto rep = dentar::haptics::replay_session(*log, *fresh);
+  ASSERT_TRUE(rep.ok()) << rep.error();
+  char h[17];
+  std::snprintf(h, sizeof h, "%016llx", static_cast<unsigned long long>(rep->volume_hash));
+  EXPECT_EQ(sum["volume_hash"], h);
+  EXPECT_EQ(meta["volume_hash"], h);
+}
+
+// Bad input before any window: a mode without a lesson, a lesson beside an exercise, a
+// lesson that does not exist (exit 2, naming the option and the file).
+TEST(LiveCli, LessonBadInputIsRefused) {
+  const fs::path c = clip();
+  const std::string base = kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
+                           (c / "station.json").string() + " --quiet";
+  auto r = run_command(base + " --mode 2 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--mode 2 needs --lesson"), std::string::npos) << r.out;
+  r = run_command(base + " --lesson builtin:molar_access_opening --mode 2 --exercise molar_access_opening 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("the lesson names its exercise"), std::string::npos) << r.out;
+  const fs::path t = dentar::test::temp_dir("live_lesson_bad");
+  r = run_command(base + " --lesson " + (t / "nowhere").string() + " --mode 3 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("nowhere"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--lesson"), std::string::npos) << r.out;
 }

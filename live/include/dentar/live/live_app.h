@@ -174,14 +174,15 @@ struct LiveSummary {
   bool instructor_needed = false;
   std::vector<std::string> warnings;
   // A lesson's run (LiveOptions::lesson; mode 0: none): the mode asked and run (a fallback
-  // says why they differ), the expert's clock at the end, how long the expert waited for the
-  // student (mode 3), and the student's tip against the expert's, sampled at each processed
-  // frame after the expert's first 0.5 s, mm.
+  // says why they differ), the expert's clock at the end and the recording's length, the
+  // share of the run the expert waited for the student (mode 3), and the student's tip
+  // against the expert's, sampled by the display loop (>= 30 Hz) after the expert's first
+  // 0.5 s, mm.
   std::string lesson;
   int lesson_mode_asked = 0, lesson_mode = 0;
   std::string lesson_fallback;
   double lesson_expert_s = 0, lesson_expert_end_s = 0;
-  std::int64_t lesson_frames_waiting = 0;
+  double lesson_waiting_pct = 0;
   std::int64_t follow_samples = 0;
   double follow_mean_mm = 0, follow_p95_mm = 0, follow_max_mm = 0;
   // The display path used ("gl" or "cpu"), why (the fallback's reason), and
