@@ -24,6 +24,8 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
+#include "dentar/session/lesson_clock.h"
+#include "dentar/session/run.h"
 #include "dentar/training/exercise.h"
 #include "tag_drawing.h"
 #include "testutil.h"
@@ -805,6 +807,52 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   std::snprintf(h, sizeof h, "%016llx", static_cast<unsigned long long>(rep->volume_hash));
   EXPECT_EQ(sum["volume_hash"], h);
   EXPECT_EQ(meta["volume_hash"], h);
+  // And as `dentar offline` replays it: session::Run rebuilds the mode from the log's header.
+  auto st = dentar::ar::read_station_scene((rec / "station.json").string());
+  ASSERT_TRUE(st.ok()) << st.error();
+  auto ls = dentar::session::read_session_setup((rec / "session.dlog").string());
+  ASSERT_TRUE(ls.ok()) << ls.error();
+  auto run = dentar::session::Run::from_session_log(std::move(*ls), *st, "station.json");
+  ASSERT_TRUE(run.ok()) << run.error();
+  ASSERT_NE((*run)->lesson(), nullptr);
+  EXPECT_EQ((*run)->lesson()->mode_run(), 2);
+  (*run)->engine()->run_steps((*run)->session_steps());
+  EXPECT_EQ((*run)->volume().content_hash(), rep->volume_hash);
+}
+
+// A force mode on a stylus with no force (the pen) falls back to visual guidance (mode 3) and
+// says so; guidance stiffer than the device renders stably is lowered to its limit, noted.
+TEST(LiveLesson, PenFallsBackToVisualGuidanceAndGainsFollowTheDevice) {
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_lesson_clock");
+  auto r = run_command(kBin + " lesson make " + (c / "session.dlog").string() +
+                       " --exercise molar_access_opening --out " + (t / "lesson").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  dentar::haptics::DeviceLimits pen;
+  for (int mode : {2, 4}) {
+    auto l = dentar::session::LessonClock::open((t / "lesson").string(), mode, pen, false);
+    ASSERT_TRUE(l.ok()) << l.error();
+    EXPECT_EQ((*l)->mode_asked(), mode);
+    EXPECT_EQ((*l)->mode_run(), 3);
+    EXPECT_NE((*l)->fallback().find("falls back to visual guidance, mode 3"), std::string::npos) << (*l)->fallback();
+    EXPECT_EQ(static_cast<int>((*l)->mode()->params().mode), 3);
+    EXPECT_TRUE((*l)->mode()->params().conditional_replay);
+  }
+  auto l5 = dentar::session::LessonClock::open((t / "lesson").string(), 5, pen, false);
+  ASSERT_TRUE(l5.ok()) << l5.error();
+  EXPECT_EQ(l5.value()->mode_run(), 5);  // hints need no force
+  EXPECT_EQ(l5.value()->fallback(), "");
+  dentar::haptics::DeviceLimits weak;
+  weak.max_stiffness_N_per_m = 100;  // guidance limit 0.4 x 100 = 40 N/m, below the lesson's default
+  auto lw = dentar::session::LessonClock::open((t / "lesson").string(), 2, weak, true);
+  ASSERT_TRUE(lw.ok()) << lw.error();
+  EXPECT_EQ(lw.value()->mode_run(), 2);
+  EXPECT_LE(lw.value()->mode()->params().guidance.k_N_per_m, 40.0 + 1e-9);
+  ASSERT_FALSE(lw.value()->notes().empty());
+  EXPECT_NE(lw.value()->notes()[0].find("guidance k lowered"), std::string::npos) << lw.value()->notes()[0];
+  auto bad = dentar::session::LessonClock::open((t / "lesson").string(), 6, pen, true);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("--mode 6 must be 1..5"), std::string::npos) << bad.error();
 }
 
 // Bad input before any window: a mode without a lesson, a lesson beside an exercise, a
