@@ -161,7 +161,15 @@ std::string LiveSummary::json() const {
                    {"fallback", lesson_fallback}, {"expert_s", lesson_expert_s}, {"expert_end_s", lesson_expert_end_s},
                    {"expert_waiting_pct", lesson_waiting_pct},
                    {"follow_error_mm", {{"samples", follow_samples}, {"mean", follow_mean_mm}, {"p95", follow_p95_mm},
-                                        {"max", follow_max_mm}}}};
+                                        {"max", follow_max_mm}}},
+                   {"pauses", {{"taken", lesson_pauses_taken}, {"paused_s", lesson_paused_s},
+                               {"resumed_by_button", lesson_pauses_resumed_by_button}}}};
+  if (lesson_mode != 0) {
+    nlohmann::json notes = nlohmann::json::array();
+    for (const LessonNote& n : lesson_notes)
+      notes.push_back({{"time_s", n.time_s}, {"expert_s", n.expert_s}, {"run_s", n.run_s}, {"text", n.text}});
+    j["lesson"]["notes_shown"] = notes;
+  }
   return j.dump(2) + "\n";
 }
 
@@ -804,6 +812,15 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
     sum.lesson_expert_s = last.expert_time_s;
     sum.lesson_expert_end_s = l->track().duration_s();
     sum.lesson_waiting_pct = df.passes > 0 ? 100.0 * df.passes_expert_waiting / df.passes : 0.0;
+    if (c.lesson_pauses) {
+      sum.lesson_pauses_taken = c.lesson_pauses->pauses_taken();
+      sum.lesson_paused_s = c.lesson_pauses->paused_s();
+      sum.lesson_pauses_resumed_by_button = c.lesson_pauses->resumed_by_button();
+    }
+    for (const DisplayFigures::Note& n : df.notes) {
+      const training::Annotation& a = l->lesson().annotations[static_cast<std::size_t>(n.annotation)];
+      sum.lesson_notes.push_back({a.time_s, n.expert_s, n.run_s, a.text});
+    }
     sum.follow_samples = static_cast<std::int64_t>(df.follow_m.size());
     if (!df.follow_m.empty()) {
       double m = 0;
@@ -854,6 +871,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   haptics::PedalDevice pedal_device(*ss.device, pedal, ss.pedal_from_device);
   std::unique_ptr<session::Run> run = session::Run::from_tooth(std::move(*ss.vol), std::move(*bur));
   run->set_lesson(std::move(ss.lesson));  // its training mode becomes the engine's
+  // A lesson's pause points hold the pause button in front of the engine (recorded, replayed).
+  std::optional<session::LessonPauseDevice> lesson_pauses;
+  if (run->lesson()) lesson_pauses.emplace(pedal_device, run->lesson()->lesson().annotations);
+  haptics::HapticDevice& engine_device =
+      lesson_pauses ? static_cast<haptics::HapticDevice&>(*lesson_pauses) : static_cast<haptics::HapticDevice&>(pedal_device);
   haptics::EngineConfig& cfg = ss.cfg;
   const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
   cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
@@ -869,9 +891,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   if (!o.record_dir.empty())
     if (auto s = start_recording(o, st, popt, discovery_name, *run); !s) return Error{s.error()};
   const std::string log_path = run->recorder() ? (fs::path(o.record_dir) / "session.dlog").string() : std::string();
-  if (auto s = run->make_engine(cfg, pedal_device, ss.tooth_desc, log_path); !s) return Error{"live: " + s.error()};
+  if (auto s = run->make_engine(cfg, engine_device, ss.tooth_desc, log_path); !s) return Error{"live: " + s.error()};
   haptics::Engine& engine = *run->engine();
   if (ss.student) ss.student->attach(&engine);  // the simulated student sees the expert's tool
+  if (lesson_pauses) lesson_pauses->attach(&engine);  // the pause points follow the expert's clock
   // ---- window ----
   const DisplayChoice dc = choose_display(o);
   // GPU path: the window's EGL display is the one the compositor shares, so
@@ -883,8 +906,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   if (!hw_r) return Error{"live: " + hw_r.error()};
   HudWindow& hw = **hw_r;
   const auto comp = compensation(o, st);
-  const LiveContext ctx{o, st, popt, *run, health, hw, pedal_device, pedal, key_pedal, ss.pen, ss.pedal_from_device,
-                        scr->src->width(), scr->src->height(), dc.want_gl, bg.to_engine_cpu, comp.first, say};
+  const LiveContext ctx{o, st, popt, *run, health, hw, engine_device, pedal, key_pedal, ss.pen, ss.pedal_from_device,
+                        scr->src->width(), scr->src->height(), dc.want_gl, bg.to_engine_cpu, comp.first, say,
+                        lesson_pauses ? &*lesson_pauses : nullptr};
   LiveShared sh;
   // The display path is settled on the frame thread (the shared context is made there).
   if (!dc.want_gl) sh.display_note = dc.auto_note.empty() ? "--display-path cpu" : dc.auto_note;

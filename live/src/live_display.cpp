@@ -15,6 +15,7 @@
 #include "dentar/ar/frame_source.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/session/frames_csv.h"
+#include "dentar/session/recorder.h"
 #include "dentar/volume/material.h"
 #include "live_run.h"
 
@@ -62,7 +63,8 @@ class DisplayLoop {
     if (in_.hand_end_s > 0 && static_cast<double>(engine_.stats().steps) / in_.rate_hz >= in_.hand_end_s + 1.0)
       return stop("the simulated hand finished the exercise");
     if (o.frames > 0 && fig_.displayed >= o.frames) return stop("frame limit");
-    if (in_.lesson_end_s > 0 && engine_.snapshot().expert_time_s >= in_.lesson_end_s)
+    if (in_.lesson_end_s > 0 && engine_.snapshot().expert_time_s >= in_.lesson_end_s &&
+        (!c_.lesson_pauses || c_.lesson_pauses->pausing() < 0))  // a pause point at the very end is held
       return stop("the lesson's recording ended");
     bool fresh_pending = false;
     {
@@ -107,6 +109,7 @@ class DisplayLoop {
       ++fig_.passes;
       if (snap.expert_time_s >= 0.5) fig_.follow_m.push_back(snap.follow_error_m);
       fig_.passes_expert_waiting += snap.expert_waiting ? 1 : 0;
+      reach_notes(snap.expert_time_s);
     }
     HudWindow& hw = c_.hw;
     hw.poll();
@@ -145,6 +148,45 @@ class DisplayLoop {
       shots_.erase(shot);
     }
     figures_after_swap(fresh, stalled, age, last_frame_s);
+  }
+
+  // The lesson's text annotations the expert's clock reached: on the HUD from then on for
+  // kNoteShowS (and through their pause), logged in the recording's log.
+  static constexpr double kNoteShowS = 5.0;
+  void reach_notes(double expert_s) {
+    const session::LessonClock* l = c_.run.lesson();
+    if (!l || !c_.o.hud) return;
+    const auto& ann = l->lesson().annotations;
+    for (; next_note_ < ann.size() && ann[next_note_].time_s <= expert_s; ++next_note_) {
+      if (ann[next_note_].text.empty()) continue;
+      fig_.notes.push_back({static_cast<int>(next_note_), expert_s, now_s() - fig_.t_start});
+      if (session::Recorder* rec = c_.run.recorder()) {
+        char b[96];
+        std::snprintf(b, sizeof b, "lesson note at %.2f s (expert's clock %.2f s) on the HUD: ", ann[next_note_].time_s,
+                      expert_s);
+        rec->log(b + ann[next_note_].text);
+      }
+    }
+  }
+
+  // The lesson's lines: a pause point holding the expert's clock, and the notes on show.
+  void draw_lesson_lines(const ImVec4& hi) {
+    const session::LessonClock* l = c_.run.lesson();
+    if (!l) return;
+    const auto& ann = l->lesson().annotations;
+    const int p = c_.lesson_pauses ? c_.lesson_pauses->pausing() : -1;
+    if (p >= 0) {
+      if (c_.pen)
+        ImGui::TextColored(hi, "PAUSED by the lesson: the expert resumes in %.1f s", c_.lesson_pauses->pause_left_s());
+      else
+        ImGui::TextColored(hi, "PAUSED by the lesson: the expert resumes in %.1f s, or press and release the stylus's "
+                           "pause button (second button)", c_.lesson_pauses->pause_left_s());
+    }
+    const double t = now_s() - fig_.t_start;
+    for (const DisplayFigures::Note& n : fig_.notes)
+      if (t - n.run_s < kNoteShowS || n.annotation == p)
+        ImGui::TextColored(hi, "lesson (%.1f s): %s", ann[static_cast<std::size_t>(n.annotation)].time_s,
+                           ann[static_cast<std::size_t>(n.annotation)].text.c_str());
   }
 
   void figures_after_swap(bool fresh, bool stalled, double age, double last_frame_s) {
@@ -208,6 +250,7 @@ class DisplayLoop {
     if (snap.mode != 0)
       ImGui::Text("lesson: mode %d   expert %.1f s%s   following error %.1f mm", static_cast<int>(snap.mode),
                   snap.expert_time_s, snap.expert_waiting ? " (waiting for you)" : "", snap.follow_error_m * 1e3);
+    if (snap.mode != 0) draw_lesson_lines(ImVec4(0.45f, 0.85f, 1, 1));
     if (const std::string ds = c_.device.status(); !ds.empty()) ImGui::TextColored(col[1], "device: %s", ds.c_str());
     const std::string& sound_line = in_.sound_line;
     if (!sound_line.empty()) {
@@ -248,6 +291,7 @@ class DisplayLoop {
   double prev_check_age_s_ = 0;  // the camera's silence at the previous window check, s
   double fps_t0_ = 0, fps_now_ = 0;
   int fps_n_ = 0;
+  std::size_t next_note_ = 0;  // the lesson's next annotation not yet reached
   int shown_slot_ = -1;  // GPU path: the ring texture the window draws from, or -1
 };
 

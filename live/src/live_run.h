@@ -52,6 +52,7 @@ struct LiveContext {
   std::function<void()> to_engine_cpu;
   double comp_latency_s = 0;  // latency compensation (issue 24); 0 = the newest pose
   std::function<void(const std::string&)> say;
+  const session::LessonPauseDevice* lesson_pauses = nullptr;  // a lesson: its pause points (the engine's device)
 };
 
 // What the frame thread hands the window: the newest composite and its raw
@@ -117,6 +118,13 @@ struct DisplayFigures {
   // waited for the student.
   std::vector<double> follow_m;
   std::int64_t passes = 0, passes_expert_waiting = 0;
+  // A lesson's text annotations shown on the HUD (with the HUD on), in the order the expert's
+  // clock reached them: the annotation, the expert's clock and the run's time (s) when shown.
+  struct Note {
+    int annotation = -1;
+    double expert_s = 0, run_s = 0;
+  };
+  std::vector<Note> notes;
 };
 
 // Runs the window until a stop condition; the summary gets the stall and memory figures.

@@ -761,12 +761,14 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   const fs::path c = clip();
   const fs::path t = dentar::test::temp_dir("live_lesson");
   const fs::path lesson = t / "lesson", rec = t / "rec";
+  // A text annotation at 0.3 s and a 1 s pause point at 0.8 s of the expert's recording.
   auto r = run_command(kBin + " lesson make " + (c / "session.dlog").string() +
-                       " --exercise molar_access_opening --out " + lesson.string() + " 2>&1");
+                       " --exercise molar_access_opening --note '0.3:Enter at the central pit' --pause 0.8:1 --out " +
+                       lesson.string() + " 2>&1");
   ASSERT_EQ(r.code, 0) << r.out;
   r = run_command(xvfb(kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
                        (c / "station.json").string() + " --stylus sim --lesson " + lesson.string() +
-                       " --mode 2 --record " + rec.string() + " --no-hud --quiet --loop --seconds 20 --summary " +
+                       " --mode 2 --record " + rec.string() + " --quiet --loop --seconds 20 --summary " +
                        (t / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto sum = read_json(t / "live.json");
@@ -784,6 +786,23 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   EXPECT_GT(l["follow_error_mm"]["samples"].get<int>(), 0) << l.dump();
   EXPECT_GT(l["follow_error_mm"]["max"].get<double>(), 0.0) << l.dump();
   EXPECT_LT(l["follow_error_mm"]["mean"].get<double>(), 3.0) << l.dump();
+  // The pause point held the expert's clock for its second (device time), and the note was
+  // on the HUD when the expert's clock reached it (and logged in the recording's log).
+  EXPECT_EQ(l["pauses"]["taken"], 1) << l.dump();
+  EXPECT_NEAR(l["pauses"]["paused_s"].get<double>(), 1.0, 0.01) << l.dump();
+  EXPECT_EQ(l["pauses"]["resumed_by_button"], 0) << l.dump();
+  ASSERT_EQ(l["notes_shown"].size(), 2u) << l.dump();
+  EXPECT_EQ(l["notes_shown"][0]["text"], "Enter at the central pit") << l.dump();
+  EXPECT_NEAR(l["notes_shown"][0]["time_s"].get<double>(), 0.3, 1e-9) << l.dump();
+  EXPECT_GE(l["notes_shown"][0]["expert_s"].get<double>(), 0.3) << l.dump();
+  EXPECT_LT(l["notes_shown"][0]["expert_s"].get<double>(), 0.5) << l.dump();  // the display loop runs at >= 30 Hz
+  EXPECT_EQ(l["notes_shown"][1]["text"], "pause") << l.dump();  // `lesson make --pause`'s own text
+  EXPECT_NEAR(l["notes_shown"][1]["expert_s"].get<double>(), 0.8, 0.01) << l.dump();  // shown while the clock held
+  {
+    std::ifstream f(rec / "live.log");
+    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("on the HUD: Enter at the central pit"), std::string::npos) << text;
+  }
   // The session log's header records the mode and the expert recording it replayed.
   auto log = dentar::haptics::read_session_log((rec / "session.dlog").string());
   ASSERT_TRUE(log.ok()) << log.error();
@@ -816,8 +835,41 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   ASSERT_TRUE(run.ok()) << run.error();
   ASSERT_NE((*run)->lesson(), nullptr);
   EXPECT_EQ((*run)->lesson()->mode_run(), 2);
-  (*run)->engine()->run_steps((*run)->session_steps());
+  // Step by step: the pause button the pause point held is in the recording, for 1 s in one
+  // piece; while it is down the expert's clock stands still; the expert's tool moves no
+  // further in any step (the resume included) than in the recording's own steps.
+  const std::uint64_t n = (*run)->session_steps();
+  ASSERT_EQ(n, log->records.size());
+  std::vector<double> expert_t(n);
+  std::vector<Eigen::Vector3d> expert_p(n);
+  for (std::uint64_t i = 0; i < n; ++i) {
+    ASSERT_EQ((*run)->engine()->run_steps(1), 1u) << i;
+    const auto snap = (*run)->engine()->snapshot();
+    expert_t[i] = snap.expert_time_s;
+    expert_p[i] = Eigen::Vector3d(snap.T_tooth_expert_tip[12], snap.T_tooth_expert_tip[13], snap.T_tooth_expert_tip[14]);
+  }
   EXPECT_EQ((*run)->volume().content_hash(), rep->volume_hash);
+  std::int64_t first = -1, last = -1, held = 0;
+  for (std::uint64_t i = 0; i < n; ++i)
+    if (log->records[i].buttons & dentar::haptics::kButtonSecondary) {
+      if (first < 0) first = static_cast<std::int64_t>(i);
+      last = static_cast<std::int64_t>(i);
+      ++held;
+    }
+  ASSERT_GE(first, 0) << "no pause in the recording";
+  EXPECT_EQ(held, last - first + 1) << "one pause, in one piece";
+  EXPECT_NEAR(static_cast<double>(held), 1000.0, 2.0);  // 1 s at 1 kHz
+  EXPECT_NEAR(expert_t[static_cast<std::size_t>(first)], 0.8, 0.01);
+  EXPECT_EQ(expert_t[static_cast<std::size_t>(first)], expert_t[static_cast<std::size_t>(last)]);
+  double max_move = 0, resume_move = 0;
+  for (std::uint64_t i = 1; i < n; ++i) {
+    const double d = (expert_p[i] - expert_p[i - 1]).norm();
+    if (static_cast<std::int64_t>(i) == last + 1) resume_move = d;
+    else if (static_cast<std::int64_t>(i) < first || static_cast<std::int64_t>(i) > last) max_move = std::max(max_move, d);
+    else EXPECT_EQ(d, 0.0) << "the expert's tool moved while paused, step " << i;
+  }
+  EXPECT_GT(max_move, 0.0);
+  EXPECT_LE(resume_move, max_move) << "the expert's tool jumped when the pause ended";
 }
 
 // A force mode on a stylus with no force (the pen) falls back to visual guidance (mode 3) and

@@ -1,6 +1,8 @@
 // session::LessonClock and the live lesson's simulated student. See lesson_clock.h.
 #include "dentar/session/lesson_clock.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -97,6 +99,51 @@ bool LessonStudentDevice::read(haptics::DeviceState& out) noexcept {
     }
   }
   return s_->read(out);
+}
+
+LessonPauseDevice::LessonPauseDevice(haptics::HapticDevice& inner, const std::vector<training::Annotation>& annotations)
+    : inner_(&inner) {
+  for (std::size_t i = 0; i < annotations.size(); ++i)
+    if (annotations[i].pause_s > 0) points_.push_back({annotations[i].time_s, annotations[i].pause_s, static_cast<int>(i)});
+  std::stable_sort(points_.begin(), points_.end(), [](const Point& a, const Point& b) { return a.time_s < b.time_s; });
+}
+
+bool LessonPauseDevice::read(haptics::DeviceState& out) noexcept {
+  const bool ok = inner_->read(out);
+  const bool down = (out.buttons & haptics::kButtonSecondary) != 0;
+  const double t = out.time_s;
+  if (until_s_ >= 0) {  // in a pause point: ends after its time, or on a press and release of the button
+    if (down && !was_down_) pressed_in_pause_ = true;
+    const bool released = pressed_in_pause_ && !down;
+    if (t >= until_s_ || released || !std::isfinite(t)) {
+      if (released && t < until_s_) by_button_.fetch_add(1, std::memory_order_relaxed);
+      done_s_ += std::max(0.0, std::min(t, until_s_) - started_s_);
+      paused_s_.store(done_s_, std::memory_order_relaxed);
+      until_s_ = -1;
+      left_s_.store(0, std::memory_order_relaxed);
+      pausing_.store(-1, std::memory_order_release);
+    } else {
+      left_s_.store(until_s_ - t, std::memory_order_relaxed);
+      paused_s_.store(done_s_ + (t - started_s_), std::memory_order_relaxed);
+    }
+  }
+  if (until_s_ < 0 && next_ < points_.size() && std::isfinite(t)) {
+    if (const haptics::Engine* e = engine_.load(); e != nullptr) {
+      const haptics::HapticSnapshot s = e->snapshot();
+      if (s.steps_done > 0 && s.mode != 0 && points_[next_].time_s <= s.expert_time_s) {
+        const Point& p = points_[next_++];
+        until_s_ = t + p.pause_s;
+        started_s_ = t;
+        pressed_in_pause_ = false;
+        taken_.fetch_add(1, std::memory_order_relaxed);
+        left_s_.store(p.pause_s, std::memory_order_relaxed);
+        pausing_.store(p.annotation, std::memory_order_release);
+      }
+    }
+  }
+  was_down_ = down;
+  if (until_s_ >= 0) out.buttons |= haptics::kButtonSecondary;
+  return ok;
 }
 
 Result<haptics::DeviceLimits> lesson_student_limits() {

@@ -185,6 +185,16 @@ struct LiveSummary {
   double lesson_waiting_pct = 0;
   std::int64_t follow_samples = 0;
   double follow_mean_mm = 0, follow_p95_mm = 0, follow_max_mm = 0;
+  // The lesson's pause points taken (the expert's clock held, device time, s; how many the
+  // student ended early with the pause button) and its text annotations shown on the HUD
+  // (annotation time, expert's clock and run time when shown, s; the text).
+  int lesson_pauses_taken = 0, lesson_pauses_resumed_by_button = 0;
+  double lesson_paused_s = 0;
+  struct LessonNote {
+    double time_s = 0, expert_s = 0, run_s = 0;
+    std::string text;
+  };
+  std::vector<LessonNote> lesson_notes;
   // The display path used ("gl" or "cpu"), why (the fallback's reason), and
   // what crossed between GPU and CPU over the run (compositor counters).
   std::string display_path, display_note;

@@ -86,6 +86,50 @@ class LessonStudentDevice final : public haptics::HapticDevice {
   std::atomic<const haptics::Engine*> engine_{nullptr};
 };
 
+// A lesson's pause points, live (docs/training_modes.md): in front of the engine's device, it
+// holds the stylus's pause button (kButtonSecondary) from the moment the expert's clock
+// reaches a pause point (the engine's snapshot: lock-free) for the point's pause_s of device
+// time, or until the student presses and releases the pause button, whichever comes first.
+// The engine pauses the mode while the button is down (its clock stops, the mode's force fades
+// out over ramp_s and back in: no jump), and the held button is what the session log
+// records, so a replay repeats the pause bit-exactly, as `dentar lesson run`'s simulated
+// student holds it offline. read() runs on the engine's thread: no allocation, lock or wait
+// (the pause points are copied at construction). The figures are atomics for the HUD.
+class LessonPauseDevice final : public haptics::HapticDevice {
+ public:
+  LessonPauseDevice(haptics::HapticDevice& inner, const std::vector<training::Annotation>& annotations);
+  void attach(const haptics::Engine* engine) { engine_.store(engine); }
+  std::string name() const override { return inner_->name(); }
+  const haptics::DeviceLimits& limits() const override { return inner_->limits(); }
+  bool read(haptics::DeviceState& out) noexcept override;
+  void write_force(const Eigen::Vector3d& f) noexcept override { inner_->write_force(f); }
+  bool recorded_watchdog() const noexcept override { return inner_->recorded_watchdog(); }
+  std::string status() const override { return inner_->status(); }
+
+  // The annotation whose pause holds the clock now (-1: none) and the seconds it has left.
+  int pausing() const { return pausing_.load(std::memory_order_acquire); }
+  double pause_left_s() const { return left_s_.load(std::memory_order_relaxed); }
+  int pauses_taken() const { return taken_.load(std::memory_order_relaxed); }
+  double paused_s() const { return paused_s_.load(std::memory_order_relaxed); }  // device time held, all pauses
+  int resumed_by_button() const { return by_button_.load(std::memory_order_relaxed); }
+
+ private:
+  struct Point {
+    double time_s, pause_s;
+    int annotation;
+  };
+  haptics::HapticDevice* inner_;
+  std::vector<Point> points_;  // pause points by time; read-only once built
+  std::atomic<const haptics::Engine*> engine_{nullptr};
+  // The engine's thread only:
+  std::size_t next_ = 0;
+  double until_s_ = -1, started_s_ = 0, done_s_ = 0;
+  bool was_down_ = false, pressed_in_pause_ = false;
+  // Published:
+  std::atomic<int> pausing_{-1}, taken_{0}, by_button_{0};
+  std::atomic<double> left_s_{0}, paused_s_{0};
+};
+
 // The simulated student of a live lesson is on the "touch" device profile (its limits and
 // plant, as `dentar lesson run`'s default): its limits, and the student starting 1 mm beside
 // the expert's first pose.
