@@ -12,6 +12,7 @@
 #include "dentar/haptics/session_log.h"
 #include "dentar/live/live_app.h"
 #include "dentar/session/finish.h"
+#include "dentar/training/lesson.h"
 #include "sound_cli.h"
 
 namespace dentar::tools {
@@ -46,6 +47,8 @@ void add_live(CLI::App& app, int& exit_code) {
       "  dentar offline --footage out/rec --out out/rec_offline      # replays the recording\n"
       "  dentar live --camera live:out/clip/camera.avi --station out/clip/station.json --loop --stylus sim \\\n"
       "              --exercise incisor_partial_crown --hand-skill 0.5 --hand-style 1 --hand-seed 7 --record out/inc\n"
+      "  dentar live --camera live:out/clip/camera.avi --station out/clip/station.json --stylus sim \\\n"
+      "              --lesson builtin:molar_access_opening --mode 2 --record out/lesson   # a lesson, mode 2\n"
       "Keys: space = pedal (drill), Esc or closing the window = stop.");
   sub->add_option("--camera", c->o.camera, "camera:N, /dev/videoN, or live:VIDEO (footage paced as a camera)");
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
@@ -105,6 +108,13 @@ void add_live(CLI::App& app, int& exit_code) {
                   "exercise of the session: its tooth is drilled (incisor_partial_crown: the incisor) and\n"
                   "--stylus sim works its steps; recorded in recording.json; with --record the session is scored\n"
                   "against it into DIR/score.json and score.html; a built-in name or a JSON file; default: the molar");
+  sub->add_option("--lesson", c->o.lesson,
+                  "train on a lesson (a folder made by `dentar lesson make`, or builtin:EXERCISE): the expert's tool\n"
+                  "is replayed in the engine in --mode; --stylus sim is a simulated student following it");
+  sub->add_option("--mode", c->o.lesson_mode,
+                  "the lesson's training mode: 1 visual replay, 2 passive guidance, 3 active following, 4 force "
+                  "reversal, 5 hints (docs/training_modes.md)")
+      ->check(CLI::Range(1, 5));
   sub->add_option("--hand-skill", c->o.hand_skill,
                   "--stylus sim with --exercise: the simulated person's skill, 1 = expert (default) .. 0 = novice");
   sub->add_option("--hand-style", c->o.hand_style,
@@ -233,6 +243,15 @@ void add_live(CLI::App& app, int& exit_code) {
         return;
       }
     }
+    if (!o.lesson.empty()) {  // a lesson that does not load is bad input (exit 2), before any window
+      auto p = training::resolve_lesson_path(o.lesson);
+      auto l = p ? training::load_lesson(*p) : Result<training::Lesson>(Error{p.error()});
+      if (!l) {
+        print_error("live", "--lesson " + o.lesson + ": " + l.error());
+        exit_code = 2;
+        return;
+      }
+    }
     if (!o.record_dir.empty() && !c->no_score) session::remove_old_score(o.record_dir);
     if (!c->db.db.empty() && o.record_dir.empty()) {
       print_error("live", "--db needs --record DIR: the recorded session folder is what is scored and stored");
@@ -263,25 +282,33 @@ void add_live(CLI::App& app, int& exit_code) {
                 << "\n";
       for (const auto& w : s.warnings) std::cout << "warning: " << w << "\n";
     }
-    // A finished recorded session is scored (the recording is complete
-    // before this; a failure to score is a warning, never a failed run).
-    if (!o.record_dir.empty() && !c->no_score) {
-      namespace fs = std::filesystem;
-      session::DriverScoreInput in;
-      in.session = (fs::path(o.record_dir) / "session.dlog").string();
-      in.out_dir = o.record_dir;
-      in.exercise = o.exercise;
-      in.frames_csv = (fs::path(o.record_dir) / "frames.csv").string();
-      in.station = (fs::path(o.record_dir) / "station.json").string();
-      const session::DriverScore d = session::score_after_run(in);
-      if (d.ok)
-        std::cout << d.line << "\n";
-      else
-        std::cout << "warning: " << d.warning << "\n";
-    } else if (o.record_dir.empty() && !o.quiet) {
+    // The finish step (session/finish.h): a finished recorded session is scored
+    // (the recording is complete before this; a failure to score is a warning,
+    // never a failed run), then stored with --db.
+    namespace fs = std::filesystem;
+    session::DriverScoreInput in;
+    in.session = (fs::path(o.record_dir) / "session.dlog").string();
+    in.out_dir = o.record_dir;
+    in.exercise = o.exercise;
+    in.frames_csv = (fs::path(o.record_dir) / "frames.csv").string();
+    in.station = (fs::path(o.record_dir) / "station.json").string();
+    const bool score = !o.record_dir.empty() && !c->no_score;
+    if (o.record_dir.empty() && !o.quiet)
       std::cout << "not scored: the session is kept only with --record DIR (then DIR/score.html)\n";
+    if (!c->db.db.empty()) announce_lock_waits("live");
+    const session::StoreTarget target{c->db.db, c->db.station_db, c->db.student, c->db.station_id, c->db.move};
+    const session::FinishOutcome f = session::finish_run(score ? &in : nullptr, target, o.record_dir, "",
+                                                         [&](const std::string& s) {
+                                                           if (!o.quiet) std::cout << "live: " << s << "\n";
+                                                         });
+    if (f.scored) std::cout << (f.score.ok ? f.score.line : "warning: " + f.score.warning) << "\n";
+    exit_code = 0;
+    if (f.stored) {
+      if (f.store.exit_code != 0) print_error("live", f.store.error);
+      else if (!f.store.warning.empty()) print_error("live", "warning: " + f.store.warning);
+      if (f.store.exit_code == 0) std::cout << "live: " << f.store.line << "\n";
+      exit_code = f.store.exit_code;
     }
-    exit_code = c->db.db.empty() ? 0 : store_finished_session("live", c->db, o.record_dir, "", o.quiet);
   });
 }
 

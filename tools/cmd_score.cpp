@@ -9,6 +9,7 @@
 #include "commands.h"
 #include "dentar/training/report.h"
 #include "dentar/session/finish.h"
+#include "dentar/session/frames_csv.h"
 
 namespace dentar::tools {
 namespace {
@@ -54,6 +55,7 @@ void fill_from_folder(training::ScoreOptions& o) {
 
 int run_score(const ScoreCli& c) {
   training::ScoreOptions opt = c.opt;
+  opt.read_frames = session::read_view_frames;  // frames.csv's one reader
   fill_from_folder(opt);
   auto r = training::score_session(opt);
   if (!r) {

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "dentar/haptics/session_log.h"
+#include "dentar/session/finish.h"
 #include "dentar/store/db_url.h"
 #include "dentar/store/station.h"
 #include "dentar/store/store.h"
@@ -133,50 +133,18 @@ int store_finished_session(const std::string& cmd, const DbCli& c, const std::st
     session = found->session;
     report_dir = found->report_dir;
   }
-  std::error_code ec;
-  const fs::path dir = fs::is_directory(session, ec) ? fs::path(session) : fs::path(session).parent_path();
-  const fs::path rep = report_dir.empty() ? dir : fs::path(report_dir);
-  if (!fs::exists(rep / "score.json", ec)) {
-    if (!quiet) std::cout << cmd << ": scoring " << session << " before storing it\n";
-    training::ScoreOptions so;
-    so.session = session;
-    so.out_dir = report_dir;
-    auto sc = training::score_session(so);
-    if (!sc) {
-      print_error(cmd, "scoring " + session + " for the store: " + sc.error() + " (the session folder is kept)");
-      // A damaged or foreign log is bad input (2); a log that reads but cannot be scored, a failed job (1).
-      const fs::path log = fs::is_directory(session, ec) ? fs::path(session) / "session.dlog" : fs::path(session);
-      return haptics::read_session_log(log.string()) ? 1 : 2;
-    }
-  }
-  store::ImportOptions io;
-  io.student = c.student;
-  io.station = c.station_id;
-  io.report_dir = report_dir;
-  auto rec = store::record_from_session_dir(session, io);
-  if (!rec) {
-    print_error(cmd, rec.error());
-    return 2;
-  }
-  const bool local_only = c.station_db.empty();
   announce_lock_waits(cmd);
-  // One open of the store written to (this station's own store for a server): the
-  // another-student / --move check, the write and the forward happen on it. A store
-  // that is damaged, foreign or newer is bad input (2, as `db status` and `serve` say
-  // for the same file); one that is locked or cannot be reached, a failed job (1).
-  store::StoreOptions so;
-  so.move = c.move;
-  store::OpenFault fault = store::OpenFault::None;
-  auto r = store::store_session(*rec, local_only ? c.db : c.station_db, local_only ? "" : c.db, so, &fault);
-  if (!r) {
-    print_error(cmd, "storing " + session + ": " + r.error() + " (the session folder " + dir.string() + " is kept)");
-    return open_fault_exit_code(fault);
+  // The finish step's store half (session/finish.h): scored first when it has no score.json.
+  const session::StoreTarget t{c.db, c.station_db, c.student, c.station_id, c.move};
+  const session::StoreOutcome r = session::store_after_score(t, session, report_dir, [&](const std::string& s) {
+    if (!quiet) std::cout << cmd << ": " << s << "\n";
+  });
+  if (r.exit_code != 0) {
+    print_error(cmd, r.error);
+    return r.exit_code;
   }
-  if (!r->warning.empty()) print_error(cmd, "warning: " + r->warning);
-  const std::string& moved_from = r->moved_from;
-  std::cout << cmd << ": session " << rec->key.substr(0, 12) << " of " << rec->student << " ("
-            << rec->exercise << ", " << rec->points << " / " << rec->max_points << " points): "
-            << (moved_from.empty() ? "" : "moved from student " + moved_from + "; ") << r->message << "\n";
+  if (!r.warning.empty()) print_error(cmd, "warning: " + r.warning);
+  std::cout << cmd << ": " << r.line << "\n";
   return 0;
 }
 

@@ -427,90 +427,35 @@ Result<ar::StationScene> calibration_station(const CalibrateLiveOptions& o,
   return st;
 }
 
-}  // namespace
 
-Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
-  if (auto v = o.validate(); !v.empty()) return Error{"calibrate live: " + v};
-  CalibrateLiveSummary sum;
-  auto say = [&](const std::string& s) {
-    sum.log.push_back(s);
-    if (!o.quiet) std::fprintf(stderr, "dentar calibrate live: %s\n", s.c_str());
-  };
-
-  // ---- station ----
-  auto str = calibration_station(o, say);
-  if (!str) return Error{str.error()};
-  ar::StationScene st = std::move(*str);
-  const cal::StationCalibration nominal = st.calibration;
-
-  // ---- device ----
-  const bool sim = o.device == "sim";
-  cal::StationCalibration truth;
+// A live calibration's state over its steps (main thread; the poller and the
+// capture thread feed it): the station being calibrated, the devices, the
+// window, and what one step hands the next.
+struct CalSession {
+  const CalibrateLiveOptions& o;
+  CalibrateLiveSummary& sum;
+  std::function<void(const std::string&)> say;
+  ar::StationScene st;
+  bool sim = false;
+  cal::StationCalibration truth;  // sim: the hidden truth
   std::unique_ptr<SimInstructor> instructor;
   std::unique_ptr<Poller> poller;
   haptics::DeviceLimits real_limits;  // the connected device's (reach check after register)
   std::string real_name;
-  if (sim) {
-    truth = cal::simulated_truth(nominal, o.seed);
-    instructor = std::make_unique<SimInstructor>(truth, o.seed, o.pace);
-    say("simulated instructor: the hidden truth is the station perturbed with seed " + std::to_string(o.seed));
-  } else {
-    haptics::DeviceOpenOptions dopt;
-    dopt.name_or_serial = o.device_name;
-    auto d = haptics::open_haptic_device(o.device, dopt);
-    if (!d) return Error{"calibrate live: haptic device " + o.device + ": " + d.error()};
-    real_limits = (*d)->limits();
-    real_name = (*d)->name();
-    poller = std::make_unique<Poller>(std::move(*d), false);
-  }
   std::unique_ptr<haptics::Pedal> pedal;
-  if (o.pedal != "keyboard") {
-    auto p = haptics::open_pedal(o.pedal);
-    if (!p) return Error{"calibrate live: --pedal " + o.pedal + ": " + p.error()};
-    pedal = std::move(*p);
-  }
-
-  // ---- camera (background only) ----
-  std::unique_ptr<ar::CaptureThread> capture;
+  std::unique_ptr<ar::CaptureThread> capture;  // the camera (background only)
   int vw = 1280, vh = 720;
-  if (!o.camera.empty()) {
-    ar::FrameSourceOptions so;
-    auto src = ar::FrameSource::open(o.camera, so);
-    if (!src) return Error{"calibrate live: --camera " + o.camera + ": " + src.error()};
-    vw = (*src)->width();
-    vh = (*src)->height();
-    ar::CaptureThreadOptions cto;
-    cto.reopen = true;  // footage loops, a camera comes back
-    capture = std::make_unique<ar::CaptureThread>(std::move(*src), o.camera, so, cto);
-    capture->start();
-  }
-
-  // ---- window ----
-  // A small camera image is shown enlarged (to 1024 px wide) so the HUD's text leaves the view visible.
-  const int win_w = std::max(vw, 1024), win_h = static_cast<int>(std::lround(double(vh) * win_w / std::max(vw, 1)));
-  auto win_r = HudWindow::open("DentAR station calibration", vw, vh, win_w, win_h, o.display, o.vsync);
-  if (!win_r) return Error{"calibrate live: " + win_r.error()};
-  HudWindow& win = **win_r;
-  std::signal(SIGINT, on_cal_signal);
-  std::signal(SIGTERM, on_cal_signal);
-  g_cal_signal.store(0);
-  if (!o.screenshot_dir.empty()) fs::create_directories(o.screenshot_dir);
-
-  const double t_start = wall_s();
+  std::unique_ptr<HudWindow> window;
+  double t_start = 0;
   Eigen::Isometry3d last_pose = Eigen::Isometry3d::Identity();
-  last_pose.translation() = cal::simulated_pivot_divot_dev() + Eigen::Vector3d(0, 0.05, 0);
-  const Eigen::Vector3d crown_tooth(0, 0, 4e-3);
-  bool all_pass = true;
-  bool aborted = false;
-  const ImVec4 green(0.3f, 1, 0.3f, 1), yellow(1, 0.85f, 0.2f, 1), red(1, 0.35f, 0.35f, 1);
+  bool all_pass = true, aborted = false;
   std::uint32_t last_buttons = 0;
   bool last_pedal = false;
   bool record_failure = false;                 // a failed check is written (dated FAIL)
   std::optional<cal::CameraFile> camera_file;  // the camera step's result
-  const std::string camera_id = o.camera.empty() ? std::string() : camera_identity(o.camera);
-  const ar::BoardSpec board_spec = *ar::parse_board_spec(o.board);
-  std::mt19937_64 mirror_rng(o.seed * 131 + 7);
-
+  std::string camera_id;
+  ar::BoardSpec board_spec;
+  std::mt19937_64 mirror_rng;
   // Mirror step with a real camera: the mirror tag's pose against the mannequin's, per frame.
   struct {
     bool valid = false;
@@ -518,7 +463,60 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
     Eigen::Isometry3d T_mtag_man = Eigen::Isometry3d::Identity();
   } mirror_track;
   std::unique_ptr<ar::TagDetector> station_det;
-  auto track_mirror = [&](const ar::Frame& f) {
+
+  CalSession(const CalibrateLiveOptions& o_, CalibrateLiveSummary& sum_) : o(o_), sum(sum_) {
+    say = [this](const std::string& s) {
+      sum.log.push_back(s);
+      if (!o.quiet) std::fprintf(stderr, "dentar calibrate live: %s\n", s.c_str());
+    };
+  }
+
+  // The device (the simulated instructor, or a haptic device), the pedal, the camera and the window.
+  Status open() {
+    const cal::StationCalibration nominal = st.calibration;
+    sim = o.device == "sim";
+    if (sim) {
+      truth = cal::simulated_truth(nominal, o.seed);
+      instructor = std::make_unique<SimInstructor>(truth, o.seed, o.pace);
+      say("simulated instructor: the hidden truth is the station perturbed with seed " + std::to_string(o.seed));
+    } else {
+      haptics::DeviceOpenOptions dopt;
+      dopt.name_or_serial = o.device_name;
+      auto d = haptics::open_haptic_device(o.device, dopt);
+      if (!d) return Error{"calibrate live: haptic device " + o.device + ": " + d.error()};
+      real_limits = (*d)->limits();
+      real_name = (*d)->name();
+      poller = std::make_unique<Poller>(std::move(*d), false);
+    }
+    if (o.pedal != "keyboard") {
+      auto p = haptics::open_pedal(o.pedal);
+      if (!p) return Error{"calibrate live: --pedal " + o.pedal + ": " + p.error()};
+      pedal = std::move(*p);
+    }
+    if (!o.camera.empty()) {
+      ar::FrameSourceOptions so;
+      auto src = ar::FrameSource::open(o.camera, so);
+      if (!src) return Error{"calibrate live: --camera " + o.camera + ": " + src.error()};
+      vw = (*src)->width();
+      vh = (*src)->height();
+      ar::CaptureThreadOptions cto;
+      cto.reopen = true;  // footage loops, a camera comes back
+      capture = std::make_unique<ar::CaptureThread>(std::move(*src), o.camera, so, cto);
+      capture->start();
+    }
+    // A small camera image is shown enlarged (to 1024 px wide) so the HUD's text leaves the view visible.
+    const int win_w = std::max(vw, 1024), win_h = static_cast<int>(std::lround(double(vh) * win_w / std::max(vw, 1)));
+    auto win_r = HudWindow::open("DentAR station calibration", vw, vh, win_w, win_h, o.display, o.vsync);
+    if (!win_r) return Error{"calibrate live: " + win_r.error()};
+    window = std::move(*win_r);
+    last_pose.translation() = cal::simulated_pivot_divot_dev() + Eigen::Vector3d(0, 0.05, 0);
+    camera_id = o.camera.empty() ? std::string() : camera_identity(o.camera);
+    board_spec = *ar::parse_board_spec(o.board);
+    mirror_rng.seed(o.seed * 131 + 7);
+    return {};
+  }
+
+  void track_mirror(const ar::Frame& f) {
     if (!station_det) {
       ar::TagDetectorOptions dopt;
       dopt.response = ar::CameraResponse::kSrgb;  // as dentar live's tracker decodes the camera
@@ -538,15 +536,73 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       mirror_track.T_mtag_man = mir.T_cam_body.inverse() * man.T_cam_body;
       mirror_track.when_s = wall_s();
     }
-  };
+  }
 
-  for (const std::string& step : o.steps) {
-    CalibrateLiveStep rec;
+  // sim: the result against the hidden truth (the summary's truth_* figures).
+  void truth_figures();
+  // The station file (and the camera file) written when every step passed or a
+  // check failed (dated); the summary JSON.
+  Status write_results();
+};
+
+const Eigen::Vector3d kCrownTooth(0, 0, 4e-3);  // where the TRE is predicted: the crown, tooth frame
+
+// One step of a live calibration: its targets and text, the simulated
+// instructor's plan, the window loop (takes, HUD), and its result with the
+// step's real gates. The references name the session's parts as the steps use them.
+class StepRun {
+ public:
+  StepRun(CalSession& session, const std::string& step_name)
+      : S(session), o(S.o), sum(S.sum), say(S.say), st(S.st), sim(S.sim), truth(S.truth), instructor(S.instructor),
+        poller(S.poller), real_limits(S.real_limits), real_name(S.real_name), pedal(S.pedal), capture(S.capture),
+        vw(S.vw), vh(S.vh), win(*S.window), t_start(S.t_start), last_pose(S.last_pose), all_pass(S.all_pass),
+        aborted(S.aborted), last_buttons(S.last_buttons), last_pedal(S.last_pedal), record_failure(S.record_failure),
+        camera_file(S.camera_file), camera_id(S.camera_id), board_spec(S.board_spec), mirror_rng(S.mirror_rng),
+        mirror_track(S.mirror_track), step(step_name),
+        n_landmarks(static_cast<int>(st.fixtures.landmarks_tooth.size())) {
     rec.step = step;
-    // Targets and the instructor's plan.
-    std::vector<Eigen::Vector3d> known;  // register: divots (man); tooth: landmarks (tooth)
-    std::string title, instruction;
-    Eigen::Vector3d target_fit;  // where the TRE is predicted, in the known points' frame
+  }
+
+  // Runs the step. false: the run stops here (aborted, a step that did not
+  // pass); errors are the run's (exit 2).
+  Result<bool> run() {
+    describe();
+    if (auto s = plan_instructor(); !s) return Error{s.error()};
+    say("step " + step + ": " + title);
+    what = step == "register" ? "divot" : step == "tooth" ? "landmark" : step == "mirror" ? "mirror point" : "check point";
+    touches = cal::LiveTouches(what, static_cast<int>(known.size()));
+    if (step == "camera")
+      if (auto s = camera_state(); !s) return Error{s.error()};
+    t0 = wall_s();
+    loop();
+    rec.seconds = wall_s() - t0;
+    if (aborted) {
+      rec.message = "stopped (" + sum.stop_reason + ")";
+      sum.steps.push_back(rec);
+      all_pass = false;
+      return false;
+    }
+    if (!shot.empty()) cv::imwrite((fs::path(o.screenshot_dir) / (step + ".png")).string(), shot);
+    // ---- the step's result, with its real gates ----
+    ar::CalibrationStepReport rep{step, iso_now(), false, "", {}};
+    if (auto s = result(rep); !s) return Error{s.error()};
+    rep.pass = rec.pass;
+    rep.figures.emplace_back("instructor_s", rec.seconds);
+    rec.figures = rep.figures;
+    say("step " + step + (rec.pass ? " passed" : " did NOT pass") + " after " + fmt(rec.seconds, 1) + " s: " + rec.message);
+    sum.steps.push_back(rec);
+    if (!rec.pass) {
+      if (record_failure) st.set_step_report(rep);  // the failed check, dated, so the station is not handed out
+      all_pass = false;
+      return false;
+    }
+    st.set_step_report(rep);
+    return true;
+  }
+
+ private:
+  // Targets and the instructor's text.
+  void describe() {
     if (step == "pivot") {
       title = "Stylus tip (pivot)";
       instruction = "Seat the bur tip in the pivot divot and rock the stylus slowly in all directions\n"
@@ -589,8 +645,10 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       instruction = "Touch each known point in the order shown; the HUD shows how far the calibrated bur tip is\n"
                     "from it. The station passes when the mean error is within its threshold.";
     }
-    const int n_landmarks = static_cast<int>(st.fixtures.landmarks_tooth.size());
-    Plan plan;
+  }
+
+  // The simulated instructor's motions and presses for this step.
+  Status plan_instructor() {
     if (sim && step != "camera") {
       if (step == "pivot") {
         plan = instructor->pivot(last_pose);
@@ -628,42 +686,26 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       poller->hold_at(std::numeric_limits<double>::infinity());
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
-    say("step " + step + ": " + title);
-    cal::LivePivot pivot;
-    bool collecting = false;
-    const std::string what = step == "register" ? "divot" : step == "tooth" ? "landmark" : step == "mirror" ? "mirror point" : "check point";
-    cal::LiveTouches touches(what, static_cast<int>(known.size()));
-    std::vector<Eigen::Vector3d> mirror_mtag;  // mirror: the touches in the mirror tag's frame
-    std::vector<double> check_err;             // check: error at each point, m
-    // ---- camera step state ----
-    std::unique_ptr<cal::LiveCameraViews> cam;
-    std::unique_ptr<ar::TagDetector> grid_det;
-    std::future<cal::ModelSelection> pending;
-    int pending_views = 0;
-    cal::ModelSelection last_sel;
-    bool finish = false, press_latch = false, moving_press_done = false;
-    int similar_in_row = 0;
-    if (step == "camera") {
-      cal::LiveCameraOptions lco;
-      lco.target_views = o.camera_views;
-      cam = std::make_unique<cal::LiveCameraViews>(vw, vh, lco);
-      if (const auto* g = std::get_if<cal::AprilGridSpec>(&board_spec)) {
-        ar::TagDetectorOptions dopt;
-        dopt.families = {*ar::parse_tag_family(g->family)};
-        dopt.decimation = 1.0;
-        auto d = ar::TagDetector::create(dopt);
-        if (!d) return Error{"calibrate live: " + d.error()};
-        grid_det = std::make_unique<ar::TagDetector>(std::move(*d));
-      }
+    return {};
+  }
+
+  // The camera step's views and board detector.
+  Status camera_state() {
+    cal::LiveCameraOptions lco;
+    lco.target_views = o.camera_views;
+    cam = std::make_unique<cal::LiveCameraViews>(vw, vh, lco);
+    if (const auto* g = std::get_if<cal::AprilGridSpec>(&board_spec)) {
+      ar::TagDetectorOptions dopt;
+      dopt.families = {*ar::parse_tag_family(g->family)};
+      dopt.decimation = 1.0;
+      auto d = ar::TagDetector::create(dopt);
+      if (!d) return Error{"calibrate live: " + d.error()};
+      grid_det = std::make_unique<ar::TagDetector>(std::move(*d));
     }
-    cal::RegistrationSummary fit;
-    std::string refusal;
-    std::size_t next_press = 0;
-    double last_sim_press_wall = -1e300;  // wall time of the simulated instructor's last press
-    double last_seen = -1e300;
-    const double t0 = wall_s();
-    bool step_done = false;
-    cv::Mat shot;
+    return {};
+  }
+
+  void loop() {
     while (!step_done) {
       if (win.should_close()) {
         sum.stop_reason = "window closed";
@@ -745,199 +787,203 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
       last_pedal = pedal_now;
       if (s.valid && (s.buttons & ~last_buttons) != 0) take = true;
       last_buttons = s.valid ? s.buttons : 0;
-
-      if (step == "camera") {
-        if (take) {
-          const cal::CameraTake r = cam->take();
-          say(r.message);
-          if (r.ok) {
-            refusal.clear();
-            similar_in_row = 0;
-          } else {
-            refusal = r.message;
-            if (r.message.find("too similar") != std::string::npos) ++similar_in_row;
-          }
-        }
-        // The model selection (seconds) runs beside the window; its trust map drives the
-        // suggestion and the stop.
-        if (pending.valid() && pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-          last_sel = pending.get();
-          cam->set_trust(last_sel.trust, pending_views);
-        }
-        const int min_views = cam->options().intrinsics.min_views;
-        if (!pending.valid() && cam->views() >= min_views && cam->views() != cam->trust_views()) {
-          pending_views = cam->views();
-          pending = std::async(std::launch::async, [v = cam->taken(), vw, vh] {
-            return cal::select_camera_model(v, vw, vh, cal::ModelSelectionOptions{});
-          });
-        }
-        if (finish) {
-          if (cam->views() >= min_views) step_done = true;
-          else refusal = "F: at least " + std::to_string(min_views) + " views are needed (" + std::to_string(cam->views()) + " taken)";
-          finish = false;
-        }
-        if (cam->done()) step_done = true;
-      } else if (step == "pivot") {
-        if (take) {  // the tip is seated: (re)start collecting
-          pivot = cal::LivePivot();
-          collecting = true;
-          say("pivot: collecting poses");
-        }
-        if (collecting)
-          for (const auto& x : fresh)
-            if (x.valid) pivot.add(x.T_dev_sty);
-        if (pivot.done()) step_done = true;
-      } else {
-        for (const auto& x : fresh) {
-          const Eigen::Vector3d tip_dev = (x.T_dev_sty * st.calibration.T_sty_tip).translation();
-          // register: device frame; the others: mannequin frame (through the registration).
-          const Eigen::Vector3d tip = step == "register" ? tip_dev : Eigen::Vector3d(st.calibration.T_man_dev * tip_dev);
-          touches.add_sample(x.t_s, x.valid ? tip : Eigen::Vector3d::Constant(NAN));
-        }
-        // The mirror's pose at the touch: tracked (the mirror tag and the mannequin's tags in
-        // the latest frame) or, simulated, the clamp's true pose with the tracking noise.
-        std::optional<Eigen::Isometry3d> T_mtag_man_now;
-        if (step == "mirror" && take) {
-          if (sim) {
-            const cal::StylusNoise noise;
-            T_mtag_man_now = (cal::simulated_mirror_clamp_man() *
-                              cal::random_perturbation(noise.tracking_sigma_rad * std::sqrt(2.0),
-                                                       noise.tracking_sigma_m * std::sqrt(2.0), mirror_rng))
-                                 .inverse();
-          } else if (mirror_track.valid && now - mirror_track.when_s < 0.3) {
-            T_mtag_man_now = mirror_track.T_mtag_man;
-          } else {
-            take = false;
-            refusal = "touch refused: the camera does not see both the mirror's tag and the mannequin's tags "
-                      "(turn the camera or the mirror so both are in view)";
-            say(refusal);
-          }
-        }
-        if (take) {
-          const int which = touches.next();
-          const cal::TouchResult r = touches.take();
-          if (r.ok) {
-            refusal.clear();
-            std::string line = what + " " + std::to_string(which) + " taken";
-            if (step == "register" || step == "tooth") {
-              fit = cal::running_fit(touches.taken_dev(), known, target_fit);
-              if (!fit.residuals_m.empty())
-                line += ": FRE " + fmt(fit.fre_m * 1e3, 3) + " mm, predicted TRE at the tooth " + fmt(fit.tre_m * 1e3, 3) + " mm";
-            } else if (step == "mirror") {
-              mirror_mtag.push_back(*T_mtag_man_now * touches.taken_dev().back());
-            } else {
-              const Eigen::Vector3d& p = touches.taken_dev().back();
-              Eigen::Vector3d err = p - known[static_cast<std::size_t>(which)];
-              if (which < n_landmarks)  // the error at the tooth, in the tooth frame
-                err = st.calibration.T_man_tooth.linear().transpose() * err;
-              check_err.push_back(err.norm());
-              double m = 0;
-              for (double e : check_err) m += e;
-              line += ": error " + fmt(check_err.back() * 1e3, 3) + " mm (mean so far " + fmt(m / check_err.size() * 1e3, 3) + " mm)";
-            }
-            say(line);
-          } else if (!touches.done()) {
-            refusal = r.message;
-            say(r.message);
-          }
-        }
-        if (touches.done()) step_done = true;
-      }
-
-      // ---- HUD ----
-      win.begin_frame();
-      ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
-      ImGui::SetNextWindowBgAlpha(0.7f);
-      ImGui::Begin("Station calibration", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
-      ImGui::Text("step %d of %zu: %s   (%.0f s)", static_cast<int>(sum.steps.size()) + 1, o.steps.size(), title.c_str(),
-                  now - t0);
-      ImGui::TextUnformatted(instruction.c_str());
-      ImGui::Separator();
-      if (step != "camera")
-        ImGui::TextColored(s.valid ? green : red, "stylus: %s", s.valid ? poller->name().c_str() : "no pose (device fault?)");
-      if (step == "camera") {
-        const cal::CoverageMap cm = cam->coverage();
-        ImGui::Text("views %d (stops itself from %d when the image is trusted)   refused %d", cam->views(),
-                    cam->options().target_views, cam->refused());
-        ImGui::TextColored(!cam->board_seen() ? red : !cam->last_layout_ok() ? red : cam->still() ? green : yellow, "%s",
-                           cam->status().c_str());
-        const cal::IntrinsicsSummary& run = cam->running();
-        if (run.calibrations_run > 0 && run.std_devs.size() >= 4)
-          ImGui::Text("RMS %.3f px   fx %.1f +- %.2f   fy %.1f +- %.2f   cx %.1f +- %.2f   cy %.1f +- %.2f px (1 sigma)",
-                      run.rms_px, run.camera.fx, run.std_devs[0], run.camera.fy, run.std_devs[1], run.camera.cx,
-                      run.std_devs[2], run.camera.cy, run.std_devs[3]);
-        else
-          ImGui::Text("RMS and the uncertainty of fx fy cx cy appear from view %d on", cam->options().intrinsics.min_views);
-        ImGui::Text("coverage: board points in %.0f%% of the image, %.0f%% of the tooth region", cm.image_fraction * 100,
-                    cm.tooth_fraction * 100);
-        if (cam->trust_views() > 0)
-          ImGui::Text("lens model (%d views, %s): trusted to %.1f px over %.0f%% of the image, %.0f%% of the tooth region",
-                      cam->trust_views(), last_sel.ok ? cal::distortion_model_name(last_sel.model) : "no model yet",
-                      cam->trust().max_error_px, cam->trust().trusted_fraction * 100, cam->trust().tooth_trusted_fraction * 100);
-        if (pending.valid()) ImGui::TextUnformatted("choosing the lens model on held-out views...");
-        int sc = 0, sr = 0;
-        std::string sug;
-        if (cam->suggestion(sc, sr, sug)) ImGui::TextColored(ImVec4(0.3f, 0.9f, 1, 1), "%s", sug.c_str());
-        if (!refusal.empty()) ImGui::TextColored(red, "%s", refusal.c_str());
-        ImGui::TextUnformatted("keys: SPACE / pedal take a view   F finish   Esc stop");
-      } else if (step == "pivot") {
-        const cal::PivotSummary& c = pivot.current();
-        ImGui::Text("poses %d   spread %.1f deg   weakest %.1f deg", pivot.poses(), c.spread_rad / kDeg,
-                    c.weakest_tilt_rad / kDeg);
-        if (c.ok) ImGui::Text("RMSE %.3f mm   predicted tip error %.3f mm (stops at %.2f mm)", c.rmse_m * 1e3,
-                              std::isfinite(pivot.tip_sd_m()) ? pivot.tip_sd_m() * 1e3 : 99.0,
-                              pivot.options().target_tip_sd_m * 1e3);
-        if (!collecting)
-          ImGui::TextColored(yellow, "seat the bur tip in the pivot divot, then press SPACE and start rocking");
-        else if (c.ok && c.rmse_m > 1e-3)
-          ImGui::TextColored(red, "the tip slipped out of the divot (RMSE %.2f mm): seat it and press SPACE to restart",
-                             c.rmse_m * 1e3);
-        else
-          ImGui::TextColored(pivot.done() ? green : yellow, "%s", pivot.hint().c_str());
-      } else {
-        for (int i = 0; i < touches.count(); ++i) {
-          const bool taken = i < touches.next(), current = i == touches.next();
-          const Eigen::Vector3d& k = known[static_cast<std::size_t>(i)];
-          ImGui::TextColored(taken ? green : current ? yellow : ImVec4(0.8f, 0.8f, 0.8f, 1), "%s %s %d  (%.1f, %.1f, %.1f) mm%s",
-                             taken ? "[x]" : current ? "[>]" : "[ ]", what.c_str(), i,
-                             k.x() * 1e3, k.y() * 1e3, k.z() * 1e3,
-                             step == "check" && taken && static_cast<std::size_t>(i) < check_err.size()
-                                 ? ("   error " + fmt(check_err[static_cast<std::size_t>(i)] * 1e3, 3) + " mm").c_str()
-                             : step == "mirror" && i == touches.count() - 1 ? "   (centre)"
-                             : taken && !fit.residuals_m.empty() && static_cast<std::size_t>(i) < fit.residuals_m.size()
-                                 ? ("   residual " + fmt(fit.residuals_m[static_cast<std::size_t>(i)] * 1e3, 2) + " mm").c_str()
-                                 : "");
-        }
-        if (step == "check" && !check_err.empty()) {
-          double m = 0;
-          for (double e : check_err) m += e;
-          m /= check_err.size();
-          const double thr = st.policy.check_threshold_m;
-          ImGui::TextColored(m <= thr ? green : red, "mean error %.3f mm (station threshold %.2f mm): %s so far", m * 1e3,
-                             thr * 1e3, m <= thr ? "PASS" : "FAIL");
-        }
-        if (!fit.residuals_m.empty())
-          ImGui::Text("FRE %.3f mm   predicted TRE at the tooth %.3f mm", fit.fre_m * 1e3, fit.tre_m * 1e3);
-        ImGui::TextColored(touches.still() ? green : yellow, "%s",
-                           touches.still() ? "stylus still: press SPACE to take the touch" : "stylus moving");
-        if (!refusal.empty()) ImGui::TextColored(red, "%s", refusal.c_str());
-      }
-      ImGui::End();
+      if (step == "camera") camera_tick(take);
+      else if (step == "pivot") pivot_tick(take, fresh);
+      else touch_tick(take, fresh, now);
+      draw_hud(s, now);
       const cv::Mat px = win.end_frame(step_done && !o.screenshot_dir.empty());
       if (!px.empty()) shot = px;
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
-    rec.seconds = wall_s() - t0;
-    if (aborted) {
-      rec.message = "stopped (" + sum.stop_reason + ")";
-      sum.steps.push_back(rec);
-      all_pass = false;
-      break;
-    }
-    if (!shot.empty()) cv::imwrite((fs::path(o.screenshot_dir) / (step + ".png")).string(), shot);
+  }
 
-    // ---- the step's result, with its real gates ----
-    ar::CalibrationStepReport rep{step, iso_now(), false, "", {}};
+  void track_mirror(const ar::Frame& f) { S.track_mirror(f); }
+
+  void camera_tick(bool take) {
+    if (take) {
+      const cal::CameraTake r = cam->take();
+      say(r.message);
+      if (r.ok) {
+        refusal.clear();
+        similar_in_row = 0;
+      } else {
+        refusal = r.message;
+        if (r.message.find("too similar") != std::string::npos) ++similar_in_row;
+      }
+    }
+    // The model selection (seconds) runs beside the window; its trust map drives the
+    // suggestion and the stop.
+    if (pending.valid() && pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+      last_sel = pending.get();
+      cam->set_trust(last_sel.trust, pending_views);
+    }
+    const int min_views = cam->options().intrinsics.min_views;
+    if (!pending.valid() && cam->views() >= min_views && cam->views() != cam->trust_views()) {
+      pending_views = cam->views();
+      pending = std::async(std::launch::async, [v = cam->taken(), w = vw, h = vh] {
+        return cal::select_camera_model(v, w, h, cal::ModelSelectionOptions{});
+      });
+    }
+    if (finish) {
+      if (cam->views() >= min_views) step_done = true;
+      else refusal = "F: at least " + std::to_string(min_views) + " views are needed (" + std::to_string(cam->views()) + " taken)";
+      finish = false;
+    }
+    if (cam->done()) step_done = true;
+  }
+
+  void pivot_tick(bool take, const std::vector<Poller::Sample>& fresh) {
+    if (take) {  // the tip is seated: (re)start collecting
+      pivot = cal::LivePivot();
+      collecting = true;
+      say("pivot: collecting poses");
+    }
+    if (collecting)
+      for (const auto& x : fresh)
+        if (x.valid) pivot.add(x.T_dev_sty);
+    if (pivot.done()) step_done = true;
+  }
+
+  void touch_tick(bool take, const std::vector<Poller::Sample>& fresh, double now) {
+    for (const auto& x : fresh) {
+      const Eigen::Vector3d tip_dev = (x.T_dev_sty * st.calibration.T_sty_tip).translation();
+      // register: device frame; the others: mannequin frame (through the registration).
+      const Eigen::Vector3d tip = step == "register" ? tip_dev : Eigen::Vector3d(st.calibration.T_man_dev * tip_dev);
+      touches.add_sample(x.t_s, x.valid ? tip : Eigen::Vector3d::Constant(NAN));
+    }
+    // The mirror's pose at the touch: tracked (the mirror tag and the mannequin's tags in
+    // the latest frame) or, simulated, the clamp's true pose with the tracking noise.
+    std::optional<Eigen::Isometry3d> T_mtag_man_now;
+    if (step == "mirror" && take) {
+      if (sim) {
+        const cal::StylusNoise noise;
+        T_mtag_man_now = (cal::simulated_mirror_clamp_man() *
+                          cal::random_perturbation(noise.tracking_sigma_rad * std::sqrt(2.0),
+                                                   noise.tracking_sigma_m * std::sqrt(2.0), mirror_rng))
+                             .inverse();
+      } else if (mirror_track.valid && now - mirror_track.when_s < 0.3) {
+        T_mtag_man_now = mirror_track.T_mtag_man;
+      } else {
+        take = false;
+        refusal = "touch refused: the camera does not see both the mirror's tag and the mannequin's tags "
+                  "(turn the camera or the mirror so both are in view)";
+        say(refusal);
+      }
+    }
+    if (take) {
+      const int which = touches.next();
+      const cal::TouchResult r = touches.take();
+      if (r.ok) {
+        refusal.clear();
+        std::string line = what + " " + std::to_string(which) + " taken";
+        if (step == "register" || step == "tooth") {
+          fit = cal::running_fit(touches.taken_dev(), known, target_fit);
+          if (!fit.residuals_m.empty())
+            line += ": FRE " + fmt(fit.fre_m * 1e3, 3) + " mm, predicted TRE at the tooth " + fmt(fit.tre_m * 1e3, 3) + " mm";
+        } else if (step == "mirror") {
+          mirror_mtag.push_back(*T_mtag_man_now * touches.taken_dev().back());
+        } else {
+          const Eigen::Vector3d& p = touches.taken_dev().back();
+          Eigen::Vector3d err = p - known[static_cast<std::size_t>(which)];
+          if (which < n_landmarks)  // the error at the tooth, in the tooth frame
+            err = st.calibration.T_man_tooth.linear().transpose() * err;
+          check_err.push_back(err.norm());
+          double m = 0;
+          for (double e : check_err) m += e;
+          line += ": error " + fmt(check_err.back() * 1e3, 3) + " mm (mean so far " + fmt(m / check_err.size() * 1e3, 3) + " mm)";
+        }
+        say(line);
+      } else if (!touches.done()) {
+        refusal = r.message;
+        say(r.message);
+      }
+    }
+    if (touches.done()) step_done = true;
+  }
+
+  void draw_hud(const Poller::Sample& s, double now) {
+    win.begin_frame();
+    ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
+    ImGui::SetNextWindowBgAlpha(0.7f);
+    ImGui::Begin("Station calibration", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
+    ImGui::Text("step %d of %zu: %s   (%.0f s)", static_cast<int>(sum.steps.size()) + 1, o.steps.size(), title.c_str(),
+                now - t0);
+    ImGui::TextUnformatted(instruction.c_str());
+    ImGui::Separator();
+    if (step != "camera")
+      ImGui::TextColored(s.valid ? green : red, "stylus: %s", s.valid ? poller->name().c_str() : "no pose (device fault?)");
+    if (step == "camera") {
+      const cal::CoverageMap cm = cam->coverage();
+      ImGui::Text("views %d (stops itself from %d when the image is trusted)   refused %d", cam->views(),
+                  cam->options().target_views, cam->refused());
+      ImGui::TextColored(!cam->board_seen() ? red : !cam->last_layout_ok() ? red : cam->still() ? green : yellow, "%s",
+                         cam->status().c_str());
+      const cal::IntrinsicsSummary& run = cam->running();
+      if (run.calibrations_run > 0 && run.std_devs.size() >= 4)
+        ImGui::Text("RMS %.3f px   fx %.1f +- %.2f   fy %.1f +- %.2f   cx %.1f +- %.2f   cy %.1f +- %.2f px (1 sigma)",
+                    run.rms_px, run.camera.fx, run.std_devs[0], run.camera.fy, run.std_devs[1], run.camera.cx,
+                    run.std_devs[2], run.camera.cy, run.std_devs[3]);
+      else
+        ImGui::Text("RMS and the uncertainty of fx fy cx cy appear from view %d on", cam->options().intrinsics.min_views);
+      ImGui::Text("coverage: board points in %.0f%% of the image, %.0f%% of the tooth region", cm.image_fraction * 100,
+                  cm.tooth_fraction * 100);
+      if (cam->trust_views() > 0)
+        ImGui::Text("lens model (%d views, %s): trusted to %.1f px over %.0f%% of the image, %.0f%% of the tooth region",
+                    cam->trust_views(), last_sel.ok ? cal::distortion_model_name(last_sel.model) : "no model yet",
+                    cam->trust().max_error_px, cam->trust().trusted_fraction * 100, cam->trust().tooth_trusted_fraction * 100);
+      if (pending.valid()) ImGui::TextUnformatted("choosing the lens model on held-out views...");
+      int sc = 0, sr = 0;
+      std::string sug;
+      if (cam->suggestion(sc, sr, sug)) ImGui::TextColored(ImVec4(0.3f, 0.9f, 1, 1), "%s", sug.c_str());
+      if (!refusal.empty()) ImGui::TextColored(red, "%s", refusal.c_str());
+      ImGui::TextUnformatted("keys: SPACE / pedal take a view   F finish   Esc stop");
+    } else if (step == "pivot") {
+      const cal::PivotSummary& c = pivot.current();
+      ImGui::Text("poses %d   spread %.1f deg   weakest %.1f deg", pivot.poses(), c.spread_rad / kDeg,
+                  c.weakest_tilt_rad / kDeg);
+      if (c.ok) ImGui::Text("RMSE %.3f mm   predicted tip error %.3f mm (stops at %.2f mm)", c.rmse_m * 1e3,
+                            std::isfinite(pivot.tip_sd_m()) ? pivot.tip_sd_m() * 1e3 : 99.0,
+                            pivot.options().target_tip_sd_m * 1e3);
+      if (!collecting)
+        ImGui::TextColored(yellow, "seat the bur tip in the pivot divot, then press SPACE and start rocking");
+      else if (c.ok && c.rmse_m > 1e-3)
+        ImGui::TextColored(red, "the tip slipped out of the divot (RMSE %.2f mm): seat it and press SPACE to restart",
+                           c.rmse_m * 1e3);
+      else
+        ImGui::TextColored(pivot.done() ? green : yellow, "%s", pivot.hint().c_str());
+    } else {
+      for (int i = 0; i < touches.count(); ++i) {
+        const bool taken = i < touches.next(), current = i == touches.next();
+        const Eigen::Vector3d& k = known[static_cast<std::size_t>(i)];
+        ImGui::TextColored(taken ? green : current ? yellow : ImVec4(0.8f, 0.8f, 0.8f, 1), "%s %s %d  (%.1f, %.1f, %.1f) mm%s",
+                           taken ? "[x]" : current ? "[>]" : "[ ]", what.c_str(), i,
+                           k.x() * 1e3, k.y() * 1e3, k.z() * 1e3,
+                           step == "check" && taken && static_cast<std::size_t>(i) < check_err.size()
+                               ? ("   error " + fmt(check_err[static_cast<std::size_t>(i)] * 1e3, 3) + " mm").c_str()
+                           : step == "mirror" && i == touches.count() - 1 ? "   (centre)"
+                           : taken && !fit.residuals_m.empty() && static_cast<std::size_t>(i) < fit.residuals_m.size()
+                               ? ("   residual " + fmt(fit.residuals_m[static_cast<std::size_t>(i)] * 1e3, 2) + " mm").c_str()
+                               : "");
+      }
+      if (step == "check" && !check_err.empty()) {
+        double m = 0;
+        for (double e : check_err) m += e;
+        m /= check_err.size();
+        const double thr = st.policy.check_threshold_m;
+        ImGui::TextColored(m <= thr ? green : red, "mean error %.3f mm (station threshold %.2f mm): %s so far", m * 1e3,
+                           thr * 1e3, m <= thr ? "PASS" : "FAIL");
+      }
+      if (!fit.residuals_m.empty())
+        ImGui::Text("FRE %.3f mm   predicted TRE at the tooth %.3f mm", fit.fre_m * 1e3, fit.tre_m * 1e3);
+      ImGui::TextColored(touches.still() ? green : yellow, "%s",
+                         touches.still() ? "stylus still: press SPACE to take the touch" : "stylus moving");
+      if (!refusal.empty()) ImGui::TextColored(red, "%s", refusal.c_str());
+    }
+    ImGui::End();
+  }
+
+  // The step's result into rec and rep.
+  Status result(ar::CalibrationStepReport& rep) {
     if (step == "pivot") {
       const cal::PivotSummary r = pivot.final_result();
       rec.items = r.num_poses;
@@ -1090,22 +1136,70 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
                        {"rotation_deg", r.rotation_rad / kDeg}, {"refused_touches", touches.refused()}};
       }
     }
-    rep.pass = rec.pass;
-    rep.figures.emplace_back("instructor_s", rec.seconds);
-    rec.figures = rep.figures;
-    say("step " + step + (rec.pass ? " passed" : " did NOT pass") + " after " + fmt(rec.seconds, 1) + " s: " + rec.message);
-    sum.steps.push_back(rec);
-    if (!rec.pass) {
-      if (record_failure) st.set_step_report(rep);  // the failed check, dated, so the station is not handed out
-      all_pass = false;
-      break;
-    }
-    st.set_step_report(rep);
+    return {};
   }
-  if (capture) capture->stop();
-  poller.reset();
-  sum.total_s = wall_s() - t_start;
-  if (sum.stop_reason.empty()) sum.stop_reason = all_pass ? "all steps passed" : "a step did not pass";
+
+  CalSession& S;
+  const CalibrateLiveOptions& o;
+  CalibrateLiveSummary& sum;
+  const std::function<void(const std::string&)>& say;
+  ar::StationScene& st;
+  const bool sim;
+  const cal::StationCalibration& truth;
+  std::unique_ptr<SimInstructor>& instructor;
+  std::unique_ptr<Poller>& poller;
+  const haptics::DeviceLimits& real_limits;
+  const std::string& real_name;
+  std::unique_ptr<haptics::Pedal>& pedal;
+  std::unique_ptr<ar::CaptureThread>& capture;
+  const int vw, vh;
+  HudWindow& win;
+  const double& t_start;
+  Eigen::Isometry3d& last_pose;
+  bool &all_pass, &aborted;
+  std::uint32_t& last_buttons;
+  bool &last_pedal, &record_failure;
+  std::optional<cal::CameraFile>& camera_file;
+  const std::string& camera_id;
+  const ar::BoardSpec& board_spec;
+  std::mt19937_64& mirror_rng;
+  decltype(CalSession::mirror_track)& mirror_track;
+  const Eigen::Vector3d crown_tooth = kCrownTooth;
+  const ImVec4 green{0.3f, 1, 0.3f, 1}, yellow{1, 0.85f, 0.2f, 1}, red{1, 0.35f, 0.35f, 1};
+
+  const std::string step;
+  const int n_landmarks;
+  CalibrateLiveStep rec;
+  std::vector<Eigen::Vector3d> known;  // register: divots (man); tooth: landmarks (tooth)
+  std::string title, instruction;
+  Eigen::Vector3d target_fit = Eigen::Vector3d::Zero();  // where the TRE is predicted, in the known points' frame
+  Plan plan;
+  cal::LivePivot pivot;
+  bool collecting = false;
+  std::string what;
+  cal::LiveTouches touches{"", 0};
+  std::vector<Eigen::Vector3d> mirror_mtag;  // mirror: the touches in the mirror tag's frame
+  std::vector<double> check_err;             // check: error at each point, m
+  // ---- camera step state ----
+  std::unique_ptr<cal::LiveCameraViews> cam;
+  std::unique_ptr<ar::TagDetector> grid_det;
+  std::future<cal::ModelSelection> pending;
+  int pending_views = 0;
+  cal::ModelSelection last_sel;
+  bool finish = false, press_latch = false, moving_press_done = false;
+  int similar_in_row = 0;
+  cal::RegistrationSummary fit;
+  std::string refusal;
+  std::size_t next_press = 0;
+  double last_sim_press_wall = -1e300;  // wall time of the simulated instructor's last press
+  double last_seen = -1e300;
+  double t0 = 0;
+  bool step_done = false;
+  cv::Mat shot;
+};
+
+void CalSession::truth_figures() {
+  const Eigen::Vector3d& crown_tooth = kCrownTooth;
 
   bool stylus_steps = false;
   for (const auto& r : sum.steps) stylus_steps |= r.step != "camera";
@@ -1141,6 +1235,9 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
         fmt(sum.truth_tooth_error_mm, 3) + " mm; bur tip vs tooth at working poses mean " +
         fmt(sum.truth_static_colocation_mean_mm, 3) + " mm, p99 " + fmt(sum.truth_static_colocation_p99_mm, 3) + " mm");
   }
+}
+
+Status CalSession::write_results() {
   if ((all_pass || record_failure) && !aborted) {
     st.version = ar::kStationFileVersion;
     if (const fs::path dir = fs::path(o.station).parent_path(); !dir.empty()) fs::create_directories(dir);
@@ -1162,6 +1259,37 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
     f << sum.json();
     if (!f) say("cannot write the summary " + o.summary_path);
   }
+  return {};
+}
+
+}  // namespace
+
+Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
+  if (auto v = o.validate(); !v.empty()) return Error{"calibrate live: " + v};
+  CalibrateLiveSummary sum;
+  CalSession S(o, sum);
+  // ---- station, device, camera, window ----
+  auto str = calibration_station(o, S.say);
+  if (!str) return Error{str.error()};
+  S.st = std::move(*str);
+  if (auto s = S.open(); !s) return Error{s.error()};
+  std::signal(SIGINT, on_cal_signal);
+  std::signal(SIGTERM, on_cal_signal);
+  g_cal_signal.store(0);
+  if (!o.screenshot_dir.empty()) fs::create_directories(o.screenshot_dir);
+  S.t_start = wall_s();
+  // ---- the steps, in order, until one does not pass ----
+  for (const std::string& step : o.steps) {
+    auto r = StepRun(S, step).run();
+    if (!r) return Error{r.error()};
+    if (!*r) break;
+  }
+  if (S.capture) S.capture->stop();
+  S.poller.reset();
+  sum.total_s = wall_s() - S.t_start;
+  if (sum.stop_reason.empty()) sum.stop_reason = S.all_pass ? "all steps passed" : "a step did not pass";
+  S.truth_figures();
+  if (auto s = S.write_results(); !s) return Error{s.error()};
   return sum;
 }
 

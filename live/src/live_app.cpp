@@ -45,9 +45,11 @@
 #include "dentar/live/hud_window.h"
 #include "dentar/live/pen_device.h"
 #include "dentar/live/station_health.h"
+#include "live_run.h"
 #include "dentar/training/exercise.h"
 #include "dentar/training/hand_script.h"
 #include "dentar/session/frames_csv.h"
+#include "dentar/session/lesson_clock.h"
 #include "dentar/session/recorder.h"
 #include "dentar/session/run.h"
 #include "dentar/volume/bur.h"
@@ -63,39 +65,12 @@ namespace {
 std::atomic<int> g_signal{0};
 extern "C" void on_signal(int sig) { g_signal.store(sig); }
 
-double now_s() { return ar::steady_now_s(); }
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(std::min<double>(v.size() - 1, std::ceil(q * (v.size() - 1))));
-  return v[i];
-}
-
-double rss_mb() {
-  std::ifstream f("/proc/self/statm");
-  long pages = 0, rss = 0;
-  f >> pages >> rss;
-  return static_cast<double>(rss) * static_cast<double>(sysconf(_SC_PAGESIZE)) / 1e6;
-}
-
 std::string iso_now() {
   const std::time_t t = std::time(nullptr);
   char b[32];
   std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
   return b;
 }
-
-// What the frame thread hands the window: the newest composite and its raw
-// frame (shown without overlay when the camera stalls).
-struct Shown {
-  cv::Mat composite, raw;  // composite empty when the GPU path drew it (gpu)
-  bool gpu = false;
-  std::int64_t index = -1;  // recording index (frames processed)
-  double steady_s = 0;      // capture time
-  ar::FrameRecord rec;
-  std::string error;
-};
 
 }  // namespace
 
@@ -127,6 +102,17 @@ std::string LiveOptions::validate() const {
       return "--hand-skill " + std::to_string(hand_skill) + ": must be in [0, 1] (1 = expert, 0 = novice)";
     if (!(hand_style >= 0 && hand_style <= 3))
       return "--hand-style " + std::to_string(hand_style) + ": must be in [0, 3] (0 = no personal style)";
+  }
+  if (!lesson.empty()) {
+    if (lesson_mode < 1 || lesson_mode > 5)
+      return "--lesson needs --mode 1..5 (1 visual replay, 2 passive guidance, 3 active following, 4 force reversal, "
+             "5 hints)";
+    if (!exercise.empty()) return "--exercise with --lesson: the lesson names its exercise (dentar lesson show LESSON)";
+    if (device.empty() && stylus != "sim" && stylus != "pen")
+      return "--lesson with --stylus " + stylus + ": a lesson is trained with --stylus sim (a simulated student), pen, "
+             "or a --device";
+  } else if (lesson_mode != 0) {
+    return "--mode " + std::to_string(lesson_mode) + " needs --lesson LESSON";
   }
   if (pipeline.tracker.discovery == ar::DiscoveryMode::kScheduled)
     return "pipeline.tracker.discovery = scheduled is for replays (dentar offline), not a live run";
@@ -169,6 +155,21 @@ std::string LiveSummary::json() const {
                    {"gl_release_timeouts", gl_release_timeouts}}},
       {"station_health", {{"instructor_needed", instructor_needed}, {"items", station_health}}},
       {"warnings", warnings}};
+  if (lesson_mode != 0)
+    j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
+                   {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
+                   {"fallback", lesson_fallback}, {"expert_s", lesson_expert_s}, {"expert_end_s", lesson_expert_end_s},
+                   {"expert_waiting_pct", lesson_waiting_pct},
+                   {"follow_error_mm", {{"samples", follow_samples}, {"mean", follow_mean_mm}, {"p95", follow_p95_mm},
+                                        {"max", follow_max_mm}}},
+                   {"pauses", {{"taken", lesson_pauses_taken}, {"paused_s", lesson_paused_s},
+                               {"resumed_by_button", lesson_pauses_resumed_by_button}}}};
+  if (lesson_mode != 0) {
+    nlohmann::json notes = nlohmann::json::array();
+    for (const LessonNote& n : lesson_notes)
+      notes.push_back({{"time_s", n.time_s}, {"expert_s", n.expert_s}, {"run_s", n.run_s}, {"text", n.text}});
+    j["lesson"]["notes_shown"] = notes;
+  }
   return j.dump(2) + "\n";
 }
 
@@ -351,9 +352,70 @@ struct StylusSetup {
   // The simulated hand's script length with an exercise (s of engine time; 0 = none): the run
   // ends once the engine has stepped through it, as a student stops when the preparation is done.
   double hand_end_s = 0;
+  // A lesson (LiveOptions::lesson): its clock (handed to the run) and the simulated student.
+  std::unique_ptr<session::LessonClock> lesson;
+  session::LessonStudentDevice* student = nullptr;
 };
+
+// The stylus of a lesson: a real device, the pen, or the simulated student following the
+// expert; the lesson's tooth and the recording's bur.
+Result<StylusSetup> lesson_stylus(const LiveOptions& o, const ar::StationScene& st, StationHealthMonitor& health,
+                                  const std::function<void(const std::string&)>& say) {
+  StylusSetup ss;
+  ss.cfg.model = o.model;
+  ss.cfg.T_tooth_dev = st.calibration.T_tooth_dev();
+  ss.cfg.T_sty_tip = st.calibration.T_sty_tip;
+  haptics::DeviceLimits limits;
+  bool renders_force = true;
+  if (!o.device.empty()) {
+    haptics::DeviceOpenOptions dopt;
+    dopt.name_or_serial = o.device_name;
+    auto d = haptics::open_haptic_device(o.device, dopt);
+    if (!d) return Error{"live: --device " + o.device + ": " + d.error()};
+    ss.device = std::move(*d);
+    limits = ss.device->limits();
+  } else if (o.stylus == "pen") {
+    if (st.pen.tags.empty())
+      return Error{"live: --stylus pen: the station file has no pen (\"pen\".tags); print the kit with `dentar tags`"};
+    auto p = std::make_unique<PenDevice>(limits);
+    ss.pen = p.get();
+    ss.device = std::move(p);
+    renders_force = false;
+  } else {
+    auto l = session::lesson_student_limits();
+    if (!l) return Error{"live: --lesson: " + l.error()};
+    limits = *l;
+  }
+  auto lesson = session::LessonClock::open(o.lesson, o.lesson_mode, limits, renders_force);
+  if (!lesson) return Error{"live: " + lesson.error()};
+  if (!(*lesson)->fallback().empty()) say("lesson: " + (*lesson)->fallback());
+  for (const auto& n : (*lesson)->notes()) say("lesson: " + n);
+  ss.tooth_desc = (*lesson)->lesson().tooth_json;
+  auto t = training::make_tooth(ss.tooth_desc);
+  if (!t) return Error{"live: --lesson " + o.lesson + ": tooth " + ss.tooth_desc + ": " + t.error()};
+  ss.vol.emplace(std::move(*t));
+  ss.bur_params = (*lesson)->bur();
+  ss.bur_samples = (*lesson)->bur_samples();
+  if (!ss.device) {  // the simulated student
+    auto d = session::make_lesson_student(ss.cfg.T_tooth_dev, ss.cfg.T_sty_tip, (*lesson)->expert_start());
+    if (!d) return Error{"live: --lesson: " + d.error()};
+    ss.student = d->get();
+    ss.device = std::move(*d);
+    ss.pedal_from_device = true;
+  } else if (!o.device.empty()) {
+    auto box = crown_box_tooth(ss.tooth_desc);
+    if (!box) return Error{"live: " + box.error()};
+    const HealthItem reach = check_station_reach(st, ss.device->limits(), ss.device->name(), *box).item;
+    health.set(reach);
+    if (reach.level != HealthLevel::kOk) say("station health: " + reach.check + ": " + reach.message);
+  }
+  ss.lesson = std::move(*lesson);
+  return ss;
+}
+
 Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st, StationHealthMonitor& health,
                                 const std::function<void(const std::string&)>& say) {
+  if (!o.lesson.empty()) return lesson_stylus(o, st, health, say);
   // ---- tooth, stylus, engine ----
   StylusSetup ss;
   std::optional<volume::VoxelVolume>& vol = ss.vol;
@@ -480,11 +542,12 @@ void engine_figures(const haptics::EngineStats& es, LiveSummary& sum) {
   sum.cpu_pinned = es.cpu_pinned;
 }
 
-// The recording closed: its writer joined, recording.json completed (written
-// aside, then renamed), and the run's summary beside it.
-void finish_recording(session::Recorder& rec, const nlohmann::json& rec_meta, const std::string& stop_reason,
-                      const haptics::EngineStats& es, const fs::path& rdir, LiveSummary& sum) {
+// The recording closed: its writer joined, recording.json (as written at the
+// start) completed (written aside, then renamed), and the run's summary beside it.
+void finish_recording(session::Recorder& rec, const std::string& stop_reason, const haptics::EngineStats& es,
+                      LiveSummary& sum) {
   session::Recorder* recorder = &rec;
+  const fs::path rdir = rec.dir();
   recorder->log("stopped: " + stop_reason);
   recorder->close();
   if (recorder->dropped() > 0)
@@ -493,7 +556,8 @@ void finish_recording(session::Recorder& rec, const nlohmann::json& rec_meta, co
                            " frames behind, or the disk refused them): offline replay stops at the first gap");
   char hash[20];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(sum.volume_hash));
-  nlohmann::json meta = rec_meta;  // its "started" is the run's start
+  nlohmann::json meta = nlohmann::json::parse(std::ifstream(rdir / "recording.json"), nullptr, false);
+  if (!meta.is_object()) meta = nlohmann::json::object();  // its "started" is the run's start
   meta["complete"] = true;
   meta["frames"] = recorder->written();
   meta["frames_not_written"] = recorder->dropped();
@@ -532,26 +596,240 @@ std::string isolate_engine(const LiveOptions& o, const haptics::EngineConfig& cf
   return iso;
 }
 
-// A recording's start (`--record DIR`): the writer, the station as used, and
-// recording.json as at the start (completed by finish_recording).
+// A recording's start (`--record DIR`): the run's recorder, the station as
+// used, and recording.json as at the start (completed by finish_recording).
 Status start_recording(const LiveOptions& o, const ar::StationScene& st, const ar::PipelineOptions& popt,
-                       const std::string& discovery_name, std::unique_ptr<session::Recorder>& recorder,
-                       nlohmann::json& rec_meta) {
+                       const std::string& discovery_name, session::Run& run) {
   const fs::path rdir = o.record_dir;
-  auto r = session::Recorder::open(rdir);
-  if (!r) return Error{"live: " + r.error()};
-  recorder = std::move(*r);
+  if (auto r = run.record_to(rdir.string()); !r) return Error{"live: " + r.error()};
   if (auto s = ar::write_station_scene(st, (rdir / "station.json").string()); !s)
     return Error{"live: " + s.error()};
-  rec_meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
+  nlohmann::json rec_meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
               {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
               {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
               {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
   if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
+  if (session::LessonClock* l = run.lesson()) {  // the lesson's exercise is the session's (the finish step scores it)
+    rec_meta["exercise"] = l->lesson().exercise;
+    rec_meta["lesson"] = {{"lesson", o.lesson}, {"path", l->lesson().path}, {"mode_asked", l->mode_asked()},
+                          {"mode", l->mode_run()}, {"fallback", l->fallback()}};
+  }
   if (o.stylus == "sim" && !o.exercise.empty())
     rec_meta["hand"] = {{"skill", o.hand_skill}, {"style", o.hand_style}, {"seed", o.hand_seed}};
   std::ofstream(rdir / "recording.json") << rec_meta.dump(2) << "\n";
   return {};
+}
+
+// Background threads (the tracker's full-frame search, tracker.h
+// "Discovery"; capture with its decoding; the mesher) on the engine's CPU,
+// at normal priority: the FIFO engine preempts them at once, and they use
+// the ~85 % of that core the engine leaves idle instead of queueing with
+// the frame thread and the display on the others.
+struct Background {
+  std::function<void()> to_engine_cpu;  // empty: with the frame thread
+  std::string note;                     // why not beside the engine
+  std::shared_ptr<std::atomic<int>> placed = std::make_shared<std::atomic<int>>(0);
+  std::shared_ptr<std::atomic<int>> refused = std::make_shared<std::atomic<int>>(0);
+};
+Background place_background(const LiveOptions& o, const haptics::EngineConfig& cfg, int ncpu) {
+  Background bg;
+  // Beside the engine only when the engine will preempt them: without
+  // SCHED_FIFO they would share its core equally and it would miss deadlines
+  // (seen on a CI machine without CAP_SYS_NICE: 3 watchdog trips in 2 s).
+  bool beside = o.background_cpu == "engine" && cfg.cpu >= 0 && ncpu > 1;
+  if (beside) {
+    std::string why;
+    if (!o.realtime) {
+      beside = false;
+      bg.note = "background threads kept off the engine CPU (--no-realtime: the engine could not preempt them)";
+    } else if (!haptics::realtime_available(cfg.realtime_priority, &why)) {
+      beside = false;
+      bg.note = "background threads kept off the engine CPU (SCHED_FIFO refused: " + why +
+                "; the engine could not preempt them)";
+    }
+  }
+  if (beside) {
+    const int cpu = cfg.cpu;
+    bg.to_engine_cpu = [cpu, placed = bg.placed, refused = bg.refused] {
+      cpu_set_t one;
+      CPU_ZERO(&one);
+      CPU_SET(cpu, &one);
+      // Normal (CFS) priority: below the FIFO engine whatever it is (SCHED_IDLE
+      // would starve them whenever another process uses that core).
+      if (pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0) ++*placed;
+      else ++*refused;
+    };
+  }
+  return bg;
+}
+
+// The display path asked for: "auto" asks the renderer first (a throw-away
+// context on the default EGL platform, the one the compositor would get).
+struct DisplayChoice {
+  bool want_gl = false;
+  std::string auto_note;
+};
+DisplayChoice choose_display(const LiveOptions& o) {
+  DisplayChoice d;
+  d.want_gl = o.display_path == "gl";
+  if (o.display_path != "auto") return d;
+  if (auto probe = ar::EglContext::create(); !probe) {
+    d.auto_note = "--display-path auto: no EGL context to ask the renderer (" + probe.error() + ")";
+  } else if (software_renderer(probe->gl_renderer())) {
+    d.auto_note = "--display-path auto: " + probe->gl_renderer() +
+                  " is a software rasteriser, where the CPU path measured faster (docs/BENCHMARKS.md)";
+  } else {
+    d.want_gl = true;
+    d.auto_note = "--display-path auto: " + probe->gl_renderer() + " is a hardware renderer";
+  }
+  return d;
+}
+
+// Latency compensation (issue 24): the camera's latency (mid-exposure to
+// Frame::steady_s) and where it came from.
+std::pair<double, std::string> compensation(const LiveOptions& o, const ar::StationScene& st) {
+  if (o.stylus == "pen" && o.device.empty()) return {0.0, "pen"};  // measured in the camera's own frames
+  if (o.camera_latency_ms == 0) return {0.0, "off"};
+  if (o.camera_latency_ms > 0) return {o.camera_latency_ms * 1e-3, "option"};
+  if (st.camera_provenance.latency_ms >= 0)
+    return {st.camera_provenance.latency_ms * 1e-3, st.camera_provenance.latency_ms > 0 ? "measured" : "off"};
+  return {ar::kAssumedCameraLatency_ms * 1e-3, "assumed"};
+}
+
+// What the system granted the engine, and what to do when it did not.
+std::string grant_message(const LiveOptions& o, const haptics::EngineConfig& cfg, haptics::Engine& engine,
+                          const LiveSummary& sum, const std::string& iso, const std::string& discovery_name,
+                          const Background& bg) {
+  for (int i = 0; i < 100 && engine.snapshot().step == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  std::string grant = "engine: ";
+  if (!o.realtime) grant += "real time not asked (--no-realtime); ";
+  else if (engine.realtime_granted_now()) grant += "SCHED_FIFO granted; ";
+  else grant += "SCHED_FIFO refused: run as root, or `sudo setcap cap_sys_nice,cap_ipc_lock+ep dentar`, or an rtprio limit in /etc/security/limits.conf; ";
+  if (cfg.cpu >= 0) grant += engine.cpu_pinned_now() ? "pinned to CPU " + std::to_string(cfg.cpu) + "; " : "not pinned (CPU " + std::to_string(cfg.cpu) + " refused); ";
+  else grant += "not pinned; ";
+  if (o.realtime) grant += sum.memory_locked ? "memory locked" : "memory not locked (raise `ulimit -l`)";
+  grant += "; " + iso;
+  grant += "; tag discovery " + discovery_name;
+  if (bg.to_engine_cpu)
+    grant += "; " + std::to_string(bg.placed->load()) + " background threads (tag search, capture, mesher, GL rasteriser) on CPU " +
+             std::to_string(cfg.cpu) + " below the engine" +
+             (bg.refused->load() > 0 ? " (" + std::to_string(bg.refused->load()) + " refused)" : std::string());
+  else if (!bg.note.empty())
+    grant += "; " + bg.note;
+  else
+    grant += "; background threads with the frame thread";
+  return grant;
+}
+
+// The start-up lines about the stylus pose and the camera response.
+void say_stylus_pose(const LiveOptions& o, const ar::StationScene& st, const ar::PipelineOptions& popt, double comp_latency_s,
+                     const std::string& comp_source, const std::function<void(const std::string&)>& say) {
+  if (o.stylus != "none" || !o.device.empty()) {
+    if (comp_source == "pen")
+      say("stylus pose: the pen's, tracked in the camera's own frames (no latency compensation)");
+    else if (comp_latency_s > 0)
+      say("stylus pose drawn at each frame's exposure: capture time minus a camera latency of " +
+          std::to_string(static_cast<int>(std::lround(comp_latency_s * 1e3))) + " ms (" +
+          (comp_source == "measured" ? std::string("measured: the station's camera.latency_ms")
+           : comp_source == "option" ? std::string("--camera-latency-ms")
+                                     : std::string("assumed: not measured for this station; record it with "
+                                                   "`dentar calibrate --camera-latency-ms MS`")) +
+          ")");
+    else
+      say("stylus pose: the newest at each frame (latency compensation off)");
+  }
+  ar::TagDetectorOptions d = popt.tracker.detector;  // auto: the station's measured response
+  if (const std::string note = ar::resolve_camera_response(d, st); !note.empty()) say("note: " + note);
+}
+
+// The display path's line for the terminal, the recording's log and the summary.
+void report_display_path(const LiveOptions& o, bool gpu_display, bool want_gl, const std::string& auto_note,
+                         const std::string& display_note, session::Recorder* recorder,
+                         const std::function<void(const std::string&)>& say, LiveSummary& sum) {
+  const std::string path_msg = gpu_display
+      ? "display path gl: the composite stays on the GPU (window: OpenGL ES 3 over EGL; compositor's "
+        "context shared with it; fenced hand-off; no readback)" + (auto_note.empty() ? "" : "; " + auto_note)
+      : "display path cpu: the CPU composite is uploaded each frame (" + display_note + ")";
+  say(path_msg);
+  if (recorder) recorder->log(path_msg);
+  if (want_gl && !gpu_display) sum.warnings.push_back("display: GPU path unavailable, CPU path used: " + display_note);
+  sum.display_path = gpu_display ? "gl" : "cpu";
+  sum.display_requested = o.display_path;
+  sum.display_note = display_note;
+}
+
+// The run's figures into the summary, after the threads stopped.
+void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::int64_t processed, const FrameFigures& ff,
+                  const DisplayFigures& df, const std::pair<double, std::string>& comp, const std::string& iso,
+                  const Background& bg, LiveSummary& sum) {
+  haptics::Engine& engine = *c.run.engine();
+  const haptics::EngineStats es = engine.stats();
+  sum.wall_s = ar::steady_now_s() - df.t_start;
+  sum.stop_reason = df.stop_reason;
+  sum.frames_captured = capture.delivered();
+  sum.frames_processed = processed;
+  sum.frames_displayed = df.displayed;
+  sum.gpu_frames = ff.gpu_frames;
+  sum.compensation_latency_ms = comp.first * 1e3;
+  sum.compensation_source = comp.second;
+  sum.frames_pose_at_exposure = ff.comp_at_exposure;
+  sum.frames_pose_newest = ff.comp_newest;
+  sum.readback_px = ff.readback_px;
+  sum.cpu_blend_px = ff.cpu_blend_px;
+  sum.gl_frames_replaced = ff.ring_replaced;
+  sum.gl_ready_timeouts = ff.ring_ready_timeouts;
+  sum.gl_release_timeouts = ff.ring_release_timeouts;
+  sum.dropped_source = capture.dropped_source();
+  sum.dropped_consumer = capture.dropped_consumer();
+  sum.camera_reopens = capture.reopens();
+  sum.displayed_fps = sum.wall_s > 0 ? df.displayed / sum.wall_s : 0;
+  sum.latency_p50_ms = percentile(df.latency_ms, 0.5);
+  sum.latency_p99_ms = percentile(df.latency_ms, 0.99);
+  sum.latency_max_ms = df.latency_ms.empty() ? 0 : *std::max_element(df.latency_ms.begin(), df.latency_ms.end());
+  sum.process_p50_ms = percentile(ff.process_ms, 0.5);
+  sum.process_p99_ms = percentile(ff.process_ms, 0.99);
+  engine_figures(es, sum);
+  sum.isolation_note = iso + es.realtime_note + (bg.note.empty() ? std::string() : "; " + bg.note);
+  sum.volume_hash = c.run.volume().content_hash();
+  const haptics::HapticSnapshot last = engine.snapshot();
+  sum.removed_enamel_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kEnamel)];
+  sum.removed_dentin_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kDentin)];
+  sum.removed_pulp_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kPulp)];
+  for (double v : last.removed_mm3) sum.removed_total_mm3 += v;
+  sum.rss_end_mb = rss_mb();
+  if (!sum.realtime_granted && c.o.realtime) sum.warnings.push_back("engine: " + es.realtime_note);
+  for (const auto& it : c.health.health().items) {
+    sum.station_health.push_back(std::string(health_level_name(it.level)) + ": " + it.check + ": " + it.message);
+    if (it.level != HealthLevel::kOk) sum.warnings.push_back("station health: " + it.check + ": " + it.message);
+  }
+  sum.instructor_needed = c.health.health().instructor_needed();
+  if (session::LessonClock* l = c.run.lesson()) {
+    sum.lesson = c.o.lesson;
+    sum.lesson_mode_asked = l->mode_asked();
+    sum.lesson_mode = l->mode_run();
+    sum.lesson_fallback = l->fallback();
+    if (!l->fallback().empty()) sum.warnings.push_back("lesson: " + l->fallback());
+    sum.lesson_expert_s = last.expert_time_s;
+    sum.lesson_expert_end_s = l->track().duration_s();
+    sum.lesson_waiting_pct = df.passes > 0 ? 100.0 * df.passes_expert_waiting / df.passes : 0.0;
+    if (c.lesson_pauses) {
+      sum.lesson_pauses_taken = c.lesson_pauses->pauses_taken();
+      sum.lesson_paused_s = c.lesson_pauses->paused_s();
+      sum.lesson_pauses_resumed_by_button = c.lesson_pauses->resumed_by_button();
+    }
+    for (const DisplayFigures::Note& n : df.notes) {
+      const training::Annotation& a = l->lesson().annotations[static_cast<std::size_t>(n.annotation)];
+      sum.lesson_notes.push_back({a.time_s, n.expert_s, n.run_s, a.text});
+    }
+    sum.follow_samples = static_cast<std::int64_t>(df.follow_m.size());
+    if (!df.follow_m.empty()) {
+      double m = 0;
+      for (double e : df.follow_m) m += e;
+      sum.follow_mean_mm = m / df.follow_m.size() * 1e3;
+      sum.follow_p95_mm = percentile(df.follow_m, 0.95) * 1e3;
+      sum.follow_max_mm = *std::max_element(df.follow_m.begin(), df.follow_m.end()) * 1e3;
+    }
+  }
 }
 
 }  // namespace
@@ -568,36 +846,21 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   auto say = [&](const std::string& s) {
     if (!o.quiet) std::fprintf(stderr, "dentar live: %s\n", s.c_str());
   };
-
-  // ---- station, camera ----
+  // ---- station, camera, station health (file checks now, tags and stylus tip per frame) ----
   auto scr = open_station_and_camera(o, sum, say);
   if (!scr) return Error{scr.error()};
-  ar::StationScene& st = scr->st;
-  const bool builtin = scr->builtin;
-  const ar::FrameSourceOptions so = scr->so;
-  std::unique_ptr<ar::FrameSource>& src = scr->src;
-
-  // ---- station health (station_health.h): file checks now, tags and stylus tip per frame ----
-  StationHealthMonitor health(st, builtin, static_cast<double>(std::time(nullptr)), camera_identity(o.camera));
+  const ar::StationScene& st = scr->st;
+  StationHealthMonitor health(st, scr->builtin, static_cast<double>(std::time(nullptr)), camera_identity(o.camera));
   if (auto r = health.refusal()) return Error{"live: " + o.station + ": " + r->message};
   for (const auto& it : health.health().items)
     if (it.level != HealthLevel::kOk) say("station health: " + it.check + ": " + it.message);
-
-  // ---- tooth, stylus, engine ----
+  // ---- tooth, stylus, pedal: the run ----
   auto ssr = make_stylus(o, st, health, say);
   if (!ssr) return Error{ssr.error()};
   StylusSetup& ss = *ssr;
-  std::optional<volume::VoxelVolume>& vol = ss.vol;
-  volume::BurParams& bur_params = ss.bur_params;
-  std::unique_ptr<haptics::HapticDevice>& device = ss.device;
-  PenDevice* pen = ss.pen;
-  haptics::EngineConfig& cfg = ss.cfg;
-  const std::string& tooth_desc = ss.tooth_desc;
-  const bool pedal_from_device = ss.pedal_from_device;
-  const double hand_end_s = ss.hand_end_s;
-  haptics::ManualPedal key_pedal;
-  auto bur = volume::sample_bur(bur_params, ss.bur_samples);
+  auto bur = volume::sample_bur(ss.bur_params, ss.bur_samples);
   if (!bur) return Error{"live: bur: " + bur.error()};
+  haptics::ManualPedal key_pedal;
   std::unique_ptr<haptics::Pedal> usb_pedal;
   if (o.pedal != "keyboard") {
     auto p = haptics::open_pedal(o.pedal);
@@ -605,338 +868,84 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     usb_pedal = std::move(*p);
   }
   const haptics::Pedal& pedal = usb_pedal ? *usb_pedal : static_cast<const haptics::Pedal&>(key_pedal);
-  haptics::PedalDevice pedal_device(*device, pedal, pedal_from_device);
-  haptics::HapticDevice& engine_device = pedal_device;
+  haptics::PedalDevice pedal_device(*ss.device, pedal, ss.pedal_from_device);
+  std::unique_ptr<session::Run> run = session::Run::from_tooth(std::move(*ss.vol), std::move(*bur));
+  run->set_lesson(std::move(ss.lesson));  // its training mode becomes the engine's
+  // A lesson's pause points hold the pause button in front of the engine (recorded, replayed).
+  std::optional<session::LessonPauseDevice> lesson_pauses;
+  if (run->lesson()) lesson_pauses.emplace(pedal_device, run->lesson()->lesson().annotations);
+  haptics::HapticDevice& engine_device =
+      lesson_pauses ? static_cast<haptics::HapticDevice&>(*lesson_pauses) : static_cast<haptics::HapticDevice&>(pedal_device);
+  haptics::EngineConfig& cfg = ss.cfg;
   const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
   cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
   cfg.try_realtime = o.realtime;
-
   // ---- isolation: everything but the engine off its core; memory locked ----
   const std::string iso = isolate_engine(o, cfg, ncpu, sum);
-
-  // Background threads (the tracker's full-frame search, tracker.h
-  // "Discovery"; capture with its decoding; the mesher) on the engine's CPU,
-  // at normal priority: the FIFO engine preempts them at once, and they use
-  // the ~85 % of that core the engine leaves idle instead of queueing with
-  // the frame thread and the display on the others.
   ar::PipelineOptions popt = o.pipeline;
-  popt.compositor.bur = bur_params;  // draw the bur the engine cuts with
+  popt.compositor.bur = ss.bur_params;  // draw the bur the engine cuts with
   const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
-  std::atomic<int> bg_placed{0}, bg_refused{0};  // background threads pinned / refused
-  std::function<void()> to_engine_cpu;
-  // Beside the engine only when the engine will preempt them: without
-  // SCHED_FIFO they would share its core equally and it would miss deadlines
-  // (seen on a CI machine without CAP_SYS_NICE: 3 watchdog trips in 2 s).
-  std::string bg_note;
-  bool bg_beside_engine = o.background_cpu == "engine" && cfg.cpu >= 0 && ncpu > 1;
-  if (bg_beside_engine) {
-    std::string why;
-    if (!o.realtime) {
-      bg_beside_engine = false;
-      bg_note = "background threads kept off the engine CPU (--no-realtime: the engine could not preempt them)";
-    } else if (!haptics::realtime_available(cfg.realtime_priority, &why)) {
-      bg_beside_engine = false;
-      bg_note = "background threads kept off the engine CPU (SCHED_FIFO refused: " + why +
-                "; the engine could not preempt them)";
-    }
-  }
-  if (bg_beside_engine) {
-    const int cpu = cfg.cpu;
-    to_engine_cpu = [cpu, &bg_placed, &bg_refused] {
-      cpu_set_t one;
-      CPU_ZERO(&one);
-      CPU_SET(cpu, &one);
-      // Normal (CFS) priority: below the FIFO engine whatever it is (SCHED_IDLE
-      // would starve them whenever another process uses that core).
-      if (pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0) ++bg_placed;
-      else ++bg_refused;
-    };
-    popt.tracker.discovery_thread_init = to_engine_cpu;
-  }
-
-  std::unique_ptr<haptics::SessionLogWriter> log;
-  std::unique_ptr<session::Recorder> recorder;
-  const fs::path rdir = o.record_dir;
-  nlohmann::json rec_meta;  // recording.json as written at the start; completed at the end
+  const Background bg = place_background(o, cfg, ncpu);
+  if (bg.to_engine_cpu) popt.tracker.discovery_thread_init = bg.to_engine_cpu;
+  // ---- recording, engine ----
   if (!o.record_dir.empty())
-    if (auto s = start_recording(o, st, popt, discovery_name, recorder, rec_meta); !s) return Error{s.error()};
-  std::string header;
-  {
-    auto probe = haptics::Engine::create(cfg, engine_device, *vol, *bur, nullptr);
-    if (!probe) return Error{"live: engine: " + probe.error()};
-    header = (*probe)->header_json(tooth_desc);
-  }
-  if (recorder) {
-    auto w = haptics::SessionLogWriter::open((rdir / "session.dlog").string(), header);
-    if (!w) return Error{"live: " + w.error()};
-    log = std::move(*w);
-  }
-  auto engine_r = haptics::Engine::create(cfg, engine_device, *vol, *bur, log.get());
-  if (!engine_r) return Error{"live: engine: " + engine_r.error()};
-  haptics::Engine& engine = **engine_r;
-
+    if (auto s = start_recording(o, st, popt, discovery_name, *run); !s) return Error{s.error()};
+  const std::string log_path = run->recorder() ? (fs::path(o.record_dir) / "session.dlog").string() : std::string();
+  if (auto s = run->make_engine(cfg, engine_device, ss.tooth_desc, log_path); !s) return Error{"live: " + s.error()};
+  haptics::Engine& engine = *run->engine();
+  if (ss.student) ss.student->attach(&engine);  // the simulated student sees the expert's tool
+  if (lesson_pauses) lesson_pauses->attach(&engine);  // the pause points follow the expert's clock
   // ---- window ----
-  const int W = src->width(), H = src->height();
-  // "auto": ask the renderer first (a throw-away context on the default EGL
-  // platform, the one the compositor would get).
-  std::string auto_note;
-  bool want_gl = o.display_path == "gl";
-  if (o.display_path == "auto") {
-    if (auto probe = ar::EglContext::create(); !probe) {
-      auto_note = "--display-path auto: no EGL context to ask the renderer (" + probe.error() + ")";
-    } else if (software_renderer(probe->gl_renderer())) {
-      auto_note = "--display-path auto: " + probe->gl_renderer() +
-                  " is a software rasteriser, where the CPU path measured faster (docs/BENCHMARKS.md)";
-    } else {
-      want_gl = true;
-      auto_note = "--display-path auto: " + probe->gl_renderer() + " is a hardware renderer";
-    }
-  }
+  const DisplayChoice dc = choose_display(o);
   // GPU path: the window's EGL display is the one the compositor shares, so
   // llvmpipe's rasteriser threads (one set per display, started when GLFW
   // initialises it here) serve both contexts and run with the main thread,
-  // off the engine's CPU: measured faster than putting them beside the engine,
-  // where the capture thread's decoding already runs (docs/BENCHMARKS.md,
-  // "The GL-resident display path").
-  auto hw_r = HudWindow::open("DentAR live", W, H, o.window_width, o.window_height, o.display, o.vsync,
-                              want_gl && !o.window_glx_for_test);
+  // off the engine's CPU (docs/BENCHMARKS.md, "The GL-resident display path").
+  auto hw_r = HudWindow::open("DentAR live", scr->src->width(), scr->src->height(), o.window_width, o.window_height,
+                              o.display, o.vsync, dc.want_gl && !o.window_glx_for_test);
   if (!hw_r) return Error{"live: " + hw_r.error()};
   HudWindow& hw = **hw_r;
-  // The display path is settled on the frame thread (the shared context is
-  // made there); these hold its outcome once pipeline_ready is set.
-  std::atomic<bool> gl_path{false};
-  std::string display_note;
-  if (!want_gl) display_note = auto_note.empty() ? "--display-path cpu" : auto_note;
-  else if (o.window_glx_for_test) display_note = "the window's context is desktop OpenGL through GLX (test hook), which cannot share with EGL";
-  else if (!hw.gles_egl()) display_note = hw.context_note();
-  else display_note = auto_note;  // empty unless chosen by auto; a fallback below replaces it
-  std::unique_ptr<ar::SharedFrameRing> ring;  // made and destroyed on the frame thread
-
+  const auto comp = compensation(o, st);
+  const LiveContext ctx{o, st, popt, *run, health, hw, engine_device, pedal, key_pedal, ss.pen, ss.pedal_from_device,
+                        scr->src->width(), scr->src->height(), dc.want_gl, bg.to_engine_cpu, comp.first, say,
+                        lesson_pauses ? &*lesson_pauses : nullptr};
+  LiveShared sh;
+  // The display path is settled on the frame thread (the shared context is made there).
+  if (!dc.want_gl) sh.display_note = dc.auto_note.empty() ? "--display-path cpu" : dc.auto_note;
+  else if (o.window_glx_for_test) sh.display_note = "the window's context is desktop OpenGL through GLX (test hook), which cannot share with EGL";
+  else if (!hw.gles_egl()) sh.display_note = hw.context_note();
+  else sh.display_note = dc.auto_note;  // empty unless chosen by auto; a fallback replaces it
   // ---- threads ----
+  // Reopen the source after the slow set-up (tooth, window): a paced stand-in
+  // starts its clock at open, and a camera's first frames would be stale.
+  scr->src.reset();
+  FrameFigures ff;
+  std::thread frame_thread([&] { frame_thread_main(ctx, sh, ff); });
+  while (sh.pipeline_ready.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  if (sh.pipeline_ready.load() < 0) {
+    frame_thread.join();
+    return Error{"live: " + sh.pipeline_error};
+  }
+  auto src2 = ar::FrameSource::open(o.camera, scr->so);
+  if (!src2) {
+    sh.stop.store(true);
+    frame_thread.join();
+    return Error{"live: " + src2.error()};
+  }
   ar::CaptureThreadOptions cto;
   cto.reopen = o.loop || o.camera.rfind("live:", 0) != 0;  // footage ends (unless looped); a camera comes back
   cto.stall_after_frames = o.stall_after_frames;
   cto.stall_s = o.stall_s;
-  cto.thread_init = to_engine_cpu;
-  // Reopen the source now, after the slow set-up (tooth, window): a paced
-  // stand-in starts its clock at open, and a camera's first frames would be stale.
-  src.reset();
-  std::unique_ptr<ar::CaptureThread> capture_holder;  // made once the pipeline is ready
-  std::atomic<ar::CaptureThread*> capture_ptr{nullptr};
-  std::string cam_desc = o.camera;
-
-  std::mutex shown_m;
-  std::condition_variable shown_cv;
-  Shown shown;
-  bool shown_new = false;
-  std::atomic<bool> stop{false};
-  std::atomic<int> pipeline_ready{0};  // 1 ok, -1 failed
-  std::string pipeline_error;
-  std::vector<double> process_ms;
-  std::int64_t processed = 0;
-  std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;  // frame thread; read after join
-  std::int64_t ring_stats[3] = {0, 0, 0};
-  // Latency compensation (issue 24): the camera's latency (mid-exposure to Frame::steady_s).
-  double comp_latency_s = 0;
-  std::string comp_source;
-  if (o.stylus == "pen" && o.device.empty()) {
-    comp_source = "pen";  // the pen's pose is measured in the camera's own frames
-  } else if (o.camera_latency_ms == 0) {
-    comp_source = "off";
-  } else if (o.camera_latency_ms > 0) {
-    comp_source = "option";
-    comp_latency_s = o.camera_latency_ms * 1e-3;
-  } else if (st.camera_provenance.latency_ms >= 0) {
-    comp_source = st.camera_provenance.latency_ms > 0 ? "measured" : "off";
-    comp_latency_s = st.camera_provenance.latency_ms * 1e-3;
-  } else {
-    comp_source = "assumed";
-    comp_latency_s = ar::kAssumedCameraLatency_ms * 1e-3;
-  }
-  std::int64_t comp_at_exposure = 0, comp_newest = 0;  // frame thread; read after join
-
-  std::thread frame_thread([&] {
-    // llvmpipe starts its rasteriser thread when the context is made, with
-    // this thread's CPU mask: with the background threads on the engine's
-    // CPU, it goes there too (it is the largest GL cost; the frame thread
-    // then only records the draw calls and waits, and CPU 0 keeps the
-    // tracking, the blend and the display).
-    cpu_set_t frame_mask;
-    const bool raster_moved = to_engine_cpu && pthread_getaffinity_np(pthread_self(), sizeof frame_mask, &frame_mask) == 0;
-    if (raster_moved) to_engine_cpu();
-    // The GPU display path: a context on the window's EGL display sharing its
-    // objects; otherwise (or when that fails) a headless one of our own.
-    Result<ar::EglContext> egl = Error{"not made"};
-    bool use_gl = want_gl && hw.gles_egl();
-    if (use_gl) {
-      ar::EglContextOptions eo;
-      eo.share_display = hw.egl_display();
-      eo.share_context = hw.egl_context();
-      egl = ar::EglContext::create(eo);
-      if (!egl) {
-        display_note = egl.error();
-        use_gl = false;
-      }
-    }
-    if (!use_gl) egl = ar::EglContext::create();
-    if (raster_moved) pthread_setaffinity_np(pthread_self(), sizeof frame_mask, &frame_mask);
-    if (!egl || !egl->make_current()) {
-      pipeline_error = "headless rendering: " + (egl ? std::string("make_current failed") : egl.error());
-      pipeline_ready.store(-1);
-      return;
-    }
-    auto pipe = ar::FramePipeline::create(st, popt);
-    if (!pipe) {
-      pipeline_error = pipe.error();
-      pipeline_ready.store(-1);
-      return;
-    }
-    if (use_gl) {
-      if (std::string e = pipe->get()->compositor().gpu_path_error(); !e.empty()) {
-        display_note = "the compositor's GPU path cannot run here: " + e;
-        use_gl = false;
-      } else if (auto r = ar::SharedFrameRing::create(W, H); !r) {
-        display_note = r.error();
-        use_gl = false;
-      } else {
-        ring = std::move(*r);
-      }
-    }
-    ar::ToothMeshes meshes(*vol);
-    if (auto s = pipe->get()->warm_up(meshes, use_gl ? ring->target(0) : ar::GlFrameTarget{}); !s) {
-      pipeline_error = s.error();
-      pipeline_ready.store(-1);
-      return;
-    }
-    gl_path.store(use_gl);
-    meshes.start_mesher(1.0 / 120.0, to_engine_cpu);
-    pipeline_ready.store(1);
-    while (capture_ptr.load() == nullptr && !stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    if (stop.load()) {
-      meshes.stop_mesher();
-      ring.reset();
-      pipe->reset();
-      return;
-    }
-    ar::CaptureThread& capture = *capture_ptr.load();
-    ar::Frame f;
-    ar::CompositeResult cres;
-    ar::FrameRecord rec;
-    while (!stop.load()) {
-      if (!capture.wait_take(f, 0.05)) {
-        if (capture.ended()) break;
-        continue;
-      }
-      haptics::HapticSnapshot snap = engine.snapshot();
-      double pose_step = -1;
-      if (comp_latency_s > 0) {
-        // The stylus as it was when this frame was exposed, not as it is now (issue 24).
-        const auto h = engine.pose_history().sample(f.steady_s - comp_latency_s);
-        if (h.usable() && h.index >= 0) {
-          Eigen::Map<Eigen::Matrix4d>(snap.T_dev_sty) = h.T_dev_sty.matrix();
-          pose_step = h.index;
-          ++comp_at_exposure;
-        } else {
-          ++comp_newest;
-        }
-      }
-      ar::FrameInput in;
-      in.image = &f.image;
-      in.index = processed;
-      in.capture_time_s = f.time_s;
-      in.haptic = o.stylus == "none" ? nullptr : &snap;
-      in.stylus_valid = o.stylus != "none" && !snap.fault;
-      const auto t0 = Clock::now();
-      // GPU path: a texture the window is not showing, free of its draws.
-      const int slot = use_gl ? ring->acquire() : -1;
-      if (use_gl) in.gl_target = ring->target(slot);
-      std::string err;
-      try {
-        if (auto s = pipe->get()->process(in, meshes, cres, rec); !s) err = s.error();
-      } catch (const std::exception& e) {
-        err = std::string("pipeline threw: ") + e.what();
-      }
-      process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-      rec.pose_step = pose_step;
-      for (const auto& it : health.on_frame(pipe->get()->last_detections(), f.steady_s, rec.T_dev_sty,
-                                            in.stylus_valid)) {
-        say("station health: " + it.check + ": " + health_level_name(it.level) + ": " + it.message);
-        if (recorder) recorder->log("station health: " + it.check + ": " + health_level_name(it.level) + ": " + it.message);
-      }
-      if (pen != nullptr) {
-        const bool ok = rec.man_state != 2 && rec.pen_state != 2;
-        const Eigen::Isometry3d T_dev_sty = (rec.T_cam_man * st.calibration.T_man_dev).inverse() * rec.T_cam_ptag *
-                                            st.pen.T_ptag_tip * st.calibration.T_sty_tip.inverse();
-        pen->publish(T_dev_sty, ok, f.steady_s);
-      }
-      {
-        std::lock_guard<std::mutex> lock(shown_m);
-        shown.raw = f.image;
-        shown.gpu = use_gl && err.empty();
-        // Buffers change hands, never copied (2.7 MB a 720p frame): the
-        // compositor's, the shown slot and the display's each own one.
-        // GPU path: the texture is published (fence) under the same lock as
-        // the record, so the window takes the two together.
-        if (shown.gpu) {
-          ring->publish(slot, processed, cres.region.x, cres.region.y, cres.region.width, cres.region.height);
-          shown.composite.release();
-        } else if (err.empty()) {
-          cv::swap(cres.image, shown.composite);
-        } else {
-          f.image.copyTo(shown.composite);
-        }
-        shown.index = processed;
-        shown.steady_s = f.steady_s;
-        shown.rec = rec;
-        shown.error = err;
-        shown_new = true;
-      }
-      shown_cv.notify_one();
-      if (recorder && err.empty()) recorder->push(f.image, f.encoded, rec, processed, f.index, f.steady_s);
-      if (err.empty()) {
-        gpu_frames += rec.gpu_composite ? 1 : 0;
-        readback_px += rec.readback_px;
-        cpu_blend_px += rec.cpu_blend_px;
-      }
-      ++processed;
-    }
-    meshes.stop_mesher();
-    // The window may still draw from (and release) the ring until the main
-    // loop ends (the footage can end first): the ring goes only after that.
-    while (ring && !stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    if (ring) {
-      const auto rs = ring->stats();
-      ring_stats[0] = rs.replaced;
-      ring_stats[1] = rs.ready_timeouts;
-      ring_stats[2] = rs.release_timeouts;
-    }
-    // The GL objects go before the context.
-    ring.reset();
-    pipe->reset();
-  });
-  while (pipeline_ready.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  if (pipeline_ready.load() < 0) {
-    frame_thread.join();
-    return Error{"live: " + pipeline_error};
-  }
-  {
-    auto src2 = ar::FrameSource::open(o.camera, so);
-    if (!src2) {
-      stop.store(true);
-      frame_thread.join();
-      return Error{"live: " + src2.error()};
-    }
-    capture_holder = std::make_unique<ar::CaptureThread>(std::move(*src2), o.camera, so, cto);
-  }
-  ar::CaptureThread& capture = *capture_holder;
-  cam_desc = capture.description();
-  if (recorder)
-    recorder->log("camera " + cam_desc + "; " + (o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name()) +
-                  "; pedal " + pedal.name() + "; engine CPU " + std::to_string(cfg.cpu));
+  cto.thread_init = bg.to_engine_cpu;
+  ar::CaptureThread capture(std::move(*src2), o.camera, scr->so, cto);
+  const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + pedal_device.name();
+  if (run->recorder())
+    run->recorder()->log("camera " + capture.description() + "; " + stylus_desc + "; pedal " + pedal.name() +
+                         "; engine CPU " + std::to_string(cfg.cpu));
   capture.start();
-  capture_ptr.store(&capture);
+  sh.capture.store(&capture);
   if (auto s = engine.start(); !s) {
-    stop.store(true);
+    sh.stop.store(true);
     capture.stop();
     frame_thread.join();
     return Error{"live: engine: " + s.error()};
@@ -944,286 +953,30 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // The drill's sound reads the snapshot on its own thread (off the engine's CPU, as this one).
   std::shared_ptr<void> sound;
   if (o.start_sound) sound = o.start_sound([&engine] { return engine.snapshot(); });
-  const std::string sound_line = hud_sound_line(static_cast<bool>(o.start_sound), sound != nullptr, o.sound_muted, o.sound_detail);
-  // What the system granted, and what to do when it did not.
-  for (int i = 0; i < 100 && engine.snapshot().step == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  std::string grant = "engine: ";
-  if (!o.realtime) grant += "real time not asked (--no-realtime); ";
-  else if (engine.realtime_granted_now()) grant += "SCHED_FIFO granted; ";
-  else grant += "SCHED_FIFO refused: run as root, or `sudo setcap cap_sys_nice,cap_ipc_lock+ep dentar`, or an rtprio limit in /etc/security/limits.conf; ";
-  if (cfg.cpu >= 0) grant += engine.cpu_pinned_now() ? "pinned to CPU " + std::to_string(cfg.cpu) + "; " : "not pinned (CPU " + std::to_string(cfg.cpu) + " refused); ";
-  else grant += "not pinned; ";
-  if (o.realtime) grant += sum.memory_locked ? "memory locked" : "memory not locked (raise `ulimit -l`)";
-  grant += "; " + iso;
-  grant += "; tag discovery " + discovery_name;
-  if (to_engine_cpu)
-    grant += "; " + std::to_string(bg_placed.load()) + " background threads (tag search, capture, mesher, GL rasteriser) on CPU " +
-             std::to_string(cfg.cpu) + " below the engine" +
-             (bg_refused.load() > 0 ? " (" + std::to_string(bg_refused.load()) + " refused)" : std::string());
-  else if (!bg_note.empty())
-    grant += "; " + bg_note;
-  else
-    grant += "; background threads with the frame thread";
-  const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + engine_device.name();
-  say("camera " + cam_desc + "; " + stylus_desc + "; pedal " + pedal.name());
-  if (o.stylus != "none" || !o.device.empty()) {
-    if (comp_source == "pen")
-      say("stylus pose: the pen's, tracked in the camera's own frames (no latency compensation)");
-    else if (comp_latency_s > 0)
-      say("stylus pose drawn at each frame's exposure: capture time minus a camera latency of " +
-          std::to_string(static_cast<int>(std::lround(comp_latency_s * 1e3))) + " ms (" +
-          (comp_source == "measured" ? std::string("measured: the station's camera.latency_ms")
-           : comp_source == "option" ? std::string("--camera-latency-ms")
-                                     : std::string("assumed: not measured for this station; record it with "
-                                                   "`dentar calibrate --camera-latency-ms MS`")) +
-          ")");
-    else
-      say("stylus pose: the newest at each frame (latency compensation off)");
-  }
-  {
-    ar::TagDetectorOptions d = popt.tracker.detector;  // auto: the station's measured response
-    if (const std::string note = ar::resolve_camera_response(d, st); !note.empty()) say("note: " + note);
-  }
-  say(grant);
-  if (recorder) recorder->log(grant);
-  const bool rt_ok = !o.realtime || (engine.realtime_granted_now() && sum.memory_locked);
-
+  DisplayInputs din{capture, hud_sound_line(static_cast<bool>(o.start_sound), sound != nullptr, o.sound_muted, o.sound_detail)};
+  din.grant = grant_message(o, cfg, engine, sum, iso, discovery_name, bg);
+  say("camera " + capture.description() + "; " + stylus_desc + "; pedal " + pedal.name());
+  say_stylus_pose(o, st, popt, comp.first, comp.second, say);
+  say(din.grant);
+  if (run->recorder()) run->recorder()->log(din.grant);
+  din.rt_ok = !o.realtime || (engine.realtime_granted_now() && sum.memory_locked);
+  din.hand_end_s = ss.hand_end_s;
+  din.lesson_end_s = run->lesson() ? run->lesson()->track().duration_s() : 0;
+  din.rate_hz = cfg.rate_hz;
+  din.signal = &g_signal;
+  report_display_path(o, sh.gl_path.load(), dc.want_gl, dc.auto_note, sh.display_note, run->recorder(), say, sum);
   // ---- display loop (main thread) ----
-  const double t_start = now_s();
-  std::vector<double> latency_ms;
-  std::int64_t displayed = 0, last_index = -1;
-  Shown cur;
-  std::vector<std::pair<std::int64_t, std::string>> shots = o.screenshots;
-  double stall_seen_at = -1;
-  double prev_check_age_s = 0;  // the camera's silence at the previous window check, s
-  std::string stop_reason = "window closed";
-  double fps_t0 = t_start;
-  int fps_n = 0;
-  double fps_now = 0;
-  int shown_slot = -1;  // GPU path: the ring texture the window draws from, or -1
-  const bool gpu_display = gl_path.load();
-  {
-    const std::string path_msg = gpu_display
-        ? "display path gl: the composite stays on the GPU (window: OpenGL ES 3 over EGL; compositor's "
-          "context shared with it; fenced hand-off; no readback)" + (auto_note.empty() ? "" : "; " + auto_note)
-        : "display path cpu: the CPU composite is uploaded each frame (" + display_note + ")";
-    say(path_msg);
-    if (recorder) recorder->log(path_msg);
-    if (want_gl && !gpu_display) sum.warnings.push_back("display: GPU path unavailable, CPU path used: " + display_note);
-  }
-  sum.display_path = gpu_display ? "gl" : "cpu";
-  sum.display_requested = o.display_path;
-  sum.display_note = display_note;
-  while (true) {
-    if (hw.should_close()) break;
-    if (g_signal.load() != 0) {
-      stop_reason = g_signal.load() == SIGINT ? "SIGINT" : "SIGTERM";
-      break;
-    }
-    if (o.seconds > 0 && now_s() - t_start >= o.seconds) {
-      stop_reason = "time limit";
-      break;
-    }
-    if (hand_end_s > 0 && static_cast<double>(engine.stats().steps) / cfg.rate_hz >= hand_end_s + 1.0) {
-      stop_reason = "the simulated hand finished the exercise";
-      break;
-    }
-    if (o.frames > 0 && displayed >= o.frames) {
-      stop_reason = "frame limit";
-      break;
-    }
-    if (capture.ended() && !shown_new && processed > 0 && now_s() - capture.last_frame_steady_s() > 0.5) {
-      stop_reason = "footage ended";
-      break;
-    }
-    bool fresh = false;
-    int new_slot = -1;  // GPU path: the texture published with this frame
-    {
-      // Draw when a frame arrives; otherwise redraw the HUD at ~30 Hz (an
-      // idle loop must not spin: under Xvfb there is no vsync to pace it).
-      std::unique_lock<std::mutex> lock(shown_m);
-      shown_cv.wait_for(lock, std::chrono::milliseconds(30), [&] { return shown_new; });
-      if (shown_new) {
-        cv::swap(cur.composite, shown.composite);
-        cur.gpu = shown.gpu;
-        if (cur.gpu) new_slot = ring->take();
-        cur.raw = shown.raw;
-        cur.index = shown.index;
-        cur.steady_s = shown.steady_s;
-        cur.rec = shown.rec;
-        cur.error = shown.error;
-        shown_new = false;
-        fresh = true;
-      }
-    }
-    hw.poll();
-    for (const int key : hw.take_presses())
-      if (key == GLFW_KEY_ESCAPE) hw.request_close();
-    key_pedal.set_pressed(hw.held(GLFW_KEY_SPACE));
-    // The camera went quiet: show the video without the overlay within 200 ms.
-    // One read of the capture time per check: a frame may land before the
-    // swap, and the figure below must be about the silence this check saw.
-    const double last_frame_s = capture.last_frame_steady_s();
-    const double age = cur.index >= 0 ? now_s() - last_frame_s : 0;
-    const bool stalled = cur.index >= 0 && age > 0.15;
-    if (stalled && stall_seen_at < 0) stall_seen_at = now_s();
-    if (!stalled) stall_seen_at = -1;
-    const cv::Mat& img = stalled ? cur.raw : cur.composite;
-    if (fresh && new_slot >= 0) {
-      // The composite on the GPU: wait for its fence, then draw from it.
-      ring->wait_ready(new_slot);
-      const ar::GlFrameTarget t = ring->target(new_slot);
-      hw.set_frame(t.video_texture, t.overlay_texture, ring->region(new_slot));
-      shown_slot = new_slot;
-    }
-    if (!img.empty() && (fresh || stalled)) {
-      hw.set_video(img);
-      shown_slot = -1;
-    }
-    hw.begin_frame();
-    if (o.hud) {
-      const ar::FrameRecord& r = cur.rec;
-      const haptics::HapticSnapshot snap = engine.snapshot();
-      ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
-      ImGui::SetNextWindowBgAlpha(0.6f);
-      ImGui::Begin("DentAR", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
-      const ImVec4 col[] = {ImVec4(0.3f, 1, 0.3f, 1), ImVec4(1, 0.85f, 0.2f, 1), ImVec4(1, 0.3f, 0.3f, 1)};
-      {
-        // ok green, note grey-blue (not an alarm), warning yellow, instructor needed red.
-        const ImVec4 health_col[] = {col[0], ImVec4(0.75f, 0.82f, 0.95f, 1), col[1], col[2]};
-        const StationHealth h = health.health();
-        ImGui::TextColored(health_col[static_cast<int>(h.worst())], "%s", h.headline().c_str());
-      }
-      ImGui::TextColored(col[r.man_state], "mannequin: %s", session::state_name(r.man_state));
-      ImGui::SameLine();
-      ImGui::TextColored(col[r.mir_state], "  mirror: %s", session::state_name(r.mir_state));
-      if (pen) {
-        ImGui::SameLine();
-        ImGui::TextColored(col[r.pen_state], "  pen: %s", session::state_name(r.pen_state));
-      }
-      const double f = std::sqrt(snap.force_dev_N[0] * snap.force_dev_N[0] + snap.force_dev_N[1] * snap.force_dev_N[1] +
-                                 snap.force_dev_N[2] * snap.force_dev_N[2]);
-      const double fmax = engine_device.limits().max_force_N;
-      char buf[64];
-      std::snprintf(buf, sizeof buf, "%.2f N", f);
-      ImGui::Text("force");
-      ImGui::SameLine();
-      ImGui::ProgressBar(static_cast<float>(std::min(1.0, f / fmax)), ImVec2(200, 0), buf);
-      ImGui::TextUnformatted(
-          hud_drill_line(snap.pedal, snap.in_contact, pedal.status(), pedal.pressed(), pedal_from_device, o.stylus)
-              .c_str());
-      if (const std::string ds = engine_device.status(); !ds.empty()) ImGui::TextColored(col[1], "device: %s", ds.c_str());
-      if (!sound_line.empty()) {
-        if (sound_line == "sound: no device (silent)") ImGui::TextColored(col[1], "%s", sound_line.c_str());
-        else ImGui::TextUnformatted(sound_line.c_str());
-      }
-      ImGui::Text("removed mm3: enamel %.2f  dentin %.2f  pulp %.2f",
-                  snap.removed_mm3[static_cast<int>(volume::Material::kEnamel)],
-                  snap.removed_mm3[static_cast<int>(volume::Material::kDentin)],
-                  snap.removed_mm3[static_cast<int>(volume::Material::kPulp)]);
-      ImGui::Text("%.1f fps  latency %.0f ms  (display %s)", fps_now, latency_ms.empty() ? 0.0 : latency_ms.back(),
-                  gpu_display ? "gl" : "cpu");
-      if (stalled)
-        ImGui::TextColored(col[2], "camera: no frame for %.0f ms, overlay hidden%s", age * 1e3,
-                           capture.status().empty() ? "" : (" (" + capture.status() + ")").c_str());
-      if (!cur.error.empty()) ImGui::TextColored(col[2], "pipeline: %s", cur.error.c_str());
-      if (snap.watchdog) ImGui::TextColored(col[2], "haptics: watchdog: zero force");
-      if (snap.fault) ImGui::TextColored(col[2], "haptics: device fault: zero force%s", pen ? " (pen not seen)" : "");
-      if (snap.pulp_exposed) ImGui::TextColored(col[2], "PULP EXPOSED");
-      if (pen) ImGui::TextColored(col[1], "pen mode: no force on the hand; space bar = pedal");
-      if (!rt_ok) ImGui::TextColored(col[1], "haptics not real-time: %s", grant.c_str());
-      if (!stalled && cur.index >= 0 && now_s() - cur.steady_s > 0.5)
-        ImGui::TextColored(col[2], "frame pipeline stalled: no composite for %.0f ms", (now_s() - cur.steady_s) * 1e3);
-      ImGui::End();
-    }
-    // Test hook: the window's pixels for frame N (read before the swap).
-    const auto shot = fresh ? std::find_if(shots.begin(), shots.end(), [&](const auto& x) { return x.first == cur.index; })
-                            : shots.end();
-    const cv::Mat px = hw.end_frame(shot != shots.end());
-    if (shown_slot >= 0) ring->release(shown_slot);  // the producer may draw into it once this completes
-    if (shot != shots.end()) {
-      cv::imwrite(shot->second, px);
-      shots.erase(shot);
-    }
-    const double t_swap = now_s();
-    if (fresh && cur.index != last_index) {
-      latency_ms.push_back((t_swap - cur.steady_s) * 1e3);
-      last_index = cur.index;
-      ++displayed;
-      ++fps_n;
-    }
-    if (stalled && stall_seen_at > 0 && sum.overlay_hidden_ms_after_stall < 0) {
-      sum.overlay_hidden_ms_after_stall = static_cast<int>(std::lround((t_swap - last_frame_s) * 1e3));
-      sum.stall_previous_check_ms = static_cast<int>(std::lround(prev_check_age_s * 1e3));
-    }
-    prev_check_age_s = age;
-    if (sum.rss_warm_mb == 0 && t_swap - t_start >= 10.0) sum.rss_warm_mb = rss_mb();
-    if (t_swap - fps_t0 >= 1.0) {
-      if (t_swap - t_start >= 60.0) {
-        const double r = rss_mb();
-        if (sum.rss_60s_mb == 0) sum.rss_60s_mb = r;
-        sum.rss_max_after_60s_mb = std::max(sum.rss_max_after_60s_mb, r);
-      }
-      fps_now = fps_n / (t_swap - fps_t0);
-      fps_t0 = t_swap;
-      fps_n = 0;
-    }
-  }
-
+  const DisplayFigures df = display_loop(ctx, sh, din, sum);
   // ---- shutdown: zero force first, then the logs, then the recording ----
   engine.stop();  // the engine's last act is a zero force
-  if (recorder) recorder->log("engine stopped: zero force sent (" + stop_reason + ")");
-  say("stopping (" + stop_reason + "): force zeroed");
-  stop.store(true);
+  if (run->recorder()) run->recorder()->log("engine stopped: zero force sent (" + df.stop_reason + ")");
+  say("stopping (" + df.stop_reason + "): force zeroed");
+  sh.stop.store(true);
   capture.stop();
   frame_thread.join();
-  const haptics::EngineStats es = engine.stats();
-  if (log) {
-    if (auto s = log->close(); !s) sum.warnings.push_back("session log: " + s.error());
-  }
-  sum.wall_s = now_s() - t_start;
-  sum.stop_reason = stop_reason;
-  sum.frames_captured = capture.delivered();
-  sum.frames_processed = processed;
-  sum.frames_displayed = displayed;
-  sum.gpu_frames = gpu_frames;
-  sum.compensation_latency_ms = comp_latency_s * 1e3;
-  sum.compensation_source = comp_source;
-  sum.frames_pose_at_exposure = comp_at_exposure;
-  sum.frames_pose_newest = comp_newest;
-  sum.readback_px = readback_px;
-  sum.cpu_blend_px = cpu_blend_px;
-  sum.gl_frames_replaced = ring_stats[0];
-  sum.gl_ready_timeouts = ring_stats[1];
-  sum.gl_release_timeouts = ring_stats[2];
-  sum.dropped_source = capture.dropped_source();
-  sum.dropped_consumer = capture.dropped_consumer();
-  sum.camera_reopens = capture.reopens();
-  sum.displayed_fps = sum.wall_s > 0 ? displayed / sum.wall_s : 0;
-  sum.latency_p50_ms = percentile(latency_ms, 0.5);
-  sum.latency_p99_ms = percentile(latency_ms, 0.99);
-  sum.latency_max_ms = latency_ms.empty() ? 0 : *std::max_element(latency_ms.begin(), latency_ms.end());
-  sum.process_p50_ms = percentile(process_ms, 0.5);
-  sum.process_p99_ms = percentile(process_ms, 0.99);
-  engine_figures(es, sum);
-  sum.isolation_note = iso + es.realtime_note + (bg_note.empty() ? std::string() : "; " + bg_note);
-  sum.volume_hash = vol->content_hash();
-  {
-    const haptics::HapticSnapshot last = engine.snapshot();
-    sum.removed_enamel_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kEnamel)];
-    sum.removed_dentin_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kDentin)];
-    sum.removed_pulp_mm3 = last.removed_mm3[static_cast<int>(volume::Material::kPulp)];
-    for (double v : last.removed_mm3) sum.removed_total_mm3 += v;
-  }
-  sum.rss_end_mb = rss_mb();
-  if (!sum.realtime_granted && o.realtime)
-    sum.warnings.push_back("engine: " + es.realtime_note);
-  for (const auto& it : health.health().items) {
-    sum.station_health.push_back(std::string(health_level_name(it.level)) + ": " + it.check + ": " + it.message);
-    if (it.level != HealthLevel::kOk) sum.warnings.push_back("station health: " + it.check + ": " + it.message);
-  }
-  sum.instructor_needed = health.health().instructor_needed();
-  if (recorder) finish_recording(*recorder, rec_meta, stop_reason, es, rdir, sum);
+  if (auto s = run->close_session_log(); !s) sum.warnings.push_back("session log: " + s.error());
+  fill_summary(ctx, capture, sh.processed.load(), ff, df, comp, iso, bg, sum);
+  if (run->recorder()) finish_recording(*run->recorder(), df.stop_reason, engine.stats(), sum);
   if (!o.summary_path.empty()) std::ofstream(o.summary_path) << sum.json();
   return sum;
 }

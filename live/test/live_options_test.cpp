@@ -26,6 +26,33 @@ TEST(LiveOptions, FrameLimitMustNotBeNegative) {
   EXPECT_NE(o.validate().find("frames = -1"), std::string::npos) << o.validate();
 }
 
+// A lesson needs a mode 1..5 and names its own exercise; a mode needs a lesson; a lesson is
+// trained with the simulated student, the pen or a device (not a replayed log, not "none").
+TEST(LiveOptions, LessonNeedsAModeAndAStudentsStylus) {
+  LiveOptions o;
+  o.lesson = "builtin:molar_access_opening";
+  EXPECT_NE(o.validate().find("--lesson needs --mode 1..5"), std::string::npos) << o.validate();
+  for (int m = 1; m <= 5; ++m) {
+    o.lesson_mode = m;
+    EXPECT_EQ(o.validate(), "") << m;
+  }
+  o.lesson_mode = 6;
+  EXPECT_NE(o.validate().find("--mode 1..5"), std::string::npos) << o.validate();
+  o.lesson_mode = 2;
+  o.exercise = "molar_access_opening";
+  EXPECT_NE(o.validate().find("the lesson names its exercise"), std::string::npos) << o.validate();
+  o.exercise.clear();
+  o.stylus = "pen";
+  EXPECT_EQ(o.validate(), "");
+  for (const char* s : {"none", "replay:x.dlog"}) {
+    o.stylus = s;
+    EXPECT_NE(o.validate().find("a lesson is trained with --stylus sim"), std::string::npos) << s << ": " << o.validate();
+  }
+  LiveOptions m;
+  m.lesson_mode = 3;
+  EXPECT_NE(m.validate().find("--mode 3 needs --lesson"), std::string::npos) << m.validate();
+}
+
 // The tooth a live run drills: the molar (the bytes every earlier run wrote in its header)
 // without an exercise or with a molar exercise, the incisor for the incisor's exercise, both
 // at the station's voxel size; a replayed log's own tooth, refused under an exercise for another.

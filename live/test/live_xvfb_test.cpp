@@ -24,6 +24,9 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
+#include "dentar/session/lesson_clock.h"
+#include "dentar/session/run.h"
+#include "dentar/training/exercise.h"
 #include "tag_drawing.h"
 #include "testutil.h"
 #include "xvfb_util.h"
@@ -744,4 +747,181 @@ TEST(LiveXvfb, BoxTryOutRehearsedWithoutACameraAt720p) {
   int seen = 0;
   for (std::size_t i = 1; i < rows.size(); ++i) seen += rows[i][ms] != "lost" ? 1 : 0;
   EXPECT_GT(seen, 0.8 * static_cast<double>(rows.size() - 1)) << "the box board is tracked";
+}
+
+// ---- Lessons (issue 27): `dentar live --lesson LESSON --mode N` ----
+
+// A lesson made from the clip's own 2 s session, trained live in mode 2 (passive guidance)
+// with the simulated student: the mode ran (the summary's lesson section, its following error
+// from the display loop; the session log's training section), the run stopped by itself when
+// the expert's recording ended, the session was scored as the lesson's exercise, and it
+// replays bit-exactly with the mode rebuilt from the header.
+TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
+  REQUIRE_XVFB();
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_lesson");
+  const fs::path lesson = t / "lesson", rec = t / "rec";
+  // A text annotation at 0.3 s and a 1 s pause point at 0.8 s of the expert's recording.
+  auto r = run_command(kBin + " lesson make " + (c / "session.dlog").string() +
+                       " --exercise molar_access_opening --note '0.3:Enter at the central pit' --pause 0.8:1 --out " +
+                       lesson.string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run_command(xvfb(kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
+                       (c / "station.json").string() + " --stylus sim --lesson " + lesson.string() +
+                       " --mode 2 --record " + rec.string() + " --quiet --loop --seconds 20 --summary " +
+                       (t / "live.json").string() + " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto sum = read_json(t / "live.json");
+  ASSERT_TRUE(sum.contains("lesson")) << sum.dump(2);
+  const auto& l = sum["lesson"];
+  EXPECT_EQ(l["mode"], 2) << l.dump();
+  EXPECT_EQ(l["mode_name"], "passive guidance") << l.dump();
+  EXPECT_EQ(l["fallback"], "") << l.dump();
+  // The expert's clock reached the end of its 2 s recording: the run stopped itself.
+  EXPECT_EQ(sum["stop_reason"], "the lesson's recording ended") << sum.dump(2);
+  EXPECT_GE(l["expert_s"].get<double>(), l["expert_end_s"].get<double>()) << l.dump();
+  EXPECT_GT(l["expert_end_s"].get<double>(), 1.5) << l.dump();
+  // The student (1 mm beside the expert at the start, 0.2 mm aim wander, 0.25 s lag) is held
+  // on the expert's path: sampled, and within a few millimetres (measured ~0.3-0.5 mm).
+  EXPECT_GT(l["follow_error_mm"]["samples"].get<int>(), 0) << l.dump();
+  EXPECT_GT(l["follow_error_mm"]["max"].get<double>(), 0.0) << l.dump();
+  EXPECT_LT(l["follow_error_mm"]["mean"].get<double>(), 3.0) << l.dump();
+  // The pause point held the expert's clock for its second (device time), and the note was
+  // on the HUD when the expert's clock reached it (and logged in the recording's log).
+  EXPECT_EQ(l["pauses"]["taken"], 1) << l.dump();
+  EXPECT_NEAR(l["pauses"]["paused_s"].get<double>(), 1.0, 0.01) << l.dump();
+  EXPECT_EQ(l["pauses"]["resumed_by_button"], 0) << l.dump();
+  ASSERT_EQ(l["notes_shown"].size(), 2u) << l.dump();
+  EXPECT_EQ(l["notes_shown"][0]["text"], "Enter at the central pit") << l.dump();
+  EXPECT_NEAR(l["notes_shown"][0]["time_s"].get<double>(), 0.3, 1e-9) << l.dump();
+  EXPECT_GE(l["notes_shown"][0]["expert_s"].get<double>(), 0.3) << l.dump();
+  EXPECT_LT(l["notes_shown"][0]["expert_s"].get<double>(), 0.5) << l.dump();  // the display loop runs at >= 30 Hz
+  EXPECT_EQ(l["notes_shown"][1]["text"], "pause") << l.dump();  // `lesson make --pause`'s own text
+  EXPECT_NEAR(l["notes_shown"][1]["expert_s"].get<double>(), 0.8, 0.01) << l.dump();  // shown while the clock held
+  {
+    std::ifstream f(rec / "live.log");
+    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("on the HUD: Enter at the central pit"), std::string::npos) << text;
+  }
+  // The session log's header records the mode and the expert recording it replayed.
+  auto log = dentar::haptics::read_session_log((rec / "session.dlog").string());
+  ASSERT_TRUE(log.ok()) << log.error();
+  auto setup = dentar::haptics::parse_session_header(log->header_json);
+  ASSERT_TRUE(setup.ok()) << setup.error();
+  ASSERT_TRUE(setup->training.has_value()) << log->header_json;
+  EXPECT_EQ(static_cast<int>(setup->training->params.mode), 2);
+  EXPECT_NE(setup->training->params.expert_file.find("expert.dlog"), std::string::npos);
+  const auto meta = read_json(rec / "recording.json");
+  EXPECT_EQ(meta["lesson"]["mode"], 2) << meta.dump(2);
+  EXPECT_EQ(meta["exercise"], "molar_access_opening") << meta.dump(2);
+  // Scored by the finish step as the lesson's exercise.
+  ASSERT_TRUE(fs::exists(rec / "score.json")) << r.out;
+  EXPECT_EQ(read_json(rec / "score.json")["exercise"]["name"], "molar_access_opening");
+  // Replayable: the log alone, with the mode rebuilt, ends on the live run's cut bit for bit.
+  auto fresh = dentar::training::make_tooth(setup->tooth_json);
+  ASSERT_TRUE(fresh.ok()) << fresh.error();
+  auto rep = dentar::haptics::replay_session(*log, *fresh);
+  ASSERT_TRUE(rep.ok()) << rep.error();
+  char h[17];
+  std::snprintf(h, sizeof h, "%016llx", static_cast<unsigned long long>(rep->volume_hash));
+  EXPECT_EQ(sum["volume_hash"], h);
+  EXPECT_EQ(meta["volume_hash"], h);
+  // And as `dentar offline` replays it: session::Run rebuilds the mode from the log's header.
+  auto st = dentar::ar::read_station_scene((rec / "station.json").string());
+  ASSERT_TRUE(st.ok()) << st.error();
+  auto ls = dentar::session::read_session_setup((rec / "session.dlog").string());
+  ASSERT_TRUE(ls.ok()) << ls.error();
+  auto run = dentar::session::Run::from_session_log(std::move(*ls), *st, "station.json");
+  ASSERT_TRUE(run.ok()) << run.error();
+  ASSERT_NE((*run)->lesson(), nullptr);
+  EXPECT_EQ((*run)->lesson()->mode_run(), 2);
+  // Step by step: the pause button the pause point held is in the recording, for 1 s in one
+  // piece; while it is down the expert's clock stands still; the expert's tool moves no
+  // further in any step (the resume included) than in the recording's own steps.
+  const std::uint64_t n = (*run)->session_steps();
+  ASSERT_EQ(n, log->records.size());
+  std::vector<double> expert_t(n);
+  std::vector<Eigen::Vector3d> expert_p(n);
+  for (std::uint64_t i = 0; i < n; ++i) {
+    ASSERT_EQ((*run)->engine()->run_steps(1), 1u) << i;
+    const auto snap = (*run)->engine()->snapshot();
+    expert_t[i] = snap.expert_time_s;
+    expert_p[i] = Eigen::Vector3d(snap.T_tooth_expert_tip[12], snap.T_tooth_expert_tip[13], snap.T_tooth_expert_tip[14]);
+  }
+  EXPECT_EQ((*run)->volume().content_hash(), rep->volume_hash);
+  std::int64_t first = -1, last = -1, held = 0;
+  for (std::uint64_t i = 0; i < n; ++i)
+    if (log->records[i].buttons & dentar::haptics::kButtonSecondary) {
+      if (first < 0) first = static_cast<std::int64_t>(i);
+      last = static_cast<std::int64_t>(i);
+      ++held;
+    }
+  ASSERT_GE(first, 0) << "no pause in the recording";
+  EXPECT_EQ(held, last - first + 1) << "one pause, in one piece";
+  EXPECT_NEAR(static_cast<double>(held), 1000.0, 2.0);  // 1 s at 1 kHz
+  EXPECT_NEAR(expert_t[static_cast<std::size_t>(first)], 0.8, 0.01);
+  EXPECT_EQ(expert_t[static_cast<std::size_t>(first)], expert_t[static_cast<std::size_t>(last)]);
+  double max_move = 0, resume_move = 0;
+  for (std::uint64_t i = 1; i < n; ++i) {
+    const double d = (expert_p[i] - expert_p[i - 1]).norm();
+    if (static_cast<std::int64_t>(i) == last + 1) resume_move = d;
+    else if (static_cast<std::int64_t>(i) < first || static_cast<std::int64_t>(i) > last) max_move = std::max(max_move, d);
+    else EXPECT_EQ(d, 0.0) << "the expert's tool moved while paused, step " << i;
+  }
+  EXPECT_GT(max_move, 0.0);
+  EXPECT_LE(resume_move, max_move) << "the expert's tool jumped when the pause ended";
+}
+
+// A force mode on a stylus with no force (the pen) falls back to visual guidance (mode 3) and
+// says so; guidance stiffer than the device renders stably is lowered to its limit, noted.
+TEST(LiveLesson, PenFallsBackToVisualGuidanceAndGainsFollowTheDevice) {
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_lesson_clock");
+  auto r = run_command(kBin + " lesson make " + (c / "session.dlog").string() +
+                       " --exercise molar_access_opening --out " + (t / "lesson").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  dentar::haptics::DeviceLimits pen;
+  for (int mode : {2, 4}) {
+    auto l = dentar::session::LessonClock::open((t / "lesson").string(), mode, pen, false);
+    ASSERT_TRUE(l.ok()) << l.error();
+    EXPECT_EQ((*l)->mode_asked(), mode);
+    EXPECT_EQ((*l)->mode_run(), 3);
+    EXPECT_NE((*l)->fallback().find("falls back to visual guidance, mode 3"), std::string::npos) << (*l)->fallback();
+    EXPECT_EQ(static_cast<int>((*l)->mode()->params().mode), 3);
+    EXPECT_TRUE((*l)->mode()->params().conditional_replay);
+  }
+  auto l5 = dentar::session::LessonClock::open((t / "lesson").string(), 5, pen, false);
+  ASSERT_TRUE(l5.ok()) << l5.error();
+  EXPECT_EQ(l5.value()->mode_run(), 5);  // hints need no force
+  EXPECT_EQ(l5.value()->fallback(), "");
+  dentar::haptics::DeviceLimits weak;
+  weak.max_stiffness_N_per_m = 100;  // guidance limit 0.4 x 100 = 40 N/m, below the lesson's default
+  auto lw = dentar::session::LessonClock::open((t / "lesson").string(), 2, weak, true);
+  ASSERT_TRUE(lw.ok()) << lw.error();
+  EXPECT_EQ(lw.value()->mode_run(), 2);
+  EXPECT_LE(lw.value()->mode()->params().guidance.k_N_per_m, 40.0 + 1e-9);
+  ASSERT_FALSE(lw.value()->notes().empty());
+  EXPECT_NE(lw.value()->notes()[0].find("guidance k lowered"), std::string::npos) << lw.value()->notes()[0];
+  auto bad = dentar::session::LessonClock::open((t / "lesson").string(), 6, pen, true);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("--mode 6 must be 1..5"), std::string::npos) << bad.error();
+}
+
+// Bad input before any window: a mode without a lesson, a lesson beside an exercise, a
+// lesson that does not exist (exit 2, naming the option and the file).
+TEST(LiveCli, LessonBadInputIsRefused) {
+  const fs::path c = clip();
+  const std::string base = kBin + " live --camera live:" + (c / "video.mkv").string() + " --station " +
+                           (c / "station.json").string() + " --quiet";
+  auto r = run_command(base + " --mode 2 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--mode 2 needs --lesson"), std::string::npos) << r.out;
+  r = run_command(base + " --lesson builtin:molar_access_opening --mode 2 --exercise molar_access_opening 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("the lesson names its exercise"), std::string::npos) << r.out;
+  const fs::path t = dentar::test::temp_dir("live_lesson_bad");
+  r = run_command(base + " --lesson " + (t / "nowhere").string() + " --mode 3 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("nowhere"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--lesson"), std::string::npos) << r.out;
 }

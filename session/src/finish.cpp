@@ -8,6 +8,10 @@
 #include <sstream>
 
 #include "dentar/ar/station_scene.h"
+#include "dentar/haptics/session_log.h"
+#include "dentar/session/frames_csv.h"
+#include "dentar/store/record.h"
+#include "dentar/store/station.h"
 #include "dentar/training/report.h"
 
 namespace dentar::session {
@@ -71,6 +75,7 @@ DriverScore score_after_run(const DriverScoreInput& in) {
     so.out_dir = in.out_dir;
     so.exercise = !in.exercise.empty() ? in.exercise : recorded_exercise(in.recording);
     so.compare = in.compare;
+    so.read_frames = read_view_frames;  // frames.csv's one reader (frames_csv.h)
     if (!in.frames_csv.empty() && fs::exists(in.frames_csv)) so.frames_csv = in.frames_csv;
     if (!in.station.empty()) {
       auto g = sight_from_station(in.station);
@@ -116,6 +121,74 @@ DriverScore score_after_run(const DriverScoreInput& in) {
     r.warning = std::string("the session was not scored (the recording is kept): ") + e.what();
   }
   return r;
+}
+
+StoreOutcome store_after_score(const StoreTarget& target, const std::string& session, const std::string& report_dir,
+                               const std::function<void(const std::string&)>& note) {
+  StoreOutcome out;
+  std::error_code ec;
+  const fs::path dir = fs::is_directory(session, ec) ? fs::path(session) : fs::path(session).parent_path();
+  const fs::path rep = report_dir.empty() ? dir : fs::path(report_dir);
+  if (!fs::exists(rep / "score.json", ec)) {
+    if (note) note("scoring " + session + " before storing it");
+    training::ScoreOptions so;
+    so.session = session;
+    so.out_dir = report_dir;
+    so.read_frames = read_view_frames;
+    auto sc = training::score_session(so);
+    if (!sc) {
+      out.error = "scoring " + session + " for the store: " + sc.error() + " (the session folder is kept)";
+      // A damaged or foreign log is bad input (2); a log that reads but cannot be scored, a failed job (1).
+      const fs::path log = fs::is_directory(session, ec) ? fs::path(session) / "session.dlog" : fs::path(session);
+      out.exit_code = haptics::read_session_log(log.string()) ? 1 : 2;
+      return out;
+    }
+  }
+  store::ImportOptions io;
+  io.student = target.student;
+  io.station = target.station_id;
+  io.report_dir = report_dir;
+  auto rec = store::record_from_session_dir(session, io);
+  if (!rec) {
+    out.error = rec.error();
+    out.exit_code = 2;
+    return out;
+  }
+  const bool local_only = target.station_db.empty();
+  // One open of the store written to (this station's own store for a server): the
+  // another-student / --move check, the write and the forward happen on it. A store
+  // that is damaged, foreign or newer is bad input (2, as `db status` and `serve` say
+  // for the same file); one that is locked or cannot be reached, a failed job (1).
+  store::StoreOptions so;
+  so.move = target.move;
+  store::OpenFault fault = store::OpenFault::None;
+  auto r = store::store_session(*rec, local_only ? target.db : target.station_db, local_only ? "" : target.db, so, &fault);
+  if (!r) {
+    out.error = "storing " + session + ": " + r.error() + " (the session folder " + dir.string() + " is kept)";
+    out.exit_code = fault == store::OpenFault::Unavailable ? 1 : 2;
+    return out;
+  }
+  out.warning = r->warning;
+  std::ostringstream line;
+  line << "session " << rec->key.substr(0, 12) << " of " << rec->student << " (" << rec->exercise << ", " << rec->points
+       << " / " << rec->max_points << " points): " << (r->moved_from.empty() ? "" : "moved from student " + r->moved_from + "; ")
+       << r->message;
+  out.line = line.str();
+  return out;
+}
+
+FinishOutcome finish_run(const DriverScoreInput* score, const StoreTarget& target, const std::string& session,
+                         const std::string& report_dir, const std::function<void(const std::string&)>& note) {
+  FinishOutcome f;
+  if (score) {
+    f.scored = true;
+    f.score = score_after_run(*score);
+  }
+  if (!target.db.empty()) {
+    f.stored = true;
+    f.store = store_after_score(target, session, report_dir, note);
+  }
+  return f;
 }
 
 }  // namespace dentar::session

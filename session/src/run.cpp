@@ -38,6 +38,8 @@ Run::~Run() {
   pipeline_.reset();
   meshes_.reset();
   engine_.reset();
+  log_.reset();
+  lesson_.reset();
 }
 
 Result<std::unique_ptr<Run>> Run::from_station(const ar::StationScene& station) {
@@ -70,6 +72,12 @@ Result<std::unique_ptr<Run>> Run::from_session_log(SessionLogSetup log, const ar
   run->replay_ = std::make_unique<haptics::ReplayDevice>(std::move(log.records), setup.limits);
   haptics::EngineConfig cfg = setup.engine;
   cfg.try_realtime = false;
+  if (setup.training) {  // a lesson's session: its mode, rebuilt from the expert's recording
+    auto lesson = LessonClock::from_header(*setup.training);
+    if (!lesson) return Error{log.path + ": training: " + lesson.error()};
+    run->lesson_ = std::move(*lesson);
+    cfg.training = run->lesson_->mode();
+  }
   auto eng = haptics::Engine::create(cfg, *run->replay_, *run->volume_, *run->bur_, nullptr);
   if (!eng) return Error{log.path + ": " + eng.error()};
   run->engine_ = std::move(*eng);
@@ -77,12 +85,55 @@ Result<std::unique_ptr<Run>> Run::from_session_log(SessionLogSetup log, const ar
   return run;
 }
 
+std::unique_ptr<Run> Run::from_tooth(volume::VoxelVolume tooth, volume::BurSamples bur) {
+  std::unique_ptr<Run> run(new Run);
+  run->volume_.emplace(std::move(tooth));
+  run->bur_.emplace(std::move(bur));
+  return run;
+}
+
+Status Run::make_engine(const haptics::EngineConfig& config, haptics::HapticDevice& device, const std::string& tooth_json,
+                        const std::string& log_path) {
+  haptics::EngineConfig cfg = config;
+  if (lesson_) cfg.training = lesson_->mode();
+  if (!log_path.empty()) {
+    // The header is the engine's own: a probe engine writes it, the log opens with it.
+    std::string header;
+    {
+      auto probe = haptics::Engine::create(cfg, device, *volume_, *bur_, nullptr);
+      if (!probe) return Error{"engine: " + probe.error()};
+      header = (*probe)->header_json(tooth_json);
+    }
+    auto w = haptics::SessionLogWriter::open(log_path, header);
+    if (!w) return Error{w.error()};
+    log_ = std::move(*w);
+  }
+  auto eng = haptics::Engine::create(cfg, device, *volume_, *bur_, log_.get());
+  if (!eng) return Error{"engine: " + eng.error()};
+  engine_ = std::move(*eng);
+  return {};
+}
+
+Status Run::close_session_log() { return log_ ? log_->close() : Status{}; }
+
 Status Run::make_pipeline(const ar::StationScene& station, const ar::PipelineOptions& options) {
+  if (auto s = create_pipeline(station, options); !s) return s;
+  return warm_up();
+}
+
+Status Run::create_pipeline(const ar::StationScene& station, const ar::PipelineOptions& options) {
   meshes_ = std::make_unique<ar::ToothMeshes>(*volume_);
   auto p = ar::FramePipeline::create(station, options);
   if (!p) return Error{p.error()};
   pipeline_ = std::move(*p);
-  return pipeline_->warm_up(*meshes_);
+  return {};
+}
+
+Status Run::warm_up(const ar::GlFrameTarget& target) { return pipeline_->warm_up(*meshes_, target); }
+
+void Run::drop_pipeline() {
+  pipeline_.reset();
+  meshes_.reset();
 }
 
 Status Run::record_to(const std::string& dir) {

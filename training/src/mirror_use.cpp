@@ -8,32 +8,6 @@
 
 namespace dentar::training {
 
-namespace {
-
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> v;
-  std::string cur;
-  for (char c : line) {
-    if (c == ',') {
-      v.push_back(cur);
-      cur.clear();
-    } else if (c != '\r') {
-      cur += c;
-    }
-  }
-  v.push_back(cur);
-  return v;
-}
-
-bool to_double(const std::string& s, double& out) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  out = std::strtod(s.c_str(), &end);
-  return end && *end == '\0' && std::isfinite(out);
-}
-
-}  // namespace
-
 const char* sightline_name(Sightline s) {
   switch (s) {
     case Sightline::kDirect: return "direct";
@@ -42,80 +16,6 @@ const char* sightline_name(Sightline s) {
     case Sightline::kNone: return "none";
   }
   return "?";
-}
-
-Result<std::vector<ViewFrame>> read_view_frames(const std::string& path, double rate_hz) {
-  std::ifstream f(path);
-  if (!f) return Error{path + ": cannot open"};
-  if (!(rate_hz > 0)) return Error{path + ": the session's haptic rate must be positive"};
-  std::string line;
-  if (!std::getline(f, line)) return Error{path + ": empty (expected a header row)"};
-  const std::vector<std::string> head = split(line);
-  auto col = [&](const std::string& n) -> int {
-    for (std::size_t i = 0; i < head.size(); ++i)
-      if (head[i] == n) return static_cast<int>(i);
-    return -1;
-  };
-  const bool live = col("man_T") >= 0;
-  const int c_step = live ? col("haptic_steps") : col("haptic_step");
-  const int c_pedal = col("pedal");
-  const int c_mst = col("man_state"), c_rst = col("mirror_state");
-  int c_man = live ? col("man_T") : col("man_tx_mm");
-  int c_mir = live ? col("mirror_T") : col("mirror_tx_mm");
-  if (c_step < 0 || c_pedal < 0 || c_mst < 0 || c_rst < 0 || c_man < 0 || c_mir < 0)
-    return Error{path + ": line 1: not a frames.csv of `dentar offline` or `dentar live --record` (needs " +
-                 std::string(live ? "haptic_steps, man_T, mirror_T" : "haptic_step, man_tx_mm.., mirror_tx_mm..") +
-                 ", man_state, mirror_state and pedal)"};
-  if (!live && (col("man_qz") != c_man + 6 || col("mirror_qz") != c_mir + 6))
-    return Error{path + ": line 1: expected man_tx_mm..man_qz and mirror_tx_mm..mirror_qz as 7 adjacent columns"};
-  std::vector<ViewFrame> out;
-  int ln = 1;
-  while (std::getline(f, line)) {
-    ++ln;
-    if (line.empty() || line == "\r") continue;
-    const std::vector<std::string> v = split(line);
-    const auto need = static_cast<std::size_t>(std::max({c_step, c_pedal, c_mst, c_rst, c_man + (live ? 0 : 6),
-                                                         c_mir + (live ? 0 : 6)}));
-    // A row cut short by a crash ends the table (as the offline replay reads it).
-    if (v.size() <= need) break;
-    auto where = [&](int c) {
-      return path + ": line " + std::to_string(ln) + ", column " + std::to_string(c + 1) + " (" + head[static_cast<std::size_t>(c)] + ")";
-    };
-    ViewFrame fr;
-    double steps = 0;
-    if (!to_double(v[static_cast<std::size_t>(c_step)], steps) || steps < 0)
-      return Error{where(c_step) + ": '" + v[static_cast<std::size_t>(c_step)] + "' is not a step count"};
-    fr.session_s = steps / rate_hz;
-    fr.pedal = v[static_cast<std::size_t>(c_pedal)] == "1";
-    auto pose = [&](int c_state, int c0, std::optional<Eigen::Isometry3d>& T) -> Status {
-      const std::string& st = v[static_cast<std::size_t>(c_state)];
-      if (st != "tracking" && st != "predicted") return {};
-      Eigen::Isometry3d M = Eigen::Isometry3d::Identity();
-      if (live) {
-        std::istringstream ss(v[static_cast<std::size_t>(c0)]);
-        double x[12];
-        for (double& e : x)
-          if (!(ss >> e) || !std::isfinite(e)) return Error{where(c0) + ": expected 12 numbers (3x4 pose, row-major, m)"};
-        for (int i = 0; i < 12; ++i) M.matrix()(i / 4, i % 4) = x[i];
-      } else {
-        double x[7];
-        for (int i = 0; i < 7; ++i)
-          if (!to_double(v[static_cast<std::size_t>(c0 + i)], x[i]))
-            return Error{where(c0 + i) + ": '" + v[static_cast<std::size_t>(c0 + i)] + "' is not a number (state " + st + ")"};
-        Eigen::Quaterniond q(x[3], x[4], x[5], x[6]);
-        if (q.norm() < 0.5) return Error{where(c0 + 3) + ": quaternion of length " + std::to_string(q.norm())};
-        M.linear() = q.normalized().toRotationMatrix();
-        M.translation() = Eigen::Vector3d(x[0], x[1], x[2]) * 1e-3;
-      }
-      T = M;
-      return {};
-    };
-    if (Status s = pose(c_mst, c_man, fr.T_cam_man); !s) return Error{s.error()};
-    if (Status s = pose(c_rst, c_mir, fr.T_cam_mtag); !s) return Error{s.error()};
-    out.push_back(std::move(fr));
-  }
-  if (out.empty()) return Error{path + ": no frame rows"};
-  return out;
 }
 
 Sightline classify_sightline(const SightGeometry& g, const Eigen::Vector3d& p_tooth, const Eigen::Vector3d& n_tooth,

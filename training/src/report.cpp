@@ -478,8 +478,10 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
                        "score a `dentar live --record` folder or a `dentar offline` run)";
     } else if (!o.sight) {
       sum.mirror.why = "no station geometry (station.json) to place the mirror and the tooth";
+    } else if (!o.read_frames) {
+      sum.mirror.why = "no frames.csv reader given to the scorer (session::read_view_frames)";
     } else {
-      auto frames = read_view_frames(fcsv, setup->engine.rate_hz);
+      auto frames = o.read_frames(fcsv, setup->engine.rate_hz);
       if (!frames) {
         // A damaged frames.csv costs the mirror figures, not the score.
         sum.mirror.why = frames.error();

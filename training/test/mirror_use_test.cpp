@@ -1,6 +1,6 @@
 // Mirror use: the four sightline classes on hand-built scenes with known
-// answers, the frames.csv readers (offline and live layouts) and their
-// errors, and "unavailable" (never zero) when no mirror was tracked.
+// answers, and "unavailable" (never zero) when no mirror was tracked. The
+// frames.csv reader (offline and live layouts) is session's: session/test/frames_csv_test.cpp.
 #include "dentar/training/mirror_use.h"
 
 #include <gtest/gtest.h>
@@ -91,65 +91,6 @@ TEST(MirrorUse, FieldOfViewLimitsTheDirectView) {
   EXPECT_EQ(classify_sightline(g, kSite, kUp, T_cam_tooth, std::nullopt), Sightline::kNone);
   g.tan_half_fov_x = g.tan_half_fov_y = 0;  // no field-of-view test
   EXPECT_EQ(classify_sightline(g, kSite, kUp, T_cam_tooth, std::nullopt), Sightline::kDirect);
-}
-
-std::string temp_file(const std::string& name, const std::string& text) {
-  const auto dir = dentar::test::temp_dir("mirror_use_" + name);
-  std::filesystem::create_directories(dir);
-  const auto p = dir / name;
-  std::ofstream(p) << text;
-  return p.string();
-}
-
-TEST(MirrorUse, ReadsTheOfflineLayout) {
-  const std::string head =
-      "frame,time_s,man_state,man_tx_mm,man_ty_mm,man_tz_mm,man_qw,man_qx,man_qy,man_qz,man_rms_px,man_tags,"
-      "mirror_state,mirror_tx_mm,mirror_ty_mm,mirror_tz_mm,mirror_qw,mirror_qx,mirror_qy,mirror_qz,mirror_tags,"
-      "tags_detected,full_frame,haptic_step,pedal\n";
-  const std::string path = temp_file("offline.csv", head +
-                                                        "0,0,tracking,1,2,300,1,0,0,0,0.3,4,lost,,,,,,,,0,4,1,33,0\n"
-                                                        "1,0.033,predicted,1,2,300,0,1,0,0,0.3,4,tracking,5,6,250,1,0,0,0,1,5,0,66,1\n");
-  auto f = read_view_frames(path, 1000);
-  ASSERT_TRUE(f.ok()) << f.error();
-  ASSERT_EQ(f->size(), 2u);
-  EXPECT_NEAR((*f)[0].session_s, 0.033, 1e-12);
-  EXPECT_FALSE((*f)[0].pedal);
-  ASSERT_TRUE((*f)[0].T_cam_man.has_value());
-  EXPECT_NEAR(((*f)[0].T_cam_man->translation() - Eigen::Vector3d(1e-3, 2e-3, 0.3)).norm(), 0, 1e-12);
-  EXPECT_FALSE((*f)[0].T_cam_mtag.has_value());
-  EXPECT_TRUE((*f)[1].pedal);
-  ASSERT_TRUE((*f)[1].T_cam_mtag.has_value());
-  // Quaternion (0, 1, 0, 0): 180 degrees about x.
-  EXPECT_NEAR((*f)[1].T_cam_man->linear()(1, 1), -1.0, 1e-12);
-
-  const std::string bad = temp_file("bad.csv", head + "0,0,tracking,1,abc,300,1,0,0,0,0.3,4,lost,,,,,,,,0,4,1,33,0\n");
-  auto e = read_view_frames(bad, 1000);
-  ASSERT_FALSE(e.ok());
-  EXPECT_NE(e.error().find("bad.csv: line 2, column 5 (man_ty_mm): 'abc' is not a number"), std::string::npos) << e.error();
-  auto m = read_view_frames(temp_file("other.csv", "a,b,c\n1,2,3\n"), 1000);
-  ASSERT_FALSE(m.ok());
-  EXPECT_NE(m.error().find("other.csv: line 1: not a frames.csv"), std::string::npos) << m.error();
-}
-
-TEST(MirrorUse, ReadsTheLiveLayout) {
-  const std::string head =
-      "frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,man_T,mirror_T,pedal,force_N\n";
-  const std::string path =
-      temp_file("live.csv", head + "0,0,0,0,500,tracking,tracking,lost,1 0 0 0.01 0 1 0 0.02 0 0 1 0.3,"
-                                   "1 0 0 0 0 1 0 0 0 0 1 0.25,1,0.5\n"
-                                   "1,0.03,0.03,1,530,lost,lost,lost,,,0,0\n"
-                                   "2,0.06,0.06,2,560,tracking,lost,lost,1 0 0 0");  // cut short by a crash: ends the table
-  auto f = read_view_frames(path, 1000);
-  ASSERT_TRUE(f.ok()) << f.error();
-  ASSERT_EQ(f->size(), 2u);
-  EXPECT_NEAR((*f)[0].session_s, 0.5, 1e-12);
-  EXPECT_NEAR((*f)[0].T_cam_man->translation().z(), 0.3, 1e-12);
-  EXPECT_NEAR((*f)[0].T_cam_mtag->translation().z(), 0.25, 1e-12);
-  EXPECT_FALSE((*f)[1].T_cam_man.has_value());
-  const std::string bad = temp_file("live_bad.csv", head + "0,0,0,0,500,tracking,lost,lost,1 0 0,,1,0.5\n");
-  auto e = read_view_frames(bad, 1000);
-  ASSERT_FALSE(e.ok());
-  EXPECT_NE(e.error().find("live_bad.csv: line 2, column 9 (man_T): expected 12 numbers"), std::string::npos) << e.error();
 }
 
 SessionTrack still_track(int n) {

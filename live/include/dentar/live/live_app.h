@@ -85,6 +85,15 @@ struct LiveOptions {
   // (training/hand_script.h, hand_tip_script). The defaults are the expert script of seed 1.
   // The run stops by itself once the engine has stepped through the hand's whole script
   // (stop_reason "the simulated hand finished the exercise"), or earlier at `seconds`.
+  // A lesson (issue 27; training/lesson.h: a folder, or builtin:EXERCISE) trained in
+  // lesson_mode 1..5: the expert's tool replayed in the engine with the mode's forces
+  // (session::LessonClock), recorded in the session log's training section. The lesson names
+  // the exercise and the tooth (--exercise is refused beside it). --stylus sim: a simulated
+  // student (training::SimStudentDevice on the "touch" profile) follows the expert; pen: no
+  // force, modes 2 and 4 fall back to 3; a --device renders the mode's force. The run stops
+  // by itself when the expert's recording ends.
+  std::string lesson;
+  int lesson_mode = 0;
   double hand_skill = 1.0;
   double hand_style = 0.0;
   std::uint64_t hand_seed = 1;
@@ -164,6 +173,28 @@ struct LiveSummary {
   std::vector<std::string> station_health;
   bool instructor_needed = false;
   std::vector<std::string> warnings;
+  // A lesson's run (LiveOptions::lesson; mode 0: none): the mode asked and run (a fallback
+  // says why they differ), the expert's clock at the end and the recording's length, the
+  // share of the run the expert waited for the student (mode 3), and the student's tip
+  // against the expert's, sampled by the display loop (>= 30 Hz) after the expert's first
+  // 0.5 s, mm.
+  std::string lesson;
+  int lesson_mode_asked = 0, lesson_mode = 0;
+  std::string lesson_fallback;
+  double lesson_expert_s = 0, lesson_expert_end_s = 0;
+  double lesson_waiting_pct = 0;
+  std::int64_t follow_samples = 0;
+  double follow_mean_mm = 0, follow_p95_mm = 0, follow_max_mm = 0;
+  // The lesson's pause points taken (the expert's clock held, device time, s; how many the
+  // student ended early with the pause button) and its text annotations shown on the HUD
+  // (annotation time, expert's clock and run time when shown, s; the text).
+  int lesson_pauses_taken = 0, lesson_pauses_resumed_by_button = 0;
+  double lesson_paused_s = 0;
+  struct LessonNote {
+    double time_s = 0, expert_s = 0, run_s = 0;
+    std::string text;
+  };
+  std::vector<LessonNote> lesson_notes;
   // The display path used ("gl" or "cpu"), why (the fallback's reason), and
   // what crossed between GPU and CPU over the run (compositor counters).
   std::string display_path, display_note;

@@ -1,9 +1,14 @@
-// Scoring a finished session for the drivers (`dentar offline`, `live`,
-// `demo`): the session is scored against its exercise and score.json +
-// score.html are written into the run's folder. A failure to score never
-// fails or loses the run: it comes back as a warning.
+// The finish step of a run, for the drivers (`dentar offline`, `live`,
+// `demo`, `lesson run`, `db import`): score, then store.
+//  - score: the session is scored against its exercise and score.json +
+//    score.html are written into the run's folder. A failure to score never
+//    fails or loses the run: it comes back as a warning.
+//  - store: the scored session (its log and score.json) as one record in the
+//    store (store/: SQLite, or a PostgreSQL server through this station's own
+//    SQLite queue). A failure to store keeps the session folder and says why.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "dentar/training/mirror_use.h"
@@ -29,6 +34,40 @@ struct DriverScore {
 };
 
 DriverScore score_after_run(const DriverScoreInput& in);
+
+// Where and for whom a finished session is stored (--db, --station-db, --student, --station-id, --move).
+struct StoreTarget {
+  std::string db;          // sqlite:PATH or postgresql://USER@HOST[:PORT]/DB; empty: not stored
+  std::string station_db;  // this station's own SQLite queue when db is a server ("" = db is written directly)
+  std::string student, station_id;
+  bool move = false;  // a session stored under another student moves to `student`
+};
+
+struct StoreOutcome {
+  // 0 stored; 1 a failed job (a store locked or unreachable, a log that reads but cannot be
+  // scored); 2 bad input (a damaged or foreign log, a damaged, foreign or newer store).
+  int exit_code = 0;
+  std::string line;     // when stored: "session KEY of STUDENT (EXERCISE, P / M points): MESSAGE"
+  std::string warning;  // the store's warning ("" = none)
+  std::string error;    // when not stored: why (the session folder is kept)
+};
+
+// The store half: `session` (a folder with session.dlog, or a .dlog) scored into report_dir
+// ("" = the session's folder) unless its score.json is there (`note` says so first), then
+// stored in target.db (store::store_session: the store opened once).
+StoreOutcome store_after_score(const StoreTarget& target, const std::string& session, const std::string& report_dir,
+                               const std::function<void(const std::string&)>& note);
+
+// The whole finish step: `score` (when given) scored, then `session` stored when target.db
+// is set (report_dir as for store_after_score).
+struct FinishOutcome {
+  bool scored = false;
+  DriverScore score;
+  bool stored = false;
+  StoreOutcome store;
+};
+FinishOutcome finish_run(const DriverScoreInput* score, const StoreTarget& target, const std::string& session,
+                         const std::string& report_dir, const std::function<void(const std::string&)>& note);
 
 // Empty when `exercise` ("" allowed) names a loadable exercise, else the
 // error: the drivers check --exercise before a run (bad input, exit 2).

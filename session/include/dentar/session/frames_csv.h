@@ -18,6 +18,7 @@
 
 #include "dentar/ar/frame_pipeline.h"
 #include "dentar/ar/tracker.h"
+#include "dentar/training/mirror_use.h"
 #include "dentar/volume/material.h"
 #include "dentar/volume/result.h"
 
@@ -63,5 +64,12 @@ struct OfflineFrameRow {
 };
 std::string offline_csv_header();  // with its newline
 std::string offline_csv_row(const OfflineFrameRow& r);
+
+// ---- reading either layout back (mirror use, training/mirror_use.h) ----
+// The camera frames of a frames.csv of `dentar offline` (man_tx_mm.., man_qw..; haptic_step)
+// or of `dentar live --record` (man_T, mirror_T: 12 numbers; haptic_steps): poses as drawn
+// (tracking or predicted), session time = haptic steps / rate_hz, pedal. A row cut short (a
+// crash) ends the table. Errors name the file, line and column.
+Result<std::vector<training::ViewFrame>> read_view_frames(const std::string& path, double rate_hz);
 
 }  // namespace dentar::session

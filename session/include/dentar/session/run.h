@@ -29,6 +29,8 @@
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/replay_device.h"
+#include "dentar/haptics/session_log.h"
+#include "dentar/session/lesson_clock.h"
 #include "dentar/session/recorder.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/result.h"
@@ -55,7 +57,8 @@ class Run {
  public:
   // An uncut procedural molar of the station's voxel size; no engine, no bur.
   static Result<std::unique_ptr<Run>> from_station(const ar::StationScene& station);
-  // A replay of a session log: the log's tooth, bur and engine, driven by its
+  // A replay of a session log: the log's tooth, bur and engine (with the training
+  // mode its header recorded, rebuilt from the expert's recording), driven by its
   // records through a ReplayDevice; the engine never asks for real time.
   // Warnings (another station registration than the log's) go to warnings().
   static Result<std::unique_ptr<Run>> from_session_log(SessionLogSetup log, const ar::StationScene& station,
@@ -65,9 +68,27 @@ class Run {
   Run& operator=(const Run&) = delete;
   ~Run();
 
+  // A live run: the tooth drilled and the bur; the engine comes with make_engine.
+  static std::unique_ptr<Run> from_tooth(volume::VoxelVolume tooth, volume::BurSamples bur);
+  // A lesson (before make_engine): its training mode is the engine's.
+  void set_lesson(std::unique_ptr<LessonClock> lesson) { lesson_ = std::move(lesson); }
+  LessonClock* lesson() { return lesson_.get(); }
+  // The engine of a live run over `device` (not owned: it must outlive the Run), whose
+  // session log (header: the engine's, with `tooth_json`) is written to `log_path` ("" = no
+  // log). Errors: "engine: ..." (the configuration), or the log file's.
+  Status make_engine(const haptics::EngineConfig& cfg, haptics::HapticDevice& device, const std::string& tooth_json,
+                     const std::string& log_path);
+  // Closes the session log (after the engine stopped); ok when there is none.
+  Status close_session_log();
+
   // The tooth meshes and the pipeline (on the frame thread, with its GL
-  // context current): FramePipeline::create, then warm_up.
+  // context current): create_pipeline, then warm_up (into `target` when the
+  // composite stays on the GPU).
   Status make_pipeline(const ar::StationScene& station, const ar::PipelineOptions& options);
+  Status create_pipeline(const ar::StationScene& station, const ar::PipelineOptions& options);
+  Status warm_up(const ar::GlFrameTarget& target = {});
+  // The pipeline and the meshes released (on the frame thread, before its GL context goes).
+  void drop_pipeline();
   // Opens the recorder of a `dentar live --record` folder.
   Status record_to(const std::string& dir);
 
@@ -89,6 +110,8 @@ class Run {
   std::optional<volume::BurSamples> bur_;
   std::optional<haptics::SessionSetup> setup_;
   std::unique_ptr<haptics::ReplayDevice> replay_;
+  std::unique_ptr<LessonClock> lesson_;  // before the engine that steps its mode
+  std::unique_ptr<haptics::SessionLogWriter> log_;
   std::unique_ptr<haptics::Engine> engine_;
   std::size_t session_steps_ = 0;
   std::unique_ptr<ar::ToothMeshes> meshes_;

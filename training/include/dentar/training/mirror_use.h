@@ -41,10 +41,8 @@ struct ViewFrame {
   std::optional<Eigen::Isometry3d> T_cam_mtag;  // empty: mirror lost
 };
 
-// Reads frames.csv of `dentar offline` (man_tx_mm.., man_qw..; haptic_step)
-// or of `dentar live --record` (man_T, mirror_T: 12 numbers; haptic_steps).
-// rate_hz: the session's haptic rate. Errors name the file, line and column.
-Result<std::vector<ViewFrame>> read_view_frames(const std::string& path, double rate_hz);
+// frames.csv is read by its one reader, session::read_view_frames (session/frames_csv.h,
+// above this room), and handed in: ScoreOptions::read_frames, or the frames themselves.
 
 enum class Sightline : int { kDirect = 0, kMirror = 1, kBoth = 2, kNone = 3 };
 const char* sightline_name(Sightline s);

@@ -5,6 +5,7 @@
 // Callable from `dentar score`, and from the offline and live drivers.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,6 +32,9 @@ struct ScoreOptions {
   // <session folder>/frames.csv when present) and the station geometry (the
   // drivers read it from station.json). Either missing: mirror use unavailable.
   std::string frames_csv;
+  // Reads frames_csv (the caller's frames.csv reader, session::read_view_frames: training
+  // sits below the run room and keeps no reader of its own). Empty: mirror use unavailable.
+  std::function<Result<std::vector<ViewFrame>>(const std::string& path, double rate_hz)> read_frames;
   std::optional<SightGeometry> sight;
   std::string sight_source;  // where the geometry came from (report)
   // Score beside it a whole generated expert session and a generated novice

@@ -1,4 +1,4 @@
-// Fuzz target: frames.csv as mirror use reads it (offline or live layout).
+// Fuzz target: frames.csv as mirror use reads it (session::read_view_frames) (offline or live layout).
 // The reader takes a path, so the input goes through a scratch file.
 #include <unistd.h>
 
@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <string>
 
-#include "dentar/training/mirror_use.h"
+#include "dentar/session/frames_csv.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::string path = "/tmp/dentar_fuzz_view_frames_" + std::to_string(::getpid()) + ".csv";
@@ -15,7 +15,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!f) return 0;
   if (size > 0) std::fwrite(data, 1, size, f);
   std::fclose(f);
-  auto r = dentar::training::read_view_frames(path, 1000.0);
+  auto r = dentar::session::read_view_frames(path, 1000.0);
   if (r) {
     for (const auto& v : *r) {
       if (!std::isfinite(v.session_s) || v.session_s < 0) __builtin_trap();

@@ -1,0 +1,304 @@
+// dentar live's display loop (main thread): the window, the HUD and the stop
+// conditions. See live_run.h.
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "dentar/ar/frame_source.h"
+#include "dentar/haptics/engine.h"
+#include "dentar/session/frames_csv.h"
+#include "dentar/session/recorder.h"
+#include "dentar/volume/material.h"
+#include "live_run.h"
+
+namespace dentar::live {
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(std::min<double>(v.size() - 1, std::ceil(q * (v.size() - 1))));
+  return v[i];
+}
+
+double rss_mb() {
+  std::ifstream f("/proc/self/statm");
+  long pages = 0, rss = 0;
+  f >> pages >> rss;
+  return static_cast<double>(rss) * static_cast<double>(sysconf(_SC_PAGESIZE)) / 1e6;
+}
+
+namespace {
+
+double now_s() { return ar::steady_now_s(); }
+
+class DisplayLoop {
+ public:
+  DisplayLoop(const LiveContext& c, LiveShared& sh, const DisplayInputs& in, LiveSummary& sum)
+      : c_(c), sh_(sh), in_(in), sum_(sum), engine_(*c.run.engine()), gpu_display_(sh.gl_path.load()) {}
+
+  DisplayFigures run() {
+    fig_.t_start = now_s();
+    fig_.stop_reason = "window closed";
+    fps_t0_ = fig_.t_start;
+    while (!stop_now()) frame();
+    return std::move(fig_);
+  }
+
+ private:
+  // A stop condition met (fig_.stop_reason set).
+  bool stop_now() {
+    const LiveOptions& o = c_.o;
+    if (c_.hw.should_close()) return true;
+    const int sig = in_.signal ? in_.signal->load() : 0;
+    if (sig != 0) return stop(sig == SIGINT ? "SIGINT" : "SIGTERM");
+    if (o.seconds > 0 && now_s() - fig_.t_start >= o.seconds) return stop("time limit");
+    if (in_.hand_end_s > 0 && static_cast<double>(engine_.stats().steps) / in_.rate_hz >= in_.hand_end_s + 1.0)
+      return stop("the simulated hand finished the exercise");
+    if (o.frames > 0 && fig_.displayed >= o.frames) return stop("frame limit");
+    if (in_.lesson_end_s > 0 && engine_.snapshot().expert_time_s >= in_.lesson_end_s &&
+        (!c_.lesson_pauses || c_.lesson_pauses->pausing() < 0))  // a pause point at the very end is held
+      return stop("the lesson's recording ended");
+    bool fresh_pending = false;
+    {
+      std::lock_guard<std::mutex> lock(sh_.shown_m);
+      fresh_pending = sh_.shown_new;
+    }
+    if (in_.capture.ended() && !fresh_pending && sh_.processed.load() > 0 &&
+        now_s() - in_.capture.last_frame_steady_s() > 0.5)
+      return stop("footage ended");
+    return false;
+  }
+  bool stop(const char* why) {
+    fig_.stop_reason = why;
+    return true;
+  }
+
+  // Takes the frame thread's newest frame, if any. new_slot: the GPU path's texture.
+  bool take_shown(int& new_slot) {
+    // Draw when a frame arrives; otherwise redraw the HUD at ~30 Hz (an
+    // idle loop must not spin: under Xvfb there is no vsync to pace it).
+    std::unique_lock<std::mutex> lock(sh_.shown_m);
+    sh_.shown_cv.wait_for(lock, std::chrono::milliseconds(30), [&] { return sh_.shown_new; });
+    if (!sh_.shown_new) return false;
+    Shown& shown = sh_.shown;
+    cv::swap(cur_.composite, shown.composite);
+    cur_.gpu = shown.gpu;
+    if (cur_.gpu) new_slot = sh_.ring->take();
+    cur_.raw = shown.raw;
+    cur_.index = shown.index;
+    cur_.steady_s = shown.steady_s;
+    cur_.rec = shown.rec;
+    cur_.error = shown.error;
+    sh_.shown_new = false;
+    return true;
+  }
+
+  void frame() {
+    int new_slot = -1;
+    const bool fresh = take_shown(new_slot);
+    if (const haptics::HapticSnapshot snap = engine_.snapshot(); snap.mode != 0) {
+      // A lesson: how closely the student follows the expert.
+      ++fig_.passes;
+      if (snap.expert_time_s >= 0.5) fig_.follow_m.push_back(snap.follow_error_m);
+      fig_.passes_expert_waiting += snap.expert_waiting ? 1 : 0;
+      reach_notes(snap.expert_time_s);
+    }
+    HudWindow& hw = c_.hw;
+    hw.poll();
+    for (const int key : hw.take_presses())
+      if (key == GLFW_KEY_ESCAPE) hw.request_close();
+    c_.key_pedal.set_pressed(hw.held(GLFW_KEY_SPACE));
+    // The camera went quiet: show the video without the overlay within 200 ms.
+    // One read of the capture time per check: a frame may land before the
+    // swap, and the figure below must be about the silence this check saw.
+    const double last_frame_s = in_.capture.last_frame_steady_s();
+    const double age = cur_.index >= 0 ? now_s() - last_frame_s : 0;
+    const bool stalled = cur_.index >= 0 && age > 0.15;
+    if (stalled && stall_seen_at_ < 0) stall_seen_at_ = now_s();
+    if (!stalled) stall_seen_at_ = -1;
+    const cv::Mat& img = stalled ? cur_.raw : cur_.composite;
+    if (fresh && new_slot >= 0) {
+      // The composite on the GPU: wait for its fence, then draw from it.
+      sh_.ring->wait_ready(new_slot);
+      const ar::GlFrameTarget t = sh_.ring->target(new_slot);
+      hw.set_frame(t.video_texture, t.overlay_texture, sh_.ring->region(new_slot));
+      shown_slot_ = new_slot;
+    }
+    if (!img.empty() && (fresh || stalled)) {
+      hw.set_video(img);
+      shown_slot_ = -1;
+    }
+    hw.begin_frame();
+    if (c_.o.hud) draw_hud(stalled, age);
+    // Test hook: the window's pixels for frame N (read before the swap).
+    const auto shot = fresh ? std::find_if(shots_.begin(), shots_.end(), [&](const auto& x) { return x.first == cur_.index; })
+                            : shots_.end();
+    const cv::Mat px = hw.end_frame(shot != shots_.end());
+    if (shown_slot_ >= 0) sh_.ring->release(shown_slot_);  // the producer may draw into it once this completes
+    if (shot != shots_.end()) {
+      cv::imwrite(shot->second, px);
+      shots_.erase(shot);
+    }
+    figures_after_swap(fresh, stalled, age, last_frame_s);
+  }
+
+  // The lesson's text annotations the expert's clock reached: on the HUD from then on for
+  // kNoteShowS (and through their pause), logged in the recording's log.
+  static constexpr double kNoteShowS = 5.0;
+  void reach_notes(double expert_s) {
+    const session::LessonClock* l = c_.run.lesson();
+    if (!l || !c_.o.hud) return;
+    const auto& ann = l->lesson().annotations;
+    for (; next_note_ < ann.size() && ann[next_note_].time_s <= expert_s; ++next_note_) {
+      if (ann[next_note_].text.empty()) continue;
+      fig_.notes.push_back({static_cast<int>(next_note_), expert_s, now_s() - fig_.t_start});
+      if (session::Recorder* rec = c_.run.recorder()) {
+        char b[96];
+        std::snprintf(b, sizeof b, "lesson note at %.2f s (expert's clock %.2f s) on the HUD: ", ann[next_note_].time_s,
+                      expert_s);
+        rec->log(b + ann[next_note_].text);
+      }
+    }
+  }
+
+  // The lesson's lines: a pause point holding the expert's clock, and the notes on show.
+  void draw_lesson_lines(const ImVec4& hi) {
+    const session::LessonClock* l = c_.run.lesson();
+    if (!l) return;
+    const auto& ann = l->lesson().annotations;
+    const int p = c_.lesson_pauses ? c_.lesson_pauses->pausing() : -1;
+    if (p >= 0) {
+      if (c_.pen)
+        ImGui::TextColored(hi, "PAUSED by the lesson: the expert resumes in %.1f s", c_.lesson_pauses->pause_left_s());
+      else
+        ImGui::TextColored(hi, "PAUSED by the lesson: the expert resumes in %.1f s, or press and release the stylus's "
+                           "pause button (second button)", c_.lesson_pauses->pause_left_s());
+    }
+    const double t = now_s() - fig_.t_start;
+    for (const DisplayFigures::Note& n : fig_.notes)
+      if (t - n.run_s < kNoteShowS || n.annotation == p)
+        ImGui::TextColored(hi, "lesson (%.1f s): %s", ann[static_cast<std::size_t>(n.annotation)].time_s,
+                           ann[static_cast<std::size_t>(n.annotation)].text.c_str());
+  }
+
+  void figures_after_swap(bool fresh, bool stalled, double age, double last_frame_s) {
+    const double t_swap = now_s();
+    if (fresh && cur_.index != last_index_) {
+      fig_.latency_ms.push_back((t_swap - cur_.steady_s) * 1e3);
+      last_index_ = cur_.index;
+      ++fig_.displayed;
+      ++fps_n_;
+    }
+    if (stalled && stall_seen_at_ > 0 && sum_.overlay_hidden_ms_after_stall < 0) {
+      sum_.overlay_hidden_ms_after_stall = static_cast<int>(std::lround((t_swap - last_frame_s) * 1e3));
+      sum_.stall_previous_check_ms = static_cast<int>(std::lround(prev_check_age_s_ * 1e3));
+    }
+    prev_check_age_s_ = age;
+    if (sum_.rss_warm_mb == 0 && t_swap - fig_.t_start >= 10.0) sum_.rss_warm_mb = rss_mb();
+    if (t_swap - fps_t0_ >= 1.0) {
+      if (t_swap - fig_.t_start >= 60.0) {
+        const double r = rss_mb();
+        if (sum_.rss_60s_mb == 0) sum_.rss_60s_mb = r;
+        sum_.rss_max_after_60s_mb = std::max(sum_.rss_max_after_60s_mb, r);
+      }
+      fps_now_ = fps_n_ / (t_swap - fps_t0_);
+      fps_t0_ = t_swap;
+      fps_n_ = 0;
+    }
+  }
+
+  void draw_hud(bool stalled, double age) {
+    const ar::FrameRecord& r = cur_.rec;
+    const haptics::HapticSnapshot snap = engine_.snapshot();
+    PenDevice* pen = c_.pen;
+    ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
+    ImGui::SetNextWindowBgAlpha(0.6f);
+    ImGui::Begin("DentAR", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
+    const ImVec4 col[] = {ImVec4(0.3f, 1, 0.3f, 1), ImVec4(1, 0.85f, 0.2f, 1), ImVec4(1, 0.3f, 0.3f, 1)};
+    {
+      // ok green, note grey-blue (not an alarm), warning yellow, instructor needed red.
+      const ImVec4 health_col[] = {col[0], ImVec4(0.75f, 0.82f, 0.95f, 1), col[1], col[2]};
+      const StationHealth h = c_.health.health();
+      ImGui::TextColored(health_col[static_cast<int>(h.worst())], "%s", h.headline().c_str());
+    }
+    ImGui::TextColored(col[r.man_state], "mannequin: %s", session::state_name(r.man_state));
+    ImGui::SameLine();
+    ImGui::TextColored(col[r.mir_state], "  mirror: %s", session::state_name(r.mir_state));
+    if (pen) {
+      ImGui::SameLine();
+      ImGui::TextColored(col[r.pen_state], "  pen: %s", session::state_name(r.pen_state));
+    }
+    const double f = std::sqrt(snap.force_dev_N[0] * snap.force_dev_N[0] + snap.force_dev_N[1] * snap.force_dev_N[1] +
+                               snap.force_dev_N[2] * snap.force_dev_N[2]);
+    const double fmax = c_.device.limits().max_force_N;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2f N", f);
+    ImGui::Text("force");
+    ImGui::SameLine();
+    ImGui::ProgressBar(static_cast<float>(std::min(1.0, f / fmax)), ImVec2(200, 0), buf);
+    ImGui::TextUnformatted(hud_drill_line(snap.pedal, snap.in_contact, c_.pedal.status(), c_.pedal.pressed(),
+                                          c_.pedal_from_device, c_.o.stylus)
+                               .c_str());
+    if (snap.mode != 0)
+      ImGui::Text("lesson: mode %d   expert %.1f s%s   following error %.1f mm", static_cast<int>(snap.mode),
+                  snap.expert_time_s, snap.expert_waiting ? " (waiting for you)" : "", snap.follow_error_m * 1e3);
+    if (snap.mode != 0) draw_lesson_lines(ImVec4(0.45f, 0.85f, 1, 1));
+    if (const std::string ds = c_.device.status(); !ds.empty()) ImGui::TextColored(col[1], "device: %s", ds.c_str());
+    const std::string& sound_line = in_.sound_line;
+    if (!sound_line.empty()) {
+      if (sound_line == "sound: no device (silent)") ImGui::TextColored(col[1], "%s", sound_line.c_str());
+      else ImGui::TextUnformatted(sound_line.c_str());
+    }
+    ImGui::Text("removed mm3: enamel %.2f  dentin %.2f  pulp %.2f",
+                snap.removed_mm3[static_cast<int>(volume::Material::kEnamel)],
+                snap.removed_mm3[static_cast<int>(volume::Material::kDentin)],
+                snap.removed_mm3[static_cast<int>(volume::Material::kPulp)]);
+    ImGui::Text("%.1f fps  latency %.0f ms  (display %s)", fps_now_, fig_.latency_ms.empty() ? 0.0 : fig_.latency_ms.back(),
+                gpu_display_ ? "gl" : "cpu");
+    if (stalled)
+      ImGui::TextColored(col[2], "camera: no frame for %.0f ms, overlay hidden%s", age * 1e3,
+                         in_.capture.status().empty() ? "" : (" (" + in_.capture.status() + ")").c_str());
+    if (!cur_.error.empty()) ImGui::TextColored(col[2], "pipeline: %s", cur_.error.c_str());
+    if (snap.watchdog) ImGui::TextColored(col[2], "haptics: watchdog: zero force");
+    if (snap.fault) ImGui::TextColored(col[2], "haptics: device fault: zero force%s", pen ? " (pen not seen)" : "");
+    if (snap.pulp_exposed) ImGui::TextColored(col[2], "PULP EXPOSED");
+    if (pen) ImGui::TextColored(col[1], "pen mode: no force on the hand; space bar = pedal");
+    if (!in_.rt_ok) ImGui::TextColored(col[1], "haptics not real-time: %s", in_.grant.c_str());
+    if (!stalled && cur_.index >= 0 && now_s() - cur_.steady_s > 0.5)
+      ImGui::TextColored(col[2], "frame pipeline stalled: no composite for %.0f ms", (now_s() - cur_.steady_s) * 1e3);
+    ImGui::End();
+  }
+
+  const LiveContext& c_;
+  LiveShared& sh_;
+  const DisplayInputs& in_;
+  LiveSummary& sum_;
+  haptics::Engine& engine_;
+  const bool gpu_display_;
+  DisplayFigures fig_;
+  Shown cur_;
+  std::vector<std::pair<std::int64_t, std::string>> shots_ = c_.o.screenshots;
+  std::int64_t last_index_ = -1;
+  double stall_seen_at_ = -1;
+  double prev_check_age_s_ = 0;  // the camera's silence at the previous window check, s
+  double fps_t0_ = 0, fps_now_ = 0;
+  int fps_n_ = 0;
+  std::size_t next_note_ = 0;  // the lesson's next annotation not yet reached
+  int shown_slot_ = -1;  // GPU path: the ring texture the window draws from, or -1
+};
+
+}  // namespace
+
+DisplayFigures display_loop(const LiveContext& c, LiveShared& sh, const DisplayInputs& in, LiveSummary& sum) {
+  return DisplayLoop(c, sh, in, sum).run();
+}
+
+}  // namespace dentar::live

@@ -1,0 +1,222 @@
+// dentar live's frame thread: its GL context, the run's pipeline, and the
+// work on each camera frame. See live_run.h.
+#include <pthread.h>
+#include <sched.h>
+
+#include <chrono>
+#include <exception>
+#include <thread>
+
+#include "dentar/ar/egl_context.h"
+#include "dentar/haptics/engine.h"
+#include "live_run.h"
+
+namespace dentar::live {
+namespace {
+using Clock = std::chrono::steady_clock;
+
+// The frame thread's GL context and display path: a context on the window's
+// EGL display sharing its objects (the GPU path), otherwise (or when that
+// fails) a headless one of our own; then the run's pipeline, warmed up.
+class FrameThread {
+ public:
+  FrameThread(const LiveContext& c, LiveShared& sh, FrameFigures& fig) : c_(c), sh_(sh), fig_(fig) {}
+
+  // false: the pipeline could not come up (sh.pipeline_error says why).
+  bool open() {
+    // llvmpipe starts its rasteriser thread when the context is made, with
+    // this thread's CPU mask: with the background threads on the engine's
+    // CPU, it goes there too (it is the largest GL cost; the frame thread
+    // then only records the draw calls and waits, and CPU 0 keeps the
+    // tracking, the blend and the display).
+    cpu_set_t frame_mask;
+    const bool raster_moved =
+        c_.to_engine_cpu && pthread_getaffinity_np(pthread_self(), sizeof frame_mask, &frame_mask) == 0;
+    if (raster_moved) c_.to_engine_cpu();
+    use_gl_ = c_.want_gl && c_.hw.gles_egl();
+    if (use_gl_) {
+      ar::EglContextOptions eo;
+      eo.share_display = c_.hw.egl_display();
+      eo.share_context = c_.hw.egl_context();
+      egl_ = ar::EglContext::create(eo);
+      if (!egl_) {
+        sh_.display_note = egl_.error();
+        use_gl_ = false;
+      }
+    }
+    if (!use_gl_) egl_ = ar::EglContext::create();
+    if (raster_moved) pthread_setaffinity_np(pthread_self(), sizeof frame_mask, &frame_mask);
+    if (!egl_ || !egl_->make_current())
+      return fail("headless rendering: " + (egl_ ? std::string("make_current failed") : egl_.error()));
+    if (auto s = c_.run.create_pipeline(c_.st, c_.popt); !s) return fail(s.error());
+    if (use_gl_) {
+      if (std::string e = c_.run.pipeline().compositor().gpu_path_error(); !e.empty()) {
+        sh_.display_note = "the compositor's GPU path cannot run here: " + e;
+        use_gl_ = false;
+      } else if (auto r = ar::SharedFrameRing::create(c_.W, c_.H); !r) {
+        sh_.display_note = r.error();
+        use_gl_ = false;
+      } else {
+        sh_.ring = std::move(*r);
+      }
+    }
+    if (auto s = c_.run.warm_up(use_gl_ ? sh_.ring->target(0) : ar::GlFrameTarget{}); !s) return fail(s.error());
+    sh_.gl_path.store(use_gl_);
+    c_.run.meshes().start_mesher(1.0 / 120.0, c_.to_engine_cpu);
+    sh_.pipeline_ready.store(1);
+    return true;
+  }
+
+  // Until stop, or the footage ends.
+  void loop() {
+    while (sh_.capture.load() == nullptr && !sh_.stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    if (!sh_.stop.load()) {
+      ar::CaptureThread& capture = *sh_.capture.load();
+      ar::Frame f;
+      while (!sh_.stop.load()) {
+        if (!capture.wait_take(f, 0.05)) {
+          if (capture.ended()) break;
+          continue;
+        }
+        process_frame(f);
+      }
+    }
+    c_.run.meshes().stop_mesher();
+    // The window may still draw from (and release) the ring until the main
+    // loop ends (the footage can end first): the ring goes only after that.
+    while (sh_.ring && !sh_.stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (sh_.ring) {
+      const auto rs = sh_.ring->stats();
+      fig_.ring_replaced = rs.replaced;
+      fig_.ring_ready_timeouts = rs.ready_timeouts;
+      fig_.ring_release_timeouts = rs.release_timeouts;
+    }
+    close();
+  }
+
+  // The GL objects go before the context.
+  void close() {
+    sh_.ring.reset();
+    c_.run.drop_pipeline();
+  }
+
+ private:
+  bool fail(const std::string& e) {
+    sh_.pipeline_error = e;
+    sh_.pipeline_ready.store(-1);
+    return false;
+  }
+
+  // The stylus as it was when this frame was exposed, not as it is now (issue 24).
+  // Returns the engine step of the pose drawn (-1: the newest).
+  double pose_at_exposure(const ar::Frame& f, haptics::HapticSnapshot& snap) {
+    if (c_.comp_latency_s <= 0) return -1;
+    const auto h = c_.run.engine()->pose_history().sample(f.steady_s - c_.comp_latency_s);
+    if (h.usable() && h.index >= 0) {
+      Eigen::Map<Eigen::Matrix4d>(snap.T_dev_sty) = h.T_dev_sty.matrix();
+      ++fig_.comp_at_exposure;
+      return h.index;
+    }
+    ++fig_.comp_newest;
+    return -1;
+  }
+
+  // One camera frame: the pipeline (track, register, mesh swap, composite,
+  // occlusion), station health, the pen's pose, the hand-over to the window
+  // and the recorder. The snapshot handed to the pipeline carries the engine's
+  // training state too (HapticSnapshot::mode, T_tooth_expert_tip: a lesson's
+  // expert tool, for its second handpiece).
+  void process_frame(ar::Frame& f) {
+    const LiveOptions& o = c_.o;
+    session::Recorder* recorder = c_.run.recorder();
+    const std::int64_t processed = sh_.processed.load();
+    haptics::HapticSnapshot snap = c_.run.engine()->snapshot();
+    const double pose_step = pose_at_exposure(f, snap);
+    ar::FrameInput in;
+    in.image = &f.image;
+    in.index = processed;
+    in.capture_time_s = f.time_s;
+    in.haptic = o.stylus == "none" ? nullptr : &snap;
+    in.stylus_valid = o.stylus != "none" && !snap.fault;
+    const auto t0 = Clock::now();
+    // GPU path: a texture the window is not showing, free of its draws.
+    const int slot = use_gl_ ? sh_.ring->acquire() : -1;
+    if (use_gl_) in.gl_target = sh_.ring->target(slot);
+    std::string err;
+    try {
+      if (auto s = c_.run.pipeline().process(in, c_.run.meshes(), cres_, rec_); !s) err = s.error();
+    } catch (const std::exception& e) {
+      err = std::string("pipeline threw: ") + e.what();
+    }
+    fig_.process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    rec_.pose_step = pose_step;
+    for (const auto& it : c_.health.on_frame(c_.run.pipeline().last_detections(), f.steady_s, rec_.T_dev_sty,
+                                             in.stylus_valid)) {
+      c_.say("station health: " + it.check + ": " + health_level_name(it.level) + ": " + it.message);
+      if (recorder) recorder->log("station health: " + it.check + ": " + health_level_name(it.level) + ": " + it.message);
+    }
+    if (c_.pen != nullptr) {
+      const bool ok = rec_.man_state != 2 && rec_.pen_state != 2;
+      const Eigen::Isometry3d T_dev_sty = (rec_.T_cam_man * c_.st.calibration.T_man_dev).inverse() * rec_.T_cam_ptag *
+                                          c_.st.pen.T_ptag_tip * c_.st.calibration.T_sty_tip.inverse();
+      c_.pen->publish(T_dev_sty, ok, f.steady_s);
+    }
+    hand_over(f, slot, err, processed);
+    if (recorder && err.empty()) recorder->push(f.image, f.encoded, rec_, processed, f.index, f.steady_s);
+    if (err.empty()) {
+      fig_.gpu_frames += rec_.gpu_composite ? 1 : 0;
+      fig_.readback_px += rec_.readback_px;
+      fig_.cpu_blend_px += rec_.cpu_blend_px;
+    }
+    sh_.processed.store(processed + 1);
+  }
+
+  // The frame to the window (LiveShared::shown).
+  void hand_over(ar::Frame& f, int slot, const std::string& err, std::int64_t processed) {
+    {
+      std::lock_guard<std::mutex> lock(sh_.shown_m);
+      Shown& shown = sh_.shown;
+      shown.raw = f.image;
+      shown.gpu = use_gl_ && err.empty();
+      // Buffers change hands, never copied (2.7 MB a 720p frame): the
+      // compositor's, the shown slot and the display's each own one.
+      // GPU path: the texture is published (fence) under the same lock as
+      // the record, so the window takes the two together.
+      if (shown.gpu) {
+        sh_.ring->publish(slot, processed, cres_.region.x, cres_.region.y, cres_.region.width, cres_.region.height);
+        shown.composite.release();
+      } else if (err.empty()) {
+        cv::swap(cres_.image, shown.composite);
+      } else {
+        f.image.copyTo(shown.composite);
+      }
+      shown.index = processed;
+      shown.steady_s = f.steady_s;
+      shown.rec = rec_;
+      shown.error = err;
+      sh_.shown_new = true;
+    }
+    sh_.shown_cv.notify_one();
+  }
+
+  const LiveContext& c_;
+  LiveShared& sh_;
+  FrameFigures& fig_;
+  Result<ar::EglContext> egl_ = Error{"not made"};
+  bool use_gl_ = false;
+  ar::CompositeResult cres_;
+  ar::FrameRecord rec_;
+};
+
+}  // namespace
+
+void frame_thread_main(const LiveContext& c, LiveShared& sh, FrameFigures& fig) {
+  FrameThread t(c, sh, fig);
+  if (!t.open()) {
+    t.close();
+    return;
+  }
+  t.loop();
+}
+
+}  // namespace dentar::live

@@ -1,0 +1,136 @@
+// The parts of `dentar live` behind run_live (private to live/): what the
+// set-up hands the threads, the state the frame thread and the display loop
+// share, the per-frame work (frame thread) and the display loop (main thread).
+//
+//   run_live (live_app.cpp): set-up, threads started, display_loop, shutdown, summary
+//   frame_thread_main (live_frame.cpp): GL context, session::Run's pipeline, one
+//     process_frame per camera frame, handing each composite to the window (LiveShared)
+//   display_loop (live_display.cpp): window, HUD, stop conditions
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/capture_thread.h"
+#include "dentar/ar/frame_pipeline.h"
+#include "dentar/ar/gl_handoff.h"
+#include "dentar/ar/station_scene.h"
+#include "dentar/haptics/device.h"
+#include "dentar/haptics/pedal.h"
+#include "dentar/live/hud_window.h"
+#include "dentar/live/live_app.h"
+#include "dentar/live/pen_device.h"
+#include "dentar/live/station_health.h"
+#include "dentar/session/run.h"
+
+namespace dentar::live {
+
+// Set before the threads start, read-only while they run (what it refers to
+// outlives them). The engine, the tooth and the recorder are the run's.
+struct LiveContext {
+  const LiveOptions& o;
+  const ar::StationScene& st;
+  const ar::PipelineOptions& popt;
+  session::Run& run;
+  StationHealthMonitor& health;
+  HudWindow& hw;
+  haptics::HapticDevice& device;  // the engine's (stylus with its pedal)
+  const haptics::Pedal& pedal;
+  haptics::ManualPedal& key_pedal;  // the space bar
+  PenDevice* pen = nullptr;
+  bool pedal_from_device = false;
+  int W = 0, H = 0;     // the camera's frame size
+  bool want_gl = false;  // the GPU display path asked for
+  // Threads made with it run on the engine's CPU below the engine (empty: with the frame thread).
+  std::function<void()> to_engine_cpu;
+  double comp_latency_s = 0;  // latency compensation (issue 24); 0 = the newest pose
+  std::function<void(const std::string&)> say;
+  const session::LessonPauseDevice* lesson_pauses = nullptr;  // a lesson: its pause points (the engine's device)
+};
+
+// What the frame thread hands the window: the newest composite and its raw
+// frame (shown without overlay when the camera stalls).
+struct Shown {
+  cv::Mat composite, raw;  // composite empty when the GPU path drew it (gpu)
+  bool gpu = false;
+  std::int64_t index = -1;  // recording index (frames processed)
+  double steady_s = 0;      // capture time
+  ar::FrameRecord rec;
+  std::string error;
+};
+
+// The frame thread and the display loop: the hand-over of each frame, the stop
+// flag, and how the pipeline came up.
+struct LiveShared {
+  std::mutex shown_m;
+  std::condition_variable shown_cv;
+  Shown shown;            // under shown_m
+  bool shown_new = false;  // under shown_m
+  std::atomic<bool> stop{false};
+  std::atomic<int> pipeline_ready{0};  // 1 ok, -1 failed (pipeline_error says why)
+  std::string pipeline_error;
+  // The display path settled on the frame thread (written before pipeline_ready).
+  std::atomic<bool> gl_path{false};
+  std::string display_note;
+  std::unique_ptr<ar::SharedFrameRing> ring;  // GPU path; made and destroyed on the frame thread
+  std::atomic<ar::CaptureThread*> capture{nullptr};  // set once the pipeline is ready
+  std::atomic<std::int64_t> processed{0};
+};
+
+// The frame thread's figures, read after it joined.
+struct FrameFigures {
+  std::vector<double> process_ms;
+  std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
+  std::int64_t ring_replaced = 0, ring_ready_timeouts = 0, ring_release_timeouts = 0;
+  std::int64_t comp_at_exposure = 0, comp_newest = 0;
+};
+
+// The frame thread: until LiveShared::stop or the footage ends.
+void frame_thread_main(const LiveContext& c, LiveShared& sh, FrameFigures& fig);
+
+// The display loop's inputs beside the context.
+struct DisplayInputs {
+  ar::CaptureThread& capture;
+  std::string sound_line;  // hud_sound_line
+  std::string grant;       // what the system granted the engine (shown when not real time)
+  bool rt_ok = true;
+  double hand_end_s = 0;  // the simulated hand's script length (0 = none)
+  double lesson_end_s = 0;  // a lesson: the expert recording's length, s (0 = none)
+  double rate_hz = 1000;
+  const std::atomic<int>* signal = nullptr;  // SIGINT / SIGTERM seen
+};
+
+// The display loop's figures, for the summary.
+struct DisplayFigures {
+  std::string stop_reason;
+  double t_start = 0;
+  std::vector<double> latency_ms;
+  std::int64_t displayed = 0;
+  // A lesson: the student's tip against the expert's at each pass of the loop (>= 30 Hz,
+  // whatever the camera's rate) after the expert's first 0.5 s, m; passes while the expert
+  // waited for the student.
+  std::vector<double> follow_m;
+  std::int64_t passes = 0, passes_expert_waiting = 0;
+  // A lesson's text annotations shown on the HUD (with the HUD on), in the order the expert's
+  // clock reached them: the annotation, the expert's clock and the run's time (s) when shown.
+  struct Note {
+    int annotation = -1;
+    double expert_s = 0, run_s = 0;
+  };
+  std::vector<Note> notes;
+};
+
+// Runs the window until a stop condition; the summary gets the stall and memory figures.
+DisplayFigures display_loop(const LiveContext& c, LiveShared& sh, const DisplayInputs& in, LiveSummary& sum);
+
+double percentile(std::vector<double> v, double q);
+double rss_mb();
+
+}  // namespace dentar::live
