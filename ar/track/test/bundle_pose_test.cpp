@@ -526,10 +526,10 @@ TEST(BundlePoseViews, OneBlindEyeGivesTheSingleViewFit) {
   EXPECT_LT(rot_err_rad(only_r.T_cam_body, T_caml_camr * mono_r.T_cam_body), 1e-8);
   for (const auto& t : only_r.tag_residuals) EXPECT_EQ(t.view, 1);
   // Neither eye: no detections.
-  EXPECT_EQ(estimate_bundle_pose_views(b, {BundleView{&cam, {}, &none}, BundleView{&cam, {}, &none}}).status,
+  EXPECT_EQ(estimate_bundle_pose_views(b, {BundleView{&cam, Eigen::Isometry3d::Identity(), &none}, BundleView{&cam, Eigen::Isometry3d::Identity(), &none}}).status,
             BundlePoseStatus::kNoDetections);
   // Bad views name themselves.
-  BundlePose p = estimate_bundle_pose_views(b, {left, BundleView{nullptr, {}, &dr}});
+  BundlePose p = estimate_bundle_pose_views(b, {left, BundleView{nullptr, Eigen::Isometry3d::Identity(), &dr}});
   EXPECT_EQ(p.status, BundlePoseStatus::kInvalidInput);
   EXPECT_NE(p.message.find("views[1]"), std::string::npos) << p.message;
   calibration::CameraIntrinsics bad = cam;
