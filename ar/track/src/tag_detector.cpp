@@ -143,6 +143,10 @@ bool window_centroid(const double* lv, int first, int steps, double range, doubl
   return std::abs(off) <= range;
 }
 
+// Edges this long (px) and longer centre the refit's second window to
+// 0.25 px (below: refit_edges_gradient).
+constexpr double kSnapFromPx = 32.0;
+
 // The gradient-peak edge refit libapriltag does (refine_edges), but on the
 // linear light `im`: for points along each edge, the centroid of the
 // squared gradient across it (central difference over +-1 px) within
@@ -152,9 +156,6 @@ bool window_centroid(const double* lv, int first, int steps, double range, doubl
 // peaks where the edge is; on sRGB-encoded grey levels it moves toward the
 // bright side. False (corners unchanged) when an edge gives too few points
 // or a corner would move more than 1.5 px.
-// Edges this long (px) and longer centre the second window to 0.25 px.
-constexpr double kSnapFromPx = 32.0;
-
 bool refit_edges_gradient(const LinearView& im, int width_at_border, double range,
                           std::array<Eigen::Vector2d, 4>& c) {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
