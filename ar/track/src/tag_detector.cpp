@@ -2,7 +2,7 @@
 
 #include <apriltag/apriltag.h>
 
-#include <Eigen/Eigenvalues>
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -29,50 +29,55 @@ std::string check_threads(int n) {
 }
 
 // An 8-bit image read through a response table: grey code -> linear light
-// scaled to 0..255 (float: no rounding of the dark codes, which sRGB
-// spreads over few linear levels). Bilinear in linear light.
+// scaled to 0..255 (not rounded to integers: sRGB spreads the dark codes over
+// few linear levels; held as double so that a read converts nothing).
+// Bilinear in linear light.
 struct LinearView {
   const cv::Mat& im;
-  const std::array<float, 256>& lut;
+  const std::array<double, 256>& lut;
   // NaN outside the image; OpenCV coordinates.
   double at(double x, double y) const {
-    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-    if (x0 < 0 || y0 < 0 || x0 + 1 >= im.cols || y0 + 1 >= im.rows) return NAN;
+    // Inside (NaN is not): from 0 on, truncation is floor (std::floor
+    // costs ~15 instructions without SSE4.1).
+    if (!(x >= 0 && y >= 0 && x < im.cols - 1 && y < im.rows - 1)) return NAN;
+    const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
     const double a = x - x0, b = y - y0;
     const std::uint8_t* r0 = im.ptr<std::uint8_t>(y0);
     const std::uint8_t* r1 = im.ptr<std::uint8_t>(y0 + 1);
     return (1 - b) * ((1 - a) * lut[r0[x0]] + a * lut[r0[x0 + 1]]) +
            b * ((1 - a) * lut[r1[x0]] + a * lut[r1[x0 + 1]]);
   }
-  // at(start + i * step) for i = 0 .. count - 1 into out; false when any is
-  // outside the image. The points lie on a segment: when both ends are
-  // inside, all are, and the per-point checks are skipped.
-  bool along(const Eigen::Vector2d& start, const Eigen::Vector2d& step, int count,
-             std::vector<double>& out) const {
-    out.resize(static_cast<std::size_t>(count));
+  // at(start + i * step) for i = 0 .. count - 1 into out[0 .. count - 1];
+  // false when any is outside the image. The points lie on a segment: when
+  // both ends are inside, all are, and the per-point checks are skipped
+  // (the margin covers the rounding of the position stepped by additions).
+  bool along(const Eigen::Vector2d& start, const Eigen::Vector2d& step, int count, double* out) const {
     const Eigen::Vector2d end = start + step * (count - 1);
     auto inside = [&](const Eigen::Vector2d& q) {
-      return q.x() >= 0 && q.y() >= 0 && q.x() < im.cols - 1 && q.y() < im.rows - 1;
+      return q.x() >= 1e-6 && q.y() >= 1e-6 && q.x() < im.cols - 1.000001 && q.y() < im.rows - 1.000001;
     };
     if (!inside(start) || !inside(end)) {
       for (int i = 0; i < count; ++i) {
         const Eigen::Vector2d q = start + step * i;
         const double v = at(q.x(), q.y());
         if (std::isnan(v)) return false;
-        out[static_cast<std::size_t>(i)] = v;
+        out[i] = v;
       }
       return true;
     }
     const std::size_t stride = im.step[0];
     const std::uint8_t* base = im.ptr<std::uint8_t>(0);
-    for (int i = 0; i < count; ++i) {
-      const double x = start.x() + step.x() * i, y = start.y() + step.y() * i;
+    const double* l = lut.data();
+    double x = start.x(), y = start.y();
+    const double dx = step.x(), dy = step.y();
+    for (int i = 0; i < count; ++i, x += dx, y += dy) {
       const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);  // >= 0: floor
       const double a = x - x0, b = y - y0;
       const std::uint8_t* r0 = base + static_cast<std::size_t>(y0) * stride + x0;
       const std::uint8_t* r1 = r0 + stride;
-      out[static_cast<std::size_t>(i)] = (1 - b) * ((1 - a) * lut[r0[0]] + a * lut[r0[1]]) +
-                                         b * ((1 - a) * lut[r1[0]] + a * lut[r1[1]]);
+      const double top = l[r0[0]] + a * (l[r0[1]] - l[r0[0]]);
+      const double bottom = l[r1[0]] + a * (l[r1[1]] - l[r1[0]]);
+      out[i] = top + b * (bottom - top);
     }
     return true;
   }
@@ -83,10 +88,24 @@ Eigen::Vector3d fit_line(const std::vector<Eigen::Vector2d>& pts) {
   Eigen::Vector2d m = Eigen::Vector2d::Zero();
   for (const auto& q : pts) m += q;
   m /= static_cast<double>(pts.size());
-  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-  for (const auto& q : pts) cov += (q - m) * (q - m).transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
-  const Eigen::Vector2d normal = es.eigenvectors().col(0);  // smallest spread
+  double sxx = 0, sxy = 0, syy = 0;  // scatter matrix [sxx sxy; sxy syy]
+  for (const auto& q : pts) {
+    const Eigen::Vector2d d = q - m;
+    sxx += d.x() * d.x();
+    sxy += d.x() * d.y();
+    syy += d.y() * d.y();
+  }
+  // The normal is the eigenvector of the smaller eigenvalue, in closed form
+  // (a tenth of Eigen's iterative 2x2 solver's work): of the two rows of
+  // (S - lambda I), both orthogonal to it, the longer one gives it stably.
+  const double half = 0.5 * (sxx - syy);
+  const double lambda = 0.5 * (sxx + syy) - std::sqrt(half * half + sxy * sxy);
+  const Eigen::Vector2d r0(sxx - lambda, sxy), r1(sxy, syy - lambda);
+  const Eigen::Vector2d r = r0.squaredNorm() >= r1.squaredNorm() ? r0 : r1;
+  const double len = r.norm();
+  // Points all at one place: no direction (any normal; the caller's corner
+  // checks reject what follows).
+  const Eigen::Vector2d normal = len > 0 ? Eigen::Vector2d(-r.y() / len, r.x() / len) : Eigen::Vector2d(1, 0);
   return {normal.x(), normal.y(), -normal.dot(m)};
 }
 
@@ -106,6 +125,28 @@ bool intersect_lines(const std::array<Eigen::Vector3d, 4>& lines, double max_mov
   return true;
 }
 
+// The centroid (px along the normal) of the squared gradient of the edge's
+// sign over the window of `steps` 0.25 px samples starting at level index
+// `first` of lv (lv[j] at -range - 1 + j / 4; the gradient at sample j is
+// lv[j + 8] - lv[j], at -range + j / 4). False when no gradient has the
+// edge's sign or the centroid lies beyond +-range.
+bool window_centroid(const double* lv, int first, int steps, double range, double polarity, double& off) {
+  double mj = 0, mw = 0, jd = first;  // moment in level indices, weight
+  for (int j = first; j < first + steps; ++j, jd += 1) {
+    const double g = polarity * (lv[j + 8] - lv[j]);
+    if (g <= 0) continue;  // a gradient the wrong way: another edge
+    mj += g * g * jd;
+    mw += g * g;
+  }
+  if (mw <= 0) return false;
+  off = -range + 0.25 * (mj / mw);
+  return std::abs(off) <= range;
+}
+
+// Edges this long (px) and longer centre the refit's second window to
+// 0.25 px (below: refit_edges_gradient).
+constexpr double kSnapFromPx = 32.0;
+
 // The gradient-peak edge refit libapriltag does (refine_edges), but on the
 // linear light `im`: for points along each edge, the centroid of the
 // squared gradient across it (central difference over +-1 px) within
@@ -121,7 +162,11 @@ bool refit_edges_gradient(const LinearView& im, int width_at_border, double rang
   for (const auto& p : c) centre += p / 4;
   std::array<Eigen::Vector3d, 4> lines;
   std::vector<Eigen::Vector2d> pts;
-  std::vector<double> levels;
+  // Gradient samples per window (0.25 px over +-range), levels they read,
+  // and room on either side for the second window's shift (< steps).
+  const int steps = static_cast<int>(std::floor(8 * range + 4e-8)) + 1;
+  const int levels = steps + 8, head = steps;
+  std::vector<double> buf(static_cast<std::size_t>(levels + 2 * head));
   for (int k = 0; k < 4; ++k) {
     const Eigen::Vector2d a = c[k], b = c[(k + 1) % 4];
     const double len = (b - a).norm();
@@ -134,8 +179,11 @@ bool refit_edges_gradient(const LinearView& im, int width_at_border, double rang
     const double probe = std::clamp(0.5 * cell, 1.0, 4.0);
     double sign_sum = 0;
     const int samples = std::max(8, static_cast<int>(len / 4));
-    for (int s = 0; s < samples; ++s) {
-      const Eigen::Vector2d p = a + ((s + 0.5) / samples) * (b - a);
+    // A sign: 8 probes along the edge are plenty (issue 24 session 14; they
+    // were one per point, up to 25 on a 100 px edge).
+    constexpr int probes = 8;
+    for (int s = 0; s < probes; ++s) {
+      const Eigen::Vector2d p = a + ((s + 0.5) / probes) * (b - a);
       const Eigen::Vector2d po = p + n * probe, pi = p - n * probe;
       const double vo = im.at(po.x(), po.y()), vi = im.at(pi.x(), pi.y());
       if (!std::isnan(vo) && !std::isnan(vi)) sign_sum += vo - vi;
@@ -149,36 +197,35 @@ bool refit_edges_gradient(const LinearView& im, int width_at_border, double rang
       if (alpha * len < 1.0 || (1 - alpha) * len < 1.0) continue;
       // Twice: the second window centred on the first estimate (the start,
       // libapriltag's edge on the encoded image, can be 0.3-0.6 px off, and a
-      // window off-centre pulls the centroid toward its middle).
-      double centre_off = 0;
-      bool ok = true;
-      for (int it = 0; it < 2 && ok; ++it) {
-        // The gradient at x (0.25 px steps over centre_off +- range) is
-        // I(x + 1) - I(x - 1): both lie on the same 0.25 px grid, so each
-        // level is read once, at x0 - 1 + j / 4 (j = 0 .. steps + 7), not
-        // twice (issue 24 session 12: the same corners, 2.0x (d1) and 2.3x
-        // (d2) fewer instructions in the refit).
-        const double x0 = centre_off - range;
-        const int steps = static_cast<int>(std::floor(8 * range + 4e-8)) + 1;
-        if (!im.along(p + n * (x0 - 1), n * 0.25, steps + 8, levels)) {
-          ok = false;
-          break;
-        }
-        double mn = 0, mw = 0;
-        for (int i = 0; i < steps; ++i) {
-          const double g = polarity * (levels[static_cast<std::size_t>(i + 8)] -
-                                       levels[static_cast<std::size_t>(i)]);
-          if (g <= 0) continue;  // a gradient the wrong way: another edge
-          const double x = x0 + 0.25 * i;
-          mn += g * g * x;
-          mw += g * g;
-        }
-        if (mw <= 0) ok = false;
-        else centre_off = mn / mw;
-        if (std::abs(centre_off) > range) ok = false;
+      // window off-centre pulls the centroid toward its middle). The gradient
+      // at x (0.25 px steps) is I(x + 1) - I(x - 1): both lie on one 0.25 px
+      // grid, lv[j] = I(p + n (-range - 1 + j / 4)), each level read once
+      // (issue 24 session 12). On edges of kSnapFromPx and longer the second
+      // window is centred on the first estimate rounded to that grid, so it
+      // reuses the first window's levels and reads only the |shift| new ones
+      // at one end (issue 24 session 14: the second pass was half the
+      // refit's reads; on the real photos most points shift by 0 and read
+      // nothing more). Shorter edges (8 points each: every point's error
+      // goes into the line) keep the window exactly on the estimate.
+      double* lv = buf.data() + head;
+      if (!im.along(p + n * (-range - 1), n * 0.25, levels, lv)) continue;
+      double off = 0;
+      if (!window_centroid(lv, 0, steps, range, polarity, off)) continue;
+      const int shift = static_cast<int>(std::lround(4 * off));  // |shift| <= 4 range < head
+      if (len < kSnapFromPx) {
+        // A small tag: the second window exactly on the first estimate.
+        const double first = off;
+        if (!im.along(p + n * (first - range - 1), n * 0.25, levels, lv)) continue;
+        if (!window_centroid(lv, 0, steps, range, polarity, off)) continue;
+        off += first;
+        if (std::abs(off) > range) continue;
+      } else if (shift != 0) {
+        const int first = shift > 0 ? levels : shift;  // the new levels' indices
+        if (!im.along(p + n * (-range - 1 + 0.25 * first), n * 0.25, std::abs(shift), lv + first))
+          continue;
+        if (!window_centroid(lv, shift, steps, range, polarity, off)) continue;
       }
-      if (!ok) continue;
-      pts.push_back(p + n * centre_off);
+      pts.push_back(p + n * off);
     }
     if (pts.size() < 4) return false;
     lines[k] = fit_line(pts);
@@ -418,7 +465,7 @@ Result<std::vector<DetectedTag>> TagDetector::detect_in_linear_light(const cv::M
     search_lut_.create(1, 256, CV_8U);
     for (int i = 0; i < 256; ++i)
       search_lut_.at<std::uint8_t>(i) = static_cast<std::uint8_t>(
-          std::lround(std::clamp(to_linear_[static_cast<std::size_t>(i)], 0.0f, 255.0f)));
+          std::lround(std::clamp(to_linear_[static_cast<std::size_t>(i)], 0.0, 255.0)));
   }
   cv::LUT(gray, search_lut_, linear_);  // reuses the buffer at the same size
   return run(gray, linear_);

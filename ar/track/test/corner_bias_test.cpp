@@ -151,6 +151,30 @@ TEST(CornerBias, SrgbEncodedTagsNeedTheSrgbResponse) {
     }
 }
 
+// Edges of 32 px and longer take the refit's cheaper second window (centred
+// on the first estimate rounded to 0.25 px, reusing the first window's
+// levels: issue 24 session 14). On sRGB-encoded tags, where libapriltag's
+// start is 0.3-0.6 px off and the second window does shift, their corners
+// must be as unbiased as the small tags' exact second window makes them.
+TEST(CornerBias, SrgbEncodedLargeTagsTakeTheSnappedSecondWindow) {
+  std::printf("[ bias srgb large ] side px | blur sigma px | tags | mean outward px: response linear / srgb; "
+              "ideal linear image | median corner error px (srgb)\n");
+  for (double side : {40.0, 64.0}) {
+    const double blur = 1.0;
+    const BiasResult lin = measure(side, blur, 12, 9, true, CameraResponse::kLinear);
+    const BiasResult srgb = measure(side, blur, 12, 9, true, CameraResponse::kSrgb);
+    const BiasResult ideal = measure(side, blur, 12, 9);
+    std::printf("[ bias srgb large ] %5.0f | %.1f | %d | %+.3f / %+.3f | %+.3f | %.3f\n", side, blur, srgb.tags,
+                lin.mean_outward_px, srgb.mean_outward_px, ideal.mean_outward_px, srgb.median_err_px);
+    ASSERT_GE(srgb.tags, 10);
+    ASSERT_GE(ideal.tags, 10);
+    // The encoding's bias is there to remove, and the refit removes it.
+    EXPECT_GT(lin.mean_outward_px, 0.15) << side;
+    EXPECT_LT(std::abs(srgb.mean_outward_px - ideal.mean_outward_px), 0.03) << side;
+    EXPECT_LT(srgb.median_err_px, 0.12) << side;
+  }
+}
+
 // The tracker's second look (TrackerOptions::linear_second_look): on small
 // tags blurred in linear light and sRGB-encoded, libapriltag's search on the
 // linear copy finds tags the search on the delivered image misses (the

@@ -147,8 +147,9 @@ class TagDetector {
   // first (reset()).
   std::vector<TagFamily> families_;
   std::unique_ptr<apriltag_detector, DetectorDeleter> detector_;
-  // Grey code -> linear light (0..255) from options_.response.
-  std::array<float, 256> to_linear_{};
+  // Grey code -> linear light (0..255) from options_.response (float
+  // values, held as double: the refit reads them without conversion).
+  std::array<double, 256> to_linear_{};
   // detect_in_linear_light: grey code -> linear light as 8-bit codes, and
   // the linearised copy (reused while the size stays).
   cv::Mat search_lut_, linear_;
