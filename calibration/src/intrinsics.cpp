@@ -128,6 +128,8 @@ std::string AprilGridSpec::validate() const {
     os << "AprilTag grid family \"" << family << "\" must be tag36h11 or tagStandard41h12";
   else if (first_id < 0)
     os << "AprilTag grid first id " << first_id << " must be >= 0";
+  else if (kalibr && (family != "tag36h11" || !(gap_m > 0)))
+    os << "Kalibr AprilGrid: family must be tag36h11 and the spacing > 0 (it is " << family << ", " << gap_m << " m)";
   return os.str();
 }
 
