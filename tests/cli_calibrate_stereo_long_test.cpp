@@ -39,18 +39,17 @@ cal::CameraIntrinsics eye(double fx, double cx, double cy) {
   return k;
 }
 
-// Renders n captures into dir/left, dir/right and dir/sbs (side by side). Returns dir.
-const fs::path& photos() {
-  static const fs::path dir = [] {
-    const fs::path d = dentar::test::temp_dir("stereo_photos");
+// Renders 12 captures of `board` into dir/left, dir/right and dir/sbs (side by side).
+fs::path render_photos(const std::string& board, const std::string& tag) {
+    const fs::path d = dentar::test::temp_dir("stereo_photos_" + tag);
     fs::create_directories(d / "left");
     fs::create_directories(d / "right");
     fs::create_directories(d / "sbs");
-    auto spec = dentar::ar::parse_board_spec("chessboard:9x6:25");
+    auto spec = dentar::ar::parse_board_spec(board);
     EXPECT_TRUE(spec.ok());
     const auto tex = dentar::ar::make_board_texture(*spec, 3000);
     const cal::CameraIntrinsics kl = eye(620, 318, 242), kr = eye(628, 323, 237);
-    const auto poses = cal::plan_board_poses(kl, 0.2, 0.125, 12, 7);
+    const auto poses = cal::plan_board_poses(kl, dentar::ar::board_width_m(*spec), dentar::ar::board_height_m(*spec), 12, 7);
     for (int i = 0; i < 12; ++i) {
       dentar::ar::BoardRenderOptions o;
       o.supersample = 2;
@@ -67,7 +66,9 @@ const fs::path& photos() {
       cv::imwrite((d / "sbs" / name).string(), s);
     }
     return d;
-  }();
+}
+const fs::path& photos() {
+  static const fs::path dir = render_photos("chessboard:9x6:25", "chess");
   return dir;
 }
 
@@ -107,6 +108,42 @@ TEST(CliCalibrateStereoLong, FoldersPerEyeAndSideBySidePhotosGiveTheRig) {
                                " --board chessboard:9x6:25 --station " + st2.string());
   ASSERT_EQ(r.code, 0) << r.out;
   expect_rig(st2, r.out);
+}
+
+// Kalibr's AprilGrid (our detector): folders per eye.
+TEST(CliCalibrateStereoLong, KalibrAprilGridGivesTheRig) {
+  const fs::path d = render_photos("kalibr:6x5:24:0.3", "kalibr");
+  const fs::path st = dentar::test::temp_dir("stereo_cli_kalibr") / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --left " + (d / "left").string() + " --right " +
+                                    (d / "right").string() + " --board kalibr:6x5:24:0.3 --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  expect_rig(st, r.out);
+}
+
+// Real photographs: OpenCV's stereo sample (Debian opencv-doc; 13 pairs, 9x6 chessboard, the
+// square's size not published: 10 mm assumed, so the baseline is in tenths of squares). Anchor:
+// OpenCV's own stereo_calib sample on the same photographs gives |T| = 33.43 (squares x 10).
+TEST(CliCalibrateStereoLong, OpenCvSampleStereoPhotographs) {
+  const fs::path src = "/usr/share/doc/opencv-doc/examples/data";
+  if (!fs::exists(src / "left01.jpg")) GTEST_SKIP() << "opencv-doc absent";
+  const fs::path d = dentar::test::temp_dir("stereo_ocv");
+  fs::create_directories(d / "left");
+  fs::create_directories(d / "right");
+  for (const auto& e : fs::directory_iterator(src)) {
+    const std::string n = e.path().filename().string();
+    if (n.size() == 10 && n.rfind("left", 0) == 0) fs::copy_file(e.path(), d / "left" / n);
+    if (n.size() == 11 && n.rfind("right", 0) == 0) fs::copy_file(e.path(), d / "right" / n);
+  }
+  const fs::path st = d / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --left " + (d / "left").string() + " --right " +
+                                    (d / "right").string() + " --board chessboard:9x6:10 --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::printf("%s\n", r.out.substr(r.out.find("stereo calibration:")).c_str());
+  const auto j = load(st);
+  double b = 0;
+  for (const auto& rep : j["calibration_report"])
+    if (rep["step"] == "stereo") b = rep["figures"]["baseline_mm"].get<double>();
+  EXPECT_NEAR(b, 33.43, 0.5);
 }
 
 }  // namespace
