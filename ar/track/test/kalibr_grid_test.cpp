@@ -4,6 +4,7 @@
 // the corners' error against the projected truth.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -30,7 +31,9 @@ struct Recall {
   int visible = 0, ours = 0, stock = 0, wrong_ids = 0;
   double sq_err = 0;
   int points = 0;
+  double ours_s = 0, stock_s = 0;  // detection time (the benchmark's speed column)
 };
+double now_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 Recall run(const std::string& board, int views, std::uint64_t seed) {
   auto spec = parse_board_spec(board);
@@ -66,7 +69,9 @@ Recall run(const std::string& board, int views, std::uint64_t seed) {
         ++r.visible;
       }
     }
+    double t0 = now_s();
     auto ours = detect_kalibr_aprilgrid(img, g, "view-" + std::to_string(i), 1);
+    r.ours_s += now_s() - t0;
     if (ours) {
       for (std::size_t j = 0; j < ours->image_points.size(); j += 4) {
         // Which tag: its corner 0 in the board frame.
@@ -85,7 +90,9 @@ Recall run(const std::string& board, int views, std::uint64_t seed) {
         }
       }
     }
+    t0 = now_s();
     auto st = detect_aprilgrid(*stock, img, plain, "view", 0);
+    r.stock_s += now_s() - t0;
     if (st) r.stock += static_cast<int>(st->image_points.size() / 4);
   }
   return r;
@@ -129,9 +136,10 @@ TEST(KalibrGrid, BenchmarkRecall) {
   if (!n) GTEST_SKIP() << "set DENTAR_KALIBR_VIEWS (and DENTAR_KALIBR_BOARD)";
   const char* b = std::getenv("DENTAR_KALIBR_BOARD");
   const Recall r = run(b ? b : "kalibr:6x5:24:0.3", std::atoi(n), 21);
-  std::printf("[ kalibr bench ] visible %d: ours %d (%.1f %%), stock %d (%.1f %%), wrong ids %d, corner RMS %.3f px\n",
+  std::printf("[ kalibr bench ] visible %d: ours %d (%.1f %%), stock %d (%.1f %%), wrong ids %d, corner RMS %.3f px; "
+              "%.1f ms per image (stock %.1f ms)\n",
               r.visible, r.ours, 100.0 * r.ours / r.visible, r.stock, 100.0 * r.stock / r.visible, r.wrong_ids,
-              std::sqrt(r.sq_err / std::max(1, r.points)));
+              std::sqrt(r.sq_err / std::max(1, r.points)), 1e3 * r.ours_s / std::atoi(n), 1e3 * r.stock_s / std::atoi(n));
 }
 
 }  // namespace
