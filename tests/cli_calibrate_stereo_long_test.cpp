@@ -120,6 +120,23 @@ TEST(CliCalibrateStereoLong, KalibrAprilGridGivesTheRig) {
   expect_rig(st, r.out);
 }
 
+// --simulate: rendered captures of a seeded rig, the truth printed beside the estimate.
+TEST(CliCalibrateStereoLong, SimulatedHeadPrintsItsErrorAgainstTruth) {
+  const fs::path st = dentar::test::temp_dir("stereo_sim") / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --simulate --seed 2 --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto pos = r.out.find("simulation truth: baseline");
+  ASSERT_NE(pos, std::string::npos) << r.out;
+  double truth = 0, err = 0;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + pos, "simulation truth: baseline %lf mm", &truth), 1);
+  const auto e = r.out.find(" mm, rotation ", pos);
+  const auto b = r.out.find("baseline ", e);
+  ASSERT_EQ(std::sscanf(r.out.c_str() + b, "baseline %lf mm", &err), 1) << r.out.substr(pos);
+  EXPECT_NEAR(truth, 63, 1);
+  EXPECT_LT(std::abs(err), 0.2) << r.out.substr(pos);
+  EXPECT_TRUE(load(st).contains("stereo"));
+}
+
 // Real photographs: OpenCV's stereo sample (Debian opencv-doc; 13 pairs, 9x6 chessboard, the
 // square's size not published: 10 mm assumed, so the baseline is in tenths of squares). Anchor:
 // OpenCV's own stereo_calib sample on the same photographs gives |T| = 33.43 (squares x 10).

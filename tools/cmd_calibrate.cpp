@@ -984,7 +984,42 @@ int step_stereo(Session& s) {
       std::cout << "  " << side << " " << name << ": board not found\n";
     }
   };
-  if (!c.left_dir.empty() || !c.right_dir.empty()) {
+  // --simulate: the hidden truth is the simulated station camera as the left eye, a right eye
+  // with its own lens 63 mm to its right, turned by up to 1 degree (seeded); the board renderer
+  // stands in for both cameras.
+  std::optional<ar::StereoRig> truth;
+  if (c.simulate) {
+    const cal::CameraIntrinsics& kl = s.truth.camera;
+    std::mt19937_64 rng(c.seed * 7 + 5);
+    std::uniform_real_distribution<double> u(-1, 1);
+    cal::CameraIntrinsics kr = kl;
+    kr.fx *= 1 + 0.01 * u(rng);
+    kr.fy = kr.fx * kl.fy / kl.fx;
+    kr.cx += 4 * u(rng);
+    kr.cy += 4 * u(rng);
+    ar::StereoRig rig = ar::make_stereo_rig(kl, 0.063, kr);
+    rig.T_caml_camr.linear() = (Eigen::AngleAxisd(kDeg * u(rng), Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(0.5 * kDeg * u(rng), Eigen::Vector3d::UnitX()))
+                                   .toRotationMatrix();
+    rig.T_caml_camr.translation() += Eigen::Vector3d(0, 0.5e-3 * u(rng), 0.5e-3 * u(rng));
+    truth = rig;
+    width = kl.width;
+    height = kl.height;
+    const int n = c.count > 0 ? c.count : 15;
+    std::cout << "simulated stereo head: rendering " << n << " captures of " << c.board << " for both eyes\n";
+    const ar::BoardTexture tex = ar::make_board_texture(*spec);
+    const auto poses = cal::plan_board_poses(kl, ar::board_width_m(*spec), ar::board_height_m(*spec), n, c.seed);
+    for (int i = 0; i < n; ++i) {
+      ar::BoardRenderOptions ro;
+      ro.supersample = 2;
+      ro.seed = c.seed * 1000 + i;
+      const std::string name = "sim-capture-" + std::to_string(i);
+      add(left, ar::detect_board(ar::render_board_view(tex, kl, poses[i], ro), *spec, name), name, "left ");
+      ro.seed += 500;
+      add(right, ar::detect_board(ar::render_board_view(tex, kr, rig.T_caml_camr.inverse() * poses[i], ro), *spec, name),
+          name, "right");
+    }
+  } else if (!c.left_dir.empty() || !c.right_dir.empty()) {
     const auto lf = image_files(c.left_dir, "--left (left eye)");
     const auto rf = image_files(c.right_dir, "--right (right eye)");
     if (lf.size() != rf.size())
@@ -1002,7 +1037,8 @@ int step_stereo(Session& s) {
     }
   } else {
     if (c.images.empty())
-      throw BadInput{"stereo: give --left DIR --right DIR (one folder per eye) or --images DIR (side-by-side photos)"};
+      throw BadInput{"stereo: give --left DIR --right DIR (one folder per eye), --images DIR (side-by-side photos) "
+                     "or --simulate"};
     for (const auto& f : image_files(c.images, "--images (side-by-side)")) {
       const cv::Mat img = cv::imread(f.string(), cv::IMREAD_GRAYSCALE);
       if (img.empty()) throw BadInput{f.string() + ": cannot be decoded as an image"};
@@ -1023,10 +1059,20 @@ int step_stereo(Session& s) {
   else if (c.model == "k1k2") so.model.force = cal::DistortionModel::kK1K2;
   else if (c.model == "radtan5") so.model.force = cal::DistortionModel::kRadTan5;
   else if (c.model == "rational8" || c.rational) so.model.force = cal::DistortionModel::kRational8;
-  std::cout << "choosing each eye's distortion model on held-out views, then the extrinsics (bootstrap of "
-            << so.bootstrap << " resamples for their uncertainty)...\n";
+  std::cout << "choosing each eye's distortion model on held-out views, then the extrinsics (their 1-sigma "
+               "by leaving each capture out once)...\n";
   const cal::StereoCalibration r = cal::calibrate_stereo(left, right, width, height, so);
   std::cout << r.report();
+  if (truth && r.ok) {
+    const Eigen::Vector3d dt = (r.T_caml_camr.translation() - truth->T_caml_camr.translation()) * 1e3;
+    const Eigen::AngleAxisd dr(truth->T_caml_camr.linear().transpose() * r.T_caml_camr.linear());
+    std::cout << "simulation truth: baseline " << fmt(truth->baseline_m() * 1e3, 3) << " mm; error t ("
+              << fmt(dt.x(), 3) << ", " << fmt(dt.y(), 3) << ", " << fmt(dt.z(), 3) << ") mm, rotation "
+              << fmt(dr.angle() / kDeg, 3) << " deg, baseline "
+              << fmt((r.baseline_m() - truth->baseline_m()) * 1e3, 3) << " mm ("
+              << fmt(std::abs(r.baseline_m() - truth->baseline_m()) / std::max(1e-12, r.sigma_baseline_m), 1)
+              << " sigma)\n";
+  }
   if (!r.ok) return 1;
   ar::StereoRig rig;
   rig.present = true;

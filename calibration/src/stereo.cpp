@@ -144,7 +144,7 @@ std::string StereoCalibration::report() const {
        << " deg +- (" << fmt(sigma_r_rad.x() / kDeg, 3) << ", " << fmt(sigma_r_rad.y() / kDeg, 3) << ", "
        << fmt(sigma_r_rad.z() / kDeg, 3) << ") deg; baseline " << fmt(baseline_m() * 1e3, 3) << " +- "
        << fmt(sigma_baseline_m * 1e3, 3) << " mm; RMS " << fmt(rms_px, 3) << " px over " << views.size()
-       << " common views (bootstrap of " << bootstrap_runs << " resamples)\n";
+       << " common views (1-sigma from " << resamples << " refits)\n";
     os << "  rigidity: per-view relative poses scatter " << fmt(rotation_scatter_rad / kDeg, 3) << " deg, "
        << fmt(translation_scatter_m * 1e3, 3) << " mm RMS; one rig " << fmt(rigid_rms_px, 3) << " px vs per-view poses "
        << fmt(free_rms_px, 3) << " px RMS (ratio " << fmt(residual_ratio, 2) << ")\n";
@@ -287,8 +287,8 @@ StereoCalibration calibrate_stereo(const std::vector<BoardView>& left, const std
     out.message = os.str();
     return out;
   }
-  // 4. Joint refinement and its uncertainty: bootstrap over the common views, intrinsics refitted
-  // with the extrinsics.
+  // 4. Joint refinement and its uncertainty: jackknife (or bootstrap) over the common views,
+  // intrinsics refitted with the extrinsics.
   std::mt19937_64 rng(options.seed * 7919 + 3);
   std::uniform_int_distribution<std::size_t> pick(0, common.size() - 1);
   std::vector<Eigen::Matrix<double, 7, 1>> devs;
@@ -330,31 +330,53 @@ StereoCalibration calibrate_stereo(const std::vector<BoardView>& left, const std
   };
   out.camera_left = to_cam(L);
   out.camera_right = to_cam(R);
-  for (int b = 0; b < options.bootstrap; ++b) {
-    std::vector<const CommonView*> sample;
-    for (std::size_t i = 0; i < common.size(); ++i) sample.push_back(&common[pick(rng)]);
+  auto deviation = [&](const std::vector<const CommonView*>& sample, Eigen::Matrix<double, 7, 1>& e) {
     Lens8 lb{L.K.clone(), L.D.clone()}, rb{R.K.clone(), R.D.clone()};
     Eigen::Isometry3d Tb;
     double rms = 0;
-    if (!stereo_fit(sample, lb, rb, size, flags, Tb, rms)) continue;
+    if (!stereo_fit(sample, lb, rb, size, flags, Tb, rms)) return false;
     const Eigen::Isometry3d d = out.T_caml_camr.inverse() * Tb;
-    Eigen::Matrix<double, 7, 1> e;
     e.head<3>() = Tb.translation() - out.T_caml_camr.translation();
     e.segment<3>(3) = out.T_caml_camr.linear() * rotvec(d.linear());
     e(6) = Tb.translation().norm() - out.baseline_m();
-    devs.push_back(e);
+    return true;
+  };
+  Eigen::Matrix<double, 7, 1> var = Eigen::Matrix<double, 7, 1>::Zero();
+  if (options.uncertainty == StereoUncertainty::kJackknife) {
+    // Leave one capture out: var = (n-1)/n * sum (theta_i - mean)^2.
+    for (std::size_t skip = 0; skip < common.size(); ++skip) {
+      std::vector<const CommonView*> sample;
+      for (std::size_t i = 0; i < common.size(); ++i)
+        if (i != skip) sample.push_back(&common[i]);
+      Eigen::Matrix<double, 7, 1> e;
+      if (deviation(sample, e)) devs.push_back(e);
+    }
+    if (devs.size() >= 3) {
+      Eigen::Matrix<double, 7, 1> mean = Eigen::Matrix<double, 7, 1>::Zero();
+      for (const auto& e : devs) mean += e;
+      mean /= static_cast<double>(devs.size());
+      for (const auto& e : devs) var += (e - mean).cwiseAbs2();
+      var *= static_cast<double>(devs.size() - 1) / static_cast<double>(devs.size());
+    }
+  } else {
+    for (int b = 0; b < options.bootstrap; ++b) {
+      std::vector<const CommonView*> sample;
+      for (std::size_t i = 0; i < common.size(); ++i) sample.push_back(&common[pick(rng)]);
+      Eigen::Matrix<double, 7, 1> e;
+      if (deviation(sample, e)) devs.push_back(e);
+    }
+    if (devs.size() >= 2) {
+      Eigen::Matrix<double, 7, 1> mean = Eigen::Matrix<double, 7, 1>::Zero();
+      for (const auto& e : devs) mean += e;
+      mean /= static_cast<double>(devs.size());
+      for (const auto& e : devs) var += (e - mean).cwiseAbs2();
+      var /= static_cast<double>(devs.size() - 1);
+    }
   }
-  out.bootstrap_runs = static_cast<int>(devs.size());
-  if (devs.size() >= 2) {
-    Eigen::Matrix<double, 7, 1> mean = Eigen::Matrix<double, 7, 1>::Zero(), var = mean;
-    for (const auto& e : devs) mean += e;
-    mean /= static_cast<double>(devs.size());
-    for (const auto& e : devs) var += (e - mean).cwiseAbs2();
-    var /= static_cast<double>(devs.size() - 1);
-    out.sigma_t_m = var.head<3>().cwiseSqrt();
-    out.sigma_r_rad = var.segment<3>(3).cwiseSqrt();
-    out.sigma_baseline_m = std::sqrt(var(6));
-  }
+  out.resamples = static_cast<int>(devs.size());
+  out.sigma_t_m = var.head<3>().cwiseSqrt();
+  out.sigma_r_rad = var.segment<3>(3).cwiseSqrt();
+  out.sigma_baseline_m = std::sqrt(var(6));
   out.ok = true;
   out.message = "baseline " + fmt(out.baseline_m() * 1e3, 2) + " +- " + fmt(out.sigma_baseline_m * 1e3, 2) +
                 " mm, rotation between the eyes " + fmt(Eigen::AngleAxisd(out.T_caml_camr.linear()).angle() / kDeg, 2) +

@@ -15,11 +15,11 @@
 //     sessions) when one rig for all views fits the corners much worse than each view's own poses
 //     do: RMS ratio above max_residual_ratio, or a gross scatter (max_rotation_scatter_rad,
 //     max_translation_scatter_m). Refused, naming the views that differ most.
-//  4. Uncertainty: bootstrap over the common views (resampled with replacement); each resample
-//     fits both eyes' intrinsics (the chosen models' terms, started at step 1's) and the
-//     extrinsics jointly (stereoCalibrate), so the intrinsics' own uncertainty is carried into the
-//     extrinsics. The 1-sigma of the translation (m) and of the rotation vector (rad) of
-//     T_est^-1 * T_resample, per axis of cam_l.
+//  4. Uncertainty: jackknife over the common views (each left out once; or a bootstrap,
+//     resampled with replacement); each fit refits both eyes' intrinsics (the chosen models'
+//     terms, started at step 1's) and the extrinsics jointly (stereoCalibrate), so the
+//     intrinsics' own uncertainty is carried into the extrinsics. The 1-sigma of the translation
+//     (m) and of the rotation vector (rad) of T_est^-1 * T_refit, per axis of cam_l.
 // Units: metres, radians, pixels (OpenCV convention).
 #pragma once
 
@@ -33,6 +33,10 @@
 
 namespace dentar::calibration {
 
+// How the extrinsics' uncertainty is estimated (step 4): resampling the captures with
+// replacement, or leaving each capture out once.
+enum class StereoUncertainty { kBootstrap, kJackknife };
+
 struct StereoCalibrationOptions {
   ModelSelectionOptions model;  // per eye
   int min_common_views = 6;     // views where both eyes found the board
@@ -44,7 +48,10 @@ struct StereoCalibrationOptions {
   // Gross scatter of the per-view relative poses (RMS), refused whatever the residuals say.
   double max_rotation_scatter_rad = 1.0 * M_PI / 180;
   double max_translation_scatter_m = 10e-3;
-  int bootstrap = 40;  // resamples for the uncertainty (0: none)
+  // Leave-one-out: over 12 generated rigs its 1-sigma was 1.15x optimistic, the 40-resample
+  // bootstrap's 1.26x, at 14 fits instead of 40 (docs/BENCHMARKS.md, issue 28 session 14).
+  StereoUncertainty uncertainty = StereoUncertainty::kJackknife;
+  int bootstrap = 40;  // resamples for the uncertainty (kBootstrap; 0: none)
   std::uint64_t seed = 1;
   std::string validate() const;
 };
@@ -66,11 +73,11 @@ struct StereoCalibration {
   CameraIntrinsics camera_left, camera_right;
   Eigen::Isometry3d T_caml_camr = Eigen::Isometry3d::Identity();
   double rms_px = 0;  // the joint fit's RMS over both eyes' common points
-  // 1-sigma (bootstrap): translation x y z (m) and rotation vector x y z (rad), in cam_l.
+  // 1-sigma (step 4): translation x y z (m) and rotation vector x y z (rad), in cam_l.
   Eigen::Vector3d sigma_t_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d sigma_r_rad = Eigen::Vector3d::Zero();
   double sigma_baseline_m = 0;
-  int bootstrap_runs = 0;
+  int resamples = 0;  // fits behind the 1-sigma
   int turned_views = 0;  // captures matched with the right eye's board turned 180 deg (see step 2)
   std::vector<StereoViewPose> views;  // the common views
   double rotation_scatter_rad = 0;    // RMS over the common views
