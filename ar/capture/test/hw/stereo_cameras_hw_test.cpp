@@ -17,8 +17,10 @@ TEST(StereoCamerasHw, PairsFromRealCameras) {
   const char* sbs = std::getenv("DENTAR_STEREO_SBS");
   const std::string l = std::getenv("DENTAR_STEREO_LEFT") ? std::getenv("DENTAR_STEREO_LEFT") : "camera:0";
   const std::string r = std::getenv("DENTAR_STEREO_RIGHT") ? std::getenv("DENTAR_STEREO_RIGHT") : "camera:1";
-  if (!sbs && (!std::filesystem::exists("/dev/video" + l.substr(l.find(':') + 1)) ||
-               !std::filesystem::exists("/dev/video" + r.substr(r.find(':') + 1))))
+  auto device = [](const std::string& spec) {
+    return spec.rfind("camera:", 0) == 0 ? "/dev/video" + spec.substr(7) : spec;
+  };
+  if (!sbs && (!std::filesystem::exists(device(l)) || !std::filesystem::exists(device(r))))
     GTEST_SKIP() << "needs two cameras (" << l << ", " << r << ") or DENTAR_STEREO_SBS";
   auto s = sbs ? StereoSource::open_side_by_side(sbs) : StereoSource::open_pair(l, r);
   ASSERT_TRUE(s.ok()) << s.error();
