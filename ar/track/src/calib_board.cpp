@@ -80,7 +80,8 @@ struct BoardPainter {
       const int ci = std::min(9, static_cast<int>(std::floor(u / cell)));
       const int ri = std::min(9, static_cast<int>(std::floor(v / cell)));
       if (ci < 2 || ri < 2 || ci > 7 || ri > 7) return 0;
-      return cells[r * g.cols + c].at<std::uint8_t>(ri, ci);  // tag36h11's bits sit at cells 2..7 too
+      // Kalibr's numbering (first tag bottom-left); tag36h11's bits sit at cells 2..7 too.
+      return cells[(g.rows - 1 - r) * g.cols + c].at<std::uint8_t>(ri, ci);
     }
     const double cell = g.tag_size_m / f.width_at_border();
     const int c = static_cast<int>(std::floor((x + 0.5 * g.gap_m) / pitch));

@@ -119,6 +119,12 @@ TEST(KalibrGrid, SpecParsingAndRefusals) {
   EXPECT_TRUE(g.kalibr);
   EXPECT_NEAR(g.gap_m, 0.0264, 1e-9);
   EXPECT_EQ(board_spec_to_string(*s), "kalibr:6x6:88:0.3:0");
+  // Kalibr's numbering: tag 0 bottom-left of the print (largest y, the board's y runs down the
+  // page), tag 1 to its right, tag 6 above it.
+  EXPECT_NEAR(g.tag_corners(0)[3].x(), 0, 1e-12);
+  EXPECT_NEAR(g.tag_corners(0)[1].y(), g.height_m(), 1e-12);
+  EXPECT_GT(g.tag_corners(1)[0].x(), g.tag_corners(0)[0].x());
+  EXPECT_LT(g.tag_corners(6)[0].y(), g.tag_corners(0)[0].y());
   auto bad = parse_board_spec("kalibr:6x6:88:3");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().find("SPACING_RATIO"), std::string::npos) << bad.error();
