@@ -36,6 +36,7 @@
 #include "dentar/calibration/pivot.h"
 #include "dentar/calibration/registration.h"
 #include "dentar/calibration/response.h"
+#include "dentar/calibration/stereo.h"
 #include "dentar/calibration/stylus_poses.h"
 #include "dentar/calibration/hand_eye.h"
 #include "dentar/live/calibrate_app.h"
@@ -73,6 +74,7 @@ struct CalibCli {
   std::string corners = "sb-subpix";  // camera, chessboards: sb-subpix, sb, classic
   bool instructor_time = false;
   std::string camera;  // --camera SPEC: which physical camera (camera.device_id)
+  std::string left_dir, right_dir;  // stereo: one folder per eye (else --images: side-by-side photos)
   std::string hand = "HMD";  // hand_eye: what carries the camera
   double he_spread_deg = 170;  // --simulate hand_eye: rotation spread of the motions
   // live
@@ -934,6 +936,180 @@ void print_instructor_time() {
          "(docs/BENCHMARKS.md, \"the whole station live\"); plan with the estimate.\n";
 }
 
+// ---- stereo (issue 28) -------------------------------------------------------------------------
+// Board photos of a stereo head: --left DIR --right DIR (photo i of each folder, in name order, is
+// one capture) or --images DIR of side-by-side photos (left | right, even width). Writes the left
+// eye as the station's camera and the rig (right eye, T_left_right) as its "stereo" block.
+std::vector<fs::path> image_files(const std::string& dir, const std::string& what) {
+  if (dir.empty()) throw BadInput{"stereo: " + what + " folder not given"};
+  if (!fs::is_directory(dir)) throw BadInput{dir + ": no such folder (" + what + " photos)"};
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::string ext = e.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".tif" || ext == ".tiff")
+      files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  if (files.empty()) throw BadInput{dir + ": no .png/.jpg/.bmp/.tif images in it (" + what + " photos)"};
+  return files;
+}
+
+int step_stereo(Session& s) {
+  const CalibCli& c = s.cli;
+  print_prompt("stereo head",
+               "Hold the printed board where BOTH cameras see it and take about 15 captures (both eyes\n"
+               "at once): tilted 15-45 degrees, near the edges and in the middle. The cameras must not\n"
+               "move against each other between captures.");
+  auto spec = ar::parse_board_spec(c.board);
+  if (!spec) throw BadInput{spec.error()};
+  std::vector<cal::BoardView> left, right;
+  int width = 0, height = 0;
+  auto check_size = [&](const fs::path& f, int w, int h) {
+    if (width == 0) {
+      width = w;
+      height = h;
+    } else if (w != width || h != height) {
+      throw BadInput{f.string() + ": eye image is " + std::to_string(w) + "x" + std::to_string(h) + ", the others " +
+                     std::to_string(width) + "x" + std::to_string(height) + "; both eyes, all photos, one camera mode"};
+    }
+  };
+  auto add = [&](std::vector<cal::BoardView>& eye, Result<cal::BoardView> v, const std::string& name, const char* side) {
+    if (v) {
+      v->name = name;
+      eye.push_back(*v);
+      std::cout << "  " << side << " " << name << ": " << v->image_points.size() << " points\n";
+    } else {
+      eye.push_back(cal::BoardView{name, {}, {}});
+      std::cout << "  " << side << " " << name << ": board not found\n";
+    }
+  };
+  // --simulate: the hidden truth is the simulated station camera as the left eye, a right eye
+  // with its own lens 63 mm to its right, turned by up to 1 degree (seeded); the board renderer
+  // stands in for both cameras.
+  std::optional<ar::StereoRig> truth;
+  if (c.simulate) {
+    const cal::CameraIntrinsics& kl = s.truth.camera;
+    std::mt19937_64 rng(c.seed * 7 + 5);
+    std::uniform_real_distribution<double> u(-1, 1);
+    cal::CameraIntrinsics kr = kl;
+    kr.fx *= 1 + 0.01 * u(rng);
+    kr.fy = kr.fx * kl.fy / kl.fx;
+    kr.cx += 4 * u(rng);
+    kr.cy += 4 * u(rng);
+    ar::StereoRig rig = ar::make_stereo_rig(kl, 0.063, kr);
+    rig.T_caml_camr.linear() = (Eigen::AngleAxisd(kDeg * u(rng), Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(0.5 * kDeg * u(rng), Eigen::Vector3d::UnitX()))
+                                   .toRotationMatrix();
+    rig.T_caml_camr.translation() += Eigen::Vector3d(0, 0.5e-3 * u(rng), 0.5e-3 * u(rng));
+    truth = rig;
+    width = kl.width;
+    height = kl.height;
+    const int n = c.count > 0 ? c.count : 15;
+    std::cout << "simulated stereo head: rendering " << n << " captures of " << c.board << " for both eyes\n";
+    const ar::BoardTexture tex = ar::make_board_texture(*spec);
+    const auto poses = cal::plan_board_poses(kl, ar::board_width_m(*spec), ar::board_height_m(*spec), n, c.seed);
+    for (int i = 0; i < n; ++i) {
+      ar::BoardRenderOptions ro;
+      ro.supersample = 2;
+      ro.seed = c.seed * 1000 + i;
+      const std::string name = "sim-capture-" + std::to_string(i);
+      add(left, ar::detect_board(ar::render_board_view(tex, kl, poses[i], ro), *spec, name), name, "left ");
+      ro.seed += 500;
+      add(right, ar::detect_board(ar::render_board_view(tex, kr, rig.T_caml_camr.inverse() * poses[i], ro), *spec, name),
+          name, "right");
+    }
+  } else if (!c.left_dir.empty() || !c.right_dir.empty()) {
+    const auto lf = image_files(c.left_dir, "--left (left eye)");
+    const auto rf = image_files(c.right_dir, "--right (right eye)");
+    if (lf.size() != rf.size())
+      throw BadInput{"stereo: " + c.left_dir + " has " + std::to_string(lf.size()) + " photos but " + c.right_dir +
+                     " has " + std::to_string(rf.size()) + "; photo i of each folder (in name order) must be one "
+                     "capture of both eyes"};
+    for (std::size_t i = 0; i < lf.size(); ++i) {
+      int w = 0, h = 0;
+      auto vl = ar::detect_board_file(lf[i].string(), *spec, w, h);
+      if (w > 0) check_size(lf[i], w, h);
+      add(left, vl, lf[i].filename().string(), "left ");
+      auto vr = ar::detect_board_file(rf[i].string(), *spec, w, h);
+      if (w > 0) check_size(rf[i], w, h);
+      add(right, vr, rf[i].filename().string(), "right");
+    }
+  } else {
+    if (c.images.empty())
+      throw BadInput{"stereo: give --left DIR --right DIR (one folder per eye), --images DIR (side-by-side photos) "
+                     "or --simulate"};
+    for (const auto& f : image_files(c.images, "--images (side-by-side)")) {
+      const cv::Mat img = cv::imread(f.string(), cv::IMREAD_GRAYSCALE);
+      if (img.empty()) throw BadInput{f.string() + ": cannot be decoded as an image"};
+      if (img.cols % 2 != 0)
+        throw BadInput{f.string() + ": a side-by-side photo must have an even width (left eye | right eye); it is " +
+                       std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                       ". One folder per eye? Use --left and --right"};
+      check_size(f, img.cols / 2, img.rows);
+      const std::string name = f.filename().string();
+      add(left, ar::detect_board(img(cv::Rect(0, 0, width, height)).clone(), *spec, name), name, "left ");
+      add(right, ar::detect_board(img(cv::Rect(width, 0, width, height)).clone(), *spec, name), name, "right");
+    }
+  }
+  if (width == 0) throw BadInput{"stereo: no photo could be read"};
+  cal::StereoCalibrationOptions so;
+  so.seed = c.seed;
+  if (c.model == "k1") so.model.force = cal::DistortionModel::kK1;
+  else if (c.model == "k1k2") so.model.force = cal::DistortionModel::kK1K2;
+  else if (c.model == "radtan5") so.model.force = cal::DistortionModel::kRadTan5;
+  else if (c.model == "rational8" || c.rational) so.model.force = cal::DistortionModel::kRational8;
+  std::cout << "choosing each eye's distortion model on held-out views, then the extrinsics (their 1-sigma "
+               "by leaving each capture out once)...\n";
+  const cal::StereoCalibration r = cal::calibrate_stereo(left, right, width, height, so);
+  std::cout << r.report();
+  if (truth && r.ok) {
+    const Eigen::Vector3d dt = (r.T_caml_camr.translation() - truth->T_caml_camr.translation()) * 1e3;
+    const Eigen::AngleAxisd dr(truth->T_caml_camr.linear().transpose() * r.T_caml_camr.linear());
+    std::cout << "simulation truth: baseline " << fmt(truth->baseline_m() * 1e3, 3) << " mm; error t ("
+              << fmt(dt.x(), 3) << ", " << fmt(dt.y(), 3) << ", " << fmt(dt.z(), 3) << ") mm, rotation "
+              << fmt(dr.angle() / kDeg, 3) << " deg, baseline "
+              << fmt((r.baseline_m() - truth->baseline_m()) * 1e3, 3) << " mm ("
+              << fmt(std::abs(r.baseline_m() - truth->baseline_m()) / std::max(1e-12, r.sigma_baseline_m), 1)
+              << " sigma)\n";
+  }
+  if (!r.ok) return 1;
+  ar::StereoRig rig;
+  rig.present = true;
+  rig.camera_right = r.camera_right;
+  rig.T_caml_camr = r.T_caml_camr;
+  if (std::string e = rig.validate(r.camera_left); !e.empty()) {
+    std::cout << "the calibrated rig is not a usable stereo head: " << e << "\n";
+    return 1;
+  }
+  s.st.calibration.camera = r.camera_left;
+  s.st.stereo = rig;
+  const std::string keep_id = s.st.camera_provenance.device_id;
+  s.st.camera_provenance = ar::CameraProvenance{};
+  s.st.camera_provenance.model = r.left.chosen.model;
+  s.st.camera_provenance.rms_px = r.rms_px;
+  s.st.camera_provenance.device = c.device + " (left eye of a stereo head)";
+  s.st.camera_provenance.date = now_iso();
+  s.st.camera_provenance.device_id = keep_id;
+  ar::CalibrationStepReport rep{"stereo", now_iso(), true, r.message, {}};
+  rep.figures = {{"baseline_mm", r.baseline_m() * 1e3},
+                 {"baseline_sd_mm", r.sigma_baseline_m * 1e3},
+                 {"tx_sd_mm", r.sigma_t_m.x() * 1e3},
+                 {"ty_sd_mm", r.sigma_t_m.y() * 1e3},
+                 {"tz_sd_mm", r.sigma_t_m.z() * 1e3},
+                 {"rx_sd_deg", r.sigma_r_rad.x() / kDeg},
+                 {"ry_sd_deg", r.sigma_r_rad.y() / kDeg},
+                 {"rz_sd_deg", r.sigma_r_rad.z() / kDeg},
+                 {"rotation_scatter_deg", r.rotation_scatter_rad / kDeg},
+                 {"translation_scatter_mm", r.translation_scatter_m * 1e3},
+                 {"rms_px", r.rms_px},
+                 {"views", static_cast<double>(r.views.size())},
+                 {"left_trusted_image_pct", r.left.trust.trusted_fraction * 100},
+                 {"right_trusted_image_pct", r.right.trust.trusted_fraction * 100}};
+  s.st.set_step_report(rep);
+  return 0;
+}
+
 int run(const CalibCli& c) {
   if (c.instructor_time && c.step.empty()) {
     print_instructor_time();
@@ -982,10 +1158,10 @@ int run(const CalibCli& c) {
     std::cout << (r->written ? "updated " + c.station : c.station + " was NOT written (" + r->stop_reason + ")") << "\n";
     return r->written ? 0 : 1;
   }
-  if (c.step != "all" && c.step != "hand_eye" && c.step != "migrate" &&
+  if (c.step != "all" && c.step != "hand_eye" && c.step != "migrate" && c.step != "stereo" &&
       std::find(kSteps.begin(), kSteps.end(), c.step) == kSteps.end()) {
     print_error(kCmd, "unknown step \"" + c.step + "\"; use camera, hand_eye, pivot, register, tooth, "
-                      "mirror, check, all or migrate");
+                      "mirror, check, all, stereo or migrate");
     return 2;
   }
   if (c.step == "migrate") {
@@ -1058,6 +1234,7 @@ int run(const CalibCli& c) {
       int rc = 0;
       if (step == "camera") rc = step_camera(s);
       else if (step == "hand_eye") rc = step_hand_eye(s);
+      else if (step == "stereo") rc = step_stereo(s);
       else if (step == "pivot") rc = step_pivot(s);
       else if (step == "register") rc = step_register(s);
       else if (step == "tooth") rc = step_tooth(s);
@@ -1129,13 +1306,13 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "station registration (divots), tooth placement (landmarks), mirror, and an end-to-end\n"
       "co-location check. Each step prompts, prints live quality figures, and updates ONE\n"
       "station file only when its gates pass (docs/calibration.md).\n"
-      "Synopsis: dentar calibrate <camera|hand_eye|pivot|register|tooth|mirror|check|all|live|migrate>\n"
+      "Synopsis: dentar calibrate <camera|hand_eye|pivot|register|tooth|mirror|check|all|live|stereo|migrate>\n"
       "            [--station FILE] [--simulate [--seed S]] [--images DIR --board SPEC]\n"
       "            [--model auto|k1|k1k2|radtan5|rational8]\n"
       "            [--import CAMERA.yaml] [--camera-out FILE] [--export-ros FILE]\n"
       "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]");
   s->add_option("step", c->step,
-                "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live "
+                "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live, stereo (a stereo head from --left/--right or side-by-side --images photos), "
                 "(the station's steps in a window: camera, pivot, register, tooth, mirror, check), or migrate (rewrite an older "
                 "station file in the current version, keeping the original)");
   s->add_option("--camera", c->camera,
@@ -1173,7 +1350,9 @@ void add_calibrate(CLI::App& app, int& exit_code) {
               "Generated data: the footage generator stands in for the camera, a simulated "
               "stylus for the device (hidden truth: the built-in station perturbed by --seed)");
   s->add_option("--seed", c->seed, "Simulation seed")->capture_default_str();
-  s->add_option("--images", c->images, "camera: folder of board photos (PNG/JPEG)");
+  s->add_option("--images", c->images, "camera: folder of board photos (PNG/JPEG); stereo: side-by-side photos (left | right)");
+  s->add_option("--left", c->left_dir, "stereo: folder of the left eye's board photos (photo i of --left and --right: one capture)");
+  s->add_option("--right", c->right_dir, "stereo: folder of the right eye's board photos");
   s->add_option("--board", c->board,
                 "camera: chessboard:COLSxROWS:SQUARE_MM (inner corners) or "
                 "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] (live: default aprilgrid:6x5:24:8:tag36h11, "
@@ -1249,6 +1428,7 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "  dentar calibrate live --camera camera:0 --haptic touch --pedal auto --station station.json\n"
       "  dentar synth --board aprilgrid:6x5:24:8 --seed 3 --out out/clip   # a hand-held board clip\n"
       "  dentar calibrate live --haptic sim --seed 3 --camera live:out/clip/video.mkv --station out/s.json\n"
+      "  dentar calibrate stereo --left photos/left --right photos/right --board chessboard:9x6:25 --station station.json\n"
       "  dentar calibrate migrate --station old_station.json\n"
       "  dentar calibrate --instructor-time");
   s->callback([c, s, &exit_code] {

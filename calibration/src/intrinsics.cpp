@@ -128,12 +128,15 @@ std::string AprilGridSpec::validate() const {
     os << "AprilTag grid family \"" << family << "\" must be tag36h11 or tagStandard41h12";
   else if (first_id < 0)
     os << "AprilTag grid first id " << first_id << " must be >= 0";
+  else if (kalibr && (family != "tag36h11" || !(gap_m > 0)))
+    os << "Kalibr AprilGrid: family must be tag36h11 and the spacing > 0 (it is " << family << ", " << gap_m << " m)";
   return os.str();
 }
 
 std::array<Eigen::Vector3d, 4> AprilGridSpec::tag_corners(int id) const {
   const int k = id - first_id;
-  const int r = k / cols, c = k % cols;
+  // Kalibr prints its first tag bottom-left and counts rows up the page.
+  const int r = kalibr ? rows - 1 - k / cols : k / cols, c = k % cols;
   const double s = tag_size_m, h = s / 2;
   const Eigen::Vector3d centre((c + 0.5) * s + c * gap_m, (r + 0.5) * s + r * gap_m, 0);
   return {centre + Eigen::Vector3d(-h, h, 0), centre + Eigen::Vector3d(h, h, 0),

@@ -66,8 +66,24 @@ struct BoardPainter {
     }
     const auto& g = std::get<AprilGridSpec>(spec);
     const TagFamily& f = family[0];
-    const double cell = g.tag_size_m / f.width_at_border();
     const double pitch = g.tag_size_m + g.gap_m;
+    if (g.kalibr) {
+      // Kalibr: the tag's black square is 10 cells (2-cell border around the 6x6 bits); a black
+      // square of side gap_m fills every gap crossing, the outside ones included.
+      const int c = static_cast<int>(std::floor(x / pitch)), r = static_cast<int>(std::floor(y / pitch));
+      const double u = x - c * pitch, v = y - r * pitch;  // from tag (r, c)'s top-left corner
+      const bool in_gap_x = u >= g.tag_size_m, in_gap_y = v >= g.tag_size_m;
+      if (c < -1 || r < -1 || c >= g.cols || r >= g.rows) return 255;
+      if (in_gap_x && in_gap_y) return 0;  // a corner square (crossing right-below tag (r, c))
+      if (c < 0 || r < 0 || in_gap_x || in_gap_y) return 255;
+      const double cell = g.tag_size_m / 10;
+      const int ci = std::min(9, static_cast<int>(std::floor(u / cell)));
+      const int ri = std::min(9, static_cast<int>(std::floor(v / cell)));
+      if (ci < 2 || ri < 2 || ci > 7 || ri > 7) return 0;
+      // Kalibr's numbering (first tag bottom-left); tag36h11's bits sit at cells 2..7 too.
+      return cells[(g.rows - 1 - r) * g.cols + c].at<std::uint8_t>(ri, ci);
+    }
+    const double cell = g.tag_size_m / f.width_at_border();
     const int c = static_cast<int>(std::floor((x + 0.5 * g.gap_m) / pitch));
     const int r = static_cast<int>(std::floor((y + 0.5 * g.gap_m) / pitch));
     if (c < 0 || r < 0 || c >= g.cols || r >= g.rows) return 255;
@@ -90,7 +106,9 @@ Result<BoardSpec> parse_board_spec(const std::string& text) {
   for (std::string part; std::getline(ss, part, ':');) f.push_back(part);
   const std::string help =
       "; expected chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25) or "
-      "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] (e.g. aprilgrid:6x5:24:8)";
+      "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] (e.g. aprilgrid:6x5:24:8) or Kalibr's "
+      "kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID] (tagCols x tagRows, tagSize, tagSpacing of its "
+      "aprilgrid.yaml; e.g. kalibr:6x6:88:0.3)";
   if (f.empty()) return Error{"board \"" + text + "\" is empty" + help};
   if (f[0] == "chessboard") {
     ChessboardSpec c;
@@ -124,6 +142,30 @@ Result<BoardSpec> parse_board_spec(const std::string& text) {
                    std::to_string(fam.code_count()) + " codes"};
     return BoardSpec(g);
   }
+  if (f[0] == "kalibr") {
+    AprilGridSpec g;
+    g.kalibr = true;
+    g.family = "tag36h11";
+    double tag = 0, ratio = 0;
+    if (f.size() < 4 || f.size() > 5 || !parse_wxh(f[1], g.cols, g.rows) || !parse_num(f[2], tag) ||
+        !parse_num(f[3], ratio))
+      return Error{"board \"" + text + "\" is malformed" + help};
+    if (!(ratio > 0.05 && ratio <= 1))
+      return Error{"board \"" + text + "\": SPACING_RATIO " + f[3] + " must be in (0.05, 1] (Kalibr's tagSpacing, e.g. 0.3)"};
+    g.tag_size_m = tag * 1e-3;
+    g.gap_m = ratio * g.tag_size_m;
+    if (f.size() == 5) {
+      double id = 0;
+      if (!parse_num(f[4], id) || !(id >= 0 && id <= 100000) || id != std::floor(id))
+        return Error{"board \"" + text + "\": FIRST_ID must be a whole number in 0..100000"};
+      g.first_id = static_cast<int>(id);
+    }
+    if (std::string e = g.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e};
+    const TagFamily fam = TagFamily::create(TagFamilyId::kTag36h11);
+    if (g.first_id + g.tag_count() > fam.code_count())
+      return Error{"board \"" + text + "\": ids exceed tag36h11's " + std::to_string(fam.code_count()) + " codes"};
+    return BoardSpec(g);
+  }
   return Error{"board \"" + text + "\": unknown kind \"" + f[0] + "\"" + help};
 }
 
@@ -133,6 +175,11 @@ std::string board_spec_to_string(const BoardSpec& spec) {
     os << "chessboard:" << c->cols << "x" << c->rows << ":" << c->square_m * 1e3;
   else {
     const auto& g = std::get<AprilGridSpec>(spec);
+    if (g.kalibr) {
+      os << "kalibr:" << g.cols << "x" << g.rows << ":" << g.tag_size_m * 1e3 << ":" << g.gap_m / g.tag_size_m
+         << ":" << g.first_id;
+      return os.str();
+    }
     os << "aprilgrid:" << g.cols << "x" << g.rows << ":" << g.tag_size_m * 1e3 << ":"
        << g.gap_m * 1e3 << ":" << g.family << ":" << g.first_id;
   }
@@ -191,6 +238,7 @@ Result<BoardView> detect_board(const cv::Mat& image, const BoardSpec& spec, cons
     return calibration::detect_chessboard(gray.data, gray.cols, gray.rows,
                                           static_cast<int>(gray.step[0]), *c, name);
   const auto& g = std::get<AprilGridSpec>(spec);
+  if (g.kalibr) return detect_kalibr_aprilgrid(gray, g, name);
   TagDetectorOptions o;
   o.families = {*parse_tag_family(g.family)};
   o.decimation = 1.0;

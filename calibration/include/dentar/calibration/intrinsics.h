@@ -47,6 +47,12 @@ struct AprilGridSpec {
   double gap_m = 0.008;
   std::string family = "tag36h11";
   int first_id = 0;
+  // Kalibr's AprilGrid (issue 28): tag36h11 tags drawn with a 2-cell black border (10 x 10 cells,
+  // tag_size_m = the black square's side) and a black square of side gap_m in every gap crossing
+  // (also around the outside), touching the corners of the tags around it. Same tag geometry,
+  // but numbered as Kalibr prints it: the first tag bottom-left, ids along the row, then up the
+  // page (tag (r, c), r counted down, has id first_id + (rows - 1 - r) * cols + c).
+  bool kalibr = false;
   std::string validate() const;
   int tag_count() const { return cols * rows; }
   bool has_id(int id) const { return id >= first_id && id < first_id + tag_count(); }

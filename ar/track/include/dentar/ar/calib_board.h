@@ -21,8 +21,10 @@ namespace dentar::ar {
 
 using BoardSpec = std::variant<calibration::ChessboardSpec, calibration::AprilGridSpec>;
 
-// Parses "chessboard:COLSxROWS:SQUARE_MM" or "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]]"
-// (e.g. "chessboard:9x6:25", "aprilgrid:6x5:24:8:tag36h11"). Error names the text and the field.
+// Parses "chessboard:COLSxROWS:SQUARE_MM", "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]]"
+// or Kalibr's AprilGrid "kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID]" (its aprilgrid.yaml's
+// tagCols x tagRows, tagSize, tagSpacing; tag36h11; gap = ratio * tag)
+// (e.g. "chessboard:9x6:25", "aprilgrid:6x5:24:8:tag36h11", "kalibr:6x6:88:0.3"). Error names the text and the field.
 Result<BoardSpec> parse_board_spec(const std::string& text);
 std::string board_spec_to_string(const BoardSpec& spec);
 double board_width_m(const BoardSpec& spec);   // extent of its points along x, m
@@ -34,6 +36,25 @@ double board_height_m(const BoardSpec& spec);  // along y, m
 Result<calibration::BoardView> detect_aprilgrid(TagDetector& detector, const cv::Mat& gray,
                                                 const calibration::AprilGridSpec& spec,
                                                 const std::string& name, int min_tags = 2);
+
+// Kalibr's AprilGrid (spec.kalibr; calibration/intrinsics.h) in a grayscale image (CV_8UC1).
+// Stock libapriltag finds almost none of its tags: the corner squares touch the tags' corners, so
+// a tag's black square and its four corner squares are one dark blob and no quad is fitted; and
+// the 2-cell border puts the bits where a tag36h11 decoder does not sample. Here: (1) a grey
+// dilation (3x3, then 5x5 for tags the first misses) opens the touching corners; (2) libapriltag
+// fits quads on that and decodes with tag36h11's code table read with a 2-cell border (the
+// family's bit positions shifted one cell in, its border 10 cells); (3) every tag corner, an
+// X-junction between the tag and its corner square, is placed by cornerSubPix on the original
+// image (window a third of the gap); a corner that moves farther than the window drops its tag.
+// Error "board not found in <name>" when fewer than min_tags tags are found. `stats`, when
+// given, receives the tags found and those dropped at refinement.
+struct KalibrGridStats {
+  int tags = 0;
+  int dropped_at_refinement = 0;
+};
+Result<calibration::BoardView> detect_kalibr_aprilgrid(const cv::Mat& gray, const calibration::AprilGridSpec& spec,
+                                                       const std::string& name, int min_tags = 2,
+                                                       KalibrGridStats* stats = nullptr);
 
 // Detects the board in an image (CV_8UC1 or CV_8UC3) of either kind.
 Result<calibration::BoardView> detect_board(const cv::Mat& image, const BoardSpec& spec,

@@ -1,0 +1,166 @@
+// `dentar calibrate stereo` (issue 28) as a user runs it: board photos of a stereo head with known
+// extrinsics (rendered by the board ray-caster for each eye, one folder per eye, and the same as
+// side-by-side photos), the rig written into the station file. Label long (~90 s on 2 cores);
+// the default suite has calibration_stereo_test (generated corners) and CliCalibrateStereo.BadInputIsNamed.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "dentar/ar/calib_board.h"
+#include "dentar/calibration/intrinsics.h"
+#include "testutil.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace cal = dentar::calibration;
+constexpr double kDeg = M_PI / 180.0;
+
+Eigen::Isometry3d rig_truth() {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(-0.6 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0.064, 0.0005, 0.0003);
+  return T;
+}
+
+cal::CameraIntrinsics eye(double fx, double cx, double cy) {
+  cal::CameraIntrinsics k;
+  k.width = 640;
+  k.height = 480;
+  k.fx = fx;
+  k.fy = fx;
+  k.cx = cx;
+  k.cy = cy;
+  k.dist = {-0.08, 0.03, 0, 0, 0};
+  return k;
+}
+
+// Renders 12 captures of `board` into dir/left, dir/right and dir/sbs (side by side).
+fs::path render_photos(const std::string& board, const std::string& tag) {
+    const fs::path d = dentar::test::temp_dir("stereo_photos_" + tag);
+    fs::create_directories(d / "left");
+    fs::create_directories(d / "right");
+    fs::create_directories(d / "sbs");
+    auto spec = dentar::ar::parse_board_spec(board);
+    EXPECT_TRUE(spec.ok());
+    const auto tex = dentar::ar::make_board_texture(*spec, 3000);
+    const cal::CameraIntrinsics kl = eye(620, 318, 242), kr = eye(628, 323, 237);
+    const auto poses = cal::plan_board_poses(kl, dentar::ar::board_width_m(*spec), dentar::ar::board_height_m(*spec), 12, 7);
+    for (int i = 0; i < 12; ++i) {
+      dentar::ar::BoardRenderOptions o;
+      o.supersample = 2;
+      o.seed = 100 + i;
+      const cv::Mat l = dentar::ar::render_board_view(tex, kl, poses[i], o);
+      o.seed = 200 + i;
+      const cv::Mat r = dentar::ar::render_board_view(tex, kr, rig_truth().inverse() * poses[i], o);
+      char name[32];
+      std::snprintf(name, sizeof name, "cap%02d.png", i);
+      cv::imwrite((d / "left" / name).string(), l);
+      cv::imwrite((d / "right" / name).string(), r);
+      cv::Mat s;
+      cv::hconcat(l, r, s);
+      cv::imwrite((d / "sbs" / name).string(), s);
+    }
+    return d;
+}
+const fs::path& photos() {
+  static const fs::path dir = render_photos("chessboard:9x6:25", "chess");
+  return dir;
+}
+
+nlohmann::json load(const fs::path& p) { return nlohmann::json::parse(dentar::test::read_file(p)); }
+
+void expect_rig(const fs::path& station, const std::string& out) {
+  ASSERT_TRUE(fs::exists(station)) << out;
+  const auto j = load(station);
+  ASSERT_TRUE(j.contains("stereo")) << j.dump();
+  const auto& T = j["stereo"]["T_left_right"];
+  std::printf("T_left_right in the file: %s\n", T.dump().c_str());
+  const auto& rj = j["stereo"]["camera_right"];
+  EXPECT_NEAR(rj["fx"].get<double>(), 628, 4);
+  const nlohmann::json* rep = nullptr;
+  for (const auto& r : j["calibration_report"])
+    if (r["step"] == "stereo") rep = &r;
+  ASSERT_NE(rep, nullptr);
+  const auto& f = (*rep)["figures"];
+  const double b = f["baseline_mm"].get<double>(), sd = f["baseline_sd_mm"].get<double>();
+  EXPECT_GT(sd, 0);
+  EXPECT_NEAR(b, rig_truth().translation().norm() * 1e3, std::max(3.5 * sd, 0.05)) << out;
+  EXPECT_NEAR(b, rig_truth().translation().norm() * 1e3, 0.5) << out;
+}
+
+TEST(CliCalibrateStereoLong, FoldersPerEyeAndSideBySidePhotosGiveTheRig) {
+  const fs::path& d = photos();
+  const fs::path st = dentar::test::temp_dir("stereo_cli") / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --left " + (d / "left").string() + " --right " +
+                                    (d / "right").string() + " --board chessboard:9x6:25 --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("T_left_right"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("trusted to"), std::string::npos) << r.out;  // each eye's trust map
+  expect_rig(st, r.out);
+
+  const fs::path st2 = dentar::test::temp_dir("stereo_cli_sbs") / "station.json";
+  r = dentar::test::run_dentar("calibrate stereo --images " + (d / "sbs").string() +
+                               " --board chessboard:9x6:25 --station " + st2.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  expect_rig(st2, r.out);
+}
+
+// Kalibr's AprilGrid (our detector): folders per eye.
+TEST(CliCalibrateStereoLong, KalibrAprilGridGivesTheRig) {
+  const fs::path d = render_photos("kalibr:6x5:24:0.3", "kalibr");
+  const fs::path st = dentar::test::temp_dir("stereo_cli_kalibr") / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --left " + (d / "left").string() + " --right " +
+                                    (d / "right").string() + " --board kalibr:6x5:24:0.3 --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  expect_rig(st, r.out);
+}
+
+// --simulate: rendered captures of a seeded rig, the truth printed beside the estimate.
+TEST(CliCalibrateStereoLong, SimulatedHeadPrintsItsErrorAgainstTruth) {
+  const fs::path st = dentar::test::temp_dir("stereo_sim") / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --simulate --seed 2 --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto pos = r.out.find("simulation truth: baseline");
+  ASSERT_NE(pos, std::string::npos) << r.out;
+  double truth = 0, err = 0;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + pos, "simulation truth: baseline %lf mm", &truth), 1);
+  const auto e = r.out.find(" mm, rotation ", pos);
+  const auto b = r.out.find("baseline ", e);
+  ASSERT_EQ(std::sscanf(r.out.c_str() + b, "baseline %lf mm", &err), 1) << r.out.substr(pos);
+  EXPECT_NEAR(truth, 63, 1);
+  EXPECT_LT(std::abs(err), 0.2) << r.out.substr(pos);
+  EXPECT_TRUE(load(st).contains("stereo"));
+}
+
+// Real photographs: OpenCV's stereo sample (Debian opencv-doc; 13 pairs, 9x6 chessboard, the
+// square's size not published: 10 mm assumed, so the baseline is in tenths of squares). Anchor:
+// OpenCV's own stereo_calib sample on the same photographs gives |T| = 33.43 (squares x 10).
+TEST(CliCalibrateStereoLong, OpenCvSampleStereoPhotographs) {
+  const fs::path src = "/usr/share/doc/opencv-doc/examples/data";
+  if (!fs::exists(src / "left01.jpg")) GTEST_SKIP() << "opencv-doc absent";
+  const fs::path d = dentar::test::temp_dir("stereo_ocv");
+  fs::create_directories(d / "left");
+  fs::create_directories(d / "right");
+  for (const auto& e : fs::directory_iterator(src)) {
+    const std::string n = e.path().filename().string();
+    if (n.size() == 10 && n.rfind("left", 0) == 0) fs::copy_file(e.path(), d / "left" / n);
+    if (n.size() == 11 && n.rfind("right", 0) == 0) fs::copy_file(e.path(), d / "right" / n);
+  }
+  const fs::path st = d / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --left " + (d / "left").string() + " --right " +
+                                    (d / "right").string() + " --board chessboard:9x6:10 --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::printf("%s\n", r.out.substr(r.out.find("stereo calibration:")).c_str());
+  const auto j = load(st);
+  double b = 0;
+  for (const auto& rep : j["calibration_report"])
+    if (rep["step"] == "stereo") b = rep["figures"]["baseline_mm"].get<double>();
+  EXPECT_NEAR(b, 33.43, 0.5);
+}
+
+}  // namespace
