@@ -872,6 +872,18 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   }
   EXPECT_GT(max_move, 0.0);
   EXPECT_LE(resume_move, max_move) << "the expert's tool jumped when the pause ended";
+  // The guidance force fades out at the pause and in at the resume (ramp_s 0.25 s): around
+  // both (0.3 s either side), no step changes the force sent by more than 10 % of the force
+  // when the pause began (measured: 1.3 mN a step against 27 mN; without the ramp the first
+  // paused step would drop all of it).
+  double step_max = 0;
+  auto fnorm = [&](std::size_t i) { return Eigen::Vector3d(log->records[i].force_dev_N).norm(); };
+  const double f_pause = fnorm(static_cast<std::size_t>(first - 1));
+  for (const std::int64_t edge : {first, last + 1})
+    for (std::int64_t i = std::max<std::int64_t>(1, edge - 300); i < std::min<std::int64_t>(n, edge + 300); ++i)
+      step_max = std::max(step_max, std::abs(fnorm(static_cast<std::size_t>(i)) - fnorm(static_cast<std::size_t>(i - 1))));
+  EXPECT_GT(f_pause, 0.005);
+  EXPECT_LE(step_max, 0.1 * f_pause) << "force when the pause began " << f_pause << " N";
 }
 
 // A force mode on a stylus with no force (the pen) falls back to visual guidance (mode 3) and
