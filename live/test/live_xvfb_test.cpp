@@ -22,11 +22,13 @@
 
 #include "dentar/ar/apriltags.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/haptics/engine.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/session/lesson_clock.h"
 #include "dentar/session/run.h"
 #include "dentar/training/exercise.h"
+#include "dentar/volume/bur.h"
 #include "tag_drawing.h"
 #include "testutil.h"
 #include "xvfb_util.h"
@@ -870,6 +872,18 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   }
   EXPECT_GT(max_move, 0.0);
   EXPECT_LE(resume_move, max_move) << "the expert's tool jumped when the pause ended";
+  // The guidance force fades out at the pause and in at the resume (ramp_s 0.25 s): around
+  // both (0.3 s either side), no step changes the force sent by more than 10 % of the force
+  // when the pause began (measured: 1.3 mN a step against 27 mN; without the ramp the first
+  // paused step would drop all of it).
+  double step_max = 0;
+  auto fnorm = [&](std::size_t i) { return Eigen::Vector3d(log->records[i].force_dev_N).norm(); };
+  const double f_pause = fnorm(static_cast<std::size_t>(first - 1));
+  for (const std::int64_t edge : {first, last + 1})
+    for (std::int64_t i = std::max<std::int64_t>(1, edge - 300); i < std::min<std::int64_t>(n, edge + 300); ++i)
+      step_max = std::max(step_max, std::abs(fnorm(static_cast<std::size_t>(i)) - fnorm(static_cast<std::size_t>(i - 1))));
+  EXPECT_GT(f_pause, 0.005);
+  EXPECT_LE(step_max, 0.1 * f_pause) << "force when the pause began " << f_pause << " N";
 }
 
 // A force mode on a stylus with no force (the pen) falls back to visual guidance (mode 3) and
@@ -905,6 +919,73 @@ TEST(LiveLesson, PenFallsBackToVisualGuidanceAndGainsFollowTheDevice) {
   auto bad = dentar::session::LessonClock::open((t / "lesson").string(), 6, pen, true);
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().find("--mode 6 must be 1..5"), std::string::npos) << bad.error();
+}
+
+// A stylus whose pose stays put, with the pause button down over [press_s, release_s) of its
+// own clock (1 ms a read).
+class StillStylus final : public dentar::haptics::HapticDevice {
+ public:
+  StillStylus(double press_s, double release_s) : press_(press_s), release_(release_s) {}
+  std::string name() const override { return "still"; }
+  const dentar::haptics::DeviceLimits& limits() const override { return limits_; }
+  bool read(dentar::haptics::DeviceState& out) noexcept override {
+    out = {};
+    out.time_s = 1e-3 * static_cast<double>(reads_++);
+    out.T_dev_sty.translation() = Eigen::Vector3d(0, 0, 0.1);  // 10 cm above the tooth: no contact
+    if (out.time_s >= press_ && out.time_s < release_) out.buttons = dentar::haptics::kButtonSecondary;
+    return true;
+  }
+  void write_force(const Eigen::Vector3d&) noexcept override {}
+
+ private:
+  dentar::haptics::DeviceLimits limits_;
+  double press_, release_;
+  std::int64_t reads_ = 0;
+};
+
+// A lesson's pause point, live (session::LessonPauseDevice in front of the engine): it holds
+// the pause button from the moment the expert's clock reaches the point, the expert's clock
+// stands still while it holds, and the student ends it early by pressing and releasing the
+// stylus's pause button (the clock stays held while the button is down, then runs again).
+TEST(LiveLesson, PausePointHoldsTheExpertUntilItsTimeOrTheButton) {
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_lesson_pause");
+  auto r = run_command(kBin + " lesson make " + (c / "session.dlog").string() +
+                       " --exercise molar_access_opening --pause 0.5:2 --out " + (t / "lesson").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  dentar::haptics::DeviceLimits pen;
+  auto l = dentar::session::LessonClock::open((t / "lesson").string(), 1, pen, false);
+  ASSERT_TRUE(l.ok()) << l.error();
+  auto tooth = dentar::training::make_tooth((*l)->lesson().tooth_json);
+  ASSERT_TRUE(tooth.ok()) << tooth.error();
+  auto bur = dentar::volume::sample_bur((*l)->bur(), 500);
+  ASSERT_TRUE(bur.ok()) << bur.error();
+  StillStylus stylus(1.0, 1.1);  // pressed 0.5 s into the 2 s pause, released 0.1 s later
+  dentar::session::LessonPauseDevice pauses(stylus, (*l)->lesson().annotations);
+  dentar::haptics::EngineConfig cfg;
+  cfg.training = (*l)->mode();
+  auto engine = dentar::haptics::Engine::create(cfg, pauses, *tooth, *bur);
+  ASSERT_TRUE(engine.ok()) << engine.error();
+  pauses.attach(engine->get());
+  auto& e = **engine;
+  e.run_steps(490);  // device time 0.489 s: not yet
+  EXPECT_EQ(pauses.pausing(), -1);
+  EXPECT_EQ(pauses.pauses_taken(), 0);
+  e.run_steps(100);  // 0.589 s: the expert's clock reached 0.5 s and stopped there
+  ASSERT_EQ(pauses.pausing(), 0);
+  EXPECT_NEAR(e.snapshot().expert_time_s, 0.5, 2e-3);
+  EXPECT_NEAR(pauses.pause_left_s(), 2.0 - 0.088, 3e-3);
+  const double held_at = e.snapshot().expert_time_s;
+  e.run_steps(450);  // 1.039 s: the button is down (pressed at 1.0 s): still paused
+  EXPECT_EQ(pauses.pausing(), 0);
+  EXPECT_EQ(e.snapshot().expert_time_s, held_at);
+  e.run_steps(100);  // 1.139 s: released at 1.1 s: the pause ended early and the clock runs
+  EXPECT_EQ(pauses.pausing(), -1);
+  EXPECT_EQ(pauses.resumed_by_button(), 1);
+  EXPECT_EQ(pauses.pauses_taken(), 1);
+  EXPECT_NEAR(pauses.paused_s(), 1.1 - 0.5, 3e-3);
+  EXPECT_GT(e.snapshot().expert_time_s, held_at + 0.03);
+  EXPECT_LT(e.snapshot().expert_time_s, held_at + 0.05);
 }
 
 // Bad input before any window: a mode without a lesson, a lesson beside an exercise, a
