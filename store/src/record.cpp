@@ -385,6 +385,21 @@ Result<SessionRecord> record_from_session_dir(const std::string& path, const Imp
       }
       r.feedback.push_back({step, str_of(f, "kind"), str_of(f, "text")});
     }
+  // A session trained in a mode (issue 27): run.json of `dentar lesson run` beside the log
+  // (mode, following error, the guidance) as metrics "training.*" for the instructor's page.
+  if (const fs::path rj = dir / "run.json"; fs::is_regular_file(rj, ec)) {
+    json run;
+    try {
+      run = json::parse(read_text(rj));
+    } catch (const json::exception& e) {
+      return Error{rj.string() + ": not valid JSON: " + e.what()};
+    }
+    if (!run.is_object() || !run.contains("mode") || !run["mode"].is_number_integer() || run["mode"].get<int>() < 1 ||
+        run["mode"].get<int>() > 5)
+      return Error{rj.string() + ": field mode must be a training mode 1..5 (run.json of `dentar lesson run`)"};
+    for (const char* k : {"mode", "follow_error_mm", "expert_waited_s", "guidance"})
+      if (run.contains(k)) flatten(run[k], std::string("training.") + k, r.metrics);
+  }
   // A live recording: its start time, and a hash over its description files.
   const fs::path rec = dir / "recording.json";
   if (fs::is_regular_file(rec, ec)) {

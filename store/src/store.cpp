@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <charconv>
 #include <functional>
+#include <map>
+#include <optional>
 #include <cmath>
 #include <sstream>
 
@@ -414,6 +416,62 @@ Result<std::vector<SessionSummary>> Store::sessions(const SessionFilter& f) {
   std::vector<SessionSummary> out;
   out.reserve(r->size());
   for (const auto& row : *r) out.push_back(summary_from(row));
+  return out;
+}
+
+Result<std::vector<TrainingRow>> Store::training(const SessionFilter& f) {
+  auto ss = sessions(f);
+  if (!ss) return Error{ss.error()};
+  std::vector<TrainingRow> out;
+  if (ss->empty()) return out;
+  std::map<std::int64_t, std::size_t> at;
+  for (const auto& x : *ss) at.emplace(x.id, at.size());
+  std::vector<std::optional<TrainingRow>> rows(ss->size());
+  std::string sql = "SELECT m.session_id, m.name, m.value FROM metrics m JOIN sessions s ON s.id = m.session_id "
+                    "JOIN students st ON st.id = s.student_id JOIN exercises e ON e.id = s.exercise_id "
+                    "JOIN stations sta ON sta.id = s.station_id WHERE m.name LIKE 'training.%'";
+  std::vector<Value> p;
+  if (!f.student.empty()) {
+    p.push_back(S(f.student));
+    sql += " AND st.code = $" + std::to_string(p.size());
+  }
+  if (!f.exercise.empty()) {
+    p.push_back(S(f.exercise));
+    sql += " AND e.name = $" + std::to_string(p.size());
+  }
+  if (!f.station.empty()) {
+    p.push_back(S(f.station));
+    sql += " AND sta.code = $" + std::to_string(p.size());
+  }
+  auto r = db_->query(sql, p);
+  if (!r) return Error{r.error()};
+  for (const auto& row : *r) {
+    const auto it = at.find(i64(row[0]));
+    if (it == at.end()) continue;  // beyond the filter's limit
+    auto& t = rows[it->second];
+    if (!t) t.emplace();
+    const std::string name = str(row[1]);
+    const double v = dbl(row[2]);
+    if (name == "training.mode") t->mode = static_cast<int>(v);
+    else if (name == "training.follow_error_mm.mean") t->follow_mean_mm = v;
+    else if (name == "training.follow_error_mm.p95") t->follow_p95_mm = v;
+    else if (name == "training.guidance.as_needed") t->as_needed = v != 0;
+    else if (name == "training.guidance.across_path_only") t->across_path_only = v != 0;
+    else if (name == "training.guidance.repetition") t->repetition = static_cast<int>(v);
+    else if (name == "training.guidance.fade") t->fade = v;
+    else if (name == "training.guidance.amplify") t->amplify = v;
+  }
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    if (!rows[i] || rows[i]->mode < 1 || rows[i]->mode > 5) continue;
+    TrainingRow t = *rows[i];
+    const auto& x = (*ss)[i];
+    t.id = x.id;
+    t.started_utc = x.started_utc;
+    t.exercise = x.exercise;
+    t.points = x.points;
+    t.max_points = x.max_points;
+    out.push_back(t);
+  }
   return out;
 }
 

@@ -315,6 +315,63 @@ TEST_F(Web, StudentListsMarkUnfinishedSessionsIncomplete) {
   EXPECT_EQ(s10->body.find(mark), std::string::npos);
 }
 
+TEST_F(Web, StudentPageShowsTrainingModesErrorsAndProgression) {
+  // Issue 27: s11 trained in modes 2, 2, 3 (metrics "training.*" as imported from run.json);
+  // s12 never trained: no training section.
+  auto st = store();
+  auto trained = [](dentar::store::SessionRecord r, int mode, double mean, double p95, bool as_needed, int rep) {
+    r.metrics.push_back({"training.mode", static_cast<double>(mode), ""});
+    r.metrics.push_back({"training.follow_error_mm.mean", mean, "mm"});
+    r.metrics.push_back({"training.follow_error_mm.p95", p95, "mm"});
+    r.metrics.push_back({"training.guidance.as_needed", as_needed ? 1.0 : 0.0, "bool"});
+    r.metrics.push_back({"training.guidance.repetition", static_cast<double>(rep), ""});
+    r.metrics.push_back({"training.guidance.fade", 0.7, ""});
+    return r;
+  };
+  ASSERT_TRUE(st->put(trained(testkit::make_record("s11", "st-0", "molar_class1_cavity", 1101, 10), 2, 0.61, 1.2, false, 0)).ok());
+  ASSERT_TRUE(st->put(trained(testkit::make_record("s11", "st-0", "molar_class1_cavity", 1102, 20), 2, 0.38, 0.7, true, 1)).ok());
+  ASSERT_TRUE(st->put(trained(testkit::make_record("s11", "st-0", "molar_class1_cavity", 1103, 30), 3, 1.25, 2.4, false, 0)).ok());
+  ASSERT_TRUE(st->put(testkit::make_record("s11", "st-0", "molar_class1_cavity", 1104, 40)).ok());  // plain drilling
+  ASSERT_TRUE(st->put(testkit::make_record("s12", "st-0", "molar_class1_cavity", 1201, 10)).ok());
+  SessionFilter f;
+  f.student = "s11";
+  auto rows = st->training(f);
+  ASSERT_TRUE(rows.ok()) << rows.error();
+  ASSERT_EQ(rows->size(), 3u);
+  auto page = get("/student/s11");
+  ASSERT_TRUE(page);
+  ASSERT_EQ(page->status, 200);
+  const std::string& b = page->body;
+  EXPECT_NE(b.find("Training with an expert"), std::string::npos);
+  EXPECT_NE(b.find("<p data-k=\"progression\">Modes in order: 2 → 2 → 3</p>"), std::string::npos) << b;
+  EXPECT_NE(b.find("Mean following error (mm) per mode"), std::string::npos);
+  auto row_of = [&](std::int64_t id) {
+    const std::string start = "<tr data-id=\"" + std::to_string(id) + "\"><td><a href=\"/session/" + std::to_string(id) +
+                              "\">#" + std::to_string(id) + "</a></td><td>";
+    const auto t = b.find("id=\"training-sessions\"");
+    const auto at = b.find(start, t);
+    return at == std::string::npos ? std::string() : b.substr(at, b.find("</tr>", at) - at);
+  };
+  const std::string second = row_of((*rows)[1].id);
+  ASSERT_FALSE(second.empty()) << b;
+  EXPECT_NE(second.find("data-k=\"mode\">2 passive guidance"), std::string::npos) << second;
+  EXPECT_NE(second.find("as needed, faded 0.70^1"), std::string::npos) << second;
+  EXPECT_NE(second.find("data-k=\"follow\">0.38 mm"), std::string::npos) << second;
+  EXPECT_NE(second.find("data-k=\"p95\">0.70 mm"), std::string::npos) << second;
+  EXPECT_NE(row_of((*rows)[2].id).find("3 active following"), std::string::npos);
+  // Per mode: first and last error.
+  const auto m2 = b.find("<tr data-mode=\"2\">");
+  ASSERT_NE(m2, std::string::npos);
+  const std::string mode2 = b.substr(m2, b.find("</tr>", m2) - m2);
+  EXPECT_NE(mode2.find(">2</td>"), std::string::npos) << mode2;
+  EXPECT_NE(mode2.find("0.61 mm"), std::string::npos) << mode2;
+  EXPECT_NE(mode2.find("data-k=\"last\">0.38 mm"), std::string::npos) << mode2;
+  auto plain = get("/student/s12");
+  ASSERT_TRUE(plain);
+  ASSERT_EQ(plain->status, 200);
+  EXPECT_EQ(plain->body.find("Training with an expert"), std::string::npos);
+}
+
 TEST_F(Web, UnknownSessionsAndPagesAreThe404Page) {
   for (const char* p : {"/session/999999", "/session/999999/report", "/student/nobody", "/exercise/none", "/nope", "/session"}) {
     auto r = get(p);
