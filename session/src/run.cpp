@@ -70,6 +70,23 @@ Result<std::unique_ptr<Run>> Run::from_session_log(SessionLogSetup log, const ar
   run->replay_ = std::make_unique<haptics::ReplayDevice>(std::move(log.records), setup.limits);
   haptics::EngineConfig cfg = setup.engine;
   cfg.try_realtime = false;
+  if (setup.training) {
+    const haptics::TrainingSetup& t = *setup.training;
+    auto expert = haptics::read_session_log(t.params.expert_file);
+    if (!expert)
+      return Error{log.path + ": the session was trained on " + t.params.expert_file + ": " + expert.error()};
+    auto tr = haptics::ExpertTrack::from_records(expert->records, t.expert_T_tooth_dev, t.expert_T_sty_tip,
+                                                 t.params.expert_file);
+    if (!tr) return Error{log.path + ": " + tr.error()};
+    if (tr->content_hash() != t.expert_hash)
+      return Error{log.path + ": " + t.params.expert_file +
+                   " is not the expert recording this session was trained on (its content differs)"};
+    run->expert_ = std::make_unique<haptics::ExpertTrack>(std::move(*tr));
+    auto m = haptics::TrainingMode::create(t.params, *run->expert_);
+    if (!m) return Error{log.path + ": training: " + m.error()};
+    run->training_ = std::make_unique<haptics::TrainingMode>(std::move(*m));
+    cfg.training = run->training_.get();
+  }
   auto eng = haptics::Engine::create(cfg, *run->replay_, *run->volume_, *run->bur_, nullptr);
   if (!eng) return Error{log.path + ": " + eng.error()};
   run->engine_ = std::move(*eng);

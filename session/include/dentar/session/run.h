@@ -58,6 +58,10 @@ class Run {
   // A replay of a session log: the log's tooth, bur and engine, driven by its
   // records through a ReplayDevice; the engine never asks for real time.
   // Warnings (another station registration than the log's) go to warnings().
+  // A session trained in a mode (issue 27: its header's training section) replays the mode
+  // too, as haptics::replay_session does: the expert recording named in the header is read
+  // and checked against its hash, so the expert's cut is recomputed and the engine's
+  // snapshot carries the expert's tool (drawn by the frame pipeline as a second handpiece).
   static Result<std::unique_ptr<Run>> from_session_log(SessionLogSetup log, const ar::StationScene& station,
                                                        const std::string& station_name);
 
@@ -89,6 +93,8 @@ class Run {
   std::optional<volume::BurSamples> bur_;
   std::optional<haptics::SessionSetup> setup_;
   std::unique_ptr<haptics::ReplayDevice> replay_;
+  std::unique_ptr<haptics::ExpertTrack> expert_;   // a trained session's expert (outlives training_)
+  std::unique_ptr<haptics::TrainingMode> training_;  // outlives engine_
   std::unique_ptr<haptics::Engine> engine_;
   std::size_t session_steps_ = 0;
   std::unique_ptr<ar::ToothMeshes> meshes_;
