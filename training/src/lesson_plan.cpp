@@ -77,7 +77,9 @@ LessonPlan plan_next(const std::vector<PastSession>& h, const PlanOptions& o) {
   const PastSession* scored = nullptr;
   for (auto it = h.rbegin(); it != h.rend(); ++it) {
     if (!assessed && !it->skill.empty()) assessed = &*it;
-    if (!scored && it->has_score && it->max_points > 0) scored = &*it;
+    // Only a session in which the student cut scores the student: in modes 1-4 the expert's
+    // bur cuts and the student's does not, so their score is the expert's.
+    if (!scored && it->has_score && it->max_points > 0 && (it->mode == 0 || it->mode == 5)) scored = &*it;
   }
   std::string why_level;
   if (assessed) {
@@ -125,6 +127,14 @@ LessonPlan plan_next(const std::vector<PastSession>& h, const PlanOptions& o) {
             why_level + " and " + err + " (on the path): the guidance fades (repetition " + std::to_string(rep) +
                 ") and acts only as needed, so you do more of the work");
       }
+    } else if (f && f->mode == 2 && f->guidance.repetition > 0) {
+      // Faded and off the path: one step less fading (adaptive fading), not the full field again.
+      g.as_needed = true;
+      g.fade = o.fade;
+      g.repetition = f->guidance.repetition - 1;
+      say("novice_fade_back", 2,
+          why_level + " and " + err + " (off the path with guidance faded " + std::to_string(f->guidance.repetition) +
+              " times): one step less fading (repetition " + std::to_string(g.repetition) + "), still as needed");
     } else if (f && f->mode == 3 && e > o.strayed_m) {
       g.as_needed = true;
       say("novice_back_to_guidance", 2, why_level + " and " + err + " (strayed beyond " + mm(o.strayed_m) +

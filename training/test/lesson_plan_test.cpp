@@ -62,7 +62,7 @@ TEST(LessonPlan, NoviceGetsFullGuidanceThenFadingThenAnUnguidedTrial) {
   EXPECT_EQ(p.guidance.amplify, 0);
   expect_has(p.reason, "20 %");
   // Guided and on the path (0.3 mm <= 0.5 mm): fade and as needed, one repetition more each time.
-  std::vector<PastSession> h = {sess(0, -1, 0.2), sess(2, 0.3, 0.25)};
+  std::vector<PastSession> h = {sess(0, -1, 0.2), sess(2, 0.3, 0.95)};  // mode 2's score is the expert's
   for (int rep = 1; rep <= 3; ++rep) {
     p = plan_next(h);
     EXPECT_EQ(p.mode, 2) << "repetition " << rep;
@@ -71,7 +71,7 @@ TEST(LessonPlan, NoviceGetsFullGuidanceThenFadingThenAnUnguidedTrial) {
     EXPECT_DOUBLE_EQ(p.guidance.fade, 0.7);
     EXPECT_EQ(p.guidance.repetition, rep);
     expect_has(p.reason, "0.30 mm");
-    h.push_back(sess(2, 0.3, 0.25, "", rep));
+    h.push_back(sess(2, 0.3, 0.95, "", rep));
   }
   // Faded three times and still on the path: an unguided trial (mode 3).
   p = plan_next(h);
@@ -83,25 +83,35 @@ TEST(LessonPlan, NoviceGetsFullGuidanceThenFadingThenAnUnguidedTrial) {
   EXPECT_EQ(p.mode, 2);
   EXPECT_EQ(p.rule, "novice_back_to_guidance");
   EXPECT_TRUE(p.guidance.as_needed);
-  // Off the path under guidance (0.8 mm > 0.5 mm): the full field, no fading.
-  p = plan_next({sess(2, 0.8, 0.2, "", 2)});
+  // Off the path (0.8 mm > 0.5 mm) with guidance faded twice: one step less fading.
+  p = plan_next({sess(0, -1, 0.2), sess(2, 0.8, 0.9, "", 2)});
+  EXPECT_EQ(p.rule, "novice_fade_back");
+  EXPECT_EQ(p.guidance.repetition, 1);
+  EXPECT_TRUE(p.guidance.as_needed);
+  // Off the path under the unfaded field: the full field again.
+  p = plan_next({sess(0, -1, 0.2), sess(2, 0.8, 0.9, "", 0)});
   EXPECT_EQ(p.rule, "novice_guidance");
   EXPECT_EQ(p.guidance.repetition, 0);
   EXPECT_FALSE(p.guidance.as_needed);
 }
 
 TEST(LessonPlan, SkilledGetsErrorAmplificationThenAnUnguidedTrial) {
+  // A following session's score is the expert's cut: it does not make the student skilled.
   LessonPlan p = plan_next({sess(3, 0.7, 0.9)});
+  EXPECT_EQ(p.level, "novice");
+  EXPECT_EQ(p.level_from, "no data");
+  // The student's own cut (mode 5) scored 90 %, and it follows within 0.7 mm.
+  p = plan_next({sess(5, -1, 0.9), sess(3, 0.7, 0.2)});
   EXPECT_EQ(p.level, "skilled");
   EXPECT_EQ(p.mode, 2);
   EXPECT_EQ(p.rule, "skilled_amplify");
   EXPECT_DOUBLE_EQ(p.guidance.amplify, 0.5);
   expect_has(p.reason, "amplification");
-  p = plan_next({sess(3, 0.7, 0.9), sess(2, 1.2, 0.85, "", 0, 0.5)});
+  p = plan_next({sess(5, -1, 0.9), sess(3, 0.7, 0.9), sess(2, 1.2, 0.85, "", 0, 0.5)});
   EXPECT_EQ(p.mode, 5);
   EXPECT_EQ(p.rule, "skilled_unguided");
   // A skilled score but far off the expert's path: follow first.
-  p = plan_next({sess(3, 1.5, 0.9)});
+  p = plan_next({sess(0, -1, 0.9), sess(3, 1.5, 0.9)});
   EXPECT_EQ(p.rule, "skilled_follow");
   EXPECT_EQ(p.mode, 3);
 }
@@ -113,14 +123,15 @@ TEST(LessonPlan, IntermediateFollowsThenFeelsTheForcesThenCuts) {
   EXPECT_EQ(p.rule, "intermediate_follow");
   EXPECT_TRUE(p.conditional_replay);
   // Strayed: guidance as needed, across the path only.
-  p = plan_next({sess(3, 2.5, 0.6)});
+  p = plan_next({sess(5, -1, 0.6), sess(3, 2.5, 0.6)});
   EXPECT_EQ(p.mode, 2);
   EXPECT_TRUE(p.guidance.as_needed);
   EXPECT_TRUE(p.guidance.across_path_only);
   // On the path but the cut scores low: the expert's forces (mode 4), then hints (mode 5).
-  p = plan_next({sess(3, 0.8, 0.55)});
+  p = plan_next({sess(5, -1, 0.55), sess(3, 0.8, 0.9)});
   EXPECT_EQ(p.mode, 4);
-  p = plan_next({sess(3, 0.8, 0.55), sess(4, 0.9, 0.6)});
+  expect_has(p.reason, "55 %");
+  p = plan_next({sess(5, -1, 0.55), sess(3, 0.8, 0.9), sess(4, 0.9, 0.6)});
   EXPECT_EQ(p.mode, 5);
 }
 
@@ -131,7 +142,7 @@ TEST(LessonPlan, AssessmentDecidesTheLevelAndANoviceIsNeverAmplified) {
   EXPECT_EQ(p.level_from, "assessment");
   expect_has(p.reason, "assessment");
   // An expert motion with a failing cut is taken for intermediate.
-  p = plan_next({sess(3, 0.4, 0.2, "expert")});
+  p = plan_next({sess(5, 0.4, 0.2, "expert")});
   EXPECT_EQ(p.level, "intermediate");
   // Property over a grid of histories: amplification only for skilled students; a novice's
   // guidance fades only after a guided session on the path.
@@ -148,13 +159,17 @@ TEST(LessonPlan, AssessmentDecidesTheLevelAndANoviceIsNeverAmplified) {
             EXPECT_LE(q.mode, 5);
             EXPECT_TRUE(q.guidance.validate().empty()) << q.guidance.validate();
             EXPECT_FALSE(q.reason.empty());
+            if (q.level_from == "score") {
+              EXPECT_TRUE(mode == 0 || mode == 5) << "a score from mode " << mode << " is the expert's";
+            }
             if (q.level != "skilled") {
               EXPECT_EQ(q.guidance.amplify, 0);
             }
             if (q.level == "novice" && q.guidance.repetition > 0) {
+              // Fading moves one repetition at a time: on with the error on the path, back off it.
               EXPECT_EQ(mode, 2);
-              EXPECT_LE(e, 0.5);
               EXPECT_GE(e, 0);
+              EXPECT_EQ(q.guidance.repetition, e <= 0.5 ? rep + 1 : rep - 1);
             }
           }
 }

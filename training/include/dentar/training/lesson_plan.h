@@ -56,7 +56,9 @@ struct LessonPlan {
 };
 
 // The next session's mode and guidance. An empty history plans mode 1 (watch first).
-// Options must validate (asserted by the caller; plan_next does not check them).
+// Options must validate (asserted by the caller; plan_next does not check them). Scores count
+// only from sessions in which the student cut (plain drilling, mode 5): in modes 1-4 the
+// expert's bur cuts, so those sessions' scores are the expert's.
 LessonPlan plan_next(const std::vector<PastSession>& history, const PlanOptions& options = {});
 
 // A session folder (holding session.dlog, and run.json / score.json when present) or a
