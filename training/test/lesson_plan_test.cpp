@@ -244,9 +244,20 @@ TEST(LessonPlan, ReadsRealLessonRunsOfDifferentStudents) {
   auto s = read_past_session((d / "active_m2" / "session.dlog").string());
   ASSERT_TRUE(s.ok()) << s.error();
   EXPECT_EQ(s->mode, 2);
+  // The finish step's assessment (a score made with a skill model) is read as the skill.
+  std::ofstream(d / "active_m2" / "score.json")
+      << "{\"outcome\": {\"points\": 9, \"max_points\": 18}, \"assessment\": {\"label\": \"expert\", \"margin\": 0.4}}";
+  s = read_past_session((d / "active_m2").string());
+  ASSERT_TRUE(s.ok()) << s.error();
+  EXPECT_EQ(s->skill, "expert");
+  std::ofstream(d / "active_m2" / "score.json")
+      << "{\"outcome\": {\"points\": 9, \"max_points\": 18}, \"assessment\": {\"label\": 3}}";
+  auto bad = read_past_session((d / "active_m2").string());
+  ASSERT_FALSE(bad.ok());
+  expect_has(bad.error(), "assessment.label");
   // Bad input names the file and field.
   std::ofstream(d / "active_m2" / "score.json") << "{\"outcome\": {\"points\": \"many\"}}";
-  auto bad = read_past_session((d / "active_m2").string());
+  bad = read_past_session((d / "active_m2").string());
   ASSERT_FALSE(bad.ok());
   expect_has(bad.error(), "score.json");
   expect_has(bad.error(), "outcome");
