@@ -1,5 +1,6 @@
 #include "dentar/training/lesson_plan.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -7,9 +8,13 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "dentar/haptics/engine.h"
 #include "dentar/haptics/replay.h"
+#include "dentar/haptics/replay_device.h"
 #include "dentar/haptics/session_log.h"
+#include "dentar/training/exercise.h"
 #include "dentar/training/session.h"
+#include "dentar/volume/bur.h"
 
 namespace dentar::training {
 namespace {
@@ -43,6 +48,52 @@ const PastSession* last_following(const std::vector<PastSession>& h) {
   for (auto it = h.rbegin(); it != h.rend(); ++it)
     if (it->has_follow && it->mode >= 2 && it->mode <= 4) return &*it;
   return nullptr;
+}
+
+// A trained session without run.json (a live one): its following error, by replaying it
+// with its mode (as haptics::replay_session does, the expert's recording read and checked)
+// and reading the engine's snapshot after every step; the same statistic as run.json's
+// (after the expert's first 0.5 s, mean and p95).
+Status replay_follow_error(const haptics::SessionLog& log, const haptics::SessionSetup& setup,
+                           const std::string& name, PastSession& s) {
+  const haptics::TrainingSetup& t = *setup.training;
+  auto vol = make_tooth(setup.tooth_json);
+  if (!vol) return Error{name + ": tooth: " + vol.error()};
+  if (vol->content_hash() != setup.volume_hash_start)
+    return Error{name + ": the rebuilt tooth does not match the log's volume_hash_start"};
+  auto bur = volume::sample_bur(setup.bur, setup.bur_samples);
+  if (!bur) return Error{name + ": bur: " + bur.error()};
+  auto expert = haptics::read_session_log(t.params.expert_file);
+  if (!expert) return Error{name + ": the session was trained on " + t.params.expert_file + ": " + expert.error()};
+  auto track = haptics::ExpertTrack::from_records(expert->records, t.expert_T_tooth_dev, t.expert_T_sty_tip,
+                                                  t.params.expert_file);
+  if (!track) return Error{name + ": " + track.error()};
+  if (track->content_hash() != t.expert_hash)
+    return Error{name + ": " + t.params.expert_file + " is not the expert recording this session was trained on"};
+  auto mode = haptics::TrainingMode::create(t.params, *track);
+  if (!mode) return Error{name + ": training: " + mode.error()};
+  haptics::ReplayDevice dev(log.records, setup.limits);
+  haptics::EngineConfig cfg = setup.engine;
+  cfg.training = &*mode;
+  cfg.try_realtime = false;
+  auto engine = haptics::Engine::create(cfg, dev, *vol, *bur, nullptr);
+  if (!engine) return Error{name + ": " + engine.error()};
+  std::vector<double> err;
+  err.reserve(log.records.size());
+  for (std::size_t i = 0; i < log.records.size(); ++i) {
+    (*engine)->run_steps(1);
+    const haptics::HapticSnapshot snap = (*engine)->snapshot();
+    if (snap.expert_time_s >= 0.5) err.push_back(snap.follow_error_m);
+  }
+  if (err.empty()) return {};  // shorter than 0.5 s of the expert: not measured
+  s.has_follow = true;
+  s.follow_from = "replay";
+  double sum = 0;
+  for (double e : err) sum += e;
+  s.follow_mean_m = sum / static_cast<double>(err.size());
+  std::sort(err.begin(), err.end());
+  s.follow_p95_m = err[err.size() * 95 / 100];
+  return {};
 }
 
 }  // namespace
@@ -216,12 +267,15 @@ Result<PastSession> read_past_session(const std::string& path, const SkillModel*
         !fe->contains("p95") || !(*fe)["p95"].is_number())
       return Error{(folder / "run.json").string() + ": field follow_error_mm {mean, p95} (mm) is missing or not numbers"};
     s.has_follow = true;
+    s.follow_from = "run.json";
     s.follow_mean_m = (*fe)["mean"].get<double>() * 1e-3;
     s.follow_p95_m = (*fe)["p95"].get<double>() * 1e-3;
     if (!(std::isfinite(s.follow_mean_m) && s.follow_mean_m >= 0))
       return Error{(folder / "run.json").string() + ": follow_error_mm.mean must be a finite number >= 0"};
   } else if (!r.empty()) {
     return Error{r};
+  } else if (setup->training && s.mode >= 2 && s.mode <= 4) {
+    if (Status st = replay_follow_error(*log, *setup, log_path.string(), s); !st) return Error{st.error()};
   }
   if (auto r = read_json(folder / "score.json", score); r == "ok") {
     const auto oc = score.find("outcome");

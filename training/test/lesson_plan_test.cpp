@@ -244,6 +244,15 @@ TEST(LessonPlan, ReadsRealLessonRunsOfDifferentStudents) {
   auto s = read_past_session((d / "active_m2" / "session.dlog").string());
   ASSERT_TRUE(s.ok()) << s.error();
   EXPECT_EQ(s->mode, 2);
+  EXPECT_EQ(s->follow_from, "run.json");
+  // Without run.json (a live session): the log replayed in its mode gives the same error.
+  fs::remove(d / "active_m2" / "run.json");
+  auto replayed = read_past_session((d / "active_m2").string());
+  ASSERT_TRUE(replayed.ok()) << replayed.error();
+  ASSERT_TRUE(replayed->has_follow);
+  EXPECT_EQ(replayed->follow_from, "replay");
+  EXPECT_NEAR(replayed->follow_mean_m, read[1].follow_mean_m, 1e-9);
+  EXPECT_NEAR(replayed->follow_p95_m, read[1].follow_p95_m, 1e-9);
   // The finish step's assessment (a score made with a skill model) is read as the skill.
   std::ofstream(d / "active_m2" / "score.json")
       << "{\"outcome\": {\"points\": 9, \"max_points\": 18}, \"assessment\": {\"label\": \"expert\", \"margin\": 0.4}}";

@@ -24,7 +24,8 @@ struct PastSession {
   std::string path;  // the session folder or log (messages)
   int mode = 0;      // 0: plain drilling (no training section), 1..5: the training mode
   haptics::GuidanceParams guidance;  // as recorded in the session header (mode 2)
-  bool has_follow = false;           // a following error was measured (run.json)
+  bool has_follow = false;           // a following error was measured
+  std::string follow_from;           // "run.json" (dentar lesson run), "replay" (the log replayed in its mode)
   double follow_mean_m = 0, follow_p95_m = 0;
   bool has_score = false;  // score.json (the finish step's score)
   double points = 0, max_points = 0;
@@ -63,7 +64,9 @@ LessonPlan plan_next(const std::vector<PastSession>& history, const PlanOptions&
 
 // A session folder (holding session.dlog, and run.json / score.json when present) or a
 // session .dlog: its mode and guidance from the log header, the following error from
-// run.json (`dentar lesson run`), the score and, when it was scored with a skill model, the
+// run.json (`dentar lesson run`) or, for a session trained in mode 2-4 without one (a live
+// session), by replaying the log in its mode (the lesson's recording must be where the
+// header says; a 50 s session takes ~1 s), the score and, when it was scored with a skill model, the
 // assessment's label from score.json; with `model` (`dentar assess --save`) the session's
 // motion is assessed here (overriding score.json's label). Errors name the
 // file and field.
