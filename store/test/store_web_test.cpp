@@ -500,6 +500,29 @@ TEST_F(Browser, StudentPageNumbersMatchTheDatabase) {
   }
 }
 
+TEST_F(Browser, StudentPageShowsTheTrainingSection) {
+  // Issue 27: Chromium renders the training section (modes in order, the error plot, rows).
+  auto st = store();
+  for (int k = 0; k < 3; ++k) {
+    auto r = testkit::make_record("s21", "st-0", "molar_class1_cavity", 2101 + k, 10 * (k + 1));
+    r.metrics.push_back({"training.mode", k < 2 ? 2.0 : 3.0, ""});
+    r.metrics.push_back({"training.follow_error_mm.mean", 0.5 - 0.1 * k, "mm"});
+    r.metrics.push_back({"training.follow_error_mm.p95", 1.0, "mm"});
+    ASSERT_TRUE(st->put(r).ok());
+  }
+  const std::string dom = dom_after_login("/student/s21");
+  ASSERT_NE(dom.find("Training with an expert"), std::string::npos) << dom.substr(0, 3000);
+  EXPECT_NE(dom.find("Modes in order: 2 → 2 → 3"), std::string::npos);
+  EXPECT_NE(dom.find("aria-label=\"Mean following error (mm) per mode\""), std::string::npos);
+  std::regex row(R"re(data-k="follow">([0-9.]+) mm</td>)re");
+  std::vector<double> shown;
+  for (auto it = std::sregex_iterator(dom.begin(), dom.end(), row); it != std::sregex_iterator(); ++it)
+    shown.push_back(std::stod((*it)[1]));
+  ASSERT_EQ(shown.size(), 3u);
+  EXPECT_DOUBLE_EQ(shown[0], 0.30);  // newest first
+  EXPECT_DOUBLE_EQ(shown[2], 0.50);
+}
+
 TEST_F(Browser, UnknownSessionShowsThe404Page) {
   const std::string dom = dom_after_login("/session/424242");
   EXPECT_NE(dom.find("404 · Not found"), std::string::npos) << dom.substr(0, 2000);
