@@ -362,9 +362,15 @@ Result<PutOutcome> Store::put_impl(const SessionRecord& r, bool queue) {
   return PutOutcome::Stored;
 }
 
+// A session whose score is the student's: not an expert's cut (training modes 1-4, issue 27).
+constexpr const char* kNotExpertCut =
+    "NOT EXISTS (SELECT 1 FROM metrics mx WHERE mx.session_id = s.id AND (mx.name = 'training.expert_cut' OR "
+    "(mx.name = 'training.mode' AND mx.value >= 1 AND mx.value <= 4)))";
+
 Result<std::vector<StudentSummary>> Store::students() {
   auto r = db_->query(
-      "SELECT st.code, st.name, COUNT(s.id), AVG(CASE WHEN sc.max_points > 0 THEN 100.0 * sc.points / sc.max_points END), "
+      "SELECT st.code, st.name, COUNT(s.id), AVG(CASE WHEN sc.max_points > 0 AND " + std::string(kNotExpertCut) +
+      " THEN 100.0 * sc.points / sc.max_points END), "
       "MAX(s.started_utc) FROM students st LEFT JOIN sessions s ON s.student_id = st.id "
       "LEFT JOIN scores sc ON sc.session_id = s.id GROUP BY st.id, st.code, st.name ORDER BY st.code");
   if (!r) return Error{r.error()};
@@ -460,6 +466,7 @@ Result<std::vector<TrainingRow>> Store::training(const SessionFilter& f) {
     else if (name == "training.guidance.repetition") t->repetition = static_cast<int>(v);
     else if (name == "training.guidance.fade") t->fade = v;
     else if (name == "training.guidance.amplify") t->amplify = v;
+    else if (name == "training.expert_cut") t->expert_cut = v != 0;
   }
   for (std::size_t i = 0; i < rows.size(); ++i) {
     if (!rows[i] || rows[i]->mode < 1 || rows[i]->mode > 5) continue;
@@ -470,6 +477,7 @@ Result<std::vector<TrainingRow>> Store::training(const SessionFilter& f) {
     t.exercise = x.exercise;
     t.points = x.points;
     t.max_points = x.max_points;
+    if (t.mode >= 1 && t.mode <= 4) t.expert_cut = true;  // stored before score.json said cut_by
     out.push_back(t);
   }
   return out;

@@ -205,7 +205,9 @@ std::string training_section(const std::vector<TrainingRow>& rows) {
          html::esc(t.started_utc) + "</td><td>" + html::esc(t.exercise) + "</td><td data-k=\"mode\">" +
          std::to_string(t.mode) + " " + mode_name(t.mode) + "</td><td data-k=\"guidance\">" + html::esc(guidance_text(t)) +
          "</td><td class=\"n\" data-k=\"follow\">" + mm(t.follow_mean_mm) + "</td><td class=\"n\" data-k=\"p95\">" +
-         mm(t.follow_p95_mm) + "</td><td class=\"n\">" + pct(t.points, t.max_points) + " %</td></tr>";
+         mm(t.follow_p95_mm) + "</td><td class=\"n\" data-k=\"score\">" +
+         (t.expert_cut ? "expert's cut (mode " + std::to_string(t.mode) + ")" : pct(t.points, t.max_points) + " %") +
+         "</td></tr>";
   }
   b += "</table>";
   // Per mode: sessions and the following error's first and last value.

@@ -359,6 +359,23 @@ TEST_F(Web, StudentPageShowsTrainingModesErrorsAndProgression) {
   EXPECT_NE(second.find("data-k=\"follow\">0.38 mm"), std::string::npos) << second;
   EXPECT_NE(second.find("data-k=\"p95\">0.70 mm"), std::string::npos) << second;
   EXPECT_NE(row_of((*rows)[2].id).find("3 active following"), std::string::npos);
+  // Modes 1-4: the expert's bur cut, so the row shows whose cut it is, not a student score,
+  // and the student's mean score on the list counts only the plain session (#1104).
+  EXPECT_NE(second.find("data-k=\"score\">expert's cut (mode 2)"), std::string::npos) << second;
+  EXPECT_EQ(second.find(" %</td>"), std::string::npos) << second;
+  auto students = st->students();
+  ASSERT_TRUE(students.ok()) << students.error();
+  SessionFilter all11;
+  all11.student = "s11";
+  auto ss = st->sessions(all11);
+  ASSERT_TRUE(ss.ok());
+  double plain_pct = -1;
+  for (const auto& x : *ss)
+    if (x.started_utc == testkit::make_record("s11", "st-0", "molar_class1_cavity", 1104, 40).started_utc)
+      plain_pct = 100.0 * x.points / x.max_points;
+  ASSERT_GE(plain_pct, 0);
+  for (const auto& x : *students)
+    if (x.code == "s11") EXPECT_NEAR(x.mean_pct, plain_pct, 1e-9) << "the expert's cuts are not the student's mean";
   // Per mode: first and last error.
   const auto m2 = b.find("<tr data-mode=\"2\">");
   ASSERT_NE(m2, std::string::npos);
@@ -521,6 +538,7 @@ TEST_F(Browser, StudentPageShowsTheTrainingSection) {
   ASSERT_EQ(shown.size(), 3u);
   EXPECT_DOUBLE_EQ(shown[0], 0.30);  // newest first
   EXPECT_DOUBLE_EQ(shown[2], 0.50);
+  EXPECT_NE(dom.find("expert's cut (mode 2)"), std::string::npos) << "modes 1-4 show whose cut the score is";
 }
 
 TEST_F(Browser, UnknownSessionShowsThe404Page) {

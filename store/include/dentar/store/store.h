@@ -70,6 +70,8 @@ struct TrainingRow {
   int repetition = 0;
   double fade = 1, amplify = 0;
   double points = 0, max_points = 0;
+  // The score is the expert's cut (modes 1-4: the expert's bur cut, not the student's).
+  bool expert_cut = false;
 };
 
 struct SessionFilter {
