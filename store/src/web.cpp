@@ -628,11 +628,18 @@ struct WebServer::Impl {
         auto any = st.sessions(filter(code, "", 1));
         if (!any || any->empty()) return fail(res, 404, user, "There is no student with that code.");
       }
+      auto tr = st.training(filter(code, ex));
+      if (!tr) return fail500(req, res, user, "The training sessions could not be read.", tr.error());
+      // Sessions in training modes 1-4 scored the expert's cut: not in the student's score trend,
+      // and their score cell says whose cut it was (issue 27).
+      std::map<std::int64_t, int> expert_cut;
+      for (const auto& t : *tr)
+        if (t.expert_cut) expert_cut[t.id] = t.mode;
       std::map<std::string, html::Series> by_ex;
       for (const auto& x : *ss) {
         auto& se = by_ex[x.exercise];
         se.label = x.exercise;
-        if (x.max_points > 0) se.points.emplace_back(html::parse_utc(x.started_utc), 100.0 * x.points / x.max_points);
+        if (x.max_points > 0 && !expert_cut.count(x.id)) se.points.emplace_back(html::parse_utc(x.started_utc), 100.0 * x.points / x.max_points);
       }
       std::string b = "<h1>Student " + html::esc(code) + "</h1><p>" + std::to_string(ss->size()) + " sessions" +
                       (ex.empty() ? "" : " of " + html::esc(ex) + " (<a href=\"/student/" + html::url_part(code) + "\">all</a>)") +
@@ -649,15 +656,15 @@ struct WebServer::Impl {
              html::esc(x.started_utc) + "</td><td><a href=\"/student/" + html::url_part(code) + "?exercise=" +
              html::url_part(x.exercise) + "\">" + html::esc(x.exercise) + "</a></td><td>" + html::esc(x.station) +
              "</td><td class=\"n\" data-k=\"points\">" + html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) +
-             "</td><td class=\"n\" data-k=\"pct\">" + pct(x.points, x.max_points) + " %" +
-             (x.incomplete ? kIncompleteMark : "") + "</td><td class=\"n\">" +
+             "</td><td class=\"n\" data-k=\"pct\">" +
+             (expert_cut.count(x.id) ? "expert's cut (mode " + std::to_string(expert_cut[x.id]) + ")"
+                                     : pct(x.points, x.max_points) + " %" + (x.incomplete ? kIncompleteMark : "")) +
+             "</td><td class=\"n\">" +
              html::fixed(x.coverage_pct, 1) + " %</td><td class=\"n\">" + html::fixed(x.duration_s, 1) + " s</td><td>" +
              (x.pulp_exposed ? "<span class=\"warn\">exposed</span>" : "–") + "</td><td>" +
              (x.has_report ? "<a href=\"/session/" + id + "/report\">report</a>" : "–") + "</td></tr>";
       }
       b += "</table>";
-      auto tr = st.training(filter(code, ex));
-      if (!tr) return fail500(req, res, user, "The training sessions could not be read.", tr.error());
       b += training_section(*tr);
       send(res, 200, html::page("Student " + code, b, user.name, user.csrf));
     }));

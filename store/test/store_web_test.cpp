@@ -375,7 +375,20 @@ TEST_F(Web, StudentPageShowsTrainingModesErrorsAndProgression) {
       plain_pct = 100.0 * x.points / x.max_points;
   ASSERT_GE(plain_pct, 0);
   for (const auto& x : *students)
-    if (x.code == "s11") EXPECT_NEAR(x.mean_pct, plain_pct, 1e-9) << "the expert's cuts are not the student's mean";
+    if (x.code == "s11") {
+      EXPECT_NEAR(x.mean_pct, plain_pct, 1e-9) << "the expert's cuts are not the student's mean";
+    }
+  // The sessions table says whose cut a trained session's score is; the plain one shows its %.
+  const auto srow = [&](std::int64_t id) {
+    const auto at = b.find("<tr data-id=\"" + std::to_string(id) + "\">", b.find("id=\"sessions\""));
+    return at == std::string::npos ? std::string() : b.substr(at, b.find("</tr>", at) - at);
+  };
+  EXPECT_NE(srow((*rows)[2].id).find("data-k=\"pct\">expert's cut (mode 3)"), std::string::npos) << srow((*rows)[2].id);
+  std::int64_t plain_id = 0;
+  for (const auto& x : *ss)
+    if (x.started_utc == testkit::make_record("s11", "st-0", "molar_class1_cavity", 1104, 40).started_utc) plain_id = x.id;
+  EXPECT_NE(srow(plain_id).find(" %"), std::string::npos) << srow(plain_id);
+  EXPECT_EQ(srow(plain_id).find("expert's cut"), std::string::npos);
   // Per mode: first and last error.
   const auto m2 = b.find("<tr data-mode=\"2\">");
   ASSERT_NE(m2, std::string::npos);
