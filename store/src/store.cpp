@@ -362,14 +362,15 @@ Result<PutOutcome> Store::put_impl(const SessionRecord& r, bool queue) {
   return PutOutcome::Stored;
 }
 
-// A session whose score is the student's: not an expert's cut (training modes 1-4, issue 27).
-constexpr const char* kNotExpertCut =
-    "NOT EXISTS (SELECT 1 FROM metrics mx WHERE mx.session_id = s.id AND (mx.name = 'training.expert_cut' OR "
-    "(mx.name = 'training.mode' AND mx.value >= 1 AND mx.value <= 4)))";
+// A session (alias `s`) whose score is the student's: not an expert's cut (training modes 1-4, issue 27).
+std::string not_expert_cut(const std::string& s = "s") {
+  return "NOT EXISTS (SELECT 1 FROM metrics mx WHERE mx.session_id = " + s + ".id AND (mx.name = 'training.expert_cut' OR "
+         "(mx.name = 'training.mode' AND mx.value >= 1 AND mx.value <= 4)))";
+}
 
 Result<std::vector<StudentSummary>> Store::students() {
   auto r = db_->query(
-      "SELECT st.code, st.name, COUNT(s.id), AVG(CASE WHEN sc.max_points > 0 AND " + std::string(kNotExpertCut) +
+      "SELECT st.code, st.name, COUNT(s.id), AVG(CASE WHEN sc.max_points > 0 AND " + not_expert_cut() +
       " THEN 100.0 * sc.points / sc.max_points END), "
       "MAX(s.started_utc) FROM students st LEFT JOIN sessions s ON s.student_id = st.id "
       "LEFT JOIN scores sc ON sc.session_id = s.id GROUP BY st.id, st.code, st.name ORDER BY st.code");
@@ -384,12 +385,13 @@ Result<std::vector<StudentSummary>> Store::students() {
     s.last_utc = str(row[4]);
     out.push_back(s);
   }
-  // Last session's score per student (one more query, not one per student).
+  // Last session's score per student (one more query, not one per student): the last one the
+  // student cut (an expert's cut in modes 1-4 is not the student's score).
   auto last = db_->query(
       "SELECT st.code, sc.points, sc.max_points, (SELECT COUNT(*) FROM metrics m WHERE m.session_id = s.id AND "
       "m.name = 'outcome.complete' AND m.value = 0) FROM sessions s JOIN students st ON st.id = s.student_id "
       "JOIN scores sc ON sc.session_id = s.id WHERE s.id = (SELECT s2.id FROM sessions s2 WHERE s2.student_id = "
-      "s.student_id ORDER BY s2.started_utc DESC, s2.id DESC LIMIT 1)");
+      "s.student_id AND " + not_expert_cut("s2") + " ORDER BY s2.started_utc DESC, s2.id DESC LIMIT 1)");
   if (!last) return Error{last.error()};
   for (const auto& row : *last)
     for (auto& s : out)

@@ -378,6 +378,18 @@ TEST_F(Web, StudentPageShowsTrainingModesErrorsAndProgression) {
     if (x.code == "s11") {
       EXPECT_NEAR(x.mean_pct, plain_pct, 1e-9) << "the expert's cuts are not the student's mean";
     }
+  // A student whose newest session is an expert's cut: the list's last score is the newest
+  // session the student cut.
+  ASSERT_TRUE(st->put(testkit::make_record("s13", "st-0", "molar_class1_cavity", 1301, 10)).ok());
+  ASSERT_TRUE(st->put(trained(testkit::make_record("s13", "st-0", "molar_class1_cavity", 1302, 20), 2, 0.5, 1, false, 0)).ok());
+  const auto own = testkit::make_record("s13", "st-0", "molar_class1_cavity", 1301, 10);
+  auto students13 = st->students();
+  ASSERT_TRUE(students13.ok()) << students13.error();
+  for (const auto& x : *students13)
+    if (x.code == "s13") {
+      EXPECT_NEAR(x.last_pct, 100.0 * own.points / own.max_points, 1e-9);
+      EXPECT_NEAR(x.mean_pct, 100.0 * own.points / own.max_points, 1e-9);
+    }
   // The sessions table says whose cut a trained session's score is; the plain one shows its %.
   const auto srow = [&](std::int64_t id) {
     const auto at = b.find("<tr data-id=\"" + std::to_string(id) + "\">", b.find("id=\"sessions\""));
