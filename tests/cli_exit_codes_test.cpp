@@ -207,6 +207,16 @@ TEST(CliExitCodes, LessonFaultsAreTwo) {
          {"unknown exercise", "lesson make " + f.garbage_dlog.string() + " --exercise molar_class9 --out " +
                                   (f.dir / "l9").string(), "no built-in exercise 'molar_class9'"}});
   for (const char* d : {"l6", "l7", "l8", "l9"}) EXPECT_FALSE(fs::exists(f.dir / d)) << d << " was written";
+  // Session 14: the lesson plan and a run from a plan.
+  std::ofstream(f.dir / "bad_plan.json") << "{\"version\": 1, \"mode\": 9}";
+  const std::string l10 = (f.dir / "l10").string();
+  check({{"missing input", "lesson plan " + m, m},
+         {"damaged session log", "lesson plan " + f.garbage_dlog.string(), f.garbage_dlog.string()},
+         {"damaged plan", "lesson run " + m + " --plan " + (f.dir / "bad_plan.json").string() + " --out " + l10,
+          "field mode = 9 must be 1..5"},
+         {"missing plan", "lesson run " + m + " --plan " + m + " --out " + l10, m},
+         {"no mode", "lesson run " + m + " --out " + l10, "give --mode 1..5 or --plan PLAN.json"}});
+  EXPECT_FALSE(fs::exists(f.dir / "l10")) << "l10 was written";
 }
 
 // dentar replay (issue 27, mode 1's window): every fault is found before a window opens.

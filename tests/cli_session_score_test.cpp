@@ -117,6 +117,35 @@ TEST(CliSessionScore, DemoDrillsTheExercisesToothAndScoresIt) {
   EXPECT_FALSE(fs::exists(out2 / "session.dlog"));
 }
 
+TEST(CliSessionScore, ATrainedSessionsScoreSaysWhoseBurCut) {
+  // Issue 27: in modes 1-4 the expert's bur cuts, not the student's, so `dentar lesson run`'s
+  // score line, score.json and score.html present the score as the expert's cut; in mode 5
+  // the student cuts and the score is theirs.
+  const fs::path d = dentar::test::temp_dir("lesson_run_score");
+  CommandResult b = run_dentar("lesson builtin --exercise molar_class1_cavity --out " + (d / "lessons").string());
+  ASSERT_EQ(b.code, 0) << b.out;
+  const std::string lesson = (d / "lessons" / "molar_class1_cavity").string();
+  const CommandResult r2 =
+      run_dentar("lesson run " + lesson + " --mode 2 --student passive --seconds 3 --out " + (d / "m2").string());
+  ASSERT_EQ(r2.code, 0) << r2.out;
+  EXPECT_NE(r2.out.find("score of the expert's cut (mode 2), not the student's: "), std::string::npos) << r2.out;
+  EXPECT_EQ(r2.out.find("\nscore: "), std::string::npos) << r2.out;
+  const auto j2 = nlohmann::json::parse(dentar::test::read_file(d / "m2" / "score.json"));
+  EXPECT_EQ(j2["cut_by"], "expert");
+  EXPECT_EQ(j2["training_mode"], 2);
+  EXPECT_GT(j2["outcome"]["removed_total_mm3"].get<double>(), 0.01) << "the expert's bur cut";
+  EXPECT_NE(dentar::test::read_file(d / "m2" / "score.html").find("This is the expert's cut (mode 2), not the student's"),
+            std::string::npos);
+  const CommandResult r5 = run_dentar("lesson run " + lesson + " --mode 5 --seconds 2 --out " + (d / "m5").string());
+  ASSERT_EQ(r5.code, 0) << r5.out;
+  EXPECT_NE(r5.out.find("\nscore: "), std::string::npos) << r5.out;
+  EXPECT_EQ(r5.out.find("expert's cut"), std::string::npos) << r5.out;
+  const auto j5 = nlohmann::json::parse(dentar::test::read_file(d / "m5" / "score.json"));
+  EXPECT_EQ(j5["cut_by"], "student");
+  EXPECT_EQ(j5["training_mode"], 5);
+  EXPECT_EQ(dentar::test::read_file(d / "m5" / "score.html").find("id='cut-by'"), std::string::npos);
+}
+
 TEST(CliSessionScore, AFailedScoreKeepsTheRunAndWarns) {
   const fs::path out = dentar::test::temp_dir("offline_score_fail");
   dentar::test::write_file(out / "score.json", "{\"old\": true}");  // from an earlier run: must not pass for this one

@@ -2,14 +2,18 @@
 // of the built-in exercises, and run a lesson offline in a training mode with a simulated
 // student (issue 27). The logic is in training/lesson.h and training/lesson_run.h.
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "commands.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/training/exercise.h"
 #include "dentar/training/lesson.h"
+#include "dentar/training/lesson_plan.h"
 #include "dentar/training/lesson_run.h"
 #include "dentar/session/finish.h"
 
@@ -26,6 +30,8 @@ struct LessonArgs {
   double seconds = 0, jitter_ms = 0, lag_s = -1, noise_mm = -1;
   bool no_score = false, no_pauses = false, generated = false;
   std::vector<std::string> exercises;
+  std::vector<std::string> sessions;  // lesson plan: the student's recent sessions, oldest first
+  std::string model, plan;            // lesson plan: skill model; lesson run: a plan.json to apply
 };
 
 int do_make(const LessonArgs& a) {
@@ -90,9 +96,62 @@ int do_show(const LessonArgs& a) {
   return 0;
 }
 
+int do_plan(const LessonArgs& a) {
+  std::optional<training::SkillModel> model;
+  if (!a.model.empty()) {
+    std::ifstream f(a.model);
+    if (!f) return print_error("lesson plan", a.model + ": cannot open the skill model (dentar assess --save)"), 2;
+    std::stringstream ss;
+    ss << f.rdbuf();
+    auto m = training::model_from_json(ss.str(), a.model);
+    if (!m) return print_error("lesson plan", m.error()), 2;
+    model = std::move(*m);
+  }
+  std::vector<training::PastSession> history;
+  for (const auto& s : a.sessions) {
+    auto p = training::read_past_session(s, model ? &*model : nullptr);
+    if (!p) return print_error("lesson plan", p.error()), 2;
+    std::printf("%s: %s", s.c_str(), p->mode == 0 ? "plain drilling" : ("mode " + std::to_string(p->mode)).c_str());
+    if (p->has_follow) std::printf(", following error %.2f mm (p95 %.2f)", p->follow_mean_m * 1e3, p->follow_p95_m * 1e3);
+    if (p->has_score) std::printf(", score %.1f / %.0f", p->points, p->max_points);
+    if (!p->skill.empty()) std::printf(", assessed %s", p->skill.c_str());
+    std::printf("\n");
+    history.push_back(std::move(*p));
+  }
+  const training::LessonPlan plan = training::plan_next(history);
+  std::cout << plan.reason << "\n";
+  std::cout << "guidance: " << (plan.guidance.as_needed ? "as needed" : "fixed")
+            << (plan.guidance.across_path_only ? ", across the path only" : "");
+  if (plan.guidance.repetition > 0)
+    std::printf(", faded %.2f^%d", plan.guidance.fade, plan.guidance.repetition);
+  if (plan.guidance.amplify > 0) std::printf(", error amplification %.2f", plan.guidance.amplify);
+  std::cout << " (level " << plan.level << ", from " << plan.level_from << ")\n";
+  if (!a.out.empty()) {
+    std::ofstream f(a.out);
+    if (!(f << training::lesson_plan_json(plan)))
+      return print_error("lesson plan", a.out + ": cannot write the plan"), 1;
+    std::cout << "plan: " << a.out << " (dentar lesson run LESSON --plan " << a.out << " --out DIR)\n";
+  }
+  return 0;
+}
+
 int do_run(const LessonArgs& a) {
   training::LessonRunOptions o;
-  o.mode = a.mode;
+  std::optional<training::LessonPlan> plan;
+  if (!a.plan.empty()) {
+    std::ifstream f(a.plan);
+    if (!f) return print_error("lesson run", a.plan + ": cannot open the plan (dentar lesson plan --out)"), 2;
+    std::stringstream ss;
+    ss << f.rdbuf();
+    auto p = training::parse_lesson_plan(ss.str(), a.plan);
+    if (!p) return print_error("lesson run", p.error()), 2;
+    if (a.mode != 0 && a.mode != p->mode)
+      return print_error("lesson run", "--mode " + std::to_string(a.mode) + " contradicts the plan's mode " +
+                                           std::to_string(p->mode) + " (" + a.plan + "); give one of them"), 2;
+    plan = *p;
+  }
+  o.mode = plan ? plan->mode : a.mode;
+  if (o.mode == 0) return print_error("lesson run", "give --mode 1..5 or --plan PLAN.json"), 2;
   o.device = a.device;
   if (a.student == "passive")
     o.student = training::StudentModel::passive_hand();
@@ -111,6 +170,17 @@ int do_run(const LessonArgs& a) {
   if (!path) return print_error("lesson run", path.error()), 2;
   auto l = training::load_lesson(*path);
   if (!l) return print_error("lesson run", l.error()), 2;
+  if (plan) {
+    // The plan's guidance on top of the lesson's field (its k, eps1, eps2 and damping stay).
+    auto& g = l->params.guidance;
+    g.as_needed = plan->guidance.as_needed;
+    g.across_path_only = plan->guidance.across_path_only;
+    g.fade = plan->guidance.fade;
+    g.repetition = plan->guidance.repetition;
+    g.amplify = plan->guidance.amplify;
+    l->params.conditional_replay = plan->conditional_replay;
+    std::cout << "plan: " << plan->reason << "\n";
+  }
   if (fs::exists(fs::path(a.out) / "session.dlog"))
     return print_error("lesson run", a.out + " already holds a session.dlog; give a new --out folder"), 2;
   auto r = training::run_lesson(*l, o);
@@ -155,7 +225,7 @@ int do_run(const LessonArgs& a) {
 
 void add_lesson(CLI::App& app, int& exit_code) {
   auto a = std::make_shared<LessonArgs>();
-  CLI::App* s = app.add_subcommand("lesson", "Lessons from an expert's recording: make, show, builtin, run (issue 27)");
+  CLI::App* s = app.add_subcommand("lesson", "Lessons from an expert's recording: make, show, builtin, run, plan (issue 27)");
   s->require_subcommand(1);
   s->footer(
       "Examples:\n"
@@ -165,6 +235,7 @@ void add_lesson(CLI::App& app, int& exit_code) {
       "  dentar lesson show lessons/molar_class1_cavity\n"
       "  dentar lesson run builtin:molar_access_opening --mode 3 --out run3\n"
       "  dentar lesson run lessons/molar_class1_cavity --mode 2 --student passive --seed 3 --out run1\n"
+      "  dentar lesson plan run1 --out plan.json\n"
       "Format: docs/formats.md (\"Lesson\"); modes: docs/training_modes.md");
 
   CLI::App* mk = s->add_subcommand("make", "Turn a recording into a lesson folder (lesson.json + expert.dlog)");
@@ -191,8 +262,8 @@ void add_lesson(CLI::App& app, int& exit_code) {
   CLI::App* rn = s->add_subcommand("run", "Run a lesson offline in a mode with a simulated student; record and score it");
   rn->add_option("lesson", a->lesson, "Lesson folder, its lesson.json, or builtin:EXERCISE (made in the cache on first use)")
       ->required();
-  rn->add_option("--mode", a->mode, "1 visual replay, 2 passive guidance, 3 active following, 4 force reversal, 5 hints")
-      ->required();
+  rn->add_option("--mode", a->mode, "1 visual replay, 2 passive guidance, 3 active following, 4 force reversal, 5 hints");
+  rn->add_option("--plan", a->plan, "A plan.json from dentar lesson plan: its mode and guidance (instead of --mode)");
   rn->add_option("--student", a->student, "sim student: active (grips, follows with lag) or passive (relaxed hand)")
       ->capture_default_str();
   rn->add_option("--device", a->device, "Device profile (dentar devices --profiles) or pen (no force)")->capture_default_str();
@@ -205,6 +276,14 @@ void add_lesson(CLI::App& app, int& exit_code) {
   rn->add_flag("--no-score", a->no_score, "Do not score the session");
   rn->add_option("--out", a->out, "Folder for session.dlog, run.json and the score")->required();
   rn->callback([a, &exit_code] { exit_code = do_run(*a); });
+
+  CLI::App* pl = s->add_subcommand("plan", "Pick the next mode and guidance from a student's recent sessions, and say why");
+  pl->add_option("sessions", a->sessions, "The student's recent session folders (or .dlog), oldest first");
+  pl->add_option("--model", a->model, "Skill model (dentar assess --save) to assess each session's motion");
+  pl->add_option("--out", a->out, "Write the plan here (plan.json; dentar lesson run --plan)");
+  pl->footer("Rules: docs/training_modes.md (\"The lesson plan\"). Example:\n"
+             "  dentar lesson plan run1 run2 --out plan.json && dentar lesson run builtin:molar_class1_cavity --plan plan.json --out run3");
+  pl->callback([a, &exit_code] { exit_code = do_plan(*a); });
 }
 
 }  // namespace dentar::tools

@@ -35,6 +35,7 @@ struct OfflineCli {
   double decimate = 2.0;
   bool no_roi = false, no_filter = false, no_occlusion = false, no_segmentation = false,
        no_mirror = false;
+  double expert_opacity = 0.45;
   int full_every = 15;
   double predict_ms = 0, stale_ms = 200;
   double mirror_sigma_mm = 1.0;
@@ -127,6 +128,8 @@ int run(const OfflineCli& c) {
   o.compositor.phantoms = !c.no_occlusion;
   o.compositor.segmentation = !c.no_occlusion && !c.no_segmentation;
   o.compositor.mirror = !c.no_mirror;
+  o.expert.draw = c.expert_opacity > 0;
+  if (c.expert_opacity > 0) o.expert.opacity = c.expert_opacity;
   o.compositor.triangle_budget = c.triangle_budget;
   if (std::string e = o.validate(); !e.empty()) {
     print_error("offline", e);
@@ -179,6 +182,9 @@ int run(const OfflineCli& c) {
   std::cout << "offline: " << s.frames << " frames (" << f3(s.footage_s) << " s of footage) in "
             << f3(s.wall_s) << " s; mannequin tracking " << s.tracking << ", predicted " << s.predicted
             << ", lost " << s.lost << "; overlay drawn in " << s.overlays << " frames\n";
+  if (s.expert_frames > 0)
+    std::cout << "  expert's tool drawn in " << s.expert_frames << " frames (" << s.expert_drilling_frames
+              << " with mode 5's drilling colours)\n";
   if (s.has_truth)
     std::cout << "  errors (median / p95): pose " << f3(s.man_err_mm.median) << " / " << f3(s.man_err_mm.p95)
               << " mm, " << f3(s.man_err_deg.median) << " / " << f3(s.man_err_deg.p95)
@@ -289,6 +295,10 @@ void add_offline(CLI::App& app, int& exit_code) {
   s->add_flag("--no-occlusion", c->no_occlusion, "Draw the tooth over everything (no occlusion)");
   s->add_flag("--no-segmentation", c->no_segmentation, "Occlusion by known geometry only (no hand segmentation)");
   s->add_flag("--no-mirror", c->no_mirror, "No reflection in the mirror");
+  s->add_option("--expert-opacity", c->expert_opacity,
+                "A session from `dentar lesson run`: the expert's tool drawn with this opacity (0 = not drawn)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   s->add_option("--triangle-budget", c->triangle_budget, "Tooth triangles drawn per frame (0 = no limit)");
   s->add_option("--exercise", c->exercise,
                 "Exercise the session is scored against: built-in name (molar_access_opening, molar_class1_cavity,\n"

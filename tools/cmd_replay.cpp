@@ -34,6 +34,9 @@ void add_replay(CLI::App& app, int& exit_code) {
   sub->add_option("--frames", o->frames, "close after N frames (tests, benchmarks; default: until closed)");
   sub->add_option("--screenshot", o->screenshot, "with --frames: save the window's pixels after the last frame (PNG)");
   sub->add_option("--render", o->render, "no window: render the view at --at to this PNG (headless EGL) and exit");
+  sub->add_option("--play-scale", o->play_scale,
+                  "while playing, render the 3-D view at this fraction of its pixels per axis and scale it up (0.25..1; "
+                  "default 0.5; paused: full resolution)");
   sub->add_option("--stats", o->stats, "write frame times (median, p99) and the alignment to this JSON");
   sub->add_option("--keys", o->keys, "scripted key presses, one per frame (tests): e.g. --keys n n space")->expected(0, -1);
   sub->add_flag("--no-vsync", *no_vsync, "do not wait for the display's refresh (benchmarks)");

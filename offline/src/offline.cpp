@@ -581,6 +581,7 @@ struct Job {
                                "recording lacks; poses near it may differ from the live run's");
     }
     po.compositor = o.compositor;
+    po.expert = o.expert;
     po.predict_s = o.predict_s;
     if (auto w = run->make_pipeline(st, po); !w) return fail("offline: " + w.error());
     pipe = &run->pipeline();
@@ -703,6 +704,8 @@ struct Job {
     r.overlay = fr.overlay;
     r.mirror_drawn = fr.mirror_drawn;
     r.triangles = fr.triangles;
+    if (fr.expert_drawn) ++sum.expert_frames;
+    if (fr.expert_drilling_shown) ++sum.expert_drilling_frames;
     CompositeInput in;
     in.man_valid = r.man_state != 2;
     in.stylus_valid = fin.stylus_valid;
@@ -890,6 +893,9 @@ struct Job {
         {"pulp_exposed_at_s", sum.pulp_exposed ? nlohmann::json(sum.pulp_exposed_at_s) : nlohmann::json(nullptr)},
         {"warnings", sum.warnings},
         {"inputs", inputs}};
+    // A session trained in a mode (issue 27); absent otherwise, so older outputs are unchanged.
+    if (sum.expert_frames > 0)
+      js["expert"] = {{"frames", sum.expert_frames}, {"drilling_frames", sum.expert_drilling_frames}};
     if (auto s = write_atomic(out / "summary.json", js.dump(2) + "\n"); !s) return fail("offline: " + s.error());
     if (auto s = write_atomic(out / "report.html", make_report(o, sum, rows, stills, inputs, extra_html)); !s)
       return fail("offline: " + s.error());

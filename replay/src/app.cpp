@@ -11,6 +11,7 @@
 #include <cctype>
 #include <cstdlib>
 #include <cmath>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -79,11 +80,11 @@ calibration::CameraIntrinsics view_k(const Replay& r, bool right) {
 Status make_views(Replay& r) {
   r.view_a.reset();
   r.view_b.reset();
-  auto va = SceneView::create(view_k(r, false), r.a.player->bur());
+  auto va = SceneView::create(view_k(r, false), r.a.player->bur(), r.opt.play_scale);
   if (!va) return Error{va.error()};
   r.view_a = std::move(va).value();
   if (r.b && !r.superimpose) {
-    auto vb = SceneView::create(view_k(r, true), r.b->player->bur());
+    auto vb = SceneView::create(view_k(r, true), r.b->player->bur(), r.opt.play_scale);
     if (!vb) return Error{vb.error()};
     r.view_b = std::move(vb).value();
   }
@@ -106,20 +107,20 @@ SceneView::Tooth tooth_of(const Side& s) {
   return t;
 }
 
-// Renders the current state into the views' framebuffers.
-void render_views(Replay& r) {
+// Renders the current state into the views' framebuffers (reduced: at ReplayOptions::play_scale).
+void render_views(Replay& r, bool reduced = false) {
   const SceneView::Tooth ta = tooth_of(r.a);
   if (!r.b) {
-    r.view_a->render(r.cam, ta, r.alphas);
+    r.view_a->render(r.cam, ta, r.alphas, nullptr, 0.35f, reduced);
     return;
   }
   const SceneView::Tooth tb = tooth_of(*r.b);
   if (r.superimpose) {
-    r.view_a->render(r.cam, ta, r.alphas, &tb, r.ghost_alpha);
+    r.view_a->render(r.cam, ta, r.alphas, &tb, r.ghost_alpha, reduced);
     return;
   }
-  r.view_a->render(r.cam, ta, r.alphas);
-  r.view_b->render(r.cam, tb, r.alphas);
+  r.view_a->render(r.cam, ta, r.alphas, nullptr, 0.35f, reduced);
+  r.view_b->render(r.cam, tb, r.alphas, nullptr, 0.35f, reduced);
 }
 
 // The views as the window shows them, read back into r.frame (BGR, the free area's size:
@@ -139,12 +140,13 @@ void read_views(Replay& r) {
 
 void blit_views(Replay& r, ReplayWindow& w) {
   const int W = r.opt.width - kPanelWidth, H = r.opt.height - kTimelineHeight;
+  const auto from = [](const SceneView& v) { return std::pair<int, int>(v.rendered_width(), v.rendered_height()); };
   if (!r.view_b) {
-    w.blit(r.view_a->framebuffer(), W, H, kPanelWidth, 0);
+    w.blit(r.view_a->framebuffer(), from(*r.view_a), W, H, kPanelWidth, 0);
     return;
   }
-  w.blit(r.view_a->framebuffer(), r.split_w, H, kPanelWidth, 0);
-  w.blit(r.view_b->framebuffer(), W - r.split_w, H, kPanelWidth + r.split_w, 0);
+  w.blit(r.view_a->framebuffer(), from(*r.view_a), r.split_w, H, kPanelWidth, 0);
+  w.blit(r.view_b->framebuffer(), from(*r.view_b), W - r.split_w, H, kPanelWidth + r.split_w, 0);
 }
 
 // Loads the recordings, checks the options against them, aligns. Errors are bad input.
@@ -511,6 +513,7 @@ std::string ReplayOptions::validate() const {
   for (const auto& k : keys)
     if (key_code(k) < 0) return "--keys: unknown key '" + k + "' (letters, digits, space, left, right, up, down, +, -, ',', '.', [, ], home, end, tab, pageup, pagedown, escape)";
   if (!screenshot.empty() && frames <= 0) return "--screenshot needs --frames N (the window is captured after frame N)";
+  if (!(play_scale >= 0.25 && play_scale <= 1)) return "--play-scale " + fmt(play_scale, 3) + ": must be 0.25 to 1";
   if (!render.empty() && !screenshot.empty()) return "--render (headless) and --screenshot (the window's) exclude each other";
   return {};
 }
@@ -567,7 +570,15 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
   std::vector<double> last_key;
   ui.playing = opt.play;
   ui.speed = opt.speed;
-  std::vector<double> frame_ms, seek_ms, scene_ms, hud_ms;
+  std::vector<double> frame_ms, seek_ms, scene_ms, hud_ms, cpu_ms;
+  // This process's CPU time per frame (all its threads: llvmpipe's rasterisers included, the
+  // X server's copy not): the load-independent cost of a frame.
+  const auto process_cpu_ms = [] {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+  };
+  double last_cpu = process_cpu_ms();
   frame_ms.reserve(static_cast<std::size_t>(std::max(opt.frames, 0)));
   auto last = Clock::now();
   double shown_ms = 0;
@@ -580,6 +591,9 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     const double dt = std::chrono::duration<double>(now - last).count();
     last = now;
     if (n > 0) frame_ms.push_back(dt * 1e3);
+    const double cpu_now = process_cpu_ms();
+    if (n > 0) cpu_ms.push_back(cpu_now - last_cpu);
+    last_cpu = cpu_now;
     shown_ms = 0.9 * shown_ms + 0.1 * dt * 1e3;
     // The clock: playing advances by wall time x speed; a lesson's pause point holds it.
     double t = r.t_s;
@@ -608,13 +622,19 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     if (t != r.t_s)
       if (Status s = seek(r, t); !s) return {1, s.error()};
     const auto c1 = Clock::now();
+    // Playing, the view renders at the reduced level of detail (play_scale); paused, and the
+    // frame a --screenshot captures, at full resolution (the key holds which, so pausing
+    // renders the same time again at full quality).
+    const bool shot_frame = !opt.screenshot.empty() && opt.frames > 0 && n + 1 == opt.frames;
+    const bool reduced = ui.playing && ui.pause_left_s <= 0 && !shot_frame && opt.play_scale < 1;
     // The view is rendered again only when what it shows changed (time, camera, opacities,
     // layout); paused and untouched, the last render is blitted again.
     const std::vector<double> key = {r.t_s, r.cam.yaw_rad, r.cam.pitch_rad, r.cam.distance_m, r.cam.target_m.x(),
                                      r.cam.target_m.y(), r.cam.target_m.z(), r.alphas.enamel, r.alphas.dentin,
                                      r.alphas.pulp, r.ghost_alpha, r.superimpose ? 1.0 : 0.0,
-                                     static_cast<double>(reinterpret_cast<std::uintptr_t>(r.view_a.get()))};
-    if (key != last_key) render_views(r);
+                                     static_cast<double>(reinterpret_cast<std::uintptr_t>(r.view_a.get())),
+                                     reduced ? 1.0 : 0.0};
+    if (key != last_key) render_views(r, reduced);
     last_key = key;
     // With --stats, the view's rendering is waited for, so its time is measured apart from
     // the window's (a frame then costs the sum; without, the two can overlap).
@@ -652,6 +672,9 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     stats["window_ms_median"] = percentile(hud_ms, 0.5);
     stats["triangles"] = r.a.player->surface().triangle_count();
     stats["size"] = std::to_string(opt.width) + "x" + std::to_string(opt.height);
+    stats["play_scale"] = opt.play_scale;
+    stats["cpu_ms_median"] = percentile(cpu_ms, 0.5);
+    stats["cpu_ms_p99"] = percentile(cpu_ms, 0.99);
     msg += "\nframes: " + std::to_string(frame_ms.size() + 1) + ", frame time median " + fmt(med, 2) + " ms (" +
            fmt(med > 0 ? 1e3 / med : 0, 0) + " fps), p99 " + fmt(p99, 2) + " ms";
   }

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "dentar/volume/material.h"
 
@@ -62,6 +63,10 @@ calibration::CameraIntrinsics view_intrinsics(int w, int h, double cx, double cy
 
 struct SceneView::Impl {
   ar::Renderer renderer;
+  std::optional<ar::Renderer> small;  // the reduced target (create's reduced_scale < 1)
+  bool last_small = false;            // the last render() drew into `small`
+  ar::Renderer& used() { return last_small && small ? *small : renderer; }
+  const ar::Renderer& used() const { return last_small && small ? *small : renderer; }
   ar::ToothRenderer tooth, ghost;
   ar::PartRenderer parts;
   ar::GpuPart bur;
@@ -71,7 +76,8 @@ struct SceneView::Impl {
 SceneView::SceneView() = default;
 SceneView::~SceneView() = default;
 
-Result<std::unique_ptr<SceneView>> SceneView::create(const calibration::CameraIntrinsics& k, const volume::BurParams& bur) {
+Result<std::unique_ptr<SceneView>> SceneView::create(const calibration::CameraIntrinsics& k, const volume::BurParams& bur,
+                                                     double reduced_scale) {
   ar::RendererOptions ro;
   ro.apply_distortion = false;
   ro.near_m = 0.002;
@@ -85,15 +91,31 @@ Result<std::unique_ptr<SceneView>> SceneView::create(const calibration::CameraIn
   auto p = ar::PartRenderer::create();
   if (!p) return Error{"replay view: " + p.error()};
   std::unique_ptr<SceneView> v(new SceneView);
-  v->impl_ = std::make_unique<Impl>(Impl{std::move(r).value(), std::move(t).value(), std::move(g).value(),
-                                         std::move(p).value(), {}, 0});
+  std::optional<ar::Renderer> small;
+  if (reduced_scale > 0 && reduced_scale < 1) {
+    calibration::CameraIntrinsics ks = k;  // the same field of view on fewer pixels
+    ks.width = std::max(1, static_cast<int>(std::lround(k.width * reduced_scale)));
+    ks.height = std::max(1, static_cast<int>(std::lround(k.height * reduced_scale)));
+    const double sx = static_cast<double>(ks.width) / k.width, sy = static_cast<double>(ks.height) / k.height;
+    ks.fx = k.fx * sx;
+    ks.fy = k.fy * sy;
+    ks.cx = k.cx * sx;
+    ks.cy = k.cy * sy;
+    auto rs = ar::Renderer::create(ks, ro);
+    if (!rs) return Error{"replay view (reduced): " + rs.error()};
+    small.emplace(std::move(rs).value());
+  }
+  v->impl_ = std::make_unique<Impl>(Impl{std::move(r).value(), std::move(small), false, std::move(t).value(),
+                                         std::move(g).value(), std::move(p).value(), {}, 0});
   v->impl_->bur = v->impl_->parts.upload(ar::make_bur_mesh(bur));
   return v;
 }
 
 void SceneView::render(const OrbitCamera& cam, const Tooth& main, const MaterialAlphas& a, const Tooth* ghost,
-                       float ghost_alpha) {
+                       float ghost_alpha, bool reduced) {
   Impl& s = *impl_;
+  s.last_small = reduced && s.small;
+  ar::Renderer& target = s.used();
   for (int m = 1; m < volume::kMaxMaterials; ++m) {
     const auto mat = static_cast<volume::Material>(m);
     const auto& rgb = volume::material_info(m).rgb;
@@ -105,10 +127,10 @@ void SceneView::render(const OrbitCamera& cam, const Tooth& main, const Material
   }
   if (main.surface) s.tooth.sync(*main.surface);
   if (ghost && ghost->surface) s.ghost.sync(*ghost->surface);
-  s.renderer.begin_frame(background);
+  target.begin_frame(background);
   glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &s.fbo);
   const Eigen::Isometry3d T_cam_tooth = cam.T_cam_tooth();
-  const Eigen::Matrix4d& P = s.renderer.clip_from_cam();
+  const Eigen::Matrix4d& P = target.clip_from_cam();
   // Opaque things first (the bur, the tooth's opaque materials), translucent after.
   const ar::MaterialStyle bur_style{main.bur_cutting ? Eigen::Vector3f(0.95f, 0.75f, 0.3f) : Eigen::Vector3f(0.75f, 0.76f, 0.8f), 1.0f};
   if (main.draw_bur) s.parts.draw(s.bur, P, T_cam_tooth * main.T_tooth_tip, bur_style);
@@ -119,10 +141,13 @@ void SceneView::render(const OrbitCamera& cam, const Tooth& main, const Material
                    {Eigen::Vector3f(0.3f, 0.55f, 0.95f), std::clamp(ghost_alpha + 0.3f, 0.0f, 0.95f)});
     if (ghost->surface) s.ghost.draw(P, T_cam_tooth);
   }
-  s.renderer.end_frame();
+  target.end_frame();
 }
 
-void SceneView::read_bgr(cv::Mat& out) const { impl_->renderer.read_bgr(out); }
+void SceneView::read_bgr(cv::Mat& out) const { impl_->used().read_bgr(out); }
+
+int SceneView::rendered_width() const { return impl_->used().camera().width; }
+int SceneView::rendered_height() const { return impl_->used().camera().height; }
 
 unsigned SceneView::framebuffer() const { return static_cast<unsigned>(impl_->fbo); }
 

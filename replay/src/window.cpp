@@ -100,13 +100,15 @@ void ReplayWindow::begin_frame() {
   ImGui::NewFrame();
 }
 
-void ReplayWindow::blit(unsigned fbo, int w, int h, int x, int y) {
+void ReplayWindow::blit(unsigned fbo, std::pair<int, int> from, int w, int h, int x, int y) {
   glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
   glDisable(GL_SCISSOR_TEST);
   // Both bottom-up: the source's rows go as they are; window y from the top -> GL's.
   const int gy = h_ - y - h;
-  glBlitFramebuffer(0, 0, w, h, x, gy, x + w, gy + h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  const bool scaled = from.first != w || from.second != h;
+  glBlitFramebuffer(0, 0, from.first, from.second, x, gy, x + w, gy + h, GL_COLOR_BUFFER_BIT,
+                    scaled ? GL_LINEAR : GL_NEAREST);
   glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
 }
 

@@ -5,6 +5,8 @@
 // are queued (GLFW key codes); ImGui sees the mouse and keys too. Main thread only.
 #pragma once
 
+#include <utility>
+
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <string>
@@ -39,7 +41,8 @@ class ReplayWindow {
   void begin_frame();
   // Copies a framebuffer of the current context (w x h, GL rows bottom-up) to the window at
   // (x, y) (window pixels from the top left; 1:1, nearest).
-  void blit(unsigned framebuffer, int w, int h, int x, int y);
+  // `from` (w, h): the source's size; a different size is scaled (bilinear) into w x h.
+  void blit(unsigned framebuffer, std::pair<int, int> from, int w, int h, int x, int y);
   // Renders the HUD and swaps; with `capture`, returns the window's pixels (BGR, row 0 =
   // top) first.
   cv::Mat end_frame(bool capture);

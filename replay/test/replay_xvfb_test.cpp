@@ -10,8 +10,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <cstdio>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "dentar/replay/app.h"
 #include "testutil.h"
@@ -118,6 +120,44 @@ TEST(ReplayXvfb, WindowMatchesTheOfflineRenderAtATime) {
   EXPECT_NEAR(stats.at("end_s").get<double>(), 30.0, 1e-9) << "paused: the clock stays at --at";
 }
 
+// Playing, the view renders at the reduced level of detail (--play-scale); the frame a
+// --screenshot captures is rendered at full resolution, so it still matches the offline
+// render at the time the window reached. The same frame at --play-scale 0.5 throughout (a
+// reduced frame) would not: checked by the stats' scale and a reduced render beside it.
+TEST(ReplayXvfb, PlayingScreenshotIsFullQualityAtTheTimeReached) {
+  REQUIRE_XVFB();
+  const fs::path d = dentar::test::temp_dir("replay_play_shot");
+  const std::string view = " --yaw 10 --pitch 60 --zoom 1.6 --size 1280x720";
+  auto r = run_command(xvfb(kBin + " replay " + lesson().string() + view + " --at 30 --play --speed 0.0625 --frames 5 " +
+                            "--play-scale 0.5 --no-vsync --screenshot " + (d / "window.png").string() + " --stats " +
+                            (d / "stats.json").string() + " 2>&1"));
+  SKIP_WITHOUT_EGL(r);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto stats = dentar::test::read_json(d / "stats.json");
+  const double end_s = stats.at("end_s").get<double>();
+  EXPECT_GT(end_s, 30.0) << "it played";
+  EXPECT_DOUBLE_EQ(stats.at("play_scale").get<double>(), 0.5);
+  char at[64];
+  std::snprintf(at, sizeof at, "%.17g", end_s);
+  r = run_command(kBin + " replay " + lesson().string() + view + " --at " + at + " --render " + (d / "offline.png").string() +
+                  " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const cv::Mat off = cv::imread((d / "offline.png").string()), win = cv::imread((d / "window.png").string());
+  ASSERT_FALSE(off.empty());
+  ASSERT_FALSE(win.empty());
+  const cv::Rect a = free_area(1280, 720);
+  const cv::Rect in(2, 2, a.width - 4, a.height - 4);
+  const cv::Mat shown = win(a);
+  const auto [over, mean] = compare(off(in), shown(in));
+  EXPECT_LE(over, 0.005) << "pixels differing by more than 3 levels: the captured frame is not full quality";
+  EXPECT_LT(mean, 1.0);
+  // A half-resolution render scaled up differs from it visibly (so the check above can fail).
+  cv::Mat half, up;
+  cv::resize(off, half, cv::Size(), 0.5, 0.5, cv::INTER_AREA);
+  cv::resize(half, up, off.size(), 0, 0, cv::INTER_LINEAR);
+  EXPECT_GT(compare(off(in), up(in)).first, 0.005);
+}
+
 // The keyboard drives the same code as a user's keys: N twice jumps two steps on (to the
 // third span's start, paused), Left orbits 10 degrees, ] doubles the speed.
 TEST(ReplayXvfb, KeysJumpToStepsOrbitAndChangeSpeed) {
@@ -161,6 +201,9 @@ TEST(ReplayXvfb, BadInputIsRefusedWithExitCode2) {
   auto r = run_command(kBin + " replay " + (d / "missing.dlog").string() + out);
   EXPECT_EQ(r.code, 2) << r.out;
   expect_has(r.out, (d / "missing.dlog").string() + ": no such file or folder");
+  r = run_command(kBin + " replay " + lesson().string() + " --play-scale 0.1" + out);
+  EXPECT_EQ(r.code, 2) << r.out;
+  expect_has(r.out, "--play-scale 0.100: must be 0.25 to 1");
   dentar::test::write_file(d / "junk.dlog", std::string(4096, 'x'));
   r = run_command(kBin + " replay " + (d / "junk.dlog").string() + out);
   EXPECT_EQ(r.code, 2) << r.out;

@@ -94,7 +94,8 @@ DriverScore score_after_run(const DriverScoreInput& in) {
     for (const char* p : {"incomplete: ", "finished: "})
       if (why.rfind(p, 0) == 0) why = why.substr(std::string(p).size());
     if (!why.empty() && why.back() == '.') why.pop_back();
-    r.line = "score: " + fmt1(s->outcome.points) + " / " + fmt1(s->outcome.max_points) + " points (" + s->exercise_name + ")" +
+    // Training modes 1-4: the expert's bur cut, so the score is the expert's cut's, not the student's.
+    r.line = std::string(s->expert_cut() ? "score of the " + s->cut_label() + ", not the student's: " : "score: ") + fmt1(s->outcome.points) + " / " + fmt1(s->outcome.max_points) + " points (" + s->exercise_name + ")" +
              (s->outcome.complete ? ", finished (" : ", INCOMPLETE (") + why + "); " + std::to_string(s->feedback.size()) + " feedback messages; wrote " +
              s->report_html + ", " + s->summary_json;
     if (!s->log_warning.empty()) r.line += "\n  score: log warning: " + s->log_warning;
@@ -105,7 +106,7 @@ DriverScore score_after_run(const DriverScoreInput& in) {
     }
     if (!s->comparison_warning.empty()) r.line += "\n  score: no comparison: " + s->comparison_warning;
     std::ostringstream h;
-    h << "<p><b>" << esc(s->outcome.headline()) << "</b> on " << esc(s->exercise_title) << " ("
+    h << "<p>" << (s->expert_cut() ? "The " + esc(s->cut_label()) + " (not the student's): " : std::string()) << "<b>" << esc(s->outcome.headline()) << "</b> on " << esc(s->exercise_title) << " ("
       << esc(s->outcome.completion) << "); target coverage " << fmt1(s->outcome.target_coverage_pct) << " %, forbidden "
       << fmt1(s->outcome.forbidden_mm3) << " mm&sup3;, " << s->feedback.size()
       << " feedback messages. Full report: <a href=\"score.html\">score.html</a> (summary: <a href=\"score.json\">score.json</a>).</p>";

@@ -115,7 +115,8 @@ std::string date_of(double t) {
 std::string num(double v) { return fixed(v, 1); }
 }  // namespace
 
-std::string trend_svg(const std::vector<Series>& series, const std::string& title, double y_max) {
+std::string trend_svg(const std::vector<Series>& series, const std::string& title, double y_max,
+                      const std::string& y_unit, int y_decimals) {
   const double W = 780, H = 260, L = 50, R = 200, T = 28, B = 34;
   double x0 = 1e300, x1 = -1e300;
   for (const auto& s : series)
@@ -131,7 +132,7 @@ std::string trend_svg(const std::vector<Series>& series, const std::string& titl
     const double y = y_max * g / 4;
     s += "<line x1=\"" + num(L) + "\" x2=\"" + num(W - R) + "\" y1=\"" + num(Y(y)) + "\" y2=\"" + num(Y(y)) +
          "\" stroke=\"#e3e6ea\"/><text x=\"" + num(L - 6) + "\" y=\"" + num(Y(y) + 4) +
-         "\" font-size=\"11\" text-anchor=\"end\">" + fixed(y, 0) + "%</text>";
+         "\" font-size=\"11\" text-anchor=\"end\">" + fixed(y, y_decimals) + esc(y_unit) + "</text>";
   }
   s += "<text x=\"" + num(L) + "\" y=\"" + num(H - 10) + "\" font-size=\"11\">" + date_of(x0) + "</text><text x=\"" +
        num(W - R) + "\" y=\"" + num(H - 10) + "\" font-size=\"11\" text-anchor=\"end\">" + date_of(x1) + "</text>";

@@ -23,8 +23,10 @@ struct Series {
   std::vector<std::pair<double, double>> points;  // x, y
   std::string colour;
 };
-// Score trend: x = time (UTC seconds), y = % of the exercise's points.
-std::string trend_svg(const std::vector<Series>& series, const std::string& title, double y_max = 100);
+// Score trend: x = time (UTC seconds), y = % of the exercise's points (or another
+// quantity: y_unit labels the axis, e.g. " mm").
+std::string trend_svg(const std::vector<Series>& series, const std::string& title, double y_max = 100,
+                      const std::string& y_unit = "%", int y_decimals = 0);
 // Per step: the student's mean force per tooth axis (dot, ±1 SD whisker)
 // against the experts' mean ± 1 SD (band).
 struct ForceRow {

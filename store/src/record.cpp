@@ -385,6 +385,34 @@ Result<SessionRecord> record_from_session_dir(const std::string& path, const Imp
       }
       r.feedback.push_back({step, str_of(f, "kind"), str_of(f, "text")});
     }
+  // A session trained in a mode (issue 27): run.json of `dentar lesson run` beside the log
+  // (mode, following error, the guidance) as metrics "training.*" for the instructor's page.
+  if (const fs::path rj = dir / "run.json"; fs::is_regular_file(rj, ec)) {
+    json run;
+    try {
+      run = json::parse(read_text(rj));
+    } catch (const json::exception& e) {
+      return Error{rj.string() + ": not valid JSON: " + e.what()};
+    }
+    if (!run.is_object() || !run.contains("mode") || !run["mode"].is_number_integer() || run["mode"].get<int>() < 1 ||
+        run["mode"].get<int>() > 5)
+      return Error{rj.string() + ": field mode must be a training mode 1..5 (run.json of `dentar lesson run`)"};
+    for (const char* k : {"mode", "follow_error_mm", "expert_waited_s", "guidance"})
+      if (run.contains(k)) flatten(run[k], std::string("training.") + k, r.metrics);
+  }
+  // Whose bur made the scored cut (score.json cut_by, issue 27): in modes 1-4 the expert's, so the
+  // score is marked training.expert_cut and is never shown or averaged as the student's. A trained
+  // session without run.json (a live one) takes its mode from score.json's training_mode.
+  {
+    bool has_mode = false;
+    for (const auto& m : r.metrics) has_mode = has_mode || m.name == "training.mode";
+    if (!has_mode && s.contains("training_mode") && s["training_mode"].is_number_integer()) {
+      const int m = s["training_mode"].get<int>();
+      if (m < 1 || m > 5) return Error{sj.string() + ": field training_mode = " + std::to_string(m) + " must be 1..5"};
+      r.metrics.push_back({"training.mode", static_cast<double>(m), ""});
+    }
+    if (str_of(s, "cut_by") == "expert") r.metrics.push_back({"training.expert_cut", 1.0, "bool"});
+  }
   // A live recording: its start time, and a hash over its description files.
   const fs::path rec = dir / "recording.json";
   if (fs::is_regular_file(rec, ec)) {

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <charconv>
 #include <functional>
+#include <map>
+#include <optional>
 #include <cmath>
 #include <sstream>
 
@@ -360,9 +362,16 @@ Result<PutOutcome> Store::put_impl(const SessionRecord& r, bool queue) {
   return PutOutcome::Stored;
 }
 
+// A session (alias `s`) whose score is the student's: not an expert's cut (training modes 1-4, issue 27).
+std::string not_expert_cut(const std::string& s = "s") {
+  return "NOT EXISTS (SELECT 1 FROM metrics mx WHERE mx.session_id = " + s + ".id AND (mx.name = 'training.expert_cut' OR "
+         "(mx.name = 'training.mode' AND mx.value >= 1 AND mx.value <= 4)))";
+}
+
 Result<std::vector<StudentSummary>> Store::students() {
   auto r = db_->query(
-      "SELECT st.code, st.name, COUNT(s.id), AVG(CASE WHEN sc.max_points > 0 THEN 100.0 * sc.points / sc.max_points END), "
+      "SELECT st.code, st.name, COUNT(s.id), AVG(CASE WHEN sc.max_points > 0 AND " + not_expert_cut() +
+      " THEN 100.0 * sc.points / sc.max_points END), "
       "MAX(s.started_utc) FROM students st LEFT JOIN sessions s ON s.student_id = st.id "
       "LEFT JOIN scores sc ON sc.session_id = s.id GROUP BY st.id, st.code, st.name ORDER BY st.code");
   if (!r) return Error{r.error()};
@@ -376,12 +385,13 @@ Result<std::vector<StudentSummary>> Store::students() {
     s.last_utc = str(row[4]);
     out.push_back(s);
   }
-  // Last session's score per student (one more query, not one per student).
+  // Last session's score per student (one more query, not one per student): the last one the
+  // student cut (an expert's cut in modes 1-4 is not the student's score).
   auto last = db_->query(
       "SELECT st.code, sc.points, sc.max_points, (SELECT COUNT(*) FROM metrics m WHERE m.session_id = s.id AND "
       "m.name = 'outcome.complete' AND m.value = 0) FROM sessions s JOIN students st ON st.id = s.student_id "
       "JOIN scores sc ON sc.session_id = s.id WHERE s.id = (SELECT s2.id FROM sessions s2 WHERE s2.student_id = "
-      "s.student_id ORDER BY s2.started_utc DESC, s2.id DESC LIMIT 1)");
+      "s.student_id AND " + not_expert_cut("s2") + " ORDER BY s2.started_utc DESC, s2.id DESC LIMIT 1)");
   if (!last) return Error{last.error()};
   for (const auto& row : *last)
     for (auto& s : out)
@@ -414,6 +424,64 @@ Result<std::vector<SessionSummary>> Store::sessions(const SessionFilter& f) {
   std::vector<SessionSummary> out;
   out.reserve(r->size());
   for (const auto& row : *r) out.push_back(summary_from(row));
+  return out;
+}
+
+Result<std::vector<TrainingRow>> Store::training(const SessionFilter& f) {
+  auto ss = sessions(f);
+  if (!ss) return Error{ss.error()};
+  std::vector<TrainingRow> out;
+  if (ss->empty()) return out;
+  std::map<std::int64_t, std::size_t> at;
+  for (const auto& x : *ss) at.emplace(x.id, at.size());
+  std::vector<std::optional<TrainingRow>> rows(ss->size());
+  std::string sql = "SELECT m.session_id, m.name, m.value FROM metrics m JOIN sessions s ON s.id = m.session_id "
+                    "JOIN students st ON st.id = s.student_id JOIN exercises e ON e.id = s.exercise_id "
+                    "JOIN stations sta ON sta.id = s.station_id WHERE m.name LIKE 'training.%'";
+  std::vector<Value> p;
+  if (!f.student.empty()) {
+    p.push_back(S(f.student));
+    sql += " AND st.code = $" + std::to_string(p.size());
+  }
+  if (!f.exercise.empty()) {
+    p.push_back(S(f.exercise));
+    sql += " AND e.name = $" + std::to_string(p.size());
+  }
+  if (!f.station.empty()) {
+    p.push_back(S(f.station));
+    sql += " AND sta.code = $" + std::to_string(p.size());
+  }
+  auto r = db_->query(sql, p);
+  if (!r) return Error{r.error()};
+  for (const auto& row : *r) {
+    const auto it = at.find(i64(row[0]));
+    if (it == at.end()) continue;  // beyond the filter's limit
+    auto& t = rows[it->second];
+    if (!t) t.emplace();
+    const std::string name = str(row[1]);
+    const double v = dbl(row[2]);
+    if (name == "training.mode") t->mode = static_cast<int>(v);
+    else if (name == "training.follow_error_mm.mean") t->follow_mean_mm = v;
+    else if (name == "training.follow_error_mm.p95") t->follow_p95_mm = v;
+    else if (name == "training.guidance.as_needed") t->as_needed = v != 0;
+    else if (name == "training.guidance.across_path_only") t->across_path_only = v != 0;
+    else if (name == "training.guidance.repetition") t->repetition = static_cast<int>(v);
+    else if (name == "training.guidance.fade") t->fade = v;
+    else if (name == "training.guidance.amplify") t->amplify = v;
+    else if (name == "training.expert_cut") t->expert_cut = v != 0;
+  }
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    if (!rows[i] || rows[i]->mode < 1 || rows[i]->mode > 5) continue;
+    TrainingRow t = *rows[i];
+    const auto& x = (*ss)[i];
+    t.id = x.id;
+    t.started_utc = x.started_utc;
+    t.exercise = x.exercise;
+    t.points = x.points;
+    t.max_points = x.max_points;
+    if (t.mode >= 1 && t.mode <= 4) t.expert_cut = true;  // stored before score.json said cut_by
+    out.push_back(t);
+  }
   return out;
 }
 

@@ -9,7 +9,9 @@
 #include <openssl/hmac.h>
 #include <openssl/ssl.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <ctime>
 #include <iostream>
 #include <condition_variable>
@@ -158,6 +160,77 @@ SessionFilter filter(const std::string& student, const std::string& exercise, st
 }
 
 std::string pct(double p, double m) { return m > 0 ? html::fixed(100.0 * p / m, 1) : "–"; }
+
+// Issue 27: the student's training with an expert: the modes in order (progression), the
+// following error over time per mode, and one row per trained session with its guidance.
+const char* mode_name(int m) {
+  static const char* names[] = {"", "visual replay", "passive guidance", "active following", "force reversal", "hints"};
+  return m >= 1 && m <= 5 ? names[m] : "?";
+}
+
+std::string guidance_text(const TrainingRow& t) {
+  if (t.mode != 2) return "–";
+  std::string g = t.as_needed ? "as needed" : "fixed";
+  if (t.across_path_only) g += ", across the path";
+  if (t.repetition > 0 && t.fade < 1) g += ", faded " + html::fixed(t.fade, 2) + "^" + std::to_string(t.repetition);
+  if (t.amplify > 0) g += ", error amplification " + html::fixed(t.amplify, 2);
+  return g;
+}
+
+std::string training_section(const std::vector<TrainingRow>& rows) {
+  if (rows.empty()) return {};
+  std::string b = "<h2 id=\"training\">Training with an expert</h2><p data-k=\"progression\">Modes in order: ";
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    b += (i ? " → " : "") + std::to_string(rows[i].mode);
+  b += "</p>";
+  std::map<int, html::Series> by_mode;
+  double y_max = 1.0;
+  for (const auto& t : rows) {
+    if (t.follow_mean_mm < 0) continue;
+    auto& se = by_mode[t.mode];
+    se.label = "mode " + std::to_string(t.mode) + " " + mode_name(t.mode);
+    se.points.emplace_back(html::parse_utc(t.started_utc), t.follow_mean_mm);
+    y_max = std::max(y_max, std::ceil(t.follow_mean_mm));
+  }
+  std::vector<html::Series> all;
+  for (auto& [m, se] : by_mode) all.push_back(se);
+  if (!all.empty()) b += html::trend_svg(all, "Mean following error (mm) per mode", y_max, " mm", 1);
+  b += "<table id=\"training-sessions\"><tr><th>Session</th><th>Started (UTC)</th><th>Exercise</th><th>Mode</th>"
+       "<th>Guidance</th><th>Following error, mean</th><th>p95</th><th>Score</th></tr>";
+  for (auto it = rows.rbegin(); it != rows.rend(); ++it) {
+    const auto& t = *it;
+    const std::string id = std::to_string(t.id);
+    const auto mm = [](double v) { return v < 0 ? std::string("–") : html::fixed(v, 2) + " mm"; };
+    b += "<tr data-id=\"" + id + "\"><td><a href=\"/session/" + id + "\">#" + id + "</a></td><td>" +
+         html::esc(t.started_utc) + "</td><td>" + html::esc(t.exercise) + "</td><td data-k=\"mode\">" +
+         std::to_string(t.mode) + " " + mode_name(t.mode) + "</td><td data-k=\"guidance\">" + html::esc(guidance_text(t)) +
+         "</td><td class=\"n\" data-k=\"follow\">" + mm(t.follow_mean_mm) + "</td><td class=\"n\" data-k=\"p95\">" +
+         mm(t.follow_p95_mm) + "</td><td class=\"n\" data-k=\"score\">" +
+         (t.expert_cut ? "expert's cut (mode " + std::to_string(t.mode) + ")" : pct(t.points, t.max_points) + " %") +
+         "</td></tr>";
+  }
+  b += "</table>";
+  // Per mode: sessions and the following error's first and last value.
+  b += "<table id=\"training-progress\"><tr><th>Mode</th><th>Sessions</th><th>First error</th><th>Last error</th></tr>";
+  std::map<int, std::vector<const TrainingRow*>> per;
+  for (const auto& t : rows) per[t.mode].push_back(&t);
+  for (const auto& [m, v] : per) {
+    const TrainingRow* first = nullptr;
+    const TrainingRow* last = nullptr;
+    for (const auto* t : v)
+      if (t->follow_mean_mm >= 0) {
+        if (!first) first = t;
+        last = t;
+      }
+    const auto e = [](const TrainingRow* t) { return t ? html::fixed(t->follow_mean_mm, 2) + " mm" : std::string("–"); };
+    b += "<tr data-mode=\"" + std::to_string(m) + "\"><td>" + std::to_string(m) + " " + mode_name(m) +
+         "</td><td class=\"n\">" + std::to_string(v.size()) + "</td><td class=\"n\">" + e(first) +
+         "</td><td class=\"n\" data-k=\"last\">" + e(last) + "</td></tr>";
+  }
+  b += "</table><p>Next session: <code>dentar lesson plan</code> with the student's session folders picks the mode "
+       "and guidance from these errors, the scores and the assessment (docs/training_modes.md).</p>";
+  return b;
+}
 
 OpenOptions readonly_open() {
   OpenOptions o;
@@ -555,11 +628,18 @@ struct WebServer::Impl {
         auto any = st.sessions(filter(code, "", 1));
         if (!any || any->empty()) return fail(res, 404, user, "There is no student with that code.");
       }
+      auto tr = st.training(filter(code, ex));
+      if (!tr) return fail500(req, res, user, "The training sessions could not be read.", tr.error());
+      // Sessions in training modes 1-4 scored the expert's cut: not in the student's score trend,
+      // and their score cell says whose cut it was (issue 27).
+      std::map<std::int64_t, int> expert_cut;
+      for (const auto& t : *tr)
+        if (t.expert_cut) expert_cut[t.id] = t.mode;
       std::map<std::string, html::Series> by_ex;
       for (const auto& x : *ss) {
         auto& se = by_ex[x.exercise];
         se.label = x.exercise;
-        if (x.max_points > 0) se.points.emplace_back(html::parse_utc(x.started_utc), 100.0 * x.points / x.max_points);
+        if (x.max_points > 0 && !expert_cut.count(x.id)) se.points.emplace_back(html::parse_utc(x.started_utc), 100.0 * x.points / x.max_points);
       }
       std::string b = "<h1>Student " + html::esc(code) + "</h1><p>" + std::to_string(ss->size()) + " sessions" +
                       (ex.empty() ? "" : " of " + html::esc(ex) + " (<a href=\"/student/" + html::url_part(code) + "\">all</a>)") +
@@ -576,13 +656,16 @@ struct WebServer::Impl {
              html::esc(x.started_utc) + "</td><td><a href=\"/student/" + html::url_part(code) + "?exercise=" +
              html::url_part(x.exercise) + "\">" + html::esc(x.exercise) + "</a></td><td>" + html::esc(x.station) +
              "</td><td class=\"n\" data-k=\"points\">" + html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) +
-             "</td><td class=\"n\" data-k=\"pct\">" + pct(x.points, x.max_points) + " %" +
-             (x.incomplete ? kIncompleteMark : "") + "</td><td class=\"n\">" +
+             "</td><td class=\"n\" data-k=\"pct\">" +
+             (expert_cut.count(x.id) ? "expert's cut (mode " + std::to_string(expert_cut[x.id]) + ")"
+                                     : pct(x.points, x.max_points) + " %" + (x.incomplete ? kIncompleteMark : "")) +
+             "</td><td class=\"n\">" +
              html::fixed(x.coverage_pct, 1) + " %</td><td class=\"n\">" + html::fixed(x.duration_s, 1) + " s</td><td>" +
              (x.pulp_exposed ? "<span class=\"warn\">exposed</span>" : "–") + "</td><td>" +
              (x.has_report ? "<a href=\"/session/" + id + "/report\">report</a>" : "–") + "</td></tr>";
       }
       b += "</table>";
+      b += training_section(*tr);
       send(res, 200, html::page("Student " + code, b, user.name, user.csrf));
     }));
 

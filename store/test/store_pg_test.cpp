@@ -61,6 +61,20 @@ TEST_F(Pg, RoundTripIdempotentAndNewerSchemaRefused) {
   EXPECT_DOUBLE_EQ((**g).steps[3].force_N[2], r.steps[3].force_N[2]);
   EXPECT_EQ((**g).metrics.size(), r.metrics.size());
   EXPECT_EQ((**g).score_html, r.score_html);
+  // Issue 27: a trained session's training.* metrics come back through Store::training.
+  auto trained = make_record("s01", "st-1", "molar_access_opening", 12, 4);
+  trained.metrics.push_back({"training.mode", 3, ""});
+  trained.metrics.push_back({"training.follow_error_mm.mean", 1.25, "mm"});
+  trained.metrics.push_back({"training.guidance.amplify", 0.5, ""});
+  ASSERT_TRUE((*st)->put(trained).ok());
+  SessionFilter f;
+  f.student = "s01";
+  auto tr = (*st)->training(f);
+  ASSERT_TRUE(tr.ok()) << tr.error();
+  ASSERT_EQ(tr->size(), 1u);
+  EXPECT_EQ((*tr)[0].mode, 3);
+  EXPECT_DOUBLE_EQ((*tr)[0].follow_mean_mm, 1.25);
+  EXPECT_DOUBLE_EQ((*tr)[0].amplify, 0.5);
   ASSERT_TRUE((*st)->exec_raw("INSERT INTO dentar_schema(version, applied_utc) VALUES(99, 'x')").ok());
   auto newer = Store::open(url);
   ASSERT_FALSE(newer.ok());

@@ -12,6 +12,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -455,6 +456,90 @@ TEST(Record, ABareLogStartsWhenItEndedLessItsDurationNotAtImport) {
   bool incomplete = false;
   for (const auto& m : r->metrics) incomplete |= m.name == "outcome.complete" && m.value == 0;
   EXPECT_TRUE(incomplete);
+}
+
+TEST(Record, ATrainedSessionKeepsItsModeErrorsAndGuidance) {
+  // Issue 27: run.json of `dentar lesson run` beside the log becomes metrics "training.*",
+  // and Store::training() gives them back per session, in order.
+  const fs::path dir = dentar::test::temp_dir("store_import_training");
+  dentar::test::write_file(dir / "session.dlog", "a trained log");
+  dentar::test::write_file(dir / "score.json", R"({"format":"dentar-score","version":1,"exercise":{"name":"molar_class1_cavity"},
+    "cut_by":"expert","training_mode":2,"outcome":{"points":9,"max_points":18},"process":{"duration_s":30}})");
+  dentar::test::write_file(dir / "run.json", R"({"mode": 2, "mode_name": "passive guidance", "fallback": "",
+    "follow_error_mm": {"mean": 0.42, "p95": 0.9, "max": 1.3}, "expert_waited_s": 0,
+    "guidance": {"as_needed": true, "across_path_only": false, "fade": 0.7, "repetition": 2, "amplify": 0, "k_N_per_m": 150}})");
+  ImportOptions io;
+  io.student = "t1";
+  io.station = "st";
+  auto r = record_from_session_dir(dir.string(), io);
+  ASSERT_TRUE(r.ok()) << r.error();
+  auto metric = [&](const std::string& n) {
+    for (const auto& m : r->metrics)
+      if (m.name == n) return m.value;
+    return -99.0;
+  };
+  EXPECT_EQ(metric("training.mode"), 2);
+  EXPECT_DOUBLE_EQ(metric("training.follow_error_mm.mean"), 0.42);
+  EXPECT_DOUBLE_EQ(metric("training.follow_error_mm.p95"), 0.9);
+  EXPECT_EQ(metric("training.guidance.as_needed"), 1);
+  EXPECT_EQ(metric("training.guidance.repetition"), 2);
+  const fs::path db = dir / "t.db";
+  auto st = Store::open("sqlite:" + db.string());
+  ASSERT_TRUE(st.ok()) << st.error();
+  ASSERT_TRUE((*st)->put(*r).ok());
+  SessionFilter f;
+  f.student = "t1";
+  auto tr = (*st)->training(f);
+  ASSERT_TRUE(tr.ok()) << tr.error();
+  ASSERT_EQ(tr->size(), 1u);
+  EXPECT_EQ((*tr)[0].mode, 2);
+  EXPECT_DOUBLE_EQ((*tr)[0].follow_mean_mm, 0.42);
+  EXPECT_TRUE((*tr)[0].as_needed);
+  EXPECT_EQ((*tr)[0].repetition, 2);
+  EXPECT_DOUBLE_EQ((*tr)[0].points, 9);
+  EXPECT_EQ(metric("training.expert_cut"), 1) << "mode 2: the score is the expert's cut";
+  EXPECT_TRUE((*tr)[0].expert_cut);
+  // A broken run.json is an error naming it, not a session without its training.
+  dentar::test::write_file(dir / "run.json", R"({"mode": 9})");
+  auto bad = record_from_session_dir(dir.string(), io);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("run.json: field mode"), std::string::npos) << bad.error();
+  dentar::test::write_file(dir / "run.json", "{not json");
+  bad = record_from_session_dir(dir.string(), io);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("run.json: not valid JSON"), std::string::npos) << bad.error();
+}
+
+TEST(Record, ALiveTrainedSessionTakesItsModeAndWhoseCutFromScoreJson) {
+  // Issue 27: a live trained session has no run.json; score.json's training_mode and cut_by
+  // still mark a mode 1-4 score as the expert's cut, and a mode 5 score as the student's.
+  const fs::path dir = dentar::test::temp_dir("store_import_live_training");
+  dentar::test::write_file(dir / "session.dlog", "a live trained log");
+  ImportOptions io;
+  io.student = "t2";
+  io.station = "st";
+  auto metrics_of = [&](const std::string& score) -> std::map<std::string, double> {
+    dentar::test::write_file(dir / "score.json", score);
+    auto r = record_from_session_dir(dir.string(), io);
+    EXPECT_TRUE(r.ok()) << r.error();
+    std::map<std::string, double> m;
+    if (r.ok())
+      for (const auto& x : r->metrics) m[x.name] = x.value;
+    return m;
+  };
+  const std::string head = R"({"format":"dentar-score","version":1,"exercise":{"name":"molar_class1_cavity"},)";
+  auto m3 = metrics_of(head + R"("cut_by":"expert","training_mode":3,"outcome":{"points":4,"max_points":18}})");
+  EXPECT_EQ(m3["training.mode"], 3);
+  EXPECT_EQ(m3["training.expert_cut"], 1);
+  auto m5 = metrics_of(head + R"("cut_by":"student","training_mode":5,"outcome":{"points":4,"max_points":18}})");
+  EXPECT_EQ(m5["training.mode"], 5);
+  EXPECT_EQ(m5.count("training.expert_cut"), 0u);
+  auto plain = metrics_of(head + R"("cut_by":"student","outcome":{"points":4,"max_points":18}})");
+  EXPECT_EQ(plain.count("training.mode"), 0u);
+  dentar::test::write_file(dir / "score.json", head + R"("cut_by":"expert","training_mode":7,"outcome":{}})");
+  auto bad = record_from_session_dir(dir.string(), io);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("score.json: field training_mode = 7 must be 1..5"), std::string::npos) << bad.error();
 }
 
 }  // namespace

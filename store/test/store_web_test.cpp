@@ -315,6 +315,105 @@ TEST_F(Web, StudentListsMarkUnfinishedSessionsIncomplete) {
   EXPECT_EQ(s10->body.find(mark), std::string::npos);
 }
 
+TEST_F(Web, StudentPageShowsTrainingModesErrorsAndProgression) {
+  // Issue 27: s11 trained in modes 2, 2, 3 (metrics "training.*" as imported from run.json);
+  // s12 never trained: no training section.
+  auto st = store();
+  auto trained = [](dentar::store::SessionRecord r, int mode, double mean, double p95, bool as_needed, int rep) {
+    r.metrics.push_back({"training.mode", static_cast<double>(mode), ""});
+    r.metrics.push_back({"training.follow_error_mm.mean", mean, "mm"});
+    r.metrics.push_back({"training.follow_error_mm.p95", p95, "mm"});
+    r.metrics.push_back({"training.guidance.as_needed", as_needed ? 1.0 : 0.0, "bool"});
+    r.metrics.push_back({"training.guidance.repetition", static_cast<double>(rep), ""});
+    r.metrics.push_back({"training.guidance.fade", 0.7, ""});
+    return r;
+  };
+  ASSERT_TRUE(st->put(trained(testkit::make_record("s11", "st-0", "molar_class1_cavity", 1101, 10), 2, 0.61, 1.2, false, 0)).ok());
+  ASSERT_TRUE(st->put(trained(testkit::make_record("s11", "st-0", "molar_class1_cavity", 1102, 20), 2, 0.38, 0.7, true, 1)).ok());
+  ASSERT_TRUE(st->put(trained(testkit::make_record("s11", "st-0", "molar_class1_cavity", 1103, 30), 3, 1.25, 2.4, false, 0)).ok());
+  ASSERT_TRUE(st->put(testkit::make_record("s11", "st-0", "molar_class1_cavity", 1104, 40)).ok());  // plain drilling
+  ASSERT_TRUE(st->put(testkit::make_record("s12", "st-0", "molar_class1_cavity", 1201, 10)).ok());
+  SessionFilter f;
+  f.student = "s11";
+  auto rows = st->training(f);
+  ASSERT_TRUE(rows.ok()) << rows.error();
+  ASSERT_EQ(rows->size(), 3u);
+  auto page = get("/student/s11");
+  ASSERT_TRUE(page);
+  ASSERT_EQ(page->status, 200);
+  const std::string& b = page->body;
+  EXPECT_NE(b.find("Training with an expert"), std::string::npos);
+  EXPECT_NE(b.find("<p data-k=\"progression\">Modes in order: 2 → 2 → 3</p>"), std::string::npos) << b;
+  EXPECT_NE(b.find("Mean following error (mm) per mode"), std::string::npos);
+  auto row_of = [&](std::int64_t id) {
+    const std::string start = "<tr data-id=\"" + std::to_string(id) + "\"><td><a href=\"/session/" + std::to_string(id) +
+                              "\">#" + std::to_string(id) + "</a></td><td>";
+    const auto t = b.find("id=\"training-sessions\"");
+    const auto at = b.find(start, t);
+    return at == std::string::npos ? std::string() : b.substr(at, b.find("</tr>", at) - at);
+  };
+  const std::string second = row_of((*rows)[1].id);
+  ASSERT_FALSE(second.empty()) << b;
+  EXPECT_NE(second.find("data-k=\"mode\">2 passive guidance"), std::string::npos) << second;
+  EXPECT_NE(second.find("as needed, faded 0.70^1"), std::string::npos) << second;
+  EXPECT_NE(second.find("data-k=\"follow\">0.38 mm"), std::string::npos) << second;
+  EXPECT_NE(second.find("data-k=\"p95\">0.70 mm"), std::string::npos) << second;
+  EXPECT_NE(row_of((*rows)[2].id).find("3 active following"), std::string::npos);
+  // Modes 1-4: the expert's bur cut, so the row shows whose cut it is, not a student score,
+  // and the student's mean score on the list counts only the plain session (#1104).
+  EXPECT_NE(second.find("data-k=\"score\">expert's cut (mode 2)"), std::string::npos) << second;
+  EXPECT_EQ(second.find(" %</td>"), std::string::npos) << second;
+  auto students = st->students();
+  ASSERT_TRUE(students.ok()) << students.error();
+  SessionFilter all11;
+  all11.student = "s11";
+  auto ss = st->sessions(all11);
+  ASSERT_TRUE(ss.ok());
+  double plain_pct = -1;
+  for (const auto& x : *ss)
+    if (x.started_utc == testkit::make_record("s11", "st-0", "molar_class1_cavity", 1104, 40).started_utc)
+      plain_pct = 100.0 * x.points / x.max_points;
+  ASSERT_GE(plain_pct, 0);
+  for (const auto& x : *students)
+    if (x.code == "s11") {
+      EXPECT_NEAR(x.mean_pct, plain_pct, 1e-9) << "the expert's cuts are not the student's mean";
+    }
+  // A student whose newest session is an expert's cut: the list's last score is the newest
+  // session the student cut.
+  ASSERT_TRUE(st->put(testkit::make_record("s13", "st-0", "molar_class1_cavity", 1301, 10)).ok());
+  ASSERT_TRUE(st->put(trained(testkit::make_record("s13", "st-0", "molar_class1_cavity", 1302, 20), 2, 0.5, 1, false, 0)).ok());
+  const auto own = testkit::make_record("s13", "st-0", "molar_class1_cavity", 1301, 10);
+  auto students13 = st->students();
+  ASSERT_TRUE(students13.ok()) << students13.error();
+  for (const auto& x : *students13)
+    if (x.code == "s13") {
+      EXPECT_NEAR(x.last_pct, 100.0 * own.points / own.max_points, 1e-9);
+      EXPECT_NEAR(x.mean_pct, 100.0 * own.points / own.max_points, 1e-9);
+    }
+  // The sessions table says whose cut a trained session's score is; the plain one shows its %.
+  const auto srow = [&](std::int64_t id) {
+    const auto at = b.find("<tr data-id=\"" + std::to_string(id) + "\">", b.find("id=\"sessions\""));
+    return at == std::string::npos ? std::string() : b.substr(at, b.find("</tr>", at) - at);
+  };
+  EXPECT_NE(srow((*rows)[2].id).find("data-k=\"pct\">expert's cut (mode 3)"), std::string::npos) << srow((*rows)[2].id);
+  std::int64_t plain_id = 0;
+  for (const auto& x : *ss)
+    if (x.started_utc == testkit::make_record("s11", "st-0", "molar_class1_cavity", 1104, 40).started_utc) plain_id = x.id;
+  EXPECT_NE(srow(plain_id).find(" %"), std::string::npos) << srow(plain_id);
+  EXPECT_EQ(srow(plain_id).find("expert's cut"), std::string::npos);
+  // Per mode: first and last error.
+  const auto m2 = b.find("<tr data-mode=\"2\">");
+  ASSERT_NE(m2, std::string::npos);
+  const std::string mode2 = b.substr(m2, b.find("</tr>", m2) - m2);
+  EXPECT_NE(mode2.find(">2</td>"), std::string::npos) << mode2;
+  EXPECT_NE(mode2.find("0.61 mm"), std::string::npos) << mode2;
+  EXPECT_NE(mode2.find("data-k=\"last\">0.38 mm"), std::string::npos) << mode2;
+  auto plain = get("/student/s12");
+  ASSERT_TRUE(plain);
+  ASSERT_EQ(plain->status, 200);
+  EXPECT_EQ(plain->body.find("Training with an expert"), std::string::npos);
+}
+
 TEST_F(Web, UnknownSessionsAndPagesAreThe404Page) {
   for (const char* p : {"/session/999999", "/session/999999/report", "/student/nobody", "/exercise/none", "/nope", "/session"}) {
     auto r = get(p);
@@ -441,6 +540,30 @@ TEST_F(Browser, StudentPageNumbersMatchTheDatabase) {
     ASSERT_TRUE(shown.count(x.id)) << x.id;
     EXPECT_NEAR(shown[x.id], x.points, 0.005) << x.id;
   }
+}
+
+TEST_F(Browser, StudentPageShowsTheTrainingSection) {
+  // Issue 27: Chromium renders the training section (modes in order, the error plot, rows).
+  auto st = store();
+  for (int k = 0; k < 3; ++k) {
+    auto r = testkit::make_record("s21", "st-0", "molar_class1_cavity", 2101 + k, 10 * (k + 1));
+    r.metrics.push_back({"training.mode", k < 2 ? 2.0 : 3.0, ""});
+    r.metrics.push_back({"training.follow_error_mm.mean", 0.5 - 0.1 * k, "mm"});
+    r.metrics.push_back({"training.follow_error_mm.p95", 1.0, "mm"});
+    ASSERT_TRUE(st->put(r).ok());
+  }
+  const std::string dom = dom_after_login("/student/s21");
+  ASSERT_NE(dom.find("Training with an expert"), std::string::npos) << dom.substr(0, 3000);
+  EXPECT_NE(dom.find("Modes in order: 2 → 2 → 3"), std::string::npos);
+  EXPECT_NE(dom.find("aria-label=\"Mean following error (mm) per mode\""), std::string::npos);
+  std::regex row(R"re(data-k="follow">([0-9.]+) mm</td>)re");
+  std::vector<double> shown;
+  for (auto it = std::sregex_iterator(dom.begin(), dom.end(), row); it != std::sregex_iterator(); ++it)
+    shown.push_back(std::stod((*it)[1]));
+  ASSERT_EQ(shown.size(), 3u);
+  EXPECT_DOUBLE_EQ(shown[0], 0.30);  // newest first
+  EXPECT_DOUBLE_EQ(shown[2], 0.50);
+  EXPECT_NE(dom.find("expert's cut (mode 2)"), std::string::npos) << "modes 1-4 show whose cut the score is";
 }
 
 TEST_F(Browser, UnknownSessionShowsThe404Page) {

@@ -202,6 +202,7 @@ Result<LessonRunResult> run_lesson(const Lesson& lesson, const LessonRunOptions&
     r.notes.push_back("guidance damping lowered to " + prof->id + "'s limit");
     p.guidance.damping_N_s_per_m = limits.max_damping_N_s_per_m;
   }
+  r.guidance = p.guidance;
   auto tm = haptics::TrainingMode::create(p, *track);
   if (!tm) return Error{"lesson " + lesson.path + ": " + tm.error()};
   haptics::TrainingMode training = std::move(tm).value();
@@ -376,6 +377,9 @@ std::string lesson_run_json(const LessonRunResult& r) {
             {"expert_end_s", r.expert_end_s},
             {"follow_error_mm", {{"mean", r.follow_mean_m * 1e3}, {"p95", r.follow_p95_m * 1e3}, {"max", r.follow_max_m * 1e3}}},
             {"expert_waited_s", r.waited_s},
+            {"guidance", {{"as_needed", r.guidance.as_needed}, {"across_path_only", r.guidance.across_path_only},
+                          {"fade", r.guidance.fade}, {"repetition", r.guidance.repetition},
+                          {"amplify", r.guidance.amplify}, {"k_N_per_m", r.guidance.k_N_per_m}}},
             {"pauses", r.pauses_taken},
             {"paused_s", r.paused_s},
             {"force_N", {{"max", r.max_force_N}, {"mean", r.mean_force_N}, {"first_step", r.first_force_N}, {"start_max_step", r.start_max_step_N},

@@ -384,9 +384,14 @@ std::string default_exercise_for(const std::string& tooth_json) {
   return "molar_access_opening";
 }
 
+std::string ScoreSummary::cut_label() const {
+  return expert_cut() ? "expert's cut (mode " + std::to_string(training_mode) + ")" : "student's cut";
+}
+
 std::string ScoreSummary::summary_text() const {
   std::ostringstream s;
   s << "exercise: " << exercise_title << "\n";
+  if (expert_cut()) s << "scored cut: the " << cut_label() << ", not the student's: the student's bur did not cut\n";
   s << "outcome: " << outcome.headline() << "\n  " << outcome.completion << "\n";
   for (const auto& p : outcome.penalties)
     if (p.points > 0) s << "  -" << num(p.points, 1) << " points, " << p.name << ": " << p.why << "\n";
@@ -442,6 +447,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
                                          (log->warning.empty() ? std::string() : " (" + log->warning + ")")};
   auto setup = haptics::parse_session_header(log->header_json);
   if (!setup) return Error{log_path + ": " + setup.error()};
+  if (setup->training) sum.training_mode = static_cast<int>(setup->training->params.mode);
   const std::string ex_name = o.exercise.empty() ? default_exercise_for(setup->tooth_json) : o.exercise;
   auto ex = load_named_exercise(ex_name);
   if (!ex) return Error{ex.error()};
@@ -553,6 +559,9 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   j["exercise"] = {{"name", ex->name}, {"title", sum.exercise_title}};
   if (!sum.log_warning.empty()) j["log_warning"] = sum.log_warning;
   j["station_json_found"] = sum.station_found;
+  // Whose bur made the scored cut: in training modes 1-4 the expert's (docs/formats.md).
+  j["cut_by"] = sum.expert_cut() ? "expert" : "student";
+  if (sum.training_mode != 0) j["training_mode"] = sum.training_mode;
   const OutcomeScores& oc = sum.outcome;
   json rem = json::object();
   for (int m = 1; m < volume::kNumMaterials; ++m)
@@ -654,6 +663,9 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
        ".well_done{color:#2a7a2a}.ask{color:#1f5fa0}.caution{color:#b03020}</style></head><body>";
   h << "<h1>Session report</h1><p>" << esc(sum.exercise_title) << "<br>session: <code>" << esc(log_path) << "</code></p>";
   if (!sum.log_warning.empty()) h << "<p class='caution'>Log damaged: " << esc(sum.log_warning) << "</p>";
+  if (sum.expert_cut())
+    h << "<p class='caution' id='cut-by'>This is the " << esc(sum.cut_label())
+      << ", not the student's: in training modes 1-4 the expert's bur cuts and the student's does not.</p>";
   h << "<p class='big'>" << num(oc.points, 1) << " / " << num(oc.max_points, 0) << " points"
     << (oc.complete ? "" : " <span class='caution'>INCOMPLETE</span>") << "</p><p" << (oc.complete ? "" : " class='caution'")
     << ">" << esc(oc.completion) << (oc.complete ? "" : " The points are what the unfinished preparation earned so far; "

@@ -29,6 +29,19 @@ std::string PipelineOptions::validate() const {
   if (!(std::isfinite(predict_s) && predict_s >= 0 && predict_s <= 0.5)) return "predict_s must be in 0..0.5 s";
   if (auto v = tracker.validate(); !v.empty()) return "tracker: " + v;
   if (auto v = compositor.validate(); !v.empty()) return "compositor: " + v;
+  if (auto v = expert.validate(); !v.empty()) return "expert." + v;
+  return {};
+}
+
+std::string ExpertStyle::validate() const {
+  if (!(std::isfinite(opacity) && opacity > 0 && opacity <= 1))
+    return "opacity = " + std::to_string(opacity) + " must be in (0, 1]";
+  const std::pair<const char*, const Eigen::Vector3f*> tints[] = {
+      {"tint", &tint}, {"drilling_tint", &drilling_tint}, {"tooth_drilling_tint", &tooth_drilling_tint}};
+  for (const auto& [name, t] : tints)
+    for (int i = 0; i < 3; ++i)
+      if (!((*t)[i] >= 0 && (*t)[i] <= 2))
+        return std::string(name) + "[" + std::to_string(i) + "] = " + std::to_string((*t)[i]) + " must be in [0, 2]";
   return {};
 }
 
@@ -189,6 +202,17 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   ci.T_cam_mtag = r.T_cam_mtag;
   ci.stylus_valid = in.haptic != nullptr && in.stylus_valid;
   ci.T_dev_sty = r.T_dev_sty;
+  const ExpertStyle& ex = options_.expert;
+  if (ex.draw && in.haptic != nullptr && in.haptic->mode != 0) {
+    ci.expert.valid = true;
+    ci.expert.T_tooth_exp = isometry_from_colmajor(in.haptic->T_tooth_expert_tip);
+    ci.expert.opacity = ex.opacity;
+    ci.expert.depth_tested = ex.depth_tested;
+    const bool hint = in.haptic->mode == 5 && in.haptic->expert_drilling != 0;
+    ci.expert.tint = hint ? ex.drilling_tint : ex.tint;
+    if (hint) ci.tooth_tint = ex.tooth_drilling_tint;
+    r.expert_drilling_shown = hint && ci.man_valid;
+  }
   if (auto cs = in.gl_target.video_texture != 0 ? compositor_.compose_gl(meshes.display(), ci, in.gl_target, out)
                                   : compositor_.compose(meshes.display(), ci, out);
       !cs)
@@ -197,6 +221,7 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   r.stylus_drawn = ci.stylus_valid && ci.man_valid;
   r.overlay = out.overlay_drawn;
   r.mirror_drawn = out.mirror_drawn;
+  r.expert_drawn = out.expert_drawn;
   r.triangles = out.triangles_drawn;
   r.gpu_composite = out.gpu_output;
   r.readback_px = out.readback_px;

@@ -135,6 +135,54 @@ TEST(FramePipelineGl, RefusesBadFrames) {
   EXPECT_NE(q.error().find("predict_s"), std::string::npos) << q.error();
 }
 
+// Issue 27: a snapshot in a training mode draws the expert's tool at its tooth-frame pose;
+// mode 5 while the expert drills changes the tool's and the tooth's colours; mode 0 (no
+// training) leaves the composite as it was.
+TEST(FramePipelineGl, TrainingModeDrawsTheExpertsTool) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Clip& c = clip();
+  auto vol = molar(c.gen->station().tooth_voxel_m);
+  ToothMeshes meshes(vol);
+  auto p = FramePipeline::create(c.gen->station(), PipelineOptions{});
+  ASSERT_TRUE(p.ok()) << p.error();
+  const SynthFrame& f = c.frames[4];
+  auto frame = [&](std::uint8_t mode, std::uint8_t drilling, FrameRecord& r) {
+    haptics::HapticSnapshot snap{};
+    const Eigen::Matrix4d m = f.truth.T_dev_sty.matrix();
+    for (int k = 0; k < 16; ++k) snap.T_dev_sty[k] = m(k % 4, k / 4);
+    // The expert's tip 3 mm above the tooth's centre, bur axis into the tooth (-z of tooth).
+    Eigen::Isometry3d T_tooth_exp = Eigen::Isometry3d::Identity();
+    T_tooth_exp.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    T_tooth_exp.translation() = Eigen::Vector3d(0, 0, 0.003);
+    for (int k = 0; k < 16; ++k) snap.T_tooth_expert_tip[k] = T_tooth_exp.matrix()(k % 4, k / 4);
+    snap.mode = mode;
+    snap.expert_drilling = drilling;
+    FrameInput in;
+    in.image = &f.image;
+    in.index = 4;
+    in.capture_time_s = 4 / 30.0;
+    in.haptic = &snap;
+    in.stylus_valid = true;
+    CompositeResult cr;
+    (*p)->tracker().reset();  // each frame tracked afresh, so the three see the same poses
+    EXPECT_TRUE((*p)->process(in, meshes, cr, r).ok());
+    return cr.image.clone();
+  };
+  FrameRecord r0, r3, r5;
+  const cv::Mat plain = frame(0, 0, r0), m3 = frame(3, 1, r3), m5 = frame(5, 1, r5);
+  ASSERT_TRUE(r0.overlay);
+  EXPECT_FALSE(r0.expert_drawn);
+  EXPECT_TRUE(r3.expert_drawn);
+  EXPECT_FALSE(r3.expert_drilling_shown);  // colours change in mode 5 only
+  EXPECT_TRUE(r5.expert_drawn);
+  EXPECT_TRUE(r5.expert_drilling_shown);
+  cv::Mat d3, d5;
+  cv::absdiff(plain, m3, d3);
+  cv::absdiff(m3, m5, d5);
+  EXPECT_GT(cv::countNonZero(d3.reshape(1) > 10), 300) << "no expert's tool in mode 3";
+  EXPECT_GT(cv::countNonZero(d5.reshape(1) > 10), 300) << "mode 5's drilling colours missing";
+}
+
 // The threaded mesher hands over the same chunk meshes inline meshing makes.
 TEST(ToothMeshes, ThreadedMesherConvergesToInline) {
   auto vol_a = molar(0.1e-3), vol_b = molar(0.1e-3);

@@ -679,6 +679,7 @@ struct Compositor::Impl {
   ClusteredMesh mannequin;
   scene::GpuMesh handpiece, bur, mirror_face, mirror_body, paddle;
   Box handpiece_box, bur_box, mirror_box;
+  Box tool_box;  // handpiece + bur (tip frame): the expert's tool
 
   struct GpuChunk {
     std::uint64_t version = 0;
@@ -839,6 +840,23 @@ struct Compositor::Impl {
   }
 };
 
+std::string ExpertTool::validate() const {
+  std::ostringstream os;
+  if (!valid) return {};
+  if (!(std::isfinite(opacity) && opacity > 0 && opacity <= 1)) {
+    os << "opacity = " << opacity << " must be in (0, 1]";
+  } else if (!T_tooth_exp.matrix().allFinite()) {
+    os << "T_tooth_exp is not finite";
+  } else {
+    for (int i = 0; i < 3; ++i)
+      if (!(tint[i] >= 0 && tint[i] <= 2)) {
+        os << "tint[" << i << "] = " << tint[i] << " must be in [0, 2]";
+        break;
+      }
+  }
+  return os.str();
+}
+
 Compositor::Compositor(Compositor&&) noexcept = default;
 Compositor& Compositor::operator=(Compositor&&) noexcept = default;
 Compositor::~Compositor() = default;
@@ -948,6 +966,8 @@ Result<Compositor> Compositor::create(const StationScene& station, const Composi
     b.add(make_bur_mesh(o.bur), Eigen::Isometry3f::Identity(), {0.80f, 0.80f, 0.78f});
     im.handpiece_box = box_of(hp);
     im.bur_box = box_of(b);
+    im.tool_box = im.handpiece_box;
+    im.tool_box.add(im.bur_box);
     im.handpiece = scene::upload(hp);
     im.bur = scene::upload(b);
     MirrorMeshParams mp;
@@ -987,6 +1007,11 @@ static std::string check_video(const Compositor::Impl& im, const CompositeInput&
                  std::to_string(in.video_bgr->rows) + " but the station camera is " +
                  std::to_string(W) + "x" + std::to_string(H) +
                  " (use the station file calibrated for this camera)");
+  if (std::string e = in.expert.validate(); !e.empty()) return "compose: expert." + e;
+  for (int i = 0; i < 3; ++i)
+    if (!(in.tooth_tint[i] >= 0 && in.tooth_tint[i] <= 2))
+      return "compose: tooth_tint[" + std::to_string(i) + "] = " + std::to_string(in.tooth_tint[i]) +
+             " must be in [0, 2]";
   return {};
 }
 
@@ -1044,6 +1069,55 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
   if (reflect) overlay.add(mirror_rect);
   const bool bur = stylus && o.draw_bur;
   if (bur) overlay.add(project_box(im.bur_box, T_cam_tip, pk, o.near_m));
+  const bool expert = in.expert.valid;
+  const Eigen::Isometry3d T_cam_exp = T_cam_tooth * in.expert.T_tooth_exp;
+  if (expert) overlay.add(project_box(im.tool_box, T_cam_exp, pk, o.near_m));
+  const bool tinted = !in.tooth_tint.isOnes();
+  const auto tooth_tint = [&](bool on) {
+    if (!tinted) return;
+    if (on)
+      glUniform3f(im.u.tint, in.tooth_tint.x(), in.tooth_tint.y(), in.tooth_tint.z());
+    else
+      glUniform3f(im.u.tint, 1, 1, 1);
+  };
+  // The expert's tool, translucent: its nearest surface into depth (colour off), then that
+  // surface alone (LEQUAL) blended over what is there (premultiplied "over"). Leaves depth
+  // writes on, blending off, the tint white, alpha 1 and the colour attachment only.
+  const auto draw_expert = [&](const Eigen::Affine3d& A_exp, float alpha, GLenum depth_func) {
+    draw_buffers(false, false, false);
+    if (!in.expert.depth_tested) {
+      // Overlaid: depth to far first (in the scissor, and in the mirror's stencil there), so
+      // only the ghost's own surfaces compete. Nothing drawn after it needs the old depth:
+      // the direct pass ends with the ghost, and the reflection pass puts the mirror face's
+      // depth back after it.
+      glDepthFunc(GL_ALWAYS);
+      glDisable(GL_CULL_FACE);
+      glUseProgram(im.far.id());
+      glBindVertexArray(im.empty_vao.id());
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      glUseProgram(im.lit.id());
+      glEnable(GL_CULL_FACE);
+      glDepthFunc(GL_LESS);
+    } else {
+      glDepthFunc(depth_func);
+    }
+    im.draw_mesh(im.handpiece, A_exp);
+    im.draw_mesh(im.bur, A_exp);
+    draw_buffers(true, false, false);
+    glDepthFunc(GL_LEQUAL);
+    glDepthMask(GL_FALSE);
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    glUniform1f(im.u.alpha, alpha);
+    glUniform3f(im.u.tint, in.expert.tint.x(), in.expert.tint.y(), in.expert.tint.z());
+    im.draw_mesh(im.handpiece, A_exp);
+    im.draw_mesh(im.bur, A_exp);
+    glUniform3f(im.u.tint, 1, 1, 1);
+    glUniform1f(im.u.alpha, 1.0f);
+    glDisable(GL_BLEND);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(depth_func);
+  };
   const cv::Rect croi = overlay.clip(im.cw, im.ch, 3) & cv::Rect(0, 0, im.cw, im.ch);
   PxRect croi_px;  // the same as a PxRect, for culling
   croi_px.add(Eigen::Vector2d(croi.x, croi.y));
@@ -1129,9 +1203,15 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
       draw_buffers(true, false, false);
       const float a = static_cast<float>(o.mirror_reflectance);
       glUniform1f(im.u.alpha, a);
+      tooth_tint(true);
       im.draw_tooth(M * Eigen::Affine3d(T_cam_tooth.matrix()), level, mirror_rect, &plane, out);
+      tooth_tint(false);
       if (bur) im.draw_mesh(im.bur, M * A_tip);
       glUniform1f(im.u.alpha, 1.0f);
+      if (expert) {
+        draw_expert(M * Eigen::Affine3d(T_cam_exp.matrix()), a * static_cast<float>(in.expert.opacity), GL_LEQUAL);
+        draw_buffers(true, false, false);
+      }
       glFrontFace(GL_CCW);
       glUniform4f(im.u.plane, 0, 0, 0, 1);
       // The face's own depth back inside the stencil: it hides what is behind it.
@@ -1146,9 +1226,15 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     glDepthFunc(GL_LESS);
     draw_buffers(true, true, false);
     glUniform1f(im.u.tooth, 1.0f);
+    tooth_tint(true);
     im.draw_tooth(Eigen::Affine3d(T_cam_tooth.matrix()), level, canvas_all, nullptr, out);
+    tooth_tint(false);
     glUniform1f(im.u.tooth, 0.0f);
     if (bur) im.draw_mesh(im.bur, A_tip);
+    if (expert) {
+      draw_expert(Eigen::Affine3d(T_cam_exp.matrix()), static_cast<float>(in.expert.opacity), GL_LESS);
+      out.expert_drawn = true;
+    }
     glBindVertexArray(0);
     glUseProgram(0);
     glDisable(GL_SCISSOR_TEST);

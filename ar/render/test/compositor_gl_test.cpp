@@ -331,5 +331,215 @@ TEST(CompositorGl, BadInputGivesClearErrors) {
   EXPECT_FALSE(comp->set_options(bad).ok());
 }
 
+// ---- the expert's tool (issue 27) ----
+
+// Mean BGR over a (2h+1)^2 window around px.
+cv::Vec3d mean_at(const cv::Mat& img, const Eigen::Vector2d& px, int h = 2) {
+  const cv::Rect r(static_cast<int>(std::lround(px.x())) - h, static_cast<int>(std::lround(px.y())) - h, 2 * h + 1,
+                   2 * h + 1);
+  const cv::Scalar m = cv::mean(img(r & cv::Rect(0, 0, img.cols, img.rows)));
+  return {m[0], m[1], m[2]};
+}
+
+// The expert's tip 8 mm above the marker (tooth frame = camera axes here), its bur axis
+// pointing away from the camera: the handpiece head is seen end-on, a 5 mm disc around the
+// projection of the axis.
+ExpertTool expert_above_marker(double opacity) {
+  ExpertTool e;
+  e.valid = true;
+  e.T_tooth_exp.translation() = Eigen::Vector3d(0.0, -0.008, 0.0);
+  e.opacity = opacity;
+  return e;
+}
+
+TEST(CompositorGl, ExpertToolIsTranslucentWhereItProjects) {
+  DENTAR_GL_TEST_CONTEXT();
+  MirrorScene sc;
+  Marker marker(2.0e-3);
+  CompositorOptions o = marker_options();
+  o.mirror = false;
+  auto comp = Compositor::create(sc.station, o);
+  ASSERT_TRUE(comp.ok()) << comp.error();
+  const CameraModel cam(sc.station.calibration.camera);
+  const Eigen::Isometry3d T_cam_tooth = sc.in.T_cam_man * sc.station.calibration.T_man_tooth;
+  const ExpertTool e = expert_above_marker(0.45);
+  const auto head = cam.project(T_cam_tooth * e.T_tooth_exp * Eigen::Vector3d(0, 0, -0.006));
+  ASSERT_TRUE(head.has_value());
+  // Two backgrounds: a translucent ghost shows each through itself; an opaque one neither.
+  const cv::Mat black = cv::Mat::zeros(sc.video.size(), CV_8UC3);
+  const cv::Mat white(sc.video.size(), CV_8UC3, cv::Scalar::all(255));
+  auto compose = [&](const cv::Mat& video, const ExpertTool& ex, CompositeResult& r) {
+    CompositeInput in = sc.in;
+    in.video_bgr = &video;
+    in.expert = ex;
+    ASSERT_TRUE(comp->compose(*marker.surface, in, r).ok());
+  };
+  CompositeResult on_black, on_white, opaque_black, opaque_white, none;
+  compose(black, e, on_black);
+  compose(white, e, on_white);
+  compose(black, expert_above_marker(1.0), opaque_black);
+  compose(white, expert_above_marker(1.0), opaque_white);
+  compose(black, ExpertTool{}, none);
+  EXPECT_TRUE(on_black.expert_drawn);
+  EXPECT_FALSE(none.expert_drawn);
+  const cv::Vec3d b = mean_at(on_black.image, *head), w = mean_at(on_white.image, *head);
+  const cv::Vec3d ob = mean_at(opaque_black.image, *head), ow = mean_at(opaque_white.image, *head);
+  std::printf("[ expert ] head pixel on black %.1f %.1f %.1f, on white %.1f %.1f %.1f; opaque %.1f / %.1f\n", b[0],
+              b[1], b[2], w[0], w[1], w[2], ob[0], ow[0]);
+  for (int c = 0; c < 3; ++c) {
+    // Opaque: the background does not show; translucent: it shows with weight 1 - 0.45.
+    EXPECT_NEAR(ob[c], ow[c], 1.0) << "channel " << c;
+    EXPECT_NEAR(w[c] - b[c], 255.0 * (1 - 0.45), 3.0) << "channel " << c;
+    // On black, the ghost's colour scaled by its opacity (premultiplied "over").
+    EXPECT_NEAR(b[c], 0.45 * ob[c], 2.0) << "channel " << c;
+  }
+  EXPECT_GT(b[0] + b[1] + b[2], 30.0) << "no ghost where it projects";
+  // Tinted blue: more blue than red (BGR).
+  EXPECT_GT(ob[0], ob[2] + 20);
+  // No tool: nothing there, and the marker drawn as before; the ghost adds no tooth coverage.
+  EXPECT_EQ(mean_at(none.image, *head), cv::Vec3d(0, 0, 0));
+  EXPECT_EQ(on_black.tooth_px, none.tooth_px);
+  cv::Mat diff;
+  cv::absdiff(on_black.tooth_visible, none.tooth_visible, diff);
+  EXPECT_EQ(cv::countNonZero(diff), 0);
+  // Changed pixels lie inside the reported region.
+  cv::absdiff(on_black.image, none.image, diff);
+  cv::Mat changed;
+  cv::cvtColor(diff, changed, cv::COLOR_BGR2GRAY);
+  EXPECT_GT(cv::countNonZero(changed), 200);
+  cv::Mat outside = cv::Mat::ones(diff.rows, diff.cols, CV_8UC1);
+  outside(on_black.region).setTo(0);
+  EXPECT_EQ(cv::countNonZero(changed & outside), 0);
+}
+
+TEST(CompositorGl, ExpertToolAbsentLeavesTheFrameBitIdentical) {
+  DENTAR_GL_TEST_CONTEXT();
+  MirrorScene sc;
+  Marker marker(2.0e-3);
+  auto comp = Compositor::create(sc.station, marker_options());
+  ASSERT_TRUE(comp.ok()) << comp.error();
+  CompositeResult before, with, after;
+  CompositeInput in = sc.in;
+  ASSERT_TRUE(comp->compose(*marker.surface, in, before).ok());
+  in.expert = expert_above_marker(0.45);
+  ASSERT_TRUE(comp->compose(*marker.surface, in, with).ok());
+  in.expert.valid = false;
+  ASSERT_TRUE(comp->compose(*marker.surface, in, after).ok());
+  cv::Mat diff;
+  cv::absdiff(before.image, after.image, diff);
+  EXPECT_EQ(cv::countNonZero(diff.reshape(1)), 0);
+  cv::absdiff(before.image, with.image, diff);
+  EXPECT_GT(cv::countNonZero(diff.reshape(1)), 100);
+  EXPECT_EQ(before.region, after.region);
+}
+
+TEST(CompositorGl, ExpertToolIsOverlaidUnlessDepthTested) {
+  // The expert's tool 25 mm behind the marker (its handpiece head, seen end-on, covers the
+  // marker's projection): overlaid, it shows over the marker; depth-tested, the marker hides it.
+  DENTAR_GL_TEST_CONTEXT();
+  MirrorScene sc;
+  Marker marker(2.0e-3);
+  CompositorOptions o = marker_options();
+  o.mirror = false;
+  auto comp = Compositor::create(sc.station, o);
+  ASSERT_TRUE(comp.ok()) << comp.error();
+  const CameraModel cam(sc.station.calibration.camera);
+  const auto centre = cam.project(sc.p);
+  ASSERT_TRUE(centre.has_value());
+  CompositeInput in = sc.in;
+  CompositeResult none, over, tested;
+  ASSERT_TRUE(comp->compose(*marker.surface, in, none).ok());
+  in.expert = expert_above_marker(0.5);
+  in.expert.T_tooth_exp.translation() = Eigen::Vector3d(0, 0, 0.025);
+  ASSERT_TRUE(comp->compose(*marker.surface, in, over).ok());
+  in.expert.depth_tested = true;
+  ASSERT_TRUE(comp->compose(*marker.surface, in, tested).ok());
+  const cv::Vec3d n = mean_at(none.image, *centre, 1), v = mean_at(over.image, *centre, 1),
+                  t = mean_at(tested.image, *centre, 1);
+  std::printf("[ expert ] marker centre: %.1f %.1f %.1f alone, %.1f %.1f %.1f overlaid, %.1f %.1f %.1f depth-tested\n",
+              n[0], n[1], n[2], v[0], v[1], v[2], t[0], t[1], t[2]);
+  EXPECT_GT(cv::norm(v - n), 20.0) << "the overlaid ghost does not show over the marker";
+  EXPECT_LT(cv::norm(t - n), 1.0) << "the depth-tested ghost shows through the marker";
+  // Around the marker the ghost shows either way (nothing in front of it there).
+  const auto side = cam.project(sc.p + Eigen::Vector3d(0.0035, 0, 0.020));
+  ASSERT_TRUE(side.has_value());
+  EXPECT_GT(cv::norm(mean_at(tested.image, *side, 1) - mean_at(none.image, *side, 1)), 20.0);
+}
+
+TEST(CompositorGl, ExpertToolShowsInTheMirror) {
+  DENTAR_GL_TEST_CONTEXT();
+  MirrorScene sc;
+  Marker marker(2.0e-3);
+  auto comp = Compositor::create(sc.station, marker_options());
+  ASSERT_TRUE(comp.ok()) << comp.error();
+  const CameraModel cam(sc.station.calibration.camera);
+  const Eigen::Isometry3d T_cam_tooth = sc.in.T_cam_man * sc.station.calibration.T_man_tooth;
+  const ExpertTool e = expert_above_marker(0.6);
+  // The head point and its mirror image (reflection about the mirror plane).
+  const Eigen::Vector3d h = T_cam_tooth * e.T_tooth_exp * Eigen::Vector3d(0, 0, -0.006);
+  const Eigen::Vector3d n = sc.T_cam_mir.linear().col(2), m = sc.T_cam_mir.translation();
+  const Eigen::Vector3d h_refl = h - 2.0 * n * n.dot(h - m);
+  // Precondition: the reflected point is seen inside the mirror disc.
+  const Eigen::Vector3d ray = h_refl.normalized();
+  const double s = n.dot(m) / n.dot(ray);
+  const Eigen::Vector3d hit = s * ray;
+  ASSERT_LT((hit - m).norm(), 0.8 * sc.station.calibration.mirror_radius_m);
+  const auto px = cam.project(h_refl);
+  ASSERT_TRUE(px.has_value());
+  CompositeResult none, with;
+  CompositeInput in = sc.in;
+  ASSERT_TRUE(comp->compose(*marker.surface, in, none).ok());
+  in.expert = e;
+  ASSERT_TRUE(comp->compose(*marker.surface, in, with).ok());
+  ASSERT_TRUE(with.mirror_drawn);
+  const cv::Vec3d a = mean_at(none.image, *px, 1), b = mean_at(with.image, *px, 1);
+  std::printf("[ expert ] reflection at (%.1f, %.1f): %.1f %.1f %.1f without, %.1f %.1f %.1f with\n", px->x(),
+              px->y(), a[0], a[1], a[2], b[0], b[1], b[2]);
+  EXPECT_GT(b[0] - a[0], 20.0) << "no reflected ghost where the mirror shows it";
+  // Dimmer than the direct ghost (opacity times the mirror's reflectance).
+  const auto direct = cam.project(h);
+  ASSERT_TRUE(direct.has_value());
+  const cv::Vec3d d = mean_at(with.image, *direct, 1);
+  EXPECT_LT(b[0], d[0]);
+  // Nothing reflected with the expert absent.
+  EXPECT_LT(a[0] + a[1] + a[2], 3.0);
+}
+
+TEST(CompositorGl, ExpertToolAndToothTintBadValuesAreErrors) {
+  DENTAR_GL_TEST_CONTEXT();
+  MirrorScene sc;
+  Marker marker(2.0e-3);
+  auto comp = Compositor::create(sc.station, marker_options());
+  ASSERT_TRUE(comp.ok()) << comp.error();
+  CompositeInput in = sc.in;
+  CompositeResult r;
+  in.expert = expert_above_marker(0.0);
+  Status st = comp->compose(*marker.surface, in, r);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().find("expert.opacity"), std::string::npos) << st.error();
+  in.expert = expert_above_marker(0.5);
+  in.expert.T_tooth_exp.translation().x() = std::nan("");
+  st = comp->compose(*marker.surface, in, r);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().find("T_tooth_exp"), std::string::npos) << st.error();
+  in.expert = {};
+  in.tooth_tint = Eigen::Vector3f(1, -1, 1);
+  st = comp->compose(*marker.surface, in, r);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().find("tooth_tint[1]"), std::string::npos) << st.error();
+  // A tint changes the tooth's colour, not its coverage.
+  CompositeResult plain, warm;
+  in.tooth_tint = Eigen::Vector3f::Ones();
+  ASSERT_TRUE(comp->compose(*marker.surface, in, plain).ok());
+  in.tooth_tint = Eigen::Vector3f(1.3f, 0.7f, 0.5f);
+  ASSERT_TRUE(comp->compose(*marker.surface, in, warm).ok());
+  EXPECT_EQ(plain.tooth_px, warm.tooth_px);
+  const cv::Moments mo = cv::moments(plain.tooth_visible > 127, true);
+  ASSERT_GT(mo.m00, 10);
+  const Eigen::Vector2d c(mo.m10 / mo.m00, mo.m01 / mo.m00);
+  const cv::Vec3d p = mean_at(plain.image, c, 1), q = mean_at(warm.image, c, 1);
+  EXPECT_GT(q[2] - q[0], p[2] - p[0] + 20) << "the warm tint did not redden the tooth";
+}
+
 }  // namespace
 }  // namespace dentar::ar

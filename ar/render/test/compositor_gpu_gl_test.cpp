@@ -155,6 +155,55 @@ TEST(CompositorGpuGl, MatchesTheCpuCompositeWithoutReadback) {
   EXPECT_GT((mc - seed).norm(), 0.01) << "the finger should have moved the model off its seed";
 }
 
+// Issue 27: the expert's translucent tool and the tooth tint look the same on the live
+// display's GPU path as on the CPU path (they are drawn in the shared canvas passes).
+TEST(CompositorGpuGl, ExpertToolMatchesTheCpuComposite) {
+  DENTAR_GL_TEST_CONTEXT();
+  SynthOptions o = synth_preset(SynthPreset::kStandard);
+  o.frames = 7;
+  const ToothFootage fo = test::tooth_footage(default_station_scene(), o, 3);
+  ASSERT_EQ(fo.error, "");
+  auto cpu = Compositor::create(fo.station);
+  auto gpu = Compositor::create(fo.station);
+  auto bare_cpu = Compositor::create(fo.station);  // its own segmenter: the other two adapt alike
+  ASSERT_TRUE(cpu.ok()) << cpu.error();
+  ASSERT_TRUE(gpu.ok()) << gpu.error();
+  ASSERT_TRUE(bare_cpu.ok()) << bare_cpu.error();
+  ASSERT_EQ(gpu->gpu_path_error(), "");
+  const Targets target = Targets::make(fo.station.calibration.camera);
+  const volume::Surface& tooth = *fo.tooth->surface;
+  for (const auto& f : fo.frames) {
+    CompositeInput in = truth_input(f);
+    in.expert.valid = true;
+    in.expert.T_tooth_exp.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    in.expert.T_tooth_exp.translation() = Eigen::Vector3d(0.001, 0, 0.003);
+    in.expert.tint = Eigen::Vector3f(1.45f, 0.80f, 0.30f);
+    in.tooth_tint = Eigen::Vector3f(1.15f, 0.92f, 0.70f);
+    CompositeResult rc, rg, plain;
+    ASSERT_TRUE(cpu->compose(tooth, in, rc).ok());
+    ASSERT_TRUE(gpu->compose_gl(tooth, in, target.t, rg).ok());
+    EXPECT_TRUE(rc.expert_drawn);
+    EXPECT_EQ(rg.expert_drawn, rc.expert_drawn);
+    EXPECT_EQ(rg.region, rc.region);
+    const cv::Mat g = target.composite(f.image, rg.region);
+    cv::Mat diff, grey;
+    cv::absdiff(g, rc.image, diff);
+    cv::cvtColor(diff, grey, cv::COLOR_BGR2GRAY);
+    double maxd = 0;
+    cv::minMaxLoc(diff.reshape(1), nullptr, &maxd);
+    const double mean_region = rc.region.empty() ? 0.0 : cv::mean(diff(rc.region))[0];
+    std::printf("[ gpu vs cpu, expert ] frame %d: max %.0f, mean over the region %.3f\n", f.truth.frame, maxd,
+                mean_region);
+    EXPECT_LE(maxd, 2) << "frame " << f.truth.frame;
+    EXPECT_LT(mean_region, 0.05) << "frame " << f.truth.frame;
+    // And the expert is really in it: the composite differs from one without.
+    CompositeInput bare = truth_input(f);
+    ASSERT_TRUE(bare_cpu->compose(tooth, bare, plain).ok());
+    cv::absdiff(plain.image, rc.image, diff);
+    EXPECT_GT(cv::countNonZero(diff.reshape(1) > 10), 200) << "frame " << f.truth.frame;
+  }
+}
+
 TEST(CompositorGpuGl, LostTrackingGivesTheVideoAndErrorsAreClear) {
   DENTAR_GL_TEST_CONTEXT();
   const ToothFootage fo = footage_with_finger(1);

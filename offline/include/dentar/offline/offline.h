@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "dentar/ar/compositor.h"
+#include "dentar/ar/frame_pipeline.h"
 #include "dentar/ar/synth.h"
 #include "dentar/ar/tracker.h"
 #include "dentar/volume/result.h"
@@ -68,6 +69,9 @@ struct OfflineOptions {
   bool camera_response_given = false;
   bool mirror_rim_given = false;
   ar::CompositorOptions compositor;
+  // A session trained in a mode (`dentar lesson run`): the expert's tool as a second,
+  // translucent handpiece (frame_pipeline.h, ExpertStyle; draw = false: not drawn).
+  ar::ExpertStyle expert;
   // Poses are predicted to capture time + this (video see-through shows the
   // captured frame itself, so 0 is right unless the display adds delay), s.
   double predict_s = 0.0;
@@ -98,6 +102,9 @@ struct OfflineSummary {
   int tracking = 0, predicted = 0, lost = 0;  // mannequin states, frames
   int mirror_tracking = 0;
   int overlays = 0;  // frames with the tooth drawn
+  // Issue 27, a session trained in a mode: frames with the expert's tool drawn, and those
+  // with mode 5's drilling colours.
+  int expert_frames = 0, expert_drilling_frames = 0;
   bool has_truth = false;
   // Against truth (when present), tracked (tracking/predicted) frames only:
   Stat man_err_mm, man_err_deg;  // mannequin pose: translation, rotation

@@ -48,6 +48,10 @@ struct ReplayOptions {
   std::string render;     // headless: no window; the offline render at at_s to this PNG
   std::string stats;      // JSON of the frame times and alignment (optional)
   bool vsync = true;
+  // The level of detail while playing: the 3-D view renders at this fraction of its pixels
+  // per axis and is scaled up into the window (bilinear); paused, and the frame a
+  // --screenshot captures, are rendered at full resolution. 1 = always full.
+  double play_scale = 0.5;
   // Scripted key presses, one per frame from the second frame on, through the same code as
   // the user's keys (tests): names as in the key list above ("space", "n", "left", "1", ...).
   std::vector<std::string> keys;

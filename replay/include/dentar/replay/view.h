@@ -50,7 +50,11 @@ struct MaterialAlphas {
 class SceneView {
  public:
   // Errors: GL failures, unusable intrinsics (named).
-  static Result<std::unique_ptr<SceneView>> create(const calibration::CameraIntrinsics& k, const volume::BurParams& bur);
+  // reduced_scale < 1: a second, smaller target (that fraction of the pixels per axis, the
+  // same field of view) that render(..., reduced = true) draws into instead: the window's
+  // level of detail while playing (issue 27; llvmpipe's cost is the pixels it fills).
+  static Result<std::unique_ptr<SceneView>> create(const calibration::CameraIntrinsics& k, const volume::BurParams& bur,
+                                                   double reduced_scale = 1.0);
   ~SceneView();
   // Renders: clear to the background, the tooth (opaque materials first, then translucent
   // ones), the bur (opaque; with `ghost`, a second translucent tooth and bur are drawn after).
@@ -62,7 +66,10 @@ class SceneView {
     bool bur_cutting = false;  // the pedal down: the bur drawn in the cutting colour
   };
   void render(const OrbitCamera& cam, const Tooth& main, const MaterialAlphas& alphas, const Tooth* ghost = nullptr,
-              float ghost_alpha = 0.35f);
+              float ghost_alpha = 0.35f, bool reduced = false);
+  // The size of what the last render() drew (the reduced target's when it drew there).
+  int rendered_width() const;
+  int rendered_height() const;
   void read_bgr(cv::Mat& out) const;
   // The framebuffer the last render() drew into (the renderer's output: without lens
   // distortion, Renderer::begin_frame binds it as the draw target), rows bottom-up, for a

@@ -61,6 +61,8 @@ class Run {
   // mode its header recorded, rebuilt from the expert's recording), driven by its
   // records through a ReplayDevice; the engine never asks for real time.
   // Warnings (another station registration than the log's) go to warnings().
+  // A trained session's expert recording is checked against the header's hash; the engine's
+  // snapshot then carries the expert's tool (drawn by the frame pipeline as a second handpiece).
   static Result<std::unique_ptr<Run>> from_session_log(SessionLogSetup log, const ar::StationScene& station,
                                                        const std::string& station_name);
 

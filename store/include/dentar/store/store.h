@@ -59,6 +59,21 @@ struct SessionSummary {
   bool incomplete = false;
 };
 
+// A session trained in a mode (issue 27): what `dentar lesson run` (run.json) recorded,
+// stored as metrics "training.*" (record.h). One row per trained session.
+struct TrainingRow {
+  std::int64_t id = 0;  // the session
+  std::string started_utc, exercise;
+  int mode = 0;  // 1..5
+  double follow_mean_mm = -1, follow_p95_mm = -1;  // -1: not measured
+  bool as_needed = false, across_path_only = false;
+  int repetition = 0;
+  double fade = 1, amplify = 0;
+  double points = 0, max_points = 0;
+  // The score is the expert's cut (modes 1-4: the expert's bur cut, not the student's).
+  bool expert_cut = false;
+};
+
 struct SessionFilter {
   std::string student, exercise, station;  // empty: any
   std::size_t limit = 0;                   // 0: all
@@ -86,6 +101,8 @@ class Store {
 
   Result<std::vector<StudentSummary>> students();
   Result<std::vector<SessionSummary>> sessions(const SessionFilter& f = {});
+  // The trained sessions among sessions(f), in the same order (issue 27).
+  Result<std::vector<TrainingRow>> training(const SessionFilter& f = {});
   Result<std::vector<std::string>> exercises();
   // Full record by id (nullopt: no such session).
   Result<std::optional<SessionRecord>> session(std::int64_t id);

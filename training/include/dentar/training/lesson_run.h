@@ -101,6 +101,7 @@ struct LessonRunResult {
   std::string fallback;          // why the mode run differs from the one asked ("" = none)
   std::vector<std::string> notes;  // gains lowered to the device's limits, etc.
   std::string device;
+  haptics::GuidanceParams guidance;  // the field as run (after lowering to the device's limits)
   std::string session_path;
   std::uint64_t steps = 0;
   double expert_end_s = 0;       // the expert's clock at the end

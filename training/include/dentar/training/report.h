@@ -70,6 +70,11 @@ struct ScoreSummary {
   MirrorUse mirror;
   std::vector<ComparisonRow> comparison;  // with ScoreOptions::compare: this session first, then the generated ones
   std::string comparison_warning;         // why the comparison is missing (it never fails the score)
+  // The session's training mode (issue 27; 0 = plain drilling). In modes 1-4 the expert's
+  // bur cuts, not the student's: the outcome is the expert's cut, not the student's score.
+  int training_mode = 0;
+  bool expert_cut() const { return training_mode >= 1 && training_mode <= 4; }
+  std::string cut_label() const;  // "expert's cut (mode N)" or "student's cut"
   std::string summary_text() const;  // a few lines for a terminal
 };
 

@@ -38,9 +38,24 @@
 
 namespace dentar::ar {
 
+// Issue 27: in a training mode (the haptic snapshot's mode != 0) the expert's tool is drawn
+// as a second, translucent handpiece at the snapshot's T_tooth_expert_tip, in the direct view
+// and in the mirror (compositor.h, ExpertTool). In mode 5 (hints), while the recording
+// drills (snapshot.expert_drilling), the tool and the tooth change colour.
+struct ExpertStyle {
+  bool draw = true;
+  double opacity = 0.45;                                    // (0, 1]
+  Eigen::Vector3f tint{0.55f, 0.80f, 1.30f};                // cool blue (sRGB multipliers, 0..2)
+  Eigen::Vector3f drilling_tint{1.45f, 0.80f, 0.30f};       // mode 5 while the expert drills: orange
+  Eigen::Vector3f tooth_drilling_tint{1.15f, 0.92f, 0.70f};  // and the tooth warms
+  bool depth_tested = false;  // ExpertTool::depth_tested: false = overlaid (a hint is never hidden)
+  std::string validate() const;                             // empty, or names the field
+};
+
 struct PipelineOptions {
   TrackerOptions tracker;
   CompositorOptions compositor;
+  ExpertStyle expert;
   // Poses are predicted to capture time + this (video see-through shows the
   // captured frame itself, so 0 is right unless the display adds delay), s.
   double predict_s = 0.0;
@@ -139,6 +154,8 @@ struct FrameRecord {
   double track_ms = 0, detect_ms = 0, pose_ms = 0, filter_ms = 0, mesh_ms = 0, composite_ms = 0;
   int mesh_chunks = 0;
   bool overlay = false, mirror_drawn = false;
+  // Issue 27: the expert's tool drawn (a training mode), and mode 5's drilling colours shown.
+  bool expert_drawn = false, expert_drilling_shown = false;
   std::size_t triangles = 0;
   // The compositor's CPU traffic (CompositeResult): pixels read back from GL
   // and pixels blended on the CPU; both 0 when gpu_composite.

@@ -37,6 +37,18 @@
 // reflection, the mirror disc's screen box or the mirror's front side) are
 // not drawn. All tooth materials are drawn opaque in their material colours.
 //
+// A second tool (issue 27, the expert's tool of a lesson; CompositeInput::expert): the
+// bur and the handpiece at T_cam_exp = T_cam_man * T_man_tooth * T_tooth_exp, drawn after
+// everything else, translucent (opacity, tint), in the direct view and, as the student's
+// bur, in the mirror's reflection (opacity times the reflectance). By default it is
+// overlaid (the seed's mode 5: "overlaid, passes through the tooth"): drawn over the tooth,
+// the phantoms and the mannequin, so a hint is never hidden; with depth_tested it is hidden
+// like a real instrument (behind the lips, inside the enamel). It writes no tooth coverage;
+// its own nearest surface only is blended (a depth pre-pass), so the handpiece does not
+// show its far side through itself. With no
+// expert (expert.valid false) and tooth_tint (1, 1, 1) the output is bit-identical to a
+// compositor without this feature (the OfflineHash tests).
+//
 // Lost tracking: man_valid = false gives the video unchanged (no overlay at
 // all: a tooth at a stale pose is worse than none); mirror_valid = false
 // gives no reflection and no mirror phantom; stylus_valid = false gives no
@@ -116,6 +128,21 @@ struct CompositorOptions {
   std::string validate() const;  // empty, or names the field
 };
 
+// The expert's tool as a second, translucent handpiece (see above). `exp` is the expert's
+// bur tip frame (+z = bur axis out of the handpiece, as `tip`), given in the tooth frame.
+struct ExpertTool {
+  bool valid = false;  // false: not drawn
+  Eigen::Isometry3d T_tooth_exp = Eigen::Isometry3d::Identity();
+  double opacity = 0.45;  // (0, 1]: the ghost's coverage where it is seen
+  // Multiplies the instrument colours (sRGB, each 0..2): a cool blue by default, so the
+  // expert's tool is never mistaken for the student's grey one.
+  Eigen::Vector3f tint{0.55f, 0.80f, 1.30f};
+  // false: overlaid over everything (a hint is never hidden); true: hidden by the phantoms
+  // (mannequin, mirror, the student's handpiece) and the tooth, as a real instrument.
+  bool depth_tested = false;
+  std::string validate() const;  // empty, or names the field
+};
+
 struct CompositeInput {
   const cv::Mat* video_bgr = nullptr;  // CV_8UC3, camera size, as captured (distorted)
   bool man_valid = false;              // false: tracking lost, no overlay at all
@@ -124,6 +151,11 @@ struct CompositeInput {
   Eigen::Isometry3d T_cam_mtag = Eigen::Isometry3d::Identity();
   bool stylus_valid = false;
   Eigen::Isometry3d T_dev_sty = Eigen::Isometry3d::Identity();  // haptic snapshot
+  // Issue 27: the expert's tool (not drawn unless expert.valid), and a tint multiplying the
+  // tooth's material colours in both views (sRGB, each 0..2; mode 5 changes it while the
+  // recording drills). (1, 1, 1) = the material colours.
+  ExpertTool expert;
+  Eigen::Vector3f tooth_tint = Eigen::Vector3f::Ones();
 };
 
 // Wall-clock time of each stage of compose(), ms.
@@ -153,6 +185,7 @@ struct CompositeResult {
   bool overlay_drawn = false;  // man_valid and something was drawn
   bool mirror_drawn = false;   // the reflection pass ran
   int tooth_px = 0;            // pixels with tooth_visible > 127 (-1: compose_gl, not measured)
+  bool expert_drawn = false;   // the expert's tool was drawn (in view or in the mirror)
   std::size_t triangles_drawn = 0;  // tooth triangles, direct + reflected
   int chunks_culled = 0;            // direct + reflected
   int lod_level = 0;                // 0 = full mesh
