@@ -692,7 +692,8 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
     h << "</table>";
   }
   // Graded regions (their points): also beside a graded exercise's wall taper.
-  if (std::any_of(oc.regions.begin(), oc.regions.end(), [](const RegionScore& r) { return r.max_points > 0; })) {
+  if (oc.criteria.empty() ||
+      std::any_of(oc.regions.begin(), oc.regions.end(), [](const RegionScore& r) { return r.max_points > 0; })) {
     h << "<table><tr><th>region</th><th>coverage</th><th>over-preparation nearby</th><th>points</th><th>why</th></tr>";
     for (const auto& r : oc.regions)
       h << "<tr><td>" << esc(r.name) << "</td><td>" << num(r.coverage_pct, 1) << " %</td><td>" << num(r.overprep_mm3)
