@@ -96,9 +96,12 @@ MetricLabel metric_label(const std::string& name, const std::string& stored_unit
     const std::string& c = p[2];
     if (leaf == "score") {
       l.label = capital(c) + ": points";
-      l.unit = "of 3";
+      l.unit = c.find("taper") != std::string::npos ? "points" : "of 3";  // the wall taper has its exercise's points
     } else if (leaf == "value") {
-      if (c.find("wall") != std::string::npos) {
+      if (c.find("taper") != std::string::npos) {
+        l.label = capital(c) + ": mean outside the ideal taper";
+        l.unit = "deg";
+      } else if (c.find("wall") != std::string::npos) {
         l.label = capital(c) + ": divergence toward the occlusal surface";
         l.unit = "deg";
       } else if (c.find("orifice") != std::string::npos) {
@@ -110,6 +113,9 @@ MetricLabel metric_label(const std::string& name, const std::string& stored_unit
       } else {
         l.label = capital(c) + ": measured value";
       }
+    } else if (leaf == "max_score") {
+      l.label = capital(c) + ": points possible";
+      l.unit = "points";
     } else {
       l.label = capital(c) + ": " + words(leaf);
     }

@@ -12,6 +12,13 @@ TEST(MetricNames, KnownMetricsInWordsWithUnits) {
   EXPECT_EQ(wall.label, "Buccal wall: divergence toward the occlusal surface");
   EXPECT_EQ(wall.unit, "deg");
   EXPECT_EQ(metric_label("outcome.criteria.buccal wall.score", "").unit, "of 3");
+  // The class I wall taper (issue 25, session 14) is worth its exercise's points, and its value is
+  // the walls' mean excess over the ideal taper, not one wall's divergence.
+  EXPECT_EQ(metric_label("outcome.criteria.wall taper.score", "").unit, "points");
+  const MetricLabel taper = metric_label("outcome.criteria.wall taper.value", "");
+  EXPECT_EQ(taper.label, "Wall taper: mean outside the ideal taper");
+  EXPECT_EQ(taper.unit, "deg");
+  EXPECT_EQ(metric_label("outcome.criteria.wall taper.max_score", "").label, "Wall taper: points possible");
   const MetricLabel en = metric_label("outcome.removed_mm3.enamel", "");
   EXPECT_EQ(en.label, "Enamel removed");
   EXPECT_EQ(en.unit, "mm³");

@@ -9,17 +9,30 @@
 //   build/training/training_score_rank_bench [--levels 5] [--subjects 3] [--voxel-mm 0.15] [--seed 1]
 //                                            [--exercise NAME]... [--keep DIR] [--over-reduction-rate X] [--tolerance-mm T]
 //                                            [--overprep-price exercise|region] [--access-zone-rate R]
+//                                            [--access-points bands|continuous] [--taper-points P]
+//                                            [--flare-free-deg D] [--flare-deg-per-point S]
+//                                            [--seeds 2,3,4,5] [--bootstrap 2000]
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
 // seconds on the same sessions (the first run generates them).
+// --seeds A,B,...: one cohort per seed (with --keep, in DIR/s<seed>), each
+// seed's line as with --seed, then the seeds pooled and their mean +- SD.
+// Every rho is printed with its 95 % bootstrap interval (sessions resampled
+// with replacement within each skill level, --bootstrap resamples, fixed
+// seed): how far rho could move from sampling the sessions alone.
+// --taper-points P: the exercise's wall taper (it must have one) is worth P
+// points and its graded regions the rest of the exercise's total.
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -38,6 +51,48 @@ struct Row {
   double seconds = 0;
 };
 
+// rho of the totals against skill, and its 95 % percentile interval over `b` stratified
+// bootstrap resamples (each skill level's sessions drawn with replacement).
+struct RhoCi {
+  double rho = 0, lo = 0, hi = 0;
+};
+RhoCi rho_with_interval(const std::vector<Row>& rows, int b) {
+  std::vector<double> x, y;
+  for (const auto& r : rows) x.push_back(r.o.points), y.push_back(r.skill);
+  RhoCi c;
+  c.rho = spearman_rho(x, y);
+  c.lo = c.hi = c.rho;
+  if (b <= 0) return c;
+  std::vector<std::vector<std::size_t>> levels;
+  std::vector<double> skills;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    std::size_t l = 0;
+    while (l < skills.size() && skills[l] != rows[i].skill) ++l;
+    if (l == skills.size()) skills.push_back(rows[i].skill), levels.emplace_back();
+    levels[l].push_back(i);
+  }
+  std::mt19937_64 rng(20261128);
+  std::vector<double> rs;
+  for (int k = 0; k < b; ++k) {
+    std::vector<double> bx, by;
+    for (const auto& lv : levels) {
+      std::uniform_int_distribution<std::size_t> pick(0, lv.size() - 1);
+      for (std::size_t q = 0; q < lv.size(); ++q) {
+        const Row& r = rows[lv[pick(rng)]];
+        bx.push_back(r.o.points);
+        by.push_back(r.skill);
+      }
+    }
+    const double v = spearman_rho(bx, by);
+    if (std::isfinite(v)) rs.push_back(v);
+  }
+  if (rs.empty()) return c;
+  std::sort(rs.begin(), rs.end());
+  c.lo = rs[static_cast<std::size_t>(0.025 * (rs.size() - 1))];
+  c.hi = rs[static_cast<std::size_t>(0.975 * (rs.size() - 1))];
+  return c;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -49,6 +104,15 @@ int main(int argc, char** argv) {
   double over_rate = -1, tol = -1;  // --over-reduction-rate: overrides the exercises' (comparison runs)
   std::string price;                // --overprep-price exercise|region: the same
   double zone_rate = -1;            // --access-zone-rate: the same
+  std::string access_points;        // --access-points bands|continuous: the same
+  double taper_points = -1;         // --taper-points: the wall taper's points (the regions keep the rest)
+  std::vector<std::uint64_t> seeds; // --seeds: several cohorts, pooled at the end
+  int bootstrap = 2000;
+  double flare_free = -1, flare_step = -1;  // --flare-free-deg, --flare-deg-per-point: continuous access walls
+  if (argc % 2 == 0) {
+    std::fprintf(stderr, "score_rank_bench: every option takes a value (%s has none)\n", argv[argc - 1]);
+    return 2;
+  }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--levels") levels = std::atoi(v.c_str());
@@ -61,6 +125,15 @@ int main(int argc, char** argv) {
     else if (a == "--tolerance-mm") tol = std::atof(v.c_str());
     else if (a == "--overprep-price") price = v;
     else if (a == "--access-zone-rate") zone_rate = std::atof(v.c_str());
+    else if (a == "--access-points") access_points = v;
+    else if (a == "--taper-points") taper_points = std::atof(v.c_str());
+    else if (a == "--flare-free-deg") flare_free = std::atof(v.c_str());
+    else if (a == "--flare-deg-per-point") flare_step = std::atof(v.c_str());
+    else if (a == "--bootstrap") bootstrap = std::atoi(v.c_str());
+    else if (a == "--seeds") {
+      std::stringstream ss(v);
+      for (std::string t; std::getline(ss, t, ',');) seeds.push_back(std::strtoull(t.c_str(), nullptr, 10));
+    }
     else {
       std::fprintf(stderr, "score_rank_bench: unknown option %s\n", a.c_str());
       return 2;
@@ -70,6 +143,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "score_rank_bench: --overprep-price must be exercise or region, not %s\n", price.c_str());
     return 2;
   }
+  if (!access_points.empty() && access_points != "bands" && access_points != "continuous") {
+    std::fprintf(stderr, "score_rank_bench: --access-points must be bands or continuous, not %s\n", access_points.c_str());
+    return 2;
+  }
+  if (seeds.empty()) seeds.push_back(seed);
   if (levels < 2 || subjects < 1) {
     std::fprintf(stderr, "score_rank_bench: --levels must be >= 2 and --subjects >= 1\n");
     return 2;
@@ -77,7 +155,7 @@ int main(int argc, char** argv) {
   if (exercises.empty()) exercises = {"incisor_partial_crown", "molar_access_opening", "molar_class1_cavity"};
   const std::string dir = !keep.empty() ? keep
                          : (std::filesystem::temp_directory_path() / ("dentar_score_rank_" + std::to_string(::getpid()))).string();
-  std::printf("exercise | sessions | Spearman rho (total vs skill) | expert mean | novice mean | max | incomplete (expert / novice) | s per session\n");
+  std::printf("exercise | sessions | Spearman rho (total vs skill) [95 %% bootstrap interval] | expert mean | novice mean | max | incomplete (expert / novice) | s per session\n");
   for (const auto& name : exercises) {
     auto ex = load_builtin_exercise(name);
     if (!ex) {
@@ -88,6 +166,42 @@ int main(int argc, char** argv) {
     if (tol >= 0) ex->tolerance_mm = tol;
     if (!price.empty()) ex->overprep_exercise_price = price == "exercise";
     if (zone_rate >= 0) ex->access_zone_rate = zone_rate;
+    if (!access_points.empty())
+      ex->access_points = access_points == "continuous" ? AccessPoints::kContinuous : AccessPoints::kBands;
+    if (flare_free >= 0) ex->access_flare_free_deg = flare_free;
+    if (flare_step > 0) ex->access_flare_deg_per_point = flare_step;
+    if (taper_points >= 0) {
+      if (!ex->wall_taper) {
+        std::fprintf(stderr, "score_rank_bench: --taper-points: %s has no wall_taper\n", name.c_str());
+        return 2;
+      }
+      const double total = ex->max_points(), regions = total - ex->wall_taper->points;
+      for (auto& r : ex->regions)
+        if (r.role == RegionRole::kTarget && regions > 0) r.points *= (total - taper_points) / regions;
+      ex->wall_taper->points = taper_points;
+    }
+    // Sessions are generated with the exercise as shipped (the scoring options above change only the score).
+    const auto gen_ex = load_builtin_exercise(name);
+    if (!gen_ex) return std::fprintf(stderr, "%s\n", gen_ex.error().c_str()), 2;
+    const auto line = [&](const std::string& label, const std::vector<Row>& rs) {
+      double em = 0, nm = 0, secs = 0;
+      int ne = 0, nn = 0, ie = 0, in = 0;
+      for (const auto& r : rs) {
+        secs += r.seconds;
+        if (r.skill == 1.0) em += r.o.points, ++ne, ie += !r.o.complete;
+        if (r.skill == 0.0) nm += r.o.points, ++nn, in += !r.o.complete;
+      }
+      const RhoCi c = rho_with_interval(rs, bootstrap);
+      std::printf("%s %s | %zu | %.3f [%.3f, %.3f] | %.1f | %.1f | %.0f | %d/%d / %d/%d | %.1f\n", name.c_str(), label.c_str(),
+                  rs.size(), c.rho, c.lo, c.hi, em / std::max(ne, 1), nm / std::max(nn, 1), rs.front().o.max_points, ie, ne,
+                  in, nn, secs / rs.size());
+      std::fflush(stdout);
+      return c.rho;
+    };
+    std::vector<Row> all;
+    std::vector<double> seed_rhos;
+    for (const std::uint64_t seed : seeds) {
+    const std::string sdir = seeds.size() > 1 ? dir + "/s" + std::to_string(seed) : dir;
     std::vector<Row> rows;
     for (int l = 0; l < levels; ++l) {
       const double sep = static_cast<double>(l) / (levels - 1);
@@ -99,10 +213,10 @@ int main(int argc, char** argv) {
       co.voxel_mm = voxel_mm;
       co.bur_samples = 500;
       co.seed = seed * 1000 + static_cast<std::uint64_t>(l);
-      const std::string d = dir + "/" + name + "_" + std::to_string(l);
+      const std::string d = sdir + "/" + name + "_" + std::to_string(l);
       const auto t0 = std::chrono::steady_clock::now();
       const bool reuse = !keep.empty() && std::filesystem::exists(d + "/trials.csv");
-      auto trials = reuse ? read_cohort(d) : generate_cohort(*ex, co, d);
+      auto trials = reuse ? read_cohort(d) : generate_cohort(*gen_ex, co, d);
       if (!trials) {
         std::fprintf(stderr, "%s\n", trials.error().c_str());
         return 1;
@@ -151,7 +265,7 @@ int main(int argc, char** argv) {
         for (const auto& r : sc->regions)
           parts += " " + r.name + " " + std::to_string(r.points).substr(0, 4) + "(cov " + std::to_string(static_cast<int>(r.coverage_pct)) +
                    " over " + std::to_string(r.overprep_mm3).substr(0, 5) + ")";
-        for (const auto& c : sc->criteria) parts += " [" + c.name + " " + std::to_string(c.score) + " " + std::to_string(c.value).substr(0, 6) + "]";
+        for (const auto& c : sc->criteria) parts += " [" + c.name + " " + std::to_string(c.score).substr(0, 4) + " " + std::to_string(c.value).substr(0, 6) + "]";
         for (const auto& [fn, fv] : sc->forbidden_by_region) parts += " {" + fn + " " + std::to_string(fv).substr(0, 5) + "}";
         std::fprintf(stderr, "%s skill %.2f %s: %s (earned %.1f), coverage %.0f %%, over-prep %.2f mm3 (beyond zones %.2f), forbidden %.2f mm3%s; %s |%s\n",
                      name.c_str(), 1.0 - sep, t.subject.c_str(), sc->headline().c_str(), sc->earned_points,
@@ -162,19 +276,18 @@ int main(int argc, char** argv) {
       for (std::size_t i = rows.size() - trials->size(); i < rows.size(); ++i) rows[i].seconds = s / trials->size();
       if (keep.empty()) std::filesystem::remove_all(d);
     }
-    std::vector<double> x, y;
-    double em = 0, nm = 0, secs = 0;
-    int ne = 0, nn = 0, ie = 0, in = 0;
-    for (const auto& r : rows) {
-      x.push_back(r.o.points);
-      y.push_back(r.skill);
-      secs += r.seconds;
-      if (r.skill == 1.0) em += r.o.points, ++ne, ie += !r.o.complete;
-      if (r.skill == 0.0) nm += r.o.points, ++nn, in += !r.o.complete;
+    seed_rhos.push_back(line("seed " + std::to_string(seed), rows));
+    all.insert(all.end(), rows.begin(), rows.end());
     }
-    std::printf("%s | %zu | %.3f | %.1f | %.1f | %.0f | %d/%d / %d/%d | %.1f\n", name.c_str(), rows.size(), spearman_rho(x, y),
-                em / std::max(ne, 1), nm / std::max(nn, 1), rows.front().o.max_points, ie, ne, in, nn, secs / rows.size());
-    std::fflush(stdout);
+    if (seeds.size() > 1) {
+      double m = 0, v = 0;
+      for (double r : seed_rhos) m += r;
+      m /= seed_rhos.size();
+      for (double r : seed_rhos) v += (r - m) * (r - m);
+      line("pooled", all);
+      std::printf("%s per-seed rho mean +- SD | %zu seeds | %.3f +- %.3f\n", name.c_str(), seed_rhos.size(), m,
+                  std::sqrt(v / (seed_rhos.size() - 1)));
+    }
   }
   if (keep.empty()) std::filesystem::remove_all(dir);
   return 0;

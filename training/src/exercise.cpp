@@ -159,6 +159,7 @@ double Exercise::max_points() const {
   if (outcome == OutcomeKind::kAccessOpening) return 18.0;
   double s = 0;
   for (const auto& r : regions) s += r.points;
+  if (wall_taper) s += wall_taper->points;
   return s;
 }
 
@@ -340,6 +341,47 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
                      "' is not a price rule (\"region\": each region's points per mm3 of that region, the default; "
                      "\"exercise\": the exercise's points per mm3 of target in every region)"};
       ex.overprep_exercise_price = pv == "exercise";
+    }
+    if (o.contains("access_points")) {
+      const auto& v = o["access_points"];
+      const std::string pv = v.is_string() ? v.get<std::string>() : v.dump();
+      if (pv != "bands" && pv != "continuous")
+        return Error{name + ": field 'outcome.access_points': '" + pv +
+                     "' is not a rule (\"bands\": each criterion 0, 1, 2 or 3, the default; \"continuous\": points "
+                     "falling linearly with the measured deviation)"};
+      if (ex.outcome != OutcomeKind::kAccessOpening)
+        return Error{name + ": field 'outcome.access_points': only an access_opening outcome has these criteria"};
+      ex.access_points = pv == "continuous" ? AccessPoints::kContinuous : AccessPoints::kBands;
+    }
+    if ((o.contains("flare_free_deg") || o.contains("flare_deg_per_point")) && ex.outcome != OutcomeKind::kAccessOpening)
+      return Error{name + ": fields 'outcome.flare_free_deg' / 'outcome.flare_deg_per_point': only an access_opening "
+                   "outcome grades its walls' flare"};
+    if (!get_number(c, o, "flare_free_deg", "outcome.", ex.access_flare_free_deg, false, 0, 90) ||
+        !get_number(c, o, "flare_deg_per_point", "outcome.", ex.access_flare_deg_per_point, false, 0.1, 90))
+      return Error{c.err};
+    if (o.contains("wall_taper")) {
+      const json& w = o["wall_taper"];
+      const std::string path = "outcome.wall_taper.";
+      if (!w.is_object()) return Error{name + ": field 'outcome.wall_taper': must be an object"};
+      if (ex.outcome != OutcomeKind::kGradedRegions)
+        return Error{name + ": field 'outcome.wall_taper': only a graded_regions outcome takes it (the access "
+                     "opening grades its walls itself)"};
+      WallTaper t;
+      double fz = 0, tz = 0;
+      if (!get_number(c, w, "points", path, t.points, true, 0, 1000) ||
+          !get_vec3_mm(c, w, "axis_point_mm", path, t.axis_point_m) ||
+          !get_number(c, w, "from_z_mm", path, fz, true, -100, 100) ||
+          !get_number(c, w, "to_z_mm", path, tz, true, -100, 100) ||
+          !get_number(c, w, "ideal_min_deg", path, t.ideal_min_deg, false, -45, 45) ||
+          !get_number(c, w, "ideal_max_deg", path, t.ideal_max_deg, false, -45, 45) ||
+          !get_number(c, w, "zero_beyond_deg", path, t.zero_beyond_deg, false, 0.1, 90))
+        return Error{c.err};
+      if (tz <= fz) return Error{name + ": field 'outcome.wall_taper.to_z_mm': must be above from_z_mm"};
+      if (t.ideal_max_deg < t.ideal_min_deg)
+        return Error{name + ": field 'outcome.wall_taper.ideal_max_deg': must not be below ideal_min_deg"};
+      t.from_z_m = fz * 1e-3;
+      t.to_z_m = tz * 1e-3;
+      ex.wall_taper = t;
     }
   }
   bool any_target = false;

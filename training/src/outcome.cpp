@@ -132,6 +132,53 @@ WallProfile wall_profile(const volume::VoxelVolume& cut, const Eigen::Vector3d& 
   return w;
 }
 
+namespace {
+
+// The wall-taper criterion of a graded exercise (issue 25, session 14): each of the four axial walls
+// earns points/4 when its divergence lies in the ideal range, less linearly to 0 at zero_beyond_deg
+// outside it; a wall the cavity does not reach over half the measured height earns nothing. An
+// untouched tooth has no cavity (the axis point is solid at every level) and so no wall.
+Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& cut) {
+  Criterion c;
+  c.name = "wall taper";
+  c.unit = "deg mean distance outside the ideal taper";
+  c.max_score = t.points;
+  const struct { const char* name; Eigen::Vector3d dir; } walls[4] = {
+      {"mesial", {-1, 0, 0}}, {"distal", {1, 0, 0}}, {"buccal", {0, -1, 0}}, {"palatal", {0, 1, 0}}};
+  const double height = t.to_z_m - t.from_z_m;
+  const double each = t.points / 4.0;
+  std::string parts;
+  double off_sum = 0;
+  for (const auto& w : walls) {
+    const WallProfile p = wall_profile(cut, t.axis_point_m, w.dir, t.from_z_m, t.to_z_m);
+    const double covered = p.z_m.size() >= 2 ? p.z_m.back() - p.z_m.front() : 0;
+    std::string part = std::string(w.name) + " ";
+    if (covered < 0.5 * height) {
+      part += "not formed (reached over " + fmt(covered * 1e3) + " of " + fmt(height * 1e3) + " mm), 0";
+      off_sum += t.zero_beyond_deg;
+    } else {
+      const double d = p.divergence_deg;
+      const double off = d < t.ideal_min_deg ? t.ideal_min_deg - d : d > t.ideal_max_deg ? d - t.ideal_max_deg : 0.0;
+      const double pts = each * std::clamp(1.0 - off / t.zero_beyond_deg, 0.0, 1.0);
+      c.score += pts;
+      off_sum += std::min(off, t.zero_beyond_deg);
+      part += fmt(d, 1) + " deg" +
+              (off > 0 ? std::string(d < t.ideal_min_deg ? " (converging " : " (diverging ") + fmt(off, 1) + " deg too much)"
+                       : "") +
+              ", " + fmt(pts);
+    }
+    parts += (parts.empty() ? "" : "; ") + part;
+  }
+  c.value = off_sum / 4.0;
+  c.detail = fmt(c.score) + " of " + fmt(t.points, 0) + ": the walls' taper (divergence toward occlusal, > 0 opens) " +
+             parts + "; each wall earns " + fmt(each) + " between " + fmt(t.ideal_min_deg, 0) + " and " +
+             fmt(t.ideal_max_deg, 0) + " deg (parallel to slightly converging occlusally, for retention), less " +
+             "linearly to 0 at " + fmt(t.zero_beyond_deg, 0) + " deg outside that range.";
+  return c;
+}
+
+}  // namespace
+
 Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, const volume::VoxelVolume& start,
                                     const volume::VoxelVolume& cut) {
   if (start.dims() != cut.dims() || !start.spacing().isApprox(cut.spacing()) ||
@@ -306,6 +353,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
   std::vector<double> sight;  // access opening: clear fraction per orifice
   if (ex.outcome == OutcomeKind::kAccessOpening && ex.access) {
     const AccessGeometry& a = *ex.access;
+    const bool continuous = ex.access_points == AccessPoints::kContinuous;
     // 1. Orifice visibility.
     double vis = 0;
     std::string det;
@@ -316,11 +364,21 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       det += (det.empty() ? "" : ", ") + f.name + " " + fmt(100 * v, 0) + " %";
     }
     vis /= static_cast<double>(a.orifices.size());
-    const int vs = band(vis, 0.9, 0.6, 0.3);
-    o.criteria.push_back({"canal orifices visible", vs, 100 * vis, "% of sight lines",
-                          std::to_string(vs) + " of 3: " + fmt(100 * vis, 0) +
-                              " % of the sight lines from the canal orifices to the opening are clear (" + det +
-                              "); 3 needs 90 %, 2 needs 60 %, 1 needs 30 %."});
+    if (!continuous) {
+      const int vs = band(vis, 0.9, 0.6, 0.3);
+      o.criteria.push_back({"canal orifices visible", static_cast<double>(vs), 100 * vis, "% of sight lines",
+                            std::to_string(vs) + " of 3: " + fmt(100 * vis, 0) +
+                                " % of the sight lines from the canal orifices to the opening are clear (" + det +
+                                "); 3 needs 90 %, 2 needs 60 %, 1 needs 30 %."});
+    } else {
+      // 3 points at 90 % of the sight lines clear, falling linearly to 0 with none clear (the
+      // bands' thresholds, 60 % for 2 and 30 % for 1, lie on the line).
+      const double vs = 3.0 * std::clamp(vis / 0.9, 0.0, 1.0);
+      o.criteria.push_back({"canal orifices visible", vs, 100 * vis, "% of sight lines",
+                            fmt(vs) + " of 3: " + fmt(100 * vis, 0) +
+                                " % of the sight lines from the canal orifices to the opening are clear (" + det +
+                                "); 3 points at 90 % or more, 1 point less for every 30 % fewer."});
+    }
     // 2-5. Axial walls.
     const struct { const char* name; Eigen::Vector3d dir; } walls[4] = {
         {"mesial wall", {-1, 0, 0}}, {"distal wall", {1, 0, 0}}, {"buccal wall", {0, -1, 0}}, {"palatal wall", {0, 1, 0}}};
@@ -337,7 +395,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
         c.value = 0;
         c.detail = "0 of 3: the wall is not formed: the cavity reaches it over " + fmt(covered * 1e3) + " mm of the " +
                    fmt((a.opening_z_m - a.walls_from_z_m) * 1e3) + " mm it should span (at least half is needed).";
-      } else {
+      } else if (!continuous) {
         int s = 3;
         std::string why;
         if (p.divergence_deg < -10) { s -= 2; why += "a strong undercut (-2); "; }
@@ -346,9 +404,26 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
         if (p.rms_mm > 0.3) { s -= 2; why += "rough, RMS above 0.3 mm (-2); "; }
         else if (p.rms_mm > 0.15) { s -= 1; why += "uneven, RMS above 0.15 mm (-1); "; }
         c.score = std::max(0, s);
-        c.detail = std::to_string(c.score) + " of 3: divergence " + fmt(p.divergence_deg, 1) + " deg, smoothness RMS " +
-                   fmt(p.rms_mm) + " mm: " +
+        c.detail = std::to_string(static_cast<int>(c.score)) + " of 3: divergence " + fmt(p.divergence_deg, 1) +
+                   " deg, smoothness RMS " + fmt(p.rms_mm) + " mm: " +
                    (why.empty() ? "straight and opening toward the occlusal surface." : why.substr(0, why.size() - 2) + ".");
+      } else {
+        // The bands' deductions as ramps: each starts where its band's tolerance ends and reaches the
+        // band's deduction at the band's next threshold (undercut 1 at -10 deg, 2 at -18; roughness
+        // 1 at 0.15 mm RMS, 2 at 0.30: 1 point per 0.15 mm); over-flare 1 point per
+        // flare_deg_per_point past flare_free_deg (exercise fields), at most 2.
+        const double under = std::clamp((-2.0 - p.divergence_deg) / 8.0, 0.0, 2.0);
+        const double flare =
+            std::clamp((p.divergence_deg - ex.access_flare_free_deg) / ex.access_flare_deg_per_point, 0.0, 2.0);
+        const double rough = std::clamp(p.rms_mm / 0.15, 0.0, 2.0);
+        c.score = std::max(0.0, 3.0 - under - flare - rough);
+        std::string why = "less " + fmt(rough) + " for its roughness (1 point per 0.15 mm RMS)";
+        if (under > 0) why += ", less " + fmt(under) + " for the undercut (1 point per 8 deg past -2 deg)";
+        if (flare > 0)
+          why += ", less " + fmt(flare) + " for over-flaring (1 point per " + fmt(ex.access_flare_deg_per_point, 0) +
+                 " deg past " + fmt(ex.access_flare_free_deg, 0) + " deg)";
+        c.detail = fmt(c.score) + " of 3: divergence " + fmt(p.divergence_deg, 1) + " deg, smoothness RMS " +
+                   fmt(p.rms_mm) + " mm: 3 points " + why + ".";
       }
       o.criteria.push_back(c);
     }
@@ -388,11 +463,16 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       fl.score = 0;
       fl.detail = "0 of 3: the pulp chamber was not opened (no clear sight line from any orifice), so there is no "
                   "floor to judge yet.";
-    } else {
+    } else if (!continuous) {
       fl.score = below < 0.05 ? 3 : below < 0.3 ? 2 : below < 1.0 ? 1 : 0;
-      fl.detail = std::to_string(fl.score) + " of 3: " + fmt(below, 3) +
+      fl.detail = std::to_string(static_cast<int>(fl.score)) + " of 3: " + fmt(below, 3) +
                   " mm3 of dentin removed below the floor level; 3 needs less than 0.05 mm3, 2 less than 0.3, 1 less "
                   "than 1.0.";
+    } else {
+      // 3 points less 3 per mm3 removed below the floor: nothing left at the bands' 1.0 mm3.
+      fl.score = 3.0 * std::clamp(1.0 - below / 1.0, 0.0, 1.0);
+      fl.detail = fmt(fl.score) + " of 3: " + fmt(below, 3) +
+                  " mm3 of dentin removed below the floor level; 3 points less 3 for every mm3 (none left at 1 mm3).";
     }
     o.criteria.push_back(fl);
     o.max_points = 18;
@@ -400,6 +480,10 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
   } else {
     o.max_points = ex.max_points();
     for (const auto& r : o.regions) o.earned_points += r.points;
+    if (ex.wall_taper) {
+      o.criteria.push_back(wall_taper_criterion(*ex.wall_taper, cut));
+      o.earned_points += o.criteria.back().score;
+    }
   }
   // Pulp exposure: the bur entered the pulp (pulp tissue removed). Opening
   // the last dentin voxel over it without removing pulp is reported

@@ -581,7 +581,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
                                        {"points", r.points}, {"max_points", r.max_points}, {"why", r.why}});
   j["outcome"]["criteria"] = json::array();
   for (const auto& c : oc.criteria)
-    j["outcome"]["criteria"].push_back({{"name", c.name}, {"score", c.score}, {"value", c.value}, {"unit", c.unit}, {"detail", c.detail}});
+    j["outcome"]["criteria"].push_back({{"name", c.name}, {"score", c.score}, {"max_score", c.max_score}, {"value", c.value}, {"unit", c.unit}, {"detail", c.detail}});
   const ProcessMetrics& p = sum.process;
   j["process"] = {{"duration_s", p.duration_s}, {"drilling_s", p.drilling_s}, {"path_mm", p.path_mm},
                   {"excessive_force_s", p.excessive_force_s}, {"excessive_force_N", p.excessive_force_N},
@@ -699,10 +699,15 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
     << "</td></tr><tr><td>perforation</td><td>" << (oc.perforation ? "yes (" + num(oc.perforation_mm3) + " mm&sup3;)" : "no")
     << "</td></tr></table>";
   if (!oc.criteria.empty()) {
-    h << "<table><tr><th>criterion</th><th>score (0-3)</th><th>why</th></tr>";
-    for (const auto& c : oc.criteria) h << "<tr><td>" << esc(c.name) << "</td><td>" << c.score << "</td><td>" << esc(c.detail) << "</td></tr>";
+    h << "<table><tr><th>criterion</th><th>score</th><th>why</th></tr>";
+    for (const auto& c : oc.criteria)
+      h << "<tr><td>" << esc(c.name) << "</td><td>" << num(c.score, 2) << " / " << num(c.max_score, 0) << "</td><td>"
+        << esc(c.detail) << "</td></tr>";
     h << "</table>";
-  } else {
+  }
+  // Graded regions (their points): also beside a graded exercise's wall taper.
+  if (oc.criteria.empty() ||
+      std::any_of(oc.regions.begin(), oc.regions.end(), [](const RegionScore& r) { return r.max_points > 0; })) {
     h << "<table><tr><th>region</th><th>coverage</th><th>over-preparation nearby</th><th>points</th><th>why</th></tr>";
     for (const auto& r : oc.regions)
       h << "<tr><td>" << esc(r.name) << "</td><td>" << num(r.coverage_pct, 1) << " %</td><td>" << num(r.overprep_mm3)

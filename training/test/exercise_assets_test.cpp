@@ -72,6 +72,14 @@ TEST(ExerciseAssets, ClassOneCavity) {
   ASSERT_TRUE(o.ok()) << o.error();
   EXPECT_NEAR(o->points, 10.0, 1e-6);
   EXPECT_FALSE(o->pulp_exposed);
+  // The box's walls are parallel: the wall taper (issue 25, session 14) gives all its 3 points.
+  ASSERT_EQ(o->criteria.size(), 1u);
+  EXPECT_EQ(o->criteria[0].name, "wall taper");
+  EXPECT_NEAR(o->criteria[0].score, 3.0, 1e-9) << o->criteria[0].detail;
+  auto none = score_outcome(l.ex, l.masks, l.start, l.start);
+  ASSERT_TRUE(none.ok());
+  EXPECT_EQ(none->points, 0.0);
+  EXPECT_FALSE(none->complete);
 }
 
 }  // namespace

@@ -668,3 +668,162 @@ TEST(Outcome, SpearmanRankCorrelationWithTies) {
 
 }  // namespace
 }  // namespace dentar::training
+
+namespace dentar::training {
+namespace {
+
+// Issue 25 (session 14): a graded exercise's wall taper. The well of `Cases` (r 2 mm from z 6 mm to the
+// top), measured from z 6.5 to 9.5 mm; 4 points, full between -5 and +2 deg, none 10 deg outside.
+struct TaperCase : Cases {
+  TaperCase() {
+    WallTaper t;
+    t.points = 4;
+    t.axis_point_m = Eigen::Vector3d(5e-3, 5e-3, 0);
+    t.from_z_m = 6.5e-3;
+    t.to_z_m = 9.5e-3;
+    ex.wall_taper = t;
+  }
+  // A well whose radius grows by tan(deg) per mm upward from 2 mm at z 6 (deg < 0: an undercut).
+  VoxelVolume cone(double deg) const {
+    VoxelVolume c = start.clone();
+    const double t = std::tan(deg * M_PI / 180);
+    carve(c, [&](const Eigen::Vector3d& p) { return p.z() >= 6.0 && std::hypot(p.x() - 5, p.y() - 5) <= 2.0 + (p.z() - 6.0) * t; });
+    return c;
+  }
+};
+
+TEST(OutcomeCases, WallTaperGradesEachWallAgainstTheIdealRange) {
+  const TaperCase c;
+  EXPECT_EQ(c.ex.max_points(), 8.0);  // the region's 4 + the taper's 4
+  // Untouched: no cavity, so no wall: 0, and the total stays 0.
+  const OutcomeScores un = c.score(c.start);
+  ASSERT_EQ(un.criteria.size(), 1u);
+  EXPECT_EQ(un.criteria[0].name, "wall taper");
+  EXPECT_EQ(un.criteria[0].score, 0.0);
+  EXPECT_EQ(un.criteria[0].max_score, 4.0);
+  EXPECT_TRUE(has(un.criteria[0].detail, "not formed")) << un.criteria[0].detail;
+  EXPECT_EQ(un.points, 0.0);
+  // Parallel walls: every wall in the range, all 4 points, and the region's 4: 8 of 8.
+  const OutcomeScores par = c.score(c.well(2.0, 6.0));
+  EXPECT_NEAR(par.criteria[0].score, 4.0, 1e-9) << par.criteria[0].detail;
+  EXPECT_NEAR(par.points, 8.0, 0.02);
+  EXPECT_TRUE(has(par.criteria[0].detail, "4.00 of 4")) << par.criteria[0].detail;
+  // Diverging 10 deg: 8 deg past +2 on every wall: 1 x (1 - 8/10) = 0.2 each (the measured angle is
+  // within about 1 deg of the carved one: WallDivergenceAndSmoothness), and exactly that from the
+  // measured mean excess (`value`).
+  const OutcomeScores div = c.score(c.cone(10));
+  EXPECT_NEAR(div.criteria[0].value, 8.0, 1.0);
+  EXPECT_NEAR(div.criteria[0].score, 4.0 * (1.0 - div.criteria[0].value / 10.0), 1e-9) << div.criteria[0].detail;
+  EXPECT_TRUE(has(div.criteria[0].detail, "diverging")) << div.criteria[0].detail;
+  // Converging 8 deg (an undercut beyond the 5 deg of retention form): 3 deg too much, 0.7 each.
+  const OutcomeScores con = c.score(c.cone(-8));
+  EXPECT_NEAR(con.criteria[0].score, 2.8, 0.3) << con.criteria[0].detail;
+  EXPECT_TRUE(has(con.criteria[0].detail, "converging")) << con.criteria[0].detail;
+  // Converging 3 deg: within the range, full points.
+  EXPECT_NEAR(c.score(c.cone(-3)).criteria[0].score, 4.0, 1e-9);
+  // The points add to the total and pulp exposure still costs what the exercise says.
+  EXPECT_NEAR(div.earned_points, div.regions[0].points + div.criteria[0].score, 1e-9);
+  const OutcomeScores exp = c.score(c.well(2.0, 5.4));
+  ASSERT_TRUE(exp.pulp_exposed);
+  EXPECT_NEAR(exp.points, std::max(0.0, exp.earned_points - 2.5), 1e-9);
+  // A shallow cut (0.8 mm deep, a quarter of the measured height) forms no wall.
+  EXPECT_EQ(c.score(c.well(2.0, 9.2)).criteria[0].score, 0.0);
+}
+
+// Continuous access points: each criterion falls with what it measures, between the bands' thresholds.
+TEST(OutcomeCases, ContinuousAccessPointsFallWithTheDeviation) {
+  AccessCase c;
+  c.ex.access_points = AccessPoints::kContinuous;
+  // Untouched: still 0 on every criterion.
+  const OutcomeScores un = c.score(c.start);
+  EXPECT_EQ(un.points, 0.0);
+  for (const auto& k : un.criteria) EXPECT_EQ(k.score, 0.0) << k.name << ": " << k.detail;
+  // The ideal well: orifices and floor 3; straight walls lose only their voxel roughness (RMS / 0.15 mm).
+  const OutcomeScores id = c.score(c.ideal());
+  EXPECT_EQ(id.criteria[0].score, 3.0) << id.criteria[0].detail;
+  EXPECT_EQ(id.criteria[5].score, 3.0) << id.criteria[5].detail;
+  for (int w = 1; w <= 4; ++w) {
+    EXPECT_GT(id.criteria[w].score, 2.6) << id.criteria[w].detail;
+    EXPECT_LE(id.criteria[w].score, 3.0);
+    EXPECT_TRUE(has(id.criteria[w].detail, "for its roughness")) << id.criteria[w].detail;
+  }
+  // A small gouge below the floor (r 0.4 mm, 0.3 mm deep: about 0.15 mm3): the bands give 2, the
+  // continuous rule 3 x (1 - mm3).
+  VoxelVolume nick = c.ideal();
+  carve(nick, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.4 && p.z() >= 2.75; });
+  const OutcomeScores nc = c.score(nick);
+  const double below = nc.criteria[5].value;
+  ASSERT_GT(below, 0.05);
+  ASSERT_LT(below, 0.3);
+  EXPECT_NEAR(nc.criteria[5].score, 3.0 * (1.0 - below), 1e-9) << nc.criteria[5].detail;
+  c.ex.access_points = AccessPoints::kBands;
+  EXPECT_EQ(c.score(nick).criteria[5].score, 2.0);
+  c.ex.access_points = AccessPoints::kContinuous;
+  // Walls flared 35 deg: 10 deg past the free 25 deg costs 1 point (at 10 deg a point).
+  VoxelVolume flared = c.start.clone();
+  const double t35 = std::tan(35 * M_PI / 180);
+  carve(flared, [&](const Eigen::Vector3d& p) {
+    return p.z() >= 3.05 && std::hypot(p.x() - 5, p.y() - 5) <= 1.6 + (p.z() - 3.05) * t35;
+  });
+  const OutcomeScores fl = c.score(flared);
+  for (int w = 1; w <= 4; ++w) {
+    EXPECT_TRUE(has(fl.criteria[w].detail, "for over-flaring")) << fl.criteria[w].detail;
+    EXPECT_LT(fl.criteria[w].score, 2.3) << fl.criteria[w].detail;
+  }
+  // With the flare free up to 5 deg at 5 deg a point (exercise fields), the same walls lose 2 (the cap).
+  c.ex.access_flare_free_deg = 5;
+  c.ex.access_flare_deg_per_point = 5;
+  for (int w = 1; w <= 4; ++w) EXPECT_LT(c.score(flared).criteria[w].score, 1.01);
+}
+
+TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
+  const std::string graded = R"({"format":"dentar-exercise","version":1,"name":"t","procedure":"p",
+    "tooth":{"kind":"molar","voxel_mm":0.2},"bur":{"shape":"sphere","radius_mm":0.5},"time_limit_s":60,
+    "regions":[{"name":"a","role":"target","points":7,"all":[{"shape":"sphere","center_mm":[0,0,5],"radius_mm":1}]}],
+    "steps":[{"name":"s1","region":"a"}],
+    "outcome":{"kind":"graded_regions","wall_taper":{"points":3,"axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7}}})";
+  auto ok = parse_exercise(graded, "t.json");
+  ASSERT_TRUE(ok.ok()) << ok.error();
+  ASSERT_TRUE(ok->wall_taper.has_value());
+  EXPECT_EQ(ok->max_points(), 10.0);
+  EXPECT_NEAR(ok->wall_taper->from_z_m, 4.2e-3, 1e-12);
+  EXPECT_EQ(ok->wall_taper->ideal_min_deg, -5.0);
+  EXPECT_EQ(ok->wall_taper->ideal_max_deg, 2.0);
+  auto err = [](const std::string& text, const std::string& needle) {
+    auto r = parse_exercise(text, "t.json");
+    ASSERT_FALSE(r.ok()) << needle;
+    EXPECT_NE(r.error().find(needle), std::string::npos) << r.error();
+    EXPECT_NE(r.error().find("t.json"), std::string::npos) << r.error();
+  };
+  auto rep = [&](const std::string& a, const std::string& b) {
+    std::string s = graded;
+    s.replace(s.find(a), a.size(), b);
+    return s;
+  };
+  err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":4.0"), "outcome.wall_taper.to_z_mm");
+  err(rep("\"points\":3,", ""), "outcome.wall_taper.points");
+  err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"ideal_min_deg\":5"), "outcome.wall_taper.ideal_max_deg");
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"access_points\":\"continuous\","),
+      "outcome.access_points");
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"flare_free_deg\":5,"), "outcome.flare_free_deg");
+  // An access opening takes "continuous" and refuses another word, naming it.
+  const std::string access = R"({"format":"dentar-exercise","version":1,"name":"t","procedure":"p",
+    "tooth":{"kind":"molar","voxel_mm":0.2},"bur":{"shape":"sphere","radius_mm":0.5},"time_limit_s":60,
+    "regions":[{"name":"a","role":"target","all":[{"shape":"sphere","center_mm":[0,0,5],"radius_mm":1}]}],
+    "steps":[{"name":"s1","region":"a"}],
+    "outcome":{"kind":"access_opening","orifices":[{"name":"o","position_mm":[0,0,1]}],"axis_point_mm":[0,0,0],
+               "opening_z_mm":5,"floor_z_mm":1,"access_points":"continuous"}})";
+  auto ac = parse_exercise(access, "t.json");
+  ASSERT_TRUE(ac.ok()) << ac.error();
+  EXPECT_EQ(ac->access_points, AccessPoints::kContinuous);
+  std::string smooth = access;
+  smooth.replace(smooth.find("\"continuous\""), 12, "\"smooth\"");
+  err(smooth, "outcome.access_points': 'smooth'");
+  std::string tapered = access;
+  tapered.replace(tapered.find("\"access_points\""), 0,
+                  "\"wall_taper\":{\"points\":1,\"axis_point_mm\":[0,0,0],\"from_z_mm\":1,\"to_z_mm\":2},");
+  err(tapered, "outcome.wall_taper");
+}
+
+}  // namespace
+}  // namespace dentar::training

@@ -81,6 +81,27 @@ struct AccessGeometry {
 
 enum class OutcomeKind : std::uint8_t { kGradedRegions, kAccessOpening };
 
+// Access opening: how the six criteria turn what they measure into points
+// (outcome field "access_points"). kBands: the integer bands 0-3 (the rule
+// since issue 14); kContinuous (issue 25, session 14): each criterion's
+// points fall linearly with the measured deviation between the same
+// thresholds, so two sessions tie only when they measure the same.
+enum class AccessPoints : std::uint8_t { kBands, kContinuous };
+
+// Graded regions: the taper of the cavity's four axial walls (outcome field
+// "wall_taper", issue 25 session 14). Each wall (mesial -x, distal +x,
+// buccal -y, palatal/lingual +y from the axis point) is measured as the
+// access opening's walls are (wall_profile) between from_z and to_z; a wall
+// whose divergence lies within [ideal_min_deg, ideal_max_deg] earns points/4,
+// and its points fall linearly to 0 at zero_beyond_deg outside that range.
+struct WallTaper {
+  double points = 0;
+  Eigen::Vector3d axis_point_m = Eigen::Vector3d::Zero();
+  double from_z_m = 0, to_z_m = 0;
+  double ideal_min_deg = -5, ideal_max_deg = 2;
+  double zero_beyond_deg = 10;
+};
+
 struct Exercise {
   std::string source;  // file name (messages)
   std::string name, title, procedure;
@@ -93,6 +114,12 @@ struct Exercise {
   std::vector<Region> regions;
   OutcomeKind outcome = OutcomeKind::kGradedRegions;
   std::optional<AccessGeometry> access;
+  AccessPoints access_points = AccessPoints::kBands;
+  // Continuous access points: a wall diverging occlusally by more than flare_free_deg loses a point
+  // per flare_deg_per_point beyond it, at most 2 (outcome fields "flare_free_deg",
+  // "flare_deg_per_point"; defaults 25 and 10, the bands' over-flare threshold and step).
+  double access_flare_free_deg = 25, access_flare_deg_per_point = 10;
+  std::optional<WallTaper> wall_taper;  // graded regions only; its points count in max_points()
   // What the exercise charges (outcome fields "pulp_exposure_points",
   // "perforation_points"; points subtracted from the total, which never
   // goes below 0). Negative = all the exercise's points (the default: an
@@ -135,7 +162,7 @@ struct Exercise {
   double complete_orifice_sight = 0.3;
 
   const Region* region(const std::string& n) const;
-  double max_points() const;  // 18 for an access opening, sum of points otherwise
+  double max_points() const;  // 18 for an access opening, sum of points (regions + wall taper) otherwise
   double pulp_exposure_points() const { return pulp_exposure_cost < 0 ? max_points() : pulp_exposure_cost; }
   double perforation_points() const { return perforation_cost < 0 ? max_points() : perforation_cost; }
 };

@@ -20,13 +20,16 @@ struct RegionScore {
   std::string why;  // one sentence: how the points were reached (report)
 };
 
-// One of the six access-opening criteria, 0..3.
+// One of the six access-opening criteria (0..3: an integer band, or any value
+// between with the exercise's "access_points": "continuous"), or a graded
+// exercise's wall taper (0..its points).
 struct Criterion {
   std::string name;
-  int score = 0;
+  double score = 0;
   double value = 0;   // the measured quantity (see `unit`)
   std::string unit;
   std::string detail;  // how the score was reached, for the report
+  double max_score = 3;
 };
 
 // A cost the exercise charges (pulp exposure, perforation): subtracted
@@ -61,7 +64,7 @@ struct OutcomeScores {
   bool perforation = false;      // the cut opened to the outside away from every entry region
   double perforation_mm3 = 0;    // opened voxels that border outside air outside entry regions
   std::vector<RegionScore> regions;  // every target region
-  std::vector<Criterion> criteria;   // access opening: the six criteria
+  std::vector<Criterion> criteria;   // access opening: the six criteria; graded regions: the wall taper, if set
   std::vector<Penalty> penalties;    // every cost charged (none when nothing went wrong)
   double earned_points = 0;          // criteria or regions, before the penalties
   double points = 0, max_points = 0; // points = max(0, earned - penalties)
