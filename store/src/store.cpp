@@ -402,9 +402,9 @@ Result<std::vector<StudentSummary>> Store::students() {
   return out;
 }
 
-Result<std::vector<SessionSummary>> Store::sessions(const SessionFilter& f) {
-  std::string sql = std::string("SELECT ") + kSummaryCols + kSummaryFrom + " WHERE 1=1";
-  std::vector<Value> p;
+namespace {
+// The filter's conditions on students (st), exercises (e) and stations (sta), as numbered parameters.
+void add_filter(const SessionFilter& f, std::string& sql, std::vector<Value>& p) {
   if (!f.student.empty()) {
     p.push_back(S(f.student));
     sql += " AND st.code = $" + std::to_string(p.size());
@@ -417,6 +417,13 @@ Result<std::vector<SessionSummary>> Store::sessions(const SessionFilter& f) {
     p.push_back(S(f.station));
     sql += " AND sta.code = $" + std::to_string(p.size());
   }
+}
+}  // namespace
+
+Result<std::vector<SessionSummary>> Store::sessions(const SessionFilter& f) {
+  std::string sql = std::string("SELECT ") + kSummaryCols + kSummaryFrom + " WHERE 1=1";
+  std::vector<Value> p;
+  add_filter(f, sql, p);
   sql += " ORDER BY s.started_utc, s.id";
   if (f.limit) sql += " LIMIT " + std::to_string(f.limit);
   auto r = db_->query(sql, p);
@@ -439,18 +446,7 @@ Result<std::vector<TrainingRow>> Store::training(const SessionFilter& f) {
                     "JOIN students st ON st.id = s.student_id JOIN exercises e ON e.id = s.exercise_id "
                     "JOIN stations sta ON sta.id = s.station_id WHERE m.name LIKE 'training.%'";
   std::vector<Value> p;
-  if (!f.student.empty()) {
-    p.push_back(S(f.student));
-    sql += " AND st.code = $" + std::to_string(p.size());
-  }
-  if (!f.exercise.empty()) {
-    p.push_back(S(f.exercise));
-    sql += " AND e.name = $" + std::to_string(p.size());
-  }
-  if (!f.station.empty()) {
-    p.push_back(S(f.station));
-    sql += " AND sta.code = $" + std::to_string(p.size());
-  }
+  add_filter(f, sql, p);
   auto r = db_->query(sql, p);
   if (!r) return Error{r.error()};
   for (const auto& row : *r) {

@@ -686,9 +686,19 @@ struct WebServer::Impl {
       row("station", "Station", html::esc(x.station));
       row("started", "Started (UTC)", html::esc(x.started_utc));
       bool incomplete = false;  // score.json outcome.complete (scores before issue 25 have none)
-      for (const auto& m : x.metrics) incomplete |= m.name == "outcome.complete" && m.value == 0;
-      row("points", "Points", html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) + " (" + pct(x.points, x.max_points) + " %)" +
-                                  (incomplete ? " <span class=\"warn\">incomplete: the preparation was not finished</span>" : ""));
+      int mode = 0;              // training mode 1..5 (issue 27), 0 = plain drilling
+      bool expert_cut = false;   // modes 1-4: the expert's bur cut, so the points are not the student's
+      for (const auto& m : x.metrics) {
+        incomplete |= m.name == "outcome.complete" && m.value == 0;
+        if (m.name == "training.mode") mode = static_cast<int>(m.value);
+        if (m.name == "training.expert_cut") expert_cut |= m.value != 0;
+      }
+      expert_cut |= mode >= 1 && mode <= 4;  // stored before score.json said cut_by
+      const std::string pts = html::fixed(x.points, 2) + " / " + html::fixed(x.max_points, 0) + " (" + pct(x.points, x.max_points) + " %)";
+      if (expert_cut)
+        row("points", "Points", "expert's cut (mode " + std::to_string(mode) + "), not the student's: " + pts);
+      else
+        row("points", "Points", pts + (incomplete ? " <span class=\"warn\">incomplete: the preparation was not finished</span>" : ""));
       row("coverage", "Target removed", html::fixed(x.coverage_pct, 1) + " %");
       row("overprep", "Over-preparation", html::fixed(x.overprep_mm3, 2) + " mm³");
       row("pulp", "Pulp exposed", x.pulp_exposed ? "<span class=\"warn\">yes</span>" : "no");

@@ -401,6 +401,17 @@ TEST_F(Web, StudentPageShowsTrainingModesErrorsAndProgression) {
     if (x.started_utc == testkit::make_record("s11", "st-0", "molar_class1_cavity", 1104, 40).started_utc) plain_id = x.id;
   EXPECT_NE(srow(plain_id).find(" %"), std::string::npos) << srow(plain_id);
   EXPECT_EQ(srow(plain_id).find("expert's cut"), std::string::npos);
+  // The session's own page says so too; the plain session's page shows its points as the student's.
+  {
+    auto sp = get("/session/" + std::to_string((*rows)[2].id));
+    ASSERT_TRUE(sp);
+    ASSERT_EQ(sp->status, 200);
+    EXPECT_NE(sp->body.find("data-k=\"points\">expert's cut (mode 3), not the student's: "), std::string::npos) << sp->body;
+    auto pp = get("/session/" + std::to_string(plain_id));
+    ASSERT_TRUE(pp);
+    EXPECT_EQ(pp->body.find("expert's cut"), std::string::npos);
+    EXPECT_NE(pp->body.find("data-k=\"points\">"), std::string::npos);
+  }
   // Per mode: first and last error.
   const auto m2 = b.find("<tr data-mode=\"2\">");
   ASSERT_NE(m2, std::string::npos);
