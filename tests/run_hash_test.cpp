@@ -145,8 +145,11 @@ TEST(OfflineHash, GeneratedFootageRunIsUnchanged) {
   ASSERT_EQ(r.code, 0) << r.out;
   const Hashes h = hashes(out);
   EXPECT_EQ(h.frames, 10);
-  EXPECT_EQ(h.csv, "e65f946ff741a394") << "frames.csv changed";
-  EXPECT_EQ(h.summary, "0282e318781b09e5") << "summary.json changed: " << read_file(out / "summary.json");
+  // Session 14: the tag refit's second window on long edges reuses the first window's levels
+  // (issue 24), which moves this clip's corners by ~1e-12 px and its pose errors by ~1e-9 mm in
+  // the last printed digit; the video is unchanged. Hashes before: e65f946ff741a394, 0282e318781b09e5.
+  EXPECT_EQ(h.csv, "4b1ec134c34b3e5f") << "frames.csv changed";
+  EXPECT_EQ(h.summary, "aaf4d9ca67957246") << "summary.json changed: " << read_file(out / "summary.json");
   EXPECT_EQ(h.video, "824393745507769d") << "composite.mkv frames changed";
 }
 

@@ -4,6 +4,7 @@
 #include <sqlite3.h>
 #include <unistd.h>
 
+#include <charconv>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -67,7 +68,16 @@ class SqliteDb final : public Db {
       const int n = sqlite3_column_count(st);
       Row r(static_cast<std::size_t>(n));
       for (int c = 0; c < n; ++c) {
-        if (sqlite3_column_type(st, c) == SQLITE_NULL) continue;
+        const int type = sqlite3_column_type(st, c);
+        if (type == SQLITE_NULL) continue;
+        if (type == SQLITE_FLOAT) {
+          // SQLite's own text of a REAL has 15 digits and loses the last bits of a score
+          // (0.23337749252479367 came back as 0.233377492524794): shortest round-trip text.
+          char b[32];
+          const auto e = std::to_chars(b, b + sizeof b, sqlite3_column_double(st, c));
+          r[static_cast<std::size_t>(c)] = std::string(b, e.ptr);
+          continue;
+        }
         const auto* t = reinterpret_cast<const char*>(sqlite3_column_text(st, c));
         r[static_cast<std::size_t>(c)] = std::string(t ? t : "", static_cast<std::size_t>(sqlite3_column_bytes(st, c)));
       }
