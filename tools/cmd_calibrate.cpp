@@ -143,6 +143,19 @@ void print_prompt(const std::string& title, const std::string& text) {
 
 cal::StylusNoise sim_noise() { return cal::StylusNoise{}; }
 
+// The image files of a folder of board photos (camera and stereo steps), in name order.
+std::vector<fs::path> board_photo_files(const std::string& dir) {
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::string ext = e.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".tif" || ext == ".tiff")
+      files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 // Each step returns 0 (gates passed, station updated in memory), 1 (a gate failed).
 int step_camera(Session& s) {
   const CalibCli& c = s.cli;
@@ -236,15 +249,7 @@ int step_camera(Session& s) {
         throw BadInput{"camera: give --images DIR (board photos), --import FILE (a camera YAML) "
                        "or --simulate"};
       if (!fs::is_directory(c.images)) throw BadInput{c.images + ": not a directory of board photos"};
-      std::vector<fs::path> files;
-      for (const auto& e : fs::directory_iterator(c.images)) {
-        std::string ext = e.path().extension().string();
-        std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-        if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".tif" ||
-            ext == ".tiff")
-          files.push_back(e.path());
-      }
-      std::sort(files.begin(), files.end());
+      const std::vector<fs::path> files = board_photo_files(c.images);
       if (files.empty()) throw BadInput{c.images + ": no .png/.jpg/.bmp/.tif images in it"};
       for (const auto& f : files) {
         int w = 0, h = 0;
@@ -943,14 +948,7 @@ void print_instructor_time() {
 std::vector<fs::path> image_files(const std::string& dir, const std::string& what) {
   if (dir.empty()) throw BadInput{"stereo: " + what + " folder not given"};
   if (!fs::is_directory(dir)) throw BadInput{dir + ": no such folder (" + what + " photos)"};
-  std::vector<fs::path> files;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    std::string ext = e.path().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".tif" || ext == ".tiff")
-      files.push_back(e.path());
-  }
-  std::sort(files.begin(), files.end());
+  const std::vector<fs::path> files = board_photo_files(dir);
   if (files.empty()) throw BadInput{dir + ": no .png/.jpg/.bmp/.tif images in it (" + what + " photos)"};
   return files;
 }

@@ -132,6 +132,18 @@ Result<SessionSetup> parse_session_header(const std::string& text) {
   return s;
 }
 
+Result<ExpertTrack> load_trained_expert(const TrainingSetup& t) {
+  auto expert = read_session_log(t.params.expert_file);
+  if (!expert) return Error{"the session was trained on " + t.params.expert_file + ": " + expert.error()};
+  auto tr = ExpertTrack::from_records(expert->records, t.expert_T_tooth_dev, t.expert_T_sty_tip, t.params.expert_file);
+  if (!tr) return Error{tr.error()};
+  if (tr->content_hash() != t.expert_hash)
+    return Error{t.params.expert_file +
+                 " is not the expert recording this session was trained on (its content differs); "
+                 "give the lesson's own recording"};
+  return tr;
+}
+
 Result<ReplayResult> replay_session(const SessionLog& log, volume::VoxelVolume& vol) {
   auto setup = parse_session_header(log.header_json);
   if (!setup) return Error{setup.error()};
@@ -149,17 +161,10 @@ Result<ReplayResult> replay_session(const SessionLog& log, volume::VoxelVolume& 
   std::optional<ExpertTrack> track;
   std::optional<TrainingMode> mode;
   if (setup->training) {
-    const TrainingSetup& t = *setup->training;
-    auto expert = read_session_log(t.params.expert_file);
-    if (!expert) return Error{"replay: the session was trained on " + t.params.expert_file + ": " + expert.error()};
-    auto tr = ExpertTrack::from_records(expert->records, t.expert_T_tooth_dev, t.expert_T_sty_tip, t.params.expert_file);
+    auto tr = load_trained_expert(*setup->training);
     if (!tr) return Error{"replay: " + tr.error()};
-    if (tr->content_hash() != t.expert_hash)
-      return Error{"replay: " + t.params.expert_file +
-                   " is not the expert recording this session was trained on (its content differs); "
-                   "give the lesson's own recording"};
     track.emplace(std::move(tr).value());
-    auto m = TrainingMode::create(t.params, *track);
+    auto m = TrainingMode::create(setup->training->params, *track);
     if (!m) return Error{"replay: " + m.error()};
     mode.emplace(std::move(m).value());
     setup->engine.training = &*mode;

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "dentar/haptics/device_profiles.h"
+#include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
 
 namespace dentar::session {
@@ -70,15 +71,8 @@ Result<std::unique_ptr<LessonClock>> LessonClock::open(const std::string& lesson
 }
 
 Result<std::unique_ptr<LessonClock>> LessonClock::from_header(const haptics::TrainingSetup& t) {
-  auto expert = haptics::read_session_log(t.params.expert_file);
-  if (!expert) return Error{"the session was trained on " + t.params.expert_file + ": " + expert.error()};
-  auto tr = haptics::ExpertTrack::from_records(expert->records, t.expert_T_tooth_dev, t.expert_T_sty_tip,
-                                               t.params.expert_file);
+  auto tr = haptics::load_trained_expert(t);
   if (!tr) return Error{tr.error()};
-  if (tr->content_hash() != t.expert_hash)
-    return Error{t.params.expert_file +
-                 " is not the expert recording this session was trained on (its content differs); give the lesson's "
-                 "own recording"};
   std::unique_ptr<LessonClock> c(new LessonClock);
   c->track_.emplace(std::move(*tr));
   auto m = haptics::TrainingMode::create(t.params, *c->track_);

@@ -63,13 +63,8 @@ Status replay_follow_error(const haptics::SessionLog& log, const haptics::Sessio
     return Error{name + ": the rebuilt tooth does not match the log's volume_hash_start"};
   auto bur = volume::sample_bur(setup.bur, setup.bur_samples);
   if (!bur) return Error{name + ": bur: " + bur.error()};
-  auto expert = haptics::read_session_log(t.params.expert_file);
-  if (!expert) return Error{name + ": the session was trained on " + t.params.expert_file + ": " + expert.error()};
-  auto track = haptics::ExpertTrack::from_records(expert->records, t.expert_T_tooth_dev, t.expert_T_sty_tip,
-                                                  t.params.expert_file);
+  auto track = haptics::load_trained_expert(t);
   if (!track) return Error{name + ": " + track.error()};
-  if (track->content_hash() != t.expert_hash)
-    return Error{name + ": " + t.params.expert_file + " is not the expert recording this session was trained on"};
   auto mode = haptics::TrainingMode::create(t.params, *track);
   if (!mode) return Error{name + ": training: " + mode.error()};
   haptics::ReplayDevice dev(log.records, setup.limits);

@@ -37,6 +37,10 @@ struct SessionSetup {
 // Errors name the missing or bad field of the header.
 Result<SessionSetup> parse_session_header(const std::string& header_json);
 
+// The expert recording a trained session replayed (t.params.expert_file), read and checked
+// against the header's content hash: the one check for replay, the lesson clock and the plan.
+Result<ExpertTrack> load_trained_expert(const TrainingSetup& t);
+
 struct ReplayResult {
   std::uint64_t steps = 0;
   std::uint64_t volume_hash = 0;
