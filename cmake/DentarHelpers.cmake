@@ -37,8 +37,11 @@ endfunction()
 # binaries whose tests share an expensive fixture in a static cache (generated footage,
 # a generated cohort): per-test processes would each build it again. Filter inside it with
 # --gtest_filter.
+# QUICK_FILTER <gtest filter> (with ONE_PROCESS): the whole binary becomes a `long` test
+# (ctest -L long) and <ctest name>.Quick runs only the filter, with QUICK_ENV (a list of
+# NAME=VALUE) in its environment: a seeded subset that keeps CI within its time.
 function(dentar_test name)
-  cmake_parse_arguments(T "SERIAL" "TIMEOUT;COST;ONE_PROCESS" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(T "SERIAL" "TIMEOUT;COST;ONE_PROCESS;QUICK_FILTER" "SOURCES;DEPS;LABELS;QUICK_ENV" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   target_link_libraries(${name} PRIVATE ${T_DEPS} dentar_testutil GTest::gtest GTest::gtest_main)
   dentar_warnings(${name})
@@ -54,7 +57,16 @@ function(dentar_test name)
   endif()
   if(T_ONE_PROCESS)
     add_test(NAME ${T_ONE_PROCESS} COMMAND ${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
-    set_tests_properties(${T_ONE_PROCESS} PROPERTIES LABELS "${T_LABELS}" TIMEOUT ${T_TIMEOUT} ${_serial})
+    if(T_QUICK_FILTER)
+      set(_long_labels ${T_LABELS} long)
+      set_tests_properties(${T_ONE_PROCESS} PROPERTIES LABELS "${_long_labels}" TIMEOUT ${T_TIMEOUT} ${_serial})
+      add_test(NAME ${T_ONE_PROCESS}.Quick COMMAND ${name} --gtest_filter=${T_QUICK_FILTER}
+               WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
+      set_tests_properties(${T_ONE_PROCESS}.Quick PROPERTIES LABELS "${T_LABELS}" TIMEOUT ${T_TIMEOUT}
+                           ENVIRONMENT "${T_QUICK_ENV}" ${_serial})
+    else()
+      set_tests_properties(${T_ONE_PROCESS} PROPERTIES LABELS "${T_LABELS}" TIMEOUT ${T_TIMEOUT} ${_serial})
+    endif()
     return()
   endif()
   gtest_discover_tests(${name}

@@ -183,6 +183,7 @@ const std::vector<Step>& contract() {
       {.readme = "dentar calibrate live --haptic sim --pace 4 --seed 3 --camera live:out/clip/video.mkv "
                  "--station out/s.json",
        .produces = {"out/s.json"},
+       .says = "updated out/s.json",  // every step passed (the deep check: live_long)
        .window = true},
       {.readme = "dentar demo --simulated --out out/demo",
        .produces = {"out/demo/session.dlog", "out/demo/cut_tooth.ply"}},

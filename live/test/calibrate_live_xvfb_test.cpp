@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "dentar/calibration/camera_file.h"
+#include "calibrate_clip.h"
 #include "testutil.h"
 #include "xvfb_util.h"
 
@@ -19,18 +20,9 @@ namespace fs = std::filesystem;
 using dentar::test::read_json;
 using dentar::test::run_command;
 using dentar::test::xvfb;
-
-namespace {
-
-const std::string kBin = DENTAR_BINARY;
-
-const nlohmann::json* step(const nlohmann::json& j, const std::string& name) {
-  for (const auto& r : j["calibration_report"])
-    if (r["step"] == name) return &r;
-  return nullptr;
-}
-
-}  // namespace
+using calibrate_clip::CalibrateLiveCameraXvfb;
+using calibrate_clip::kBin;
+using calibrate_clip::step;
 
 TEST(CalibrateLiveXvfb, StylusStepsWithTheSimulatedInstructor) {
   REQUIRE_XVFB();
@@ -74,113 +66,6 @@ TEST(CalibrateLiveXvfb, StylusStepsWithTheSimulatedInstructor) {
     cv::meanStdDev(img, mean, sd);
     EXPECT_GT(sd[0] + sd[1] + sd[2], 10.0) << name;
   }
-}
-
-// The generator's footage of a hand-held board (16 poses, held 3 s each, the last six pushed
-// into the corners and edges), for the tests below; its camera.yaml is the truth.
-class CalibrateLiveCameraXvfb : public ::testing::Test {
- protected:
-  // The clip is deterministic: rendered once into the build folder (ctest runs each test in its
-  // own process) and reused while its clip.json is there.
-  static void SetUpTestSuite() {
-    dir_ = new fs::path(dentar::test::temp_dir("calibrate_live_board"));
-    const fs::path cache = fs::path(kBin).parent_path() / "test_cache" / "calibrate_live_board_clip_seed3";
-    fs::create_directories(cache.parent_path());
-    out_ = new std::string;
-    if (!fs::exists(cache / "clip.json")) {
-      const fs::path tmp = *dir_ / "render";
-      const auto r = run_command(kBin + " synth --board aprilgrid:6x5:24:8 --holds 16 --hold 3 --seed 3 --out " +
-                                 tmp.string() + " 2>&1");
-      *out_ = r.out;
-      if (r.code != 0) return;
-      std::error_code ec;
-      fs::remove_all(cache, ec);
-      fs::rename(tmp, cache, ec);
-      if (ec) fs::copy(tmp, cache, fs::copy_options::recursive | fs::copy_options::overwrite_existing, ec);
-      if (ec) {
-        *out_ += "cannot keep the clip in " + cache.string() + ": " + ec.message();
-        return;
-      }
-    }
-    clip_dir_ = new fs::path(cache);
-    ok_ = true;
-  }
-  static void TearDownTestSuite() {
-    delete dir_;
-    delete out_;
-    delete clip_dir_;
-  }
-  static std::string clip() { return "live:" + (*clip_dir_ / "video.mkv").string(); }
-  static fs::path* dir_;
-  static fs::path* clip_dir_;
-  static std::string* out_;
-  static bool ok_;
-};
-fs::path* CalibrateLiveCameraXvfb::dir_ = nullptr;
-fs::path* CalibrateLiveCameraXvfb::clip_dir_ = nullptr;
-std::string* CalibrateLiveCameraXvfb::out_ = nullptr;
-bool CalibrateLiveCameraXvfb::ok_ = false;
-
-// The whole station through the live code: camera (the board clip), pivot, register, tooth,
-// mirror and check, driven by the simulated instructor (keys on what the HUD shows; travel at
-// pace 4, holds real). The station file against the hidden truth, with the simulated
-// workflow's figures as bounds.
-TEST_F(CalibrateLiveCameraXvfb, WholeStationWithTheSimulatedInstructor) {
-  REQUIRE_XVFB();
-  ASSERT_TRUE(ok_) << *out_;
-  const fs::path t = *dir_ / "station";
-  const fs::path st = t / "station.json", sum = t / "summary.json", shots = t / "shots";
-  const auto r = run_command(xvfb(kBin + " calibrate live --haptic sim --pace 4 --seed 3 --camera " + clip() +
-                                  " --station " + st.string() + " --summary " + sum.string() + " --screenshots " +
-                                  shots.string() + " --seconds 500 2>&1"));
-  ASSERT_EQ(r.code, 0) << r.out;
-  const auto s = read_json(sum);
-  ASSERT_EQ(s["steps"].size(), 6u) << s.dump(2);
-  EXPECT_TRUE(s["written"].get<bool>());
-  // Refusals with their reason: a view taken while the board moved, a touch while the stylus moved.
-  bool moved_view = false, moved_touch = false;
-  for (const auto& l : s["log"]) {
-    const std::string x = l.get<std::string>();
-    moved_view |= x.find("view refused: the board moved") != std::string::npos;
-    moved_touch |= x.find("touch refused: the stylus moved") != std::string::npos;
-  }
-  EXPECT_TRUE(moved_view) << s.dump(2);
-  EXPECT_TRUE(moved_touch) << s.dump(2);
-  // Camera: the chosen model against the clip's true camera (part 0's bound: 1 px over the image).
-  EXPECT_GE(s["steps"][0]["items"].get<int>(), 6) << s.dump(2);
-  EXPECT_LE(s["truth"]["camera_fx_error_px"].get<double>(), 1.0) << s.dump(2);
-  EXPECT_GE(s["truth"]["camera_max_error_px"].get<double>(), 0.0) << s.dump(2);
-  EXPECT_LE(s["truth"]["camera_max_error_px"].get<double>(), 1.0) << s.dump(2);
-  EXPECT_LE(s["truth"]["camera_tooth_max_error_px"].get<double>(), 0.3) << s.dump(2);
-  // The station file: every step passed and dated, the camera recorded.
-  const auto j = read_json(st);
-  EXPECT_EQ(j["version"], 4);
-  for (const char* name : {"camera", "pivot", "register", "tooth", "mirror", "check"}) {
-    const auto* p = step(j, name);
-    ASSERT_NE(p, nullptr) << name;
-    EXPECT_TRUE((*p)["pass"].get<bool>()) << name;
-    EXPECT_FALSE((*p)["date"].get<std::string>().empty()) << name;
-    EXPECT_GT((*p)["figures"]["instructor_s"].get<double>(), 0.0) << name;
-  }
-  const auto truth_cam = dentar::calibration::read_camera_file((*clip_dir_ / "camera.yaml").string());
-  ASSERT_TRUE(truth_cam) << truth_cam.error();
-  EXPECT_NEAR(j["camera"]["fx"].get<double>(), truth_cam->camera.fx, 1.0) << j["camera"].dump();
-  EXPECT_NEAR(j["camera"]["cx"].get<double>(), truth_cam->camera.cx, 2.0) << j["camera"].dump();
-  EXPECT_TRUE(fs::exists(t / "station.camera.yaml"));
-  EXPECT_LE((*step(j, "camera"))["figures"]["rms_px"].get<double>(), 0.3);
-  EXPECT_LE((*step(j, "pivot"))["figures"]["rmse_mm"].get<double>(), 0.16);
-  EXPECT_LE((*step(j, "register"))["figures"]["tre_mm"].get<double>(), 0.18);
-  EXPECT_LE((*step(j, "check"))["figures"]["error_mean_mm"].get<double>(),
-            (*step(j, "check"))["figures"]["threshold_mm"].get<double>());
-  EXPECT_LE(s["truth"]["tip_error_mm"].get<double>(), 0.2) << s.dump(2);
-  EXPECT_LE(s["truth"]["tooth_error_mm"].get<double>(), 0.32) << s.dump(2);
-  EXPECT_LE(s["truth"]["static_colocation_mean_mm"].get<double>(), 0.32) << s.dump(2);
-  // The camera step's window shows the overlay (not blank).
-  const cv::Mat img = cv::imread((shots / "camera.png").string());
-  ASSERT_FALSE(img.empty());
-  cv::Scalar mean, sd;
-  cv::meanStdDev(img, mean, sd);
-  EXPECT_GT(sd[0] + sd[1] + sd[2], 10.0);
 }
 
 // A board spec that is not the printed board: every view is refused with the reason, and the
