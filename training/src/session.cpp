@@ -129,6 +129,14 @@ std::vector<int> segment_steps(const SessionTrack& s, const Exercise& ex, const 
   // Emission per 10 ms of track, so the switch costs mean the same at any decimation.
   const double per_frame = s.rate_hz > 0 ? 100.0 / s.rate_hz : 1.0;
   const double inv_s2 = per_frame / (o.sigma_m * o.sigma_m);
+  // The bur reaches its focus along its own axis: distance off the axis line counts fully,
+  // distance still ahead along it counts 0.3 times.
+  auto emission = [&](std::size_t t, int k) {
+    const Eigen::Vector3d d = focus[static_cast<std::size_t>(k)] - s.tip_m[t];
+    const double a = d.dot(s.axis[t]);
+    const double w = a > 0 ? 0.3 : 1.0;
+    return ((d - a * s.axis[t]).squaredNorm() + w * w * a * a) * inv_s2;
+  };
   for (std::size_t t = 0; t < T; ++t) {
     const bool cutting = s.removed_total(t) > 0;
     for (int k = 0; k < S; ++k) {
@@ -143,15 +151,7 @@ std::vector<int> segment_steps(const SessionTrack& s, const Exercise& ex, const 
           if (c < best) { best = c; arg = p; }
         }
       }
-      double e = 0;
-      if (cutting) {
-        // The bur reaches its focus along its own axis: distance off the axis
-        // line counts fully, distance still ahead along it counts 0.3 times.
-        const Eigen::Vector3d d = focus[static_cast<std::size_t>(k)] - s.tip_m[t];
-        const double a = d.dot(s.axis[t]);
-        const double w = a > 0 ? 0.3 : 1.0;
-        e = ((d - a * s.axis[t]).squaredNorm() + w * w * a * a) * inv_s2;
-      }
+      const double e = cutting ? emission(t, k) : 0.0;
       nc[static_cast<std::size_t>(k)] = best + e;
       back[t * static_cast<std::size_t>(S) + static_cast<std::size_t>(k)] = arg;
     }
@@ -161,6 +161,28 @@ std::vector<int> segment_steps(const SessionTrack& s, const Exercise& ex, const 
   for (std::size_t t = T; t-- > 0;) {
     out[t] = k;
     k = back[t * static_cast<std::size_t>(S) + static_cast<std::size_t>(k)];
+  }
+  // Short spans with no evidence for their step (see SegmentOptions).
+  const double dt = s.rate_hz > 0 ? 1.0 / s.rate_hz : 0.0;
+  auto nearest = [&](std::size_t t) {
+    int best = 0;
+    for (int q = 1; q < S; ++q)
+      if (emission(t, q) < emission(t, best)) best = q;
+    return best;
+  };
+  for (std::size_t b = 0; b < T;) {
+    std::size_t e = b;
+    bool evidence = false;
+    for (; e < T && out[e] == out[b]; ++e) evidence |= s.removed_total(e) > 0 && nearest(e) == out[b];
+    const bool whole = b == 0 && e == T;
+    if (!whole && !evidence && static_cast<double>(e - b) * dt < o.min_pass_span_s) {
+      const int into = b > 0 ? out[b - 1] : out[e];
+      std::fill(out.begin() + static_cast<std::ptrdiff_t>(b), out.begin() + static_cast<std::ptrdiff_t>(e), into);
+      // Look at the merged span again from its start (one span fewer each time: this ends).
+      while (b > 0 && out[b - 1] == into) --b;
+      continue;
+    }
+    b = e;
   }
   return out;
 }

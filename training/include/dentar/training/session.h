@@ -51,6 +51,11 @@ struct SegmentOptions {
   double sigma_m = 1.0e-3;
   double next_cost = 100.0;
   double jump_cost = 10000.0;
+  // A span shorter than this in which no cutting frame lies nearest its own step's focus
+  // carries no evidence for the step: the chain passed through a step the hand skipped (a
+  // one-frame "step" between two others, since the next step is cheap and a jump is not). It
+  // joins the span before it (after it, at the start), so the step reads as not done.
+  double min_pass_span_s = 0.5;
 };
 std::vector<int> segment_steps(const SessionTrack& s, const Exercise& ex, const RegionMasks* masks,
                                const volume::VoxelVolume* start, const SegmentOptions& o = {});
