@@ -59,8 +59,8 @@ struct LearnerModel {
   double bin_s = 0.05;             // the memory's resolution in lesson time
   double error_rate = 0.4;         // error-based learning rate at small errors
   double error_half_mm = 0.5;      // error at which that rate has halved
-  double use_rate = 0.15;          // use-dependent learning rate
-  double force_credit = 0.3;       // the share of the force's displacement credited to oneself
+  double use_rate = 0.05;          // use-dependent learning rate
+  double force_credit = 0.1;       // the share of the force's displacement credited to oneself
   double retention = 0.95;         // kept per repetition, toward the prior
   static LearnerModel novice();
   static LearnerModel skilled();
