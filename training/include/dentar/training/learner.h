@@ -18,9 +18,10 @@
 //             movement made is remembered, guided or not)
 //      m    = prior + retention * (m - prior)                 (forgetting toward the prior)
 //    Guidance lowers s (it does part of the correcting, and only force_credit of it is
-//    credited) but makes the movement made better: the guidance hypothesis and its
-//    dependence on skill follow from these two terms and the error size, not from a rule
-//    per condition.
+//    credited) but makes the movement made better: whether guidance helps or hurts
+//    retention follows from these two terms and the error size, not from a rule per
+//    condition (with the defaults it hurts the novice slightly; with use_rate 0.15 it
+//    helps: docs/BENCHMARKS.md, issue 27 session 15).
 //  - Retention: the expert is hidden and there is no force; the hand aims at m(tau) plus its
 //    noise only.
 // Units SI; positions in the tooth frame; tau = the expert's clock (s). Offline only.
