@@ -12,6 +12,8 @@
 //       [--conditions none,fixed,as_needed,fading,across_path,amplify,plan] [--device touch]
 //       [--probe] [--csv FILE] [--set FIELD=VALUE]...   (a learning parameter of both models)
 // Exit: 0 done, 1 a run failed, 2 bad arguments.
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -21,7 +23,6 @@
 #include <fstream>
 #include <map>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "dentar/training/learner.h"
@@ -33,12 +34,16 @@ namespace fs = std::filesystem;
 namespace {
 
 const char* kUsage =
-    "usage: training_learning_bench [--lesson DIR | --exercise NAME] [--seconds S] [--reps N] [--seeds N]\n"
-    "         [--learners novice,skilled] [--conditions none,fixed,as_needed,fading,across_path,amplify,plan]\n"
+    "usage: training_learning_bench [--lesson DIR | --exercise NAME] [--seconds S] [--reps N] "
+    "[--seeds N]\n"
+    "         [--learners novice,skilled] [--conditions "
+    "none,fixed,as_needed,fading,across_path,amplify,plan]\n"
     "         [--device ID] [--probe] [--csv FILE] [--set FIELD=VALUE]...\n"
-    "--set changes a learning parameter of both learner models (error_rate, error_half_mm, use_rate,\n"
+    "--set changes a learning parameter of both learner models (error_rate, error_half_mm, "
+    "use_rate,\n"
     "force_credit, retention), for a sensitivity run.\n"
-    "Learning curves of simulated learners (docs/learner_model.md) per guidance condition, through the engine.\n"
+    "Learning curves of simulated learners (docs/learner_model.md) per guidance condition, through "
+    "the engine.\n"
     "example: training_learning_bench --seconds 20 --reps 10 --seeds 5 --csv curves.csv\n";
 
 std::vector<std::string> split(const std::string& s) {
@@ -56,8 +61,9 @@ std::vector<std::string> split(const std::string& s) {
 
 // Two-sided 95 % Student t quantile for df degrees of freedom.
 double t95(int df) {
-  static const double t[] = {0, 12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
-                             2.201, 2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086};
+  static const double t[] = {0,     12.706, 4.303, 3.182, 2.776, 2.571, 2.447,
+                             2.365, 2.306,  2.262, 2.228, 2.201, 2.179, 2.160,
+                             2.145, 2.131,  2.120, 2.110, 2.101, 2.093, 2.086};
   return df <= 0 ? NAN : df <= 20 ? t[df] : 1.96 + 2.4 / df;
 }
 
@@ -102,7 +108,8 @@ int main(int argc, char** argv) {
   int seeds = 5;
   std::vector<std::string> learners = {"novice", "skilled"};
   std::vector<std::pair<std::string, double>> sets;
-  std::vector<std::string> conds = {"none", "fixed", "as_needed", "fading", "across_path", "amplify", "plan"};
+  std::vector<std::string> conds = {"none",        "fixed",   "as_needed", "fading",
+                                    "across_path", "amplify", "plan"};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto val = [&](const char*& v) {
@@ -168,8 +175,10 @@ int main(int argc, char** argv) {
   }
   std::vector<training::LearnerModel> models;
   for (const std::string& l : learners) {
-    if (l == "novice") models.push_back(training::LearnerModel::novice());
-    else if (l == "skilled") models.push_back(training::LearnerModel::skilled());
+    if (l == "novice")
+      models.push_back(training::LearnerModel::novice());
+    else if (l == "skilled")
+      models.push_back(training::LearnerModel::skilled());
     else {
       std::fprintf(stderr, "--learners: '%s' is not novice or skilled\n", l.c_str());
       return 2;
@@ -177,11 +186,17 @@ int main(int argc, char** argv) {
   }
   for (auto& m : models) {
     for (const auto& [k, y] : sets) {
-      double* f = k == "error_rate" ? &m.error_rate : k == "error_half_mm" ? &m.error_half_mm
-                : k == "use_rate" ? &m.use_rate : k == "force_credit" ? &m.force_credit
-                : k == "retention" ? &m.retention : nullptr;
+      double* f = k == "error_rate"      ? &m.error_rate
+                  : k == "error_half_mm" ? &m.error_half_mm
+                  : k == "use_rate"      ? &m.use_rate
+                  : k == "force_credit"  ? &m.force_credit
+                  : k == "retention"     ? &m.retention
+                                         : nullptr;
       if (!f) {
-        std::fprintf(stderr, "--set %s: not one of error_rate, error_half_mm, use_rate, force_credit, retention\n", k.c_str());
+        std::fprintf(
+            stderr,
+            "--set %s: not one of error_rate, error_half_mm, use_rate, force_credit, retention\n",
+            k.c_str());
         return 2;
       }
       *f = y;
@@ -216,7 +231,8 @@ int main(int argc, char** argv) {
   } else {
     std::string tmpl = (fs::temp_directory_path() / "dentar_learning_bench_XXXXXX").string();
     if (!::mkdtemp(tmpl.data())) {
-      std::fprintf(stderr, "cannot make a scratch folder in %s\n", fs::temp_directory_path().c_str());
+      std::fprintf(stderr, "cannot make a scratch folder in %s\n",
+                   fs::temp_directory_path().c_str());
       return 1;
     }
     scratch = tmpl;
@@ -236,13 +252,15 @@ int main(int argc, char** argv) {
       cleanup();
       return 2;
     }
-    std::fprintf(out_csv, "learner,condition,seed,repetition,mode,rule,train_mean_mm,train_p95_mm,mean_force_N,"
-                          "probe_mean_mm,probe_p95_mm,memory_mm\n");
+    std::fprintf(
+        out_csv,
+        "learner,condition,seed,repetition,mode,rule,train_mean_mm,train_p95_mm,mean_force_N,"
+        "probe_mean_mm,probe_p95_mm,memory_mm\n");
   }
 
   const std::clock_t c0 = std::clock();
-  std::printf("lesson %s, first %.0f s, %d repetitions, %d seeds, device %s", lesson->path.c_str(), opt.seconds,
-              opt.repetitions, seeds, device.c_str());
+  std::printf("lesson %s, first %.0f s, %d repetitions, %d seeds, device %s", lesson->path.c_str(),
+              opt.seconds, opt.repetitions, seeds, device.c_str());
   for (const auto& [k, y] : sets) std::printf(", %s = %g", k.c_str(), y);
   std::printf("\n");
   // results[learner][condition] = one curve per seed
@@ -252,8 +270,8 @@ int main(int argc, char** argv) {
       for (int s = 1; s <= seeds; ++s) {
         auto r = training::run_learning_curve(*lesson, m, c, static_cast<std::uint64_t>(s), opt);
         if (!r) {
-          std::fprintf(stderr, "%s, %s, seed %d: %s\n", m.name.c_str(), training::condition_name(c), s,
-                       r.error().c_str());
+          std::fprintf(stderr, "%s, %s, seed %d: %s\n", m.name.c_str(), training::condition_name(c),
+                       s, r.error().c_str());
           if (out_csv) std::fclose(out_csv);
           cleanup();
           return 1;
@@ -261,13 +279,14 @@ int main(int argc, char** argv) {
         if (out_csv) {
           for (std::size_t k = 0; k < r->reps.size(); ++k) {
             const auto& q = r->reps[k];
-            std::fprintf(out_csv, "%s,%s,%d,%zu,%d,%s,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f\n", m.name.c_str(),
-                         training::condition_name(c), s, k + 1, q.mode, q.rule.c_str(), q.train_mean_m * 1e3,
-                         q.train_p95_m * 1e3, q.mean_force_N, q.probe_mean_m * 1e3, q.probe_p95_m * 1e3,
-                         q.memory_m * 1e3);
+            std::fprintf(out_csv, "%s,%s,%d,%zu,%d,%s,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f\n",
+                         m.name.c_str(), training::condition_name(c), s, k + 1, q.mode,
+                         q.rule.c_str(), q.train_mean_m * 1e3, q.train_p95_m * 1e3, q.mean_force_N,
+                         q.probe_mean_m * 1e3, q.probe_p95_m * 1e3, q.memory_m * 1e3);
           }
-          std::fprintf(out_csv, "%s,%s,%d,retention,1,,%.5f,%.5f,0,,,\n", m.name.c_str(), training::condition_name(c),
-                       s, r->retention_mean_m * 1e3, r->retention_p95_m * 1e3);
+          std::fprintf(out_csv, "%s,%s,%d,retention,1,,%.5f,%.5f,0,,,\n", m.name.c_str(),
+                       training::condition_name(c), s, r->retention_mean_m * 1e3,
+                       r->retention_p95_m * 1e3);
           std::fflush(out_csv);
         }
         std::fprintf(stderr, "%s %s seed %d: retention %.3f mm (%.1f s CPU)\n", m.name.c_str(),
@@ -279,13 +298,19 @@ int main(int argc, char** argv) {
   if (out_csv) std::fclose(out_csv);
 
   const int R = opt.repetitions;
-  const std::vector<int> shown = R >= 3 ? std::vector<int>{0, R / 2 - 1 + (R % 2), R - 1} : std::vector<int>{0, R - 1};
+  const std::vector<int> shown =
+      R >= 3 ? std::vector<int>{0, R / 2 - 1 + (R % 2), R - 1} : std::vector<int>{0, R - 1};
   for (const auto& m : models) {
-    std::printf("\n### %s learner: training error per repetition and retention (mm, mean ± SD over %d seeds)\n\n",
-                m.name.c_str(), seeds);
+    std::printf(
+        "\n### %s learner: training error per repetition and retention (mm, mean ± SD over %d "
+        "seeds)\n\n",
+        m.name.c_str(), seeds);
     std::printf("| condition | before (unguided) |");
     for (int k : shown) std::printf(" training rep %d |", k + 1);
-    std::printf(" mean force rep 1 / %d (N) | retention mean | 95 %% CI | retention p95 | 95 %% CI |\n|---|---|", R);
+    std::printf(
+        " mean force rep 1 / %d (N) | retention mean | 95 %% CI | retention p95 | 95 %% CI "
+        "|\n|---|---|",
+        R);
     for (std::size_t k = 0; k < shown.size(); ++k) std::printf("---|");
     std::printf("---|---|---|---|---|\n");
     for (auto c : cs) {
@@ -298,20 +323,25 @@ int main(int argc, char** argv) {
         rp.push_back(lc.retention_p95_m);
         f0.push_back(lc.reps.front().mean_force_N);
         f1.push_back(lc.reps.back().mean_force_N);
-        for (std::size_t k = 0; k < shown.size(); ++k) tr[k].push_back(lc.reps[static_cast<std::size_t>(shown[k])].train_mean_m);
+        for (std::size_t k = 0; k < shown.size(); ++k)
+          tr[k].push_back(lc.reps[static_cast<std::size_t>(shown[k])].train_mean_m);
       }
       std::printf("| %s | %s |", training::condition_name(c), pm(stat(before)).c_str());
       for (const auto& t : tr) std::printf(" %s |", pm(stat(t)).c_str());
-      std::printf(" %.3f / %.3f | %s | %s | %s | %s |\n", stat(f0).mean, stat(f1).mean, pm(stat(rm)).c_str(),
-                  ci(stat(rm)).c_str(), pm(stat(rp)).c_str(), ci(stat(rp)).c_str());
+      std::printf(" %.3f / %.3f | %s | %s | %s | %s |\n", stat(f0).mean, stat(f1).mean,
+                  pm(stat(rm)).c_str(), ci(stat(rm)).c_str(), pm(stat(rp)).c_str(),
+                  ci(stat(rp)).c_str());
     }
     // Paired differences of the retention error (condition - anchor), same seeds.
     for (const char* anchor : {"none", "fixed"}) {
       if (!res[m.name].count(anchor)) continue;
       const auto& a = res[m.name][anchor];
-      std::printf("\nRetention mean error, %s learner, paired difference against %s (mm; negative = better):\n\n",
-                  m.name.c_str(), anchor);
-      std::printf("| condition | difference mean ± SD | 95 %% CI | seeds better |\n|---|---|---|---|\n");
+      std::printf(
+          "\nRetention mean error, %s learner, paired difference against %s (mm; negative = "
+          "better):\n\n",
+          m.name.c_str(), anchor);
+      std::printf(
+          "| condition | difference mean ± SD | 95 %% CI | seeds better |\n|---|---|---|---|\n");
       for (auto c : cs) {
         if (std::string(training::condition_name(c)) == anchor) continue;
         const auto& v = res[m.name][training::condition_name(c)];
@@ -321,8 +351,8 @@ int main(int argc, char** argv) {
           d.push_back(v[i].retention_mean_m - a[i].retention_mean_m);
           better += d.back() < 0;
         }
-        std::printf("| %s | %s | %s | %d of %zu |\n", training::condition_name(c), pm(stat(d)).c_str(),
-                    ci(stat(d)).c_str(), better, d.size());
+        std::printf("| %s | %s | %s | %d of %zu |\n", training::condition_name(c),
+                    pm(stat(d)).c_str(), ci(stat(d)).c_str(), better, d.size());
       }
     }
     // The lesson plan's choices against the curves.
@@ -332,18 +362,23 @@ int main(int argc, char** argv) {
       if (c == training::GuidanceCondition::kPlan) continue;
       const double v = stat([&] {
                          std::vector<double> x;
-                         for (const auto& lc : res[m.name][training::condition_name(c)]) x.push_back(lc.retention_mean_m);
+                         for (const auto& lc : res[m.name][training::condition_name(c)])
+                           x.push_back(lc.retention_mean_m);
                          return x;
-                       }()).mean;
+                       }())
+                           .mean;
       if (v < best_v) best_v = v, best = training::condition_name(c);
     }
-    if (!best.empty()) std::printf("\nLowest mean retention error among the single conditions: %s (%.3f mm).\n", best.c_str(), best_v * 1e3);
+    if (!best.empty())
+      std::printf("\nLowest mean retention error among the single conditions: %s (%.3f mm).\n",
+                  best.c_str(), best_v * 1e3);
     if (res[m.name].count("plan")) {
       const auto& v = res[m.name]["plan"];
       std::printf("The lesson plan's choices, seed 1 (repetition: mode, rule):");
       for (std::size_t k = 0; k < v.front().reps.size(); ++k) {
         const auto& q = v.front().reps[k];
-        std::printf(" %zu: %d %s%s", k + 1, q.mode, q.rule.c_str(), k + 1 < v.front().reps.size() ? ";" : "\n");
+        std::printf(" %zu: %d %s%s", k + 1, q.mode, q.rule.c_str(),
+                    k + 1 < v.front().reps.size() ? ";" : "\n");
       }
     }
   }

@@ -27,23 +27,40 @@ LearnerModel LearnerModel::skilled() {
 std::string LearnerModel::validate() const {
   std::ostringstream os;
   auto bad = [](double v, double lo, double hi) { return !std::isfinite(v) || v < lo || v > hi; };
-  if (bad(lag_s, 0, 2)) os << "learner lag_s = " << lag_s << " must be in [0, 2]";
-  else if (bad(noise_mm, 0, 10)) os << "learner noise_mm = " << noise_mm << " must be in [0, 10]";
-  else if (bad(noise_tau_s, 1e-3, 10)) os << "learner noise_tau_s = " << noise_tau_s << " must be in [0.001, 10]";
-  else if (bad(grip_N_per_m, 1, 5000)) os << "learner grip_N_per_m = " << grip_N_per_m << " must be in [1, 5000]";
-  else if (bad(damping_ratio, 0.01, 5)) os << "learner damping_ratio = " << damping_ratio << " must be in [0.01, 5]";
-  else if (bad(feedback_tau_s, 0.01, 10)) os << "learner feedback_tau_s = " << feedback_tau_s << " must be in [0.01, 10]";
-  else if (bad(feedback_max_mm, 0, 50)) os << "learner feedback_max_mm = " << feedback_max_mm << " must be in [0, 50]";
-  else if (bad(prior_blur_s, 0, 30)) os << "learner prior_blur_s = " << prior_blur_s << " must be in [0, 30]";
-  else if (bad(prior_offset_mm, 0, 20)) os << "learner prior_offset_mm = " << prior_offset_mm << " must be in [0, 20]";
-  else if (bad(prior_offset_tau_s, 1e-3, 60)) os << "learner prior_offset_tau_s = " << prior_offset_tau_s << " must be in [0.001, 60]";
-  else if (bad(bin_s, 0.005, 1)) os << "learner bin_s = " << bin_s << " must be in [0.005, 1]";
-  else if (bad(error_rate, 0, 1)) os << "learner error_rate = " << error_rate << " must be in [0, 1]";
-  else if (bad(error_half_mm, 1e-3, 100)) os << "learner error_half_mm = " << error_half_mm << " must be in [0.001, 100]";
-  else if (bad(use_rate, 0, 1)) os << "learner use_rate = " << use_rate << " must be in [0, 1]";
-  else if (bad(error_rate + use_rate, 0, 1)) os << "learner error_rate + use_rate = " << error_rate + use_rate << " must be <= 1";
-  else if (bad(force_credit, 0, 1)) os << "learner force_credit = " << force_credit << " must be in [0, 1]";
-  else if (bad(retention, 0, 1)) os << "learner retention = " << retention << " must be in [0, 1]";
+  if (bad(lag_s, 0, 2))
+    os << "learner lag_s = " << lag_s << " must be in [0, 2]";
+  else if (bad(noise_mm, 0, 10))
+    os << "learner noise_mm = " << noise_mm << " must be in [0, 10]";
+  else if (bad(noise_tau_s, 1e-3, 10))
+    os << "learner noise_tau_s = " << noise_tau_s << " must be in [0.001, 10]";
+  else if (bad(grip_N_per_m, 1, 5000))
+    os << "learner grip_N_per_m = " << grip_N_per_m << " must be in [1, 5000]";
+  else if (bad(damping_ratio, 0.01, 5))
+    os << "learner damping_ratio = " << damping_ratio << " must be in [0.01, 5]";
+  else if (bad(feedback_tau_s, 0.01, 10))
+    os << "learner feedback_tau_s = " << feedback_tau_s << " must be in [0.01, 10]";
+  else if (bad(feedback_max_mm, 0, 50))
+    os << "learner feedback_max_mm = " << feedback_max_mm << " must be in [0, 50]";
+  else if (bad(prior_blur_s, 0, 30))
+    os << "learner prior_blur_s = " << prior_blur_s << " must be in [0, 30]";
+  else if (bad(prior_offset_mm, 0, 20))
+    os << "learner prior_offset_mm = " << prior_offset_mm << " must be in [0, 20]";
+  else if (bad(prior_offset_tau_s, 1e-3, 60))
+    os << "learner prior_offset_tau_s = " << prior_offset_tau_s << " must be in [0.001, 60]";
+  else if (bad(bin_s, 0.005, 1))
+    os << "learner bin_s = " << bin_s << " must be in [0.005, 1]";
+  else if (bad(error_rate, 0, 1))
+    os << "learner error_rate = " << error_rate << " must be in [0, 1]";
+  else if (bad(error_half_mm, 1e-3, 100))
+    os << "learner error_half_mm = " << error_half_mm << " must be in [0.001, 100]";
+  else if (bad(use_rate, 0, 1))
+    os << "learner use_rate = " << use_rate << " must be in [0, 1]";
+  else if (bad(error_rate + use_rate, 0, 1))
+    os << "learner error_rate + use_rate = " << error_rate + use_rate << " must be <= 1";
+  else if (bad(force_credit, 0, 1))
+    os << "learner force_credit = " << force_credit << " must be in [0, 1]";
+  else if (bad(retention, 0, 1))
+    os << "learner retention = " << retention << " must be in [0, 1]";
   return os.str();
 }
 
@@ -59,14 +76,15 @@ StudentModel LearnerModel::student(std::uint64_t seed) const {
   return s;
 }
 
-LearnedPath LearnedPath::prior(const haptics::ExpertTrack& track, double seconds, const LearnerModel& model,
-                               std::uint64_t seed) {
+LearnedPath LearnedPath::prior(const haptics::ExpertTrack& track, double seconds,
+                               const LearnerModel& model, std::uint64_t seed) {
   LearnedPath p;
   p.bin_ = model.bin_s;
   const double end = std::min(seconds > 0 ? seconds : track.duration_s(), track.duration_s());
   const std::size_t n = static_cast<std::size_t>(std::floor(end / p.bin_)) + 2;
   std::vector<Eigen::Vector3d> x(n);
-  for (std::size_t j = 0; j < n; ++j) x[j] = track.at(static_cast<double>(j) * p.bin_).T_tooth_tip.translation();
+  for (std::size_t j = 0; j < n; ++j)
+    x[j] = track.at(static_cast<double>(j) * p.bin_).T_tooth_tip.translation();
   // The blur: a Gaussian over lesson time, renormalised at the ends.
   p.prior_.assign(n, Eigen::Vector3d::Zero());
   const double sigma = model.prior_blur_s / p.bin_;
@@ -147,7 +165,8 @@ void LearnedPath::learn(const std::vector<LearnerSample>& trace, const LearnerMo
   for (std::size_t j = 0; j < n; ++j) {
     if (W[j] > 0) {
       const double e = sm[j].norm();
-      m_[j] += model.error_rate * half / (half + e) * sm[j] + model.use_rate * (H[j] / W[j] - m_[j]);
+      m_[j] +=
+          model.error_rate * half / (half + e) * sm[j] + model.use_rate * (H[j] / W[j] - m_[j]);
     }
     m_[j] = prior_[j] + model.retention * (m_[j] - prior_[j]);
   }
@@ -163,13 +182,20 @@ double LearnedPath::mean_distance_to(const haptics::ExpertTrack& track) const {
 
 const char* condition_name(GuidanceCondition c) {
   switch (c) {
-    case GuidanceCondition::kNone: return "none";
-    case GuidanceCondition::kFixed: return "fixed";
-    case GuidanceCondition::kAsNeeded: return "as_needed";
-    case GuidanceCondition::kFading: return "fading";
-    case GuidanceCondition::kAcrossPath: return "across_path";
-    case GuidanceCondition::kAmplify: return "amplify";
-    case GuidanceCondition::kPlan: return "plan";
+    case GuidanceCondition::kNone:
+      return "none";
+    case GuidanceCondition::kFixed:
+      return "fixed";
+    case GuidanceCondition::kAsNeeded:
+      return "as_needed";
+    case GuidanceCondition::kFading:
+      return "fading";
+    case GuidanceCondition::kAcrossPath:
+      return "across_path";
+    case GuidanceCondition::kAmplify:
+      return "amplify";
+    case GuidanceCondition::kPlan:
+      return "plan";
   }
   return "?";
 }
@@ -178,26 +204,29 @@ Result<GuidanceCondition> parse_condition(const std::string& s) {
   for (GuidanceCondition c : fixed_conditions())
     if (s == condition_name(c)) return c;
   if (s == "plan") return GuidanceCondition::kPlan;
-  return Error{"condition '" + s + "' is not one of none, fixed, as_needed, fading, across_path, amplify, plan"};
+  return Error{"condition '" + s +
+               "' is not one of none, fixed, as_needed, fading, across_path, amplify, plan"};
 }
 
 const std::vector<GuidanceCondition>& fixed_conditions() {
-  static const std::vector<GuidanceCondition> v = {GuidanceCondition::kNone,     GuidanceCondition::kFixed,
-                                                   GuidanceCondition::kAsNeeded, GuidanceCondition::kFading,
-                                                   GuidanceCondition::kAcrossPath, GuidanceCondition::kAmplify};
+  static const std::vector<GuidanceCondition> v = {
+      GuidanceCondition::kNone,   GuidanceCondition::kFixed,      GuidanceCondition::kAsNeeded,
+      GuidanceCondition::kFading, GuidanceCondition::kAcrossPath, GuidanceCondition::kAmplify};
   return v;
 }
 
 std::string LearningOptions::validate() const {
-  if (repetitions < 1 || repetitions > 1000) return "repetitions = " + std::to_string(repetitions) + " must be in [1, 1000]";
+  if (repetitions < 1 || repetitions > 1000)
+    return "repetitions = " + std::to_string(repetitions) + " must be in [1, 1000]";
   if (!std::isfinite(seconds) || seconds < 1) return "seconds must be >= 1";
   if (!(fade > 0 && fade <= 1)) return "fade must be in (0, 1]";
   if (!(amplify > 0 && amplify <= 1)) return "amplify must be in (0, 1]";
   return plan.validate();
 }
 
-Result<LearningCurve> run_learning_curve(const Lesson& lesson, const LearnerModel& model, GuidanceCondition c,
-                                         std::uint64_t seed, const LearningOptions& opt) {
+Result<LearningCurve> run_learning_curve(const Lesson& lesson, const LearnerModel& model,
+                                         GuidanceCondition c, std::uint64_t seed,
+                                         const LearningOptions& opt) {
   if (std::string v = model.validate(); !v.empty()) return Error{v};
   if (std::string v = opt.validate(); !v.empty()) return Error{v};
   const std::clock_t c0 = std::clock();
@@ -207,7 +236,8 @@ Result<LearningCurve> run_learning_curve(const Lesson& lesson, const LearnerMode
   if (!log) return Error{"the lesson's recording: " + log.error()};
   auto setup = haptics::parse_session_header(log->header_json);
   if (!setup) return Error{rp + ": " + setup.error()};
-  auto track = haptics::ExpertTrack::from_records(log->records, setup->engine.T_tooth_dev, setup->engine.T_sty_tip, rp);
+  auto track = haptics::ExpertTrack::from_records(log->records, setup->engine.T_tooth_dev,
+                                                  setup->engine.T_sty_tip, rp);
   if (!track) return Error{track.error()};
   const double seconds = std::min(opt.seconds, track->duration_s());
   LearnedPath memory = LearnedPath::prior(*track, seconds, model, seed);
@@ -248,15 +278,24 @@ Result<LearningCurve> run_learning_curve(const Lesson& lesson, const LearnerMode
     haptics::GuidanceParams g = base;
     int mode = 2;
     switch (c) {
-      case GuidanceCondition::kNone: mode = 1; break;
-      case GuidanceCondition::kFixed: break;
-      case GuidanceCondition::kAsNeeded: g.as_needed = true; break;
+      case GuidanceCondition::kNone:
+        mode = 1;
+        break;
+      case GuidanceCondition::kFixed:
+        break;
+      case GuidanceCondition::kAsNeeded:
+        g.as_needed = true;
+        break;
       case GuidanceCondition::kFading:
         g.fade = opt.fade;
         g.repetition = rep;
         break;
-      case GuidanceCondition::kAcrossPath: g.across_path_only = true; break;
-      case GuidanceCondition::kAmplify: g.amplify = opt.amplify; break;
+      case GuidanceCondition::kAcrossPath:
+        g.across_path_only = true;
+        break;
+      case GuidanceCondition::kAmplify:
+        g.amplify = opt.amplify;
+        break;
       case GuidanceCondition::kPlan: {
         const LessonPlan p = plan_next(history, opt.plan);
         mode = p.mode;

@@ -38,15 +38,16 @@ haptics::ExpertTrack line_track() {
     const double p[3] = {0.01 * r.time_s, 0, 0};
     for (int k = 0; k < 3; ++k) r.position_m[k] = p[k];
   }
-  auto t = haptics::ExpertTrack::from_records(recs, Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity(), "line");
+  auto t = haptics::ExpertTrack::from_records(recs, Eigen::Isometry3d::Identity(),
+                                              Eigen::Isometry3d::Identity(), "line");
   EXPECT_TRUE(t.ok()) << t.error();
   return std::move(t).value();
 }
 
 // A trace in which the hand went where the memory planned, except that a device force moved
 // it by `by_force` (m, along +y) at every step (no visual correction, no noise).
-std::vector<LearnerSample> trace_moved_by(const haptics::ExpertTrack& track, const LearnedPath& m, double by_force,
-                                            double grip) {
+std::vector<LearnerSample> trace_moved_by(const haptics::ExpertTrack& track, const LearnedPath& m,
+                                          double by_force, double grip) {
   std::vector<LearnerSample> v;
   for (int i = 0; i <= 2000; ++i) {
     LearnerSample s;
@@ -102,8 +103,10 @@ TEST(Learner, LargeErrorsAreLearnedLessInProportion) {
     p.learn(trace_moved_by(track, p, 0, m.grip_N_per_m), m);
     const double frac = 1 - p.mean_distance_to(track) / before;
     // error_rate * half / (half + |e|): ~0.4 * 0.5 / 0.8 at 0.3 mm, ~0.4 * 0.5 / 3.5 at 3 mm.
-    if (off < 1) EXPECT_GT(frac, 0.15) << off;
-    else EXPECT_LT(frac, 0.1) << off;
+    if (off < 1)
+      EXPECT_GT(frac, 0.15) << off;
+    else
+      EXPECT_LT(frac, 0.1) << off;
     EXPECT_GT(frac, 0.0) << off;
   }
 }
@@ -135,7 +138,8 @@ TEST(Learner, BadParametersAreNamed) {
   EXPECT_FALSE(parse_condition("guided").ok());
   EXPECT_NE(parse_condition("guided").error().find("as_needed"), std::string::npos);
   ASSERT_TRUE(parse_condition("across_path").ok());
-  auto r = run_learning_curve(Lesson{}, m, GuidanceCondition::kNone, 1, LearningOptions{});  // checked first
+  auto r = run_learning_curve(Lesson{}, m, GuidanceCondition::kNone, 1,
+                              LearningOptions{});  // checked first
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().find("use_rate"), std::string::npos);
 }
@@ -156,22 +160,27 @@ TEST(Learner, LearnsWithoutGuidanceAndTheFixedFieldsAdvantageDoesNotCarryOver) {
   const LearningCurve fixed = curve(GuidanceCondition::kFixed);
   ASSERT_EQ(none.reps.size(), 5u);
   ASSERT_EQ(fixed.reps.size(), 5u);
-  std::printf("none: train %.3f -> %.3f mm, memory %.3f mm, retention %.3f mm (before %.3f); fixed: train %.3f -> %.3f mm, "
-              "memory %.3f mm, retention %.3f mm\n",
-              none.reps.front().train_mean_m * 1e3, none.reps.back().train_mean_m * 1e3, none.reps.back().memory_m * 1e3,
-              none.retention_mean_m * 1e3, none.before_mean_m * 1e3, fixed.reps.front().train_mean_m * 1e3,
-              fixed.reps.back().train_mean_m * 1e3, fixed.reps.back().memory_m * 1e3, fixed.retention_mean_m * 1e3);
+  std::printf(
+      "none: train %.3f -> %.3f mm, memory %.3f mm, retention %.3f mm (before %.3f); fixed: train "
+      "%.3f -> %.3f mm, "
+      "memory %.3f mm, retention %.3f mm\n",
+      none.reps.front().train_mean_m * 1e3, none.reps.back().train_mean_m * 1e3,
+      none.reps.back().memory_m * 1e3, none.retention_mean_m * 1e3, none.before_mean_m * 1e3,
+      fixed.reps.front().train_mean_m * 1e3, fixed.reps.back().train_mean_m * 1e3,
+      fixed.reps.back().memory_m * 1e3, fixed.retention_mean_m * 1e3);
   // Without guidance the training error falls over the repetitions, the memory approaches
   // the path at every repetition, and the unguided retention test (expert hidden) after
   // training beats the one before.
   EXPECT_LT(none.reps.back().train_mean_m, 0.9 * none.reps.front().train_mean_m);
   EXPECT_LT(none.retention_mean_m, 0.8 * none.before_mean_m);
-  for (std::size_t k = 1; k < none.reps.size(); ++k) EXPECT_LT(none.reps[k].memory_m, none.reps[k - 1].memory_m) << k;
+  for (std::size_t k = 1; k < none.reps.size(); ++k)
+    EXPECT_LT(none.reps[k].memory_m, none.reps[k - 1].memory_m) << k;
   // The same learner and noise (common seeds) from the same start.
   EXPECT_EQ(none.before_mean_m, fixed.before_mean_m);
   // The guidance hypothesis as the model gives it (docs/learner_model.md): the fixed field
   // lowers the error during training at every repetition by a fifth or more...
-  for (std::size_t k = 0; k < 5; ++k) EXPECT_LT(fixed.reps[k].train_mean_m, 0.8 * none.reps[k].train_mean_m) << k;
+  for (std::size_t k = 0; k < 5; ++k)
+    EXPECT_LT(fixed.reps[k].train_mean_m, 0.8 * none.reps[k].train_mean_m) << k;
   // ...but that advantage does not carry over: what is learned (the memory) and the
   // unguided retention error are no better than after training without guidance (within
   // 0.02 and 0.05 mm, against a training advantage of several tenths of a millimetre).
@@ -180,7 +189,8 @@ TEST(Learner, LearnsWithoutGuidanceAndTheFixedFieldsAdvantageDoesNotCarryOver) {
 }
 
 TEST(Learner, TheSameSeedGivesTheSameCurve) {
-  const LearningCurve a = curve(GuidanceCondition::kAsNeeded, 1, 3), b = curve(GuidanceCondition::kAsNeeded, 1, 3);
+  const LearningCurve a = curve(GuidanceCondition::kAsNeeded, 1, 3),
+                      b = curve(GuidanceCondition::kAsNeeded, 1, 3);
   ASSERT_EQ(a.reps.size(), 1u);
   ASSERT_EQ(b.reps.size(), 1u);
   EXPECT_EQ(a.reps[0].train_mean_m, b.reps[0].train_mean_m);

@@ -34,21 +34,21 @@
 
 #include "dentar/haptics/guidance.h"
 #include "dentar/training/lesson.h"
-#include "dentar/training/lesson_run.h"
 #include "dentar/training/lesson_plan.h"
+#include "dentar/training/lesson_run.h"
 
 namespace dentar::training {
 
 struct LearnerModel {
   std::string name = "novice";
   // Execution (the hand: StudentModel's grip and damping, an active student).
-  double lag_s = 0.35;             // visual reaction delay of the correction
-  double noise_mm = 0.35;          // SD of the aim's wander, per axis
-  double noise_tau_s = 0.3;        // its correlation time
+  double lag_s = 0.35;       // visual reaction delay of the correction
+  double noise_mm = 0.35;    // SD of the aim's wander, per axis
+  double noise_tau_s = 0.3;  // its correlation time
   double grip_N_per_m = 300.0;
   double damping_ratio = 0.7;
-  double feedback_tau_s = 0.5;     // time constant of the visual correction (integrator)
-  double feedback_max_mm = 5.0;    // the correction's bound (the student gives up beyond)
+  double feedback_tau_s = 0.5;   // time constant of the visual correction (integrator)
+  double feedback_max_mm = 5.0;  // the correction's bound (the student gives up beyond)
   // What the learner knows before the first repetition: the expert's path blurred over
   // prior_blur_s (a Gaussian in time) and offset by a smooth personal error of SD
   // prior_offset_mm per axis, correlated over prior_offset_tau_s of lesson time (seeded).
@@ -57,12 +57,12 @@ struct LearnerModel {
   double prior_offset_tau_s = 3.0;
   // Learning (the same for both presets: the difference between a novice and a skilled
   // learner is what they know and how they move, not how they learn).
-  double bin_s = 0.05;             // the memory's resolution in lesson time
-  double error_rate = 0.4;         // error-based learning rate at small errors
-  double error_half_mm = 0.5;      // error at which that rate has halved
-  double use_rate = 0.05;          // use-dependent learning rate
-  double force_credit = 0.1;       // the share of the force's displacement credited to oneself
-  double retention = 0.95;         // kept per repetition, toward the prior
+  double bin_s = 0.05;         // the memory's resolution in lesson time
+  double error_rate = 0.4;     // error-based learning rate at small errors
+  double error_half_mm = 0.5;  // error at which that rate has halved
+  double use_rate = 0.05;      // use-dependent learning rate
+  double force_credit = 0.1;   // the share of the force's displacement credited to oneself
+  double retention = 0.95;     // kept per repetition, toward the prior
   static LearnerModel novice();
   static LearnerModel skilled();
   // "" when valid, else the field and its range.
@@ -76,8 +76,8 @@ struct LearnerModel {
 class LearnedPath {
  public:
   // The prior of `model` for the first `seconds` of `track` (seeded personal offset).
-  static LearnedPath prior(const haptics::ExpertTrack& track, double seconds, const LearnerModel& model,
-                           std::uint64_t seed);
+  static LearnedPath prior(const haptics::ExpertTrack& track, double seconds,
+                           const LearnerModel& model, std::uint64_t seed);
   Eigen::Vector3d at(double tau_s) const noexcept;
   // One repetition's update from its trace (LessonRunOptions::learner.trace). Samples
   // outside [0, end] are ignored; nodes with no sample only forget.
@@ -105,29 +105,29 @@ const std::vector<GuidanceCondition>& fixed_conditions();  // all but kPlan, in 
 
 struct LearningOptions {
   int repetitions = 10;
-  double seconds = 20;           // of the lesson per repetition (its start)
+  double seconds = 10;  // of the lesson per repetition (its start; the benchmark's)
   std::string device = "touch";
-  double fade = 0.7;             // kFading: k * fade^rep, rep = 0 .. repetitions-1
-  double amplify = 0.5;          // kAmplify
-  bool probe_each = false;       // a retention test after every repetition too (does not learn)
-  PlanOptions plan;              // kPlan's thresholds
+  double fade = 0.7;        // kFading: k * fade^rep, rep = 0 .. repetitions-1
+  double amplify = 0.5;     // kAmplify
+  bool probe_each = false;  // a retention test after every repetition too (does not learn)
+  PlanOptions plan;         // kPlan's thresholds
   std::string validate() const;
 };
 
 struct RepetitionResult {
   int mode = 1;
   haptics::GuidanceParams guidance;
-  std::string rule;              // kPlan: the plan's rule
+  std::string rule;                          // kPlan: the plan's rule
   double train_mean_m = 0, train_p95_m = 0;  // following error during the repetition (engine)
   double mean_force_N = 0;
   double probe_mean_m = -1, probe_p95_m = -1;  // retention test after it (probe_each)
-  double memory_m = 0;           // the memory's mean distance to the path after learning
+  double memory_m = 0;  // the memory's mean distance to the path after learning
 };
 
 struct LearningCurve {
   std::string learner, condition;
   std::uint64_t seed = 0;
-  double before_mean_m = 0, before_p95_m = 0;      // retention test before any training
+  double before_mean_m = 0, before_p95_m = 0;  // retention test before any training
   std::vector<RepetitionResult> reps;
   double retention_mean_m = 0, retention_p95_m = 0;  // after the last repetition
   double cpu_s = 0;
@@ -137,7 +137,8 @@ struct LearningCurve {
 // each through run_lesson (the engine, the mode, its guard and ramps), then an unguided
 // retention test (mode 1, the expert hidden, memory only). Errors: bad options, and
 // run_lesson's.
-Result<LearningCurve> run_learning_curve(const Lesson& lesson, const LearnerModel& model, GuidanceCondition c,
-                                         std::uint64_t seed, const LearningOptions& opt);
+Result<LearningCurve> run_learning_curve(const Lesson& lesson, const LearnerModel& model,
+                                         GuidanceCondition c, std::uint64_t seed,
+                                         const LearningOptions& opt);
 
 }  // namespace dentar::training
