@@ -5,8 +5,9 @@
 // field, guidance as needed, across the path only, fading over repetitions 1..4 (0.7^rep) and
 // error amplification (0.5); mode 1 (no guidance) as the baseline.
 //   build/training/training_lesson_guidance_bench [--exercise molar_class1_cavity] [--seconds 30] [--seeds 3]
-// The simulated student does not learn: this measures what each variant does to the
-// following error and the work the field does, not retention.
+// This student does not learn: this measures what each variant does to the following error
+// and the work the field does, not retention (training_learning_bench measures learning
+// curves and retention with a learner model, learner.h).
 #include <chrono>
 #include <cmath>
 #include <cstdio>

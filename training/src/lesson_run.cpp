@@ -13,6 +13,7 @@
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/training/exercise.h"
+#include "dentar/training/learner.h"
 #include "dentar/volume/bur.h"
 
 namespace dentar::training {
@@ -71,14 +72,22 @@ Result<std::unique_ptr<SimStudentDevice>> SimStudentDevice::create(
   const std::size_t n = static_cast<std::size_t>(std::ceil(student.lag_s / 1e-3)) + 1;
   d->seen_.assign(n, T_tooth_tip_start);
   d->seen_drill_.assign(n, 0);
+  d->seen_hand_.assign(n, T_tooth_tip_start.translation());
   d->aim_ = T_tooth_tip_start;
   d->x_ = (d->T_dev_tooth_ * T_tooth_tip_start * d->T_tip_sty_).translation();
   return d;
 }
 
-void SimStudentDevice::see(const Eigen::Isometry3d& T_tooth_expert_tip, bool drilling) noexcept {
+void SimStudentDevice::set_learner(const LearnerHooks& h) noexcept {
+  learner_ = h;
+  u_.setZero();
+}
+
+void SimStudentDevice::see(const Eigen::Isometry3d& T_tooth_expert_tip, bool drilling, double expert_time_s) noexcept {
   seen_[head_] = T_tooth_expert_tip;
   seen_drill_[head_] = drilling ? 1 : 0;
+  seen_hand_[head_] = tip_tooth();
+  expert_time_ = expert_time_s;
   head_ = (head_ + 1) % seen_.size();
   // The slot to be written next holds the oldest entry: what was seen lag_s ago (the start
   // pose the line was filled with, until lag_s has passed).
@@ -116,6 +125,16 @@ void SimStudentDevice::write_force(const Eigen::Vector3d& force_dev_N) noexcept 
   const double a = std::exp(-period / s_.noise_tau_s), sd = s_.noise_mm * 1e-3;
   for (int i = 0; i < 3; ++i) wander_[i] = a * wander_[i] + sd * std::sqrt(1 - a * a) * n01(rng_);
   Eigen::Isometry3d aim = aim_;
+  if (learner_.memory) {
+    // A learner: its memory of the path at the expert's clock, plus (expert shown) the
+    // correction integrated from the error it saw lag_s ago, bounded.
+    if (!learner_.recall) {
+      u_ += (period / learner_.feedback_tau_s) * (seen_[head_].translation() - seen_hand_[head_]);
+      const double un = u_.norm();
+      if (un > learner_.feedback_max_m) u_ *= learner_.feedback_max_m / un;
+    }
+    aim.translation() = learner_.memory->at(expert_time_) + u_;
+  }
   aim.translation() += wander_;
   if (t_ >= s_.stray_at_s && t_ < s_.stray_at_s + s_.stray_s && s_.stray_at_s >= 0)
     aim.translation() += Eigen::Vector3d(0, s_.stray_mm * 1e-3, 0);
@@ -134,6 +153,9 @@ std::string LessonRunOptions::validate() const {
   if (mode < 1 || mode > 5) return "--mode " + std::to_string(mode) + " must be 1..5 (1 visual replay, 2 passive guidance, 3 active following, 4 force reversal, 5 hints)";
   if (!std::isfinite(seconds) || seconds < 0) return "--seconds must be >= 0";
   if (std::string v = student.validate(); !v.empty()) return v;
+  if (learner.memory && (!std::isfinite(learner.feedback_tau_s) || learner.feedback_tau_s < 0.01 ||
+                         !std::isfinite(learner.feedback_max_m) || learner.feedback_max_m < 0))
+    return "learner: feedback_tau_s must be >= 0.01 s and feedback_max_m >= 0";
   return "";
 }
 
@@ -145,6 +167,10 @@ struct Rec {
 };
 
 double norm3(const double* f) { return std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]); }
+
+double end_s_hint(const LessonRunOptions& opt, const haptics::ExpertTrack& track) {
+  return opt.seconds > 0 ? std::min(opt.seconds, track.duration_s()) : track.duration_s();
+}
 
 }  // namespace
 
@@ -219,6 +245,12 @@ Result<LessonRunResult> run_lesson(const Lesson& lesson, const LessonRunOptions&
   auto dev = SimStudentDevice::create(*prof, limits, setup->engine.T_tooth_dev, setup->engine.T_sty_tip, start,
                                       opt.student, !pen, opt.jitter_s);
   if (!dev) return Error{dev.error()};
+  if (opt.learner.memory) (*dev)->set_learner(opt.learner);
+  std::vector<LearnerSample>* trace = opt.learner.trace;
+  if (trace) {
+    trace->clear();
+    trace->reserve(static_cast<std::size_t>(end_s_hint(opt, *track) * 1000 / p.speed) + 16);
+  }
 
   haptics::EngineConfig cfg = setup->engine;
   cfg.model_params = model;
@@ -268,6 +300,7 @@ Result<LessonRunResult> run_lesson(const Lesson& lesson, const LessonRunOptions&
   for (const Annotation& a : lesson.annotations) pause_total += opt.pauses ? a.pause_s : 0;
   const std::uint64_t cap = static_cast<std::uint64_t>((end_s / p.speed + pause_total + 60.0) * 1000.0);
   const Eigen::Matrix3d R_dev_tooth = setup->engine.T_tooth_dev.linear().transpose();
+  const Eigen::Matrix3d R_tooth_dev = setup->engine.T_tooth_dev.linear();
   std::vector<double> err;
   err.reserve(static_cast<std::size_t>(end_s * 1000 / p.speed) + 16);
   double prev_f = 0, prev_expert_time = 0;
@@ -335,7 +368,16 @@ Result<LessonRunResult> run_lesson(const Lesson& lesson, const LessonRunOptions&
       r.paused_s += a.pause_s;
       ++r.pauses_taken;
     }
-    student.see(Te, s.expert_drilling != 0);
+    student.see(Te, s.expert_drilling != 0, s.expert_time_s);
+    if (trace) {
+      LearnerSample ls;
+      ls.expert_time_s = s.expert_time_s;
+      ls.expert_tip = pe;
+      ls.hand_tip = student.tip_tooth();
+      ls.feedback = student.feedback_tooth();
+      ls.force_N = R_tooth_dev * Eigen::Vector3d(s.force_dev_N[0], s.force_dev_N[1], s.force_dev_N[2]);
+      trace->push_back(ls);
+    }
     prev_expert_time = s.expert_time_s;
     if (s.expert_time_s >= end_s && pause_until < 0) break;
     // Keep the log's ring from overflowing: simulated time runs faster than the disk.

@@ -25,6 +25,29 @@
 
 namespace dentar::training {
 
+class LearnedPath;  // learner.h
+
+// One haptic step of a learner's repetition (tooth frame, SI): what learner.h learns from.
+struct LearnerSample {
+  double expert_time_s = 0;
+  Eigen::Vector3d expert_tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d hand_tip = Eigen::Vector3d::Zero();  // the stylus tip after the step
+  Eigen::Vector3d feedback = Eigen::Vector3d::Zero();  // the learner's own visual correction
+  Eigen::Vector3d force_N = Eigen::Vector3d::Zero();   // sent to the device (after the guard)
+};
+
+// A learner (learner.h) in place of the plain follower: the hand aims at its memory of the
+// expert's path at the expert's clock plus a visual correction integrated from the error
+// it sees lag_s late (StudentModel::lag_s), bounded; with `recall` the expert is hidden
+// (a retention test): the memory and the wander only. `memory` nullptr: the plain follower.
+struct LearnerHooks {
+  const LearnedPath* memory = nullptr;  // not owned; must outlive the run
+  double feedback_tau_s = 0.5;
+  double feedback_max_m = 5e-3;
+  bool recall = false;
+  std::vector<LearnerSample>* trace = nullptr;  // when set, receives every step (cleared first)
+};
+
 struct StudentModel {
   bool passive = false;          // true: relaxed hand (mode 2's "passive hand")
   double lag_s = 0.25;           // reaction delay to what the student sees (passive: 0.5)
@@ -59,7 +82,12 @@ class SimStudentDevice final : public haptics::HapticDevice {
   void write_force(const Eigen::Vector3d& force_dev_N) noexcept override;
   // What the student sees after a step: the expert's tip (tooth frame) and whether it
   // drills (the student's pedal follows it, lagged).
-  void see(const Eigen::Isometry3d& T_tooth_expert_tip, bool drilling) noexcept;
+  // expert_time_s: the expert's clock (a learner aims at its memory at that time).
+  void see(const Eigen::Isometry3d& T_tooth_expert_tip, bool drilling, double expert_time_s = 0) noexcept;
+  // Makes this student a learner (before the first step; `h.memory` must outlive it).
+  void set_learner(const LearnerHooks& h) noexcept;
+  // A learner's visual correction now (tooth frame, m).
+  Eigen::Vector3d feedback_tooth() const { return u_; }
   // The student holds the stylus's pause button (a lesson's pause point).
   void hold_pause(bool on) noexcept { pause_ = on; }
   double time_s() const { return t_; }
@@ -76,6 +104,12 @@ class SimStudentDevice final : public haptics::HapticDevice {
   bool renders_ = true, pause_ = false;
   Eigen::Vector3d x_ = Eigen::Vector3d::Zero(), v_ = Eigen::Vector3d::Zero(), f_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d wander_ = Eigen::Vector3d::Zero();
+  // A learner (learner.h): its memory, the expert's clock, the correction and the delay
+  // line of the hand tip as seen (tooth frame).
+  LearnerHooks learner_;
+  double expert_time_ = 0;
+  Eigen::Vector3d u_ = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> seen_hand_;
   // The delay line of what was seen (one entry per step).
   std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> seen_;
   std::vector<std::uint8_t> seen_drill_;
@@ -93,6 +127,7 @@ struct LessonRunOptions {
   double jitter_s = 0;           // extra period length, uniform in [0, jitter_s]
   bool pauses = true;            // the lesson's pause points stop the expert
   std::string out_dir;           // session.dlog and run.json go here ("" = not recorded)
+  LearnerHooks learner;          // a learning student (learner.h); default: the plain follower
   std::string validate() const;
 };
 
