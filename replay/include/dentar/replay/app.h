@@ -52,6 +52,9 @@ struct ReplayOptions {
   // per axis and is scaled up into the window (bilinear); paused, and the frame a
   // --screenshot captures, are rendered at full resolution. 1 = always full.
   double play_scale = 0.5;
+  // The tooth's level of detail while playing: its mesh clustered in cells of this many
+  // voxels (2, 4 or 8; 0 = the full mesh). Paused, and the --screenshot frame: the full mesh.
+  int play_lod_voxels = 2;
   // Scripted key presses, one per frame from the second frame on, through the same code as
   // the user's keys (tests): names as in the key list above ("space", "n", "left", "1", ...).
   std::vector<std::string> keys;
