@@ -652,7 +652,8 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
                                      r.alphas.pulp, r.ghost_alpha, r.superimpose ? 1.0 : 0.0,
                                      static_cast<double>(reinterpret_cast<std::uintptr_t>(r.view_a.get())),
                                      reduced ? 1.0 : 0.0};
-    if (key != last_key) {
+    const bool view_changed = key != last_key;
+    if (view_changed) {
       render_views(r, reduced);
       if (reduced) play_tris.push_back(static_cast<double>(r.view_a->rendered_triangles()));
     }
@@ -662,7 +663,9 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     if (!opt.stats.empty()) finish_gl();
     const auto c2 = Clock::now();
     (*win)->begin_frame();
-    blit_views(r, **win);
+    // An unchanged view that the window still holds (a preserved back buffer) is not
+    // copied again: paused and untouched, a frame is the HUD's overlay and the swap.
+    if (view_changed || !(*win)->keeps_caller_pixels()) blit_views(r, **win);
     handle_mouse(r);
     draw_hud(r, ui, shown_ms);
     const bool last_frame = opt.frames > 0 && n + 1 == opt.frames;

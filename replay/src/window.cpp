@@ -286,10 +286,17 @@ cv::Mat ReplayWindow::end_frame(bool capture) {
     ++hud_draws_;
   }
   overlay_boxes_.clear();
+  bool overlay_inside = true;
   for (const ImDrawList* l : over)
-    for (const auto& bx : drawn_boxes(*l))
+    for (const auto& bx : drawn_boxes(*l)) {
       overlay_boxes_.push_back({static_cast<int>(std::floor(bx[0])), static_cast<int>(std::floor(bx[1])),
                                 static_cast<int>(std::ceil(bx[2])), static_cast<int>(std::ceil(bx[3]))});
+      bool in = false;
+      for (const auto& a : areas_)
+        in = in || (bx[0] >= a[0] && bx[2] <= a[0] + a[2] && bx[1] >= a[1] && bx[3] <= a[1] + a[3]);
+      overlay_inside = overlay_inside && in;
+    }
+  caller_kept_ = preserved_ && cacheable && overlay_inside;
   cv::Mat px;
   if (capture) {
     cv::Mat rgba(h_, w_, CV_8UC4);

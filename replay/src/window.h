@@ -57,6 +57,10 @@ class ReplayWindow {
   // Renders the HUD and swaps; with `capture`, returns the window's pixels (BGR, row 0 =
   // top) first.
   cv::Mat end_frame(bool capture);
+  // True when the window's back buffer still holds, outside the HUD's areas, what the
+  // caller blitted last frame (a preserved back buffer, and the last frame's HUD and overlay
+  // drew only in their areas): an unchanged view then need not be blitted again.
+  bool keeps_caller_pixels() const { return caller_kept_; }
   // Frames whose HUD was drawn (into the cache or directly) since open; the others reused it.
   long hud_draws() const { return hud_draws_; }
   int width() const { return w_; }
@@ -76,6 +80,7 @@ class ReplayWindow {
   long hud_draws_ = 0;
   bool preserved_ = false;         // the back buffer survives a swap (EGL_BUFFER_PRESERVED)
   bool window_has_cache_ = false;  // the window's HUD areas hold the cache (+ the overlay)
+  bool caller_kept_ = false;
   std::vector<std::array<int, 4>> overlay_boxes_;  // where the last overlay drew (x0, y0, x1, y1)
 };
 

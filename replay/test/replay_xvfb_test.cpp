@@ -240,6 +240,9 @@ TEST(ReplayXvfb, BadInputIsRefusedWithExitCode2) {
   r = run_command(kBin + " replay " + lesson().string() + " --play-scale 0.1" + out);
   EXPECT_EQ(r.code, 2) << r.out;
   expect_has(r.out, "--play-scale 0.100: must be 0.25 to 1");
+  r = run_command(kBin + " replay " + lesson().string() + " --play-lod 3" + out);
+  EXPECT_EQ(r.code, 2) << r.out;
+  expect_has(r.out, "--play-lod 3: must be 0 (the full mesh), 2, 4 or 8 voxels");
   dentar::test::write_file(d / "junk.dlog", std::string(4096, 'x'));
   r = run_command(kBin + " replay " + (d / "junk.dlog").string() + out);
   EXPECT_EQ(r.code, 2) << r.out;
