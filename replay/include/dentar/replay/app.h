@@ -13,7 +13,10 @@
 // y >= height - kTimelineHeight; the 3D view is rendered at the size of the area left free
 // (principal point in its middle) and blitted there 1:1 from the renderer's framebuffer;
 // nothing of the HUD covers it. `render` (headless) writes exactly that area's image, which
-// the screenshot test compares with the window's.
+// the screenshot test compares with the window's. While playing, the view is rendered at
+// play_scale with a coarse tooth (play_lod_voxels) and the HUD is copied from a texture drawn
+// again only when it changes (the play heads and the clock over it; src/window.h); paused,
+// scrubbed still and the --screenshot frame are the full-quality view.
 //
 // Mouse: left drag orbits, right (or middle) drag pans, the wheel zooms. Keys: arrows orbit,
 // + / - zoom, W A S D pan, R resets the view, space plays / pauses, , and . step back and
