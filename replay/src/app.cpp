@@ -401,6 +401,14 @@ void handle_mouse(Replay& r) {
   if (io.MouseWheel != 0) r.cam.zoom(std::pow(1.1, io.MouseWheel));
 }
 
+// A HUD line that changes every frame while playing (the clocks): its place is kept in the
+// window and the text drawn on the foreground list, over the HUD's cached layer (window.h).
+void live_line(const std::string& text) {
+  const ImVec2 at = ImGui::GetCursorScreenPos();
+  ImGui::Dummy(ImVec2(ImGui::GetContentRegionAvail().x, ImGui::GetTextLineHeight()));
+  ImGui::GetForegroundDrawList()->AddText(at, ImGui::GetColorU32(ImGuiCol_Text), text.c_str());
+}
+
 void draw_hud(Replay& r, Ui& ui, double frame_ms) {
   const float W = static_cast<float>(r.opt.width), H = static_cast<float>(r.opt.height);
   const ImGuiWindowFlags fixed = ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
@@ -409,15 +417,7 @@ void draw_hud(Replay& r, Ui& ui, double frame_ms) {
   ImGui::SetNextWindowSize(ImVec2(kPanelWidth, H - kTimelineHeight));
   ImGui::Begin("Replay (mode 1)", nullptr, fixed);
   ImGui::TextWrapped("%s", r.a.rec.title.c_str());
-  {
-    // The clock changes every frame: its line is kept free and the text drawn on the
-    // foreground list (over the HUD's cached layer, window.h).
-    const std::string clock =
-        fmt(r.t_s) + " / " + fmt(r.a.rec.duration_s) + " s   " + fmt(frame_ms, 0) + " ms/frame";
-    const ImVec2 at = ImGui::GetCursorScreenPos();
-    ImGui::Dummy(ImVec2(ImGui::GetContentRegionAvail().x, ImGui::GetTextLineHeight()));
-    ImGui::GetForegroundDrawList()->AddText(at, ImGui::GetColorU32(ImGuiCol_Text), clock.c_str());
-  }
+  live_line(fmt(r.t_s) + " / " + fmt(r.a.rec.duration_s) + " s   " + fmt(frame_ms, 0) + " ms/frame");
   if (ImGui::Button(ui.playing ? "Pause" : "Play")) ui.playing = !ui.playing;
   ImGui::SameLine();
   if (ImGui::Button("|<")) ui.seek_target = 0;
@@ -440,8 +440,8 @@ void draw_hud(Replay& r, Ui& ui, double frame_ms) {
     }
     if (r.superimpose) ImGui::SliderFloat("other", &r.ghost_alpha, 0.05f, 0.95f, "%.2f");
     ImGui::TextWrapped("left/solid: %s", r.a.rec.input.c_str());
-    ImGui::TextWrapped("%s: %s at %s s", r.superimpose ? "blue" : "right", r.b->rec.input.c_str(),
-                       fmt(r.b_time(r.t_s)).c_str());
+    ImGui::TextWrapped("%s: %s", r.superimpose ? "blue" : "right", r.b->rec.input.c_str());
+    live_line("  at " + fmt(r.b_time(r.t_s)) + " s (aligned)");
   }
   ImGui::Separator();
   ImGui::TextUnformatted("Steps (1-9; N/P: next/previous change)");
