@@ -37,6 +37,9 @@ void add_replay(CLI::App& app, int& exit_code) {
   sub->add_option("--play-scale", o->play_scale,
                   "while playing, render the 3-D view at this fraction of its pixels per axis and scale it up (0.25..1; "
                   "default 0.5; paused: full resolution)");
+  sub->add_option("--play-lod", o->play_lod_voxels,
+                  "while playing, draw the tooth's mesh clustered in cells of this many voxels (2, 4 or 8; 0 = the full "
+                  "mesh; default 2; paused: the full mesh)");
   sub->add_option("--stats", o->stats, "write frame times (median, p99) and the alignment to this JSON");
   sub->add_option("--keys", o->keys, "scripted key presses, one per frame (tests): e.g. --keys n n space")->expected(0, -1);
   sub->add_flag("--no-vsync", *no_vsync, "do not wait for the display's refresh (benchmarks)");

@@ -163,7 +163,8 @@ std::string LiveSummary::json() const {
                    {"follow_error_mm", {{"samples", follow_samples}, {"mean", follow_mean_mm}, {"p95", follow_p95_mm},
                                         {"max", follow_max_mm}}},
                    {"pauses", {{"taken", lesson_pauses_taken}, {"paused_s", lesson_paused_s},
-                               {"resumed_by_button", lesson_pauses_resumed_by_button}}}};
+                               {"resumed_by_button", lesson_pauses_resumed_by_button},
+                               {"resumed_by_key", lesson_pauses_resumed_by_key}}}};
   if (lesson_mode != 0) {
     nlohmann::json notes = nlohmann::json::array();
     for (const LessonNote& n : lesson_notes)
@@ -816,6 +817,7 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
       sum.lesson_pauses_taken = c.lesson_pauses->pauses_taken();
       sum.lesson_paused_s = c.lesson_pauses->paused_s();
       sum.lesson_pauses_resumed_by_button = c.lesson_pauses->resumed_by_button();
+      sum.lesson_pauses_resumed_by_key = c.lesson_pauses->resumed_by_key();
     }
     for (const DisplayFigures::Note& n : df.notes) {
       const training::Annotation& a = l->lesson().annotations[static_cast<std::size_t>(n.annotation)];

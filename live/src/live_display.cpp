@@ -113,8 +113,11 @@ class DisplayLoop {
     }
     HudWindow& hw = c_.hw;
     hw.poll();
-    for (const int key : hw.take_presses())
+    for (const int key : hw.take_presses()) {
       if (key == GLFW_KEY_ESCAPE) hw.request_close();
+      // Enter ends a lesson's pause point (the pen stylus has no pause button).
+      if ((key == GLFW_KEY_ENTER || key == GLFW_KEY_KP_ENTER) && c_.lesson_pauses) c_.lesson_pauses->request_resume();
+    }
     c_.key_pedal.set_pressed(hw.held(GLFW_KEY_SPACE));
     // The camera went quiet: show the video without the overlay within 200 ms.
     // One read of the capture time per check: a frame may land before the
@@ -177,10 +180,13 @@ class DisplayLoop {
     const int p = c_.lesson_pauses ? c_.lesson_pauses->pausing() : -1;
     if (p >= 0) {
       if (c_.pen)
-        ImGui::TextColored(hi, "PAUSED by the lesson: the expert resumes in %.1f s", c_.lesson_pauses->pause_left_s());
+        ImGui::TextColored(hi, "PAUSED by the lesson: the expert resumes in %.1f s, or press Enter",
+                           c_.lesson_pauses->pause_left_s());
       else
         ImGui::TextColored(hi, "PAUSED by the lesson: the expert resumes in %.1f s, or press and release the stylus's "
-                           "pause button (second button)", c_.lesson_pauses->pause_left_s());
+                           "pause button (second button) or Enter", c_.lesson_pauses->pause_left_s());
+    } else if (c_.lesson_pauses && c_.lesson_pauses->student_holding()) {
+      ImGui::TextColored(hi, "PAUSED by you: the expert waits while the stylus's pause button (second button) is down");
     }
     const double t = now_s() - fig_.t_start;
     for (const DisplayFigures::Note& n : fig_.notes)

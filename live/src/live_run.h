@@ -52,7 +52,7 @@ struct LiveContext {
   std::function<void()> to_engine_cpu;
   double comp_latency_s = 0;  // latency compensation (issue 24); 0 = the newest pose
   std::function<void(const std::string&)> say;
-  const session::LessonPauseDevice* lesson_pauses = nullptr;  // a lesson: its pause points (the engine's device)
+  session::LessonPauseDevice* lesson_pauses = nullptr;  // a lesson: its pause points (the engine's device)
 };
 
 // What the frame thread hands the window: the newest composite and its raw

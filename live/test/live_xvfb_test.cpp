@@ -988,6 +988,60 @@ TEST(LiveLesson, PausePointHoldsTheExpertUntilItsTimeOrTheButton) {
   EXPECT_LT(e.snapshot().expert_time_s, held_at + 0.05);
 }
 
+// The pen stylus has no pause button: Enter in the window ends a lesson's pause point
+// (LessonPauseDevice::request_resume, from the display thread); a request outside a pause
+// point is dropped (the next pause point is still held). The student's own pause (the
+// button held outside a pause point) is published for the HUD while it lasts, and holds the
+// expert's clock.
+TEST(LiveLesson, EnterEndsAPausePointAndTheStudentsOwnPauseIsShown) {
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_lesson_key");
+  auto r = run_command(kBin + " lesson make " + (c / "session.dlog").string() +
+                       " --exercise molar_access_opening --pause 0.5:2 --out " + (t / "lesson").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  dentar::haptics::DeviceLimits pen;
+  auto l = dentar::session::LessonClock::open((t / "lesson").string(), 1, pen, false);
+  ASSERT_TRUE(l.ok()) << l.error();
+  auto tooth = dentar::training::make_tooth((*l)->lesson().tooth_json);
+  ASSERT_TRUE(tooth.ok()) << tooth.error();
+  auto bur = dentar::volume::sample_bur((*l)->bur(), 500);
+  ASSERT_TRUE(bur.ok()) << bur.error();
+  StillStylus stylus(1.3, 1.4);  // the student's own pause, after the pause point
+  dentar::session::LessonPauseDevice pauses(stylus, (*l)->lesson().annotations);
+  dentar::haptics::EngineConfig cfg;
+  cfg.training = (*l)->mode();
+  auto engine = dentar::haptics::Engine::create(cfg, pauses, *tooth, *bur);
+  ASSERT_TRUE(engine.ok()) << engine.error();
+  pauses.attach(engine->get());
+  auto& e = **engine;
+  e.run_steps(300);
+  pauses.request_resume();  // 0.3 s: no pause point yet: dropped
+  e.run_steps(290);         // 0.589 s: the pause point at 0.5 s holds the clock
+  ASSERT_EQ(pauses.pausing(), 0);
+  EXPECT_FALSE(pauses.student_holding()) << "the lesson holds, not the student";
+  const double held_at = e.snapshot().expert_time_s;
+  pauses.request_resume();  // Enter
+  e.run_steps(1);
+  EXPECT_EQ(pauses.pausing(), -1);
+  EXPECT_EQ(pauses.resumed_by_key(), 1);
+  EXPECT_EQ(pauses.resumed_by_button(), 0);
+  EXPECT_NEAR(pauses.paused_s(), 0.590 - 0.5, 3e-3);
+  e.run_steps(100);
+  EXPECT_GT(e.snapshot().expert_time_s, held_at + 0.05) << "the clock runs again";
+  e.run_steps(1320 - 691);  // 1.32 s: the student's button is down
+  EXPECT_TRUE(pauses.student_holding());
+  EXPECT_EQ(pauses.pausing(), -1);
+  const double own_at = e.snapshot().expert_time_s;
+  e.run_steps(50);  // 1.37 s: still down: the expert waits
+  EXPECT_TRUE(pauses.student_holding());
+  EXPECT_EQ(e.snapshot().expert_time_s, own_at);
+  e.run_steps(100);  // 1.47 s: released
+  EXPECT_FALSE(pauses.student_holding());
+  EXPECT_GT(e.snapshot().expert_time_s, own_at);
+  EXPECT_EQ(pauses.pauses_taken(), 1);
+  EXPECT_EQ(pauses.resumed_by_key(), 1);
+}
+
 // Bad input before any window: a mode without a lesson, a lesson beside an exercise, a
 // lesson that does not exist (exit 2, naming the option and the file).
 TEST(LiveCli, LessonBadInputIsRefused) {

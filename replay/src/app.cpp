@@ -80,11 +80,11 @@ calibration::CameraIntrinsics view_k(const Replay& r, bool right) {
 Status make_views(Replay& r) {
   r.view_a.reset();
   r.view_b.reset();
-  auto va = SceneView::create(view_k(r, false), r.a.player->bur(), r.opt.play_scale);
+  auto va = SceneView::create(view_k(r, false), r.a.player->bur(), r.opt.play_scale, r.opt.play_lod_voxels);
   if (!va) return Error{va.error()};
   r.view_a = std::move(va).value();
   if (r.b && !r.superimpose) {
-    auto vb = SceneView::create(view_k(r, true), r.b->player->bur(), r.opt.play_scale);
+    auto vb = SceneView::create(view_k(r, true), r.b->player->bur(), r.opt.play_scale, r.opt.play_lod_voxels);
     if (!vb) return Error{vb.error()};
     r.view_b = std::move(vb).value();
   }
@@ -241,8 +241,11 @@ double timeline(const Recording& rec, double t, float width, float height) {
     const ImU32 col = a.pause_s > 0 ? IM_COL32(255, 90, 90, 255) : IM_COL32(255, 230, 120, 255);
     dl->AddTriangleFilled(ImVec2(x - 5, p0.y + height), ImVec2(x + 5, p0.y + height), ImVec2(x, p0.y + height - 9), col);
   }
+  // The play head moves every frame: on the foreground list, over the HUD's cached layer
+  // (window.h).
   const float xh = X(t);
-  dl->AddLine(ImVec2(xh, p0.y - 2), ImVec2(xh, p0.y + height + 2), IM_COL32(255, 255, 255, 255), 2.0f);
+  ImGui::GetForegroundDrawList()->AddLine(ImVec2(xh, p0.y - 2), ImVec2(xh, p0.y + height + 2), IM_COL32(255, 255, 255, 255),
+                                          2.0f);
   ImGui::InvisibleButton("timeline", ImVec2(width, height));
   if (ImGui::IsItemActive() && ImGui::IsMouseDown(0)) {
     const float mx = ImGui::GetIO().MousePos.x;
@@ -298,7 +301,7 @@ void force_plot(const Recording& rec, unsigned tex, double t, float width, float
     ImGui::Dummy(ImVec2(width, height));
   const double D = std::max(1e-9, rec.duration_s);
   const float x = p0.x + static_cast<float>(t / D) * (width - 1);
-  dl->AddLine(ImVec2(x, p0.y), ImVec2(x, p0.y + height), IM_COL32(0, 0, 0, 255), 1.5f);
+  ImGui::GetForegroundDrawList()->AddLine(ImVec2(x, p0.y), ImVec2(x, p0.y + height), IM_COL32(0, 0, 0, 255), 1.5f);
   const double fmax = plot_fmax(rec);
   dl->AddText(ImVec2(p0.x + 4, p0.y + 2), IM_COL32(60, 60, 60, 255), (std::string(label) + "  +" + fmt(fmax) + " N").c_str());
   dl->AddText(ImVec2(p0.x + 4, p0.y + height - 16), IM_COL32(60, 60, 60, 255), ("-" + fmt(fmax) + " N").c_str());
@@ -398,6 +401,14 @@ void handle_mouse(Replay& r) {
   if (io.MouseWheel != 0) r.cam.zoom(std::pow(1.1, io.MouseWheel));
 }
 
+// A HUD line that changes every frame while playing (the clocks): its place is kept in the
+// window and the text drawn on the foreground list, over the HUD's cached layer (window.h).
+void live_line(const std::string& text) {
+  const ImVec2 at = ImGui::GetCursorScreenPos();
+  ImGui::Dummy(ImVec2(ImGui::GetContentRegionAvail().x, ImGui::GetTextLineHeight()));
+  ImGui::GetForegroundDrawList()->AddText(at, ImGui::GetColorU32(ImGuiCol_Text), text.c_str());
+}
+
 void draw_hud(Replay& r, Ui& ui, double frame_ms) {
   const float W = static_cast<float>(r.opt.width), H = static_cast<float>(r.opt.height);
   const ImGuiWindowFlags fixed = ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
@@ -406,7 +417,7 @@ void draw_hud(Replay& r, Ui& ui, double frame_ms) {
   ImGui::SetNextWindowSize(ImVec2(kPanelWidth, H - kTimelineHeight));
   ImGui::Begin("Replay (mode 1)", nullptr, fixed);
   ImGui::TextWrapped("%s", r.a.rec.title.c_str());
-  ImGui::Text("%s / %s s   %.0f ms/frame", fmt(r.t_s).c_str(), fmt(r.a.rec.duration_s).c_str(), frame_ms);
+  live_line(fmt(r.t_s) + " / " + fmt(r.a.rec.duration_s) + " s   " + fmt(frame_ms, 0) + " ms/frame");
   if (ImGui::Button(ui.playing ? "Pause" : "Play")) ui.playing = !ui.playing;
   ImGui::SameLine();
   if (ImGui::Button("|<")) ui.seek_target = 0;
@@ -429,8 +440,8 @@ void draw_hud(Replay& r, Ui& ui, double frame_ms) {
     }
     if (r.superimpose) ImGui::SliderFloat("other", &r.ghost_alpha, 0.05f, 0.95f, "%.2f");
     ImGui::TextWrapped("left/solid: %s", r.a.rec.input.c_str());
-    ImGui::TextWrapped("%s: %s at %s s", r.superimpose ? "blue" : "right", r.b->rec.input.c_str(),
-                       fmt(r.b_time(r.t_s)).c_str());
+    ImGui::TextWrapped("%s: %s", r.superimpose ? "blue" : "right", r.b->rec.input.c_str());
+    live_line("  at " + fmt(r.b_time(r.t_s)) + " s (aligned)");
   }
   ImGui::Separator();
   ImGui::TextUnformatted("Steps (1-9; N/P: next/previous change)");
@@ -514,6 +525,8 @@ std::string ReplayOptions::validate() const {
     if (key_code(k) < 0) return "--keys: unknown key '" + k + "' (letters, digits, space, left, right, up, down, +, -, ',', '.', [, ], home, end, tab, pageup, pagedown, escape)";
   if (!screenshot.empty() && frames <= 0) return "--screenshot needs --frames N (the window is captured after frame N)";
   if (!(play_scale >= 0.25 && play_scale <= 1)) return "--play-scale " + fmt(play_scale, 3) + ": must be 0.25 to 1";
+  if (play_lod_voxels != 0 && play_lod_voxels != 2 && play_lod_voxels != 4 && play_lod_voxels != 8)
+    return "--play-lod " + std::to_string(play_lod_voxels) + ": must be 0 (the full mesh), 2, 4 or 8 voxels";
   if (!render.empty() && !screenshot.empty()) return "--render (headless) and --screenshot (the window's) exclude each other";
   return {};
 }
@@ -559,6 +572,10 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
                    std::to_string((*win)->width()) + "x" + std::to_string((*win)->height()) +
                    " window (a smaller screen?); give a --size that fits"};
   if (Status s = make_views(r); !s) return {1, s.error()};
+  // The HUD's areas (app.h's layout): the controls on the left, the timeline along the
+  // bottom; the views' blits cover the rest.
+  (*win)->set_hud_areas({{0, 0, kPanelWidth, opt.height - kTimelineHeight},
+                         {0, opt.height - kTimelineHeight, opt.width, kTimelineHeight}});
   {
     // The plots' size as draw_hud lays them out.
     const int pw = opt.width - 16;
@@ -570,7 +587,7 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
   std::vector<double> last_key;
   ui.playing = opt.play;
   ui.speed = opt.speed;
-  std::vector<double> frame_ms, seek_ms, scene_ms, hud_ms, cpu_ms;
+  std::vector<double> frame_ms, seek_ms, scene_ms, hud_ms, cpu_ms, play_tris;
   // This process's CPU time per frame (all its threads: llvmpipe's rasterisers included, the
   // X server's copy not): the load-independent cost of a frame.
   const auto process_cpu_ms = [] {
@@ -626,7 +643,8 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     // frame a --screenshot captures, at full resolution (the key holds which, so pausing
     // renders the same time again at full quality).
     const bool shot_frame = !opt.screenshot.empty() && opt.frames > 0 && n + 1 == opt.frames;
-    const bool reduced = ui.playing && ui.pause_left_s <= 0 && !shot_frame && opt.play_scale < 1;
+    const bool reduced =
+        ui.playing && ui.pause_left_s <= 0 && !shot_frame && (opt.play_scale < 1 || opt.play_lod_voxels > 0);
     // The view is rendered again only when what it shows changed (time, camera, opacities,
     // layout); paused and untouched, the last render is blitted again.
     const std::vector<double> key = {r.t_s, r.cam.yaw_rad, r.cam.pitch_rad, r.cam.distance_m, r.cam.target_m.x(),
@@ -634,14 +652,20 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
                                      r.alphas.pulp, r.ghost_alpha, r.superimpose ? 1.0 : 0.0,
                                      static_cast<double>(reinterpret_cast<std::uintptr_t>(r.view_a.get())),
                                      reduced ? 1.0 : 0.0};
-    if (key != last_key) render_views(r, reduced);
+    const bool view_changed = key != last_key;
+    if (view_changed) {
+      render_views(r, reduced);
+      if (reduced) play_tris.push_back(static_cast<double>(r.view_a->rendered_triangles()));
+    }
     last_key = key;
     // With --stats, the view's rendering is waited for, so its time is measured apart from
     // the window's (a frame then costs the sum; without, the two can overlap).
     if (!opt.stats.empty()) finish_gl();
     const auto c2 = Clock::now();
     (*win)->begin_frame();
-    blit_views(r, **win);
+    // An unchanged view that the window still holds (a preserved back buffer) is not
+    // copied again: paused and untouched, a frame is the HUD's overlay and the swap.
+    if (view_changed || !(*win)->keeps_caller_pixels()) blit_views(r, **win);
     handle_mouse(r);
     draw_hud(r, ui, shown_ms);
     const bool last_frame = opt.frames > 0 && n + 1 == opt.frames;
@@ -675,6 +699,11 @@ ReplayOutcome run_replay(const ReplayOptions& opt) {
     stats["play_scale"] = opt.play_scale;
     stats["cpu_ms_median"] = percentile(cpu_ms, 0.5);
     stats["cpu_ms_p99"] = percentile(cpu_ms, 0.99);
+    stats["play_lod_voxels"] = opt.play_lod_voxels;
+    // The tooth's triangles in the frames rendered while playing (median), and how often the
+    // HUD was drawn (the others reused its cached layer).
+    stats["triangles_playing"] = percentile(play_tris, 0.5);
+    stats["hud_draws"] = (*win)->hud_draws();
     msg += "\nframes: " + std::to_string(frame_ms.size() + 1) + ", frame time median " + fmt(med, 2) + " ms (" +
            fmt(med > 0 ? 1e3 / med : 0, 0) + " fps), p99 " + fmt(p99, 2) + " ms";
   }

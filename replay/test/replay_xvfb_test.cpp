@@ -158,6 +158,42 @@ TEST(ReplayXvfb, PlayingScreenshotIsFullQualityAtTheTimeReached) {
   EXPECT_GT(compare(off(in), up(in)).first, 0.005);
 }
 
+// Playing (issue 27, session 15): the tooth is drawn coarse (--play-lod 2: under half the
+// full mesh's triangles), the HUD is drawn again only when it changed (a handful of times in
+// 40 frames, not every frame), and what changes every frame, the play heads, is drawn over the
+// cached HUD at the time reached, with no trace left where earlier frames drew them: in the
+// captured window the force plot shows exactly one play head, at end_s. The screenshot's
+// view is the full mesh (PlayingScreenshotIsFullQualityAtTheTimeReached).
+TEST(ReplayXvfb, PlayingDrawsACoarseToothAndTheHudOnlyWhenItChanges) {
+  REQUIRE_XVFB();
+  const fs::path d = dentar::test::temp_dir("replay_play_cache");
+  const int frames = 40;
+  auto r = run_command(xvfb(kBin + " replay " + lesson().string() + " --at 10 --play --speed 4 --frames " +
+                            std::to_string(frames) + " --play-lod 2 --no-vsync --screenshot " + (d / "w.png").string() +
+                            " --stats " + (d / "s.json").string() + " 2>&1"));
+  SKIP_WITHOUT_EGL(r);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto s = dentar::test::read_json(d / "s.json");
+  const double end_s = s.at("end_s").get<double>(), dur = s.at("duration_s").get<double>();
+  ASSERT_GT(end_s, 10.5) << "it played";
+  EXPECT_LT(s.at("triangles_playing").get<double>(), 0.45 * s.at("triangles").get<double>());
+  EXPECT_GT(s.at("triangles_playing").get<double>(), 0.1 * s.at("triangles").get<double>());
+  EXPECT_LE(s.at("hud_draws").get<int>(), 8) << "the HUD is redrawn only when it changed";
+  EXPECT_GE(s.at("hud_draws").get<int>(), 1);
+  // The force plot: the window's bottom strip (app.h's layout: 8 px padding, the timeline's
+  // 22 px bar, the plot under it). A play head is a dark column through the plot's height.
+  const cv::Mat win = cv::imread((d / "w.png").string());
+  ASSERT_EQ(win.size(), cv::Size(1280, 720));
+  cv::Mat grey;
+  cv::cvtColor(win(cv::Rect(0, 540, 1280, 150)), grey, cv::COLOR_BGR2GRAY);
+  std::vector<int> dark_columns;
+  for (int x = 10; x < 1270; ++x)  // inside the plot (the window's dark margins outside)
+    if (cv::countNonZero(grey.col(x) < 60) >= grey.rows * 9 / 10) dark_columns.push_back(x);
+  ASSERT_FALSE(dark_columns.empty()) << "no play head in the force plot";
+  const double x_expected = 8 + end_s / dur * (1280 - 16 - 1);
+  for (int x : dark_columns) EXPECT_NEAR(x, x_expected, 2.5) << "a play head away from end_s: a stale one";
+}
+
 // The keyboard drives the same code as a user's keys: N twice jumps two steps on (to the
 // third span's start, paused), Left orbits 10 degrees, ] doubles the speed.
 TEST(ReplayXvfb, KeysJumpToStepsOrbitAndChangeSpeed) {
@@ -204,6 +240,9 @@ TEST(ReplayXvfb, BadInputIsRefusedWithExitCode2) {
   r = run_command(kBin + " replay " + lesson().string() + " --play-scale 0.1" + out);
   EXPECT_EQ(r.code, 2) << r.out;
   expect_has(r.out, "--play-scale 0.100: must be 0.25 to 1");
+  r = run_command(kBin + " replay " + lesson().string() + " --play-lod 3" + out);
+  EXPECT_EQ(r.code, 2) << r.out;
+  expect_has(r.out, "--play-lod 3: must be 0 (the full mesh), 2, 4 or 8 voxels");
   dentar::test::write_file(d / "junk.dlog", std::string(4096, 'x'));
   r = run_command(kBin + " replay " + (d / "junk.dlog").string() + out);
   EXPECT_EQ(r.code, 2) << r.out;

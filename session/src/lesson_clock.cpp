@@ -106,11 +106,15 @@ bool LessonPauseDevice::read(haptics::DeviceState& out) noexcept {
   const bool ok = inner_->read(out);
   const bool down = (out.buttons & haptics::kButtonSecondary) != 0;
   const double t = out.time_s;
+  const bool asked = resume_.exchange(false, std::memory_order_acq_rel);  // dropped outside a pause point
   if (until_s_ >= 0) {  // in a pause point: ends after its time, or on a press and release of the button
     if (down && !was_down_) pressed_in_pause_ = true;
     const bool released = pressed_in_pause_ && !down;
-    if (t >= until_s_ || released || !std::isfinite(t)) {
-      if (released && t < until_s_) by_button_.fetch_add(1, std::memory_order_relaxed);
+    if (t >= until_s_ || released || asked || !std::isfinite(t)) {
+      if (released && t < until_s_)
+        by_button_.fetch_add(1, std::memory_order_relaxed);
+      else if (asked && t < until_s_)
+        by_key_.fetch_add(1, std::memory_order_relaxed);
       done_s_ += std::max(0.0, std::min(t, until_s_) - started_s_);
       paused_s_.store(done_s_, std::memory_order_relaxed);
       until_s_ = -1;
@@ -136,6 +140,7 @@ bool LessonPauseDevice::read(haptics::DeviceState& out) noexcept {
     }
   }
   was_down_ = down;
+  student_.store(down && until_s_ < 0, std::memory_order_relaxed);
   if (until_s_ >= 0) out.buttons |= haptics::kButtonSecondary;
   return ok;
 }

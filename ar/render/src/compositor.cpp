@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 #include "dentar/ar/gl_objects.h"
+#include "dentar/ar/mesh_lod.h"
 #include "dentar/ar/projection.h"
 #include "dentar/volume/material.h"
 #include "dentar/ar/gpu_mesh.h"
@@ -477,91 +478,19 @@ void full_mesh(const volume::ChunkMesh& cm, scene::Mesh& out) {
   out.indices = cm.indices;
 }
 
-// Vertex clustering on the voxel grid, in cells of `cell` voxels (a divisor
-// of the chunk size, so cells never straddle chunks). Each vertex lies on a
-// grid edge (its edge key); a vertex on a chunk seam (the edge lies in a
-// boundary plane between two chunks) also exists, bit-identical, in the
-// neighbour chunk's mesh. To keep the two copies identical after
-// clustering, seam vertices are clustered only with seam vertices of the
-// same plane (2-D cells in it; both chunks see exactly that set), vertices
-// on two seam planes (chunk edges) are kept, and interior vertices cluster
-// in 3-D cells. A cluster's vertex is the mean of its members (in double,
-// so the two chunks' sums agree) with the mean normal: it stays on a smooth
-// surface (no staircase). Triangles that collapse are dropped. Returns the
-// largest distance of a member from its cluster vertex along the member's
-// normal, m (the level's geometric error; tangential moves do not change
-// what is seen).
-double cluster_mesh(const volume::ChunkMesh& cm, int cell, scene::Mesh& out,
-                    std::unordered_map<std::uint64_t, std::uint32_t>& map,
-                    std::vector<Eigen::Vector3d>& sums, std::vector<int>& counts) {
-  constexpr int kChunk = volume::VoxelVolume::kChunkSize;
-  constexpr std::uint64_t kNoCluster = ~std::uint64_t{0};
-  out.vertices.clear();
-  out.indices.clear();
-  map.clear();
-  sums.clear();
-  counts.clear();
-  std::vector<std::uint32_t> remap(cm.vertices.size());
-  for (std::size_t i = 0; i < cm.vertices.size(); ++i) {
-    const volume::GridEdge e = volume::decode_edge_key(cm.edge_keys[i]);
-    const int idx[3] = {e.i, e.j, e.k};
-    int seam_axis = -1, seams = 0;
-    for (int a = 0; a < 3; ++a)
-      if (a != e.axis && idx[a] > 0 && idx[a] % kChunk == 0) {
-        seam_axis = a;
-        ++seams;
-      }
-    auto cell_of = [&](int a) {
-      // floor division for indices down to -1
-      return static_cast<std::uint64_t>((idx[a] + cell) / cell) & 0xffff;
-    };
-    std::uint64_t key = cell_of(0) | (cell_of(1) << 16) | (cell_of(2) << 32);
-    if (seams >= 2) {
-      key = kNoCluster;  // on a chunk edge: kept as is
-    } else {
-      if (seams == 1) {
-        // In-plane cell plus the plane (its index along the seam axis).
-        key = (cell_of(0) * (seam_axis != 0)) | ((cell_of(1) * (seam_axis != 1)) << 16) |
-              ((cell_of(2) * (seam_axis != 2)) << 32);
-        key |= (static_cast<std::uint64_t>(idx[seam_axis]) & 0x3fff) << 48;
-        key |= static_cast<std::uint64_t>(seam_axis + 1) << 62;
-      }
-    }
-    const auto next = static_cast<std::uint32_t>(out.vertices.size());
-    std::uint32_t c = next;
-    if (key != kNoCluster) c = map.try_emplace(key, next).first->second;
-    if (c == next) {
-      scene::Vertex v;
-      v.position_m = Eigen::Vector3f::Zero();  // set from the mean below
-      v.normal = Eigen::Vector3f::Zero();
-      v.rgb = material_rgb(cm.vertices[i].material);
-      out.vertices.push_back(v);
-      sums.push_back(Eigen::Vector3d::Zero());
-      counts.push_back(0);
-    }
-    sums[c] += cm.vertices[i].position_m.cast<double>();
-    ++counts[c];
-    out.vertices[c].normal += cm.vertices[i].normal;
-    remap[i] = c;
+// The level of detail of a chunk (mesh_lod.h's vertex clustering in cells of `cell` voxels),
+// coloured by material. Returns the level's geometric error, m.
+double cluster_mesh(const volume::ChunkMesh& cm, int cell, scene::Mesh& out, volume::ChunkMesh& coarse,
+                    MeshLodScratch& scratch) {
+  const double err = cluster_chunk_mesh(cm, cell, coarse, scratch);
+  out.vertices.resize(coarse.vertices.size());
+  for (std::size_t i = 0; i < coarse.vertices.size(); ++i) {
+    scene::Vertex& v = out.vertices[i];
+    v.position_m = coarse.vertices[i].position_m;
+    v.normal = coarse.vertices[i].normal;
+    v.rgb = material_rgb(coarse.vertices[i].material);
   }
-  for (std::size_t c = 0; c < out.vertices.size(); ++c) {
-    scene::Vertex& v = out.vertices[c];
-    v.position_m = (sums[c] / counts[c]).cast<float>();
-    const float n = v.normal.norm();
-    v.normal = n > 1e-12f ? Eigen::Vector3f(v.normal / n) : Eigen::Vector3f::UnitZ();
-  }
-  double err = 0;
-  for (std::size_t i = 0; i < cm.vertices.size(); ++i) {
-    const auto& mv = cm.vertices[i];
-    err = std::max(err, static_cast<double>(std::abs(
-                            mv.normal.dot(out.vertices[remap[i]].position_m - mv.position_m))));
-  }
-  for (std::size_t t = 0; t + 2 < cm.indices.size(); t += 3) {
-    const std::uint32_t a = remap[cm.indices[t]], b = remap[cm.indices[t + 1]],
-                        c = remap[cm.indices[t + 2]];
-    if (a == b || b == c || a == c) continue;
-    out.indices.insert(out.indices.end(), {a, b, c});
-  }
+  out.indices = coarse.indices;
   return err;
 }
 
@@ -692,9 +621,8 @@ struct Compositor::Impl {
   std::vector<std::size_t> level_tris;  // totals per level
   std::vector<double> level_error_m;    // largest per level
   scene::Mesh scratch_mesh;
-  std::unordered_map<std::uint64_t, std::uint32_t> scratch_map;
-  std::vector<Eigen::Vector3d> scratch_sums;
-  std::vector<int> scratch_counts;
+  volume::ChunkMesh scratch_coarse;
+  MeshLodScratch scratch_lod;
 
   ForegroundSegmenter segmenter;
   // Canvas-size CPU copies of the attachments; only `last_canvas` is non-zero.
@@ -731,7 +659,7 @@ struct Compositor::Impl {
         else
           g.error_m[static_cast<std::size_t>(l)] =
               cluster_mesh(cm, opt.lod_cell_voxels[static_cast<std::size_t>(l - 1)],
-                           scratch_mesh, scratch_map, scratch_sums, scratch_counts);
+                           scratch_mesh, scratch_coarse, scratch_lod);
         g.tris[static_cast<std::size_t>(l)] = scratch_mesh.indices.size() / 3;
         g.levels.push_back(scene::upload(scratch_mesh));
       }

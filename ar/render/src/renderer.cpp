@@ -319,8 +319,9 @@ std::size_t ToothRenderer::triangle_count() const {
   return n;
 }
 
-int ToothRenderer::sync(const volume::Surface& surface) {
-  const auto& meshes = surface.chunks();
+int ToothRenderer::sync(const volume::Surface& surface) { return sync(surface.chunks()); }
+
+int ToothRenderer::sync(const std::vector<volume::ChunkMesh>& meshes) {
   if (chunks_.size() != meshes.size()) {
     // A different volume layout: start over.
     chunks_.clear();

@@ -188,7 +188,7 @@ struct LiveSummary {
   // The lesson's pause points taken (the expert's clock held, device time, s; how many the
   // student ended early with the pause button) and its text annotations shown on the HUD
   // (annotation time, expert's clock and run time when shown, s; the text).
-  int lesson_pauses_taken = 0, lesson_pauses_resumed_by_button = 0;
+  int lesson_pauses_taken = 0, lesson_pauses_resumed_by_button = 0, lesson_pauses_resumed_by_key = 0;
   double lesson_paused_s = 0;
   struct LessonNote {
     double time_s = 0, expert_s = 0, run_s = 0;

@@ -13,7 +13,10 @@
 // y >= height - kTimelineHeight; the 3D view is rendered at the size of the area left free
 // (principal point in its middle) and blitted there 1:1 from the renderer's framebuffer;
 // nothing of the HUD covers it. `render` (headless) writes exactly that area's image, which
-// the screenshot test compares with the window's.
+// the screenshot test compares with the window's. While playing, the view is rendered at
+// play_scale with a coarse tooth (play_lod_voxels) and the HUD is copied from a texture drawn
+// again only when it changes (the play heads and the clock over it; src/window.h); paused,
+// scrubbed still and the --screenshot frame are the full-quality view.
 //
 // Mouse: left drag orbits, right (or middle) drag pans, the wheel zooms. Keys: arrows orbit,
 // + / - zoom, W A S D pan, R resets the view, space plays / pauses, , and . step back and
@@ -52,6 +55,9 @@ struct ReplayOptions {
   // per axis and is scaled up into the window (bilinear); paused, and the frame a
   // --screenshot captures, are rendered at full resolution. 1 = always full.
   double play_scale = 0.5;
+  // The tooth's level of detail while playing: its mesh clustered in cells of this many
+  // voxels (2, 4 or 8; 0 = the full mesh). Paused, and the --screenshot frame: the full mesh.
+  int play_lod_voxels = 2;
   // Scripted key presses, one per frame from the second frame on, through the same code as
   // the user's keys (tests): names as in the key list above ("space", "n", "left", "1", ...).
   std::vector<std::string> keys;

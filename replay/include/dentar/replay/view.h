@@ -53,8 +53,12 @@ class SceneView {
   // reduced_scale < 1: a second, smaller target (that fraction of the pixels per axis, the
   // same field of view) that render(..., reduced = true) draws into instead: the window's
   // level of detail while playing (issue 27; llvmpipe's cost is the pixels it fills).
+  // reduced_lod_voxels 2, 4 or 8: render(..., reduced = true) also draws a coarser tooth,
+  // the surface's chunks clustered in cells of that many voxels (ar/mesh_lod.h), remade per
+  // chunk as the cut changes them (llvmpipe's other cost is the triangles); 0 = the full mesh.
+  // A full-quality render always draws the full mesh. Errors: another lod value (named).
   static Result<std::unique_ptr<SceneView>> create(const calibration::CameraIntrinsics& k, const volume::BurParams& bur,
-                                                   double reduced_scale = 1.0);
+                                                   double reduced_scale = 1.0, int reduced_lod_voxels = 0);
   ~SceneView();
   // Renders: clear to the background, the tooth (opaque materials first, then translucent
   // ones), the bur (opaque; with `ghost`, a second translucent tooth and bur are drawn after).
@@ -67,6 +71,8 @@ class SceneView {
   };
   void render(const OrbitCamera& cam, const Tooth& main, const MaterialAlphas& alphas, const Tooth* ghost = nullptr,
               float ghost_alpha = 0.35f, bool reduced = false);
+  // The main tooth's triangles the last render() drew (the coarse level's when it drew that).
+  std::size_t rendered_triangles() const;
   // The size of what the last render() drew (the reduced target's when it drew there).
   int rendered_width() const;
   int rendered_height() const;

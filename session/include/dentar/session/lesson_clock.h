@@ -89,7 +89,8 @@ class LessonStudentDevice final : public haptics::HapticDevice {
 // A lesson's pause points, live (docs/training_modes.md): in front of the engine's device, it
 // holds the stylus's pause button (kButtonSecondary) from the moment the expert's clock
 // reaches a pause point (the engine's snapshot: lock-free) for the point's pause_s of device
-// time, or until the student presses and releases the pause button, whichever comes first.
+// time, or until the student presses and releases the pause button (or asks by
+// request_resume), whichever comes first.
 // The engine pauses the mode while the button is down (its clock stops, the mode's force fades
 // out over ramp_s and back in: no jump), and the held button is what the session log
 // records, so a replay repeats the pause bit-exactly, as `dentar lesson run`'s simulated
@@ -112,6 +113,15 @@ class LessonPauseDevice final : public haptics::HapticDevice {
   int pauses_taken() const { return taken_.load(std::memory_order_relaxed); }
   double paused_s() const { return paused_s_.load(std::memory_order_relaxed); }  // device time held, all pauses
   int resumed_by_button() const { return by_button_.load(std::memory_order_relaxed); }
+  // Pause points ended early by request_resume (a key of the window).
+  int resumed_by_key() const { return by_key_.load(std::memory_order_relaxed); }
+  // The student's own pause: the stylus's pause button held outside a pause point (the
+  // engine holds the expert's clock while it is down).
+  bool student_holding() const { return student_.load(std::memory_order_relaxed); }
+  // Ends the pause point holding the clock now at the next read, as a press and release of
+  // the pause button would: for the pen stylus, which has no button (a key of the window).
+  // Any thread (an atomic flag); a request outside a pause point is dropped.
+  void request_resume() { resume_.store(true, std::memory_order_release); }
 
  private:
   struct Point {
@@ -126,7 +136,8 @@ class LessonPauseDevice final : public haptics::HapticDevice {
   double until_s_ = -1, started_s_ = 0, done_s_ = 0;
   bool was_down_ = false, pressed_in_pause_ = false;
   // Published:
-  std::atomic<int> pausing_{-1}, taken_{0}, by_button_{0};
+  std::atomic<int> pausing_{-1}, taken_{0}, by_button_{0}, by_key_{0};
+  std::atomic<bool> student_{false}, resume_{false};
   std::atomic<double> left_s_{0}, paused_s_{0};
 };
 

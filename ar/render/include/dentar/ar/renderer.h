@@ -143,6 +143,9 @@ class ToothRenderer {
   // number of chunks so touched (ids, ascending, in last_uploaded()); chunks
   // empty before and after cost nothing and are not counted.
   int sync(const volume::Surface& surface);
+  // The same from chunk meshes held elsewhere (one per chunk, in the surface's order: e.g. a
+  // coarser level of detail of them, mesh_lod.h), compared by their `version`.
+  int sync(const std::vector<volume::ChunkMesh>& meshes);
   // Draws the tooth at T_cam_tooth (rigid, metres): opaque materials first,
   // then translucent ones (depth test on, depth writes off), back faces culled.
   void draw(const Eigen::Matrix4d& clip_from_cam, const Eigen::Isometry3d& T_cam_tooth) const;
