@@ -1118,7 +1118,11 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     glDepthMask(GL_TRUE);
     glDepthFunc(depth_func);
   };
-  const cv::Rect croi = overlay.clip(im.cw, im.ch, 3) & cv::Rect(0, 0, im.cw, im.ch);
+  // The region path draws, reads back, resamples, segments and blends inside the
+  // overlay's rectangle only; the whole-frame path (the rival, region_path = false) does the
+  // same over the whole canvas.
+  const cv::Rect croi = o.region_path ? overlay.clip(im.cw, im.ch, 3) & cv::Rect(0, 0, im.cw, im.ch)
+                                      : cv::Rect(0, 0, im.cw, im.ch);
   PxRect croi_px;  // the same as a PxRect, for culling
   croi_px.add(Eigen::Vector2d(croi.x, croi.y));
   croi_px.add(Eigen::Vector2d(croi.x + croi.width, croi.y + croi.height));

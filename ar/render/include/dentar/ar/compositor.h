@@ -124,6 +124,10 @@ struct CompositorOptions {
   HandpieceParams handpiece;
   SegmenterOptions segmenter;
   double near_m = 0.01, far_m = 5.0;  // clip planes, camera z
+  // Issue 28: the region path (default) does the compositor's work only where the overlay
+  // is (see "Regions" above); false = the whole-frame path, kept as the rival that tests and
+  // benchmarks compare against: the same composite, every stage run over the whole frame.
+  bool region_path = true;
 
   std::string validate() const;  // empty, or names the field
 };

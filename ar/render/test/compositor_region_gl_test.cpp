@@ -1,0 +1,96 @@
+// Issue 28: the compositor's region path (the default: work only where the
+// overlay is) against its whole-frame path (CompositorOptions::region_path =
+// false, every stage over the whole frame). Inside the region the two give the
+// same composite and the same visible-tooth mask; outside it the region path's
+// composite is the camera's own pixels, and so is the whole-frame path's (the
+// region holds everything that was drawn).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <opencv2/core.hpp>
+
+#include "dentar/ar/compositor.h"
+#include "dentar/ar/synth.h"
+#include "composite_test_util.h"
+#include "gl_test_context.h"
+
+namespace dentar::ar {
+namespace {
+
+// Pixels of `a` and `b` (same type) that differ, inside (in = true) or outside `r`.
+int differing(const cv::Mat& a, const cv::Mat& b, const cv::Rect& r, bool in, double* max_diff) {
+  cv::Mat d;
+  cv::absdiff(a, b, d);
+  if (d.channels() > 1) {
+    cv::Mat m;
+    cv::transform(d, m, cv::Matx13f(1, 1, 1));
+    d = m;
+  }
+  cv::Mat mask = cv::Mat::zeros(a.size(), CV_8UC1);
+  mask(r).setTo(255);
+  if (!in) mask = ~mask;
+  cv::Mat dd;
+  d.convertTo(dd, CV_32F);
+  double mx = 0;
+  cv::minMaxLoc(dd, nullptr, &mx, nullptr, nullptr, mask);
+  if (max_diff != nullptr) *max_diff = mx;
+  return cv::countNonZero((dd > 0) & mask);
+}
+
+TEST(CompositorRegionGl, RegionPathMatchesWholeFramePathInsideAndIsTheVideoOutside) {
+  DENTAR_GL_TEST_CONTEXT();
+  // Frames 0, 8, 16 of `standard` at 640x480 (before the first cut), a finger painted
+  // across the tooth on every other frame so the segmentation has work.
+  SynthOptions so = synth_preset(SynthPreset::kStandard);
+  so.frames = 17;
+  test::ToothFootage fo = test::tooth_footage(default_station_scene(), so, 8);
+  ASSERT_EQ(fo.error, "");
+  ASSERT_EQ(fo.frames.size(), 3u);
+  CompositorOptions whole_o;
+  whole_o.region_path = false;
+  auto region = Compositor::create(fo.station);
+  auto whole = Compositor::create(fo.station, whole_o);
+  ASSERT_TRUE(region.ok()) << region.error();
+  ASSERT_TRUE(whole.ok()) << whole.error();
+  const int W = fo.station.calibration.camera.width, H = fo.station.calibration.camera.height;
+  int k = 0, mirrors = 0, fingers = 0;
+  for (auto& f : fo.frames) {
+    if (k % 2 == 0)
+      if (const auto fi = test::finger_across_tooth(f.mask, k, 100)) {
+        paint_synthetic_finger(f.image, *fi);
+        ++fingers;
+      }
+    ++k;
+    const CompositeInput in = test::truth_input(f);
+    CompositeResult a, b;
+    ASSERT_TRUE(region->compose(*fo.tooth->surface, in, a).ok());
+    ASSERT_TRUE(whole->compose(*fo.tooth->surface, in, b).ok());
+    const cv::Rect r = a.region;
+    SCOPED_TRACE("frame " + std::to_string(f.truth.frame));
+    ASSERT_TRUE(a.overlay_drawn);
+    ASSERT_FALSE(r.empty());
+    mirrors += a.mirror_drawn ? 1 : 0;
+    // The region is small and the whole-frame path really covered the frame.
+    EXPECT_LT(r.area(), W * H / 10) << "region " << r;
+    EXPECT_EQ(b.region, cv::Rect(0, 0, W, H));
+    EXPECT_GT(b.cpu_blend_px, 5 * a.cpu_blend_px);
+    // Something is drawn in the region, and it is the same in both paths.
+    double mx = 0;
+    EXPECT_GT(differing(a.image, f.image, r, true, nullptr), 100) << "no overlay in the region";
+    EXPECT_EQ(differing(a.image, b.image, r, true, &mx), 0) << "largest difference " << mx;
+    EXPECT_EQ(differing(a.tooth_visible, b.tooth_visible, r, true, &mx), 0) << "largest difference " << mx;
+    EXPECT_EQ(a.tooth_px, b.tooth_px);
+    // Outside: the camera's own pixels, on both paths; no visible tooth.
+    EXPECT_EQ(differing(a.image, f.image, r, false, &mx), 0) << "largest difference " << mx;
+    EXPECT_EQ(differing(b.image, f.image, r, false, &mx), 0) << "largest difference " << mx;
+    EXPECT_EQ(cv::countNonZero(a.tooth_visible), cv::countNonZero(a.tooth_visible(r)));
+    EXPECT_EQ(a.triangles_drawn, b.triangles_drawn);
+    std::printf("[ region ] frame %d: region %dx%d (%.2f %% of the frame), mirror %d\n", f.truth.frame, r.width,
+                r.height, 100.0 * r.area() / (W * H), a.mirror_drawn ? 1 : 0);
+  }
+  EXPECT_GE(mirrors, 1) << "no frame had the mirror's reflection";
+  EXPECT_GE(fingers, 1) << "no frame had a finger over the tooth";
+}
+
+}  // namespace
+}  // namespace dentar::ar
