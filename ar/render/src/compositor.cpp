@@ -465,6 +465,55 @@ Eigen::Vector3f material_rgb(int label) {
   return Eigen::Vector3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
 }
 
+// The normal cone of a mesh's faces: every face's unit normal (from its winding:
+// counter-clockwise seen from outside, so outward) lies within half_angle of axis.
+// valid = false when there is no face or no cone narrower than 80 degrees (a piece
+// that curves round): such a mesh is never culled by facing.
+struct NormalCone {
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  double half_angle = M_PI;
+  bool valid = false;
+};
+
+NormalCone normal_cone(const scene::Mesh& m) {
+  NormalCone c;
+  std::vector<Eigen::Vector3d> normals;
+  normals.reserve(m.indices.size() / 3);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    const Eigen::Vector3d a = m.vertices[m.indices[t]].position_m.cast<double>();
+    const Eigen::Vector3d b = m.vertices[m.indices[t + 1]].position_m.cast<double>();
+    const Eigen::Vector3d d = m.vertices[m.indices[t + 2]].position_m.cast<double>();
+    const Eigen::Vector3d n = (b - a).cross(d - a);
+    const double len = n.norm();
+    if (!(len > 0)) continue;  // degenerate: covers no pixel
+    normals.push_back(n / len);
+    sum += normals.back();
+  }
+  if (normals.empty() || !(sum.norm() > 1e-9)) return c;
+  c.axis = sum.normalized();
+  double cos_min = 1;
+  for (const auto& n : normals) cos_min = std::min(cos_min, n.dot(c.axis));
+  c.half_angle = std::acos(std::clamp(cos_min, -1.0, 1.0));
+  c.valid = c.half_angle < 80.0 * M_PI / 180.0;
+  return c;
+}
+
+// True when every face of a mesh with normal cone `cone`, lying in the sphere
+// (centre, radius) (object frame), faces away from the eye at `eye` (object frame):
+// each face's normal then makes less than 90 degrees with the ray from the eye to any
+// of its points, so back-face culling would drop all of them. Conservative, with a
+// margin of 0.01 rad for faces seen edge-on.
+bool faces_away(const NormalCone& cone, const Eigen::Vector3d& centre, double radius,
+                const Eigen::Vector3d& eye) {
+  if (!cone.valid) return false;
+  const Eigen::Vector3d d = centre - eye;
+  const double dist = d.norm();
+  if (!(dist > radius)) return false;
+  const double to_axis = std::acos(std::clamp(cone.axis.dot(d / dist), -1.0, 1.0));
+  return cone.half_angle + to_axis + std::asin(radius / dist) < 0.5 * M_PI - 0.01;
+}
+
 // Level 0: the chunk mesh as is, coloured by material.
 void full_mesh(const volume::ChunkMesh& cm, scene::Mesh& out) {
   out.vertices.resize(cm.vertices.size());
@@ -687,6 +736,7 @@ struct Compositor::Impl {
     std::vector<scene::GpuMesh> levels;
     std::vector<std::size_t> tris;
     std::vector<double> error_m;  // per level, see cluster_mesh
+    std::vector<NormalCone> cones;  // per level: its faces' normals
   };
   std::vector<GpuChunk> chunks;
   std::vector<std::size_t> level_tris;  // totals per level
@@ -722,6 +772,7 @@ struct Compositor::Impl {
       g.levels.clear();
       g.tris.assign(static_cast<std::size_t>(L), 0);
       g.error_m.assign(static_cast<std::size_t>(L), 0.0);
+      g.cones.assign(static_cast<std::size_t>(L), NormalCone{});
       g.box = Box{};
       if (cm.empty()) continue;
       for (const auto& v : cm.vertices) g.box.add(v.position_m);
@@ -733,6 +784,7 @@ struct Compositor::Impl {
               cluster_mesh(cm, opt.lod_cell_voxels[static_cast<std::size_t>(l - 1)],
                            scratch_mesh, scratch_map, scratch_sums, scratch_counts);
         g.tris[static_cast<std::size_t>(l)] = scratch_mesh.indices.size() / 3;
+        g.cones[static_cast<std::size_t>(l)] = normal_cone(scratch_mesh);
         g.levels.push_back(scene::upload(scratch_mesh));
       }
     }
@@ -772,15 +824,25 @@ struct Compositor::Impl {
   }
 
   // Draws the tooth's chunks at `level` whose screen box overlaps `view`
-  // (and, with a plane, that are not wholly on its negative side).
+  // (and, with a plane, that are not wholly on its negative side), and that
+  // have a face turned towards the eye (the normal cone test: a chunk whose
+  // faces all turn away would be dropped whole by back-face culling, after
+  // its vertex work). T_cam_tooth may hold a reflection (the mirror pass):
+  // the eye is then the camera's mirror image, as the winding is flipped.
   void draw_tooth(const Eigen::Affine3d& T_cam_tooth, int level, const PxRect& view,
                   const Eigen::Vector4d* plane, CompositeResult& out) const {
     set_pose(T_cam_tooth);
     const auto& k = this->view.pinhole;
+    const Eigen::Vector3d eye = T_cam_tooth.inverse() * Eigen::Vector3d::Zero();
     for (const GpuChunk& g : chunks) {
       if (g.levels.empty()) continue;
       if (opt.cull_chunks) {
         bool culled = !project_box(g.box, T_cam_tooth, k, opt.near_m).overlaps(view);
+        if (!culled && opt.cull_facing_away) {
+          const Eigen::Vector3d lo = g.box.lo.cast<double>(), hi = g.box.hi.cast<double>();
+          culled = faces_away(g.cones[static_cast<std::size_t>(level)], 0.5 * (lo + hi), 0.5 * (hi - lo).norm(),
+                              eye);
+        }
         if (!culled && plane != nullptr) {
           bool any = false;
           for (int c = 0; c < 8 && !any; ++c)

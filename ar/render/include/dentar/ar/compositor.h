@@ -104,6 +104,10 @@ struct CompositorOptions {
   bool mirror = true;        // reflection of tooth and bur in the tracked mirror
   bool draw_bur = true;      // the virtual bur at the stylus tip
   bool cull_chunks = true;   // skip chunks outside the view / the mirror's view
+  // With cull_chunks: also skip chunks whose faces all turn away from the eye (their
+  // normal cone; back-face culling would drop every one of their triangles after the
+  // vertex work). Same pixels either way.
+  bool cull_facing_away = true;
   // Most tooth triangles to draw per view (direct and reflected each); the
   // level of detail is coarsened until the tooth fits. 0 = no limit.
   std::size_t triangle_budget = 0;
