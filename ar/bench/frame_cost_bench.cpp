@@ -4,12 +4,14 @@
 //
 //   ./build/ar/ar_frame_cost_bench [--frames N] [--sizes 640x480,1280x720,1920x1080]
 //                                  [--preset standard|hard|mirror] [--seed S] [--csv FILE]
-//                                  [--paths region,whole] [--gl] [--repeat R]
+//                                  [--paths region,main,whole] [--gl] [--repeat R] [--truth-poses]
 //
 // For each size: N frames of generated footage (the same scene and motion at every
 // size: the generator rescales the station camera), then the frame pipeline's own
-// tracker and compositor run over them once per path (region: the defaults; whole:
-// CompositorOptions::region_path = false and TrackerOptions::predicted_regions = false), the paths
+// tracker and compositor run over them once per path (region: the defaults; main: the
+// defaults without CompositorOptions::cull_facing_away, i.e. main before issue 28's
+// session 15; whole: CompositorOptions::region_path = false and
+// TrackerOptions::predicted_regions = false), the paths
 // alternating frame by frame (same input, same load), each path with its own
 // pipeline. Every stage is timed with the process's CPU clock
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's rasteriser threads work for the frame thread
@@ -27,6 +29,10 @@
 //   ar           track + composite - passthrough: everything the trainer adds
 // Decode and swap are not part of this bench (no decoder, no window): they are the
 // same for a bare viewer and for DentAR.
+//
+// --truth-poses: the tracker runs (and is timed) as always, but the compositor is given the
+// generator's true poses, so every size draws the same things (tracking at 640x480 loses
+// the mirror's small tag more often, which shrinks the overlay there).
 //
 // Output: one table row per (size, path) with medians and p99s, and per size a table of
 // the AR part against the overlay's area (CompositeResult::region, output pixels), in
@@ -72,15 +78,16 @@ struct Args {
   std::string preset = "standard";
   std::uint64_t seed = 5;
   std::string csv;
-  std::vector<std::string> paths = {"region", "whole"};
+  std::vector<std::string> paths = {"region", "main", "whole"};
   bool gl = false;
   int repeat = 1;  // passes over the frames (more samples for a profile)
+  bool truth_poses = false;
 };
 
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "ar_frame_cost_bench: %s\nusage: ar_frame_cost_bench [--frames N] [--sizes WxH,...] "
-               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,whole] [--gl] [--repeat R]\n",
+               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,whole] [--gl] [--repeat R] [--truth-poses]\n",
                why.c_str());
   std::exit(2);
 }
@@ -121,11 +128,14 @@ Args parse(int argc, char** argv) {
     } else if (k == "--paths") {
       a.paths = split(val());
       for (const auto& p : a.paths)
-        if (p != "region" && p != "whole") usage("--paths: '" + p + "' is neither region nor whole");
+        if (p != "region" && p != "whole" && p != "main")
+          usage("--paths: '" + p + "' is not region, main or whole");
       if (a.paths.empty()) usage("--paths is empty");
     } else if (k == "--repeat") {
       a.repeat = std::atoi(val().c_str());
       if (a.repeat < 1 || a.repeat > 1000) usage("--repeat must be in 1..1000");
+    } else if (k == "--truth-poses") {
+      a.truth_poses = true;
     } else if (k == "--gl") {
       a.gl = true;
     } else {
@@ -156,7 +166,8 @@ double quantile(std::vector<double> v, double q) {
 
 struct Sample {
   double track = 0, composite = 0, passthrough = 0, ar = 0;
-  double render_wall = 0, blend_wall = 0, segment_wall = 0, readback_wall = 0;
+  double render_wall = 0, blend_wall = 0, segment_wall = 0, readback_wall = 0, sync_wall = 0, upload_wall = 0;
+  double grey_wall = 0, detect_wall = 0, pose_wall = 0, filter_wall = 0;
   int area = 0;  // overlay region, output px
   std::size_t tris = 0;
   int lod = 0;
@@ -191,10 +202,10 @@ int run(const Args& a) {
   }
 
   std::printf("| size | path | overlay area p50 px (%% of frame) | track p50 / p99 ms | composite p50 / p99 ms | "
-              "passthrough p50 ms | **AR part p50 / p99 ms** | tooth triangles p50 |\n");
+              "passthrough p50 ms | **AR part p50 / p99 ms** | tooth triangles p50 (level of detail) |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   std::map<std::string, std::vector<std::pair<std::string, double>>> ar_by_path;  // path -> (size, p50)
-  std::vector<std::string> area_tables;
+  std::vector<std::string> area_tables, stage_rows;
 
   for (const auto& [W, H] : a.sizes) {
     SynthOptions so = synth_preset(*preset);
@@ -237,9 +248,11 @@ int run(const Args& a) {
     std::vector<GlFrameTarget> targets;
     for (const auto& p : a.paths) {
       PipelineOptions po;
-      po.compositor.region_path = p == "region";
+      po.compositor.region_path = p != "whole";
       // The whole-frame rival also searches the whole frame for tags every frame.
-      po.tracker.predicted_regions = p == "region";
+      po.tracker.predicted_regions = p != "whole";
+      // main before session 15: the region path without the facing test.
+      po.compositor.cull_facing_away = p == "region";
       auto pipe = FramePipeline::create(station, po);
       if (!pipe) {
         std::fprintf(stderr, "ar_frame_cost_bench: %s\n", pipe.error().c_str());
@@ -302,10 +315,16 @@ int run(const Args& a) {
         }
         CompositeInput ci;
         ci.video_bgr = &f.image;
-        ci.man_valid = tf->mannequin.state != TrackState::kLost;
-        ci.T_cam_man = tf->mannequin.T_cam_body;
-        ci.mirror_valid = tf->mirror.state != TrackState::kLost;
-        ci.T_cam_mtag = tf->mirror.T_cam_body;
+        if (a.truth_poses) {
+          ci.man_valid = ci.mirror_valid = true;
+          ci.T_cam_man = f.truth.T_cam_man;
+          ci.T_cam_mtag = f.truth.T_cam_mtag;
+        } else {
+          ci.man_valid = tf->mannequin.state != TrackState::kLost;
+          ci.T_cam_man = tf->mannequin.T_cam_body;
+          ci.mirror_valid = tf->mirror.state != TrackState::kLost;
+          ci.T_cam_mtag = tf->mirror.T_cam_body;
+        }
         ci.stylus_valid = true;
         ci.T_dev_sty = f.truth.T_dev_sty;
         const Status cs = a.gl ? r.pipe->compositor().compose_gl(r.meshes->display(), ci, tgt, r.out)
@@ -327,6 +346,12 @@ int run(const Args& a) {
         s.blend_wall = r.out.timing.blend_ms;
         s.segment_wall = r.out.timing.segment_ms;
         s.readback_wall = r.out.timing.readback_ms;
+        s.sync_wall = r.out.timing.sync_ms;
+        s.upload_wall = r.out.timing.upload_ms;
+        s.detect_wall = tf->timing.detect_ms;
+        s.pose_wall = tf->timing.pose_ms;
+        s.filter_wall = tf->timing.filter_ms;
+        s.grey_wall = tf->timing.total_ms - s.detect_wall - s.pose_wall - s.filter_wall;
         r.samples.push_back(s);
         if (csv)
           csv << W << 'x' << H << ',' << r.path << ',' << i << ',' << s.area << ',' << s.tris << ',' << s.lod << ','
@@ -347,11 +372,12 @@ int run(const Args& a) {
       const auto pt = col([](const Sample& s) { return s.passthrough; });
       const auto area = col([](const Sample& s) { return s.area; });
       const auto tris = col([](const Sample& s) { return s.tris; });
+      const auto lod = col([](const Sample& s) { return s.lod; });
       const double a50 = quantile(area, 0.5);
-      std::printf("| %dx%d | %s%s | %.0f (%.2f %%) | %.2f / %.2f | %.2f / %.2f | %.2f | **%.2f / %.2f** | %.0f |\n", W, H,
+      std::printf("| %dx%d | %s%s | %.0f (%.2f %%) | %.2f / %.2f | %.2f / %.2f | %.2f | **%.2f / %.2f** | %.0f (%.0f) |\n", W, H,
                   r.path.c_str(), a.gl ? " (GL)" : "", a50, 100.0 * a50 / (double(W) * H), quantile(tr, 0.5),
                   quantile(tr, 0.99), quantile(co, 0.5), quantile(co, 0.99), quantile(pt, 0.5), quantile(ar, 0.5),
-                  quantile(ar, 0.99), quantile(tris, 0.5));
+                  quantile(ar, 0.99), quantile(tris, 0.5), quantile(lod, 0.5));
       ar_by_path[r.path].emplace_back(std::to_string(W) + "x" + std::to_string(H), quantile(ar, 0.5));
       // The AR part against the overlay's area: quartiles of the area (frames with an overlay).
       std::vector<const Sample*> with;
@@ -376,6 +402,19 @@ int run(const Args& a) {
         t << line;
       }
       area_tables.push_back(t.str());
+      char st[400];
+      std::snprintf(st, sizeof st, "| %dx%d | %s | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |\n", W, H,
+                    r.path.c_str(), quantile(col([](const Sample& x) { return x.grey_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.detect_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.pose_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.filter_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.sync_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.upload_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.render_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.readback_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.segment_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.blend_wall; }), 0.5));
+      stage_rows.push_back(st);
     }
     for (GLuint t : textures) glDeleteTextures(1, &t);
   }
@@ -384,6 +423,12 @@ int run(const Args& a) {
   std::printf("| size | path | frames | overlay area px | track p50 ms | composite minus passthrough p50 ms | AR p50 ms | AR p99 ms |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   for (const auto& t : area_tables) std::printf("%s", t.c_str());
+  std::printf("\nStages, wall-clock medians, ms (the stages' own timers: TrackFrame::timing, CompositeTimings; "
+              "'grey + motion' = the tracker's total minus its detect, pose and filter stages):\n\n");
+  std::printf("| size | path | grey + motion | detect | pose | filter | mesh sync | upload (GL) | render | readback | "
+              "segment | resample + blend |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& t : stage_rows) std::printf("%s", t.c_str());
   std::printf("\nAR part p50, largest size / smallest size (goal for 1920x1080 / 640x480: <= 1.5):\n");
   for (const auto& [path, v] : ar_by_path)
     if (v.size() >= 2)

@@ -475,28 +475,64 @@ struct NormalCone {
   bool valid = false;
 };
 
-NormalCone normal_cone(const scene::Mesh& m) {
+// Unit face normal of triangle t (by its winding), or zero when degenerate.
+Eigen::Vector3d face_normal(const scene::Mesh& m, std::size_t t) {
+  const Eigen::Vector3d a = m.vertices[m.indices[t]].position_m.cast<double>();
+  const Eigen::Vector3d b = m.vertices[m.indices[t + 1]].position_m.cast<double>();
+  const Eigen::Vector3d d = m.vertices[m.indices[t + 2]].position_m.cast<double>();
+  const Eigen::Vector3d n = (b - a).cross(d - a);
+  const double len = n.norm();
+  return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
+}
+
+// The normal cone of triangles [t0, t1) (index positions / 3) of m.
+NormalCone normal_cone(const scene::Mesh& m, std::size_t t0, std::size_t t1) {
   NormalCone c;
-  std::vector<Eigen::Vector3d> normals;
-  normals.reserve(m.indices.size() / 3);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
-    const Eigen::Vector3d a = m.vertices[m.indices[t]].position_m.cast<double>();
-    const Eigen::Vector3d b = m.vertices[m.indices[t + 1]].position_m.cast<double>();
-    const Eigen::Vector3d d = m.vertices[m.indices[t + 2]].position_m.cast<double>();
-    const Eigen::Vector3d n = (b - a).cross(d - a);
-    const double len = n.norm();
-    if (!(len > 0)) continue;  // degenerate: covers no pixel
-    normals.push_back(n / len);
-    sum += normals.back();
-  }
-  if (normals.empty() || !(sum.norm() > 1e-9)) return c;
+  for (std::size_t t = t0; t < t1; ++t) sum += face_normal(m, 3 * t);  // degenerate: zero, covers no pixel
+  if (!(sum.norm() > 1e-9)) return c;
   c.axis = sum.normalized();
   double cos_min = 1;
-  for (const auto& n : normals) cos_min = std::min(cos_min, n.dot(c.axis));
+  for (std::size_t t = t0; t < t1; ++t) {
+    const Eigen::Vector3d n = face_normal(m, 3 * t);
+    if (!n.isZero()) cos_min = std::min(cos_min, n.dot(c.axis));
+  }
   c.half_angle = std::acos(std::clamp(cos_min, -1.0, 1.0));
   c.valid = c.half_angle < 80.0 * M_PI / 180.0;
   return c;
+}
+
+// A chunk's triangles grouped by the direction their faces turn to (the largest
+// component of the face normal: +x, -x, +y, -y, +z, -z; each group's normals lie
+// within 55 degrees of its axis), each group a contiguous run of the index buffer
+// with its normal cone: a group turned away from the eye is not drawn.
+struct FacingGroup {
+  GLsizei first = 0, count = 0;  // indices
+  NormalCone cone;
+};
+using FacingGroups = std::array<FacingGroup, 6>;
+
+FacingGroups group_by_facing(scene::Mesh& m) {
+  const std::size_t n = m.indices.size() / 3;
+  std::vector<int> key(n);
+  for (std::size_t t = 0; t < n; ++t) {
+    const Eigen::Vector3d f = face_normal(m, 3 * t);
+    int axis = 0;
+    f.cwiseAbs().maxCoeff(&axis);
+    key[t] = 2 * axis + (f[axis] < 0 ? 1 : 0);
+  }
+  std::vector<std::uint32_t> sorted;
+  sorted.reserve(m.indices.size());
+  FacingGroups g;
+  for (int b = 0; b < 6; ++b) {
+    g[static_cast<std::size_t>(b)].first = static_cast<GLsizei>(sorted.size());
+    for (std::size_t t = 0; t < n; ++t)
+      if (key[t] == b) sorted.insert(sorted.end(), m.indices.begin() + 3 * t, m.indices.begin() + 3 * t + 3);
+    g[static_cast<std::size_t>(b)].count = static_cast<GLsizei>(sorted.size()) - g[static_cast<std::size_t>(b)].first;
+  }
+  m.indices.swap(sorted);
+  for (auto& x : g) x.cone = normal_cone(m, x.first / 3, (x.first + x.count) / 3);
+  return g;
 }
 
 // True when every face of a mesh with normal cone `cone`, lying in the sphere
@@ -736,7 +772,7 @@ struct Compositor::Impl {
     std::vector<scene::GpuMesh> levels;
     std::vector<std::size_t> tris;
     std::vector<double> error_m;  // per level, see cluster_mesh
-    std::vector<NormalCone> cones;  // per level: its faces' normals
+    std::vector<FacingGroups> groups;  // per level: its triangles by facing
   };
   std::vector<GpuChunk> chunks;
   std::vector<std::size_t> level_tris;  // totals per level
@@ -772,7 +808,7 @@ struct Compositor::Impl {
       g.levels.clear();
       g.tris.assign(static_cast<std::size_t>(L), 0);
       g.error_m.assign(static_cast<std::size_t>(L), 0.0);
-      g.cones.assign(static_cast<std::size_t>(L), NormalCone{});
+      g.groups.assign(static_cast<std::size_t>(L), FacingGroups{});
       g.box = Box{};
       if (cm.empty()) continue;
       for (const auto& v : cm.vertices) g.box.add(v.position_m);
@@ -784,7 +820,7 @@ struct Compositor::Impl {
               cluster_mesh(cm, opt.lod_cell_voxels[static_cast<std::size_t>(l - 1)],
                            scratch_mesh, scratch_map, scratch_sums, scratch_counts);
         g.tris[static_cast<std::size_t>(l)] = scratch_mesh.indices.size() / 3;
-        g.cones[static_cast<std::size_t>(l)] = normal_cone(scratch_mesh);
+        g.groups[static_cast<std::size_t>(l)] = group_by_facing(scratch_mesh);
         g.levels.push_back(scene::upload(scratch_mesh));
       }
     }
@@ -824,25 +860,21 @@ struct Compositor::Impl {
   }
 
   // Draws the tooth's chunks at `level` whose screen box overlaps `view`
-  // (and, with a plane, that are not wholly on its negative side), and that
-  // have a face turned towards the eye (the normal cone test: a chunk whose
-  // faces all turn away would be dropped whole by back-face culling, after
-  // its vertex work). T_cam_tooth may hold a reflection (the mirror pass):
-  // the eye is then the camera's mirror image, as the winding is flipped.
+  // (and, with a plane, that are not wholly on its negative side); of each, the
+  // groups of triangles that may face the eye (the normal cone test: a group whose
+  // faces all turn away would be dropped whole by back-face culling, after its
+  // vertex work). T_cam_tooth may hold a reflection (the mirror pass): the eye is
+  // then the camera's mirror image, as the winding is flipped.
   void draw_tooth(const Eigen::Affine3d& T_cam_tooth, int level, const PxRect& view,
                   const Eigen::Vector4d* plane, CompositeResult& out) const {
     set_pose(T_cam_tooth);
     const auto& k = this->view.pinhole;
     const Eigen::Vector3d eye = T_cam_tooth.inverse() * Eigen::Vector3d::Zero();
+    const bool facing = opt.cull_chunks && opt.cull_facing_away;
     for (const GpuChunk& g : chunks) {
       if (g.levels.empty()) continue;
       if (opt.cull_chunks) {
         bool culled = !project_box(g.box, T_cam_tooth, k, opt.near_m).overlaps(view);
-        if (!culled && opt.cull_facing_away) {
-          const Eigen::Vector3d lo = g.box.lo.cast<double>(), hi = g.box.hi.cast<double>();
-          culled = faces_away(g.cones[static_cast<std::size_t>(level)], 0.5 * (lo + hi), 0.5 * (hi - lo).norm(),
-                              eye);
-        }
         if (!culled && plane != nullptr) {
           bool any = false;
           for (int c = 0; c < 8 && !any; ++c)
@@ -857,8 +889,33 @@ struct Compositor::Impl {
       const scene::GpuMesh& m = g.levels[static_cast<std::size_t>(level)];
       if (m.count == 0) continue;
       glBindVertexArray(m.vao.id());
-      glDrawElements(GL_TRIANGLES, m.count, GL_UNSIGNED_INT, nullptr);
-      out.triangles_drawn += static_cast<std::size_t>(m.count) / 3;
+      if (!facing) {
+        glDrawElements(GL_TRIANGLES, m.count, GL_UNSIGNED_INT, nullptr);
+        out.triangles_drawn += static_cast<std::size_t>(m.count) / 3;
+        continue;
+      }
+      // Runs of consecutive groups that may face the eye, one draw each.
+      const Eigen::Vector3d lo = g.box.lo.cast<double>(), hi = g.box.hi.cast<double>();
+      const Eigen::Vector3d centre = 0.5 * (lo + hi);
+      const double radius = 0.5 * (hi - lo).norm();
+      GLsizei run_first = 0, run_count = 0;
+      const auto flush = [&] {
+        if (run_count == 0) return;
+        glDrawElements(GL_TRIANGLES, run_count, GL_UNSIGNED_INT,
+                       reinterpret_cast<const void*>(static_cast<std::size_t>(run_first) * sizeof(std::uint32_t)));
+        out.triangles_drawn += static_cast<std::size_t>(run_count) / 3;
+        run_count = 0;
+      };
+      for (const FacingGroup& fg : g.groups[static_cast<std::size_t>(level)]) {
+        if (fg.count == 0) continue;
+        if (faces_away(fg.cone, centre, radius, eye)) {
+          flush();
+          continue;
+        }
+        if (run_count == 0) run_first = fg.first;
+        run_count += fg.count;
+      }
+      flush();
     }
   }
 
