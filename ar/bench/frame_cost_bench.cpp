@@ -4,14 +4,15 @@
 //
 //   ./build/ar/ar_frame_cost_bench [--frames N] [--sizes 640x480,1280x720,1920x1080]
 //                                  [--preset standard|hard|mirror] [--seed S] [--csv FILE]
-//                                  [--paths region,main,whole] [--gl] [--repeat R] [--truth-poses]
+//                                  [--paths region,main,angular,whole] [--gl] [--repeat R] [--truth-poses]
 //
 // For each size: N frames of generated footage (the same scene and motion at every
 // size: the generator rescales the station camera), then the frame pipeline's own
 // tracker and compositor run over them once per path (region: the defaults; main: the
 // defaults without CompositorOptions::cull_facing_away, i.e. main before issue 28's
 // session 15; whole: CompositorOptions::region_path = false and
-// TrackerOptions::predicted_regions = false), the paths
+// TrackerOptions::predicted_regions = false; angular: region with lod_max_error_px = W / 640,
+// the same error in angle at every size as 1 px at 640x480), the paths
 // alternating frame by frame (same input, same load), each path with its own
 // pipeline. Every stage is timed with the process's CPU clock
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's rasteriser threads work for the frame thread
@@ -87,7 +88,7 @@ struct Args {
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "ar_frame_cost_bench: %s\nusage: ar_frame_cost_bench [--frames N] [--sizes WxH,...] "
-               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,whole] [--gl] [--repeat R] [--truth-poses]\n",
+               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,whole] [--gl] [--repeat R] [--truth-poses]\n",
                why.c_str());
   std::exit(2);
 }
@@ -128,8 +129,8 @@ Args parse(int argc, char** argv) {
     } else if (k == "--paths") {
       a.paths = split(val());
       for (const auto& p : a.paths)
-        if (p != "region" && p != "whole" && p != "main")
-          usage("--paths: '" + p + "' is not region, main or whole");
+        if (p != "region" && p != "whole" && p != "main" && p != "angular")
+          usage("--paths: '" + p + "' is not region, main, angular or whole");
       if (a.paths.empty()) usage("--paths is empty");
     } else if (k == "--repeat") {
       a.repeat = std::atoi(val().c_str());
@@ -252,7 +253,10 @@ int run(const Args& a) {
       // The whole-frame rival also searches the whole frame for tags every frame.
       po.tracker.predicted_regions = p != "whole";
       // main before session 15: the region path without the facing test.
-      po.compositor.cull_facing_away = p == "region";
+      po.compositor.cull_facing_away = p != "main";
+      // angular: the region path with the level of detail's error budget kept constant in
+      // angle (1 px at 640 px wide): what meeting the goal by coarser meshes would mean.
+      if (p == "angular") po.compositor.lod_max_error_px = W / 640.0;
       auto pipe = FramePipeline::create(station, po);
       if (!pipe) {
         std::fprintf(stderr, "ar_frame_cost_bench: %s\n", pipe.error().c_str());
