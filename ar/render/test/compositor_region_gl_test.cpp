@@ -5,13 +5,17 @@
 // composite is the camera's own pixels, and so is the whole-frame path's (the
 // region holds everything that was drawn). Skipping the tooth's chunks that face
 // away from the eye (CompositorOptions::cull_facing_away) changes no pixel, in the
-// direct view and in the mirror, and draws fewer triangles.
+// direct view and in the mirror, and draws fewer triangles. The live display's GPU
+// path (compose_gl) is checked the same way: its composite (the video with the
+// overlay texture's region over it) is the whole-frame path's, pixel for pixel.
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "dentar/ar/compositor.h"
+#include "dentar/ar/gl_objects.h"
 #include "dentar/ar/synth.h"
 #include "composite_test_util.h"
 #include "gl_test_context.h"
@@ -39,6 +43,33 @@ int differing(const cv::Mat& a, const cv::Mat& b, const cv::Rect& r, bool in, do
   return cv::countNonZero((dd > 0) & mask);
 }
 
+// compose_gl's two target textures and the composite the window would show from them
+// (test-side readbacks: the video outside the region, the overlay texture inside).
+struct GlTargets {
+  RenderTarget overlay;
+  Texture video;
+  GlFrameTarget t;
+  explicit GlTargets(int w, int h) {
+    auto o = RenderTarget::create(w, h, RenderTarget::ColorKind::kTexture);
+    EXPECT_TRUE(o.ok()) << o.error();
+    overlay = std::move(o).value();
+    video = make_texture();
+    glBindTexture(GL_TEXTURE_2D, video.id());
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, w, h);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    t = {video.id(), overlay.color_texture()};
+  }
+  cv::Mat composite(const cv::Mat& video_bgr, const cv::Rect& region) const {
+    cv::Mat rgba(overlay.height(), overlay.width(), CV_8UC4), bgr;
+    overlay.read_rgba(rgba.data, rgba.step[0]);
+    cv::flip(rgba, rgba, 0);  // read_rgba flips GL rows; the overlay's rows are image rows
+    cv::cvtColor(rgba, bgr, cv::COLOR_RGBA2BGR);
+    cv::Mat out = video_bgr.clone();
+    if (!region.empty()) bgr(region).copyTo(out(region));
+    return out;
+  }
+};
+
 TEST(CompositorRegionGl, RegionPathMatchesWholeFramePathInsideAndIsTheVideoOutside) {
   DENTAR_GL_TEST_CONTEXT();
   // Frames 0, 8, 16 of `standard` at 640x480 (before the first cut), a finger painted
@@ -59,6 +90,9 @@ TEST(CompositorRegionGl, RegionPathMatchesWholeFramePathInsideAndIsTheVideoOutsi
   ASSERT_TRUE(whole.ok()) << whole.error();
   ASSERT_TRUE(all.ok()) << all.error();
   const int W = fo.station.calibration.camera.width, H = fo.station.calibration.camera.height;
+  const bool gpu = (*region).gpu_path_error().empty() && (*whole).gpu_path_error().empty();
+  if (!gpu) std::printf("[ region ] no GPU path here (%s): CPU path only\n", (*region).gpu_path_error().c_str());
+  GlTargets ta(W, H), tb(W, H);
   int k = 0, mirrors = 0, fingers = 0;
   for (auto& f : fo.frames) {
     if (k % 2 == 0)
@@ -100,6 +134,19 @@ TEST(CompositorRegionGl, RegionPathMatchesWholeFramePathInsideAndIsTheVideoOutsi
                 "the facing test)\n",
                 f.truth.frame, r.width, r.height, 100.0 * r.area() / (W * H), a.mirror_drawn ? 1 : 0,
                 a.triangles_drawn, c.triangles_drawn);
+    if (gpu) {
+      CompositeResult ga, gb;
+      ASSERT_TRUE(region->compose_gl(*fo.tooth->surface, in, ta.t, ga).ok());
+      ASSERT_TRUE(whole->compose_gl(*fo.tooth->surface, in, tb.t, gb).ok());
+      glFinish();
+      EXPECT_EQ(ga.region, a.region);
+      EXPECT_EQ(gb.region, cv::Rect(0, 0, W, H));
+      const cv::Mat ca = ta.composite(f.image, ga.region), cb = tb.composite(f.image, gb.region);
+      EXPECT_EQ(differing(ca, cb, r, true, &mx), 0) << "GPU path, largest difference " << mx;
+      EXPECT_EQ(differing(ca, f.image, r, false, &mx), 0) << "GPU path, largest difference " << mx;
+      EXPECT_EQ(differing(cb, f.image, r, false, &mx), 0) << "GPU path, largest difference " << mx;
+      EXPECT_GT(differing(ca, f.image, r, true, nullptr), 100) << "GPU path: no overlay in the region";
+    }
   }
   EXPECT_GE(mirrors, 1) << "no frame had the mirror's reflection";
   EXPECT_GE(fingers, 1) << "no frame had a finger over the tooth";
