@@ -521,35 +521,16 @@ FacingGroups group_by_facing(scene::Mesh& m) {
     f.cwiseAbs().maxCoeff(&axis);
     key[t] = 2 * axis + (f[axis] < 0 ? 1 : 0);
   }
-  // Each group gets its own copies of the vertices it uses, in a contiguous run: the
-  // driver's vertex stage works on a draw's whole index range (llvmpipe shades every
-  // vertex between the lowest and highest index), so a skipped group saves its vertex
-  // work only when no drawn group's range spans it.
   std::vector<std::uint32_t> sorted;
   sorted.reserve(m.indices.size());
-  std::vector<scene::Vertex> verts;
-  verts.reserve(m.vertices.size() + m.vertices.size() / 4);
-  std::vector<std::int64_t> copy_of(m.vertices.size(), -1);
-  std::vector<int> copy_group(m.vertices.size(), -1);
   FacingGroups g;
   for (int b = 0; b < 6; ++b) {
     g[static_cast<std::size_t>(b)].first = static_cast<GLsizei>(sorted.size());
-    for (std::size_t t = 0; t < n; ++t) {
-      if (key[t] != b) continue;
-      for (std::size_t c = 0; c < 3; ++c) {
-        const std::uint32_t v = m.indices[3 * t + c];
-        if (copy_group[v] != b) {
-          copy_group[v] = b;
-          copy_of[v] = static_cast<std::int64_t>(verts.size());
-          verts.push_back(m.vertices[v]);
-        }
-        sorted.push_back(static_cast<std::uint32_t>(copy_of[v]));
-      }
-    }
+    for (std::size_t t = 0; t < n; ++t)
+      if (key[t] == b) sorted.insert(sorted.end(), m.indices.begin() + 3 * t, m.indices.begin() + 3 * t + 3);
     g[static_cast<std::size_t>(b)].count = static_cast<GLsizei>(sorted.size()) - g[static_cast<std::size_t>(b)].first;
   }
   m.indices.swap(sorted);
-  m.vertices.swap(verts);
   for (auto& x : g) x.cone = normal_cone(m, x.first / 3, (x.first + x.count) / 3);
   return g;
 }
