@@ -466,6 +466,91 @@ Eigen::Vector3f material_rgb(int label) {
   return Eigen::Vector3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
 }
 
+// The normal cone of a mesh's faces: every face's unit normal (from its winding:
+// counter-clockwise seen from outside, so outward) lies within half_angle of axis.
+// valid = false when there is no face or no cone narrower than 80 degrees (a piece
+// that curves round): such a mesh is never culled by facing.
+struct NormalCone {
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  double half_angle = M_PI;
+  bool valid = false;
+};
+
+// Unit face normal of triangle t (by its winding), or zero when degenerate.
+Eigen::Vector3d face_normal(const scene::Mesh& m, std::size_t t) {
+  const Eigen::Vector3d a = m.vertices[m.indices[t]].position_m.cast<double>();
+  const Eigen::Vector3d b = m.vertices[m.indices[t + 1]].position_m.cast<double>();
+  const Eigen::Vector3d d = m.vertices[m.indices[t + 2]].position_m.cast<double>();
+  const Eigen::Vector3d n = (b - a).cross(d - a);
+  const double len = n.norm();
+  return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
+}
+
+// The normal cone of triangles [t0, t1) (index positions / 3) of m.
+NormalCone normal_cone(const scene::Mesh& m, std::size_t t0, std::size_t t1) {
+  NormalCone c;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t t = t0; t < t1; ++t) sum += face_normal(m, 3 * t);  // degenerate: zero, covers no pixel
+  if (!(sum.norm() > 1e-9)) return c;
+  c.axis = sum.normalized();
+  double cos_min = 1;
+  for (std::size_t t = t0; t < t1; ++t) {
+    const Eigen::Vector3d n = face_normal(m, 3 * t);
+    if (!n.isZero()) cos_min = std::min(cos_min, n.dot(c.axis));
+  }
+  c.half_angle = std::acos(std::clamp(cos_min, -1.0, 1.0));
+  c.valid = c.half_angle < 80.0 * M_PI / 180.0;
+  return c;
+}
+
+// A chunk's triangles grouped by the direction their faces turn to (the largest
+// component of the face normal: +x, -x, +y, -y, +z, -z; each group's normals lie
+// within 55 degrees of its axis), each group a contiguous run of the index buffer
+// with its normal cone: a group turned away from the eye is not drawn.
+struct FacingGroup {
+  GLsizei first = 0, count = 0;  // indices
+  NormalCone cone;
+};
+using FacingGroups = std::array<FacingGroup, 6>;
+
+FacingGroups group_by_facing(scene::Mesh& m) {
+  const std::size_t n = m.indices.size() / 3;
+  std::vector<int> key(n);
+  for (std::size_t t = 0; t < n; ++t) {
+    const Eigen::Vector3d f = face_normal(m, 3 * t);
+    int axis = 0;
+    f.cwiseAbs().maxCoeff(&axis);
+    key[t] = 2 * axis + (f[axis] < 0 ? 1 : 0);
+  }
+  std::vector<std::uint32_t> sorted;
+  sorted.reserve(m.indices.size());
+  FacingGroups g;
+  for (int b = 0; b < 6; ++b) {
+    g[static_cast<std::size_t>(b)].first = static_cast<GLsizei>(sorted.size());
+    for (std::size_t t = 0; t < n; ++t)
+      if (key[t] == b) sorted.insert(sorted.end(), m.indices.begin() + 3 * t, m.indices.begin() + 3 * t + 3);
+    g[static_cast<std::size_t>(b)].count = static_cast<GLsizei>(sorted.size()) - g[static_cast<std::size_t>(b)].first;
+  }
+  m.indices.swap(sorted);
+  for (auto& x : g) x.cone = normal_cone(m, x.first / 3, (x.first + x.count) / 3);
+  return g;
+}
+
+// True when every face of a mesh with normal cone `cone`, lying in the sphere
+// (centre, radius) (object frame), faces away from the eye at `eye` (object frame):
+// each face's normal then makes less than 90 degrees with the ray from the eye to any
+// of its points, so back-face culling would drop all of them. Conservative, with a
+// margin of 0.01 rad for faces seen edge-on.
+bool faces_away(const NormalCone& cone, const Eigen::Vector3d& centre, double radius,
+                const Eigen::Vector3d& eye) {
+  if (!cone.valid) return false;
+  const Eigen::Vector3d d = centre - eye;
+  const double dist = d.norm();
+  if (!(dist > radius)) return false;
+  const double to_axis = std::acos(std::clamp(cone.axis.dot(d / dist), -1.0, 1.0));
+  return cone.half_angle + to_axis + std::asin(radius / dist) < 0.5 * M_PI - 0.01;
+}
+
 // Level 0: the chunk mesh as is, coloured by material.
 void full_mesh(const volume::ChunkMesh& cm, scene::Mesh& out) {
   out.vertices.resize(cm.vertices.size());
@@ -616,6 +701,7 @@ struct Compositor::Impl {
     std::vector<scene::GpuMesh> levels;
     std::vector<std::size_t> tris;
     std::vector<double> error_m;  // per level, see cluster_mesh
+    std::vector<FacingGroups> groups;  // per level: its triangles by facing
   };
   std::vector<GpuChunk> chunks;
   std::vector<std::size_t> level_tris;  // totals per level
@@ -650,6 +736,7 @@ struct Compositor::Impl {
       g.levels.clear();
       g.tris.assign(static_cast<std::size_t>(L), 0);
       g.error_m.assign(static_cast<std::size_t>(L), 0.0);
+      g.groups.assign(static_cast<std::size_t>(L), FacingGroups{});
       g.box = Box{};
       if (cm.empty()) continue;
       for (const auto& v : cm.vertices) g.box.add(v.position_m);
@@ -661,6 +748,7 @@ struct Compositor::Impl {
               cluster_mesh(cm, opt.lod_cell_voxels[static_cast<std::size_t>(l - 1)],
                            scratch_mesh, scratch_coarse, scratch_lod);
         g.tris[static_cast<std::size_t>(l)] = scratch_mesh.indices.size() / 3;
+        g.groups[static_cast<std::size_t>(l)] = group_by_facing(scratch_mesh);
         g.levels.push_back(scene::upload(scratch_mesh));
       }
     }
@@ -700,11 +788,17 @@ struct Compositor::Impl {
   }
 
   // Draws the tooth's chunks at `level` whose screen box overlaps `view`
-  // (and, with a plane, that are not wholly on its negative side).
+  // (and, with a plane, that are not wholly on its negative side); of each, the
+  // groups of triangles that may face the eye (the normal cone test: a group whose
+  // faces all turn away would be dropped whole by back-face culling, after its
+  // vertex work). T_cam_tooth may hold a reflection (the mirror pass): the eye is
+  // then the camera's mirror image, as the winding is flipped.
   void draw_tooth(const Eigen::Affine3d& T_cam_tooth, int level, const PxRect& view,
                   const Eigen::Vector4d* plane, CompositeResult& out) const {
     set_pose(T_cam_tooth);
     const auto& k = this->view.pinhole;
+    const Eigen::Vector3d eye = T_cam_tooth.inverse() * Eigen::Vector3d::Zero();
+    const bool facing = opt.cull_chunks && opt.cull_facing_away;
     for (const GpuChunk& g : chunks) {
       if (g.levels.empty()) continue;
       if (opt.cull_chunks) {
@@ -723,8 +817,33 @@ struct Compositor::Impl {
       const scene::GpuMesh& m = g.levels[static_cast<std::size_t>(level)];
       if (m.count == 0) continue;
       glBindVertexArray(m.vao.id());
-      glDrawElements(GL_TRIANGLES, m.count, GL_UNSIGNED_INT, nullptr);
-      out.triangles_drawn += static_cast<std::size_t>(m.count) / 3;
+      if (!facing) {
+        glDrawElements(GL_TRIANGLES, m.count, GL_UNSIGNED_INT, nullptr);
+        out.triangles_drawn += static_cast<std::size_t>(m.count) / 3;
+        continue;
+      }
+      // Runs of consecutive groups that may face the eye, one draw each.
+      const Eigen::Vector3d lo = g.box.lo.cast<double>(), hi = g.box.hi.cast<double>();
+      const Eigen::Vector3d centre = 0.5 * (lo + hi);
+      const double radius = 0.5 * (hi - lo).norm();
+      GLsizei run_first = 0, run_count = 0;
+      const auto flush = [&] {
+        if (run_count == 0) return;
+        glDrawElements(GL_TRIANGLES, run_count, GL_UNSIGNED_INT,
+                       reinterpret_cast<const void*>(static_cast<std::size_t>(run_first) * sizeof(std::uint32_t)));
+        out.triangles_drawn += static_cast<std::size_t>(run_count) / 3;
+        run_count = 0;
+      };
+      for (const FacingGroup& fg : g.groups[static_cast<std::size_t>(level)]) {
+        if (fg.count == 0) continue;
+        if (faces_away(fg.cone, centre, radius, eye)) {
+          flush();
+          continue;
+        }
+        if (run_count == 0) run_first = fg.first;
+        run_count += fg.count;
+      }
+      flush();
     }
   }
 
@@ -1046,7 +1165,11 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     glDepthMask(GL_TRUE);
     glDepthFunc(depth_func);
   };
-  const cv::Rect croi = overlay.clip(im.cw, im.ch, 3) & cv::Rect(0, 0, im.cw, im.ch);
+  // The region path draws, reads back, resamples, segments and blends inside the
+  // overlay's rectangle only; the whole-frame path (the rival, region_path = false) does the
+  // same over the whole canvas.
+  const cv::Rect croi = o.region_path ? overlay.clip(im.cw, im.ch, 3) & cv::Rect(0, 0, im.cw, im.ch)
+                                      : cv::Rect(0, 0, im.cw, im.ch);
   PxRect croi_px;  // the same as a PxRect, for culling
   croi_px.add(Eigen::Vector2d(croi.x, croi.y));
   croi_px.add(Eigen::Vector2d(croi.x + croi.width, croi.y + croi.height));

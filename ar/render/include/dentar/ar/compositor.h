@@ -49,6 +49,18 @@
 // expert (expert.valid false) and tooth_tint (1, 1, 1) the output is bit-identical to a
 // compositor without this feature (the OfflineHash tests).
 //
+// Regions (issue 28: the frame's cost follows the overlay, not the frame): every
+// stage after the tracking works inside the overlay's rectangle only: the canvas
+// passes are scissored to the bounding box of what is drawn in colour (tooth, bur,
+// the mirror's face, the expert's tool; 3 px margin), phantom parts and tooth chunks
+// whose screen boxes miss it are not drawn, nor are groups of tooth triangles that all
+// turn away from the eye; the readback, resampling, segmentation and blend run on
+// that rectangle's image in the output (CompositeResult::region). Outside it the
+// composite is the camera's own pixels. The whole-frame path
+// (CompositorOptions::region_path = false) runs the same stages over the whole
+// frame, as the rival for tests and benchmarks: inside the region it gives the same
+// pixels, outside it the same video (compositor_region_gl_test).
+//
 // Lost tracking: man_valid = false gives the video unchanged (no overlay at
 // all: a tooth at a stale pose is worse than none); mirror_valid = false
 // gives no reflection and no mirror phantom; stylus_valid = false gives no
@@ -104,6 +116,11 @@ struct CompositorOptions {
   bool mirror = true;        // reflection of tooth and bur in the tracked mirror
   bool draw_bur = true;      // the virtual bur at the stylus tip
   bool cull_chunks = true;   // skip chunks outside the view / the mirror's view
+  // With cull_chunks: also skip the groups of a chunk's triangles whose faces all turn
+  // away from the eye (each chunk's triangles are grouped by the axis their faces turn
+  // to, each group with its normal cone; back-face culling would drop every one of those
+  // triangles after the vertex work). Same pixels either way (tested).
+  bool cull_facing_away = true;
   // Most tooth triangles to draw per view (direct and reflected each); the
   // level of detail is coarsened until the tooth fits. 0 = no limit.
   std::size_t triangle_budget = 0;
@@ -124,6 +141,10 @@ struct CompositorOptions {
   HandpieceParams handpiece;
   SegmenterOptions segmenter;
   double near_m = 0.01, far_m = 5.0;  // clip planes, camera z
+  // Issue 28: the region path (default) does the compositor's work only where the overlay
+  // is (see "Regions" above; set at create() and by set_options()); false = the whole-frame path, kept as the rival that tests and
+  // benchmarks compare against: the same composite, every stage run over the whole frame.
+  bool region_path = true;
 
   std::string validate() const;  // empty, or names the field
 };

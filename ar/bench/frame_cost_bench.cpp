@@ -1,0 +1,447 @@
+// Issue 28, benchmark 3: the frame's CPU cost against the camera's resolution
+// and the overlay's pixel area (docs/BENCHMARKS.md, "Issue 28 (session 15):
+// frame cost against overlay").
+//
+//   ./build/ar/ar_frame_cost_bench [--frames N] [--sizes 640x480,1280x720,1920x1080]
+//                                  [--preset standard|hard|mirror] [--seed S] [--csv FILE]
+//                                  [--paths region,main,angular,whole] [--gl] [--repeat R] [--truth-poses]
+//
+// For each size: N frames of generated footage (the same scene and motion at every
+// size: the generator rescales the station camera), then the frame pipeline's own
+// tracker and compositor run over them once per path (region: the defaults; main: the
+// defaults without CompositorOptions::cull_facing_away, i.e. main before issue 28's
+// session 15; whole: CompositorOptions::region_path = false and
+// TrackerOptions::predicted_regions = false; angular: region with lod_max_error_px = W / 640,
+// the same error in angle at every size as 1 px at 640x480), the paths
+// alternating frame by frame (same input, same load), each path with its own
+// pipeline. Every stage is timed with the process's CPU clock
+// (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's rasteriser threads work for the frame thread
+// and are counted; the other engineers' processes on the machine are not). The
+// CPU path waits for its GL work (glFinish inside compose); with --gl the GPU path
+// (compose_gl, the live display's) is followed by glFinish so its shader passes count.
+//
+// What is counted as what (per frame):
+//   passthrough  what a bare viewer does with the frame: the CPU path's copy of the
+//                frame into the output image; with --gl the conversion to RGBA and the
+//                texture upload. Measured by doing exactly that once more on the same
+//                frame, outside the pipeline (the pipeline does it inside compose).
+//   track        Tracker::track (colour to grey, tag search, poses, filter)
+//   composite    Compositor::compose / compose_gl, passthrough included
+//   ar           track + composite - passthrough: everything the trainer adds
+// Decode and swap are not part of this bench (no decoder, no window): they are the
+// same for a bare viewer and for DentAR.
+//
+// --truth-poses: the tracker runs (and is timed) as always, but the compositor is given the
+// generator's true poses, so every size draws the same things (tracking at 640x480 loses
+// the mirror's small tag more often, which shrinks the overlay there).
+//
+// Output: one table row per (size, path) with medians and p99s, and per size a table of
+// the AR part against the overlay's area (CompositeResult::region, output pixels), in
+// quartiles of that area. --csv writes every frame.
+// Profiling only the timed loops (not the footage generator): DENTAR_PERF_CTL=<fifo> writes
+// perf's "enable"/"disable" commands there around them, e.g.
+//   mkfifo ctl; perf record -D -1 --control=fifo:ctl -g -o perf.data -- ./ar_frame_cost_bench ...
+#include <time.h>
+
+#include <GLES3/gl3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/egl_context.h"
+#include "dentar/ar/frame_pipeline.h"
+#include "dentar/ar/synth.h"
+#include "dentar/volume/procedural_tooth.h"
+
+namespace dentar::ar {
+namespace {
+
+double cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+}
+
+struct Args {
+  int frames = 60;
+  std::vector<std::pair<int, int>> sizes = {{640, 480}, {1280, 720}, {1920, 1080}};
+  std::string preset = "standard";
+  std::uint64_t seed = 5;
+  std::string csv;
+  std::vector<std::string> paths = {"region", "main", "whole"};
+  bool gl = false;
+  int repeat = 1;  // passes over the frames (more samples for a profile)
+  bool truth_poses = false;
+};
+
+[[noreturn]] void usage(const std::string& why) {
+  std::fprintf(stderr,
+               "ar_frame_cost_bench: %s\nusage: ar_frame_cost_bench [--frames N] [--sizes WxH,...] "
+               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,whole] [--gl] [--repeat R] [--truth-poses]\n",
+               why.c_str());
+  std::exit(2);
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string t; std::getline(ss, t, ',');)
+    if (!t.empty()) out.push_back(t);
+  return out;
+}
+
+Args parse(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto val = [&]() -> std::string {
+      if (i + 1 >= argc) usage(k + " needs a value");
+      return argv[++i];
+    };
+    if (k == "--frames") {
+      a.frames = std::atoi(val().c_str());
+      if (a.frames < 2 || a.frames > 10000) usage("--frames must be in 2..10000");
+    } else if (k == "--sizes") {
+      a.sizes.clear();
+      for (const auto& s : split(val())) {
+        int w = 0, h = 0;
+        if (std::sscanf(s.c_str(), "%dx%d", &w, &h) != 2 || w < 64 || h < 48 || w > 4096 || h > 4096)
+          usage("--sizes: '" + s + "' is not WxH (64x48 .. 4096x4096)");
+        a.sizes.emplace_back(w, h);
+      }
+    } else if (k == "--preset") {
+      a.preset = val();
+    } else if (k == "--seed") {
+      a.seed = std::strtoull(val().c_str(), nullptr, 10);
+    } else if (k == "--csv") {
+      a.csv = val();
+    } else if (k == "--paths") {
+      a.paths = split(val());
+      for (const auto& p : a.paths)
+        if (p != "region" && p != "whole" && p != "main" && p != "angular")
+          usage("--paths: '" + p + "' is not region, main, angular or whole");
+      if (a.paths.empty()) usage("--paths is empty");
+    } else if (k == "--repeat") {
+      a.repeat = std::atoi(val().c_str());
+      if (a.repeat < 1 || a.repeat > 1000) usage("--repeat must be in 1..1000");
+    } else if (k == "--truth-poses") {
+      a.truth_poses = true;
+    } else if (k == "--gl") {
+      a.gl = true;
+    } else {
+      usage("unknown argument '" + k + "'");
+    }
+  }
+  return a;
+}
+
+// perf's control fifo (DENTAR_PERF_CTL), or nothing.
+void perf_control(const char* cmd) {
+  const char* p = std::getenv("DENTAR_PERF_CTL");
+  if (p == nullptr || *p == 0) return;
+  if (std::FILE* f = std::fopen(p, "w")) {
+    std::fprintf(f, "%s\n", cmd);
+    std::fclose(f);
+  }
+}
+
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const double pos = q * (v.size() - 1);
+  const auto i = static_cast<std::size_t>(pos);
+  const double f = pos - i;
+  return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
+}
+
+struct Sample {
+  double track = 0, composite = 0, passthrough = 0, ar = 0;
+  double render_wall = 0, blend_wall = 0, segment_wall = 0, readback_wall = 0, sync_wall = 0, upload_wall = 0;
+  double grey_wall = 0, detect_wall = 0, pose_wall = 0, filter_wall = 0;
+  int area = 0;  // overlay region, output px
+  std::size_t tris = 0;
+  int lod = 0;
+  bool full_frame = false;
+};
+
+struct Run {
+  std::string path;
+  std::unique_ptr<FramePipeline> pipe;
+  std::unique_ptr<ToothMeshes> meshes;
+  CompositeResult out;
+  std::vector<Sample> samples;
+};
+
+int run(const Args& a) {
+  auto ctx = EglContext::create();
+  if (!ctx) {
+    std::fprintf(stderr, "ar_frame_cost_bench: %s\n", ctx.error().c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "ar_frame_cost_bench: %s\n", ctx->description().c_str());
+  const auto preset = parse_synth_preset(a.preset);
+  if (!preset) usage("unknown --preset '" + a.preset + "'");
+  std::ofstream csv;
+  if (!a.csv.empty()) {
+    csv.open(a.csv);
+    if (!csv) {
+      std::fprintf(stderr, "ar_frame_cost_bench: cannot write --csv %s\n", a.csv.c_str());
+      return 2;
+    }
+    csv << "size,path,frame,area_px,tris,lod,full_frame,track_ms,composite_ms,passthrough_ms,ar_ms\n";
+  }
+
+  std::printf("| size | path | overlay area p50 px (%% of frame) | track p50 / p99 ms | composite p50 / p99 ms | "
+              "passthrough p50 ms | **AR part p50 / p99 ms** | tooth triangles p50 (level of detail) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|\n");
+  std::map<std::string, std::vector<std::pair<std::string, double>>> ar_by_path;  // path -> (size, p50)
+  std::vector<std::string> area_tables, stage_rows;
+
+  for (const auto& [W, H] : a.sizes) {
+    SynthOptions so = synth_preset(*preset);
+    so.frames = a.frames;
+    so.width = W;
+    so.height = H;
+    so.seed = a.seed;
+    auto gen = SynthGenerator::create(default_station_scene(), so);
+    if (!gen) {
+      std::fprintf(stderr, "ar_frame_cost_bench: generator: %s\n", gen.error().c_str());
+      return 1;
+    }
+    std::vector<SynthFrame> frames(static_cast<std::size_t>(a.frames));
+    for (auto& f : frames)
+      if (auto s = (*gen)->next(f); !s) {
+        std::fprintf(stderr, "ar_frame_cost_bench: generator: %s\n", s.error().c_str());
+        return 1;
+      }
+    const StationScene station = (*gen)->station();
+    volume::MolarParams mp;
+    mp.voxel_mm = station.tooth_voxel_m * 1e3;
+    auto vol = volume::make_molar(mp);
+    if (!vol) {
+      std::fprintf(stderr, "ar_frame_cost_bench: molar: %s\n", vol.error().c_str());
+      return 1;
+    }
+
+    // GL targets for --gl (camera size, RGBA8), one pair per path.
+    std::vector<GLuint> textures;
+    auto make_tex = [&] {
+      GLuint t = 0;
+      glGenTextures(1, &t);
+      glBindTexture(GL_TEXTURE_2D, t);
+      glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, W, H);
+      glBindTexture(GL_TEXTURE_2D, 0);
+      textures.push_back(t);
+      return t;
+    };
+    std::vector<Run> runs;
+    std::vector<GlFrameTarget> targets;
+    for (const auto& p : a.paths) {
+      PipelineOptions po;
+      po.compositor.region_path = p != "whole";
+      // The whole-frame rival also searches the whole frame for tags every frame.
+      po.tracker.predicted_regions = p != "whole";
+      // main before session 15: the region path without the facing test.
+      po.compositor.cull_facing_away = p != "main";
+      // angular: the region path with the level of detail's error budget kept constant in
+      // angle (1 px at 640 px wide): what meeting the goal by coarser meshes would mean.
+      if (p == "angular") po.compositor.lod_max_error_px = W / 640.0;
+      auto pipe = FramePipeline::create(station, po);
+      if (!pipe) {
+        std::fprintf(stderr, "ar_frame_cost_bench: %s\n", pipe.error().c_str());
+        return 1;
+      }
+      Run r;
+      r.path = p;
+      r.pipe = std::move(pipe).value();
+      r.meshes = std::make_unique<ToothMeshes>(*vol);
+      GlFrameTarget t;
+      if (a.gl) {
+        t.video_texture = make_tex();
+        t.overlay_texture = make_tex();
+        if (std::string e = r.pipe->compositor().gpu_path_error(); !e.empty()) {
+          std::fprintf(stderr, "ar_frame_cost_bench: --gl: %s\n", e.c_str());
+          return 1;
+        }
+      }
+      if (auto s = r.pipe->warm_up(*r.meshes, t); !s) {
+        std::fprintf(stderr, "ar_frame_cost_bench: %s\n", s.error().c_str());
+        return 1;
+      }
+      targets.push_back(t);
+      runs.push_back(std::move(r));
+    }
+    GLuint bare_tex = a.gl ? make_tex() : 0;
+    cv::Mat bare, bare_rgba;
+
+    perf_control("enable");
+    for (std::size_t n = 0; n < frames.size() * static_cast<std::size_t>(a.repeat); ++n) {
+      const std::size_t i = n % frames.size();
+      const SynthFrame& f = frames[i];
+      const double t_s = static_cast<double>(n) / so.fps;
+      // The bare viewer's work on this frame.
+      double c0 = cpu_ms();
+      if (a.gl) {
+        cv::cvtColor(f.image, bare_rgba, cv::COLOR_BGR2RGBA);
+        glBindTexture(GL_TEXTURE_2D, bare_tex);
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+        glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, bare_rgba.data);
+        glBindTexture(GL_TEXTURE_2D, 0);
+        glFinish();
+      } else {
+        f.image.copyTo(bare);
+      }
+      const double passthrough = cpu_ms() - c0;
+      for (std::size_t ri = 0; ri < runs.size(); ++ri) {
+        // Alternate which path goes first, so neither always finds the caches warm.
+        Run& r = runs[(ri + i) % runs.size()];
+        const GlFrameTarget& tgt = targets[(ri + i) % runs.size()];
+        Sample s;
+        s.passthrough = passthrough;
+        c0 = cpu_ms();
+        r.meshes->sync();
+        auto tf = r.pipe->tracker().track(f.image, t_s, t_s, nullptr, static_cast<std::int64_t>(n));
+        const double c1 = cpu_ms();
+        if (!tf) {
+          std::fprintf(stderr, "ar_frame_cost_bench: frame %zu: %s\n", i, tf.error().c_str());
+          return 1;
+        }
+        CompositeInput ci;
+        ci.video_bgr = &f.image;
+        if (a.truth_poses) {
+          ci.man_valid = ci.mirror_valid = true;
+          ci.T_cam_man = f.truth.T_cam_man;
+          ci.T_cam_mtag = f.truth.T_cam_mtag;
+        } else {
+          ci.man_valid = tf->mannequin.state != TrackState::kLost;
+          ci.T_cam_man = tf->mannequin.T_cam_body;
+          ci.mirror_valid = tf->mirror.state != TrackState::kLost;
+          ci.T_cam_mtag = tf->mirror.T_cam_body;
+        }
+        ci.stylus_valid = true;
+        ci.T_dev_sty = f.truth.T_dev_sty;
+        const Status cs = a.gl ? r.pipe->compositor().compose_gl(r.meshes->display(), ci, tgt, r.out)
+                               : r.pipe->compositor().compose(r.meshes->display(), ci, r.out);
+        if (a.gl) glFinish();
+        const double c2 = cpu_ms();
+        if (!cs) {
+          std::fprintf(stderr, "ar_frame_cost_bench: frame %zu: %s\n", i, cs.error().c_str());
+          return 1;
+        }
+        s.track = c1 - c0;
+        s.composite = c2 - c1;
+        s.ar = s.track + s.composite - s.passthrough;
+        s.area = r.out.region.area();
+        s.tris = r.out.triangles_drawn;
+        s.lod = r.out.lod_level;
+        s.full_frame = tf->full_frame;
+        s.render_wall = r.out.timing.render_ms;
+        s.blend_wall = r.out.timing.blend_ms;
+        s.segment_wall = r.out.timing.segment_ms;
+        s.readback_wall = r.out.timing.readback_ms;
+        s.sync_wall = r.out.timing.sync_ms;
+        s.upload_wall = r.out.timing.upload_ms;
+        s.detect_wall = tf->timing.detect_ms;
+        s.pose_wall = tf->timing.pose_ms;
+        s.filter_wall = tf->timing.filter_ms;
+        s.grey_wall = tf->timing.total_ms - s.detect_wall - s.pose_wall - s.filter_wall;
+        r.samples.push_back(s);
+        if (csv)
+          csv << W << 'x' << H << ',' << r.path << ',' << i << ',' << s.area << ',' << s.tris << ',' << s.lod << ','
+              << (s.full_frame ? 1 : 0) << ',' << s.track << ',' << s.composite << ',' << s.passthrough << ','
+              << s.ar << '\n';
+      }
+    }
+    perf_control("disable");
+    for (Run& r : runs) {
+      auto col = [&](auto get) {
+        std::vector<double> v;
+        for (const Sample& s : r.samples) v.push_back(static_cast<double>(get(s)));
+        return v;
+      };
+      const auto ar = col([](const Sample& s) { return s.ar; });
+      const auto tr = col([](const Sample& s) { return s.track; });
+      const auto co = col([](const Sample& s) { return s.composite; });
+      const auto pt = col([](const Sample& s) { return s.passthrough; });
+      const auto area = col([](const Sample& s) { return s.area; });
+      const auto tris = col([](const Sample& s) { return s.tris; });
+      const auto lod = col([](const Sample& s) { return s.lod; });
+      const double a50 = quantile(area, 0.5);
+      std::printf("| %dx%d | %s%s | %.0f (%.2f %%) | %.2f / %.2f | %.2f / %.2f | %.2f | **%.2f / %.2f** | %.0f (%.0f) |\n", W, H,
+                  r.path.c_str(), a.gl ? " (GL)" : "", a50, 100.0 * a50 / (double(W) * H), quantile(tr, 0.5),
+                  quantile(tr, 0.99), quantile(co, 0.5), quantile(co, 0.99), quantile(pt, 0.5), quantile(ar, 0.5),
+                  quantile(ar, 0.99), quantile(tris, 0.5), quantile(lod, 0.5));
+      ar_by_path[r.path].emplace_back(std::to_string(W) + "x" + std::to_string(H), quantile(ar, 0.5));
+      // The AR part against the overlay's area: quartiles of the area (frames with an overlay).
+      std::vector<const Sample*> with;
+      for (const Sample& s : r.samples)
+        if (s.area > 0) with.push_back(&s);
+      std::sort(with.begin(), with.end(), [](const Sample* x, const Sample* y) { return x->area < y->area; });
+      std::ostringstream t;
+      for (int q = 0; q < 4 && !with.empty(); ++q) {
+        const std::size_t b = with.size() * q / 4, e = with.size() * (q + 1) / 4;
+        if (e <= b) continue;
+        std::vector<double> ars, areas, trs, cos;
+        for (std::size_t j = b; j < e; ++j) {
+          ars.push_back(with[j]->ar);
+          areas.push_back(with[j]->area);
+          trs.push_back(with[j]->track);
+          cos.push_back(with[j]->composite - with[j]->passthrough);
+        }
+        char line[320];
+        std::snprintf(line, sizeof line, "| %dx%d | %s | %zu | %.0f–%.0f | %.2f | %.2f | %.2f | %.2f |\n", W, H,
+                      r.path.c_str(), e - b, areas.front(), areas.back(), quantile(trs, 0.5), quantile(cos, 0.5),
+                      quantile(ars, 0.5), quantile(ars, 0.99));
+        t << line;
+      }
+      area_tables.push_back(t.str());
+      char st[400];
+      std::snprintf(st, sizeof st, "| %dx%d | %s | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |\n", W, H,
+                    r.path.c_str(), quantile(col([](const Sample& x) { return x.grey_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.detect_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.pose_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.filter_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.sync_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.upload_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.render_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.readback_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.segment_wall; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.blend_wall; }), 0.5));
+      stage_rows.push_back(st);
+    }
+    for (GLuint t : textures) glDeleteTextures(1, &t);
+  }
+
+  std::printf("\nAR part against the overlay's area (frames with an overlay, in quartiles of its area):\n\n");
+  std::printf("| size | path | frames | overlay area px | track p50 ms | composite minus passthrough p50 ms | AR p50 ms | AR p99 ms |\n");
+  std::printf("|---|---|---|---|---|---|---|---|\n");
+  for (const auto& t : area_tables) std::printf("%s", t.c_str());
+  std::printf("\nStages, wall-clock medians, ms (the stages' own timers: TrackFrame::timing, CompositeTimings; "
+              "'grey + motion' = the tracker's total minus its detect, pose and filter stages):\n\n");
+  std::printf("| size | path | grey + motion | detect | pose | filter | mesh sync | upload (GL) | render | readback | "
+              "segment | resample + blend |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& t : stage_rows) std::printf("%s", t.c_str());
+  std::printf("\nAR part p50, largest size / smallest size (goal for 1920x1080 / 640x480: <= 1.5):\n");
+  for (const auto& [path, v] : ar_by_path)
+    if (v.size() >= 2)
+      std::printf("  %s: %s / %s = %.2f\n", path.c_str(), v.back().first.c_str(), v.front().first.c_str(),
+                  v.back().second / v.front().second);
+  return 0;
+}
+
+}  // namespace
+}  // namespace dentar::ar
+
+int main(int argc, char** argv) { return dentar::ar::run(dentar::ar::parse(argc, argv)); }

@@ -1,0 +1,156 @@
+// Issue 28: the compositor's region path (the default: work only where the
+// overlay is) against its whole-frame path (CompositorOptions::region_path =
+// false, every stage over the whole frame). Inside the region the two give the
+// same composite and the same visible-tooth mask; outside it the region path's
+// composite is the camera's own pixels, and so is the whole-frame path's (the
+// region holds everything that was drawn). Skipping the tooth's chunks that face
+// away from the eye (CompositorOptions::cull_facing_away) changes no pixel, in the
+// direct view and in the mirror, and draws fewer triangles. The live display's GPU
+// path (compose_gl) is checked the same way: its composite (the video with the
+// overlay texture's region over it) is the whole-frame path's, pixel for pixel.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "dentar/ar/compositor.h"
+#include "dentar/ar/gl_objects.h"
+#include "dentar/ar/synth.h"
+#include "composite_test_util.h"
+#include "gl_test_context.h"
+
+namespace dentar::ar {
+namespace {
+
+// Pixels of `a` and `b` (same type) that differ, inside (in = true) or outside `r`.
+int differing(const cv::Mat& a, const cv::Mat& b, const cv::Rect& r, bool in, double* max_diff) {
+  cv::Mat d;
+  cv::absdiff(a, b, d);
+  if (d.channels() > 1) {
+    cv::Mat m;
+    cv::transform(d, m, cv::Matx13f(1, 1, 1));
+    d = m;
+  }
+  cv::Mat mask = cv::Mat::zeros(a.size(), CV_8UC1);
+  mask(r).setTo(255);
+  if (!in) mask = ~mask;
+  cv::Mat dd;
+  d.convertTo(dd, CV_32F);
+  double mx = 0;
+  cv::minMaxLoc(dd, nullptr, &mx, nullptr, nullptr, mask);
+  if (max_diff != nullptr) *max_diff = mx;
+  return cv::countNonZero((dd > 0) & mask);
+}
+
+// compose_gl's two target textures and the composite the window would show from them
+// (test-side readbacks: the video outside the region, the overlay texture inside).
+struct GlTargets {
+  RenderTarget overlay;
+  Texture video;
+  GlFrameTarget t;
+  explicit GlTargets(int w, int h) {
+    auto o = RenderTarget::create(w, h, RenderTarget::ColorKind::kTexture);
+    EXPECT_TRUE(o.ok()) << o.error();
+    overlay = std::move(o).value();
+    video = make_texture();
+    glBindTexture(GL_TEXTURE_2D, video.id());
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, w, h);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    t = {video.id(), overlay.color_texture()};
+  }
+  cv::Mat composite(const cv::Mat& video_bgr, const cv::Rect& region) const {
+    cv::Mat rgba(overlay.height(), overlay.width(), CV_8UC4), bgr;
+    overlay.read_rgba(rgba.data, rgba.step[0]);
+    cv::flip(rgba, rgba, 0);  // read_rgba flips GL rows; the overlay's rows are image rows
+    cv::cvtColor(rgba, bgr, cv::COLOR_RGBA2BGR);
+    cv::Mat out = video_bgr.clone();
+    if (!region.empty()) bgr(region).copyTo(out(region));
+    return out;
+  }
+};
+
+TEST(CompositorRegionGl, RegionPathMatchesWholeFramePathInsideAndIsTheVideoOutside) {
+  DENTAR_GL_TEST_CONTEXT();
+  // Frames 0, 8, 16 of `standard` at 640x480 (before the first cut), a finger painted
+  // across the tooth on every other frame so the segmentation has work.
+  SynthOptions so = synth_preset(SynthPreset::kStandard);
+  so.frames = 17;
+  test::ToothFootage fo = test::tooth_footage(default_station_scene(), so, 8);
+  ASSERT_EQ(fo.error, "");
+  ASSERT_EQ(fo.frames.size(), 3u);
+  CompositorOptions whole_o;
+  whole_o.region_path = false;
+  CompositorOptions all_o;
+  all_o.cull_facing_away = false;
+  auto region = Compositor::create(fo.station);
+  auto whole = Compositor::create(fo.station, whole_o);
+  auto all = Compositor::create(fo.station, all_o);
+  ASSERT_TRUE(region.ok()) << region.error();
+  ASSERT_TRUE(whole.ok()) << whole.error();
+  ASSERT_TRUE(all.ok()) << all.error();
+  const int W = fo.station.calibration.camera.width, H = fo.station.calibration.camera.height;
+  const bool gpu = (*region).gpu_path_error().empty() && (*whole).gpu_path_error().empty();
+  if (!gpu) std::printf("[ region ] no GPU path here (%s): CPU path only\n", (*region).gpu_path_error().c_str());
+  GlTargets ta(W, H), tb(W, H);
+  int k = 0, mirrors = 0, fingers = 0;
+  for (auto& f : fo.frames) {
+    if (k % 2 == 0)
+      if (const auto fi = test::finger_across_tooth(f.mask, k, 100)) {
+        paint_synthetic_finger(f.image, *fi);
+        ++fingers;
+      }
+    ++k;
+    const CompositeInput in = test::truth_input(f);
+    CompositeResult a, b, c;
+    ASSERT_TRUE(region->compose(*fo.tooth->surface, in, a).ok());
+    ASSERT_TRUE(whole->compose(*fo.tooth->surface, in, b).ok());
+    ASSERT_TRUE(all->compose(*fo.tooth->surface, in, c).ok());
+    const cv::Rect r = a.region;
+    SCOPED_TRACE("frame " + std::to_string(f.truth.frame));
+    ASSERT_TRUE(a.overlay_drawn);
+    ASSERT_FALSE(r.empty());
+    mirrors += a.mirror_drawn ? 1 : 0;
+    // The region is small and the whole-frame path really covered the frame.
+    EXPECT_LT(r.area(), W * H / 10) << "region " << r;
+    EXPECT_EQ(b.region, cv::Rect(0, 0, W, H));
+    EXPECT_GT(b.cpu_blend_px, 5 * a.cpu_blend_px);
+    // Something is drawn in the region, and it is the same in both paths.
+    double mx = 0;
+    EXPECT_GT(differing(a.image, f.image, r, true, nullptr), 100) << "no overlay in the region";
+    EXPECT_EQ(differing(a.image, b.image, r, true, &mx), 0) << "largest difference " << mx;
+    EXPECT_EQ(differing(a.tooth_visible, b.tooth_visible, r, true, &mx), 0) << "largest difference " << mx;
+    EXPECT_EQ(a.tooth_px, b.tooth_px);
+    // Outside: the camera's own pixels, on both paths; no visible tooth.
+    EXPECT_EQ(differing(a.image, f.image, r, false, &mx), 0) << "largest difference " << mx;
+    EXPECT_EQ(differing(b.image, f.image, r, false, &mx), 0) << "largest difference " << mx;
+    EXPECT_EQ(cv::countNonZero(a.tooth_visible), cv::countNonZero(a.tooth_visible(r)));
+    EXPECT_EQ(a.triangles_drawn, b.triangles_drawn);
+    // The chunks facing away: not drawn, and not missed.
+    EXPECT_EQ(cv::norm(a.image, c.image, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(a.tooth_visible, c.tooth_visible, cv::NORM_INF), 0.0);
+    EXPECT_LT(a.triangles_drawn, c.triangles_drawn);
+    std::printf("[ region ] frame %d: region %dx%d (%.2f %% of the frame), mirror %d, tooth triangles %zu (%zu without "
+                "the facing test)\n",
+                f.truth.frame, r.width, r.height, 100.0 * r.area() / (W * H), a.mirror_drawn ? 1 : 0,
+                a.triangles_drawn, c.triangles_drawn);
+    if (gpu) {
+      CompositeResult ga, gb;
+      ASSERT_TRUE(region->compose_gl(*fo.tooth->surface, in, ta.t, ga).ok());
+      ASSERT_TRUE(whole->compose_gl(*fo.tooth->surface, in, tb.t, gb).ok());
+      glFinish();
+      EXPECT_EQ(ga.region, a.region);
+      EXPECT_EQ(gb.region, cv::Rect(0, 0, W, H));
+      const cv::Mat ca = ta.composite(f.image, ga.region), cb = tb.composite(f.image, gb.region);
+      EXPECT_EQ(differing(ca, cb, r, true, &mx), 0) << "GPU path, largest difference " << mx;
+      EXPECT_EQ(differing(ca, f.image, r, false, &mx), 0) << "GPU path, largest difference " << mx;
+      EXPECT_EQ(differing(cb, f.image, r, false, &mx), 0) << "GPU path, largest difference " << mx;
+      EXPECT_GT(differing(ca, f.image, r, true, nullptr), 100) << "GPU path: no overlay in the region";
+    }
+  }
+  EXPECT_GE(mirrors, 1) << "no frame had the mirror's reflection";
+  EXPECT_GE(fingers, 1) << "no frame had a finger over the tooth";
+}
+
+}  // namespace
+}  // namespace dentar::ar
