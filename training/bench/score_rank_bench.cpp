@@ -11,7 +11,8 @@
 //                                            [--overprep-price exercise|region] [--access-zone-rate R]
 //                                            [--access-points bands|continuous] [--taper-points P]
 //                                            [--flare-free-deg D] [--flare-deg-per-point S]
-//                                            [--seeds 2,3,4,5] [--bootstrap 2000]
+//                                            [--seeds 2,3,4,5] [--bootstrap 2000] [--components 1]
+//                                            [--pulp-full-mm D] [--pulp-min-fraction F]
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
 // seconds on the same sessions (the first run generates them).
@@ -20,6 +21,9 @@
 // Every rho is printed with its 95 % bootstrap interval (sessions resampled
 // with replacement within each skill level, --bootstrap resamples, fixed
 // seed): how far rho could move from sampling the sessions alone.
+// --components 1: also each region's points / coverage / cut too far, each criterion, the points
+// before costs and the costs, each as its own rho against skill (which criterion mis-ranks).
+// --pulp-full-mm D, --pulp-min-fraction F: the graded pulp exposure's fields (0 / 1: all or nothing).
 // --taper-points P: the exercise's wall taper (it must have one) is worth P
 // points and its graded regions the rest of the exercise's total.
 #include <unistd.h>
@@ -31,6 +35,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -108,6 +113,8 @@ int main(int argc, char** argv) {
   double taper_points = -1;         // --taper-points: the wall taper's points (the regions keep the rest)
   std::vector<std::uint64_t> seeds; // --seeds: several cohorts, pooled at the end
   int bootstrap = 2000;
+  int components = 0;               // --components 1: per-criterion rho against skill
+  double pulp_full_mm = -1, pulp_min_fraction = -1;  // --pulp-full-mm, --pulp-min-fraction: graded pulp exposure
   double flare_free = -1, flare_step = -1;  // --flare-free-deg, --flare-deg-per-point: continuous access walls
   if (argc % 2 == 0) {
     std::fprintf(stderr, "score_rank_bench: every option takes a value (%s has none)\n", argv[argc - 1]);
@@ -130,6 +137,9 @@ int main(int argc, char** argv) {
     else if (a == "--flare-free-deg") flare_free = std::atof(v.c_str());
     else if (a == "--flare-deg-per-point") flare_step = std::atof(v.c_str());
     else if (a == "--bootstrap") bootstrap = std::atoi(v.c_str());
+    else if (a == "--components") components = std::atoi(v.c_str());
+    else if (a == "--pulp-full-mm") pulp_full_mm = std::atof(v.c_str());
+    else if (a == "--pulp-min-fraction") pulp_min_fraction = std::atof(v.c_str());
     else if (a == "--seeds") {
       std::stringstream ss(v);
       for (std::string t; std::getline(ss, t, ',');) seeds.push_back(std::strtoull(t.c_str(), nullptr, 10));
@@ -170,6 +180,8 @@ int main(int argc, char** argv) {
       ex->access_points = access_points == "continuous" ? AccessPoints::kContinuous : AccessPoints::kBands;
     if (flare_free >= 0) ex->access_flare_free_deg = flare_free;
     if (flare_step > 0) ex->access_flare_deg_per_point = flare_step;
+    if (pulp_full_mm >= 0) ex->pulp_exposure_full_mm = pulp_full_mm;
+    if (pulp_min_fraction >= 0) ex->pulp_exposure_min_fraction = pulp_min_fraction;
     if (taper_points >= 0) {
       if (!ex->wall_taper) {
         std::fprintf(stderr, "score_rank_bench: --taper-points: %s has no wall_taper\n", name.c_str());
@@ -196,6 +208,38 @@ int main(int argc, char** argv) {
                   rs.size(), c.rho, c.lo, c.hi, em / std::max(ne, 1), nm / std::max(nn, 1), rs.front().o.max_points, ie, ne,
                   in, nn, secs / rs.size());
       std::fflush(stdout);
+      // Per criterion (--components 1): rho of each region's points and coverage, each criterion's
+      // score, the points before costs and minus the costs, against skill: which part mis-ranks.
+      if (components) {
+        std::vector<double> sk;
+        for (const auto& r : rs) sk.push_back(r.skill);
+        const auto rho_of = [&](const std::function<double(const OutcomeScores&)>& f) {
+          std::vector<double> v;
+          for (const auto& r : rs) v.push_back(f(r.o));
+          const double x = spearman_rho(v, sk);
+          return std::isfinite(x) ? x : 0.0;
+        };
+        std::string out;
+        const OutcomeScores& f0 = rs.front().o;
+        for (std::size_t q = 0; q < f0.regions.size(); ++q) {
+          out += " " + f0.regions[q].name + " points " + std::to_string(rho_of([q](const OutcomeScores& o) { return o.regions[q].points; })).substr(0, 6);
+          out += " coverage " + std::to_string(rho_of([q](const OutcomeScores& o) { return o.regions[q].coverage_pct; })).substr(0, 6);
+          out += " cut-too-far(-) " + std::to_string(rho_of([q](const OutcomeScores& o) { return -o.regions[q].overprep_mm3; })).substr(0, 6) + ";";
+        }
+        for (std::size_t q = 0; q < f0.criteria.size(); ++q)
+          out += " " + f0.criteria[q].name + " " + std::to_string(rho_of([q](const OutcomeScores& o) { return o.criteria[q].score; })).substr(0, 6) + ";";
+        out += " earned " + std::to_string(rho_of([](const OutcomeScores& o) { return o.earned_points; })).substr(0, 6);
+        out += "; costs(-) " + std::to_string(rho_of([](const OutcomeScores& o) { return o.points - o.earned_points; })).substr(0, 6);
+        out += "; pulp mm3(-) " + std::to_string(rho_of([](const OutcomeScores& o) { return -o.pulp_removed_mm3; })).substr(0, 6);
+        out += "; earned-costs unfloored " + std::to_string(rho_of([](const OutcomeScores& o) {
+                 double c = 0;
+                 for (const auto& p : o.penalties) c += p.points;
+                 return o.earned_points - c;
+               })).substr(0, 6);
+        int zeros = 0, exposed = 0;
+        for (const auto& r : rs) zeros += r.o.points == 0, exposed += r.o.pulp_exposed;
+        std::printf("%s %s components:%s; at 0: %d; pulp exposed: %d\n", name.c_str(), label.c_str(), out.c_str(), zeros, exposed);
+      }
       return c.rho;
     };
     std::vector<Row> all;

@@ -163,6 +163,18 @@ double Exercise::max_points() const {
   return s;
 }
 
+double Exercise::pulp_exposure_size_mm(double pulp_mm3) {
+  return pulp_mm3 > 0 ? 2.0 * std::cbrt(3.0 * pulp_mm3 / (2.0 * M_PI)) : 0.0;
+}
+
+double Exercise::pulp_exposure_charge(double pulp_mm3) const {
+  if (pulp_mm3 <= 0) return 0.0;
+  const double full = pulp_exposure_points();
+  if (pulp_exposure_full_mm <= 0) return full;
+  const double f = std::min(1.0, pulp_exposure_size_mm(pulp_mm3) / pulp_exposure_full_mm);
+  return full * std::min(1.0, pulp_exposure_min_fraction + (1.0 - pulp_exposure_min_fraction) * f);
+}
+
 Result<Exercise> parse_exercise(const std::string& text, const std::string& name) {
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded()) {
@@ -331,8 +343,14 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
         !get_number(c, o, "complete_orifice_sight", "outcome.", ex.complete_orifice_sight, false, 0, 1) ||
         !get_number(c, o, "over_reduction_rate", "outcome.", ex.over_reduction_rate, false, 0, 100) ||
         !get_number(c, o, "tolerance_mm", "outcome.", ex.tolerance_mm, false, 0, 5) ||
-        !get_number(c, o, "access_zone_rate", "outcome.", ex.access_zone_rate, false, 0, 100))
+        !get_number(c, o, "access_zone_rate", "outcome.", ex.access_zone_rate, false, 0, 100) ||
+        !get_number(c, o, "pulp_exposure_full_mm", "outcome.", ex.pulp_exposure_full_mm, false, 0, 20) ||
+        !get_number(c, o, "pulp_exposure_min_fraction", "outcome.", ex.pulp_exposure_min_fraction, false, 0, 1))
       return Error{c.err};
+    if (o.contains("pulp_exposure_min_fraction") && ex.pulp_exposure_full_mm <= 0)
+      return Error{name + ": field 'outcome.pulp_exposure_min_fraction': needs 'outcome.pulp_exposure_full_mm' above 0 "
+                   "(the exposure size that costs the whole pulp_exposure_points); without it every exposure costs "
+                   "all of them"};
     if (o.contains("overprep_price")) {
       const auto& v = o["overprep_price"];
       const std::string pv = v.is_string() ? v.get<std::string>() : v.dump();

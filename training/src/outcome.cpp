@@ -494,12 +494,25 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
   o.pulp_exposed = o.pulp_removed_mm3 > 0;
   // Costs the exercise charges.
   if (o.pulp_exposed) {
-    const double c = ex.pulp_exposure_points();
-    o.penalties.push_back(
-        {"pulp exposure", c,
-         c > 0 ? "the cut opened into the pulp (" + fmt(o.pulp_removed_mm3, 3) + " mm3 of pulp removed); this exercise "
-                     "charges " + fmt(c, 1) + " points for it."
-               : "the cut opened into the pulp, as this exercise requires (it charges nothing for it)."});
+    const double full = ex.pulp_exposure_points();
+    const double c = ex.pulp_exposure_charge(o.pulp_removed_mm3);
+    o.pulp_exposure_mm = Exercise::pulp_exposure_size_mm(o.pulp_removed_mm3);
+    std::string why;
+    if (full <= 0) {
+      why = "the cut opened into the pulp, as this exercise requires (it charges nothing for it).";
+    } else if (ex.pulp_exposure_full_mm <= 0) {
+      why = "the cut opened into the pulp (" + fmt(o.pulp_removed_mm3, 3) + " mm3 of pulp removed); this exercise "
+            "charges " + fmt(full, 1) + " points for it.";
+    } else {
+      // Graded (issue 25, session 15): a pinpoint exposure is not the same fault as a wide one.
+      why = "the cut opened into the pulp (" + fmt(o.pulp_removed_mm3, 3) + " mm3 of pulp removed, an exposure about " +
+            fmt(o.pulp_exposure_mm) + " mm across); this exercise charges " + fmt(full, 1) +
+            " points for an exposure " + fmt(ex.pulp_exposure_full_mm, 1) + " mm across or wider and " +
+            (ex.pulp_exposure_min_fraction > 0 ? "at least " + fmt(full * ex.pulp_exposure_min_fraction, 1) + " for any, "
+                                               : "") +
+            "in proportion to its size in between: " + fmt(c, 1) + " points.";
+    }
+    o.penalties.push_back({"pulp exposure", c, why});
   }
   if (o.perforation) {
     const double c = ex.perforation_points();

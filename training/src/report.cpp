@@ -303,13 +303,16 @@ Result<std::vector<ComparisonRow>> generated_comparison(const Exercise& ex, cons
   const std::string cdir = reference_cache_dir();
   // The scores depend on the exercise's costs and completeness rules too
   // (bump kScoringVersion when the scoring itself changes).
-  constexpr int kScoringVersion = 2;  // 2: over-reduction (issue 25, session 11)
+  // 2: over-reduction (issue 25, session 11); 3: continuous access points and the wall taper
+  // (session 14, which changed the scores without changing the key), graded pulp exposure (session 15).
+  constexpr int kScoringVersion = 3;
   std::ostringstream sk;
   sk << reference_key(ex, 2) << '_' << kScoringVersion << '_' << ex.pulp_exposure_points() << '_' << ex.perforation_points()
      << '_' << ex.complete_coverage_pct << '_' << ex.complete_orifice_sight << '_' << ex.over_reduction_rate << '_' << ex.tolerance_mm;
   // Session 12's options, only when set (the shipped exercises keep their cached scores).
   if (ex.overprep_exercise_price) sk << "_exercise_price";
   if (ex.access_zone_rate > 0) sk << "_access_zone_" << ex.access_zone_rate;
+  if (ex.pulp_exposure_full_mm > 0) sk << "_pulp_" << ex.pulp_exposure_full_mm << '_' << ex.pulp_exposure_min_fraction;
   std::uint64_t h = 1469598103934665603ull;  // FNV-1a of the whole key: a file name
   for (unsigned char c : sk.str()) h = (h ^ c) * 1099511628211ull;
   char hx[20];

@@ -466,6 +466,81 @@ TEST(OutcomeCases, PulpExposureAndPerforationCostWhatTheExerciseSays) {
   EXPECT_DOUBLE_EQ(all.penalties[0].points, 4.0);
 }
 
+// Issue 25, session 15: a graded pulp exposure costs by the exposure's size (the diameter of a
+// hemisphere of the pulp removed), up to the exercise's stated cost; all or nothing without
+// pulp_exposure_full_mm, as before.
+TEST(OutcomeCases, GradedPulpExposureCostsBySizeUpToTheExercisesCost) {
+  // The size rule: a hemisphere 1 mm across holds (2/3) pi 0.5^3 mm3.
+  EXPECT_NEAR(Exercise::pulp_exposure_size_mm(2.0 / 3.0 * M_PI * 0.125), 1.0, 1e-12);
+  EXPECT_EQ(Exercise::pulp_exposure_size_mm(0.0), 0.0);
+  Cases c;
+  c.ex.pulp_exposure_full_mm = 1.0;
+  c.ex.pulp_exposure_min_fraction = 0.0;
+  // Untouched: no exposure, no cost, still 0 and incomplete.
+  const OutcomeScores un = c.score(c.start);
+  EXPECT_TRUE(un.penalties.empty());
+  EXPECT_EQ(un.points, 0.0);
+  EXPECT_FALSE(un.complete);
+  // A pinpoint nick: a 0.3 mm bore reaching into the pulp sphere's top (its layer at z 5.7 mm).
+  VoxelVolume nick_v = c.well(2.0, 6.0);
+  carve(nick_v, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.3 && p.z() >= 5.65; });
+  const OutcomeScores nick = c.score(nick_v);
+  ASSERT_TRUE(nick.pulp_exposed);
+  ASSERT_EQ(nick.penalties.size(), 1u);
+  const double nick_size = Exercise::pulp_exposure_size_mm(nick.pulp_removed_mm3);
+  EXPECT_NEAR(nick.pulp_exposure_mm, nick_size, 1e-12);
+  EXPECT_GT(nick_size, 0.1);
+  EXPECT_LT(nick_size, 0.6);
+  EXPECT_NEAR(nick.penalties[0].points, 2.5 * nick_size, 1e-9) << "in proportion to its size below 1 mm";
+  EXPECT_TRUE(has(nick.penalties[0].why, "mm across")) << nick.penalties[0].why;
+  EXPECT_TRUE(has(nick.penalties[0].why, "2.5 points for an exposure 1.0 mm across")) << nick.penalties[0].why;
+  EXPECT_NEAR(nick.points, std::max(0.0, nick.earned_points - nick.penalties[0].points), 1e-9);
+  // 0.3 mm into the pulp over the well's whole floor: larger, dearer, still below the cap.
+  const OutcomeScores mid = c.score(c.well(2.0, 5.5));
+  ASSERT_TRUE(mid.pulp_exposed);
+  EXPECT_GT(mid.pulp_removed_mm3, nick.pulp_removed_mm3);
+  EXPECT_GT(mid.penalties[0].points, nick.penalties[0].points);
+  EXPECT_LE(mid.penalties[0].points, 2.5);
+  // Down to the sphere's centre: over 1 mm across, the whole stated cost and no more.
+  const OutcomeScores wide = c.score(c.well(2.0, 5.0));
+  ASSERT_TRUE(wide.pulp_exposed);
+  EXPECT_GT(wide.pulp_exposure_mm, 1.0);
+  EXPECT_DOUBLE_EQ(wide.penalties[0].points, 2.5);
+  // A floor fraction: any exposure costs at least half.
+  c.ex.pulp_exposure_min_fraction = 0.5;
+  const OutcomeScores nick_half = c.score(nick_v);
+  EXPECT_NEAR(nick_half.penalties[0].points, 2.5 * (0.5 + 0.5 * nick_size), 1e-9);
+  EXPECT_TRUE(has(nick_half.penalties[0].why, "at least 1.2")) << nick_half.penalties[0].why;
+  EXPECT_DOUBLE_EQ(c.score(c.well(2.0, 5.0)).penalties[0].points, 2.5);
+  // Without pulp_exposure_full_mm: all or nothing, the nick costs everything.
+  c.ex.pulp_exposure_full_mm = 0;
+  c.ex.pulp_exposure_min_fraction = 1;
+  EXPECT_DOUBLE_EQ(c.score(nick_v).penalties[0].points, 2.5);
+  // The parser: the fields are range-checked and a fraction without a size is refused, naming the field.
+  const std::string text = R"({"format":"dentar-exercise","version":1,"name":"t","procedure":"p",
+    "tooth":{"kind":"molar","voxel_mm":0.2},"bur":{"shape":"sphere","radius_mm":0.5},"time_limit_s":60,
+    "regions":[{"name":"a","role":"target","points":7,"all":[{"shape":"sphere","center_mm":[0,0,5],"radius_mm":1}]}],
+    "steps":[{"name":"s1","region":"a"}],
+    "outcome":{"kind":"graded_regions","pulp_exposure_points":5,"pulp_exposure_full_mm":1.0,"pulp_exposure_min_fraction":0}})";
+  auto ok = parse_exercise(text, "t.json");
+  ASSERT_TRUE(ok.ok()) << ok.error();
+  EXPECT_EQ(ok->pulp_exposure_full_mm, 1.0);
+  EXPECT_EQ(ok->pulp_exposure_min_fraction, 0.0);
+  EXPECT_NEAR(ok->pulp_exposure_charge(2.0 / 3.0 * M_PI * 0.125 / 8), 2.5, 1e-9) << "0.5 mm across: half of 5";
+  EXPECT_EQ(ok->pulp_exposure_charge(0), 0.0);
+  auto err = [&](const std::string& a, const std::string& b, const std::string& needle) {
+    std::string s = text;
+    s.replace(s.find(a), a.size(), b);
+    auto r = parse_exercise(s, "t.json");
+    ASSERT_FALSE(r.ok()) << needle;
+    EXPECT_NE(r.error().find(needle), std::string::npos) << r.error();
+    EXPECT_NE(r.error().find("t.json"), std::string::npos) << r.error();
+  };
+  err("\"pulp_exposure_min_fraction\":0", "\"pulp_exposure_min_fraction\":1.5", "outcome.pulp_exposure_min_fraction");
+  err("\"pulp_exposure_full_mm\":1.0", "\"pulp_exposure_full_mm\":-1", "outcome.pulp_exposure_full_mm");
+  err("\"pulp_exposure_full_mm\":1.0,", "", "needs 'outcome.pulp_exposure_full_mm'");
+}
+
 // Issue 25, session 11: the clinical tolerance around the outline, the
 // over-reduction beyond the zone, and the tooth's partial-volume skin.
 TEST(OutcomeCases, ToleranceAndOverReductionChargeOnlyWhatIsBeyondThem) {

@@ -126,6 +126,15 @@ struct Exercise {
   // unnamed cost is the worst one).
   double pulp_exposure_cost = -1;
   double perforation_cost = -1;
+  // Graded pulp exposure (outcome fields "pulp_exposure_full_mm" and
+  // "pulp_exposure_min_fraction", issue 25 session 15). The exposure's size
+  // is the diameter of a hemisphere holding the pulp removed
+  // (2 (3V / 2 pi)^(1/3)); an exposure that size or larger across costs the
+  // whole pulp_exposure_points, a smaller one min_fraction of it plus the
+  // rest in proportion to its size. full_mm 0 (the default): every exposure
+  // costs the whole pulp_exposure_points (all or nothing, the rule before).
+  double pulp_exposure_full_mm = 0;
+  double pulp_exposure_min_fraction = 1;
   // Over-reduction (outcome field "over_reduction_rate", issue 25 session
   // 11): tooth (not pulp) removed outside every target region and beyond
   // every target's zone_mm is charged rate x (the exercise's points per mm3
@@ -164,6 +173,11 @@ struct Exercise {
   const Region* region(const std::string& n) const;
   double max_points() const;  // 18 for an access opening, sum of points (regions + wall taper) otherwise
   double pulp_exposure_points() const { return pulp_exposure_cost < 0 ? max_points() : pulp_exposure_cost; }
+  // What an exposure removing pulp_mm3 of pulp costs (0 when none was removed): pulp_exposure_points()
+  // scaled by the graded rule above.
+  double pulp_exposure_charge(double pulp_mm3) const;
+  // The exposure's size (mm across) the graded rule uses.
+  static double pulp_exposure_size_mm(double pulp_mm3);
   double perforation_points() const { return perforation_cost < 0 ? max_points() : perforation_cost; }
 };
 

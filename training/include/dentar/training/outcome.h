@@ -61,6 +61,7 @@ struct OutcomeScores {
   bool pulp_exposed = false;     // the bur entered the pulp: pulp tissue was removed (pulp_removed_mm3 > 0)
   bool pulp_wall_opened = false; // a pulp voxel borders a voxel the cut opened (reported, not charged)
   double pulp_removed_mm3 = 0;
+  double pulp_exposure_mm = 0;   // the exposure's size across (Exercise::pulp_exposure_size_mm), 0 when none
   bool perforation = false;      // the cut opened to the outside away from every entry region
   double perforation_mm3 = 0;    // opened voxels that border outside air outside entry regions
   std::vector<RegionScore> regions;  // every target region
