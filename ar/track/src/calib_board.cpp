@@ -67,12 +67,13 @@ struct BoardPainter {
       return (i + j) % 2 == 0 ? 0 : 255;
     }
     if (const auto* h = std::get_if<CharucoSpec>(&spec)) {
-      // Square (i, j), column i of cols, row j of rows from the top-left; black when i + j is even.
+      // Square (i, j), column i of cols, row j of rows from the top-left.
       const int i = static_cast<int>(std::floor(x / h->square_m)) + 1;
       const int j = static_cast<int>(std::floor(y / h->square_m)) + 1;
       if (i < 0 || j < 0 || i >= h->cols || j >= h->rows) return 255;
-      if ((i + j) % 2 == 0) return 0;
-      const cv::Mat& m = cells[static_cast<std::size_t>((j * h->cols + i) / 2)];  // white squares, row-major
+      if (!h->white(i, j)) return 0;
+      // The white squares, row-major: index (j * cols + i) / 2 in either layout.
+      const cv::Mat& m = cells[static_cast<std::size_t>((j * h->cols + i) / 2)];
       const double pad = 0.5 * (h->square_m - h->marker_m);
       const double u = x - (i - 1) * h->square_m - pad, v = y - (j - 1) * h->square_m - pad;
       if (u < 0 || v < 0 || u >= h->marker_m || v >= h->marker_m) return 255;
@@ -125,8 +126,8 @@ constexpr const char* kFormKalibr =
     "kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID] (tagCols x tagRows, tagSize, tagSpacing of Kalibr's "
     "aprilgrid.yaml; e.g. kalibr:6x6:88:0.3)";
 constexpr const char* kFormCharuco =
-    "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT[:FIRST_ID] (squares, not inner corners; DICT one of OpenCV's, "
-    "e.g. charuco:5x7:40:30:DICT_4X4_50)";
+    "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT[:FIRST_ID][:legacy] (squares, not inner corners; DICT one of "
+    "OpenCV's; legacy: a board printed by OpenCV before 4.6; e.g. charuco:5x7:40:30:DICT_4X4_50)";
 
 struct SpecFields {
   const std::string& text;
@@ -217,9 +218,13 @@ Result<BoardSpec> parse_board_spec(const std::string& text) {
     return BoardSpec(g);
   }
   if (f[0] == "charuco") {
+    CharucoSpec h;
+    if (f.size() > 5 && f.back() == "legacy") {
+      h.legacy = true;
+      f.pop_back();
+    }
     const SpecFields F{text, f, kFormCharuco};
     if (f.size() < 5 || f.size() > 6) return F.count(5, 6);
-    CharucoSpec h;
     double sq = 0, mk = 0;
     if (!parse_wxh(f[1], h.cols, h.rows)) return F.bad(1, "COLSxROWS", wxh + ", the squares (e.g. 5x7)");
     if (!parse_num(f[2], sq) || !(sq > 0)) return F.bad(2, "SQUARE_MM", "must be a positive number of millimetres");
@@ -242,7 +247,7 @@ std::string board_spec_to_string(const BoardSpec& spec) {
     os << "chessboard:" << c->cols << "x" << c->rows << ":" << c->square_m * 1e3;
   } else if (const auto* h = std::get_if<CharucoSpec>(&spec)) {
     os << "charuco:" << h->cols << "x" << h->rows << ":" << h->square_m * 1e3 << ":" << h->marker_m * 1e3 << ":"
-       << h->dictionary << ":" << h->first_id;
+       << h->dictionary << ":" << h->first_id << (h->legacy ? ":legacy" : "");
   } else {
     const auto& g = std::get<AprilGridSpec>(spec);
     if (g.kalibr) {

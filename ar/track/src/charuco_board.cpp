@@ -68,6 +68,46 @@ std::shared_ptr<CharucoCv> make_charuco_cv(const CharucoSpec& spec) {
   c->dictionary = cv::aruco::getPredefinedDictionary(charuco_dictionary(spec.dictionary).id);
   c->board = cv::aruco::CharucoBoard::create(spec.cols, spec.rows, static_cast<float>(spec.square_m),
                                              static_cast<float>(spec.marker_m), c->dictionary);
+  if (spec.legacy && spec.rows % 2 == 0) {
+    // The pre-4.6 layout: the markers on the other squares. OpenCV 4.6 builds only its own
+    // layout; its board's public geometry is rewritten here: each marker's corners (in OpenCV's
+    // corner order, taken from its own first marker relative to that marker's square) moved to
+    // the legacy squares, then for every chessboard corner the markers next to it and their
+    // nearest corners (what interpolateCornersCharuco's local homographies use).
+    const float sq = static_cast<float>(spec.square_m);
+    const std::vector<cv::Point3f> ref = c->board->objPoints[0];  // the marker in square (1, 0)
+    std::vector<std::vector<cv::Point3f>> obj;
+    for (int j = 0; j < spec.rows; ++j)
+      for (int i = 0; i < spec.cols; ++i) {
+        if (!spec.white(i, j)) continue;
+        std::vector<cv::Point3f> m;
+        for (const cv::Point3f& p : ref) m.emplace_back(p.x + (i - 1) * sq, p.y + j * sq, p.z);
+        obj.push_back(m);
+      }
+    c->board->objPoints = obj;
+    c->board->nearestMarkerIdx.assign(c->board->chessboardCorners.size(), {});
+    c->board->nearestMarkerCorners.assign(c->board->chessboardCorners.size(), {});
+    for (std::size_t k = 0; k < c->board->chessboardCorners.size(); ++k) {
+      const cv::Point3f q = c->board->chessboardCorners[k];
+      // The markers whose centre is nearest (the two beside an inner corner, at sqrt(2)/2 squares).
+      std::vector<std::pair<double, int>> d;
+      for (std::size_t m = 0; m < obj.size(); ++m) {
+        const cv::Point3f ctr = (obj[m][0] + obj[m][1] + obj[m][2] + obj[m][3]) * 0.25f;
+        d.emplace_back(cv::norm(ctr - q), static_cast<int>(m));
+      }
+      std::sort(d.begin(), d.end());
+      for (const auto& [dist, m] : d) {
+        if (dist > d[0].first + 1e-3 * sq) break;
+        int best = 0;
+        for (int e = 1; e < 4; ++e)
+          if (cv::norm(obj[static_cast<std::size_t>(m)][static_cast<std::size_t>(e)] - q) <
+              cv::norm(obj[static_cast<std::size_t>(m)][static_cast<std::size_t>(best)] - q))
+            best = e;
+        c->board->nearestMarkerIdx[k].push_back(m);
+        c->board->nearestMarkerCorners[k].push_back(best);
+      }
+    }
+  }
   // OpenCV numbers the markers from 0; a board printed with an offset (several boards in one
   // room) starts at first_id.
   std::vector<int> ids(c->board->ids.size());

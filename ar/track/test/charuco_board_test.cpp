@@ -9,7 +9,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <opencv2/aruco/charuco.hpp>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -182,6 +184,76 @@ TEST(CharucoBoard, DetectsWholeAndPartialViewsAtTheTrueCorners) {
   EXPECT_NE(wrong.error().find("DICT_6X6_250"), std::string::npos) << wrong.error();
 }
 
+// Corners against one plane: RMS distance from the best homography of the board's layout, px.
+double layout_rms_px(const calibration::BoardView& v) {
+  std::vector<cv::Point2f> o, p;
+  for (std::size_t i = 0; i < v.image_points.size(); ++i) {
+    o.emplace_back(static_cast<float>(v.object_points[i].x()), static_cast<float>(v.object_points[i].y()));
+    p.emplace_back(static_cast<float>(v.image_points[i].x()), static_cast<float>(v.image_points[i].y()));
+  }
+  const cv::Mat H = cv::findHomography(o, p, 0);
+  if (H.empty()) return 1e9;
+  std::vector<cv::Point2f> q;
+  cv::perspectiveTransform(o, q, H);
+  double sq = 0;
+  for (std::size_t i = 0; i < q.size(); ++i) sq += cv::norm(q[i] - p[i]) * cv::norm(q[i] - p[i]);
+  return std::sqrt(sq / static_cast<double>(q.size()));
+}
+
+// A real photograph: OpenCV's ChArUco calibration tutorial screenshot (Debian opencv-doc,
+// html/screen_charuco.jpg; a webcam photo of a printed 6x8-square DICT_4X4_50 board held by hand,
+// turned 90 degrees, with the tutorial's own detections drawn over it). Read where Debian
+// installs it, never copied into the repository; skipped when opencv-doc is absent. The board was
+// printed before OpenCV 4.6: with 8 rows its top-left square is white (the legacy layout). Read
+// as the legacy board, our detector finds its corners where one plane puts them (within the
+// lens distortion the screenshot prints: k1 0.06, k2 -0.44); read as OpenCV 4.6's layout, the
+// markers sit on the wrong squares and the corners found do not lie on the board's plane.
+TEST(CharucoBoard, RealPhotographOfALegacyBoard) {
+  const std::string path = "/usr/share/doc/opencv-doc/opencv4/html/screen_charuco.jpg";
+  const cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (img.empty()) GTEST_SKIP() << path << " absent (Debian package opencv-doc)";
+  const cv::Mat photo = img(cv::Rect(30, 40, 530, 290)).clone();  // the camera panel of the screenshot
+  auto legacy = parse_board_spec("charuco:6x8:40:25:DICT_4X4_50:legacy");
+  ASSERT_TRUE(legacy.ok()) << legacy.error();
+  EXPECT_TRUE(std::get<CharucoSpec>(*legacy).legacy);
+  CharucoStats st;
+  auto v = detect_charuco(photo, std::get<CharucoSpec>(*legacy), "screen_charuco.jpg", 6, &st);
+  ASSERT_TRUE(v.ok()) << v.error();
+  const double rms = layout_rms_px(*v);
+  std::printf("[ charuco real ] %s as the legacy board: %d markers, %d of 35 corners, layout RMS %.2f px\n",
+              path.c_str(), st.markers, st.corners, rms);
+  EXPECT_GE(st.corners, 20);
+  EXPECT_LT(rms, 1.5);
+  // Which layout the print has: the markers found (OpenCV's detector alone) against the centres of
+  // the squares each layout gives their ids, through one homography. Only the legacy layout fits.
+  std::vector<std::vector<cv::Point2f>> mc;
+  std::vector<int> ids;
+  cv::aruco::detectMarkers(photo, cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50), mc, ids);
+  ASSERT_GE(ids.size(), 10u);
+  auto marker_fit_px = [&](const CharucoSpec& h) {
+    std::vector<Eigen::Vector2d> centre;  // by marker index, board frame (squares)
+    for (int j = 0; j < h.rows; ++j)
+      for (int i = 0; i < h.cols; ++i)
+        if (h.white(i, j)) centre.emplace_back(i - 0.5, j - 0.5);
+    calibration::BoardView v;
+    for (std::size_t m = 0; m < ids.size(); ++m) {
+      if (ids[m] < 0 || ids[m] >= static_cast<int>(centre.size())) continue;
+      const cv::Point2f c = (mc[m][0] + mc[m][1] + mc[m][2] + mc[m][3]) * 0.25f;
+      v.image_points.emplace_back(c.x, c.y);
+      const auto& q = centre[static_cast<std::size_t>(ids[m])];
+      v.object_points.emplace_back(q.x(), q.y(), 0.0);
+    }
+    return layout_rms_px(v);
+  };
+  CharucoSpec h46 = std::get<CharucoSpec>(*legacy);
+  h46.legacy = false;
+  const double fit_legacy = marker_fit_px(std::get<CharucoSpec>(*legacy)), fit46 = marker_fit_px(h46);
+  std::printf("[ charuco real ] %zu markers against the squares' centres: legacy layout RMS %.2f px, OpenCV 4.6's %.2f px\n",
+              ids.size(), fit_legacy, fit46);
+  EXPECT_LT(fit_legacy, 2.0);
+  EXPECT_GT(fit46, 4 * fit_legacy);
+}
+
 struct SessionResult {
   int views = 0, found = 0;
   double fx_err_rel = 0, k1_err = 0, cx_err = 0, rms_px = 0;
@@ -249,7 +321,7 @@ TEST(CharucoBoard, BenchmarkAgainstChessboard) {
     const std::vector<Eigen::Vector3d> obj =
         std::holds_alternative<CharucoSpec>(spec) ? h.object_points() : cs.object_points();
     int found[2] = {0, 0}, corners[2] = {0, 0}, visible[2] = {0, 0};
-    double sq[2] = {0, 0}, time_s[2] = {0, 0};
+    double sq[2] = {0, 0}, time_s[2] = {0, 0}, cpu_s[2] = {0, 0};
     std::vector<calibration::BoardView> views;
     for (int i = 0; i < n; ++i)
       for (int partial = 0; partial < 2; ++partial) {
@@ -267,7 +339,9 @@ TEST(CharucoBoard, BenchmarkAgainstChessboard) {
         const auto truth = project_board_points(spec, k, T);
         for (const auto& q : truth) visible[partial] += q.x() > 8 && q.y() > 8 && q.x() < k.width - 9 && q.y() < k.height - 9;
         const auto t0 = std::chrono::steady_clock::now();
+        const std::clock_t c0 = std::clock();  // the process's CPU time, OpenCV's threads included
         auto d = det->detect(img, "bench");
+        cpu_s[partial] += static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
         time_s[partial] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         if (!d) continue;
         ++found[partial];
@@ -285,10 +359,11 @@ TEST(CharucoBoard, BenchmarkAgainstChessboard) {
     const auto c = calibration::calibrate_intrinsics(views, k.width, k.height);
     for (int partial = 0; partial < 2; ++partial)
       std::printf("[ charuco bench ] %s %s views: found %d/%d, corners %d of %d inside the image (%.1f %%), "
-                  "corner RMS %.3f px, %.1f ms per image\n",
+                  "corner RMS %.3f px, %.1f ms per image (CPU %.1f ms)\n",
                   board_spec_to_string(spec).c_str(), partial ? "partial" : "whole", found[partial], n, corners[partial],
                   visible[partial], 100.0 * corners[partial] / std::max(1, visible[partial]),
-                  std::sqrt(sq[partial] / std::max(1, corners[partial])), 1e3 * time_s[partial] / n);
+                  std::sqrt(sq[partial] / std::max(1, corners[partial])), 1e3 * time_s[partial] / n,
+                  1e3 * cpu_s[partial] / n);
     std::printf("[ charuco bench ] %s calibration from %zu views: ok %d rms %.3f px, fx err %.3f px (%.3f %%), "
                 "cx err %.2f px, cy err %.2f px, k1 err %.4f, k2 err %.4f\n",
                 board_spec_to_string(spec).c_str(), views.size(), c.ok, c.rms_px, c.camera.fx - k.fx,

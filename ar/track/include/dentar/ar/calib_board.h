@@ -24,19 +24,22 @@ namespace dentar::ar {
 // squaresY, the squares counted, not the inner corners), in the layout OpenCV 4.6 and later print:
 // the top-left square black, an ArUco marker of the dictionary (black square of side marker_m,
 // one-cell border) centred in every white square, ids first_id, first_id + 1, ... over the
-// white squares row by row from the top-left. Boards printed by OpenCV before 4.6 with an even
-// number of rows start with a white square: not this layout (their markers are not found in
-// the expected squares, so the board is not found; print one with OpenCV >= 4.6 or `dentar`).
+// white squares row by row from the top-left. `legacy`: the layout of boards printed by OpenCV
+// before 4.6 (OpenCV 4.7's setLegacyPattern): with an even number of rows the top-left square is
+// white (the markers on the other squares, same id order); with an odd number it is the same board.
 // The board's points are its (cols-1) x (rows-1) inner corners: corner (r, c), id
-// r * (cols - 1) + c (OpenCV's ChArUco corner id), at (c * square_m, r * square_m, 0) in the
-// board frame (origin at the first inner corner, as a chessboard's).
+// r * (cols - 1) + c, at (c * square_m, r * square_m, 0) in the board frame (origin at the first
+// inner corner, as a chessboard's).
 struct CharucoSpec {
   int cols = 5, rows = 7;  // squares, 3..100 each
   double square_m = 0.04;
   double marker_m = 0.03;                   // < square_m
   std::string dictionary = "DICT_4X4_50";   // OpenCV's predefined dictionary name
   int first_id = 0;
+  bool legacy = false;
   std::string validate() const;  // also checks the dictionary's name and its code count
+  // Whether square (col i, row j from the top-left) holds a marker.
+  bool white(int i, int j) const { return (i + j) % 2 == ((legacy && rows % 2 == 0) ? 0 : 1); }
   int marker_count() const { return cols * rows / 2; }
   int corner_count() const { return (cols - 1) * (rows - 1); }
   std::vector<Eigen::Vector3d> object_points() const;  // by corner id, m
@@ -49,8 +52,9 @@ using BoardSpec = std::variant<calibration::ChessboardSpec, calibration::AprilGr
 //   aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] our AprilTag grid (e.g. aprilgrid:6x5:24:8)
 //   kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID]      Kalibr's AprilGrid (its aprilgrid.yaml's
 //       tagCols x tagRows, tagSize, tagSpacing; tag36h11; gap = ratio * tag; e.g. kalibr:6x6:88:0.3)
-//   charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT[:FIRST_ID] ChArUco, squares (e.g.
-//       charuco:5x7:40:30:DICT_4X4_50; DICT is OpenCV's name, the DICT_ prefix and case optional)
+//   charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT[:FIRST_ID][:legacy] ChArUco, squares (e.g.
+//       charuco:5x7:40:30:DICT_4X4_50; DICT is OpenCV's name, the DICT_ prefix and case optional;
+//       legacy: printed by OpenCV before 4.6)
 // An error quotes the text, names the field (e.g. SQUARE_MM) and the value, and gives the form.
 Result<BoardSpec> parse_board_spec(const std::string& text);
 std::string board_spec_to_string(const BoardSpec& spec);
