@@ -1424,7 +1424,7 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "            [--import CAMERA.yaml] [--camera-out FILE] [--export-ros FILE]\n"
       "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]");
   s->add_option("step", c->step,
-                "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live, stereo (a stereo head from --left/--right or side-by-side --images photos), "
+                "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live, stereo (a stereo head from --left/--right or side-by-side --images photos, or live cameras with --live), "
                 "(the station's steps in a window: camera, pivot, register, tooth, mirror, check), or migrate (rewrite an older "
                 "station file in the current version, keeping the original)");
   s->add_option("--camera", c->camera,
