@@ -1422,7 +1422,10 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "            [--station FILE] [--simulate [--seed S]] [--images DIR --board SPEC]\n"
       "            [--model auto|k1|k1k2|radtan5|rational8]\n"
       "            [--import CAMERA.yaml] [--camera-out FILE] [--export-ros FILE]\n"
-      "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]");
+      "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]\n"
+      "       dentar calibrate stereo --left DIR --right DIR | --images DIR | --live --left SPEC --right SPEC |\n"
+      "            --live --side-by-side SPEC  --board SPEC [--count N] [--seconds S]\n"
+      "Example: dentar calibrate stereo --live --left camera:0 --right camera:1 --board charuco:5x7:40:30:DICT_4X4_50");
   s->add_option("step", c->step,
                 "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live, stereo (a stereo head from --left/--right or side-by-side --images photos, or live cameras with --live), "
                 "(the station's steps in a window: camera, pivot, register, tooth, mirror, check), or migrate (rewrite an older "
