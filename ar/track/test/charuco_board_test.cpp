@@ -184,6 +184,36 @@ TEST(CharucoBoard, DetectsWholeAndPartialViewsAtTheTrueCorners) {
   EXPECT_NE(wrong.error().find("DICT_6X6_250"), std::string::npos) << wrong.error();
 }
 
+// The legacy layout (even rows: the top-left square white) rendered and found at its true
+// corners through the board geometry rewritten for it; OpenCV 4.6's layout does not read it.
+TEST(CharucoBoard, LegacyLayoutIsFoundAtTheTrueCorners) {
+  const auto k = cam();
+  auto ls = parse_board_spec("charuco:6x8:20:15:DICT_4X4_50:legacy");
+  ASSERT_TRUE(ls.ok()) << ls.error();
+  const CharucoSpec h = std::get<CharucoSpec>(*ls);
+  ASSERT_TRUE(h.legacy);
+  EXPECT_TRUE(h.white(0, 0));  // 8 rows: white top-left
+  EXPECT_EQ(board_spec_to_string(*ls), "charuco:6x8:20:15:DICT_4X4_50:0:legacy");
+  const BoardTexture tex = make_board_texture(*ls, 5000);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.8, 0.6, 0).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0, 0, 0.3) - T.linear() * Eigen::Vector3d(board_width_m(*ls) / 2, board_height_m(*ls) / 2, 0);
+  BoardRenderOptions ro;
+  ro.supersample = 2;
+  const cv::Mat img = render_board_view(tex, k, T, ro);
+  CharucoStats st;
+  auto v = detect_charuco(img, h, "legacy", 6, &st);
+  ASSERT_TRUE(v.ok()) << v.error();
+  const auto [rms, n] = corner_rms(*v, h.object_points(), project_board_points(*ls, k, T));
+  std::printf("[ charuco ] legacy board: %d markers, %d of %d corners, RMS %.3f px\n", st.markers, n, h.corner_count(), rms);
+  EXPECT_EQ(st.markers, h.marker_count());
+  EXPECT_GE(n, h.corner_count() - 2);
+  EXPECT_LT(rms, 0.15);
+  // (Read with OpenCV 4.6's layout, a whole legacy board is still found here: each inner corner's
+  // two markers sit one square off in opposite directions and OpenCV averages their predictions.
+  // A corner predicted from one marker alone lands one square off: the real photo below.)
+}
+
 // Corners against one plane: RMS distance from the best homography of the board's layout, px.
 double layout_rms_px(const calibration::BoardView& v) {
   std::vector<cv::Point2f> o, p;
@@ -204,10 +234,10 @@ double layout_rms_px(const calibration::BoardView& v) {
 // html/screen_charuco.jpg; a webcam photo of a printed 6x8-square DICT_4X4_50 board held by hand,
 // turned 90 degrees, with the tutorial's own detections drawn over it). Read where Debian
 // installs it, never copied into the repository; skipped when opencv-doc is absent. The board was
-// printed before OpenCV 4.6: with 8 rows its top-left square is white (the legacy layout). Read
-// as the legacy board, our detector finds its corners where one plane puts them (within the
-// lens distortion the screenshot prints: k1 0.06, k2 -0.44); read as OpenCV 4.6's layout, the
-// markers sit on the wrong squares and the corners found do not lie on the board's plane.
+// printed before OpenCV 4.6: with 8 rows its top-left square is white (the legacy layout): its
+// markers fit the legacy squares, not OpenCV 4.6's. Read as the legacy board, our detector finds
+// its corners where one plane puts them (within the lens distortion the screenshot prints: k1
+// 0.06, k2 -0.44). Read as 4.6's layout it finds fewer (printed, not asserted).
 TEST(CharucoBoard, RealPhotographOfALegacyBoard) {
   const std::string path = "/usr/share/doc/opencv-doc/opencv4/html/screen_charuco.jpg";
   const cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
@@ -250,6 +280,17 @@ TEST(CharucoBoard, RealPhotographOfALegacyBoard) {
   const double fit_legacy = marker_fit_px(std::get<CharucoSpec>(*legacy)), fit46 = marker_fit_px(h46);
   std::printf("[ charuco real ] %zu markers against the squares' centres: legacy layout RMS %.2f px, OpenCV 4.6's %.2f px\n",
               ids.size(), fit_legacy, fit46);
+  // The same photo read with 4.6's layout: corners at a place the legacy reading also found, but
+  // under another board point (one square off), or at the same board point.
+  auto w = detect_charuco(photo, h46, "screen_charuco.jpg", 0);
+  int same = 0, moved = 0;
+  if (w)
+    for (std::size_t i = 0; i < w->image_points.size(); ++i)
+      for (std::size_t j = 0; j < v->image_points.size(); ++j)
+        if ((w->image_points[i] - v->image_points[j]).norm() < 1.0)
+          ((w->object_points[i] - v->object_points[j]).norm() < 1e-9 ? same : moved)++;
+  std::printf("[ charuco real ] read as 4.6's layout: %zu corners; of those also found by the legacy reading, %d under "
+              "the same board point, %d under another\n", w ? w->image_points.size() : 0, same, moved);
   EXPECT_LT(fit_legacy, 2.0);
   EXPECT_GT(fit46, 4 * fit_legacy);
 }
