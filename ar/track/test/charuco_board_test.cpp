@@ -108,7 +108,9 @@ TEST(CharucoBoard, SpecParsingNamesTheFieldAndTheForm) {
 // the same squares and markers where CharucoBoard::draw puts them, and its corner ids at our
 // object points (shifted by one square: our origin is the first inner corner).
 TEST(CharucoBoard, LayoutIsOpenCvsOwn) {
-  const CharucoSpec h = board();
+  for (const char* text : {"charuco:9x7:20:15:DICT_4X4_50", "charuco:6x8:20:15:DICT_4X4_50"}) {  // odd and even rows
+  SCOPED_TRACE(text);
+  const CharucoSpec h = std::get<CharucoSpec>(*parse_board_spec(text));
   const double px_per_sq = 60;
   auto dict = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50);
   auto cb = cv::aruco::CharucoBoard::create(h.cols, h.rows, static_cast<float>(h.square_m),
@@ -135,6 +137,7 @@ TEST(CharucoBoard, LayoutIsOpenCvsOwn) {
   for (std::size_t i = 0; i < obj.size(); ++i) {
     EXPECT_NEAR(cb->chessboardCorners[i].x - h.square_m, obj[i].x(), 1e-6) << i;
     EXPECT_NEAR(cb->chessboardCorners[i].y - h.square_m, obj[i].y(), 1e-6) << i;
+  }
   }
 }
 
