@@ -7,7 +7,7 @@ find_package(nlohmann_json 3.11 REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(ZLIB REQUIRED)
-find_package(OpenCV 4.6 REQUIRED COMPONENTS core imgproc calib3d imgcodecs videoio)
+find_package(OpenCV 4.6 REQUIRED COMPONENTS core imgproc calib3d imgcodecs videoio aruco)
 # VISPConfig.cmake rewrites global flags (C++ standard, -fopenmp); keep ours.
 set(_dentar_saved_cxx_flags "${CMAKE_CXX_FLAGS}")
 find_package(VISP 3.5 REQUIRED)

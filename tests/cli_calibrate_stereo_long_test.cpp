@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -117,6 +118,72 @@ TEST(CliCalibrateStereoLong, KalibrAprilGridGivesTheRig) {
   auto r = dentar::test::run_dentar("calibrate stereo --left " + (d / "left").string() + " --right " +
                                     (d / "right").string() + " --board kalibr:6x5:24:0.3 --station " + st.string());
   ASSERT_EQ(r.code, 0) << r.out;
+  expect_rig(st, r.out);
+}
+
+// ChArUco (issue 28 session 15): folders per eye.
+TEST(CliCalibrateStereoLong, CharucoGivesTheRig) {
+  const fs::path d = render_photos("charuco:9x7:20:15:DICT_4X4_50", "charuco");
+  const fs::path st = dentar::test::temp_dir("stereo_cli_charuco") / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --left " + (d / "left").string() + " --right " +
+                                    (d / "right").string() + " --board charuco:9x7:20:15:DICT_4X4_50 --station " +
+                                    st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  expect_rig(st, r.out);
+}
+
+// Live stereo (`--live`): the two eyes as recorded frame folders (30 fps, read in step by
+// ar::StereoSource, paired by time), a board held still at 10 places for half a second each and
+// moved between them in 0.1 s; the captures are taken by themselves. ChArUco board.
+TEST(CliCalibrateStereoLong, LiveEyesTakeCapturesByThemselves) {
+  const std::string board = "charuco:9x7:20:15:DICT_4X4_50";
+  const fs::path d = dentar::test::temp_dir("stereo_live_frames");
+  fs::create_directories(d / "left");
+  fs::create_directories(d / "right");
+  auto spec = dentar::ar::parse_board_spec(board);
+  ASSERT_TRUE(spec.ok());
+  const auto tex = dentar::ar::make_board_texture(*spec, 3000);
+  const cal::CameraIntrinsics kl = eye(620, 318, 242), kr = eye(628, 323, 237);
+  const auto poses = cal::plan_board_poses(kl, dentar::ar::board_width_m(*spec), dentar::ar::board_height_m(*spec), 10, 7);
+  int frame = 0;
+  auto put = [&](const Eigen::Isometry3d& T, int copies, std::uint64_t seed) {
+    dentar::ar::BoardRenderOptions o;
+    o.supersample = 2;
+    o.seed = seed;
+    const cv::Mat l = dentar::ar::render_board_view(tex, kl, T, o);
+    o.seed = seed + 7919;
+    const cv::Mat r = dentar::ar::render_board_view(tex, kr, rig_truth().inverse() * T, o);
+    char first[32];
+    std::snprintf(first, sizeof first, "f%05d.png", frame);
+    cv::imwrite((d / "left" / first).string(), l);
+    cv::imwrite((d / "right" / first).string(), r);
+    for (int k = 1; k < copies; ++k) {  // a still board: the same picture (linked, no disk)
+      char name[32];
+      std::snprintf(name, sizeof name, "f%05d.png", frame + k);
+      fs::create_hard_link(d / "left" / first, d / "left" / name);
+      fs::create_hard_link(d / "right" / first, d / "right" / name);
+    }
+    frame += copies;
+  };
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (i > 0) {  // moving: 3 frames between the places
+      const Eigen::Quaterniond a(poses[i - 1].linear()), b(poses[i].linear());
+      for (int m = 1; m <= 3; ++m) {
+        const double u = m / 4.0;
+        Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+        T.linear() = a.slerp(u, b).toRotationMatrix();
+        T.translation() = (1 - u) * poses[i - 1].translation() + u * poses[i].translation();
+        put(T, 1, 5000 + 10 * i + static_cast<std::uint64_t>(m));
+      }
+    }
+    put(poses[i], 15, 100 + i);
+  }
+  const fs::path st = d / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --live --left " + (d / "left").string() + " --right " +
+                                    (d / "right").string() + " --count 10 --board " + board + " --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("capture 10/10"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("pairs"), std::string::npos) << r.out;  // the pairing's summary
   expect_rig(st, r.out);
 }
 

@@ -47,4 +47,25 @@ TEST(CliCalibrateStereo, BadInputIsNamed) {
   EXPECT_FALSE(fs::exists(st));
 }
 
+// Live stereo (issue 28 session 15) and the board spec: refused before any capture, naming what.
+TEST(CliCalibrateStereo, LiveAndBoardBadInputIsNamed) {
+  const fs::path t = dentar::test::temp_dir("stereo_live_bad");
+  const fs::path st = t / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --left live:" + (t / "nope_l.mkv").string() + " --right live:" +
+                                    (t / "nope_r.mkv").string() + " --station " + st.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("stereo --live"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("nope_l.mkv"), std::string::npos) << r.out;
+  r = dentar::test::run_dentar("calibrate stereo --live --left camera:0 --station " + st.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--side-by-side"), std::string::npos) << r.out;
+  r = dentar::test::run_dentar("calibrate stereo --simulate --board charuco:5x7:40:30 --station " + st.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT"), std::string::npos) << r.out;
+  r = dentar::test::run_dentar("calibrate camera --simulate --board charuco:5x7:40:30:DICT_5X5_5 --station " + st.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("DICT \"DICT_5X5_5\""), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(st));
+}
+
 }  // namespace

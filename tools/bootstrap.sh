@@ -22,7 +22,7 @@ jobs="${JOBS:-$(nproc)}"
 # driver in libgl1-mesa-dri) for headless rendering.
 packages=(
   build-essential cmake ninja-build pkg-config
-  libeigen3-dev libopencv-dev libapriltag-dev libvisp-dev
+  libeigen3-dev libopencv-dev libopencv-contrib-dev libapriltag-dev libvisp-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libusb-1.0-0-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev zlib1g-dev libsqlite3-dev

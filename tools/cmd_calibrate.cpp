@@ -25,11 +25,13 @@
 #include "dentar/ar/calib_board.h"
 #include "dentar/ar/egl_context.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/ar/stereo_source.h"
 #include "dentar/ar/synth.h"
 #include "dentar/ar/tag_detector.h"
 #include "dentar/calibration/camera_file.h"
 #include "dentar/calibration/camera_model.h"
 #include "dentar/calibration/co_location.h"
+#include "dentar/calibration/guided.h"
 #include "dentar/calibration/intrinsics.h"
 #include "dentar/calibration/landmarks.h"
 #include "dentar/calibration/mirror.h"
@@ -75,6 +77,8 @@ struct CalibCli {
   bool instructor_time = false;
   std::string camera;  // --camera SPEC: which physical camera (camera.device_id)
   std::string left_dir, right_dir;  // stereo: one folder per eye (else --images: side-by-side photos)
+  bool stereo_live = false;         // stereo --live: --left/--right (or --side-by-side) are video sources
+  std::string side_by_side;         // stereo --live: one side-by-side device
   std::string hand = "HMD";  // hand_eye: what carries the camera
   double he_spread_deg = 170;  // --simulate hand_eye: rotation spread of the motions
   // live
@@ -953,6 +957,109 @@ std::vector<fs::path> image_files(const std::string& dir, const std::string& wha
   return files;
 }
 
+// A live stereo head (issue 28): the eyes as one ar::StereoSource (two cameras paired by capture
+// time, or one side-by-side device). Every pair is searched for the board in both eyes (one
+// ar::BoardDetector per eye, any board kind); a capture is taken by itself when the left eye has
+// seen the board still for the still window and the view is new against the captures so far
+// (calibration/guided.h LiveCameraViews: the camera step's gates, refusals not printed unless
+// they change); the right eye's view goes with it when the right eye saw the board still too,
+// else the capture serves the left eye's intrinsics only (as a photo where one eye misses it).
+// Stops at `count` captures, at the source's end, or after `seconds` (0: no limit).
+bool is_camera_spec(const std::string& s) {
+  return s.rfind("camera:", 0) == 0 || s.rfind("/dev/video", 0) == 0 || s.rfind("live:", 0) == 0;
+}
+
+void live_stereo_captures(const CalibCli& c, const ar::BoardSpec& spec, std::vector<cal::BoardView>& left,
+                          std::vector<cal::BoardView>& right, int& width, int& height) {
+  ar::StereoSourceOptions so;
+  Result<std::unique_ptr<ar::StereoSource>> src =
+      !c.side_by_side.empty() ? ar::StereoSource::open_side_by_side(c.side_by_side, so)
+                              : ar::StereoSource::open_pair(c.left_dir, c.right_dir, so);
+  if (!src) throw BadInput{"stereo --live: " + src.error()};
+  ar::StereoSource& eyes = **src;
+  width = eyes.width();
+  height = eyes.height();
+  auto dl = ar::BoardDetector::create(spec), dr = ar::BoardDetector::create(spec);
+  if (!dl || !dr) throw BadInput{"stereo --live: " + (dl ? dr.error() : dl.error())};
+  const int n = c.count > 0 ? c.count : 15;
+  cal::LiveCameraOptions lo;
+  lo.target_views = std::min(n, lo.max_views);
+  cal::LiveCameraViews vl(width, height, lo), vr(width, height, lo);
+  std::cout << "live stereo head: " << eyes.description() << ", " << width << "x" << height << " per eye; hold "
+            << "the board still where both eyes see it: a capture is taken by itself when it is still and new ("
+            << n << " wanted)\n";
+  // The board's focus measure (variance of the Laplacian over its bounding box), as the live
+  // camera step computes it.
+  auto sharpness = [](const cv::Mat& gray, const cal::BoardView& v) {
+    if (v.image_points.empty()) return 0.0;
+    cv::Rect2d bb(v.image_points[0].x(), v.image_points[0].y(), 0, 0);
+    for (const auto& p : v.image_points) bb |= cv::Rect2d(p.x(), p.y(), 1, 1);
+    const cv::Rect box = cv::Rect(bb) & cv::Rect(0, 0, gray.cols, gray.rows);
+    if (box.area() <= 16) return 0.0;
+    cv::Mat lap;
+    cv::Laplacian(gray(box), lap, CV_32F);
+    cv::Scalar mu, sd;
+    cv::meanStdDev(lap, mu, sd);
+    return sd[0] * sd[0];
+  };
+  auto feed = [&](ar::BoardDetector& d, cal::LiveCameraViews& v, const ar::Frame& f) {
+    cv::Mat gray;
+    if (f.image.channels() == 3) cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
+    else gray = f.image;
+    auto r = d.detect(gray, "the live view");
+    v.add_frame(f.time_s, r ? &*r : nullptr, r ? std::string() : r.error(), r ? sharpness(gray, *r) : 0.0);
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string last_refusal;
+  double last_try_s = -1e300;
+  int frames = 0;
+  ar::StereoFrame f;
+  while (static_cast<int>(left.size()) < n) {
+    if (c.seconds > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > c.seconds) {
+      std::cout << "time limit (--seconds " << fmt(c.seconds, 0) << ") reached\n";
+      break;
+    }
+    if (!eyes.read(f, 0.5)) {
+      if (eyes.ended()) break;
+      if (!eyes.error().empty()) throw BadInput{"stereo --live: " + eyes.error()};
+      continue;
+    }
+    ++frames;
+    if (!f.has_left()) continue;  // the left eye carries the capture (the station's camera)
+    feed(*dl, vl, f.left);
+    if (f.has_right()) feed(*dr, vr, f.right);
+    else vr.add_frame(f.left.time_s, nullptr, "the right eye delivered no frame", 0);
+    if (!vl.still() || f.left.time_s - last_try_s < 0.25) continue;
+    last_try_s = f.left.time_s;
+    const cal::CameraTake tk = vl.take();
+    if (!tk.ok) {
+      if (tk.message != last_refusal) std::cout << "  (not taken: " << tk.message << ")\n";
+      last_refusal = tk.message;
+      continue;
+    }
+    last_refusal.clear();
+    const std::string name = "live-capture-" + std::to_string(left.size());
+    cal::BoardView l = vl.taken().back();
+    l.name = name;
+    left.push_back(l);
+    cal::BoardView r{name, {}, {}};
+    if (f.has_right() && vr.board_seen() && vr.still() && vr.last_layout_ok()) {
+      r = vr.last_view();
+      r.name = name;
+    }
+    right.push_back(r);
+    std::cout << "  capture " << left.size() << "/" << n << " at " << fmt(f.left.time_s, 1) << " s: left "
+              << l.image_points.size() << " points, right "
+              << (r.image_points.empty() ? std::string("board not seen still") : std::to_string(r.image_points.size()) + " points")
+              << "\n";
+  }
+  std::cout << "live stereo head: " << left.size() << " captures from " << frames << " frames; "
+            << eyes.stats().summary() << "\n";
+  if (left.empty())
+    throw BadInput{"stereo --live: no capture was taken (the board was never seen still and new by the left eye): "
+                   "check --board, hold the board still for half a second at each place"};
+}
+
 int step_stereo(Session& s) {
   const CalibCli& c = s.cli;
   print_prompt("stereo head",
@@ -1017,6 +1124,13 @@ int step_stereo(Session& s) {
       add(right, ar::detect_board(ar::render_board_view(tex, kr, rig.T_caml_camr.inverse() * poses[i], ro), *spec, name),
           name, "right");
     }
+  } else if (c.stereo_live || !c.side_by_side.empty() || is_camera_spec(c.left_dir) || is_camera_spec(c.right_dir)) {
+    if (c.side_by_side.empty() && (c.left_dir.empty() || c.right_dir.empty()))
+      throw BadInput{"stereo --live: give --left SPEC --right SPEC (two cameras: camera:N, /dev/videoN, live:FILE, a "
+                     "video file or a frames folder) or --side-by-side SPEC (one device)"};
+    if (!c.side_by_side.empty() && (!c.left_dir.empty() || !c.right_dir.empty()))
+      throw BadInput{"stereo --live: give either --side-by-side SPEC or --left/--right, not both"};
+    live_stereo_captures(c, *spec, left, right, width, height);
   } else if (!c.left_dir.empty() || !c.right_dir.empty()) {
     const auto lf = image_files(c.left_dir, "--left (left eye)");
     const auto rf = image_files(c.right_dir, "--right (right eye)");
@@ -1308,9 +1422,12 @@ void add_calibrate(CLI::App& app, int& exit_code) {
       "            [--station FILE] [--simulate [--seed S]] [--images DIR --board SPEC]\n"
       "            [--model auto|k1|k1k2|radtan5|rational8]\n"
       "            [--import CAMERA.yaml] [--camera-out FILE] [--export-ros FILE]\n"
-      "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]");
+      "            [--poses FILE.csv] [--count N] [--camera SPEC] [--instructor-time]\n"
+      "       dentar calibrate stereo --left DIR --right DIR | --images DIR | --live --left SPEC --right SPEC |\n"
+      "            --live --side-by-side SPEC  --board SPEC [--count N] [--seconds S]\n"
+      "Example: dentar calibrate stereo --live --left camera:0 --right camera:1 --board charuco:5x7:40:30:DICT_4X4_50");
   s->add_option("step", c->step,
-                "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live, stereo (a stereo head from --left/--right or side-by-side --images photos), "
+                "camera, hand_eye, pivot, register, tooth, mirror, check, all (camera to check), live, stereo (a stereo head from --left/--right or side-by-side --images photos, or live cameras with --live), "
                 "(the station's steps in a window: camera, pivot, register, tooth, mirror, check), or migrate (rewrite an older "
                 "station file in the current version, keeping the original)");
   s->add_option("--camera", c->camera,
@@ -1351,10 +1468,19 @@ void add_calibrate(CLI::App& app, int& exit_code) {
   s->add_option("--images", c->images, "camera: folder of board photos (PNG/JPEG); stereo: side-by-side photos (left | right)");
   s->add_option("--left", c->left_dir, "stereo: folder of the left eye's board photos (photo i of --left and --right: one capture)");
   s->add_option("--right", c->right_dir, "stereo: folder of the right eye's board photos");
+  s->add_flag("--live", c->stereo_live,
+              "stereo: --left/--right are the two cameras (camera:N, /dev/videoN, live:FILE stand-ins, or "
+              "recorded video files / frame folders), or --side-by-side one device; captures are taken by "
+              "themselves whenever the board is held still and new (--count of them, default 15; --seconds "
+              "limit). A camera spec (camera:N, /dev/videoN, live:FILE) in --left/--right implies --live");
+  s->add_option("--side-by-side", c->side_by_side,
+                "stereo --live: one device delivering both eyes side by side (left | right, even width)");
   s->add_option("--board", c->board,
-                "camera: chessboard:COLSxROWS:SQUARE_MM (inner corners) or "
-                "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] (live: default aprilgrid:6x5:24:8:tag36h11, "
-                "which is detected fast enough for video)")
+                "camera, stereo, live: chessboard:COLSxROWS:SQUARE_MM (inner corners), "
+                "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]], Kalibr's "
+                "kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID] or "
+                "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT[:FIRST_ID] (squares; e.g. charuco:5x7:40:30:DICT_4X4_50); "
+                "docs/formats.md. live: default aprilgrid:6x5:24:8:tag36h11, which is detected fast enough for video")
       ->capture_default_str();
   s->add_option("--import", c->import_camera,
                 "camera: take the intrinsics from an OpenCV FileStorage or ROS camera_info YAML");

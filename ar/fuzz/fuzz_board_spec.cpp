@@ -1,5 +1,6 @@
 // Fuzz target: parse_board_spec, the --board text of `dentar calibrate camera`
-// ("chessboard:9x6:25", "aprilgrid:6x5:24:8:tag36h11:3").
+// ("chessboard:9x6:25", "aprilgrid:6x5:24:8:tag36h11:3", "kalibr:6x6:88:0.3",
+// "charuco:5x7:40:30:DICT_4X4_50:0").
 //
 // Every accepted spec must describe a board the calibration can use: the sizes the
 // validators promise (checked here in 64-bit arithmetic, so an int overflow in the parser
@@ -28,14 +29,26 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto r = ar::parse_board_spec(text);
   if (!r) {
     if (r.error().rfind("board \"", 0) != 0) __builtin_trap();  // errors quote the text
+    // ... and give the allowed form (a field's problem with its kind's form, else all forms).
+    if (r.error().find("the form") == std::string::npos && r.error().find("must be") == std::string::npos &&
+        r.error().find("exceed") == std::string::npos && r.error().find("is not one of") == std::string::npos)
+      __builtin_trap();
     return 0;
   }
+
   const double w = ar::board_width_m(*r), h = ar::board_height_m(*r);
   if (!std::isfinite(w) || !std::isfinite(h) || w <= 0 || h <= 0) __builtin_trap();
   if (const auto* c = std::get_if<calibration::ChessboardSpec>(&*r)) {
     if (!c->validate().empty()) __builtin_trap();
     if (c->cols < 2 || c->rows < 2 || c->cols > 100 || c->rows > 100) __builtin_trap();
     if (c->object_points().size() != static_cast<std::size_t>(c->cols) * c->rows) __builtin_trap();
+  } else if (const auto* h = std::get_if<ar::CharucoSpec>(&*r)) {
+    if (!h->validate().empty()) __builtin_trap();
+    if (h->cols < 3 || h->rows < 3 || h->cols > 100 || h->rows > 100) __builtin_trap();
+    if (!(h->marker_m > 0 && h->marker_m < h->square_m)) __builtin_trap();
+    if (h->first_id < 0) __builtin_trap();
+    if (h->object_points().size() != static_cast<std::size_t>(h->corner_count())) __builtin_trap();
+    if (board_spec_to_string(*r).rfind("charuco:", 0) != 0) __builtin_trap();
   } else {
     const auto& g = std::get<calibration::AprilGridSpec>(*r);
     if (!g.validate().empty()) __builtin_trap();

@@ -350,11 +350,12 @@ namespace {
 
 // Camera step, per new frame: detect the board, feed the step, draw the overlay (coverage or
 // trust map, the suggested place, the detected points) into the frame shown.
-cv::Mat camera_view(const ar::Frame& f, cal::LiveCameraViews& c, ar::TagDetector* det, const ar::BoardSpec& board_spec) {
+// Every board kind goes through the one detector of ar/calib_board.h (chessboard, our AprilTag
+// grid, Kalibr's AprilGrid, ChArUco), as the image-based steps do.
+cv::Mat camera_view(const ar::Frame& f, cal::LiveCameraViews& c, ar::BoardDetector& det) {
   cv::Mat gray;
   cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
-  Result<cal::BoardView> v = det ? ar::detect_aprilgrid(*det, gray, std::get<cal::AprilGridSpec>(board_spec), "the live view")
-                                 : ar::detect_board(gray, board_spec, "the live view");
+  Result<cal::BoardView> v = det.detect(gray, "the live view");
   double sharp = 0;
   if (v && !v->image_points.empty()) {
     // Focus measure: variance of the Laplacian over the board's bounding box.
@@ -694,14 +695,9 @@ class StepRun {
     cal::LiveCameraOptions lco;
     lco.target_views = o.camera_views;
     cam = std::make_unique<cal::LiveCameraViews>(vw, vh, lco);
-    if (const auto* g = std::get_if<cal::AprilGridSpec>(&board_spec)) {
-      ar::TagDetectorOptions dopt;
-      dopt.families = {*ar::parse_tag_family(g->family)};
-      dopt.decimation = 1.0;
-      auto d = ar::TagDetector::create(dopt);
-      if (!d) return Error{"calibrate live: " + d.error()};
-      grid_det = std::make_unique<ar::TagDetector>(std::move(*d));
-    }
+    auto d = ar::BoardDetector::create(board_spec);
+    if (!d) return Error{"calibrate live: " + d.error()};
+    board_det = std::make_unique<ar::BoardDetector>(std::move(*d));
     return {};
   }
 
@@ -747,7 +743,7 @@ class StepRun {
       if (capture) {
         ar::Frame f;
         if (capture->wait_take(f, 0.0)) {
-          if (cam) win.set_video(camera_view(f, *cam, grid_det.get(), board_spec));
+          if (cam) win.set_video(camera_view(f, *cam, *board_det));
           else {
             if (step == "mirror" && !sim) track_mirror(f);
             win.set_video(f.image);
@@ -1182,7 +1178,7 @@ class StepRun {
   std::vector<double> check_err;             // check: error at each point, m
   // ---- camera step state ----
   std::unique_ptr<cal::LiveCameraViews> cam;
-  std::unique_ptr<ar::TagDetector> grid_det;
+  std::unique_ptr<ar::BoardDetector> board_det;  // the camera step's board, any kind
   std::future<cal::ModelSelection> pending;
   int pending_views = 0;
   cal::ModelSelection last_sel;

@@ -12,6 +12,7 @@
 
 #include "dentar/ar/apriltags.h"
 #include "dentar/ar/camera_model.h"
+#include "charuco_detail.h"
 
 namespace dentar::ar {
 namespace {
@@ -50,6 +51,7 @@ struct BoardPainter {
   std::vector<cv::Mat> cells;     // per tag
 
   explicit BoardPainter(const BoardSpec& s) : spec(s) {
+    if (const auto* h = std::get_if<CharucoSpec>(&spec)) cells = charuco_marker_cells(*h);
     if (const auto* g = std::get_if<AprilGridSpec>(&spec)) {
       family.push_back(TagFamily::create(*parse_tag_family(g->family)));
       for (int k = 0; k < g->tag_count(); ++k)
@@ -63,6 +65,22 @@ struct BoardPainter {
       const int j = static_cast<int>(std::floor(y / c->square_m)) + 1;
       if (i < 0 || j < 0 || i > c->cols || j > c->rows) return 255;
       return (i + j) % 2 == 0 ? 0 : 255;
+    }
+    if (const auto* h = std::get_if<CharucoSpec>(&spec)) {
+      // Square (i, j), column i of cols, row j of rows from the top-left.
+      const int i = static_cast<int>(std::floor(x / h->square_m)) + 1;
+      const int j = static_cast<int>(std::floor(y / h->square_m)) + 1;
+      if (i < 0 || j < 0 || i >= h->cols || j >= h->rows) return 255;
+      if (!h->white(i, j)) return 0;
+      // The white squares, row-major: index (j * cols + i) / 2 in either layout.
+      const cv::Mat& m = cells[static_cast<std::size_t>((j * h->cols + i) / 2)];
+      const double pad = 0.5 * (h->square_m - h->marker_m);
+      const double u = x - (i - 1) * h->square_m - pad, v = y - (j - 1) * h->square_m - pad;
+      if (u < 0 || v < 0 || u >= h->marker_m || v >= h->marker_m) return 255;
+      const int n = m.cols;
+      const int cu = std::min(n - 1, static_cast<int>(std::floor(u / h->marker_m * n)));
+      const int cv_ = std::min(n - 1, static_cast<int>(std::floor(v / h->marker_m * n)));
+      return m.at<std::uint8_t>(cv_, cu);
     }
     const auto& g = std::get<AprilGridSpec>(spec);
     const TagFamily& f = family[0];
@@ -100,80 +118,137 @@ struct BoardPainter {
 
 }  // namespace
 
+namespace {
+// The forms of the --board text, for error messages.
+constexpr const char* kFormChessboard = "chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25)";
+constexpr const char* kFormAprilgrid = "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] (e.g. aprilgrid:6x5:24:8)";
+constexpr const char* kFormKalibr =
+    "kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID] (tagCols x tagRows, tagSize, tagSpacing of Kalibr's "
+    "aprilgrid.yaml; e.g. kalibr:6x6:88:0.3)";
+constexpr const char* kFormCharuco =
+    "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT[:FIRST_ID][:legacy] (squares, not inner corners; DICT one of "
+    "OpenCV's; legacy: a board printed by OpenCV before 4.6; e.g. charuco:5x7:40:30:DICT_4X4_50)";
+
+struct SpecFields {
+  const std::string& text;
+  const std::vector<std::string>& f;
+  const char* form;
+  Error bad(std::size_t i, const char* field, const std::string& want) const {
+    return Error{"board \"" + text + "\": " + field + " \"" + (i < f.size() ? f[i] : std::string()) + "\" " + want +
+                 "; the form is " + form};
+  }
+  Error count(std::size_t lo, std::size_t hi) const {
+    std::string n = std::to_string(lo - 1);
+    if (hi > lo) n += " to " + std::to_string(hi - 1);
+    return Error{"board \"" + text + "\": " + f[0] + " takes " + n + " fields after the kind, got " +
+                 std::to_string(f.size() - 1) + "; the form is " + form};
+  }
+};
+
+// A whole id in 0..100000 (FIRST_ID).
+bool parse_id(const std::string& s, int& id) {
+  double v = 0;
+  if (!parse_num(s, v) || !(v >= 0 && v <= 100000) || v != std::floor(v)) return false;
+  id = static_cast<int>(v);
+  return true;
+}
+}  // namespace
+
 Result<BoardSpec> parse_board_spec(const std::string& text) {
   std::vector<std::string> f;
   std::stringstream ss(text);
   for (std::string part; std::getline(ss, part, ':');) f.push_back(part);
-  const std::string help =
-      "; expected chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25) or "
-      "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] (e.g. aprilgrid:6x5:24:8) or Kalibr's "
-      "kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID] (tagCols x tagRows, tagSize, tagSpacing of its "
-      "aprilgrid.yaml; e.g. kalibr:6x6:88:0.3)";
+  const std::string help = std::string("; the forms are ") + kFormChessboard + ", " + kFormAprilgrid + ", " +
+                           kFormKalibr + " or " + kFormCharuco;
   if (f.empty()) return Error{"board \"" + text + "\" is empty" + help};
+  const std::string wxh = "must be two whole numbers joined by x (e.g. 9x6)";
+  const std::string mm = "must be a number of millimetres";
   if (f[0] == "chessboard") {
+    const SpecFields F{text, f, kFormChessboard};
+    if (f.size() != 3) return F.count(3, 3);
     ChessboardSpec c;
     double sq = 0;
-    if (f.size() != 3 || !parse_wxh(f[1], c.cols, c.rows) || !parse_num(f[2], sq))
-      return Error{"board \"" + text + "\" is malformed" + help};
+    if (!parse_wxh(f[1], c.cols, c.rows)) return F.bad(1, "COLSxROWS", wxh);
+    if (!parse_num(f[2], sq)) return F.bad(2, "SQUARE_MM", mm);
     c.square_m = sq * 1e-3;
-    if (std::string e = c.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e};
+    if (std::string e = c.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e + "; the form is " + kFormChessboard};
     return BoardSpec(c);
   }
   if (f[0] == "aprilgrid") {
+    const SpecFields F{text, f, kFormAprilgrid};
+    if (f.size() < 4 || f.size() > 6) return F.count(4, 6);
     AprilGridSpec g;
     double tag = 0, gap = 0;
-    if (f.size() < 4 || f.size() > 6 || !parse_wxh(f[1], g.cols, g.rows) || !parse_num(f[2], tag) ||
-        !parse_num(f[3], gap))
-      return Error{"board \"" + text + "\" is malformed" + help};
+    if (!parse_wxh(f[1], g.cols, g.rows)) return F.bad(1, "COLSxROWS", wxh);
+    if (!parse_num(f[2], tag)) return F.bad(2, "TAG_MM", mm);
+    if (!parse_num(f[3], gap)) return F.bad(3, "GAP_MM", mm);
     g.tag_size_m = tag * 1e-3;
     g.gap_m = gap * 1e-3;
-    if (f.size() >= 5) g.family = f[4];
-    if (f.size() == 6) {
-      double id = 0;
-      if (!parse_num(f[5], id) || !(id >= 0 && id <= 100000) || id != std::floor(id))
-        return Error{"board \"" + text + "\": FIRST_ID must be a whole number in 0..100000"};
-      g.first_id = static_cast<int>(id);
+    if (f.size() >= 5) {
+      if (!parse_tag_family(f[4])) return F.bad(4, "FAMILY", "must be tag36h11 or tagStandard41h12");
+      g.family = f[4];
     }
-    if (std::string e = g.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e};
+    if (f.size() == 6 && !parse_id(f[5], g.first_id)) return F.bad(5, "FIRST_ID", "must be a whole number in 0..100000");
+    if (std::string e = g.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e + "; the form is " + kFormAprilgrid};
     const TagFamily fam = TagFamily::create(*parse_tag_family(g.family));
     if (g.first_id + g.tag_count() > fam.code_count())
-      return Error{"board \"" + text + "\": ids " + std::to_string(g.first_id) + ".." +
+      return Error{"board \"" + text + "\": FIRST_ID: ids " + std::to_string(g.first_id) + ".." +
                    std::to_string(g.first_id + g.tag_count() - 1) + " exceed the family's " +
                    std::to_string(fam.code_count()) + " codes"};
     return BoardSpec(g);
   }
   if (f[0] == "kalibr") {
+    const SpecFields F{text, f, kFormKalibr};
+    if (f.size() < 4 || f.size() > 5) return F.count(4, 5);
     AprilGridSpec g;
     g.kalibr = true;
     g.family = "tag36h11";
     double tag = 0, ratio = 0;
-    if (f.size() < 4 || f.size() > 5 || !parse_wxh(f[1], g.cols, g.rows) || !parse_num(f[2], tag) ||
-        !parse_num(f[3], ratio))
-      return Error{"board \"" + text + "\" is malformed" + help};
-    if (!(ratio > 0.05 && ratio <= 1))
-      return Error{"board \"" + text + "\": SPACING_RATIO " + f[3] + " must be in (0.05, 1] (Kalibr's tagSpacing, e.g. 0.3)"};
+    if (!parse_wxh(f[1], g.cols, g.rows)) return F.bad(1, "COLSxROWS", wxh);
+    if (!parse_num(f[2], tag)) return F.bad(2, "TAG_MM", mm);
+    if (!parse_num(f[3], ratio) || !(ratio > 0.05 && ratio <= 1))
+      return F.bad(3, "SPACING_RATIO", "must be a number in (0.05, 1] (Kalibr's tagSpacing, e.g. 0.3)");
     g.tag_size_m = tag * 1e-3;
     g.gap_m = ratio * g.tag_size_m;
-    if (f.size() == 5) {
-      double id = 0;
-      if (!parse_num(f[4], id) || !(id >= 0 && id <= 100000) || id != std::floor(id))
-        return Error{"board \"" + text + "\": FIRST_ID must be a whole number in 0..100000"};
-      g.first_id = static_cast<int>(id);
-    }
-    if (std::string e = g.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e};
+    if (f.size() == 5 && !parse_id(f[4], g.first_id)) return F.bad(4, "FIRST_ID", "must be a whole number in 0..100000");
+    if (std::string e = g.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e + "; the form is " + kFormKalibr};
     const TagFamily fam = TagFamily::create(TagFamilyId::kTag36h11);
     if (g.first_id + g.tag_count() > fam.code_count())
-      return Error{"board \"" + text + "\": ids exceed tag36h11's " + std::to_string(fam.code_count()) + " codes"};
+      return Error{"board \"" + text + "\": FIRST_ID: ids exceed tag36h11's " + std::to_string(fam.code_count()) + " codes"};
     return BoardSpec(g);
+  }
+  if (f[0] == "charuco") {
+    CharucoSpec h;
+    if (f.size() > 5 && f.back() == "legacy") {
+      h.legacy = true;
+      f.pop_back();
+    }
+    const SpecFields F{text, f, kFormCharuco};
+    if (f.size() < 5 || f.size() > 6) return F.count(5, 6);
+    double sq = 0, mk = 0;
+    if (!parse_wxh(f[1], h.cols, h.rows)) return F.bad(1, "COLSxROWS", wxh + ", the squares (e.g. 5x7)");
+    if (!parse_num(f[2], sq) || !(sq > 0)) return F.bad(2, "SQUARE_MM", "must be a positive number of millimetres");
+    if (!parse_num(f[3], mk) || !(mk > 0)) return F.bad(3, "MARKER_MM", "must be a positive number of millimetres");
+    const detail::CharucoDictionary d = detail::charuco_dictionary(f[4]);
+    if (d.name.empty()) return F.bad(4, "DICT", "is not one of OpenCV's dictionaries: " + detail::charuco_dictionary_names());
+    h.dictionary = d.name;
+    if (f.size() == 6 && !parse_id(f[5], h.first_id)) return F.bad(5, "FIRST_ID", "must be a whole number in 0..100000");
+    h.square_m = sq * 1e-3;
+    h.marker_m = mk * 1e-3;
+    if (std::string e = h.validate(); !e.empty()) return Error{"board \"" + text + "\": " + e + "; the form is " + kFormCharuco};
+    return BoardSpec(h);
   }
   return Error{"board \"" + text + "\": unknown kind \"" + f[0] + "\"" + help};
 }
 
 std::string board_spec_to_string(const BoardSpec& spec) {
   std::ostringstream os;
-  if (const auto* c = std::get_if<ChessboardSpec>(&spec))
+  if (const auto* c = std::get_if<ChessboardSpec>(&spec)) {
     os << "chessboard:" << c->cols << "x" << c->rows << ":" << c->square_m * 1e3;
-  else {
+  } else if (const auto* h = std::get_if<CharucoSpec>(&spec)) {
+    os << "charuco:" << h->cols << "x" << h->rows << ":" << h->square_m * 1e3 << ":" << h->marker_m * 1e3 << ":"
+       << h->dictionary << ":" << h->first_id << (h->legacy ? ":legacy" : "");
+  } else {
     const auto& g = std::get<AprilGridSpec>(spec);
     if (g.kalibr) {
       os << "kalibr:" << g.cols << "x" << g.rows << ":" << g.tag_size_m * 1e3 << ":" << g.gap_m / g.tag_size_m
@@ -188,10 +263,12 @@ std::string board_spec_to_string(const BoardSpec& spec) {
 
 double board_width_m(const BoardSpec& spec) {
   if (const auto* c = std::get_if<ChessboardSpec>(&spec)) return (c->cols - 1) * c->square_m;
+  if (const auto* h = std::get_if<CharucoSpec>(&spec)) return (h->cols - 2) * h->square_m;
   return std::get<AprilGridSpec>(spec).width_m();
 }
 double board_height_m(const BoardSpec& spec) {
   if (const auto* c = std::get_if<ChessboardSpec>(&spec)) return (c->rows - 1) * c->square_m;
+  if (const auto* h = std::get_if<CharucoSpec>(&spec)) return (h->rows - 2) * h->square_m;
   return std::get<AprilGridSpec>(spec).height_m();
 }
 
@@ -224,7 +301,38 @@ Result<BoardView> detect_aprilgrid(TagDetector& detector, const cv::Mat& gray,
   return v;
 }
 
-Result<BoardView> detect_board(const cv::Mat& image, const BoardSpec& spec, const std::string& name) {
+struct BoardDetector::Impl {
+  BoardSpec spec;
+  std::unique_ptr<TagDetector> tags;            // our AprilTag grids
+  std::shared_ptr<detail::CharucoCv> charuco;  // ChArUco boards
+};
+
+Result<BoardDetector> BoardDetector::create(const BoardSpec& spec) {
+  BoardDetector d;
+  d.impl_ = std::make_shared<Impl>();
+  d.impl_->spec = spec;
+  if (const auto* g = std::get_if<AprilGridSpec>(&spec)) {
+    if (std::string e = g->validate(); !e.empty()) return Error{"board: " + e};
+    if (!g->kalibr) {
+      TagDetectorOptions o;
+      o.families = {*parse_tag_family(g->family)};
+      o.decimation = 1.0;
+      auto det = TagDetector::create(o);
+      if (!det) return Error{"board: " + det.error()};
+      d.impl_->tags = std::make_unique<TagDetector>(std::move(*det));
+    }
+  } else if (const auto* h = std::get_if<CharucoSpec>(&spec)) {
+    if (std::string e = h->validate(); !e.empty()) return Error{"board: " + e};
+    d.impl_->charuco = detail::make_charuco_cv(*h);
+  } else if (std::string e = std::get<ChessboardSpec>(spec).validate(); !e.empty()) {
+    return Error{"board: " + e};
+  }
+  return d;
+}
+
+const BoardSpec& BoardDetector::spec() const { return impl_->spec; }
+
+Result<BoardView> BoardDetector::detect(const cv::Mat& image, const std::string& name) {
   if (image.empty()) return Error{name + ": empty image"};
   cv::Mat gray;
   if (image.type() == CV_8UC3)
@@ -234,17 +342,21 @@ Result<BoardView> detect_board(const cv::Mat& image, const BoardSpec& spec, cons
   else
     return Error{name + ": unsupported pixel type (need 8-bit gray or BGR)"};
   if (!gray.isContinuous()) gray = gray.clone();
+  const BoardSpec& spec = impl_->spec;
   if (const auto* c = std::get_if<ChessboardSpec>(&spec))
     return calibration::detect_chessboard(gray.data, gray.cols, gray.rows,
                                           static_cast<int>(gray.step[0]), *c, name);
+  if (const auto* h = std::get_if<CharucoSpec>(&spec))
+    return detail::detect_charuco_with(*impl_->charuco, gray, *h, name, 6, nullptr);
   const auto& g = std::get<AprilGridSpec>(spec);
   if (g.kalibr) return detect_kalibr_aprilgrid(gray, g, name);
-  TagDetectorOptions o;
-  o.families = {*parse_tag_family(g.family)};
-  o.decimation = 1.0;
-  auto det = TagDetector::create(o);
-  if (!det) return Error{name + ": " + det.error()};
-  return detect_aprilgrid(*det, gray, g, name);
+  return detect_aprilgrid(*impl_->tags, gray, g, name);
+}
+
+Result<BoardView> detect_board(const cv::Mat& image, const BoardSpec& spec, const std::string& name) {
+  auto d = BoardDetector::create(spec);
+  if (!d) return Error{name + ": " + d.error()};
+  return d->detect(image, name);
 }
 
 Result<BoardView> detect_board_file(const std::string& path, const BoardSpec& spec, int& width,
@@ -268,6 +380,8 @@ BoardTexture make_board_texture(const BoardSpec& spec, double px_per_m) {
   double margin = 0;
   if (const auto* c = std::get_if<ChessboardSpec>(&spec))
     margin = 2 * c->square_m;  // one square of pattern plus one of white margin
+  else if (const auto* h = std::get_if<CharucoSpec>(&spec))
+    margin = 1.5 * h->square_m;  // the outer squares plus half a square of white margin
   else
     margin = std::get<AprilGridSpec>(spec).tag_size_m * 0.5 + std::get<AprilGridSpec>(spec).gap_m;
   BoardTexture t;
@@ -399,6 +513,8 @@ std::vector<Eigen::Vector2d> project_board_points(const BoardSpec& spec,
   std::vector<Eigen::Vector3d> pts;
   if (const auto* c = std::get_if<ChessboardSpec>(&spec))
     pts = c->object_points();
+  else if (const auto* h = std::get_if<CharucoSpec>(&spec))
+    pts = h->object_points();
   else {
     const auto& g = std::get<AprilGridSpec>(spec);
     for (int id = g.first_id; id < g.first_id + g.tag_count(); ++id)

@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 #include <opencv2/core/mat.hpp>
 #include <string>
 #include <variant>
@@ -19,12 +20,42 @@
 
 namespace dentar::ar {
 
-using BoardSpec = std::variant<calibration::ChessboardSpec, calibration::AprilGridSpec>;
+// ChArUco board (OpenCV's aruco module): cols x rows squares of square_m (OpenCV's squaresX x
+// squaresY, the squares counted, not the inner corners), in the layout OpenCV 4.6 and later print:
+// the top-left square black, an ArUco marker of the dictionary (black square of side marker_m,
+// one-cell border) centred in every white square, ids first_id, first_id + 1, ... over the
+// white squares row by row from the top-left. `legacy`: the layout of boards printed by OpenCV
+// before 4.6 (OpenCV 4.7's setLegacyPattern): with an even number of rows the top-left square is
+// white (the markers on the other squares, same id order); with an odd number it is the same board.
+// The board's points are its (cols-1) x (rows-1) inner corners: corner (r, c), id
+// r * (cols - 1) + c, at (c * square_m, r * square_m, 0) in the board frame (origin at the first
+// inner corner, as a chessboard's).
+struct CharucoSpec {
+  int cols = 5, rows = 7;  // squares, 3..100 each
+  double square_m = 0.04;
+  double marker_m = 0.03;                   // < square_m
+  std::string dictionary = "DICT_4X4_50";   // OpenCV's predefined dictionary name
+  int first_id = 0;
+  bool legacy = false;
+  std::string validate() const;  // also checks the dictionary's name and its code count
+  // Whether square (col i, row j from the top-left) holds a marker.
+  bool white(int i, int j) const { return (i + j) % 2 == ((legacy && rows % 2 == 0) ? 0 : 1); }
+  int marker_count() const { return cols * rows / 2; }
+  int corner_count() const { return (cols - 1) * (rows - 1); }
+  std::vector<Eigen::Vector3d> object_points() const;  // by corner id, m
+};
 
-// Parses "chessboard:COLSxROWS:SQUARE_MM", "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]]"
-// or Kalibr's AprilGrid "kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID]" (its aprilgrid.yaml's
-// tagCols x tagRows, tagSize, tagSpacing; tag36h11; gap = ratio * tag)
-// (e.g. "chessboard:9x6:25", "aprilgrid:6x5:24:8:tag36h11", "kalibr:6x6:88:0.3"). Error names the text and the field.
+using BoardSpec = std::variant<calibration::ChessboardSpec, calibration::AprilGridSpec, CharucoSpec>;
+
+// Parses a --board text, field by field:
+//   chessboard:COLSxROWS:SQUARE_MM                        inner corners (e.g. chessboard:9x6:25)
+//   aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]] our AprilTag grid (e.g. aprilgrid:6x5:24:8)
+//   kalibr:COLSxROWS:TAG_MM:SPACING_RATIO[:FIRST_ID]      Kalibr's AprilGrid (its aprilgrid.yaml's
+//       tagCols x tagRows, tagSize, tagSpacing; tag36h11; gap = ratio * tag; e.g. kalibr:6x6:88:0.3)
+//   charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT[:FIRST_ID][:legacy] ChArUco, squares (e.g.
+//       charuco:5x7:40:30:DICT_4X4_50; DICT is OpenCV's name, the DICT_ prefix and case optional;
+//       legacy: printed by OpenCV before 4.6)
+// An error quotes the text, names the field (e.g. SQUARE_MM) and the value, and gives the form.
 Result<BoardSpec> parse_board_spec(const std::string& text);
 std::string board_spec_to_string(const BoardSpec& spec);
 double board_width_m(const BoardSpec& spec);   // extent of its points along x, m
@@ -56,7 +87,41 @@ Result<calibration::BoardView> detect_kalibr_aprilgrid(const cv::Mat& gray, cons
                                                        const std::string& name, int min_tags = 2,
                                                        KalibrGridStats* stats = nullptr);
 
-// Detects the board in an image (CV_8UC1 or CV_8UC3) of either kind.
+// A ChArUco board in a grayscale image (CV_8UC1): OpenCV's aruco detectMarkers finds the
+// markers (of the board's dictionary, ids on the board), refineDetectedMarkers recovers missed
+// ones from the board layout, and interpolateCornersCharuco places each inner corner next to at
+// least two found markers (a local homography from the markers, then cornerSubPix). Partial
+// views are fine: a corner comes with its id. Error "board not found in <name>" when fewer than
+// min_corners corners are placed. `stats`, when given, receives the markers and corners found.
+struct CharucoStats {
+  int markers = 0;
+  int corners = 0;
+};
+Result<calibration::BoardView> detect_charuco(const cv::Mat& gray, const CharucoSpec& spec, const std::string& name,
+                                              int min_corners = 6, CharucoStats* stats = nullptr);
+
+// The markers of a ChArUco board as (bits + 2) x (bits + 2) cells, 0 black / 255 white, one per
+// marker (index k = id - first_id), from OpenCV's dictionary: the printed board (make_board_texture).
+std::vector<cv::Mat> charuco_marker_cells(const CharucoSpec& spec);
+
+// One detector for a board of any kind, kept across frames (the live camera and stereo steps):
+// it builds the AprilTag detector, or the ChArUco dictionary and board, once. detect() takes an
+// image (CV_8UC1 or CV_8UC3) and returns the board's points as detect_board does. Not for
+// concurrent use: one per thread. Movable.
+class BoardDetector {
+ public:
+  static Result<BoardDetector> create(const BoardSpec& spec);
+  Result<calibration::BoardView> detect(const cv::Mat& image, const std::string& name);
+  const BoardSpec& spec() const;
+
+  struct Impl;
+
+ private:
+  std::shared_ptr<Impl> impl_;
+};
+
+// Detects the board in an image (CV_8UC1 or CV_8UC3) of any kind (a BoardDetector made for
+// the call).
 Result<calibration::BoardView> detect_board(const cv::Mat& image, const BoardSpec& spec,
                                             const std::string& name);
 // Loads a photo (any format OpenCV reads) and detects the board; errors name the file.
