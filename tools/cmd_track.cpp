@@ -149,6 +149,9 @@ int run(const TrackCli& c) {
     }
     ar::StereoSourceOptions sso;
     sso.source = so;
+    // Footage played as a camera (live:) ends; a camera that stops is reopened.
+    sso.left_capture.reopen = c.input.rfind("live:", 0) != 0;
+    sso.right_capture.reopen = c.input_right.rfind("live:", 0) != 0;
     if (!c.stall_right.empty()) {
       const auto k = c.stall_right.find(':');
       try {
