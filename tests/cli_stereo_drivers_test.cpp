@@ -238,6 +238,15 @@ TEST(CliStereoDrivers, BadStereoInputIsRefusedWithExit2) {
                  (C.dir / "r_small.avi").string() + " --station " + station + " --out " + (C.dir / "bad3").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("is 640x480 but the right eye"), std::string::npos) << r.out;
+  // dentar live refuses them the same way, before any window opens.
+  r = run_dentar("live --camera live:" + (C.dir / "l.avi").string() + " --camera-right live:" +
+                 (C.dir / "r_small.avi").string() + " --station " + station + " --stylus none --frames 2");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("is 640x480 but the right eye"), std::string::npos) << r.out;
+  r = run_dentar("live --stereo --camera live:" + (st / "video.mkv").string() + " --station " +
+                 (C.dir / "mono_station.json").string() + " --stylus none --frames 2");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("has no stereo rig"), std::string::npos) << r.out;
   r = run_dentar("track --input camera:0 --input-right camera:0 --layout " + (C.dir / "mono_station.json").string() +
                  " --out " + (C.dir / "bad.jsonl").string());
   EXPECT_EQ(r.code, 2) << r.out;
