@@ -8,6 +8,7 @@
 #include "commands.h"
 #include "db_util.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/ar/stereo_source.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/live/live_app.h"
@@ -23,7 +24,7 @@ void add_live(CLI::App& app, int& exit_code) {
     std::vector<std::string> shots;
     bool no_hud = false, no_vsync = false, no_realtime = false, no_occlusion = false, no_segmentation = false,
          no_mirror = false, list = false;
-    std::string stall;
+    std::string stall, stall_right;
     std::string discovery = "async";
     std::string camera_response;  // "" = auto (the station's)
     bool mirror_rim = false;
@@ -36,7 +37,7 @@ void add_live(CLI::App& app, int& exit_code) {
       "live",
       "The live trainer: camera -> tracking -> virtual tooth in the video, in a window with a HUD,\n"
       "while the 1 kHz haptic engine cuts the tooth.\n"
-      "Synopsis: dentar live [--camera SPEC] [--station FILE] [--stylus sim|pen|replay:LOG|none]\n"
+      "Synopsis: dentar live [--camera SPEC [--camera-right SPEC | --stereo]] [--station FILE] [--stylus sim|pen|replay:LOG|none]\n"
       "                      [--display N] [--record DIR] [--seconds S] [--frames N] [--exercise NAME|FILE] [...]");
   sub->footer(
       "Examples:\n"
@@ -51,6 +52,13 @@ void add_live(CLI::App& app, int& exit_code) {
       "              --lesson builtin:molar_access_opening --mode 2 --record out/lesson   # a lesson, mode 2\n"
       "Keys: space = pedal (drill), Esc or closing the window = stop.");
   sub->add_option("--camera", c->o.camera, "camera:N, /dev/videoN, or live:VIDEO (footage paced as a camera)");
+  sub->add_option("--camera-right", c->o.camera_right,
+                  "stereo head of two cameras (issue 28): the right eye (--camera is the left), one size and rate; "
+                  "the station needs its rig (dentar calibrate stereo). Both eyes' tags are fitted together; a right "
+                  "eye silent for 0.1 s leaves the left alone until it returns");
+  sub->add_flag("--stereo", c->o.side_by_side,
+                "--camera delivers side-by-side stereo frames (left eye | right eye), as passthrough headsets do; "
+                "the station needs its rig");
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
   sub->add_option("--height", c->o.height, "requested camera height (px)")->check(at_least(0));
   sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(at_least(0));
@@ -102,6 +110,8 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--summary", c->o.summary_path, "also write the run's summary JSON here");
   sub->add_option("--screenshot", c->shots, "test hook: FRAME:FILE.png saves the window when frame FRAME shows");
   sub->add_option("--inject-stall", c->stall, "test hook: AFTER_FRAMES:SECONDS, the camera goes quiet");
+  sub->add_option("--inject-stall-right", c->stall_right,
+                  "test hook: AFTER_FRAMES:SECONDS, the right eye (--camera-right) goes quiet");
   sub->add_flag("--list-cameras", c->list, "list the V4L2 cameras and their modes, then exit");
   sub->add_flag("--quiet", c->o.quiet, "no progress lines");
   sub->add_option("--exercise", c->o.exercise,
@@ -195,6 +205,18 @@ void add_live(CLI::App& app, int& exit_code) {
         return;
       }
     }
+    if (!c->stall_right.empty()) {
+      const auto k = c->stall_right.find(':');
+      try {
+        if (k == std::string::npos) throw std::invalid_argument("no colon");
+        o.stall_right_after_frames = std::stoll(c->stall_right.substr(0, k));
+        o.stall_right_s = std::stod(c->stall_right.substr(k + 1));
+      } catch (const std::exception&) {
+        print_error("live", "--inject-stall-right " + c->stall_right + ": must be AFTER_FRAMES:SECONDS");
+        exit_code = 2;
+        return;
+      }
+    }
     if (auto v = o.validate(); !v.empty()) {
       print_error("live", v);
       exit_code = 2;
@@ -218,6 +240,7 @@ void add_live(CLI::App& app, int& exit_code) {
         }
       }
       for (auto [flag, prefix, value] : {std::tuple{"--camera", "live:", o.camera},
+                                         std::tuple{"--camera-right", "live:", o.camera_right},
                                          std::tuple{"--stylus", "replay:", o.stylus}}) {
         const std::string v = value, pre = prefix;
         if (v.rfind(pre, 0) == 0 && !fs::is_regular_file(v.substr(pre.size()), ec)) {
@@ -261,6 +284,35 @@ void add_live(CLI::App& app, int& exit_code) {
     if (!check_db_options("live", c->db)) {
       exit_code = 2;
       return;
+    }
+    // Stereo (issue 28): a station without a rig, a side-by-side frame of odd width, two eyes of
+    // different sizes or rates are bad input (exit 2), found before the window opens.
+    if (o.side_by_side || !o.camera_right.empty()) {
+      std::error_code ec;
+      const bool builtin = o.station.empty() || (!std::filesystem::is_regular_file(o.station, ec) &&
+                                                 ar::builtin_station_scene(o.station));
+      auto st = builtin ? Result<ar::StationScene>(*ar::builtin_station_scene(o.station.empty() ? "default" : o.station))
+                        : ar::read_station_scene(o.station);
+      const std::string what = o.side_by_side ? "--stereo" : "--camera-right";
+      if (st && !st->stereo.present) {
+        print_error("live", what + ": the station " + (o.station.empty() ? "default" : o.station) +
+                                " has no stereo rig (station file \"stereo\": camera_right, T_left_right): calibrate "
+                                "the rig with `dentar calibrate stereo`, or give the station.json that `dentar synth "
+                                "--stereo` wrote");
+        exit_code = 2;
+        return;
+      }
+      ar::StereoSourceOptions so;
+      so.source.width = o.width;
+      so.source.height = o.height;
+      so.source.fps = o.fps;
+      auto pair = o.side_by_side ? ar::StereoSource::open_side_by_side(o.camera, so)
+                                 : ar::StereoSource::open_pair(o.camera, o.camera_right, so);
+      if (!pair) {
+        print_error("live", what + ": " + pair.error());
+        exit_code = 2;
+        return;
+      }
     }
     auto r = live::run_live(o);
     if (!r) {

@@ -46,6 +46,9 @@ struct OfflineCli {
   bool no_score = false;
   SoundCli sound;  // --audio FILE.wav: the session's drill sound (issue 29)
   bool audio_mux = false;  // --audio-mux: also composite_audio.mkv (the video with the sound)
+  // Stereo footage (issue 28): both eyes (--stereo, --footage-right), or one eye (--eye).
+  bool stereo = false;
+  std::string footage_right, eye;
 };
 
 // One progress line: a bar on a terminal (redrawn in place), else a line
@@ -107,6 +110,9 @@ int run(const OfflineCli& c) {
   o.write_video = !c.no_video;
   o.video_codec = c.video_codec;
   o.scale_calib = c.scale_calib;
+  o.stereo = c.stereo || !c.footage_right.empty();
+  o.footage_right = c.footage_right;
+  o.eye = c.eye;
   o.predict_s = c.predict_ms * 1e-3;
   o.tracker.detector.decimation = c.decimate;
   o.tracker.predicted_regions = !c.no_roi;
@@ -132,6 +138,11 @@ int run(const OfflineCli& c) {
   if (c.expert_opacity > 0) o.expert.opacity = c.expert_opacity;
   o.compositor.triangle_budget = c.triangle_budget;
   if (std::string e = o.validate(); !e.empty()) {
+    print_error("offline", e);
+    return 2;
+  }
+  // Stereo inputs that do not fit (no rig, odd width, eyes of different sizes or rates): bad input.
+  if (std::string e = offline::check_stereo_inputs(o); !e.empty()) {
     print_error("offline", e);
     return 2;
   }
@@ -182,6 +193,10 @@ int run(const OfflineCli& c) {
   std::cout << "offline: " << s.frames << " frames (" << f3(s.footage_s) << " s of footage) in "
             << f3(s.wall_s) << " s; mannequin tracking " << s.tracking << ", predicted " << s.predicted
             << ", lost " << s.lost << "; overlay drawn in " << s.overlays << " frames\n";
+  if (s.stereo)
+    std::cout << "  stereo: both eyes " << s.eyes_both << " frames, left eye alone " << s.eyes_left
+              << ", right eye alone " << s.eyes_right << "; mannequin fitted to both eyes in " << s.man_two_views
+              << " frames; " << s.stereo_capture << "\n";
   if (s.expert_frames > 0)
     std::cout << "  expert's tool drawn in " << s.expert_frames << " frames (" << s.expert_drilling_frames
               << " with mode 5's drilling colours)\n";
@@ -244,7 +259,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--truth FILE|none] [--masks DIR|none] [--out DIR]\n"
       "                         [--preset P] [--frames N] [--resolution WxH] [--seed S]\n"
       "                         [--max-frames N] [--no-video] [--video-codec mjpg|ffv1]\n"
-      "                         [--scale-calib] [--quiet]\n"
+      "                         [--scale-calib] [--quiet] [--stereo [--footage-right VIDEO] | --eye left|right]\n"
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
       "                         [--predict-ms MS] [--stale-ms MS] [--mirror-sigma-mm MM] [--no-occlusion]\n"
       "                         [--camera-response auto|srgb|linear] [--mirror-rim]\n"
@@ -253,6 +268,15 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--audio FILE.wav [--audio-mux] [--volume PCT] [--mute] [--drill-sample FILE]]");
   s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");
   s->add_option("--station", c->station, "Station file (JSON) the footage was recorded with");
+  s->add_flag("--stereo", c->stereo,
+              "Stereo footage of the station's rig (issue 28): side by side (left | right, dentar synth "
+              "--stereo), or --footage the left eye and --footage-right the right; each body fitted to both "
+              "eyes' corners; an eye that ends first leaves the other alone (frames.csv column eyes)");
+  s->add_option("--footage-right", c->footage_right, "The right eye's recording (implies --stereo)");
+  s->add_option("--eye", c->eye,
+                "One eye of side-by-side stereo footage through the one-camera path, against that eye's "
+                "truth (the mono anchor on the same frames)")
+      ->check(CLI::IsMember({"left", "right"}));
   s->add_option("--session", c->session, "Haptic session log (.dlog) to replay in step with the video");
   s->add_option("--truth", c->truth, "Ground truth truth.jsonl (default: beside the footage; none = ignore)");
   s->add_option("--masks", c->masks, "Ground-truth masks folder (default: beside the footage; none = ignore)");
@@ -318,7 +342,12 @@ void add_offline(CLI::App& app, int& exit_code) {
       "  dentar synth --preset hard --resolution 1280x720 --out out/hard\n"
       "  dentar offline --footage out/hard/video.mkv --station out/hard/station.json \\\n"
       "                 --session out/hard/session.dlog --out out/hard-run\n"
-      "  dentar offline --footage out/rec --out out/rec-run   # a `dentar live --record` folder");
+      "  dentar offline --footage out/rec --out out/rec-run   # a `dentar live --record` folder\n"
+      "  dentar synth --preset mirror --stereo --frames 60 --out out/st\n"
+      "  dentar offline --stereo --footage out/st/video.mkv --station out/st/station.json \\\n"
+      "                 --session out/st/session.dlog --out out/st-run      # both eyes\n"
+      "  dentar offline --eye left --footage out/st/video.mkv --station out/st/station.json \\\n"
+      "                 --session out/st/session.dlog --out out/st-mono     # the left eye alone");
   add_db_options(s, *db, false);
   s->callback([c, db, &exit_code] {
     if (!check_db_options("offline", *db)) {
@@ -334,7 +363,7 @@ void add_offline(CLI::App& app, int& exit_code) {
     }
     // Inputs that do not exist are bad input (exit 2), caught before any work.
     for (auto [flag, path] : {std::pair{"--footage", c->footage}, std::pair{"--station", c->station},
-                              std::pair{"--session", c->session}}) {
+                              std::pair{"--session", c->session}, std::pair{"--footage-right", c->footage_right}}) {
       if (!path.empty() && !std::filesystem::exists(path)) {
         print_error("offline", std::string(flag) + " " + path + ": no such file or folder");
         exit_code = 2;

@@ -17,6 +17,7 @@
 
 #include "commands.h"
 #include "dentar/ar/frame_source.h"
+#include "dentar/ar/stereo_source.h"
 #include "dentar/ar/stereo_tracker.h"
 #include "dentar/ar/synth.h"
 #include "dentar/ar/tracker.h"
@@ -46,6 +47,8 @@ struct TrackCli {
   int width = 0, height = 0;
   double fps = 0, folder_fps = 30;
   bool stereo = false;  // side-by-side footage of the station's stereo rig (issue 28)
+  std::string input_right;  // the right eye (a second camera or recording): stereo from two sources
+  std::string stall_right;  // test hook: AFTER_FRAMES:SECONDS, the right camera goes quiet
 };
 
 json matrix_json(const Eigen::Isometry3d& T) {
@@ -124,15 +127,15 @@ int run(const TrackCli& c) {
   so.height = c.height;
   so.fps = c.fps;
   so.folder_fps = c.folder_fps;
-  auto src = ar::FrameSource::open(c.input, so);
-  if (!src) {
-    print_error("track", src.error());
-    return 2;
-  }
-  ar::FrameSource& source = **src;
-  int eye_w = source.width();
-  if (c.stereo) {
-    // Side by side (docs/formats.md): the left eye | the right eye.
+  const bool stereo_run = c.stereo || !c.input_right.empty();
+  std::unique_ptr<ar::FrameSource> mono_src;
+  std::unique_ptr<ar::StereoSource> stereo_src;
+  int eye_w = 0, eye_h = 0;
+  std::string source_text;
+  if (stereo_run) {
+    // Both eyes (issue 28): side by side (left eye | right eye, docs/formats.md), or two
+    // sources (--input left, --input-right right), paired by capture time; an eye lost for
+    // 0.1 s leaves the other's frames alone (the single-view path) until it returns.
     if (c.tags) {
       print_error("track", "--stereo tracks the station's bodies from both eyes; leave out --tags");
       return 2;
@@ -140,26 +143,55 @@ int run(const TrackCli& c) {
     if (!station.stereo.present) {
       print_error("track", "--stereo: " + calib_source +
                                " has no stereo rig (station file \"stereo\": camera_right, T_left_right); "
-                               "give --layout with the rig (dentar synth --stereo writes one)");
+                               "give --layout with the rig (dentar synth --stereo writes one, dentar calibrate stereo "
+                               "calibrates one)");
       return 2;
     }
-    if (source.width() % 2 != 0) {
-      cv::Mat l, r;
-      print_error("track", ar::split_side_by_side(cv::Mat(source.height(), source.width(), CV_8UC3), l, r,
-                                                  "--stereo: " + c.input).error());
+    ar::StereoSourceOptions sso;
+    sso.source = so;
+    // Footage played as a camera (live:) ends; a camera that stops is reopened.
+    sso.left_capture.reopen = c.input.rfind("live:", 0) != 0;
+    sso.right_capture.reopen = c.input_right.rfind("live:", 0) != 0;
+    if (!c.stall_right.empty()) {
+      const auto k = c.stall_right.find(':');
+      try {
+        if (k == std::string::npos) throw std::invalid_argument("no colon");
+        sso.right_capture.stall_after_frames = std::stoll(c.stall_right.substr(0, k));
+        sso.right_capture.stall_s = std::stod(c.stall_right.substr(k + 1));
+      } catch (const std::exception&) {
+        print_error("track", "--inject-stall-right " + c.stall_right + ": must be AFTER_FRAMES:SECONDS");
+        return 2;
+      }
+    }
+    auto s = c.input_right.empty() ? ar::StereoSource::open_side_by_side(c.input, sso)
+                                   : ar::StereoSource::open_pair(c.input, c.input_right, sso);
+    if (!s) {
+      print_error("track", "--stereo: " + s.error());
       return 2;
     }
-    eye_w = source.width() / 2;
+    stereo_src = std::move(*s);
+    eye_w = stereo_src->width();
+    eye_h = stereo_src->height();
+    source_text = stereo_src->description();
+  } else {
+    auto src = ar::FrameSource::open(c.input, so);
+    if (!src) {
+      print_error("track", src.error());
+      return 2;
+    }
+    mono_src = std::move(*src);
+    eye_w = mono_src->width();
+    eye_h = mono_src->height();
+    source_text = mono_src->description();
   }
-  auto cam = ar::camera_for_image(station.calibration.camera, eye_w, source.height(),
-                                  c.scale_calib, calib_source);
+  auto cam = ar::camera_for_image(station.calibration.camera, eye_w, eye_h, c.scale_calib, calib_source);
   if (!cam) {
     print_error("track", cam.error());
     return 2;
   }
   station.calibration.camera = *cam;
-  if (c.stereo) {
-    auto cr = ar::camera_for_image(station.stereo.camera_right, eye_w, source.height(), c.scale_calib,
+  if (stereo_run) {
+    auto cr = ar::camera_for_image(station.stereo.camera_right, eye_w, eye_h, c.scale_calib,
                                    calib_source + " (stereo.camera_right)");
     if (!cr) {
       print_error("track", cr.error());
@@ -189,7 +221,7 @@ int run(const TrackCli& c) {
   std::optional<ar::Tracker> tracker;
   std::optional<ar::StereoTracker> stereo;
   std::optional<ar::TagDetector> detector;
-  if (c.stereo) {
+  if (stereo_run) {
     auto t = ar::StereoTracker::create(station, to);
     if (!t) {
       print_error("track", t.error());
@@ -231,10 +263,12 @@ int run(const TrackCli& c) {
     print_error("track", msg);
     return code;
   };
-  std::cout << "track: " << source.description() << "; camera from " << calib_source << " ("
+  std::cout << "track: " << source_text << "; camera from " << calib_source << " ("
             << station.calibration.camera.width << "x" << station.calibration.camera.height
             << (c.scale_calib ? ", scaled if needed" : "") << "); "
-            << (c.stereo ? "stereo side by side, baseline " + std::to_string(station.stereo.baseline_m() * 1e3).substr(0, 5) + " mm; " : "")
+            << (stereo_run ? std::string(c.input_right.empty() ? "stereo side by side" : "stereo, two sources") +
+                                 ", baseline " + std::to_string(station.stereo.baseline_m() * 1e3).substr(0, 5) + " mm; "
+                           : "")
             << (c.tags ? "per-tag poses" : (c.no_roi ? "full-frame search" : "predicted regions"))
             << ", decimate " << c.decimate << ", " << c.threads << " thread(s)\n";
 
@@ -242,22 +276,38 @@ int run(const TrackCli& c) {
   std::int64_t frames = 0, dropped = 0;
   int man_counts[3] = {0, 0, 0}, mir_counts[3] = {0, 0, 0};
   ar::Frame fr;
+  ar::StereoFrame sf;
   cv::Mat gray;
+  int eye_counts[4] = {0, 0, 0, 0};  // by FrameRecord::eyes: -, left, right, both
   while (c.max_frames <= 0 || frames < c.max_frames) {
-    auto r = source.read(fr);
-    if (!r) return abandon(r.error(), 2);
-    if (!*r) break;
+    if (stereo_src) {
+      if (!stereo_src->read(sf, 5.0)) {
+        if (!stereo_src->error().empty()) return abandon(stereo_src->error(), 2);
+        if (stereo_src->ended()) break;
+        return abandon(source_text + ": no frame from either eye for 5 s", 1);
+      }
+      fr = sf.has_left() ? sf.left : sf.right;
+    } else {
+      auto r = mono_src->read(fr);
+      if (!r) return abandon(r.error(), 2);
+      if (!*r) break;
+    }
     dropped += fr.dropped_before;
     json line;
     line["frame"] = fr.index;
     line["time_s"] = fr.time_s;
     line["dropped_before"] = fr.dropped_before;
-    if (c.stereo) {
-      cv::Mat left, right;
-      if (Status st = ar::split_side_by_side(fr.image, left, right, c.input); !st) return abandon(st.error(), 2);
-      auto f = stereo->track(left, right, fr.time_s, fr.time_s + c.display_delay_ms * 1e-3);
+    if (stereo_src) {
+      // Capture times: the eyes' own (a recording's timestamps, or a camera's grab on one clock).
+      const double t = fr.time_s;
+      auto f = stereo->track(sf.left.image, sf.right.image, t, t + c.display_delay_ms * 1e-3);
       if (!f) return abandon(f.error(), 1);
-      line["display_time_s"] = f->left.display_time_s;
+      const int eyes = (sf.has_left() ? 1 : 0) | (sf.has_right() ? 2 : 0);
+      ++eye_counts[eyes];
+      line["eyes"] = eyes == 3 ? "both" : eyes == 1 ? "left" : "right";
+      if (sf.paired()) line["skew_ms"] = round_to(sf.skew_s * 1e3, 1e-3);
+      line["steady_s"] = fr.steady_s;
+      line["display_time_s"] = t + c.display_delay_ms * 1e-3;
       line["tags_detected"] = {f->left.tags_detected, f->right.tags_detected};
       json man = body_json(f->mannequin.track), mir = body_json(f->mirror.track);
       man["views"] = f->mannequin.views_used;
@@ -336,7 +386,10 @@ int run(const TrackCli& c) {
   if (ec) return abandon(out.string() + ": cannot rename the output: " + ec.message(), 1);
 
   std::cout << std::fixed << std::setprecision(2) << "track: " << frames << " frames, "
-            << std::max<std::int64_t>(dropped, source.dropped_total()) << " dropped";
+            << std::max<std::int64_t>(dropped, mono_src ? mono_src->dropped_total() : 0) << " dropped";
+  if (stereo_src)
+    std::cout << "; eyes: both " << eye_counts[3] << ", left alone " << eye_counts[1] << ", right alone "
+              << eye_counts[2] << " (" << stereo_src->stats().summary() << ")";
   if (!c.tags)
     std::cout << "; mannequin tracking " << man_counts[0] << " / predicted " << man_counts[1]
               << " / lost " << man_counts[2] << "; mirror tracking " << mir_counts[0]
@@ -363,7 +416,8 @@ void add_track(CLI::App& app, int& exit_code) {
       "                       [--camera-response auto|srgb|linear] [--mirror-rim]\n"
       "                       [--no-roi] [--full-every N] [--no-filter] [--stale-ms MS]\n"
       "                       [--display-delay-ms MS] [--scale-calib] [--max-frames N]\n"
-      "                       [--tags --tag-size-mm S] [--width W --height H --fps F] [--stereo]");
+      "                       [--tags --tag-size-mm S] [--width W --height H --fps F]\n"
+      "                       [--stereo [--input-right <left eye's partner>]]");
   s->add_option("--input", c->input,
                 "Video file, image folder, camera:N, /dev/videoN, or live:VIDEO (a video played "
                 "as a live camera)")
@@ -386,7 +440,13 @@ void add_track(CLI::App& app, int& exit_code) {
   s->add_flag("--stereo", c->stereo,
              "Side-by-side footage of a stereo head (left eye | right eye, docs/formats.md): each body fitted "
              "once to both eyes' corners; poses in the left eye's frame (the rig), \"views\" per body. "
-             "Needs --layout with the station's rig (\"stereo\")");
+             "Needs --layout with the station's rig (\"stereo\"). Each line gets \"eyes\": both, or left / right "
+             "alone when the other eye is lost (its camera silent for 0.1 s, its recording ended)");
+  s->add_option("--input-right", c->input_right,
+                "Stereo from two sources (implies --stereo): --input is the left eye, this the right (a second "
+                "camera, live: stand-in or recording; one size and rate), paired by capture time");
+  s->add_option("--inject-stall-right", c->stall_right,
+                "test hook: AFTER_FRAMES:SECONDS, the right camera (a live eye) goes quiet");
   s->add_flag("--no-roi", c->no_roi, "Search the full frame every frame (no predicted regions)");
   s->add_option("--full-every", c->full_every, "Full-frame search interval, frames")
       ->check(CLI::Range(1, 100000))
@@ -424,6 +484,7 @@ void add_track(CLI::App& app, int& exit_code) {
       "               --tag-size-mm 53 --out tags.jsonl\n"
       "  dentar synth --preset mirror --stereo --frames 60 --out out/st\n"
       "  dentar track --input out/st/video.mkv --layout out/st/station.json --stereo --out out/st/poses.jsonl\n"
+      "  dentar track --input camera:0 --input-right camera:1 --layout station.json --out poses.jsonl\n"
       "Exit status: 0 ok, 1 the job failed, 2 bad input or arguments.");
   s->callback([c, &exit_code] { exit_code = run(*c); });
 }

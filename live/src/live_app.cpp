@@ -33,6 +33,7 @@
 #include "dentar/ar/egl_context.h"
 #include "dentar/ar/gl_handoff.h"
 #include "dentar/ar/frame_source.h"
+#include "dentar/ar/stereo_source.h"
 #include "dentar/ar/tracker.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/open_device.h"
@@ -76,6 +77,10 @@ std::string iso_now() {
 
 std::string LiveOptions::validate() const {
   if (camera.empty()) return "camera is empty: give --camera camera:N, /dev/videoN or live:PATH";
+  if (side_by_side && !camera_right.empty())
+    return "side_by_side (--stereo: one side-by-side camera) and camera_right (--camera-right: a second camera) "
+           "are two kinds of stereo head: give one";
+  if (stall_right_after_frames > 0 && camera_right.empty()) return "the right eye's stall hook needs camera_right";
   if (width < 0 || height < 0 || fps < 0) return "camera mode (--width/--height/--fps) must be >= 0";
   if (pedal.empty()) return "pedal is empty: give keyboard, auto, vec, usb:VID:PID or evdev:/dev/input/eventN";
   if (!(stylus == "sim" || stylus == "pen" || stylus == "none" || stylus.rfind("replay:", 0) == 0))
@@ -155,6 +160,9 @@ std::string LiveSummary::json() const {
                    {"gl_release_timeouts", gl_release_timeouts}}},
       {"station_health", {{"instructor_needed", instructor_needed}, {"items", station_health}}},
       {"warnings", warnings}};
+  if (stereo)
+    j["stereo"] = {{"frames_both_eyes", stereo_both}, {"frames_left_eye_only", stereo_left_only},
+                   {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens}};
   if (lesson_mode != 0)
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
                    {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
@@ -259,6 +267,7 @@ struct StationCamera {
   bool builtin = false;
   ar::FrameSourceOptions so;
   std::unique_ptr<ar::FrameSource> src;
+  int eye_w = 0, eye_h = 0;  // one eye's frame (the camera's, or half a side-by-side frame)
 };
 Result<StationCamera> open_station_and_camera(const LiveOptions& o, LiveSummary& sum,
                                               const std::function<void(const std::string&)>& say) {
@@ -302,16 +311,44 @@ Result<StationCamera> open_station_and_camera(const LiveOptions& o, LiveSummary&
       sum.warnings.push_back(w);
     }
   }
+  sc.eye_w = (*src)->width();
+  sc.eye_h = (*src)->height();
+  if (o.side_by_side || !o.camera_right.empty()) {
+    // Stereo (issue 28): the rig's eyes, each of the calibrated size (no scaling).
+    const auto& cam = st.calibration.camera;
+    const std::string what = o.side_by_side ? "--stereo" : "--camera-right";
+    if (!st.stereo.present)
+      return Error{"live: " + what + ": the station " + (o.station.empty() ? "default" : o.station) +
+                   " has no stereo rig (station file \"stereo\": camera_right, T_left_right): calibrate the rig "
+                   "with `dentar calibrate stereo`, or give the station.json that `dentar synth --stereo` wrote"};
+    ar::StereoSourceOptions sso;
+    sso.source = so;
+    src->reset();  // a camera is opened once at a time: the pair opens it again (checked, then closed)
+    auto pair = o.side_by_side ? ar::StereoSource::open_side_by_side(o.camera, sso)
+                               : ar::StereoSource::open_pair(o.camera, o.camera_right, sso);
+    if (!pair) return Error{"live: " + what + ": " + pair.error()};
+    sc.eye_w = (*pair)->width();
+    sc.eye_h = (*pair)->height();
+    if (sc.eye_w != cam.width || sc.eye_h != cam.height || st.stereo.camera_right.width != cam.width ||
+        st.stereo.camera_right.height != cam.height)
+      return Error{"live: " + what + ": each eye delivers " + std::to_string(sc.eye_w) + "x" + std::to_string(sc.eye_h) +
+                   " but the rig is calibrated for " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                   " (camera) and " + std::to_string(st.stereo.camera_right.width) + "x" +
+                   std::to_string(st.stereo.camera_right.height) +
+                   " (stereo.camera_right): ask for the calibrated mode with --width/--height, or calibrate this "
+                   "mode (dentar calibrate stereo)"};
+    return sc;  // sc.src empty: the capture threads open the eyes when the run starts
+  }
   {
     auto& cam = st.calibration.camera;
     const int W = (*src)->width(), H = (*src)->height();
     // Side-by-side stereo (a station with a stereo rig, two eyes of its camera's size in one
-    // frame): live tracks one camera; scaling that frame as one image would be wrong.
+    // frame) without --stereo: scaling that frame as one image would be wrong.
     if (st.stereo.present && W == 2 * cam.width && H == cam.height)
       return Error{"live: " + o.camera + " delivers side-by-side stereo frames (" + std::to_string(W) + "x" +
                    std::to_string(H) + ", two " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
-                   " eyes, the station's \"stereo\" rig): dentar live tracks one camera; stereo footage is read by "
-                   "`dentar track --stereo` (issue 28). Play mono footage here (dentar synth without --stereo)"};
+                   " eyes, the station's \"stereo\" rig): track it from both eyes with --stereo, or play mono "
+                   "footage (dentar synth without --stereo)"};
     if (W != cam.width || H != cam.height) {
       const std::string sizes = o.camera + " delivers " + std::to_string(W) + "x" + std::to_string(H) +
                                 " but the station camera is calibrated for " + std::to_string(cam.width) + "x" +
@@ -602,7 +639,7 @@ std::string isolate_engine(const LiveOptions& o, const haptics::EngineConfig& cf
 Status start_recording(const LiveOptions& o, const ar::StationScene& st, const ar::PipelineOptions& popt,
                        const std::string& discovery_name, session::Run& run) {
   const fs::path rdir = o.record_dir;
-  if (auto r = run.record_to(rdir.string()); !r) return Error{"live: " + r.error()};
+  if (auto r = run.record_to(rdir.string(), popt.stereo); !r) return Error{"live: " + r.error()};
   if (auto s = ar::write_station_scene(st, (rdir / "station.json").string()); !s)
     return Error{"live: " + s.error()};
   nlohmann::json rec_meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
@@ -775,6 +812,9 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.compensation_source = comp.second;
   sum.frames_pose_at_exposure = ff.comp_at_exposure;
   sum.frames_pose_newest = ff.comp_newest;
+  sum.stereo = c.popt.stereo;
+  sum.stereo_both = ff.stereo_both;
+  sum.stereo_left_only = ff.stereo_left_only;
   sum.readback_px = ff.readback_px;
   sum.cpu_blend_px = ff.cpu_blend_px;
   sum.gl_frames_replaced = ff.ring_replaced;
@@ -886,6 +926,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const std::string iso = isolate_engine(o, cfg, ncpu, sum);
   ar::PipelineOptions popt = o.pipeline;
   popt.compositor.bur = ss.bur_params;  // draw the bur the engine cuts with
+  // Stereo (issue 28): both eyes through the StereoTracker, whose tag search runs inside the frame.
+  popt.stereo = o.side_by_side || !o.camera_right.empty();
+  if (popt.stereo) popt.tracker.discovery = ar::DiscoveryMode::kInline;
   const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
   const Background bg = place_background(o, cfg, ncpu);
   if (bg.to_engine_cpu) popt.tracker.discovery_thread_init = bg.to_engine_cpu;
@@ -903,13 +946,13 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // llvmpipe's rasteriser threads (one set per display, started when GLFW
   // initialises it here) serve both contexts and run with the main thread,
   // off the engine's CPU (docs/BENCHMARKS.md, "The GL-resident display path").
-  auto hw_r = HudWindow::open("DentAR live", scr->src->width(), scr->src->height(), o.window_width, o.window_height,
+  auto hw_r = HudWindow::open("DentAR live", scr->eye_w, scr->eye_h, o.window_width, o.window_height,
                               o.display, o.vsync, dc.want_gl && !o.window_glx_for_test);
   if (!hw_r) return Error{"live: " + hw_r.error()};
   HudWindow& hw = **hw_r;
   const auto comp = compensation(o, st);
   const LiveContext ctx{o, st, popt, *run, health, hw, engine_device, pedal, key_pedal, ss.pen, ss.pedal_from_device,
-                        scr->src->width(), scr->src->height(), dc.want_gl, bg.to_engine_cpu, comp.first, say,
+                        scr->eye_w, scr->eye_h, dc.want_gl, bg.to_engine_cpu, comp.first, say,
                         lesson_pauses ? &*lesson_pauses : nullptr};
   LiveShared sh;
   // The display path is settled on the frame thread (the shared context is made there).
@@ -940,11 +983,31 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cto.stall_s = o.stall_s;
   cto.thread_init = bg.to_engine_cpu;
   ar::CaptureThread capture(std::move(*src2), o.camera, scr->so, cto);
+  // Stereo with two cameras (issue 28): the right eye on its own capture thread; the frame
+  // thread pairs its newest frame with each left frame by capture time.
+  std::unique_ptr<ar::CaptureThread> capture_right;
+  if (!o.camera_right.empty()) {
+    auto src_r = ar::FrameSource::open(o.camera_right, scr->so);
+    if (!src_r) {
+      sh.stop.store(true);
+      frame_thread.join();
+      return Error{"live: --camera-right: " + src_r.error()};
+    }
+    ar::CaptureThreadOptions cto_r = cto;
+    cto_r.reopen = o.loop || o.camera_right.rfind("live:", 0) != 0;
+    cto_r.stall_after_frames = o.stall_right_after_frames;
+    cto_r.stall_s = o.stall_right_s;
+    capture_right = std::make_unique<ar::CaptureThread>(std::move(*src_r), o.camera_right, scr->so, cto_r);
+  }
   const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + pedal_device.name();
   if (run->recorder())
     run->recorder()->log("camera " + capture.description() + "; " + stylus_desc + "; pedal " + pedal.name() +
                          "; engine CPU " + std::to_string(cfg.cpu));
   capture.start();
+  if (capture_right) {
+    capture_right->start();
+    sh.capture_right.store(capture_right.get());
+  }
   sh.capture.store(&capture);
   if (auto s = engine.start(); !s) {
     sh.stop.store(true);
@@ -975,7 +1038,12 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   say("stopping (" + df.stop_reason + "): force zeroed");
   sh.stop.store(true);
   capture.stop();
+  if (capture_right) capture_right->stop();
   frame_thread.join();
+  if (capture_right) {
+    sum.right_eye_dropped = capture_right->dropped_source() + capture_right->dropped_consumer();
+    sum.right_eye_reopens = capture_right->reopens();
+  }
   if (auto s = run->close_session_log(); !s) sum.warnings.push_back("session log: " + s.error());
   fill_summary(ctx, capture, sh.processed.load(), ff, df, comp, iso, bg, sum);
   if (run->recorder()) finish_recording(*run->recorder(), df.stop_reason, engine.stats(), sum);

@@ -72,11 +72,21 @@ class FrameThread {
     while (sh_.capture.load() == nullptr && !sh_.stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(2));
     if (!sh_.stop.load()) {
       ar::CaptureThread& capture = *sh_.capture.load();
+      ar::CaptureThread* right = sh_.capture_right.load();
       ar::Frame f;
       while (!sh_.stop.load()) {
         if (!capture.wait_take(f, 0.05)) {
           if (capture.ended()) break;
           continue;
+        }
+        if (c_.o.side_by_side) {
+          // One side-by-side frame: the left half is the frame shown, the right half the right eye.
+          const int w = f.image.cols / 2;
+          right_image_ = f.image(cv::Rect(w, 0, w, f.image.rows)).clone();
+          f.image = f.image(cv::Rect(0, 0, w, f.image.rows)).clone();
+          f.encoded = cv::Mat();  // the device's JPEG holds both eyes
+        } else if (right != nullptr) {
+          pair_right(*right, f);
         }
         process_frame(f);
       }
@@ -107,6 +117,29 @@ class FrameThread {
     return false;
   }
 
+  // Two cameras (issue 28): the right eye's frame captured with `left` (within half a frame
+  // period, waiting up to that long for it), else none: the single-view path. A right eye
+  // silent for 0.1 s is not waited for (StereoSource's rule), so a lost eye costs no time.
+  void pair_right(ar::CaptureThread& right, const ar::Frame& left) {
+    const double half = 0.5 / (right.fps() > 0 ? right.fps() : 30.0);
+    const double silent_s = 0.1;
+    ar::Frame r;
+    if (right.wait_take(r, 0)) right_pending_ = std::move(r);  // the newest (latest wins)
+    const auto deadline = Clock::now() + std::chrono::duration<double>(half);
+    while (right_pending_.image.empty() || right_pending_.steady_s < left.steady_s - half) {
+      const double last = right.last_frame_steady_s();
+      if (last <= 0 || left.steady_s - last > silent_s) break;  // lost (or not started): do not wait
+      const double left_s = std::chrono::duration<double>(deadline - Clock::now()).count();
+      if (left_s <= 0 || !right.wait_take(r, left_s)) break;
+      right_pending_ = std::move(r);
+    }
+    right_image_.release();
+    if (!right_pending_.image.empty() && std::abs(right_pending_.steady_s - left.steady_s) <= half) {
+      right_image_ = right_pending_.image;
+      right_pending_ = ar::Frame{};
+    }
+  }
+
   // The stylus as it was when this frame was exposed, not as it is now (issue 24).
   // Returns the engine step of the pose drawn (-1: the newest).
   double pose_at_exposure(const ar::Frame& f, haptics::HapticSnapshot& snap) {
@@ -134,6 +167,7 @@ class FrameThread {
     const double pose_step = pose_at_exposure(f, snap);
     ar::FrameInput in;
     in.image = &f.image;
+    in.right_image = &right_image_;
     in.index = processed;
     in.capture_time_s = f.time_s;
     in.haptic = o.stylus == "none" ? nullptr : &snap;
@@ -149,6 +183,8 @@ class FrameThread {
       err = std::string("pipeline threw: ") + e.what();
     }
     fig_.process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
+    if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
     rec_.pose_step = pose_step;
     for (const auto& it : c_.health.on_frame(c_.run.pipeline().last_detections(), f.steady_s, rec_.T_dev_sty,
                                              in.stylus_valid)) {
@@ -206,6 +242,8 @@ class FrameThread {
   bool use_gl_ = false;
   ar::CompositeResult cres_;
   ar::FrameRecord rec_;
+  cv::Mat right_image_;       // stereo: this frame's right eye (empty: none, the single-view path)
+  ar::Frame right_pending_;   // two cameras: the right eye's newest frame not yet used
 };
 
 }  // namespace

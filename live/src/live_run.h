@@ -81,6 +81,8 @@ struct LiveShared {
   std::string display_note;
   std::unique_ptr<ar::SharedFrameRing> ring;  // GPU path; made and destroyed on the frame thread
   std::atomic<ar::CaptureThread*> capture{nullptr};  // set once the pipeline is ready
+  // Stereo with two cameras (issue 28): the right eye's, set with `capture` (null otherwise).
+  std::atomic<ar::CaptureThread*> capture_right{nullptr};
   std::atomic<std::int64_t> processed{0};
 };
 
@@ -90,6 +92,7 @@ struct FrameFigures {
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
   std::int64_t ring_replaced = 0, ring_ready_timeouts = 0, ring_release_timeouts = 0;
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
+  std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had
 };
 
 // The frame thread: until LiveShared::stop or the footage ends.

@@ -18,6 +18,21 @@ TEST(LiveOptions, DisplayPathAutoGlOrCpuAndNothingElse) {
   EXPECT_NE(o.validate().find("must be auto, gl or cpu"), std::string::npos) << o.validate();
 }
 
+// Issue 28: two kinds of stereo head, not both at once; the right eye's stall hook needs it.
+TEST(LiveOptions, StereoIsTwoCamerasOrOneSideBySideNotBoth) {
+  LiveOptions o;
+  EXPECT_EQ(o.validate(), "");
+  o.camera_right = "camera:1";
+  EXPECT_EQ(o.validate(), "");
+  o.side_by_side = true;
+  EXPECT_NE(o.validate().find("give one"), std::string::npos) << o.validate();
+  o.camera_right.clear();
+  EXPECT_EQ(o.validate(), "");
+  o.side_by_side = false;
+  o.stall_right_after_frames = 5;
+  EXPECT_NE(o.validate().find("needs camera_right"), std::string::npos) << o.validate();
+}
+
 TEST(LiveOptions, FrameLimitMustNotBeNegative) {
   LiveOptions o;
   o.frames = 30;

@@ -20,6 +20,7 @@
 #include "dentar/ar/frame_pipeline.h"
 #include "dentar/ar/frame_source.h"
 #include "dentar/ar/report.h"
+#include "dentar/ar/stereo_source.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/haptics/replay.h"
 #include "dentar/haptics/replay_device.h"
@@ -365,6 +366,40 @@ std::string OfflineOptions::validate() const {
     return "video_codec = \"" + video_codec + "\" must be mjpg or ffv1";
   if (auto v = tracker.validate(); !v.empty()) return "tracker: " + v;
   if (auto v = compositor.validate(); !v.empty()) return "compositor: " + v;
+  if (!eye.empty() && eye != "left" && eye != "right") return "eye = \"" + eye + "\" must be left or right";
+  if (!eye.empty() && stereo)
+    return "eye = " + eye + " runs one eye of stereo footage through the mono path; stereo tracks both: give one";
+  if (!footage_right.empty() && !stereo) return "footage_right (the right eye's recording) needs stereo";
+  if ((stereo || !eye.empty()) && footage.empty())
+    return std::string(stereo ? "stereo" : "eye") + " needs footage (the stereo recording, `dentar synth --stereo`)";
+  if ((stereo || !eye.empty()) && scale_calib)
+    return "scale_calib is for one camera: stereo footage must be of the rig's calibrated size";
+  return {};
+}
+
+std::string check_stereo_inputs(const OfflineOptions& o) {
+  if (!o.stereo && o.eye.empty()) return {};
+  if (auto v = o.validate(); !v.empty()) return v;
+  auto station = read_station_scene(o.station);
+  if (!station) return station.error();
+  const std::string what = o.stereo ? "stereo footage" : "--eye " + o.eye;
+  if (!station->stereo.present)
+    return what + ": the station " + o.station +
+           " has no stereo rig (station file \"stereo\": camera_right, T_left_right): calibrate the rig with "
+           "`dentar calibrate stereo`, or give the station.json that `dentar synth --stereo` wrote";
+  const auto& cam = station->calibration.camera;
+  const auto& cr = station->stereo.camera_right;
+  if (cr.width != cam.width || cr.height != cam.height)
+    return o.station + ": the rig's eyes are calibrated for different sizes (camera " + std::to_string(cam.width) + "x" +
+           std::to_string(cam.height) + ", stereo.camera_right " + std::to_string(cr.width) + "x" +
+           std::to_string(cr.height) + "): both eyes must deliver one size";
+  auto src = o.footage_right.empty() ? StereoSource::open_side_by_side(o.footage)
+                                     : StereoSource::open_pair(o.footage, o.footage_right);
+  if (!src) return src.error();
+  if ((*src)->width() != cam.width || (*src)->height() != cam.height)
+    return o.footage + ": each eye is " + std::to_string((*src)->width()) + "x" + std::to_string((*src)->height()) +
+           " but the rig (" + o.station + ", camera.width/height) is calibrated for " + std::to_string(cam.width) + "x" +
+           std::to_string(cam.height) + " per eye: use the station file of this rig and camera mode";
   return {};
 }
 
@@ -379,7 +414,10 @@ struct Job {
   OfflineSummary sum;
   session::Recording rec;
   StationScene st;
-  std::unique_ptr<FrameSource> src;
+  std::unique_ptr<FrameSource> src;  // the footage (stereo: the left eye's or the side-by-side file, for its length)
+  std::unique_ptr<StereoSource> stereo_src;  // stereo: the eyes, read in step
+  StereoFrame sframe;
+  cv::Mat right_image;  // stereo: this frame's right eye (empty: lost)
   double fps = 30.0;
   std::vector<TruthFrame> truth;
   std::string mask_dir;
@@ -487,16 +525,25 @@ struct Job {
                   (d / "video.mkv").string() + " --station " + (d / "station.json").string() + " --session " +
                   (d / "session.dlog").string());
     }
+    if (auto e = check_stereo_inputs(o); !e.empty()) return fail("offline: " + e);
     auto opened = FrameSource::open(o.footage, {});
     if (!opened) return fail("offline: " + opened.error());
     src = std::move(*opened);
     FrameSource& source = *src;
+    if (o.stereo) {
+      auto s = o.footage_right.empty() ? StereoSource::open_side_by_side(o.footage)
+                                       : StereoSource::open_pair(o.footage, o.footage_right);
+      if (!s) return fail("offline: " + s.error());
+      stereo_src = std::move(*s);
+      sum.stereo = true;
+    }
+    if (o.eye == "right") st.calibration.camera = st.stereo.camera_right;  // that eye's frame and truth
     const auto& cam = st.calibration.camera;
-    if (st.stereo.present && source.width() == 2 * cam.width && source.height() == cam.height)
+    if (!o.stereo && o.eye.empty() && st.stereo.present && source.width() == 2 * cam.width && source.height() == cam.height)
       return fail("offline: " + o.footage + " is side-by-side stereo footage (two " + std::to_string(cam.width) + "x" +
-                  std::to_string(cam.height) + " eyes, the station's \"stereo\" rig): dentar offline runs one camera; "
-                  "stereo footage is read by `dentar track --stereo` (issue 28)");
-    if (source.width() != cam.width || source.height() != cam.height) {
+                  std::to_string(cam.height) + " eyes, the station's \"stereo\" rig): track it from both eyes with "
+                  "--stereo, or one eye through the mono path with --eye left|right");
+    if (!o.stereo && o.eye.empty() && (source.width() != cam.width || source.height() != cam.height)) {
       const std::string sizes = o.footage + " is " + std::to_string(source.width()) + "x" +
                                 std::to_string(source.height()) + " but the station camera (" + o.station +
                                 ", camera.width/height) is calibrated for " + std::to_string(cam.width) + "x" +
@@ -519,8 +566,9 @@ struct Job {
   Status truth_and_masks() {
     // Ground truth beside the footage, if any.
     const fs::path fdir = fs::is_directory(o.footage) ? fs::path(o.footage) : fs::path(o.footage).parent_path();
+    const bool right_eye = o.eye == "right";  // one eye of stereo footage: that eye's truth and masks
     if (o.truth != "none") {
-      const std::string tpath = o.truth.empty() ? (fdir / "truth.jsonl").string() : o.truth;
+      const std::string tpath = o.truth.empty() ? (fdir / (right_eye ? "truth_right.jsonl" : "truth.jsonl")).string() : o.truth;
       if (!o.truth.empty() || fs::exists(tpath)) {
         auto t = read_truth(tpath);
         if (!t) return fail("offline: " + t.error());
@@ -529,7 +577,7 @@ struct Job {
       }
     }
     if (o.masks != "none") {
-      const std::string m = o.masks.empty() ? (fdir / "masks").string() : o.masks;
+      const std::string m = o.masks.empty() ? (fdir / (right_eye ? "masks_right" : "masks")).string() : o.masks;
       if (fs::is_directory(m)) mask_dir = m;
       else if (!o.masks.empty()) return fail("offline: " + m + ": the masks folder does not exist");
     }
@@ -583,6 +631,7 @@ struct Job {
     po.compositor = o.compositor;
     po.expert = o.expert;
     po.predict_s = o.predict_s;
+    po.stereo = o.stereo;
     if (auto w = run->make_pipeline(st, po); !w) return fail("offline: " + w.error());
     pipe = &run->pipeline();
     meshes = &run->meshes();
@@ -616,7 +665,7 @@ struct Job {
     }
     csv.open(out / "frames.csv.partial");
     if (!csv) return fail("offline: " + (out / "frames.csv.partial").string() + ": cannot write");
-    csv << session::offline_csv_header();
+    csv << session::offline_csv_header(o.stereo);
 
     total = o.max_frames > 0 && src->frame_count() > 0
                           ? static_cast<int>(std::min<std::int64_t>(o.max_frames, src->frame_count()))
@@ -632,9 +681,26 @@ struct Job {
   Result<bool> next_frame(int k) {
     Row r;
     const auto t_req = Clock::now();
-    auto got = src->read(frame);
-    if (!got) return fail("offline: " + got.error());
-    if (!*got) return false;
+    if (stereo_src) {
+      // Stereo: a pair, or one eye alone when the other's recording has ended (single view).
+      if (!stereo_src->read(sframe, 10.0)) {
+        if (!stereo_src->error().empty()) return fail("offline: " + stereo_src->error());
+        return false;
+      }
+      const bool has_left = sframe.has_left();
+      right_image = sframe.right.image;
+      frame = has_left ? std::move(sframe.left) : std::move(sframe.right);
+      if (!has_left) frame.image = cv::Mat();
+    } else {
+      auto got = src->read(frame);
+      if (!got) return fail("offline: " + got.error());
+      if (!*got) return false;
+      if (!o.eye.empty()) {  // one eye of side-by-side footage
+        cv::Mat left, right;
+        if (Status s = split_side_by_side(frame.image, left, right, o.footage); !s) return fail("offline: " + s.error());
+        frame.image = (o.eye == "right" ? right : left).clone();
+      }
+    }
     r.read_ms = ms_since(t_req);
     const auto t_frame = Clock::now();  // the frame is in memory: latency starts here
     if (rec.present) {
@@ -644,7 +710,8 @@ struct Job {
     }
     r.frame = static_cast<int>(frame.index);
     r.time_s = frame.time_s;
-    if (frame.image.cols != st.calibration.camera.width || frame.image.rows != st.calibration.camera.height)
+    if (!(o.stereo && frame.image.empty()) &&
+        (frame.image.cols != st.calibration.camera.width || frame.image.rows != st.calibration.camera.height))
       return fail("offline: " + o.footage + ": frame " + std::to_string(frame.index) + " is " +
                   std::to_string(frame.image.cols) + "x" + std::to_string(frame.image.rows) +
                   ", not the size of the earlier frames");
@@ -674,6 +741,7 @@ struct Job {
 
     FrameInput fin;
     fin.image = &frame.image;
+    fin.right_image = &right_image;
     fin.index = frame.index;
     fin.capture_time_s = frame.time_s;
     if (!rec.cues.empty()) fin.discovery = &rec.cues[static_cast<std::size_t>(frame.index)];
@@ -704,6 +772,9 @@ struct Job {
     r.overlay = fr.overlay;
     r.mirror_drawn = fr.mirror_drawn;
     r.triangles = fr.triangles;
+    r.eyes = fr.eyes;
+    r.man_views = fr.man_views;
+    r.mir_views = fr.mir_views;
     if (fr.expert_drawn) ++sum.expert_frames;
     if (fr.expert_drilling_shown) ++sum.expert_drilling_frames;
     CompositeInput in;
@@ -736,7 +807,8 @@ struct Job {
       char name[32];
       std::snprintf(name, sizeof name, "mask_%06d.png", static_cast<int>(frame.index));
       const cv::Mat mask = cv::imread((fs::path(mask_dir) / name).string(), cv::IMREAD_GRAYSCALE);
-      if (!mask.empty() && mask.size() == cres.tooth_visible.size()) {
+      // (With the left eye lost the composite is the right eye's: not comparable to the left's mask.)
+      if (!mask.empty() && mask.size() == cres.tooth_visible.size() && r.eyes != FrameRecord::kEyesRight) {
         const cv::Mat truth_vis = mask == 64, drawn = cres.tooth_visible > 127;
         const int inter = cv::countNonZero(truth_vis & drawn), uni = cv::countNonZero(truth_vis | drawn);
         if (uni > 0) r.iou = static_cast<double>(inter) / uni;
@@ -764,7 +836,7 @@ struct Job {
       }
     }
     r.write_ms = ms_since(t0);
-    csv << session::offline_csv_row(r);
+    csv << session::offline_csv_row(r, o.stereo);
     rows.push_back(r);
     if (progress) progress("pipeline", k + 1, total);
   return true;
@@ -788,7 +860,12 @@ struct Job {
       (r.man_state == 0 ? sum.tracking : r.man_state == 1 ? sum.predicted : sum.lost)++;
       if (r.mir_state == 0) ++sum.mirror_tracking;
       if (r.overlay) ++sum.overlays;
+      sum.eyes_both += r.eyes == FrameRecord::kEyesBoth;
+      sum.eyes_left += r.eyes == FrameRecord::kEyesLeft;
+      sum.eyes_right += r.eyes == FrameRecord::kEyesRight;
+      sum.man_two_views += r.man_views == 2;
     }
+    if (stereo_src) sum.stereo_capture = stereo_src->stats().summary();
     sum.man_err_mm = make_stat(col([](const Row& r) { return r.man_err_mm; }));
     sum.man_err_deg = make_stat(col([](const Row& r) { return r.man_err_deg; }));
     sum.tooth_err_px = make_stat(col([](const Row& r) { return r.tooth_err_px; }));
@@ -896,6 +973,13 @@ struct Job {
     // A session trained in a mode (issue 27); absent otherwise, so older outputs are unchanged.
     if (sum.expert_frames > 0)
       js["expert"] = {{"frames", sum.expert_frames}, {"drilling_frames", sum.expert_drilling_frames}};
+    // Stereo runs (issue 28); absent otherwise, so mono outputs are unchanged.
+    if (sum.stereo)
+      js["stereo"] = {{"eyes", {{"both", sum.eyes_both}, {"left", sum.eyes_left}, {"right", sum.eyes_right}}},
+                      {"mannequin_two_views", sum.man_two_views},
+                      {"baseline_mm", st.stereo.baseline_m() * 1e3},
+                      {"capture", sum.stereo_capture}};
+    if (!o.eye.empty()) js["eye"] = o.eye;
     if (auto s = write_atomic(out / "summary.json", js.dump(2) + "\n"); !s) return fail("offline: " + s.error());
     if (auto s = write_atomic(out / "report.html", make_report(o, sum, rows, stills, inputs, extra_html)); !s)
       return fail("offline: " + s.error());

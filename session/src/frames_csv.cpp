@@ -36,35 +36,49 @@ std::string pose_3x4(int state, const Eigen::Isometry3d& T) {
 
 }  // namespace
 
-std::string recording_csv_header() {
-  return "frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,"
-         "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms,disc_start,disc_merged,pose_step\n";
+const char* eyes_name(int eyes) {
+  switch (eyes) {
+    case ar::FrameRecord::kEyesBoth: return "both";
+    case ar::FrameRecord::kEyesLeft: return "left";
+    case ar::FrameRecord::kEyesRight: return "right";
+    default: return "";
+  }
+}
+
+std::string recording_csv_header(bool stereo) {
+  return std::string("frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,"
+                     "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms,disc_start,disc_merged,"
+                     "pose_step") +
+         (stereo ? ",eyes\n" : "\n");
 }
 
 std::string recording_csv_row(const ar::FrameRecord& r, std::int64_t index, double steady_s,
-                              std::int64_t source_index) {
+                              std::int64_t source_index, bool stereo) {
   std::ostringstream s;
   s << std::setprecision(17) << index << ',' << r.time_s << ',' << steady_s << ',' << source_index << ','
     << r.haptic_steps_done << ',' << state_name(r.man_state) << ',' << state_name(r.mir_state) << ','
     << state_name(r.pen_state) << ',' << pose_3x4(r.man_state, r.T_cam_man) << ','
     << pose_3x4(r.mir_state, r.T_cam_mtag) << ',' << (r.pedal ? 1 : 0) << ',' << std::setprecision(6) << r.force_N
     << ',' << (r.overlay ? 1 : 0) << ',' << r.track_ms << ',' << r.mesh_ms << ',' << r.composite_ms << ','
-    << (r.disc_start ? 1 : 0) << ',' << r.disc_merged << ',' << std::setprecision(17) << r.pose_step << '\n';
+    << (r.disc_start ? 1 : 0) << ',' << r.disc_merged << ',' << std::setprecision(17) << r.pose_step;
+  if (stereo) s << ',' << eyes_name(r.eyes);
+  s << '\n';
   return s.str();
 }
 
-std::string offline_csv_header() {
+std::string offline_csv_header(bool stereo) {
   std::string h =
       "frame,time_s,man_state,man_tx_mm,man_ty_mm,man_tz_mm,man_qw,man_qx,man_qy,man_qz,man_rms_px,"
       "man_tags,mirror_state,mirror_tx_mm,mirror_ty_mm,mirror_tz_mm,mirror_qw,mirror_qx,mirror_qy,"
       "mirror_qz,mirror_tags,tags_detected,full_frame,haptic_step,pedal,overlay,mirror_drawn,triangles";
   for (int m = 1; m < volume::kNumMaterials; ++m) h += ",removed_" + std::string(volume::material_info(m).name) + "_mm3";
   h += ",man_err_mm,man_err_deg,tooth_err_px,tip_err_mm,silhouette_iou,mir_err_mm,mir_err_deg,"
-       "read_ms,detect_ms,pose_ms,filter_ms,track_ms,haptics_ms,mesh_ms,composite_ms,write_ms,latency_ms\n";
+       "read_ms,detect_ms,pose_ms,filter_ms,track_ms,haptics_ms,mesh_ms,composite_ms,write_ms,latency_ms";
+  h += stereo ? ",eyes,man_views,mirror_views\n" : "\n";
   return h;
 }
 
-std::string offline_csv_row(const OfflineFrameRow& r) {
+std::string offline_csv_row(const OfflineFrameRow& r, bool stereo) {
   std::ostringstream s;
   s << std::setprecision(9);
   auto num = [&](double x) {
@@ -93,7 +107,9 @@ std::string offline_csv_row(const OfflineFrameRow& r) {
                    r.read_ms, r.detect_ms, r.pose_ms, r.filter_ms, r.track_ms, r.haptics_ms, r.mesh_ms,
                    r.composite_ms, r.write_ms})
     num(x);
-  s << r.latency_ms << '\n';
+  s << r.latency_ms;
+  if (stereo) s << ',' << eyes_name(r.eyes) << ',' << r.man_views << ',' << r.mir_views;
+  s << '\n';
   return s.str();
 }
 

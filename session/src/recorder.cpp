@@ -24,15 +24,16 @@ std::string utc_now() {
 
 }  // namespace
 
-Result<std::unique_ptr<Recorder>> Recorder::open(const fs::path& dir) {
+Result<std::unique_ptr<Recorder>> Recorder::open(const fs::path& dir, bool stereo) {
   std::unique_ptr<Recorder> r(new Recorder);
   r->dir_ = dir;
+  r->stereo_ = stereo;
   std::error_code ec;
   fs::create_directories(dir / "frames", ec);
   if (ec) return Error{dir.string() + ": cannot create the recording folder: " + ec.message()};
   r->csv_.open(dir / "frames.csv");
   if (!r->csv_) return Error{(dir / "frames.csv").string() + ": cannot write"};
-  r->csv_ << recording_csv_header();
+  r->csv_ << recording_csv_header(stereo);
   r->csv_.flush();
   r->log_.open(dir / "live.log");
   r->thread_ = std::thread([p = r.get()] { p->main(); });
@@ -112,7 +113,7 @@ void Recorder::main() {
       ++dropped_;
       continue;
     }
-    csv_ << recording_csv_row(it.rec, it.index, it.steady_s, it.source_index);
+    csv_ << recording_csv_row(it.rec, it.index, it.steady_s, it.source_index, stereo_);
     csv_.flush();
     ++written_;
   }

@@ -50,6 +50,12 @@ Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const
   const int cf = col("frame"), ct = col("time_s"), ch = col("haptic_steps");
   if (cf < 0 || ct < 0 || ch < 0) return Error{name + ": line 1: needs the columns frame, time_s and haptic_steps"};
   const int cs = col("disc_start"), cm = col("disc_merged"), cp = col("pose_step");
+  // A stereo live run (issue 28) keeps the left eye's frames only: its poses came from both
+  // eyes, and a replay from one eye would not be that run.
+  if (col("eyes") >= 0)
+    return Error{name + ": line 1: a stereo run (column eyes): the recording keeps the left eye's frames only, "
+                 "so it cannot be replayed as the live run tracked it (from both eyes); its frames.csv, "
+                 "session.dlog and summary.json are kept as the run's record"};
   if (async && (cs < 0 || cm < 0))
     return Error{name + ": line 1: recording.json says discovery async, which needs the columns "
                  "disc_start and disc_merged (what the live tracker's search did per frame)"};

@@ -136,8 +136,8 @@ void Run::drop_pipeline() {
   meshes_.reset();
 }
 
-Status Run::record_to(const std::string& dir) {
-  auto r = Recorder::open(dir);
+Status Run::record_to(const std::string& dir, bool stereo) {
+  auto r = Recorder::open(dir, stereo);
   if (!r) return Error{r.error()};
   recorder_ = std::move(*r);
   return {};

@@ -91,6 +91,29 @@ TEST(FramesCsv, OfflineRowsAreAsWideAsTheHeader) {
   EXPECT_NE(r2.find(",predicted,"), std::string::npos) << r2;
 }
 
+// Stereo runs (issue 28): three columns appended, the mono layout otherwise unchanged.
+TEST(FramesCsv, StereoRowsAppendTheEyesAfterTheMonoColumns) {
+  const std::string mono = offline_csv_header(), stereo = offline_csv_header(true);
+  ASSERT_EQ(stereo.rfind(mono.substr(0, mono.size() - 1), 0), 0u) << stereo;
+  EXPECT_EQ(stereo.substr(mono.size() - 1), ",eyes,man_views,mirror_views\n");
+  OfflineFrameRow r;
+  r.man_state = 0;
+  r.eyes = ar::FrameRecord::kEyesLeft;
+  r.man_views = 1;
+  const std::string row = offline_csv_row(r, true);
+  EXPECT_EQ(cells(row), cells(stereo));
+  EXPECT_NE(row.find(",left,1,0\n"), std::string::npos) << row;
+  EXPECT_EQ(cells(offline_csv_row(r)), cells(mono));
+  ar::FrameRecord fr;
+  fr.eyes = ar::FrameRecord::kEyesBoth;
+  const std::string live = recording_csv_row(fr, 0, 1.0, 0, true);
+  EXPECT_EQ(cells(live), cells(recording_csv_header(true)));
+  EXPECT_NE(live.find(",both\n"), std::string::npos) << live;
+  EXPECT_EQ(recording_csv_header(true), recording_csv_header().substr(0, recording_csv_header().size() - 1) + ",eyes\n");
+  EXPECT_STREQ(eyes_name(ar::FrameRecord::kEyesRight), "right");
+  EXPECT_STREQ(eyes_name(ar::FrameRecord::kEyesMono), "");
+}
+
 std::string temp_file(const std::string& name, const std::string& text) {
   const auto dir = dentar::test::temp_dir("frames_csv_" + name);
   std::filesystem::create_directories(dir);

@@ -110,3 +110,12 @@ TEST(RecordingTable, PoseStepIsOptionalAndBounded) {
 
 }  // namespace
 }  // namespace dentar::session
+
+// A stereo live run's table (issue 28: column eyes) keeps the left eye's frames only: refused,
+// naming why, rather than replayed from one eye as if it were the run.
+TEST(RecordingTable, AStereoRunIsNotReplayedFromOneEye) {
+  std::istringstream in("frame,time_s,steady_s,source_index,haptic_steps,eyes\n0,0,1,0,1,both\n");
+  auto r = dentar::session::parse_recording_table(in, false, "rec/frames.csv");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("rec/frames.csv: line 1: a stereo run (column eyes)"), std::string::npos) << r.error();
+}

@@ -137,14 +137,53 @@ Result<std::unique_ptr<FramePipeline>> FramePipeline::create(const StationScene&
   if (!tracker) return Error{"tracker: " + tracker.error()};
   auto comp = Compositor::create(station, options.compositor);
   if (!comp) return Error{"compositor: " + comp.error()};
-  return std::unique_ptr<FramePipeline>(
+  std::unique_ptr<StereoTracker> stereo;
+  if (options.stereo) {
+    auto st = StereoTracker::create(station, options.tracker);
+    if (!st) return Error{"stereo tracker: " + st.error()};
+    stereo = std::make_unique<StereoTracker>(std::move(*st));
+  }
+  auto p = std::unique_ptr<FramePipeline>(
       new FramePipeline(station, options, std::move(*tracker), std::move(*comp)));
+  p->stereo_ = std::move(stereo);
+  return p;
+}
+
+// Both eyes (or the one that had an image) through the StereoTracker; poses in the rig frame.
+Status FramePipeline::track_stereo(const FrameInput& in, FrameRecord& r) {
+  static const cv::Mat kNone;
+  const cv::Mat& left = in.image != nullptr ? *in.image : kNone;
+  const cv::Mat& right = in.right_image != nullptr ? *in.right_image : kNone;
+  auto tf = stereo_->track(left, right, in.capture_time_s, in.capture_time_s + options_.predict_s);
+  if (!tf) return Error{"tracking frame " + std::to_string(in.index) + ": " + tf.error()};
+  r.eyes = (left.empty() ? 0 : FrameRecord::kEyesLeft) | (right.empty() ? 0 : FrameRecord::kEyesRight);
+  last_tags_ = left.empty() ? tf->right.tags : tf->left.tags;
+  r.detect_ms = tf->left.timing.detect_ms + tf->right.timing.detect_ms;
+  r.pose_ms = tf->pose_ms;
+  r.filter_ms = 0;
+  r.man_state = state_index(tf->mannequin.track.state);
+  r.mir_state = state_index(tf->mirror.track.state);
+  r.pen_state = state_index(tf->pen.track.state);
+  r.T_cam_man = tf->mannequin.track.T_cam_body;
+  r.T_cam_mtag = tf->mirror.track.T_cam_body;
+  r.T_cam_ptag = tf->pen.track.T_cam_body;
+  r.man_rms_px = tf->mannequin.track.measured ? tf->mannequin.track.rms_px : std::numeric_limits<double>::quiet_NaN();
+  r.man_tags = tf->mannequin.track.tags_used;
+  r.mir_tags = tf->mirror.track.tags_used;
+  r.pen_tags = tf->pen.track.tags_used;
+  r.man_views = tf->mannequin.views_used;
+  r.mir_views = tf->mirror.views_used;
+  r.tags_detected = tf->left.tags_detected + tf->right.tags_detected;
+  r.full_frame = tf->left.full_frame || tf->right.full_frame;
+  return {};
 }
 
 Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, CompositeResult& out,
                               FrameRecord& r) {
-  if (in.image == nullptr || in.image->empty())
-    return Error{"frame " + std::to_string(in.index) + ": no image"};
+  const bool has_left = in.image != nullptr && !in.image->empty();
+  const bool has_right = stereo_ && in.right_image != nullptr && !in.right_image->empty();
+  if (!has_left && !has_right)
+    return Error{"frame " + std::to_string(in.index) + (stereo_ ? ": no image from either eye" : ": no image")};
   r = FrameRecord{};
   r.frame = in.index;
   r.time_s = in.capture_time_s;
@@ -168,29 +207,34 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
 
   // Tracking.
   t0 = Clock::now();
-  auto tf = tracker_.track(*in.image, in.capture_time_s, in.capture_time_s + options_.predict_s,
-                           in.discovery, in.index);
-  if (!tf) return Error{"tracking frame " + std::to_string(in.index) + ": " + tf.error()};
-  last_tags_ = tf->tags;
-  r.track_ms = ms_since(t0);
-  r.detect_ms = tf->timing.detect_ms;
-  r.pose_ms = tf->timing.pose_ms;
-  r.filter_ms = tf->timing.filter_ms;
-  r.man_state = state_index(tf->mannequin.state);
-  r.mir_state = state_index(tf->mirror.state);
-  r.pen_state = state_index(tf->pen.state);
-  r.T_cam_man = tf->mannequin.T_cam_body;
-  r.T_cam_mtag = tf->mirror.T_cam_body;
-  r.T_cam_ptag = tf->pen.T_cam_body;
-  r.man_rms_px = tf->mannequin.measured ? tf->mannequin.rms_px : std::numeric_limits<double>::quiet_NaN();
-  r.man_tags = tf->mannequin.tags_used;
-  r.mir_tags = tf->mirror.tags_used;
-  r.pen_tags = tf->pen.tags_used;
-  r.tags_detected = tf->tags_detected;
-  r.full_frame = tf->full_frame;
-  r.disc_start = tf->discovery_started;
-  r.disc_merged = tf->discovery_merged;
-  r.disc_ms = tf->discovery_ms;
+  if (stereo_) {
+    if (Status s = track_stereo(in, r); !s) return s;
+    r.track_ms = ms_since(t0);
+  } else {
+    auto tf = tracker_.track(*in.image, in.capture_time_s, in.capture_time_s + options_.predict_s,
+                             in.discovery, in.index);
+    if (!tf) return Error{"tracking frame " + std::to_string(in.index) + ": " + tf.error()};
+    last_tags_ = tf->tags;
+    r.track_ms = ms_since(t0);
+    r.detect_ms = tf->timing.detect_ms;
+    r.pose_ms = tf->timing.pose_ms;
+    r.filter_ms = tf->timing.filter_ms;
+    r.man_state = state_index(tf->mannequin.state);
+    r.mir_state = state_index(tf->mirror.state);
+    r.pen_state = state_index(tf->pen.state);
+    r.T_cam_man = tf->mannequin.T_cam_body;
+    r.T_cam_mtag = tf->mirror.T_cam_body;
+    r.T_cam_ptag = tf->pen.T_cam_body;
+    r.man_rms_px = tf->mannequin.measured ? tf->mannequin.rms_px : std::numeric_limits<double>::quiet_NaN();
+    r.man_tags = tf->mannequin.tags_used;
+    r.mir_tags = tf->mirror.tags_used;
+    r.pen_tags = tf->pen.tags_used;
+    r.tags_detected = tf->tags_detected;
+    r.full_frame = tf->full_frame;
+    r.disc_start = tf->discovery_started;
+    r.disc_merged = tf->discovery_merged;
+    r.disc_ms = tf->discovery_ms;
+  }
 
   // Registration and compositing.
   t0 = Clock::now();
@@ -200,6 +244,22 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   ci.T_cam_man = r.T_cam_man;
   ci.mirror_valid = r.mir_state != 2;
   ci.T_cam_mtag = r.T_cam_mtag;
+  Compositor* compositor = &compositor_;
+  if (!has_left) {
+    // Stereo with the left eye lost: the right eye's image, the poses seen from the right eye.
+    if (!right_compositor_) {
+      StationScene sr = station_;
+      sr.calibration.camera = station_.stereo.camera_right;
+      auto c = Compositor::create(sr, compositor_.options());
+      if (!c) return Error{"compositing frame " + std::to_string(in.index) + " (right eye): " + c.error()};
+      right_compositor_ = std::make_unique<Compositor>(std::move(*c));
+    }
+    compositor = right_compositor_.get();
+    const Eigen::Isometry3d T_camr_rig = station_.stereo.T_caml_camr.inverse();
+    ci.video_bgr = in.right_image;
+    ci.T_cam_man = T_camr_rig * r.T_cam_man;
+    ci.T_cam_mtag = T_camr_rig * r.T_cam_mtag;
+  }
   ci.stylus_valid = in.haptic != nullptr && in.stylus_valid;
   ci.T_dev_sty = r.T_dev_sty;
   const ExpertStyle& ex = options_.expert;
@@ -213,8 +273,8 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
     if (hint) ci.tooth_tint = ex.tooth_drilling_tint;
     r.expert_drilling_shown = hint && ci.man_valid;
   }
-  if (auto cs = in.gl_target.video_texture != 0 ? compositor_.compose_gl(meshes.display(), ci, in.gl_target, out)
-                                  : compositor_.compose(meshes.display(), ci, out);
+  if (auto cs = in.gl_target.video_texture != 0 ? compositor->compose_gl(meshes.display(), ci, in.gl_target, out)
+                                  : compositor->compose(meshes.display(), ci, out);
       !cs)
     return Error{"compositing frame " + std::to_string(in.index) + ": " + cs.error()};
   r.composite_ms = ms_since(t0);
@@ -245,6 +305,7 @@ Status FramePipeline::warm_up(ToothMeshes& meshes, const GlFrameTarget& gl_targe
       return Error{"warm-up (GPU path): " + s.error()};
   if (auto s = compositor_.set_options(compositor_.options()); !s) return Error{"warm-up: " + s.error()};
   tracker_.reset();
+  if (stereo_) stereo_->reset();
   return {};
 }
 

@@ -53,6 +53,8 @@ struct StereoTracker::Impl {
   cv::Mat gray;
   ImageMotion motion;
   bool motion_set = false;
+  bool motion_frame = false;                        // this frame's left image is in `motion`
+  bool left_missing = false, right_missing = false;  // the eye had no image last frame
 
   double noise_px2(const RigBody& b, const BundlePose& p) const {
     if (!o.pool_noise || &b == &mannequin || !noise_ref) return p.noise_px2;
@@ -74,7 +76,7 @@ struct StereoTracker::Impl {
   // The mono tracker's image-motion check on the left eye's image
   // (TrackerOptions::max_prediction_turn_rad).
   bool prediction_matches_image(const RigBody& b, double capture_s) {
-    if (o.max_prediction_turn_rad <= 0 || b.thumb_at_meas.empty()) return true;
+    if (o.max_prediction_turn_rad <= 0 || !motion_frame || b.thumb_at_meas.empty()) return true;
     const ImageMotion::Shift sh = motion.shift_since(b.thumb_at_meas);
     if (!sh.valid || sh.response < o.min_motion_response) return false;
     Eigen::Vector2d expect = Eigen::Vector2d::Zero();
@@ -117,7 +119,10 @@ struct StereoTracker::Impl {
     }
     if (measured) {
       track_rules::accept_measurement(b, out.track.T_cam_body_measured, capture_s);
-      if (o.max_prediction_turn_rad > 0) motion.keep(b.thumb_at_meas);
+      if (motion_frame)
+        motion.keep(b.thumb_at_meas);
+      else
+        b.thumb_at_meas.release();  // measured without the left image: nothing to compare later
     } else {
       track_rules::predict_or_lose(b, o, capture_s, [&] { return prediction_matches_image(b, capture_s); });
     }
@@ -184,6 +189,7 @@ Result<StereoTracker> StereoTracker::create(const StationScene& station, const T
 void StereoTracker::reset() {
   impl_->left->reset();
   impl_->right->reset();
+  impl_->left_missing = impl_->right_missing = false;
   for (RigBody* b : {&impl_->mannequin, &impl_->mirror, &impl_->pen}) {
     b->filter.reset();
     b->has_measurement = false;
@@ -199,22 +205,36 @@ Result<StereoTrackFrame> StereoTracker::track(const cv::Mat& left, const cv::Mat
                                               double display_time_s) {
   Impl& m = *impl_;
   const auto t0 = Clock::now();
-  if (left.empty() || right.empty())
-    return Error{std::string("StereoTracker::track: the ") + (left.empty() ? "left" : "right") + " eye's image is empty"};
-  if (left.size() != right.size())
+  if (left.empty() && right.empty())
+    return Error{"StereoTracker::track: both eyes' images are empty (give at least one eye)"};
+  if (!left.empty() && !right.empty() && left.size() != right.size())
     return Error{"StereoTracker::track: the eyes' images differ in size (left " + std::to_string(left.cols) + "x" +
                  std::to_string(left.rows) + ", right " + std::to_string(right.cols) + "x" +
                  std::to_string(right.rows) + " px): a stereo pair must be two images of one size"};
   StereoTrackFrame f;
-  auto fl = m.left->track(left, capture_time_s, display_time_s);
-  if (!fl) return Error{"left eye: " + fl.error()};
-  auto fr = m.right->track(right, capture_time_s, display_time_s);
-  if (!fr) return Error{"right eye: " + fr.error()};
-  f.left = std::move(fl).value();
-  f.right = std::move(fr).value();
+  // An eye without an image this frame (lost: unplugged, stalled): its tracker is not run and
+  // the joint fit has the other eye's corners only (the single-view path). An eye that comes
+  // back starts afresh (its own regions predate the loss).
+  if (!left.empty()) {
+    if (m.left_missing) m.left->reset();
+    auto fl = m.left->track(left, capture_time_s, display_time_s);
+    if (!fl) return Error{"left eye: " + fl.error()};
+    f.left = std::move(fl).value();
+  }
+  if (!right.empty()) {
+    if (m.right_missing) m.right->reset();
+    auto fr = m.right->track(right, capture_time_s, display_time_s);
+    if (!fr) return Error{"right eye: " + fr.error()};
+    f.right = std::move(fr).value();
+  }
+  m.left_missing = left.empty();
+  m.right_missing = right.empty();
   display_time_s = std::max(display_time_s, capture_time_s);
   const auto t1 = Clock::now();
-  if (m.o.max_prediction_turn_rad > 0) {
+  // The image-motion check compares the left eye's images: without one this frame, the
+  // prediction is not checked against the image (the stale limit still applies).
+  m.motion_frame = !left.empty() && m.o.max_prediction_turn_rad > 0;
+  if (m.motion_frame) {
     if (left.type() == CV_8UC3)
       cv::cvtColor(left, m.gray, cv::COLOR_BGR2GRAY);
     else

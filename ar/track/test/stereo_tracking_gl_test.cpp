@@ -201,18 +201,25 @@ TEST(StereoTracking, OneBlindEyeFallsBackToTheSingleView) {
   auto st = StereoTracker::create(fo.station);
   ASSERT_TRUE(st.ok()) << st.error();
   const cv::Mat grey(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
-  for (int i = 0; i < 8; ++i) {
+  // Frames 8-9 the right eye is lost (no image: StereoSource's left-only frames), frame 11 the
+  // left; from frame 12 both are back and the fit uses both eyes again.
+  for (int i = 0; i < 14; ++i) {
     const StereoSynthFrame& s = fo.frames[static_cast<std::size_t>(i)];
     const double t = s.left.truth.time_s;
     const bool blind_right = i == 3 || i == 4, blind_left = i == 6;
-    auto f = st->track(blind_left ? grey : s.left.image, blind_right ? grey : s.right.image, t, t);
+    const bool lost_right = i == 8 || i == 9, lost_left = i == 11;
+    const cv::Mat left = lost_left ? cv::Mat() : blind_left ? grey : s.left.image;
+    const cv::Mat right = lost_right ? cv::Mat() : blind_right ? grey : s.right.image;
+    auto f = st->track(left, right, t, t);
     ASSERT_TRUE(f.ok()) << f.error();
     SCOPED_TRACE("frame " + std::to_string(i));
     ASSERT_TRUE(f->mannequin.track.measured);
-    EXPECT_EQ(f->mannequin.views_used, blind_left || blind_right ? 1 : 2);
+    const bool one = blind_left || blind_right || lost_left || lost_right;
+    EXPECT_EQ(f->mannequin.views_used, one ? 1 : 2);
+    EXPECT_EQ(f->mannequin.track.state, TrackState::kTracking);
     EXPECT_LT(trans_mm(f->mannequin.track.T_cam_body_measured, s.left.truth.T_cam_man), 1.0);
-    if (blind_left) EXPECT_TRUE(f->left.tags.empty());
-    if (blind_right) EXPECT_TRUE(f->right.tags.empty());
+    if (blind_left || lost_left) EXPECT_TRUE(f->left.tags.empty());
+    if (blind_right || lost_right) EXPECT_TRUE(f->right.tags.empty());
   }
 }
 
@@ -228,9 +235,9 @@ TEST(StereoTracking, BadInputIsNamed) {
   auto f = t->track(a, b, 0, 0);
   ASSERT_FALSE(f.ok());
   EXPECT_NE(f.error().find("differ in size (left 640x480, right 320x240"), std::string::npos) << f.error();
-  f = t->track(a, cv::Mat(), 0, 0);
+  f = t->track(cv::Mat(), cv::Mat(), 0, 0);
   ASSERT_FALSE(f.ok());
-  EXPECT_NE(f.error().find("right eye's image is empty"), std::string::npos) << f.error();
+  EXPECT_NE(f.error().find("both eyes' images are empty"), std::string::npos) << f.error();
   // A side-by-side frame of odd width cannot be split into two eyes.
   cv::Mat l, r;
   const Status s = split_side_by_side(cv::Mat(480, 1279, CV_8UC3, cv::Scalar(0)), l, r, "video.mkv");

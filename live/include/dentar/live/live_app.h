@@ -39,6 +39,15 @@ struct LiveOptions {
   std::string camera = "camera:0";  // FrameSource spec (camera:N, /dev/videoN, live:PATH)
   int width = 0, height = 0;        // camera mode request (0 = driver default)
   double fps = 0;
+  // Stereo (issue 28): the station's rig ("stereo") tracks from both eyes (StereoTracker), the
+  // window shows the left eye. camera_right: the right eye's camera (two cameras; `camera` is
+  // the left), one size and rate as the left; side_by_side: `camera` delivers both eyes in one
+  // frame (left | right). A right eye silent for 0.1 s leaves the left eye alone (the single-view
+  // path) until it delivers again; a lost left eye is the camera stall of one camera.
+  std::string camera_right;
+  bool side_by_side = false;
+  std::int64_t stall_right_after_frames = 0;  // test hook: the right eye delivers nothing for
+  double stall_right_s = 0;                   // stall_right_s after this many frames
   std::string station;       // station file, or a built-in station ("default", "box"); empty = "default"
   bool scale_calib = false;  // accept a camera of another size (intrinsics scaled)
   // Stylus: "sim" (the simulated hand drilling the access script), "pen"
@@ -135,6 +144,10 @@ struct LiveOptions {
 
 struct LiveSummary {
   std::int64_t frames_captured = 0, frames_processed = 0, frames_displayed = 0;
+  // Stereo (issue 28): frames processed from both eyes, and from the left eye alone (the
+  // right one lost); the summary JSON's "stereo" (absent for one camera).
+  bool stereo = false;
+  std::int64_t stereo_both = 0, stereo_left_only = 0, right_eye_dropped = 0, right_eye_reopens = 0;
   std::int64_t dropped_source = 0, dropped_consumer = 0, camera_reopens = 0;
   double wall_s = 0, displayed_fps = 0;
   // Why the run ended: "window closed", "SIGINT", "SIGTERM", "time limit",

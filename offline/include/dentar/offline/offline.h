@@ -48,6 +48,20 @@ struct OfflineOptions {
   // session log and ground truth.
   std::string footage;
   std::string station;  // station JSON; required with footage
+  // Stereo footage (issue 28) of the station's rig ("stereo" in the station file):
+  //  - stereo: track from both eyes (ar::StereoTracker through FramePipeline); `footage` is
+  //    side by side (left | right, `dentar synth --stereo`), or the left eye when
+  //    footage_right names the right eye's file (two recordings paired by frame time). An eye
+  //    whose recording ends first leaves the other's frames alone (the single-view path),
+  //    logged in frames.csv's `eyes` column. Poses and errors are in the rig frame (the left
+  //    eye's truth.jsonl), the composite is the left eye's (the right eye's while the left
+  //    is missing).
+  //  - eye "left" or "right" (stereo false): one eye of side-by-side footage through the mono
+  //    path, against that eye's truth (truth.jsonl / truth_right.jsonl, masks / masks_right):
+  //    the mono anchor on the same frames.
+  bool stereo = false;
+  std::string footage_right;
+  std::string eye;
   std::string session;  // session log (.dlog); empty = no drilling (uncut tooth, no bur)
   // Ground truth (truth.jsonl, generator format) and masks folder; empty =
   // looked for beside the footage ("auto"); "none" = ignore.
@@ -127,7 +141,18 @@ struct OfflineSummary {
   std::vector<std::string> warnings;
   std::string out_dir;
   std::string session, station;  // the session log replayed (empty: none) and the station file, as resolved
+  // Stereo runs (OfflineOptions::stereo): frames by the eyes that had an image, frames whose
+  // mannequin fit used both eyes, and the source's pairing line (StereoCaptureStats::summary).
+  bool stereo = false;
+  int eyes_both = 0, eyes_left = 0, eyes_right = 0, man_two_views = 0;
+  std::string stereo_capture;
 };
+
+// The stereo inputs of `options` (stereo, footage_right, eye) against the station and the
+// footage, before any work: the station has a rig, side-by-side frames have an even width and
+// hold two eyes of the station camera's size, two recordings have one size and rate. Empty
+// when fine (or not stereo), else the message (bad input: `dentar offline` exits 2).
+std::string check_stereo_inputs(const OfflineOptions& options);
 
 // Runs the whole job. `progress(phase, done, total)` (may be empty; phase
 // "footage" while the built-in footage is generated, then "pipeline"; total =

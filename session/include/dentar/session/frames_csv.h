@@ -35,11 +35,13 @@ const char* state_name(int s);
 Result<TrackState> parse_state(const std::string& name);
 
 // ---- the live recording's layout ----
-std::string recording_csv_header();  // with its newline
+// stereo (issue 28): one more column at the end, eyes (both, left, right); without it the
+// layout is the mono one, byte for byte.
+std::string recording_csv_header(bool stereo = false);  // with its newline
 // One row: `index` the recording's frame number, `steady_s` the capture
 // clock, `source_index` the camera's frame number.
 std::string recording_csv_row(const ar::FrameRecord& r, std::int64_t index, double steady_s,
-                              std::int64_t source_index);
+                              std::int64_t source_index, bool stereo = false);
 
 // ---- the offline run's layout ----
 struct OfflineFrameRow {
@@ -61,9 +63,16 @@ struct OfflineFrameRow {
   double read_ms = 0, detect_ms = 0, pose_ms = 0, filter_ms = 0, track_ms = 0, haptics_ms = 0, mesh_ms = 0,
          composite_ms = 0, write_ms = 0, latency_ms = 0;
   std::size_t triangles = 0;
+  // Stereo runs (issue 28): the eyes that had an image (ar::FrameRecord::eyes) and the eyes in
+  // the mannequin's and the mirror's fits. Written only when the run is stereo.
+  int eyes = 0, man_views = 0, mir_views = 0;
 };
-std::string offline_csv_header();  // with its newline
-std::string offline_csv_row(const OfflineFrameRow& r);
+// stereo: three more columns at the end, eyes (both, left, right: the single-view path),
+// man_views, mirror_views; without it the layout is the mono one, byte for byte.
+std::string offline_csv_header(bool stereo = false);  // with its newline
+std::string offline_csv_row(const OfflineFrameRow& r, bool stereo = false);
+// "both", "left", "right" (ar::FrameRecord::eyes), "" for mono (0).
+const char* eyes_name(int eyes);
 
 // ---- reading either layout back (mirror use, training/mirror_use.h) ----
 // The camera frames of a frames.csv of `dentar offline` (man_tx_mm.., man_qw..; haptic_step)

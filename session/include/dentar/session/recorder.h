@@ -41,7 +41,8 @@ class Recorder {
   // Queue depth from which frames without JPEG bytes are written as PPM.
   static constexpr std::size_t kFastFromQueued = 8;
 
-  static Result<std::unique_ptr<Recorder>> open(const std::filesystem::path& dir);
+  // stereo (issue 28): frames.csv gets the eyes column (frames_csv.h); frames/ keeps the left eye.
+  static Result<std::unique_ptr<Recorder>> open(const std::filesystem::path& dir, bool stereo = false);
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
@@ -74,6 +75,7 @@ class Recorder {
   bool write_frame(const Item& it, std::size_t behind);
 
   std::filesystem::path dir_;
+  bool stereo_ = false;
   std::ofstream csv_, log_;
   std::mutex m_;
   std::condition_variable cv_;

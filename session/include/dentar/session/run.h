@@ -92,7 +92,7 @@ class Run {
   // The pipeline and the meshes released (on the frame thread, before its GL context goes).
   void drop_pipeline();
   // Opens the recorder of a `dentar live --record` folder.
-  Status record_to(const std::string& dir);
+  Status record_to(const std::string& dir, bool stereo = false);  // stereo: Recorder::open's
 
   volume::VoxelVolume& volume() { return *volume_; }
   bool has_engine() const { return engine_ != nullptr; }

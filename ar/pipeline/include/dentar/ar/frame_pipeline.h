@@ -30,6 +30,7 @@
 
 #include "dentar/ar/compositor.h"
 #include "dentar/ar/station_scene.h"
+#include "dentar/ar/stereo_tracker.h"
 #include "dentar/ar/tracker.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/volume/result.h"
@@ -59,6 +60,10 @@ struct PipelineOptions {
   // Poses are predicted to capture time + this (video see-through shows the
   // captured frame itself, so 0 is right unless the display adds delay), s.
   double predict_s = 0.0;
+  // Issue 28: track from both eyes of the station's stereo rig (StereoTracker; the station
+  // must carry "stereo"). Frames then give FrameInput::right_image; poses are in the rig
+  // frame (= the left eye's) and the composite is the left eye's image.
+  bool stereo = false;
   std::string validate() const;  // empty, or names the field
 };
 
@@ -106,6 +111,11 @@ class ToothMeshes {
 
 struct FrameInput {
   const cv::Mat* image = nullptr;  // CV_8UC3 BGR, the station camera's size, as captured
+  // Stereo (PipelineOptions::stereo): `image` is the left eye, this the right eye (the rig's
+  // camera_right size). An eye lost this frame is null or empty (StereoSource's single-eye
+  // frames): the bodies are fitted to the other eye alone, and with the left eye lost the
+  // composite is drawn on the right eye's image (FrameRecord::eyes). Ignored without stereo.
+  const cv::Mat* right_image = nullptr;
   std::int64_t index = 0;
   double capture_time_s = 0;  // monotonic, s
   // The latest haptic state (null: no engine, no bur). The bur is drawn when
@@ -161,6 +171,13 @@ struct FrameRecord {
   // and pixels blended on the CPU; both 0 when gpu_composite.
   bool gpu_composite = false;
   std::int64_t readback_px = 0, cpu_blend_px = 0;
+  // Stereo (issue 28): the eyes that had an image (kEyesBoth, or one eye: the single-view
+  // path), and the eyes whose corners entered the mannequin's and the mirror's fits.
+  // kEyesMono (0) for one camera. Poses above are in the rig frame; with only the right eye
+  // the composite is that eye's image.
+  static constexpr int kEyesMono = 0, kEyesLeft = 1, kEyesRight = 2, kEyesBoth = 3;
+  int eyes = kEyesMono;
+  int man_views = 0, mir_views = 0;
 };
 
 class FramePipeline {
@@ -179,6 +196,7 @@ class FramePipeline {
   Status warm_up(ToothMeshes& meshes, const GlFrameTarget& gl_target = {});
 
   Tracker& tracker() { return tracker_; }
+  bool stereo() const { return stereo_ != nullptr; }
   Compositor& compositor() { return compositor_; }
   const StationScene& station() const { return station_; }
   const PipelineOptions& options() const { return options_; }
@@ -194,6 +212,11 @@ class FramePipeline {
   Tracker tracker_;
   Compositor compositor_;
   std::vector<DetectedTag> last_tags_;
+  // Stereo (PipelineOptions::stereo): the joint tracker, and a compositor for the right eye
+  // (made when the left eye is first lost).
+  std::unique_ptr<StereoTracker> stereo_;
+  std::unique_ptr<Compositor> right_compositor_;
+  Status track_stereo(const FrameInput& in, FrameRecord& r);
 };
 
 // Column-major 4x4 (HapticSnapshot) to an isometry.

@@ -55,8 +55,11 @@ class StereoTracker {
   ~StereoTracker();
 
   // One stereo pair captured together at capture_time_s (s), predicted to
-  // display_time_s. Errors: an eye's image empty, of the wrong size or type
-  // (the message names the eye).
+  // display_time_s. An empty image is an eye lost this frame (StereoSource's
+  // single-eye frames): each body is fitted to the other eye's corners alone
+  // (the single-view path, poses still in `rig`); the eye's tracker starts
+  // afresh when its images come back. Errors: both images empty, an eye's
+  // image of the wrong size or type (the message names the eye).
   Result<StereoTrackFrame> track(const cv::Mat& left, const cv::Mat& right, double capture_time_s,
                                  double display_time_s);
   void reset();
