@@ -27,6 +27,8 @@ struct GLFWwindow;
 
 namespace dentar::live {
 
+class DisplayOutput;
+
 class HudWindow {
  public:
   // video_w x video_h: the texture size (the camera's); win_w/win_h 0 = the video's; display
@@ -62,7 +64,14 @@ class HudWindow {
   // EGLDisplay / EGLContext of the window (null unless gles_egl()).
   void* egl_display() const;
   void* egl_context() const;
-  // Starts a frame: clear, ImGui frame, the video in the background. ImGui calls follow.
+  // Where the frame is drawn (eye_output.h): the mono window (the default,
+  // made by open()) or a headset's side-by-side view. The output is made in
+  // this window's context (gles_egl()).
+  void set_output(std::unique_ptr<DisplayOutput> out);
+  DisplayOutput& output() { return *output_; }
+  // The loupe's centre per eye for the frames from now on (camera px, OpenCV).
+  void set_loupe_centre(const double left[2], const double right[2]);
+  // Starts a frame: clear, ImGui frame, the video in the background (drawn by the output). ImGui calls follow.
   void begin_frame();
   // Renders the HUD and swaps; with `capture`, returns the window's pixels (BGR) first.
   cv::Mat end_frame(bool capture = false);
@@ -71,10 +80,11 @@ class HudWindow {
   HudWindow() = default;
   static void on_key(GLFWwindow* w, int key, int scancode, int action, int mods);
   GLFWwindow* win_ = nullptr;
-  unsigned tex_ = 0, fbo_ = 0;  // the video texture (BGRA; RGBA with GLES) and a read framebuffer on it
-  unsigned frame_video_ = 0;           // set_frame's video texture; shown when != 0
-  unsigned frame_fbo_[2] = {0, 0};      // read framebuffers on set_frame's video and overlay
+  unsigned tex_ = 0;  // the video texture (BGRA; RGBA with GLES)
+  unsigned frame_video_ = 0, frame_overlay_ = 0;  // set_frame's textures; shown when frame_video_ != 0
   int frame_region_[4] = {0, 0, 0, 0};
+  double loupe_c_[2][2] = {{0, 0}, {0, 0}};
+  std::unique_ptr<DisplayOutput> output_;
   bool gles_ = false;
   std::string note_;
   int tex_w_ = 0, tex_h_ = 0;
