@@ -1,5 +1,6 @@
 // dentar live: the student's trainer with a camera, a window and the 1 kHz
 // engine (live/live_app.h). A thin driver over the shared FramePipeline.
+#include <cctype>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -29,6 +30,7 @@ void add_live(CLI::App& app, int& exit_code) {
     bool mirror_rim = false;
     bool no_score = false;
     std::string headset;  // --headset FILE
+    std::vector<std::string> keys;  // --inject-key FRAME:KEY
     DbCli db;  // --db: store the finished session (needs --record)
     SoundCli sound;  // the drill's sound (issue 29)
   };
@@ -113,6 +115,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_flag("--no-mirror", c->no_mirror, "no reflection in the mouth mirror");
   sub->add_option("--summary", c->o.summary_path, "also write the run's summary JSON here");
   sub->add_option("--screenshot", c->shots, "test hook: FRAME:FILE.png saves the window when frame FRAME shows");
+  sub->add_option("--inject-key", c->keys, "test hook: FRAME:KEY presses KEY (a letter) when frame FRAME (or the first after it) shows");
   sub->add_option("--inject-stall", c->stall, "test hook: AFTER_FRAMES:SECONDS, the camera goes quiet");
   sub->add_flag("--list-cameras", c->list, "list the V4L2 cameras and their modes, then exit");
   sub->add_flag("--quiet", c->o.quiet, "no progress lines");
@@ -191,6 +194,18 @@ void add_live(CLI::App& app, int& exit_code) {
         o.screenshots.emplace_back(std::stoll(s.substr(0, k)), s.substr(k + 1));
       } catch (const std::exception&) {
         print_error("live", "--screenshot " + s + ": must be FRAME:FILE.png");
+        exit_code = 2;
+        return;
+      }
+    }
+    for (const auto& s : c->keys) {
+      const auto k = s.find(':');
+      try {
+        if (k == std::string::npos || s.size() != k + 2 || !std::isalpha(static_cast<unsigned char>(s[k + 1])))
+          throw std::invalid_argument("bad");
+        o.inject_keys.emplace_back(std::stoll(s.substr(0, k)), std::toupper(static_cast<unsigned char>(s[k + 1])));
+      } catch (const std::exception&) {
+        print_error("live", "--inject-key " + s + ": must be FRAME:KEY (a letter)");
         exit_code = 2;
         return;
       }

@@ -173,6 +173,10 @@ class DisplayLoop {
     }
     HudWindow& hw = c_.hw;
     hw.poll();
+    // Test hook: scripted key presses at the first frame shown at or after their frame.
+    for (auto it = keys_.begin(); fresh && it != keys_.end();)
+      if (it->first <= cur_.index) hw.inject_key(it->second), it = keys_.erase(it);
+      else ++it;
     const std::vector<int> keys = hw.take_presses();
     for (const int key : keys)
       if (key == GLFW_KEY_ESCAPE) hw.request_close();
@@ -348,6 +352,7 @@ class DisplayLoop {
   DisplayFigures fig_;
   Shown cur_;
   std::vector<std::pair<std::int64_t, std::string>> shots_ = c_.o.screenshots;
+  std::vector<std::pair<std::int64_t, int>> keys_ = c_.o.inject_keys;
   std::int64_t last_index_ = -1;
   double stall_seen_at_ = -1;
   double prev_check_age_s_ = 0;  // the camera's silence at the previous window check, s

@@ -126,6 +126,7 @@ struct LiveOptions {
   ar::PipelineOptions pipeline;
   // Test hooks.
   std::vector<std::pair<std::int64_t, std::string>> screenshots;  // (frame, PNG path) of the window
+  std::vector<std::pair<std::int64_t, int>> inject_keys;  // (frame, GLFW key): pressed when a frame >= it shows
   std::int64_t stall_after_frames = 0;  // the camera delivers nothing for stall_s after this many frames
   double stall_s = 0;
   std::string summary_path;  // also write the summary JSON here
