@@ -21,51 +21,43 @@ void main() {
 }
 )";
 
-// Uniforms as EyeMapping's fields (panel px with a top-left origin; camera px
-// with OpenCV's centre convention, +0.5 to GL's texel space).
+// EyeMapping::map with its affine parts folded on the CPU (EyePass::draw): the
+// lens coordinates d from the fragment's position, one multiply-add from d to
+// texture coordinates (the plain view or the full-view loupe), another inside the
+// loupe's inset; no divisions and no branches: llvmpipe runs both sides of a
+// branch under a mask, so the pre-warp's three fetches and the inset are
+// compiled in or out (WARP, INSET: four programs) rather than switched by
+// uniforms (docs/BENCHMARKS.md, "Issue 28 (session 15)").
 const char* kFrag = R"(
 uniform sampler2D u_tex;
-uniform vec3 u_fb;        // framebuffer height, panel offset x / y in the framebuffer (top-left), then scale below
-uniform float u_scale;    // framebuffer px per panel px
-uniform vec4 u_vp;        // viewport x, y, w, h (panel px, top-left origin)
-uniform vec2 u_lens;      // lens centre, viewport px
-uniform float u_norm;     // px per lens unit
+uniform vec4 u_d;         // d = gl_FragCoord.xy * u_d.xy + u_d.zw (lens units)
 uniform vec2 u_k;         // k1, k2
 uniform vec3 u_chroma;    // radial scale per channel (R, G, B)
-uniform int u_warp;       // 0: one fetch for the three channels
-uniform vec2 u_feye, u_fcam, u_ccam, u_cam;
-uniform float u_shift;
-uniform vec4 u_loupe;     // magnification (0 = off), inset (0/1), centre u, v (camera px)
-uniform vec4 u_inset;     // centre x, y, half width, half height (viewport px)
+uniform vec4 u_view;      // texture coordinates = d' * u_view.xy + u_view.zw (d' = the pre-warped d)
+uniform vec4 u_inset;     // inset centre and half size in lens units
+uniform vec4 u_iview;     // inside the inset: (d' - centre) * u_iview.xy + u_iview.zw
 out vec4 o_color;
 
-vec2 eye_to_cam(vec2 q) {
-  vec2 t = (q - u_lens) / u_feye;
-  if (u_loupe.x > 0.0) {
-    if (u_loupe.y < 0.5) return u_loupe.zw + u_fcam * vec2(t.x - u_shift, t.y) / u_loupe.x;
-    vec2 dq = q - u_inset.xy;
-    if (abs(dq.x) <= u_inset.z && abs(dq.y) <= u_inset.w) return u_loupe.zw + u_fcam * (dq / u_feye) / u_loupe.x;
-  }
-  return u_ccam + u_fcam * vec2(t.x - u_shift, t.y);
-}
-
-vec4 fetch(vec2 d, float s) {
-  vec2 uv = eye_to_cam(u_lens + d * (s * u_norm)) + 0.5;
-  if (uv.x < 0.0 || uv.y < 0.0 || uv.x > u_cam.x || uv.y > u_cam.y) return vec4(0.0);
-  return textureLod(u_tex, uv / u_cam, 0.0);
+vec4 fetch(vec2 dp) {
+  vec2 uv = dp * u_view.xy + u_view.zw;
+#if INSET
+  vec2 e = dp - u_inset.xy;
+  vec2 in2 = step(abs(e), u_inset.zw);
+  uv = mix(uv, e * u_iview.xy + u_iview.zw, in2.x * in2.y);
+#endif
+  vec2 ok = step(vec2(0.0), uv) * step(uv, vec2(1.0));
+  return textureLod(u_tex, uv, 0.0) * (ok.x * ok.y);
 }
 
 void main() {
-  vec2 fb = vec2(gl_FragCoord.x, u_fb.x - gl_FragCoord.y);
-  vec2 p = (fb - u_fb.yz) / u_scale - u_vp.xy;
-  vec2 d = (p - u_lens) / u_norm;
+  vec2 d = gl_FragCoord.xy * u_d.xy + u_d.zw;
   float r2 = dot(d, d);
   float g = 1.0 + u_k.x * r2 + u_k.y * r2 * r2;
-  if (u_warp == 0) {
-    o_color = vec4(fetch(d, g).rgb, 1.0);
-  } else {
-    o_color = vec4(fetch(d, g * u_chroma.x).r, fetch(d, g * u_chroma.y).g, fetch(d, g * u_chroma.z).b, 1.0);
-  }
+#if WARP
+  o_color = vec4(fetch(d * (g * u_chroma.x)).r, fetch(d * (g * u_chroma.y)).g, fetch(d * (g * u_chroma.z)).b, 1.0);
+#else
+  o_color = vec4(fetch(d * g).rgb, 1.0);
+#endif
 }
 )";
 
@@ -90,7 +82,8 @@ GLuint compile(GLenum type, const std::string& src, std::string& err) {
 class EyePass {
  public:
   ~EyePass() {
-    if (prog_) glDeleteProgram(prog_);
+    for (GLuint p : prog_)
+      if (p) glDeleteProgram(p);
     if (vao_) glDeleteVertexArrays(1, &vao_);
     if (comp_tex_) glDeleteTextures(1, &comp_tex_);
     if (fbo_[0]) glDeleteFramebuffers(2, fbo_);
@@ -98,26 +91,29 @@ class EyePass {
 
   Status init(bool gles) {
     const std::string head = gles ? "#version 300 es\nprecision highp float;\nprecision highp int;\n" : "#version 130\n";
-    std::string err;
-    const GLuint vs = compile(GL_VERTEX_SHADER, head + kVert, err);
-    if (!vs) return Error{err};
-    const GLuint fs = compile(GL_FRAGMENT_SHADER, head + kFrag, err);
-    if (!fs) {
+    for (int v = 0; v < 4; ++v) {
+      const std::string defs = std::string("#define WARP ") + (v & 1 ? "1" : "0") + "\n#define INSET " + (v & 2 ? "1" : "0") + "\n";
+      std::string err;
+      const GLuint vs = compile(GL_VERTEX_SHADER, head + kVert, err);
+      if (!vs) return Error{err};
+      const GLuint fs = compile(GL_FRAGMENT_SHADER, head + defs + kFrag, err);
+      if (!fs) {
+        glDeleteShader(vs);
+        return Error{err};
+      }
+      prog_[v] = glCreateProgram();
+      glAttachShader(prog_[v], vs);
+      glAttachShader(prog_[v], fs);
+      glLinkProgram(prog_[v]);
       glDeleteShader(vs);
-      return Error{err};
-    }
-    prog_ = glCreateProgram();
-    glAttachShader(prog_, vs);
-    glAttachShader(prog_, fs);
-    glLinkProgram(prog_);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = 0;
-    glGetProgramiv(prog_, GL_LINK_STATUS, &ok);
-    if (!ok) {
-      char log[2048] = {0};
-      glGetProgramInfoLog(prog_, sizeof log, nullptr, log);
-      return Error{std::string("eye pass shader link: ") + log};
+      glDeleteShader(fs);
+      GLint ok = 0;
+      glGetProgramiv(prog_[v], GL_LINK_STATUS, &ok);
+      if (!ok) {
+        char log[2048] = {0};
+        glGetProgramInfoLog(prog_[v], sizeof log, nullptr, log);
+        return Error{std::string("eye pass shader link: ") + log};
+      }
     }
     glGenVertexArrays(1, &vao_);
     glGenFramebuffers(2, fbo_);
@@ -175,32 +171,43 @@ class EyePass {
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
-    glUseProgram(prog_);
+    // The radial pre-warp is in every program; the three fetches only with a chromatic scale.
+    const bool chroma = m.chroma[0] != 1 || m.chroma[1] != 1 || m.chroma[2] != 1;
+    const bool inset = m.loupe.mag > 0 && m.loupe.inset;
+    const GLuint prog = prog_[(chroma ? 1 : 0) | (inset ? 2 : 0)];
+    glUseProgram(prog);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, tex);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    auto loc = [&](const char* n) { return glGetUniformLocation(prog_, n); };
+    auto loc = [&](const char* n) { return glGetUniformLocation(prog, n); };
     glUniform1i(loc("u_tex"), 0);
-    glUniform3f(loc("u_fb"), float(fb_h), float(off_x), float(off_y));
-    glUniform1f(loc("u_scale"), float(scale));
-    glUniform4f(loc("u_vp"), float(m.vp[0]), float(m.vp[1]), float(m.vp[2]), float(m.vp[3]));
-    glUniform2f(loc("u_lens"), float(m.lens_c[0]), float(m.lens_c[1]));
-    glUniform1f(loc("u_norm"), float(m.norm));
+    // Lens coordinates from the fragment: p (panel px, top-left) = ((x, fb_h - y) - off) / scale;
+    // d = (p - vp - lens) / norm.
+    const double sn = scale * m.norm;
+    glUniform4f(loc("u_d"), float(1 / sn), float(-1 / sn),
+                float(-off_x / sn - (m.vp[0] + m.lens_c[0]) / m.norm),
+                float((fb_h - off_y) / sn - (m.vp[1] + m.lens_c[1]) / m.norm));
     glUniform2f(loc("u_k"), float(m.k1), float(m.k2));
     glUniform3f(loc("u_chroma"), float(m.chroma[0]), float(m.chroma[1]), float(m.chroma[2]));
-    const bool warp_chroma = m.chroma[0] != 1 || m.chroma[1] != 1 || m.chroma[2] != 1;
-    glUniform1i(loc("u_warp"), warp_chroma ? 1 : 0);
-    glUniform2f(loc("u_feye"), float(m.f_eye[0]), float(m.f_eye[1]));
-    glUniform2f(loc("u_fcam"), float(m.f_cam[0]), float(m.f_cam[1]));
-    glUniform2f(loc("u_ccam"), float(m.c_cam[0]), float(m.c_cam[1]));
-    glUniform2f(loc("u_cam"), float(m.cam_w), float(m.cam_h));
-    glUniform1f(loc("u_shift"), float(m.shift_tan));
-    glUniform4f(loc("u_loupe"), float(m.loupe.mag), m.loupe.inset ? 1.f : 0.f, float(m.loupe_c[0]), float(m.loupe_c[1]));
-    glUniform4f(loc("u_inset"), float(m.loupe.inset_cx * m.vp[2]), float(m.loupe.inset_cy * m.vp[3]),
-                float(m.loupe.inset_w * m.vp[2] / 2), float(m.loupe.inset_h * m.vp[3] / 2));
+    // Texture coordinates of the pre-warped d' (EyeMapping::eye_to_camera with q = lens + d' norm),
+    // +0.5 from OpenCV's pixel centres to GL's, over the camera's size.
+    const double W = m.cam_w, H = m.cam_h;
+    const bool full = m.loupe.mag > 0 && !m.loupe.inset;
+    const double mag = full ? m.loupe.mag : 1.0;
+    const double bx = full ? m.loupe_c[0] : m.c_cam[0], by = full ? m.loupe_c[1] : m.c_cam[1];
+    glUniform4f(loc("u_view"), float(m.f_cam[0] * m.norm / (m.f_eye[0] * mag * W)),
+                float(m.f_cam[1] * m.norm / (m.f_eye[1] * mag * H)),
+                float((bx - m.f_cam[0] * m.shift_tan / mag + 0.5) / W), float((by + 0.5) / H));
+    glUniform4f(loc("u_inset"), float((m.loupe.inset_cx * m.vp[2] - m.lens_c[0]) / m.norm),
+                float((m.loupe.inset_cy * m.vp[3] - m.lens_c[1]) / m.norm), float(m.loupe.inset_w * m.vp[2] / 2 / m.norm),
+                float(m.loupe.inset_h * m.vp[3] / 2 / m.norm));
+    const double im = inset ? m.loupe.mag : 1.0;
+    glUniform4f(loc("u_iview"), float(m.f_cam[0] * m.norm / (m.f_eye[0] * im * W)),
+                float(m.f_cam[1] * m.norm / (m.f_eye[1] * im * H)), float((m.loupe_c[0] + 0.5) / W),
+                float((m.loupe_c[1] + 0.5) / H));
     glBindVertexArray(vao_);
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glBindVertexArray(0);
@@ -209,7 +216,7 @@ class EyePass {
   }
 
  private:
-  GLuint prog_ = 0, vao_ = 0;
+  GLuint prog_[4] = {0, 0, 0, 0}, vao_ = 0;  // by WARP (bit 0) and INSET (bit 1)
   GLuint fbo_[2] = {0, 0};  // read (video / overlay) and draw (composed texture)
   GLuint comp_tex_ = 0;
   int comp_w_ = 0, comp_h_ = 0;
