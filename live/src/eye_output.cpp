@@ -299,7 +299,8 @@ class MonoOutput final : public DisplayOutput {
 class SbsOutput final : public DisplayOutput {
  public:
   SbsOutput(const HeadsetProfile& h, const calibration::CameraIntrinsics& cam, bool stereo)
-      : h_(h), cam_(cam), stereo_(stereo) {
+      : h_(h), cam_(cam) {
+    (void)stereo;
     loupe_.mag = 0;
   }
   Status init(bool gles) { return pass_.init(gles); }
@@ -317,7 +318,8 @@ class SbsOutput final : public DisplayOutput {
     glClear(GL_COLOR_BUFFER_BIT);
     const calibration::CameraIntrinsics cam = at_size(cam_, f.tex_w, f.tex_h);
     const GLuint left = pass_.source(f);
-    const bool stereo = stereo_ && f.right_video != 0;
+    // A right eye's frame given: a stereo pair (no IPD shift), whatever the output was made for.
+    const bool stereo = f.right_video != 0;
     for (int e = 0; e < 2; ++e) {
       const EyeMapping m = make_eye_mapping(h_, e, cam, stereo, loupe_, f.loupe_c[e], prewarp_);
       pass_.draw(e == 1 && stereo ? f.right_video : left, m, fbh, ox, oy, s);
@@ -328,7 +330,6 @@ class SbsOutput final : public DisplayOutput {
  private:
   HeadsetProfile h_;
   calibration::CameraIntrinsics cam_;
-  bool stereo_;
   bool prewarp_ = true;
   LoupeView loupe_{};
   EyePass pass_;

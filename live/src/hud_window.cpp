@@ -126,6 +126,10 @@ HudWindow::~HudWindow() {
     GLuint t = tex_;
     glDeleteTextures(1, &t);
   }
+  if (tex_right_) {
+    GLuint t = tex_right_;
+    glDeleteTextures(1, &t);
+  }
   if (win_) glfwDestroyWindow(win_);
   glfwTerminate();
 }
@@ -165,6 +169,24 @@ void HudWindow::set_video(const cv::Mat& bgr) {
   frame_video_ = 0;
 }
 
+void HudWindow::set_video_right(const cv::Mat& bgr) {
+  right_ = false;
+  if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || bgr.type() != CV_8UC3) return;
+  if (tex_right_ == 0) {
+    GLuint t = 0;
+    glGenTextures(1, &t);
+    tex_right_ = t;
+    glBindTexture(GL_TEXTURE_2D, t);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex_w_, tex_h_, 0, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
+  }
+  cv::cvtColor(bgr, bgra_right_, gles_ ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
+  glBindTexture(GL_TEXTURE_2D, tex_right_);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, tex_w_, tex_h_, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,
+                  bgra_right_.data);
+  right_ = true;
+}
+
 void HudWindow::set_frame(unsigned video, unsigned overlay, const int region[4]) {
   frame_video_ = video;
   frame_overlay_ = overlay;
@@ -191,6 +213,7 @@ void HudWindow::begin_frame() {
   OutputFrame f;
   f.video = frame_video_ != 0 ? frame_video_ : tex_;
   f.overlay = frame_video_ != 0 ? frame_overlay_ : 0;
+  f.right_video = right_ ? tex_right_ : 0;
   for (int i = 0; i < 4; ++i) f.region[i] = frame_region_[i];
   f.tex_w = tex_w_;
   f.tex_h = tex_h_;

@@ -178,6 +178,38 @@ TEST(EyeOutputGl, ComposesTheGpuPathsOverlayRegion) {
   glDeleteTextures(1, &to);
 }
 
+// A stereo pair: each eye shows its own camera, with no interpupillary shift
+// (the CPU reference with stereo = true), the loupe centred per eye.
+TEST(EyeOutputGl, StereoPairEachEyeItsOwnCamera) {
+  DENTAR_GL_TEST_CONTEXT();
+  const cv::Mat left = test_image(640, 480);
+  cv::Mat right;
+  cv::flip(left, right, 1);  // a different picture
+  const GLuint tl = upload(left), tr = upload(right);
+  OutputFrame f;
+  f.video = tl, f.right_video = tr, f.tex_w = 640, f.tex_h = 480;
+  f.loupe_c[0][0] = 300, f.loupe_c[0][1] = 250, f.loupe_c[1][0] = 280, f.loupe_c[1][1] = 250;
+  const HeadsetProfile h = profile(true);
+  auto out = make_sbs_output(true, h, cam640(), true);
+  ASSERT_TRUE(out.ok()) << out.error();
+  LoupeView l;
+  l.mag = 2.5;
+  (*out)->set_loupe(l);
+  const cv::Mat gl = draw_and_read(**out, f, h.panel_w, h.panel_h);
+  cv::Mat ref(h.panel_h, h.panel_w, CV_8UC3, cv::Scalar::all(0));
+  render_eye_cpu(left, make_eye_mapping(h, 0, cam640(), true, l, f.loupe_c[0]), ref);
+  render_eye_cpu(right, make_eye_mapping(h, 1, cam640(), true, l, f.loupe_c[1]), ref);
+  const Diff d = compare(gl, ref);
+  EXPECT_LT(d.mean, 0.6);
+  EXPECT_LE(d.p99, 3);
+  // Not the mono view of the left camera.
+  cv::Mat mono(h.panel_h, h.panel_w, CV_8UC3, cv::Scalar::all(0));
+  render_eye_cpu(left, make_eye_mapping(h, 1, cam640(), false, l, f.loupe_c[1]), mono);
+  EXPECT_GT(compare(gl(cv::Rect(640, 0, 640, 600)), mono(cv::Rect(640, 0, 640, 600))).mean, 10);
+  glDeleteTextures(1, &tl);
+  glDeleteTextures(1, &tr);
+}
+
 // The mono window's loupe: the blit as before outside the inset, the loupe's
 // mapping inside.
 TEST(EyeOutputGl, MonoWindowLoupeInset) {

@@ -51,7 +51,9 @@ class DisplayOutput {
 // The mono window; `gles`: the context is OpenGL ES (shader version line).
 // cam: the intrinsics of the composite's size (the loupe's mapping).
 Result<std::unique_ptr<DisplayOutput>> make_mono_output(bool gles, const calibration::CameraIntrinsics& cam);
-// The side-by-side view of `profile`; `stereo`: right_video will be given.
+// The side-by-side view of `profile`. A frame with right_video is drawn as a
+// stereo pair (each eye its own camera, no IPD shift), one without as mono;
+// `stereo` says which the driver expects (for its log; the frame decides).
 Result<std::unique_ptr<DisplayOutput>> make_sbs_output(bool gles, const HeadsetProfile& profile,
                                                        const calibration::CameraIntrinsics& cam, bool stereo);
 

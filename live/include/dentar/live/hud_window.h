@@ -50,6 +50,10 @@ class HudWindow {
   // Uploads a BGR frame of the video size (others are ignored with no effect);
   // the window shows it from now on.
   void set_video(const cv::Mat& bgr);
+  // A stereo pair's right eye (BGR, the video size; set after set_video): the
+  // headset's output shows it to the right eye (eye_output.h). An empty image
+  // goes back to mono (both eyes from set_video's frame).
+  void set_video_right(const cv::Mat& bgr);
   // Shows, from now on, a frame from a context sharing with this window's
   // (the caller has waited for its fence): the video (RGBA8 texture of the
   // video size) and, inside region (x0, y0, x1, y1; image px), the composite
@@ -81,6 +85,8 @@ class HudWindow {
   static void on_key(GLFWwindow* w, int key, int scancode, int action, int mods);
   GLFWwindow* win_ = nullptr;
   unsigned tex_ = 0;  // the video texture (BGRA; RGBA with GLES)
+  unsigned tex_right_ = 0;  // set_video_right's texture (made on first use)
+  bool right_ = false;      // a right eye's frame is shown
   unsigned frame_video_ = 0, frame_overlay_ = 0;  // set_frame's textures; shown when frame_video_ != 0
   int frame_region_[4] = {0, 0, 0, 0};
   double loupe_c_[2][2] = {{0, 0}, {0, 0}};
@@ -88,7 +94,7 @@ class HudWindow {
   bool gles_ = false;
   std::string note_;
   int tex_w_ = 0, tex_h_ = 0;
-  cv::Mat bgra_;  // upload buffer, reused
+  cv::Mat bgra_, bgra_right_;  // upload buffers, reused
   bool imgui_ = false;
   std::vector<int> presses_;
   std::set<int> held_;
