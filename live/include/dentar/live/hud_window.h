@@ -1,8 +1,9 @@
 // A GLFW window showing video with a Dear ImGui HUD over it, for the live tools
 // (`dentar calibrate live`; the same set-up as `dentar live`'s window: desktop GL 3.0, the
 // video as a letterboxed texture in the background, ImGui on top, optional fullscreen on a
-// monitor, vsync). Main thread only. The video is blitted into the window (1:1 = exact
-// pixels), the HUD drawn over it. Keys are collected as presses (for take-a-view /
+// monitor, vsync). Main thread only. The video is drawn by the window's output
+// (eye_output.h): by default the mono window, a blit (1:1 = exact pixels); or a headset's
+// side-by-side view (set_output); the HUD is drawn over it. Keys are collected as presses (for take-a-view /
 // take-a-touch) and held states (the space bar as a pedal); scripted presses go through the
 // same queue (inject_key), so a test drives exactly the code an instructor's keys drive.
 //
