@@ -65,7 +65,7 @@ std::string HeadsetProfile::validate() const {
   if (!(fov_v_deg > 1 && fov_v_deg < 180)) return "fov_deg[1] = " + num(fov_v_deg) + " must be in (1, 180) degrees (a pinhole view cannot reach 180)";
   if (!(ipd_m > 0)) return "ipd_mm = " + num(ipd_m * 1e3) + " must be positive";
   if (!(ipd_m >= 0.040 && ipd_m <= 0.090))
-    return "ipd_mm = " + num(ipd_m * 1e3) + " must be in 40..90 mm (adult interpupillary distances are 51-77 mm)";
+    return "ipd_mm = " + num(ipd_m * 1e3) + " must be in 40..90 mm (adults: about 52-78 mm, Dodgson 2004)";
   if (!(std::isfinite(k1) && std::isfinite(k2))) return "distortion.k1/k2 must be finite numbers";
   for (const auto& [name, s] : {std::pair{"distortion.chroma_scale_r", chroma_scale_r}, std::pair{"distortion.chroma_scale_b", chroma_scale_b}})
     if (!(s >= 0.9 && s <= 1.1)) return std::string(name) + " = " + num(s) + " must be in 0.9..1.1 (a lens's lateral colour is a few per cent)";
