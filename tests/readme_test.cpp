@@ -129,6 +129,10 @@ const std::vector<Step>& contract() {
       {.readme = "build/dentar live --camera live:out/box/camera.avi --station box "
                  "--stylus replay:out/box/session.dlog --no-occlusion",
        .window = true},
+      {.readme = "build/dentar live --camera live:out/clip/camera.avi --station out/clip/station.json "
+                 "--output sbs --headset assets/headsets/oculus_rift_dk1.json --display 1 --loupe 3",
+       .skip_why = "needs a headset as a second monitor (--display 1); the side-by-side output runs under Xvfb "
+                   "in HeadsetXvfb.SideBySideEyesMatchOfflineComposite"},
       {.readme = "build/dentar tags --out out/kit",
        .produces = {"out/kit/station_kit.pdf", "out/kit/station_kit.svg"}},
       {.readme = "build/dentar tags --station my_station.json --out out/kit",

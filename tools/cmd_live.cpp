@@ -1,5 +1,6 @@
 // dentar live: the student's trainer with a camera, a window and the 1 kHz
 // engine (live/live_app.h). A thin driver over the shared FramePipeline.
+#include <cctype>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -29,6 +30,8 @@ void add_live(CLI::App& app, int& exit_code) {
     std::string camera_response;  // "" = auto (the station's)
     bool mirror_rim = false;
     bool no_score = false;
+    std::string headset;  // --headset FILE
+    std::vector<std::string> keys;  // --inject-key FRAME:KEY
     DbCli db;  // --db: store the finished session (needs --record)
     SoundCli sound;  // the drill's sound (issue 29)
   };
@@ -78,6 +81,17 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--device-name", c->o.device_name, "the device's configuration name or serial (default: the first)");
   sub->add_option("--pedal", c->o.pedal, "keyboard (space bar, default), auto, vec, usb:VID:PID, evdev:/dev/input/eventN");
   sub->add_option("--display", c->o.display, "monitor index for fullscreen (the HMD's input); -1 = a window");
+  sub->add_option("--output", c->o.output,
+                  "mono (the window, default) or sbs: a headset's side-by-side view through --headset "
+                  "(docs/headset.md; with --display N, full screen on that monitor)")
+      ->check(CLI::IsMember({"mono", "sbs"}));
+  sub->add_option("--headset", c->headset, "headset profile (JSON, docs/formats.md): panel, eyes, field of view, IPD, "
+                                             "lens pre-warp; assets/headsets/ has examples");
+  sub->add_option("--loupe", c->o.loupe,
+                  "digital loupe: magnification (dentists' loupes: 2.5-4; 1.5..8), centred on the tracked tooth; "
+                  "0 = off (key L cycles off / inset / full)");
+  sub->add_option("--loupe-view", c->o.loupe_view, "inset (picture in picture, default) or full (the whole eye view)")
+      ->check(CLI::IsMember({"inset", "full"}));
   sub->add_option("--window-width", c->o.window_width, "window width (px, default: the camera's)");
   sub->add_option("--window-height", c->o.window_height, "window height (px)");
   sub->add_flag("--no-hud", c->no_hud, "video only, no HUD");
@@ -109,6 +123,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_flag("--no-mirror", c->no_mirror, "no reflection in the mouth mirror");
   sub->add_option("--summary", c->o.summary_path, "also write the run's summary JSON here");
   sub->add_option("--screenshot", c->shots, "test hook: FRAME:FILE.png saves the window when frame FRAME shows");
+  sub->add_option("--inject-key", c->keys, "test hook: FRAME:KEY presses KEY (a letter) when frame FRAME (or the first after it) shows");
   sub->add_option("--inject-stall", c->stall, "test hook: AFTER_FRAMES:SECONDS, the camera goes quiet");
   sub->add_option("--inject-stall-right", c->stall_right,
                   "test hook: AFTER_FRAMES:SECONDS, the right eye (--camera-right) goes quiet");
@@ -193,6 +208,18 @@ void add_live(CLI::App& app, int& exit_code) {
         return;
       }
     }
+    for (const auto& s : c->keys) {
+      const auto k = s.find(':');
+      try {
+        if (k == std::string::npos || s.size() != k + 2 || !std::isalpha(static_cast<unsigned char>(s[k + 1])))
+          throw std::invalid_argument("bad");
+        o.inject_keys.emplace_back(std::stoll(s.substr(0, k)), std::toupper(static_cast<unsigned char>(s[k + 1])));
+      } catch (const std::exception&) {
+        print_error("live", "--inject-key " + s + ": must be FRAME:KEY (a letter)");
+        exit_code = 2;
+        return;
+      }
+    }
     if (!c->stall.empty()) {
       const auto k = c->stall.find(':');
       try {
@@ -215,6 +242,20 @@ void add_live(CLI::App& app, int& exit_code) {
         print_error("live", "--inject-stall-right " + c->stall_right + ": must be AFTER_FRAMES:SECONDS");
         exit_code = 2;
         return;
+      }
+    }
+    if (!c->headset.empty()) {  // a bad headset profile is bad input (exit 2), before any window
+      auto h = live::read_headset_profile(c->headset);
+      if (!h) {
+        print_error("live", "--headset: " + h.error());
+        exit_code = 2;
+        return;
+      }
+      o.headset = std::make_shared<const live::HeadsetProfile>(*h);
+      // A window (no --display) is the panel's size unless given.
+      if (o.output == "sbs" && o.display < 0 && o.window_width == 0 && o.window_height == 0) {
+        o.window_width = h->panel_w;
+        o.window_height = h->panel_h;
       }
     }
     if (auto v = o.validate(); !v.empty()) {

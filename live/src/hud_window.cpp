@@ -1,6 +1,8 @@
 // See hud_window.h. Desktop GL 3.0 + Dear ImGui's GL3 backend; `dentar live` and `dentar calibrate live`.
 #include "dentar/live/hud_window.h"
 
+#include "dentar/live/eye_output.h"
+
 #define GLFW_INCLUDE_NONE
 #define GL_GLEXT_PROTOTYPES
 #include <GL/gl.h>
@@ -91,18 +93,19 @@ Result<std::unique_ptr<HudWindow>> HudWindow::open(const std::string& title, int
                nullptr);
   w->tex_w_ = video_w;
   w->tex_h_ = video_h;
-  GLuint fbo = 0;
-  glGenFramebuffers(1, &fbo);
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
-  glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, tex, 0);
-  const GLenum fb_status = glCheckFramebufferStatus(GL_READ_FRAMEBUFFER);
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-  w->fbo_ = fbo;
-  if (fb_status != GL_FRAMEBUFFER_COMPLETE) return Error{"window: the video texture cannot be read as a framebuffer"};
-  GLuint fbs[2] = {0, 0};
-  glGenFramebuffers(2, fbs);  // set_frame's read framebuffers (video, overlay)
-  w->frame_fbo_[0] = fbs[0];
-  w->frame_fbo_[1] = fbs[1];
+  {
+    // The mono window until the driver sets another output (the loupe's
+    // mapping needs intrinsics: a nominal camera until then).
+    calibration::CameraIntrinsics nominal;
+    nominal.width = video_w;
+    nominal.height = video_h;
+    nominal.fx = nominal.fy = video_w;
+    nominal.cx = (video_w - 1) / 2.0;
+    nominal.cy = (video_h - 1) / 2.0;
+    auto out = make_mono_output(w->gles_, nominal);
+    if (!out) return Error{"window: " + out.error()};
+    w->output_ = std::move(*out);
+  }
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;
@@ -118,16 +121,13 @@ HudWindow::~HudWindow() {
     ImGui_ImplGlfw_Shutdown();
     ImGui::DestroyContext();
   }
-  if (fbo_) {
-    GLuint f = fbo_;
-    glDeleteFramebuffers(1, &f);
-  }
-  if (frame_fbo_[0]) {
-    GLuint f[2] = {frame_fbo_[0], frame_fbo_[1]};
-    glDeleteFramebuffers(2, f);
-  }
+  output_.reset();  // its GL objects before the context
   if (tex_) {
     GLuint t = tex_;
+    glDeleteTextures(1, &t);
+  }
+  if (tex_right_) {
+    GLuint t = tex_right_;
     glDeleteTextures(1, &t);
   }
   if (win_) glfwDestroyWindow(win_);
@@ -169,18 +169,39 @@ void HudWindow::set_video(const cv::Mat& bgr) {
   frame_video_ = 0;
 }
 
+void HudWindow::set_video_right(const cv::Mat& bgr) {
+  right_ = false;
+  if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || bgr.type() != CV_8UC3) return;
+  if (tex_right_ == 0) {
+    GLuint t = 0;
+    glGenTextures(1, &t);
+    tex_right_ = t;
+    glBindTexture(GL_TEXTURE_2D, t);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex_w_, tex_h_, 0, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
+  }
+  cv::cvtColor(bgr, bgra_right_, gles_ ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
+  glBindTexture(GL_TEXTURE_2D, tex_right_);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, tex_w_, tex_h_, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,
+                  bgra_right_.data);
+  right_ = true;
+}
+
 void HudWindow::set_frame(unsigned video, unsigned overlay, const int region[4]) {
   frame_video_ = video;
+  frame_overlay_ = overlay;
   for (int i = 0; i < 4; ++i) frame_region_[i] = region != nullptr ? region[i] : 0;
-  if (video == 0) return;
-  // (Re)attached for every new frame: another context wrote the pixels, and
-  // an attachment is where GL looks again.
-  const unsigned tex[2] = {video, overlay};
+}
+
+void HudWindow::set_output(std::unique_ptr<DisplayOutput> out) {
+  if (out) output_ = std::move(out);
+}
+
+void HudWindow::set_loupe_centre(const double left[2], const double right[2]) {
   for (int i = 0; i < 2; ++i) {
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, frame_fbo_[i]);
-    glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, tex[i], 0);
+    loupe_c_[0][i] = left[i];
+    loupe_c_[1][i] = right[i];
   }
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
 }
 
 void* HudWindow::egl_display() const { return gles_ ? static_cast<void*>(glfwGetEGLDisplay()) : nullptr; }
@@ -189,32 +210,18 @@ void* HudWindow::egl_context() const { return gles_ ? static_cast<void*>(glfwGet
 void HudWindow::begin_frame() {
   int fbw = 0, fbh = 0;
   glfwGetFramebufferSize(win_, &fbw, &fbh);
-  glViewport(0, 0, fbw, fbh);
-  // Video fills the window, aspect kept (letterbox), drawn by a framebuffer
-  // blit, not a blended textured quad: at 1:1 (the default window) it is a
-  // nearest-pixel copy, the window shows the composite's exact pixels, and
-  // llvmpipe's cost per frame falls from a filtered, blended quad to a copy.
-  const double s = std::min(double(fbw) / tex_w_, double(fbh) / tex_h_);
-  const int dw = static_cast<int>(std::lround(tex_w_ * s)), dh = static_cast<int>(std::lround(tex_h_ * s));
-  const int x0 = (fbw - dw) / 2, y0 = (fbh - dh) / 2;
-  if (dw != fbw || dh != fbh) {
-    glClearColor(0, 0, 0, 1);
-    glClear(GL_COLOR_BUFFER_BIT);
-  }
-  const GLenum filter = dw == tex_w_ && dh == tex_h_ ? GL_NEAREST : GL_LINEAR;
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, frame_video_ != 0 ? frame_fbo_[0] : fbo_);
+  OutputFrame f;
+  f.video = frame_video_ != 0 ? frame_video_ : tex_;
+  f.overlay = frame_video_ != 0 ? frame_overlay_ : 0;
+  f.right_video = right_ ? tex_right_ : 0;
+  for (int i = 0; i < 4; ++i) f.region[i] = frame_region_[i];
+  f.tex_w = tex_w_;
+  f.tex_h = tex_h_;
+  for (int e = 0; e < 2; ++e)
+    for (int i = 0; i < 2; ++i) f.loupe_c[e][i] = loupe_c_[e][i];
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
-  // Image row 0 is the top; GL's window origin is the bottom: flip in the blit.
-  glBlitFramebuffer(0, 0, tex_w_, tex_h_, x0, y0 + dh, x0 + dw, y0, GL_COLOR_BUFFER_BIT, filter);
-  const int* r = frame_region_;
-  if (frame_video_ != 0 && r[2] > r[0] && r[3] > r[1]) {
-    // The overlay's region of a shared frame over the video, same mapping.
-    auto wx = [&](int x) { return x0 + static_cast<int>(std::lround(double(x) * dw / tex_w_)); };
-    auto wy = [&](int y) { return y0 + dh - static_cast<int>(std::lround(double(y) * dh / tex_h_)); };
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, frame_fbo_[1]);
-    glBlitFramebuffer(r[0], r[1], r[2], r[3], wx(r[0]), wy(r[1]), wx(r[2]), wy(r[3]), GL_COLOR_BUFFER_BIT, GL_NEAREST);
-  }
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  output_->draw(f, fbw, fbh);
+  glViewport(0, 0, fbw, fbh);
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();

@@ -87,6 +87,11 @@ std::string LiveOptions::validate() const {
     return "stylus = \"" + stylus + "\" must be sim, pen, none or replay:FILE.dlog";
   if (stylus == "replay:") return "stylus = replay: needs a session log path (replay:FILE.dlog)";
   if (display < -1 || display > 16) return "display = " + std::to_string(display) + " must be -1 (window) or a monitor 0..16";
+  if (output != "mono" && output != "sbs") return "output = \"" + output + "\" must be mono or sbs";
+  if (output == "sbs" && !headset) return "output sbs needs a headset profile (--headset FILE, docs/formats.md)";
+  if (!(loupe == 0 || (loupe >= 1.5 && loupe <= 8)))
+    return "loupe = " + std::to_string(loupe) + " must be 0 (off) or a magnification in 1.5..8 (dentists' loupes: 2.5-4)";
+  if (loupe_view != "inset" && loupe_view != "full") return "loupe_view = \"" + loupe_view + "\" must be inset or full";
   if (window_width < 0 || window_height < 0 || window_width > 8192 || window_height > 8192)
     return "window size must be within 0..8192";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";

@@ -14,6 +14,7 @@
 
 #include "dentar/ar/frame_source.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/live/eye_output.h"
 #include "dentar/session/frames_csv.h"
 #include "dentar/session/recorder.h"
 #include "dentar/volume/material.h"
@@ -48,6 +49,7 @@ class DisplayLoop {
     fig_.t_start = now_s();
     fig_.stop_reason = "window closed";
     fps_t0_ = fig_.t_start;
+    setup_output();
     while (!stop_now()) frame();
     return std::move(fig_);
   }
@@ -101,6 +103,64 @@ class DisplayLoop {
     return true;
   }
 
+  // Issue 28: the headset's side-by-side view and the loupe (eye_output.h).
+  void setup_output() {
+    const LiveOptions& o = c_.o;
+    cam_ = c_.st.calibration.camera;
+    if (cam_.width != c_.W || cam_.height != c_.H) {  // --scale-calib: the pipeline's scaling
+      const double sx = double(c_.W) / cam_.width, sy = double(c_.H) / cam_.height;
+      cam_.fx *= sx, cam_.fy *= sy;
+      cam_.cx = (cam_.cx + 0.5) * sx - 0.5, cam_.cy = (cam_.cy + 0.5) * sy - 0.5;
+      cam_.width = c_.W, cam_.height = c_.H;
+    }
+    const volume::VoxelVolume& vol = c_.run.volume();
+    tooth_centre_ = vol.origin() + vol.spacing().cwiseProduct((vol.dims() - Eigen::Vector3i::Ones()).cast<double>() / 2);
+    if (o.output == "mono" && o.loupe == 0) return;  // the window as before
+    auto out = o.output == "sbs" ? make_sbs_output(c_.hw.gles_egl(), *o.headset, cam_, false)
+                                 : make_mono_output(c_.hw.gles_egl(), cam_);
+    if (!out) {
+      c_.say("output " + o.output + ": " + out.error() + "; the mono window instead");
+      sum_.warnings.push_back("output " + o.output + " unavailable: " + out.error());
+      return;
+    }
+    loupe_.mag = o.loupe;
+    loupe_.inset = o.loupe_view == "inset";
+    (*out)->set_loupe(loupe_);
+    c_.hw.set_output(std::move(*out));
+    c_.say(o.output == "sbs" ? "output: side-by-side for headset \"" + o.headset->name + "\" (" +
+                                   std::to_string(o.headset->panel_w) + "x" + std::to_string(o.headset->panel_h) +
+                                   "); keys: W pre-warp on/off, L loupe off/inset/full"
+                             : std::string("output: mono window with the loupe; key L: loupe off/inset/full"));
+  }
+
+  // The loupe's centre from this frame's mannequin pose (headset.h LoupeCentre);
+  // keys: W toggles the pre-warp, L cycles the loupe off / inset / full.
+  void update_output(bool fresh, const std::vector<int>& keys) {
+    for (const int key : keys) {
+      if (key == GLFW_KEY_W) {
+        prewarp_ = !prewarp_;
+        c_.hw.output().set_prewarp(prewarp_);
+      } else if (key == GLFW_KEY_L) {
+        const double mag = c_.o.loupe > 0 ? c_.o.loupe : 3.0;
+        if (loupe_.mag == 0) loupe_.mag = mag, loupe_.inset = true;
+        else if (loupe_.inset) loupe_.inset = false;
+        else loupe_.mag = 0;
+        if (std::string(c_.hw.output().kind()) == "mono" && c_.o.output == "mono" && c_.o.loupe == 0 && !mono_loupe_) {
+          // The mono window made without a loupe: one with the loupe's pass.
+          if (auto out = make_mono_output(c_.hw.gles_egl(), cam_)) c_.hw.set_output(std::move(*out)), mono_loupe_ = true;
+        }
+        c_.hw.output().set_loupe(loupe_);
+      }
+    }
+    if (!fresh) return;
+    double u = 0, v = 0;
+    const bool ok = cur_.rec.man_state != 2 &&
+                    project_point(cam_, cur_.rec.T_cam_man * c_.st.calibration.T_man_tooth, tooth_centre_, u, v);
+    if (!loupe_c_.initialised()) loupe_c_.reset(cam_.cx, cam_.cy);
+    loupe_c_.update(ok, u, v);
+    c_.hw.set_loupe_centre(loupe_c_.centre(), loupe_c_.centre());
+  }
+
   void frame() {
     int new_slot = -1;
     const bool fresh = take_shown(new_slot);
@@ -113,11 +173,17 @@ class DisplayLoop {
     }
     HudWindow& hw = c_.hw;
     hw.poll();
-    for (const int key : hw.take_presses()) {
+    // Test hook: scripted key presses at the first frame shown at or after their frame.
+    for (auto it = keys_.begin(); fresh && it != keys_.end();)
+      if (it->first <= cur_.index) hw.inject_key(it->second), it = keys_.erase(it);
+      else ++it;
+    const std::vector<int> keys = hw.take_presses();
+    for (const int key : keys) {
       if (key == GLFW_KEY_ESCAPE) hw.request_close();
       // Enter ends a lesson's pause point (the pen stylus has no pause button).
       if ((key == GLFW_KEY_ENTER || key == GLFW_KEY_KP_ENTER) && c_.lesson_pauses) c_.lesson_pauses->request_resume();
     }
+    update_output(fresh, keys);
     c_.key_pedal.set_pressed(hw.held(GLFW_KEY_SPACE));
     // The camera went quiet: show the video without the overlay within 200 ms.
     // One read of the capture time per check: a frame may land before the
@@ -292,6 +358,7 @@ class DisplayLoop {
   DisplayFigures fig_;
   Shown cur_;
   std::vector<std::pair<std::int64_t, std::string>> shots_ = c_.o.screenshots;
+  std::vector<std::pair<std::int64_t, int>> keys_ = c_.o.inject_keys;
   std::int64_t last_index_ = -1;
   double stall_seen_at_ = -1;
   double prev_check_age_s_ = 0;  // the camera's silence at the previous window check, s
@@ -299,6 +366,11 @@ class DisplayLoop {
   int fps_n_ = 0;
   std::size_t next_note_ = 0;  // the lesson's next annotation not yet reached
   int shown_slot_ = -1;  // GPU path: the ring texture the window draws from, or -1
+  calibration::CameraIntrinsics cam_;  // of the frames' size
+  Eigen::Vector3d tooth_centre_ = Eigen::Vector3d::Zero();  // tooth frame, m
+  LoupeView loupe_{};
+  LoupeCentre loupe_c_;
+  bool prewarp_ = true, mono_loupe_ = false;
 };
 
 }  // namespace

@@ -1,8 +1,9 @@
 // A GLFW window showing video with a Dear ImGui HUD over it, for the live tools
 // (`dentar calibrate live`; the same set-up as `dentar live`'s window: desktop GL 3.0, the
 // video as a letterboxed texture in the background, ImGui on top, optional fullscreen on a
-// monitor, vsync). Main thread only. The video is blitted into the window (1:1 = exact
-// pixels), the HUD drawn over it. Keys are collected as presses (for take-a-view /
+// monitor, vsync). Main thread only. The video is drawn by the window's output
+// (eye_output.h): by default the mono window, a blit (1:1 = exact pixels); or a headset's
+// side-by-side view (set_output); the HUD is drawn over it. Keys are collected as presses (for take-a-view /
 // take-a-touch) and held states (the space bar as a pedal); scripted presses go through the
 // same queue (inject_key), so a test drives exactly the code an instructor's keys drive.
 //
@@ -27,6 +28,8 @@ struct GLFWwindow;
 
 namespace dentar::live {
 
+class DisplayOutput;
+
 class HudWindow {
  public:
   // video_w x video_h: the texture size (the camera's); win_w/win_h 0 = the video's; display
@@ -48,6 +51,10 @@ class HudWindow {
   // Uploads a BGR frame of the video size (others are ignored with no effect);
   // the window shows it from now on.
   void set_video(const cv::Mat& bgr);
+  // A stereo pair's right eye (BGR, the video size; set after set_video): the
+  // headset's output shows it to the right eye (eye_output.h). An empty image
+  // goes back to mono (both eyes from set_video's frame).
+  void set_video_right(const cv::Mat& bgr);
   // Shows, from now on, a frame from a context sharing with this window's
   // (the caller has waited for its fence): the video (RGBA8 texture of the
   // video size) and, inside region (x0, y0, x1, y1; image px), the composite
@@ -62,7 +69,14 @@ class HudWindow {
   // EGLDisplay / EGLContext of the window (null unless gles_egl()).
   void* egl_display() const;
   void* egl_context() const;
-  // Starts a frame: clear, ImGui frame, the video in the background. ImGui calls follow.
+  // Where the frame is drawn (eye_output.h): the mono window (the default,
+  // made by open()) or a headset's side-by-side view. The output is made in
+  // this window's context (gles_egl()).
+  void set_output(std::unique_ptr<DisplayOutput> out);
+  DisplayOutput& output() { return *output_; }
+  // The loupe's centre per eye for the frames from now on (camera px, OpenCV).
+  void set_loupe_centre(const double left[2], const double right[2]);
+  // Starts a frame: clear, ImGui frame, the video in the background (drawn by the output). ImGui calls follow.
   void begin_frame();
   // Renders the HUD and swaps; with `capture`, returns the window's pixels (BGR) first.
   cv::Mat end_frame(bool capture = false);
@@ -71,14 +85,17 @@ class HudWindow {
   HudWindow() = default;
   static void on_key(GLFWwindow* w, int key, int scancode, int action, int mods);
   GLFWwindow* win_ = nullptr;
-  unsigned tex_ = 0, fbo_ = 0;  // the video texture (BGRA; RGBA with GLES) and a read framebuffer on it
-  unsigned frame_video_ = 0;           // set_frame's video texture; shown when != 0
-  unsigned frame_fbo_[2] = {0, 0};      // read framebuffers on set_frame's video and overlay
+  unsigned tex_ = 0;  // the video texture (BGRA; RGBA with GLES)
+  unsigned tex_right_ = 0;  // set_video_right's texture (made on first use)
+  bool right_ = false;      // a right eye's frame is shown
+  unsigned frame_video_ = 0, frame_overlay_ = 0;  // set_frame's textures; shown when frame_video_ != 0
   int frame_region_[4] = {0, 0, 0, 0};
+  double loupe_c_[2][2] = {{0, 0}, {0, 0}};
+  std::unique_ptr<DisplayOutput> output_;
   bool gles_ = false;
   std::string note_;
   int tex_w_ = 0, tex_h_ = 0;
-  cv::Mat bgra_;  // upload buffer, reused
+  cv::Mat bgra_, bgra_right_;  // upload buffers, reused
   bool imgui_ = false;
   std::vector<int> presses_;
   std::set<int> held_;

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "dentar/ar/frame_pipeline.h"
+#include "dentar/live/headset.h"
 #include "dentar/volume/result.h"
 
 namespace dentar::live {
@@ -70,6 +71,14 @@ struct LiveOptions {
   std::string pedal = "keyboard";
   std::string model = "proxy";  // force model
   int display = -1;             // monitor for fullscreen (HMD input); -1 = a desktop window
+  // Issue 28: the output (eye_output.h, docs/headset.md). "mono": the window as before;
+  // "sbs": a headset's side-by-side view through `headset` (read and validated by the
+  // caller; --headset FILE). loupe: the digital loupe's magnification (0 = off; 1.5..8,
+  // dentists' loupes are 2.5-4), loupe_view "inset" (picture in picture) or "full".
+  std::string output = "mono";
+  std::shared_ptr<const HeadsetProfile> headset;
+  double loupe = 0;
+  std::string loupe_view = "inset";
   int window_width = 0, window_height = 0;  // windowed size (0 = the camera's)
   bool hud = true;
   bool vsync = true;
@@ -126,6 +135,7 @@ struct LiveOptions {
   ar::PipelineOptions pipeline;
   // Test hooks.
   std::vector<std::pair<std::int64_t, std::string>> screenshots;  // (frame, PNG path) of the window
+  std::vector<std::pair<std::int64_t, int>> inject_keys;  // (frame, GLFW key): pressed when a frame >= it shows
   std::int64_t stall_after_frames = 0;  // the camera delivers nothing for stall_s after this many frames
   double stall_s = 0;
   std::string summary_path;  // also write the summary JSON here

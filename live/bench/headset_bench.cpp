@@ -1,0 +1,144 @@
+// The headset output's cost per frame on this machine's GL (llvmpipe here):
+// the per-eye pass (eye_output.h) with and without the lens pre-warp, and the
+// digital loupe, drawing a 1280x720 camera frame (already a texture: the
+// upload is the same as the mono window's) into an off-screen framebuffer of
+// the panel's size, glFinish after each frame. See docs/BENCHMARKS.md,
+// "Issue 28 (session 15): headset output and loupe".
+//   ./build/live/live_headset_bench --benchmark_repetitions=1
+// Counters: p50_ms, p99_ms (wall time per frame, draw + glFinish); cpu_p50_ms,
+// cpu_p99_ms (the process's CPU time per frame, llvmpipe's rasteriser threads
+// included: what the frame costs the machine, less sensitive than wall time to
+// other work on it).
+// Configurations (config:N): 0 mono blit (the window as before, 1280x720 window),
+// 1 mono + loupe inset 3x, 2 mono + loupe full 3x, 3 sbs DK1 panel (1280x800)
+// without pre-warp, 4 the same with pre-warp, 5 with pre-warp + loupe inset 3x,
+// 6 sbs generic panel (2880x1600) without pre-warp, 7 with pre-warp,
+// 8 with pre-warp + loupe inset 3x.
+#include <benchmark/benchmark.h>
+
+#define GL_GLEXT_PROTOTYPES
+#include <GL/gl.h>
+#include <GL/glext.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+#include "dentar/ar/egl_context.h"
+#include "dentar/live/eye_output.h"
+
+namespace {
+
+using namespace dentar;
+
+ar::EglContext* context() {
+  static ar::EglContext* ctx = [] {
+    auto r = ar::EglContext::create();
+    return r ? new ar::EglContext(std::move(r).value()) : nullptr;
+  }();
+  return ctx;
+}
+
+calibration::CameraIntrinsics cam720() {
+  calibration::CameraIntrinsics c;
+  c.width = 1280, c.height = 720, c.fx = c.fy = 1000, c.cx = 639.5, c.cy = 359.5;
+  return c;
+}
+
+void BM_HeadsetOutput(benchmark::State& state) {
+  if (!context() || !context()->make_current()) {
+    state.SkipWithError("no EGL context");
+    return;
+  }
+  const int config = static_cast<int>(state.range(0));
+  const char* profile = config >= 6 ? "assets/headsets/generic_2x1440x1600.json" : "assets/headsets/oculus_rift_dk1.json";
+  auto h = live::read_headset_profile(profile);
+  if (!h) {
+    state.SkipWithError(h.error().c_str());
+    return;
+  }
+  const bool sbs = config >= 3;
+  const int W = sbs ? h->panel_w : 1280, H = sbs ? h->panel_h : 720;
+  auto out = sbs ? live::make_sbs_output(true, *h, cam720(), false) : live::make_mono_output(true, cam720());
+  if (!out) {
+    state.SkipWithError(out.error().c_str());
+    return;
+  }
+  live::LoupeView l;
+  if (config == 1 || config == 5 || config == 8) l.mag = 3;
+  if (config == 2) l.mag = 3, l.inset = false;
+  (*out)->set_loupe(l);
+  (*out)->set_prewarp(config == 4 || config == 5 || config == 7 || config == 8);
+  cv::Mat img(720, 1280, CV_8UC4);
+  cv::randu(img, 0, 255);
+  GLuint tex = 0, target = 0, fbo = 0;
+  glGenTextures(1, &tex);
+  glBindTexture(GL_TEXTURE_2D, tex);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 1280, 720, 0, GL_RGBA, GL_UNSIGNED_BYTE, img.data);
+  glGenTextures(1, &target);
+  glBindTexture(GL_TEXTURE_2D, target);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, W, H, 0, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
+  glGenFramebuffers(1, &fbo);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target, 0);
+  live::OutputFrame f;
+  f.video = tex, f.tex_w = 1280, f.tex_h = 720;
+  f.loupe_c[0][0] = f.loupe_c[1][0] = 700, f.loupe_c[0][1] = f.loupe_c[1][1] = 400;
+  for (int i = 0; i < 5; ++i) (*out)->draw(f, W, H);  // warm-up (shader compile, first draws)
+  glFinish();
+  auto cpu_ms = [] {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+  };
+  std::vector<double> ms, cpu;
+  for (auto _ : state) {
+    for (int i = 0; i < 30; ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = cpu_ms();
+      (*out)->draw(f, W, H);
+      glFinish();
+      cpu.push_back(cpu_ms() - c0);
+      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+  }
+  std::sort(ms.begin(), ms.end());
+  std::sort(cpu.begin(), cpu.end());
+  state.counters["p50_ms"] = ms[ms.size() / 2];
+  state.counters["p99_ms"] = ms[std::min(ms.size() - 1, ms.size() * 99 / 100)];
+  state.counters["cpu_p50_ms"] = cpu[cpu.size() / 2];
+  state.counters["cpu_p99_ms"] = cpu[std::min(cpu.size() - 1, cpu.size() * 99 / 100)];
+  state.counters["panel_mpx"] = W * H / 1e6;
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  out->reset();
+  glDeleteFramebuffers(1, &fbo);
+  glDeleteTextures(1, &target);
+  glDeleteTextures(1, &tex);
+}
+BENCHMARK(BM_HeadsetOutput)->DenseRange(0, 8)->Iterations(3)->Unit(benchmark::kMillisecond);
+
+// The loupe's centre per frame on the CPU: the tooth's centre projected with the
+// frame's pose (the station's distortion) and the deadband (headset.h LoupeCentre).
+void BM_LoupeCentre(benchmark::State& state) {
+  calibration::CameraIntrinsics c = cam720();
+  c.dist = {0.1, -0.2, 0.001, 0.001, 0.05};
+  live::LoupeCentre lc;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(0.01, 0.02, 0.35);
+  int i = 0;
+  for (auto _ : state) {
+    T.translation().x() += (i++ % 2 ? 1e-4 : -1e-4);
+    double u = 0, v = 0;
+    const bool ok = live::project_point(c, T, Eigen::Vector3d(0.005, 0.005, 0.01), u, v);
+    lc.update(ok, u, v);
+    benchmark::DoNotOptimize(lc.centre()[0]);
+  }
+}
+BENCHMARK(BM_LoupeCentre)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

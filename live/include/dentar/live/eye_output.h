@@ -1,0 +1,60 @@
+// Issue 28, item 5: where `dentar live` draws the frame. One interface, the
+// DisplayOutput, that the window's frame loop draws through; two
+// implementations:
+//   - the mono window (as before: the composite letterboxed into the window by
+//     a framebuffer blit, exact pixels at 1:1), with an optional loupe;
+//   - a side-by-side view for a headset that appears as a display (docs/headset.md):
+//     per eye, one GL pass maps the panel's pixels to the camera's through the
+//     headset profile (headset.h: field of view, interpupillary shift, lens
+//     pre-warp with chromatic aberration, the loupe).
+// An OpenXR backend (no OpenXR runtime in Debian 12) would be a third: it
+// would draw the same per-eye pass into the runtime's swapchain images, with
+// the runtime's per-eye field of view, and leave the lens pre-warp to the
+// runtime (no pre-warp in its mapping).
+//
+// GL: runs in the window's context (desktop GL 3.0 or OpenGL ES 3.0, the
+// shader's version line follows the context), main thread; also on a headless
+// EGL context (tests, the benchmark). Draws into the bound draw framebuffer.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "dentar/live/headset.h"
+#include "dentar/volume/result.h"
+
+namespace dentar::live {
+
+// The frame to draw: textures in the current context (RGBA8, camera size, row 0 =
+// image top). video: the camera image or the CPU composite; overlay != 0 (the
+// GPU path, gl_handoff.h): the composite inside `region` (x0, y0, x1, y1 px) is
+// in overlay. right_video != 0: a stereo pair's right eye (then the left eye
+// uses `video`), else mono.
+struct OutputFrame {
+  unsigned video = 0, overlay = 0, right_video = 0;
+  int region[4] = {0, 0, 0, 0};
+  int tex_w = 0, tex_h = 0;
+  // The loupe's centre per eye, camera px (OpenCV); used when the loupe is on.
+  double loupe_c[2][2] = {{0, 0}, {0, 0}};
+};
+
+class DisplayOutput {
+ public:
+  virtual ~DisplayOutput() = default;
+  virtual const char* kind() const = 0;  // "mono" or "sbs"
+  // Draws the frame into the bound draw framebuffer of fb_w x fb_h px.
+  virtual void draw(const OutputFrame& f, int fb_w, int fb_h) = 0;
+  virtual void set_loupe(const LoupeView& l) = 0;
+  virtual void set_prewarp(bool on) = 0;  // sbs: the lens pre-warp on or off (a key toggles it)
+};
+
+// The mono window; `gles`: the context is OpenGL ES (shader version line).
+// cam: the intrinsics of the composite's size (the loupe's mapping).
+Result<std::unique_ptr<DisplayOutput>> make_mono_output(bool gles, const calibration::CameraIntrinsics& cam);
+// The side-by-side view of `profile`. A frame with right_video is drawn as a
+// stereo pair (each eye its own camera, no IPD shift), one without as mono;
+// `stereo` says which the driver expects (for its log; the frame decides).
+Result<std::unique_ptr<DisplayOutput>> make_sbs_output(bool gles, const HeadsetProfile& profile,
+                                                       const calibration::CameraIntrinsics& cam, bool stereo);
+
+}  // namespace dentar::live

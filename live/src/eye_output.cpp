@@ -1,0 +1,354 @@
+// See eye_output.h. The per-eye pass: one full-viewport triangle whose fragment
+// shader is headset.cpp's EyeMapping::map, channel by channel (render_eye_cpu
+// is its CPU reference, and the tests hold the two together).
+#include "dentar/live/eye_output.h"
+
+#define GL_GLEXT_PROTOTYPES
+#include <GL/gl.h>
+#include <GL/glext.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace dentar::live {
+namespace {
+
+const char* kVert = R"(
+void main() {
+  // One triangle covering the viewport.
+  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+)";
+
+// EyeMapping::map with its affine parts folded on the CPU (EyePass::draw): the
+// lens coordinates d from the fragment's position, one multiply-add from d to
+// texture coordinates (the plain view or the full-view loupe), another inside the
+// loupe's inset; no divisions and no branches: llvmpipe runs both sides of a
+// branch under a mask, so the pre-warp's three fetches and the inset are
+// compiled in or out (WARP, INSET: four programs) rather than switched by
+// uniforms (docs/BENCHMARKS.md, "Issue 28 (session 15)").
+const char* kFrag = R"(
+uniform sampler2D u_tex;
+uniform vec4 u_d;         // d = gl_FragCoord.xy * u_d.xy + u_d.zw (lens units)
+uniform vec2 u_k;         // k1, k2
+uniform vec3 u_chroma;    // radial scale per channel (R, G, B)
+uniform vec4 u_view;      // texture coordinates = d' * u_view.xy + u_view.zw (d' = the pre-warped d)
+uniform vec4 u_inset;     // inset centre and half size in lens units
+uniform vec4 u_iview;     // inside the inset: (d' - centre) * u_iview.xy + u_iview.zw
+out vec4 o_color;
+
+vec4 fetch(vec2 dp) {
+  vec2 uv = dp * u_view.xy + u_view.zw;
+#if INSET
+  vec2 e = dp - u_inset.xy;
+  vec2 in2 = step(abs(e), u_inset.zw);
+  uv = mix(uv, e * u_iview.xy + u_iview.zw, in2.x * in2.y);
+#endif
+  vec2 ok = step(vec2(0.0), uv) * step(uv, vec2(1.0));
+  return textureLod(u_tex, uv, 0.0) * (ok.x * ok.y);
+}
+
+void main() {
+  vec2 d = gl_FragCoord.xy * u_d.xy + u_d.zw;
+  float r2 = dot(d, d);
+  float g = 1.0 + u_k.x * r2 + u_k.y * r2 * r2;
+#if WARP
+  o_color = vec4(fetch(d * (g * u_chroma.x)).r, fetch(d * (g * u_chroma.y)).g, fetch(d * (g * u_chroma.z)).b, 1.0);
+#else
+  o_color = vec4(fetch(d * g).rgb, 1.0);
+#endif
+}
+)";
+
+GLuint compile(GLenum type, const std::string& src, std::string& err) {
+  const GLuint s = glCreateShader(type);
+  const char* p = src.c_str();
+  glShaderSource(s, 1, &p, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[2048] = {0};
+    glGetShaderInfoLog(s, sizeof log, nullptr, log);
+    err = std::string("eye pass shader: ") + log;
+    glDeleteShader(s);
+    return 0;
+  }
+  return s;
+}
+
+// The GL pass of one EyeMapping, and the composed source texture of the GPU path.
+class EyePass {
+ public:
+  ~EyePass() {
+    for (GLuint p : prog_)
+      if (p) glDeleteProgram(p);
+    if (vao_) glDeleteVertexArrays(1, &vao_);
+    if (comp_tex_) glDeleteTextures(1, &comp_tex_);
+    if (fbo_[0]) glDeleteFramebuffers(2, fbo_);
+  }
+
+  Status init(bool gles) {
+    const std::string head = gles ? "#version 300 es\nprecision highp float;\nprecision highp int;\n" : "#version 130\n";
+    for (int v = 0; v < 4; ++v) {
+      const std::string defs = std::string("#define WARP ") + (v & 1 ? "1" : "0") + "\n#define INSET " + (v & 2 ? "1" : "0") + "\n";
+      std::string err;
+      const GLuint vs = compile(GL_VERTEX_SHADER, head + kVert, err);
+      if (!vs) return Error{err};
+      const GLuint fs = compile(GL_FRAGMENT_SHADER, head + defs + kFrag, err);
+      if (!fs) {
+        glDeleteShader(vs);
+        return Error{err};
+      }
+      prog_[v] = glCreateProgram();
+      glAttachShader(prog_[v], vs);
+      glAttachShader(prog_[v], fs);
+      glLinkProgram(prog_[v]);
+      glDeleteShader(vs);
+      glDeleteShader(fs);
+      GLint ok = 0;
+      glGetProgramiv(prog_[v], GL_LINK_STATUS, &ok);
+      if (!ok) {
+        char log[2048] = {0};
+        glGetProgramInfoLog(prog_[v], sizeof log, nullptr, log);
+        return Error{std::string("eye pass shader link: ") + log};
+      }
+    }
+    glGenVertexArrays(1, &vao_);
+    glGenFramebuffers(2, fbo_);
+    return {};
+  }
+
+  // The texture holding the whole composite: the video itself, or (GPU path)
+  // video and overlay region composed into a texture of our own.
+  GLuint source(const OutputFrame& f) {
+    if (f.overlay == 0) return f.video;
+    if (!comp_tex_ || comp_w_ != f.tex_w || comp_h_ != f.tex_h) {
+      if (comp_tex_) glDeleteTextures(1, &comp_tex_);
+      glGenTextures(1, &comp_tex_);
+      glBindTexture(GL_TEXTURE_2D, comp_tex_);
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, f.tex_w, f.tex_h, 0, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
+      comp_w_ = f.tex_w;
+      comp_h_ = f.tex_h;
+    }
+    GLint prev_draw = 0, prev_read = 0;
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &prev_draw);
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &prev_read);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo_[1]);
+    glFramebufferTexture2D(GL_DRAW_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, comp_tex_, 0);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_[0]);
+    glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, f.video, 0);
+    glBlitFramebuffer(0, 0, f.tex_w, f.tex_h, 0, 0, f.tex_w, f.tex_h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    const int* r = f.region;
+    if (r[2] > r[0] && r[3] > r[1]) {
+      glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, f.overlay, 0);
+      glBlitFramebuffer(r[0], r[1], r[2], r[3], r[0], r[1], r[2], r[3], GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(prev_draw));
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, static_cast<GLuint>(prev_read));
+    return comp_tex_;
+  }
+
+  // Draws m into the bound draw framebuffer (fb_h px high), the panel placed at
+  // (off_x, off_y) (top-left) with `scale` framebuffer px per panel px.
+  // scissor: only inside the loupe's inset (the mono window's loupe over the blit).
+  void draw(GLuint tex, const EyeMapping& m, int fb_h, double off_x, double off_y, double scale, bool inset_only = false) {
+    const int x = static_cast<int>(std::lround(off_x + m.vp[0] * scale));
+    const int y_top = static_cast<int>(std::lround(off_y + m.vp[1] * scale));
+    const int w = static_cast<int>(std::lround(m.vp[2] * scale)), h = static_cast<int>(std::lround(m.vp[3] * scale));
+    glViewport(x, fb_h - y_top - h, w, h);
+    if (inset_only) {
+      const double cx = m.vp[0] + m.loupe.inset_cx * m.vp[2], cy = m.vp[1] + m.loupe.inset_cy * m.vp[3];
+      const double hw = m.loupe.inset_w * m.vp[2] / 2, hh = m.loupe.inset_h * m.vp[3] / 2;
+      const int sx0 = static_cast<int>(std::lround(off_x + (cx - hw) * scale));
+      const int sy0 = static_cast<int>(std::lround(off_y + (cy - hh) * scale));
+      const int sx1 = static_cast<int>(std::lround(off_x + (cx + hw) * scale));
+      const int sy1 = static_cast<int>(std::lround(off_y + (cy + hh) * scale));
+      glEnable(GL_SCISSOR_TEST);
+      glScissor(sx0, fb_h - sy1, sx1 - sx0, sy1 - sy0);
+    }
+    glDisable(GL_BLEND);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    // The radial pre-warp is in every program; the three fetches only with a chromatic scale.
+    const bool chroma = m.chroma[0] != 1 || m.chroma[1] != 1 || m.chroma[2] != 1;
+    const bool inset = m.loupe.mag > 0 && m.loupe.inset;
+    const GLuint prog = prog_[(chroma ? 1 : 0) | (inset ? 2 : 0)];
+    glUseProgram(prog);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, tex);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    auto loc = [&](const char* n) { return glGetUniformLocation(prog, n); };
+    glUniform1i(loc("u_tex"), 0);
+    // Lens coordinates from the fragment: p (panel px, top-left) = ((x, fb_h - y) - off) / scale;
+    // d = (p - vp - lens) / norm.
+    const double sn = scale * m.norm;
+    glUniform4f(loc("u_d"), float(1 / sn), float(-1 / sn),
+                float(-off_x / sn - (m.vp[0] + m.lens_c[0]) / m.norm),
+                float((fb_h - off_y) / sn - (m.vp[1] + m.lens_c[1]) / m.norm));
+    glUniform2f(loc("u_k"), float(m.k1), float(m.k2));
+    glUniform3f(loc("u_chroma"), float(m.chroma[0]), float(m.chroma[1]), float(m.chroma[2]));
+    // Texture coordinates of the pre-warped d' (EyeMapping::eye_to_camera with q = lens + d' norm),
+    // +0.5 from OpenCV's pixel centres to GL's, over the camera's size.
+    const double W = m.cam_w, H = m.cam_h;
+    const bool full = m.loupe.mag > 0 && !m.loupe.inset;
+    const double mag = full ? m.loupe.mag : 1.0;
+    const double bx = full ? m.loupe_c[0] : m.c_cam[0], by = full ? m.loupe_c[1] : m.c_cam[1];
+    glUniform4f(loc("u_view"), float(m.f_cam[0] * m.norm / (m.f_eye[0] * mag * W)),
+                float(m.f_cam[1] * m.norm / (m.f_eye[1] * mag * H)),
+                float((bx - m.f_cam[0] * m.shift_tan / mag + 0.5) / W), float((by + 0.5) / H));
+    glUniform4f(loc("u_inset"), float((m.loupe.inset_cx * m.vp[2] - m.lens_c[0]) / m.norm),
+                float((m.loupe.inset_cy * m.vp[3] - m.lens_c[1]) / m.norm), float(m.loupe.inset_w * m.vp[2] / 2 / m.norm),
+                float(m.loupe.inset_h * m.vp[3] / 2 / m.norm));
+    const double im = inset ? m.loupe.mag : 1.0;
+    glUniform4f(loc("u_iview"), float(m.f_cam[0] * m.norm / (m.f_eye[0] * im * W)),
+                float(m.f_cam[1] * m.norm / (m.f_eye[1] * im * H)), float((m.loupe_c[0] + 0.5) / W),
+                float((m.loupe_c[1] + 0.5) / H));
+    glBindVertexArray(vao_);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glBindVertexArray(0);
+    glUseProgram(0);
+    if (inset_only) glDisable(GL_SCISSOR_TEST);
+  }
+
+ private:
+  GLuint prog_[4] = {0, 0, 0, 0}, vao_ = 0;  // by WARP (bit 0) and INSET (bit 1)
+  GLuint fbo_[2] = {0, 0};  // read (video / overlay) and draw (composed texture)
+  GLuint comp_tex_ = 0;
+  int comp_w_ = 0, comp_h_ = 0;
+};
+
+// Intrinsics of the composite's size (the station's may be of another size: scaled).
+calibration::CameraIntrinsics at_size(calibration::CameraIntrinsics c, int w, int h) {
+  if (c.width == w && c.height == h) return c;
+  const double sx = double(w) / c.width, sy = double(h) / c.height;
+  c.fx *= sx;
+  c.cx = (c.cx + 0.5) * sx - 0.5;
+  c.fy *= sy;
+  c.cy = (c.cy + 0.5) * sy - 0.5;
+  c.width = w;
+  c.height = h;
+  return c;
+}
+
+class MonoOutput final : public DisplayOutput {
+ public:
+  MonoOutput(const calibration::CameraIntrinsics& cam) : cam_(cam) {}
+  Status init(bool gles) {
+    glGenFramebuffers(1, &read_fbo_);
+    return pass_.init(gles);
+  }
+  ~MonoOutput() override {
+    if (read_fbo_) glDeleteFramebuffers(1, &read_fbo_);
+  }
+  const char* kind() const override { return "mono"; }
+  void set_loupe(const LoupeView& l) override { loupe_ = l; }
+  void set_prewarp(bool) override {}
+
+  // The composite letterboxed into the window by a framebuffer blit (at 1:1
+  // a nearest-pixel copy: the window shows the composite's exact pixels, and
+  // llvmpipe's cost falls from a filtered, blended quad to a copy); then the
+  // loupe's pass, when it is on.
+  void draw(const OutputFrame& f, int fbw, int fbh) override {
+    glViewport(0, 0, fbw, fbh);
+    const int tw = f.tex_w, th = f.tex_h;
+    const double s = std::min(double(fbw) / tw, double(fbh) / th);
+    const int dw = static_cast<int>(std::lround(tw * s)), dh = static_cast<int>(std::lround(th * s));
+    const int x0 = (fbw - dw) / 2, y0 = (fbh - dh) / 2;
+    if (dw != fbw || dh != fbh) {
+      glClearColor(0, 0, 0, 1);
+      glClear(GL_COLOR_BUFFER_BIT);
+    }
+    const GLenum filter = dw == tw && dh == th ? GL_NEAREST : GL_LINEAR;
+    GLint prev_read = 0;
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &prev_read);
+    // (Re)attached every frame: another context may have written the pixels,
+    // and an attachment is where GL looks again.
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, read_fbo_);
+    glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, f.video, 0);
+    // Image row 0 is the top; GL's window origin is the bottom: flip in the blit.
+    glBlitFramebuffer(0, 0, tw, th, x0, y0 + dh, x0 + dw, y0, GL_COLOR_BUFFER_BIT, filter);
+    const int* r = f.region;
+    if (f.overlay != 0 && r[2] > r[0] && r[3] > r[1]) {
+      // The overlay's region of a shared frame over the video, same mapping.
+      auto wx = [&](int x) { return x0 + static_cast<int>(std::lround(double(x) * dw / tw)); };
+      auto wy = [&](int y) { return y0 + dh - static_cast<int>(std::lround(double(y) * dh / th)); };
+      glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, f.overlay, 0);
+      glBlitFramebuffer(r[0], r[1], r[2], r[3], wx(r[0]), wy(r[1]), wx(r[2]), wy(r[3]), GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, static_cast<GLuint>(prev_read));
+    if (loupe_.mag > 0) {
+      const calibration::CameraIntrinsics cam = at_size(cam_, tw, th);
+      const EyeMapping m = make_window_mapping(fbw, fbh, cam, loupe_, f.loupe_c[0]);
+      pass_.draw(pass_.source(f), m, fbh, 0, 0, 1, loupe_.inset);
+      glViewport(0, 0, fbw, fbh);
+    }
+  }
+
+ private:
+  calibration::CameraIntrinsics cam_;
+  LoupeView loupe_{};
+  EyePass pass_;
+  GLuint read_fbo_ = 0;
+};
+
+class SbsOutput final : public DisplayOutput {
+ public:
+  SbsOutput(const HeadsetProfile& h, const calibration::CameraIntrinsics& cam, bool stereo)
+      : h_(h), cam_(cam) {
+    (void)stereo;
+    loupe_.mag = 0;
+  }
+  Status init(bool gles) { return pass_.init(gles); }
+  const char* kind() const override { return "sbs"; }
+  void set_loupe(const LoupeView& l) override { loupe_ = l; }
+  void set_prewarp(bool on) override { prewarp_ = on; }
+
+  void draw(const OutputFrame& f, int fbw, int fbh) override {
+    glViewport(0, 0, fbw, fbh);
+    // The panel fills the framebuffer (full screen on the headset); a window
+    // of another size shows it scaled, aspect kept.
+    const double s = std::min(double(fbw) / h_.panel_w, double(fbh) / h_.panel_h);
+    const double ox = (fbw - h_.panel_w * s) / 2, oy = (fbh - h_.panel_h * s) / 2;
+    glClearColor(0, 0, 0, 1);
+    glClear(GL_COLOR_BUFFER_BIT);
+    const calibration::CameraIntrinsics cam = at_size(cam_, f.tex_w, f.tex_h);
+    const GLuint left = pass_.source(f);
+    // A right eye's frame given: a stereo pair (no IPD shift), whatever the output was made for.
+    const bool stereo = f.right_video != 0;
+    for (int e = 0; e < 2; ++e) {
+      const EyeMapping m = make_eye_mapping(h_, e, cam, stereo, loupe_, f.loupe_c[e], prewarp_);
+      pass_.draw(e == 1 && stereo ? f.right_video : left, m, fbh, ox, oy, s);
+    }
+    glViewport(0, 0, fbw, fbh);
+  }
+
+ private:
+  HeadsetProfile h_;
+  calibration::CameraIntrinsics cam_;
+  bool prewarp_ = true;
+  LoupeView loupe_{};
+  EyePass pass_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<DisplayOutput>> make_mono_output(bool gles, const calibration::CameraIntrinsics& cam) {
+  auto o = std::make_unique<MonoOutput>(cam);
+  if (auto s = o->init(gles); !s) return Error{s.error()};
+  return std::unique_ptr<DisplayOutput>(std::move(o));
+}
+
+Result<std::unique_ptr<DisplayOutput>> make_sbs_output(bool gles, const HeadsetProfile& profile,
+                                                       const calibration::CameraIntrinsics& cam, bool stereo) {
+  if (std::string v = profile.validate(); !v.empty()) return Error{"headset profile: " + v};
+  auto o = std::make_unique<SbsOutput>(profile, cam, stereo);
+  if (auto s = o->init(gles); !s) return Error{s.error()};
+  return std::unique_ptr<DisplayOutput>(std::move(o));
+}
+
+}  // namespace dentar::live
