@@ -164,10 +164,12 @@ LessonPlan plan_next(const std::vector<PastSession>& h, const PlanOptions& o) {
     // unguided check trial (mode 3 right after a guided one): practice fading (PlanOptions).
     int guided_run = 0;
     for (auto it = h.rbegin(); it != h.rend() && it->mode == 2; ++it) ++guided_run;
-    const bool after_check = f == &last && last.mode == 3 && h.size() >= 2 && h[h.size() - 2].mode == 2;
+    const bool after_check =
+        f == &last && last.mode == 3 && h.size() >= 2 && h[h.size() - 2].mode == 2;
     const int pre_check_rep = after_check ? h[h.size() - 2].guidance.repetition : 0;
-    const std::string checks = "an unguided check trial after every " + std::to_string(o.check_every) +
-                               " guided session" + (o.check_every == 1 ? "" : "s");
+    const std::string checks = "an unguided check trial after every " +
+                               std::to_string(o.check_every) + " guided session" +
+                               (o.check_every == 1 ? "" : "s");
     auto fade_to = [&](int rep) {
       g.as_needed = true;
       g.fade = o.fade;
@@ -191,21 +193,23 @@ LessonPlan plan_next(const std::vector<PastSession>& h, const PlanOptions& o) {
       say("novice_check", 3,
           why_level + " and " + err + " after " + std::to_string(guided_run) +
               " guided sessions in a row: " + checks +
-              " (the expert waits for you) shows what you keep without the field; constant guidance is "
-              "learned less well than guidance that fades with practice");
+              " (the expert waits for you) shows what you keep without the field; constant "
+              "guidance is learned less well than guidance that fades with practice");
     } else if (f && f->mode == 2 && f->guidance.repetition > 0 && e > o.strayed_m) {
       // Faded and strayed: one step less fading (adaptive fading), not the full field again.
       fade_to(f->guidance.repetition - 1);
       say("novice_fade_back", 2,
-          why_level + " and " + err + " (strayed beyond " + mm(o.strayed_m) + " with guidance faded " +
-              std::to_string(f->guidance.repetition) + " times): one step less fading (repetition " +
-              std::to_string(g.repetition) + "), still as needed");
+          why_level + " and " + err + " (strayed beyond " + mm(o.strayed_m) +
+              " with guidance faded " + std::to_string(f->guidance.repetition) +
+              " times): one step less fading (repetition " + std::to_string(g.repetition) +
+              "), still as needed");
     } else if (f && f->mode == 2 && f->guidance.repetition > 0) {
       fade_to(f->guidance.repetition);
       say("novice_fade_hold", 2,
-          why_level + " and " + err + " (off the path, within " + mm(o.strayed_m) + ") with guidance faded " +
-              std::to_string(f->guidance.repetition) + " times: the same faded guidance, as needed, until " +
-              checks + " decides whether it fades further");
+          why_level + " and " + err + " (off the path, within " + mm(o.strayed_m) +
+              ") with guidance faded " + std::to_string(f->guidance.repetition) +
+              " times: the same faded guidance, as needed, until " + checks +
+              " decides whether it fades further");
     } else if (f && f->mode == 3 && e > o.strayed_m) {
       g.as_needed = true;
       say("novice_back_to_guidance", 2, why_level + " and " + err + " (strayed beyond " + mm(o.strayed_m) +
@@ -220,8 +224,9 @@ LessonPlan plan_next(const std::vector<PastSession>& h, const PlanOptions& o) {
     } else if (after_check) {
       say("novice_follow_again", 3,
           why_level + " and " + err + " in the unguided check trial" +
-              (e <= o.close_m ? " (close: within " + mm(o.close_m) + ")"
-                              : " with guidance already faded " + std::to_string(pre_check_rep) + " times") +
+              (e <= o.close_m
+                   ? " (close: within " + mm(o.close_m) + ")"
+                   : " with guidance already faded " + std::to_string(pre_check_rep) + " times") +
               ": follow the expert without guidance until the error is below " + mm(o.close_m));
     } else if (f && f->mode == 3) {
       say("novice_follow_again", 3, why_level + " and " + err + ": follow the expert again until the error is below " +
@@ -230,7 +235,8 @@ LessonPlan plan_next(const std::vector<PastSession>& h, const PlanOptions& o) {
       say("novice_guidance", 2,
           why_level + (f ? " and " + err : std::string(" and you have not been guided yet")) +
               ": full guidance helps novices learn the path" +
-              (f && f->mode == 2 ? ", until " + checks + " lets it fade with practice" : std::string()));
+              (f && f->mode == 2 ? ", until " + checks + " lets it fade with practice"
+                                 : std::string()));
     }
   } else if (p.level == "intermediate") {
     if (f && e > o.strayed_m) {

@@ -108,8 +108,8 @@ TEST(LessonPlan, NoviceGetsFullGuidanceThenFadingThenAnUnguidedTrial) {
 // without): before session 15 the plan kept the full field for every repetition. Now an
 // unguided check trial comes after every check_every guided sessions, and each check within
 // 2 mm fades the guidance one step, until it is faded out.
-std::vector<PastSession> script_novice(const PlanOptions& o, int sessions, double guided_mm, double check_mm,
-                                       std::vector<LessonPlan>* plans) {
+std::vector<PastSession> script_novice(const PlanOptions& o, int sessions, double guided_mm,
+                                       double check_mm, std::vector<LessonPlan>* plans) {
   std::vector<PastSession> h = {sess(0, -1, 0.2)};
   for (int i = 0; i < sessions; ++i) {
     const LessonPlan p = plan_next(h, o);
@@ -137,7 +137,7 @@ TEST(LessonPlan, NoviceOffThePathGetsCheckTrialsAndGuidanceFadesWithPractice) {
   expect_has(plans[2].reason, "1.20 mm");
   expect_has(plans[2].reason, "2 guided sessions in a row");
   expect_has(plans[2].reason, "unguided check trial");
-  // The check's 1.6 mm (within 2 mm) fades the guidance one step, though the guided error stays 1.2 mm.
+  // The check's 1.6 mm (within 2 mm) fades the guidance one step; the guided error stays 1.2 mm.
   ASSERT_EQ(plans[3].rule, "novice_fade_practice");
   EXPECT_EQ(plans[3].mode, 2);
   EXPECT_TRUE(plans[3].guidance.as_needed);
