@@ -212,6 +212,7 @@ TEST(CliExitCodes, LessonFaultsAreTwo) {
   const std::string l10 = (f.dir / "l10").string();
   check({{"missing input", "lesson plan " + m, m},
          {"damaged session log", "lesson plan " + f.garbage_dlog.string(), f.garbage_dlog.string()},
+         {"bad plan option", "lesson plan --check-every 0 " + m, "--check-every 0: check_every must be >= 1"},
          {"damaged plan", "lesson run " + m + " --plan " + (f.dir / "bad_plan.json").string() + " --out " + l10,
           "field mode = 9 must be 1..5"},
          {"missing plan", "lesson run " + m + " --plan " + m + " --out " + l10, m},

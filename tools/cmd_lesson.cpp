@@ -32,6 +32,7 @@ struct LessonArgs {
   std::vector<std::string> exercises;
   std::vector<std::string> sessions;  // lesson plan: the student's recent sessions, oldest first
   std::string model, plan;            // lesson plan: skill model; lesson run: a plan.json to apply
+  int check_every = training::PlanOptions{}.check_every;  // lesson plan: guided sessions per check trial
 };
 
 int do_make(const LessonArgs& a) {
@@ -107,6 +108,10 @@ int do_plan(const LessonArgs& a) {
     if (!m) return print_error("lesson plan", m.error()), 2;
     model = std::move(*m);
   }
+  training::PlanOptions po;
+  po.check_every = a.check_every;
+  if (std::string v = po.validate(); !v.empty())
+    return print_error("lesson plan", "--check-every " + std::to_string(a.check_every) + ": " + v), 2;
   std::vector<training::PastSession> history;
   for (const auto& s : a.sessions) {
     auto p = training::read_past_session(s, model ? &*model : nullptr);
@@ -118,7 +123,7 @@ int do_plan(const LessonArgs& a) {
     std::printf("\n");
     history.push_back(std::move(*p));
   }
-  const training::LessonPlan plan = training::plan_next(history);
+  const training::LessonPlan plan = training::plan_next(history, po);
   std::cout << plan.reason << "\n";
   std::cout << "guidance: " << (plan.guidance.as_needed ? "as needed" : "fixed")
             << (plan.guidance.across_path_only ? ", across the path only" : "");
@@ -281,6 +286,9 @@ void add_lesson(CLI::App& app, int& exit_code) {
   pl->add_option("sessions", a->sessions, "The student's recent session folders (or .dlog), oldest first");
   pl->add_option("--model", a->model, "Skill model (dentar assess --save) to assess each session's motion");
   pl->add_option("--out", a->out, "Write the plan here (plan.json; dentar lesson run --plan)");
+  pl->add_option("--check-every", a->check_every,
+                 "A novice guided this many sessions in a row off the path gets an unguided check trial")
+      ->capture_default_str();
   pl->footer("Rules: docs/training_modes.md (\"The lesson plan\"). Example:\n"
              "  dentar lesson plan run1 run2 --out plan.json && dentar lesson run builtin:molar_class1_cavity --plan plan.json --out run3");
   pl->callback([a, &exit_code] { exit_code = do_plan(*a); });

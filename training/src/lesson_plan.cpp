@@ -102,6 +102,7 @@ std::string PlanOptions::validate() const {
     return "novice_score and skilled_score must satisfy 0 <= novice_score < skilled_score <= 1";
   if (!(fade > 0 && fade < 1)) return "fade must be in (0, 1)";
   if (fade_repetitions < 1) return "fade_repetitions must be >= 1";
+  if (check_every < 1) return "check_every must be >= 1";
   if (!(amplify > 0 && amplify <= 1)) return "amplify must be in (0, 1]";
   return {};
 }
@@ -159,6 +160,21 @@ LessonPlan plan_next(const std::vector<PastSession>& h, const PlanOptions& o) {
   };
 
   if (p.level == "novice") {
+    // Guided sessions in a row at the end of the history, and whether the last session was an
+    // unguided check trial (mode 3 right after a guided one): practice fading (PlanOptions).
+    int guided_run = 0;
+    for (auto it = h.rbegin(); it != h.rend() && it->mode == 2; ++it) ++guided_run;
+    const bool after_check =
+        f == &last && last.mode == 3 && h.size() >= 2 && h[h.size() - 2].mode == 2;
+    const int pre_check_rep = after_check ? h[h.size() - 2].guidance.repetition : 0;
+    const std::string checks = "an unguided check trial after every " +
+                               std::to_string(o.check_every) + " guided session" +
+                               (o.check_every == 1 ? "" : "s");
+    auto fade_to = [&](int rep) {
+      g.as_needed = true;
+      g.fade = o.fade;
+      g.repetition = rep;
+    };
     if (f && f->mode == 2 && e <= o.on_path_m) {
       const int rep = f->guidance.repetition + 1;
       if (rep > o.fade_repetitions) {
@@ -166,32 +182,61 @@ LessonPlan plan_next(const std::vector<PastSession>& h, const PlanOptions& o) {
             why_level + " and " + err + " with guidance faded " + std::to_string(f->guidance.repetition) +
                 " times: an unguided trial (the expert waits for you) shows what you keep without the field");
       } else {
-        g.as_needed = true;
-        g.fade = o.fade;
-        g.repetition = rep;
+        fade_to(rep);
         say("novice_fade", 2,
             why_level + " and " + err + " (on the path): the guidance fades (repetition " + std::to_string(rep) +
                 ") and acts only as needed, so you do more of the work");
       }
-    } else if (f && f->mode == 2 && f->guidance.repetition > 0) {
-      // Faded and off the path: one step less fading (adaptive fading), not the full field again.
-      g.as_needed = true;
-      g.fade = o.fade;
-      g.repetition = f->guidance.repetition - 1;
+    } else if (f == &last && last.mode == 2 && guided_run >= o.check_every) {
+      // Guided check_every times in a row without reaching the path: guidance fades with
+      // practice, so an unguided trial shows what the field taught and decides the next level.
+      say("novice_check", 3,
+          why_level + " and " + err + " after " + std::to_string(guided_run) +
+              " guided sessions in a row: " + checks +
+              " (the expert waits for you) shows what you keep without the field; constant "
+              "guidance is learned less well than guidance that fades with practice");
+    } else if (f && f->mode == 2 && f->guidance.repetition > 0 && e > o.strayed_m) {
+      // Faded and strayed: one step less fading (adaptive fading), not the full field again.
+      fade_to(f->guidance.repetition - 1);
       say("novice_fade_back", 2,
-          why_level + " and " + err + " (off the path with guidance faded " + std::to_string(f->guidance.repetition) +
-              " times): one step less fading (repetition " + std::to_string(g.repetition) + "), still as needed");
+          why_level + " and " + err + " (strayed beyond " + mm(o.strayed_m) +
+              " with guidance faded " + std::to_string(f->guidance.repetition) +
+              " times): one step less fading (repetition " + std::to_string(g.repetition) +
+              "), still as needed");
+    } else if (f && f->mode == 2 && f->guidance.repetition > 0) {
+      fade_to(f->guidance.repetition);
+      say("novice_fade_hold", 2,
+          why_level + " and " + err + " (off the path, within " + mm(o.strayed_m) +
+              ") with guidance faded " + std::to_string(f->guidance.repetition) +
+              " times: the same faded guidance, as needed, until " + checks +
+              " decides whether it fades further");
     } else if (f && f->mode == 3 && e > o.strayed_m) {
       g.as_needed = true;
       say("novice_back_to_guidance", 2, why_level + " and " + err + " (strayed beyond " + mm(o.strayed_m) +
                                            "): guidance as needed brings the hand back to the path");
+    } else if (after_check && e > o.close_m && pre_check_rep + 1 <= o.fade_repetitions) {
+      fade_to(pre_check_rep + 1);
+      say("novice_fade_practice", 2,
+          why_level + " and " + err + " in the unguided check trial (within " + mm(o.strayed_m) +
+              "): the guidance fades with practice (repetition " + std::to_string(g.repetition) +
+              ") and acts only as needed, though the guided error stays above " + mm(o.on_path_m) +
+              "; faded guidance is learned better than constant guidance");
+    } else if (after_check) {
+      say("novice_follow_again", 3,
+          why_level + " and " + err + " in the unguided check trial" +
+              (e <= o.close_m
+                   ? " (close: within " + mm(o.close_m) + ")"
+                   : " with guidance already faded " + std::to_string(pre_check_rep) + " times") +
+              ": follow the expert without guidance until the error is below " + mm(o.close_m));
     } else if (f && f->mode == 3) {
       say("novice_follow_again", 3, why_level + " and " + err + ": follow the expert again until the error is below " +
                                         mm(o.close_m));
     } else {
       say("novice_guidance", 2,
           why_level + (f ? " and " + err : std::string(" and you have not been guided yet")) +
-              ": full guidance helps novices learn the path");
+              ": full guidance helps novices learn the path" +
+              (f && f->mode == 2 ? ", until " + checks + " lets it fade with practice"
+                                 : std::string()));
     }
   } else if (p.level == "intermediate") {
     if (f && e > o.strayed_m) {

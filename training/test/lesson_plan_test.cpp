@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -83,8 +84,16 @@ TEST(LessonPlan, NoviceGetsFullGuidanceThenFadingThenAnUnguidedTrial) {
   EXPECT_EQ(p.mode, 2);
   EXPECT_EQ(p.rule, "novice_back_to_guidance");
   EXPECT_TRUE(p.guidance.as_needed);
-  // Off the path (0.8 mm > 0.5 mm) with guidance faded twice: one step less fading.
+  // Off the path (0.8 mm > 0.5 mm) but within 2 mm with guidance faded twice: the same faded
+  // guidance (before session 15 it faded back here, which undid every fading step of a novice
+  // who never reaches 0.5 mm).
   p = plan_next({sess(0, -1, 0.2), sess(2, 0.8, 0.9, "", 2)});
+  EXPECT_EQ(p.rule, "novice_fade_hold");
+  EXPECT_EQ(p.mode, 2);
+  EXPECT_EQ(p.guidance.repetition, 2);
+  EXPECT_TRUE(p.guidance.as_needed);
+  // Strayed (2.5 mm > 2 mm) with guidance faded twice: one step less fading.
+  p = plan_next({sess(0, -1, 0.2), sess(2, 2.5, 0.9, "", 2)});
   EXPECT_EQ(p.rule, "novice_fade_back");
   EXPECT_EQ(p.guidance.repetition, 1);
   EXPECT_TRUE(p.guidance.as_needed);
@@ -93,6 +102,91 @@ TEST(LessonPlan, NoviceGetsFullGuidanceThenFadingThenAnUnguidedTrial) {
   EXPECT_EQ(p.rule, "novice_guidance");
   EXPECT_EQ(p.guidance.repetition, 0);
   EXPECT_FALSE(p.guidance.as_needed);
+}
+
+// A novice whose guided error never reaches 0.5 mm (1.2 mm under any guidance, 1.6 mm
+// without): before session 15 the plan kept the full field for every repetition. Now an
+// unguided check trial comes after every check_every guided sessions, and each check within
+// 2 mm fades the guidance one step, until it is faded out.
+std::vector<PastSession> script_novice(const PlanOptions& o, int sessions, double guided_mm,
+                                       double check_mm, std::vector<LessonPlan>* plans) {
+  std::vector<PastSession> h = {sess(0, -1, 0.2)};
+  for (int i = 0; i < sessions; ++i) {
+    const LessonPlan p = plan_next(h, o);
+    plans->push_back(p);
+    PastSession s = sess(p.mode, p.mode == 2 ? guided_mm : check_mm, -1);
+    s.guidance = p.guidance;
+    h.push_back(s);
+  }
+  return h;
+}
+
+TEST(LessonPlan, NoviceOffThePathGetsCheckTrialsAndGuidanceFadesWithPractice) {
+  std::vector<LessonPlan> plans;
+  script_novice({}, 13, 1.2, 1.6, &plans);
+  ASSERT_EQ(plans.size(), 13u);
+  std::string rules;
+  for (const LessonPlan& p : plans) rules += p.rule + " ";
+  SCOPED_TRACE(rules);
+  // Full field twice (check_every 2), then the first check trial.
+  EXPECT_EQ(plans[0].rule, "novice_guidance");
+  EXPECT_EQ(plans[1].rule, "novice_guidance");
+  expect_has(plans[1].reason, "check trial after every 2 guided sessions");
+  ASSERT_EQ(plans[2].rule, "novice_check");
+  EXPECT_EQ(plans[2].mode, 3);
+  expect_has(plans[2].reason, "1.20 mm");
+  expect_has(plans[2].reason, "2 guided sessions in a row");
+  expect_has(plans[2].reason, "unguided check trial");
+  // The check's 1.6 mm (within 2 mm) fades the guidance one step; the guided error stays 1.2 mm.
+  ASSERT_EQ(plans[3].rule, "novice_fade_practice");
+  EXPECT_EQ(plans[3].mode, 2);
+  EXPECT_TRUE(plans[3].guidance.as_needed);
+  EXPECT_DOUBLE_EQ(plans[3].guidance.fade, 0.7);
+  EXPECT_EQ(plans[3].guidance.repetition, 1);
+  expect_has(plans[3].reason, "1.60 mm in the unguided check trial");
+  expect_has(plans[3].reason, "fades with practice");
+  // Held once, checked, faded again: repetition 1, 1, check, 2, 2, check, 3, 3, check.
+  EXPECT_EQ(plans[4].rule, "novice_fade_hold");
+  EXPECT_EQ(plans[4].guidance.repetition, 1);
+  EXPECT_EQ(plans[5].rule, "novice_check");
+  EXPECT_EQ(plans[6].guidance.repetition, 2);
+  EXPECT_EQ(plans[9].guidance.repetition, 3);
+  EXPECT_EQ(plans[11].rule, "novice_check");
+  // Faded beyond fade_repetitions (3): no guidance any more.
+  const LessonPlan& out = plans[12];
+  EXPECT_EQ(out.rule, "novice_follow_again");
+  EXPECT_EQ(out.mode, 3);
+  expect_has(out.reason, "already faded 3 times");
+  // The full field never more than check_every sessions in a row; guided sessions get weaker.
+  int run = 0, fixed_run = 0;
+  for (const LessonPlan& p : plans) {
+    run = p.mode == 2 && !p.guidance.as_needed && p.guidance.repetition == 0 ? run + 1 : 0;
+    fixed_run = std::max(fixed_run, run);
+  }
+  EXPECT_LE(fixed_run, 2);
+
+  // A check that strays (3 mm > 2 mm): guidance as needed again, not faded.
+  plans.clear();
+  script_novice({}, 4, 1.2, 3.0, &plans);
+  EXPECT_EQ(plans[2].rule, "novice_check");
+  EXPECT_EQ(plans[3].rule, "novice_back_to_guidance");
+  EXPECT_EQ(plans[3].guidance.repetition, 0);
+  // A check within 1 mm (close): no guidance next.
+  plans.clear();
+  script_novice({}, 4, 1.2, 0.8, &plans);
+  EXPECT_EQ(plans[3].rule, "novice_follow_again");
+  EXPECT_EQ(plans[3].mode, 3);
+  expect_has(plans[3].reason, "close");
+  // check_every is an option: 4 guided sessions before the first check.
+  PlanOptions o;
+  o.check_every = 4;
+  plans.clear();
+  script_novice(o, 5, 1.2, 1.6, &plans);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(plans[i].mode, 2) << i;
+  EXPECT_EQ(plans[4].rule, "novice_check");
+  expect_has(plans[4].reason, "every 4 guided sessions");
+  o.check_every = 0;
+  expect_has(o.validate(), "check_every");
 }
 
 TEST(LessonPlan, SkilledGetsErrorAmplificationThenAnUnguidedTrial) {
@@ -166,10 +260,11 @@ TEST(LessonPlan, AssessmentDecidesTheLevelAndANoviceIsNeverAmplified) {
               EXPECT_EQ(q.guidance.amplify, 0);
             }
             if (q.level == "novice" && q.guidance.repetition > 0) {
-              // Fading moves one repetition at a time: on with the error on the path, back off it.
+              // Fading moves one repetition at a time: on with the error on the path, back when
+              // strayed (> 2 mm), held between (one guided session is below check_every).
               EXPECT_EQ(mode, 2);
               EXPECT_GE(e, 0);
-              EXPECT_EQ(q.guidance.repetition, e <= 0.5 ? rep + 1 : rep - 1);
+              EXPECT_EQ(q.guidance.repetition, e <= 0.5 ? rep + 1 : e > 2.0 ? rep - 1 : rep);
             }
           }
 }

@@ -41,7 +41,16 @@ struct PlanOptions {
   double novice_score = 0.4;   // score fraction below which a student counts as a novice
   double skilled_score = 0.75; // at or above: skilled
   double fade = 0.7;           // guidance fading factor per repetition
-  int fade_repetitions = 3;    // faded this often and still on the path: an unguided trial
+  // Faded this often and still on the path: an unguided trial; with practice fading (check
+  // trials below), faded more often than this: no guidance any more.
+  int fade_repetitions = 3;
+  // A novice guided (mode 2) this many sessions in a row without reaching the path gets an
+  // unguided check trial (mode 3) next; its error decides the guidance after it (within
+  // strayed_m: one fading step more than before the check, within close_m: no guidance,
+  // beyond strayed_m: guidance as needed again). Guidance so fades with practice even for a
+  // novice who never gets below on_path_m (session 15). A faded novice is faded back one step
+  // only beyond strayed_m (before session 15: beyond on_path_m, which undid every fading step).
+  int check_every = 2;
   double amplify = 0.5;        // error amplification for skilled students
   std::string validate() const;  // empty, or names the field
 };
