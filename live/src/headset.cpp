@@ -23,6 +23,20 @@ std::string num(double x) {
   return s.str();
 }
 
+// The camera's model and the loupe's view, the same in every mapping.
+void set_camera_and_loupe(EyeMapping& m, const calibration::CameraIntrinsics& cam, const LoupeView& loupe,
+                          const double loupe_c[2]) {
+  m.f_cam[0] = cam.fx;
+  m.f_cam[1] = cam.fy;
+  m.c_cam[0] = cam.cx;
+  m.c_cam[1] = cam.cy;
+  m.cam_w = cam.width;
+  m.cam_h = cam.height;
+  m.loupe = loupe;
+  m.loupe_c[0] = loupe_c[0];
+  m.loupe_c[1] = loupe_c[1];
+}
+
 }  // namespace
 
 double HeadsetProfile::max_radius(int e) const {
@@ -218,15 +232,7 @@ EyeMapping make_eye_mapping(const HeadsetProfile& h, int eye, const calibration:
   m.f_eye[0] = (e.viewport[2] / 2.0) / std::tan(h.fov_h_deg * kPi / 360.0);
   m.f_eye[1] = (e.viewport[3] / 2.0) / std::tan(h.fov_v_deg * kPi / 360.0);
   m.shift_tan = stereo ? 0.0 : (eye == 0 ? 1.0 : -1.0) * (h.ipd_m / 2) / h.mono_convergence_m;
-  m.f_cam[0] = cam.fx;
-  m.f_cam[1] = cam.fy;
-  m.c_cam[0] = cam.cx;
-  m.c_cam[1] = cam.cy;
-  m.cam_w = cam.width;
-  m.cam_h = cam.height;
-  m.loupe = loupe;
-  m.loupe_c[0] = loupe_c[0];
-  m.loupe_c[1] = loupe_c[1];
+  set_camera_and_loupe(m, cam, loupe, loupe_c);
   return m;
 }
 
@@ -245,15 +251,7 @@ EyeMapping make_window_mapping(int win_w, int win_h, const calibration::CameraIn
   m.norm = dw / 2.0;
   m.f_eye[0] = cam.fx * s;
   m.f_eye[1] = cam.fy * s;
-  m.f_cam[0] = cam.fx;
-  m.f_cam[1] = cam.fy;
-  m.c_cam[0] = cam.cx;
-  m.c_cam[1] = cam.cy;
-  m.cam_w = cam.width;
-  m.cam_h = cam.height;
-  m.loupe = loupe;
-  m.loupe_c[0] = loupe_c[0];
-  m.loupe_c[1] = loupe_c[1];
+  set_camera_and_loupe(m, cam, loupe, loupe_c);
   return m;
 }
 

@@ -16,6 +16,7 @@
 
 #include "dentar/ar/station_scene.h"
 #include "dentar/live/headset.h"
+#include "live_clip.h"
 #include "testutil.h"
 #include "xvfb_util.h"
 
@@ -28,25 +29,7 @@ namespace {
 
 const std::string kBin = DENTAR_BINARY;
 
-// The live tests' shared footage (live_xvfb_test.cpp makes the same folder:
-// whichever test comes first generates it, keyed by the binary's time stamp).
-const fs::path& clip() {
-  static fs::path dir = [] {
-    const auto stamp = fs::last_write_time(kBin).time_since_epoch().count();
-    const fs::path d = fs::temp_directory_path() / ("dentar_live_clip_" + std::to_string(stamp));
-    if (fs::exists(d / "session.dlog")) return d;
-    const fs::path tmp = fs::temp_directory_path() / ("dentar_live_clip_tmp_" + std::to_string(getpid()));
-    fs::remove_all(tmp);
-    auto r = run_command(kBin + " synth --preset standard --frames 60 --resolution 640x480 --seed 3 --webcam --out " +
-                         tmp.string() + " 2>&1");
-    EXPECT_EQ(r.code, 0) << r.out;
-    std::error_code ec;
-    fs::rename(tmp, d, ec);
-    if (ec) fs::remove_all(tmp);
-    return d;
-  }();
-  return dir;
-}
+const fs::path& clip() { return dentar::test::live_clip(kBin); }
 
 // A 1280x600 panel of two 640x600 eyes; the Rift DK1's lens figures when warp.
 nlohmann::json profile_json(bool warp) {
