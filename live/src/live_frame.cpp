@@ -9,6 +9,7 @@
 
 #include "dentar/ar/egl_context.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/training/lesson.h"
 #include "live_run.h"
 
 namespace dentar::live {
@@ -138,6 +139,12 @@ class FrameThread {
     in.capture_time_s = f.time_s;
     in.haptic = o.stylus == "none" ? nullptr : &snap;
     in.stylus_valid = o.stylus != "none" && !snap.fault;
+    // A lesson's note on show at the expert's clock: drawn beside the tooth (note_label.h).
+    if (session::LessonClock* l = c_.run.lesson(); l != nullptr && snap.mode != 0) {
+      const auto& ann = l->lesson().annotations;
+      if (const int a = training::active_note(ann, snap.expert_time_s); a >= 0)
+        in.note = &ann[static_cast<std::size_t>(a)].text;
+    }
     const auto t0 = Clock::now();
     // GPU path: a texture the window is not showing, free of its draws.
     const int slot = use_gl_ ? sh_.ring->acquire() : -1;
