@@ -168,10 +168,11 @@ class FrameThread {
                                           c_.st.pen.T_ptag_tip * c_.st.calibration.T_sty_tip.inverse();
       c_.pen->publish(T_dev_sty, ok, f.steady_s);
     }
-    hand_over(f, slot, err, processed);
+    hand_over(f, slot, err, processed, in.note);
     if (recorder && err.empty()) recorder->push(f.image, f.encoded, rec_, processed, f.index, f.steady_s);
     if (err.empty()) {
       fig_.gpu_frames += rec_.gpu_composite ? 1 : 0;
+      fig_.note_frames += rec_.note_anchored ? 1 : 0;
       fig_.readback_px += rec_.readback_px;
       fig_.cpu_blend_px += rec_.cpu_blend_px;
     }
@@ -179,7 +180,7 @@ class FrameThread {
   }
 
   // The frame to the window (LiveShared::shown).
-  void hand_over(ar::Frame& f, int slot, const std::string& err, std::int64_t processed) {
+  void hand_over(ar::Frame& f, int slot, const std::string& err, std::int64_t processed, const std::string* note) {
     {
       std::lock_guard<std::mutex> lock(sh_.shown_m);
       Shown& shown = sh_.shown;
@@ -201,6 +202,8 @@ class FrameThread {
       shown.steady_s = f.steady_s;
       shown.rec = rec_;
       shown.error = err;
+      if (note != nullptr) shown.note = *note;
+      else shown.note.clear();
       sh_.shown_new = true;
     }
     sh_.shown_cv.notify_one();

@@ -62,6 +62,9 @@ class HudWindow {
   // EGLDisplay / EGLContext of the window (null unless gles_egl()).
   void* egl_display() const;
   void* egl_context() const;
+  // A point of the video image (px) in ImGui's window coordinates, where begin_frame draws
+  // it (the video fills the window, aspect kept).
+  void image_to_window(double x, double y, float& wx, float& wy) const;
   // Starts a frame: clear, ImGui frame, the video in the background. ImGui calls follow.
   void begin_frame();
   // Renders the HUD and swaps; with `capture`, returns the window's pixels (BGR) first.
