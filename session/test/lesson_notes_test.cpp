@@ -63,7 +63,8 @@ TEST(LessonNotes, ReplayFindsTheLessonBesideTheRecording) {
   ASSERT_TRUE(c.ok()) << c.error();
   EXPECT_TRUE((*c)->lesson().annotations.empty());
   ASSERT_EQ((*c)->notes().size(), 1u);
-  EXPECT_NE((*c)->notes()[0].find("the lesson's notes are not shown"), std::string::npos) << (*c)->notes()[0];
+  EXPECT_NE((*c)->notes()[0].find("the lesson's notes are not shown"), std::string::npos)
+      << (*c)->notes()[0];
   EXPECT_NE((*c)->notes()[0].find("lesson.json"), std::string::npos) << (*c)->notes()[0];
 }
 

@@ -52,12 +52,14 @@ std::vector<std::string> wrap(const std::string& text, double scale, int thick, 
 }
 }  // namespace
 
-std::optional<Eigen::Vector2d> tooth_centre_px(const StationScene& station, const Eigen::Isometry3d& T_cam_man) {
+std::optional<Eigen::Vector2d> tooth_centre_px(const StationScene& station,
+                                               const Eigen::Isometry3d& T_cam_man) {
   const CameraModel cam(station.calibration.camera);
   return cam.project((T_cam_man * station.calibration.T_man_tooth).translation());
 }
 
-NoteLabelLayout layout_note_label(const std::string& text, const Eigen::Vector2d& anchor, const cv::Size& frame) {
+NoteLabelLayout layout_note_label(const std::string& text, const Eigen::Vector2d& anchor,
+                                  const cv::Size& frame) {
   NoteLabelLayout l;
   const double s = std::max(0.25, frame.height / 720.0);
   l.font_scale = 0.6 * s;
@@ -86,7 +88,8 @@ NoteLabelLayout layout_note_label(const std::string& text, const Eigen::Vector2d
   x = std::clamp(x, 0, std::max(0, frame.width - bw));
   y = std::clamp(y, 0, std::max(0, frame.height - bh));
   l.box = cv::Rect(x, y, bw, bh);
-  l.leader_end = cv::Point(std::clamp(l.anchor.x, x, x + bw - 1), std::clamp(l.anchor.y, y, y + bh - 1));
+  l.leader_end =
+      cv::Point(std::clamp(l.anchor.x, x, x + bw - 1), std::clamp(l.anchor.y, y, y + bh - 1));
   for (std::size_t i = 0; i < l.lines.size(); ++i)
     l.baselines.emplace_back(x + pad, y + pad + one.height + static_cast<int>(i) * line_h);
   return l;
@@ -100,7 +103,8 @@ void draw_note_label(cv::Mat& bgr, const NoteLabelLayout& l, const NoteLabelStyl
   cv::rectangle(bgr, l.box, st.background, cv::FILLED);
   cv::rectangle(bgr, l.box, st.border, 1);
   for (std::size_t i = 0; i < l.lines.size(); ++i)
-    cv::putText(bgr, l.lines[i], l.baselines[i], kFont, l.font_scale, st.text, l.thickness, cv::LINE_AA);
+    cv::putText(bgr, l.lines[i], l.baselines[i], kFont, l.font_scale, st.text, l.thickness,
+                cv::LINE_AA);
 }
 
 }  // namespace dentar::ar

@@ -16,14 +16,16 @@ const cv::Rect kFrame(0, 0, 1280, 720);
 bool inside(const cv::Rect& r) { return (r & kFrame) == r && r.area() > 0; }
 
 TEST(NoteLabel, BesideTheAnchorAndInsideTheFrame) {
-  const NoteLabelLayout l = layout_note_label("keep the bur upright", Eigen::Vector2d(640, 360), kFrame.size());
+  const NoteLabelLayout l =
+      layout_note_label("keep the bur upright", Eigen::Vector2d(640, 360), kFrame.size());
   ASSERT_EQ(l.lines.size(), 1u);
   EXPECT_TRUE(inside(l.box));
   EXPECT_GT(l.box.x, 640);       // to the right
   EXPECT_LT(l.box.br().y, 360);  // above
   EXPECT_TRUE(l.box.contains(l.leader_end));
   // At the right edge: to the left of the anchor; at the top: below it; far outside: clamped.
-  const NoteLabelLayout r = layout_note_label("keep the bur upright", Eigen::Vector2d(1270, 20), kFrame.size());
+  const NoteLabelLayout r =
+      layout_note_label("keep the bur upright", Eigen::Vector2d(1270, 20), kFrame.size());
   EXPECT_TRUE(inside(r.box));
   EXPECT_LT(r.box.br().x, 1270);
   EXPECT_GT(r.box.y, 20);

@@ -22,17 +22,17 @@ namespace dentar::ar {
 // The colours (BGR) of the label. The background is solid (no blending), so the label reads
 // the same over any video.
 struct NoteLabelStyle {
-  cv::Scalar background{96, 40, 12};   // dark blue
-  cv::Scalar border{255, 215, 110};    // light blue: the box's edge, the leader line, the dot
+  cv::Scalar background{96, 40, 12};  // dark blue
+  cv::Scalar border{255, 215, 110};   // light blue: the box's edge, the leader line, the dot
   cv::Scalar text{255, 255, 255};
 };
 
 struct NoteLabelLayout {
-  cv::Point anchor;                 // the tooth's centre (may lie outside the frame)
-  cv::Rect box;                     // inside the frame
-  cv::Point leader_end;             // on the box's edge nearest the anchor
-  std::vector<std::string> lines;   // the text, wrapped
-  std::vector<cv::Point> baselines; // each line's origin (cv::putText)
+  cv::Point anchor;                  // the tooth's centre (may lie outside the frame)
+  cv::Rect box;                      // inside the frame
+  cv::Point leader_end;              // on the box's edge nearest the anchor
+  std::vector<std::string> lines;    // the text, wrapped
+  std::vector<cv::Point> baselines;  // each line's origin (cv::putText)
   double font_scale = 0.6;
   int thickness = 1;
 };
@@ -40,14 +40,16 @@ struct NoteLabelLayout {
 // The tooth's centre (the tooth frame's origin: the crown's centre on the cervical plane,
 // docs/conventions.md) in the composite's pixels, through the station's tooth placement
 // (T_man_tooth) and camera model; nullopt behind the camera.
-std::optional<Eigen::Vector2d> tooth_centre_px(const StationScene& station, const Eigen::Isometry3d& T_cam_man);
+std::optional<Eigen::Vector2d> tooth_centre_px(const StationScene& station,
+                                               const Eigen::Isometry3d& T_cam_man);
 
 // Where the label goes for `text` anchored at `anchor` in a frame of `frame` size: the font
 // scales with the frame's height (0.6 at 720 rows), the text wraps at words to at most 40 %
 // of the frame's width (4 lines at most, the last ending in "..." when cut), the box sits
 // above and to the right of the anchor (to the left when the right has no room) and is
 // moved inside the frame.
-NoteLabelLayout layout_note_label(const std::string& text, const Eigen::Vector2d& anchor, const cv::Size& frame);
+NoteLabelLayout layout_note_label(const std::string& text, const Eigen::Vector2d& anchor,
+                                  const cv::Size& frame);
 
 // Draws the layout into a BGR image of the layout's frame size: the leader line and the
 // anchor's dot, then the box and its text (over the line).
