@@ -200,6 +200,7 @@ int run(const OfflineCli& c) {
   if (s.expert_frames > 0)
     std::cout << "  expert's tool drawn in " << s.expert_frames << " frames (" << s.expert_drilling_frames
               << " with mode 5's drilling colours)\n";
+  if (s.note_frames > 0) std::cout << "  lesson notes drawn beside the tooth in " << s.note_frames << " frames\n";
   if (s.has_truth)
     std::cout << "  errors (median / p95): pose " << f3(s.man_err_mm.median) << " / " << f3(s.man_err_mm.p95)
               << " mm, " << f3(s.man_err_deg.median) << " / " << f3(s.man_err_deg.p95)

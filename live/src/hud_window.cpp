@@ -207,6 +207,21 @@ void HudWindow::set_loupe_centre(const double left[2], const double right[2]) {
 void* HudWindow::egl_display() const { return gles_ ? static_cast<void*>(glfwGetEGLDisplay()) : nullptr; }
 void* HudWindow::egl_context() const { return gles_ ? static_cast<void*>(glfwGetEGLContext(win_)) : nullptr; }
 
+void HudWindow::image_to_window(double x, double y, float& wx, float& wy) const {
+  int fbw = 0, fbh = 0, ww = 0, wh = 0;
+  glfwGetFramebufferSize(win_, &fbw, &fbh);
+  glfwGetWindowSize(win_, &ww, &wh);
+  if (fbw <= 0 || fbh <= 0 || tex_w_ <= 0 || tex_h_ <= 0) {
+    wx = static_cast<float>(x), wy = static_cast<float>(y);
+    return;
+  }
+  const double s = std::min(double(fbw) / tex_w_, double(fbh) / tex_h_);
+  const int dw = static_cast<int>(std::lround(tex_w_ * s)), dh = static_cast<int>(std::lround(tex_h_ * s));
+  const int x0 = (fbw - dw) / 2, top = fbh - (fbh - dh) / 2 - dh;  // begin_frame's blit, from the top
+  wx = static_cast<float>((x0 + x * dw / tex_w_) * ww / fbw);
+  wy = static_cast<float>((top + y * dh / tex_h_) * wh / fbh);
+}
+
 void HudWindow::begin_frame() {
   int fbw = 0, fbh = 0;
   glfwGetFramebufferSize(win_, &fbw, &fbh);

@@ -183,6 +183,7 @@ std::string LiveSummary::json() const {
     for (const LessonNote& n : lesson_notes)
       notes.push_back({{"time_s", n.time_s}, {"expert_s", n.expert_s}, {"run_s", n.run_s}, {"text", n.text}});
     j["lesson"]["notes_shown"] = notes;
+    j["lesson"]["note_frames_in_view"] = lesson_note_frames;
   }
   return j.dump(2) + "\n";
 }
@@ -813,6 +814,7 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.frames_processed = processed;
   sum.frames_displayed = df.displayed;
   sum.gpu_frames = ff.gpu_frames;
+  sum.lesson_note_frames = ff.note_frames;
   sum.compensation_latency_ms = comp.first * 1e3;
   sum.compensation_source = comp.second;
   sum.frames_pose_at_exposure = ff.comp_at_exposure;

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -13,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "dentar/ar/frame_source.h"
+#include "dentar/ar/note_label.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/live/eye_output.h"
 #include "dentar/session/frames_csv.h"
@@ -99,6 +101,7 @@ class DisplayLoop {
     cur_.steady_s = shown.steady_s;
     cur_.rec = shown.rec;
     cur_.error = shown.error;
+    cur_.note.swap(shown.note);
     sh_.shown_new = false;
     return true;
   }
@@ -206,6 +209,8 @@ class DisplayLoop {
       shown_slot_ = -1;
     }
     hw.begin_frame();
+    // The GPU path's composite never reaches the CPU: the note's label is drawn over it here.
+    if (cur_.gpu && !stalled && std::string(hw.output().kind()) == "mono" && cur_.rec.note_anchored && !cur_.rec.note_drawn && !cur_.note.empty()) draw_note_label();
     if (c_.o.hud) draw_hud(stalled, age);
     // Test hook: the window's pixels for frame N (read before the swap).
     const auto shot = fresh ? std::find_if(shots_.begin(), shots_.end(), [&](const auto& x) { return x.first == cur_.index; })
@@ -217,6 +222,46 @@ class DisplayLoop {
       shots_.erase(shot);
     }
     figures_after_swap(fresh, stalled, age, last_frame_s);
+  }
+
+  // A lesson's note beside the tooth over the GPU path's composite: the frame pipeline's
+  // layout (ar/note_label.h) in window coordinates, drawn with ImGui's font.
+  void draw_note_label() {
+    HudWindow& hw = c_.hw;
+    const auto& cam = c_.st.calibration.camera;
+    const ar::NoteLabelLayout l = ar::layout_note_label(cur_.note, cur_.rec.note_anchor_px, cv::Size(cam.width, cam.height));
+    auto at = [&](double x, double y) {
+      ImVec2 p;
+      hw.image_to_window(x, y, p.x, p.y);
+      return p;
+    };
+    auto col = [](const cv::Scalar& c) {
+      return IM_COL32(static_cast<int>(c[2]), static_cast<int>(c[1]), static_cast<int>(c[0]), 255);
+    };
+    const ar::NoteLabelStyle st;
+    const ImVec2 lo = at(0, 0), hi = at(cam.width, cam.height);
+    const float sc = cam.width > 0 ? (hi.x - lo.x) / static_cast<float>(cam.width) : 1.0f;  // window px per image px
+    // Hershey simplex at scale 1 is ~30 px a line: the same line height in ImGui's font.
+    const float fs = std::max(8.0f, static_cast<float>(l.font_scale) * 26.0f * sc);
+    const float pad = 6.0f * sc * static_cast<float>(l.font_scale) / 0.6f;
+    ImFont* font = ImGui::GetFont();
+    float w = 0;
+    for (const std::string& s : l.lines) w = std::max(w, font->CalcTextSizeA(fs, FLT_MAX, 0, s.c_str()).x);
+    const ImVec2 size(w + 2 * pad, static_cast<float>(l.lines.size()) * fs * 1.15f + 2 * pad);
+    ImVec2 b0 = at(l.box.x, l.box.y);
+    b0.x = std::clamp(b0.x, lo.x, std::max(lo.x, hi.x - size.x));
+    b0.y = std::clamp(b0.y, lo.y, std::max(lo.y, hi.y - size.y));
+    const ImVec2 b1(b0.x + size.x, b0.y + size.y);
+    const ImVec2 a = at(l.anchor.x, l.anchor.y);
+    const ImVec2 e(std::clamp(a.x, b0.x, b1.x), std::clamp(a.y, b0.y, b1.y));
+    ImDrawList* dl = ImGui::GetBackgroundDrawList();
+    dl->AddLine(a, e, col(st.border), std::max(1.0f, 2.0f * sc * static_cast<float>(l.thickness)));
+    dl->AddCircleFilled(a, (2.0f * static_cast<float>(l.thickness) + 1.0f) * sc, col(st.border));
+    dl->AddRectFilled(b0, b1, col(st.background));
+    dl->AddRect(b0, b1, col(st.border));
+    for (std::size_t i = 0; i < l.lines.size(); ++i)
+      dl->AddText(font, fs, ImVec2(b0.x + pad, b0.y + pad + static_cast<float>(i) * fs * 1.15f), col(st.text),
+                  l.lines[i].c_str());
   }
 
   // The lesson's text annotations the expert's clock reached: on the HUD from then on for

@@ -9,6 +9,7 @@
 
 #include "dentar/ar/egl_context.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/training/lesson.h"
 #include "live_run.h"
 
 namespace dentar::live {
@@ -172,6 +173,12 @@ class FrameThread {
     in.capture_time_s = f.time_s;
     in.haptic = o.stylus == "none" ? nullptr : &snap;
     in.stylus_valid = o.stylus != "none" && !snap.fault;
+    // A lesson's note on show at the expert's clock: drawn beside the tooth (note_label.h).
+    if (session::LessonClock* l = c_.run.lesson(); l != nullptr && snap.mode != 0) {
+      const auto& ann = l->lesson().annotations;
+      if (const int a = training::active_note(ann, snap.expert_time_s); a >= 0)
+        in.note = &ann[static_cast<std::size_t>(a)].text;
+    }
     const auto t0 = Clock::now();
     // GPU path: a texture the window is not showing, free of its draws.
     const int slot = use_gl_ ? sh_.ring->acquire() : -1;
@@ -197,10 +204,11 @@ class FrameThread {
                                           c_.st.pen.T_ptag_tip * c_.st.calibration.T_sty_tip.inverse();
       c_.pen->publish(T_dev_sty, ok, f.steady_s);
     }
-    hand_over(f, slot, err, processed);
+    hand_over(f, slot, err, processed, in.note);
     if (recorder && err.empty()) recorder->push(f.image, f.encoded, rec_, processed, f.index, f.steady_s);
     if (err.empty()) {
       fig_.gpu_frames += rec_.gpu_composite ? 1 : 0;
+      fig_.note_frames += rec_.note_anchored ? 1 : 0;
       fig_.readback_px += rec_.readback_px;
       fig_.cpu_blend_px += rec_.cpu_blend_px;
     }
@@ -208,7 +216,7 @@ class FrameThread {
   }
 
   // The frame to the window (LiveShared::shown).
-  void hand_over(ar::Frame& f, int slot, const std::string& err, std::int64_t processed) {
+  void hand_over(ar::Frame& f, int slot, const std::string& err, std::int64_t processed, const std::string* note) {
     {
       std::lock_guard<std::mutex> lock(sh_.shown_m);
       Shown& shown = sh_.shown;
@@ -230,6 +238,8 @@ class FrameThread {
       shown.steady_s = f.steady_s;
       shown.rec = rec_;
       shown.error = err;
+      if (note != nullptr) shown.note = *note;
+      else shown.note.clear();
       sh_.shown_new = true;
     }
     sh_.shown_cv.notify_one();

@@ -64,6 +64,7 @@ struct Shown {
   double steady_s = 0;      // capture time
   ar::FrameRecord rec;
   std::string error;
+  std::string note;  // a lesson's note given with the frame (rec.note_anchored: the GPU path draws it)
 };
 
 // The frame thread and the display loop: the hand-over of each frame, the stop
@@ -90,6 +91,7 @@ struct LiveShared {
 struct FrameFigures {
   std::vector<double> process_ms;
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
+  std::int64_t note_frames = 0;  // a lesson's note beside the tooth (drawn, or anchored for the GPU path's window)
   std::int64_t ring_replaced = 0, ring_ready_timeouts = 0, ring_release_timeouts = 0;
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
   std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had

@@ -771,6 +771,9 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   EXPECT_LT(l["notes_shown"][0]["expert_s"].get<double>(), 0.5) << l.dump();  // the display loop runs at >= 30 Hz
   EXPECT_EQ(l["notes_shown"][1]["text"], "pause") << l.dump();  // `lesson make --pause`'s own text
   EXPECT_NEAR(l["notes_shown"][1]["expert_s"].get<double>(), 0.8, 0.01) << l.dump();  // shown while the clock held
+  // And in the AR view beside the tooth, in the frames while a note was on show (the
+  // expert's clock within kNoteShowS of it: the whole 2 s recording here).
+  EXPECT_GT(l["note_frames_in_view"].get<int>(), 0) << l.dump();
   {
     std::ifstream f(rec / "live.log");
     const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
@@ -808,6 +811,9 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   ASSERT_TRUE(run.ok()) << run.error();
   ASSERT_NE((*run)->lesson(), nullptr);
   EXPECT_EQ((*run)->lesson()->mode_run(), 2);
+  // The lesson beside the expert's recording: a replay draws its notes too.
+  ASSERT_EQ((*run)->lesson()->lesson().annotations.size(), 2u);
+  EXPECT_EQ((*run)->lesson()->lesson().annotations[0].text, "Enter at the central pit");
   // Step by step: the pause button the pause point held is in the recording, for 1 s in one
   // piece; while it is down the expert's clock stands still; the expert's tool moves no
   // further in any step (the resume included) than in the recording's own steps.

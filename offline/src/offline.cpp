@@ -26,6 +26,7 @@
 #include "dentar/haptics/replay_device.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/training/exercise.h"
+#include "dentar/training/lesson.h"
 #include "dentar/volume/bur.h"
 #include "dentar/volume/material.h"
 #include "dentar/volume/procedural_tooth.h"
@@ -748,6 +749,11 @@ struct Job {
     fin.haptic = engine ? &snap : nullptr;
     fin.stylus_valid = engine && device && device->position() < device->size();
     if (!rec.haptic_steps.empty()) fin.stylus_valid = engine != nullptr && !snap.fault;
+    // A lesson's session: the note on show at the expert's clock, beside the tooth.
+    if (const session::LessonClock* l = run->lesson(); l != nullptr && engine && snap.mode != 0) {
+      const auto& ann = l->lesson().annotations;
+      if (const int a = training::active_note(ann, snap.expert_time_s); a >= 0) fin.note = &ann[static_cast<std::size_t>(a)].text;
+    }
     FrameRecord fr;
     if (auto ps = pipe->process(fin, *meshes, cres, fr); !ps) return fail("offline: " + ps.error());
     r.haptic_step = fr.haptic_step;
@@ -777,6 +783,7 @@ struct Job {
     r.mir_views = fr.mir_views;
     if (fr.expert_drawn) ++sum.expert_frames;
     if (fr.expert_drilling_shown) ++sum.expert_drilling_frames;
+    if (fr.note_drawn) ++sum.note_frames;
     CompositeInput in;
     in.man_valid = r.man_state != 2;
     in.stylus_valid = fin.stylus_valid;
@@ -980,6 +987,7 @@ struct Job {
                       {"baseline_mm", st.stereo.baseline_m() * 1e3},
                       {"capture", sum.stereo_capture}};
     if (!o.eye.empty()) js["eye"] = o.eye;
+    if (sum.note_frames > 0) js["lesson_notes"] = {{"frames", sum.note_frames}};
     if (auto s = write_atomic(out / "summary.json", js.dump(2) + "\n"); !s) return fail("offline: " + s.error());
     if (auto s = write_atomic(out / "report.html", make_report(o, sum, rows, stills, inputs, extra_html)); !s)
       return fail("offline: " + s.error());

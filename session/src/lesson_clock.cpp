@@ -79,6 +79,20 @@ Result<std::unique_ptr<LessonClock>> LessonClock::from_header(const haptics::Tra
   if (!m) return Error{m.error()};
   c->mode_.emplace(std::move(*m));
   c->mode_asked_ = c->mode_run_ = static_cast<int>(t.params.mode);
+  // The lesson the recording belongs to (lesson.json beside it), for its notes; a recording
+  // outside a lesson folder has none.
+  const std::filesystem::path dir = std::filesystem::path(t.params.expert_file).parent_path();
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(dir / training::kLessonFile, ec)) {
+    auto l = training::load_lesson(dir.string());
+    if (!l)
+      c->notes_.push_back("the lesson's notes are not shown: " + l.error());
+    else if (l->recording_hash != t.expert_hash)
+      c->notes_.push_back("the lesson's notes are not shown: " + (dir / training::kLessonFile).string() +
+                          " is for another recording than the session's expert");
+    else
+      c->lesson_ = std::move(*l);
+  }
   return c;
 }
 

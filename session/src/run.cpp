@@ -76,6 +76,7 @@ Result<std::unique_ptr<Run>> Run::from_session_log(SessionLogSetup log, const ar
     auto lesson = LessonClock::from_header(*setup.training);
     if (!lesson) return Error{log.path + ": training: " + lesson.error()};
     run->lesson_ = std::move(*lesson);
+    for (const std::string& n : run->lesson_->notes()) run->warnings_.push_back(log.path + ": " + n);
     cfg.training = run->lesson_->mode();
   }
   auto eng = haptics::Engine::create(cfg, *run->replay_, *run->volume_, *run->bur_, nullptr);

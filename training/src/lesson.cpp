@@ -544,4 +544,11 @@ Result<Annotation> parse_annotation_arg(const std::string& arg, bool pause, cons
   return n;
 }
 
+int active_note(const std::vector<Annotation>& annotations, double expert_time_s, double show_s) {
+  int found = -1;
+  for (std::size_t i = 0; i < annotations.size() && annotations[i].time_s <= expert_time_s; ++i)
+    if (!annotations[i].text.empty() && expert_time_s < annotations[i].time_s + show_s) found = static_cast<int>(i);
+  return found;
+}
+
 }  // namespace dentar::training

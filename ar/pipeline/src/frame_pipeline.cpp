@@ -286,6 +286,16 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   r.gpu_composite = out.gpu_output;
   r.readback_px = out.readback_px;
   r.cpu_blend_px = out.cpu_blend_px;
+  if (in.note != nullptr && !in.note->empty() && r.overlay) {
+    if (const auto c = tooth_centre_px(station_, r.T_cam_man)) {
+      r.note_anchored = true;
+      r.note_anchor_px = *c;
+      if (!out.image.empty()) {
+        draw_note_label(out.image, layout_note_label(*in.note, *c, out.image.size()));
+        r.note_drawn = true;
+      }
+    }
+  }
   return {};
 }
 

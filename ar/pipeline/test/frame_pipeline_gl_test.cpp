@@ -183,6 +183,78 @@ TEST(FramePipelineGl, TrainingModeDrawsTheExpertsTool) {
   EXPECT_GT(cv::countNonZero(d5.reshape(1) > 10), 300) << "mode 5's drilling colours missing";
 }
 
+// Issue 27: a lesson's note given with the frame is drawn in the composite beside the tooth:
+// a box of the label's solid background within 200 px of the tooth's centre as projected
+// with the frame's mannequin pose; without a note, or with the mannequin lost, no label.
+TEST(FramePipelineGl, LessonNoteIsDrawnBesideTheTooth) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Clip& c = clip();
+  auto vol = molar(c.gen->station().tooth_voxel_m);
+  ToothMeshes meshes(vol);
+  auto p = FramePipeline::create(c.gen->station(), PipelineOptions{});
+  ASSERT_TRUE(p.ok()) << p.error();
+  const std::string note = "keep the bur upright";
+  const NoteLabelStyle style;
+  const cv::Vec3b bg(static_cast<std::uint8_t>(style.background[0]), static_cast<std::uint8_t>(style.background[1]),
+                     static_cast<std::uint8_t>(style.background[2]));
+  auto frame = [&](const cv::Mat& image, const std::string* text, FrameRecord& r) {
+    FrameInput in;
+    in.image = &image;
+    in.index = 4;
+    in.capture_time_s = 4 / 30.0;
+    in.note = text;
+    CompositeResult cr;
+    (*p)->tracker().reset();
+    EXPECT_TRUE((*p)->process(in, meshes, cr, r).ok());
+    return cr.image.clone();
+  };
+  // Pixels of exactly the label's background within `radius` px of `at`.
+  auto bg_near = [&](const cv::Mat& img, const Eigen::Vector2d& at, int radius) {
+    const cv::Rect win = cv::Rect(static_cast<int>(at.x()) - radius, static_cast<int>(at.y()) - radius, 2 * radius,
+                                  2 * radius) &
+                         cv::Rect(0, 0, img.cols, img.rows);
+    int n = 0;
+    for (int y = win.y; y < win.y + win.height; ++y)
+      for (int x = win.x; x < win.x + win.width; ++x) n += img.at<cv::Vec3b>(y, x) == bg ? 1 : 0;
+    return n;
+  };
+  const cv::Mat& image = c.frames[4].image;
+  FrameRecord rn, rp;
+  const cv::Mat with = frame(image, &note, rn), plain = frame(image, nullptr, rp);
+  ASSERT_TRUE(rn.overlay);
+  ASSERT_TRUE(rn.note_drawn);
+  EXPECT_FALSE(rp.note_drawn);
+  EXPECT_FALSE(rp.note_anchored);
+  // The anchor is the tooth's centre through the station's tooth placement and camera model.
+  const auto centre = tooth_centre_px(c.gen->station(), rn.T_cam_man);
+  ASSERT_TRUE(centre.has_value());
+  EXPECT_LT((rn.note_anchor_px - *centre).norm(), 1e-9);
+  EXPECT_GT(centre->x(), 0);
+  EXPECT_LT(centre->x(), image.cols);
+  // The label: a solid box of at least ~ the text's size near the tooth; none without a note.
+  const int n_with = bg_near(with, *centre, 200), n_plain = bg_near(plain, *centre, 200);
+  EXPECT_GT(n_with, 1500) << "no label background near the tooth";
+  EXPECT_LT(n_plain, 50) << "the label's colour without a note";
+  // The rest of the frame is unchanged: every differing pixel lies in the label's layout
+  // (box, leader line, anchor dot).
+  const NoteLabelLayout lay = layout_note_label(note, *centre, image.size());
+  cv::Rect keep = lay.box | cv::Rect(lay.anchor, lay.leader_end);
+  keep = cv::Rect(keep.x - 8, keep.y - 8, keep.width + 16, keep.height + 16);
+  cv::Mat d;
+  cv::absdiff(with, plain, d);
+  cv::Mat outside = d.clone();
+  outside(keep & cv::Rect(0, 0, d.cols, d.rows)).setTo(cv::Scalar::all(0));
+  EXPECT_GT(cv::countNonZero(d.reshape(1)), 0);
+  EXPECT_EQ(cv::countNonZero(outside.reshape(1)), 0) << "the note drew outside its label";
+  // The mannequin lost (no tags in a grey frame): the tooth is not drawn, nor the note.
+  const cv::Mat grey(image.size(), image.type(), cv::Scalar::all(128));
+  FrameRecord rl;
+  const cv::Mat lost = frame(grey, &note, rl);
+  EXPECT_FALSE(rl.overlay);
+  EXPECT_FALSE(rl.note_drawn);
+  EXPECT_EQ(bg_near(lost, *centre, 400), 0);
+}
+
 // The threaded mesher hands over the same chunk meshes inline meshing makes.
 TEST(ToothMeshes, ThreadedMesherConvergesToInline) {
   auto vol_a = molar(0.1e-3), vol_b = molar(0.1e-3);

@@ -218,6 +218,7 @@ struct LiveSummary {
     std::string text;
   };
   std::vector<LessonNote> lesson_notes;
+  std::int64_t lesson_note_frames = 0;  // frames with a note beside the tooth in the AR view
   // The display path used ("gl" or "cpu"), why (the fallback's reason), and
   // what crossed between GPU and CPU over the run (compositor counters).
   std::string display_path, display_note;

@@ -119,6 +119,9 @@ struct OfflineSummary {
   // Issue 27, a session trained in a mode: frames with the expert's tool drawn, and those
   // with mode 5's drilling colours.
   int expert_frames = 0, expert_drilling_frames = 0;
+  // Frames with a lesson's note drawn beside the tooth (the lesson's lesson.json beside the
+  // expert's recording; frame_pipeline.h, FrameInput::note).
+  int note_frames = 0;
   bool has_truth = false;
   // Against truth (when present), tracked (tracking/predicted) frames only:
   Stat man_err_mm, man_err_deg;  // mannequin pose: translation, rotation

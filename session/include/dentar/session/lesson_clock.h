@@ -47,7 +47,9 @@ class LessonClock {
 
   haptics::TrainingMode* mode() { return &*mode_; }
   const haptics::ExpertTrack& track() const { return *track_; }
-  const training::Lesson& lesson() const { return lesson_; }  // open() only
+  // open(); from_header(): the lesson whose lesson.json lies beside the expert's recording
+  // (its notes drawn in a replay), else empty (notes() says why when one was there but refused).
+  const training::Lesson& lesson() const { return lesson_; }
   int mode_asked() const { return mode_asked_; }
   int mode_run() const { return mode_run_; }
   const std::string& fallback() const { return fallback_; }   // why mode_run differs ("" = it does not)

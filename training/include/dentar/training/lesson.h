@@ -95,6 +95,14 @@ Result<Lesson> make_generated_lesson(const std::string& exercise, const std::str
 // returned as is. Errors: an unknown exercise, no cache folder.
 Result<std::string> resolve_lesson_path(const std::string& lesson);
 
+// How long a text annotation stays on show after the expert's clock reaches it (s of the
+// expert's clock: a pause point or an expert waiting for the student holds it longer).
+inline constexpr double kNoteShowS = 5.0;
+// The annotation whose text is on show at the expert's clock `expert_time_s`: the latest one
+// with text whose time_s <= expert_time_s < time_s + show_s; -1 when none. `annotations`
+// sorted by time (as load_lesson returns them).
+int active_note(const std::vector<Annotation>& annotations, double expert_time_s, double show_s = kNoteShowS);
+
 // Human-readable summary (`dentar lesson show`): exercise, recording, duration, drilling
 // time, the modes' options in mm/deg, the annotations.
 std::string describe_lesson(const Lesson& l);

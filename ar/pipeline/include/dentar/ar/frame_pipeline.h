@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "dentar/ar/compositor.h"
+#include "dentar/ar/note_label.h"
 #include "dentar/ar/station_scene.h"
 #include "dentar/ar/stereo_tracker.h"
 #include "dentar/ar/tracker.h"
@@ -130,6 +131,10 @@ struct FrameInput {
   // goes into these textures and stays on the GPU (out.image empty).
   // Zero textures = the CPU composite (offline, tests, fallback).
   GlFrameTarget gl_target;
+  // Issue 27: a lesson's note active now (null or empty: none). Drawn beside the tooth
+  // (note_label.h) when the tooth is drawn (mannequin tracking or predicted); into the CPU
+  // composite only (the GPU path's window draws rec.note_anchor_px's layout itself).
+  const std::string* note = nullptr;
 };
 
 // What happened to one frame. States: 0 tracking, 1 predicted, 2 lost.
@@ -166,6 +171,10 @@ struct FrameRecord {
   bool overlay = false, mirror_drawn = false;
   // Issue 27: the expert's tool drawn (a training mode), and mode 5's drilling colours shown.
   bool expert_drawn = false, expert_drilling_shown = false;
+  // Issue 27: a note was given and the tooth drawn: note_anchor is the tooth's centre in the
+  // composite (px; note_label.h); note_drawn: the label went into the CPU composite.
+  bool note_anchored = false, note_drawn = false;
+  Eigen::Vector2d note_anchor_px = Eigen::Vector2d::Zero();
   std::size_t triangles = 0;
   // The compositor's CPU traffic (CompositeResult): pixels read back from GL
   // and pixels blended on the CPU; both 0 when gpu_composite.
