@@ -210,7 +210,10 @@ class DisplayLoop {
     }
     hw.begin_frame();
     // The GPU path's composite never reaches the CPU: the note's label is drawn over it here.
-    if (cur_.gpu && !stalled && std::string(hw.output().kind()) == "mono" && cur_.rec.note_anchored && !cur_.rec.note_drawn && !cur_.note.empty()) draw_note_label();
+    // Its layout is the mono letterbox; a headset view shows the CPU composite's label only.
+    const bool mono = std::string(hw.output().kind()) == "mono";
+    if (cur_.gpu && !stalled && mono && cur_.rec.note_anchored && !cur_.rec.note_drawn && !cur_.note.empty())
+      draw_note_label();
     if (c_.o.hud) draw_hud(stalled, age);
     // Test hook: the window's pixels for frame N (read before the swap).
     const auto shot = fresh ? std::find_if(shots_.begin(), shots_.end(), [&](const auto& x) { return x.first == cur_.index; })
