@@ -178,6 +178,44 @@ void BM_EngineStepTrainingMode(benchmark::State& state) {
 }
 BENCHMARK(BM_EngineStepTrainingMode)->DenseRange(0, 5)->Iterations(3)->Unit(benchmark::kMillisecond);
 
+// The mode's own code alone (TrainingMode::step: the expert's clock, its pose, the following
+// error and the force), with the student's tip 0.3 mm beside the expert's along the
+// recording: what a mode adds to a step apart from the expert's cut (which is the cutter's
+// cost, as the student's own cut is). Each call's thread CPU time over 4,000 steps x 3.
+void BM_TrainingModeStepAlone(benchmark::State& state) {
+  const auto mode = static_cast<TrainingModeKind>(state.range(0));
+  const Station st = default_station();
+  const ExpertTrack track =
+      std::move(ExpertTrack::from_records(expert_access_recording(), st.T_tooth_dev, st.T_sty_tip, "expert")).value();
+  std::vector<double> cpu_us;
+  cpu_us.reserve(static_cast<std::size_t>(state.max_iterations) * 4000);
+  double sink = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    TrainingParams p;
+    p.mode = mode;
+    p.guidance.k_N_per_m = 150;
+    TrainingMode tm = std::move(TrainingMode::create(p, track)).value();
+    state.ResumeTiming();
+    for (int k = 0; k < 4000; ++k) {
+      Eigen::Isometry3d T = track.at(0.4 + k * 1e-3).T_tooth_tip;
+      T.translation() += Eigen::Vector3d(3e-4, 0, 0);
+      const double c0 = thread_cpu_s();
+      const TrainingStep out = tm.step(T, Eigen::Vector3d(0.01, 0, 0), 1e-3);
+      cpu_us.push_back((thread_cpu_s() - c0) * 1e6);
+      sink += out.force_tooth_N.x();
+    }
+  }
+  benchmark::DoNotOptimize(sink);
+  std::sort(cpu_us.begin(), cpu_us.end());
+  auto at = [&](double q) { return cpu_us.empty() ? 0.0 : cpu_us[static_cast<std::size_t>(q * (cpu_us.size() - 1))]; };
+  state.counters["cpu_p50_us"] = at(0.5);
+  state.counters["cpu_p99_us"] = at(0.99);
+  state.counters["cpu_p999_us"] = at(0.999);
+  state.SetLabel(training_mode_name(mode));
+}
+BENCHMARK(BM_TrainingModeStepAlone)->DenseRange(1, 5)->Iterations(3)->Unit(benchmark::kMillisecond);
+
 // 10k-sample capsule, proxy: the engine step alone and with a mesher thread
 // re-meshing dirty chunks as fast as it can (the display side of the demo).
 void BM_EngineStepWhileRemeshing(benchmark::State& state) {
