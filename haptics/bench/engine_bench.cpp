@@ -80,6 +80,15 @@ double thread_cpu_s() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
+// Percentiles of each timed step's thread CPU time (us), as counters.
+void report_cpu(benchmark::State& state, std::vector<double>& cpu_us) {
+  std::sort(cpu_us.begin(), cpu_us.end());
+  auto at = [&](double q) { return cpu_us.empty() ? 0.0 : cpu_us[static_cast<std::size_t>(q * (cpu_us.size() - 1))]; };
+  state.counters["cpu_p50_us"] = at(0.5);
+  state.counters["cpu_p99_us"] = at(0.99);
+  state.counters["cpu_p999_us"] = at(0.999);
+}
+
 void report(benchmark::State& state, const EngineStats& s) {
   state.counters["p50_us"] = s.compute.percentile_s(0.5) * 1e6;
   state.counters["p99_us"] = s.compute.percentile_s(0.99) * 1e6;
@@ -139,6 +148,14 @@ const std::vector<StepRecord>& expert_access_recording() {
   return rec;
 }
 
+// A mode at the benches' guidance stiffness (150 N/m) on `track`.
+TrainingMode make_mode(TrainingModeKind mode, const ExpertTrack& track) {
+  TrainingParams p;
+  p.mode = mode;
+  p.guidance.k_N_per_m = 150;
+  return std::move(TrainingMode::create(p, track)).value();
+}
+
 void BM_EngineStepTrainingMode(benchmark::State& state) {
   const auto mode = static_cast<TrainingModeKind>(state.range(0));
   const Station st = default_station();
@@ -149,10 +166,7 @@ void BM_EngineStepTrainingMode(benchmark::State& state) {
   cpu_us.reserve(static_cast<std::size_t>(state.max_iterations) * 4000);
   for (auto _ : state) {
     state.PauseTiming();
-    TrainingParams p;
-    p.mode = mode;
-    p.guidance.k_N_per_m = 150;
-    TrainingMode tm = std::move(TrainingMode::create(p, track)).value();
+    TrainingMode tm = make_mode(mode, track);
     Session s("proxy", bur_of(2), 10000, "access", 2.5, 0.0, kFingerRestStiffness_N_per_m,
               mode == TrainingModeKind::kNone ? nullptr : &tm);
     s.engine->run_steps(400);
@@ -169,11 +183,7 @@ void BM_EngineStepTrainingMode(benchmark::State& state) {
     state.ResumeTiming();
   }
   report(state, total);
-  std::sort(cpu_us.begin(), cpu_us.end());
-  auto at = [&](double q) { return cpu_us.empty() ? 0.0 : cpu_us[static_cast<std::size_t>(q * (cpu_us.size() - 1))]; };
-  state.counters["cpu_p50_us"] = at(0.5);
-  state.counters["cpu_p99_us"] = at(0.99);
-  state.counters["cpu_p999_us"] = at(0.999);
+  report_cpu(state, cpu_us);
   state.SetLabel(training_mode_name(mode));
 }
 BENCHMARK(BM_EngineStepTrainingMode)->DenseRange(0, 5)->Iterations(3)->Unit(benchmark::kMillisecond);
@@ -192,10 +202,7 @@ void BM_TrainingModeStepAlone(benchmark::State& state) {
   double sink = 0;
   for (auto _ : state) {
     state.PauseTiming();
-    TrainingParams p;
-    p.mode = mode;
-    p.guidance.k_N_per_m = 150;
-    TrainingMode tm = std::move(TrainingMode::create(p, track)).value();
+    TrainingMode tm = make_mode(mode, track);
     state.ResumeTiming();
     for (int k = 0; k < 4000; ++k) {
       Eigen::Isometry3d T = track.at(0.4 + k * 1e-3).T_tooth_tip;
@@ -207,11 +214,7 @@ void BM_TrainingModeStepAlone(benchmark::State& state) {
     }
   }
   benchmark::DoNotOptimize(sink);
-  std::sort(cpu_us.begin(), cpu_us.end());
-  auto at = [&](double q) { return cpu_us.empty() ? 0.0 : cpu_us[static_cast<std::size_t>(q * (cpu_us.size() - 1))]; };
-  state.counters["cpu_p50_us"] = at(0.5);
-  state.counters["cpu_p99_us"] = at(0.99);
-  state.counters["cpu_p999_us"] = at(0.999);
+  report_cpu(state, cpu_us);
   state.SetLabel(training_mode_name(mode));
 }
 BENCHMARK(BM_TrainingModeStepAlone)->DenseRange(1, 5)->Iterations(3)->Unit(benchmark::kMillisecond);

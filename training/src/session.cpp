@@ -162,25 +162,30 @@ std::vector<int> segment_steps(const SessionTrack& s, const Exercise& ex, const 
     out[t] = k;
     k = back[t * static_cast<std::size_t>(S) + static_cast<std::size_t>(k)];
   }
-  // Short spans with no evidence for their step (see SegmentOptions).
+  // Short spans with no evidence for their step (see SegmentOptions). Only spans short
+  // enough to merge are looked at frame by frame.
   const double dt = s.rate_hz > 0 ? 1.0 / s.rate_hz : 0.0;
   auto nearest = [&](std::size_t t) {
     int best = 0;
+    double best_e = emission(t, 0);
     for (int q = 1; q < S; ++q)
-      if (emission(t, q) < emission(t, best)) best = q;
+      if (const double e = emission(t, q); e < best_e) best = q, best_e = e;
     return best;
   };
   for (std::size_t b = 0; b < T;) {
     std::size_t e = b;
-    bool evidence = false;
-    for (; e < T && out[e] == out[b]; ++e) evidence |= s.removed_total(e) > 0 && nearest(e) == out[b];
+    while (e < T && out[e] == out[b]) ++e;
     const bool whole = b == 0 && e == T;
-    if (!whole && !evidence && static_cast<double>(e - b) * dt < o.min_pass_span_s) {
-      const int into = b > 0 ? out[b - 1] : out[e];
-      std::fill(out.begin() + static_cast<std::ptrdiff_t>(b), out.begin() + static_cast<std::ptrdiff_t>(e), into);
-      // Look at the merged span again from its start (one span fewer each time: this ends).
-      while (b > 0 && out[b - 1] == into) --b;
-      continue;
+    if (!whole && static_cast<double>(e - b) * dt < o.min_pass_span_s) {
+      bool evidence = false;
+      for (std::size_t t = b; t < e && !evidence; ++t) evidence = s.removed_total(t) > 0 && nearest(t) == out[b];
+      if (!evidence) {
+        const int into = b > 0 ? out[b - 1] : out[e];
+        std::fill(out.begin() + static_cast<std::ptrdiff_t>(b), out.begin() + static_cast<std::ptrdiff_t>(e), into);
+        // Look at the merged span again from its start (one span fewer each time: this ends).
+        while (b > 0 && out[b - 1] == into) --b;
+        continue;
+      }
     }
     b = e;
   }
