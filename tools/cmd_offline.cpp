@@ -110,7 +110,7 @@ int run(const OfflineCli& c) {
   o.write_video = !c.no_video;
   o.video_codec = c.video_codec;
   o.scale_calib = c.scale_calib;
-  o.stereo = c.stereo || !c.footage_right.empty();
+  o.stereo = c.stereo || !c.footage_right.empty() || c.eye == "both";
   o.footage_right = c.footage_right;
   o.eye = c.eye;
   o.predict_s = c.predict_ms * 1e-3;
@@ -197,6 +197,12 @@ int run(const OfflineCli& c) {
     std::cout << "  stereo: both eyes " << s.eyes_both << " frames, left eye alone " << s.eyes_left
               << ", right eye alone " << s.eyes_right << "; mannequin fitted to both eyes in " << s.man_two_views
               << " frames; " << s.stereo_capture << "\n";
+  if (s.both_eyes)
+    std::cout << "  right eye: its own composite in " << s.right_composited << " frames (tooth drawn in "
+              << s.right_overlays << ")"
+              << (s.right_tooth_err_px.n > 0 ? "; tooth against its truth p95 " + f3(s.right_tooth_err_px.p95) + " px" : "")
+              << (s.right_silhouette_iou.n > 0 ? ", silhouette IoU median " + f3(s.right_silhouette_iou.median) : "")
+              << "\n";
   if (s.expert_frames > 0)
     std::cout << "  expert's tool drawn in " << s.expert_frames << " frames (" << s.expert_drilling_frames
               << " with mode 5's drilling colours)\n";
@@ -260,7 +266,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--truth FILE|none] [--masks DIR|none] [--out DIR]\n"
       "                         [--preset P] [--frames N] [--resolution WxH] [--seed S]\n"
       "                         [--max-frames N] [--no-video] [--video-codec mjpg|ffv1]\n"
-      "                         [--scale-calib] [--quiet] [--stereo [--footage-right VIDEO] | --eye left|right]\n"
+      "                         [--scale-calib] [--quiet] [--stereo [--footage-right VIDEO] [--eye both] | --eye left|right]\n"
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
       "                         [--predict-ms MS] [--stale-ms MS] [--mirror-sigma-mm MM] [--no-occlusion]\n"
       "                         [--camera-response auto|srgb|linear] [--mirror-rim]\n"
@@ -275,9 +281,10 @@ void add_offline(CLI::App& app, int& exit_code) {
               "eyes' corners; an eye that ends first leaves the other alone (frames.csv column eyes)");
   s->add_option("--footage-right", c->footage_right, "The right eye's recording (implies --stereo)");
   s->add_option("--eye", c->eye,
-                "One eye of side-by-side stereo footage through the one-camera path, against that eye's "
-                "truth (the mono anchor on the same frames)")
-      ->check(CLI::IsMember({"left", "right"}));
+                "left|right: one eye of side-by-side stereo footage through the one-camera path, against "
+                "that eye's truth (the mono anchor on the same frames); both: a stereo run (implies --stereo) "
+                "that also composites the right eye, into composite_right.mkv")
+      ->check(CLI::IsMember({"left", "right", "both"}));
   s->add_option("--session", c->session, "Haptic session log (.dlog) to replay in step with the video");
   s->add_option("--truth", c->truth, "Ground truth truth.jsonl (default: beside the footage; none = ignore)");
   s->add_option("--masks", c->masks, "Ground-truth masks folder (default: beside the footage; none = ignore)");

@@ -248,6 +248,10 @@ class MonoOutput final : public DisplayOutput {
   const char* kind() const override { return "mono"; }
   void set_loupe(const LoupeView& l) override { loupe_ = l; }
   void set_prewarp(bool) override {}
+  int eye_rects(int fbw, int fbh, int tw, int th, PanelRect rects[2]) const override {
+    rects[0] = letterbox(fbw, fbh, tw, th);
+    return 1;
+  }
 
   // The composite letterboxed into the window by a framebuffer blit (at 1:1
   // a nearest-pixel copy: the window shows the composite's exact pixels, and
@@ -256,9 +260,9 @@ class MonoOutput final : public DisplayOutput {
   void draw(const OutputFrame& f, int fbw, int fbh) override {
     glViewport(0, 0, fbw, fbh);
     const int tw = f.tex_w, th = f.tex_h;
-    const double s = std::min(double(fbw) / tw, double(fbh) / th);
-    const int dw = static_cast<int>(std::lround(tw * s)), dh = static_cast<int>(std::lround(th * s));
-    const int x0 = (fbw - dw) / 2, y0 = (fbh - dh) / 2;
+    const PanelRect lb = letterbox(fbw, fbh, tw, th);
+    // GL's window origin is the bottom-left: the letterbox's bottom edge.
+    const int dw = lb.w, dh = lb.h, x0 = lb.x, y0 = fbh - lb.y - lb.h;
     if (dw != fbw || dh != fbh) {
       glClearColor(0, 0, 0, 1);
       glClear(GL_COLOR_BUFFER_BIT);
@@ -298,10 +302,23 @@ class MonoOutput final : public DisplayOutput {
 
 class SbsOutput final : public DisplayOutput {
  public:
-  SbsOutput(const HeadsetProfile& h, const calibration::CameraIntrinsics& cam, bool stereo)
-      : h_(h), cam_(cam) {
+  SbsOutput(const HeadsetProfile& h, const calibration::CameraIntrinsics& cam, bool stereo,
+            const calibration::CameraIntrinsics& cam_right)
+      : h_(h), cam_(cam), cam_right_(cam_right) {
     (void)stereo;
     loupe_.mag = 0;
+  }
+  int eye_rects(int fbw, int fbh, int, int, PanelRect rects[2]) const override {
+    const double s = std::min(double(fbw) / h_.panel_w, double(fbh) / h_.panel_h);
+    const double ox = (fbw - h_.panel_w * s) / 2, oy = (fbh - h_.panel_h * s) / 2;
+    for (int e = 0; e < 2; ++e) {
+      const int* vp = h_.eyes[static_cast<std::size_t>(e)].viewport;
+      rects[e].x = static_cast<int>(std::lround(ox + vp[0] * s));
+      rects[e].y = static_cast<int>(std::lround(oy + vp[1] * s));
+      rects[e].w = static_cast<int>(std::lround(vp[2] * s));
+      rects[e].h = static_cast<int>(std::lround(vp[3] * s));
+    }
+    return 2;
   }
   Status init(bool gles) { return pass_.init(gles); }
   const char* kind() const override { return "sbs"; }
@@ -317,11 +334,13 @@ class SbsOutput final : public DisplayOutput {
     glClearColor(0, 0, 0, 1);
     glClear(GL_COLOR_BUFFER_BIT);
     const calibration::CameraIntrinsics cam = at_size(cam_, f.tex_w, f.tex_h);
+    const calibration::CameraIntrinsics cam_r = at_size(cam_right_, f.tex_w, f.tex_h);
     const GLuint left = pass_.source(f);
-    // A right eye's frame given: a stereo pair (no IPD shift), whatever the output was made for.
+    // A right eye's frame given: a stereo pair (no IPD shift, the right eye through its own
+    // camera), whatever the output was made for.
     const bool stereo = f.right_video != 0;
     for (int e = 0; e < 2; ++e) {
-      const EyeMapping m = make_eye_mapping(h_, e, cam, stereo, loupe_, f.loupe_c[e], prewarp_);
+      const EyeMapping m = make_eye_mapping(h_, e, e == 1 && stereo ? cam_r : cam, stereo, loupe_, f.loupe_c[e], prewarp_);
       pass_.draw(e == 1 && stereo ? f.right_video : left, m, fbh, ox, oy, s);
     }
     glViewport(0, 0, fbw, fbh);
@@ -329,7 +348,7 @@ class SbsOutput final : public DisplayOutput {
 
  private:
   HeadsetProfile h_;
-  calibration::CameraIntrinsics cam_;
+  calibration::CameraIntrinsics cam_, cam_right_;
   bool prewarp_ = true;
   LoupeView loupe_{};
   EyePass pass_;
@@ -344,9 +363,10 @@ Result<std::unique_ptr<DisplayOutput>> make_mono_output(bool gles, const calibra
 }
 
 Result<std::unique_ptr<DisplayOutput>> make_sbs_output(bool gles, const HeadsetProfile& profile,
-                                                       const calibration::CameraIntrinsics& cam, bool stereo) {
+                                                       const calibration::CameraIntrinsics& cam, bool stereo,
+                                                       const calibration::CameraIntrinsics* cam_right) {
   if (std::string v = profile.validate(); !v.empty()) return Error{"headset profile: " + v};
-  auto o = std::make_unique<SbsOutput>(profile, cam, stereo);
+  auto o = std::make_unique<SbsOutput>(profile, cam, stereo, cam_right != nullptr ? *cam_right : cam);
   if (auto s = o->init(gles); !s) return Error{s.error()};
   return std::unique_ptr<DisplayOutput>(std::move(o));
 }

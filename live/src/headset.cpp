@@ -236,15 +236,27 @@ EyeMapping make_eye_mapping(const HeadsetProfile& h, int eye, const calibration:
   return m;
 }
 
+PanelRect letterbox(int win_w, int win_h, int w, int h) {
+  PanelRect r;
+  if (win_w <= 0 || win_h <= 0 || w <= 0 || h <= 0) return r;
+  const double s = std::min(double(win_w) / w, double(win_h) / h);
+  r.w = static_cast<int>(std::lround(w * s));
+  r.h = static_cast<int>(std::lround(h * s));
+  r.x = (win_w - r.w) / 2;
+  r.y = (win_h - r.h) / 2;
+  return r;
+}
+
 EyeMapping make_window_mapping(int win_w, int win_h, const calibration::CameraIntrinsics& cam, const LoupeView& loupe,
                                const double loupe_c[2]) {
   EyeMapping m;
   const double s = std::min(double(win_w) / cam.width, double(win_h) / cam.height);
-  const int dw = static_cast<int>(std::lround(cam.width * s)), dh = static_cast<int>(std::lround(cam.height * s));
-  m.vp[0] = (win_w - dw) / 2;
-  m.vp[1] = (win_h - dh) / 2;
-  m.vp[2] = dw;
-  m.vp[3] = dh;
+  const PanelRect lb = letterbox(win_w, win_h, cam.width, cam.height);
+  const int dw = lb.w;
+  m.vp[0] = lb.x;
+  m.vp[1] = lb.y;
+  m.vp[2] = lb.w;
+  m.vp[3] = lb.h;
   // The eye image is the video scaled by s: its "lens axis" at the principal point.
   m.lens_c[0] = (cam.cx + 0.5) * s;
   m.lens_c[1] = (cam.cy + 0.5) * s;

@@ -207,19 +207,32 @@ void HudWindow::set_loupe_centre(const double left[2], const double right[2]) {
 void* HudWindow::egl_display() const { return gles_ ? static_cast<void*>(glfwGetEGLDisplay()) : nullptr; }
 void* HudWindow::egl_context() const { return gles_ ? static_cast<void*>(glfwGetEGLContext(win_)) : nullptr; }
 
-void HudWindow::image_to_window(double x, double y, float& wx, float& wy) const {
+int HudWindow::eye_rects(float rects[2][4]) const {
   int fbw = 0, fbh = 0, ww = 0, wh = 0;
   glfwGetFramebufferSize(win_, &fbw, &fbh);
   glfwGetWindowSize(win_, &ww, &wh);
-  if (fbw <= 0 || fbh <= 0 || tex_w_ <= 0 || tex_h_ <= 0) {
+  PanelRect r[2];
+  const int n = fbw > 0 && fbh > 0 ? output_->eye_rects(fbw, fbh, tex_w_, tex_h_, r) : 0;
+  const float sx = fbw > 0 ? float(ww) / float(fbw) : 1.0f, sy = fbh > 0 ? float(wh) / float(fbh) : 1.0f;
+  for (int e = 0; e < n; ++e) {
+    rects[e][0] = float(r[e].x) * sx;
+    rects[e][1] = float(r[e].y) * sy;
+    rects[e][2] = float(r[e].w) * sx;
+    rects[e][3] = float(r[e].h) * sy;
+  }
+  return n;
+}
+
+void HudWindow::image_to_window(double x, double y, float& wx, float& wy, int eye) const {
+  float r[2][4];
+  const int n = eye_rects(r);
+  if (n <= 0 || tex_w_ <= 0 || tex_h_ <= 0) {
     wx = static_cast<float>(x), wy = static_cast<float>(y);
     return;
   }
-  const double s = std::min(double(fbw) / tex_w_, double(fbh) / tex_h_);
-  const int dw = static_cast<int>(std::lround(tex_w_ * s)), dh = static_cast<int>(std::lround(tex_h_ * s));
-  const int x0 = (fbw - dw) / 2, top = fbh - (fbh - dh) / 2 - dh;  // begin_frame's blit, from the top
-  wx = static_cast<float>((x0 + x * dw / tex_w_) * ww / fbw);
-  wy = static_cast<float>((top + y * dh / tex_h_) * wh / fbh);
+  const float* e = r[std::clamp(eye, 0, n - 1)];
+  wx = e[0] + static_cast<float>(x) * e[2] / static_cast<float>(tex_w_);
+  wy = e[1] + static_cast<float>(y) * e[3] / static_cast<float>(tex_h_);
 }
 
 void HudWindow::begin_frame() {

@@ -167,6 +167,7 @@ std::string LiveSummary::json() const {
       {"warnings", warnings}};
   if (stereo)
     j["stereo"] = {{"frames_both_eyes", stereo_both}, {"frames_left_eye_only", stereo_left_only},
+                   {"frames_right_eye_composited", right_composited},
                    {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens}};
   if (lesson_mode != 0)
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
@@ -822,6 +823,7 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.stereo = c.popt.stereo;
   sum.stereo_both = ff.stereo_both;
   sum.stereo_left_only = ff.stereo_left_only;
+  sum.right_composited = ff.right_composited;
   sum.readback_px = ff.readback_px;
   sum.cpu_blend_px = ff.cpu_blend_px;
   sum.gl_frames_replaced = ff.ring_replaced;

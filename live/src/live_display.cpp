@@ -94,6 +94,8 @@ class DisplayLoop {
     if (!sh_.shown_new) return false;
     Shown& shown = sh_.shown;
     cv::swap(cur_.composite, shown.composite);
+    cv::swap(cur_.composite_right, shown.composite_right);
+    cur_.raw_right = shown.raw_right;
     cur_.gpu = shown.gpu;
     if (cur_.gpu) new_slot = sh_.ring->take();
     cur_.raw = shown.raw;
@@ -116,10 +118,22 @@ class DisplayLoop {
       cam_.cx = (cam_.cx + 0.5) * sx - 0.5, cam_.cy = (cam_.cy + 0.5) * sy - 0.5;
       cam_.width = c_.W, cam_.height = c_.H;
     }
+    // A stereo rig: the right eye's camera and where it sees from (its own composite, loupe).
+    stereo_ = c_.popt.stereo && c_.st.stereo.present;
+    if (stereo_) {
+      cam_right_ = c_.st.stereo.camera_right;
+      if (cam_right_.width != c_.W || cam_right_.height != c_.H) {  // as the left eye's
+        const double sx = double(c_.W) / cam_right_.width, sy = double(c_.H) / cam_right_.height;
+        cam_right_.fx *= sx, cam_right_.fy *= sy;
+        cam_right_.cx = (cam_right_.cx + 0.5) * sx - 0.5, cam_right_.cy = (cam_right_.cy + 0.5) * sy - 0.5;
+        cam_right_.width = c_.W, cam_right_.height = c_.H;
+      }
+      T_camr_rig_ = c_.st.stereo.T_caml_camr.inverse();
+    }
     const volume::VoxelVolume& vol = c_.run.volume();
     tooth_centre_ = vol.origin() + vol.spacing().cwiseProduct((vol.dims() - Eigen::Vector3i::Ones()).cast<double>() / 2);
     if (o.output == "mono" && o.loupe == 0) return;  // the window as before
-    auto out = o.output == "sbs" ? make_sbs_output(c_.hw.gles_egl(), *o.headset, cam_, false)
+    auto out = o.output == "sbs" ? make_sbs_output(c_.hw.gles_egl(), *o.headset, cam_, stereo_, stereo_ ? &cam_right_ : nullptr)
                                  : make_mono_output(c_.hw.gles_egl(), cam_);
     if (!out) {
       c_.say("output " + o.output + ": " + out.error() + "; the mono window instead");
@@ -132,7 +146,8 @@ class DisplayLoop {
     c_.hw.set_output(std::move(*out));
     c_.say(o.output == "sbs" ? "output: side-by-side for headset \"" + o.headset->name + "\" (" +
                                    std::to_string(o.headset->panel_w) + "x" + std::to_string(o.headset->panel_h) +
-                                   "); keys: W pre-warp on/off, L loupe off/inset/full"
+                                   (stereo_ ? "), a stereo pair: each eye its own camera and composite" : ", one camera") +
+                                   "; keys: W pre-warp on/off, L loupe off/inset/full"
                              : std::string("output: mono window with the loupe; key L: loupe off/inset/full"));
   }
 
@@ -161,7 +176,17 @@ class DisplayLoop {
                     project_point(cam_, cur_.rec.T_cam_man * c_.st.calibration.T_man_tooth, tooth_centre_, u, v);
     if (!loupe_c_.initialised()) loupe_c_.reset(cam_.cx, cam_.cy);
     loupe_c_.update(ok, u, v);
-    c_.hw.set_loupe_centre(loupe_c_.centre(), loupe_c_.centre());
+    if (!stereo_) {
+      c_.hw.set_loupe_centre(loupe_c_.centre(), loupe_c_.centre());
+      return;
+    }
+    // A stereo pair: each eye's loupe centred on the tooth as that eye sees it.
+    const bool ok_r = cur_.rec.man_state != 2 &&
+                      project_point(cam_right_, T_camr_rig_ * cur_.rec.T_cam_man * c_.st.calibration.T_man_tooth,
+                                    tooth_centre_, u, v);
+    if (!loupe_cr_.initialised()) loupe_cr_.reset(cam_right_.cx, cam_right_.cy);
+    loupe_cr_.update(ok_r, u, v);
+    c_.hw.set_loupe_centre(loupe_c_.centre(), loupe_cr_.centre());
   }
 
   void frame() {
@@ -208,6 +233,9 @@ class DisplayLoop {
       hw.set_video(img);
       shown_slot_ = -1;
     }
+    // The right eye of a stereo pair (the headset's view): its own composite, or its raw
+    // frame while the camera is silent; none (an eye missing, or mono): both eyes see `img`.
+    if (stereo_ && (fresh || stalled)) hw.set_video_right(stalled ? cur_.raw_right : cur_.composite_right);
     hw.begin_frame();
     // The GPU path's composite never reaches the CPU: the note's label is drawn over it here.
     // Its layout is the mono letterbox; a headset view shows the CPU composite's label only.
@@ -335,13 +363,38 @@ class DisplayLoop {
     }
   }
 
+  // The HUD: in the mono window once, at its top-left corner; in the headset's side-by-side
+  // view once inside each eye's viewport (HudWindow::eye_rects), 12 % in from the viewport's
+  // top-left corner toward the lens and at most 76 % of it wide and high, so each eye sees
+  // the whole HUD at the same place of its view (drawn after the lens pre-warp: not warped).
   void draw_hud(bool stalled, double age) {
+    float rects[2][4];
+    const int n = std::string(c_.hw.output().kind()) == "sbs" ? c_.hw.eye_rects(rects) : 0;
+    if (n < 2) {
+      ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
+      ImGui::SetNextWindowBgAlpha(0.6f);
+      ImGui::Begin("DentAR", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
+      draw_hud_lines(stalled, age);
+      ImGui::End();
+      return;
+    }
+    for (int e = 0; e < 2; ++e) {
+      const float* r = rects[e];
+      ImGui::SetNextWindowPos(ImVec2(r[0] + 0.12f * r[2], r[1] + 0.12f * r[3]), ImGuiCond_Always);
+      ImGui::SetNextWindowSizeConstraints(ImVec2(0, 0), ImVec2(0.76f * r[2], 0.76f * r[3]));
+      ImGui::SetNextWindowBgAlpha(0.6f);
+      ImGui::Begin(e == 0 ? "DentAR##left eye" : "DentAR##right eye", nullptr,
+                   ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoTitleBar |
+                       ImGuiWindowFlags_NoScrollbar);
+      draw_hud_lines(stalled, age);
+      ImGui::End();
+    }
+  }
+
+  void draw_hud_lines(bool stalled, double age) {
     const ar::FrameRecord& r = cur_.rec;
     const haptics::HapticSnapshot snap = engine_.snapshot();
     PenDevice* pen = c_.pen;
-    ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
-    ImGui::SetNextWindowBgAlpha(0.6f);
-    ImGui::Begin("DentAR", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove);
     const ImVec4 col[] = {ImVec4(0.3f, 1, 0.3f, 1), ImVec4(1, 0.85f, 0.2f, 1), ImVec4(1, 0.3f, 0.3f, 1)};
     {
       // ok green, note grey-blue (not an alarm), warning yellow, instructor needed red.
@@ -394,7 +447,6 @@ class DisplayLoop {
     if (!in_.rt_ok) ImGui::TextColored(col[1], "haptics not real-time: %s", in_.grant.c_str());
     if (!stalled && cur_.index >= 0 && now_s() - cur_.steady_s > 0.5)
       ImGui::TextColored(col[2], "frame pipeline stalled: no composite for %.0f ms", (now_s() - cur_.steady_s) * 1e3);
-    ImGui::End();
   }
 
   const LiveContext& c_;
@@ -417,8 +469,11 @@ class DisplayLoop {
   calibration::CameraIntrinsics cam_;  // of the frames' size
   Eigen::Vector3d tooth_centre_ = Eigen::Vector3d::Zero();  // tooth frame, m
   LoupeView loupe_{};
-  LoupeCentre loupe_c_;
+  LoupeCentre loupe_c_, loupe_cr_;  // the loupe's centre per eye (loupe_cr_: a stereo pair's right eye)
   bool prewarp_ = true, mono_loupe_ = false;
+  bool stereo_ = false;  // a stereo rig: the right eye gets its own composite in the headset's view
+  calibration::CameraIntrinsics cam_right_;  // the rig's right eye (stereo_)
+  Eigen::Isometry3d T_camr_rig_ = Eigen::Isometry3d::Identity();
 };
 
 }  // namespace

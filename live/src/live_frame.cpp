@@ -62,6 +62,8 @@ class FrameThread {
       }
     }
     if (auto s = c_.run.warm_up(use_gl_ ? sh_.ring->target(0) : ar::GlFrameTarget{}); !s) return fail(s.error());
+    // A stereo rig into the headset's side-by-side view: each eye its own composite.
+    want_right_ = c_.run.pipeline().stereo() && c_.o.output == "sbs";
     sh_.gl_path.store(use_gl_);
     c_.run.meshes().start_mesher(1.0 / 120.0, c_.to_engine_cpu);
     sh_.pipeline_ready.store(1);
@@ -185,13 +187,15 @@ class FrameThread {
     if (use_gl_) in.gl_target = sh_.ring->target(slot);
     std::string err;
     try {
-      if (auto s = c_.run.pipeline().process(in, c_.run.meshes(), cres_, rec_); !s) err = s.error();
+      if (auto s = c_.run.pipeline().process(in, c_.run.meshes(), cres_, rec_, want_right_ ? &cres_right_ : nullptr); !s)
+        err = s.error();
     } catch (const std::exception& e) {
       err = std::string("pipeline threw: ") + e.what();
     }
     fig_.process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
+    if (err.empty() && rec_.right.composited) ++fig_.right_composited;
     rec_.pose_step = pose_step;
     for (const auto& it : c_.health.on_frame(c_.run.pipeline().last_detections(), f.steady_s, rec_.T_dev_sty,
                                              in.stylus_valid)) {
@@ -222,6 +226,10 @@ class FrameThread {
       Shown& shown = sh_.shown;
       shown.raw = f.image;
       shown.gpu = use_gl_ && err.empty();
+      // The right eye (a stereo pair for the headset): its composite, or none (mono).
+      shown.raw_right = want_right_ ? right_image_ : cv::Mat();
+      if (err.empty() && want_right_ && rec_.right.composited) cv::swap(cres_right_.image, shown.composite_right);
+      else shown.composite_right.release();
       // Buffers change hands, never copied (2.7 MB a 720p frame): the
       // compositor's, the shown slot and the display's each own one.
       // GPU path: the texture is published (fence) under the same lock as
@@ -250,8 +258,9 @@ class FrameThread {
   FrameFigures& fig_;
   Result<ar::EglContext> egl_ = Error{"not made"};
   bool use_gl_ = false;
-  ar::CompositeResult cres_;
+  ar::CompositeResult cres_, cres_right_;  // cres_right_: the right eye's (want_right_)
   ar::FrameRecord rec_;
+  bool want_right_ = false;  // stereo pipeline and the headset's output: composite the right eye too
   cv::Mat right_image_;       // stereo: this frame's right eye (empty: none, the single-view path)
   ar::Frame right_pending_;   // two cameras: the right eye's newest frame not yet used
 };

@@ -59,6 +59,9 @@ struct LiveContext {
 // frame (shown without overlay when the camera stalls).
 struct Shown {
   cv::Mat composite, raw;  // composite empty when the GPU path drew it (gpu)
+  // A stereo pair for the headset (issue 28): the right eye's composite (always the CPU
+  // path's) and its raw frame; empty: mono (both eyes shown the one composite).
+  cv::Mat composite_right, raw_right;
   bool gpu = false;
   std::int64_t index = -1;  // recording index (frames processed)
   double steady_s = 0;      // capture time
@@ -95,6 +98,7 @@ struct FrameFigures {
   std::int64_t ring_replaced = 0, ring_ready_timeouts = 0, ring_release_timeouts = 0;
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
   std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had
+  std::int64_t right_composited = 0;  // stereo into the headset: frames with the right eye's own composite
 };
 
 // The frame thread: until LiveShared::stop or the footage ends.

@@ -367,8 +367,11 @@ std::string OfflineOptions::validate() const {
     return "video_codec = \"" + video_codec + "\" must be mjpg or ffv1";
   if (auto v = tracker.validate(); !v.empty()) return "tracker: " + v;
   if (auto v = compositor.validate(); !v.empty()) return "compositor: " + v;
-  if (!eye.empty() && eye != "left" && eye != "right") return "eye = \"" + eye + "\" must be left or right";
-  if (!eye.empty() && stereo)
+  if (!eye.empty() && eye != "left" && eye != "right" && eye != "both")
+    return "eye = \"" + eye + "\" must be left, right or both";
+  if (eye == "both" && !stereo)
+    return "eye = both writes each eye's composite of a stereo run: it needs stereo (--stereo)";
+  if (!eye.empty() && eye != "both" && stereo)
     return "eye = " + eye + " runs one eye of stereo footage through the mono path; stereo tracks both: give one";
   if (!footage_right.empty() && !stereo) return "footage_right (the right eye's recording) needs stereo";
   if ((stereo || !eye.empty()) && footage.empty())
@@ -383,7 +386,7 @@ std::string check_stereo_inputs(const OfflineOptions& o) {
   if (auto v = o.validate(); !v.empty()) return v;
   auto station = read_station_scene(o.station);
   if (!station) return station.error();
-  const std::string what = o.stereo ? "stereo footage" : "--eye " + o.eye;
+  const std::string what = o.stereo ? "stereo footage" : "--eye " + o.eye;  // (--eye both is stereo)
   if (!station->stereo.present)
     return what + ": the station " + o.station +
            " has no stereo rig (station file \"stereo\": camera_right, T_left_right): calibrate the rig with "
@@ -419,6 +422,16 @@ struct Job {
   std::unique_ptr<StereoSource> stereo_src;  // stereo: the eyes, read in step
   StereoFrame sframe;
   cv::Mat right_image;  // stereo: this frame's right eye (empty: lost)
+  // --eye both (issue 28, session 16): the right eye's composite, its video, truth and masks,
+  // and its per-frame agreement with that truth.
+  bool both_eyes = false;
+  CompositeResult cres_right;
+  fs::path video_right_tmp;
+  cv::VideoWriter writer_right;
+  std::vector<TruthFrame> truth_right;
+  std::string mask_right_dir;
+  cv::Mat K_right, D_right;
+  std::vector<double> right_tooth_err_px, right_iou;
   double fps = 30.0;
   std::vector<TruthFrame> truth;
   std::string mask_dir;
@@ -582,6 +595,17 @@ struct Job {
       if (fs::is_directory(m)) mask_dir = m;
       else if (!o.masks.empty()) return fail("offline: " + m + ": the masks folder does not exist");
     }
+    both_eyes = o.eye == "both";
+    if (both_eyes) {
+      // The right eye's truth and masks beside the footage (`dentar synth --stereo`), if any.
+      const fs::path tr = fdir / "truth_right.jsonl";
+      if (o.truth != "none" && fs::exists(tr)) {
+        auto t = read_truth(tr.string());
+        if (!t) return fail("offline: " + t.error());
+        truth_right = std::move(*t);
+      }
+      if (o.masks != "none" && fs::is_directory(fdir / "masks_right")) mask_right_dir = (fdir / "masks_right").string();
+    }
 
     return {};
   }
@@ -663,6 +687,21 @@ struct Job {
         return fail("offline: " + video_tmp.string() + ": OpenCV cannot open a " + o.video_codec +
                     " video writer here (use --no-video)");
       if (!ffv1) writer.set(cv::VIDEOWRITER_PROP_QUALITY, 95);
+      if (both_eyes) {
+        // The right eye's composite, frame for frame with composite.mkv.
+        const auto& cr = st.stereo.camera_right;
+        video_right_tmp = out / "composite_right.partial.mkv";
+        writer_right.open(video_right_tmp.string(), cv::CAP_FFMPEG, fourcc, fps, cv::Size(cr.width, cr.height));
+        if (!writer_right.isOpened())
+          return fail("offline: " + video_right_tmp.string() + ": OpenCV cannot open a " + o.video_codec +
+                      " video writer here (use --no-video)");
+        if (!ffv1) writer_right.set(cv::VIDEOWRITER_PROP_QUALITY, 95);
+      }
+    }
+    if (both_eyes) {
+      const auto& cr = st.stereo.camera_right;
+      K_right = (cv::Mat_<double>(3, 3) << cr.fx, 0, cr.cx, 0, cr.fy, cr.cy, 0, 0, 1);
+      D_right = cv::Mat(1, 5, CV_64F, const_cast<double*>(cr.dist.data())).clone();
     }
     csv.open(out / "frames.csv.partial");
     if (!csv) return fail("offline: " + (out / "frames.csv.partial").string() + ": cannot write");
@@ -755,7 +794,9 @@ struct Job {
       if (const int a = training::active_note(ann, snap.expert_time_s); a >= 0) fin.note = &ann[static_cast<std::size_t>(a)].text;
     }
     FrameRecord fr;
-    if (auto ps = pipe->process(fin, *meshes, cres, fr); !ps) return fail("offline: " + ps.error());
+    if (auto ps = pipe->process(fin, *meshes, cres, fr, both_eyes ? &cres_right : nullptr); !ps)
+      return fail("offline: " + ps.error());
+    if (both_eyes) right_eye_frame(fr, static_cast<std::size_t>(frame.index));
     r.haptic_step = fr.haptic_step;
     r.pedal = fr.pedal;
     for (int m = 0; m < volume::kNumMaterials; ++m) r.removed_mm3[m] = fr.removed_mm3[m];
@@ -849,9 +890,58 @@ struct Job {
   return true;
   }
 
+  // --eye both: the right eye's composite into composite_right.mkv (the main composite when
+  // the left eye was missing: it is the right eye's; black when the right eye was), and its
+  // tooth against the right eye's truth: the projected box corners (px) and the silhouette.
+  void right_eye_frame(const FrameRecord& fr, std::size_t fi) {
+    const auto& cr = st.stereo.camera_right;
+    const bool own = fr.right.composited, main_is_right = fr.eyes == FrameRecord::kEyesRight;
+    if (own) {
+      ++sum.right_composited;
+      sum.right_overlays += fr.right.overlay ? 1 : 0;
+    }
+    if (o.write_video) {
+      if (own) writer_right.write(cres_right.image);
+      else if (main_is_right) writer_right.write(cres.image);
+      else writer_right.write(cv::Mat(cr.height, cr.width, CV_8UC3, cv::Scalar::all(0)));
+    }
+    if (!own || fr.man_state == 2) return;
+    const Iso T_camr_man = st.stereo.T_caml_camr.inverse() * fr.T_cam_man;
+    if (fi < truth_right.size() && truth_right[fi].present) {
+      auto proj = [&](const Iso& T) {
+        std::vector<cv::Point3d> p;
+        for (const auto& b : box) {
+          const Eigen::Vector3d c = T * b;
+          p.emplace_back(c.x(), c.y(), c.z());
+        }
+        std::vector<cv::Point2d> uv;
+        cv::projectPoints(p, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K_right, D_right, uv);
+        return uv;
+      };
+      const auto a = proj(T_camr_man * st.calibration.T_man_tooth), b = proj(truth_right[fi].T_cam_tooth);
+      double e = 0;
+      for (std::size_t i = 0; i < a.size(); ++i) e += std::hypot(a[i].x - b[i].x, a[i].y - b[i].y);
+      right_tooth_err_px.push_back(e / static_cast<double>(a.size()));
+    }
+    if (!mask_right_dir.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof name, "mask_%06d.png", static_cast<int>(fi));
+      const cv::Mat mask = cv::imread((fs::path(mask_right_dir) / name).string(), cv::IMREAD_GRAYSCALE);
+      if (!mask.empty() && mask.size() == cres_right.tooth_visible.size()) {
+        const cv::Mat truth_vis = mask == 64, drawn = cres_right.tooth_visible > 127;
+        const int inter = cv::countNonZero(truth_vis & drawn), uni = cv::countNonZero(truth_vis | drawn);
+        if (uni > 0) right_iou.push_back(static_cast<double>(inter) / uni);
+      }
+    }
+  }
+
   Status totals() {
     if (rows.empty()) return fail("offline: " + o.footage + ": no frame could be read (empty video?)");
     if (o.write_video) writer.release();
+    if (writer_right.isOpened()) writer_right.release();
+    sum.both_eyes = both_eyes;
+    sum.right_tooth_err_px = make_stat(right_tooth_err_px);
+    sum.right_silhouette_iou = make_stat(right_iou);
     csv.close();
     if (!csv) return fail("offline: frames.csv: write failed (disk full?)");
 
@@ -921,6 +1011,10 @@ struct Job {
     if (o.write_video) {
       fs::rename(video_tmp, out / "composite.mkv", ec);
       if (ec) return fail("offline: composite.mkv: " + ec.message());
+      if (both_eyes) {
+        fs::rename(video_right_tmp, out / "composite_right.mkv", ec);
+        if (ec) return fail("offline: composite_right.mkv: " + ec.message());
+      }
     }
     // The drivers' hook (scoring): its HTML goes into the report, its warnings into both files.
     std::string extra_html;
@@ -987,6 +1081,16 @@ struct Job {
                       {"baseline_mm", st.stereo.baseline_m() * 1e3},
                       {"capture", sum.stereo_capture}};
     if (!o.eye.empty()) js["eye"] = o.eye;
+    if (sum.both_eyes) {
+      auto stat_js = [](const Stat& x) {
+        return nlohmann::json{{"n", x.n}, {"median", x.median}, {"p95", x.p95}, {"max", x.max}, {"mean", x.mean}};
+      };
+      js["right_eye"] = {{"frames_composited", sum.right_composited},
+                         {"overlays", sum.right_overlays},
+                         {"tooth_err_px", stat_js(sum.right_tooth_err_px)},
+                         {"silhouette_iou", stat_js(sum.right_silhouette_iou)},
+                         {"video", o.write_video ? nlohmann::json("composite_right.mkv") : nlohmann::json(nullptr)}};
+    }
     if (sum.note_frames > 0) js["lesson_notes"] = {{"frames", sum.note_frames}};
     if (auto s = write_atomic(out / "summary.json", js.dump(2) + "\n"); !s) return fail("offline: " + s.error());
     if (auto s = write_atomic(out / "report.html", make_report(o, sum, rows, stills, inputs, extra_html)); !s)
@@ -1008,7 +1112,7 @@ Result<OfflineSummary> run_offline(const OfflineOptions& o_in,
   fs::create_directories(out, ec);
   if (ec) return Error{out.string() + ": cannot create the output folder: " + ec.message()};
   // Nothing from an earlier run may pass for this run's result.
-  for (const char* f : {"summary.json", "report.html", "FAILED.txt", "frames.csv", "composite.mkv"})
+  for (const char* f : {"summary.json", "report.html", "FAILED.txt", "frames.csv", "composite.mkv", "composite_right.mkv"})
     fs::remove(out / f, ec);
 
   auto egl = EglContext::create();

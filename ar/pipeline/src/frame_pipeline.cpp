@@ -138,14 +138,24 @@ Result<std::unique_ptr<FramePipeline>> FramePipeline::create(const StationScene&
   auto comp = Compositor::create(station, options.compositor);
   if (!comp) return Error{"compositor: " + comp.error()};
   std::unique_ptr<StereoTracker> stereo;
+  std::unique_ptr<Compositor> right;
+  StationScene station_right;
   if (options.stereo) {
     auto st = StereoTracker::create(station, options.tracker);
     if (!st) return Error{"stereo tracker: " + st.error()};
     stereo = std::make_unique<StereoTracker>(std::move(*st));
+    // The right eye: the same scene through its own camera (the rig's camera_right).
+    station_right = station;
+    station_right.calibration.camera = station.stereo.camera_right;
+    auto c = Compositor::create(station_right, options.compositor);
+    if (!c) return Error{"compositor (right eye, station stereo.camera_right): " + c.error()};
+    right = std::make_unique<Compositor>(std::move(*c));
   }
   auto p = std::unique_ptr<FramePipeline>(
       new FramePipeline(station, options, std::move(*tracker), std::move(*comp)));
   p->stereo_ = std::move(stereo);
+  p->station_right_ = std::move(station_right);
+  p->right_compositor_ = std::move(right);
   return p;
 }
 
@@ -179,7 +189,7 @@ Status FramePipeline::track_stereo(const FrameInput& in, FrameRecord& r) {
 }
 
 Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, CompositeResult& out,
-                              FrameRecord& r) {
+                              FrameRecord& r, CompositeResult* right_out) {
   const bool has_left = in.image != nullptr && !in.image->empty();
   const bool has_right = stereo_ && in.right_image != nullptr && !in.right_image->empty();
   if (!has_left && !has_right)
@@ -236,63 +246,101 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
     r.disc_ms = tf->discovery_ms;
   }
 
-  // Registration and compositing.
-  t0 = Clock::now();
-  CompositeInput ci;
-  ci.video_bgr = in.image;
-  ci.man_valid = r.man_state != 2;
-  ci.T_cam_man = r.T_cam_man;
-  ci.mirror_valid = r.mir_state != 2;
-  ci.T_cam_mtag = r.T_cam_mtag;
-  Compositor* compositor = &compositor_;
-  if (!has_left) {
-    // Stereo with the left eye lost: the right eye's image, the poses seen from the right eye.
-    if (!right_compositor_) {
-      StationScene sr = station_;
-      sr.calibration.camera = station_.stereo.camera_right;
-      auto c = Compositor::create(sr, compositor_.options());
-      if (!c) return Error{"compositing frame " + std::to_string(in.index) + " (right eye): " + c.error()};
-      right_compositor_ = std::make_unique<Compositor>(std::move(*c));
-    }
-    compositor = right_compositor_.get();
-    const Eigen::Isometry3d T_camr_rig = station_.stereo.T_caml_camr.inverse();
-    ci.video_bgr = in.right_image;
-    ci.T_cam_man = T_camr_rig * r.T_cam_man;
-    ci.T_cam_mtag = T_camr_rig * r.T_cam_mtag;
-  }
-  ci.stylus_valid = in.haptic != nullptr && in.stylus_valid;
-  ci.T_dev_sty = r.T_dev_sty;
+  // Registration and compositing: the poses in the rig frame (= the camera's for one camera),
+  // then each eye through compose_eye.
+  CompositeInput rig;
+  rig.man_valid = r.man_state != 2;
+  rig.T_cam_man = r.T_cam_man;
+  rig.mirror_valid = r.mir_state != 2;
+  rig.T_cam_mtag = r.T_cam_mtag;
+  rig.stylus_valid = in.haptic != nullptr && in.stylus_valid;
+  rig.T_dev_sty = r.T_dev_sty;
   const ExpertStyle& ex = options_.expert;
   if (ex.draw && in.haptic != nullptr && in.haptic->mode != 0) {
-    ci.expert.valid = true;
-    ci.expert.T_tooth_exp = isometry_from_colmajor(in.haptic->T_tooth_expert_tip);
-    ci.expert.opacity = ex.opacity;
-    ci.expert.depth_tested = ex.depth_tested;
+    rig.expert.valid = true;
+    rig.expert.T_tooth_exp = isometry_from_colmajor(in.haptic->T_tooth_expert_tip);
+    rig.expert.opacity = ex.opacity;
+    rig.expert.depth_tested = ex.depth_tested;
     const bool hint = in.haptic->mode == 5 && in.haptic->expert_drilling != 0;
-    ci.expert.tint = hint ? ex.drilling_tint : ex.tint;
-    if (hint) ci.tooth_tint = ex.tooth_drilling_tint;
-    r.expert_drilling_shown = hint && ci.man_valid;
+    rig.expert.tint = hint ? ex.drilling_tint : ex.tint;
+    if (hint) rig.tooth_tint = ex.tooth_drilling_tint;
+    r.expert_drilling_shown = hint && rig.man_valid;
   }
-  if (auto cs = in.gl_target.video_texture != 0 ? compositor->compose_gl(meshes.display(), ci, in.gl_target, out)
-                                  : compositor->compose(meshes.display(), ci, out);
-      !cs)
-    return Error{"compositing frame " + std::to_string(in.index) + ": " + cs.error()};
-  r.composite_ms = ms_since(t0);
-  r.stylus_drawn = ci.stylus_valid && ci.man_valid;
-  r.overlay = out.overlay_drawn;
-  r.mirror_drawn = out.mirror_drawn;
-  r.expert_drawn = out.expert_drawn;
+  EyeView right;
+  if (stereo_) {
+    right.image = in.right_image;
+    right.compositor = right_compositor_.get();
+    right.station = &station_right_;
+    right.T_eye_rig = station_.stereo.T_caml_camr.inverse();
+  }
+  // The main composite: the left eye (or the one camera); with the left eye lost, the right.
+  EyeView main;
+  if (has_left) {
+    main.image = in.image;
+    main.compositor = &compositor_;
+    main.station = &station_;
+    main.gl_target = in.gl_target;
+  } else {
+    main = right;
+  }
+  EyeRecord er;
+  if (Status s = compose_eye(main, rig, in, meshes, out, er); !s) return s;
+  r.composite_ms = er.composite_ms;
+  r.stylus_drawn = rig.stylus_valid && rig.man_valid;
+  r.overlay = er.overlay;
+  r.mirror_drawn = er.mirror_drawn;
+  r.expert_drawn = er.expert_drawn;
   r.triangles = out.triangles_drawn;
   r.gpu_composite = out.gpu_output;
   r.readback_px = out.readback_px;
   r.cpu_blend_px = out.cpu_blend_px;
-  if (in.note != nullptr && !in.note->empty() && r.overlay) {
-    if (const auto c = tooth_centre_px(station_, r.T_cam_man)) {
-      r.note_anchored = true;
-      r.note_anchor_px = *c;
+  r.note_anchored = er.note_anchored;
+  r.note_drawn = er.note_drawn;
+  r.note_anchor_px = er.note_anchor_px;
+  // The right eye's own composite (both eyes present and asked for), else none: mono.
+  if (right_out != nullptr) {
+    if (has_left && has_right) {
+      if (Status s = compose_eye(right, rig, in, meshes, *right_out, r.right); !s) return s;
+    } else {
+      right_out->image.release();
+      right_out->tooth_visible.release();
+      right_out->overlay_drawn = right_out->mirror_drawn = right_out->expert_drawn = false;
+      right_out->region = cv::Rect();
+    }
+  }
+  return {};
+}
+
+Status FramePipeline::compose_eye(const EyeView& eye, const CompositeInput& rig, const FrameInput& in,
+                                  ToothMeshes& meshes, CompositeResult& out, EyeRecord& er) {
+  const auto t0 = Clock::now();
+  const bool is_right = eye.compositor != &compositor_;
+  const std::string what = is_right ? " (right eye)" : "";
+  CompositeInput ci = rig;
+  ci.video_bgr = eye.image;
+  ci.T_cam_man = eye.T_eye_rig * rig.T_cam_man;
+  ci.T_cam_mtag = eye.T_eye_rig * rig.T_cam_mtag;
+  if (auto cs = eye.gl_target.video_texture != 0 ? eye.compositor->compose_gl(meshes.display(), ci, eye.gl_target, out)
+                                                 : eye.compositor->compose(meshes.display(), ci, out);
+      !cs)
+    return Error{"compositing frame " + std::to_string(in.index) + what + ": " + cs.error()};
+  er = EyeRecord{};
+  er.composited = true;
+  er.composite_ms = ms_since(t0);
+  er.overlay = out.overlay_drawn;
+  er.mirror_drawn = out.mirror_drawn;
+  er.expert_drawn = out.expert_drawn;
+  er.triangles = out.triangles_drawn;
+  er.region = out.region;
+  er.readback_px = out.readback_px;
+  er.cpu_blend_px = out.cpu_blend_px;
+  if (in.note != nullptr && !in.note->empty() && er.overlay) {
+    if (const auto c = tooth_centre_px(*eye.station, ci.T_cam_man)) {
+      er.note_anchored = true;
+      er.note_anchor_px = *c;
       if (!out.image.empty()) {
         draw_note_label(out.image, layout_note_label(*in.note, *c, out.image.size()));
-        r.note_drawn = true;
+        er.note_drawn = true;
       }
     }
   }
@@ -314,6 +362,14 @@ Status FramePipeline::warm_up(ToothMeshes& meshes, const GlFrameTarget& gl_targe
     if (auto s = compositor_.compose_gl(meshes.display(), ci, gl_target, out); !s)
       return Error{"warm-up (GPU path): " + s.error()};
   if (auto s = compositor_.set_options(compositor_.options()); !s) return Error{"warm-up: " + s.error()};
+  if (right_compositor_) {
+    // The right eye's compositor (stereo): its own uploads and levels of detail.
+    const auto& cr = station_right_.calibration.camera;
+    const cv::Mat grey_r(cr.height, cr.width, CV_8UC3, cv::Scalar(128, 128, 128));
+    ci.video_bgr = &grey_r;
+    if (auto s = right_compositor_->compose(meshes.display(), ci, out); !s) return Error{"warm-up (right eye): " + s.error()};
+    if (auto s = right_compositor_->set_options(right_compositor_->options()); !s) return Error{"warm-up: " + s.error()};
+  }
   tracker_.reset();
   if (stereo_) stereo_->reset();
   return {};

@@ -46,6 +46,11 @@ class DisplayOutput {
   virtual void draw(const OutputFrame& f, int fb_w, int fb_h) = 0;
   virtual void set_loupe(const LoupeView& l) = 0;
   virtual void set_prewarp(bool on) = 0;  // sbs: the lens pre-warp on or off (a key toggles it)
+  // Where each eye's view lies in a framebuffer of fb_w x fb_h px for frames of tex_w x tex_h
+  // (px, top-left origin): the mono window's letterboxed video (1 rect) or each eye's
+  // viewport of the side-by-side panel (2). Returns the count. The HUD and the GPU path's
+  // note label are placed through it (HudWindow).
+  virtual int eye_rects(int fb_w, int fb_h, int tex_w, int tex_h, PanelRect rects[2]) const = 0;
 };
 
 // The mono window; `gles`: the context is OpenGL ES (shader version line).
@@ -54,7 +59,10 @@ Result<std::unique_ptr<DisplayOutput>> make_mono_output(bool gles, const calibra
 // The side-by-side view of `profile`. A frame with right_video is drawn as a
 // stereo pair (each eye its own camera, no IPD shift), one without as mono;
 // `stereo` says which the driver expects (for its log; the frame decides).
+// cam_right: the right eye's camera of a stereo pair (the rig's camera_right; null: `cam`),
+// used for the right eye's mapping when the frame has right_video.
 Result<std::unique_ptr<DisplayOutput>> make_sbs_output(bool gles, const HeadsetProfile& profile,
-                                                       const calibration::CameraIntrinsics& cam, bool stereo);
+                                                       const calibration::CameraIntrinsics& cam, bool stereo,
+                                                       const calibration::CameraIntrinsics* cam_right = nullptr);
 
 }  // namespace dentar::live

@@ -105,6 +105,14 @@ struct EyeMapping {
 EyeMapping make_eye_mapping(const HeadsetProfile& h, int eye, const calibration::CameraIntrinsics& cam, bool stereo,
                             const LoupeView& loupe, const double loupe_c[2], bool prewarp = true);
 
+// Where a w x h image sits letterboxed in a win_w x win_h window (scaled to fit, aspect
+// kept, centred): x, y, width, height in window px with a top-left origin. The one
+// letterbox of the mono window: its blit, its loupe mapping and HudWindow::image_to_window.
+struct PanelRect {
+  int x = 0, y = 0, w = 0, h = 0;
+};
+PanelRect letterbox(int win_w, int win_h, int w, int h);
+
 // A profile for the mono window: one "eye" covering the letterboxed video in a
 // window of win_w x win_h (no pre-warp, the camera at the window's scale); only
 // the loupe differs from the plain blit.

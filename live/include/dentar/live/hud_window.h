@@ -76,9 +76,13 @@ class HudWindow {
   DisplayOutput& output() { return *output_; }
   // The loupe's centre per eye for the frames from now on (camera px, OpenCV).
   void set_loupe_centre(const double left[2], const double right[2]);
-  // A point of the video image (px) in ImGui's window coordinates, where begin_frame draws
-  // it (the video fills the window, aspect kept).
-  void image_to_window(double x, double y, float& wx, float& wy) const;
+  // A point of the video image (px) in ImGui's window coordinates, where the output draws
+  // it in eye `eye`'s view (mono: the letterboxed video), scaled to that view's rectangle
+  // (eye_rects; no lens pre-warp).
+  void image_to_window(double x, double y, float& wx, float& wy, int eye = 0) const;
+  // Where each eye's view lies in ImGui's window coordinates (top-left origin): the output's
+  // DisplayOutput::eye_rects. Returns the count (1 mono, 2 side by side).
+  int eye_rects(float rects[2][4]) const;
   // Starts a frame: clear, ImGui frame, the video in the background (drawn by the output). ImGui calls follow.
   void begin_frame();
   // Renders the HUD and swaps; with `capture`, returns the window's pixels (BGR) first.

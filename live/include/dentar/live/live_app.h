@@ -158,6 +158,7 @@ struct LiveSummary {
   // right one lost); the summary JSON's "stereo" (absent for one camera).
   bool stereo = false;
   std::int64_t stereo_both = 0, stereo_left_only = 0, right_eye_dropped = 0, right_eye_reopens = 0;
+  std::int64_t right_composited = 0;  // frames whose right eye got its own composite (--output sbs)
   std::int64_t dropped_source = 0, dropped_consumer = 0, camera_reopens = 0;
   double wall_s = 0, displayed_fps = 0;
   // Why the run ended: "window closed", "SIGINT", "SIGTERM", "time limit",

@@ -59,6 +59,10 @@ struct OfflineOptions {
   //  - eye "left" or "right" (stereo false): one eye of side-by-side footage through the mono
   //    path, against that eye's truth (truth.jsonl / truth_right.jsonl, masks / masks_right):
   //    the mono anchor on the same frames.
+  //  - eye "both" (with stereo; issue 28, session 16): each eye composited (FramePipeline's
+  //    right output): composite.mkv the left eye's, composite_right.mkv the right eye's, frame
+  //    for frame (docs/formats.md "Offline run"); summary.json "right_eye" gives the right
+  //    eye's tooth against truth_right.jsonl / masks_right beside the footage.
   bool stereo = false;
   std::string footage_right;
   std::string eye;
@@ -149,6 +153,11 @@ struct OfflineSummary {
   bool stereo = false;
   int eyes_both = 0, eyes_left = 0, eyes_right = 0, man_two_views = 0;
   std::string stereo_capture;
+  // eye "both": frames with the right eye's own composite, of which with the tooth drawn;
+  // the right eye's projected tooth box against truth_right (px) and silhouette IoU.
+  bool both_eyes = false;
+  int right_composited = 0, right_overlays = 0;
+  Stat right_tooth_err_px, right_silhouette_iou;
 };
 
 // The stereo inputs of `options` (stereo, footage_right, eye) against the station and the

@@ -63,7 +63,8 @@ struct PipelineOptions {
   double predict_s = 0.0;
   // Issue 28: track from both eyes of the station's stereo rig (StereoTracker; the station
   // must carry "stereo"). Frames then give FrameInput::right_image; poses are in the rig
-  // frame (= the left eye's) and the composite is the left eye's image.
+  // frame (= the left eye's) and the composite is the left eye's image; the right eye's is
+  // composited too when process() is given a right output (FramePipeline::process).
   bool stereo = false;
   std::string validate() const;  // empty, or names the field
 };
@@ -137,6 +138,19 @@ struct FrameInput {
   const std::string* note = nullptr;
 };
 
+// One eye's composite as FramePipeline::process drew it (issue 28, session 16: the right
+// eye's; FrameRecord keeps the main composite's in its own fields, as before).
+struct EyeRecord {
+  bool composited = false;  // this eye was composited this frame
+  bool overlay = false, mirror_drawn = false, expert_drawn = false;
+  bool note_anchored = false, note_drawn = false;
+  Eigen::Vector2d note_anchor_px = Eigen::Vector2d::Zero();  // the tooth's centre in this eye's image, px
+  double composite_ms = 0;
+  std::size_t triangles = 0;
+  cv::Rect region;  // CompositeResult::region: the pixels the overlay touched
+  std::int64_t readback_px = 0, cpu_blend_px = 0;
+};
+
 // What happened to one frame. States: 0 tracking, 1 predicted, 2 lost.
 struct FrameRecord {
   std::int64_t frame = 0;
@@ -187,6 +201,10 @@ struct FrameRecord {
   static constexpr int kEyesMono = 0, kEyesLeft = 1, kEyesRight = 2, kEyesBoth = 3;
   int eyes = kEyesMono;
   int man_views = 0, mir_views = 0;
+  // Issue 28 (session 16): the right eye's own composite (process() given a right output and
+  // both eyes had an image); right.composited false otherwise. Its composite_ms is not in
+  // composite_ms (the main composite's).
+  EyeRecord right;
 };
 
 class FramePipeline {
@@ -196,7 +214,19 @@ class FramePipeline {
                                                        const PipelineOptions& options);
   // One frame; `out` receives the composite (out.image: BGR, camera size).
   // Errors (wrong frame size or type, tracker or GL failure) name the frame.
-  Status process(const FrameInput& in, ToothMeshes& meshes, CompositeResult& out, FrameRecord& rec);
+  //
+  // Stereo, the right eye's composite (issue 28, session 16): with `right_out` given and both
+  // eyes' images present, the right eye is composited too, by the same per-eye step as the
+  // left (compose_eye): the right camera's intrinsics (station "stereo": camera_right), every
+  // tracked pose carried into the right eye's frame (T_camr_rig = T_caml_camr^-1), the
+  // occlusion mask segmented on the right image (its own adapted colour model), the mirror's
+  // reflection seen from the right eye, the lesson's note beside the tooth as the right eye
+  // sees it, the region path as configured. Always the CPU composite (right_out->image),
+  // also when `in.gl_target` puts the left eye's on the GPU. rec.right says what was drawn.
+  // Otherwise (mono, no right_out, or an eye missing: the single-view path) right_out->image
+  // comes back empty: the display shows the one composite to both eyes (mono).
+  Status process(const FrameInput& in, ToothMeshes& meshes, CompositeResult& out, FrameRecord& rec,
+                 CompositeResult* right_out = nullptr);
   // Draws the tooth once on a grey frame (GPU uploads, levels of detail,
   // shader warm-up: ~0.5 s on llvmpipe) so the first real frame is not late,
   // then resets the tracker and the segmenter: the frames that follow are
@@ -221,11 +251,25 @@ class FramePipeline {
   Tracker tracker_;
   Compositor compositor_;
   std::vector<DetectedTag> last_tags_;
-  // Stereo (PipelineOptions::stereo): the joint tracker, and a compositor for the right eye
-  // (made when the left eye is first lost).
+  // Stereo (PipelineOptions::stereo): the joint tracker, the station as the right eye sees it
+  // (calibration.camera = stereo.camera_right) and that eye's compositor (made at create()).
   std::unique_ptr<StereoTracker> stereo_;
+  StationScene station_right_;
   std::unique_ptr<Compositor> right_compositor_;
   Status track_stereo(const FrameInput& in, FrameRecord& r);
+  // One eye's view: its image, compositor, station (its camera) and T_eye_rig (identity for
+  // the left eye and mono; T_camr_rig for the right eye).
+  struct EyeView {
+    const cv::Mat* image = nullptr;
+    Compositor* compositor = nullptr;
+    const StationScene* station = nullptr;
+    Eigen::Isometry3d T_eye_rig = Eigen::Isometry3d::Identity();
+    GlFrameTarget gl_target;  // zero textures: the CPU composite
+  };
+  // The per-eye step both eyes run: the rig-frame poses of `rig` carried into the eye, the
+  // composite, the note label. `rig` holds everything but the video and the eye's poses.
+  Status compose_eye(const EyeView& eye, const CompositeInput& rig, const FrameInput& in, ToothMeshes& meshes,
+                     CompositeResult& out, EyeRecord& er);
 };
 
 // Column-major 4x4 (HapticSnapshot) to an isometry.

@@ -1,0 +1,201 @@
+// Issue 28 (session 16): the frame pipeline composites the right eye of a stereo rig too.
+// On generated stereo footage (StereoSynthGenerator: truth per eye), the right eye's
+// overlay lands where that eye's truth says (the tooth's centre and silhouette in the right
+// image), not where the left eye sees it; outside the overlay the composite is the right
+// camera's own pixels; the note label follows the tooth into the right eye; a frame without
+// its right eye gives no right composite (the display shows mono), and one camera never
+// gives one.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <opencv2/core.hpp>
+
+#include "dentar/ar/camera_model.h"
+#include "dentar/ar/frame_pipeline.h"
+#include "dentar/ar/synth.h"
+#include "dentar/volume/procedural_tooth.h"
+#include "gl_test_context.h"
+
+namespace dentar::ar {
+namespace {
+
+constexpr int kFrames = 6;
+
+struct StereoClip {
+  std::unique_ptr<StereoSynthGenerator> gen;
+  std::vector<StereoSynthFrame> frames;
+};
+
+// 640x480 per eye, the standard preset's scene and motion, a 63 mm rig.
+const StereoClip& clip() {
+  static StereoClip c = [] {
+    StereoClip k;
+    StationScene st = default_station_scene();
+    st.stereo = make_stereo_rig(st.calibration.camera, 0.063);
+    SynthOptions o = synth_preset(SynthPreset::kStandard);
+    o.frames = kFrames;
+    o.width = 640;
+    o.height = 480;
+    o.stereo = true;
+    auto g = StereoSynthGenerator::create(st, o);
+    EXPECT_TRUE(g.ok()) << g.error();
+    if (!g.ok()) return k;
+    k.gen = std::move(g).value();
+    for (int i = 0; i < kFrames; ++i) {
+      StereoSynthFrame f;
+      EXPECT_TRUE(k.gen->next(f).ok());
+      k.frames.push_back(f);
+    }
+    return k;
+  }();
+  return c;
+}
+
+volume::VoxelVolume molar(double voxel_m) {
+  volume::MolarParams p;
+  p.voxel_mm = voxel_m * 1e3;
+  auto v = volume::make_molar(p);
+  EXPECT_TRUE(v.ok()) << v.error();
+  return std::move(v).value();
+}
+
+// The tooth frame's origin projected through an eye's camera (OpenCV px).
+Eigen::Vector2d project_origin(const calibration::CameraIntrinsics& cam, const Eigen::Isometry3d& T_cam_tooth) {
+  const auto p = CameraModel(cam).project(T_cam_tooth.translation());
+  EXPECT_TRUE(p.has_value());
+  return p ? *p : Eigen::Vector2d(-1e9, -1e9);
+}
+
+double iou(const cv::Mat& a, const cv::Mat& b) {
+  const int i = cv::countNonZero(a & b), u = cv::countNonZero(a | b);
+  return u > 0 ? static_cast<double>(i) / u : 0.0;
+}
+
+TEST(RightEyeGl, OverlayLandsOnTheRightEyesTruth) {
+  DENTAR_GL_TEST_CONTEXT();
+  const StereoClip& c = clip();
+  ASSERT_TRUE(c.gen != nullptr);
+  const StationScene& st = c.gen->station();
+  const auto& cam_r = st.stereo.camera_right;
+  auto vol = molar(st.tooth_voxel_m);
+  ToothMeshes meshes(vol);
+  PipelineOptions po;
+  po.stereo = true;
+  auto p = FramePipeline::create(st, po);
+  ASSERT_TRUE(p.ok()) << p.error();
+  const std::string note = "Keep the bur parallel to the long axis";
+  haptics::HapticSnapshot snap{};
+  int checked = 0;
+  double worst_px = 0, worst_iou = 1;
+  for (int i = 0; i < kFrames; ++i) {
+    const StereoSynthFrame& f = c.frames[static_cast<std::size_t>(i)];
+    const Eigen::Matrix4d m = f.left.truth.T_dev_sty.matrix();
+    for (int k = 0; k < 16; ++k) snap.T_dev_sty[k] = m(k % 4, k / 4);
+    FrameInput in;
+    in.image = &f.left.image;
+    in.right_image = &f.right.image;
+    in.index = i;
+    in.capture_time_s = i / 30.0;
+    in.haptic = &snap;
+    in.stylus_valid = true;
+    const bool with_note = i % 2 == 1;  // the label lies outside the overlay's region
+    if (with_note) in.note = &note;
+    CompositeResult out, right;
+    FrameRecord r;
+    const Status s = (*p)->process(in, meshes, out, r, &right);
+    ASSERT_TRUE(s.ok()) << s.error();
+    ASSERT_EQ(r.eyes, FrameRecord::kEyesBoth);
+    ASSERT_TRUE(r.right.composited) << "frame " << i;
+    ASSERT_EQ(right.image.size(), f.right.image.size());
+    if (r.man_state == 2 || i < 2) continue;  // the filter's first frames
+    ++checked;
+    SCOPED_TRACE("frame " + std::to_string(i));
+    EXPECT_TRUE(r.overlay);
+    EXPECT_TRUE(r.right.overlay);
+    // The tooth's centre as the right eye draws it, against that eye's truth; and far from
+    // where the left eye's truth would put it in the right image (63 mm of disparity).
+    const Eigen::Isometry3d T_camr_rig = st.stereo.T_caml_camr.inverse();
+    const Eigen::Vector2d drawn = project_origin(cam_r, T_camr_rig * r.T_cam_man * st.calibration.T_man_tooth);
+    const Eigen::Vector2d truth_r = project_origin(cam_r, f.right.truth.T_cam_tooth);
+    const Eigen::Vector2d truth_l = project_origin(st.calibration.camera, f.left.truth.T_cam_tooth);
+    EXPECT_LT((drawn - truth_r).norm(), 2.0) << "right eye: drawn " << drawn.transpose() << ", truth " << truth_r.transpose();
+    EXPECT_GT((truth_r - truth_l).norm(), 20.0) << "the eyes' views of the tooth must differ for this test to mean anything";
+    // The note's anchor is the tooth's centre in the right eye's image.
+    if (with_note) {
+      EXPECT_TRUE(r.right.note_drawn);
+      EXPECT_LT((r.right.note_anchor_px - truth_r).norm(), 2.0);
+    }
+    // The drawn silhouette (after occlusion) against the right eye's visible tooth, and
+    // against the left eye's (which it must not match).
+    const cv::Mat drawn_px = right.tooth_visible > 127;
+    const double iou_r = iou(drawn_px, f.right.mask == kMaskToothVisible);
+    const double iou_l = iou(drawn_px, f.left.mask == kMaskToothVisible);
+    EXPECT_GT(iou_r, 0.7) << "right eye silhouette";
+    EXPECT_LT(iou_l, 0.3) << "the right composite must not be the left eye's view";
+    worst_px = std::max(worst_px, (drawn - truth_r).norm());
+    worst_iou = std::min(worst_iou, iou_r);
+    // Outside the overlay's region (and without a note's label) the composite is the right
+    // camera's own pixels; inside it the overlay changed them.
+    ASSERT_GT(right.region.area(), 0);
+    if (with_note) continue;
+    cv::Mat outside = cv::Mat::ones(right.image.size(), CV_8U) * 255;
+    outside(right.region).setTo(0);
+    EXPECT_EQ(cv::norm(right.image, f.right.image, cv::NORM_INF, outside), 0.0);
+    EXPECT_GT(cv::norm(right.image(right.region), f.right.image(right.region), cv::NORM_L1), 1000.0);
+  }
+  EXPECT_GE(checked, kFrames - 3);
+  std::printf("[ note ] right eye over %d frames: tooth centre within %.2f px of its truth, silhouette IoU >= %.3f\n",
+              checked, worst_px, worst_iou);
+}
+
+// The right eye missing this frame: the single-view path, no right composite (mono on the
+// display); a pipeline of one camera never makes one.
+TEST(RightEyeGl, NoRightCompositeWithoutTheRightEye) {
+  DENTAR_GL_TEST_CONTEXT();
+  const StereoClip& c = clip();
+  ASSERT_TRUE(c.gen != nullptr);
+  const StationScene& st = c.gen->station();
+  auto vol = molar(st.tooth_voxel_m);
+  ToothMeshes meshes(vol);
+  PipelineOptions po;
+  po.stereo = true;
+  auto p = FramePipeline::create(st, po);
+  ASSERT_TRUE(p.ok()) << p.error();
+  const cv::Mat none;
+  for (int i = 0; i < 4; ++i) {
+    const StereoSynthFrame& f = c.frames[static_cast<std::size_t>(i)];
+    FrameInput in;
+    in.image = &f.left.image;
+    in.right_image = i == 3 ? &none : &f.right.image;
+    in.index = i;
+    in.capture_time_s = i / 30.0;
+    CompositeResult out, right;
+    FrameRecord r;
+    ASSERT_TRUE((*p)->process(in, meshes, out, r, &right).ok());
+    if (i < 3) {
+      EXPECT_TRUE(r.right.composited);
+      EXPECT_FALSE(right.image.empty());
+    } else {
+      EXPECT_EQ(r.eyes, FrameRecord::kEyesLeft);
+      EXPECT_FALSE(r.right.composited);
+      EXPECT_TRUE(right.image.empty()) << "a right composite left over from the frame before";
+      EXPECT_EQ(out.image.size(), f.left.image.size());
+    }
+  }
+  // One camera: a right output given is left empty.
+  auto mono = FramePipeline::create(st, PipelineOptions{});
+  ASSERT_TRUE(mono.ok()) << mono.error();
+  FrameInput in;
+  in.image = &c.frames[0].left.image;
+  in.right_image = &c.frames[0].right.image;
+  CompositeResult out, right;
+  right.image = cv::Mat(4, 4, CV_8UC3);
+  FrameRecord r;
+  ASSERT_TRUE((*mono)->process(in, meshes, out, r, &right).ok());
+  EXPECT_FALSE(r.right.composited);
+  EXPECT_TRUE(right.image.empty());
+}
+
+}  // namespace
+}  // namespace dentar::ar
