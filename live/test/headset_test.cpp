@@ -224,3 +224,33 @@ TEST(Headset, LoupeCentreHoldsUnderJitterAndFollowsShake) {
   d.update(true, 500, 240);
   EXPECT_DOUBLE_EQ(d.centre()[0], 500);
 }
+
+// The one letterbox (session 16): the mono window's blit, its loupe mapping and the HUD's
+// image_to_window all place the video through letterbox(); the loupe's viewport is it.
+TEST(Headset, LetterboxIsTheWindowMappingsViewport) {
+  using dentar::live::letterbox;
+  auto lb = letterbox(1280, 1024, 640, 480);  // wider than tall: bars above and below
+  EXPECT_EQ(lb.x, 0);
+  EXPECT_EQ(lb.w, 1280);
+  EXPECT_EQ(lb.h, 960);
+  EXPECT_EQ(lb.y, 32);
+  lb = letterbox(1000, 480, 640, 480);  // bars left and right
+  EXPECT_EQ(lb.x, 180);
+  EXPECT_EQ(lb.y, 0);
+  EXPECT_EQ(lb.w, 640);
+  EXPECT_EQ(lb.h, 480);
+  lb = letterbox(641, 483, 640, 480);  // odd margins: the extra pixel below / right
+  EXPECT_EQ(lb.w, 641);
+  EXPECT_EQ(lb.h, 481);
+  EXPECT_EQ(lb.y, 1);
+  EXPECT_EQ(letterbox(0, 480, 640, 480).w, 0);  // no window: an empty rectangle
+  const double c[2] = {320, 240};
+  for (const auto& [w, h] : {std::pair{1280, 1024}, std::pair{1000, 480}, std::pair{641, 483}}) {
+    const auto m = dentar::live::make_window_mapping(w, h, cam640(), {}, c);
+    const auto l = letterbox(w, h, 640, 480);
+    EXPECT_EQ(m.vp[0], l.x);
+    EXPECT_EQ(m.vp[1], l.y);
+    EXPECT_EQ(m.vp[2], l.w);
+    EXPECT_EQ(m.vp[3], l.h);
+  }
+}

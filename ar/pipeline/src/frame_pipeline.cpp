@@ -279,10 +279,10 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
     main.image = in.image;
     main.compositor = &compositor_;
     main.station = &station_;
-    main.gl_target = in.gl_target;
   } else {
     main = right;
   }
+  main.gl_target = in.gl_target;  // the GPU path draws the main composite (the right eye's own: CPU)
   EyeRecord er;
   if (Status s = compose_eye(main, rig, in, meshes, out, er); !s) return s;
   r.composite_ms = er.composite_ms;
