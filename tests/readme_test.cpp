@@ -133,6 +133,14 @@ const std::vector<Step>& contract() {
                  "--output sbs --headset assets/headsets/oculus_rift_dk1.json --display 1 --loupe 3",
        .skip_why = "needs a headset as a second monitor (--display 1); the side-by-side output runs under Xvfb "
                    "in HeadsetXvfb.SideBySideEyesMatchOfflineComposite"},
+      {.readme = "build/dentar synth --preset standard --stereo --frames 60 --resolution 640x480 --out out/st",
+       // Fewer frames than the README (the same code path; the suite's time).
+       .run = "build/dentar synth --preset standard --stereo --frames 8 --resolution 640x480 --out out/st",
+       .produces = {"out/st/video.mkv", "out/st/station.json", "out/st/session.dlog", "out/st/truth_right.jsonl"}},
+      {.readme = "build/dentar offline --stereo --eye both --footage out/st/video.mkv --station out/st/station.json "
+                 "--session out/st/session.dlog --out out/st-eyes",
+       .produces = {"out/st-eyes/composite.mkv", "out/st-eyes/composite_right.mkv", "out/st-eyes/summary.json"},
+       .says = "right eye: its own composite in 8 frames"},
       {.readme = "build/dentar tags --out out/kit",
        .produces = {"out/kit/station_kit.pdf", "out/kit/station_kit.svg"}},
       {.readme = "build/dentar tags --station my_station.json --out out/kit",

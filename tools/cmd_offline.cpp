@@ -244,7 +244,8 @@ int run(const OfflineCli& c) {
     }
   }
   std::cout << "wrote " << s.out_dir << "/report.html, summary.json, frames.csv"
-            << (o.write_video ? ", composite.mkv" : "") << "\n";
+            << (o.write_video ? ", composite.mkv" : "") << (o.write_video && s.both_eyes ? ", composite_right.mkv" : "")
+            << "\n";
   return 0;
 }
 

@@ -188,7 +188,7 @@ TEST(HeadsetXvfb, BadProfileIsRefusedWithExit2) {
 TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
   REQUIRE_XVFB();
   const fs::path dir = dentar::test::temp_dir("headset_stereo"), st = dir / "st", off = dir / "off";
-  auto r = run_command(kBin + " synth --preset standard --stereo --frames 12 --resolution 640x480 --seed 3 --out " +
+  auto r = run_command(kBin + " synth --preset standard --stereo --frames 10 --resolution 640x480 --seed 3 --out " +
                        st.string() + " 2>&1");
   ASSERT_EQ(r.code, 0) << r.out;
   auto station = dentar::ar::read_station_scene((st / "station.json").string());
@@ -197,11 +197,11 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
   const fs::path prof = dir / "headset.json";
   std::ofstream(prof) << profile_json(false).dump(2);
   std::string shots;
-  for (int k = 4; k <= 9; ++k)
+  for (int k = 4; k <= 7; ++k)
     shots += " --screenshot " + std::to_string(k) + ":" + (dir / ("shot" + std::to_string(k) + ".png")).string();
   r = run_command(xvfb(kBin + " live --stereo --camera live:" + (st / "video.mkv").string() + " --station " +
                        (st / "station.json").string() + " --stylus none --output sbs --headset " + prof.string() +
-                       " --display-path cpu --no-hud --quiet --loop --frames 10" + shots + " --record " +
+                       " --display-path cpu --no-hud --quiet --loop --frames 8" + shots + " --record " +
                        (dir / "rec").string() + " --no-score --summary " + (dir / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto live = read_json(dir / "live.json");
@@ -212,7 +212,7 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
   ASSERT_EQ(r.code, 0) << r.out;
   const auto sum = read_json(off / "summary.json");
   ASSERT_TRUE(sum.contains("right_eye")) << sum.dump();
-  EXPECT_EQ(sum["right_eye"]["frames_composited"].get<int>(), 12);
+  EXPECT_EQ(sum["right_eye"]["frames_composited"].get<int>(), 10);
   // The right eye's tooth against its own truth, through the driver (generated footage).
   EXPECT_LT(sum["right_eye"]["tooth_err_px"]["p95"].get<double>(), 3.0) << sum["right_eye"].dump();
   auto prof_r = dentar::live::read_headset_profile(prof.string());
@@ -224,8 +224,8 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
     return v;
   };
   const auto left = read_video(off / "composite.mkv"), right = read_video(off / "composite_right.mkv");
-  ASSERT_EQ(left.size(), 12u);
-  ASSERT_EQ(right.size(), 12u);
+  ASSERT_EQ(left.size(), 10u);
+  ASSERT_EQ(right.size(), 10u);
   const double c0[2] = {0, 0};
   const auto& cam_l = station->calibration.camera;
   const auto& cam_r = station->stereo.camera_right;
@@ -236,7 +236,7 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
     return out;
   };
   const auto footage = read_video(st / "video.mkv");  // side by side: the raw eyes
-  ASSERT_EQ(footage.size(), 12u);
+  ASSERT_EQ(footage.size(), 10u);
   // The footage frame each shown frame came from (a loaded machine drops frames; --loop
   // wraps): the recording's frames.csv, column source_index.
   std::map<int, int> source;
@@ -254,13 +254,13 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
       std::string cell, frame;
       for (int i = 0; std::getline(ls, cell, ','); ++i) {
         if (i == 0) frame = cell;
-        if (i == col) source[std::stoi(frame)] = std::stoi(cell) % 12;
+        if (i == col) source[std::stoi(frame)] = std::stoi(cell) % 10;
       }
     }
   }
   int compared = 0, raw_k = -1;
   cv::Mat raw_shot, raw_ref[2], raw_wrong;
-  for (int k = 4; k <= 9; ++k) {
+  for (int k = 4; k <= 7; ++k) {
     const fs::path sp = dir / ("shot" + std::to_string(k) + ".png");
     if (!fs::exists(sp)) continue;
     const cv::Mat s = cv::imread(sp.string());
