@@ -236,3 +236,49 @@ TEST(EyeOutputGl, MonoWindowLoupeInset) {
   EXPECT_EQ(cv::norm(gl(cv::Rect(0, 0, 640, 150)), src(cv::Rect(0, 0, 640, 150)), cv::NORM_INF), 0);
   glDeleteTextures(1, &tex);
 }
+
+// Session 16: a rig whose right eye has its own intrinsics (camera_right): the right eye's
+// view is drawn through them, not the left camera's; eye_rects says where each eye lies.
+TEST(EyeOutputGl, StereoRightEyeThroughItsOwnCamera) {
+  DENTAR_GL_TEST_CONTEXT();
+  const cv::Mat left = test_image(640, 480);
+  cv::Mat right;
+  cv::flip(left, right, 1);
+  const GLuint tl = upload(left), tr = upload(right);
+  OutputFrame f;
+  f.video = tl, f.right_video = tr, f.tex_w = 640, f.tex_h = 480;
+  auto cam_r = cam640();
+  cam_r.fx = cam_r.fy = 560;  // another lens
+  cam_r.cx = 331.0, cam_r.cy = 228.0;
+  const HeadsetProfile h = profile(false);
+  auto out = make_sbs_output(true, h, cam640(), true, &cam_r);
+  ASSERT_TRUE(out.ok()) << out.error();
+  const cv::Mat gl = draw_and_read(**out, f, h.panel_w, h.panel_h);
+  const double c0[2] = {0, 0};
+  cv::Mat ref(h.panel_h, h.panel_w, CV_8UC3, cv::Scalar::all(0)), wrong = ref.clone();
+  render_eye_cpu(left, make_eye_mapping(h, 0, cam640(), true, {}, c0), ref);
+  render_eye_cpu(right, make_eye_mapping(h, 1, cam_r, true, {}, c0), ref);
+  render_eye_cpu(right, make_eye_mapping(h, 1, cam640(), true, {}, c0), wrong);
+  const Diff d = compare(gl, ref);
+  EXPECT_LT(d.mean, 0.6);
+  EXPECT_LE(d.p99, 3);
+  const cv::Rect re(640, 0, 640, 600);
+  EXPECT_GT(compare(gl(re), wrong(re)).mean, 5) << "the right eye drawn through the left camera";
+  // Where each eye lies in a framebuffer of the panel's size, and in one twice as large.
+  PanelRect r[2];
+  ASSERT_EQ((*out)->eye_rects(h.panel_w, h.panel_h, 640, 480, r), 2);
+  for (int e = 0; e < 2; ++e) {
+    EXPECT_EQ(r[e].x, h.eyes[static_cast<std::size_t>(e)].viewport[0]);
+    EXPECT_EQ(r[e].w, h.eyes[static_cast<std::size_t>(e)].viewport[2]);
+  }
+  ASSERT_EQ((*out)->eye_rects(2 * h.panel_w, 2 * h.panel_h, 640, 480, r), 2);
+  EXPECT_EQ(r[1].x, 2 * h.eyes[1].viewport[0]);
+  EXPECT_EQ(r[1].h, 2 * h.eyes[1].viewport[3]);
+  auto mono = make_mono_output(true, cam640());
+  ASSERT_TRUE(mono.ok()) << mono.error();
+  ASSERT_EQ((*mono)->eye_rects(1280, 1024, 640, 480, r), 1);
+  EXPECT_EQ(r[0].y, 32);
+  EXPECT_EQ(r[0].h, 960);
+  glDeleteTextures(1, &tl);
+  glDeleteTextures(1, &tr);
+}
