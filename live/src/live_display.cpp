@@ -365,7 +365,8 @@ class DisplayLoop {
 
   // The HUD: in the mono window once, at its top-left corner; in the headset's side-by-side
   // view once inside each eye's viewport (HudWindow::eye_rects), 12 % in from the viewport's
-  // top-left corner toward the lens and at most 76 % of it wide and high, so each eye sees
+  // top-left corner toward the lens and at most 76 % of it wide and high (the font scaled
+  // down to fit, at most to 0.6), so each eye sees
   // the whole HUD at the same place of its view (drawn after the lens pre-warp: not warped).
   void draw_hud(bool stalled, double age) {
     float rects[2][4];
@@ -386,6 +387,8 @@ class DisplayLoop {
       ImGui::Begin(e == 0 ? "DentAR##left eye" : "DentAR##right eye", nullptr,
                    ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoTitleBar |
                        ImGuiWindowFlags_NoScrollbar);
+      // The HUD's longest lines are ~600 px at scale 1: scaled to fit the eye's viewport.
+      ImGui::SetWindowFontScale(std::clamp(0.76f * r[2] / 620.0f, 0.6f, 1.0f));
       draw_hud_lines(stalled, age);
       ImGui::End();
     }
