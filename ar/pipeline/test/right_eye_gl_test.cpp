@@ -88,6 +88,7 @@ TEST(RightEyeGl, OverlayLandsOnTheRightEyesTruth) {
   haptics::HapticSnapshot snap{};
   int checked = 0;
   double worst_px = 0, worst_iou = 1;
+  int mirror_left = 0, mirror_right = 0;  // frames whose reflection each eye drew
   for (int i = 0; i < kFrames; ++i) {
     const StereoSynthFrame& f = c.frames[static_cast<std::size_t>(i)];
     const Eigen::Matrix4d m = f.left.truth.T_dev_sty.matrix();
@@ -113,6 +114,8 @@ TEST(RightEyeGl, OverlayLandsOnTheRightEyesTruth) {
     SCOPED_TRACE("frame " + std::to_string(i));
     EXPECT_TRUE(r.overlay);
     EXPECT_TRUE(r.right.overlay);
+    mirror_left += r.mirror_drawn ? 1 : 0;
+    mirror_right += r.right.mirror_drawn ? 1 : 0;
     // The tooth's centre as the right eye draws it, against that eye's truth; and far from
     // where the left eye's truth would put it in the right image (63 mm of disparity).
     const Eigen::Isometry3d T_camr_rig = st.stereo.T_caml_camr.inverse();
@@ -145,8 +148,13 @@ TEST(RightEyeGl, OverlayLandsOnTheRightEyesTruth) {
     EXPECT_GT(cv::norm(right.image(right.region), f.right.image(right.region), cv::NORM_L1), 1000.0);
   }
   EXPECT_GE(checked, kFrames - 3);
-  std::printf("[ note ] right eye over %d frames: tooth centre within %.2f px of its truth, silhouette IoU >= %.3f\n",
-              checked, worst_px, worst_iou);
+  // The mirror's reflection is drawn for the right eye too (the standard preset's mirror is in
+  // both eyes' view on these frames).
+  EXPECT_GT(mirror_left, 0);
+  EXPECT_EQ(mirror_right, mirror_left);
+  std::printf("[ note ] right eye over %d frames: tooth centre within %.2f px of its truth, silhouette IoU >= %.3f; reflection "
+              "drawn left %d, right %d\n",
+              checked, worst_px, worst_iou, mirror_left, mirror_right);
 }
 
 // The right eye missing this frame: the single-view path, no right composite (mono on the
