@@ -343,7 +343,9 @@ std::string make_report(const OfflineOptions& o, const OfflineSummary& sum, cons
   h << "<h2>Inputs</h2><pre>" << html_escape(inputs.dump(2)) << "</pre>\n";
   h << "<p>Per-frame values: <a href=\"frames.csv\">frames.csv</a>; totals: <a href=\"summary.json\">"
        "summary.json</a>"
-    << (o.write_video ? "; video: <a href=\"composite.mkv\">composite.mkv</a>" : "") << ".</p>\n";
+    << (o.write_video ? "; video: <a href=\"composite.mkv\">composite.mkv</a>" : "")
+    << (o.write_video && sum.both_eyes ? ", the right eye's: <a href=\"composite_right.mkv\">composite_right.mkv</a>" : "")
+    << ".</p>\n";
   h << "</body></html>\n";
   return h.str();
 }
