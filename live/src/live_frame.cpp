@@ -213,8 +213,9 @@ class FrameThread {
     if (err.empty()) {
       fig_.gpu_frames += rec_.gpu_composite ? 1 : 0;
       fig_.note_frames += rec_.note_anchored ? 1 : 0;
-      fig_.readback_px += rec_.readback_px;
-      fig_.cpu_blend_px += rec_.cpu_blend_px;
+      // The right eye's own composite (a stereo pair for the headset) is always the CPU path's.
+      fig_.readback_px += rec_.readback_px + rec_.right.readback_px;
+      fig_.cpu_blend_px += rec_.cpu_blend_px + rec_.right.cpu_blend_px;
     }
     sh_.processed.store(processed + 1);
   }
