@@ -68,7 +68,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--station", c->o.station,
                   "station file, or a built-in station: default (phantom head), box (flat tag board)");
   sub->add_flag("--scale-calib", c->o.scale_calib, "accept a camera of another size (intrinsics scaled)");
-  sub->add_option("--stylus", c->o.stylus, "sim (simulated hand), pen (printed pen tag), replay:FILE.dlog, none");
+  sub->add_option("--stylus", c->o.stylus, "sim (simulated hand), pen (printed pen tag), replay:FILE.dlog, none (no bur: the engine runs, nothing cuts)");
   sub->add_option("--camera-latency-ms", c->o.camera_latency_ms,
                   "the camera's latency, mid-exposure to grab, ms: each frame is drawn with the stylus "
                   "pose of its exposure from the engine's 1 kHz pose history (default: the station's "

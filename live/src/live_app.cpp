@@ -534,7 +534,14 @@ Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st
       // (haptics/scripts.h, as before); with one, an expert session of that exercise's steps
       // on its tooth, as the cohort generator scripts it (training/hand_script.h).
       std::vector<haptics::TipWaypoint> tips;
-      if (o.exercise.empty()) {
+      if (o.stylus == "none") {
+        // No stylus: the hand rests 25 mm above the tooth's origin, clear of every
+        // exercise's crown, with the pedal up: the engine runs (and is timed), nothing cuts.
+        tips = haptics::tip_script("access", 3.0, 0);
+        tips.resize(1);
+        tips.front().tip_tooth_m = {0, 0, 25e-3};
+        tips.front().pedal = false;
+      } else if (o.exercise.empty()) {
         tips = haptics::tip_script("access", 3.0, 0);
       } else {
         auto ex = named_exercise(o.exercise);

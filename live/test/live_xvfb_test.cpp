@@ -318,6 +318,9 @@ TEST(LiveXvfb, CameraStallHidesOverlayThenRecovers) {
   // were shown after the camera came back.
   EXPECT_GE(s["frames"]["displayed"].get<int>(), 30);
   EXPECT_EQ(s["stop_reason"], "frame limit");
+  // --stylus none: no hand works the tooth (it once ran the simulated hand's script).
+  EXPECT_EQ(s["removed_mm3"]["total"].get<double>(), 0.0);
+  EXPECT_GT(s["engine"]["steps"].get<long>(), 0);
 }
 
 // SIGINT and SIGTERM mid-run: force zeroed first, logs flushed, the
