@@ -95,6 +95,9 @@ struct FrameFigures {
   std::int64_t ring_replaced = 0, ring_ready_timeouts = 0, ring_release_timeouts = 0;
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
   std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had
+  // Two cameras: the right eye lost and back (LiveSummary::stereo_fallbacks ...), ms; -1 none.
+  std::int64_t stereo_fallbacks = 0, stereo_recoveries = 0;
+  double stereo_fallback_ms_max = -1, stereo_fallback_process_ms = -1, stereo_recovery_ms_max = -1;
 };
 
 // The frame thread: until LiveShared::stop or the footage ends.
