@@ -660,9 +660,10 @@ Status start_recording(const LiveOptions& o, const ar::StationScene& st, const a
               {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
   if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
   // Stereo (issue 28): both eyes kept (frames_right/), replayed from both by `dentar offline`.
-  if (popt.stereo)
-    rec_meta["stereo"] = {{"head", o.side_by_side ? "side_by_side" : "two_cameras"},
-                          {"camera_right", o.camera_right}};
+  if (popt.stereo) {
+    rec_meta["stereo"] = {{"head", o.side_by_side ? "side_by_side" : "two_cameras"}};
+    if (!o.side_by_side) rec_meta["stereo"]["camera_right"] = o.camera_right;
+  }
   if (session::LessonClock* l = run.lesson()) {  // the lesson's exercise is the session's (the finish step scores it)
     rec_meta["exercise"] = l->lesson().exercise;
     rec_meta["lesson"] = {{"lesson", o.lesson}, {"path", l->lesson().path}, {"mode_asked", l->mode_asked()},

@@ -524,6 +524,7 @@ struct Job {
                       "recording's station.json holds the rig it was tracked with)");
         o.stereo = true;
         sum.stereo = true;
+        sum.stereo_capture = "the live run's pairs, replayed from frames/ and frames_right/ (" + rec.stereo_head + ")";
         rec_right_dir = rdir / "frames_right";
       }
       if (o.station.empty() || o.station == (rdir / "station.json").string()) o.station = (rdir / "station.json").string();
