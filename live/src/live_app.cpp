@@ -169,8 +169,8 @@ std::string LiveSummary::json() const {
     j["stereo"] = {{"frames_both_eyes", stereo_both}, {"frames_left_eye_only", stereo_left_only},
                    {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens},
                    {"fallbacks", stereo_fallbacks}, {"recoveries", stereo_recoveries},
-                   {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_process_ms", stereo_fallback_process_ms},
-                   {"recovery_ms_max", stereo_recovery_ms_max}};
+                   {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_frame_ms", stereo_fallback_frame_ms},
+                   {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max}};
   if (lesson_mode != 0)
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
                    {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
@@ -836,7 +836,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.stereo_fallbacks = ff.stereo_fallbacks;
   sum.stereo_recoveries = ff.stereo_recoveries;
   sum.stereo_fallback_ms_max = ff.stereo_fallback_ms_max;
-  sum.stereo_fallback_process_ms = ff.stereo_fallback_process_ms;
+  sum.stereo_fallback_frame_ms = ff.stereo_fallback_frame_ms;
+  sum.stereo_fallback_wait_ms = ff.stereo_fallback_wait_ms;
   sum.stereo_recovery_ms_max = ff.stereo_recovery_ms_max;
   sum.readback_px = ff.readback_px;
   sum.cpu_blend_px = ff.cpu_blend_px;

@@ -125,6 +125,7 @@ class FrameThread {
   void pair_right(ar::CaptureThread& right, const ar::Frame& left) {
     const double half = 0.5 / (right.fps() > 0 ? right.fps() : 30.0);
     const double silent_s = 0.1;
+    const auto t_enter = Clock::now();
     ar::Frame r;
     if (right.wait_take(r, 0)) take_right(std::move(r), silent_s);  // the newest (latest wins)
     const auto deadline = Clock::now() + std::chrono::duration<double>(half);
@@ -142,6 +143,7 @@ class FrameThread {
       right_encoded_ = right_pending_.encoded;  // its camera's JPEG bytes, for the recording
       right_pending_ = ar::Frame{};
     }
+    pair_wait_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - t_enter).count();
   }
 
   // A right-eye frame taken from its capture thread: the newest, and when it ends a silence
@@ -154,8 +156,9 @@ class FrameThread {
 
   // Two cameras: how long the single-view path took to take over when the right eye went
   // silent, and pairs to come back when it returned (from the right eye's last frame, and
-  // from its first frame back, to the composite of the first frame on the new path).
-  void count_fallback(int eyes, double process_ms) {
+  // from its first frame back, to the composite of the first frame on the new path); for the
+  // slowest fallback, that frame's own capture-to-composite time and its wait for a partner.
+  void count_fallback(int eyes, double capture_steady_s) {
     if (c_.o.camera_right.empty()) return;
     const double now = ar::steady_now_s();
     if (eyes == ar::FrameRecord::kEyesLeft && prev_eyes_ == ar::FrameRecord::kEyesBoth && right_last_s_ > 0) {
@@ -164,7 +167,8 @@ class FrameThread {
       right_back_s_ = 0;  // a return counts from the eye's first frame after this
       if (ms > fig_.stereo_fallback_ms_max) {
         fig_.stereo_fallback_ms_max = ms;
-        fig_.stereo_fallback_process_ms = process_ms;
+        fig_.stereo_fallback_frame_ms = (now - capture_steady_s) * 1e3;
+        fig_.stereo_fallback_wait_ms = pair_wait_ms_;
       }
     }
     if (eyes == ar::FrameRecord::kEyesBoth && prev_eyes_ == ar::FrameRecord::kEyesLeft && right_back_s_ > 0) {
@@ -225,7 +229,7 @@ class FrameThread {
     fig_.process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
-    if (err.empty()) count_fallback(rec_.eyes, fig_.process_ms.back());
+    if (err.empty()) count_fallback(rec_.eyes, f.steady_s);
     rec_.pose_step = pose_step;
     for (const auto& it : c_.health.on_frame(c_.run.pipeline().last_detections(), f.steady_s, rec_.T_dev_sty,
                                              in.stylus_valid)) {
@@ -292,6 +296,7 @@ class FrameThread {
   ar::Frame right_pending_;   // two cameras: the right eye's newest frame not yet used
   double right_last_s_ = 0, right_back_s_ = 0;  // the right eye's newest frame, its first after a silence (steady s)
   int prev_eyes_ = 0;                           // the eyes of the frame before
+  double pair_wait_ms_ = 0;                     // this frame's wait for the right eye's partner
 };
 
 }  // namespace

@@ -97,7 +97,8 @@ struct FrameFigures {
   std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had
   // Two cameras: the right eye lost and back (LiveSummary::stereo_fallbacks ...), ms; -1 none.
   std::int64_t stereo_fallbacks = 0, stereo_recoveries = 0;
-  double stereo_fallback_ms_max = -1, stereo_fallback_process_ms = -1, stereo_recovery_ms_max = -1;
+  double stereo_fallback_ms_max = -1, stereo_fallback_frame_ms = -1, stereo_fallback_wait_ms = -1;
+  double stereo_recovery_ms_max = -1;
 };
 
 // The frame thread: until LiveShared::stop or the footage ends.

@@ -92,15 +92,20 @@ TEST(LiveStereoXvfb, TwoCamerasRightEyeLostAndBackRecordedAndReplayed) {
   EXPECT_GE(ls["fallbacks"].get<int>(), 1);
   EXPECT_GE(ls["recoveries"].get<int>(), 1);
   // Issue 28: the single-view path takes over within 200 ms of the eye's last frame, and pairs
-  // come back as soon as it returns. The time includes the first single-view frame's own
-  // processing (the frame cost, not the fallback's): the 200 ms is asserted whole when that
-  // frame took under 100 ms, as on a quiet machine; the switching alone always.
-  const double fb = ls["fallback_ms_max"].get<double>(), fb_proc = ls["fallback_process_ms"].get<double>();
+  // come back as soon as it returns. The pairing's own share is the first single-view frame's
+  // wait for a partner: at most half a frame period (16.7 ms at 30 fps) plus a wake-up. The
+  // rest is the next camera frame (33 ms) and that frame's trip through a busy machine: the
+  // 200 ms is asserted whole when the frame went from capture to composite in under 100 ms (a
+  // machine keeping up, as the mono stall test does), else printed.
+  const double fb = ls["fallback_ms_max"].get<double>(), fb_frame = ls["fallback_frame_ms"].get<double>();
   const double back = ls["recovery_ms_max"].get<double>();
   EXPECT_GT(fb, 0);
-  EXPECT_LE(fb - fb_proc, 200) << "the switch to the single-view path waited for the lost eye";
-  if (fb_proc < 100) {
+  EXPECT_LE(ls["fallback_wait_ms"].get<double>(), 60) << "the frame waited for the lost eye";
+  if (fb_frame < 100) {
     EXPECT_LE(fb, 200);
+  } else if (fb > 200) {
+    std::printf("[ note ] fallback %.0f ms, of which %.0f ms the frame's own capture-to-composite time on a loaded "
+                "machine: the 200 ms is not asserted\n", fb, fb_frame);
   }
   EXPECT_GT(back, 0);
   EXPECT_LE(back, 1000);
@@ -160,4 +165,29 @@ TEST(LiveStereoXvfb, TwoCamerasRightEyeLostAndBackRecordedAndReplayed) {
     ++compared;
   }
   EXPECT_GT(compared, frames / 2);
+
+  // Refused, saying why: one eye of a stereo recording (--eye); a right-eye file gone; the
+  // session-15 form (the eyes column, no "stereo" in recording.json: the left eye only).
+  r = run_command(kBin + " offline --footage " + rec.string() + " --eye left --out " + (t / "o_eye").string() +
+                  " --quiet 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("drop --eye"), std::string::npos) << r.out;
+  const fs::path bad = t / "rec_bad";
+  fs::copy(rec, bad, fs::copy_options::recursive);
+  std::size_t first_both = 1;
+  while (first_both < lr.size() && lr[first_both][l_eyes] != "both") ++first_both;
+  ASSERT_LT(first_both, lr.size());
+  char gone[32];
+  std::snprintf(gone, sizeof gone, "frame_%06d", static_cast<int>(first_both - 1));
+  ASSERT_TRUE(fs::remove(bad / "frames_right" / (std::string(gone) + ".jpg")));
+  r = run_command(kBin + " offline --footage " + bad.string() + " --out " + (t / "o_bad").string() +
+                  " --no-video --no-score --quiet 2>&1");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find(std::string(gone) + ".{jpg,png,ppm}: missing"), std::string::npos) << r.out;
+  auto old_meta = meta;
+  old_meta.erase("stereo");
+  std::ofstream(bad / "recording.json") << old_meta.dump(2);
+  r = run_command(kBin + " offline --footage " + bad.string() + " --out " + (t / "o_old").string() + " --quiet 2>&1");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("recorded before `dentar live` kept the right eye"), std::string::npos) << r.out;
 }
