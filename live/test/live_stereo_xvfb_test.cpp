@@ -1,5 +1,5 @@
 // `dentar live` with a stereo head (issue 28) as a user runs it, under Xvfb: two cameras (paced
-// Motion JPEG stand-ins, as two UVC webcams deliver), the right one unplugged for 0.6 s mid-run
+// Motion JPEG stand-ins, as two UVC webcams deliver), the right one unplugged for 0.5 s mid-run
 // (the stall hook); the run recorded with both eyes and replayed by `dentar offline` through the
 // stereo path: the same eyes, states and poses per frame, and the same final cut. Skips without
 // xvfb-run unless DENTAR_REQUIRE_GL=1 (CI installs it).
@@ -71,15 +71,15 @@ TEST(LiveStereoXvfb, TwoCamerasRightEyeLostAndBackRecordedAndReplayed) {
   REQUIRE_XVFB();
   const fs::path t = dentar::test::temp_dir("live_stereo");
   const fs::path st = t / "st", rec = t / "rec", off = t / "off";
-  // A short generated stereo clip (looped by the stand-ins): 6 frames, 2 x 640x480.
-  auto r = run_command(kBin + " synth --preset standard --stereo --frames 6 --seed 3 --out " + st.string() + " 2>&1");
+  // A short generated stereo clip (looped by the stand-ins): 4 frames, 2 x 640x480.
+  auto r = run_command(kBin + " synth --preset standard --stereo --frames 4 --seed 3 --out " + st.string() + " 2>&1");
   if (r.code != 0 && !std::getenv("DENTAR_REQUIRE_GL")) GTEST_SKIP() << "dentar synth failed (no headless EGL?): " << r.out;
   ASSERT_EQ(r.code, 0) << r.out;
   write_eyes(st / "video.mkv", t / "l.avi", t / "r.avi");
   r = run_command(xvfb(kBin + " live --camera live:" + (t / "l.avi").string() + " --camera-right live:" +
                        (t / "r.avi").string() + " --station " + (st / "station.json").string() + " --stylus replay:" +
                        (st / "session.dlog").string() + " --record " + rec.string() +
-                       " --inject-stall-right 15:0.6 --no-hud --quiet --loop --frames 45 --no-score --summary " +
+                       " --inject-stall-right 12:0.5 --no-hud --quiet --loop --frames 36 --no-score --summary " +
                        (t / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto live = read_json(t / "live.json");
