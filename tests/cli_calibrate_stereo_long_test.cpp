@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "dentar/ar/calib_board.h"
 #include "dentar/calibration/intrinsics.h"
@@ -184,6 +186,51 @@ TEST(CliCalibrateStereoLong, LiveEyesTakeCapturesByThemselves) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("capture 10/10"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("pairs"), std::string::npos) << r.out;  // the pairing's summary
+  expect_rig(st, r.out);
+}
+
+// Live stereo with the right eye unplugged after 12 of 14 places (issue 28, session 16): the
+// capture stops --stall-timeout after its last frame, naming it, and the captures taken before
+// it are kept: enough here, so they give the rig, it is written (exit 0) and the output says it
+// came from the captures before the stall. Motion JPEG stand-ins (live:FILE), ChArUco board.
+TEST(CliCalibrateStereoLong, LiveEyeStoppedAfterEnoughCapturesStillGivesTheRig) {
+  const std::string board = "charuco:9x7:20:15:DICT_4X4_50";
+  const fs::path d = dentar::test::temp_dir("stereo_live_stall_rig");
+  auto spec = dentar::ar::parse_board_spec(board);
+  ASSERT_TRUE(spec.ok());
+  const auto tex = dentar::ar::make_board_texture(*spec, 3000);
+  const cal::CameraIntrinsics kl = eye(620, 318, 242), kr = eye(628, 323, 237);
+  const auto poses = cal::plan_board_poses(kl, dentar::ar::board_width_m(*spec), dentar::ar::board_height_m(*spec), 14, 7);
+  const int mjpg = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+  cv::VideoWriter L((d / "l.avi").string(), cv::CAP_FFMPEG, mjpg, 30, cv::Size(640, 480));
+  cv::VideoWriter R((d / "r.avi").string(), cv::CAP_FFMPEG, mjpg, 30, cv::Size(640, 480));
+  ASSERT_TRUE(L.isOpened() && R.isOpened());
+  L.set(cv::VIDEOWRITER_PROP_QUALITY, 95);
+  R.set(cv::VIDEOWRITER_PROP_QUALITY, 95);
+  const cv::Mat blank(480, 640, CV_8UC3, cv::Scalar(120, 120, 120));
+  for (std::size_t i = 0; i < poses.size(); ++i) {  // 1 s still, 0.1 s with the board away
+    dentar::ar::BoardRenderOptions o;
+    o.supersample = 2;
+    o.seed = 100 + i;
+    cv::Mat l, r;
+    cv::cvtColor(dentar::ar::render_board_view(tex, kl, poses[i], o), l, cv::COLOR_GRAY2BGR);
+    o.seed += 7919;
+    cv::cvtColor(dentar::ar::render_board_view(tex, kr, rig_truth().inverse() * poses[i], o), r, cv::COLOR_GRAY2BGR);
+    for (int f = 0; f < 30; ++f) L.write(l), R.write(r);
+    for (int f = 0; f < 3; ++f) L.write(blank), R.write(blank);
+  }
+  L.release();
+  R.release();
+  const fs::path st = d / "station.json";
+  auto r = dentar::test::run_dentar("calibrate stereo --live --left live:" + (d / "l.avi").string() + " --right live:" +
+                                    (d / "r.avi").string() + " --count 20 --stall-timeout 1.5 --inject-stall-right " +
+                                    std::to_string(33 * 12) + ":600 --board " + board + " --station " + st.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("the right eye (live:" + (d / "r.avi").string() + ") has delivered no frame for "),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("captures taken before it are kept and calibrated below"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("captures taken before the eye stopped"), std::string::npos) << r.out;
   expect_rig(st, r.out);
 }
 

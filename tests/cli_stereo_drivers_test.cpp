@@ -232,6 +232,8 @@ TEST(CliStereoDrivers, BadStereoInputIsRefusedWithExit2) {
                  (C.dir / "bad.jsonl").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("must have an even width"), std::string::npos) << r.out;
+  // (dentar live opens a side-by-side device through the same StereoSource::open_side_by_side;
+  // no video file keeps an odd width for a live: stand-in: FFV1 and MJPG round it down.)
   // Two eyes of different sizes, and of different rates.
   write_eyes(st / "video.mkv", C.dir / "l.avi", C.dir / "r_small.avi", 3, 30, cv::Size(320, 240));
   r = run_dentar("offline --quiet --footage " + (C.dir / "l.avi").string() + " --footage-right " +
@@ -258,4 +260,14 @@ TEST(CliStereoDrivers, BadStereoInputIsRefusedWithExit2) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("fps but the right eye"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(C.dir / "bad.jsonl"));
+  // Different rates through `dentar offline` and `dentar live` (two cameras) too.
+  r = run_dentar("offline --quiet --footage " + (C.dir / "l30.avi").string() + " --footage-right " +
+                 (C.dir / "r15.avi").string() + " --station " + station + " --out " + (C.dir / "bad4").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("fps but the right eye"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(C.dir / "bad4" / "frames.csv"));
+  r = run_dentar("live --camera live:" + (C.dir / "l30.avi").string() + " --camera-right live:" +
+                 (C.dir / "r15.avi").string() + " --station " + station + " --stylus none --frames 2");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("fps but the right eye"), std::string::npos) << r.out;
 }

@@ -79,6 +79,8 @@ struct CalibCli {
   std::string left_dir, right_dir;  // stereo: one folder per eye (else --images: side-by-side photos)
   bool stereo_live = false;         // stereo --live: --left/--right (or --side-by-side) are video sources
   std::string side_by_side;         // stereo --live: one side-by-side device
+  double stall_timeout_s = 5;       // stereo --live: an eye silent this long ends the capture
+  std::string stall_left, stall_right;  // stereo --live test hooks: AFTER_FRAMES:SECONDS, the eye goes quiet
   std::string hand = "HMD";  // hand_eye: what carries the camera
   double he_spread_deg = 170;  // --simulate hand_eye: rotation spread of the motions
   // live
@@ -957,107 +959,21 @@ std::vector<fs::path> image_files(const std::string& dir, const std::string& wha
   return files;
 }
 
-// A live stereo head (issue 28): the eyes as one ar::StereoSource (two cameras paired by capture
-// time, or one side-by-side device). Every pair is searched for the board in both eyes (one
-// ar::BoardDetector per eye, any board kind); a capture is taken by itself when the left eye has
-// seen the board still for the still window and the view is new against the captures so far
-// (calibration/guided.h LiveCameraViews: the camera step's gates, refusals not printed unless
-// they change); the right eye's view goes with it when the right eye saw the board still too,
-// else the capture serves the left eye's intrinsics only (as a photo where one eye misses it).
-// Stops at `count` captures, at the source's end, or after `seconds` (0: no limit).
-bool is_camera_spec(const std::string& s) {
-  return s.rfind("camera:", 0) == 0 || s.rfind("/dev/video", 0) == 0 || s.rfind("live:", 0) == 0;
-}
-
-void live_stereo_captures(const CalibCli& c, const ar::BoardSpec& spec, std::vector<cal::BoardView>& left,
-                          std::vector<cal::BoardView>& right, int& width, int& height) {
-  ar::StereoSourceOptions so;
-  Result<std::unique_ptr<ar::StereoSource>> src =
-      !c.side_by_side.empty() ? ar::StereoSource::open_side_by_side(c.side_by_side, so)
-                              : ar::StereoSource::open_pair(c.left_dir, c.right_dir, so);
-  if (!src) throw BadInput{"stereo --live: " + src.error()};
-  ar::StereoSource& eyes = **src;
-  width = eyes.width();
-  height = eyes.height();
-  auto dl = ar::BoardDetector::create(spec), dr = ar::BoardDetector::create(spec);
-  if (!dl || !dr) throw BadInput{"stereo --live: " + (dl ? dr.error() : dl.error())};
-  const int n = c.count > 0 ? c.count : 15;
-  cal::LiveCameraOptions lo;
-  lo.target_views = std::min(n, lo.max_views);
-  cal::LiveCameraViews vl(width, height, lo), vr(width, height, lo);
-  std::cout << "live stereo head: " << eyes.description() << ", " << width << "x" << height << " per eye; hold "
-            << "the board still where both eyes see it: a capture is taken by itself when it is still and new ("
-            << n << " wanted)\n";
-  // The board's focus measure (variance of the Laplacian over its bounding box), as the live
-  // camera step computes it.
-  auto sharpness = [](const cv::Mat& gray, const cal::BoardView& v) {
-    if (v.image_points.empty()) return 0.0;
-    cv::Rect2d bb(v.image_points[0].x(), v.image_points[0].y(), 0, 0);
-    for (const auto& p : v.image_points) bb |= cv::Rect2d(p.x(), p.y(), 1, 1);
-    const cv::Rect box = cv::Rect(bb) & cv::Rect(0, 0, gray.cols, gray.rows);
-    if (box.area() <= 16) return 0.0;
-    cv::Mat lap;
-    cv::Laplacian(gray(box), lap, CV_32F);
-    cv::Scalar mu, sd;
-    cv::meanStdDev(lap, mu, sd);
-    return sd[0] * sd[0];
-  };
-  auto feed = [&](ar::BoardDetector& d, cal::LiveCameraViews& v, const ar::Frame& f) {
-    cv::Mat gray;
-    if (f.image.channels() == 3) cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
-    else gray = f.image;
-    auto r = d.detect(gray, "the live view");
-    v.add_frame(f.time_s, r ? &*r : nullptr, r ? std::string() : r.error(), r ? sharpness(gray, *r) : 0.0);
-  };
-  const auto t0 = std::chrono::steady_clock::now();
-  std::string last_refusal;
-  double last_try_s = -1e300;
-  int frames = 0;
-  ar::StereoFrame f;
-  while (static_cast<int>(left.size()) < n) {
-    if (c.seconds > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > c.seconds) {
-      std::cout << "time limit (--seconds " << fmt(c.seconds, 0) << ") reached\n";
-      break;
-    }
-    if (!eyes.read(f, 0.5)) {
-      if (eyes.ended()) break;
-      if (!eyes.error().empty()) throw BadInput{"stereo --live: " + eyes.error()};
-      continue;
-    }
-    ++frames;
-    if (!f.has_left()) continue;  // the left eye carries the capture (the station's camera)
-    feed(*dl, vl, f.left);
-    if (f.has_right()) feed(*dr, vr, f.right);
-    else vr.add_frame(f.left.time_s, nullptr, "the right eye delivered no frame", 0);
-    if (!vl.still() || f.left.time_s - last_try_s < 0.25) continue;
-    last_try_s = f.left.time_s;
-    const cal::CameraTake tk = vl.take();
-    if (!tk.ok) {
-      if (tk.message != last_refusal) std::cout << "  (not taken: " << tk.message << ")\n";
-      last_refusal = tk.message;
-      continue;
-    }
-    last_refusal.clear();
-    const std::string name = "live-capture-" + std::to_string(left.size());
-    cal::BoardView l = vl.taken().back();
-    l.name = name;
-    left.push_back(l);
-    cal::BoardView r{name, {}, {}};
-    if (f.has_right() && vr.board_seen() && vr.still() && vr.last_layout_ok()) {
-      r = vr.last_view();
-      r.name = name;
-    }
-    right.push_back(r);
-    std::cout << "  capture " << left.size() << "/" << n << " at " << fmt(f.left.time_s, 1) << " s: left "
-              << l.image_points.size() << " points, right "
-              << (r.image_points.empty() ? std::string("board not seen still") : std::to_string(r.image_points.size()) + " points")
-              << "\n";
+// A live stereo head (issue 28): live::capture_stereo_live (live/calibrate_app.h) takes the
+// captures by themselves; the test hooks' "AFTER_FRAMES:SECONDS" (an eye goes quiet) parsed here.
+ar::CaptureThreadOptions stall_hook(const std::string& hook, const char* flag) {
+  ar::CaptureThreadOptions o;
+  if (hook.empty()) return o;
+  const auto k = hook.find(':');
+  try {
+    if (k == std::string::npos) throw std::invalid_argument("no colon");
+    o.stall_after_frames = std::stoll(hook.substr(0, k));
+    o.stall_s = std::stod(hook.substr(k + 1));
+  } catch (const std::exception&) {
+    throw BadInput{std::string(flag) + " " + hook + ": give AFTER_FRAMES:SECONDS"};
   }
-  std::cout << "live stereo head: " << left.size() << " captures from " << frames << " frames; "
-            << eyes.stats().summary() << "\n";
-  if (left.empty())
-    throw BadInput{"stereo --live: no capture was taken (the board was never seen still and new by the left eye): "
-                   "check --board, hold the board still for half a second at each place"};
+  if (o.stall_after_frames < 1 || !(o.stall_s > 0)) throw BadInput{std::string(flag) + " " + hook + ": both must be > 0"};
+  return o;
 }
 
 int step_stereo(Session& s) {
@@ -1070,6 +986,7 @@ int step_stereo(Session& s) {
   if (!spec) throw BadInput{spec.error()};
   std::vector<cal::BoardView> left, right;
   int width = 0, height = 0;
+  std::string stall;  // --live: an eye stopped delivering (which, how long, what to do)
   auto check_size = [&](const fs::path& f, int w, int h) {
     if (width == 0) {
       width = w;
@@ -1124,13 +1041,33 @@ int step_stereo(Session& s) {
       add(right, ar::detect_board(ar::render_board_view(tex, kr, rig.T_caml_camr.inverse() * poses[i], ro), *spec, name),
           name, "right");
     }
-  } else if (c.stereo_live || !c.side_by_side.empty() || is_camera_spec(c.left_dir) || is_camera_spec(c.right_dir)) {
-    if (c.side_by_side.empty() && (c.left_dir.empty() || c.right_dir.empty()))
-      throw BadInput{"stereo --live: give --left SPEC --right SPEC (two cameras: camera:N, /dev/videoN, live:FILE, a "
-                     "video file or a frames folder) or --side-by-side SPEC (one device)"};
-    if (!c.side_by_side.empty() && (!c.left_dir.empty() || !c.right_dir.empty()))
-      throw BadInput{"stereo --live: give either --side-by-side SPEC or --left/--right, not both"};
-    live_stereo_captures(c, *spec, left, right, width, height);
+  } else if (c.stereo_live || !c.side_by_side.empty() || live::is_live_camera_spec(c.left_dir) ||
+             live::is_live_camera_spec(c.right_dir)) {
+    live::StereoLiveOptions lo;
+    lo.left = c.left_dir;
+    lo.right = c.right_dir;
+    lo.side_by_side = c.side_by_side;
+    lo.board = c.board;
+    lo.count = c.count > 0 ? c.count : 15;
+    lo.seconds = c.seconds;
+    lo.stall_timeout_s = c.stall_timeout_s;
+    lo.left_capture = stall_hook(c.stall_left, "--inject-stall-left");
+    lo.right_capture = stall_hook(c.stall_right, "--inject-stall-right");
+    lo.say = [](const std::string& line) { std::cout << line << "\n"; };
+    auto cap = live::capture_stereo_live(lo);
+    if (!cap) throw BadInput{"stereo --live: " + cap.error()};
+    left = std::move(cap->left);
+    right = std::move(cap->right);
+    width = cap->width;
+    height = cap->height;
+    // An eye that stopped delivering ends the capture; the captures taken before it are kept and
+    // calibrated (as after --seconds): the rig is written when they pass the gates, and the
+    // device's fault is exit 2 with nothing written when they do not.
+    if (!cap->stall.empty()) {
+      stall = cap->stall;
+      std::cout << "stereo --live: " << stall << "\nthe " << left.size()
+                << " captures taken before it are kept and calibrated below\n";
+    }
   } else if (!c.left_dir.empty() || !c.right_dir.empty()) {
     const auto lf = image_files(c.left_dir, "--left (left eye)");
     const auto rf = image_files(c.right_dir, "--right (right eye)");
@@ -1185,7 +1122,11 @@ int step_stereo(Session& s) {
               << fmt(std::abs(r.baseline_m() - truth->baseline_m()) / std::max(1e-12, r.sigma_baseline_m), 1)
               << " sigma)\n";
   }
+  if (!r.ok && !stall.empty())
+    throw BadInput{"stereo --live: " + stall + "; the " + std::to_string(left.size()) +
+                   " captures taken before it do not give the rig (" + r.message + ")"};
   if (!r.ok) return 1;
+  if (!stall.empty()) std::cout << "calibrated from the " << left.size() << " captures taken before the eye stopped\n";
   ar::StereoRig rig;
   rig.present = true;
   rig.camera_right = r.camera_right;
@@ -1475,6 +1416,15 @@ void add_calibrate(CLI::App& app, int& exit_code) {
               "limit). A camera spec (camera:N, /dev/videoN, live:FILE) in --left/--right implies --live");
   s->add_option("--side-by-side", c->side_by_side,
                 "stereo --live: one device delivering both eyes side by side (left | right, even width)");
+  s->add_option("--stall-timeout", c->stall_timeout_s,
+                "stereo --live: an eye that delivers no frame for S seconds (unplugged, stalled) ends the capture, "
+                "saying which; the captures taken before it are calibrated (written if they pass the gates, else "
+                "exit 2)")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  s->add_option("--inject-stall-left", c->stall_left, "stereo --live test hook: AFTER_FRAMES:SECONDS, the left eye goes quiet");
+  s->add_option("--inject-stall-right", c->stall_right,
+                "stereo --live test hook: AFTER_FRAMES:SECONDS, the right eye goes quiet");
   s->add_option("--board", c->board,
                 "camera, stereo, live: chessboard:COLSxROWS:SQUARE_MM (inner corners), "
                 "aprilgrid:COLSxROWS:TAG_MM:GAP_MM[:FAMILY[:FIRST_ID]], Kalibr's "

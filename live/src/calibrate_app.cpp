@@ -31,6 +31,7 @@
 #include "dentar/ar/calib_board.h"
 #include "dentar/ar/capture_thread.h"
 #include "dentar/ar/frame_source.h"
+#include "dentar/ar/stereo_source.h"
 #include "dentar/ar/station_scene.h"
 #include "dentar/calibration/camera_file.h"
 #include "dentar/calibration/camera_model.h"
@@ -352,25 +353,32 @@ namespace {
 // trust map, the suggested place, the detected points) into the frame shown.
 // Every board kind goes through the one detector of ar/calib_board.h (chessboard, our AprilTag
 // grid, Kalibr's AprilGrid, ChArUco), as the image-based steps do.
-cv::Mat camera_view(const ar::Frame& f, cal::LiveCameraViews& c, ar::BoardDetector& det) {
+// The board's focus measure in a grey image: the variance of the Laplacian over the bounding
+// box of its detected points (0: no points, or a box too small to tell).
+double board_focus(const cv::Mat& gray, const cal::BoardView& v) {
+  if (v.image_points.empty()) return 0.0;
+  cv::Rect2d bb(v.image_points[0].x(), v.image_points[0].y(), 0, 0);
+  for (const auto& p : v.image_points) bb |= cv::Rect2d(p.x(), p.y(), 1, 1);
+  const cv::Rect box = cv::Rect(bb) & cv::Rect(0, 0, gray.cols, gray.rows);
+  if (box.area() <= 16) return 0.0;
+  cv::Mat lap;
+  cv::Laplacian(gray(box), lap, CV_32F);
+  cv::Scalar mu, sd;
+  cv::meanStdDev(lap, mu, sd);
+  return sd[0] * sd[0];
+}
+
+// One frame into a live camera step's bookkeeping: the board searched, its focus measured.
+void feed_board_views(const cv::Mat& image, double t_s, ar::BoardDetector& det, cal::LiveCameraViews& c) {
   cv::Mat gray;
-  cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
+  if (image.channels() == 3) cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  else gray = image;
   Result<cal::BoardView> v = det.detect(gray, "the live view");
-  double sharp = 0;
-  if (v && !v->image_points.empty()) {
-    // Focus measure: variance of the Laplacian over the board's bounding box.
-    cv::Rect2d bb(v->image_points[0].x(), v->image_points[0].y(), 0, 0);
-    for (const auto& p : v->image_points) bb |= cv::Rect2d(p.x(), p.y(), 1, 1);
-    const cv::Rect box = cv::Rect(bb) & cv::Rect(0, 0, gray.cols, gray.rows);
-    if (box.area() > 16) {
-      cv::Mat lap;
-      cv::Laplacian(gray(box), lap, CV_32F);
-      cv::Scalar mu, sd;
-      cv::meanStdDev(lap, mu, sd);
-      sharp = sd[0] * sd[0];
-    }
-  }
-  c.add_frame(f.time_s, v ? &*v : nullptr, v ? std::string() : v.error(), sharp);
+  c.add_frame(t_s, v ? &*v : nullptr, v ? std::string() : v.error(), v ? board_focus(gray, *v) : 0.0);
+}
+
+cv::Mat camera_view(const ar::Frame& f, cal::LiveCameraViews& c, ar::BoardDetector& det) {
+  feed_board_views(f.image, f.time_s, det, c);
   cv::Mat img = f.image.clone(), tint = f.image.clone();
   const cal::CoverageMap cm = c.coverage();
   const bool trust = c.trust_views() > 0 && c.trust().cols == cm.cols && c.trust().rows == cm.rows;
@@ -1287,6 +1295,144 @@ Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& o) {
   S.truth_figures();
   if (auto s = S.write_results(); !s) return Error{s.error()};
   return sum;
+}
+
+
+
+// ---- `dentar calibrate stereo --live` (issue 28) ----
+
+bool is_live_camera_spec(const std::string& s) {
+  return s.rfind("camera:", 0) == 0 || s.rfind("/dev/video", 0) == 0 || s.rfind("live:", 0) == 0;
+}
+
+std::string StereoLiveOptions::validate() const {
+  if (side_by_side.empty() && (left.empty() || right.empty()))
+    return "give --left SPEC --right SPEC (two cameras: camera:N, /dev/videoN, live:FILE, a video file or a frames "
+           "folder) or --side-by-side SPEC (one device)";
+  if (!side_by_side.empty() && (!left.empty() || !right.empty()))
+    return "give either --side-by-side SPEC or --left/--right, not both";
+  if (count < 1 || count > 500) return "count = " + std::to_string(count) + " must be in 1..500";
+  if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
+  if (!(std::isfinite(stall_timeout_s) && stall_timeout_s > 0))
+    return "stall_timeout_s (--stall-timeout) must be > 0 s";
+  return {};
+}
+
+namespace {
+
+// Which eye of the head went quiet, for the stall message.
+std::string silent_eyes(const StereoLiveOptions& o, bool left_silent, bool right_silent) {
+  if (!o.side_by_side.empty()) return "the side-by-side camera (" + o.side_by_side + ")";
+  if (left_silent && right_silent) return "both eyes (" + o.left + ", " + o.right + ")";
+  return left_silent ? "the left eye (" + o.left + ")" : "the right eye (" + o.right + ")";
+}
+
+}  // namespace
+
+Result<StereoLiveCaptures> capture_stereo_live(const StereoLiveOptions& o) {
+  if (std::string v = o.validate(); !v.empty()) return Error{v};
+  auto say = [&](const std::string& line) {
+    if (o.say) o.say(line);
+  };
+  ar::StereoSourceOptions so;
+  so.left_capture = o.left_capture;
+  so.right_capture = o.right_capture;
+  Result<std::unique_ptr<ar::StereoSource>> src = !o.side_by_side.empty()
+                                                      ? ar::StereoSource::open_side_by_side(o.side_by_side, so)
+                                                      : ar::StereoSource::open_pair(o.left, o.right, so);
+  if (!src) return Error{src.error()};
+  ar::StereoSource& eyes = **src;
+  const bool live = !o.side_by_side.empty() ? is_live_camera_spec(o.side_by_side)
+                                            : is_live_camera_spec(o.left) || is_live_camera_spec(o.right);
+  StereoLiveCaptures out;
+  out.width = eyes.width();
+  out.height = eyes.height();
+  auto spec = ar::parse_board_spec(o.board);
+  if (!spec) return Error{spec.error()};
+  auto dl = ar::BoardDetector::create(*spec), dr = ar::BoardDetector::create(*spec);
+  if (!dl || !dr) return Error{dl ? dr.error() : dl.error()};
+  cal::LiveCameraOptions lo;
+  lo.target_views = std::min(o.count, lo.max_views);
+  cal::LiveCameraViews vl(out.width, out.height, lo), vr(out.width, out.height, lo);
+  say("live stereo head: " + eyes.description() + ", " + std::to_string(out.width) + "x" + std::to_string(out.height) +
+      " per eye; hold the board still where both eyes see it: a capture is taken by itself when it is still and new (" +
+      std::to_string(o.count) + " wanted)");
+  const double t0 = ar::steady_now_s();
+  // Each eye's newest frame, steady clock (the open time before its first): a live eye quiet
+  // for stall_timeout_s ends the capture. Recordings are read in step and cannot stall.
+  double last_left = t0, last_right = t0;
+  bool left_seen = false, right_seen = false;
+  std::string last_refusal;
+  double last_try_s = -1e300;
+  ar::StereoFrame f;
+  out.stop_reason = "captures taken";
+  while (static_cast<int>(out.left.size()) < o.count) {
+    const double now = ar::steady_now_s();
+    if (o.seconds > 0 && now - t0 > o.seconds) {
+      say("time limit (--seconds " + fmt(o.seconds, 0) + ") reached");
+      out.stop_reason = "time limit";
+      break;
+    }
+    if (live && (now - last_left > o.stall_timeout_s || now - last_right > o.stall_timeout_s)) {
+      const bool ls = now - last_left > o.stall_timeout_s, rs = now - last_right > o.stall_timeout_s;
+      const bool seen = (ls ? left_seen : true) && (rs ? right_seen : true);
+      const double quiet = std::max(ls ? now - last_left : 0.0, rs ? now - last_right : 0.0);
+      const std::string status = eyes.status();
+      out.stall = silent_eyes(o, ls, rs) + (seen ? " has delivered no frame for " : " has delivered no frame since it was opened, ") +
+                  fmt(quiet, 1) + " s" + (status.empty() ? std::string() : " (" + status + ")") +
+                  ": check that it is plugged in, its cable, that no other program holds it and that the USB bus "
+                  "has the bandwidth for both cameras, then run again (--stall-timeout S waits longer)";
+      out.stop_reason = "stall";
+      break;
+    }
+    if (!eyes.read(f, 0.5)) {
+      if (eyes.ended()) {
+        out.stop_reason = "footage ended";
+        break;
+      }
+      if (!eyes.error().empty()) return Error{eyes.error()};
+      continue;
+    }
+    ++out.frames;
+    const double got = ar::steady_now_s();
+    if (f.has_left()) last_left = got, left_seen = true;
+    if (f.has_right()) last_right = got, right_seen = true;
+    if (!f.has_left()) continue;  // the left eye carries the capture (the station's camera)
+    feed_board_views(f.left.image, f.left.time_s, *dl, vl);
+    if (f.has_right()) feed_board_views(f.right.image, f.right.time_s, *dr, vr);
+    else vr.add_frame(f.left.time_s, nullptr, "the right eye delivered no frame", 0);
+    if (!vl.still() || f.left.time_s - last_try_s < 0.25) continue;
+    last_try_s = f.left.time_s;
+    const cal::CameraTake tk = vl.take();
+    if (!tk.ok) {
+      if (tk.message != last_refusal) say("  (not taken: " + tk.message + ")");
+      last_refusal = tk.message;
+      continue;
+    }
+    last_refusal.clear();
+    const std::string name = "live-capture-" + std::to_string(out.left.size());
+    cal::BoardView l = vl.taken().back();
+    l.name = name;
+    out.left.push_back(l);
+    cal::BoardView r{name, {}, {}};
+    if (f.has_right() && vr.board_seen() && vr.still() && vr.last_layout_ok()) {
+      r = vr.last_view();
+      r.name = name;
+    }
+    out.right.push_back(r);
+    say("  capture " + std::to_string(out.left.size()) + "/" + std::to_string(o.count) + " at " +
+        fmt(f.left.time_s, 1) + " s: left " + std::to_string(l.image_points.size()) + " points, right " +
+        (r.image_points.empty() ? std::string("board not seen still") : std::to_string(r.image_points.size()) + " points"));
+  }
+  out.pairing = eyes.stats().summary();
+  say("live stereo head: " + std::to_string(out.left.size()) + " captures from " + std::to_string(out.frames) +
+      " frames; " + out.pairing);
+  if (out.left.empty()) {
+    if (!out.stall.empty()) return Error{out.stall + "; no capture had been taken"};
+    return Error{"no capture was taken (the board was never seen still and new by the left eye): check --board, hold "
+                 "the board still for half a second at each place"};
+  }
+  return out;
 }
 
 }  // namespace dentar::live

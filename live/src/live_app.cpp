@@ -168,7 +168,10 @@ std::string LiveSummary::json() const {
   if (stereo)
     j["stereo"] = {{"frames_both_eyes", stereo_both}, {"frames_left_eye_only", stereo_left_only},
                    {"frames_right_eye_composited", right_composited},
-                   {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens}};
+                   {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens},
+                   {"fallbacks", stereo_fallbacks}, {"recoveries", stereo_recoveries},
+                   {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_frame_ms", stereo_fallback_frame_ms},
+                   {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max}};
   if (lesson_mode != 0)
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
                    {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
@@ -615,6 +618,9 @@ void finish_recording(session::Recorder& rec, const std::string& stop_reason, co
   meta["frames_not_written"] = recorder->dropped();
   meta["frame_files"] = {{"jpg", recorder->written_jpg()}, {"png", recorder->written_png()},
                          {"ppm", recorder->written_ppm()}};
+  if (meta.contains("stereo"))
+    meta["frame_files_right"] = {{"jpg", recorder->written_right_jpg()}, {"png", recorder->written_right_png()},
+                                 {"ppm", recorder->written_right_ppm()}};
   meta["volume_hash"] = hash;
   meta["engine_steps"] = es.steps;
   meta["stop_reason"] = stop_reason;
@@ -661,6 +667,11 @@ Status start_recording(const LiveOptions& o, const ar::StationScene& st, const a
               {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
               {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
   if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
+  // Stereo (issue 28): both eyes kept (frames_right/), replayed from both by `dentar offline`.
+  if (popt.stereo) {
+    rec_meta["stereo"] = {{"head", o.side_by_side ? "side_by_side" : "two_cameras"}};
+    if (!o.side_by_side) rec_meta["stereo"]["camera_right"] = o.camera_right;
+  }
   if (session::LessonClock* l = run.lesson()) {  // the lesson's exercise is the session's (the finish step scores it)
     rec_meta["exercise"] = l->lesson().exercise;
     rec_meta["lesson"] = {{"lesson", o.lesson}, {"path", l->lesson().path}, {"mode_asked", l->mode_asked()},
@@ -831,6 +842,13 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.stereo_both = ff.stereo_both;
   sum.stereo_left_only = ff.stereo_left_only;
   sum.right_composited = ff.right_composited;
+
+  sum.stereo_fallbacks = ff.stereo_fallbacks;
+  sum.stereo_recoveries = ff.stereo_recoveries;
+  sum.stereo_fallback_ms_max = ff.stereo_fallback_ms_max;
+  sum.stereo_fallback_frame_ms = ff.stereo_fallback_frame_ms;
+  sum.stereo_fallback_wait_ms = ff.stereo_fallback_wait_ms;
+  sum.stereo_recovery_ms_max = ff.stereo_recovery_ms_max;
   sum.readback_px = ff.readback_px;
   sum.cpu_blend_px = ff.cpu_blend_px;
   sum.gl_frames_replaced = ff.ring_replaced;
@@ -1034,8 +1052,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // The drill's sound reads the snapshot on its own thread (off the engine's CPU, as this one).
   std::shared_ptr<void> sound;
   if (o.start_sound) sound = o.start_sound([&engine] { return engine.snapshot(); });
-  DisplayInputs din{capture, hud_sound_line(static_cast<bool>(o.start_sound), sound != nullptr, o.sound_muted, o.sound_detail)};
-  din.grant = grant_message(o, cfg, engine, sum, iso, discovery_name, bg);
+  DisplayInputs din{capture, hud_sound_line(static_cast<bool>(o.start_sound), sound != nullptr, o.sound_muted, o.sound_detail),
+                    grant_message(o, cfg, engine, sum, iso, discovery_name, bg)};
   say("camera " + capture.description() + "; " + stylus_desc + "; pedal " + pedal.name());
   say_stylus_pose(o, st, popt, comp.first, comp.second, say);
   say(din.grant);

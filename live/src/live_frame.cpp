@@ -86,6 +86,7 @@ class FrameThread {
           // One side-by-side frame: the left half is the frame shown, the right half the right eye.
           const int w = f.image.cols / 2;
           right_image_ = f.image(cv::Rect(w, 0, w, f.image.rows)).clone();
+          right_encoded_.release();
           f.image = f.image(cv::Rect(0, 0, w, f.image.rows)).clone();
           f.encoded = cv::Mat();  // the device's JPEG holds both eyes
         } else if (right != nullptr) {
@@ -126,21 +127,57 @@ class FrameThread {
   void pair_right(ar::CaptureThread& right, const ar::Frame& left) {
     const double half = 0.5 / (right.fps() > 0 ? right.fps() : 30.0);
     const double silent_s = 0.1;
+    const auto t_enter = Clock::now();
     ar::Frame r;
-    if (right.wait_take(r, 0)) right_pending_ = std::move(r);  // the newest (latest wins)
+    if (right.wait_take(r, 0)) take_right(std::move(r), silent_s);  // the newest (latest wins)
     const auto deadline = Clock::now() + std::chrono::duration<double>(half);
     while (right_pending_.image.empty() || right_pending_.steady_s < left.steady_s - half) {
       const double last = right.last_frame_steady_s();
       if (last <= 0 || left.steady_s - last > silent_s) break;  // lost (or not started): do not wait
       const double left_s = std::chrono::duration<double>(deadline - Clock::now()).count();
       if (left_s <= 0 || !right.wait_take(r, left_s)) break;
-      right_pending_ = std::move(r);
+      take_right(std::move(r), silent_s);
     }
     right_image_.release();
+    right_encoded_.release();
     if (!right_pending_.image.empty() && std::abs(right_pending_.steady_s - left.steady_s) <= half) {
       right_image_ = right_pending_.image;
+      right_encoded_ = right_pending_.encoded;  // its camera's JPEG bytes, for the recording
       right_pending_ = ar::Frame{};
     }
+    pair_wait_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - t_enter).count();
+  }
+
+  // A right-eye frame taken from its capture thread: the newest, and when it ends a silence
+  // (issue 28's fallback), the time the eye came back.
+  void take_right(ar::Frame&& r, double silent_s) {
+    if (right_last_s_ > 0 && r.steady_s - right_last_s_ > silent_s) right_back_s_ = r.steady_s;
+    right_last_s_ = r.steady_s;
+    right_pending_ = std::move(r);
+  }
+
+  // Two cameras: how long the single-view path took to take over when the right eye went
+  // silent, and pairs to come back when it returned (from the right eye's last frame, and
+  // from its first frame back, to the composite of the first frame on the new path); for the
+  // slowest fallback, that frame's own capture-to-composite time and its wait for a partner.
+  void count_fallback(int eyes, double capture_steady_s) {
+    if (c_.o.camera_right.empty()) return;
+    const double now = ar::steady_now_s();
+    if (eyes == ar::FrameRecord::kEyesLeft && prev_eyes_ == ar::FrameRecord::kEyesBoth && right_last_s_ > 0) {
+      const double ms = (now - right_last_s_) * 1e3;
+      ++fig_.stereo_fallbacks;
+      right_back_s_ = 0;  // a return counts from the eye's first frame after this
+      if (ms > fig_.stereo_fallback_ms_max) {
+        fig_.stereo_fallback_ms_max = ms;
+        fig_.stereo_fallback_frame_ms = (now - capture_steady_s) * 1e3;
+        fig_.stereo_fallback_wait_ms = pair_wait_ms_;
+      }
+    }
+    if (eyes == ar::FrameRecord::kEyesBoth && prev_eyes_ == ar::FrameRecord::kEyesLeft && right_back_s_ > 0) {
+      ++fig_.stereo_recoveries;
+      fig_.stereo_recovery_ms_max = std::max(fig_.stereo_recovery_ms_max, (now - right_back_s_) * 1e3);
+    }
+    prev_eyes_ = eyes;
   }
 
   // The stylus as it was when this frame was exposed, not as it is now (issue 24).
@@ -196,6 +233,7 @@ class FrameThread {
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
     if (err.empty() && rec_.right.composited) ++fig_.right_composited;
+    if (err.empty()) count_fallback(rec_.eyes, f.steady_s);
     rec_.pose_step = pose_step;
     for (const auto& it : c_.health.on_frame(c_.run.pipeline().last_detections(), f.steady_s, rec_.T_dev_sty,
                                              in.stylus_valid)) {
@@ -209,7 +247,8 @@ class FrameThread {
       c_.pen->publish(T_dev_sty, ok, f.steady_s);
     }
     hand_over(f, slot, err, processed, in.note);
-    if (recorder && err.empty()) recorder->push(f.image, f.encoded, rec_, processed, f.index, f.steady_s);
+    if (recorder && err.empty())
+      recorder->push(f.image, f.encoded, rec_, processed, f.index, f.steady_s, right_image_, right_encoded_);
     if (err.empty()) {
       fig_.gpu_frames += rec_.gpu_composite ? 1 : 0;
       fig_.note_frames += rec_.note_anchored ? 1 : 0;
@@ -263,7 +302,11 @@ class FrameThread {
   ar::FrameRecord rec_;
   bool want_right_ = false;  // stereo pipeline and the headset's output: composite the right eye too
   cv::Mat right_image_;       // stereo: this frame's right eye (empty: none, the single-view path)
+  cv::Mat right_encoded_;     // two cameras: its camera's JPEG bytes (empty: none)
   ar::Frame right_pending_;   // two cameras: the right eye's newest frame not yet used
+  double right_last_s_ = 0, right_back_s_ = 0;  // the right eye's newest frame, its first after a silence (steady s)
+  int prev_eyes_ = 0;                           // the eyes of the frame before
+  double pair_wait_ms_ = 0;                     // this frame's wait for the right eye's partner
 };
 
 }  // namespace

@@ -99,6 +99,11 @@ struct FrameFigures {
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
   std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had
   std::int64_t right_composited = 0;  // stereo into the headset: frames with the right eye's own composite
+
+  // Two cameras: the right eye lost and back (LiveSummary::stereo_fallbacks ...), ms; -1 none.
+  std::int64_t stereo_fallbacks = 0, stereo_recoveries = 0;
+  double stereo_fallback_ms_max = -1, stereo_fallback_frame_ms = -1, stereo_fallback_wait_ms = -1;
+  double stereo_recovery_ms_max = -1;
 };
 
 // The frame thread: until LiveShared::stop or the footage ends.

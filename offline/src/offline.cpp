@@ -383,22 +383,51 @@ std::string OfflineOptions::validate() const {
   return {};
 }
 
+namespace {
+
+bool is_live_recording(const std::string& footage) {
+  return !footage.empty() && fs::is_directory(footage) && fs::exists(fs::path(footage) / "recording.json");
+}
+
+// The station's rig for `what` (the stereo input): present, both eyes of one size. Empty when fine.
+std::string check_rig(const StationScene& station, const std::string& station_path, const std::string& what) {
+  if (!station.stereo.present)
+    return what + ": the station " + station_path +
+           " has no stereo rig (station file \"stereo\": camera_right, T_left_right): calibrate the rig with "
+           "`dentar calibrate stereo`, or give the station.json that `dentar synth --stereo` wrote";
+  const auto& cam = station.calibration.camera;
+  const auto& cr = station.stereo.camera_right;
+  if (cr.width != cam.width || cr.height != cam.height)
+    return station_path + ": the rig's eyes are calibrated for different sizes (camera " + std::to_string(cam.width) +
+           "x" + std::to_string(cam.height) + ", stereo.camera_right " + std::to_string(cr.width) + "x" +
+           std::to_string(cr.height) + "): both eyes must deliver one size";
+  return {};
+}
+
+}  // namespace
+
 std::string check_stereo_inputs(const OfflineOptions& o) {
   if (!o.stereo && o.eye.empty()) return {};
   if (auto v = o.validate(); !v.empty()) return v;
+  // A `dentar live --record` folder replays as it was recorded: from both eyes when the run was
+  // stereo (recording.json "stereo", the right eye in frames_right/), else from its one camera.
+  if (is_live_recording(o.footage)) {
+    if ((!o.eye.empty() && o.eye != "both") || !o.footage_right.empty())
+      return o.footage + " is a `dentar live --record` folder: it replays as the live run tracked it (from both "
+             "eyes when it was stereo): drop --eye " + o.eye + " and --footage-right (--eye both may stay: it also "
+             "writes the right eye's composite)";
+    std::ifstream mj(fs::path(o.footage) / "recording.json");
+    const nlohmann::json j = nlohmann::json::parse(mj, nullptr, false);
+    if (!j.is_object() || !j.contains("stereo"))
+      return o.footage + ": " + (o.stereo ? std::string("--stereo") : "--eye " + o.eye) +
+             ", but the recording is of one camera (its recording.json has no \"stereo\"): replay it without it";
+    return {};
+  }
   auto station = read_station_scene(o.station);
   if (!station) return station.error();
   const std::string what = o.stereo ? "stereo footage" : "--eye " + o.eye;  // (--eye both is stereo)
-  if (!station->stereo.present)
-    return what + ": the station " + o.station +
-           " has no stereo rig (station file \"stereo\": camera_right, T_left_right): calibrate the rig with "
-           "`dentar calibrate stereo`, or give the station.json that `dentar synth --stereo` wrote";
+  if (auto e = check_rig(*station, o.station, what); !e.empty()) return e;
   const auto& cam = station->calibration.camera;
-  const auto& cr = station->stereo.camera_right;
-  if (cr.width != cam.width || cr.height != cam.height)
-    return o.station + ": the rig's eyes are calibrated for different sizes (camera " + std::to_string(cam.width) + "x" +
-           std::to_string(cam.height) + ", stereo.camera_right " + std::to_string(cr.width) + "x" +
-           std::to_string(cr.height) + "): both eyes must deliver one size";
   auto src = o.footage_right.empty() ? StereoSource::open_side_by_side(o.footage)
                                      : StereoSource::open_pair(o.footage, o.footage_right);
   if (!src) return src.error();
@@ -434,6 +463,8 @@ struct Job {
   std::string mask_right_dir;
   cv::Mat K_right, D_right;
   std::vector<double> right_tooth_err_px, right_iou;
+
+  fs::path rec_right_dir;  // a stereo live recording: the right eye's frames (frames_right/)
   double fps = 30.0;
   std::vector<TruthFrame> truth;
   std::string mask_dir;
@@ -503,6 +534,16 @@ struct Job {
       if (!r) return fail("offline: " + r.error());
       rec = std::move(*r);
       o.footage = (rdir / "frames").string();
+      // A stereo run (issue 28): both eyes, as the live run tracked them.
+      if (rec.stereo) {
+        if (o.scale_calib)
+          return fail("offline: " + rdir.string() + " is a stereo recording: --scale-calib is for one camera (the "
+                      "recording's station.json holds the rig it was tracked with)");
+        o.stereo = true;
+        sum.stereo = true;
+        sum.stereo_capture = "the live run's pairs, replayed from frames/ and frames_right/ (" + rec.stereo_head + ")";
+        rec_right_dir = rdir / "frames_right";
+      }
       if (o.station.empty() || o.station == (rdir / "station.json").string()) o.station = (rdir / "station.json").string();
       if (o.session.empty() && fs::exists(rdir / "session.dlog")) o.session = (rdir / "session.dlog").string();
       if (o.truth.empty()) o.truth = "none";
@@ -541,12 +582,18 @@ struct Job {
                   (d / "video.mkv").string() + " --station " + (d / "station.json").string() + " --session " +
                   (d / "session.dlog").string());
     }
-    if (auto e = check_stereo_inputs(o); !e.empty()) return fail("offline: " + e);
+    if (rec.stereo) {
+      if (auto e = check_rig(st, o.station, "the stereo recording " + fs::path(o.footage).parent_path().string());
+          !e.empty())
+        return fail("offline: " + e);
+    } else if (auto e = check_stereo_inputs(o); !e.empty()) {
+      return fail("offline: " + e);
+    }
     auto opened = FrameSource::open(o.footage, {});
     if (!opened) return fail("offline: " + opened.error());
     src = std::move(*opened);
     FrameSource& source = *src;
-    if (o.stereo) {
+    if (o.stereo && !rec.stereo) {
       auto s = o.footage_right.empty() ? StereoSource::open_side_by_side(o.footage)
                                        : StereoSource::open_pair(o.footage, o.footage_right);
       if (!s) return fail("offline: " + s.error());
@@ -559,7 +606,7 @@ struct Job {
       return fail("offline: " + o.footage + " is side-by-side stereo footage (two " + std::to_string(cam.width) + "x" +
                   std::to_string(cam.height) + " eyes, the station's \"stereo\" rig): track it from both eyes with "
                   "--stereo, or one eye through the mono path with --eye left|right");
-    if (!o.stereo && o.eye.empty() && (source.width() != cam.width || source.height() != cam.height)) {
+    if ((!o.stereo || rec.stereo) && o.eye.empty() && (source.width() != cam.width || source.height() != cam.height)) {
       const std::string sizes = o.footage + " is " + std::to_string(source.width()) + "x" +
                                 std::to_string(source.height()) + " but the station camera (" + o.station +
                                 ", camera.width/height) is calibrated for " + std::to_string(cam.width) + "x" +
@@ -719,6 +766,32 @@ struct Job {
     return {};
   }
 
+  // A stereo live recording: frame `index`'s right eye from frames_right/ when the live run had
+  // it (frames.csv eyes "both"), else none (the single-view path, as live).
+  Status recorded_right_eye(std::int64_t index) {
+    right_image.release();
+    const int eyes = rec.eyes[static_cast<std::size_t>(index)];
+    if (eyes == FrameRecord::kEyesLeft) return {};
+    if (eyes != FrameRecord::kEyesBoth)
+      return fail("offline: " + rec.frames_csv + ": frame " + std::to_string(index) +
+                  " has the right eye alone, which `dentar live` never records (the left camera drives it)");
+    char stem[32];
+    std::snprintf(stem, sizeof stem, "frame_%06lld", static_cast<long long>(index));
+    for (const char* ext : {".jpg", ".png", ".ppm"}) {
+      const fs::path p = rec_right_dir / (stem + std::string(ext));
+      if (!fs::exists(p)) continue;
+      right_image = cv::imread(p.string(), cv::IMREAD_COLOR);
+      if (right_image.empty()) return fail("offline: " + p.string() + ": cannot be decoded as an image");
+      if (right_image.cols != st.calibration.camera.width || right_image.rows != st.calibration.camera.height)
+        return fail("offline: " + p.string() + " is " + std::to_string(right_image.cols) + "x" +
+                    std::to_string(right_image.rows) + ", not the rig's eye size " +
+                    std::to_string(st.calibration.camera.width) + "x" + std::to_string(st.calibration.camera.height));
+      return {};
+    }
+    return fail("offline: " + (rec_right_dir / stem).string() + ".{jpg,png,ppm}: missing, but " + rec.frames_csv +
+                " says frame " + std::to_string(index) + " had both eyes: the recording is damaged");
+  }
+
   // One frame: false when the footage (or the recording's table) ended.
   Result<bool> next_frame(int k) {
     Row r;
@@ -749,6 +822,8 @@ struct Job {
       const auto fi = static_cast<std::size_t>(frame.index);
       if (fi >= rec.capture_s.size()) return false;  // frames beyond the table (a crash mid-row): stop
       frame.time_s = rec.capture_s[fi];
+      if (rec.stereo)
+        if (Status s = recorded_right_eye(frame.index); !s) return Error{s.error()};
     }
     r.frame = static_cast<int>(frame.index);
     r.time_s = frame.time_s;

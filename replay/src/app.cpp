@@ -302,9 +302,14 @@ void force_plot(const Recording& rec, unsigned tex, double t, float width, float
   const double D = std::max(1e-9, rec.duration_s);
   const float x = p0.x + static_cast<float>(t / D) * (width - 1);
   ImGui::GetForegroundDrawList()->AddLine(ImVec2(x, p0.y), ImVec2(x, p0.y + height), IM_COL32(0, 0, 0, 255), 1.5f);
-  const double fmax = plot_fmax(rec);
-  dl->AddText(ImVec2(p0.x + 4, p0.y + 2), IM_COL32(60, 60, 60, 255), (std::string(label) + "  +" + fmt(fmax) + " N").c_str());
-  dl->AddText(ImVec2(p0.x + 4, p0.y + height - 16), IM_COL32(60, 60, 60, 255), ("-" + fmt(fmax) + " N").c_str());
+  // The scale's labels built from one named string: GCC 12 raises a false -Wrestrict alarm on
+  // `"-" + fmt(...)` (a literal prepended to a temporary string, inlined insert).
+  const std::string scale_N = fmt(plot_fmax(rec)) + " N";
+  const std::string top = std::string(label) + "  +" + scale_N;
+  std::string bottom = "-";
+  bottom += scale_N;
+  dl->AddText(ImVec2(p0.x + 4, p0.y + 2), IM_COL32(60, 60, 60, 255), top.c_str());
+  dl->AddText(ImVec2(p0.x + 4, p0.y + height - 16), IM_COL32(60, 60, 60, 255), bottom.c_str());
   const ImU32 col[3] = {IM_COL32(31, 119, 180, 255), IM_COL32(44, 160, 44, 255), IM_COL32(214, 39, 40, 255)};
   const char* lab[3] = {"Fx mesio-distal", "Fy bucco-lingual", "Fz long axis"};
   for (int a = 0; a < 3; ++a) dl->AddText(ImVec2(p0.x + 330 + 140 * a, p0.y + 2), col[a], lab[a]);

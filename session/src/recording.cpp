@@ -39,16 +39,28 @@ Result<Recording> read_recording(const fs::path& dir) {
     if (!j["mirror_rim"].is_boolean()) return Error{meta.string() + ": mirror_rim must be true or false"};
     rec.mirror_rim = j["mirror_rim"].get<bool>();
   }
+  if (j.contains("stereo")) {
+    const auto& sj = j["stereo"];
+    if (!sj.is_object() || !sj.contains("head") || !sj["head"].is_string() ||
+        (sj["head"] != "two_cameras" && sj["head"] != "side_by_side"))
+      return Error{meta.string() + ": stereo must be an object whose head is \"two_cameras\" or \"side_by_side\""};
+    rec.stereo = true;
+    rec.stereo_head = sj["head"].get<std::string>();
+    if (!fs::is_directory(dir / "frames_right"))
+      return Error{(dir / "frames_right").string() + ": missing: recording.json says the run was stereo, and the "
+                   "right eye's frames are kept there"};
+  }
   rec.frames_csv = (dir / "frames.csv").string();
   std::ifstream in(rec.frames_csv);
   if (!in) return Error{rec.frames_csv + ": missing: the recording has no per-frame table"};
-  auto table = parse_recording_table(in, rec.discovery == "async", rec.frames_csv);
+  auto table = parse_recording_table(in, rec.discovery == "async", rec.frames_csv, rec.stereo);
   if (!table) return Error{table.error()};
   rec.capture_s = std::move(table->capture_s);
   rec.haptic_steps = std::move(table->haptic_steps);
   rec.pose_step = std::move(table->pose_step);
   rec.cues = std::move(table->cues);
   rec.cues_exact = table->cues_exact;
+  rec.eyes = std::move(table->eyes);
   return rec;
 }
 

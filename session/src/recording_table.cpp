@@ -1,6 +1,8 @@
 // See recording_table.h.
 #include "dentar/session/recording_table.h"
 
+#include "dentar/ar/frame_pipeline.h"
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -36,7 +38,7 @@ bool parse_finite(const std::string& s, double& out) {
 
 }  // namespace
 
-Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const std::string& name) {
+Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const std::string& name, bool both_eyes) {
   RecordingTable t;
   std::string line;
   if (!std::getline(in, line)) return Error{name + ": empty"};
@@ -50,16 +52,22 @@ Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const
   const int cf = col("frame"), ct = col("time_s"), ch = col("haptic_steps");
   if (cf < 0 || ct < 0 || ch < 0) return Error{name + ": line 1: needs the columns frame, time_s and haptic_steps"};
   const int cs = col("disc_start"), cm = col("disc_merged"), cp = col("pose_step");
-  // A stereo live run (issue 28) keeps the left eye's frames only: its poses came from both
-  // eyes, and a replay from one eye would not be that run.
-  if (col("eyes") >= 0)
-    return Error{name + ": line 1: a stereo run (column eyes): the recording keeps the left eye's frames only, "
-                 "so it cannot be replayed as the live run tracked it (from both eyes); its frames.csv, "
+  // A stereo live run (issue 28) recorded before the right eye was kept (session 15) has the
+  // left eye's frames only: its poses came from both eyes, and a replay from one eye would not
+  // be that run.
+  const int ce = col("eyes");
+  if (ce >= 0 && !both_eyes)
+    return Error{name + ": line 1: a stereo run (column eyes) whose recording.json has no \"stereo\": it was "
+                 "recorded before `dentar live` kept the right eye (frames_right/), so it holds the left eye's "
+                 "frames only and cannot be replayed as the live run tracked it (from both eyes); its frames.csv, "
                  "session.dlog and summary.json are kept as the run's record"};
+  if (both_eyes && ce < 0)
+    return Error{name + ": line 1: recording.json says the run was stereo, which needs the column eyes "
+                 "(the eyes each frame had)"};
   if (async && (cs < 0 || cm < 0))
     return Error{name + ": line 1: recording.json says discovery async, which needs the columns "
                  "disc_start and disc_merged (what the live tracker's search did per frame)"};
-  const int need = std::max({cf, ct, ch, async ? std::max(cs, cm) : 0, cp});
+  const int need = std::max({cf, ct, ch, async ? std::max(cs, cm) : 0, cp, ce});
   int lineno = 1;
   while (std::getline(in, line)) {
     ++lineno;
@@ -121,6 +129,15 @@ Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const
       if (!parse_finite(at(cp), ps) || (ps < 0 && ps != -1) || ps > static_cast<double>(steps))
         return bad(cp, "must be -1 or a step between 0 and the row's haptic_steps");
       t.pose_step.push_back(ps);
+    }
+    if (both_eyes) {
+      const std::string& e = at(ce);
+      const int eyes = e == "both" ? ar::FrameRecord::kEyesBoth
+                       : e == "left" ? ar::FrameRecord::kEyesLeft
+                       : e == "right" ? ar::FrameRecord::kEyesRight
+                                      : -1;
+      if (eyes < 0) return bad(ce, "must be both, left or right");
+      t.eyes.push_back(eyes);
     }
     t.capture_s.push_back(time_s);
     t.haptic_steps.push_back(steps);

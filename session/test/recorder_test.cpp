@@ -91,3 +91,50 @@ TEST(Recorder, CameraJpegBytesAreWrittenAsTheyCame) {
   EXPECT_EQ(on_disk, bytes);
   EXPECT_EQ(cv::norm(cv::imread(jpg.string()), decoded, cv::NORM_INF), 0.0);
 }
+
+// A stereo run (issue 28) keeps both eyes: the right eye's image of a frame in frames_right/
+// under the frame's own number, lossless (PNG) or its camera's JPEG bytes, and nothing for a
+// frame that had no right eye (the single-view path: eyes "left"); the row says which.
+TEST(Recorder, StereoKeepsTheRightEyeBesideTheLeft) {
+  const fs::path dir = dentar::test::temp_dir("recorder_stereo");
+  auto r = Recorder::open(dir, true);
+  ASSERT_TRUE(r.ok()) << r.error();
+  const cv::Mat left0 = noisy_frame(0), right0 = noisy_frame(100), left1 = noisy_frame(1), left2 = noisy_frame(2);
+  const cv::Mat right2 = noisy_frame(102);
+  std::vector<uchar> bytes;
+  ASSERT_TRUE(cv::imencode(".jpg", right2, bytes));
+  const cv::Mat right2_jpg(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data());
+  dentar::ar::FrameRecord rec;
+  rec.eyes = dentar::ar::FrameRecord::kEyesBoth;
+  (*r)->push(left0, cv::Mat(), rec, 0, 0, 1.0, right0, cv::Mat());
+  rec.eyes = dentar::ar::FrameRecord::kEyesLeft;
+  (*r)->push(left1, cv::Mat(), rec, 1, 1, 1.1);
+  rec.eyes = dentar::ar::FrameRecord::kEyesBoth;
+  (*r)->push(left2, cv::Mat(), rec, 2, 2, 1.2, cv::imdecode(right2_jpg, cv::IMREAD_COLOR), right2_jpg);
+  (*r)->close();
+  EXPECT_EQ((*r)->written(), 3);
+  EXPECT_EQ((*r)->written_png(), 3);
+  EXPECT_EQ((*r)->written_right_png(), 1);
+  EXPECT_EQ((*r)->written_right_jpg(), 1);
+  const cv::Mat back0 = cv::imread((dir / "frames_right" / "frame_000000.png").string());
+  ASSERT_FALSE(back0.empty());
+  EXPECT_EQ(cv::norm(back0, right0, cv::NORM_INF), 0.0) << "lossless";
+  EXPECT_FALSE(fs::exists(dir / "frames_right" / "frame_000001.png"));
+  EXPECT_FALSE(fs::exists(dir / "frames_right" / "frame_000001.ppm"));
+  std::ifstream f(dir / "frames_right" / "frame_000002.jpg", std::ios::binary);
+  const std::vector<uchar> on_disk((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(on_disk, bytes);
+  const auto rows = lines(dir / "frames.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[0].substr(rows[0].rfind(',') + 1), "eyes");
+  EXPECT_EQ(rows[1].substr(rows[1].rfind(',') + 1), "both");
+  EXPECT_EQ(rows[2].substr(rows[2].rfind(',') + 1), "left");
+  // One camera: no right-eye folder, whatever is pushed.
+  const fs::path mono = dentar::test::temp_dir("recorder_mono_right");
+  auto m = Recorder::open(mono);
+  ASSERT_TRUE(m.ok()) << m.error();
+  (*m)->push(left0, cv::Mat(), dentar::ar::FrameRecord{}, 0, 0, 1.0, right0, cv::Mat());
+  (*m)->close();
+  EXPECT_FALSE(fs::exists(mono / "frames_right"));
+  EXPECT_EQ((*m)->written_right_png(), 0);
+}

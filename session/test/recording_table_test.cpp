@@ -7,6 +7,8 @@
 
 #include "dentar/session/recording_table.h"
 
+#include "dentar/ar/frame_pipeline.h"
+
 namespace dentar::session {
 namespace {
 
@@ -111,11 +113,40 @@ TEST(RecordingTable, PoseStepIsOptionalAndBounded) {
 }  // namespace
 }  // namespace dentar::session
 
-// A stereo live run's table (issue 28: column eyes) keeps the left eye's frames only: refused,
-// naming why, rather than replayed from one eye as if it were the run.
+// A stereo live run's table (issue 28: column eyes) from before the right eye was kept
+// (recording.json without "stereo": frames/ holds the left eye only): refused, naming why,
+// rather than replayed from one eye as if it were the run.
 TEST(RecordingTable, AStereoRunIsNotReplayedFromOneEye) {
   std::istringstream in("frame,time_s,steady_s,source_index,haptic_steps,eyes\n0,0,1,0,1,both\n");
   auto r = dentar::session::parse_recording_table(in, false, "rec/frames.csv");
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().find("rec/frames.csv: line 1: a stereo run (column eyes)"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("frames_right"), std::string::npos) << r.error();
+}
+
+// A stereo run that kept both eyes: the eyes of each frame are read (both, or left: the
+// right eye lost); the column is required, and any other value is refused by line and column.
+TEST(RecordingTable, AStereoRunKeepsEachFramesEyes) {
+  using dentar::ar::FrameRecord;
+  std::istringstream in(
+      "frame,time_s,steady_s,source_index,haptic_steps,eyes\n0,0,1,0,1,both\n1,0.1,1.1,1,90,left\n2,0.2,1.2,2,190,both\n");
+  auto r = dentar::session::parse_recording_table(in, false, "rec/frames.csv", true);
+  ASSERT_TRUE(r.ok()) << r.error();
+  ASSERT_EQ(r->eyes.size(), 3u);
+  EXPECT_EQ(r->eyes[0], FrameRecord::kEyesBoth);
+  EXPECT_EQ(r->eyes[1], FrameRecord::kEyesLeft);
+  EXPECT_EQ(r->eyes[2], FrameRecord::kEyesBoth);
+  std::istringstream mono("frame,time_s,haptic_steps\n0,0,1\n");
+  auto m = dentar::session::parse_recording_table(mono, false, "rec/frames.csv", true);
+  ASSERT_FALSE(m.ok());
+  EXPECT_NE(m.error().find("needs the column eyes"), std::string::npos) << m.error();
+  std::istringstream odd("frame,time_s,haptic_steps,eyes\n0,0,1,both\n1,0.1,5,mono\n");
+  auto b = dentar::session::parse_recording_table(odd, false, "rec/frames.csv", true);
+  ASSERT_FALSE(b.ok());
+  EXPECT_NE(b.error().find("line 3, column eyes: \"mono\" must be both, left or right"), std::string::npos) << b.error();
+  // A mono table read as mono is unchanged: no eyes.
+  std::istringstream plain("frame,time_s,haptic_steps\n0,0,1\n");
+  auto p = dentar::session::parse_recording_table(plain, false, "rec/frames.csv");
+  ASSERT_TRUE(p.ok()) << p.error();
+  EXPECT_TRUE(p->eyes.empty());
 }

@@ -25,10 +25,13 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "dentar/ar/capture_thread.h"
+#include "dentar/calibration/intrinsics.h"
 #include "dentar/volume/result.h"
 
 namespace dentar::live {
@@ -85,5 +88,52 @@ struct CalibrateLiveSummary {
 // Errors (exit 2 at the CLI): bad options, unreadable station, no display, no device.
 // A step that does not pass is not an error: summary.written is false and the step says why.
 Result<CalibrateLiveSummary> run_calibrate_live(const CalibrateLiveOptions& options);
+
+// ---- `dentar calibrate stereo --live` (issue 28): the captures of a live stereo head ----
+// The eyes as one ar::StereoSource (two cameras paired by capture time, or one side-by-side
+// device). Every frame is searched for the board in both eyes (one ar::BoardDetector per eye,
+// any board kind); a capture is taken by itself when the left eye has seen the board still for
+// the still window and the view is new against the captures so far (calibration/guided.h
+// LiveCameraViews: the camera step's gates; refusals said only when they change); the right
+// eye's view goes with it when the right eye saw the board still too, else the capture serves
+// the left eye's intrinsics only (as a photo where one eye misses it). Stops at `count`
+// captures, at the source's end, after `seconds`, or when an eye of a live head (camera:N,
+// /dev/videoN, live:FILE) has delivered nothing for stall_timeout_s (unplugged, stalled): then
+// `stall` says which eye, for how long and what to do, and the captures taken so far are
+// returned with it (the caller calibrates them, as after a time limit). No wait is unbounded:
+// before this, a camera that stopped delivering kept `--live` without `--seconds` waiting
+// forever.
+struct StereoLiveOptions {
+  std::string left, right;   // two cameras: frame_source.h specs (or recorded videos / frame folders)
+  std::string side_by_side;  // or one device delivering both eyes side by side (left | right)
+  std::string board = "chessboard:9x6:20";  // ar/calib_board.h spec
+  int count = 15;                           // captures wanted, 1..500
+  double seconds = 0;                       // give up after this long, s (0 = no limit)
+  double stall_timeout_s = 5;               // an eye silent this long ends the capture, s (> 0)
+  // Test hooks (the fault tests): each live eye's capture options (the stall hook).
+  ar::CaptureThreadOptions left_capture, right_capture;
+  std::function<void(const std::string&)> say;  // progress lines, as printed by the CLI (may be empty)
+  std::string validate() const;                 // empty when valid, else names the field
+};
+
+struct StereoLiveCaptures {
+  // One entry per capture in each (names "live-capture-N"); a right view without points: the
+  // right eye did not see the board still at that capture.
+  std::vector<calibration::BoardView> left, right;
+  int width = 0, height = 0;  // one eye, px
+  int frames = 0;             // frames read (pairs and single-eye frames)
+  // "captures taken", "time limit", "footage ended" or "stall".
+  std::string stop_reason;
+  std::string stall;    // stop_reason "stall": which eye, for how long, what to do
+  std::string pairing;  // the source's pairing summary (ar::StereoCaptureStats::summary)
+};
+
+// true for a live camera spec (camera:N, /dev/videoN, live:FILE), as opposed to a recording.
+bool is_live_camera_spec(const std::string& spec);
+
+// Errors (bad input, exit 2 at the CLI), each naming the input: options (validate), the eyes
+// cannot be opened or disagree (size, rate), the board spec, a source error mid-run; no capture
+// taken at all (why: the board never seen still and new by the left eye, or the stall).
+Result<StereoLiveCaptures> capture_stereo_live(const StereoLiveOptions& options);
 
 }  // namespace dentar::live

@@ -159,6 +159,15 @@ struct LiveSummary {
   bool stereo = false;
   std::int64_t stereo_both = 0, stereo_left_only = 0, right_eye_dropped = 0, right_eye_reopens = 0;
   std::int64_t right_composited = 0;  // frames whose right eye got its own composite (--output sbs)
+
+  // Two cameras: the right eye lost (a run of single-view frames begun) and back (pairs again
+  // after its silence of > 0.1 s); the longest time from its last frame to the first
+  // single-view composite, with that frame's own capture-to-composite time (part of it: the
+  // machine's share) and its wait for a right-eye partner (the pairing's share, at most half a
+  // frame period); and from its first frame back to the first two-eye composite; ms, -1: none.
+  std::int64_t stereo_fallbacks = 0, stereo_recoveries = 0;
+  double stereo_fallback_ms_max = -1, stereo_fallback_frame_ms = -1, stereo_fallback_wait_ms = -1;
+  double stereo_recovery_ms_max = -1;
   std::int64_t dropped_source = 0, dropped_consumer = 0, camera_reopens = 0;
   double wall_s = 0, displayed_fps = 0;
   // Why the run ended: "window closed", "SIGINT", "SIGTERM", "time limit",

@@ -31,6 +31,12 @@ struct Recording {
   // frame (frames.csv disc_start, disc_merged), replayed with kScheduled.
   std::vector<ar::DiscoveryCue> cues;
   bool cues_exact = true;  // false: a merge names a frame the recording lacks (dropped)
+  // A stereo run (issue 28, recording.json "stereo"): both eyes kept, the right eye's images in
+  // frames_right/ (frame_NNNNNN.EXT, as frames/), per frame the eyes it had
+  // (ar::FrameRecord::kEyes*, frames.csv eyes). stereo_head: "two_cameras" or "side_by_side".
+  bool stereo = false;
+  std::string stereo_head;
+  std::vector<int> eyes;
 };
 
 // Reads the folder's recording.json and frames.csv. Errors name the file,

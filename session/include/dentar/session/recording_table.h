@@ -21,6 +21,10 @@ struct RecordingTable {
   // Per frame index: the drawn stylus pose's step (fractional, at most haptic_steps; -1 = the
   // newest pose). Empty for recordings without the column (before issue 24's compensation).
   std::vector<double> pose_step;
+  // Stereo recordings that keep both eyes (issue 28, recording.json "stereo"): per frame index,
+  // the eyes it had (ar::FrameRecord::kEyesBoth, kEyesLeft or kEyesRight: frames.csv `eyes`).
+  // Empty for one camera.
+  std::vector<int> eyes;
   bool cues_exact = true;  // false: a merge named a frame whose search the table lacks (dropped)
   bool truncated = false;  // the last row was cut short (a crash): the rows before it are kept
 };
@@ -32,8 +36,13 @@ inline constexpr std::uint64_t kMaxRecordedHapticSteps = 10'000'000'000ULL;
 
 // Parses the table from `in`. `async`: recording.json says discovery
 // "async" (the disc_start and disc_merged columns are then required).
+// `both_eyes`: recording.json says the run was stereo and kept both eyes (the
+// column eyes is then required). A table with the column eyes but without
+// both_eyes is a stereo run recorded before the right eye was kept (session 15:
+// frames/ only): refused, it cannot be replayed as the run tracked it.
 // `name` is used in messages. Errors name the line and the column, and what
 // is wrong with the value.
-Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const std::string& name);
+Result<RecordingTable> parse_recording_table(std::istream& in, bool async, const std::string& name,
+                                             bool both_eyes = false);
 
 }  // namespace dentar::session

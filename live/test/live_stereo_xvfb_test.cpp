@@ -1,0 +1,193 @@
+// `dentar live` with a stereo head (issue 28) as a user runs it, under Xvfb: two cameras (paced
+// Motion JPEG stand-ins, as two UVC webcams deliver), the right one unplugged for 0.5 s mid-run
+// (the stall hook); the run recorded with both eyes and replayed by `dentar offline` through the
+// stereo path: the same eyes, states and poses per frame, and the same final cut. Skips without
+// xvfb-run unless DENTAR_REQUIRE_GL=1 (CI installs it).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "testutil.h"
+#include "xvfb_util.h"
+
+namespace fs = std::filesystem;
+using dentar::test::read_json;
+using dentar::test::run_command;
+using dentar::test::xvfb;
+
+namespace {
+
+const std::string kBin = DENTAR_BINARY;
+
+std::vector<std::vector<std::string>> read_csv(const fs::path& p) {
+  std::ifstream f(p);
+  std::vector<std::vector<std::string>> rows;
+  for (std::string line; std::getline(f, line);) {
+    std::vector<std::string> v;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) v.push_back(c);
+    if (!line.empty() && line.back() == ',') v.emplace_back();
+    rows.push_back(v);
+  }
+  return rows;
+}
+
+int col(const std::vector<std::string>& header, const std::string& name) {
+  for (std::size_t i = 0; i < header.size(); ++i)
+    if (header[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+// The side-by-side clip's eyes as two Motion JPEG files (a UVC webcam's format), 30 fps.
+void write_eyes(const fs::path& sbs, const fs::path& left, const fs::path& right) {
+  cv::VideoCapture in(sbs.string());
+  ASSERT_TRUE(in.isOpened()) << sbs;
+  std::vector<cv::Mat> f;
+  for (cv::Mat m; in.read(m);) f.push_back(m.clone());
+  ASSERT_FALSE(f.empty());
+  const int w = f[0].cols / 2, h = f[0].rows;
+  const int mjpg = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+  cv::VideoWriter L(left.string(), cv::CAP_FFMPEG, mjpg, 30, cv::Size(w, h));
+  cv::VideoWriter R(right.string(), cv::CAP_FFMPEG, mjpg, 30, cv::Size(w, h));
+  ASSERT_TRUE(L.isOpened() && R.isOpened());
+  for (const cv::Mat& m : f) {
+    L.write(m(cv::Rect(0, 0, w, h)));
+    R.write(m(cv::Rect(w, 0, w, h)));
+  }
+}
+
+}  // namespace
+
+TEST(LiveStereoXvfb, TwoCamerasRightEyeLostAndBackRecordedAndReplayed) {
+  REQUIRE_XVFB();
+  const fs::path t = dentar::test::temp_dir("live_stereo");
+  const fs::path st = t / "st", rec = t / "rec", off = t / "off";
+  // A short generated stereo clip (looped by the stand-ins): 4 frames, 2 x 640x480.
+  auto r = run_command(kBin + " synth --preset standard --stereo --frames 4 --seed 3 --out " + st.string() + " 2>&1");
+  if (r.code != 0 && !std::getenv("DENTAR_REQUIRE_GL")) GTEST_SKIP() << "dentar synth failed (no headless EGL?): " << r.out;
+  ASSERT_EQ(r.code, 0) << r.out;
+  write_eyes(st / "video.mkv", t / "l.avi", t / "r.avi");
+  r = run_command(xvfb(kBin + " live --camera live:" + (t / "l.avi").string() + " --camera-right live:" +
+                       (t / "r.avi").string() + " --station " + (st / "station.json").string() + " --stylus replay:" +
+                       (st / "session.dlog").string() + " --record " + rec.string() +
+                       " --inject-stall-right 12:0.5 --no-hud --quiet --loop --frames 36 --no-score --summary " +
+                       (t / "live.json").string() + " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto live = read_json(t / "live.json");
+  ASSERT_TRUE(live.contains("stereo")) << live.dump();
+  const auto& ls = live["stereo"];
+  std::printf("[ stereo ] %s\n", ls.dump().c_str());
+  // The right eye went quiet and came back: single-view frames between pairs.
+  EXPECT_GT(ls["frames_both_eyes"].get<int>(), 10);
+  EXPECT_GE(ls["frames_left_eye_only"].get<int>(), 3);
+  EXPECT_GE(ls["fallbacks"].get<int>(), 1);
+  EXPECT_GE(ls["recoveries"].get<int>(), 1);
+  // Issue 28: the single-view path takes over within 200 ms of the eye's last frame, and pairs
+  // come back as soon as it returns. The pairing's own share is the first single-view frame's
+  // wait for a partner: at most half a frame period (16.7 ms at 30 fps) plus a wake-up. The
+  // rest is the next camera frame (33 ms) and that frame's trip through a busy machine: the
+  // 200 ms is asserted whole when the frame went from capture to composite in under 100 ms (a
+  // machine keeping up, as the mono stall test does), else printed.
+  const double fb = ls["fallback_ms_max"].get<double>(), fb_frame = ls["fallback_frame_ms"].get<double>();
+  const double back = ls["recovery_ms_max"].get<double>();
+  EXPECT_GT(fb, 0);
+  EXPECT_LE(ls["fallback_wait_ms"].get<double>(), 60) << "the frame waited for the lost eye";
+  if (fb_frame < 100) {
+    EXPECT_LE(fb, 200);
+  } else if (fb > 200) {
+    std::printf("[ note ] fallback %.0f ms, of which %.0f ms the frame's own capture-to-composite time on a loaded "
+                "machine: the 200 ms is not asserted\n", fb, fb_frame);
+  }
+  EXPECT_GT(back, 0);
+  EXPECT_LE(back, 1000);
+
+  // The recording keeps both eyes: the right eye's JPEG bytes beside the left's, only for the
+  // frames that had it.
+  const auto meta = read_json(rec / "recording.json");
+  EXPECT_EQ(meta["stereo"]["head"], "two_cameras") << meta.dump();
+  EXPECT_EQ(meta["frames_not_written"].get<int>(), 0);
+  const int frames = meta["frames"].get<int>();
+  EXPECT_EQ(meta["frame_files"]["jpg"].get<int>(), frames) << meta.dump();
+  const auto lr = read_csv(rec / "frames.csv");
+  ASSERT_EQ(static_cast<int>(lr.size()), frames + 1);
+  const int l_eyes = col(lr[0], "eyes"), l_state = col(lr[0], "man_state"), l_T = col(lr[0], "man_T");
+  ASSERT_GE(l_eyes, 0);
+  int both = 0, left = 0;
+  for (std::size_t i = 1; i < lr.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%06d.jpg", static_cast<int>(i - 1));
+    const bool has_right = fs::exists(rec / "frames_right" / name);
+    EXPECT_EQ(has_right, lr[i][l_eyes] == "both") << "frame " << i - 1 << " eyes " << lr[i][l_eyes];
+    both += lr[i][l_eyes] == "both";
+    left += lr[i][l_eyes] == "left";
+  }
+  EXPECT_EQ(both + left, frames);
+  EXPECT_EQ(meta["frame_files_right"]["jpg"].get<int>(), both);
+  EXPECT_EQ(both, ls["frames_both_eyes"].get<int>());
+  EXPECT_EQ(left, ls["frames_left_eye_only"].get<int>());
+
+  // Replayed offline: through the stereo path, frame for frame as the live run tracked.
+  r = run_command(kBin + " offline --footage " + rec.string() + " --out " + off.string() +
+                  " --no-video --no-score --quiet 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("stereo: both eyes " + std::to_string(both) + " frames, left eye alone " + std::to_string(left)),
+            std::string::npos)
+      << r.out;
+  const auto off_sum = read_json(off / "summary.json");
+  EXPECT_EQ(off_sum["volume_hash"], meta["volume_hash"]);
+  EXPECT_EQ(off_sum["stereo"]["eyes"]["both"].get<int>(), both);
+  const auto orows = read_csv(off / "frames.csv");
+  ASSERT_EQ(orows.size(), lr.size());
+  const int o_eyes = col(orows[0], "eyes"), o_state = col(orows[0], "man_state"), o_tx = col(orows[0], "man_tx_mm");
+  ASSERT_GE(o_eyes, 0);
+  int compared = 0;
+  for (std::size_t i = 1; i < lr.size(); ++i) {
+    EXPECT_EQ(orows[i][o_eyes], lr[i][l_eyes]) << "frame " << i - 1;
+    EXPECT_EQ(orows[i][o_state], lr[i][l_state]) << "frame " << i - 1;
+    if (lr[i][l_state] == "lost") continue;
+    // Live writes full precision, offline 9 significant digits of mm.
+    std::stringstream ss(lr[i][l_T]);
+    double m[12];
+    for (double& x : m) ss >> x;
+    for (int k = 0; k < 3; ++k) {
+      const double live_mm = m[k * 4 + 3] * 1e3, off_mm = std::stod(orows[i][o_tx + k]);
+      EXPECT_NEAR(live_mm, off_mm, 1e-6 * std::max(1.0, std::abs(live_mm))) << "frame " << i - 1;
+    }
+    ++compared;
+  }
+  EXPECT_GT(compared, frames / 2);
+
+  // Refused, saying why: one eye of a stereo recording (--eye); a right-eye file gone; the
+  // session-15 form (the eyes column, no "stereo" in recording.json: the left eye only).
+  r = run_command(kBin + " offline --footage " + rec.string() + " --eye left --out " + (t / "o_eye").string() +
+                  " --quiet 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("drop --eye"), std::string::npos) << r.out;
+  const fs::path bad = t / "rec_bad";
+  fs::copy(rec, bad, fs::copy_options::recursive);
+  std::size_t first_both = 1;
+  while (first_both < lr.size() && lr[first_both][l_eyes] != "both") ++first_both;
+  ASSERT_LT(first_both, lr.size());
+  char gone[32];
+  std::snprintf(gone, sizeof gone, "frame_%06d", static_cast<int>(first_both - 1));
+  ASSERT_TRUE(fs::remove(bad / "frames_right" / (std::string(gone) + ".jpg")));
+  r = run_command(kBin + " offline --footage " + bad.string() + " --out " + (t / "o_bad").string() +
+                  " --no-video --no-score --quiet 2>&1");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find(std::string(gone) + ".{jpg,png,ppm}: missing"), std::string::npos) << r.out;
+  auto old_meta = meta;
+  old_meta.erase("stereo");
+  std::ofstream(bad / "recording.json") << old_meta.dump(2);
+  r = run_command(kBin + " offline --footage " + bad.string() + " --out " + (t / "o_old").string() + " --quiet 2>&1");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("recorded before `dentar live` kept the right eye"), std::string::npos) << r.out;
+}
