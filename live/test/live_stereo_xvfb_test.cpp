@@ -172,6 +172,12 @@ TEST(LiveStereoXvfb, TwoCamerasRightEyeLostAndBackRecordedAndReplayed) {
                   " --quiet 2>&1");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("drop --eye"), std::string::npos) << r.out;
+  // --eye both stays allowed: the recording's pairs also give the right eye's composite.
+  r = run_command(kBin + " offline --footage " + rec.string() + " --eye both --frames 6 --no-score --out " +
+                  (t / "o_both").string() + " --quiet 2>&1");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_GT(fs::exists(t / "o_both" / "composite_right.mkv") ? fs::file_size(t / "o_both" / "composite_right.mkv") : 0u,
+            0u);
   const fs::path bad = t / "rec_bad";
   fs::copy(rec, bad, fs::copy_options::recursive);
   std::size_t first_both = 1;
