@@ -144,7 +144,8 @@ void add_checks(PathRun& r, const Check& c, double gate_mm) {
 // mannequin's gate (the stated error of every measured frame).
 PathRun run_path(const Footage& fo, bool stereo) {
   PathRun r;
-  const TrackerOptions gated;
+  TrackerOptions gated;
+  if (const char* w = std::getenv("DENTAR_SIGMA_SHAPE_WEIGHT")) gated.pose.shape_weight = std::atof(w);
   TrackerOptions open = gated;
   open.mannequin_max_sigma_m = 0;
   const double gate_mm = gated.mannequin_max_sigma_m * 1e3;
