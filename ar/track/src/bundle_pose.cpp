@@ -484,7 +484,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
     std::vector<Corner> out_c(all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst),
                               all_c.begin() + static_cast<std::ptrdiff_t>(4 * worst + 4));
     Eigen::VectorXd r_out;
-    const bool in_front = residuals_raw(T, out_c, geoms, r_out, nullptr);
+    const bool in_front = residuals(T, out_c, geoms, r_out, nullptr);
     const double rms_out = in_front ? rms_of(r_out) : std::numeric_limits<double>::infinity();
     const double rms_in = rms_of(r);
     if (rms_out > options.outlier_px && rms_out > options.outlier_ratio * rms_in) {

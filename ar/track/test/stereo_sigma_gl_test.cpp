@@ -14,7 +14,9 @@
 // Default suite: StereoSigma.HeldOutClip (12 frames of a seed no figure was
 // tuned on). `long` (whole binary, StereoSigma.InOneProcess): three held-out
 // seeds of 60 frames. DENTAR_SIGMA_SEEDS=a,b,c and DENTAR_SIGMA_FRAMES=N
-// choose the long run's footage; DENTAR_SIGMA_PARTS=seed prints each frame's
+// choose the long run's footage, DENTAR_SIGMA_SHAPE_WEIGHT=w sets
+// BundlePoseOptions::shape_weight for both paths (the measurement of that
+// option; the bounds are the default's); DENTAR_SIGMA_PARTS=seed prints each frame's
 // corner errors split into the tags' centres and shapes (not asserted).
 #include <gtest/gtest.h>
 
