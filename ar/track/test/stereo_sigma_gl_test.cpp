@@ -228,9 +228,9 @@ TEST(StereoSigma, HeldOutClip) {
   print_row("11 (12 frames)", "stereo", r);
   // Measured 2026-11-28: 12 / 12 measured, 11 within the stated p95 (the
   // first frame, with no previous pose, is 0.40 mm off with 0.12 mm
-  // stated), 5 / 5 of the fast frames, mean Mahalanobis^2 (the first frame
-  // left out) ~3; drawn 12 / 12, p95 0.6 mm. Bounds with a margin; a
-  // covariance half or twice its size fails the Mahalanobis bounds.
+  // stated), 6 / 6 of the fast frames, median Mahalanobis^2 4.94; drawn
+  // 12 / 12, p95 0.80 mm. Bounds with a margin; a stated sigma half or twice
+  // its size moves the median 4x, out of (1.5, 9).
   ASSERT_GE(r.all.n, 11);
   EXPECT_GE(r.all.in_p95, r.all.n - 2);
   EXPECT_GE(r.fast.n, 4);
@@ -238,8 +238,9 @@ TEST(StereoSigma, HeldOutClip) {
   std::vector<double> m2;
   for (const Check& c : r.checks) m2.push_back(c.maha2);
   const double median_m2 = pct(m2, 0.5);  // chi-square 3: median 2.37
-  EXPECT_GT(median_m2, 0.7);
-  EXPECT_LT(median_m2, 7.0);
+  std::printf("median Mahalanobis^2 %.2f\n", median_m2);
+  EXPECT_GT(median_m2, 1.5);
+  EXPECT_LT(median_m2, 9.0);
   EXPECT_GE(r.drawn, 10);
   EXPECT_LT(pct(r.err_mm, 0.95), 1.1);
 }
