@@ -41,8 +41,8 @@ struct ViewGeom {
 // reported translation itself). A corner of view c projects
 // p_c = T_c_rig (R p_body + t), so dp_c/d(w, v) = R_c_rig [-[R p_body]x, I].
 // Returns false when a corner lies behind its camera.
-bool residuals(const Eigen::Isometry3d& T_rig_body, const std::vector<Corner>& corners,
-               const std::vector<ViewGeom>& views, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
+bool residuals_raw(const Eigen::Isometry3d& T_rig_body, const std::vector<Corner>& corners,
+                   const std::vector<ViewGeom>& views, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
   const auto n = static_cast<Eigen::Index>(corners.size());
   r.resize(2 * n);
   if (J) J->resize(2 * n, 6);
@@ -68,6 +68,23 @@ bool residuals(const Eigen::Isometry3d& T_rig_body, const std::vector<Corner>& c
     }
   }
   return r.allFinite();
+}
+
+// BundlePoseOptions::shape_weight: each tag's 8 rows (its 4 corners, kept
+// together in `corners`) become its centre part plus shape_weight x its
+// shape part: rows_k <- c + s (rows_k - c), c = the mean of its 4 corners'.
+void weight_shapes(double s, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
+  if (s == 1.0) return;
+  for (Eigen::Index t = 0; t + 8 <= r.size(); t += 8) {
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    for (int k = 0; k < 4; ++k) c += r.segment<2>(t + 2 * k) / 4;
+    for (int k = 0; k < 4; ++k) r.segment<2>(t + 2 * k) = c + s * (r.segment<2>(t + 2 * k) - c);
+    if (J) {
+      Eigen::Matrix<double, 2, 6> cj = Eigen::Matrix<double, 2, 6>::Zero();
+      for (int k = 0; k < 4; ++k) cj += J->block<2, 6>(t + 2 * k, 0) / 4;
+      for (int k = 0; k < 4; ++k) J->block<2, 6>(t + 2 * k, 0) = cj + s * (J->block<2, 6>(t + 2 * k, 0) - cj);
+    }
+  }
 }
 
 // Weights per residual: the prior weight pw (the view-angle weight of the
@@ -157,6 +174,8 @@ std::string BundlePoseOptions::validate() const {
     return "outlier_px = " + std::to_string(outlier_px) + " must be finite and >= 0 (0 = off)";
   if (!std::isfinite(outlier_ratio) || outlier_ratio < 1)
     return "outlier_ratio = " + std::to_string(outlier_ratio) + " must be >= 1";
+  if (!std::isfinite(shape_weight) || shape_weight <= 0 || shape_weight > 1)
+    return "shape_weight = " + std::to_string(shape_weight) + " must be in (0, 1]";
   return {};
 }
 
@@ -312,7 +331,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
   Eigen::VectorXd r;
   double best_rms = std::numeric_limits<double>::infinity();
   for (std::size_t s = 0; s < seeds.size(); ++s) {
-    if (residuals(seeds[s], corners, geoms, r, nullptr)) seed_rms[s] = rms_of(r);
+    if (residuals_raw(seeds[s], corners, geoms, r, nullptr)) seed_rms[s] = rms_of(r);
     best_rms = std::min(best_rms, seed_rms[s]);
   }
   if (!std::isfinite(best_rms))
@@ -340,6 +359,13 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
   out.seed_rms_px = seed_rms[chosen];
   Eigen::MatrixXd J;
   Eigen::VectorXd w;
+  // The fit's residuals: with BundlePoseOptions::shape_weight, each tag's shape part weighted.
+  auto residuals = [&](const Eigen::Isometry3d& T_rig_body, const std::vector<Corner>& cs,
+                       const std::vector<ViewGeom>& vs, Eigen::VectorXd& rr, Eigen::MatrixXd* JJ) {
+    if (!residuals_raw(T_rig_body, cs, vs, rr, JJ)) return false;
+    weight_shapes(options.shape_weight, rr, JJ);
+    return true;
+  };
   // Prior weight of each residual: 1, or its tag's view-angle weight
   // (BundlePoseOptions::view_weight_from_rad) at the pose T.
   Eigen::VectorXd pw = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(2 * corners.size()));

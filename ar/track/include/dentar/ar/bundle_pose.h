@@ -97,6 +97,17 @@ struct BundlePoseOptions {
   // others remain. One tag per frame. 0 = off.
   double outlier_px = 0.0;
   double outlier_ratio = 4.0;
+  // Weight of each tag's shape (its corners about their mean) against its
+  // centre in the fit (1 = each corner alone, as libapriltag gives them).
+  // Motion blur puts most of a corner's error into the tag's shape
+  // (issue 28 session 16: 0.47-0.60 px against 0.15-0.18 px in the centre
+  // at 110 deg/s on `hard`). The residuals, noise_px2 and the covariances
+  // are then those of the weighted fit (rms_px too, and the outlier test
+  // compares weighted residuals). In (0, 1]. Not the tracker's default:
+  // measured on `hard` it lowers the error but the residual noise of the
+  // weighted fit then under-states it (docs/BENCHMARKS.md, issue 28
+  // session 16).
+  double shape_weight = 1.0;
   std::string validate() const;  // empty when valid
 };
 

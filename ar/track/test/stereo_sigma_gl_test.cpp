@@ -1,0 +1,361 @@
+// Issue 28 (session 16): on `hard` (fast head turns with motion blur), is
+// the mannequin's stated error (the covariance behind the 0.6 mm drawing
+// gate) the error it actually makes? Stereo and mono (the left eye) on the
+// same generated frames, against the generator's truth.
+//
+// What the figures showed (docs/BENCHMARKS.md, "Issue 28 session 16 - hard
+// frames in fast turns"): the stated error covers the actual one as a 95 %
+// bound should, also in the fast turns and in the frames the gate refuses;
+// those frames' corners are 0.4-0.7 px off the truth (0.1-0.25 px around
+// them), mostly in each tag's shape, and that shape error does move the
+// pose. A single frame's error below its stated RMS is one draw, not an
+// over-statement.
+//
+// Default suite: StereoSigma.HeldOutClip (12 frames of a seed no figure was
+// tuned on). `long` (whole binary, StereoSigma.InOneProcess): three held-out
+// seeds of 60 frames. DENTAR_SIGMA_SEEDS=a,b,c and DENTAR_SIGMA_FRAMES=N
+// choose the long run's footage, DENTAR_SIGMA_SHAPE_WEIGHT=w sets
+// BundlePoseOptions::shape_weight for both paths (the measurement of that
+// option; the bounds are the default's); DENTAR_SIGMA_PARTS=seed prints each frame's
+// corner errors split into the tags' centres and shapes (not asserted).
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "dentar/ar/bundle_pose.h"
+#include "dentar/ar/pose_uncertainty.h"
+#include "dentar/ar/stereo_tracker.h"
+#include "dentar/ar/synth.h"
+#include "dentar/ar/tracker.h"
+#include "accuracy_test_util.h"
+#include "gl_test_context.h"
+
+namespace dentar::ar {
+namespace {
+
+using Iso = Eigen::Isometry3d;
+using namespace test;
+
+constexpr double kChi2_3_95 = 7.815;  // 95 % quantile of chi-square with 3 dof
+
+// `hard` stereo footage, 2 x 640x480, baseline 63 mm.
+struct Footage {
+  StationScene station;
+  std::vector<StereoSynthFrame> frames;
+  std::string error;
+};
+Footage make_hard(int seed, int frames) {
+  Footage f;
+  SynthOptions o = synth_preset(SynthPreset::kHard);
+  o.frames = frames;
+  o.seed = static_cast<std::uint64_t>(seed);
+  o.bur_samples = 1000;
+  StationScene st = default_station_scene();
+  st.stereo = make_stereo_rig(st.calibration.camera, 0.063);
+  auto g = StereoSynthGenerator::create(st, o);
+  if (!g) {
+    f.error = g.error();
+    return f;
+  }
+  f.station = (*g)->station();
+  for (int i = 0; i < frames; ++i) {
+    StereoSynthFrame s;
+    if (Status e = (*g)->next(s); !e) {
+      f.error = e.error();
+      return f;
+    }
+    for (SynthFrame* e : {&s.left, &s.right}) {
+      e->mask.release();
+      e->image = e->image.clone();
+    }
+    f.frames.push_back(std::move(s));
+  }
+  return f;
+}
+
+// The p-quantile of |e| for e ~ N(0, S) (S 3x3): Monte Carlo, fixed seed,
+// 4000 draws (~1 % on the quantile).
+double norm_quantile(const Eigen::Matrix3d& S, double p) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(S);
+  const Eigen::Vector3d sd = es.eigenvalues().cwiseMax(0).cwiseSqrt();
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n01;
+  std::vector<double> v(4000);
+  for (double& x : v) x = Eigen::Vector3d(sd.x() * n01(rng), sd.y() * n01(rng), sd.z() * n01(rng)).norm();
+  return pct(v, p);
+}
+
+// A measured mannequin pose's stated error against its actual error at the
+// mannequin's origin (the gate's point): the covariance's shape scaled to
+// the gate's floored sigma (BodyTrack::sigma_m = sqrt(trace)); its 95 %
+// radius and the error's squared Mahalanobis distance.
+struct Check {
+  double speed_deg_s = 0, err_mm = 0, sigma_mm = 0, p95_mm = 0, maha2 = 0;
+};
+Check check(const BodyTrack& m, const Iso& T_true, double speed_deg_s) {
+  Check c;
+  c.speed_deg_s = speed_deg_s;
+  c.err_mm = trans_mm(m.T_cam_body_measured, T_true);
+  c.sigma_mm = m.sigma_m * 1e3;
+  Eigen::Matrix3d S = point_covariance(m.covariance, m.T_cam_body_measured, Eigen::Vector3d::Zero());
+  if (S.trace() > 0) S *= m.sigma_m * m.sigma_m / S.trace();
+  c.p95_mm = norm_quantile(S, 0.95) * 1e3;
+  const Eigen::Vector3d e = m.T_cam_body_measured.translation() - T_true.translation();
+  c.maha2 = e.dot(S.ldlt().solve(e));
+  return c;
+}
+
+struct Coverage {
+  int n = 0, in_p95 = 0, in_ellipsoid = 0;
+  double maha2_sum = 0;
+  void add(const Check& c) {
+    ++n;
+    in_p95 += c.err_mm <= c.p95_mm;
+    in_ellipsoid += c.maha2 <= kChi2_3_95;
+    maha2_sum += c.maha2;
+  }
+  double frac() const { return n ? static_cast<double>(in_p95) / n : NAN; }
+  double mean_maha2() const { return n ? maha2_sum / n : NAN; }
+};
+
+// One path (stereo, or mono on the left eye) over a clip.
+struct PathRun {
+  int frames = 0, drawn = 0;
+  std::vector<double> err_mm;  // drawn frames, the drawn pose against truth
+  std::vector<double> ms;      // tracking per frame (both eyes for stereo)
+  std::vector<Check> checks;   // every measured frame of the ungated tracker
+  Coverage all, fast, refused;  // fast: >= 100 deg/s; refused: stated sigma above the default gate
+};
+
+void add_checks(PathRun& r, const Check& c, double gate_mm) {
+  r.checks.push_back(c);
+  r.all.add(c);
+  if (c.speed_deg_s >= 100) r.fast.add(c);
+  if (c.sigma_mm > gate_mm) r.refused.add(c);
+}
+
+// The default tracker (what is drawn) and the same tracker without the
+// mannequin's gate (the stated error of every measured frame).
+PathRun run_path(const Footage& fo, bool stereo) {
+  PathRun r;
+  TrackerOptions gated;
+  if (const char* w = std::getenv("DENTAR_SIGMA_SHAPE_WEIGHT")) gated.pose.shape_weight = std::atof(w);
+  TrackerOptions open = gated;
+  open.mannequin_max_sigma_m = 0;
+  const double gate_mm = gated.mannequin_max_sigma_m * 1e3;
+  StationScene mono_st = fo.station;
+  mono_st.stereo = StereoRig{};
+  std::optional<StereoTracker> sg, so;
+  std::optional<Tracker> mg, mo;
+  if (stereo) {
+    auto a = StereoTracker::create(fo.station, gated);
+    auto b = StereoTracker::create(fo.station, open);
+    EXPECT_TRUE(a.ok() && b.ok());
+    if (!a || !b) return r;
+    sg.emplace(std::move(a).value());
+    so.emplace(std::move(b).value());
+  } else {
+    auto a = Tracker::create(mono_st, gated);
+    auto b = Tracker::create(mono_st, open);
+    EXPECT_TRUE(a.ok() && b.ok());
+    if (!a || !b) return r;
+    mg.emplace(std::move(a).value());
+    mo.emplace(std::move(b).value());
+  }
+  for (const StereoSynthFrame& s : fo.frames) {
+    const double t = s.left.truth.time_s;
+    BodyTrack drawn, measured;
+    if (stereo) {
+      auto a = sg->track(s.left.image, s.right.image, t, t);
+      auto b = so->track(s.left.image, s.right.image, t, t);
+      EXPECT_TRUE(a.ok() && b.ok());
+      if (!a || !b) return r;
+      drawn = a->mannequin.track;
+      measured = b->mannequin.track;
+      r.ms.push_back(a->total_ms);
+    } else {
+      auto a = mg->track(s.left.image, t, t);
+      auto b = mo->track(s.left.image, t, t);
+      EXPECT_TRUE(a.ok() && b.ok());
+      if (!a || !b) return r;
+      drawn = a->mannequin;
+      measured = b->mannequin;
+      r.ms.push_back(a->timing.total_ms);
+    }
+    ++r.frames;
+    if (drawn.state != TrackState::kLost) {
+      ++r.drawn;
+      r.err_mm.push_back(trans_mm(drawn.T_cam_body, s.left.truth.T_cam_man));
+    }
+    if (measured.measured) add_checks(r, check(measured, s.left.truth.T_cam_man, s.left.truth.camera_speed_deg_s), gate_mm);
+  }
+  return r;
+}
+
+void print_header() {
+  std::printf("| seed | path | overlay drawn | mannequin p50 / p95 mm (drawn) | measured frames within stated p95 "
+              "| ... >= 100 deg/s | ... stated sigma > 0.6 mm (refused) | mean Mahalanobis^2 (3 = exact) | track ms p50 |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+}
+void print_row(const std::string& seed, const char* path, const PathRun& r) {
+  auto frac = [](const Coverage& c) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%d / %d", c.in_p95, c.n);
+    return std::string(b);
+  };
+  std::printf("| %s | %s | %d / %d (%.1f %%) | %.3f / %.3f | %s | %s | %s | %.2f | %.0f |\n", seed.c_str(), path, r.drawn,
+              r.frames, 100.0 * r.drawn / std::max(1, r.frames), pct(r.err_mm, 0.5), pct(r.err_mm, 0.95),
+              frac(r.all).c_str(), frac(r.fast).c_str(), frac(r.refused).c_str(), r.all.mean_maha2(), pct(r.ms, 0.5));
+  std::fflush(stdout);
+}
+
+// Default suite: 12 frames of seed 11 (a seed no figure or option was
+// chosen on; frames 6-11 turn at 107-171 deg/s), stereo only.
+TEST(StereoSigma, HeldOutClip) {
+  DENTAR_GL_TEST_CONTEXT();
+  const Footage fo = make_hard(11, 12);
+  ASSERT_TRUE(fo.error.empty()) << fo.error;
+  const PathRun r = run_path(fo, true);
+  print_header();
+  print_row("11 (12 frames)", "stereo", r);
+  // Measured 2026-11-28: 12 / 12 measured, 11 within the stated p95 (the
+  // first frame, with no previous pose, is 0.40 mm off with 0.12 mm
+  // stated), 6 / 6 of the fast frames, median Mahalanobis^2 4.94; drawn
+  // 12 / 12, p95 0.80 mm. Bounds with a margin; a stated sigma half or twice
+  // its size moves the median 4x, out of (1.5, 9).
+  ASSERT_GE(r.all.n, 11);
+  EXPECT_GE(r.all.in_p95, r.all.n - 2);
+  EXPECT_GE(r.fast.n, 4);
+  EXPECT_GE(r.fast.in_p95, r.fast.n - 1);
+  std::vector<double> m2;
+  for (const Check& c : r.checks) m2.push_back(c.maha2);
+  const double median_m2 = pct(m2, 0.5);  // chi-square 3: median 2.37
+  std::printf("median Mahalanobis^2 %.2f\n", median_m2);
+  EXPECT_GT(median_m2, 1.5);
+  EXPECT_LT(median_m2, 9.0);
+  EXPECT_GE(r.drawn, 10);
+  EXPECT_LT(pct(r.err_mm, 0.95), 1.1);
+}
+
+// `long`: held-out seeds, mono against stereo on the same frames.
+TEST(StereoSigma, CoverageOnHeldOutSeeds) {
+  DENTAR_GL_TEST_CONTEXT();
+  std::string seeds = "11,12,13";
+  int frames = 60;
+  if (const char* s = std::getenv("DENTAR_SIGMA_SEEDS")) seeds = s;
+  if (const char* f = std::getenv("DENTAR_SIGMA_FRAMES")) frames = std::max(5, std::atoi(f));
+  std::printf("\n[ stated vs actual ] hard, stereo 2 x 640x480 (baseline 63 mm) and mono (left eye), %d frames per seed\n", frames);
+  print_header();
+  PathRun pooled_s, pooled_m;
+  std::stringstream ss(seeds);
+  std::string seed;
+  while (std::getline(ss, seed, ',')) {
+    const Footage fo = make_hard(std::atoi(seed.c_str()), frames);
+    ASSERT_TRUE(fo.error.empty()) << fo.error;
+    const PathRun m = run_path(fo, false);
+    const PathRun s = run_path(fo, true);
+    print_row(seed, "mono (left eye)", m);
+    print_row(seed, "stereo", s);
+    for (auto [from, to] : {std::pair{&m, &pooled_m}, std::pair{&s, &pooled_s}}) {
+      to->frames += from->frames;
+      to->drawn += from->drawn;
+      to->err_mm.insert(to->err_mm.end(), from->err_mm.begin(), from->err_mm.end());
+      to->ms.insert(to->ms.end(), from->ms.begin(), from->ms.end());
+      for (const Check& c : from->checks) add_checks(*to, c, 0.6);
+    }
+  }
+  print_row("pooled", "mono (left eye)", pooled_m);
+  print_row("pooled", "stereo", pooled_s);
+  // A 95 % bound should hold in ~95 % of frames: within 88-99.5 % pooled
+  // (3 x 60 frames), and no worse in the fast turns or in the refused frames
+  // (where the stated error would be an over-statement if it were wrong).
+  EXPECT_GE(pooled_s.all.frac(), 0.88);
+  EXPECT_LE(pooled_s.all.frac(), 0.995);
+  EXPECT_GE(pooled_s.fast.frac(), 0.85);
+  if (pooled_s.refused.n >= 5) {
+    EXPECT_GE(pooled_s.refused.frac(), 0.75);
+  }
+  EXPECT_GE(pooled_m.all.frac(), 0.85);
+}
+
+// Each frame's corner errors (detected - true, the mannequin's tags in both
+// eyes) split into the tags' centres and shapes, and the pose error each
+// part alone makes (the truth's corners plus that part, fitted as the
+// tracker fits): what moves the pose in fast turns. Not asserted.
+TEST(StereoSigma, CornerErrorParts) {
+  const char* env = std::getenv("DENTAR_SIGMA_PARTS");
+  if (env == nullptr) GTEST_SKIP() << "set DENTAR_SIGMA_PARTS=seed[,frames]";
+  DENTAR_GL_TEST_CONTEXT();
+  int seed = 5, frames = 60;
+  std::sscanf(env, "%d,%d", &seed, &frames);
+  const Footage fo = make_hard(seed, frames);
+  ASSERT_TRUE(fo.error.empty()) << fo.error;
+  TrackerOptions open;
+  open.mannequin_max_sigma_m = 0;
+  auto tr = StereoTracker::create(fo.station, open);
+  ASSERT_TRUE(tr.ok()) << tr.error();
+  const TagBundle bundle = mannequin_bundle(fo.station);
+  const Iso T_camr_caml = fo.station.stereo.T_caml_camr.inverse();
+  std::printf("| frame | deg/s | corner RMS px (per axis): all / centre / shape | pose error mm: actual / from centres "
+              "/ from shapes | stated sigma mm | Mahalanobis^2 |\n|---|---|---|---|---|---|\n");
+  for (const StereoSynthFrame& s : fo.frames) {
+    const double t = s.left.truth.time_s;
+    auto f = tr->track(s.left.image, s.right.image, t, t);
+    ASSERT_TRUE(f.ok()) << f.error();
+    const BodyTrack& m = f->mannequin.track;
+    if (!m.measured) continue;
+    double ss_all = 0, ss_c = 0, ss_s = 0;
+    int tags = 0;
+    std::vector<DetectedTag> centre_only[2], shape_only[2];
+    for (int e = 0; e < 2; ++e) {
+      const FrameTruth& truth = e == 0 ? s.left.truth : s.right.truth;
+      std::map<int, const TagTruth*> tt;
+      for (const TagTruth& x : truth.tags)
+        if (!x.on_mirror) tt[x.id] = &x;
+      for (const DetectedTag& d : e == 0 ? f->left.tags : f->right.tags) {
+        auto it = tt.find(d.id);
+        if (it == tt.end()) continue;
+        Eigen::Vector2d err[4], c = Eigen::Vector2d::Zero();
+        for (std::size_t k = 0; k < 4; ++k) {
+          err[k] = d.corners_px[k] - it->second->corners_px[k];
+          c += err[k] / 4;
+        }
+        if (c.norm() > 5) continue;  // a mirror tag of the same id
+        DetectedTag dc = d, ds = d;
+        for (std::size_t k = 0; k < 4; ++k) {
+          ss_all += err[k].squaredNorm();
+          ss_s += (err[k] - c).squaredNorm();
+          dc.corners_px[k] = it->second->corners_px[k] + c;
+          ds.corners_px[k] = it->second->corners_px[k] + (err[k] - c);
+        }
+        ss_c += 4 * c.squaredNorm();
+        ++tags;
+        centre_only[e].push_back(dc);
+        shape_only[e].push_back(ds);
+      }
+    }
+    auto fit_err = [&](const std::vector<DetectedTag>* d) {
+      const BundlePose p = estimate_bundle_pose_views(
+          bundle, {BundleView{&fo.station.calibration.camera, Iso::Identity(), &d[0]},
+                   BundleView{&fo.station.stereo.camera_right, T_camr_caml, &d[1]}},
+          open.pose, s.left.truth.T_cam_man);
+      return p.ok() ? trans_mm(p.T_cam_body, s.left.truth.T_cam_man) : NAN;
+    };
+    const double n = std::max(1, 8 * tags);  // per corner and axis: centre x4 (a mean of 4), shape x4/3 (6 of 8 dof)
+    const Check c = check(m, s.left.truth.T_cam_man, s.left.truth.camera_speed_deg_s);
+    std::printf("| %d | %.0f | %.2f / %.2f / %.2f | %.3f / %.3f / %.3f | %.3f | %.2f |\n", s.left.truth.frame,
+                c.speed_deg_s, std::sqrt(ss_all / n), std::sqrt(ss_c / n * 4), std::sqrt(ss_s / n * 4 / 3), c.err_mm,
+                fit_err(centre_only), fit_err(shape_only), c.sigma_mm, c.maha2);
+  }
+}
+
+}  // namespace
+}  // namespace dentar::ar
