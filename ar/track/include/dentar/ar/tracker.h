@@ -264,6 +264,9 @@ struct TrackFrame {
   bool full_frame = true;  // false: the predicted-region path ran
   int regions = 0;         // crops searched (0 on a full frame)
   double searched_fraction = 1;  // searched pixels / image pixels
+  // Pixels converted to grey this frame / image pixels (0 for a grey frame; 1 when a
+  // full-frame search or the mirror rim needed the whole frame): frame_gray.h.
+  double gray_fraction = 0;
   int tags_detected = 0;
   // Searches repeated in linear light this frame (TrackerOptions::linear_second_look):
   // regions plus the whole frame, 0 when every expected tag was found.
@@ -292,7 +295,8 @@ class Tracker {
   Tracker& operator=(Tracker&&) noexcept;
   ~Tracker();
 
-  // One frame (BGR CV_8UC3 or gray CV_8UC1, the calibration's size),
+  // One frame (BGR CV_8UC3, YUYV CV_8UC2 or gray CV_8UC1, the calibration's size;
+  // grey levels are made only where they are searched: frame_gray.h),
   // captured at capture_time_s (monotonic, s); poses are predicted to
   // display_time_s (>= capture time; equal = no prediction). Errors: empty or
   // wrong-size/type image (message says which), detector failure, a cue
