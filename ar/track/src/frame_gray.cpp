@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 #include <opencv2/imgproc.hpp>
 
 namespace dentar::ar {
@@ -61,15 +60,28 @@ void decimated_gray(const cv::Mat& image, int k, cv::Mat& gray) {
     return;
   }
   const int w = image.cols / k, h = image.rows / k;
-  const std::size_t es = image.elemSize();
-  cv::Mat small(h, w, image.type());
-  for (int y = 0; y < h; ++y) {
-    const std::uint8_t* s = image.ptr<std::uint8_t>(y * k);
-    std::uint8_t* d = small.ptr<std::uint8_t>(y);
-    for (int x = 0; x < w; ++x) std::memcpy(d + x * es, s + static_cast<std::size_t>(x) * k * es, es);
+  gray.create(h, w, CV_8UC1);
+  const int ch = image.channels();
+  if (ch == 3) {  // OpenCV's BGR2GRAY weights (14-bit fixed point, rounded)
+    for (int y = 0; y < h; ++y) {
+      const std::uint8_t* s = image.ptr<std::uint8_t>(y * k);
+      std::uint8_t* d = gray.ptr<std::uint8_t>(y);
+      for (int x = 0; x < w; ++x) {
+        const std::uint8_t* p = s + 3 * k * x;
+        d[x] = static_cast<std::uint8_t>((p[0] * 1868 + p[1] * 9617 + p[2] * 4899 + (1 << 13)) >> 14);
+      }
+    }
+  } else {  // YUYV: a pixel's own luma is its channel 0 wherever it is picked; grey: itself
+    const auto& lut = luma_lut();
+    for (int y = 0; y < h; ++y) {
+      const std::uint8_t* s = image.ptr<std::uint8_t>(y * k);
+      std::uint8_t* d = gray.ptr<std::uint8_t>(y);
+      if (ch == 2)
+        for (int x = 0; x < w; ++x) d[x] = lut[s[2 * k * x]];
+      else
+        for (int x = 0; x < w; ++x) d[x] = s[k * x];
+    }
   }
-  // A YUYV pixel keeps its own luma in channel 0 wherever it is picked; gray_of reads only that.
-  gray_of(small, cv::Rect(0, 0, w, h), gray);
 }
 
 void bgr_to_yuyv(const cv::Mat& bgr, cv::Mat& yuyv) {
