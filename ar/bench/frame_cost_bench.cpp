@@ -4,7 +4,7 @@
 //
 //   ./build/ar/ar_frame_cost_bench [--frames N] [--sizes 640x480,1280x720,1920x1080]
 //                                  [--preset standard|hard|mirror] [--seed S] [--csv FILE]
-//                                  [--paths region,main,angular,pixel,whole] [--gl] [--repeat R] [--truth-poses]
+//                                  [--paths region,main,angular,pixel,roidec,whole] [--gl] [--repeat R] [--truth-poses]
 //                                  [--yuyv] [--stereo] [--outline]
 //
 // For each size: N frames of generated footage (the same scene and motion at every
@@ -13,7 +13,9 @@
 // defaults without CompositorOptions::cull_facing_away, i.e. main before issue 28's
 // session 15; whole: CompositorOptions::region_path = false and
 // TrackerOptions::predicted_regions = false; angular: region with lod_reference_width_px = 640,
-// the same error in angle at every size as 1 px at 640x480), the paths
+// the same error in angle at every size as 1 px at 640x480; the default since session 16;
+// pixel: the budget in px of the frame itself, session 15's default; roidec: region with
+// TrackerOptions::roi_decimation_max = 4), the paths
 // alternating frame by frame (same input, same load), each path with its own
 // pipeline. Every stage is timed with the process's CPU clock
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's rasteriser threads work for the frame thread
@@ -108,7 +110,7 @@ struct Args {
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "ar_frame_cost_bench: %s\nusage: ar_frame_cost_bench [--frames N] [--sizes WxH,...] "
-               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,pixel,whole] [--gl] [--repeat R] [--truth-poses] "
+               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,pixel,roidec,whole] [--gl] [--repeat R] [--truth-poses] "
                "[--yuyv] [--stereo] [--outline]\n",
                why.c_str());
   std::exit(2);
@@ -150,8 +152,8 @@ Args parse(int argc, char** argv) {
     } else if (k == "--paths") {
       a.paths = split(val());
       for (const auto& p : a.paths)
-        if (p != "region" && p != "whole" && p != "main" && p != "angular" && p != "pixel")
-          usage("--paths: '" + p + "' is not region, main, angular, pixel or whole");
+        if (p != "region" && p != "whole" && p != "main" && p != "angular" && p != "pixel" && p != "roidec")
+          usage("--paths: '" + p + "' is not region, main, angular, pixel, roidec or whole");
       if (a.paths.empty()) usage("--paths is empty");
     } else if (k == "--repeat") {
       a.repeat = std::atoi(val().c_str());
@@ -199,6 +201,7 @@ struct Sample {
   double decode = 0;         // --yuyv: the bare viewer's YUYV-to-BGR conversion (not in ar)
   double gray_fraction = 0;  // of the frame converted to grey by the tracker (left eye)
   double outline_px = -1;    // --outline: mean outline distance to the truth, px (-1: no tooth)
+  double man_err_mm = -1;    // the mannequin's tracked pose (drawn) against the truth, mm (-1: lost)
   int area = 0;  // overlay region, output px
   std::size_t tris = 0;
   int lod = 0;
@@ -321,6 +324,8 @@ int run(const Args& a) {
       if (p == "angular") po.compositor.lod_reference_width_px = 640;
       // pixel: the region path with the level of detail's budget in px of the frame itself.
       if (p == "pixel") po.compositor.lod_reference_width_px = 0;
+      // roidec: the region path with the tag search's decimation following the tags' size.
+      if (p == "roidec") po.tracker.roi_decimation_max = 4;
       auto pipe = FramePipeline::create(station, po);
       if (!pipe) {
         std::fprintf(stderr, "ar_frame_cost_bench: %s\n", pipe.error().c_str());
@@ -505,6 +510,8 @@ int run(const Args& a) {
         s.lod = r.out.lod_level;
         s.full_frame = tf->full_frame;
         s.gray_fraction = tf->gray_fraction;
+        if (tf->mannequin.state != TrackState::kLost)
+          s.man_err_mm = 1e3 * (tf->mannequin.T_cam_body.translation() - f.truth.T_cam_man.translation()).norm();
         if (a.outline) {
           const int edge = cv::countNonZero(truth_edge);
           if (edge >= 10) {
@@ -586,15 +593,17 @@ int run(const Args& a) {
                     quantile(col([](const Sample& x) { return x.segment_wall; }), 0.5),
                     quantile(col([](const Sample& x) { return x.blend_wall; }), 0.5));
       stage_rows.push_back(st);
-      std::vector<double> outl;
-      for (const Sample& x : r.samples)
+      std::vector<double> outl, merr;
+      for (const Sample& x : r.samples) {
         if (x.outline_px >= 0) outl.push_back(x.outline_px);
+        if (x.man_err_mm >= 0) merr.push_back(x.man_err_mm);
+      }
       const double o50 = quantile(outl, 0.5), o95 = quantile(outl, 0.95), to640 = 640.0 / W;
-      char ex[320];
-      std::snprintf(ex, sizeof ex, "| %dx%d | %s | %.1f | %.2f | %zu | %.3f / %.3f | %.3f / %.3f |\n", W, H, r.path.c_str(),
-                    100 * quantile(col([](const Sample& x) { return x.gray_fraction; }), 0.5),
+      char ex[400];
+      std::snprintf(ex, sizeof ex, "| %dx%d | %s | %.1f | %.2f | %zu | %.3f / %.3f | %.3f / %.3f | %zu | %.3f / %.3f |\n", W, H,
+                    r.path.c_str(), 100 * quantile(col([](const Sample& x) { return x.gray_fraction; }), 0.5),
                     quantile(col([](const Sample& x) { return x.decode; }), 0.5), outl.size(), o50, o95, o50 * to640,
-                    o95 * to640);
+                    o95 * to640, merr.size(), quantile(merr, 0.5), quantile(merr, 0.95));
       extra_rows.push_back(ex);
     }
     for (GLuint t : textures) glDeleteTextures(1, &t);
@@ -613,9 +622,10 @@ int run(const Args& a) {
   std::printf("\nGrey converted by the tracker (%% of the frame, p50; 100 on full-frame searches), the bare viewer's "
               "YUYV decode (--yuyv, CPU ms p50, not in the AR part), and the drawn tooth's outline against the truth "
               "(--outline: full mesh at the true pose; mean distance between the outlines, p50 / p95, px of the frame "
-              "and px of a 640-px-wide frame):\n\n");
-  std::printf("| size | path | grey converted %% | decode ms | frames with a tooth | outline px | outline px at 640 |\n");
-  std::printf("|---|---|---|---|---|---|---|\n");
+              "and px of a 640-px-wide frame), and the mannequin's tracked position against the truth (left eye / rig):\n\n");
+  std::printf("| size | path | grey converted %% | decode ms | frames with a tooth | outline px | outline px at 640 | "
+              "frames tracked | mannequin error p50 / p95 mm |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& t : extra_rows) std::printf("%s", t.c_str());
   std::printf("\nAR part p50, largest size / smallest size (goal for 1920x1080 / 640x480: <= 1.5):\n");
   for (const auto& [path, v] : ar_by_path)

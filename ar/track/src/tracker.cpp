@@ -142,6 +142,8 @@ std::string TrackerOptions::validate() const {
     os << "roi_decimation = " << roi_decimation << " must be in [1, 16]";
   else if (!std::isfinite(roi_decimate_above_px) || roi_decimate_above_px < 0)
     os << "roi_decimate_above_px = " << roi_decimate_above_px << " must be >= 0";
+  else if (roi_decimation_max < 0 || roi_decimation_max > 8)
+    os << "roi_decimation_max = " << roi_decimation_max << " must be in 0..8 (0 = off)";
   else if (!finite_positive(max_rms_px))
     os << "max_rms_px = " << max_rms_px << " must be finite and > 0";
   else if (!(std::isfinite(mannequin_max_sigma_m) && mannequin_max_sigma_m >= 0))
@@ -500,8 +502,12 @@ struct Tracker::Impl {
   // The tags in one box, corners in full-image pixels: on the image as delivered, or
   // (second look) on its linear-light copy. Large boxes are searched decimated.
   Result<std::vector<DetectedTag>> detect_box(const Box& b, bool linear_light) {
-    const double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
-                                                                : o.roi_decimation;
+    double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
+                                                          : o.roi_decimation;
+    // Issue 28 (off by default): the decimation follows the tags' predicted size.
+    if (o.roi_decimation_max > 2 && o.roi_decimate_above_px > 0 && b.min_side_px > o.roi_decimate_above_px)
+      dec = std::max(dec, std::min<double>(o.roi_decimation_max,
+                                           std::floor(b.min_side_px / o.roi_decimate_above_px)));
     if (Status s = detector->set_decimation(dec); !s) return Error{s.error()};
     const cv::Rect rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0);
     const cv::Mat crop = gray.region(rect)(rect);

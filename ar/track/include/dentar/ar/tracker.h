@@ -119,6 +119,12 @@ struct TrackerOptions {
   // refinement at full resolution keeps the corners as accurate).
   double roi_decimation = 1.0;
   double roi_decimate_above_px = 24.0;
+  // Issue 28, measured and off by default (0): above 2, a region whose tags are all
+  // predicted at least k x roi_decimate_above_px wide is searched at decimation k
+  // (at most this), so the quad search's cost follows the overlay rather than the
+  // camera's resolution (edge refinement stays at full resolution). docs/BENCHMARKS.md,
+  // "Issue 28 session 16".
+  int roi_decimation_max = 0;
   // Also search the full frame whenever the mirror (not only the mannequin)
   // is lost. Off by default: the mirror is out of view for long stretches
   // and would force the slow path on every one of those frames.
