@@ -5,7 +5,7 @@
 //   ./build/ar/ar_frame_cost_bench [--frames N] [--sizes 640x480,1280x720,1920x1080]
 //                                  [--preset standard|hard|mirror] [--seed S] [--csv FILE]
 //                                  [--paths region,main,angular,pixel,roidec,whole] [--gl] [--repeat R] [--truth-poses]
-//                                  [--yuyv] [--stereo] [--outline]
+//                                  [--yuyv] [--stereo] [--outline] [--rounds R]
 //
 // For each size: N frames of generated footage (the same scene and motion at every
 // size: the generator rescales the station camera), then the frame pipeline's own
@@ -52,6 +52,10 @@
 // true pose with the full mesh (lod_max_error_px = 0), as the mean distance between the
 // two outlines in px (differing pixels / the truth outline's length), in px of the frame
 // and in px of a 640-px-wide frame (the same angle at every size). Left eye only.
+//
+// --rounds R: R sweeps over the sizes, the order reversed every other sweep, each size's
+// samples pooled over the sweeps: on a shared machine the load drifts during a run,
+// and a size measured only at its end of the run would carry the drift into the ratio.
 //
 // Output: one table row per (size, path) with medians and p99s, and per size a table of
 // the AR part against the overlay's area (CompositeResult::region, output pixels), in
@@ -105,13 +109,14 @@ struct Args {
   int repeat = 1;  // passes over the frames (more samples for a profile)
   bool truth_poses = false;
   bool yuyv = false, stereo = false, outline = false;
+  int rounds = 1;  // sweeps over the sizes, alternating their order (load drift averages out)
 };
 
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "ar_frame_cost_bench: %s\nusage: ar_frame_cost_bench [--frames N] [--sizes WxH,...] "
                "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,pixel,roidec,whole] [--gl] [--repeat R] [--truth-poses] "
-               "[--yuyv] [--stereo] [--outline]\n",
+               "[--yuyv] [--stereo] [--outline] [--rounds R]\n",
                why.c_str());
   std::exit(2);
 }
@@ -160,6 +165,9 @@ Args parse(int argc, char** argv) {
       if (a.repeat < 1 || a.repeat > 1000) usage("--repeat must be in 1..1000");
     } else if (k == "--truth-poses") {
       a.truth_poses = true;
+    } else if (k == "--rounds") {
+      a.rounds = std::atoi(val().c_str());
+      if (a.rounds < 1 || a.rounds > 100) usage("--rounds must be in 1..100");
     } else if (k == "--yuyv") {
       a.yuyv = true;
     } else if (k == "--stereo") {
@@ -243,7 +251,10 @@ int run(const Args& a) {
   std::map<std::string, std::vector<std::pair<std::string, double>>> ar_by_path;  // path -> (size, p50)
   std::vector<std::string> area_tables, stage_rows, extra_rows;
 
-  for (const auto& [W, H] : a.sizes) {
+  std::map<std::pair<int, int>, std::vector<std::pair<std::string, std::vector<Sample>>>> pooled;
+  for (int round = 0; round < a.rounds; ++round)
+  for (std::size_t si = 0; si < a.sizes.size(); ++si) {
+    const auto [W, H] = a.sizes[round % 2 == 0 ? si : a.sizes.size() - 1 - si];
     SynthOptions so = synth_preset(*preset);
     so.frames = a.frames;
     so.width = W;
@@ -538,7 +549,19 @@ int run(const Args& a) {
       }
     }
     perf_control("disable");
-    for (Run& r : runs) {
+    auto& pool = pooled[{W, H}];
+    for (std::size_t ri = 0; ri < runs.size(); ++ri) {
+      if (pool.size() <= ri) pool.emplace_back(runs[ri].path, std::vector<Sample>{});
+      pool[ri].second.insert(pool[ri].second.end(), runs[ri].samples.begin(), runs[ri].samples.end());
+    }
+    for (GLuint t : textures) glDeleteTextures(1, &t);
+  }
+  for (const auto& [W, H] : a.sizes)
+    for (auto& [path, samples] : pooled[{W, H}]) {
+      struct {
+        const std::string& path;
+        std::vector<Sample>& samples;
+      } r{path, samples};
       auto col = [&](auto get) {
         std::vector<double> v;
         for (const Sample& s : r.samples) v.push_back(static_cast<double>(get(s)));
@@ -606,8 +629,6 @@ int run(const Args& a) {
                     o95 * to640, merr.size(), quantile(merr, 0.5), quantile(merr, 0.95));
       extra_rows.push_back(ex);
     }
-    for (GLuint t : textures) glDeleteTextures(1, &t);
-  }
 
   std::printf("\nAR part against the overlay's area (frames with an overlay, in quartiles of its area):\n\n");
   std::printf("| size | path | frames | overlay area px | track p50 ms | composite minus passthrough p50 ms | AR p50 ms | AR p99 ms |\n");
