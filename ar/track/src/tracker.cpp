@@ -507,7 +507,7 @@ struct Tracker::Impl {
     // Issue 28 (off by default): the decimation follows the tags' predicted size.
     if (o.roi_decimation_max > 2 && o.roi_decimate_above_px > 0 && b.min_side_px > o.roi_decimate_above_px)
       dec = std::max(dec, std::min<double>(o.roi_decimation_max,
-                                           std::floor(b.min_side_px / o.roi_decimate_above_px)));
+                                           std::floor(2 * b.min_side_px / o.roi_decimate_above_px)));
     if (Status s = detector->set_decimation(dec); !s) return Error{s.error()};
     const cv::Rect rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0);
     const cv::Mat crop = gray.region(rect)(rect);

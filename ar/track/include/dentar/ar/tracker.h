@@ -120,8 +120,8 @@ struct TrackerOptions {
   double roi_decimation = 1.0;
   double roi_decimate_above_px = 24.0;
   // Issue 28, measured and off by default (0): above 2, a region whose tags are all
-  // predicted at least k x roi_decimate_above_px wide is searched at decimation k
-  // (at most this), so the quad search's cost follows the overlay rather than the
+  // predicted at least k x roi_decimate_above_px / 2 wide is searched at decimation k
+  // (at most this; the decimated tag keeps the >= 12 px side that decimation 2 keeps), so the quad search's cost follows the overlay rather than the
   // camera's resolution (edge refinement stays at full resolution). docs/BENCHMARKS.md,
   // "Issue 28 session 16".
   int roi_decimation_max = 0;
