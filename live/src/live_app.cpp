@@ -933,9 +933,6 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const std::string iso = isolate_engine(o, cfg, ncpu, sum);
   ar::PipelineOptions popt = o.pipeline;
   popt.compositor.bur = ss.bur_params;  // draw the bur the engine cuts with
-  // The loupe magnifies the composite: keep the tooth's level-of-detail error in the
-  // magnified view what it is in a 640-px view (issue 28: the budget is in angle).
-  if (o.loupe > 0 && popt.compositor.lod_reference_width_px > 0) popt.compositor.lod_reference_width_px *= o.loupe;
   // Stereo (issue 28): both eyes through the StereoTracker, whose tag search runs inside the frame.
   popt.stereo = o.side_by_side || !o.camera_right.empty();
   if (popt.stereo) popt.tracker.discovery = ar::DiscoveryMode::kInline;
