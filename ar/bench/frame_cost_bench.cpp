@@ -4,15 +4,18 @@
 //
 //   ./build/ar/ar_frame_cost_bench [--frames N] [--sizes 640x480,1280x720,1920x1080]
 //                                  [--preset standard|hard|mirror] [--seed S] [--csv FILE]
-//                                  [--paths region,main,angular,whole] [--gl] [--repeat R] [--truth-poses]
+//                                  [--paths region,main,angular,pixel,roidec,whole] [--gl] [--repeat R] [--truth-poses]
+//                                  [--yuyv] [--stereo] [--outline] [--rounds R]
 //
 // For each size: N frames of generated footage (the same scene and motion at every
 // size: the generator rescales the station camera), then the frame pipeline's own
 // tracker and compositor run over them once per path (region: the defaults; main: the
 // defaults without CompositorOptions::cull_facing_away, i.e. main before issue 28's
 // session 15; whole: CompositorOptions::region_path = false and
-// TrackerOptions::predicted_regions = false; angular: region with lod_max_error_px = W / 640,
-// the same error in angle at every size as 1 px at 640x480), the paths
+// TrackerOptions::predicted_regions = false; angular: region with lod_reference_width_px = 640,
+// the same error in angle at every size as 1 px at 640x480; the default since session 16;
+// pixel: the budget in px of the frame itself, session 15's default; roidec: region with
+// TrackerOptions::roi_decimation_max = 4), the paths
 // alternating frame by frame (same input, same load), each path with its own
 // pipeline. Every stage is timed with the process's CPU clock
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's rasteriser threads work for the frame thread
@@ -35,6 +38,25 @@
 // generator's true poses, so every size draws the same things (tracking at 640x480 loses
 // the mirror's small tag more often, which shrinks the overlay there).
 //
+// --yuyv (session 16): the camera's own format. Each generated frame is turned into YUYV
+// 4:2:2 beforehand (frame_gray.h, bgr_to_yuyv: what a UVC camera sends); the tracker
+// is given the YUYV frame (grey from the Y plane, only where it searches), and the
+// compositor the BGR that a bare viewer's YUYV-to-BGR conversion makes once per frame
+// (timed as 'decode', outside the AR part: a bare viewer does it too).
+// --stereo: both eyes of a 63 mm rig (StereoSynthGenerator); the tracker is the
+// StereoTracker over both eyes and each eye is composited at its own pose (the left
+// at the rig's, the right at T_camr_caml times it; --truth-poses: each eye's truth),
+// so every per-frame figure is the pair's (passthrough: both eyes' copies).
+// --outline: per frame, the drawn tooth's outline against the truth: the visible-tooth
+// mask (CompositeResult::tooth_visible >= 128) against the same mask composited at the
+// true pose with the full mesh (lod_max_error_px = 0), as the mean distance between the
+// two outlines in px (differing pixels / the truth outline's length), in px of the frame
+// and in px of a 640-px-wide frame (the same angle at every size). Left eye only.
+//
+// --rounds R: R sweeps over the sizes, the order reversed every other sweep, each size's
+// samples pooled over the sweeps: on a shared machine the load drifts during a run,
+// and a size measured only at its end of the run would carry the drift into the ratio.
+//
 // Output: one table row per (size, path) with medians and p99s, and per size a table of
 // the AR part against the overlay's area (CompositeResult::region, output pixels), in
 // quartiles of that area. --csv writes every frame.
@@ -53,6 +75,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -60,7 +83,9 @@
 #include <vector>
 
 #include "dentar/ar/egl_context.h"
+#include "dentar/ar/frame_gray.h"
 #include "dentar/ar/frame_pipeline.h"
+#include "dentar/ar/stereo_tracker.h"
 #include "dentar/ar/synth.h"
 #include "dentar/volume/procedural_tooth.h"
 
@@ -83,12 +108,15 @@ struct Args {
   bool gl = false;
   int repeat = 1;  // passes over the frames (more samples for a profile)
   bool truth_poses = false;
+  bool yuyv = false, stereo = false, outline = false;
+  int rounds = 1;  // sweeps over the sizes, alternating their order (load drift averages out)
 };
 
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "ar_frame_cost_bench: %s\nusage: ar_frame_cost_bench [--frames N] [--sizes WxH,...] "
-               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,whole] [--gl] [--repeat R] [--truth-poses]\n",
+               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,pixel,roidec,whole] [--gl] [--repeat R] [--truth-poses] "
+               "[--yuyv] [--stereo] [--outline] [--rounds R]\n",
                why.c_str());
   std::exit(2);
 }
@@ -129,14 +157,23 @@ Args parse(int argc, char** argv) {
     } else if (k == "--paths") {
       a.paths = split(val());
       for (const auto& p : a.paths)
-        if (p != "region" && p != "whole" && p != "main" && p != "angular")
-          usage("--paths: '" + p + "' is not region, main, angular or whole");
+        if (p != "region" && p != "whole" && p != "main" && p != "angular" && p != "pixel" && p != "roidec")
+          usage("--paths: '" + p + "' is not region, main, angular, pixel, roidec or whole");
       if (a.paths.empty()) usage("--paths is empty");
     } else if (k == "--repeat") {
       a.repeat = std::atoi(val().c_str());
       if (a.repeat < 1 || a.repeat > 1000) usage("--repeat must be in 1..1000");
     } else if (k == "--truth-poses") {
       a.truth_poses = true;
+    } else if (k == "--rounds") {
+      a.rounds = std::atoi(val().c_str());
+      if (a.rounds < 1 || a.rounds > 100) usage("--rounds must be in 1..100");
+    } else if (k == "--yuyv") {
+      a.yuyv = true;
+    } else if (k == "--stereo") {
+      a.stereo = true;
+    } else if (k == "--outline") {
+      a.outline = true;
     } else if (k == "--gl") {
       a.gl = true;
     } else {
@@ -169,6 +206,10 @@ struct Sample {
   double track = 0, composite = 0, passthrough = 0, ar = 0;
   double render_wall = 0, blend_wall = 0, segment_wall = 0, readback_wall = 0, sync_wall = 0, upload_wall = 0;
   double grey_wall = 0, detect_wall = 0, pose_wall = 0, filter_wall = 0;
+  double decode = 0;         // --yuyv: the bare viewer's YUYV-to-BGR conversion (not in ar)
+  double gray_fraction = 0;  // of the frame converted to grey by the tracker (left eye)
+  double outline_px = -1;    // --outline: mean outline distance to the truth, px (-1: no tooth)
+  double man_err_mm = -1;    // the mannequin's tracked pose (drawn) against the truth, mm (-1: lost)
   int area = 0;  // overlay region, output px
   std::size_t tris = 0;
   int lod = 0;
@@ -178,8 +219,10 @@ struct Sample {
 struct Run {
   std::string path;
   std::unique_ptr<FramePipeline> pipe;
+  std::unique_ptr<FramePipeline> pipe_r;  // --stereo: the right eye's compositor
+  std::optional<StereoTracker> stereo;    // --stereo: the tracker over both eyes
   std::unique_ptr<ToothMeshes> meshes;
-  CompositeResult out;
+  CompositeResult out, out_r;
   std::vector<Sample> samples;
 };
 
@@ -199,33 +242,66 @@ int run(const Args& a) {
       std::fprintf(stderr, "ar_frame_cost_bench: cannot write --csv %s\n", a.csv.c_str());
       return 2;
     }
-    csv << "size,path,frame,area_px,tris,lod,full_frame,track_ms,composite_ms,passthrough_ms,ar_ms\n";
+    csv << "size,path,frame,area_px,tris,lod,full_frame,track_ms,composite_ms,passthrough_ms,ar_ms,decode_ms,gray_fraction,outline_px\n";
   }
 
   std::printf("| size | path | overlay area p50 px (%% of frame) | track p50 / p99 ms | composite p50 / p99 ms | "
               "passthrough p50 ms | **AR part p50 / p99 ms** | tooth triangles p50 (level of detail) |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   std::map<std::string, std::vector<std::pair<std::string, double>>> ar_by_path;  // path -> (size, p50)
-  std::vector<std::string> area_tables, stage_rows;
+  std::vector<std::string> area_tables, stage_rows, extra_rows;
 
-  for (const auto& [W, H] : a.sizes) {
+  std::map<std::pair<int, int>, std::vector<std::pair<std::string, std::vector<Sample>>>> pooled;
+  for (int round = 0; round < a.rounds; ++round)
+  for (std::size_t si = 0; si < a.sizes.size(); ++si) {
+    const auto [W, H] = a.sizes[round % 2 == 0 ? si : a.sizes.size() - 1 - si];
     SynthOptions so = synth_preset(*preset);
     so.frames = a.frames;
     so.width = W;
     so.height = H;
     so.seed = a.seed;
-    auto gen = SynthGenerator::create(default_station_scene(), so);
-    if (!gen) {
-      std::fprintf(stderr, "ar_frame_cost_bench: generator: %s\n", gen.error().c_str());
-      return 1;
-    }
-    std::vector<SynthFrame> frames(static_cast<std::size_t>(a.frames));
-    for (auto& f : frames)
-      if (auto s = (*gen)->next(f); !s) {
-        std::fprintf(stderr, "ar_frame_cost_bench: generator: %s\n", s.error().c_str());
+    std::vector<SynthFrame> frames(static_cast<std::size_t>(a.frames)), rights;
+    StationScene station;
+    if (a.stereo) {
+      StationScene st = default_station_scene();
+      st.stereo = make_stereo_rig(st.calibration.camera, 0.063);
+      auto gen = StereoSynthGenerator::create(st, so);
+      if (!gen) {
+        std::fprintf(stderr, "ar_frame_cost_bench: generator: %s\n", gen.error().c_str());
         return 1;
       }
-    const StationScene station = (*gen)->station();
+      rights.resize(frames.size());
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        StereoSynthFrame sf;
+        if (auto s = (*gen)->next(sf); !s) {
+          std::fprintf(stderr, "ar_frame_cost_bench: generator: %s\n", s.error().c_str());
+          return 1;
+        }
+        frames[i] = std::move(sf.left);
+        rights[i] = std::move(sf.right);
+      }
+      station = (*gen)->station();
+    } else {
+      auto gen = SynthGenerator::create(default_station_scene(), so);
+      if (!gen) {
+        std::fprintf(stderr, "ar_frame_cost_bench: generator: %s\n", gen.error().c_str());
+        return 1;
+      }
+      for (auto& f : frames)
+        if (auto s = (*gen)->next(f); !s) {
+          std::fprintf(stderr, "ar_frame_cost_bench: generator: %s\n", s.error().c_str());
+          return 1;
+        }
+      station = (*gen)->station();
+    }
+    StationScene station_r = station;  // the right eye's camera for its compositor
+    if (a.stereo) station_r.calibration.camera = station.stereo.camera_right;
+    // The camera's own format (--yuyv): converted before anything is timed.
+    std::vector<cv::Mat> yuyv_l, yuyv_r;
+    if (a.yuyv) {
+      for (const auto& f : frames) bgr_to_yuyv(f.image, yuyv_l.emplace_back());
+      for (const auto& f : rights) bgr_to_yuyv(f.image, yuyv_r.emplace_back());
+    }
     volume::MolarParams mp;
     mp.voxel_mm = station.tooth_voxel_m * 1e3;
     auto vol = volume::make_molar(mp);
@@ -256,7 +332,11 @@ int run(const Args& a) {
       po.compositor.cull_facing_away = p != "main";
       // angular: the region path with the level of detail's error budget kept constant in
       // angle (1 px at 640 px wide): what meeting the goal by coarser meshes would mean.
-      if (p == "angular") po.compositor.lod_max_error_px = W / 640.0;
+      if (p == "angular") po.compositor.lod_reference_width_px = 640;
+      // pixel: the region path with the level of detail's budget in px of the frame itself.
+      if (p == "pixel") po.compositor.lod_reference_width_px = 0;
+      // roidec: the region path with the tag search's decimation following the tags' size.
+      if (p == "roidec") po.tracker.roi_decimation_max = 4;
       auto pipe = FramePipeline::create(station, po);
       if (!pipe) {
         std::fprintf(stderr, "ar_frame_cost_bench: %s\n", pipe.error().c_str());
@@ -266,6 +346,24 @@ int run(const Args& a) {
       r.path = p;
       r.pipe = std::move(pipe).value();
       r.meshes = std::make_unique<ToothMeshes>(*vol);
+      if (a.stereo) {
+        auto st = StereoTracker::create(station, po.tracker);
+        auto pr = FramePipeline::create(station_r, po);
+        if (!st || !pr) {
+          std::fprintf(stderr, "ar_frame_cost_bench: --stereo: %s\n", (!st ? st.error() : pr.error()).c_str());
+          return 1;
+        }
+        r.stereo.emplace(std::move(st).value());
+        r.pipe_r = std::move(pr).value();
+        if (a.gl) {
+          std::fprintf(stderr, "ar_frame_cost_bench: --stereo with --gl is not supported\n");
+          return 2;
+        }
+        if (auto s2 = r.pipe_r->warm_up(*r.meshes, GlFrameTarget{}); !s2) {
+          std::fprintf(stderr, "ar_frame_cost_bench: %s\n", s2.error().c_str());
+          return 1;
+        }
+      }
       GlFrameTarget t;
       if (a.gl) {
         t.video_texture = make_tex();
@@ -283,15 +381,44 @@ int run(const Args& a) {
       runs.push_back(std::move(r));
     }
     GLuint bare_tex = a.gl ? make_tex() : 0;
-    cv::Mat bare, bare_rgba;
+    cv::Mat bare, bare_rgba, bare_r, decoded_l, decoded_r;
+    // --outline: the truth's compositor (full mesh, the defaults otherwise).
+    std::unique_ptr<FramePipeline> truth_pipe;
+    std::unique_ptr<ToothMeshes> truth_meshes;
+    CompositeResult truth_out;
+    if (a.outline) {
+      PipelineOptions po;
+      po.compositor.lod_max_error_px = 0;
+      auto tp = FramePipeline::create(station, po);
+      if (!tp) {
+        std::fprintf(stderr, "ar_frame_cost_bench: %s\n", tp.error().c_str());
+        return 1;
+      }
+      truth_pipe = std::move(tp).value();
+      truth_meshes = std::make_unique<ToothMeshes>(*vol);
+      if (auto s = truth_pipe->warm_up(*truth_meshes, GlFrameTarget{}); !s) {
+        std::fprintf(stderr, "ar_frame_cost_bench: %s\n", s.error().c_str());
+        return 1;
+      }
+    }
+    cv::Mat truth_mask, truth_edge, path_mask, xor_mask;
 
     perf_control("enable");
     for (std::size_t n = 0; n < frames.size() * static_cast<std::size_t>(a.repeat); ++n) {
       const std::size_t i = n % frames.size();
       const SynthFrame& f = frames[i];
       const double t_s = static_cast<double>(n) / so.fps;
-      // The bare viewer's work on this frame.
+      // The bare viewer's work on this frame: with --yuyv first its conversion to BGR
+      // (decode: outside the AR part, and the compositor's input).
       double c0 = cpu_ms();
+      if (a.yuyv) {
+        cv::cvtColor(yuyv_l[i], decoded_l, cv::COLOR_YUV2BGR_YUYV);
+        if (a.stereo) cv::cvtColor(yuyv_r[i], decoded_r, cv::COLOR_YUV2BGR_YUYV);
+      }
+      const double decode = cpu_ms() - c0;
+      const cv::Mat& img_l = a.yuyv ? decoded_l : f.image;
+      const cv::Mat& img_r = a.yuyv ? decoded_r : (a.stereo ? rights[i].image : f.image);
+      c0 = cpu_ms();
       if (a.gl) {
         cv::cvtColor(f.image, bare_rgba, cv::COLOR_BGR2RGBA);
         glBindTexture(GL_TEXTURE_2D, bare_tex);
@@ -300,25 +427,59 @@ int run(const Args& a) {
         glBindTexture(GL_TEXTURE_2D, 0);
         glFinish();
       } else {
-        f.image.copyTo(bare);
+        img_l.copyTo(bare);
+        if (a.stereo) img_r.copyTo(bare_r);
       }
       const double passthrough = cpu_ms() - c0;
+      if (a.outline) {  // the truth's outline (not timed)
+        CompositeInput ti;
+        ti.video_bgr = &img_l;
+        ti.man_valid = ti.mirror_valid = ti.stylus_valid = true;
+        ti.T_cam_man = f.truth.T_cam_man;
+        ti.T_cam_mtag = f.truth.T_cam_mtag;
+        ti.T_dev_sty = f.truth.T_dev_sty;
+        truth_meshes->sync();
+        if (Status ts = truth_pipe->compositor().compose(truth_meshes->display(), ti, truth_out); !ts) {
+          std::fprintf(stderr, "ar_frame_cost_bench: frame %zu (truth): %s\n", i, ts.error().c_str());
+          return 1;
+        }
+        truth_mask = truth_out.tooth_visible >= 128;
+        cv::Mat eroded;
+        cv::erode(truth_mask, eroded, cv::Mat());
+        truth_edge = truth_mask - eroded;
+      }
       for (std::size_t ri = 0; ri < runs.size(); ++ri) {
         // Alternate which path goes first, so neither always finds the caches warm.
         Run& r = runs[(ri + i) % runs.size()];
         const GlFrameTarget& tgt = targets[(ri + i) % runs.size()];
         Sample s;
         s.passthrough = passthrough;
+        s.decode = decode;
+        const cv::Mat& track_l = a.yuyv ? yuyv_l[i] : f.image;
         c0 = cpu_ms();
         r.meshes->sync();
-        auto tf = r.pipe->tracker().track(f.image, t_s, t_s, nullptr, static_cast<std::int64_t>(n));
+        Result<TrackFrame> tf = TrackFrame{};
+        std::optional<Eigen::Isometry3d> rig_man, rig_mtag;  // --stereo, tracked poses
+        if (a.stereo) {
+          auto sf = r.stereo->track(track_l, a.yuyv ? yuyv_r[i] : rights[i].image, t_s, t_s);
+          if (!sf) {
+            std::fprintf(stderr, "ar_frame_cost_bench: frame %zu: %s\n", i, sf.error().c_str());
+            return 1;
+          }
+          TrackFrame lf = sf->left;
+          lf.mannequin = sf->mannequin.track;
+          lf.mirror = sf->mirror.track;
+          tf = std::move(lf);
+        } else {
+          tf = r.pipe->tracker().track(track_l, t_s, t_s, nullptr, static_cast<std::int64_t>(n));
+        }
         const double c1 = cpu_ms();
         if (!tf) {
           std::fprintf(stderr, "ar_frame_cost_bench: frame %zu: %s\n", i, tf.error().c_str());
           return 1;
         }
         CompositeInput ci;
-        ci.video_bgr = &f.image;
+        ci.video_bgr = &img_l;
         if (a.truth_poses) {
           ci.man_valid = ci.mirror_valid = true;
           ci.T_cam_man = f.truth.T_cam_man;
@@ -331,9 +492,22 @@ int run(const Args& a) {
         }
         ci.stylus_valid = true;
         ci.T_dev_sty = f.truth.T_dev_sty;
-        const Status cs = a.gl ? r.pipe->compositor().compose_gl(r.meshes->display(), ci, tgt, r.out)
-                               : r.pipe->compositor().compose(r.meshes->display(), ci, r.out);
+        Status cs = a.gl ? r.pipe->compositor().compose_gl(r.meshes->display(), ci, tgt, r.out)
+                         : r.pipe->compositor().compose(r.meshes->display(), ci, r.out);
         if (a.gl) glFinish();
+        if (cs && a.stereo) {  // the right eye at its own pose
+          CompositeInput cr = ci;
+          cr.video_bgr = &img_r;
+          if (a.truth_poses) {
+            cr.T_cam_man = rights[i].truth.T_cam_man;
+            cr.T_cam_mtag = rights[i].truth.T_cam_mtag;
+          } else {
+            const Eigen::Isometry3d T_camr_caml = station.stereo.T_caml_camr.inverse();
+            cr.T_cam_man = T_camr_caml * ci.T_cam_man;
+            cr.T_cam_mtag = T_camr_caml * ci.T_cam_mtag;
+          }
+          cs = r.pipe_r->compositor().compose(r.meshes->display(), cr, r.out_r);
+        }
         const double c2 = cpu_ms();
         if (!cs) {
           std::fprintf(stderr, "ar_frame_cost_bench: frame %zu: %s\n", i, cs.error().c_str());
@@ -342,10 +516,21 @@ int run(const Args& a) {
         s.track = c1 - c0;
         s.composite = c2 - c1;
         s.ar = s.track + s.composite - s.passthrough;
-        s.area = r.out.region.area();
-        s.tris = r.out.triangles_drawn;
+        s.area = r.out.region.area() + (a.stereo ? r.out_r.region.area() : 0);
+        s.tris = r.out.triangles_drawn + (a.stereo ? r.out_r.triangles_drawn : 0);
         s.lod = r.out.lod_level;
         s.full_frame = tf->full_frame;
+        s.gray_fraction = tf->gray_fraction;
+        if (tf->mannequin.state != TrackState::kLost)
+          s.man_err_mm = 1e3 * (tf->mannequin.T_cam_body.translation() - f.truth.T_cam_man.translation()).norm();
+        if (a.outline) {
+          const int edge = cv::countNonZero(truth_edge);
+          if (edge >= 10) {
+            path_mask = r.out.tooth_visible >= 128;
+            cv::bitwise_xor(path_mask, truth_mask, xor_mask);
+            s.outline_px = double(cv::countNonZero(xor_mask)) / edge;
+          }
+        }
         s.render_wall = r.out.timing.render_ms;
         s.blend_wall = r.out.timing.blend_ms;
         s.segment_wall = r.out.timing.segment_ms;
@@ -360,11 +545,23 @@ int run(const Args& a) {
         if (csv)
           csv << W << 'x' << H << ',' << r.path << ',' << i << ',' << s.area << ',' << s.tris << ',' << s.lod << ','
               << (s.full_frame ? 1 : 0) << ',' << s.track << ',' << s.composite << ',' << s.passthrough << ','
-              << s.ar << '\n';
+              << s.ar << ',' << s.decode << ',' << s.gray_fraction << ',' << s.outline_px << '\n';
       }
     }
     perf_control("disable");
-    for (Run& r : runs) {
+    auto& pool = pooled[{W, H}];
+    for (std::size_t ri = 0; ri < runs.size(); ++ri) {
+      if (pool.size() <= ri) pool.emplace_back(runs[ri].path, std::vector<Sample>{});
+      pool[ri].second.insert(pool[ri].second.end(), runs[ri].samples.begin(), runs[ri].samples.end());
+    }
+    for (GLuint t : textures) glDeleteTextures(1, &t);
+  }
+  for (const auto& [W, H] : a.sizes)
+    for (auto& [path, samples] : pooled[{W, H}]) {
+      struct {
+        const std::string& path;
+        std::vector<Sample>& samples;
+      } r{path, samples};
       auto col = [&](auto get) {
         std::vector<double> v;
         for (const Sample& s : r.samples) v.push_back(static_cast<double>(get(s)));
@@ -419,9 +616,19 @@ int run(const Args& a) {
                     quantile(col([](const Sample& x) { return x.segment_wall; }), 0.5),
                     quantile(col([](const Sample& x) { return x.blend_wall; }), 0.5));
       stage_rows.push_back(st);
+      std::vector<double> outl, merr;
+      for (const Sample& x : r.samples) {
+        if (x.outline_px >= 0) outl.push_back(x.outline_px);
+        if (x.man_err_mm >= 0) merr.push_back(x.man_err_mm);
+      }
+      const double o50 = quantile(outl, 0.5), o95 = quantile(outl, 0.95), to640 = 640.0 / W;
+      char ex[400];
+      std::snprintf(ex, sizeof ex, "| %dx%d | %s | %.1f | %.2f | %zu | %.3f / %.3f | %.3f / %.3f | %zu | %.3f / %.3f |\n", W, H,
+                    r.path.c_str(), 100 * quantile(col([](const Sample& x) { return x.gray_fraction; }), 0.5),
+                    quantile(col([](const Sample& x) { return x.decode; }), 0.5), outl.size(), o50, o95, o50 * to640,
+                    o95 * to640, merr.size(), quantile(merr, 0.5), quantile(merr, 0.95));
+      extra_rows.push_back(ex);
     }
-    for (GLuint t : textures) glDeleteTextures(1, &t);
-  }
 
   std::printf("\nAR part against the overlay's area (frames with an overlay, in quartiles of its area):\n\n");
   std::printf("| size | path | frames | overlay area px | track p50 ms | composite minus passthrough p50 ms | AR p50 ms | AR p99 ms |\n");
@@ -433,6 +640,14 @@ int run(const Args& a) {
               "segment | resample + blend |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& t : stage_rows) std::printf("%s", t.c_str());
+  std::printf("\nGrey converted by the tracker (%% of the frame, p50; 100 on full-frame searches), the bare viewer's "
+              "YUYV decode (--yuyv, CPU ms p50, not in the AR part), and the drawn tooth's outline against the truth "
+              "(--outline: full mesh at the true pose; mean distance between the outlines, p50 / p95, px of the frame "
+              "and px of a 640-px-wide frame), and the mannequin's tracked position against the truth (left eye / rig):\n\n");
+  std::printf("| size | path | grey converted %% | decode ms | frames with a tooth | outline px | outline px at 640 | "
+              "frames tracked | mannequin error p50 / p95 mm |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& t : extra_rows) std::printf("%s", t.c_str());
   std::printf("\nAR part p50, largest size / smallest size (goal for 1920x1080 / 640x480: <= 1.5):\n");
   for (const auto& [path, v] : ar_by_path)
     if (v.size() >= 2)

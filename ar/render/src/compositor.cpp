@@ -640,6 +640,9 @@ std::string CompositorOptions::validate() const {
   std::ostringstream os;
   if (!(std::isfinite(lod_max_error_px) && lod_max_error_px >= 0 && lod_max_error_px <= 100)) {
     os << "lod_max_error_px = " << lod_max_error_px << " must be in [0, 100]";
+  } else if (!(std::isfinite(lod_reference_width_px) && lod_reference_width_px >= 0 &&
+               lod_reference_width_px <= 16384)) {
+    os << "lod_reference_width_px = " << lod_reference_width_px << " must be in [0, 16384] (0 = off)";
   } else if (lod_cell_voxels.size() > 4) {
     os << "lod_cell_voxels has " << lod_cell_voxels.size() << " levels; at most 4";
   } else if (!(std::isfinite(feather_px) && feather_px >= 0 && feather_px <= 20)) {
@@ -1091,9 +1094,14 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     const Eigen::Vector3d c =
         T_cam_tooth * (0.5 * (tooth_box.lo + tooth_box.hi).cast<double>());
     const double m_per_px = std::max(c.z(), o.near_m) / im.view.pinhole.fx;
+    // The budget in px of this frame: the same angle at every width above the reference.
+    const double budget_px =
+        o.lod_max_error_px * (o.lod_reference_width_px > 0
+                                  ? std::max(1.0, im.camera.width / o.lod_reference_width_px)
+                                  : 1.0);
     if (o.lod_max_error_px > 0)
       for (int l = 1; l < L; ++l)
-        if (im.level_error_m[static_cast<std::size_t>(l)] / m_per_px <= o.lod_max_error_px)
+        if (im.level_error_m[static_cast<std::size_t>(l)] / m_per_px <= budget_px)
           level = l;
     if (o.triangle_budget > 0)
       while (level + 1 < L && im.level_tris[static_cast<std::size_t>(level)] > o.triangle_budget)

@@ -154,3 +154,68 @@ TEST(CompositorRegionGl, RegionPathMatchesWholeFramePathInsideAndIsTheVideoOutsi
 
 }  // namespace
 }  // namespace dentar::ar
+
+namespace dentar::ar {
+namespace {
+
+// The outline of the directly seen tooth (tooth_visible >= 128) against the full
+// mesh's at the same pose: mean distance between the two outlines, px
+// (differing pixels / the full mesh outline's length).
+double outline_px(const cv::Mat& visible, const cv::Mat& truth_visible) {
+  const cv::Mat a = visible >= 128, t = truth_visible >= 128;
+  cv::Mat eroded, x;
+  cv::erode(t, eroded, cv::Mat());
+  const int edge = cv::countNonZero(t - eroded);
+  cv::bitwise_xor(a, t, x);
+  return edge > 0 ? double(cv::countNonZero(x)) / edge : -1;
+}
+
+// Issue 28: the level of detail's error budget is kept in angle
+// (CompositorOptions::lod_reference_width_px = 640, the default): at 1920x1080 the
+// tooth is drawn from a coarser level than a budget in px of the frame would allow,
+// and its outline stays as close to the full mesh's as at 640x480.
+TEST(CompositorRegionGl, LevelOfDetailInAngleKeepsTheOutlineAtEveryResolution) {
+  DENTAR_GL_TEST_CONTEXT();
+  double worst640 = 0;
+  for (const auto& [W, H] : {std::pair{640, 480}, std::pair{1920, 1080}}) {
+    SynthOptions so = synth_preset(SynthPreset::kStandard);
+    so.frames = 2;
+    so.width = W;
+    so.height = H;
+    test::ToothFootage fo = test::tooth_footage(default_station_scene(), so, 1);
+    ASSERT_EQ(fo.error, "");
+    ASSERT_EQ(fo.frames.size(), 2u);
+    CompositorOptions full_o, px_o;
+    full_o.lod_max_error_px = 0;        // the full mesh: the truth
+    px_o.lod_reference_width_px = 0;    // the budget in px of this frame (session 15)
+    auto angle = Compositor::create(fo.station);
+    auto full = Compositor::create(fo.station, full_o);
+    auto pxl = Compositor::create(fo.station, px_o);
+    ASSERT_TRUE(angle.ok() && full.ok() && pxl.ok());
+    for (const auto& f : fo.frames) {
+      const CompositeInput in = test::truth_input(f);
+      CompositeResult a, t, p;
+      ASSERT_TRUE(angle->compose(*fo.tooth->surface, in, a).ok());
+      ASSERT_TRUE(full->compose(*fo.tooth->surface, in, t).ok());
+      ASSERT_TRUE(pxl->compose(*fo.tooth->surface, in, p).ok());
+      const double e = outline_px(a.tooth_visible, t.tooth_visible);
+      const double ep = outline_px(p.tooth_visible, t.tooth_visible);
+      std::printf("[ lod ] %dx%d frame %d: level %d (%zu triangles; budget in px: level %d, %zu), outline %.3f px "
+                  "(budget in px: %.3f)\n",
+                  W, H, f.truth.frame, a.lod_level, a.triangles_drawn, p.lod_level, p.triangles_drawn, e, ep);
+      ASSERT_GE(e, 0) << "no tooth drawn";
+      if (W == 640) {
+        EXPECT_EQ(a.lod_level, p.lod_level);  // the reference width: nothing changes
+        worst640 = std::max(worst640, e);
+      } else {
+        EXPECT_GT(a.lod_level, p.lod_level);  // coarser than a budget in px allows
+        EXPECT_LT(a.triangles_drawn, p.triangles_drawn / 2);
+        // In px of the 1920 frame, i.e. 3x stricter in angle than at 640.
+        EXPECT_LE(e, std::max(worst640, 0.05)) << "at 640x480 the worst was " << worst640;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace dentar::ar

@@ -50,7 +50,6 @@ struct StereoTracker::Impl {
   CameraModel model_l{calibration::CameraIntrinsics{}};
   RigBody mannequin, mirror, pen;
   std::optional<BundlePose> noise_ref;  // the mannequin's joint fit this frame
-  cv::Mat gray;
   ImageMotion motion;
   bool motion_set = false;
   bool motion_frame = false;                        // this frame's left image is in `motion`
@@ -234,13 +233,7 @@ Result<StereoTrackFrame> StereoTracker::track(const cv::Mat& left, const cv::Mat
   // The image-motion check compares the left eye's images: without one this frame, the
   // prediction is not checked against the image (the stale limit still applies).
   m.motion_frame = !left.empty() && m.o.max_prediction_turn_rad > 0;
-  if (m.motion_frame) {
-    if (left.type() == CV_8UC3)
-      cv::cvtColor(left, m.gray, cv::COLOR_BGR2GRAY);
-    else
-      m.gray = left;
-    m.motion.set_frame(m.gray);
-  }
+  if (m.motion_frame) m.motion.set_frame_from_image(left);  // decimated: frame_gray.h
   m.noise_ref.reset();
   m.update_body(m.mannequin, f.left.tags, f.right.tags, capture_time_s, display_time_s, f.mannequin);
   if (!m.mirror.bundle.tags.empty())

@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "dentar/ar/camera_model.h"
+#include "dentar/ar/frame_gray.h"
 #include "dentar/ar/image_motion.h"
 #include "dentar/ar/pose_uncertainty.h"
 #include "dentar/calibration/camera_file.h"
@@ -141,6 +142,8 @@ std::string TrackerOptions::validate() const {
     os << "roi_decimation = " << roi_decimation << " must be in [1, 16]";
   else if (!std::isfinite(roi_decimate_above_px) || roi_decimate_above_px < 0)
     os << "roi_decimate_above_px = " << roi_decimate_above_px << " must be >= 0";
+  else if (roi_decimation_max < 0 || roi_decimation_max > 8)
+    os << "roi_decimation_max = " << roi_decimation_max << " must be in 0..8 (0 = off)";
   else if (!finite_positive(max_rms_px))
     os << "max_rms_px = " << max_rms_px << " must be finite and > 0";
   else if (!(std::isfinite(mannequin_max_sigma_m) && mannequin_max_sigma_m >= 0))
@@ -340,7 +343,9 @@ struct Tracker::Impl {
   double outer_extent = 0.4;
   bool have_last_capture = false;
   double last_capture_s = 0;
-  cv::Mat gray;  // scratch
+  // The frame's grey levels, converted only where they are read (frame_gray.h):
+  // the predicted regions on most frames, the whole frame for a full-frame search.
+  FrameGray gray;
   // The mirror disc (TrackerOptions::mirror_rim_refine).
   Eigen::Isometry3d T_mtag_mir = Eigen::Isometry3d::Identity();
   double mirror_radius_m = 0, mirror_thickness_m = 0;
@@ -385,7 +390,7 @@ struct Tracker::Impl {
 
   void ensure_motion() {
     if (motion_frame == frames) return;
-    motion.set_frame(gray);
+    motion.set_frame_from_image(gray.image());
     motion_frame = frames;
   }
 
@@ -488,7 +493,7 @@ struct Tracker::Impl {
 
   Status detect_full(std::vector<DetectedTag>& out) {
     if (Status s = detector->set_decimation(o.detector.decimation); !s) return s;
-    auto r = detector->detect(gray);
+    auto r = detector->detect(gray.whole());
     if (!r) return Error{r.error()};
     out = std::move(r).value();
     return {};
@@ -497,10 +502,15 @@ struct Tracker::Impl {
   // The tags in one box, corners in full-image pixels: on the image as delivered, or
   // (second look) on its linear-light copy. Large boxes are searched decimated.
   Result<std::vector<DetectedTag>> detect_box(const Box& b, bool linear_light) {
-    const double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
-                                                                : o.roi_decimation;
+    double dec = b.min_side_px > o.roi_decimate_above_px ? std::max(2.0, o.roi_decimation)
+                                                          : o.roi_decimation;
+    // Issue 28 (off by default): the decimation follows the tags' predicted size.
+    if (o.roi_decimation_max > 2 && o.roi_decimate_above_px > 0 && b.min_side_px > o.roi_decimate_above_px)
+      dec = std::max(dec, std::min<double>(o.roi_decimation_max,
+                                           std::floor(2 * b.min_side_px / o.roi_decimate_above_px)));
     if (Status s = detector->set_decimation(dec); !s) return Error{s.error()};
-    const cv::Mat crop = gray(cv::Rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0));
+    const cv::Rect rect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0);
+    const cv::Mat crop = gray.region(rect)(rect);
     auto r = linear_light ? detector->detect_in_linear_light(crop) : detector->detect(crop);
     if (!r) return Error{r.error()};
     for (DetectedTag& t : *r)
@@ -612,7 +622,7 @@ struct Tracker::Impl {
           mirror_radius_m > 0) {
         const double floor2 = o.sigma_floor_px * o.sigma_floor_px;
         const MirrorRimResult rr = refine_mirror_rim(
-            gray, o.detector.response == CameraResponse::kSrgb, model, p,
+            gray.whole(), o.detector.response == CameraResponse::kSrgb, model, p,
             std::max(noise_px2(b, p), floor2), T_mtag_mir, mirror_radius_m, mirror_thickness_m,
             o.mirror_rim);
         if (rr.refined) {
@@ -773,13 +783,8 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
   if (cue != nullptr && mode != DiscoveryMode::kScheduled)
     return Error{std::string("Tracker::track: a discovery cue was given but the tracker's discovery "
                              "mode is ") + discovery_mode_name(mode) + ", not scheduled"};
-  if (image.type() == CV_8UC3)
-    cv::cvtColor(image, m.gray, cv::COLOR_BGR2GRAY);
-  else if (image.type() == CV_8UC1)
-    m.gray = image;
-  else
-    return Error{"Tracker::track: image type " + cv::typeToString(image.type()) +
-                 " is neither CV_8UC3 (BGR) nor CV_8UC1 (gray)"};
+  if (std::string e = frame_gray_error(image); !e.empty()) return Error{"Tracker::track: " + e};
+  m.gray.reset(image);
   display_time_s = std::max(display_time_s, capture_time_s);
 
   TrackFrame f;
@@ -864,7 +869,7 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
         for (const TagPlacement& p : m.mannequin.bundle.tags)
           any_man = any_man || (t.family == m.mannequin.bundle.family && t.id == p.id);
       if (!any_man || m.mannequin.state == TrackState::kLost) {
-        auto r = m.detector->detect_in_linear_light(m.gray);
+        auto r = m.detector->detect_in_linear_light(m.gray.whole());
         if (!r) return Error{r.error()};
         std::set<std::pair<int, int>> have;
         for (const DetectedTag& t : tags) have.emplace(static_cast<int>(t.family), t.id);
@@ -923,7 +928,7 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
     bool start = false;
     if (mode == DiscoveryMode::kScheduled) {
       start = cue != nullptr && cue->start;
-      if (start) m.scheduled[id] = m.discovery->search(m.gray, id, capture_time_s);
+      if (start) m.scheduled[id] = m.discovery->search(m.gray.whole(), id, capture_time_s);
     } else {
       const bool any_lost = (!m.mirror.bundle.tags.empty() && !mir_ok &&
                              f.mirror.state == TrackState::kLost) ||
@@ -932,13 +937,14 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
                         (m.o.full_frame_when_any_lost && any_lost) ||
                         m.frames_since_discovery + 1 >= m.o.full_frame_interval;
       if (want && m.discovery->idle()) {
-        m.discovery->post(m.gray, id, capture_time_s);
+        m.discovery->post(m.gray.whole(), id, capture_time_s);
         start = true;
       }
     }
     f.discovery_started = start;
     m.frames_since_discovery = start ? 0 : m.frames_since_discovery + 1;
   }
+  f.gray_fraction = m.gray.converted_fraction();
   f.tags = std::move(tags);
   ++m.frames;
   m.have_last_capture = true;

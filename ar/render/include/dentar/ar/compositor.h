@@ -129,6 +129,13 @@ struct CompositorOptions {
   // when the level is built) is at most this many pixels at the tooth's
   // distance. 0 = always the full mesh (unless the budget forces a coarser one).
   double lod_max_error_px = 1.0;
+  // Issue 28: lod_max_error_px is for a frame this wide (px); a wider frame of the
+  // same field of view allows width / this as many px (the same error in angle,
+  // so the tooth's vertex work does not grow with the camera's resolution; 1 px
+  // at 640 px wide is 3 px at 1920). 0 = px of the frame itself at every width.
+  // Measured (docs/BENCHMARKS.md, "Issue 28 session 16"): the drawn outline's
+  // distance to the full mesh's stays within its 640x480 value at 1920x1080.
+  double lod_reference_width_px = 640;
   // Cluster cell of the coarser levels (1, 2, ...), voxels, increasing, each
   // dividing the chunk size 16.
   std::vector<int> lod_cell_voxels = {2, 4, 8};

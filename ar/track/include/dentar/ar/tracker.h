@@ -119,6 +119,12 @@ struct TrackerOptions {
   // refinement at full resolution keeps the corners as accurate).
   double roi_decimation = 1.0;
   double roi_decimate_above_px = 24.0;
+  // Issue 28, measured and off by default (0): above 2, a region whose tags are all
+  // predicted at least k x roi_decimate_above_px / 2 wide is searched at decimation k
+  // (at most this; the decimated tag keeps the >= 12 px side that decimation 2 keeps), so the quad search's cost follows the overlay rather than the
+  // camera's resolution (edge refinement stays at full resolution). docs/BENCHMARKS.md,
+  // "Issue 28 session 16".
+  int roi_decimation_max = 0;
   // Also search the full frame whenever the mirror (not only the mannequin)
   // is lost. Off by default: the mirror is out of view for long stretches
   // and would force the slow path on every one of those frames.
@@ -264,6 +270,9 @@ struct TrackFrame {
   bool full_frame = true;  // false: the predicted-region path ran
   int regions = 0;         // crops searched (0 on a full frame)
   double searched_fraction = 1;  // searched pixels / image pixels
+  // Pixels converted to grey this frame / image pixels (0 for a grey frame; 1 when a
+  // full-frame search or the mirror rim needed the whole frame): frame_gray.h.
+  double gray_fraction = 0;
   int tags_detected = 0;
   // Searches repeated in linear light this frame (TrackerOptions::linear_second_look):
   // regions plus the whole frame, 0 when every expected tag was found.
@@ -292,7 +301,8 @@ class Tracker {
   Tracker& operator=(Tracker&&) noexcept;
   ~Tracker();
 
-  // One frame (BGR CV_8UC3 or gray CV_8UC1, the calibration's size),
+  // One frame (BGR CV_8UC3, YUYV CV_8UC2 or gray CV_8UC1, the calibration's size;
+  // grey levels are made only where they are searched: frame_gray.h),
   // captured at capture_time_s (monotonic, s); poses are predicted to
   // display_time_s (>= capture time; equal = no prediction). Errors: empty or
   // wrong-size/type image (message says which), detector failure, a cue
