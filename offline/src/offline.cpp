@@ -557,6 +557,11 @@ struct Job {
                                camera_response_name(o.tracker.detector.response) +
                                ": its poses are not the live run's");
       }
+      if (!o.predict_given)
+        o.predict_s = rec.predict_ms * 1e-3;
+      else if (std::abs(o.predict_s - rec.predict_ms * 1e-3) > 1e-9)
+        sum.warnings.push_back("the recording predicted poses " + std::to_string(rec.predict_ms) + " ms ahead, this replay " +
+                               std::to_string(o.predict_s * 1e3) + " ms: its poses are not the live run's");
       if (!o.mirror_rim_given)
         o.tracker.mirror_rim_refine = rec.mirror_rim;
       else if (o.tracker.mirror_rim_refine != rec.mirror_rim)
