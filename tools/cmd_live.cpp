@@ -122,7 +122,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");
   sub->add_option("--cpu-wake-latency-us", c->o.cpu_wake_latency_us,
                   "the CPUs' wake-up latency from idle held while the run lasts, us (/dev/cpu_dma_latency; "
-                  "0 = idle CPUs poll, so the engine wakes on time; -1 = the system's setting)")
+                  "0 = idle CPUs poll instead of halting; -1 = the system's setting, the default)")
       ->capture_default_str();
   add_tracker_image_options(sub, c->camera_response, c->mirror_rim);
   sub->add_option("--discovery", c->discovery,

@@ -81,7 +81,7 @@ class WakeLatencyHold {
  public:
   explicit WakeLatencyHold(int latency_us) {
     if (latency_us < 0) {
-      note_ = "not asked (--cpu-wake-latency-us -1): the system's idle states";
+      note_ = "";  // not asked (--cpu-wake-latency-us -1, the default): the system's idle states
       return;
     }
     fd_ = ::open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);

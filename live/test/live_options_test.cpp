@@ -148,7 +148,7 @@ TEST(LiveOptions, PassthroughRecordsNothingAndWakeLatencyInRange) {
   o.lesson_mode = 1;
   EXPECT_NE(o.validate().find("leave out --lesson"), std::string::npos) << o.validate();
   LiveOptions w;
-  EXPECT_EQ(w.cpu_wake_latency_us, 0);
+  EXPECT_EQ(w.cpu_wake_latency_us, -1);
   for (int v : {-1, 0, 50}) {
     w.cpu_wake_latency_us = v;
     EXPECT_EQ(w.validate(), "") << v;

@@ -130,13 +130,14 @@ struct LiveOptions {
   int engine_cpu = -2;     // -2 = the last CPU; -1 = no pinning
   bool realtime = true;    // SCHED_FIFO + mlockall
   // Wake-up latency the CPUs may take from idle while the run lasts, us (Linux PM QoS,
-  // /dev/cpu_dma_latency, held open for the run; needs root or write access to it). 0 (default):
-  // idle CPUs poll instead of halting, so the engine's timer wakes it within microseconds. An idle
-  // core that halts (a deep C-state on bare metal, a halted vCPU in a VM) can take milliseconds to
-  // wake: with the engine nearly alone on its core, those wake-ups were its missed deadlines and
-  // watchdog trips (docs/BENCHMARKS.md, "Issue 28 session 16"). -1: leave the system's setting.
-  // Costs power: the cores never sleep while the trainer runs.
-  int cpu_wake_latency_us = 0;
+  // /dev/cpu_dma_latency, held open for the run; needs root or write access to it). 0: idle
+  // CPUs poll instead of halting, so the engine's timer finds its CPU awake. An idle core that
+  // halts (a deep C-state on bare metal, a halted vCPU in a VM) can take long to wake; with the
+  // engine nearly alone on its core, that is the likely cause of the GL display path's missed
+  // deadlines (docs/BENCHMARKS.md, "Issue 28 session 16"). -1 (default): the system's setting;
+  // the hold is not the default until a quiet-machine run shows it helps (under load it raised
+  // the engine's p99 wake-up lateness). Costs power: the cores never sleep while it is held.
+  int cpu_wake_latency_us = -1;
   // Where the background threads run (the tracker's full-frame tag search
   // when pipeline.tracker.discovery = kAsync, the default here; the capture
   // thread with its decoding; the mesher): "engine" (on the engine's CPU at
