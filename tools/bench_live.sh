@@ -10,28 +10,123 @@
 #   tools/bench_live.sh discovery [SECONDS]    720p: tag discovery inline vs async; background threads' CPU
 #   tools/bench_live.sh display [SECONDS]      720p: CPU display path vs GPU (GL-resident) path, alternating
 #                                              runs of the same binary (PAIRS pairs, default 2)
+# Issue 28 (docs/BENCHMARKS.md "Issue 28 session 16"); add --stress to run `stress --cpu 2` beside:
+#   tools/bench_live.sh latency [SECONDS] [--stress]  stereo 2x1280x720 and 2x640x480 (two paced cameras;
+#                                              2x640x480 also as one side-by-side camera), mono 1920x1080:
+#                                              DentAR (occlusion and mirror on) against the bare passthrough
+#                                              viewer (dentar live --passthrough) on the same footage
+#   tools/bench_live.sh engine5 [SECONDS] [--stress]  the engine during the stereo live path (2x1280x720,
+#                                              simulated hand cutting), default 300 s
+#   tools/bench_live.sh memory5 [SECONDS]      RSS over a stereo live run (default 600 s): growth after 60 s
+#   tools/bench_live.sh wake [SECONDS]         the engine with the CPUs' wake-up latency held (default) and
+#                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
+#                                              alternating (PAIRS pairs, default 2)
 #
-# Environment: BUILD_DIR (default build), OUT (default out/bench_live).
+# Environment: BUILD_DIR (default build), OUT (default out/bench_live). Nothing is installed: without
+# `stress` (Debian package stress) the --stress rows are left out and the script says so.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bin="${BUILD_DIR:-$root/build}/dentar"
 out="${OUT:-$root/out/bench_live}"
 mode="${1:-table}"
-secs="${2:-30}"
+stress_on=0
+args=()
+for a in "${@:2}"; do
+  if [[ "$a" == "--stress" ]]; then stress_on=1; else args+=("$a"); fi
+done
+case "$mode" in engine5) dflt=300 ;; memory5) dflt=600 ;; *) dflt=30 ;; esac
+secs="${args[0]:-$dflt}"
 mkdir -p "$out"
 
 # The stand-in camera plays Motion JPEG, as UVC webcams deliver 720p: the
 # generator's lossless FFV1 takes ~47 ms a 720p frame to decode, more than a
-# 30 fps camera's whole frame period on one core (Debian's ffmpeg transcodes).
+# 30 fps camera's whole frame period on one core (synth --webcam writes it).
 clip() {  # clip W H -> folder with camera.avi (MJPG), station.json, session.dlog
   local d="$out/clip_${1}x${2}"
-  if [[ ! -f "$d/session.dlog" ]]; then
-    "$bin" synth --preset standard --frames 150 --resolution "${1}x${2}" --seed 5 --out "$d" >/dev/null
-  fi
-  if [[ ! -f "$d/camera.avi" ]]; then
-    ffmpeg -loglevel error -y -i "$d/video.mkv" -c:v mjpeg -q:v 3 "$d/camera.avi"
+  if [[ ! -f "$d/session.dlog" || ! -f "$d/camera.avi" ]]; then
+    "$bin" synth --preset standard --frames 150 --resolution "${1}x${2}" --seed 5 --webcam --out "$d" >/dev/null
   fi
   echo "$d"
+}
+
+# Stereo footage, each eye W x H: camera.avi side by side (one device, --stereo),
+# camera_left.avi and camera_right.avi (two cameras, --camera-right), the rig in station.json.
+clip_stereo() {
+  local d="$out/clip_stereo_${1}x${2}"
+  if [[ ! -f "$d/session.dlog" || ! -f "$d/camera_right.avi" ]]; then
+    "$bin" synth --preset standard --stereo --frames 150 --resolution "${1}x${2}" --seed 5 --webcam --out "$d" >/dev/null
+  fi
+  echo "$d"
+}
+
+stress_pid=""
+start_stress() {  # start_stress SECONDS: `stress --cpu 2` for that long (0 when missing)
+  if ! command -v stress >/dev/null; then
+    echo "stress is not installed (Debian package stress: apt install stress): the --stress rows are left out" >&2
+    return 1
+  fi
+  stress --cpu 2 --timeout "$1" >/dev/null 2>&1 & stress_pid=$!
+  sleep 1
+}
+stop_stress() { [[ -n "$stress_pid" ]] && { kill "$stress_pid" 2>/dev/null || true; wait "$stress_pid" 2>/dev/null || true; }; stress_pid=""; }
+trap stop_stress EXIT
+
+# One run's summary as JSON lines for the tables below: live NAME [live options...]
+live_json() {
+  local name="$1"; shift
+  xvfb-run -a -s '-screen 0 1920x1200x24' "$bin" live --loop --seconds "$secs" --quiet --summary "$out/$name.json" "$@" >/dev/null
+}
+
+# Issue 28 latency: DentAR against the bare passthrough viewer on the same footage.
+latency_pair() {  # latency_pair NAME CLIP_DIR [camera options...]
+  local name="$1" c="$2"; shift 2
+  live_json "$name, dentar" --station "$c/station.json" --stylus replay:"$c/session.dlog" "$@"
+  live_json "$name, passthrough" --station "$c/station.json" --stylus none --no-hud --passthrough "$@"
+  python3 - "$out/$name, dentar.json" "$out/$name, passthrough.json" "$name" <<'PY'
+import json, sys
+a = json.load(open(sys.argv[1])); p = json.load(open(sys.argv[2])); e = a["engine"]
+def drops(s):
+    f = s["frames"]; r = s.get("stereo", {}).get("right_eye_dropped")
+    return f"{f['dropped_source']} / {f['dropped_consumer']}" + (f" / {r}" if r is not None else "")
+mins = a["wall_s"] / 60
+la, lp = a["latency_ms"], p["latency_ms"]
+print(f"| {sys.argv[3]} | {la['p50']:.1f} / {la['p99']:.1f} | {lp['p50']:.1f} / {lp['p99']:.1f} | "
+      f"{la['p50'] - lp['p50']:+.1f} / {la['p99'] - lp['p99']:+.1f} | {a['displayed_fps']:.1f} / {p['displayed_fps']:.1f} | "
+      f"{drops(a)} | {drops(p)} | {a['process_ms']['p50']:.1f} / {a['process_ms']['p99']:.1f} | "
+      f"{e['step_us']['p999']:.0f} | {e['missed_deadlines'] / mins:.1f} | {e['watchdog_trips']} |")
+PY
+}
+latency_header() {
+  echo "| run | DentAR capture to swap p50 / p99 ms | passthrough p50 / p99 ms | DentAR adds p50 / p99 ms | fps DentAR / passthrough | dropped source / consumer (/ right eye), DentAR | same, passthrough | frame p50 / p99 ms | engine step p99.9 us | missed deadlines /min | watchdog trips |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|"
+}
+latency_rows() {  # latency_rows SUFFIX
+  local s2_720 s2_480 m1080
+  s2_720=$(clip_stereo 1280 720); s2_480=$(clip_stereo 640 480); m1080=$(clip 1920 1080)
+  latency_pair "stereo 2x1280x720, two cameras$1" "$s2_720" --camera live:"$s2_720/camera_left.avi" --camera-right live:"$s2_720/camera_right.avi"
+  latency_pair "stereo 2x640x480, two cameras$1" "$s2_480" --camera live:"$s2_480/camera_left.avi" --camera-right live:"$s2_480/camera_right.avi"
+  latency_pair "stereo 2x640x480, side by side$1" "$s2_480" --camera live:"$s2_480/camera.avi" --stereo
+  latency_pair "mono 1920x1080$1" "$m1080" --camera live:"$m1080/camera.avi"
+}
+
+# Issue 28 engine goals: p99.9 step <= 200 us, <= 1 missed deadline a minute, 0 watchdog trips.
+engine_row() {  # engine_row NAME [live options...]
+  local name="$1"; shift
+  local c; c=$(clip_stereo 1280 720)
+  live_json "$name" --station "$c/station.json" --camera live:"$c/camera_left.avi" --camera-right live:"$c/camera_right.avi" --stylus sim "$@"
+  python3 - "$out/$name.json" "$name" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); e = s["engine"]; u = e["step_us"]; w = e.get("wake_latency", {})
+mins = s["wall_s"] / 60
+print(f"| {sys.argv[2]} | {s['wall_s']:.0f} | {u['p50']:.0f} / {u['p99']:.0f} / {u['p999']:.0f} / {u['max']:.0f} | {e['missed_deadlines']} | "
+      f"{e['missed_deadlines'] / mins:.2f} | {e['watchdog_trips']} | {e['jitter_us']['p99']:.0f} / {e['jitter_us']['max']:.0f} | "
+      f"{w.get('held', '-')} | {w.get('cpu_halts_per_s', -1):.0f} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} | "
+      f"{s['displayed_fps']:.1f} | {s['removed_mm3']['total']:.2f} |")
+PY
+}
+engine_header() {
+  echo "| run | s | step p50 / p99 / p99.9 / max us | missed deadlines | per minute | watchdog trips | wake-up lateness p99 / max us | wake latency held | engine CPU halts /s | latency p50 / p99 ms | fps | removed mm3 |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
 }
 
 run() {  # run NAME CLIP [live options...] -> prints a table row
@@ -133,5 +228,56 @@ case "$mode" in
     header
     run "memory ${secs}s" "$c720" --stylus sim
     ;;
-  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal [SECONDS]" >&2; exit 2 ;;
+  latency)
+    latency_header
+    latency_rows ""
+    if [[ $stress_on == 1 ]] && start_stress "$((8 * (secs + 40)))"; then
+      latency_rows " + stress"
+      stop_stress
+    fi
+    ;;
+  engine5)
+    engine_header
+    engine_row "stereo 2x1280x720, sim hand"
+    if [[ $stress_on == 1 ]] && start_stress "$((secs + 60))"; then
+      engine_row "stereo 2x1280x720, sim hand + stress"
+      stop_stress
+    fi
+    ;;
+  wake)
+    c720=$(clip 1280 720)
+    engine_header
+    for i in $(seq 1 "${PAIRS:-2}"); do
+      for p in gl cpu; do
+        for w in 0 -1; do
+          n="720p $p path, wake latency $( [[ $w == 0 ]] && echo held || echo "not held"), run $i"
+          live_json "$n" --station "$c720/station.json" --camera live:"$c720/camera.avi" --stylus replay:"$c720/session.dlog" \
+            --display-path "$p" --cpu-wake-latency-us "$w"
+          python3 - "$out/$n.json" "$n" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); e = s["engine"]; u = e["step_us"]; w = e["wake_latency"]
+mins = s["wall_s"] / 60
+print(f"| {sys.argv[2]} | {s['wall_s']:.0f} | {u['p50']:.0f} / {u['p99']:.0f} / {u['p999']:.0f} / {u['max']:.0f} | {e['missed_deadlines']} | "
+      f"{e['missed_deadlines'] / mins:.2f} | {e['watchdog_trips']} | {e['jitter_us']['p99']:.0f} / {e['jitter_us']['max']:.0f} | "
+      f"{w['held']} | {w['cpu_halts_per_s']:.0f} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} | "
+      f"{s['displayed_fps']:.1f} | {s['removed_mm3']['total']:.2f} |")
+PY
+        done
+      done
+    done
+    ;;
+  memory5)
+    c=$(clip_stereo 1280 720)
+    echo "| run | s | RSS at 60 s MB | largest RSS after 60 s MB | growth MB | at the end (threads joined) MB | frames processed | fps |"
+    echo "|---|---|---|---|---|---|---|---|"
+    live_json "memory stereo" --station "$c/station.json" --camera live:"$c/camera_left.avi" --camera-right live:"$c/camera_right.avi" --stylus sim
+    python3 - "$out/memory stereo.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); r = s["rss_mb"]
+g = r["max_after_60s"] - r["after_60s"] if r["after_60s"] > 0 else float("nan")
+print(f"| stereo 2x1280x720, sim hand | {s['wall_s']:.0f} | {r['after_60s']:.1f} | {r['max_after_60s']:.1f} | **{g:+.1f}** | "
+      f"{r['end']:.1f} | {s['frames']['processed']} | {s['displayed_fps']:.1f} |")
+PY
+    ;;
+  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal|latency|engine5|memory5|wake [SECONDS] [--stress]" >&2; exit 2 ;;
 esac

@@ -23,6 +23,7 @@ void add_live(CLI::App& app, int& exit_code) {
   struct Cli {
     live::LiveOptions o;
     std::vector<std::string> shots;
+    double predict_ms = 0;
     bool no_hud = false, no_vsync = false, no_realtime = false, no_occlusion = false, no_segmentation = false,
          no_mirror = false, list = false;
     std::string stall, stall_right;
@@ -105,6 +106,13 @@ void add_live(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"auto", "gl", "cpu"}));
   sub->add_flag("--window-glx", c->o.window_glx_for_test,
                 "test hook: make the window's context with GLX, which cannot share with the compositor (the fallback)");
+  sub->add_option("--predict-ms", c->predict_ms,
+                  "draw each frame with poses predicted this far past its capture time, ms (default 0: the "
+                  "overlay is drawn on the very frame it was tracked in; docs/BENCHMARKS.md, Issue 28 session 16)")
+      ->check(CLI::Range(0.0, 500.0));
+  sub->add_flag("--passthrough", c->o.passthrough,
+                "a bare viewer for latency comparisons: the camera's frames decoded, uploaded and swapped, no AR "
+                "(no tracking, compositing or occlusion; nothing recorded)");
   sub->add_option("--record", c->o.record_dir, "record footage, session log, station and per-frame CSV into DIR");
   sub->add_flag("--loop", c->o.loop, "live:PATH footage: play it again from the start at its end");
   sub->add_option("--seconds", c->o.seconds, "stop after S seconds (default: until closed)")->check(at_least(0));
@@ -112,6 +120,10 @@ void add_live(CLI::App& app, int& exit_code) {
       ->check(at_least(0));
   sub->add_option("--engine-cpu", c->o.engine_cpu, "CPU for the haptic engine (-2 = the last, -1 = no pinning)");
   sub->add_flag("--no-realtime", c->no_realtime, "no SCHED_FIFO, no mlockall");
+  sub->add_option("--cpu-wake-latency-us", c->o.cpu_wake_latency_us,
+                  "the CPUs' wake-up latency from idle held while the run lasts, us (/dev/cpu_dma_latency; "
+                  "0 = idle CPUs poll instead of halting; -1 = the system's setting, the default)")
+      ->capture_default_str();
   add_tracker_image_options(sub, c->camera_response, c->mirror_rim);
   sub->add_option("--discovery", c->discovery,
                   "full-frame tag search: async (off the frame path, default) or inline (in the frame that needs it)");
@@ -179,6 +191,7 @@ void add_live(CLI::App& app, int& exit_code) {
     o.hud = !c->no_hud;
     o.vsync = !c->no_vsync;
     o.realtime = !c->no_realtime;
+    o.pipeline.predict_s = c->predict_ms * 1e-3;
     o.pipeline.compositor.phantoms = !c->no_occlusion;
     o.pipeline.compositor.segmentation = !c->no_segmentation;
     o.pipeline.compositor.mirror = !c->no_mirror;

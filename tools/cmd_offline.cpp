@@ -37,7 +37,7 @@ struct OfflineCli {
        no_mirror = false;
   double expert_opacity = 0.45;
   int full_every = 15;
-  double predict_ms = 0, stale_ms = 200;
+  double predict_ms = -1, stale_ms = 200;  // predict_ms -1: not given (0, or a recording's)
   double mirror_sigma_mm = 1.0;
   std::string camera_response;  // "" = the recording's, else auto|srgb|linear
   bool mirror_rim = false;
@@ -113,7 +113,8 @@ int run(const OfflineCli& c) {
   o.stereo = c.stereo || !c.footage_right.empty() || c.eye == "both";
   o.footage_right = c.footage_right;
   o.eye = c.eye;
-  o.predict_s = c.predict_ms * 1e-3;
+  o.predict_s = std::max(0.0, c.predict_ms) * 1e-3;
+  o.predict_given = c.predict_ms >= 0;
   o.tracker.detector.decimation = c.decimate;
   o.tracker.predicted_regions = !c.no_roi;
   o.tracker.full_frame_interval = c.full_every;
@@ -314,7 +315,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1, 10000))
       ->capture_default_str();
   s->add_flag("--no-filter", c->no_filter, "No temporal pose filter");
-  s->add_option("--predict-ms", c->predict_ms, "Predict poses this far past the capture time")
+  s->add_option("--predict-ms", c->predict_ms, "Predict poses this far past the capture time (default 0; a live recording: as it was recorded)")
       ->check(CLI::Range(0.0, 500.0));
   s->add_option("--mirror-sigma-mm", c->mirror_sigma_mm,
                 "Hide the mirror's reflection when its centre's position sigma exceeds this "

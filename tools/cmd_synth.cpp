@@ -6,6 +6,8 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 #include <opencv2/videoio.hpp>
 
 #include "commands.h"
@@ -17,7 +19,7 @@
 namespace dentar::tools {
 namespace {
 
-std::string write_webcam_video(const std::filesystem::path& dir, double fps);
+std::string write_webcam_video(const std::filesystem::path& dir, double fps, bool stereo);
 
 struct SynthCli {
   std::string preset = "standard";
@@ -136,10 +138,6 @@ int run(const SynthCli& c, const CLI::App& app) {
     print_error("synth", "--baseline-mm " + std::to_string(c.baseline_mm) + " needs --stereo");
     return 2;
   }
-  if (c.webcam && c.stereo) {
-    print_error("synth", "--webcam writes one camera's Motion JPEG; leave it out with --stereo");
-    return 2;
-  }
   if (c.stereo) {
     o.stereo = true;
     o.stereo_baseline_m = c.baseline_mm * 1e-3;
@@ -178,13 +176,16 @@ int run(const SynthCli& c, const CLI::App& app) {
     return 1;
   }
   if (c.webcam) {
-    if (std::string e = write_webcam_video(c.out, o.fps); !e.empty()) {
+    if (std::string e = write_webcam_video(c.out, o.fps, c.stereo); !e.empty()) {
       print_error("synth", "--webcam: " + e);
       return 1;
     }
   }
   std::cout << std::fixed << std::setprecision(1) << "wrote " << c.out << ": "
-            << (c.png ? "frames/*.png" : c.webcam ? "video.mkv (FFV1), camera.avi (Motion JPEG)" : "video.mkv (FFV1)")
+            << (c.png ? "frames/*.png"
+                     : c.webcam ? (c.stereo ? "video.mkv (FFV1), camera.avi, camera_left.avi, camera_right.avi (Motion JPEG)"
+                                            : "video.mkv (FFV1), camera.avi (Motion JPEG)")
+                                : "video.mkv (FFV1)")
             << (c.stereo ? " (left | right)" : "")
             << ", truth.jsonl, masks/" << (c.stereo ? ", truth_right.jsonl, masks_right/" : "")
             << ", station.json, session.dlog, synth.json\n"
@@ -198,16 +199,35 @@ int run(const SynthCli& c, const CLI::App& app) {
 // camera.avi beside video.mkv: the same frames as Motion JPEG (OpenCV's own
 // AVI writer, quality 90), what a UVC webcam delivers at 720p. A live
 // stand-in must decode a frame in well under a frame period; FFV1 at 720p
-// takes ~47 ms here, MJPG ~10 ms. Returns an error message or "".
-std::string write_webcam_video(const std::filesystem::path& dir, double fps) {
-  const std::string in_path = (dir / "video.mkv").string(), out_path = (dir / "camera.avi").string();
+// takes ~47 ms here, MJPG ~10 ms. Stereo (side-by-side footage): camera.avi
+// is the side-by-side device (dentar live --stereo), camera_left.avi and
+// camera_right.avi the two eyes as two cameras (--camera-right). Returns an
+// error message or "".
+std::string write_webcam_video(const std::filesystem::path& dir, double fps, bool stereo) {
+  const std::string in_path = (dir / "video.mkv").string();
   cv::VideoCapture in(in_path, cv::CAP_FFMPEG);
   cv::Mat f;
   if (!in.isOpened() || !in.read(f) || f.empty()) return in_path + ": cannot read the footage back";
-  cv::VideoWriter w(out_path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, f.size());
-  if (!w.isOpened()) return out_path + ": cannot write (check the folder's permissions and free space)";
-  w.set(cv::VIDEOWRITER_PROP_QUALITY, 90);
-  do w.write(f);
+  if (stereo && f.cols % 2 != 0) return in_path + ": side-by-side footage of odd width " + std::to_string(f.cols);
+  struct Out {
+    std::string path;
+    cv::Rect crop;
+    cv::VideoWriter w;
+  };
+  std::vector<Out> outs;
+  const cv::Rect whole(0, 0, f.cols, f.rows), left(0, 0, f.cols / 2, f.rows), right(f.cols / 2, 0, f.cols / 2, f.rows);
+  outs.push_back({(dir / "camera.avi").string(), whole, {}});
+  if (stereo) {
+    outs.push_back({(dir / "camera_left.avi").string(), left, {}});
+    outs.push_back({(dir / "camera_right.avi").string(), right, {}});
+  }
+  for (Out& o : outs) {
+    o.w.open(o.path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, o.crop.size());
+    if (!o.w.isOpened()) return o.path + ": cannot write (check the folder's permissions and free space)";
+    o.w.set(cv::VIDEOWRITER_PROP_QUALITY, 90);
+  }
+  do
+    for (Out& o : outs) o.w.write(f(o.crop));
   while (in.read(f) && !f.empty());
   return {};
 }
@@ -252,7 +272,8 @@ void add_synth(CLI::App& app, int& exit_code) {
   s->add_flag("--png", c->png, "Write frames/frame_NNNNNN.png instead of video.mkv");
   s->add_flag("--webcam", c->webcam,
               "Also write camera.avi: the footage as Motion JPEG, what a webcam delivers at 720p "
-              "(for dentar live --camera live:DIR/camera.avi)")
+              "(for dentar live --camera live:DIR/camera.avi); with --stereo also camera_left.avi and "
+              "camera_right.avi, the eyes as two cameras (--camera-right)")
       ->excludes("--png");
   s->add_flag("--no-distortion", c->no_distortion, "Pinhole camera (no lens distortion)");
   s->add_option("--noise", c->noise_dn,

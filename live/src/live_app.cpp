@@ -6,6 +6,7 @@
 #include <imgui.h>
 #include <pthread.h>
 #include <sched.h>
+#include <fcntl.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -73,6 +74,63 @@ std::string iso_now() {
   return b;
 }
 
+// A PM QoS request on the CPUs' wake-up latency from idle, held while it lives
+// (the kernel drops it when the file closes). Linux: /dev/cpu_dma_latency takes
+// a binary int32 in microseconds.
+class WakeLatencyHold {
+ public:
+  explicit WakeLatencyHold(int latency_us) {
+    if (latency_us < 0) {
+      note_ = "";  // not asked (--cpu-wake-latency-us -1, the default): the system's idle states
+      return;
+    }
+    fd_ = ::open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+    if (fd_ < 0) {
+      note_ = std::string("refused: /dev/cpu_dma_latency: ") + std::strerror(errno) +
+              " (run as root or give write access to it); idle CPUs may halt and wake the engine late";
+      return;
+    }
+    const std::int32_t v = latency_us;
+    if (::write(fd_, &v, sizeof v) != static_cast<ssize_t>(sizeof v)) {
+      note_ = std::string("refused: writing /dev/cpu_dma_latency: ") + std::strerror(errno);
+      ::close(fd_);
+      fd_ = -1;
+      return;
+    }
+    note_ = "CPU wake-up latency held at " + std::to_string(latency_us) + " us (/dev/cpu_dma_latency)";
+  }
+  ~WakeLatencyHold() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  WakeLatencyHold(const WakeLatencyHold&) = delete;
+  WakeLatencyHold& operator=(const WakeLatencyHold&) = delete;
+  bool held() const { return fd_ >= 0; }
+  const std::string& note() const { return note_; }
+
+ private:
+  int fd_ = -1;
+  std::string note_;
+};
+
+// Idle entries of one CPU so far (cpuidle's per-state usage counters): polling
+// (the POLL state) and halting (every other state); -1 when not readable.
+std::pair<long long, long long> cpu_idle_entries(int cpu) {
+  long long poll = 0, halt = 0;
+  bool any = false;
+  const fs::path dir = "/sys/devices/system/cpu/cpu" + std::to_string(cpu) + "/cpuidle";
+  for (int i = 0; i < 16; ++i) {
+    const fs::path st = dir / ("state" + std::to_string(i));
+    std::ifstream name(st / "name"), usage(st / "usage");
+    std::string n;
+    long long u = 0;
+    if (!(name >> n) || !(usage >> u)) break;
+    any = true;
+    (n == "POLL" ? poll : halt) += u;
+  }
+  if (!any) return {-1, -1};
+  return {poll, halt};
+}
+
 }  // namespace
 
 std::string LiveOptions::validate() const {
@@ -98,6 +156,9 @@ std::string LiveOptions::validate() const {
   if (frames < 0) return "frames = " + std::to_string(frames) + " must be >= 0 (0 = no limit)";
   if (!(std::isfinite(camera_latency_ms) && camera_latency_ms <= 1000))
     return "camera_latency_ms must be <= 1000 ms (< 0: the station's, 0: no compensation)";
+  if (cpu_wake_latency_us < -1 || cpu_wake_latency_us > 1000000)
+    return "cpu_wake_latency_us = " + std::to_string(cpu_wake_latency_us) +
+           " must be -1 (the system's) or a latency in 0..1000000 us";
   if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
   if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
   if (display_path != "gl" && display_path != "cpu" && display_path != "auto")
@@ -124,6 +185,9 @@ std::string LiveOptions::validate() const {
   } else if (lesson_mode != 0) {
     return "--mode " + std::to_string(lesson_mode) + " needs --lesson LESSON";
   }
+  if (passthrough && !record_dir.empty())
+    return "--passthrough shows the camera's frames without AR and records nothing: leave out --record";
+  if (passthrough && !lesson.empty()) return "--passthrough shows no AR: leave out --lesson";
   if (pipeline.tracker.discovery == ar::DiscoveryMode::kScheduled)
     return "pipeline.tracker.discovery = scheduled is for replays (dentar offline), not a live run";
   if (auto v = pipeline.validate(); !v.empty()) return "pipeline: " + v;
@@ -149,7 +213,10 @@ std::string LiveSummary::json() const {
                   {"step_us", {{"p50", step_p50_us}, {"p99", step_p99_us}, {"p999", step_p999_us}, {"max", step_max_us}}},
                   {"jitter_us", {{"p99", jitter_p99_us}, {"max", jitter_max_us}}},
                   {"realtime_granted", realtime_granted}, {"cpu_pinned", cpu_pinned},
-                  {"memory_locked", memory_locked}, {"isolation", isolation_note}}},
+                  {"memory_locked", memory_locked}, {"isolation", isolation_note},
+                  {"wake_latency", {{"held", wake_latency_held}, {"note", wake_latency_note},
+                                    {"cpu_halts_per_s", engine_cpu_halts_per_s},
+                                    {"cpu_polls_per_s", engine_cpu_polls_per_s}}}}},
       {"volume_hash", hash},
       {"removed_mm3", {{"enamel", removed_enamel_mm3}, {"dentin", removed_dentin_mm3},
                        {"pulp", removed_pulp_mm3}, {"total", removed_total_mm3}}},
@@ -665,7 +732,8 @@ Status start_recording(const LiveOptions& o, const ar::StationScene& st, const a
   nlohmann::json rec_meta = {{"format", "dentar-recording"}, {"version", 1}, {"started", iso_now()},
               {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
               {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
-              {"mirror_rim", popt.tracker.mirror_rim_refine}, {"complete", false}};
+              {"mirror_rim", popt.tracker.mirror_rim_refine}, {"predict_ms", popt.predict_s * 1e3},
+              {"complete", false}};
   if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
   // Stereo (issue 28): both eyes kept (frames_right/), replayed from both by `dentar offline`.
   if (popt.stereo) {
@@ -734,6 +802,10 @@ struct DisplayChoice {
 };
 DisplayChoice choose_display(const LiveOptions& o) {
   DisplayChoice d;
+  if (o.passthrough) {  // the frame itself is uploaded and swapped: there is no composite to keep on the GPU
+    d.auto_note = "--passthrough: the camera's frame is uploaded as it came (no AR)";
+    return d;
+  }
   d.want_gl = o.display_path == "gl";
   if (o.display_path != "auto") return d;
   if (auto probe = ar::EglContext::create(); !probe) {
@@ -772,6 +844,7 @@ std::string grant_message(const LiveOptions& o, const haptics::EngineConfig& cfg
   else grant += "not pinned; ";
   if (o.realtime) grant += sum.memory_locked ? "memory locked" : "memory not locked (raise `ulimit -l`)";
   grant += "; " + iso;
+  grant += sum.wake_latency_note.empty() ? std::string() : "; " + sum.wake_latency_note;
   grant += "; tag discovery " + discovery_name;
   if (bg.to_engine_cpu)
     grant += "; " + std::to_string(bg.placed->load()) + " background threads (tag search, capture, mesher, GL rasteriser) on CPU " +
@@ -958,6 +1031,14 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cfg.try_realtime = o.realtime;
   // ---- isolation: everything but the engine off its core; memory locked ----
   const std::string iso = isolate_engine(o, cfg, ncpu, sum);
+  // The engine's wake-ups: idle CPUs poll rather than halt while the run lasts (see LiveOptions).
+  WakeLatencyHold wake_hold(o.cpu_wake_latency_us);
+  sum.wake_latency_held = wake_hold.held();
+  sum.wake_latency_note = wake_hold.note();
+  if (o.cpu_wake_latency_us >= 0 && !wake_hold.held()) sum.warnings.push_back("engine: " + wake_hold.note());
+  const int idle_cpu = cfg.cpu >= 0 ? cfg.cpu : 0;
+  const auto idle0 = cpu_idle_entries(idle_cpu);
+  const double idle_t0 = ar::steady_now_s();
   ar::PipelineOptions popt = o.pipeline;
   popt.compositor.bur = ss.bur_params;  // draw the bur the engine cuts with
   // Stereo (issue 28): both eyes through the StereoTracker, whose tag search runs inside the frame.
@@ -1080,6 +1161,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   }
   if (auto s = run->close_session_log(); !s) sum.warnings.push_back("session log: " + s.error());
   fill_summary(ctx, capture, sh.processed.load(), ff, df, comp, iso, bg, sum);
+  if (const auto idle1 = cpu_idle_entries(idle_cpu); idle0.first >= 0 && idle1.first >= 0) {
+    const double dt = std::max(1e-3, ar::steady_now_s() - idle_t0);
+    sum.engine_cpu_polls_per_s = (idle1.first - idle0.first) / dt;
+    sum.engine_cpu_halts_per_s = (idle1.second - idle0.second) / dt;
+  }
   if (run->recorder()) finish_recording(*run->recorder(), df.stop_reason, engine.stats(), sum);
   if (!o.summary_path.empty()) std::ofstream(o.summary_path) << sum.json();
   return sum;

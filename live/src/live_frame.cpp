@@ -201,6 +201,14 @@ class FrameThread {
   // expert tool, for its second handpiece).
   void process_frame(ar::Frame& f) {
     const LiveOptions& o = c_.o;
+    if (o.passthrough) {  // no AR: the frame itself goes to the window (a header, not a copy)
+      const std::int64_t processed = sh_.processed.load();
+      fig_.process_ms.push_back(0.0);
+      cres_.image = f.image;
+      hand_over(f, -1, {}, processed, nullptr);
+      sh_.processed.store(processed + 1);
+      return;
+    }
     session::Recorder* recorder = c_.run.recorder();
     const std::int64_t processed = sh_.processed.load();
     haptics::HapticSnapshot snap = c_.run.engine()->snapshot();

@@ -135,4 +135,26 @@ TEST(SoftwareRenderer, MesaSoftwareRasterisersAndOthersByName) {
 }
 
 }  // namespace
+// Issue 28: the passthrough viewer shows the camera without AR, so it records nothing and
+// trains no lesson; the wake-up latency hold is -1 (off) or a latency in microseconds.
+TEST(LiveOptions, PassthroughRecordsNothingAndWakeLatencyInRange) {
+  LiveOptions o;
+  o.passthrough = true;
+  EXPECT_EQ(o.validate(), "");
+  o.record_dir = "out/rec";
+  EXPECT_NE(o.validate().find("leave out --record"), std::string::npos) << o.validate();
+  o.record_dir.clear();
+  o.lesson = "builtin:molar_class1_cavity";
+  o.lesson_mode = 1;
+  EXPECT_NE(o.validate().find("leave out --lesson"), std::string::npos) << o.validate();
+  LiveOptions w;
+  EXPECT_EQ(w.cpu_wake_latency_us, -1);
+  for (int v : {-1, 0, 50}) {
+    w.cpu_wake_latency_us = v;
+    EXPECT_EQ(w.validate(), "") << v;
+  }
+  w.cpu_wake_latency_us = -2;
+  EXPECT_NE(w.validate().find("cpu_wake_latency_us = -2"), std::string::npos) << w.validate();
+}
+
 }  // namespace dentar::live

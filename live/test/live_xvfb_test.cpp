@@ -414,6 +414,52 @@ TEST(LiveXvfb, WindowCloseStopsCleanly) {
   EXPECT_EQ(meta["stop_reason"], "window closed");
 }
 
+// Issue 28: the bare passthrough viewer (the latency benchmarks' rival) shows the camera's
+// own frames: the window matches one decoded footage frame everywhere (an AR composite would
+// differ over the tooth's few thousand pixels), no frame pipeline runs, the CPU path is used.
+TEST(LiveXvfb, PassthroughShowsTheCameraFramesWithoutAr) {
+  REQUIRE_XVFB();
+  const fs::path c = clip();
+  const fs::path t = dentar::test::temp_dir("live_passthrough");
+  // The window for every frame index from 2 to 20 that shows (a loaded machine shows some of them).
+  std::string shots;
+  for (int i = 2; i <= 20; ++i) shots += " --screenshot " + std::to_string(i) + ":" + (t / ("shot" + std::to_string(i) + ".png")).string();
+  auto r = run_command(xvfb(kBin + " live --passthrough --camera live:" + (c / "camera.avi").string() + " --station " +
+                            (c / "station.json").string() + " --stylus none --no-hud --quiet --loop --frames 12" + shots +
+                            " --summary " + (t / "s.json").string() + " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto s = read_json(t / "s.json");
+  EXPECT_GE(s["frames"]["displayed"].get<int>(), 12);
+  EXPECT_EQ(s["display"]["path"], "cpu");
+  EXPECT_EQ(s["process_ms"]["p99"].get<double>(), 0.0);  // the frame pipeline never ran
+  EXPECT_GT(s["latency_ms"]["p50"].get<double>(), 0.0);
+  std::vector<cv::Mat> frames;
+  cv::VideoCapture cap((c / "camera.avi").string());
+  for (cv::Mat f; cap.read(f);) frames.push_back(f.clone());
+  ASSERT_FALSE(frames.empty());
+  int checked = 0;
+  for (int i = 2; i <= 20; ++i) {
+    const cv::Mat shot = cv::imread((t / ("shot" + std::to_string(i) + ".png")).string(), cv::IMREAD_COLOR);
+    if (shot.empty()) continue;
+    cv::Mat d, grey;
+    double best_off = 1.0;
+    for (const cv::Mat& f : frames) {
+      if (f.size() != shot.size()) continue;
+      cv::absdiff(f, shot, d);
+      cv::cvtColor(d, grey, cv::COLOR_BGR2GRAY);
+      best_off = std::min(best_off, cv::countNonZero(grey > 24) / double(grey.total()));
+    }
+    EXPECT_LT(best_off, 0.001) << "frame " << i << ": share of pixels off by > 24 against the closest footage frame";
+    ++checked;
+  }
+  EXPECT_GT(checked, 0) << "no screenshot of frames 2..20 was taken";
+  // Bad input: nothing to record without AR.
+  auto b = run_command(kBin + " live --passthrough --record " + (t / "rec").string() + " --camera live:" +
+                       (c / "camera.avi").string() + " 2>&1");
+  EXPECT_EQ(b.code, 2) << b.out;
+  EXPECT_NE(b.out.find("leave out --record"), std::string::npos) << b.out;
+}
+
 // A truncated recording (as after a crash: the last CSV row cut short, the
 // session log cut mid-block) still replays.
 TEST(LiveXvfb, TruncatedRecordingReplays) {

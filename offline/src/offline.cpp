@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -556,6 +557,14 @@ struct Job {
                                camera_response_name(rec.camera_response) + ", this replay uses " +
                                camera_response_name(o.tracker.detector.response) +
                                ": its poses are not the live run's");
+      }
+      if (!o.predict_given)
+        o.predict_s = rec.predict_ms * 1e-3;
+      else if (std::abs(o.predict_s - rec.predict_ms * 1e-3) > 1e-9) {
+        char w[160];
+        std::snprintf(w, sizeof w, "the recording predicted poses %.1f ms ahead, this replay %.1f ms: its poses are not the live run's",
+                      rec.predict_ms, o.predict_s * 1e3);
+        sum.warnings.push_back(w);
       }
       if (!o.mirror_rim_given)
         o.tracker.mirror_rim_refine = rec.mirror_rim;

@@ -94,6 +94,12 @@ struct LiveOptions {
   // from a throw-away EGL context before the window opens.
   std::string display_path = "auto";
   std::string record_dir;  // empty = no recording
+  // A bare passthrough viewer (issue 28, the latency benchmarks' rival): each camera frame is
+  // decoded, uploaded and swapped as it came, with no tracking, compositing, occlusion or HUD
+  // overlay work on the frame (the frame pipeline is never called; the engine still runs, on
+  // its core, as in an AR run). The CPU display path is used; nothing is recorded. The
+  // summary's latency is then what the camera, the decode, the upload and the swap cost alone.
+  bool passthrough = false;
   // Exercise the session is for (a built-in name or a .json file; recorded in recording.json,
   // scored by the driver). Its tooth is the tooth drilled (live_tooth_json); "" = the station's
   // procedural molar.
@@ -123,6 +129,15 @@ struct LiveOptions {
   bool loop = false;       // live:PATH footage: play it again at its end (long runs, benchmarks)
   int engine_cpu = -2;     // -2 = the last CPU; -1 = no pinning
   bool realtime = true;    // SCHED_FIFO + mlockall
+  // Wake-up latency the CPUs may take from idle while the run lasts, us (Linux PM QoS,
+  // /dev/cpu_dma_latency, held open for the run; needs root or write access to it). 0: idle
+  // CPUs poll instead of halting, so the engine's timer finds its CPU awake. An idle core that
+  // halts (a deep C-state on bare metal, a halted vCPU in a VM) can take long to wake; with the
+  // engine nearly alone on its core, that is the likely cause of the GL display path's missed
+  // deadlines (docs/BENCHMARKS.md, "Issue 28 session 16"). -1 (default): the system's setting;
+  // the hold is not the default until a quiet-machine run shows it helps (under load it raised
+  // the engine's p99 wake-up lateness). Costs power: the cores never sleep while it is held.
+  int cpu_wake_latency_us = -1;
   // Where the background threads run (the tracker's full-frame tag search
   // when pipeline.tracker.discovery = kAsync, the default here; the capture
   // thread with its decoding; the mesher): "engine" (on the engine's CPU at
@@ -188,6 +203,12 @@ struct LiveSummary {
   double jitter_p99_us = 0, jitter_max_us = 0;
   bool realtime_granted = false, cpu_pinned = false, memory_locked = false;
   std::string isolation_note;
+  // LiveOptions::cpu_wake_latency_us: held (the value), or why not; and how often the engine's
+  // CPU entered an idle state other than polling (cpuidle, /sys/devices/system/cpu/cpuN/cpuidle)
+  // and polled, per second over the run (-1: not readable).
+  bool wake_latency_held = false;
+  std::string wake_latency_note;
+  double engine_cpu_halts_per_s = -1, engine_cpu_polls_per_s = -1;
   std::uint64_t volume_hash = 0;
   // Removed by the end of the run, mm^3 (engine snapshot; total = all materials).
   double removed_enamel_mm3 = 0, removed_dentin_mm3 = 0, removed_pulp_mm3 = 0, removed_total_mm3 = 0;

@@ -93,6 +93,7 @@ struct OfflineOptions {
   // Poses are predicted to capture time + this (video see-through shows the
   // captured frame itself, so 0 is right unless the display adds delay), s.
   double predict_s = 0.0;
+  bool predict_given = false;  // a live recording replays with its own predict_ms unless this is set
   bool scale_calib = false;  // accept footage of another size with the same aspect ratio
   int max_frames = 0;        // 0 = all
   bool write_video = true;
