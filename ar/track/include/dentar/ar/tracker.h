@@ -212,6 +212,23 @@ struct TrackerOptions {
   // mirror's rim ellipse).
   bool mirror_rim_refine = false;
   MirrorRimOptions mirror_rim;
+  // StereoTracker only (issue 28, the mirror through both eyes): refine the
+  // mirror's joint fit from its rim ellipse in each eye in turn (the left
+  // eye's rim on the joint fit as the prior, then the right eye's on that),
+  // each with mirror_rim's options. The stereo fit fixes the depth the rim
+  // cannot; the rim fixes the tilt that two 12 mm tags 85 mm from the disc
+  // leave. Measured in docs/BENCHMARKS.md (issue 28 session 16).
+  bool stereo_mirror_rim = false;
+  // StereoTracker only: a mirror drawn from the filter's prediction states
+  // an error that grows with the prediction's age,
+  //   sigma(age) = sqrt(sigma_last^2 + (q * age)^2),
+  // q the RMS speed (m/s) at the mirror's centre of the motion the filter
+  // did not predict over its recent measurements (innovation / frame gap,
+  // floored at mirror_min_unexplained_speed_m_s), and is lost once sigma(age)
+  // exceeds mirror_max_sigma_m, as a measurement would be. false = the
+  // shared drift bound alone (max_prediction_drift_m).
+  bool mirror_prediction_sigma = false;
+  double mirror_min_unexplained_speed_m_s = 0.005;
   // Where the full-frame search runs (see the top of this file).
   DiscoveryMode discovery = DiscoveryMode::kInline;
   // kAsync: called once on the worker thread before its first search (CPU
