@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "dentar/ar/bundle_pose.h"
 #include "dentar/ar/camera_model.h"
@@ -48,6 +49,13 @@ struct RigBody {
 };
 
 using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+// Tags in a joint fit, each counted once however many eyes saw it.
+int distinct_tags(const BundlePose& p) {
+  std::vector<int> ids = p.tag_ids;
+  std::sort(ids.begin(), ids.end());
+  return static_cast<int>(std::unique(ids.begin(), ids.end()) - ids.begin());
+}
 
 // A (w, v) covariance in frame a (bundle_pose.h) expressed in frame b, for
 // T_b_a: both halves rotate with R_b_a.
@@ -128,10 +136,12 @@ struct StereoTracker::Impl {
     const double floor2 = o.sigma_floor_px * o.sigma_floor_px;
     const double noise2 = std::max(noise_px2(b, p), floor2);
     const bool srgb = o.detector.response == CameraResponse::kSrgb;
+    MirrorRimOptions ro = o.mirror_rim;
+    ro.keep_depth = o.stereo_mirror_rim_keep_depth;
     int points = 0;
     if (!image_l.empty()) {
       const MirrorRimResult r = refine_mirror_rim(to_gray(image_l, rim_gray_l), srgb, model_l, p, noise2, T_mtag_mir,
-                                                  mirror_radius_m, mirror_thickness_m, o.mirror_rim);
+                                                  mirror_radius_m, mirror_thickness_m, ro);
       if (r.refined) {
         p.T_cam_body = r.T_cam_body;
         p.covariance_per_px2 = r.covariance_per_px2;
@@ -145,7 +155,7 @@ struct StereoTracker::Impl {
       pr.covariance_per_px2 = rotate_covariance(p.covariance_per_px2, T_camr_caml.linear());
       pr.covariance_per_tag = rotate_covariance(p.covariance_per_tag, T_camr_caml.linear());
       const MirrorRimResult r = refine_mirror_rim(to_gray(image_r, rim_gray_r), srgb, model_r, pr, noise2, T_mtag_mir,
-                                                  mirror_radius_m, mirror_thickness_m, o.mirror_rim);
+                                                  mirror_radius_m, mirror_thickness_m, ro);
       if (r.refined) {
         const Eigen::Matrix3d R_caml_camr = T_camr_caml.linear().transpose();
         p.T_cam_body = T_camr_caml.inverse() * r.T_cam_body;
@@ -201,7 +211,8 @@ struct StereoTracker::Impl {
           o.pose, prev);
       if (&b == &mannequin) noise_ref = p;
       int rim_points = 0;
-      if (&b == &mirror && o.stereo_mirror_rim && p.ok() && p.rms_px <= o.max_rms_px && mirror_radius_m > 0)
+      if (&b == &mirror && o.stereo_mirror_rim && p.ok() && p.rms_px <= o.max_rms_px && mirror_radius_m > 0 &&
+          distinct_tags(p) >= o.stereo_mirror_rim_min_tags)
         rim_points = refine_rim_both_eyes(p, b);
       if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(b, p)) {
         measured = true;
