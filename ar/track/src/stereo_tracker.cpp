@@ -137,7 +137,11 @@ struct StereoTracker::Impl {
     const double noise2 = std::max(noise_px2(b, p), floor2);
     const bool srgb = o.detector.response == CameraResponse::kSrgb;
     MirrorRimOptions ro = o.mirror_rim;
-    ro.keep_depth = o.stereo_mirror_rim_keep_depth;
+    // Tags from one eye only (the other sees none: the mirror at its frame's
+    // edge): the depth is the one camera's, as in mono (offframe dev clip,
+    // seed 1: a free depth moved such frames 1.4-2.1 mm along the line of
+    // sight).
+    ro.keep_depth = o.stereo_mirror_rim_keep_depth || p.views_used < 2;
     int points = 0;
     if (!image_l.empty()) {
       const MirrorRimResult r = refine_mirror_rim(to_gray(image_l, rim_gray_l), srgb, model_l, p, noise2, T_mtag_mir,

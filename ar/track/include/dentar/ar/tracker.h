@@ -224,7 +224,8 @@ struct TrackerOptions {
   // needs). false: each eye's rim moves the centre across its own line of
   // sight and the two eyes' rims together fix it in depth too (the rim's
   // image size stays free, mirror_rim.free_scale, so the depth comes from
-  // the two views, not from the ellipse's size).
+  // the two views, not from the ellipse's size). A fit whose tags come from
+  // one eye only keeps the depth regardless.
   bool stereo_mirror_rim_keep_depth = false;
   // With stereo_mirror_rim: the rim is used only when at least this many
   // distinct mirror tags entered the joint fit. One 12 mm tag leaves the
