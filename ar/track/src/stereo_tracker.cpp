@@ -142,8 +142,12 @@ struct StereoTracker::Impl {
     // seed 1: a free depth moved such frames 1.4-2.1 mm along the line of
     // sight).
     ro.keep_depth = o.stereo_mirror_rim_keep_depth || p.views_used < 2;
+    // ... and only that eye's rim is used (the other eye's rim on a one-eye
+    // prior moves the centre in depth: offframe seed 5, frames 20-21).
+    bool tags_l = p.views_used >= 2, tags_r = p.views_used >= 2;
+    for (const BundlePose::TagResidual& t : p.tag_residuals) (t.view == 0 ? tags_l : tags_r) = true;
     int points = 0;
-    if (!image_l.empty()) {
+    if (!image_l.empty() && tags_l) {
       const MirrorRimResult r = refine_mirror_rim(to_gray(image_l, rim_gray_l), srgb, model_l, p, noise2, T_mtag_mir,
                                                   mirror_radius_m, mirror_thickness_m, ro);
       if (r.refined) {
@@ -153,7 +157,7 @@ struct StereoTracker::Impl {
         points += r.points;
       }
     }
-    if (!image_r.empty()) {
+    if (!image_r.empty() && tags_r) {
       BundlePose pr = p;  // the prior, in the right eye's frame
       pr.T_cam_body = T_camr_caml * p.T_cam_body;
       pr.covariance_per_px2 = rotate_covariance(p.covariance_per_px2, T_camr_caml.linear());
