@@ -122,10 +122,24 @@ struct StereoTracker::Impl {
     return unexplained / cam_l.fx <= o.max_prediction_turn_rad;
   }
 
-  static const cv::Mat& to_gray(const cv::Mat& image, cv::Mat& scratch) {
-    if (image.type() != CV_8UC3) return image;
-    cv::cvtColor(image, scratch, cv::COLOR_BGR2GRAY);
-    return scratch;
+  // The rim's grey image (CV_8UC1): BGR as COLOR_BGR2GRAY; YUYV 4:2:2 (CV_8UC2, a UVC
+  // camera's own format) as its luma stretched from 16..235 to full range (the same grey
+  // levels within one as BGR2GRAY of the decoded colour); grey as given. Anything else:
+  // empty (the rim is skipped for that eye).
+  static cv::Mat to_gray(const cv::Mat& image, cv::Mat& scratch) {
+    switch (image.type()) {
+      case CV_8UC1:
+        return image;
+      case CV_8UC3:
+        cv::cvtColor(image, scratch, cv::COLOR_BGR2GRAY);
+        return scratch;
+      case CV_8UC2:
+        cv::cvtColor(image, scratch, cv::COLOR_YUV2GRAY_YUYV);
+        scratch.convertTo(scratch, CV_8U, 255.0 / 219.0, -16.0 * 255.0 / 219.0);
+        return scratch;
+      default:
+        return cv::Mat();
+    }
   }
 
   // TrackerOptions::stereo_mirror_rim: the rim in the left eye on the joint
@@ -147,8 +161,10 @@ struct StereoTracker::Impl {
     bool tags_l = p.views_used >= 2, tags_r = p.views_used >= 2;
     for (const BundlePose::TagResidual& t : p.tag_residuals) (t.view == 0 ? tags_l : tags_r) = true;
     int points = 0;
-    if (!image_l.empty() && tags_l) {
-      const MirrorRimResult r = refine_mirror_rim(to_gray(image_l, rim_gray_l), srgb, model_l, p, noise2, T_mtag_mir,
+    const cv::Mat gray_l = !image_l.empty() && tags_l ? to_gray(image_l, rim_gray_l) : cv::Mat();
+    const cv::Mat gray_r = !image_r.empty() && tags_r ? to_gray(image_r, rim_gray_r) : cv::Mat();
+    if (!gray_l.empty()) {
+      const MirrorRimResult r = refine_mirror_rim(gray_l, srgb, model_l, p, noise2, T_mtag_mir,
                                                   mirror_radius_m, mirror_thickness_m, ro);
       if (r.refined) {
         p.T_cam_body = r.T_cam_body;
@@ -157,12 +173,12 @@ struct StereoTracker::Impl {
         points += r.points;
       }
     }
-    if (!image_r.empty() && tags_r) {
+    if (!gray_r.empty()) {
       BundlePose pr = p;  // the prior, in the right eye's frame
       pr.T_cam_body = T_camr_caml * p.T_cam_body;
       pr.covariance_per_px2 = rotate_covariance(p.covariance_per_px2, T_camr_caml.linear());
       pr.covariance_per_tag = rotate_covariance(p.covariance_per_tag, T_camr_caml.linear());
-      const MirrorRimResult r = refine_mirror_rim(to_gray(image_r, rim_gray_r), srgb, model_r, pr, noise2, T_mtag_mir,
+      const MirrorRimResult r = refine_mirror_rim(gray_r, srgb, model_r, pr, noise2, T_mtag_mir,
                                                   mirror_radius_m, mirror_thickness_m, ro);
       if (r.refined) {
         const Eigen::Matrix3d R_caml_camr = T_camr_caml.linear().transpose();
