@@ -126,20 +126,56 @@ struct StereoTracker::Impl {
   // camera's own format) as its luma stretched from 16..235 to full range (the same grey
   // levels within one as BGR2GRAY of the decoded colour); grey as given. Anything else:
   // empty (the rim is skipped for that eye).
-  static cv::Mat to_gray(const cv::Mat& image, cv::Mat& scratch) {
-    switch (image.type()) {
-      case CV_8UC1:
-        return image;
-      case CV_8UC3:
-        cv::cvtColor(image, scratch, cv::COLOR_BGR2GRAY);
-        return scratch;
-      case CV_8UC2:
-        cv::cvtColor(image, scratch, cv::COLOR_YUV2GRAY_YUYV);
-        scratch.convertTo(scratch, CV_8U, 255.0 / 219.0, -16.0 * 255.0 / 219.0);
-        return scratch;
-      default:
-        return cv::Mat();
+  // Only the rectangle `roi` (clipped to the image; x and width even for YUYV) is converted:
+  // the rim reads the pixels around the disc, and the frame's cost should follow what is
+  // drawn, not the camera's resolution. Pixels outside it are zero.
+  static cv::Mat to_gray(const cv::Mat& image, cv::Rect roi, cv::Mat& scratch) {
+    if (image.type() == CV_8UC1) return image;
+    if (image.type() != CV_8UC3 && image.type() != CV_8UC2) return cv::Mat();
+    if (image.type() == CV_8UC2) {  // whole pixel pairs
+      const int x0 = roi.x & ~1;
+      roi.width = ((roi.x + roi.width - x0) + 1) & ~1;
+      roi.x = x0;
     }
+    roi &= cv::Rect(0, 0, image.cols, image.rows);
+    scratch.create(image.size(), CV_8UC1);
+    scratch.setTo(0);
+    if (roi.area() <= 0) return scratch;
+    cv::Mat out = scratch(roi);
+    if (image.type() == CV_8UC3) {
+      cv::cvtColor(image(roi), out, cv::COLOR_BGR2GRAY);
+    } else {
+      cv::Mat y;
+      cv::cvtColor(image(roi), y, cv::COLOR_YUV2GRAY_YUYV);
+      y.convertTo(out, CV_8U, 255.0 / 219.0, -16.0 * 255.0 / 219.0);
+    }
+    return scratch;
+  }
+
+  // The disc's outline in an eye (T_cam_mir), grown by a margin for the rim's edge search
+  // and its correction.
+  cv::Rect disc_box(const CameraModel& model, const Eigen::Isometry3d& T_cam_mir) const {
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (int k = 0; k < 16; ++k) {
+      const double a = 2 * M_PI * k / 16;
+      for (double z : {0.0, -mirror_thickness_m}) {
+        const auto q = model.project(T_cam_mir * Eigen::Vector3d(mirror_radius_m * std::cos(a),
+                                                                 mirror_radius_m * std::sin(a), z));
+        if (!q) continue;
+        x0 = std::min(x0, q->x());
+        y0 = std::min(y0, q->y());
+        x1 = std::max(x1, q->x());
+        y1 = std::max(y1, q->y());
+      }
+    }
+    if (x1 < x0) return cv::Rect();
+    const double m = 4 * o.mirror_rim.search_px + 16;  // px
+    x0 = std::clamp(x0 - m, -1.0, 1e5);
+    y0 = std::clamp(y0 - m, -1.0, 1e5);
+    x1 = std::clamp(x1 + m, -1.0, 1e5);
+    y1 = std::clamp(y1 + m, -1.0, 1e5);
+    return cv::Rect(cv::Point(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0))),
+                    cv::Point(static_cast<int>(std::ceil(x1)) + 1, static_cast<int>(std::ceil(y1)) + 1));
   }
 
   // TrackerOptions::stereo_mirror_rim: the rim in the left eye on the joint
@@ -161,8 +197,12 @@ struct StereoTracker::Impl {
     bool tags_l = p.views_used >= 2, tags_r = p.views_used >= 2;
     for (const BundlePose::TagResidual& t : p.tag_residuals) (t.view == 0 ? tags_l : tags_r) = true;
     int points = 0;
-    const cv::Mat gray_l = !image_l.empty() && tags_l ? to_gray(image_l, rim_gray_l) : cv::Mat();
-    const cv::Mat gray_r = !image_r.empty() && tags_r ? to_gray(image_r, rim_gray_r) : cv::Mat();
+    const Eigen::Isometry3d T_caml_mir = p.T_cam_body * T_mtag_mir;
+    const cv::Mat gray_l =
+        !image_l.empty() && tags_l ? to_gray(image_l, disc_box(model_l, T_caml_mir), rim_gray_l) : cv::Mat();
+    const cv::Mat gray_r = !image_r.empty() && tags_r
+                               ? to_gray(image_r, disc_box(model_r, T_camr_caml * T_caml_mir), rim_gray_r)
+                               : cv::Mat();
     if (!gray_l.empty()) {
       const MirrorRimResult r = refine_mirror_rim(gray_l, srgb, model_l, p, noise2, T_mtag_mir,
                                                   mirror_radius_m, mirror_thickness_m, ro);
