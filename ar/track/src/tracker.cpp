@@ -166,6 +166,10 @@ std::string TrackerOptions::validate() const {
     os << "stale_limit_s = " << stale_limit_s << " must be in [0, 10] s";
   else if (auto e = mirror_rim.validate(); !e.empty())
     os << "mirror_rim." << e;
+  else if (stereo_mirror_rim_min_tags < 1 || stereo_mirror_rim_min_tags > 100)
+    os << "stereo_mirror_rim_min_tags = " << stereo_mirror_rim_min_tags << " must be in [1, 100]";
+  else if (!(std::isfinite(mirror_min_unexplained_speed_m_s) && mirror_min_unexplained_speed_m_s >= 0))
+    os << "mirror_min_unexplained_speed_m_s = " << mirror_min_unexplained_speed_m_s << " must be finite and >= 0";
   else if (discovery != DiscoveryMode::kInline && !predicted_regions)
     os << "discovery = " << discovery_mode_name(discovery)
        << " needs predicted_regions (without them every frame is a full-frame search)";

@@ -14,8 +14,15 @@
 // max_rms_px, mannequin/mirror/pen_max_sigma_m, sigma_floor_px, the
 // mirror's and pen's corner noise pooled with the mannequin's), the SE(3)
 // filter, the tracking / predicted / lost states with the stale, drift and
-// image-motion checks (on the left eye's image). The mirror's rim
-// refinement (TrackerOptions::mirror_rim_refine) is mono only: ignored here.
+// image-motion checks (on the left eye's image). The mono rim refinement
+// (TrackerOptions::mirror_rim_refine) is not used here; the mirror's joint
+// fit has its own (TrackerOptions::stereo_mirror_rim): the disc's rim in
+// the left eye on the joint fit as the prior, then in the right eye on that
+// (refine_mirror_rim, mirror_rim.h, with the covariance carried into each
+// eye's frame), so the two rims fix the disc's centre in depth as well as
+// across. A mirror drawn from the prediction states its error
+// (TrackerOptions::mirror_prediction_sigma) and is lost once that exceeds
+// the mirror's gate.
 //
 // Covariance: BodyTrack::covariance is the joint fit's (w rad, v m) in
 // `rig` (bundle_pose.h), checked against Monte Carlo in

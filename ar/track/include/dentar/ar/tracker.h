@@ -218,6 +218,38 @@ struct TrackerOptions {
   // mirror's rim ellipse).
   bool mirror_rim_refine = false;
   MirrorRimOptions mirror_rim;
+  // StereoTracker only (issue 28, the mirror through both eyes): refine the
+  // mirror's joint fit from its rim ellipse in each eye in turn (the left
+  // eye's rim on the joint fit as the prior, then the right eye's on that),
+  // each with mirror_rim's options. The stereo fit fixes the depth the rim
+  // cannot; the rim fixes the tilt that two 12 mm tags 85 mm from the disc
+  // leave. Measured in docs/BENCHMARKS.md (issue 28 session 16).
+  bool stereo_mirror_rim = true;
+  // With stereo_mirror_rim: hold the disc centre's distance along each eye's
+  // line of sight at the prior's (mirror_rim.keep_depth, which one camera
+  // needs). false: each eye's rim moves the centre across its own line of
+  // sight and the two eyes' rims together fix it in depth too (the rim's
+  // image size stays free, mirror_rim.free_scale, so the depth comes from
+  // the two views, not from the ellipse's size). A fit whose tags come from
+  // one eye only keeps the depth regardless.
+  bool stereo_mirror_rim_keep_depth = false;
+  // With stereo_mirror_rim: the rim is used only when at least this many
+  // distinct mirror tags entered the joint fit. One 12 mm tag leaves the
+  // disc's tilt nearly free (its planar ambiguity), and the rim's ellipse has
+  // a two-fold tilt of its own: on the development clips (seeds 1-2) the
+  // one-tag frames refined with the rim were the whole tail (up to 2.4 mm,
+  // 4 deg off, stating 0.3 mm), the two- and three-tag frames <= 0.64 mm.
+  int stereo_mirror_rim_min_tags = 2;
+  // StereoTracker only: a mirror drawn from the filter's prediction states
+  // an error that grows with the prediction's age,
+  //   sigma(age) = sqrt(sigma_last^2 + (q * age)^2),
+  // q the RMS speed (m/s) at the mirror's centre of the motion the filter
+  // did not predict over its recent measurements (innovation / frame gap,
+  // floored at mirror_min_unexplained_speed_m_s), and is lost once sigma(age)
+  // exceeds mirror_max_sigma_m, as a measurement would be. false = the
+  // shared drift bound alone (max_prediction_drift_m).
+  bool mirror_prediction_sigma = true;
+  double mirror_min_unexplained_speed_m_s = 0.005;
   // Where the full-frame search runs (see the top of this file).
   DiscoveryMode discovery = DiscoveryMode::kInline;
   // kAsync: called once on the worker thread before its first search (CPU
