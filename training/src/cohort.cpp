@@ -217,7 +217,9 @@ using Rows = std::vector<std::vector<Eigen::Vector3d>>;
 // top of the step's cell down to its bottom; in each, a boustrophedon raster
 // of rows 0.4 mm apart where the cell still has material within 0.8 bur
 // radii and the column is not finished; each tip at max(layer, floor) + the
-// sink compensation - the depth error (> 0 deeper).
+// sink compensation - half a voxel - the depth error (> 0 deeper). `finish`,
+// when given, receives the finishing pass along the walls (below; empty when
+// the part touches no wall).
 std::vector<Rows> plan_sweep(const StepGeom& g, const volume::BurParams& bur, double outline_err_m, double depth_err_m,
                              double skip_prob, double sink_m, std::mt19937_64& rng, Rows* finish) {
   if (finish) finish->clear();
