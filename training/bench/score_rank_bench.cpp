@@ -12,7 +12,7 @@
 //                                            [--access-points bands|continuous] [--taper-points P]
 //                                            [--flare-free-deg D] [--flare-deg-per-point S]
 //                                            [--seeds 2,3,4,5] [--bootstrap 2000] [--components 1]
-//                                            [--pulp-full-mm D] [--pulp-min-fraction F]
+//                                            [--pulp-full-mm D] [--pulp-min-fraction F] [--leftover 1]
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
 // seconds on the same sessions (the first run generates them).
@@ -45,6 +45,7 @@
 #include "dentar/haptics/session_log.h"
 #include "dentar/training/cohort.h"
 #include "dentar/training/outcome.h"
+#include "dentar/volume/material.h"
 
 namespace {
 
@@ -98,6 +99,121 @@ RhoCi rho_with_interval(const std::vector<Row>& rows, int b) {
   return c;
 }
 
+// --leftover 1: where a session left each target region's material and where it cut past the
+// targets, in the tooth frame. Per target region: the material left (mm3 of the starting
+// density still in place) against the region's material, in 0.5 mm bands of z and in bands of
+// depth inside the outline (the distance from a voxel to the nearest voxel outside the region,
+// 0.15 mm steps); then the material removed outside every target, in bands of z and of distance
+// outside the nearest target (same steps). Reads the plan's result, not the score.
+void print_leftover(const std::string& tag, const Exercise& ex, const RegionMasks& m, const dentar::volume::VoxelVolume& start,
+                    const dentar::volume::VoxelVolume& cut) {
+  const Eigen::Vector3i d = start.dims();
+  const double h = start.spacing().minCoeff();
+  const double vox_mm3 = start.voxel_volume_m3() * 1e9;
+  const int reach = static_cast<int>(std::ceil(1.2e-3 / h));
+  // Distance (in units of h) from voxel (i, j, k) to the nearest voxel for which `other` holds, up to reach + 1.
+  int side = 0;  // of the last dist_to: 0..5 = the nearest such voxel lies toward -x, +x, -y, +y, -z, +z
+  auto dist_to = [&](int i, int j, int k, const std::function<bool(int, int, int)>& other) {
+    double best = reach + 1;
+    for (int c = -reach; c <= reach; ++c)
+      for (int b = -reach; b <= reach; ++b)
+        for (int a = -reach; a <= reach; ++a) {
+          const double r = std::sqrt(double(a * a + b * b + c * c));
+          if (r >= best) continue;
+          const int x = i + a, y = j + b, z = k + c;
+          if (x < 0 || y < 0 || z < 0 || x >= d.x() || y >= d.y() || z >= d.z()) continue;
+          if (!other(x, y, z)) continue;
+          best = r;
+          const int ax = std::abs(a) >= std::abs(b) && std::abs(a) >= std::abs(c) ? 0 : std::abs(b) >= std::abs(c) ? 1 : 2;
+          side = 2 * ax + ((ax == 0 ? a : ax == 1 ? b : c) > 0);
+        }
+    return best * h * 1e3;  // mm
+  };
+  static const char* kSide[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
+  auto band_line = [](const std::vector<std::pair<double, double>>& bands, double lo, double step) {
+    std::string s;
+    for (std::size_t b = 0; b < bands.size(); ++b) {
+      if (bands[b].second <= 0 && bands[b].first <= 0) continue;
+      char buf[96];
+      std::snprintf(buf, sizeof buf, " [%.2f,%.2f) %.2f/%.2f", lo + b * step, lo + (b + 1) * step, bands[b].first, bands[b].second);
+      s += buf;
+    }
+    return s;
+  };
+  for (std::size_t r = 0; r < ex.regions.size() && r < 32; ++r) {
+    if (ex.regions[r].role != RegionRole::kTarget) continue;
+    auto in_r = [&](int x, int y, int z) { return (m.bits[m.index(x, y, z)] >> r & 1u) != 0; };
+    double zlo = 1e9, zhi = -1e9;
+    for (int k = 0; k < d.z(); ++k)
+      for (int j = 0; j < d.y(); ++j)
+        for (int i = 0; i < d.x(); ++i)
+          if (start.density(i, j, k) > 0 && in_r(i, j, k)) {
+            zlo = std::min(zlo, start.voxel_center(i, j, k).z() * 1e3);
+            zhi = std::max(zhi, start.voxel_center(i, j, k).z() * 1e3);
+          }
+    if (zlo > zhi) continue;
+    zlo = std::floor(zlo * 2) / 2;
+    const double dstep = 0.15;
+    std::vector<std::pair<double, double>> zb(static_cast<std::size_t>((zhi - zlo) / 0.5) + 1), db(9), sb(6);
+    double left = 0, total = 0;
+    for (int k = 0; k < d.z(); ++k)
+      for (int j = 0; j < d.y(); ++j)
+        for (int i = 0; i < d.x(); ++i) {
+          const int d0 = start.density(i, j, k);
+          if (d0 == 0 || !in_r(i, j, k)) continue;
+          const double full = std::max<int>(1, dentar::volume::material_info(start.material(i, j, k)).full_density);
+          const double v = vox_mm3 * d0 / full, l = vox_mm3 * std::min<int>(d0, cut.density(i, j, k)) / full;
+          auto& z = zb[static_cast<std::size_t>((start.voxel_center(i, j, k).z() * 1e3 - zlo) / 0.5)];
+          z.first += l, z.second += v;
+          const double in = dist_to(i, j, k, [&](int x, int y, int zz) { return !in_r(x, y, zz); });
+          auto& q = db[std::min<std::size_t>(db.size() - 1, static_cast<std::size_t>(in / dstep))];
+          q.first += l, q.second += v;
+          if (in < 0.5) sb[static_cast<std::size_t>(side)].first += l, sb[static_cast<std::size_t>(side)].second += v;
+          left += l, total += v;
+        }
+    std::string sides;
+    for (int q = 0; q < 6; ++q)
+      if (sb[q].second > 0) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, " %s %.2f/%.2f", kSide[q], sb[q].first, sb[q].second);
+        sides += buf;
+      }
+    std::printf("%s leftover %s: %.2f of %.2f mm3 left (%.0f %%); by z mm (left/material):%s; by depth inside the outline mm:%s;"
+                " within 0.5 mm of the outline, by the side it faces:%s\n",
+                tag.c_str(), ex.regions[r].name.c_str(), left, total, 100 * left / std::max(total, 1e-9),
+                band_line(zb, zlo, 0.5).c_str(), band_line(db, 0, dstep).c_str(), sides.c_str());
+  }
+  // Cut outside every target.
+  auto in_target = [&](int x, int y, int z) { return (m.bits[m.index(x, y, z)] & m.target_bits) != 0; };
+  std::vector<std::pair<double, double>> ob(9);
+  std::vector<std::pair<double, double>> oz(30);
+  double osb[6] = {0, 0, 0, 0, 0, 0};
+  double over = 0;
+  for (int k = 0; k < d.z(); ++k)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i) {
+        const int d0 = start.density(i, j, k), d1 = cut.density(i, j, k);
+        if (d1 >= d0 || in_target(i, j, k)) continue;
+        const double rem = vox_mm3 * (d0 - d1) / std::max<int>(1, dentar::volume::material_info(start.material(i, j, k)).full_density);
+        const double out = dist_to(i, j, k, in_target);
+        osb[static_cast<std::size_t>(side)] += rem;
+        ob[std::min<std::size_t>(ob.size() - 1, static_cast<std::size_t>(out / 0.15))].first += rem;
+        const double z = start.voxel_center(i, j, k).z() * 1e3;
+        oz[static_cast<std::size_t>(std::clamp(std::floor(z / 0.5) + 10, 0.0, 29.0))].first += rem;
+        over += rem;
+      }
+  std::string sides;
+  for (int q = 0; q < 6; ++q)
+    if (osb[q] > 0) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, " %s %.2f", kSide[q], osb[q]);
+      sides += buf;
+    }
+  std::printf("%s outside the targets: %.2f mm3 removed; by distance outside mm:%s; by z mm:%s; by the side of the target it lies on"
+              " (the nearest target voxel lies toward):%s\n", tag.c_str(), over,
+              band_line(ob, 0, 0.15).c_str(), band_line(oz, -5.0, 0.5).c_str(), sides.c_str());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -114,6 +230,7 @@ int main(int argc, char** argv) {
   std::vector<std::uint64_t> seeds; // --seeds: several cohorts, pooled at the end
   int bootstrap = 2000;
   int components = 0;               // --components 1: per-criterion rho against skill
+  int leftover = 0;                 // --leftover 1: where each session left target material and cut past it
   double pulp_full_mm = -1, pulp_min_fraction = -1;  // --pulp-full-mm, --pulp-min-fraction: graded pulp exposure
   double flare_free = -1, flare_step = -1;  // --flare-free-deg, --flare-deg-per-point: continuous access walls
   if (argc % 2 == 0) {
@@ -138,6 +255,7 @@ int main(int argc, char** argv) {
     else if (a == "--flare-deg-per-point") flare_step = std::atof(v.c_str());
     else if (a == "--bootstrap") bootstrap = std::atoi(v.c_str());
     else if (a == "--components") components = std::atoi(v.c_str());
+    else if (a == "--leftover") leftover = std::atoi(v.c_str());
     else if (a == "--pulp-full-mm") pulp_full_mm = std::atof(v.c_str());
     else if (a == "--pulp-min-fraction") pulp_min_fraction = std::atof(v.c_str());
     else if (a == "--seeds") {
@@ -303,6 +421,11 @@ int main(int argc, char** argv) {
         auto sc = score_outcome(*ex, *masks, *start, cut);
         if (!sc) return std::fprintf(stderr, "%s\n", sc.error().c_str()), 1;
         rows.push_back({1.0 - sep, *sc, 0});
+        if (leftover) {
+          char tag[96];
+          std::snprintf(tag, sizeof tag, "%s skill %.2f %s", name.c_str(), 1.0 - sep, t.subject.c_str());
+          print_leftover(tag, *ex, *masks, *start, cut);
+        }
         std::string costs;
         for (const auto& p : sc->penalties) costs += ", -" + std::to_string(p.points) + " " + p.name + " (" + p.why + ")";
         std::string parts;

@@ -131,6 +131,7 @@ struct StepGeom {
   // column (u, v on kGrid, packed by column_key) the highest h. Where a column
   // has none the bur may overhang (air beside the tooth).
   std::unordered_map<std::int64_t, double> other_top;
+  double voxel_m = 0;  // the tooth's voxel size: a region's face lies half a voxel past its outermost voxel centres
 };
 
 constexpr double kGrid = 0.2e-3;  // raster grid of the sweeps (m)
@@ -146,6 +147,7 @@ std::vector<StepGeom> step_geometry(const Exercise& ex, const RegionMasks& m, co
   std::vector<int> region_of(S, -1);
   for (std::size_t k = 0; k < S; ++k) {
     g[k].f = focus[k];
+    g[k].voxel_m = start.spacing().minCoeff();
     g[k].a = ex.steps[k].approach.normalized();
     g[k].U = g[k].a.unitOrthogonal();
     g[k].V = g[k].a.cross(g[k].U);
@@ -215,9 +217,12 @@ using Rows = std::vector<std::vector<Eigen::Vector3d>>;
 // top of the step's cell down to its bottom; in each, a boustrophedon raster
 // of rows 0.4 mm apart where the cell still has material within 0.8 bur
 // radii and the column is not finished; each tip at max(layer, floor) + the
-// sink compensation - the depth error (> 0 deeper).
+// sink compensation - half a voxel - the depth error (> 0 deeper). `finish`,
+// when given, receives the finishing pass along the walls (below; empty when
+// the part touches no wall).
 std::vector<Rows> plan_sweep(const StepGeom& g, const volume::BurParams& bur, double outline_err_m, double depth_err_m,
-                             double skip_prob, double sink_m, std::mt19937_64& rng) {
+                             double skip_prob, double sink_m, std::mt19937_64& rng, Rows* finish) {
+  if (finish) finish->clear();
   std::vector<Rows> layers;
   if (g.cell.empty()) return layers;
   std::uniform_real_distribution<double> u01(0, 1);
@@ -315,11 +320,15 @@ std::vector<Rows> plan_sweep(const StepGeom& g, const volume::BurParams& bur, do
       inside[at(i, j)] = in;
     }
   const int reach = static_cast<int>(std::ceil(0.8 * erode_radius_m / grid));
-  const double shift = sink_m - depth_err_m;  // the tip is aimed this far above its floor
+  // The tip is aimed this far above its column's floor (the lowest target voxel centre): the
+  // bur's sink, less half a voxel to the region's face, less the depth error.
+  const double shift = sink_m - 0.5 * g.voxel_m - depth_err_m;
   std::vector<double> heights;
   for (double h = hmax - dz; h > hmin + shift; h -= dz) heights.push_back(h);
   heights.push_back(hmin + shift);
   bool reverse = false;
+  // Per column: the lowest tip height any layer planned there (kNone: never worked).
+  std::vector<double> lowest(N, kNone);
   for (std::size_t L = 0; L < heights.size(); ++L) {
     const double hL = heights[L];
     std::vector<std::uint8_t> need(N, 0), work(N, 0);
@@ -336,6 +345,8 @@ std::vector<Rows> plan_sweep(const StepGeom& g, const volume::BurParams& bur, do
     for (std::size_t q = 0; q < N; ++q)
       // A column whose floor lies above the previous layer was finished there.
       work[q] = need[q] && inside[q] && (L == 0 || tip_floor[q] + shift < heights[L - 1]);
+    for (std::size_t q = 0; q < N; ++q)
+      if (work[q]) lowest[q] = std::min(lowest[q], std::max(hL, tip_floor[q] + shift));
     Rows rows;
     int last_row = -100;
     for (int j = 0; j < nv; ++j) {
@@ -362,6 +373,68 @@ std::vector<Rows> plan_sweep(const StepGeom& g, const volume::BurParams& bur, do
       for (auto& r : runs) rows.push_back(std::move(r));
     }
     if (!rows.empty()) layers.push_back(std::move(rows));
+  }
+  // The finishing pass along the outline's walls (generator v5): the tip follows the edge of the
+  // columns this step worked where the outline, not air, stops it (a wall lies within the bur's
+  // radius), at each column's lowest planned height, so the bur's side planes the walls down to
+  // the floor. The raster reaches a wall across its rows only at their ends (a row every 0.4 mm
+  // leaves scallops there); an operator finishes a preparation by running the bur along its
+  // outline.
+  if (finish && !layers.empty()) {
+    const int wr = static_cast<int>(std::ceil((erode + 1.5 * grid) / grid));
+    std::vector<std::pair<double, Eigen::Vector3d>> edge;  // (angle, (h, u, v))
+    double cu0 = 0, cv0 = 0;
+    int n = 0;
+    for (int j = 0; j < nv; ++j)
+      for (int i = 0; i < nu; ++i)
+        if (lowest[at(i, j)] < kNone) cu0 += i, cv0 += j, ++n;
+    if (n > 0) {
+      cu0 /= n;
+      cv0 /= n;
+    }
+    for (int j = 0; j < nv; ++j)
+      for (int i = 0; i < nu; ++i) {
+        const std::size_t q = at(i, j);
+        if (lowest[q] >= kNone) continue;
+        bool rim = false;  // a neighbour the tip may not enter
+        const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+        for (const auto& o : nb) {
+          const int x = i + o[0], y = j + o[1];
+          rim |= x < 0 || y < 0 || x >= nu || y >= nv || !inside[at(x, y)];
+        }
+        if (!rim) continue;
+        bool wall = false;  // the outline (material outside the targets) within the bur's reach
+        for (int dj = -wr; dj <= wr && !wall; ++dj)
+          for (int di = -wr; di <= wr && !wall; ++di) {
+            const int x = i + di, y = j + dj;
+            if (di * di + dj * dj > wr * wr || x < 0 || y < 0 || x >= nu || y >= nv) continue;
+            wall = blocked[at(x, y)] != 0;
+          }
+        if (!wall) continue;
+        edge.emplace_back(std::atan2(j - cv0, i - cu0), Eigen::Vector3d(lowest[q], umin + i * grid, vmin + j * grid));
+      }
+    if (!edge.empty()) {
+      std::sort(edge.begin(), edge.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      // Start after the widest angular gap, so a wall that is not closed (a step's part of the
+      // outline) is followed from one end to the other.
+      std::size_t start = 0;
+      double widest = -1;
+      for (std::size_t e = 0; e < edge.size(); ++e) {
+        const double next = e + 1 < edge.size() ? edge[e + 1].first : edge.front().first + 2 * M_PI;
+        if (next - edge[e].first > widest) widest = next - edge[e].first, start = (e + 1) % edge.size();
+      }
+      std::vector<Eigen::Vector3d> run;
+      for (std::size_t e = 0; e < edge.size(); ++e) {
+        const Eigen::Vector3d& p = edge[(start + e) % edge.size()].second;
+        // A jump along the edge (another wall's part) starts a new run, reached with the bur lifted.
+        if (!run.empty() && (p.tail<2>() - run.back().tail<2>()).norm() > 0.45e-3) {
+          finish->push_back(std::move(run));
+          run.clear();
+        }
+        run.push_back(p);
+      }
+      if (!run.empty()) finish->push_back(std::move(run));
+    }
   }
   return layers;
 }
@@ -450,16 +523,20 @@ Script make_script(const Exercise& ex, const SkillParams& p, std::mt19937_64& rn
     // falls under the cutter's 0.05 N threshold (the hand and coupling in
     // series: 1 / (1/3000 + 1/1600) = 1043 N/m). The expert plans for the sink
     // of the nominal 1 N, not for the trial's own force (novices press harder).
-    // A sweeping bur does not stay long enough to sink the whole static
-    // 0.30 mm: on the incisor's labial enamel the floors came out best aimed
-    // 0.1-0.2 mm above (generator v4, docs/BENCHMARKS.md): half of it.
+    // The whole static sink (0.30 mm) since generator v5: the finishing pass along the walls
+    // dwells at the floor, and a bur that stays sinks the whole of it. (v4 aimed half of it,
+    // tuned on the incisor's labial enamel without a finishing pass; its experts then cut
+    // 0.1-0.2 mm past the floor: docs/BENCHMARKS.md, "Issue 25 session 16".)
     const double over = 0.35e-3 * force;
-    const double sink = 0.5 * std::max(0.0, 0.35e-3 - 0.05 / 1043.0);
+    const double sink = std::max(0.0, 0.35e-3 - 0.05 / 1043.0);
+    Rows finish;
     if (sg) layers = plan_sweep(*sg, ex.bur, p.outline_mm * 1e-3 * n01(rng), p.depth_mm * 1e-3 * n01(rng),
-                                p.skip_prob, sink, rng);
-    // Stopping early: the step's deeper layers are never reached.
+                                p.skip_prob, sink, rng, &finish);
+    // Stopping early: the step's deeper layers are never reached, nor its walls finished.
     if (layers.size() > 1 && u01(rng) < p.stop_prob)
       layers.resize(std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(layers.size() * (0.3 + 0.5 * u01(rng))))));
+    else if (!finish.empty())
+      layers.push_back(std::move(finish));
     if (layers.empty()) {
       // No target voxels for this step (or no geometry): press toward the
       // focus with small circles (0.3 mm, 4 Hz) for 2.5 s.

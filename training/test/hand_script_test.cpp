@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 namespace dentar::training {
 namespace {
@@ -99,6 +100,44 @@ TEST(HandScript, OutOfRangeSkillOrStyleIsNamed) {
   EXPECT_NE(r.error().find("hand style"), std::string::npos) << r.error();
   o.style = std::nan("");
   EXPECT_FALSE(hand_tip_script(f.ex, f.tooth, o).ok());
+}
+
+
+// Generator v5 (issue 25, session 16): the expert's class I plan finishes the preparation along
+// its outline. The cavity is the box |x| <= 2.2, |y| <= 0.9 mm down to z = 3.9 mm, cut with a
+// 0.5 mm radius cylinder: at the floor the bur's centre must run along y = -0.4 and y = +0.4 (its
+// side on the buccal and palatal walls) over the walls' whole length, |x| <= 1.7. The v4 raster's
+// rows ran across those walls and touched each only at every other row's end, so about half of
+// each wall's length was planed; the finishing pass runs the bur along all of it.
+TEST(HandScript, TheClassIExpertRunsTheBurAlongTheWholeBuccalAndPalatalWallsAtTheFloor) {
+  auto ex = load_builtin_exercise("molar_class1_cavity");
+  ASSERT_TRUE(ex.ok()) << ex.error();
+  auto tooth = make_tooth(R"({"kind":"molar","voxel_mm":0.15})");
+  ASSERT_TRUE(tooth.ok()) << tooth.error();
+  for (std::uint64_t seed : {1u, 2u}) {
+    auto e = expert_tip_script(*ex, *tooth, seed);
+    ASSERT_TRUE(e.ok()) << e.error();
+    // 0.1 mm bins of x over the wall's length, per wall: visited by a drilling tip target at the
+    // floor's level (the hand aims below the floor by its press: z < 4.3 mm) within 0.1 mm of
+    // the wall's bur line.
+    constexpr int kBins = 34;
+    std::vector<int> buccal(kBins, 0), palatal(kBins, 0);
+    for (std::size_t i = 1; i < e->size(); ++i) {
+      const auto& w = (*e)[i];
+      if (!w.pedal || w.tip_tooth_m.z() > 4.3e-3) continue;
+      const double x = w.tip_tooth_m.x() * 1e3, y = w.tip_tooth_m.y() * 1e3;
+      const int b = static_cast<int>(std::floor((x + 1.7) / 0.1));
+      if (b < 0 || b >= kBins) continue;
+      if (std::abs(y + 0.4) < 0.1) buccal[static_cast<std::size_t>(b)] = 1;
+      if (std::abs(y - 0.4) < 0.1) palatal[static_cast<std::size_t>(b)] = 1;
+      // Never past the outline: the bur's side stays inside the box (tremor and tilt aside).
+      EXPECT_LT(std::abs(y), 0.5) << "seed " << seed << " at t = " << w.time_s << " s";
+    }
+    int nb = 0, np = 0;
+    for (int b = 0; b < kBins; ++b) nb += buccal[static_cast<std::size_t>(b)], np += palatal[static_cast<std::size_t>(b)];
+    EXPECT_GE(nb, kBins - 2) << "seed " << seed << ": the buccal wall planed over " << nb << " of " << kBins << " bins";
+    EXPECT_GE(np, kBins - 2) << "seed " << seed << ": the palatal wall planed over " << np << " of " << kBins << " bins";
+  }
 }
 
 }  // namespace

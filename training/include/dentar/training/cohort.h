@@ -17,7 +17,7 @@ namespace dentar::training {
 
 // Bumped whenever the generated sessions change (cached expert references
 // are keyed by it).
-inline constexpr int kCohortGeneratorVersion = 4;
+inline constexpr int kCohortGeneratorVersion = 5;
 
 struct SkillParams {
   double tremor_mm = 0.02;     // amplitude of a 9-11 Hz tremor on the hand's target, x and y
