@@ -22,7 +22,8 @@
 #                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
 #                                              alternating (PAIRS pairs, default 2)
 #
-# Environment: BUILD_DIR (default build), OUT (default out/bench_live). Nothing is installed: without
+# Environment: BUILD_DIR (default build), OUT (default out/bench_live), HEADSET (a headset profile:
+# latency's stereo rows drive --output sbs with it). Nothing is installed: without
 # `stress` (Debian package stress) the --stress rows are left out and the script says so.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -103,9 +104,13 @@ latency_header() {
 latency_rows() {  # latency_rows SUFFIX
   local s2_720 s2_480 m1080
   s2_720=$(clip_stereo 1280 720); s2_480=$(clip_stereo 640 480); m1080=$(clip 1920 1080)
-  latency_pair "stereo 2x1280x720, two cameras$1" "$s2_720" --camera live:"$s2_720/camera_left.avi" --camera-right live:"$s2_720/camera_right.avi"
-  latency_pair "stereo 2x640x480, two cameras$1" "$s2_480" --camera live:"$s2_480/camera_left.avi" --camera-right live:"$s2_480/camera_right.avi"
-  latency_pair "stereo 2x640x480, side by side$1" "$s2_480" --camera live:"$s2_480/camera.avi" --stereo
+  # HEADSET=profile.json: the stereo rows drive the side-by-side headset view (each eye its own
+  # composite), as a student wearing the headset sees it; without it the mono window.
+  local -a hs=()
+  [[ -n "${HEADSET:-}" ]] && hs=(--output sbs --headset "$HEADSET")
+  latency_pair "stereo 2x1280x720, two cameras$1" "$s2_720" --camera live:"$s2_720/camera_left.avi" --camera-right live:"$s2_720/camera_right.avi" "${hs[@]}"
+  latency_pair "stereo 2x640x480, two cameras$1" "$s2_480" --camera live:"$s2_480/camera_left.avi" --camera-right live:"$s2_480/camera_right.avi" "${hs[@]}"
+  latency_pair "stereo 2x640x480, side by side$1" "$s2_480" --camera live:"$s2_480/camera.avi" --stereo "${hs[@]}"
   latency_pair "mono 1920x1080$1" "$m1080" --camera live:"$m1080/camera.avi"
 }
 
