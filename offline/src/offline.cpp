@@ -819,7 +819,7 @@ struct Job {
       auto got = src->read(frame);
       if (!got) return fail("offline: " + got.error());
       if (!*got) return false;
-      if (!o.eye.empty()) {  // one eye of side-by-side footage
+      if (o.eye == "left" || o.eye == "right") {  // one eye of side-by-side footage
         cv::Mat left, right;
         if (Status s = split_side_by_side(frame.image, left, right, o.footage); !s) return fail("offline: " + s.error());
         frame.image = (o.eye == "right" ? right : left).clone();
