@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "dentar/training/assess.h"
 #include "dentar/training/cohort.h"
 #include "dentar/training/kinematics.h"
@@ -43,7 +45,7 @@ int main(int argc, char** argv) {
   int seeds = 5, classes = 2, per_class = 6, trials = 3, decimate = 10, first_seed = 1;
   double style = 1.0, separation = 1.0;
   std::string methods = "hmm,hmm-norm,ghmm,ghmm-norm,dtw,dtw-norm,skill,time,timepath";
-  std::string exercise = "molar_access_opening", out = "/tmp/dentar_loso_bench";
+  std::string exercise = "molar_access_opening", out;
   bool identity = true, trial_cv = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -74,6 +76,11 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  // Scratch cohorts go to a per-process folder under $TMPDIR unless --out names one; either way
+  // each seed's folder is removed after use, and the default parent too (two runs never share it).
+  const bool own_out = out.empty();
+  if (own_out)
+    out = (std::filesystem::temp_directory_path() / ("dentar_loso_bench_" + std::to_string(::getpid()))).string();
   if (classes != 2 && classes != 3) {
     std::cerr << "--classes must be 2 or 3\n";
     return 2;
@@ -119,6 +126,7 @@ int main(int argc, char** argv) {
     auto gen = generate_cohort(*ex, o, dir);
     if (!gen) {
       std::cerr << gen.error() << "\n";
+      if (own_out) std::filesystem::remove_all(out);
       return 1;
     }
     auto map = load_column_map(dir + "/columns.json");
@@ -126,6 +134,7 @@ int main(int argc, char** argv) {
     auto tr = map ? import_trials(dir + "/trials.csv", *map, &names) : dentar::Result<std::vector<Trial>>(dentar::Error{map.error()});
     if (!tr) {
       std::cerr << tr.error() << "\n";
+      if (own_out) std::filesystem::remove_all(out);
       return 1;
     }
     const double gen_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -173,6 +182,7 @@ int main(int argc, char** argv) {
       const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
       if (!r) {
         std::cerr << sp.name << ": " << r.error() << "\n";
+        if (own_out) std::filesystem::remove_all(out);
         return 1;
       }
       Acc& A = acc[sp.name];
@@ -184,6 +194,7 @@ int main(int argc, char** argv) {
         auto id = cross_validate(*tr, names, a, CvMode::kIdentity);
         if (!id) {
           std::cerr << sp.name << " (identity): " << id.error() << "\n";
+          if (own_out) std::filesystem::remove_all(out);
           return 1;
         }
         A.id.push_back(id->accuracy);
@@ -194,6 +205,7 @@ int main(int argc, char** argv) {
         auto lt = cross_validate(*tr, names, a, CvMode::kTrial);
         if (!lt) {
           std::cerr << sp.name << " (trial): " << lt.error() << "\n";
+          if (own_out) std::filesystem::remove_all(out);
           return 1;
         }
         A.loto.push_back(lt->accuracy);
@@ -243,5 +255,6 @@ int main(int argc, char** argv) {
     }
     std::printf("\n");
   }
+  if (own_out) std::filesystem::remove_all(out);
   return 0;
 }

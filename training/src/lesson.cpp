@@ -433,9 +433,14 @@ Result<Lesson> make_lesson(const std::string& recording_in, const std::string& o
 Result<Lesson> make_generated_lesson(const std::string& exercise, const std::string& out_dir, std::uint64_t seed) {
   auto ex = load_named_exercise(exercise);
   if (!ex) return Error{"--exercise: " + ex.error()};
-  char tmpl[] = "/tmp/dentar_lesson_XXXXXX";
-  const char* scratch = ::mkdtemp(tmpl);
-  if (!scratch) return Error{"cannot create a scratch folder in /tmp"};
+  // Scratch under $TMPDIR (not a fixed /tmp), removed on every return below.
+  std::error_code tec;
+  const fs::path tmp_root = fs::temp_directory_path(tec);
+  const fs::path tmp_dir = tec ? fs::path("/tmp") : tmp_root;
+  std::string tmpl = (tmp_dir / "dentar_lesson_XXXXXX").string();
+  const char* scratch = ::mkdtemp(tmpl.data());
+  if (!scratch)
+    return Error{"cannot create a scratch folder in " + tmp_dir.string() + " (set TMPDIR to a writable folder)"};
   const std::string sdir = scratch;
   auto cleanup = [&] { std::error_code e; fs::remove_all(sdir, e); };
   CohortOptions co;
