@@ -194,6 +194,10 @@ void print_leftover(const std::string& tag, const Exercise& ex, const RegionMask
   std::vector<std::pair<double, double>> oz(30);
   double osb[6] = {0, 0, 0, 0, 0, 0};
   double over = 0;
+  // The same for the pulp alone (session 17): whether it was opened past the floor or past a wall.
+  std::vector<std::pair<double, double>> pb(9), pz(30);
+  double psb[6] = {0, 0, 0, 0, 0, 0};
+  double pulp = 0;
   for (int k = 0; k < d.z(); ++k)
     for (int j = 0; j < d.y(); ++j)
       for (int i = 0; i < d.x(); ++i) {
@@ -206,6 +210,12 @@ void print_leftover(const std::string& tag, const Exercise& ex, const RegionMask
         const double z = start.voxel_center(i, j, k).z() * 1e3;
         oz[static_cast<std::size_t>(std::clamp(std::floor(z / 0.5) + 10, 0.0, 29.0))].first += rem;
         over += rem;
+        if (start.material(i, j, k) == dentar::volume::Material::kPulp) {
+          psb[static_cast<std::size_t>(side)] += rem;
+          pb[std::min<std::size_t>(pb.size() - 1, static_cast<std::size_t>(out / 0.15))].first += rem;
+          pz[static_cast<std::size_t>(std::clamp(std::floor(z / 0.5) + 10, 0.0, 29.0))].first += rem;
+          pulp += rem;
+        }
       }
   std::string sides;
   for (int q = 0; q < 6; ++q)
@@ -217,6 +227,17 @@ void print_leftover(const std::string& tag, const Exercise& ex, const RegionMask
   std::printf("%s outside the targets: %.2f mm3 removed; by distance outside mm:%s; by z mm:%s; by the side of the target it lies on"
               " (the nearest target voxel lies toward):%s\n", tag.c_str(), over,
               band_line(ob, 0, 0.15).c_str(), band_line(oz, -5.0, 0.5).c_str(), sides.c_str());
+  if (pulp > 0) {
+    std::string ps;
+    for (int q = 0; q < 6; ++q)
+      if (psb[q] > 0) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, " %s %.3f", kSide[q], psb[q]);
+        ps += buf;
+      }
+    std::printf("%s pulp removed: %.3f mm3; by distance outside the targets mm:%s; by z mm:%s; by the side of the target it lies on:%s\n",
+                tag.c_str(), pulp, band_line(pb, 0, 0.15).c_str(), band_line(pz, -5.0, 0.5).c_str(), ps.c_str());
+  }
 }
 
 }  // namespace
@@ -292,7 +313,7 @@ int main(int argc, char** argv) {
                          : (std::filesystem::temp_directory_path() / ("dentar_score_rank_" + std::to_string(::getpid()))).string();
   std::printf("exercise | sessions | Spearman rho (total vs skill) [95 %% bootstrap interval] | expert mean | novice mean | max | incomplete (expert / novice) | s per session\n");
   for (const auto& name : exercises) {
-    auto ex = load_builtin_exercise(name);
+    auto ex = load_named_exercise(name);
     if (!ex) {
       std::fprintf(stderr, "%s\n", ex.error().c_str());
       return 2;
@@ -318,7 +339,7 @@ int main(int argc, char** argv) {
       ex->wall_taper->points = taper_points;
     }
     // Sessions are generated with the exercise as shipped (the scoring options above change only the score).
-    const auto gen_ex = load_builtin_exercise(name);
+    const auto gen_ex = load_named_exercise(name);
     if (!gen_ex) return std::fprintf(stderr, "%s\n", gen_ex.error().c_str()), 2;
     const auto line = [&](const std::string& label, const std::vector<Row>& rs) {
       double em = 0, nm = 0, secs = 0;
@@ -387,7 +408,7 @@ int main(int argc, char** argv) {
       co.voxel_mm = voxel_mm;
       co.bur_samples = 500;
       co.seed = seed * 1000 + static_cast<std::uint64_t>(l);
-      const std::string d = sdir + "/" + name + "_" + std::to_string(l);
+      const std::string d = sdir + "/" + ex->name + "_" + std::to_string(l);
       const auto t0 = std::chrono::steady_clock::now();
       const bool reuse = !keep.empty() && std::filesystem::exists(d + "/trials.csv");
       // The tooth each fresh session's engine left: the cut a replay of its log gives, without
