@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <functional>
 #include <queue>
 
@@ -165,6 +166,7 @@ TEST(ProceduralMolar, PulpRoofHeightMovesTheChamberAndItsHorns) {
   ASSERT_TRUE(a.ok() && b.ok() && c.ok());
   EXPECT_EQ(a->content_hash(), b->content_hash());  // < 0 is the old shape, to the bit
   const double za = top(*a), zc = top(*c);
+  std::printf("highest pulp voxel centre: %.2f mm (model), %.2f mm (roof at 1.0 mm)\n", za * 1e3, zc * 1e3);
   EXPECT_GT(za, 4.0e-3) << "the model's horns reach above a class I floor at 3.9 mm";
   EXPECT_LT(zc, 3.0e-3);
   EXPECT_NEAR(za - zc, 2.15e-3, 0.3e-3);  // the roof moved down 2.15 mm, the horns with it
