@@ -7,12 +7,13 @@
 // many sessions were marked incomplete. Not a Google Benchmark: one run,
 // one table (docs/BENCHMARKS.md, "Issue 25: scores and feedback").
 //   build/training/training_score_rank_bench [--levels 5] [--subjects 3] [--voxel-mm 0.15] [--seed 1]
-//                                            [--exercise NAME]... [--keep DIR] [--over-reduction-rate X] [--tolerance-mm T]
+//                                            [--exercise NAME|FILE.json]... [--keep DIR] [--over-reduction-rate X] [--tolerance-mm T]
 //                                            [--overprep-price exercise|region] [--access-zone-rate R]
 //                                            [--access-points bands|continuous] [--taper-points P]
 //                                            [--flare-free-deg D] [--flare-deg-per-point S]
 //                                            [--seeds 2,3,4,5] [--bootstrap 2000] [--components 1]
 //                                            [--pulp-full-mm D] [--pulp-min-fraction F] [--leftover 1] [--replay 1]
+// --exercise takes a built-in name or an exercise file (its sessions go in DIR/<its name>_<level>).
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
 // seconds on the same sessions (the first run generates them).
