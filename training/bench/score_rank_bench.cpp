@@ -7,12 +7,13 @@
 // many sessions were marked incomplete. Not a Google Benchmark: one run,
 // one table (docs/BENCHMARKS.md, "Issue 25: scores and feedback").
 //   build/training/training_score_rank_bench [--levels 5] [--subjects 3] [--voxel-mm 0.15] [--seed 1]
-//                                            [--exercise NAME]... [--keep DIR] [--over-reduction-rate X] [--tolerance-mm T]
+//                                            [--exercise NAME|FILE.json]... [--keep DIR] [--over-reduction-rate X] [--tolerance-mm T]
 //                                            [--overprep-price exercise|region] [--access-zone-rate R]
 //                                            [--access-points bands|continuous] [--taper-points P]
 //                                            [--flare-free-deg D] [--flare-deg-per-point S]
 //                                            [--seeds 2,3,4,5] [--bootstrap 2000] [--components 1]
-//                                            [--pulp-full-mm D] [--pulp-min-fraction F] [--leftover 1]
+//                                            [--pulp-full-mm D] [--pulp-min-fraction F] [--leftover 1] [--replay 1]
+// --exercise takes a built-in name or an exercise file (its sessions go in DIR/<its name>_<level>).
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
 // seconds on the same sessions (the first run generates them).
@@ -24,6 +25,10 @@
 // --components 1: also each region's points / coverage / cut too far, each criterion, the points
 // before costs and the costs, each as its own rho against skill (which criterion mis-ranks).
 // --pulp-full-mm D, --pulp-min-fraction F: the graded pulp exposure's fields (0 / 1: all or nothing).
+// --replay 1: score each freshly generated session from a replay of its log (as before session
+// 17) instead of the tooth the generator's engine left (the same voxels: the two give identical
+// scores on seed 2 of every exercise, docs/BENCHMARKS.md "Issue 25 session 17"; the replay
+// doubled a session's CPU time).
 // --taper-points P: the exercise's wall taper (it must have one) is worth P
 // points and its graded regions the rest of the exercise's total.
 #include <unistd.h>
@@ -36,6 +41,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <random>
 #include <sstream>
 #include <string>
@@ -189,6 +195,10 @@ void print_leftover(const std::string& tag, const Exercise& ex, const RegionMask
   std::vector<std::pair<double, double>> oz(30);
   double osb[6] = {0, 0, 0, 0, 0, 0};
   double over = 0;
+  // The same for the pulp alone (session 17): whether it was opened past the floor or past a wall.
+  std::vector<std::pair<double, double>> pb(9), pz(30);
+  double psb[6] = {0, 0, 0, 0, 0, 0};
+  double pulp = 0;
   for (int k = 0; k < d.z(); ++k)
     for (int j = 0; j < d.y(); ++j)
       for (int i = 0; i < d.x(); ++i) {
@@ -201,6 +211,12 @@ void print_leftover(const std::string& tag, const Exercise& ex, const RegionMask
         const double z = start.voxel_center(i, j, k).z() * 1e3;
         oz[static_cast<std::size_t>(std::clamp(std::floor(z / 0.5) + 10, 0.0, 29.0))].first += rem;
         over += rem;
+        if (start.material(i, j, k) == dentar::volume::Material::kPulp) {
+          psb[static_cast<std::size_t>(side)] += rem;
+          pb[std::min<std::size_t>(pb.size() - 1, static_cast<std::size_t>(out / 0.15))].first += rem;
+          pz[static_cast<std::size_t>(std::clamp(std::floor(z / 0.5) + 10, 0.0, 29.0))].first += rem;
+          pulp += rem;
+        }
       }
   std::string sides;
   for (int q = 0; q < 6; ++q)
@@ -212,6 +228,17 @@ void print_leftover(const std::string& tag, const Exercise& ex, const RegionMask
   std::printf("%s outside the targets: %.2f mm3 removed; by distance outside mm:%s; by z mm:%s; by the side of the target it lies on"
               " (the nearest target voxel lies toward):%s\n", tag.c_str(), over,
               band_line(ob, 0, 0.15).c_str(), band_line(oz, -5.0, 0.5).c_str(), sides.c_str());
+  if (pulp > 0) {
+    std::string ps;
+    for (int q = 0; q < 6; ++q)
+      if (psb[q] > 0) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, " %s %.3f", kSide[q], psb[q]);
+        ps += buf;
+      }
+    std::printf("%s pulp removed: %.3f mm3; by distance outside the targets mm:%s; by z mm:%s; by the side of the target it lies on:%s\n",
+                tag.c_str(), pulp, band_line(pb, 0, 0.15).c_str(), band_line(pz, -5.0, 0.5).c_str(), ps.c_str());
+  }
 }
 
 }  // namespace
@@ -231,6 +258,7 @@ int main(int argc, char** argv) {
   int bootstrap = 2000;
   int components = 0;               // --components 1: per-criterion rho against skill
   int leftover = 0;                 // --leftover 1: where each session left target material and cut past it
+  int replay = 0;                   // --replay 1: replay fresh sessions' logs instead of taking the engine's cut
   double pulp_full_mm = -1, pulp_min_fraction = -1;  // --pulp-full-mm, --pulp-min-fraction: graded pulp exposure
   double flare_free = -1, flare_step = -1;  // --flare-free-deg, --flare-deg-per-point: continuous access walls
   if (argc % 2 == 0) {
@@ -256,6 +284,7 @@ int main(int argc, char** argv) {
     else if (a == "--bootstrap") bootstrap = std::atoi(v.c_str());
     else if (a == "--components") components = std::atoi(v.c_str());
     else if (a == "--leftover") leftover = std::atoi(v.c_str());
+    else if (a == "--replay") replay = std::atoi(v.c_str());
     else if (a == "--pulp-full-mm") pulp_full_mm = std::atof(v.c_str());
     else if (a == "--pulp-min-fraction") pulp_min_fraction = std::atof(v.c_str());
     else if (a == "--seeds") {
@@ -285,7 +314,7 @@ int main(int argc, char** argv) {
                          : (std::filesystem::temp_directory_path() / ("dentar_score_rank_" + std::to_string(::getpid()))).string();
   std::printf("exercise | sessions | Spearman rho (total vs skill) [95 %% bootstrap interval] | expert mean | novice mean | max | incomplete (expert / novice) | s per session\n");
   for (const auto& name : exercises) {
-    auto ex = load_builtin_exercise(name);
+    auto ex = load_named_exercise(name);
     if (!ex) {
       std::fprintf(stderr, "%s\n", ex.error().c_str());
       return 2;
@@ -311,7 +340,7 @@ int main(int argc, char** argv) {
       ex->wall_taper->points = taper_points;
     }
     // Sessions are generated with the exercise as shipped (the scoring options above change only the score).
-    const auto gen_ex = load_builtin_exercise(name);
+    const auto gen_ex = load_named_exercise(name);
     if (!gen_ex) return std::fprintf(stderr, "%s\n", gen_ex.error().c_str()), 2;
     const auto line = [&](const std::string& label, const std::vector<Row>& rs) {
       double em = 0, nm = 0, secs = 0;
@@ -362,6 +391,11 @@ int main(int argc, char** argv) {
     };
     std::vector<Row> all;
     std::vector<double> seed_rhos;
+    struct Base {
+      dentar::volume::VoxelVolume start;
+      RegionMasks masks;
+    };
+    std::map<std::string, Base> bases;  // by the session header's tooth JSON
     for (const std::uint64_t seed : seeds) {
     const std::string sdir = seeds.size() > 1 ? dir + "/s" + std::to_string(seed) : dir;
     std::vector<Row> rows;
@@ -375,9 +409,16 @@ int main(int argc, char** argv) {
       co.voxel_mm = voxel_mm;
       co.bur_samples = 500;
       co.seed = seed * 1000 + static_cast<std::uint64_t>(l);
-      const std::string d = sdir + "/" + name + "_" + std::to_string(l);
+      const std::string d = sdir + "/" + ex->name + "_" + std::to_string(l);
       const auto t0 = std::chrono::steady_clock::now();
       const bool reuse = !keep.empty() && std::filesystem::exists(d + "/trials.csv");
+      // The tooth each fresh session's engine left: the cut a replay of its log gives, without
+      // cutting everything a second time (--replay 1 replays instead).
+      std::map<std::string, dentar::volume::VoxelVolume> engine_cut;
+      if (!replay)
+        co.on_session = [&engine_cut](const CohortTrial& t, const dentar::volume::VoxelVolume& v) {
+          engine_cut.insert_or_assign(t.session_path, v.clone());
+        };
       auto trials = reuse ? read_cohort(d) : generate_cohort(*gen_ex, co, d);
       if (!trials) {
         std::fprintf(stderr, "%s\n", trials.error().c_str());
@@ -388,14 +429,31 @@ int main(int argc, char** argv) {
         if (!log) return std::fprintf(stderr, "%s\n", log.error().c_str()), 1;
         auto setup = dentar::haptics::parse_session_header(log->header_json);
         if (!setup) return std::fprintf(stderr, "%s\n", setup.error().c_str()), 1;
-        auto start = make_tooth(setup->tooth_json);
-        if (!start) return std::fprintf(stderr, "%s\n", start.error().c_str()), 1;
+        // The starting tooth and the exercise's masks on it, made once per tooth (every session of
+        // a cohort starts from the same one): the same input gives the same voxels and masks.
+        auto base = bases.find(setup->tooth_json);
+        if (base == bases.end()) {
+          auto tooth = make_tooth(setup->tooth_json);
+          if (!tooth) return std::fprintf(stderr, "%s\n", tooth.error().c_str()), 1;
+          auto mk = build_masks(*ex, *tooth);
+          if (!mk) return std::fprintf(stderr, "%s\n", mk.error().c_str()), 1;
+          base = bases.emplace(setup->tooth_json, Base{std::move(*tooth), std::move(*mk)}).first;
+        }
+        const dentar::volume::VoxelVolume* start = &base->second.start;
+        const RegionMasks* masks = &base->second.masks;
         dentar::volume::VoxelVolume cut = start->clone();
         const std::string cut_path = t.session_path + ".cut";
         const auto dm = start->dims();
         const std::size_t nvox = static_cast<std::size_t>(dm.x()) * dm.y() * dm.z();
         std::vector<char> raw;
-        if (!keep.empty() && std::filesystem::exists(cut_path) && std::filesystem::file_size(cut_path) == 2 * nvox) {
+        const bool cached = !keep.empty() && std::filesystem::exists(cut_path) && std::filesystem::file_size(cut_path) == 2 * nvox;
+        if (const auto fresh = engine_cut.find(t.session_path); fresh != engine_cut.end()) {
+          if (fresh->second.dims() != dm)
+            return std::fprintf(stderr, "score_rank_bench: %s: the engine's tooth and the log's differ in size\n",
+                                t.session_path.c_str()), 1;
+          cut = std::move(fresh->second);
+          engine_cut.erase(fresh);
+        } else if (cached) {
           raw.resize(2 * nvox);
           std::ifstream(cut_path, std::ios::binary).read(raw.data(), static_cast<std::streamsize>(raw.size()));
           std::size_t q = 0;
@@ -403,21 +461,19 @@ int main(int argc, char** argv) {
             for (int j = 0; j < dm.y(); ++j)
               for (int i = 0; i < dm.x(); ++i, q += 2)
                 cut.set(i, j, k, static_cast<std::uint8_t>(raw[q]), static_cast<dentar::volume::Material>(raw[q + 1]));
-        } else {
-          if (auto r = dentar::haptics::replay_session(*log, cut); !r) return std::fprintf(stderr, "%s\n", r.error().c_str()), 1;
-          if (!keep.empty()) {
-            raw.reserve(2 * nvox);
-            for (int k = 0; k < dm.z(); ++k)
-              for (int j = 0; j < dm.y(); ++j)
-                for (int i = 0; i < dm.x(); ++i) {
-                  raw.push_back(static_cast<char>(cut.density(i, j, k)));
-                  raw.push_back(static_cast<char>(cut.material(i, j, k)));
-                }
-            std::ofstream(cut_path, std::ios::binary).write(raw.data(), static_cast<std::streamsize>(raw.size()));
-          }
+        } else if (auto r = dentar::haptics::replay_session(*log, cut); !r) {
+          return std::fprintf(stderr, "%s\n", r.error().c_str()), 1;
         }
-        auto masks = build_masks(*ex, *start);
-        if (!masks) return std::fprintf(stderr, "%s\n", masks.error().c_str()), 1;
+        if (!keep.empty() && !cached) {
+          raw.reserve(2 * nvox);
+          for (int k = 0; k < dm.z(); ++k)
+            for (int j = 0; j < dm.y(); ++j)
+              for (int i = 0; i < dm.x(); ++i) {
+                raw.push_back(static_cast<char>(cut.density(i, j, k)));
+                raw.push_back(static_cast<char>(cut.material(i, j, k)));
+              }
+          std::ofstream(cut_path, std::ios::binary).write(raw.data(), static_cast<std::streamsize>(raw.size()));
+        }
         auto sc = score_outcome(*ex, *masks, *start, cut);
         if (!sc) return std::fprintf(stderr, "%s\n", sc.error().c_str()), 1;
         rows.push_back({1.0 - sep, *sc, 0});

@@ -752,6 +752,7 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
                            {"step_start_s", sc.start}, {"step_end_s", sc.end}};
       std::ofstream(out_dir + "/" + rel + "/steps.json") << sj.dump(1) << "\n";
       csv << rel << "/session.dlog," << subject << "," << tr << "," << ct.label << "\n";
+      if (opt.on_session) opt.on_session(ct, vol);
       out.push_back(std::move(ct));
     }
   }

@@ -222,7 +222,14 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
       return Error{name + ": field 'tooth.kind': unknown tooth '" + kind + "' (molar, incisor)"};
     double vox = 0.1;
     if (!get_number(c, t, "voxel_mm", "tooth.", vox, false, 0.02, 0.5)) return Error{c.err};
-    ex.tooth_json = json{{"kind", kind}, {"voxel_mm", vox}}.dump();
+    json tj{{"kind", kind}, {"voxel_mm", vox}};
+    if (t.contains("pulp_roof_mm")) {  // the molar's pulp chamber roof above the cervical line (issue 25, session 17)
+      if (kind != "molar") return Error{name + ": field 'tooth.pulp_roof_mm': only a molar has it"};
+      double roof = 0;
+      if (!get_number(c, t, "pulp_roof_mm", "tooth.", roof, true, 0.0, 6.0)) return Error{c.err};
+      tj["pulp_roof_mm"] = roof;
+    }
+    ex.tooth_json = tj.dump();
   }
   if (!j.contains("bur") || !j["bur"].is_object()) return Error{name + ": field 'bur': missing (an object)"};
   {
@@ -455,6 +462,10 @@ Result<volume::VoxelVolume> make_tooth(const std::string& tooth_json) {
   if (kind == "molar") {
     volume::MolarParams p;
     if (vox > 0) p.voxel_mm = vox;
+    if (j.contains("pulp_roof_mm")) {
+      if (!j["pulp_roof_mm"].is_number()) return Error{"tooth description: field 'pulp_roof_mm' must be a number"};
+      p.pulp_roof_mm = j["pulp_roof_mm"].get<double>();
+    }
     return volume::make_molar(p);
   }
   if (kind == "incisor") {

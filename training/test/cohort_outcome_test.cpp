@@ -35,20 +35,25 @@ std::vector<Scored> generate_and_score(const std::string& exercise, int experts,
   const std::string dir =
       dentar::test::temp_dir("cohort_outcome_" + exercise).string();
   std::filesystem::remove_all(dir);
+  // The tooth each session's engine left: what a replay of its log gives
+  // (CohortDeterminism.TheEngineLeavesTheCutAReplayOfItsLogGives), without cutting it twice.
+  std::vector<volume::VoxelVolume> left;
+  o.on_session = [&left](const CohortTrial&, const volume::VoxelVolume& v) { left.push_back(v.clone()); };
   auto trials = generate_cohort(*ex, o, dir);
   EXPECT_TRUE(trials.ok()) << trials.error();
   std::vector<Scored> out;
   if (!trials.ok()) return out;
-  for (const auto& t : *trials) {
+  EXPECT_EQ(left.size(), trials->size());
+  if (left.size() != trials->size()) return out;
+  for (std::size_t i = 0; i < trials->size(); ++i) {
+    const CohortTrial& t = (*trials)[i];
     auto log = haptics::read_session_log(t.session_path);
     EXPECT_TRUE(log.ok()) << log.error();
     auto setup = haptics::parse_session_header(log->header_json);
     EXPECT_TRUE(setup.ok()) << setup.error();
     auto start = make_tooth(setup->tooth_json);
     EXPECT_TRUE(start.ok()) << start.error();
-    volume::VoxelVolume cut = start->clone();
-    auto rep = haptics::replay_session(*log, cut);
-    EXPECT_TRUE(rep.ok()) << rep.error();
+    const volume::VoxelVolume& cut = left[i];
     auto masks = build_masks(*ex, *start);
     EXPECT_TRUE(masks.ok()) << masks.error();
     auto sc = score_outcome(*ex, *masks, *start, cut);
@@ -94,6 +99,73 @@ TEST(CohortOutcome, IncisorPartialCrownExpertsScoreHighNovicesLower) {
   // Generator v4 measured 11.9 vs 6.3 of 16, v5 12.1 vs 7.0 (the seed: 14.4 vs 8.4;
   // docs/BENCHMARKS.md).
   expect_gap(generate_and_score("incisor_partial_crown", 1, 1, 0.2, 5), 0.6, 0.2);
+}
+
+// Issue 25's benchmark in small: the total ranks sessions by their generated skill (Spearman rho
+// against skill), the score rank bench's cohort shape (five skill levels from the expert's to the
+// full novice's, each its own seed) with two people a level, at 0.2 mm voxels. The bench's
+// figure (docs/BENCHMARKS.md, "Issue 25 session 17") is 15 people on six seeds at 0.15 mm: class I
+// 0.842 +- 0.056. Measured here on seeds 1-4 at 0.2 mm before choosing: 0.840, 0.714, 0.790,
+// 0.972; seed 1 (the tuning seed, not the best; 0.840) is asserted at 0.70, the lowest of the four
+// less a margin. What mis-ranks here is the session's diagnosis: a skill-0.75 person nicks the
+// pulp (-4.2) below a skill-0.5 person who stopped early (6.5, INCOMPLETE); the model molar's pulp
+// horns stand 0.15-0.3 mm beside the cavity's walls at its floor. Charging no pulp exposure would
+// rank this cohort at 0.96, but a pulp exposure is what the exercise charges; the tooth's pulp is
+// what is too high (docs/BENCHMARKS.md).
+TEST(CohortOutcome, ClassICavityTotalsRankASeededSmallCohortBySkill) {
+  auto ex = load_builtin_exercise("molar_class1_cavity");
+  ASSERT_TRUE(ex.ok()) << ex.error();
+  const int levels = 5;
+  std::vector<double> skill, total, uncharged;
+  for (int l = 0; l < levels; ++l) {
+    CohortOptions o;
+    o.experts = 0;
+    o.novices = 2;
+    o.trials = 1;
+    o.separation = static_cast<double>(l) / (levels - 1);
+    o.voxel_mm = 0.2;
+    o.bur_samples = 500;
+    o.seed = 1 * 1000 + static_cast<std::uint64_t>(l);  // the bench's --seed 1
+    std::vector<volume::VoxelVolume> left;
+    o.on_session = [&left](const CohortTrial&, const volume::VoxelVolume& v) { left.push_back(v.clone()); };
+    const std::string dir = dentar::test::temp_dir("cohort_rank_" + std::to_string(l)).string();
+    auto trials = generate_cohort(*ex, o, dir);
+    ASSERT_TRUE(trials.ok()) << trials.error();
+    ASSERT_EQ(left.size(), trials->size());
+    auto start = make_tooth([&] {
+      auto log = haptics::read_session_log((*trials)[0].session_path);
+      EXPECT_TRUE(log.ok()) << log.error();
+      auto setup = haptics::parse_session_header(log->header_json);
+      EXPECT_TRUE(setup.ok()) << setup.error();
+      return setup->tooth_json;
+    }());
+    ASSERT_TRUE(start.ok()) << start.error();
+    auto masks = build_masks(*ex, *start);
+    ASSERT_TRUE(masks.ok()) << masks.error();
+    for (const auto& cut : left) {
+      auto sc = score_outcome(*ex, *masks, *start, cut);
+      ASSERT_TRUE(sc.ok()) << sc.error();
+      double pulp = 0;
+      for (const auto& p : sc->penalties)
+        if (p.name == "pulp exposure") pulp += p.points;
+      std::cout << "class I skill " << 1.0 - o.separation << ": " << sc->headline() << ", pulp exposure -" << pulp << "\n";
+      skill.push_back(1.0 - o.separation);
+      total.push_back(sc->points);
+      uncharged.push_back(std::min(sc->earned_points, sc->points + pulp));
+    }
+    std::filesystem::remove_all(dir);
+  }
+  const double rho = spearman_rho(total, skill), rho_uncharged = spearman_rho(uncharged, skill);
+  std::cout << "class I rho " << rho << " (pulp exposure uncharged: " << rho_uncharged << ")\n";
+  EXPECT_GE(rho, 0.70) << "the class I totals no longer rank a seeded cohort by skill";
+  // Both experts above both full novices, and nothing above the experts.
+  for (std::size_t i = 0; i < total.size(); ++i) {
+    if (skill[i] != 1.0) continue;
+    for (std::size_t j = 0; j < total.size(); ++j) {
+      if (skill[j] == 0.0) EXPECT_GT(total[i], total[j] + 3.0) << "expert " << i << " against novice " << j;
+      if (skill[j] < 1.0) EXPECT_GE(total[i], total[j]) << "expert " << i << " against skill " << skill[j];
+    }
+  }
 }
 
 }  // namespace

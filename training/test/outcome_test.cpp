@@ -278,6 +278,14 @@ TEST(Exercise, ParserErrorsNameFileAndField) {
   EXPECT_TRUE(priced->overprep_exercise_price);
   EXPECT_FALSE(ok->overprep_exercise_price);
   expect_err(good.substr(0, 60), "line 1");
+  // The molar's pulp roof (issue 25, session 17): kept in the tooth JSON the sessions rebuild from.
+  auto roofed = parse_exercise(replace("\"voxel_mm\":0.2}", "\"voxel_mm\":0.2,\"pulp_roof_mm\":1.0}"), "t.json");
+  ASSERT_TRUE(roofed.ok()) << roofed.error();
+  EXPECT_NE(roofed->tooth_json.find("\"pulp_roof_mm\":1.0"), std::string::npos) << roofed->tooth_json;
+  EXPECT_EQ(ok->tooth_json.find("pulp_roof_mm"), std::string::npos) << ok->tooth_json;
+  expect_err(replace("\"voxel_mm\":0.2}", "\"voxel_mm\":0.2,\"pulp_roof_mm\":-2}"), "tooth.pulp_roof_mm");
+  expect_err(replace("\"kind\":\"molar\",\"voxel_mm\":0.2}", "\"kind\":\"incisor\",\"voxel_mm\":0.2,\"pulp_roof_mm\":1}"),
+             "only a molar");
 }
 
 }  // namespace

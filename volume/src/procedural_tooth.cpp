@@ -29,6 +29,7 @@ std::string MolarParams::validate() const {
   check("root_length_mm", root_length_mm, 6, 20);
   check("cusp_height_mm", cusp_height_mm, 0.3, 3);
   check("pulp_horn_mm", pulp_horn_mm, 0, 2.5);
+  if (pulp_roof_mm >= 0) check("pulp_roof_mm", pulp_roof_mm, 0, crown_height_mm - 1.0);
   check("canal_radius_mm", canal_radius_mm, 0.1, 0.6);
   check("margin_mm", margin_mm, 0, 5);
   return os.str();
@@ -128,7 +129,7 @@ class Molar {
 
   // Pulp (chamber + horns + canals), negative inside, mm.
   double pulp(const V3& q) const {
-    const double roof = 0.45 * p_.crown_height_mm;  // chamber roof height
+    const double roof = p_.pulp_roof_mm >= 0 ? p_.pulp_roof_mm : 0.45 * p_.crown_height_mm;  // chamber roof height
     const V3 c(0, 0, roof - 1.0);
     const V3 e = (q - c).cwiseQuotient(V3(0.3 * a_, 0.3 * b_, 1.0));
     double d = (e.norm() - 1.0) * std::min(0.3 * a_, 1.0);

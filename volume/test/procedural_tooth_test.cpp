@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <functional>
 #include <queue>
 
@@ -141,6 +142,38 @@ TEST(ProceduralMolar, PulpIsEnclosedByDentinWithHornsAndCanals) {
   };
   EXPECT_EQ(count_regions([&](int i, int j) { return v.material(i, j, k) != Material::kAir; }), 3);
   EXPECT_EQ(count_regions([&](int i, int j) { return v.material(i, j, k) == Material::kPulp; }), 3);
+}
+
+// pulp_roof_mm moves the chamber and its horns; the default keeps the model's shape (roof at
+// 0.45 x the crown height). The adult roof (Deutsch & Musikant 2004: at the cervical line,
+// about 6 mm below the cusp tips) puts the horn tips under 3 mm, below a class I floor at 3.9 mm.
+TEST(ProceduralMolar, PulpRoofHeightMovesTheChamberAndItsHorns) {
+  auto top = [](const VoxelVolume& v) {
+    double z = -1;
+    for (int k = 0; k < v.dims().z(); ++k)
+      for (int j = 0; j < v.dims().y(); ++j)
+        for (int i = 0; i < v.dims().x(); ++i)
+          if (v.material(i, j, k) == Material::kPulp) z = std::max(z, v.voxel_center(i, j, k).z());
+    return z;
+  };
+  MolarParams p;
+  p.voxel_mm = 0.2;
+  auto a = make_molar(p);
+  p.pulp_roof_mm = 0.45 * p.crown_height_mm;
+  auto b = make_molar(p);
+  p.pulp_roof_mm = 1.0;
+  auto c = make_molar(p);
+  ASSERT_TRUE(a.ok() && b.ok() && c.ok());
+  EXPECT_EQ(a->content_hash(), b->content_hash());  // < 0 is the old shape, to the bit
+  const double za = top(*a), zc = top(*c);
+  std::printf("highest pulp voxel centre: %.2f mm (model), %.2f mm (roof at 1.0 mm)\n", za * 1e3, zc * 1e3);
+  EXPECT_GT(za, 4.0e-3) << "the model's horns reach above a class I floor at 3.9 mm";
+  EXPECT_LT(zc, 3.0e-3);
+  EXPECT_NEAR(za - zc, 2.15e-3, 0.3e-3);  // the roof moved down 2.15 mm, the horns with it
+  p.pulp_roof_mm = 6.5;  // above crown height - 1
+  auto bad = make_molar(p);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("pulp_roof_mm"), std::string::npos) << bad.error();
 }
 
 TEST(ProceduralMolar, SparseStorageBeatsDenseArray) {

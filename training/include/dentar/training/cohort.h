@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,8 @@ struct StyleParams {
 // Draws one person's style at `strength` (0: none, the identity).
 StyleParams draw_style(double strength, std::uint64_t seed);
 
+struct CohortTrial;
+
 struct CohortOptions {
   int experts = 5, novices = 5, trials = 3;
   int intermediates = 0;  // a third class, "intermediate": novice factors at half the separation
@@ -71,6 +74,11 @@ struct CohortOptions {
   std::uint64_t seed = 1;
   double voxel_mm = 0.15;  // coarser than the exercise's tooth, for speed
   int bur_samples = 1000;
+  // Called after each engine session (not with kinematics_only) with the tooth as the engine
+  // left it: the cut a replay of the session's log gives (the same voxels, shown on the score
+  // rank bench's seeds), so a caller that scores sessions need not replay them. Runs on the
+  // calling thread; an empty function is not called.
+  std::function<void(const CohortTrial&, const volume::VoxelVolume&)> on_session;
   std::string validate() const;
 };
 

@@ -17,6 +17,10 @@ struct MolarParams {
   double root_length_mm = 12.5;    // cervical line to apex
   double cusp_height_mm = 1.6;     // cusp tips above the central fossa
   double pulp_horn_mm = 1.5;       // height of the pulp horns above the chamber roof
+  // Height of the pulp chamber's roof above the cervical line; < 0: 0.45 x the crown height
+  // (3.15 mm, the model's shape since it was made). Adult maxillary molars: the roof at the
+  // cervical line's level, about 6 mm below the cusp tips (Deutsch & Musikant, J Endod 2004).
+  double pulp_roof_mm = -1;
   double canal_radius_mm = 0.25;
   double margin_mm = 0.5;          // air around the tooth inside the volume
 
