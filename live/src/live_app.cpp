@@ -239,6 +239,12 @@ std::string LiveSummary::json() const {
                    {"fallbacks", stereo_fallbacks}, {"recoveries", stereo_recoveries},
                    {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_frame_ms", stereo_fallback_frame_ms},
                    {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max}};
+  if (stereo) {  // issue 28, session 17: either camera lost and back, timed to the frame drawn
+    j["stereo"]["frames_right_eye_only"] = stereo_right_only;
+    j["stereo"]["mode_switches"] = eye_switches.size();
+    auto& sw = j["stereo"]["switches"] = nlohmann::json::array();
+    for (const EyeSwitch& e : eye_switches) sw.push_back({{"what", e.what}, {"eyes", e.eyes}, {"drawn_ms", e.drawn_ms}, {"frame_ms", e.frame_ms}});
+  }
   if (lesson_mode != 0)
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
                    {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
@@ -914,6 +920,7 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.stereo = c.popt.stereo;
   sum.stereo_both = ff.stereo_both;
   sum.stereo_left_only = ff.stereo_left_only;
+  sum.stereo_right_only = ff.stereo_right_only;
   sum.right_composited = ff.right_composited;
 
   sum.stereo_fallbacks = ff.stereo_fallbacks;

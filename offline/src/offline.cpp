@@ -776,14 +776,17 @@ struct Job {
   }
 
   // A stereo live recording: frame `index`'s right eye from frames_right/ when the live run had
-  // it (frames.csv eyes "both"), else none (the single-view path, as live).
+  // it (frames.csv eyes "both"), else none (the single-view path, as live). Eyes "right" (the
+  // left camera lost, session 17): frames/ holds the right eye's image, tracked alone.
   Status recorded_right_eye(std::int64_t index) {
     right_image.release();
     const int eyes = rec.eyes[static_cast<std::size_t>(index)];
     if (eyes == FrameRecord::kEyesLeft) return {};
-    if (eyes != FrameRecord::kEyesBoth)
-      return fail("offline: " + rec.frames_csv + ": frame " + std::to_string(index) +
-                  " has the right eye alone, which `dentar live` never records (the left camera drives it)");
+    if (eyes == FrameRecord::kEyesRight) {
+      right_image = std::move(frame.image);
+      frame.image = cv::Mat();
+      return {};
+    }
     char stem[32];
     std::snprintf(stem, sizeof stem, "frame_%06lld", static_cast<long long>(index));
     for (const char* ext : {".jpg", ".png", ".ppm"}) {
