@@ -420,11 +420,19 @@ class FrameThread {
       shown.steady_s = f.steady_s;
       shown.rec = rec_;
       shown.error = err;
-      // A camera lost or back (note_switch): timed to this frame's swap by the window.
-      shown.switch_eyes = err.empty() ? switch_eyes_ : -1;
-      shown.switch_from_s = switch_from_s_;
-      shown.switch_what = switch_eyes_ >= 0 ? switch_what_ : std::string();
-      shown.unpaired_from_s = err.empty() ? unpaired_from_s_ : 0;
+      // A camera lost or back (note_switch): timed to the swap of the first frame the window
+      // draws in the new mode (a switch frame replaced before the window took it passes its
+      // switch on to the frame replacing it).
+      const bool untaken = sh_.shown_new;
+      if (err.empty() && switch_eyes_ >= 0) {
+        shown.switch_eyes = switch_eyes_;
+        shown.switch_from_s = switch_from_s_;
+        shown.switch_what = switch_what_;
+      } else if (!untaken || shown.switch_eyes != rec_.eyes) {
+        shown.switch_eyes = -1;
+      }
+      if (err.empty() && unpaired_from_s_ > 0) shown.unpaired_from_s = unpaired_from_s_;
+      else if (!untaken) shown.unpaired_from_s = 0;
       if (note != nullptr) shown.note = *note;
       else shown.note.clear();
       sh_.shown_new = true;

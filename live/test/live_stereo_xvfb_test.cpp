@@ -80,7 +80,7 @@ TEST(LiveStereoXvfb, TwoCamerasEachEyeLostAndBackRecordedAndReplayed) {
   r = run_command(xvfb(kBin + " live --camera live:" + (t / "l.avi").string() + " --camera-right live:" +
                        (t / "r.avi").string() + " --station " + (st / "station.json").string() + " --stylus replay:" +
                        (st / "session.dlog").string() + " --record " + rec.string() +
-                       " --inject-stall-right 12:0.5 --inject-stall 45:0.5 --no-hud --loop --frames 75 --no-score --summary " +
+                       " --inject-stall-right 12:0.5 --inject-stall 36:0.5 --no-hud --loop --frames 60 --no-score --summary " +
                        (t / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto live = read_json(t / "live.json");
