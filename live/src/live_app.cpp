@@ -241,6 +241,8 @@ std::string LiveSummary::json() const {
                    {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max}};
   if (stereo) {  // issue 28, session 17: either camera lost and back, timed to the frame drawn
     j["stereo"]["frames_right_eye_only"] = stereo_right_only;
+    j["stereo"]["frames_note_both_eyes"] = note_both_eyes;
+    j["stereo"]["frames_note_missing_in_an_eye"] = note_missing_eye;
     j["stereo"]["mode_switches"] = eye_switches.size();
     auto& sw = j["stereo"]["switches"] = nlohmann::json::array();
     for (const EyeSwitch& e : eye_switches) sw.push_back({{"what", e.what}, {"eyes", e.eyes}, {"drawn_ms", e.drawn_ms}, {"frame_ms", e.frame_ms}});
@@ -921,6 +923,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.stereo_both = ff.stereo_both;
   sum.stereo_left_only = ff.stereo_left_only;
   sum.stereo_right_only = ff.stereo_right_only;
+  sum.note_both_eyes = ff.note_both_eyes;
+  sum.note_missing_eye = ff.note_missing_eye;
   sum.right_composited = ff.right_composited;
 
   sum.stereo_fallbacks = ff.stereo_fallbacks;

@@ -351,7 +351,11 @@ class FrameThread {
     const auto t0 = Clock::now();
     // GPU path: a texture the window is not showing, free of its draws.
     // The right eye alone (its camera's own composite) is the CPU path's, as its pair composite.
-    const bool gl = use_gl_ && !right_only_;
+    // The headset's view with a lesson's note on show: the CPU path too, so the left eye's
+    // label is drawn into its composite (and pre-warped with it) as the right eye's is; the
+    // GPU path's label is the mono window's (drawn by the window, not through the lens).
+    const bool note_on = in.note != nullptr && !in.note->empty();
+    const bool gl = use_gl_ && !right_only_ && !(note_on && o.output == "sbs");
     const int slot = gl ? sh_.ring->acquire() : -1;
     if (gl) in.gl_target = sh_.ring->target(slot);
     std::string err;
@@ -366,6 +370,11 @@ class FrameThread {
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesRight) ++fig_.stereo_right_only;
     if (err.empty()) note_switch(rec_.eyes);
+    if (err.empty() && want_right_) {  // the headset's pair: a lesson's note label in each eye that anchored it
+      fig_.note_both_eyes += rec_.note_drawn && rec_.right.note_drawn ? 1 : 0;
+      fig_.note_missing_eye +=
+          (rec_.note_anchored && !rec_.note_drawn) || (rec_.right.note_anchored && !rec_.right.note_drawn) ? 1 : 0;
+    }
     if (err.empty() && rec_.right.composited) ++fig_.right_composited;
     if (err.empty()) count_fallback(rec_.eyes, f.steady_s);
     rec_.pose_step = pose_step;

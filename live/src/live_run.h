@@ -110,6 +110,9 @@ struct FrameFigures {
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
   std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had
   std::int64_t stereo_right_only = 0;                   // two cameras, the left one lost
+  // The headset's pair (--output sbs): frames with a lesson's note label drawn into both eyes'
+  // composites, and frames where an eye placed the note beside its tooth but did not draw it.
+  std::int64_t note_both_eyes = 0, note_missing_eye = 0;
   std::int64_t right_composited = 0;  // stereo into the headset: frames with the right eye's own composite
 
   // Two cameras: the right eye lost and back (LiveSummary::stereo_fallbacks ...), ms; -1 none.

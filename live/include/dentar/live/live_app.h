@@ -176,6 +176,9 @@ struct LiveSummary {
   std::int64_t stereo_both = 0, stereo_left_only = 0, right_eye_dropped = 0, right_eye_reopens = 0;
   std::int64_t right_composited = 0;  // frames whose right eye got its own composite (--output sbs)
   std::int64_t stereo_right_only = 0;  // two cameras, the left one lost: frames from the right eye alone
+  // --output sbs with a stereo rig: frames whose lesson note label went into both eyes'
+  // composites, and frames where an eye anchored the note beside its tooth without drawing it.
+  std::int64_t note_both_eyes = 0, note_missing_eye = 0;
   // Two cameras: each change of the eyes tracked from (a camera lost, or back), in order: what
   // happened ("left camera lost (SPEC)", "right camera back (SPEC)" ...), the eyes after it
   // ("left", "right", "both"), and the time from the capture of the lost camera's last frame
