@@ -615,10 +615,8 @@ Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st
       if (o.stylus == "none") {
         // No stylus: the hand rests 25 mm above the tooth's origin, clear of every
         // exercise's crown, with the pedal up: the engine runs (and is timed), nothing cuts.
-        tips = haptics::tip_script("access", 3.0, 0);
-        tips.resize(1);
-        tips.front().tip_tooth_m = {0, 0, 25e-3};
-        tips.front().pedal = false;
+        // One waypoint, the bur pointing down the tooth's axis (-z of the tooth: the scripts' axis).
+        tips = {haptics::TipWaypoint{0.0, Eigen::Vector3d(0, 0, 25e-3), Eigen::Vector3d(0, 0, -1), false}};
       } else if (o.exercise.empty()) {
         tips = haptics::tip_script("access", 3.0, 0);
       } else {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -235,6 +236,42 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
     dentar::live::render_eye_cpu(img, dentar::live::make_eye_mapping(*prof_r, e, cam, true, {}, c0, false), out);
     return out;
   };
+  // frames.csv per eye (session 17): the live recording's rows say which frames gave the right
+  // eye its own composite (as many as the summary counts), the offline rows carry the right
+  // eye's tooth against its truth.
+  {
+    auto table = [](const fs::path& p) {
+      std::ifstream f(p);
+      std::vector<std::vector<std::string>> rows;
+      for (std::string line; std::getline(f, line);) {
+        std::vector<std::string> v;
+        std::stringstream ss(line);
+        for (std::string c; std::getline(ss, c, ',');) v.push_back(c);
+        if (!line.empty() && line.back() == ',') v.emplace_back();
+        rows.push_back(v);
+      }
+      return rows;
+    };
+    auto col = [](const std::vector<std::string>& h, const char* n) {
+      return static_cast<int>(std::find(h.begin(), h.end(), n) - h.begin());
+    };
+    const auto lr = table(dir / "rec" / "frames.csv");
+    ASSERT_GT(lr.size(), 1u);
+    const int lc = col(lr[0], "right_composited");
+    ASSERT_LT(lc, static_cast<int>(lr[0].size()));
+    int own = 0;
+    for (std::size_t i = 1; i < lr.size(); ++i) own += lr[i][static_cast<std::size_t>(lc)] == "1";
+    EXPECT_EQ(own, live["stereo"]["frames_right_eye_composited"].get<int>());
+    const auto orows = table(off / "frames.csv");
+    ASSERT_EQ(orows.size(), 11u);
+    const int oc = col(orows[0], "right_composited"), oe = col(orows[0], "right_tooth_err_px");
+    ASSERT_LT(oe, static_cast<int>(orows[0].size()));
+    for (std::size_t i = 1; i < orows.size(); ++i) {
+      EXPECT_EQ(orows[i][static_cast<std::size_t>(oc)], "1") << "frame " << i - 1;
+      ASSERT_FALSE(orows[i][static_cast<std::size_t>(oe)].empty()) << "frame " << i - 1;
+      EXPECT_LT(std::stod(orows[i][static_cast<std::size_t>(oe)]), 3.0) << "frame " << i - 1;
+    }
+  }
   const auto footage = read_video(st / "video.mkv");  // side by side: the raw eyes
   ASSERT_EQ(footage.size(), 10u);
   // The footage frame each shown frame came from (a loaded machine drops frames; --loop
