@@ -219,7 +219,7 @@ class FrameThread {
   // (its eyes those of the mode) gives the window the time the switch is measured from
   // (Shown::switch_from_s): the lost camera's last frame, or the returning camera's first frame
   // back, to this frame's swap. A single frame without a partner (pairing skew) is no switch.
-  void note_switch(int eyes) {
+  void note_switch(int eyes, double capture_steady_s) {
     switch_eyes_ = -1;
     if (c_.o.camera_right.empty()) return;
     using FR = ar::FrameRecord;
@@ -245,11 +245,13 @@ class FrameThread {
       mode_ = mode;
       switch_pending_ = true;
     }
-    // The right eye's first frame without a partner (it may be going silent): the window keeps
-    // its swap time, the switch's own if the camera turns out lost (same last frame).
+    // The first frame captured after the right eye's last one, without a partner (the right
+    // camera may be going silent): the window keeps its swap time, the switch's own if the
+    // camera turns out lost (same last frame). An older frame (a queue on a busy machine) is not it.
     unpaired_from_s_ = 0;
-    if (mode_ == FR::kEyesBoth && eyes == FR::kEyesLeft && sh_.capture_right.load() != nullptr)
-      unpaired_from_s_ = sh_.capture_right.load()->last_frame_steady_s();
+    if (const ar::CaptureThread* rc = sh_.capture_right.load();
+        rc != nullptr && mode_ == FR::kEyesBoth && eyes == FR::kEyesLeft && capture_steady_s > rc->last_frame_steady_s())
+      unpaired_from_s_ = rc->last_frame_steady_s();
     if (switch_pending_ && eyes == mode_) {
       switch_eyes_ = eyes;
       switch_pending_ = false;
@@ -369,7 +371,7 @@ class FrameThread {
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesRight) ++fig_.stereo_right_only;
-    if (err.empty()) note_switch(rec_.eyes);
+    if (err.empty()) note_switch(rec_.eyes, f.steady_s);
     if (err.empty() && want_right_) {  // the headset's pair: a lesson's note label in each eye that anchored it
       fig_.note_both_eyes += rec_.note_drawn && rec_.right.note_drawn ? 1 : 0;
       fig_.note_missing_eye +=

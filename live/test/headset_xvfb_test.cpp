@@ -384,7 +384,7 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
 TEST(HeadsetXvfb, HudAndLessonNoteInBothEyes) {
   REQUIRE_XVFB();
   const fs::path dir = dentar::test::temp_dir("headset_hud"), st = dir / "st", lesson = dir / "lesson";
-  auto r = run_command(kBin + " synth --preset standard --stereo --frames 10 --resolution 640x480 --seed 3 --out " +
+  auto r = run_command(kBin + " synth --preset standard --stereo --frames 4 --resolution 640x480 --seed 3 --out " +
                        st.string() + " 2>&1");
   ASSERT_EQ(r.code, 0) << r.out;
   r = run_command(kBin + " lesson make " + (st / "session.dlog").string() +

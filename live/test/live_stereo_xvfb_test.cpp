@@ -1,5 +1,5 @@
 // `dentar live` with a stereo head (issue 28) as a user runs it, under Xvfb: two cameras (paced
-// Motion JPEG stand-ins, as two UVC webcams deliver), the right one unplugged for 0.5 s mid-run,
+// Motion JPEG stand-ins, as two UVC webcams deliver), the right one unplugged for 0.8 s mid-run,
 // then the left one (the stall hooks); each time the other eye tracks and draws alone and pairs
 // come back. The run recorded with both eyes and replayed by `dentar offline` through the
 // stereo path: the same eyes, states and poses per frame, and the same final cut. Skips without
@@ -80,7 +80,7 @@ TEST(LiveStereoXvfb, TwoCamerasEachEyeLostAndBackRecordedAndReplayed) {
   r = run_command(xvfb(kBin + " live --camera live:" + (t / "l.avi").string() + " --camera-right live:" +
                        (t / "r.avi").string() + " --station " + (st / "station.json").string() + " --stylus replay:" +
                        (st / "session.dlog").string() + " --record " + rec.string() +
-                       " --inject-stall-right 12:0.5 --inject-stall 36:0.5 --no-hud --loop --frames 60 --no-score --summary " +
+                       " --inject-stall-right 12:0.8 --inject-stall 42:0.8 --no-hud --loop --frames 66 --no-score --summary " +
                        (t / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto live = read_json(t / "live.json");
