@@ -127,7 +127,9 @@ TEST(CliStereoDrivers, OfflineStereoAgainstTheLeftEyeOnTheSameFrames) {
   ASSERT_GE(c_eyes, 0);
   ASSERT_GE(c_views, 0);
   ASSERT_GE(c_err, 0);
-  EXPECT_EQ(head.back(), "mirror_views");  // appended after the mono columns: old readers find theirs
+  // Appended after the mono columns (old readers find theirs): the eyes, then the right eye's own composite.
+  EXPECT_LT(c_err, c_eyes);
+  EXPECT_EQ(head.back(), "right_silhouette_iou");
   for (const auto& row : rows) {
     EXPECT_EQ(row[static_cast<std::size_t>(c_eyes)], "both");
     EXPECT_EQ(row[static_cast<std::size_t>(c_views)], "2");

@@ -136,7 +136,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_option("--summary", c->o.summary_path, "also write the run's summary JSON here");
   sub->add_option("--screenshot", c->shots, "test hook: FRAME:FILE.png saves the window when frame FRAME shows");
   sub->add_option("--inject-key", c->keys, "test hook: FRAME:KEY presses KEY (a letter) when frame FRAME (or the first after it) shows");
-  sub->add_option("--inject-stall", c->stall, "test hook: AFTER_FRAMES:SECONDS, the camera goes quiet");
+  sub->add_option("--inject-stall", c->stall, "test hook: AFTER_FRAMES:SECONDS, the camera (with --camera-right: the left eye) goes quiet");
   sub->add_option("--inject-stall-right", c->stall_right,
                   "test hook: AFTER_FRAMES:SECONDS, the right eye (--camera-right) goes quiet");
   sub->add_flag("--list-cameras", c->list, "list the V4L2 cameras and their modes, then exit");

@@ -239,6 +239,14 @@ std::string LiveSummary::json() const {
                    {"fallbacks", stereo_fallbacks}, {"recoveries", stereo_recoveries},
                    {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_frame_ms", stereo_fallback_frame_ms},
                    {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max}};
+  if (stereo) {  // issue 28, session 17: either camera lost and back, timed to the frame drawn
+    j["stereo"]["frames_right_eye_only"] = stereo_right_only;
+    j["stereo"]["frames_note_both_eyes"] = note_both_eyes;
+    j["stereo"]["frames_note_missing_in_an_eye"] = note_missing_eye;
+    j["stereo"]["mode_switches"] = eye_switches.size();
+    auto& sw = j["stereo"]["switches"] = nlohmann::json::array();
+    for (const EyeSwitch& e : eye_switches) sw.push_back({{"what", e.what}, {"eyes", e.eyes}, {"drawn_ms", e.drawn_ms}, {"frame_ms", e.frame_ms}});
+  }
   if (lesson_mode != 0)
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
                    {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
@@ -607,10 +615,8 @@ Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st
       if (o.stylus == "none") {
         // No stylus: the hand rests 25 mm above the tooth's origin, clear of every
         // exercise's crown, with the pedal up: the engine runs (and is timed), nothing cuts.
-        tips = haptics::tip_script("access", 3.0, 0);
-        tips.resize(1);
-        tips.front().tip_tooth_m = {0, 0, 25e-3};
-        tips.front().pedal = false;
+        // One waypoint, the bur pointing down the tooth's axis (-z of the tooth: the scripts' axis).
+        tips = {haptics::TipWaypoint{0.0, Eigen::Vector3d(0, 0, 25e-3), Eigen::Vector3d(0, 0, -1), false}};
       } else if (o.exercise.empty()) {
         tips = haptics::tip_script("access", 3.0, 0);
       } else {
@@ -914,6 +920,9 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.stereo = c.popt.stereo;
   sum.stereo_both = ff.stereo_both;
   sum.stereo_left_only = ff.stereo_left_only;
+  sum.stereo_right_only = ff.stereo_right_only;
+  sum.note_both_eyes = ff.note_both_eyes;
+  sum.note_missing_eye = ff.note_missing_eye;
   sum.right_composited = ff.right_composited;
 
   sum.stereo_fallbacks = ff.stereo_fallbacks;

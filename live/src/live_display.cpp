@@ -104,6 +104,10 @@ class DisplayLoop {
     cur_.rec = shown.rec;
     cur_.error = shown.error;
     cur_.note.swap(shown.note);
+    cur_.switch_eyes = shown.switch_eyes;
+    cur_.switch_from_s = shown.switch_from_s;
+    cur_.switch_what = shown.switch_what;
+    cur_.unpaired_from_s = shown.unpaired_from_s;
     sh_.shown_new = false;
     return true;
   }
@@ -172,8 +176,12 @@ class DisplayLoop {
     }
     if (!fresh) return;
     double u = 0, v = 0;
+    // The left camera lost (two cameras): the frame shown is the right eye's, seen from there.
+    const bool right_alone = stereo_ && cur_.rec.eyes == ar::FrameRecord::kEyesRight;
+    const Eigen::Isometry3d T_main_rig = right_alone ? T_camr_rig_ : Eigen::Isometry3d::Identity();
     const bool ok = cur_.rec.man_state != 2 &&
-                    project_point(cam_, cur_.rec.T_cam_man * c_.st.calibration.T_man_tooth, tooth_centre_, u, v);
+                    project_point(right_alone ? cam_right_ : cam_,
+                                  T_main_rig * cur_.rec.T_cam_man * c_.st.calibration.T_man_tooth, tooth_centre_, u, v);
     if (!loupe_c_.initialised()) loupe_c_.reset(cam_.cx, cam_.cy);
     loupe_c_.update(ok, u, v);
     if (!stereo_) {
@@ -216,7 +224,10 @@ class DisplayLoop {
     // The camera went quiet: show the video without the overlay within 200 ms.
     // One read of the capture time per check: a frame may land before the
     // swap, and the figure below must be about the silence this check saw.
-    const double last_frame_s = in_.capture.last_frame_steady_s();
+    // Two cameras: the overlay stays while either delivers (the other eye's single view).
+    double last_frame_s = in_.capture.last_frame_steady_s();
+    if (const ar::CaptureThread* r = sh_.capture_right.load())
+      last_frame_s = std::max(last_frame_s, r->last_frame_steady_s());
     const double age = cur_.index >= 0 ? now_s() - last_frame_s : 0;
     const bool stalled = cur_.index >= 0 && age > 0.15;
     if (stalled && stall_seen_at_ < 0) stall_seen_at_ = now_s();
@@ -339,6 +350,21 @@ class DisplayLoop {
 
   void figures_after_swap(bool fresh, bool stalled, double age, double last_frame_s) {
     const double t_swap = now_s();
+    if (fresh && cur_.index != last_index_ && cur_.unpaired_from_s > 0 && cur_.unpaired_from_s != unpaired_from_s_) {
+      unpaired_from_s_ = cur_.unpaired_from_s;  // the first frame without the right eye since its last frame
+      unpaired_swap_s_ = t_swap;
+      unpaired_frame_ms_ = (t_swap - cur_.steady_s) * 1e3;
+    }
+    if (fresh && cur_.index != last_index_ && cur_.switch_eyes >= 0 && cur_.switch_from_s > 0) {
+      // A camera lost or back (two cameras): from its capture time to the swap of the first
+      // frame drawn in the new mode (the right camera lost: the first frame without it).
+      const int e = cur_.switch_eyes;
+      const bool earlier = e == ar::FrameRecord::kEyesLeft && unpaired_from_s_ == cur_.switch_from_s;
+      sum_.eye_switches.push_back({cur_.switch_what,
+                                   e == ar::FrameRecord::kEyesBoth ? "both" : e == ar::FrameRecord::kEyesLeft ? "left" : "right",
+                                   ((earlier ? unpaired_swap_s_ : t_swap) - cur_.switch_from_s) * 1e3,
+                                   earlier ? unpaired_frame_ms_ : (t_swap - cur_.steady_s) * 1e3});
+    }
     if (fresh && cur_.index != last_index_) {
       fig_.latency_ms.push_back((t_swap - cur_.steady_s) * 1e3);
       last_index_ = cur_.index;
@@ -442,6 +468,12 @@ class DisplayLoop {
     if (stalled)
       ImGui::TextColored(col[2], "camera: no frame for %.0f ms, overlay hidden%s", age * 1e3,
                          in_.capture.status().empty() ? "" : (" (" + in_.capture.status() + ")").c_str());
+    if (!stalled && !c_.o.camera_right.empty() && (r.eyes == ar::FrameRecord::kEyesLeft || r.eyes == ar::FrameRecord::kEyesRight)) {
+      const bool left_lost = r.eyes == ar::FrameRecord::kEyesRight;
+      ImGui::TextColored(col[1], "camera lost: %s eye (%s): single view from the %s eye, no stereo depth",
+                         left_lost ? "left" : "right", (left_lost ? c_.o.camera : c_.o.camera_right).c_str(),
+                         left_lost ? "right" : "left");
+    }
     if (!cur_.error.empty()) ImGui::TextColored(col[2], "pipeline: %s", cur_.error.c_str());
     if (snap.watchdog) ImGui::TextColored(col[2], "haptics: watchdog: zero force");
     if (snap.fault) ImGui::TextColored(col[2], "haptics: device fault: zero force%s", pen ? " (pen not seen)" : "");
@@ -469,6 +501,8 @@ class DisplayLoop {
   int fps_n_ = 0;
   std::size_t next_note_ = 0;  // the lesson's next annotation not yet reached
   int shown_slot_ = -1;  // GPU path: the ring texture the window draws from, or -1
+  // Two cameras: the first frame drawn without the right eye since its last frame (Shown::unpaired_from_s).
+  double unpaired_from_s_ = 0, unpaired_swap_s_ = 0, unpaired_frame_ms_ = 0;
   calibration::CameraIntrinsics cam_;  // of the frames' size
   Eigen::Vector3d tooth_centre_ = Eigen::Vector3d::Zero();  // tooth frame, m
   LoupeView loupe_{};

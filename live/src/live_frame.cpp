@@ -78,8 +78,20 @@ class FrameThread {
       ar::CaptureThread* right = sh_.capture_right.load();
       ar::Frame f;
       while (!sh_.stop.load()) {
-        if (!capture.wait_take(f, 0.05)) {
+        // Two cameras, the left one silent: the right eye alone until the left delivers again.
+        if (right != nullptr && left_lost_ && !capture.wait_take(f, 0)) {
+          if (!right_alone(*right, f)) {
+            if (capture.ended()) break;
+            continue;
+          }
+          process_frame(f);
+          right_only_ = false;
+          continue;
+        }
+        if (right != nullptr && left_lost_) left_back(f);
+        else if (!capture.wait_take(f, right != nullptr ? 0.02 : 0.05)) {
           if (capture.ended()) break;
+          if (right != nullptr) check_left_lost(capture, *right);
           continue;
         }
         if (c_.o.side_by_side) {
@@ -141,19 +153,109 @@ class FrameThread {
     right_image_.release();
     right_encoded_.release();
     if (!right_pending_.image.empty() && std::abs(right_pending_.steady_s - left.steady_s) <= half) {
+      right_pair_s_ = right_pending_.steady_s;
       right_image_ = right_pending_.image;
       right_encoded_ = right_pending_.encoded;  // its camera's JPEG bytes, for the recording
       right_pending_ = ar::Frame{};
     }
     pair_wait_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - t_enter).count();
+    // The right camera silent (lost) for this frame, not just unpaired once.
+    const double rl = right.last_frame_steady_s();
+    right_silent_ = rl > 0 && left.steady_s - rl > silent_s;
+    if (right_silent_) right_silent_from_s_ = rl;
   }
 
   // A right-eye frame taken from its capture thread: the newest, and when it ends a silence
   // (issue 28's fallback), the time the eye came back.
   void take_right(ar::Frame&& r, double silent_s) {
-    if (right_last_s_ > 0 && r.steady_s - right_last_s_ > silent_s) right_back_s_ = r.steady_s;
+    if (right_last_s_ > 0 && r.steady_s - right_last_s_ > silent_s) right_back_s_ = right_first_back_s_ = r.steady_s;
     right_last_s_ = r.steady_s;
     right_pending_ = std::move(r);
+  }
+
+  // Two cameras (issue 28): the left camera silent for kSilentS while the right one delivers
+  // (the right eye's rule in pair_right): from now on each right-eye frame is a single-view
+  // frame on its own (right_alone), timed from the left camera's last frame.
+  static constexpr double kSilentS = 0.1;
+  void check_left_lost(const ar::CaptureThread& left, const ar::CaptureThread& right) {
+    const double now = ar::steady_now_s(), last = left.last_frame_steady_s();
+    if (last <= 0 || now - last <= kSilentS || now - right.last_frame_steady_s() > kSilentS) return;
+    left_lost_ = true;
+    left_last_s_ = last;
+    say_eye("left camera lost (" + c_.o.camera + "): no frame for " + std::to_string(std::lround((now - last) * 1e3)) +
+            " ms; tracking and drawing from the right eye (" + c_.o.camera_right + ") alone until it returns");
+  }
+
+  // The left camera's first frame after its silence: pairs again (the message; the frame is
+  // paired and processed as any other).
+  void left_back(const ar::Frame& f) {
+    left_lost_ = false;
+    left_back_s_ = f.steady_s;
+    say_eye("left camera back (" + c_.o.camera + ") after " +
+            std::to_string(std::lround((f.steady_s - left_last_s_) * 1e3)) + " ms: both eyes again");
+  }
+
+  // A right-eye frame while the left camera is lost: the newest, waiting up to 20 ms for it
+  // (then the loop looks at the left camera again). false: none.
+  bool right_alone(ar::CaptureThread& right, ar::Frame& f) {
+    ar::Frame r;
+    if (!right.wait_take(r, 0.02)) return false;
+    take_right(std::move(r), kSilentS);
+    f = std::move(right_pending_);
+    right_pending_ = ar::Frame{};
+    right_image_.release();
+    right_encoded_.release();
+    right_only_ = true;
+    return true;
+  }
+
+  void say_eye(const std::string& m) {
+    c_.say(m);
+    if (session::Recorder* rec = c_.run.recorder()) rec->log(m);
+  }
+
+  // Two cameras: a camera lost (silent for kSilentS: the left one in check_left_lost, the right
+  // one in pair_right) or back changes the run's mode; the first frame drawn in the new mode
+  // (its eyes those of the mode) gives the window the time the switch is measured from
+  // (Shown::switch_from_s): the lost camera's last frame, or the returning camera's first frame
+  // back, to this frame's swap. A single frame without a partner (pairing skew) is no switch.
+  void note_switch(int eyes, double capture_steady_s) {
+    switch_eyes_ = -1;
+    if (c_.o.camera_right.empty()) return;
+    using FR = ar::FrameRecord;
+    const int mode = left_lost_ ? FR::kEyesRight : right_silent_ ? FR::kEyesLeft : FR::kEyesBoth;
+    if (mode != mode_) {
+      if (mode == FR::kEyesLeft) {
+        switch_from_s_ = right_silent_from_s_;
+        switch_what_ = "right camera lost (" + c_.o.camera_right + ")";
+        say_eye(switch_what_ + ": no frame for " +
+                std::to_string(std::lround((ar::steady_now_s() - right_silent_from_s_) * 1e3)) +
+                " ms; tracking and drawing from the left eye (" + c_.o.camera + ") alone until it returns");
+      } else if (mode == FR::kEyesRight) {
+        switch_from_s_ = left_last_s_;
+        switch_what_ = "left camera lost (" + c_.o.camera + ")";
+      } else if (mode_ == FR::kEyesLeft) {
+        switch_from_s_ = right_first_back_s_ > 0 ? right_first_back_s_ : right_pair_s_;
+        switch_what_ = "right camera back (" + c_.o.camera_right + ")";
+        say_eye(switch_what_ + ": both eyes again");
+      } else {
+        switch_from_s_ = left_back_s_;
+        switch_what_ = "left camera back (" + c_.o.camera + ")";
+      }
+      mode_ = mode;
+      switch_pending_ = true;
+    }
+    // The first frame captured after the right eye's last one, without a partner (the right
+    // camera may be going silent): the window keeps its swap time, the switch's own if the
+    // camera turns out lost (same last frame). An older frame (a queue on a busy machine) is not it.
+    unpaired_from_s_ = 0;
+    if (const ar::CaptureThread* rc = sh_.capture_right.load();
+        rc != nullptr && mode_ == FR::kEyesBoth && eyes == FR::kEyesLeft && capture_steady_s > rc->last_frame_steady_s())
+      unpaired_from_s_ = rc->last_frame_steady_s();
+    if (switch_pending_ && eyes == mode_) {
+      switch_eyes_ = eyes;
+      switch_pending_ = false;
+    }
   }
 
   // Two cameras: how long the single-view path took to take over when the right eye went
@@ -178,6 +280,25 @@ class FrameThread {
       fig_.stereo_recovery_ms_max = std::max(fig_.stereo_recovery_ms_max, (now - right_back_s_) * 1e3);
     }
     prev_eyes_ = eyes;
+  }
+
+  // Two cameras: one capture timeline for the tracker and the recording (frames.csv time_s
+  // never goes back). A right-eye frame alone (the left camera lost) continues it by the
+  // steady clock; a left frame back after a silence (a reopened camera counts from its last
+  // time) is moved on past it, and the left frames after it by as much.
+  void one_timeline(ar::Frame& f) {
+    const double dt = last_steady_s_ > 0 ? std::max(1e-4, f.steady_s - last_steady_s_) : 0;
+    if (right_only_ && last_steady_s_ > 0) {
+      f.time_s = last_time_s_ + dt;
+    } else if (!right_only_) {
+      f.time_s += left_shift_s_;
+      if (last_steady_s_ > 0 && f.time_s <= last_time_s_) {
+        left_shift_s_ += last_time_s_ + dt - f.time_s;
+        f.time_s = last_time_s_ + dt;
+      }
+    }
+    last_time_s_ = f.time_s;
+    last_steady_s_ = f.steady_s;
   }
 
   // The stylus as it was when this frame was exposed, not as it is now (issue 24).
@@ -209,13 +330,16 @@ class FrameThread {
       sh_.processed.store(processed + 1);
       return;
     }
+    if (!o.camera_right.empty()) one_timeline(f);
     session::Recorder* recorder = c_.run.recorder();
     const std::int64_t processed = sh_.processed.load();
     haptics::HapticSnapshot snap = c_.run.engine()->snapshot();
     const double pose_step = pose_at_exposure(f, snap);
     ar::FrameInput in;
-    in.image = &f.image;
-    in.right_image = &right_image_;
+    // The left camera lost: f is the right eye's frame, the single-view path from the right eye.
+    static const cv::Mat kNoImage;
+    in.image = right_only_ ? &kNoImage : &f.image;
+    in.right_image = right_only_ ? &f.image : &right_image_;
     in.index = processed;
     in.capture_time_s = f.time_s;
     in.haptic = o.stylus == "none" ? nullptr : &snap;
@@ -228,8 +352,14 @@ class FrameThread {
     }
     const auto t0 = Clock::now();
     // GPU path: a texture the window is not showing, free of its draws.
-    const int slot = use_gl_ ? sh_.ring->acquire() : -1;
-    if (use_gl_) in.gl_target = sh_.ring->target(slot);
+    // The right eye alone (its camera's own composite) is the CPU path's, as its pair composite.
+    // The headset's view with a lesson's note on show: the CPU path too, so the left eye's
+    // label is drawn into its composite (and pre-warped with it) as the right eye's is; the
+    // GPU path's label is the mono window's (drawn by the window, not through the lens).
+    const bool note_on = in.note != nullptr && !in.note->empty();
+    const bool gl = use_gl_ && !right_only_ && !(note_on && o.output == "sbs");
+    const int slot = gl ? sh_.ring->acquire() : -1;
+    if (gl) in.gl_target = sh_.ring->target(slot);
     std::string err;
     try {
       if (auto s = c_.run.pipeline().process(in, c_.run.meshes(), cres_, rec_, want_right_ ? &cres_right_ : nullptr); !s)
@@ -240,6 +370,13 @@ class FrameThread {
     fig_.process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
+    if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesRight) ++fig_.stereo_right_only;
+    if (err.empty()) note_switch(rec_.eyes, f.steady_s);
+    if (err.empty() && want_right_) {  // the headset's pair: a lesson's note label in each eye that anchored it
+      fig_.note_both_eyes += rec_.note_drawn && rec_.right.note_drawn ? 1 : 0;
+      fig_.note_missing_eye +=
+          (rec_.note_anchored && !rec_.note_drawn) || (rec_.right.note_anchored && !rec_.right.note_drawn) ? 1 : 0;
+    }
     if (err.empty() && rec_.right.composited) ++fig_.right_composited;
     if (err.empty()) count_fallback(rec_.eyes, f.steady_s);
     rec_.pose_step = pose_step;
@@ -273,7 +410,7 @@ class FrameThread {
       std::lock_guard<std::mutex> lock(sh_.shown_m);
       Shown& shown = sh_.shown;
       shown.raw = f.image;
-      shown.gpu = use_gl_ && err.empty();
+      shown.gpu = slot >= 0 && err.empty();
       // The right eye (a stereo pair for the headset): its composite, or none (mono).
       shown.raw_right = want_right_ ? right_image_ : cv::Mat();
       if (err.empty() && want_right_ && rec_.right.composited) cv::swap(cres_right_.image, shown.composite_right);
@@ -294,6 +431,19 @@ class FrameThread {
       shown.steady_s = f.steady_s;
       shown.rec = rec_;
       shown.error = err;
+      // A camera lost or back (note_switch): timed to the swap of the first frame the window
+      // draws in the new mode (a switch frame replaced before the window took it passes its
+      // switch on to the frame replacing it).
+      const bool untaken = sh_.shown_new;
+      if (err.empty() && switch_eyes_ >= 0) {
+        shown.switch_eyes = switch_eyes_;
+        shown.switch_from_s = switch_from_s_;
+        shown.switch_what = switch_what_;
+      } else if (!untaken || shown.switch_eyes != rec_.eyes) {
+        shown.switch_eyes = -1;
+      }
+      if (err.empty() && unpaired_from_s_ > 0) shown.unpaired_from_s = unpaired_from_s_;
+      else if (!untaken) shown.unpaired_from_s = 0;
       if (note != nullptr) shown.note = *note;
       else shown.note.clear();
       sh_.shown_new = true;
@@ -315,6 +465,19 @@ class FrameThread {
   double right_last_s_ = 0, right_back_s_ = 0;  // the right eye's newest frame, its first after a silence (steady s)
   int prev_eyes_ = 0;                           // the eyes of the frame before
   double pair_wait_ms_ = 0;                     // this frame's wait for the right eye's partner
+  // Two cameras, the left one lost (issue 28, session 17): the right eye's frames alone.
+  bool left_lost_ = false, right_only_ = false;   // right_only_: this frame is the right eye's alone
+  double left_last_s_ = 0, left_back_s_ = 0;      // the left camera's last frame, its first back (steady s)
+  double right_pair_s_ = 0;                       // the right frame of the newest pair (steady s)
+  double last_time_s_ = 0, last_steady_s_ = 0, left_shift_s_ = 0;  // one_timeline
+  double unpaired_from_s_ = 0;  // this frame lacks the right eye's partner: the right camera's last frame (steady s)
+  bool right_silent_ = false;                     // pair_right: the right camera silent (lost)
+  double right_silent_from_s_ = 0, right_first_back_s_ = 0;  // its last frame; its first after a silence
+  int mode_ = ar::FrameRecord::kEyesBoth;         // note_switch: the cameras delivering (kEyes*)
+  int switch_eyes_ = -1;                          // this frame's switch (its eyes; -1 none)
+  bool switch_pending_ = false;                   // a switch not yet drawn in its mode
+  double switch_from_s_ = 0;
+  std::string switch_what_;
 };
 
 }  // namespace

@@ -68,6 +68,17 @@ struct Shown {
   ar::FrameRecord rec;
   std::string error;
   std::string note;  // a lesson's note given with the frame (rec.note_anchored: the GPU path draws it)
+  // Two cameras (issue 28): the first frame after a camera was lost or came back: its eyes
+  // (rec.eyes; -1: no switch), what happened ("left camera lost (SPEC)" ...) and the capture
+  // time the switch is timed from (the lost camera's last frame, or the returning camera's
+  // first frame back; steady s): the window times it to this frame's swap.
+  int switch_eyes = -1;
+  double switch_from_s = 0;
+  std::string switch_what;
+  // A frame from the left eye alone while both cameras were delivering (the right one may be
+  // going silent): the right camera's last frame (steady s), else 0. When that camera is found
+  // lost (no frame for 0.1 s) the switch is timed to the first such frame's swap.
+  double unpaired_from_s = 0;
 };
 
 // The frame thread and the display loop: the hand-over of each frame, the stop
@@ -98,6 +109,10 @@ struct FrameFigures {
   std::int64_t ring_replaced = 0, ring_ready_timeouts = 0, ring_release_timeouts = 0;
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
   std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had
+  std::int64_t stereo_right_only = 0;                   // two cameras, the left one lost
+  // The headset's pair (--output sbs): frames with a lesson's note label drawn into both eyes'
+  // composites, and frames where an eye placed the note beside its tooth but did not draw it.
+  std::int64_t note_both_eyes = 0, note_missing_eye = 0;
   std::int64_t right_composited = 0;  // stereo into the headset: frames with the right eye's own composite
 
   // Two cameras: the right eye lost and back (LiveSummary::stereo_fallbacks ...), ms; -1 none.

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -235,6 +236,42 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
     dentar::live::render_eye_cpu(img, dentar::live::make_eye_mapping(*prof_r, e, cam, true, {}, c0, false), out);
     return out;
   };
+  // frames.csv per eye (session 17): the live recording's rows say which frames gave the right
+  // eye its own composite (as many as the summary counts), the offline rows carry the right
+  // eye's tooth against its truth.
+  {
+    auto table = [](const fs::path& p) {
+      std::ifstream f(p);
+      std::vector<std::vector<std::string>> rows;
+      for (std::string line; std::getline(f, line);) {
+        std::vector<std::string> v;
+        std::stringstream ss(line);
+        for (std::string c; std::getline(ss, c, ',');) v.push_back(c);
+        if (!line.empty() && line.back() == ',') v.emplace_back();
+        rows.push_back(v);
+      }
+      return rows;
+    };
+    auto col = [](const std::vector<std::string>& h, const char* n) {
+      return static_cast<int>(std::find(h.begin(), h.end(), n) - h.begin());
+    };
+    const auto lr = table(dir / "rec" / "frames.csv");
+    ASSERT_GT(lr.size(), 1u);
+    const int lc = col(lr[0], "right_composited");
+    ASSERT_LT(lc, static_cast<int>(lr[0].size()));
+    int own = 0;
+    for (std::size_t i = 1; i < lr.size(); ++i) own += lr[i][static_cast<std::size_t>(lc)] == "1";
+    EXPECT_EQ(own, live["stereo"]["frames_right_eye_composited"].get<int>());
+    const auto orows = table(off / "frames.csv");
+    ASSERT_EQ(orows.size(), 11u);
+    const int oc = col(orows[0], "right_composited"), oe = col(orows[0], "right_tooth_err_px");
+    ASSERT_LT(oe, static_cast<int>(orows[0].size()));
+    for (std::size_t i = 1; i < orows.size(); ++i) {
+      EXPECT_EQ(orows[i][static_cast<std::size_t>(oc)], "1") << "frame " << i - 1;
+      ASSERT_FALSE(orows[i][static_cast<std::size_t>(oe)].empty()) << "frame " << i - 1;
+      EXPECT_LT(std::stod(orows[i][static_cast<std::size_t>(oe)]), 3.0) << "frame " << i - 1;
+    }
+  }
   const auto footage = read_video(st / "video.mkv");  // side by side: the raw eyes
   ASSERT_EQ(footage.size(), 10u);
   // The footage frame each shown frame came from (a loaded machine drops frames; --loop
@@ -336,4 +373,57 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
     cv::absdiff(raw_shot(rr), raw_wrong(rr), d);
     EXPECT_GT(cv::mean(d)[0], 6.0) << "the right eye shows the left eye's image";
   }
+}
+
+// Issue 28 (session 17): the headset's pair shows the same HUD in each eye, and a lesson's
+// note label beside the tooth in each eye's composite also when the left eye takes the GPU
+// path (before: the left eye had none). A stereo run into the side-by-side view with a
+// lesson whose pause point holds its note on show: the summary counts frames whose note went
+// into both eyes (and none where an eye anchored it without drawing it); the screenshot's HUD
+// text, eye by eye, is there and the same (the HUD is drawn at one place of each eye's view).
+TEST(HeadsetXvfb, HudAndLessonNoteInBothEyes) {
+  REQUIRE_XVFB();
+  const fs::path dir = dentar::test::temp_dir("headset_hud"), st = dir / "st", lesson = dir / "lesson";
+  auto r = run_command(kBin + " synth --preset standard --stereo --frames 4 --resolution 640x480 --seed 3 --out " +
+                       st.string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run_command(kBin + " lesson make " + (st / "session.dlog").string() +
+                  " --exercise molar_access_opening --note '0.0:Mind the pulp horn' --pause 0.1:60 --out " +
+                  lesson.string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const fs::path prof = dir / "headset.json";
+  std::ofstream(prof) << profile_json(false).dump(2);
+  const fs::path shot = dir / "shot.png";
+  r = run_command(xvfb(kBin + " live --stereo --camera live:" + (st / "video.mkv").string() + " --station " +
+                       (st / "station.json").string() + " --stylus sim --lesson " + lesson.string() +
+                       " --mode 2 --output sbs --headset " + prof.string() +
+                       " --display-path gl --quiet --loop --frames 6 --screenshot 4:" + shot.string() +
+                       " --no-score --summary " + (dir / "live.json").string() + " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto live = read_json(dir / "live.json");
+  ASSERT_TRUE(live.contains("stereo")) << live.dump();
+  const auto& ls = live["stereo"];
+  EXPECT_GT(ls["frames_note_both_eyes"].get<int>(), 0) << ls.dump();
+  EXPECT_EQ(ls["frames_note_missing_in_an_eye"].get<int>(), 0) << ls.dump();
+  if (live["display"]["path"] != "gl")
+    std::printf("[ note ] the GPU display path did not come up here (%s): the note went the CPU path anyway\n",
+                live["display"]["note"].get<std::string>().c_str());
+
+  // The HUD's top lines, eye by eye (each eye's viewport 640x600; the HUD 12 % in from its
+  // top-left corner): bright text pixels (the HUD's background darkens the video behind it
+  // below them), present in each eye and at the same places.
+  const cv::Mat s = cv::imread(shot.string());
+  ASSERT_EQ(s.cols, 1280) << shot;
+  ASSERT_EQ(s.rows, 600) << shot;
+  cv::Mat text[2];
+  for (int e = 0; e < 2; ++e) {
+    const cv::Rect hud(e * 640 + 77, 72, 384, 150);
+    cv::Mat ch[3];
+    cv::split(s(hud), ch);
+    text[e] = cv::max(cv::max(ch[0], ch[1]), ch[2]) > 180;
+    EXPECT_GT(cv::countNonZero(text[e]), 400) << "eye " << e << ": no HUD text";
+  }
+  const int inter = cv::countNonZero(text[0] & text[1]), uni = cv::countNonZero(text[0] | text[1]);
+  ASSERT_GT(uni, 0);
+  EXPECT_GT(static_cast<double>(inter) / uni, 0.7) << "the eyes' HUDs differ";
 }

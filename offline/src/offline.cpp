@@ -776,14 +776,17 @@ struct Job {
   }
 
   // A stereo live recording: frame `index`'s right eye from frames_right/ when the live run had
-  // it (frames.csv eyes "both"), else none (the single-view path, as live).
+  // it (frames.csv eyes "both"), else none (the single-view path, as live). Eyes "right" (the
+  // left camera lost, session 17): frames/ holds the right eye's image, tracked alone.
   Status recorded_right_eye(std::int64_t index) {
     right_image.release();
     const int eyes = rec.eyes[static_cast<std::size_t>(index)];
     if (eyes == FrameRecord::kEyesLeft) return {};
-    if (eyes != FrameRecord::kEyesBoth)
-      return fail("offline: " + rec.frames_csv + ": frame " + std::to_string(index) +
-                  " has the right eye alone, which `dentar live` never records (the left camera drives it)");
+    if (eyes == FrameRecord::kEyesRight) {
+      right_image = std::move(frame.image);
+      frame.image = cv::Mat();
+      return {};
+    }
     char stem[32];
     std::snprintf(stem, sizeof stem, "frame_%06lld", static_cast<long long>(index));
     for (const char* ext : {".jpg", ".png", ".ppm"}) {
@@ -882,7 +885,7 @@ struct Job {
     FrameRecord fr;
     if (auto ps = pipe->process(fin, *meshes, cres, fr, both_eyes ? &cres_right : nullptr); !ps)
       return fail("offline: " + ps.error());
-    if (both_eyes) right_eye_frame(fr, static_cast<std::size_t>(frame.index));
+    if (both_eyes) right_eye_frame(fr, static_cast<std::size_t>(frame.index), r);
     r.haptic_step = fr.haptic_step;
     r.pedal = fr.pedal;
     for (int m = 0; m < volume::kNumMaterials; ++m) r.removed_mm3[m] = fr.removed_mm3[m];
@@ -979,12 +982,16 @@ struct Job {
   // --eye both: the right eye's composite into composite_right.mkv (the main composite when
   // the left eye was missing: it is the right eye's; black when the right eye was), and its
   // tooth against the right eye's truth: the projected box corners (px) and the silhouette.
-  void right_eye_frame(const FrameRecord& fr, std::size_t fi) {
+  void right_eye_frame(const FrameRecord& fr, std::size_t fi, Row& row) {
     const auto& cr = st.stereo.camera_right;
     const bool own = fr.right.composited, main_is_right = fr.eyes == FrameRecord::kEyesRight;
     if (own) {
       ++sum.right_composited;
       sum.right_overlays += fr.right.overlay ? 1 : 0;
+      row.right_composited = true;
+      row.right_overlay = fr.right.overlay;
+      row.right_mirror_drawn = fr.right.mirror_drawn;
+      row.right_composite_ms = fr.right.composite_ms;
     }
     if (o.write_video) {
       if (own) writer_right.write(cres_right.image);
@@ -1008,6 +1015,7 @@ struct Job {
       double e = 0;
       for (std::size_t i = 0; i < a.size(); ++i) e += std::hypot(a[i].x - b[i].x, a[i].y - b[i].y);
       right_tooth_err_px.push_back(e / static_cast<double>(a.size()));
+      row.right_tooth_err_px = right_tooth_err_px.back();
     }
     if (!mask_right_dir.empty()) {
       char name[32];
@@ -1017,6 +1025,7 @@ struct Job {
         const cv::Mat truth_vis = mask == 64, drawn = cres_right.tooth_visible > 127;
         const int inter = cv::countNonZero(truth_vis & drawn), uni = cv::countNonZero(truth_vis | drawn);
         if (uni > 0) right_iou.push_back(static_cast<double>(inter) / uni);
+        if (uni > 0) row.right_iou = right_iou.back();
       }
     }
   }

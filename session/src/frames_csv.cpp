@@ -49,7 +49,7 @@ std::string recording_csv_header(bool stereo) {
   return std::string("frame,time_s,steady_s,source_index,haptic_steps,man_state,mirror_state,pen_state,"
                      "man_T,mirror_T,pedal,force_N,overlay,track_ms,mesh_ms,composite_ms,disc_start,disc_merged,"
                      "pose_step") +
-         (stereo ? ",eyes\n" : "\n");
+         (stereo ? ",eyes,right_composited,right_overlay,right_mirror_drawn,right_composite_ms\n" : "\n");
 }
 
 std::string recording_csv_row(const ar::FrameRecord& r, std::int64_t index, double steady_s,
@@ -61,7 +61,9 @@ std::string recording_csv_row(const ar::FrameRecord& r, std::int64_t index, doub
     << pose_3x4(r.mir_state, r.T_cam_mtag) << ',' << (r.pedal ? 1 : 0) << ',' << std::setprecision(6) << r.force_N
     << ',' << (r.overlay ? 1 : 0) << ',' << r.track_ms << ',' << r.mesh_ms << ',' << r.composite_ms << ','
     << (r.disc_start ? 1 : 0) << ',' << r.disc_merged << ',' << std::setprecision(17) << r.pose_step;
-  if (stereo) s << ',' << eyes_name(r.eyes);
+  if (stereo)
+    s << ',' << eyes_name(r.eyes) << ',' << (r.right.composited ? 1 : 0) << ',' << (r.right.overlay ? 1 : 0) << ','
+      << (r.right.mirror_drawn ? 1 : 0) << ',' << std::setprecision(6) << r.right.composite_ms;
   s << '\n';
   return s.str();
 }
@@ -74,7 +76,9 @@ std::string offline_csv_header(bool stereo) {
   for (int m = 1; m < volume::kNumMaterials; ++m) h += ",removed_" + std::string(volume::material_info(m).name) + "_mm3";
   h += ",man_err_mm,man_err_deg,tooth_err_px,tip_err_mm,silhouette_iou,mir_err_mm,mir_err_deg,"
        "read_ms,detect_ms,pose_ms,filter_ms,track_ms,haptics_ms,mesh_ms,composite_ms,write_ms,latency_ms";
-  h += stereo ? ",eyes,man_views,mirror_views\n" : "\n";
+  h += stereo ? ",eyes,man_views,mirror_views,right_composited,right_overlay,right_mirror_drawn,right_composite_ms,"
+                "right_tooth_err_px,right_silhouette_iou\n"
+              : "\n";
   return h;
 }
 
@@ -108,7 +112,13 @@ std::string offline_csv_row(const OfflineFrameRow& r, bool stereo) {
                    r.composite_ms, r.write_ms})
     num(x);
   s << r.latency_ms;
-  if (stereo) s << ',' << eyes_name(r.eyes) << ',' << r.man_views << ',' << r.mir_views;
+  if (stereo) {
+    s << ',' << eyes_name(r.eyes) << ',' << r.man_views << ',' << r.mir_views << ',' << (r.right_composited ? 1 : 0)
+      << ',' << (r.right_overlay ? 1 : 0) << ',' << (r.right_mirror_drawn ? 1 : 0) << ',';
+    num(r.right_composite_ms);
+    num(r.right_tooth_err_px);
+    if (std::isfinite(r.right_iou)) s << r.right_iou;
+  }
   s << '\n';
   return s.str();
 }

@@ -95,21 +95,38 @@ TEST(FramesCsv, OfflineRowsAreAsWideAsTheHeader) {
 TEST(FramesCsv, StereoRowsAppendTheEyesAfterTheMonoColumns) {
   const std::string mono = offline_csv_header(), stereo = offline_csv_header(true);
   ASSERT_EQ(stereo.rfind(mono.substr(0, mono.size() - 1), 0), 0u) << stereo;
-  EXPECT_EQ(stereo.substr(mono.size() - 1), ",eyes,man_views,mirror_views\n");
+  EXPECT_EQ(stereo.substr(mono.size() - 1),
+            ",eyes,man_views,mirror_views,right_composited,right_overlay,right_mirror_drawn,right_composite_ms,"
+            "right_tooth_err_px,right_silhouette_iou\n");
   OfflineFrameRow r;
   r.man_state = 0;
   r.eyes = ar::FrameRecord::kEyesLeft;
   r.man_views = 1;
   const std::string row = offline_csv_row(r, true);
   EXPECT_EQ(cells(row), cells(stereo));
-  EXPECT_NE(row.find(",left,1,0\n"), std::string::npos) << row;
+  EXPECT_NE(row.find(",left,1,0,0,0,0,,,\n"), std::string::npos) << row;  // no right eye's composite
+  r.eyes = ar::FrameRecord::kEyesBoth;
+  r.right_composited = r.right_overlay = true;
+  r.right_composite_ms = 4.5;
+  r.right_tooth_err_px = 0.25;
+  r.right_iou = 0.96;
+  const std::string both = offline_csv_row(r, true);
+  EXPECT_EQ(cells(both), cells(stereo));
+  EXPECT_NE(both.find(",both,1,0,1,1,0,4.5,0.25,0.96\n"), std::string::npos) << both;
+  r.eyes = ar::FrameRecord::kEyesLeft;
   EXPECT_EQ(cells(offline_csv_row(r)), cells(mono));
   ar::FrameRecord fr;
   fr.eyes = ar::FrameRecord::kEyesBoth;
   const std::string live = recording_csv_row(fr, 0, 1.0, 0, true);
   EXPECT_EQ(cells(live), cells(recording_csv_header(true)));
-  EXPECT_NE(live.find(",both\n"), std::string::npos) << live;
-  EXPECT_EQ(recording_csv_header(true), recording_csv_header().substr(0, recording_csv_header().size() - 1) + ",eyes\n");
+  EXPECT_NE(live.find(",both,0,0,0,0\n"), std::string::npos) << live;
+  fr.right.composited = fr.right.overlay = true;
+  fr.right.composite_ms = 6.25;
+  const std::string live_r = recording_csv_row(fr, 0, 1.0, 0, true);
+  EXPECT_NE(live_r.find(",both,1,1,0,6.25\n"), std::string::npos) << live_r;
+  EXPECT_EQ(recording_csv_header(true),
+            recording_csv_header().substr(0, recording_csv_header().size() - 1) +
+                ",eyes,right_composited,right_overlay,right_mirror_drawn,right_composite_ms\n");
   EXPECT_STREQ(eyes_name(ar::FrameRecord::kEyesRight), "right");
   EXPECT_STREQ(eyes_name(ar::FrameRecord::kEyesMono), "");
 }

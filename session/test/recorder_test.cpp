@@ -126,9 +126,11 @@ TEST(Recorder, StereoKeepsTheRightEyeBesideTheLeft) {
   EXPECT_EQ(on_disk, bytes);
   const auto rows = lines(dir / "frames.csv");
   ASSERT_EQ(rows.size(), 4u);
-  EXPECT_EQ(rows[0].substr(rows[0].rfind(',') + 1), "eyes");
-  EXPECT_EQ(rows[1].substr(rows[1].rfind(',') + 1), "both");
-  EXPECT_EQ(rows[2].substr(rows[2].rfind(',') + 1), "left");
+  // The eyes, then the right eye's own composite (none here: not the headset's view).
+  const std::string eyes_cols = ",eyes,right_composited,right_overlay,right_mirror_drawn,right_composite_ms";
+  EXPECT_EQ(rows[0].substr(rows[0].size() - eyes_cols.size()), eyes_cols);
+  EXPECT_NE(rows[1].find(",both,0,0,0,0"), std::string::npos) << rows[1];
+  EXPECT_NE(rows[2].find(",left,0,0,0,0"), std::string::npos) << rows[2];
   // One camera: no right-eye folder, whatever is pushed.
   const fs::path mono = dentar::test::temp_dir("recorder_mono_right");
   auto m = Recorder::open(mono);

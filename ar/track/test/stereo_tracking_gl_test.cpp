@@ -368,8 +368,12 @@ TEST(StereoTracking, OneBlindEyeFallsBackToTheSingleView) {
     EXPECT_EQ(f->mannequin.views_used, one ? 1 : 2);
     EXPECT_EQ(f->mannequin.track.state, TrackState::kTracking);
     EXPECT_LT(trans_mm(f->mannequin.track.T_cam_body_measured, s.left.truth.T_cam_man), 1.0);
-    if (blind_left || lost_left) EXPECT_TRUE(f->left.tags.empty());
-    if (blind_right || lost_right) EXPECT_TRUE(f->right.tags.empty());
+    if (blind_left || lost_left) {
+      EXPECT_TRUE(f->left.tags.empty());
+    }
+    if (blind_right || lost_right) {
+      EXPECT_TRUE(f->right.tags.empty());
+    }
   }
 }
 

@@ -43,8 +43,9 @@ struct LiveOptions {
   // Stereo (issue 28): the station's rig ("stereo") tracks from both eyes (StereoTracker), the
   // window shows the left eye. camera_right: the right eye's camera (two cameras; `camera` is
   // the left), one size and rate as the left; side_by_side: `camera` delivers both eyes in one
-  // frame (left | right). A right eye silent for 0.1 s leaves the left eye alone (the single-view
-  // path) until it delivers again; a lost left eye is the camera stall of one camera.
+  // frame (left | right). Either camera silent for 0.1 s leaves the other eye alone (the
+  // single-view path, its own composite shown to both eyes of a headset) until it delivers
+  // again (session 17: also the left one; both silent is the camera stall of one camera).
   std::string camera_right;
   bool side_by_side = false;
   std::int64_t stall_right_after_frames = 0;  // test hook: the right eye delivers nothing for
@@ -174,6 +175,21 @@ struct LiveSummary {
   bool stereo = false;
   std::int64_t stereo_both = 0, stereo_left_only = 0, right_eye_dropped = 0, right_eye_reopens = 0;
   std::int64_t right_composited = 0;  // frames whose right eye got its own composite (--output sbs)
+  std::int64_t stereo_right_only = 0;  // two cameras, the left one lost: frames from the right eye alone
+  // --output sbs with a stereo rig: frames whose lesson note label went into both eyes'
+  // composites, and frames where an eye anchored the note beside its tooth without drawing it.
+  std::int64_t note_both_eyes = 0, note_missing_eye = 0;
+  // Two cameras: each change of the eyes tracked from (a camera lost, or back), in order: what
+  // happened ("left camera lost (SPEC)", "right camera back (SPEC)" ...), the eyes after it
+  // ("left", "right", "both"), and the time from the capture of the lost camera's last frame
+  // (or of the returning camera's first frame back) to the swap of the first frame drawn in the
+  // new mode, ms (the live loop's own steady-clock times); frame_ms: that frame's own capture
+  // to swap (the machine's share of drawn_ms).
+  struct EyeSwitch {
+    std::string what, eyes;
+    double drawn_ms = 0, frame_ms = 0;
+  };
+  std::vector<EyeSwitch> eye_switches;
 
   // Two cameras: the right eye lost (a run of single-view frames begun) and back (pairs again
   // after its silence of > 0.1 s); the longest time from its last frame to the first

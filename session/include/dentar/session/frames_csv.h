@@ -35,8 +35,10 @@ const char* state_name(int s);
 Result<TrackState> parse_state(const std::string& name);
 
 // ---- the live recording's layout ----
-// stereo (issue 28): one more column at the end, eyes (both, left, right); without it the
-// layout is the mono one, byte for byte.
+// stereo (issue 28): more columns at the end: eyes (both, left, right), then the right eye's
+// own composite (session 17; FrameRecord::right): right_composited (0/1: the headset's view
+// composited it), right_overlay, right_mirror_drawn (0/1), right_composite_ms; without
+// stereo the layout is the mono one, byte for byte.
 std::string recording_csv_header(bool stereo = false);  // with its newline
 // One row: `index` the recording's frame number, `steady_s` the capture
 // clock, `source_index` the camera's frame number.
@@ -66,9 +68,16 @@ struct OfflineFrameRow {
   // Stereo runs (issue 28): the eyes that had an image (ar::FrameRecord::eyes) and the eyes in
   // the mannequin's and the mirror's fits. Written only when the run is stereo.
   int eyes = 0, man_views = 0, mir_views = 0;
+  // The right eye's own composite (--eye both, session 17): drawn, its overlay and mirror, its
+  // time (ms; NaN: not composited), its tooth against its truth (box corners, px) and its
+  // silhouette IoU (NaN: no truth or mask).
+  bool right_composited = false, right_overlay = false, right_mirror_drawn = false;
+  double right_composite_ms = kNaN, right_tooth_err_px = kNaN, right_iou = kNaN;
 };
-// stereo: three more columns at the end, eyes (both, left, right: the single-view path),
-// man_views, mirror_views; without it the layout is the mono one, byte for byte.
+// stereo: more columns at the end: eyes (both, left, right: the single-view path),
+// man_views, mirror_views, then the right eye's (session 17): right_composited, right_overlay,
+// right_mirror_drawn (0/1), right_composite_ms, right_tooth_err_px, right_silhouette_iou
+// (empty: none); without stereo the layout is the mono one, byte for byte.
 std::string offline_csv_header(bool stereo = false);  // with its newline
 std::string offline_csv_row(const OfflineFrameRow& r, bool stereo = false);
 // "both", "left", "right" (ar::FrameRecord::eyes), "" for mono (0).
