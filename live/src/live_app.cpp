@@ -161,6 +161,9 @@ std::string LiveOptions::validate() const {
            " must be -1 (the system's) or a latency in 0..1000000 us";
   if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
   if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
+  if (eye_threads != 1 && eye_threads != 2) return "eye_threads = " + std::to_string(eye_threads) + " must be 1 or 2";
+  if (eye_thread_cpu != "any" && eye_thread_cpu != "engine" && eye_thread_cpu != "frame")
+    return "eye_thread_cpu = \"" + eye_thread_cpu + "\" must be any, engine or frame";
   if (display_path != "gl" && display_path != "cpu" && display_path != "auto")
     return "display_path = \"" + display_path + "\" must be auto, gl or cpu";
   if (background_cpu != "others" && background_cpu != "engine")
@@ -209,6 +212,7 @@ std::string LiveSummary::json() const {
                                 {"frames_pose_at_exposure", frames_pose_at_exposure},
                                 {"frames_pose_newest", frames_pose_newest}}},
       {"process_ms", {{"p50", process_p50_ms}, {"p99", process_p99_ms}}},
+      {"stages_ms", nlohmann::json::object()},
       {"engine", {{"steps", engine_steps}, {"missed_deadlines", missed_deadlines}, {"watchdog_trips", watchdog_trips},
                   {"step_us", {{"p50", step_p50_us}, {"p99", step_p99_us}, {"p999", step_p999_us}, {"max", step_max_us}}},
                   {"jitter_us", {{"p99", jitter_p99_us}, {"max", jitter_max_us}}},
@@ -238,7 +242,9 @@ std::string LiveSummary::json() const {
                    {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens},
                    {"fallbacks", stereo_fallbacks}, {"recoveries", stereo_recoveries},
                    {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_frame_ms", stereo_fallback_frame_ms},
-                   {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max}};
+                   {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max},
+                   {"stale_pairs_skipped", stale_pairs_skipped}, {"eye_threads", eye_threads}};
+  for (const auto& [name, p50, p99] : stage_ms) j["stages_ms"][name] = {{"p50", p50}, {"p99", p99}};
   if (lesson_mode != 0)
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
                    {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
@@ -915,6 +921,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.stereo_both = ff.stereo_both;
   sum.stereo_left_only = ff.stereo_left_only;
   sum.right_composited = ff.right_composited;
+  sum.stale_pairs_skipped = ff.stale_pairs_skipped;
+  sum.eye_threads = c.popt.eye_threads;
 
   sum.stereo_fallbacks = ff.stereo_fallbacks;
   sum.stereo_recoveries = ff.stereo_recoveries;
@@ -936,6 +944,14 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.latency_max_ms = df.latency_ms.empty() ? 0 : *std::max_element(df.latency_ms.begin(), df.latency_ms.end());
   sum.process_p50_ms = percentile(ff.process_ms, 0.5);
   sum.process_p99_ms = percentile(ff.process_ms, 0.99);
+  {
+    auto stages = ff.stage_ms;
+    stages["process"] = ff.process_ms;
+    stages["to_display"] = df.to_display_ms;
+    stages["display"] = df.display_ms;
+    for (const auto& [name, v] : stages)
+      if (!v.empty()) sum.stage_ms.emplace_back(name, percentile(v, 0.5), percentile(v, 0.99));
+  }
   engine_figures(es, sum);
   sum.isolation_note = iso + es.realtime_note + (bg.note.empty() ? std::string() : "; " + bg.note);
   sum.volume_hash = c.run.volume().content_hash();
@@ -1047,6 +1063,18 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
   const Background bg = place_background(o, cfg, ncpu);
   if (bg.to_engine_cpu) popt.tracker.discovery_thread_init = bg.to_engine_cpu;
+  // Issue 28 (session 17): a stereo pair into the headset, the right eye on a thread of its own.
+  popt.eye_threads = popt.stereo && o.output == "sbs" ? o.eye_threads : 1;
+  if (o.eye_thread_cpu == "engine") {
+    popt.eye_thread_init = bg.to_engine_cpu;  // empty (not beside the engine): the frame thread's CPUs
+  } else if (o.eye_thread_cpu == "any" && bg.to_engine_cpu) {  // only where the FIFO engine preempts it
+    popt.eye_thread_init = [ncpu] {
+      cpu_set_t all;
+      CPU_ZERO(&all);
+      for (int c = 0; c < ncpu; ++c) CPU_SET(c, &all);
+      pthread_setaffinity_np(pthread_self(), sizeof all, &all);
+    };
+  }
   // ---- recording, engine ----
   if (!o.record_dir.empty())
     if (auto s = start_recording(o, st, popt, discovery_name, *run); !s) return Error{s.error()};

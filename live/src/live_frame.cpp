@@ -9,12 +9,20 @@
 
 #include "dentar/ar/egl_context.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/live/freshest_pair.h"
 #include "dentar/training/lesson.h"
 #include "live_run.h"
 
 namespace dentar::live {
 namespace {
 using Clock = std::chrono::steady_clock;
+
+// This thread's CPU time, ms (the per-frame figures: CPU beside the wall clock).
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
 
 // The frame thread's GL context and display path: a context on the window's
 // EGL display sharing its objects (the GPU path), otherwise (or when that
@@ -82,6 +90,7 @@ class FrameThread {
           if (capture.ended()) break;
           continue;
         }
+        fig_.stage_ms["pickup"].push_back((ar::steady_now_s() - f.steady_s) * 1e3);  // in the capture slot
         if (c_.o.side_by_side) {
           // One side-by-side frame: the left half is the frame shown, the right half the right eye.
           const int w = f.image.cols / 2;
@@ -90,7 +99,10 @@ class FrameThread {
           f.image = f.image(cv::Rect(0, 0, w, f.image.rows)).clone();
           f.encoded = cv::Mat();  // the device's JPEG holds both eyes
         } else if (right != nullptr) {
-          pair_right(*right, f);
+          // Freshest pair wins (freshest_pair.h): never a pair gone stale while it was made.
+          const auto t_pair = Clock::now();
+          fig_.stale_pairs_skipped += take_freshest_pair(capture, f, [&](ar::Frame& l) { pair_right(*right, l); });
+          fig_.stage_ms["pair_wait"].push_back(std::chrono::duration<double, std::milli>(Clock::now() - t_pair).count());
         }
         process_frame(f);
       }
@@ -227,6 +239,7 @@ class FrameThread {
         in.note = &ann[static_cast<std::size_t>(a)].text;
     }
     const auto t0 = Clock::now();
+    const double cpu0 = thread_cpu_ms();
     // GPU path: a texture the window is not showing, free of its draws.
     const int slot = use_gl_ ? sh_.ring->acquire() : -1;
     if (use_gl_) in.gl_target = sh_.ring->target(slot);
@@ -238,6 +251,13 @@ class FrameThread {
       err = std::string("pipeline threw: ") + e.what();
     }
     fig_.process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    if (err.empty()) {  // where the frame's time went (the summary's stages_ms)
+      fig_.stage_ms["process_cpu"].push_back(thread_cpu_ms() - cpu0);  // the frame thread's own CPU
+      fig_.stage_ms["mesh_sync"].push_back(rec_.mesh_ms);
+      fig_.stage_ms["track"].push_back(rec_.track_ms);
+      fig_.stage_ms["compose_left"].push_back(rec_.composite_ms);
+      if (rec_.right.composited) fig_.stage_ms["compose_right"].push_back(rec_.right.composite_ms);
+    }
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
     if (err.empty() && rec_.right.composited) ++fig_.right_composited;
@@ -292,6 +312,7 @@ class FrameThread {
       }
       shown.index = processed;
       shown.steady_s = f.steady_s;
+      shown.handed_s = ar::steady_now_s();
       shown.rec = rec_;
       shown.error = err;
       if (note != nullptr) shown.note = *note;

@@ -12,6 +12,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <opencv2/core/mat.hpp>
@@ -65,6 +66,7 @@ struct Shown {
   bool gpu = false;
   std::int64_t index = -1;  // recording index (frames processed)
   double steady_s = 0;      // capture time
+  double handed_s = 0;      // when the frame thread handed it over (steady s)
   ar::FrameRecord rec;
   std::string error;
   std::string note;  // a lesson's note given with the frame (rec.note_anchored: the GPU path draws it)
@@ -99,6 +101,11 @@ struct FrameFigures {
   std::int64_t comp_at_exposure = 0, comp_newest = 0;
   std::int64_t stereo_both = 0, stereo_left_only = 0;  // stereo: frames by the eyes they had
   std::int64_t right_composited = 0;  // stereo into the headset: frames with the right eye's own composite
+  std::int64_t stale_pairs_skipped = 0;  // two cameras: pairs skipped for a newer one (freshest_pair.h)
+  // Per-frame stage times, ms (the summary's stages_ms): pickup (capture to the frame thread),
+  // pair_wait, mesh_sync, track, compose_left, compose_right (wall; concurrent with the left
+  // eye's on the right eye's thread), process_cpu (the frame thread's own CPU per frame).
+  std::map<std::string, std::vector<double>> stage_ms;
 
   // Two cameras: the right eye lost and back (LiveSummary::stereo_fallbacks ...), ms; -1 none.
   std::int64_t stereo_fallbacks = 0, stereo_recoveries = 0;
@@ -126,6 +133,8 @@ struct DisplayFigures {
   std::string stop_reason;
   double t_start = 0;
   std::vector<double> latency_ms;
+  // Per frame shown: hand-over to the display loop's take (wait), take to swap (display), ms.
+  std::vector<double> to_display_ms, display_ms;
   std::int64_t displayed = 0;
   // A lesson: the student's tip against the expert's at each pass of the loop (>= 30 Hz,
   // whatever the camera's rate) after the expert's first 0.5 s, m; passes while the expert
