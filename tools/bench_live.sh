@@ -20,7 +20,8 @@
 #   tools/bench_live.sh memory5 [SECONDS]      RSS over a stereo live run (default 600 s): growth after 60 s
 #   tools/bench_live.sh eyes [SECONDS]         issue 28 session 17: stereo 2x640x480 into the headset (HEADSET=),
 #                                              the right eye on its own thread against the frame thread, alternating
-#                                              (PAIRS, default 3; OLD_BIN=another build as a third arm)
+#                                              and the window's rasteriser allowed on any CPU (PAIRS, default 3;
+#                                              OLD_BIN=another build as a fourth arm)
 #   tools/bench_live.sh wake [SECONDS]         the engine with the CPUs' wake-up latency held (default) and
 #                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
 #                                              alternating (PAIRS pairs, default 2)
@@ -297,8 +298,9 @@ PY
   eyes)
     # Issue 28 session 17: stereo 2x640x480 (two cameras) into the headset (HEADSET=profile), the
     # right eye on its own thread (--eye-threads 2, the default) against both eyes on the frame
-    # thread (--eye-threads 1), alternating PAIRS times (default 3); OLD_BIN=another dentar adds
-    # a third arm (e.g. a build before the change, run with its defaults).
+    # thread (--eye-threads 1), each with the window's rasteriser (the pre-warp) off the engine's CPU
+    # (--window-raster-cpu frame), and the defaults (2, any), alternating PAIRS times (default 3); OLD_BIN=another dentar adds
+    # a fourth arm (e.g. a build before the change, run with its defaults).
     [[ -n "${HEADSET:-}" ]] || { echo "eyes needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }
     c=$(clip_stereo 640 480)
     echo "| run | capture to swap p50 / p99 ms | fps | dropped source / consumer / right eye | frame p50 / p99 ms | stale pairs skipped (eye threads) | p50 ms: pickup / pair wait / track / compose L / compose R / frame CPU / to display / display | engine step p99.9 us | missed deadlines /min | watchdog trips |"
@@ -322,8 +324,9 @@ print(f"| {sys.argv[2]} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']
 PY
     }
     for i in $(seq 1 "${PAIRS:-3}"); do
-      eyes_row "eyes 1, run $i" "$bin" --eye-threads 1
-      eyes_row "eyes 2, run $i" "$bin" --eye-threads 2
+      eyes_row "eyes 1, window raster frame, run $i" "$bin" --eye-threads 1 --window-raster-cpu frame
+      eyes_row "eyes 2, window raster frame, run $i" "$bin" --eye-threads 2 --window-raster-cpu frame
+      eyes_row "eyes 2, window raster any (defaults), run $i" "$bin"
       [[ -n "${OLD_BIN:-}" ]] && eyes_row "old build, run $i" "$OLD_BIN"
     done
     ;;

@@ -164,6 +164,8 @@ std::string LiveOptions::validate() const {
   if (eye_threads != 1 && eye_threads != 2) return "eye_threads = " + std::to_string(eye_threads) + " must be 1 or 2";
   if (eye_thread_cpu != "any" && eye_thread_cpu != "engine" && eye_thread_cpu != "frame")
     return "eye_thread_cpu = \"" + eye_thread_cpu + "\" must be any, engine or frame";
+  if (window_raster_cpu != "any" && window_raster_cpu != "frame" && window_raster_cpu != "auto")
+    return "window_raster_cpu = \"" + window_raster_cpu + "\" must be auto, any or frame";
   if (display_path != "gl" && display_path != "cpu" && display_path != "auto")
     return "display_path = \"" + display_path + "\" must be auto, gl or cpu";
   if (background_cpu != "others" && background_cpu != "engine")
@@ -1089,8 +1091,21 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // llvmpipe's rasteriser threads (one set per display, started when GLFW
   // initialises it here) serve both contexts and run with the main thread,
   // off the engine's CPU (docs/BENCHMARKS.md, "The GL-resident display path").
+  // --window-raster-cpu any (auto: with --output sbs; issue 28, session 17): that rasteriser made with every CPU in its
+  // mask (only where the FIFO engine preempts it), the main thread's mask restored after.
+  cpu_set_t main_mask;
+  const bool raster_any = o.window_raster_cpu == "any" || (o.window_raster_cpu == "auto" && o.output == "sbs");
+  const bool widen = raster_any && bg.to_engine_cpu &&
+                     pthread_getaffinity_np(pthread_self(), sizeof main_mask, &main_mask) == 0;
+  if (widen) {
+    cpu_set_t all;
+    CPU_ZERO(&all);
+    for (int cpu = 0; cpu < ncpu; ++cpu) CPU_SET(cpu, &all);
+    pthread_setaffinity_np(pthread_self(), sizeof all, &all);
+  }
   auto hw_r = HudWindow::open("DentAR live", scr->eye_w, scr->eye_h, o.window_width, o.window_height,
                               o.display, o.vsync, dc.want_gl && !o.window_glx_for_test);
+  if (widen) pthread_setaffinity_np(pthread_self(), sizeof main_mask, &main_mask);
   if (!hw_r) return Error{"live: " + hw_r.error()};
   HudWindow& hw = **hw_r;
   const auto comp = compensation(o, st);
