@@ -298,8 +298,8 @@ PY
   eyes)
     # Issue 28 session 17: stereo 2x640x480 (two cameras) into the headset (HEADSET=profile), the
     # right eye on its own thread (--eye-threads 2, the default) against both eyes on the frame
-    # thread (--eye-threads 1), each with the window's rasteriser (the pre-warp) off the engine's CPU
-    # (--window-raster-cpu frame), and the defaults (2, any), alternating PAIRS times (default 3); OLD_BIN=another dentar adds
+    # thread (--eye-threads 1), and with the window's rasteriser (the pre-warp) allowed beside the
+    # engine (--window-raster-cpu any), alternating PAIRS times (default 3); OLD_BIN=another dentar adds
     # a fourth arm (e.g. a build before the change, run with its defaults).
     [[ -n "${HEADSET:-}" ]] || { echo "eyes needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }
     c=$(clip_stereo 640 480)
@@ -324,9 +324,9 @@ print(f"| {sys.argv[2]} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']
 PY
     }
     for i in $(seq 1 "${PAIRS:-3}"); do
-      eyes_row "eyes 1, window raster frame, run $i" "$bin" --eye-threads 1 --window-raster-cpu frame
-      eyes_row "eyes 2, window raster frame, run $i" "$bin" --eye-threads 2 --window-raster-cpu frame
-      eyes_row "eyes 2, window raster any (defaults), run $i" "$bin"
+      eyes_row "eyes 1, run $i" "$bin" --eye-threads 1
+      eyes_row "eyes 2 (default), run $i" "$bin"
+      eyes_row "eyes 2, window raster any, run $i" "$bin" --window-raster-cpu any
       [[ -n "${OLD_BIN:-}" ]] && eyes_row "old build, run $i" "$OLD_BIN"
     done
     ;;

@@ -122,8 +122,8 @@ void add_live(CLI::App& app, int& exit_code) {
                   "(only beside the engine), frame (the frame thread's CPUs)")
       ->check(CLI::IsMember({"any", "engine", "frame"}));
   sub->add_option("--window-raster-cpu", c->o.window_raster_cpu,
-                  "where the window's GL rasteriser (llvmpipe; the headset's pre-warp) may run: frame (off the "
-                  "engine's CPU), any (the engine's CPU too, below it), auto (default: any with --output sbs)")
+                  "where the window's GL rasteriser (llvmpipe; the headset's pre-warp) may run: frame (default; off "
+                  "the engine's CPU), any (the engine's CPU too, below it), auto (any with --output sbs)")
       ->check(CLI::IsMember({"auto", "any", "frame"}));
   sub->add_option("--record", c->o.record_dir, "record footage, session log, station and per-frame CSV into DIR");
   sub->add_flag("--loop", c->o.loop, "live:PATH footage: play it again from the start at its end");

@@ -111,10 +111,11 @@ struct LiveOptions {
   std::string eye_thread_cpu = "any";
   // Where the window's GL rasteriser (llvmpipe: one thread per display, made when the window
   // opens; it draws the headset's pre-warp pass) may run: "frame" (the frame thread's CPUs, off
-  // the engine's), "any" (the engine's CPU too, below its SCHED_FIFO), "auto" (default): any
-  // with --output sbs (the pre-warp pass measured 12 ms CPU a frame on llvmpipe beside the
-  // frame thread's 8, docs/BENCHMARKS.md issue 28 session 17), frame otherwise.
-  std::string window_raster_cpu = "auto";
+  // the engine's; the default), "any" (the engine's CPU too, below its SCHED_FIFO), "auto" (any
+  // with --output sbs, frame otherwise). The pre-warp pass measured 12 ms CPU a frame on
+  // llvmpipe beside the frame thread's 8; "any" is not the default: under load it went with
+  // more missed engine deadlines (docs/BENCHMARKS.md, issue 28 session 17).
+  std::string window_raster_cpu = "frame";
   // Exercise the session is for (a built-in name or a .json file; recorded in recording.json,
   // scored by the driver). Its tooth is the tooth drilled (live_tooth_json); "" = the station's
   // procedural molar.
