@@ -266,7 +266,12 @@ Result<std::unique_ptr<FramePipeline>> FramePipeline::create(const StationScene&
       EyeWorker* wk = p->worker_.get();
       p->stereo_->set_eye_runner([wk](const std::function<void()>& left, const std::function<void()>& right) {
         wk->post(right);
-        left();
+        try {
+          left();
+        } catch (...) {
+          (void)wk->wait();  // never leave the right eye's job running on the caller's frame
+          throw;
+        }
         (void)wk->wait();  // the job reports its own errors (StereoTracker::track)
       });
     } else {
@@ -418,7 +423,13 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   if (right_async)
     worker_->post([&] { right_status = compose_eye(right, rig, in, meshes, *right_out, r.right); });
   EyeRecord er;
-  Status left_status = compose_eye(main, rig, in, meshes, out, er);
+  Status left_status;
+  try {
+    left_status = compose_eye(main, rig, in, meshes, out, er);
+  } catch (...) {
+    if (right_async) (void)worker_->wait();  // it draws into our outputs: never left running
+    throw;
+  }
   if (!left_status) {
     if (right_async) (void)worker_->wait();  // never leave it drawing into our outputs
     return left_status;
