@@ -946,14 +946,12 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.latency_max_ms = df.latency_ms.empty() ? 0 : *std::max_element(df.latency_ms.begin(), df.latency_ms.end());
   sum.process_p50_ms = percentile(ff.process_ms, 0.5);
   sum.process_p99_ms = percentile(ff.process_ms, 0.99);
-  {
-    auto stages = ff.stage_ms;
-    stages["process"] = ff.process_ms;
-    stages["to_display"] = df.to_display_ms;
-    stages["display"] = df.display_ms;
-    for (const auto& [name, v] : stages)
-      if (!v.empty()) sum.stage_ms.emplace_back(name, percentile(v, 0.5), percentile(v, 0.99));
-  }
+  sum.stage_ms.emplace_back("process", sum.process_p50_ms, sum.process_p99_ms);
+  for (const auto& [name, t] : ff.stage_ms)
+    if (t.n > 0) sum.stage_ms.emplace_back(name, t.percentile(0.5), t.percentile(0.99));
+  for (const auto& [name, t] : {std::pair<const char*, const StageTimes*>{"to_display", &df.to_display_ms},
+                                {"display", &df.display_ms}})
+    if (t->n > 0) sum.stage_ms.emplace_back(name, t->percentile(0.5), t->percentile(0.99));
   engine_figures(es, sum);
   sum.isolation_note = iso + es.realtime_note + (bg.note.empty() ? std::string() : "; " + bg.note);
   sum.volume_hash = c.run.volume().content_hash();

@@ -343,8 +343,8 @@ class DisplayLoop {
     const double t_swap = now_s();
     if (fresh && cur_.index != last_index_) {
       fig_.latency_ms.push_back((t_swap - cur_.steady_s) * 1e3);
-      fig_.to_display_ms.push_back((taken_s_ - cur_.handed_s) * 1e3);
-      fig_.display_ms.push_back((t_swap - taken_s_) * 1e3);
+      fig_.to_display_ms.add((taken_s_ - cur_.handed_s) * 1e3);
+      fig_.display_ms.add((t_swap - taken_s_) * 1e3);
       last_index_ = cur_.index;
       ++fig_.displayed;
       ++fps_n_;

@@ -29,7 +29,10 @@ double thread_cpu_ms() {
 // fails) a headless one of our own; then the run's pipeline, warmed up.
 class FrameThread {
  public:
-  FrameThread(const LiveContext& c, LiveShared& sh, FrameFigures& fig) : c_(c), sh_(sh), fig_(fig) {}
+  FrameThread(const LiveContext& c, LiveShared& sh, FrameFigures& fig) : c_(c), sh_(sh), fig_(fig) {
+    for (const char* stage : {"pickup", "pair_wait", "process_cpu", "mesh_sync", "track", "compose_left", "compose_right"})
+      fig_.stage_ms[stage];  // made now: no allocation while the run lasts
+  }
 
   // false: the pipeline could not come up (sh.pipeline_error says why).
   bool open() {
@@ -90,7 +93,7 @@ class FrameThread {
           if (capture.ended()) break;
           continue;
         }
-        fig_.stage_ms["pickup"].push_back((ar::steady_now_s() - f.steady_s) * 1e3);  // in the capture slot
+        fig_.stage_ms["pickup"].add((ar::steady_now_s() - f.steady_s) * 1e3);  // in the capture slot
         if (c_.o.side_by_side) {
           // One side-by-side frame: the left half is the frame shown, the right half the right eye.
           const int w = f.image.cols / 2;
@@ -102,7 +105,7 @@ class FrameThread {
           // Freshest pair wins (freshest_pair.h): never a pair gone stale while it was made.
           const auto t_pair = Clock::now();
           fig_.stale_pairs_skipped += take_freshest_pair(capture, f, [&](ar::Frame& l) { pair_right(*right, l); });
-          fig_.stage_ms["pair_wait"].push_back(std::chrono::duration<double, std::milli>(Clock::now() - t_pair).count());
+          fig_.stage_ms["pair_wait"].add(std::chrono::duration<double, std::milli>(Clock::now() - t_pair).count());
         }
         process_frame(f);
       }
@@ -252,11 +255,11 @@ class FrameThread {
     }
     fig_.process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     if (err.empty()) {  // where the frame's time went (the summary's stages_ms)
-      fig_.stage_ms["process_cpu"].push_back(thread_cpu_ms() - cpu0);  // the frame thread's own CPU
-      fig_.stage_ms["mesh_sync"].push_back(rec_.mesh_ms);
-      fig_.stage_ms["track"].push_back(rec_.track_ms);
-      fig_.stage_ms["compose_left"].push_back(rec_.composite_ms);
-      if (rec_.right.composited) fig_.stage_ms["compose_right"].push_back(rec_.right.composite_ms);
+      fig_.stage_ms["process_cpu"].add(thread_cpu_ms() - cpu0);  // the frame thread's own CPU
+      fig_.stage_ms["mesh_sync"].add(rec_.mesh_ms);
+      fig_.stage_ms["track"].add(rec_.track_ms);
+      fig_.stage_ms["compose_left"].add(rec_.composite_ms);
+      if (rec_.right.composited) fig_.stage_ms["compose_right"].add(rec_.right.composite_ms);
     }
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
