@@ -18,6 +18,10 @@
 #   tools/bench_live.sh engine5 [SECONDS] [--stress]  the engine during the stereo live path (2x1280x720,
 #                                              simulated hand cutting), default 300 s
 #   tools/bench_live.sh memory5 [SECONDS]      RSS over a stereo live run (default 600 s): growth after 60 s
+#   tools/bench_live.sh eyes [SECONDS]         issue 28 session 17: stereo 2x640x480 into the headset (HEADSET=),
+#                                              the right eye on its own thread against the frame thread, alternating
+#                                              and the window's rasteriser allowed on any CPU (PAIRS, default 3;
+#                                              OLD_BIN=another build as a fourth arm)
 #   tools/bench_live.sh wake [SECONDS]         the engine with the CPUs' wake-up latency held (default) and
 #                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
 #                                              alternating (PAIRS pairs, default 2)
@@ -91,15 +95,22 @@ def drops(s):
     return f"{f['dropped_source']} / {f['dropped_consumer']}" + (f" / {r}" if r is not None else "")
 mins = a["wall_s"] / 60
 la, lp = a["latency_ms"], p["latency_ms"]
+def stale(s):  # issue 28 session 17: two cameras' pairs skipped for a newer one, and the eye threads
+    st = s.get("stereo")
+    return "-" if st is None or "stale_pairs_skipped" not in st else f"{st['stale_pairs_skipped']} ({st['eye_threads']})"
+def stages(s):  # where the latency goes (summary stages_ms), p50 ms
+    g = s.get("stages_ms", {})
+    names = ["pickup", "pair_wait", "track", "compose_left", "compose_right", "process_cpu", "to_display", "display"]
+    return " / ".join(f"{g[n]['p50']:.1f}" if n in g else "-" for n in names)
 print(f"| {sys.argv[3]} | {la['p50']:.1f} / {la['p99']:.1f} | {lp['p50']:.1f} / {lp['p99']:.1f} | "
       f"{la['p50'] - lp['p50']:+.1f} / {la['p99'] - lp['p99']:+.1f} | {a['displayed_fps']:.1f} / {p['displayed_fps']:.1f} | "
       f"{drops(a)} | {drops(p)} | {a['process_ms']['p50']:.1f} / {a['process_ms']['p99']:.1f} | "
-      f"{e['step_us']['p999']:.0f} | {e['missed_deadlines'] / mins:.1f} | {e['watchdog_trips']} |")
+      f"{e['step_us']['p999']:.0f} | {e['missed_deadlines'] / mins:.1f} | {e['watchdog_trips']} | {stale(a)} | {stages(a)} |")
 PY
 }
 latency_header() {
-  echo "| run | DentAR capture to swap p50 / p99 ms | passthrough p50 / p99 ms | DentAR adds p50 / p99 ms | fps DentAR / passthrough | dropped source / consumer (/ right eye), DentAR | same, passthrough | frame p50 / p99 ms | engine step p99.9 us | missed deadlines /min | watchdog trips |"
-  echo "|---|---|---|---|---|---|---|---|---|---|---|"
+  echo "| run | DentAR capture to swap p50 / p99 ms | passthrough p50 / p99 ms | DentAR adds p50 / p99 ms | fps DentAR / passthrough | dropped source / consumer (/ right eye), DentAR | same, passthrough | frame p50 / p99 ms | engine step p99.9 us | missed deadlines /min | watchdog trips | stale pairs skipped (eye threads) | p50 ms: pickup / pair wait / track / compose L / compose R / frame CPU / to display / display |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 }
 latency_rows() {  # latency_rows SUFFIX
   local s2_720 s2_480 m1080
@@ -284,5 +295,40 @@ print(f"| stereo 2x1280x720, sim hand | {s['wall_s']:.0f} | {r['after_60s']:.1f}
       f"{r['end']:.1f} | {s['frames']['processed']} | {s['displayed_fps']:.1f} |")
 PY
     ;;
-  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal|latency|engine5|memory5|wake [SECONDS] [--stress]" >&2; exit 2 ;;
+  eyes)
+    # Issue 28 session 17: stereo 2x640x480 (two cameras) into the headset (HEADSET=profile), the
+    # right eye on its own thread (--eye-threads 2, the default) against both eyes on the frame
+    # thread (--eye-threads 1), and with the window's rasteriser (the pre-warp) allowed beside the
+    # engine (--window-raster-cpu any), alternating PAIRS times (default 3); OLD_BIN=another dentar adds
+    # a fourth arm (e.g. a build before the change, run with its defaults).
+    [[ -n "${HEADSET:-}" ]] || { echo "eyes needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }
+    c=$(clip_stereo 640 480)
+    echo "| run | capture to swap p50 / p99 ms | fps | dropped source / consumer / right eye | frame p50 / p99 ms | stale pairs skipped (eye threads) | p50 ms: pickup / pair wait / track / compose L / compose R / frame CPU / to display / display | engine step p99.9 us | missed deadlines /min | watchdog trips |"
+    echo "|---|---|---|---|---|---|---|---|---|---|"
+    eyes_row() {  # eyes_row NAME BIN [live options...]
+      local name="$1" b="$2"; shift 2
+      xvfb-run -a -s '-screen 0 1920x1200x24' "$b" live --loop --seconds "$secs" --quiet --summary "$out/$name.json" \
+        --station "$c/station.json" --stylus replay:"$c/session.dlog" --camera live:"$c/camera_left.avi" \
+        --camera-right live:"$c/camera_right.avi" --output sbs --headset "$HEADSET" "$@" >/dev/null
+      python3 - "$out/$name.json" "$name" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); e = s["engine"]; f = s["frames"]; st = s.get("stereo", {}); g = s.get("stages_ms", {})
+mins = s["wall_s"] / 60
+names = ["pickup", "pair_wait", "track", "compose_left", "compose_right", "process_cpu", "to_display", "display"]
+stg = " / ".join(f"{g[n]['p50']:.1f}" if n in g else "-" for n in names)
+stale = f"{st['stale_pairs_skipped']} ({st['eye_threads']})" if "stale_pairs_skipped" in st else "-"
+print(f"| {sys.argv[2]} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} | {s['displayed_fps']:.1f} | "
+      f"{f['dropped_source']} / {f['dropped_consumer']} / {st.get('right_eye_dropped', '-')} | "
+      f"{s['process_ms']['p50']:.1f} / {s['process_ms']['p99']:.1f} | {stale} | {stg} | {e['step_us']['p999']:.0f} | "
+      f"{e['missed_deadlines'] / mins:.1f} | {e['watchdog_trips']} |")
+PY
+    }
+    for i in $(seq 1 "${PAIRS:-3}"); do
+      eyes_row "eyes 1, run $i" "$bin" --eye-threads 1
+      eyes_row "eyes 2 (default), run $i" "$bin"
+      eyes_row "eyes 2, window raster any, run $i" "$bin" --window-raster-cpu any
+      [[ -n "${OLD_BIN:-}" ]] && eyes_row "old build, run $i" "$OLD_BIN"
+    done
+    ;;
+  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal|latency|engine5|memory5|wake|eyes [SECONDS] [--stress]" >&2; exit 2 ;;
 esac

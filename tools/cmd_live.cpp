@@ -113,6 +113,18 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_flag("--passthrough", c->o.passthrough,
                 "a bare viewer for latency comparisons: the camera's frames decoded, uploaded and swapped, no AR "
                 "(no tracking, compositing or occlusion; nothing recorded)");
+  sub->add_option("--eye-threads", c->o.eye_threads,
+                  "a stereo pair into the headset (--output sbs): 2 (default) = the right eye's tracking and "
+                  "composite on a thread of its own, 1 = both eyes on the frame thread")
+      ->check(CLI::IsMember({1, 2}));
+  sub->add_option("--eye-thread-cpu", c->o.eye_thread_cpu,
+                  "where the right eye's thread may run: any (default; on the engine's CPU below it), engine "
+                  "(only beside the engine), frame (the frame thread's CPUs)")
+      ->check(CLI::IsMember({"any", "engine", "frame"}));
+  sub->add_option("--window-raster-cpu", c->o.window_raster_cpu,
+                  "where the window's GL rasteriser (llvmpipe; the headset's pre-warp) may run: frame (default; off "
+                  "the engine's CPU), any (the engine's CPU too, below it), auto (any with --output sbs)")
+      ->check(CLI::IsMember({"auto", "any", "frame"}));
   sub->add_option("--record", c->o.record_dir, "record footage, session log, station and per-frame CSV into DIR");
   sub->add_flag("--loop", c->o.loop, "live:PATH footage: play it again from the start at its end");
   sub->add_option("--seconds", c->o.seconds, "stop after S seconds (default: until closed)")->check(at_least(0));

@@ -161,6 +161,11 @@ std::string LiveOptions::validate() const {
            " must be -1 (the system's) or a latency in 0..1000000 us";
   if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
   if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
+  if (eye_threads != 1 && eye_threads != 2) return "eye_threads = " + std::to_string(eye_threads) + " must be 1 or 2";
+  if (eye_thread_cpu != "any" && eye_thread_cpu != "engine" && eye_thread_cpu != "frame")
+    return "eye_thread_cpu = \"" + eye_thread_cpu + "\" must be any, engine or frame";
+  if (window_raster_cpu != "any" && window_raster_cpu != "frame" && window_raster_cpu != "auto")
+    return "window_raster_cpu = \"" + window_raster_cpu + "\" must be auto, any or frame";
   if (display_path != "gl" && display_path != "cpu" && display_path != "auto")
     return "display_path = \"" + display_path + "\" must be auto, gl or cpu";
   if (background_cpu != "others" && background_cpu != "engine")
@@ -209,6 +214,7 @@ std::string LiveSummary::json() const {
                                 {"frames_pose_at_exposure", frames_pose_at_exposure},
                                 {"frames_pose_newest", frames_pose_newest}}},
       {"process_ms", {{"p50", process_p50_ms}, {"p99", process_p99_ms}}},
+      {"stages_ms", nlohmann::json::object()},
       {"engine", {{"steps", engine_steps}, {"missed_deadlines", missed_deadlines}, {"watchdog_trips", watchdog_trips},
                   {"step_us", {{"p50", step_p50_us}, {"p99", step_p99_us}, {"p999", step_p999_us}, {"max", step_max_us}}},
                   {"jitter_us", {{"p99", jitter_p99_us}, {"max", jitter_max_us}}},
@@ -238,7 +244,8 @@ std::string LiveSummary::json() const {
                    {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens},
                    {"fallbacks", stereo_fallbacks}, {"recoveries", stereo_recoveries},
                    {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_frame_ms", stereo_fallback_frame_ms},
-                   {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max}};
+                   {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max},
+                   {"stale_pairs_skipped", stale_pairs_skipped}, {"eye_threads", eye_threads}};
   if (stereo) {  // issue 28, session 17: either camera lost and back, timed to the frame drawn
     j["stereo"]["frames_right_eye_only"] = stereo_right_only;
     j["stereo"]["frames_note_both_eyes"] = note_both_eyes;
@@ -247,6 +254,7 @@ std::string LiveSummary::json() const {
     auto& sw = j["stereo"]["switches"] = nlohmann::json::array();
     for (const EyeSwitch& e : eye_switches) sw.push_back({{"what", e.what}, {"eyes", e.eyes}, {"drawn_ms", e.drawn_ms}, {"frame_ms", e.frame_ms}});
   }
+  for (const auto& [name, p50, p99] : stage_ms) j["stages_ms"][name] = {{"p50", p50}, {"p99", p99}};
   if (lesson_mode != 0)
     j["lesson"] = {{"lesson", lesson}, {"mode_asked", lesson_mode_asked}, {"mode", lesson_mode},
                    {"mode_name", haptics::training_mode_name(static_cast<haptics::TrainingModeKind>(lesson_mode))},
@@ -924,6 +932,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.note_both_eyes = ff.note_both_eyes;
   sum.note_missing_eye = ff.note_missing_eye;
   sum.right_composited = ff.right_composited;
+  sum.stale_pairs_skipped = ff.stale_pairs_skipped;
+  sum.eye_threads = c.popt.eye_threads;
 
   sum.stereo_fallbacks = ff.stereo_fallbacks;
   sum.stereo_recoveries = ff.stereo_recoveries;
@@ -945,6 +955,12 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.latency_max_ms = df.latency_ms.empty() ? 0 : *std::max_element(df.latency_ms.begin(), df.latency_ms.end());
   sum.process_p50_ms = percentile(ff.process_ms, 0.5);
   sum.process_p99_ms = percentile(ff.process_ms, 0.99);
+  sum.stage_ms.emplace_back("process", sum.process_p50_ms, sum.process_p99_ms);
+  for (const auto& [name, t] : ff.stage_ms)
+    if (t.n > 0) sum.stage_ms.emplace_back(name, t.percentile(0.5), t.percentile(0.99));
+  for (const auto& [name, t] : {std::pair<const char*, const StageTimes*>{"to_display", &df.to_display_ms},
+                                {"display", &df.display_ms}})
+    if (t->n > 0) sum.stage_ms.emplace_back(name, t->percentile(0.5), t->percentile(0.99));
   engine_figures(es, sum);
   sum.isolation_note = iso + es.realtime_note + (bg.note.empty() ? std::string() : "; " + bg.note);
   sum.volume_hash = c.run.volume().content_hash();
@@ -1056,6 +1072,18 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const std::string discovery_name = ar::discovery_mode_name(popt.tracker.discovery);
   const Background bg = place_background(o, cfg, ncpu);
   if (bg.to_engine_cpu) popt.tracker.discovery_thread_init = bg.to_engine_cpu;
+  // Issue 28 (session 17): a stereo pair into the headset, the right eye on a thread of its own.
+  popt.eye_threads = popt.stereo && o.output == "sbs" ? o.eye_threads : 1;
+  if (o.eye_thread_cpu == "engine") {
+    popt.eye_thread_init = bg.to_engine_cpu;  // empty (not beside the engine): the frame thread's CPUs
+  } else if (o.eye_thread_cpu == "any" && bg.to_engine_cpu) {  // only where the FIFO engine preempts it
+    popt.eye_thread_init = [ncpu] {
+      cpu_set_t all;
+      CPU_ZERO(&all);
+      for (int c = 0; c < ncpu; ++c) CPU_SET(c, &all);
+      pthread_setaffinity_np(pthread_self(), sizeof all, &all);
+    };
+  }
   // ---- recording, engine ----
   if (!o.record_dir.empty())
     if (auto s = start_recording(o, st, popt, discovery_name, *run); !s) return Error{s.error()};
@@ -1070,8 +1098,21 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // llvmpipe's rasteriser threads (one set per display, started when GLFW
   // initialises it here) serve both contexts and run with the main thread,
   // off the engine's CPU (docs/BENCHMARKS.md, "The GL-resident display path").
+  // --window-raster-cpu any (auto: with --output sbs; issue 28, session 17): that rasteriser made with every CPU in its
+  // mask (only where the FIFO engine preempts it), the main thread's mask restored after.
+  cpu_set_t main_mask;
+  const bool raster_any = o.window_raster_cpu == "any" || (o.window_raster_cpu == "auto" && o.output == "sbs");
+  const bool widen = raster_any && bg.to_engine_cpu &&
+                     pthread_getaffinity_np(pthread_self(), sizeof main_mask, &main_mask) == 0;
+  if (widen) {
+    cpu_set_t all;
+    CPU_ZERO(&all);
+    for (int cpu = 0; cpu < ncpu; ++cpu) CPU_SET(cpu, &all);
+    pthread_setaffinity_np(pthread_self(), sizeof all, &all);
+  }
   auto hw_r = HudWindow::open("DentAR live", scr->eye_w, scr->eye_h, o.window_width, o.window_height,
                               o.display, o.vsync, dc.want_gl && !o.window_glx_for_test);
+  if (widen) pthread_setaffinity_np(pthread_self(), sizeof main_mask, &main_mask);
   if (!hw_r) return Error{"live: " + hw_r.error()};
   HudWindow& hw = **hw_r;
   const auto comp = compensation(o, st);

@@ -101,6 +101,8 @@ class DisplayLoop {
     cur_.raw = shown.raw;
     cur_.index = shown.index;
     cur_.steady_s = shown.steady_s;
+    cur_.handed_s = shown.handed_s;
+    taken_s_ = now_s();
     cur_.rec = shown.rec;
     cur_.error = shown.error;
     cur_.note.swap(shown.note);
@@ -367,6 +369,8 @@ class DisplayLoop {
     }
     if (fresh && cur_.index != last_index_) {
       fig_.latency_ms.push_back((t_swap - cur_.steady_s) * 1e3);
+      fig_.to_display_ms.add((taken_s_ - cur_.handed_s) * 1e3);
+      fig_.display_ms.add((t_swap - taken_s_) * 1e3);
       last_index_ = cur_.index;
       ++fig_.displayed;
       ++fps_n_;
@@ -497,6 +501,7 @@ class DisplayLoop {
   std::int64_t last_index_ = -1;
   double stall_seen_at_ = -1;
   double prev_check_age_s_ = 0;  // the camera's silence at the previous window check, s
+  double taken_s_ = 0;           // when the shown frame was taken from the frame thread (steady s)
   double fps_t0_ = 0, fps_now_ = 0;
   int fps_n_ = 0;
   std::size_t next_note_ = 0;  // the lesson's next annotation not yet reached

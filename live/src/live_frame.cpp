@@ -9,6 +9,7 @@
 
 #include "dentar/ar/egl_context.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/live/freshest_pair.h"
 #include "dentar/training/lesson.h"
 #include "live_run.h"
 
@@ -16,12 +17,22 @@ namespace dentar::live {
 namespace {
 using Clock = std::chrono::steady_clock;
 
+// This thread's CPU time, ms (the per-frame figures: CPU beside the wall clock).
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
 // The frame thread's GL context and display path: a context on the window's
 // EGL display sharing its objects (the GPU path), otherwise (or when that
 // fails) a headless one of our own; then the run's pipeline, warmed up.
 class FrameThread {
  public:
-  FrameThread(const LiveContext& c, LiveShared& sh, FrameFigures& fig) : c_(c), sh_(sh), fig_(fig) {}
+  FrameThread(const LiveContext& c, LiveShared& sh, FrameFigures& fig) : c_(c), sh_(sh), fig_(fig) {
+    for (const char* stage : {"pickup", "pair_wait", "process_cpu", "mesh_sync", "track", "compose_left", "compose_right"})
+      fig_.stage_ms[stage];  // made now: no allocation while the run lasts
+  }
 
   // false: the pipeline could not come up (sh.pipeline_error says why).
   bool open() {
@@ -94,6 +105,7 @@ class FrameThread {
           if (right != nullptr) check_left_lost(capture, *right);
           continue;
         }
+        fig_.stage_ms["pickup"].add((ar::steady_now_s() - f.steady_s) * 1e3);  // in the capture slot
         if (c_.o.side_by_side) {
           // One side-by-side frame: the left half is the frame shown, the right half the right eye.
           const int w = f.image.cols / 2;
@@ -102,7 +114,10 @@ class FrameThread {
           f.image = f.image(cv::Rect(0, 0, w, f.image.rows)).clone();
           f.encoded = cv::Mat();  // the device's JPEG holds both eyes
         } else if (right != nullptr) {
-          pair_right(*right, f);
+          // Freshest pair wins (freshest_pair.h): never a pair gone stale while it was made.
+          const auto t_pair = Clock::now();
+          fig_.stale_pairs_skipped += take_freshest_pair(capture, f, [&](ar::Frame& l) { pair_right(*right, l); });
+          fig_.stage_ms["pair_wait"].add(std::chrono::duration<double, std::milli>(Clock::now() - t_pair).count());
         }
         process_frame(f);
       }
@@ -351,6 +366,7 @@ class FrameThread {
         in.note = &ann[static_cast<std::size_t>(a)].text;
     }
     const auto t0 = Clock::now();
+    const double cpu0 = thread_cpu_ms();
     // GPU path: a texture the window is not showing, free of its draws.
     // The right eye alone (its camera's own composite) is the CPU path's, as its pair composite.
     // The headset's view with a lesson's note on show: the CPU path too, so the left eye's
@@ -368,6 +384,13 @@ class FrameThread {
       err = std::string("pipeline threw: ") + e.what();
     }
     fig_.process_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    if (err.empty()) {  // where the frame's time went (the summary's stages_ms)
+      fig_.stage_ms["process_cpu"].add(thread_cpu_ms() - cpu0);  // the frame thread's own CPU
+      fig_.stage_ms["mesh_sync"].add(rec_.mesh_ms);
+      fig_.stage_ms["track"].add(rec_.track_ms);
+      fig_.stage_ms["compose_left"].add(rec_.composite_ms);
+      if (rec_.right.composited) fig_.stage_ms["compose_right"].add(rec_.right.composite_ms);
+    }
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesBoth) ++fig_.stereo_both;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesLeft) ++fig_.stereo_left_only;
     if (err.empty() && rec_.eyes == ar::FrameRecord::kEyesRight) ++fig_.stereo_right_only;
@@ -429,6 +452,7 @@ class FrameThread {
       }
       shown.index = processed;
       shown.steady_s = f.steady_s;
+      shown.handed_s = ar::steady_now_s();
       shown.rec = rec_;
       shown.error = err;
       // A camera lost or back (note_switch): timed to the swap of the first frame the window

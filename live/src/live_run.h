@@ -8,10 +8,13 @@
 //   display_loop (live_display.cpp): window, HUD, stop conditions
 #pragma once
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <opencv2/core/mat.hpp>
@@ -65,6 +68,7 @@ struct Shown {
   bool gpu = false;
   std::int64_t index = -1;  // recording index (frames processed)
   double steady_s = 0;      // capture time
+  double handed_s = 0;      // when the frame thread handed it over (steady s)
   ar::FrameRecord rec;
   std::string error;
   std::string note;  // a lesson's note given with the frame (rec.note_anchored: the GPU path draws it)
@@ -101,6 +105,31 @@ struct LiveShared {
   std::atomic<std::int64_t> processed{0};
 };
 
+// One stage's times over a run, ms (the summary's stages_ms): a histogram of fixed size made
+// up front (0.1 ms bins to 2 s, one bin above), so a long run's figures never grow memory.
+struct StageTimes {
+  static constexpr double kBinMs = 0.1;
+  static constexpr int kBins = 20000;
+  std::vector<std::uint32_t> bins = std::vector<std::uint32_t>(kBins + 1, 0);
+  std::uint64_t n = 0;
+  double max_ms = 0;
+  void add(double ms) {
+    const double b = ms / kBinMs;
+    ++bins[b >= kBins ? kBins : b > 0 ? static_cast<std::size_t>(b) : 0];
+    ++n;
+    if (ms > max_ms) max_ms = ms;
+  }
+  // The q-quantile (0..1): the middle of its bin, or the largest time when it lies above 2 s.
+  double percentile(double q) const {
+    if (n == 0) return 0;
+    const auto want = static_cast<std::uint64_t>(std::ceil(q * static_cast<double>(n - 1))) + 1;
+    std::uint64_t seen = 0;
+    for (int i = 0; i < kBins; ++i)
+      if ((seen += bins[static_cast<std::size_t>(i)]) >= want) return std::min(max_ms, (i + 0.5) * kBinMs);
+    return max_ms;
+  }
+};
+
 // The frame thread's figures, read after it joined.
 struct FrameFigures {
   std::vector<double> process_ms;
@@ -114,6 +143,11 @@ struct FrameFigures {
   // composites, and frames where an eye placed the note beside its tooth but did not draw it.
   std::int64_t note_both_eyes = 0, note_missing_eye = 0;
   std::int64_t right_composited = 0;  // stereo into the headset: frames with the right eye's own composite
+  std::int64_t stale_pairs_skipped = 0;  // two cameras: pairs skipped for a newer one (freshest_pair.h)
+  // Per-frame stage times, ms (the summary's stages_ms): pickup (capture to the frame thread),
+  // pair_wait, mesh_sync, track, compose_left, compose_right (wall; concurrent with the left
+  // eye's on the right eye's thread), process_cpu (the frame thread's own CPU per frame).
+  std::map<std::string, StageTimes> stage_ms;
 
   // Two cameras: the right eye lost and back (LiveSummary::stereo_fallbacks ...), ms; -1 none.
   std::int64_t stereo_fallbacks = 0, stereo_recoveries = 0;
@@ -141,6 +175,8 @@ struct DisplayFigures {
   std::string stop_reason;
   double t_start = 0;
   std::vector<double> latency_ms;
+  // Per frame shown: hand-over to the display loop's take (wait), take to swap (display), ms.
+  StageTimes to_display_ms, display_ms;
   std::int64_t displayed = 0;
   // A lesson: the student's tip against the expert's at each pass of the loop (>= 30 Hz,
   // whatever the camera's rate) after the expert's first 0.5 s, m; passes while the expert

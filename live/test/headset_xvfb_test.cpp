@@ -208,6 +208,11 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
   const auto live = read_json(dir / "live.json");
   ASSERT_TRUE(live.contains("stereo")) << live.dump();
   EXPECT_GT(live["stereo"]["frames_right_eye_composited"].get<int>(), 0) << live.dump();
+  // Session 17: the right eye ran on its own thread (the default for a stereo pair into the
+  // headset), and the summary says where the frames' time went, the right eye's composite too.
+  EXPECT_EQ(live["stereo"]["eye_threads"].get<int>(), 2) << live.dump();
+  for (const char* stage : {"pickup", "track", "compose_left", "compose_right", "process_cpu", "display"})
+    EXPECT_TRUE(live["stages_ms"].contains(stage)) << stage << ": " << live["stages_ms"].dump();
   r = run_command(kBin + " offline --stereo --eye both --footage " + (st / "video.mkv").string() + " --station " +
                   (st / "station.json").string() + " --out " + off.string() + " --video-codec ffv1 --quiet 2>&1");
   ASSERT_EQ(r.code, 0) << r.out;

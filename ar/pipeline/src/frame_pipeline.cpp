@@ -1,10 +1,117 @@
 #include "dentar/ar/frame_pipeline.h"
 
+#include <pthread.h>
+
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <exception>
 #include <limits>
+#include <optional>
+
+#include "dentar/ar/egl_context.h"
 
 namespace dentar::ar {
+
+// The right eye's thread (PipelineOptions::eye_threads = 2): one job at a time, posted by the
+// pipeline's thread and waited for before process() returns. It makes a headless GL context
+// of its own (after `init`, so llvmpipe's rasteriser inherits its CPU mask), where the right
+// eye's compositor is created, used and destroyed.
+class EyeWorker {
+ public:
+  static Result<std::unique_ptr<EyeWorker>> start(std::function<void()> init) {
+    auto w = std::unique_ptr<EyeWorker>(new EyeWorker);
+    w->thread_ = std::thread([p = w.get(), init = std::move(init)] { p->main(init); });
+    std::unique_lock<std::mutex> lock(w->m_);
+    w->cv_.wait(lock, [&] { return w->started_; });
+    if (!w->start_error_.empty()) {
+      lock.unlock();
+      const std::string e = w->start_error_;
+      w->stop();
+      return Error{"the right eye's thread: " + e};
+    }
+    return w;
+  }
+  ~EyeWorker() { stop(); }
+
+  // Starts `job` on the worker (none may be pending).
+  void post(std::function<void()> job) {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      job_ = std::move(job);
+      has_job_ = true;
+      done_ = false;
+      error_.clear();
+    }
+    cv_.notify_all();
+  }
+  // Waits for the posted job; its exception, if it threw, as an error.
+  Status wait() {
+    std::unique_lock<std::mutex> lock(m_);
+    cv_.wait(lock, [&] { return done_; });
+    if (!error_.empty()) return Error{error_};
+    return {};
+  }
+  Status run(std::function<void()> job) {
+    post(std::move(job));
+    return wait();
+  }
+
+ private:
+  EyeWorker() = default;
+  void stop() {
+    if (!thread_.joinable()) return;
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  void main(const std::function<void()>& init) {
+    pthread_setname_np(pthread_self(), "dentar-eye-r");
+    if (init) init();
+    auto egl = EglContext::create();
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      started_ = true;
+      if (!egl) start_error_ = "headless GL context: " + egl.error();
+      done_ = true;
+    }
+    cv_.notify_all();
+    if (!egl) return;
+    for (;;) {
+      std::function<void()> job;
+      {
+        std::unique_lock<std::mutex> lock(m_);
+        cv_.wait(lock, [&] { return stop_ || has_job_; });
+        if (!has_job_) break;  // stop_, nothing pending
+        job = std::move(job_);
+        has_job_ = false;
+      }
+      std::string err;
+      try {
+        job();
+      } catch (const std::exception& e) {
+        err = std::string("the right eye's thread: ") + e.what();
+      }
+      {
+        std::lock_guard<std::mutex> lock(m_);
+        error_ = err;
+        done_ = true;
+      }
+      cv_.notify_all();
+    }
+  }
+
+  std::thread thread_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::function<void()> job_;
+  bool has_job_ = false, done_ = true, stop_ = false, started_ = false;
+  std::string error_, start_error_;
+};
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -27,6 +134,8 @@ Eigen::Isometry3d isometry_from_colmajor(const double* a) {
 
 std::string PipelineOptions::validate() const {
   if (!(std::isfinite(predict_s) && predict_s >= 0 && predict_s <= 0.5)) return "predict_s must be in 0..0.5 s";
+  if (eye_threads != 1 && eye_threads != 2)
+    return "eye_threads = " + std::to_string(eye_threads) + " must be 1 (both eyes on one thread) or 2";
   if (auto v = tracker.validate(); !v.empty()) return "tracker: " + v;
   if (auto v = compositor.validate(); !v.empty()) return "compositor: " + v;
   if (auto v = expert.validate(); !v.empty()) return "expert." + v;
@@ -137,26 +246,50 @@ Result<std::unique_ptr<FramePipeline>> FramePipeline::create(const StationScene&
   if (!tracker) return Error{"tracker: " + tracker.error()};
   auto comp = Compositor::create(station, options.compositor);
   if (!comp) return Error{"compositor: " + comp.error()};
-  std::unique_ptr<StereoTracker> stereo;
-  std::unique_ptr<Compositor> right;
-  StationScene station_right;
+  auto p = std::unique_ptr<FramePipeline>(
+      new FramePipeline(station, options, std::move(*tracker), std::move(*comp)));
   if (options.stereo) {
     auto st = StereoTracker::create(station, options.tracker);
     if (!st) return Error{"stereo tracker: " + st.error()};
-    stereo = std::make_unique<StereoTracker>(std::move(*st));
+    p->stereo_ = std::make_unique<StereoTracker>(std::move(*st));
     // The right eye: the same scene through its own camera (the rig's camera_right).
-    station_right = station;
-    station_right.calibration.camera = station.stereo.camera_right;
-    auto c = Compositor::create(station_right, options.compositor);
-    if (!c) return Error{"compositor (right eye, station stereo.camera_right): " + c.error()};
-    right = std::make_unique<Compositor>(std::move(*c));
+    p->station_right_ = station;
+    p->station_right_.calibration.camera = station.stereo.camera_right;
+    std::optional<Result<Compositor>> c;
+    if (options.eye_threads == 2) {
+      // Its own thread and GL context: the compositor is made (and later used) there.
+      auto w = EyeWorker::start(options.eye_thread_init);
+      if (!w) return Error{"FramePipeline (eye_threads = 2): " + w.error()};
+      p->worker_ = std::move(*w);
+      if (auto s = p->worker_->run([&] { c.emplace(Compositor::create(p->station_right_, options.compositor)); }); !s)
+        return Error{"compositor (right eye): " + s.error()};
+      EyeWorker* wk = p->worker_.get();
+      p->stereo_->set_eye_runner([wk](const std::function<void()>& left, const std::function<void()>& right) {
+        wk->post(right);
+        try {
+          left();
+        } catch (...) {
+          (void)wk->wait();  // never leave the right eye's job running on the caller's frame
+          throw;
+        }
+        (void)wk->wait();  // the job reports its own errors (StereoTracker::track)
+      });
+    } else {
+      c.emplace(Compositor::create(p->station_right_, options.compositor));
+    }
+    if (!*c) return Error{"compositor (right eye, station stereo.camera_right): " + c->error()};
+    p->right_compositor_ = std::make_unique<Compositor>(std::move(**c));
   }
-  auto p = std::unique_ptr<FramePipeline>(
-      new FramePipeline(station, options, std::move(*tracker), std::move(*comp)));
-  p->stereo_ = std::move(stereo);
-  p->station_right_ = std::move(station_right);
-  p->right_compositor_ = std::move(right);
   return p;
+}
+
+FramePipeline::FramePipeline(StationScene st, PipelineOptions o, Tracker t, Compositor c)
+    : station_(std::move(st)), options_(std::move(o)), tracker_(std::move(t)), compositor_(std::move(c)) {}
+
+FramePipeline::~FramePipeline() {
+  // The right eye's GL objects on the thread where its context is current, then the thread.
+  if (worker_) (void)worker_->run([this] { right_compositor_.reset(); });
+  worker_.reset();
 }
 
 // Both eyes (or the one that had an image) through the StereoTracker; poses in the rig frame.
@@ -283,8 +416,24 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
     main = right;
   }
   main.gl_target = in.gl_target;  // the GPU path draws the main composite (the right eye's own: CPU)
+  // eye_threads = 2: the right eye's own composite on its thread while the left eye's is drawn
+  // here (both read the meshes and the rig's poses only; each writes its own output).
+  Status right_status;
+  const bool right_async = worker_ && right_out != nullptr && has_left && has_right;
+  if (right_async)
+    worker_->post([&] { right_status = compose_eye(right, rig, in, meshes, *right_out, r.right); });
   EyeRecord er;
-  if (Status s = compose_eye(main, rig, in, meshes, out, er); !s) return s;
+  Status left_status;
+  try {
+    left_status = compose_eye(main, rig, in, meshes, out, er);
+  } catch (...) {
+    if (right_async) (void)worker_->wait();  // it draws into our outputs: never left running
+    throw;
+  }
+  if (!left_status) {
+    if (right_async) (void)worker_->wait();  // never leave it drawing into our outputs
+    return left_status;
+  }
   r.composite_ms = er.composite_ms;
   r.stylus_drawn = rig.stylus_valid && rig.man_valid;
   r.overlay = er.overlay;
@@ -300,7 +449,13 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
   // The right eye's own composite (both eyes present and asked for), else none: mono.
   if (right_out != nullptr) {
     if (has_left && has_right) {
-      if (Status s = compose_eye(right, rig, in, meshes, *right_out, r.right); !s) return s;
+      if (worker_) {
+        // Started before the left eye's below, waited for here (eye_threads = 2).
+        if (Status s = worker_->wait(); !s) return s;
+        if (!right_status) return right_status;
+      } else if (Status s = compose_eye(right, rig, in, meshes, *right_out, r.right); !s) {
+        return s;
+      }
     } else {
       right_out->image.release();
       right_out->tooth_visible.release();
@@ -367,8 +522,17 @@ Status FramePipeline::warm_up(ToothMeshes& meshes, const GlFrameTarget& gl_targe
     const auto& cr = station_right_.calibration.camera;
     const cv::Mat grey_r(cr.height, cr.width, CV_8UC3, cv::Scalar(128, 128, 128));
     ci.video_bgr = &grey_r;
-    if (auto s = right_compositor_->compose(meshes.display(), ci, out); !s) return Error{"warm-up (right eye): " + s.error()};
-    if (auto s = right_compositor_->set_options(right_compositor_->options()); !s) return Error{"warm-up: " + s.error()};
+    Status rs;
+    const auto warm = [&] {
+      if (auto s = right_compositor_->compose(meshes.display(), ci, out); !s) rs = Error{"warm-up (right eye): " + s.error()};
+      else if (auto s2 = right_compositor_->set_options(right_compositor_->options()); !s2) rs = Error{"warm-up: " + s2.error()};
+    };
+    if (worker_) {
+      if (auto s = worker_->run(warm); !s) return s;
+    } else {
+      warm();
+    }
+    if (!rs) return rs;
   }
   tracker_.reset();
   if (stereo_) stereo_->reset();

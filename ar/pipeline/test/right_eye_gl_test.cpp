@@ -205,5 +205,78 @@ TEST(RightEyeGl, NoRightCompositeWithoutTheRightEye) {
   EXPECT_TRUE(right.image.empty());
 }
 
+// Issue 28 (session 17): the right eye on its own thread (PipelineOptions::eye_threads = 2:
+// its tag tracking and its composite beside the left eye's) gives the same records and the
+// same pixels as both eyes on one thread, frame for frame: with a lesson's note, and through
+// a frame without the right eye (the single-view path) and its return.
+TEST(RightEyeGl, RightEyeThreadGivesTheSerialPixels) {
+  DENTAR_GL_TEST_CONTEXT();
+  const StereoClip& c = clip();
+  ASSERT_TRUE(c.gen != nullptr);
+  const StationScene& st = c.gen->station();
+  auto vol = molar(st.tooth_voxel_m);
+  ToothMeshes meshes(vol);
+  PipelineOptions serial_o, threaded_o;
+  serial_o.stereo = threaded_o.stereo = true;
+  threaded_o.eye_threads = 2;
+  auto serial = FramePipeline::create(st, serial_o);
+  ASSERT_TRUE(serial.ok()) << serial.error();
+  auto threaded = FramePipeline::create(st, threaded_o);
+  ASSERT_TRUE(threaded.ok()) << threaded.error();
+  ASSERT_TRUE((*serial)->warm_up(meshes).ok());
+  ASSERT_TRUE((*threaded)->warm_up(meshes).ok());
+  const std::string note = "Keep the bur parallel to the long axis";
+  haptics::HapticSnapshot snap{};
+  const cv::Mat none;
+  int right_compared = 0, overlays = 0;
+  for (int i = 0; i < kFrames; ++i) {
+    SCOPED_TRACE("frame " + std::to_string(i));
+    const StereoSynthFrame& f = c.frames[static_cast<std::size_t>(i)];
+    const Eigen::Matrix4d m = f.left.truth.T_dev_sty.matrix();
+    for (int k = 0; k < 16; ++k) snap.T_dev_sty[k] = m(k % 4, k / 4);
+    FrameInput in;
+    in.image = &f.left.image;
+    in.right_image = i == 3 ? &none : &f.right.image;  // frame 3: the right eye lost
+    in.index = i;
+    in.capture_time_s = i / 30.0;
+    in.haptic = &snap;
+    in.stylus_valid = true;
+    if (i % 2 == 1) in.note = &note;
+    CompositeResult out_s, right_s, out_t, right_t;
+    FrameRecord r_s, r_t;
+    ASSERT_TRUE((*serial)->process(in, meshes, out_s, r_s, &right_s).ok());
+    const Status st_t = (*threaded)->process(in, meshes, out_t, r_t, &right_t);
+    ASSERT_TRUE(st_t.ok()) << st_t.error();
+    EXPECT_EQ(r_t.eyes, r_s.eyes);
+    EXPECT_EQ(r_t.man_state, r_s.man_state);
+    EXPECT_EQ(r_t.mir_state, r_s.mir_state);
+    EXPECT_EQ(r_t.tags_detected, r_s.tags_detected);
+    EXPECT_EQ(r_t.T_cam_man.matrix(), r_s.T_cam_man.matrix());
+    EXPECT_EQ(r_t.T_cam_mtag.matrix(), r_s.T_cam_mtag.matrix());
+    EXPECT_EQ(r_t.right.composited, r_s.right.composited);
+    EXPECT_EQ(r_t.right.overlay, r_s.right.overlay);
+    EXPECT_EQ(r_t.right.mirror_drawn, r_s.right.mirror_drawn);
+    EXPECT_EQ(r_t.right.note_drawn, r_s.right.note_drawn);
+    EXPECT_EQ(r_t.right.region, r_s.right.region);
+    ASSERT_EQ(out_t.image.size(), out_s.image.size());
+    EXPECT_EQ(cv::norm(out_t.image, out_s.image, cv::NORM_INF), 0.0) << "left eye";
+    ASSERT_EQ(right_t.image.empty(), right_s.image.empty());
+    EXPECT_EQ(right_t.image.empty(), i == 3);
+    if (right_s.image.empty()) continue;
+    EXPECT_EQ(cv::norm(right_t.image, right_s.image, cv::NORM_INF), 0.0) << "right eye";
+    EXPECT_EQ(cv::norm(right_t.tooth_visible, right_s.tooth_visible, cv::NORM_INF), 0.0) << "right eye's visible tooth";
+    ++right_compared;
+    overlays += r_t.right.overlay ? 1 : 0;
+  }
+  EXPECT_EQ(right_compared, kFrames - 1);
+  EXPECT_GE(overlays, kFrames - 3) << "the comparison must cover drawn overlays";
+  // The option is checked.
+  PipelineOptions bad = threaded_o;
+  bad.eye_threads = 3;
+  auto b = FramePipeline::create(st, bad);
+  ASSERT_FALSE(b.ok());
+  EXPECT_NE(b.error().find("eye_threads = 3"), std::string::npos) << b.error();
+}
+
 }  // namespace
 }  // namespace dentar::ar

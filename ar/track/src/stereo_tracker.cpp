@@ -86,6 +86,7 @@ struct StereoTracker::Impl {
   bool motion_set = false;
   bool motion_frame = false;                        // this frame's left image is in `motion`
   bool left_missing = false, right_missing = false;  // the eye had no image last frame
+  StereoTracker::EyeRunner run_eyes;                 // empty: the eyes one after the other
 
   double noise_px2(const RigBody& b, const BundlePose& p) const {
     if (!o.pool_noise || &b == &mannequin || !noise_ref) return p.noise_px2;
@@ -391,6 +392,8 @@ void StereoTracker::reset() {
 
 const TrackerOptions& StereoTracker::options() const { return impl_->o; }
 
+void StereoTracker::set_eye_runner(EyeRunner run) { impl_->run_eyes = std::move(run); }
+
 Result<StereoTrackFrame> StereoTracker::track(const cv::Mat& left, const cv::Mat& right, double capture_time_s,
                                               double display_time_s) {
   Impl& m = *impl_;
@@ -405,18 +408,26 @@ Result<StereoTrackFrame> StereoTracker::track(const cv::Mat& left, const cv::Mat
   // An eye without an image this frame (lost: unplugged, stalled): its tracker is not run and
   // the joint fit has the other eye's corners only (the single-view path). An eye that comes
   // back starts afresh (its own regions predate the loss).
-  if (!left.empty()) {
-    if (m.left_missing) m.left->reset();
-    auto fl = m.left->track(left, capture_time_s, display_time_s);
-    if (!fl) return Error{"left eye: " + fl.error()};
-    f.left = std::move(fl).value();
+  // Each eye's own tracker (they share nothing: set_eye_runner may run them in parallel).
+  std::string err_l, err_r;
+  const auto eye_job = [&](bool is_left) {
+    const cv::Mat& image = is_left ? left : right;
+    if (image.empty()) return;
+    Tracker& t = is_left ? *m.left : *m.right;
+    if (is_left ? m.left_missing : m.right_missing) t.reset();
+    auto fe = t.track(image, capture_time_s, display_time_s);
+    if (!fe) (is_left ? err_l : err_r) = fe.error();
+    else (is_left ? f.left : f.right) = std::move(fe).value();
+  };
+  const std::function<void()> job_l = [&] { eye_job(true); }, job_r = [&] { eye_job(false); };
+  if (m.run_eyes && !left.empty() && !right.empty()) {
+    m.run_eyes(job_l, job_r);
+  } else {
+    job_l();
+    job_r();
   }
-  if (!right.empty()) {
-    if (m.right_missing) m.right->reset();
-    auto fr = m.right->track(right, capture_time_s, display_time_s);
-    if (!fr) return Error{"right eye: " + fr.error()};
-    f.right = std::move(fr).value();
-  }
+  if (!err_l.empty()) return Error{"left eye: " + err_l};
+  if (!err_r.empty()) return Error{"right eye: " + err_r};
   m.left_missing = left.empty();
   m.right_missing = right.empty();
   display_time_s = std::max(display_time_s, capture_time_s);

@@ -27,6 +27,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -101,6 +102,21 @@ struct LiveOptions {
   // its core, as in an AR run). The CPU display path is used; nothing is recorded. The
   // summary's latency is then what the camera, the decode, the upload and the swap cost alone.
   bool passthrough = false;
+  // Issue 28 (session 17): a stereo pair into the headset (--output sbs): 2 = the right eye's
+  // tag tracking and composite on a thread of its own beside the left eye's
+  // (ar::PipelineOptions::eye_threads; same pixels), 1 = both eyes on the frame thread.
+  // eye_thread_cpu: where that thread (and its GL rasteriser) may run: "any" CPU (the engine's
+  // too, below its SCHED_FIFO: the engine preempts it), or "engine" (only beside the engine,
+  // as the capture threads), or "frame" (the frame thread's CPUs, off the engine's).
+  int eye_threads = 2;
+  std::string eye_thread_cpu = "any";
+  // Where the window's GL rasteriser (llvmpipe: one thread per display, made when the window
+  // opens; it draws the headset's pre-warp pass) may run: "frame" (the frame thread's CPUs, off
+  // the engine's; the default), "any" (the engine's CPU too, below its SCHED_FIFO), "auto" (any
+  // with --output sbs, frame otherwise). The pre-warp pass measured 12 ms CPU a frame on
+  // llvmpipe beside the frame thread's 8; "any" is not the default: under load it went with
+  // more missed engine deadlines (docs/BENCHMARKS.md, issue 28 session 17).
+  std::string window_raster_cpu = "frame";
   // Exercise the session is for (a built-in name or a .json file; recorded in recording.json,
   // scored by the driver). Its tooth is the tooth drilled (live_tooth_json); "" = the station's
   // procedural molar.
@@ -206,6 +222,13 @@ struct LiveSummary {
   std::string stop_reason;
   // Capture (Frame::steady_s) to buffer swap, per frame on its first display, ms.
   double latency_p50_ms = 0, latency_p99_ms = 0, latency_max_ms = 0;
+  // Issue 28 (session 17), where the latency goes: per stage {name, p50, p99} ms (summary JSON
+  // "stages_ms"): pickup, pair_wait, mesh_sync, track, compose_left, compose_right, process,
+  // process_cpu (the frame thread's CPU), to_display (hand-over to the display's take),
+  // display (take to swap). Stereo: stale pairs skipped (freshest_pair.h) and the eye threads.
+  std::vector<std::tuple<std::string, double, double>> stage_ms;
+  std::int64_t stale_pairs_skipped = 0;
+  int eye_threads = 1;
   // Latency compensation (LiveOptions::camera_latency_ms): the latency used, ms; where it came
   // from ("measured" (the station file), "option", "assumed", "off", "pen"); frames drawn with the
   // pose of their exposure, and frames that fell back to the newest pose (the history had no

@@ -15,6 +15,9 @@
 // mesher, process() gives the same records and composites (tested).
 // Thread/context: create() and process() on one thread, with a GLES 3
 // context current (egl_context.h); destroy the pipeline before the context.
+// With PipelineOptions::eye_threads = 2 (stereo) the pipeline owns one worker
+// thread with a headless context of its own for the right eye (joined by the
+// destructor); process() returns only when both eyes are done.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -66,6 +69,15 @@ struct PipelineOptions {
   // frame (= the left eye's) and the composite is the left eye's image; the right eye's is
   // composited too when process() is given a right output (FramePipeline::process).
   bool stereo = false;
+  // Issue 28 (session 17): stereo only. 2 = the right eye's tag tracking and its own composite
+  // run on a worker thread of the pipeline (with its own GL context), beside the left eye's
+  // on the caller's thread; 1 = both on the caller's thread, one after the other. The two
+  // give the same records and pixels (each eye has its own tracker and compositor; tested).
+  // Ignored without stereo.
+  int eye_threads = 1;
+  // Called once on the worker thread before its GL context is made (CPU affinity: llvmpipe's
+  // rasteriser threads inherit the mask); may be empty.
+  std::function<void()> eye_thread_init;
   std::string validate() const;  // empty, or names the field
 };
 
@@ -207,8 +219,11 @@ struct FrameRecord {
   EyeRecord right;
 };
 
+class EyeWorker;  // frame_pipeline.cpp: the right eye's thread (PipelineOptions::eye_threads)
+
 class FramePipeline {
  public:
+  ~FramePipeline();  // the worker's GL objects go on the worker, then the worker
   // Errors name the option or the station field, or the GL failure.
   static Result<std::unique_ptr<FramePipeline>> create(const StationScene& station,
                                                        const PipelineOptions& options);
@@ -244,8 +259,7 @@ class FramePipeline {
   const std::vector<DetectedTag>& last_detections() const { return last_tags_; }
 
  private:
-  FramePipeline(StationScene st, PipelineOptions o, Tracker t, Compositor c)
-      : station_(std::move(st)), options_(std::move(o)), tracker_(std::move(t)), compositor_(std::move(c)) {}
+  FramePipeline(StationScene st, PipelineOptions o, Tracker t, Compositor c);
   StationScene station_;
   PipelineOptions options_;
   Tracker tracker_;
@@ -256,6 +270,9 @@ class FramePipeline {
   std::unique_ptr<StereoTracker> stereo_;
   StationScene station_right_;
   std::unique_ptr<Compositor> right_compositor_;
+  // eye_threads == 2: the right eye's tracking and compositor run (and its compositor's GL
+  // objects live) on this worker's thread and context.
+  std::unique_ptr<EyeWorker> worker_;
   Status track_stereo(const FrameInput& in, FrameRecord& r);
   // One eye's view: its image, compositor, station (its camera) and T_eye_rig (identity for
   // the left eye and mono; T_camr_rig for the right eye).

@@ -31,6 +31,7 @@
 // Not thread-safe (one thread at a time, like Tracker).
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 
@@ -71,6 +72,12 @@ class StereoTracker {
                                  double display_time_s);
   void reset();
   const TrackerOptions& options() const;
+  // How track() runs the two eyes' tag trackers (issue 28, session 17): `run(left, right)`
+  // must run both jobs and return once both are done, in parallel or not (the eyes' trackers
+  // share no state, so the results do not depend on it). Empty (the default): one after the
+  // other on the calling thread.
+  using EyeRunner = std::function<void(const std::function<void()>& left, const std::function<void()>& right)>;
+  void set_eye_runner(EyeRunner run);
 
   struct Impl;
 
