@@ -213,7 +213,8 @@ std::string wake_stats_json(const WakeStats& s, double late_threshold_s) {
                      {"cascade", w.s.cascade}, {"engine_wait_ms", w.s.engine_wait_s * 1e3},
                      {"engine_run_ms", w.s.engine_run_s * 1e3}, {"others_run_ms", w.s.cpu_others_run_s * 1e3},
                      {"ours_run_ms", w.s.ours_run_s * 1e3}, {"steal_ms", w.s.steal_s * 1e3},
-                     {"irq_ms", w.s.irq_s * 1e3}, {"window_ms", w.s.window_s * 1e3}});
+                     {"irq_ms", w.s.irq_s * 1e3}, {"window_ms", w.s.window_s * 1e3},
+                     {"thread_tid", w.thread_tid}, {"thread_name", w.thread_name}});
   json j = {{"available", s.available},
             {"note", s.note},
             {"engine_tid", s.tid},
@@ -246,10 +247,14 @@ struct WakeMonitor::Impl {
   WakeStats stats;
   int tid = -1, cpu = -1;
 
+  static constexpr int kTop = 8;  // our threads tracked per sample (by tid)
   struct Sample {
     std::int64_t t_ns = 0;
     TaskSchedstat engine;
     std::uint64_t ours_run_ns = 0;  // summed over our other threads seen on the engine CPU
+    int n_threads = 0;
+    int thread_tid[kTop] = {};
+    std::uint64_t thread_run_ns[kTop] = {};
     CpuTicks ticks;                 // refreshed every ~10 ms (tick resolution anyway)
     bool have_cpu_sched = false;
     CpuSchedstat cpu_sched;
@@ -280,6 +285,11 @@ struct WakeMonitor::Impl {
       std::uint64_t& last = ours_last[t];
       if (last != 0 && r->run_ns > last) ours_total_ns += r->run_ns - last;
       last = r->run_ns;
+      if (s.n_threads < kTop) {
+        s.thread_tid[s.n_threads] = t;
+        s.thread_run_ns[s.n_threads] = r->run_ns;
+        ++s.n_threads;
+      }
     }
     s.ours_run_ns = ours_total_ns;
     if (with_ticks && proc_stat.read(buf)) {
@@ -359,7 +369,26 @@ struct WakeMonitor::Impl {
     stats.late_ms_by[ci] += w.late_s * 1e3;
     if (e.missed) ++stats.missed_by[ci];
     if (e.tripped) ++stats.trips_by[ci];
-    WakeStats::Worst wr{1e-9 * static_cast<double>(e.deadline_ns - start_ns), w, c, e.missed != 0, e.tripped != 0};
+    WakeStats::Worst wr{1e-9 * static_cast<double>(e.deadline_ns - start_ns), w, c, e.missed != 0, e.tripped != 0, -1, {}};
+    if (!stats.worst.empty() && stats.worst.size() >= 8 && w.late_s <= stats.worst.back().s.late_s) {
+      // not among the worst: no need to name a thread
+    } else {
+      std::uint64_t best = 0;
+      for (int i = 0; i < b->n_threads; ++i)
+        for (int j = 0; j < a->n_threads; ++j)
+          if (a->thread_tid[j] == b->thread_tid[i] && b->thread_run_ns[i] > a->thread_run_ns[j] &&
+              b->thread_run_ns[i] - a->thread_run_ns[j] > best) {
+            best = b->thread_run_ns[i] - a->thread_run_ns[j];
+            wr.thread_tid = b->thread_tid[i];
+          }
+      if (wr.thread_tid >= 0) {
+        ProcFile comm("/proc/self/task/" + std::to_string(wr.thread_tid) + "/comm");
+        if (comm.read(buf)) {
+          wr.thread_name.assign(buf.data(), comm.len());
+          while (!wr.thread_name.empty() && is_space(wr.thread_name.back())) wr.thread_name.pop_back();
+        }
+      }
+    }
     auto it = std::lower_bound(stats.worst.begin(), stats.worst.end(), wr,
                                [](const WakeStats::Worst& x, const WakeStats::Worst& y) { return x.s.late_s > y.s.late_s; });
     stats.worst.insert(it, wr);

@@ -8,6 +8,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -245,6 +246,43 @@ TEST(WakeMonitor, OverrunIsTheStepAndItsCatchUpKeepsTheCause) {
   EXPECT_EQ(j["trips_by"]["host"], 0);
   EXPECT_EQ(j["worst"].size(), 3u);
   EXPECT_EQ(j["worst"][0]["cause"], "step");
+}
+
+// The worst late wake-ups name the thread of ours that ran longest on the engine CPU.
+TEST(WakeMonitor, NamesOurThreadOnTheEngineCpu) {
+  cpu_set_t set;
+  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof set, &set), 0);
+  int cpu = 0;
+  while (!CPU_ISSET(cpu, &set)) ++cpu;
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(cpu, &one);
+  std::atomic<bool> go{true};
+  std::atomic<int> busy_tid{-1};
+  std::thread busy([&] {
+    pthread_setname_np(pthread_self(), "wm-busy");
+    pthread_setaffinity_np(pthread_self(), sizeof one, &one);
+    busy_tid.store(static_cast<int>(::gettid()));
+    while (go.load()) {
+    }
+  });
+  while (busy_tid.load() < 0) std::this_thread::yield();
+  std::this_thread::sleep_for(std::chrono::milliseconds(10));  // it has run on that CPU
+  // Watch this (sleeping) thread as if it were the engine on that CPU.
+  WakeMonitor m;
+  ASSERT_TRUE(m.start(static_cast<int>(::gettid()), cpu).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // samples before it, even when starved
+  const std::int64_t d = now_ns() - 30000000;  // a 20 ms late wake-up while wm-busy spun
+  m.push(WakeEvent{d, 20000000, d - 500000, 1, 0});
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // samples after it, even when starved
+  m.stop();
+  go.store(false);
+  busy.join();
+  const WakeStats s = m.stats();
+  ASSERT_EQ(s.worst.size(), 1u);
+  EXPECT_EQ(s.worst[0].thread_tid, busy_tid.load());
+  EXPECT_EQ(s.worst[0].thread_name, "wm-busy");
+  EXPECT_GT(s.worst[0].s.ours_run_s, 0.0);
 }
 
 TEST(WakeMonitor, RefusesAnUnpinnedEngineAndAMissingThread) {

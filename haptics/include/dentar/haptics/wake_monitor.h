@@ -141,6 +141,9 @@ struct WakeStats {
     WakeSample s;
     WakeCause cause = WakeCause::kUnexplained;
     bool missed = false, tripped = false;
+    // Of our threads on the engine CPU, the one that ran longest in the window (-1: none).
+    int thread_tid = -1;
+    std::string thread_name;  // its /proc/self/task/<tid>/comm
   };
   std::vector<Worst> worst;
 };
