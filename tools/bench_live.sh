@@ -138,9 +138,22 @@ print(f"| {sys.argv[2]} | {s['wall_s']:.0f} | {u['p50']:.0f} / {u['p99']:.0f} / 
       f"{e['missed_deadlines'] / mins:.2f} | {e['watchdog_trips']} | {e['jitter_us']['p99']:.0f} / {e['jitter_us']['max']:.0f} | "
       f"{w.get('held', '-')} | {w.get('cpu_halts_per_s', -1):.0f} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} | "
       f"{s['displayed_fps']:.1f} | {s['removed_mm3']['total']:.2f} |")
+# Session 17: the late wake-ups attributed (engine.wake, docs/formats.md), one row per run.
+a = e.get("wake", {})
+if a.get("available"):
+    causes = ["step", "host", "our_thread", "other_task", "irq", "unexplained"]
+    fmt = lambda k: " / ".join(str(a[k].get(c, 0)) for c in causes)
+    print(f"| {sys.argv[2]}: attributed | late {a['late']} (dropped {a['dropped']}) | missed {fmt('missed_by')} | "
+          f"trips {fmt('trips_by')} | steal {a['cpu_steal_ms']:.0f} ms on CPU {a['engine_cpu']} | irq {a['cpu_irq_ms']:.0f} ms | "
+          f"engine run-queue wait {a['engine_wait_ms']:.1f} ms | others on CPU {a['cpu_others_run_ms']:.0f} ms | "
+          f"worst {', '.join('%.1f ms %s' % (x['late_ms'], x['cause']) for x in a['worst'][:3])} | | | |")
+elif a:
+    print(f"| {sys.argv[2]}: not attributed: {a.get('note', '')} |||||||||||")
 PY
 }
 engine_header() {
+  echo "Each run's second row: late wake-ups, missed deadlines and trips by cause, step / host / our_thread / other_task / irq / unexplained (docs/formats.md engine.wake)."
+  echo
   echo "| run | s | step p50 / p99 / p99.9 / max us | missed deadlines | per minute | watchdog trips | wake-up lateness p99 / max us | wake latency held | engine CPU halts /s | latency p50 / p99 ms | fps | removed mm3 |"
   echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
 }

@@ -136,6 +136,8 @@ void add_live(CLI::App& app, int& exit_code) {
                   "the CPUs' wake-up latency from idle held while the run lasts, us (/dev/cpu_dma_latency; "
                   "0 = idle CPUs poll instead of halting; -1 = the system's setting, the default)")
       ->capture_default_str();
+  sub->add_flag("--no-wake-monitor", [c](std::int64_t) { c->o.wake_monitor = false; },
+                "do not attribute the engine's late wake-ups (summary engine.wake; docs/formats.md)");
   add_tracker_image_options(sub, c->camera_response, c->mirror_rim);
   sub->add_option("--discovery", c->discovery,
                   "full-frame tag search: async (off the frame path, default) or inline (in the frame that needs it)");

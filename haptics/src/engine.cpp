@@ -3,11 +3,13 @@
 #include <pthread.h>
 #include <sched.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <chrono>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -271,13 +273,34 @@ Status Engine::start() {
   stop_.store(false);
   finished_.store(false);
   running_.store(true, std::memory_order_release);
+  tid_.store(-1, std::memory_order_release);
+  monitor_.reset();
+  monitor_note_.clear();
+  if (cfg_.monitor_wakes && cfg_.cpu >= 0) monitor_ = std::make_unique<WakeMonitor>();
   thread_ = std::thread([this] { thread_main(); });
+  if (monitor_) {
+    // The monitor needs the engine thread's id (published before its first step).
+    int tid = -1;
+    for (int i = 0; i < 2000 && (tid = tid_.load(std::memory_order_acquire)) < 0 && running(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    if (tid < 0) {
+      monitor_note_ = "the engine thread did not start within 2 s: late wake-ups not attributed";
+    } else if (Status s = monitor_->start(tid, cfg_.cpu); !s) {
+      monitor_note_ = s.error() + ": late wake-ups not attributed";
+    }
+  }
   return {};
 }
 
 void Engine::stop() {
   stop_.store(true, std::memory_order_release);
   if (thread_.joinable()) thread_.join();
+  if (monitor_) {
+    monitor_->stop();  // attributes what the engine pushed before it stopped
+    stats_.wake = monitor_->stats();
+    if (!monitor_note_.empty()) stats_.wake.note = monitor_note_;
+    monitor_.reset();
+  }
   running_.store(false, std::memory_order_release);
 }
 
@@ -316,6 +339,9 @@ void Engine::thread_main() {
   }
   rt_granted_.store(stats_.realtime_granted, std::memory_order_release);
   cpu_pinned_.store(stats_.cpu_pinned, std::memory_order_release);
+  tid_.store(static_cast<int>(::gettid()), std::memory_order_release);
+  const double monitor_from_s = monitor_ ? monitor_->late_threshold_s() : 1e300;
+  std::int64_t prev_end_ns = 0;
   const auto period_ns = static_cast<std::int64_t>(std::llround(1e9 / cfg_.rate_hz));
   timespec next;
   clock_gettime(CLOCK_MONOTONIC, &next);
@@ -335,9 +361,25 @@ void Engine::thread_main() {
     const double late = static_cast<double>(woke.tv_sec - next.tv_sec) +
                         1e-9 * static_cast<double>(woke.tv_nsec - next.tv_nsec);
     stats_.jitter.record(late);
+    const std::uint64_t trips0 = stats_.watchdog_trips;
     if (!step(late, true)) {
       finished_.store(true, std::memory_order_release);
       break;
+    }
+    if (late > monitor_from_s) {
+      // Into the monitor's preallocated ring: no allocation, lock or wait (wake_monitor.h).
+      WakeEvent ev;
+      ev.deadline_ns = static_cast<std::int64_t>(next.tv_sec) * 1000000000LL + next.tv_nsec;
+      ev.late_ns = static_cast<std::int64_t>(late * 1e9);
+      ev.prev_end_ns = prev_end_ns;
+      ev.missed = late > dt_s_;
+      ev.tripped = stats_.watchdog_trips != trips0;
+      monitor_->push(ev);
+    }
+    {
+      timespec end;
+      clock_gettime(CLOCK_MONOTONIC, &end);
+      prev_end_ns = static_cast<std::int64_t>(end.tv_sec) * 1000000000LL + end.tv_nsec;
     }
     advance(next);
     // After a long stall, skip the missed periods instead of bursting to

@@ -1,6 +1,8 @@
 #include "dentar/haptics/engine.h"
 
 #include <gtest/gtest.h>
+#include <pthread.h>
+#include <sched.h>
 
 #include <chrono>
 #include <cmath>
@@ -190,6 +192,48 @@ TEST(Engine, RealTimeThreadRunsAtOneKilohertzAndStops) {
     EXPECT_NE(s.realtime_note, "");
   }
   EXPECT_EQ(rig.device->last_force(), Eigen::Vector3d::Zero());  // left at zero
+}
+
+// Issue 28: with monitor_wakes, every missed deadline and every watchdog trip of the real-time
+// thread is attributed to one cause (wake_monitor.h), and the counters were read.
+TEST(Engine, WakeMonitorAttributesEveryMissedDeadlineAndTrip) {
+  Rig rig("press", "proxy", nullptr, 3.0, 5.0);
+  cpu_set_t set;
+  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof set, &set), 0);
+  int cpu = CPU_SETSIZE - 1;
+  while (cpu > 0 && !CPU_ISSET(cpu, &set)) --cpu;
+  EngineConfig cfg = rig.engine->config();
+  cfg.cpu = cpu;
+  cfg.monitor_wakes = true;
+  auto e = Engine::create(cfg, *rig.device, rig.tooth, rig.bur);
+  ASSERT_TRUE(e.ok()) << e.error();
+  rig.engine = std::move(e).value();
+  ASSERT_TRUE(rig.engine->start().ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  rig.engine->stop();
+  const EngineStats s = rig.engine->stats();
+  ASSERT_TRUE(s.wake.available) << s.wake.note;
+  EXPECT_GT(s.wake.tid, 0);
+  EXPECT_EQ(s.wake.cpu, cpu);
+  EXPECT_GT(s.wake.samples, 0u);
+  std::uint64_t late = 0, missed = 0, trips = 0;
+  for (int c = 0; c < static_cast<int>(WakeCause::kCount); ++c) {
+    late += s.wake.late_by[c];
+    missed += s.wake.missed_by[c];
+    trips += s.wake.trips_by[c];
+  }
+  EXPECT_EQ(late, s.wake.late);
+  EXPECT_EQ(s.wake.dropped, 0u);
+  EXPECT_EQ(missed, s.missed_deadlines);  // each counted once
+  EXPECT_EQ(trips, s.watchdog_trips);
+  // Without a CPU pin there is no CPU to watch: not monitored, and said so by absence.
+  cfg.cpu = -1;
+  auto u = Engine::create(cfg, *rig.device, rig.tooth, rig.bur);
+  ASSERT_TRUE(u.ok());
+  ASSERT_TRUE((*u)->start().ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  (*u)->stop();
+  EXPECT_FALSE((*u)->stats().wake.available);
 }
 
 }  // namespace

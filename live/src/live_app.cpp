@@ -222,7 +222,9 @@ std::string LiveSummary::json() const {
                   {"memory_locked", memory_locked}, {"isolation", isolation_note},
                   {"wake_latency", {{"held", wake_latency_held}, {"note", wake_latency_note},
                                     {"cpu_halts_per_s", engine_cpu_halts_per_s},
-                                    {"cpu_polls_per_s", engine_cpu_polls_per_s}}}}},
+                                    {"cpu_polls_per_s", engine_cpu_polls_per_s}}},
+                  {"wake", engine_wake_json.empty() ? nlohmann::json::object()
+                                                    : nlohmann::json::parse(engine_wake_json, nullptr, false)}}},
       {"volume_hash", hash},
       {"removed_mm3", {{"enamel", removed_enamel_mm3}, {"dentin", removed_dentin_mm3},
                        {"pulp", removed_pulp_mm3}, {"total", removed_total_mm3}}},
@@ -676,6 +678,8 @@ void engine_figures(const haptics::EngineStats& es, LiveSummary& sum) {
   sum.jitter_max_us = es.jitter.max_s() * 1e6;
   sum.realtime_granted = es.realtime_granted;
   sum.cpu_pinned = es.cpu_pinned;
+  if (es.wake.available || !es.wake.note.empty())
+    sum.engine_wake_json = haptics::wake_stats_json(es.wake, haptics::WakeMonitor::Options{}.late_threshold_s);
 }
 
 // The recording closed: its writer joined, recording.json (as written at the
@@ -1054,6 +1058,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
   cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
   cfg.try_realtime = o.realtime;
+  cfg.monitor_wakes = o.wake_monitor;
   // ---- isolation: everything but the engine off its core; memory locked ----
   const std::string iso = isolate_engine(o, cfg, ncpu, sum);
   // The engine's wake-ups: idle CPUs poll rather than halt while the run lasts (see LiveOptions).

@@ -25,6 +25,7 @@
 #include "dentar/haptics/seqlock.h"
 #include "dentar/haptics/session_log.h"
 #include "dentar/haptics/timing.h"
+#include "dentar/haptics/wake_monitor.h"
 #include "dentar/volume/cutter.h"
 
 namespace dentar::haptics {
@@ -49,6 +50,11 @@ struct EngineConfig {
   // no page fault lands inside a step (with mlockall the pages stay).
   int cpu = -1;
   std::size_t prefault_stack_bytes = 256 * 1024;
+  // Real-time thread pinned to `cpu` only: a monitor thread (normal priority, on the CPUs of
+  // the caller of start()) reads the scheduler's counters and names the cause of each late
+  // wake-up (wake_monitor.h); the engine thread only pushes {deadline, lateness} into a
+  // preallocated ring. Results in EngineStats::wake.
+  bool monitor_wakes = false;
   // A training mode (issue 27; not owned, must outlive the engine; the haptic thread calls
   // it every step): its forces go through the same guard and watchdog as contact forces.
   TrainingMode* training = nullptr;
@@ -87,6 +93,7 @@ struct EngineStats {
   std::string realtime_note;      // why not, when not
   TimingHistogram compute;        // time inside step()
   TimingHistogram jitter;         // wake-up time minus deadline (real-time mode)
+  WakeStats wake;                 // late wake-ups attributed (EngineConfig::monitor_wakes)
 };
 
 class Engine {
@@ -169,6 +176,9 @@ class Engine {
   std::atomic<std::uint64_t> steps_published_{0};
   std::atomic<bool> running_{false}, stop_{false}, finished_{false};
   std::atomic<bool> rt_granted_{false}, cpu_pinned_{false};
+  std::atomic<int> tid_{-1};              // the engine thread's id, once it runs
+  std::unique_ptr<WakeMonitor> monitor_;  // EngineConfig::monitor_wakes
+  std::string monitor_note_;              // why it did not start (caller's thread)
   std::thread thread_;
 };
 

@@ -155,6 +155,10 @@ struct LiveOptions {
   // the hold is not the default until a quiet-machine run shows it helps (under load it raised
   // the engine's p99 wake-up lateness). Costs power: the cores never sleep while it is held.
   int cpu_wake_latency_us = -1;
+  // A monitor thread (normal priority, off the engine's CPU) that names the cause of each late
+  // wake-up of the engine from the scheduler's counters (haptics/wake_monitor.h); results in
+  // the summary's engine.wake. Off: --no-wake-monitor.
+  bool wake_monitor = true;
   // Where the background threads run (the tracker's full-frame tag search
   // when pipeline.tracker.discovery = kAsync, the default here; the capture
   // thread with its decoding; the mesher): "engine" (on the engine's CPU at
@@ -248,6 +252,9 @@ struct LiveSummary {
   bool wake_latency_held = false;
   std::string wake_latency_note;
   double engine_cpu_halts_per_s = -1, engine_cpu_polls_per_s = -1;
+  // The engine's late wake-ups attributed to a cause, with the engine CPU's steal (issue 28):
+  // a JSON object (haptics::wake_stats_json, docs/formats.md "engine.wake"); empty: not monitored.
+  std::string engine_wake_json;
   std::uint64_t volume_hash = 0;
   // Removed by the end of the run, mm^3 (engine snapshot; total = all materials).
   double removed_enamel_mm3 = 0, removed_dentin_mm3 = 0, removed_pulp_mm3 = 0, removed_total_mm3 = 0;
