@@ -359,7 +359,8 @@ class LiveSource final : public FrameSource {
   std::int64_t frame_count() const override { return -1; }
   std::int64_t dropped_total() const override { return dropped_; }
   std::string description() const override {
-    return desc_ + " (" + size_str(width_, height_) + ", " + fps_str(fps_) + " fps, live)";
+    return desc_ + " (" + size_str(width_, height_) + ", " + fps_str(fps_) + " fps, live" +
+           (raw_yuyv_ ? ", YUYV as the camera sent it" : raw_jpeg_ ? ", MJPG" : "") + ")";
   }
 
  private:
