@@ -275,7 +275,7 @@ TEST(LiveXvfb, YuyvCameraIsCarriedAsItCameAndRecorded) {
   const std::string common = " --station " + (c / "station.json").string() + " --stylus replay:" +
                              (c / "session.dlog").string() + " --camera-response linear --no-hud --loop";
   auto r = run_command(xvfb(kBin + " live --camera live:" + cam.string() + common + " --record " + rec.string() +
-                            " --frames 12 --summary " + (t / "live.json").string() + " 2>&1"));
+                            " --frames 20 --summary " + (t / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("YUYV as the camera sent it"), std::string::npos) << r.out;
   const auto meta = read_json(rec / "recording.json");
@@ -288,9 +288,11 @@ TEST(LiveXvfb, YuyvCameraIsCarriedAsItCameAndRecorded) {
   const auto lr = read_csv(rec / "frames.csv");
   const int state_col = col(lr[0], "man_state");
   ASSERT_GE(state_col, 0);
-  int checked = 0, tracked = 0;
+  int checked = 0, tracked = 0, after_first = 0;
   for (std::size_t i = 1; i < lr.size(); ++i) {
-    tracked += lr[i][static_cast<std::size_t>(state_col)] != "lost" ? 1 : 0;
+    const bool t_i = lr[i][static_cast<std::size_t>(state_col)] != "lost";
+    if (t_i || tracked > 0) ++after_first;  // from the first tracked frame on (acquisition runs off the frame path)
+    tracked += t_i ? 1 : 0;
     char stem[32];
     std::snprintf(stem, sizeof stem, "frame_%06zu", i - 1);
     fs::path f = rec / "frames" / (std::string(stem) + ".png");
@@ -302,11 +304,12 @@ TEST(LiveXvfb, YuyvCameraIsCarriedAsItCameAndRecorded) {
     EXPECT_EQ(best, 0.0) << f;
     ++checked;
   }
-  EXPECT_GE(checked, 12);
-  EXPECT_GE(tracked, checked * 3 / 4);  // tracked from the luma: the overlay is drawn
+  EXPECT_GE(checked, 20);
+  EXPECT_GE(tracked, 5);
+  EXPECT_GE(tracked, after_first * 9 / 10);  // tracked from the luma, once acquired: the overlay is drawn
   // A format the camera does not deliver: refused, both named.
   r = run_command(xvfb(kBin + " live --camera live:" + cam.string() + common + " --camera-format mjpg --frames 3 2>&1"));
-  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_EQ(r.code, 1) << r.out;  // as any camera that cannot be opened as asked (LiveCli.MissingCameraExplains)
   EXPECT_NE(r.out.find("asked for MJPG but it delivers YUY2"), std::string::npos) << r.out;
 }
 

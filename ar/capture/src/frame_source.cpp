@@ -497,17 +497,24 @@ cv::Mat frame_bgr(const cv::Mat& image) {
 
 Status write_yuyv_avi(const std::string& path, const std::vector<cv::Mat>& frames, double fps) {
   if (frames.empty()) return Error{path + ": no frames to write"};
-  const int W = frames[0].cols, H = frames[0].rows;
-  for (std::size_t i = 0; i < frames.size(); ++i)
-    if (frames[i].type() != CV_8UC2 || frames[i].cols != W || frames[i].rows != H || W % 2 != 0)
-      return Error{path + ": frame " + std::to_string(i) + " is not YUYV (CV_8UC2) of " + size_str(W, H) +
-                   " with an even width"};
+  std::size_t k = 0;
+  return write_yuyv_avi(
+      path,
+      [&](cv::Mat& f) {
+        if (k >= frames.size()) return false;
+        f = frames[k++];
+        return true;
+      },
+      fps);
+}
+
+Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&)>& next, double fps) {
   if (!std::isfinite(fps) || fps <= 0 || fps > 1000) return Error{path + ": fps must be in (0, 1000]"};
+  cv::Mat f;
+  if (!next(f) || f.empty()) return Error{path + ": no frames to write"};
+  const int W = f.cols, H = f.rows;
   const std::uint64_t frame_bytes = static_cast<std::uint64_t>(W) * H * 2;
-  const std::uint64_t movi = 4 + frames.size() * (8 + frame_bytes);
   const std::uint64_t hdrl = 4 + (8 + 56) + 8 + 4 + (8 + 56) + (8 + 40);
-  const std::uint64_t riff = 4 + (8 + hdrl) + (8 + movi) + 8 + 16 * frames.size();
-  if (riff >= 0xFFFFFFF0ull) return Error{path + ": more than 4 GB of frames (one AVI 1.0 file): write fewer frames"};
   std::ofstream o(path, std::ios::binary);
   if (!o) return Error{path + ": cannot create the file"};
   const auto u32 = [&](std::uint64_t v) {
@@ -520,26 +527,39 @@ Status write_yuyv_avi(const std::string& path, const std::vector<cv::Mat>& frame
     o.write(b, 2);
   };
   const auto tag = [&](const char* t) { o.write(t, 4); };
-  const std::uint32_t n = static_cast<std::uint32_t>(frames.size());
-  tag("RIFF"), u32(riff), tag("AVI ");
+  // The header with the counts left 0; patched once the frames are known (offsets below).
+  tag("RIFF"), u32(0), tag("AVI ");
   tag("LIST"), u32(hdrl), tag("hdrl");
   tag("avih"), u32(56);
   u32(static_cast<std::uint32_t>(std::lround(1e6 / fps))), u32(static_cast<std::uint64_t>(frame_bytes * fps)), u32(0);
-  u32(0x10), u32(n), u32(0), u32(1), u32(frame_bytes), u32(W), u32(H), u32(0), u32(0), u32(0), u32(0);
+  u32(0x10), u32(0) /* 48: frames */, u32(0), u32(1), u32(frame_bytes), u32(W), u32(H), u32(0), u32(0), u32(0), u32(0);
   tag("LIST"), u32(4 + (8 + 56) + (8 + 40)), tag("strl");
   tag("strh"), u32(56), tag("vids"), tag("YUY2"), u32(0), u16(0), u16(0), u32(0);
-  u32(1000), u32(static_cast<std::uint32_t>(std::lround(fps * 1000))), u32(0), u32(n), u32(frame_bytes);
+  u32(1000), u32(static_cast<std::uint32_t>(std::lround(fps * 1000))), u32(0), u32(0) /* 140: length */,
+      u32(frame_bytes);
   u32(0xFFFFFFFFu), u32(0), u16(0), u16(0), u16(W), u16(H);
   tag("strf"), u32(40), u32(40), u32(W), u32(H), u16(1), u16(16), tag("YUY2"), u32(frame_bytes);
   u32(0), u32(0), u32(0), u32(0);
-  tag("LIST"), u32(movi), tag("movi");
-  for (const cv::Mat& f : frames) {
+  tag("LIST"), u32(0) /* 216: movi size */, tag("movi");
+  std::uint32_t n = 0;
+  do {
+    if (f.type() != CV_8UC2 || f.cols != W || f.rows != H || W % 2 != 0)
+      return Error{path + ": frame " + std::to_string(n) + " is not YUYV (CV_8UC2) of " + size_str(W, H) +
+                   " with an even width"};
+    if (12 + 8 + hdrl + 12 + (n + 1) * (8 + frame_bytes) + 8 + 16 * (n + 1) >= 0xFFFFFFF0ull)
+      return Error{path + ": more than 4 GB of frames (one AVI 1.0 file): write fewer frames"};
     tag("00db"), u32(frame_bytes);
     for (int y = 0; y < H; ++y) o.write(reinterpret_cast<const char*>(f.ptr(y)), static_cast<std::streamsize>(W) * 2);
-  }
-  tag("idx1"), u32(16 * frames.size());
-  for (std::uint32_t i = 0; i < n; ++i)
-    tag("00db"), u32(0x10), u32(4 + i * (8 + frame_bytes)), u32(frame_bytes);
+    ++n;
+  } while (next(f) && !f.empty());
+  const std::uint64_t movi = 4 + n * (8 + frame_bytes);
+  tag("idx1"), u32(16 * n);
+  for (std::uint32_t i = 0; i < n; ++i) tag("00db"), u32(0x10), u32(4 + i * (8 + frame_bytes)), u32(frame_bytes);
+  const std::uint64_t riff = 4 + (8 + hdrl) + (8 + movi) + 8 + 16 * n;
+  o.seekp(4), u32(riff);
+  o.seekp(48), u32(n);
+  o.seekp(140), u32(n);
+  o.seekp(216), u32(movi);
   o.close();
   if (!o) return Error{path + ": write failed (disk full?)"};
   return {};

@@ -50,6 +50,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <string>
@@ -123,6 +124,9 @@ std::string fourcc_name(int fourcc);
 // CV_8UC2, one size, even width), which `live:PATH` reads as the camera would
 // deliver them. Error names the file when it cannot be written.
 Status write_yuyv_avi(const std::string& path, const std::vector<cv::Mat>& yuyv_frames, double fps);
+// The same, streamed: `next` fills the next frame and returns false after the last
+// (a long 1080p stand-in never sits in memory whole).
+Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&)>& next, double fps);
 
 class FrameSource {
  public:
