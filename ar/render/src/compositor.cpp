@@ -610,6 +610,11 @@ struct GpuPath {
   cv::Mat rgba;  // the frame converted for the upload, reused
   Texture yuyv;        // a YUYV frame as it came (W/2 x H RGBA8), made on its first use
   Program yuyv_p;      // kYuyvFragment
+  // YUYV converted by the shader (2 bytes a pixel uploaded), or on the CPU straight into the
+  // RGBA upload (one pass): the shader on a GPU, the CPU on a software rasteriser, where the
+  // shader's pass over every pixel measured slower (docs/BENCHMARKS.md, issue 28 session 17).
+  // DENTAR_YUYV_GL=shader|cpu overrides (tests, benches).
+  bool yuyv_shader = false;
   std::unordered_map<GLuint, Framebuffer> video_fbs;  // video texture -> its framebuffer (YUYV pass)
   Framebuffer fb_resample, fb_fg, fb_fgh, fb_colsum, fb_model[2];
   Program resample, classify, feather, colsum_p, model_p, blend;
@@ -1497,6 +1502,13 @@ std::string Compositor::gpu_path_error() {
     }
     *pr.p = std::move(r).value();
   }
+  {
+    const auto* r = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+    const std::string renderer = r != nullptr ? r : "";
+    g.yuyv_shader = renderer.find("llvmpipe") == std::string::npos && renderer.find("softpipe") == std::string::npos &&
+                    renderer.find("SWR") == std::string::npos;
+    if (const char* e = std::getenv("DENTAR_YUYV_GL"); e != nullptr && *e != '\0') g.yuyv_shader = std::string(e) == "shader";
+  }
   // Output -> canvas positions (the CPU path's map before fixed-point conversion).
   std::vector<float> map(static_cast<std::size_t>(W) * H * 2);
   for (int v = 0; v < H; ++v)
@@ -1564,7 +1576,14 @@ Status Compositor::compose_gl(const volume::Surface& surface, const CompositeInp
   t0 = Clock::now();
   const GLuint video_tex = target.video_texture;
   const bool yuyv = in.video_bgr->type() == CV_8UC2;
-  if (yuyv) {
+  if (yuyv && !g.yuyv_shader) {
+    // One conversion, straight into the upload's layout (the BGR path's decode and
+    // its BGR-to-RGBA pass in one).
+    cv::cvtColor(*in.video_bgr, g.rgba, cv::COLOR_YUV2RGBA_YUYV);
+    glBindTexture(GL_TEXTURE_2D, video_tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, g.rgba.data);
+  } else if (yuyv) {
     // The camera's own YUYV as it came (half the bytes, no CPU conversion); the
     // shader pass below converts it into the video texture.
     if (g.yuyv.id() == 0) g.yuyv = make_texture_2d(GL_RGBA8, W / 2, H);
@@ -1597,7 +1616,7 @@ Status Compositor::compose_gl(const volume::Surface& surface, const CompositeInp
   glDisable(GL_BLEND);
   glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
   glBindVertexArray(im.empty_vao.id());
-  if (yuyv) {
+  if (yuyv && g.yuyv_shader) {
     // 0. The YUYV frame into the video texture (every pixel: the window shows it).
     auto fb = g.video_fbs.find(video_tex);
     if (fb == g.video_fbs.end()) {
