@@ -307,6 +307,29 @@ TEST(LiveXvfb, YuyvCameraIsCarriedAsItCameAndRecorded) {
   EXPECT_GE(checked, 20);
   EXPECT_GE(tracked, 5);
   EXPECT_GE(tracked, after_first * 9 / 10);  // tracked from the luma, once acquired: the overlay is drawn
+  // The bare passthrough viewer: the window converts the YUYV frame once into its upload and
+  // shows the camera's frame (the window is the video's size).
+  std::string shots;
+  for (int i = 2; i <= 10; ++i) shots += " --screenshot " + std::to_string(i) + ":" + (t / ("shot" + std::to_string(i) + ".png")).string();
+  r = run_command(xvfb(kBin + " live --passthrough --camera live:" + cam.string() + " --station " +
+                       (c / "station.json").string() + " --stylus none --no-hud --quiet --loop --frames 8" + shots + " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  int shown = 0;
+  for (int i = 2; i <= 10; ++i) {
+    const cv::Mat shot = cv::imread((t / ("shot" + std::to_string(i) + ".png")).string(), cv::IMREAD_COLOR);
+    if (shot.empty()) continue;
+    double best_off = 1.0;
+    for (const cv::Mat& w : want) {
+      if (w.size() != shot.size()) continue;
+      cv::Mat d, grey;
+      cv::absdiff(w, shot, d);
+      cv::cvtColor(d, grey, cv::COLOR_BGR2GRAY);
+      best_off = std::min(best_off, cv::countNonZero(grey > 24) / double(grey.total()));
+    }
+    EXPECT_LT(best_off, 0.001) << "window frame " << i << ": share of pixels off by > 24 against the closest camera frame";
+    ++shown;
+  }
+  EXPECT_GT(shown, 0) << "no screenshot of frames 2..10 was taken";
   // A format the camera does not deliver: refused, both named.
   r = run_command(xvfb(kBin + " live --camera live:" + cam.string() + common + " --camera-format mjpg --frames 3 2>&1"));
   EXPECT_EQ(r.code, 1) << r.out;  // as any camera that cannot be opened as asked (LiveCli.MissingCameraExplains)

@@ -270,7 +270,6 @@ class LiveSource final : public FrameSource {
     if (!grab_retrieve(first) && !bad_format_.empty()) return Error{desc_ + ": " + bad_format_};
     if (first.empty() && raw_jpeg_ && !not_jpeg_.empty()) {
       // The backend accepted raw mode but does not deliver JPEG bytes.
-      const std::string backend = cap_->getBackendName();
       const bool back = backend == "FFMPEG" ? cap_->set(cv::CAP_PROP_FORMAT, 0)
                                             : cap_->set(cv::CAP_PROP_CONVERT_RGB, 1);
       raw_jpeg_ = false;
