@@ -13,6 +13,8 @@
 #include "commands.h"
 #include "dentar/ar/board_clip.h"
 #include "dentar/ar/egl_context.h"
+#include "dentar/ar/frame_gray.h"
+#include "dentar/ar/frame_source.h"
 #include "dentar/calibration/co_location.h"
 #include "dentar/ar/synth.h"
 
@@ -30,6 +32,7 @@ struct SynthCli {
   std::string out = "out/synth";
   bool png = false;
   bool webcam = false;        // --webcam: also camera.avi (Motion JPEG)
+  bool yuyv = false;          // --yuyv: also camera_yuyv.avi (raw YUY2, a UVC camera's own format)
   std::string station;        // --station FILE
   std::string write_station;  // --write-default-station FILE
   std::string family;         // --tag-family
@@ -181,6 +184,26 @@ int run(const SynthCli& c, const CLI::App& app) {
       return 1;
     }
   }
+  if (c.yuyv) {
+    // camera_yuyv.avi: the footage as a YUYV camera sends it (issue 28), streamed from video.mkv.
+    const std::string in_path = (std::filesystem::path(c.out) / "video.mkv").string();
+    const std::string out_path = (std::filesystem::path(c.out) / "camera_yuyv.avi").string();
+    cv::VideoCapture in(in_path, cv::CAP_FFMPEG);
+    cv::Mat bgr;
+    const auto st = ar::write_yuyv_avi(
+        out_path,
+        [&](cv::Mat& f) {
+          if (!in.read(bgr) || bgr.empty()) return false;
+          ar::bgr_to_yuyv(bgr, f);
+          return true;
+        },
+        o.fps);
+    if (!st) {
+      print_error("synth", "--yuyv: " + st.error());
+      return 1;
+    }
+    std::cout << "wrote " << out_path << " (YUYV, what a UVC camera sends)\n";
+  }
   std::cout << std::fixed << std::setprecision(1) << "wrote " << c.out << ": "
             << (c.png ? "frames/*.png"
                      : c.webcam ? (c.stereo ? "video.mkv (FFV1), camera.avi, camera_left.avi, camera_right.avi (Motion JPEG)"
@@ -274,6 +297,10 @@ void add_synth(CLI::App& app, int& exit_code) {
               "Also write camera.avi: the footage as Motion JPEG, what a webcam delivers at 720p "
               "(for dentar live --camera live:DIR/camera.avi); with --stereo also camera_left.avi and "
               "camera_right.avi, the eyes as two cameras (--camera-right)")
+      ->excludes("--png");
+  s->add_flag("--yuyv", c->yuyv,
+              "Also write camera_yuyv.avi: the footage as raw YUYV 4:2:2, what a UVC camera sends uncompressed "
+              "(for dentar live --camera live:DIR/camera_yuyv.avi; 4 MB a 1080p frame)")
       ->excludes("--png");
   s->add_flag("--no-distortion", c->no_distortion, "Pinhole camera (no lens distortion)");
   s->add_option("--noise", c->noise_dn,

@@ -4,7 +4,7 @@
 //
 //   ./build/ar/ar_frame_cost_bench [--frames N] [--sizes 640x480,1280x720,1920x1080]
 //                                  [--preset standard|hard|mirror] [--seed S] [--csv FILE]
-//                                  [--paths region,main,angular,pixel,roidec,whole] [--gl] [--repeat R] [--truth-poses]
+//                                  [--paths region,main,angular,pixel,roidec,whole,native] [--gl] [--repeat R] [--truth-poses]
 //                                  [--yuyv] [--stereo] [--outline] [--rounds R]
 //
 // For each size: N frames of generated footage (the same scene and motion at every
@@ -43,6 +43,13 @@
 // is given the YUYV frame (grey from the Y plane, only where it searches), and the
 // compositor the BGR that a bare viewer's YUYV-to-BGR conversion makes once per frame
 // (timed as 'decode', outside the AR part: a bare viewer does it too).
+// --paths ...,native (session 17, with --yuyv): the camera's own format carried through:
+// the region path's pipeline given the YUYV frame itself (the compositor converts it once
+// into its output, in place of its copy; with --gl it uploads YUYV and converts in a
+// shader), so there is no separate decode. Its AR part subtracts what a bare viewer does
+// with a YUYV frame (decode + passthrough), the others' only passthrough (decode is
+// outside them). 'frame CPU' = decode + track + composite: everything from the camera's
+// bytes to the composite, the figure to compare between region and native.
 // --stereo: both eyes of a 63 mm rig (StereoSynthGenerator); the tracker is the
 // StereoTracker over both eyes and each eye is composited at its own pose (the left
 // at the rig's, the right at T_camr_caml times it; --truth-poses: each eye's truth),
@@ -157,8 +164,9 @@ Args parse(int argc, char** argv) {
     } else if (k == "--paths") {
       a.paths = split(val());
       for (const auto& p : a.paths)
-        if (p != "region" && p != "whole" && p != "main" && p != "angular" && p != "pixel" && p != "roidec")
-          usage("--paths: '" + p + "' is not region, main, angular, pixel, roidec or whole");
+        if (p != "region" && p != "whole" && p != "main" && p != "angular" && p != "pixel" && p != "roidec" &&
+            p != "native")
+          usage("--paths: '" + p + "' is not region, main, angular, pixel, roidec, whole or native");
       if (a.paths.empty()) usage("--paths is empty");
     } else if (k == "--repeat") {
       a.repeat = std::atoi(val().c_str());
@@ -180,6 +188,8 @@ Args parse(int argc, char** argv) {
       usage("unknown argument '" + k + "'");
     }
   }
+  for (const auto& p : a.paths)
+    if (p == "native" && !a.yuyv) usage("--paths native needs --yuyv (the camera's own format to carry)");
   return a;
 }
 
@@ -206,7 +216,7 @@ struct Sample {
   double track = 0, composite = 0, passthrough = 0, ar = 0;
   double render_wall = 0, blend_wall = 0, segment_wall = 0, readback_wall = 0, sync_wall = 0, upload_wall = 0;
   double grey_wall = 0, detect_wall = 0, pose_wall = 0, filter_wall = 0;
-  double decode = 0;         // --yuyv: the bare viewer's YUYV-to-BGR conversion (not in ar)
+  double decode = 0;         // --yuyv: the bare viewer's YUYV-to-BGR conversion (not in ar; 0 for native)
   double gray_fraction = 0;  // of the frame converted to grey by the tracker (left eye)
   double outline_px = -1;    // --outline: mean outline distance to the truth, px (-1: no tooth)
   double man_err_mm = -1;    // the mannequin's tracked pose (drawn) against the truth, mm (-1: lost)
@@ -249,7 +259,7 @@ int run(const Args& a) {
               "passthrough p50 ms | **AR part p50 / p99 ms** | tooth triangles p50 (level of detail) |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   std::map<std::string, std::vector<std::pair<std::string, double>>> ar_by_path;  // path -> (size, p50)
-  std::vector<std::string> area_tables, stage_rows, extra_rows;
+  std::vector<std::string> area_tables, stage_rows, extra_rows, frame_rows;
 
   std::map<std::pair<int, int>, std::vector<std::pair<std::string, std::vector<Sample>>>> pooled;
   for (int round = 0; round < a.rounds; ++round)
@@ -478,8 +488,10 @@ int run(const Args& a) {
           std::fprintf(stderr, "ar_frame_cost_bench: frame %zu: %s\n", i, tf.error().c_str());
           return 1;
         }
+        const bool native = r.path == "native";
+        if (native) s.decode = 0;  // no conversion before the pipeline: the compositor's own
         CompositeInput ci;
-        ci.video_bgr = &img_l;
+        ci.video_bgr = native ? &yuyv_l[i] : &img_l;
         if (a.truth_poses) {
           ci.man_valid = ci.mirror_valid = true;
           ci.T_cam_man = f.truth.T_cam_man;
@@ -497,7 +509,7 @@ int run(const Args& a) {
         if (a.gl) glFinish();
         if (cs && a.stereo) {  // the right eye at its own pose
           CompositeInput cr = ci;
-          cr.video_bgr = &img_r;
+          cr.video_bgr = native ? &yuyv_r[i] : &img_r;
           if (a.truth_poses) {
             cr.T_cam_man = rights[i].truth.T_cam_man;
             cr.T_cam_mtag = rights[i].truth.T_cam_mtag;
@@ -515,7 +527,7 @@ int run(const Args& a) {
         }
         s.track = c1 - c0;
         s.composite = c2 - c1;
-        s.ar = s.track + s.composite - s.passthrough;
+        s.ar = s.track + s.composite - s.passthrough - (native ? decode : 0.0);
         s.area = r.out.region.area() + (a.stereo ? r.out_r.region.area() : 0);
         s.tris = r.out.triangles_drawn + (a.stereo ? r.out_r.triangles_drawn : 0);
         s.lod = r.out.lod_level;
@@ -571,6 +583,10 @@ int run(const Args& a) {
       const auto tr = col([](const Sample& s) { return s.track; });
       const auto co = col([](const Sample& s) { return s.composite; });
       const auto pt = col([](const Sample& s) { return s.passthrough; });
+      const auto fr = col([](const Sample& s) { return s.decode + s.track + s.composite; });
+      frame_rows.push_back("  " + std::to_string(W) + "x" + std::to_string(H) + " " + r.path + ": " +
+                           std::to_string(quantile(fr, 0.5)).substr(0, 5) + " / " +
+                           std::to_string(quantile(fr, 0.99)).substr(0, 5) + " ms");
       const auto area = col([](const Sample& s) { return s.area; });
       const auto tris = col([](const Sample& s) { return s.tris; });
       const auto lod = col([](const Sample& s) { return s.lod; });
@@ -648,6 +664,8 @@ int run(const Args& a) {
               "frames tracked | mannequin error p50 / p95 mm |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& t : extra_rows) std::printf("%s", t.c_str());
+  std::printf("\nFrame CPU p50 / p99 (decode + track + composite: from the camera's bytes to the composite):\n");
+  for (const auto& t : frame_rows) std::printf("%s\n", t.c_str());
   std::printf("\nAR part p50, largest size / smallest size (goal for 1920x1080 / 640x480: <= 1.5):\n");
   for (const auto& [path, v] : ar_by_path)
     if (v.size() >= 2)

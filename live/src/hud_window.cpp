@@ -158,10 +158,20 @@ std::vector<int> HudWindow::take_presses() {
 void HudWindow::inject_key(int key) { presses_.push_back(key); }
 bool HudWindow::held(int key) const { return held_.count(key) > 0; }
 
+// The upload's one conversion: BGR, or the camera's own YUYV (issue 28: a bare
+// passthrough or a stalled camera's raw frame) straight to the texture's layout.
+static void to_upload(const cv::Mat& img, bool gles, cv::Mat& out) {
+  if (img.type() == CV_8UC2)
+    cv::cvtColor(img, out, gles ? cv::COLOR_YUV2RGBA_YUYV : cv::COLOR_YUV2BGRA_YUYV);
+  else
+    cv::cvtColor(img, out, gles ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
+}
+
 void HudWindow::set_video(const cv::Mat& bgr) {
-  if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || bgr.type() != CV_8UC3) return;
+  if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || (bgr.type() != CV_8UC3 && bgr.type() != CV_8UC2))
+    return;
   // SIMD; the buffer is kept between frames.
-  cv::cvtColor(bgr, bgra_, gles_ ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
+  to_upload(bgr, gles_, bgra_);
   glBindTexture(GL_TEXTURE_2D, tex_);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, bgra_.cols, bgra_.rows, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,
@@ -171,7 +181,8 @@ void HudWindow::set_video(const cv::Mat& bgr) {
 
 void HudWindow::set_video_right(const cv::Mat& bgr) {
   right_ = false;
-  if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || bgr.type() != CV_8UC3) return;
+  if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || (bgr.type() != CV_8UC3 && bgr.type() != CV_8UC2))
+    return;
   if (tex_right_ == 0) {
     GLuint t = 0;
     glGenTextures(1, &t);
@@ -179,7 +190,7 @@ void HudWindow::set_video_right(const cv::Mat& bgr) {
     glBindTexture(GL_TEXTURE_2D, t);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex_w_, tex_h_, 0, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
   }
-  cv::cvtColor(bgr, bgra_right_, gles_ ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
+  to_upload(bgr, gles_, bgra_right_);
   glBindTexture(GL_TEXTURE_2D, tex_right_);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, tex_w_, tex_h_, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,

@@ -383,6 +383,10 @@ Result<StationCamera> open_station_and_camera(const LiveOptions& o, LiveSummary&
   so.width = o.width;
   so.height = o.height;
   so.fps = o.fps;
+  if (o.camera_format != "auto" && o.camera_format != "yuyv" && o.camera_format != "mjpg" && o.camera_format != "bgr")
+    return Error{"live: --camera-format " + o.camera_format + ": must be auto, yuyv, mjpg or bgr"};
+  so.pixel_format = o.camera_format == "bgr" ? "bgr" : "native";
+  so.fourcc = o.camera_format == "yuyv" ? "YUYV" : o.camera_format == "mjpg" ? "MJPG" : "";
   auto src = ar::FrameSource::open(o.camera, so);
   if (!src) {
     const bool is_cam = o.camera.rfind("camera:", 0) == 0 || o.camera.rfind("/dev/video", 0) == 0;

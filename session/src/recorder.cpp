@@ -7,6 +7,7 @@
 #include <ctime>
 #include <iomanip>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <vector>
 
@@ -84,8 +85,11 @@ std::string Recorder::write_image(const fs::path& frames_dir, std::int64_t index
   const uchar* data = encoded.data;
   std::size_t n = encoded.total() * encoded.elemSize();
   if (encoded.empty()) {
-    const bool ok = ext == ".ppm" ? cv::imencode(ext, raw, buf, {cv::IMWRITE_PXM_BINARY, 1})
-                                  : cv::imencode(ext, raw, buf, {cv::IMWRITE_PNG_COMPRESSION, 1});
+    // The camera's own YUYV (issue 28) becomes BGR here, on the writer thread, not the frame thread's.
+    cv::Mat img = raw;
+    if (raw.type() == CV_8UC2) cv::cvtColor(raw, img, cv::COLOR_YUV2BGR_YUYV);
+    const bool ok = ext == ".ppm" ? cv::imencode(ext, img, buf, {cv::IMWRITE_PXM_BINARY, 1})
+                                  : cv::imencode(ext, img, buf, {cv::IMWRITE_PNG_COMPRESSION, 1});
     if (!ok) return {};
     data = buf.data();
     n = buf.size();

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -230,26 +232,44 @@ class FolderSource final : public FrameSource {
 // ---- live camera (or a file standing in for one) ----
 class LiveSource final : public FrameSource {
  public:
-  LiveSource(std::unique_ptr<cv::VideoCapture> cap, std::string desc, double fps, bool pace)
-      : cap_(std::move(cap)), desc_(std::move(desc)), fps_(fps), pace_(pace) {}
+  LiveSource(std::unique_ptr<cv::VideoCapture> cap, std::string desc, double fps, bool pace,
+             FrameSourceOptions options)
+      : cap_(std::move(cap)), desc_(std::move(desc)), fps_(fps), pace_(pace), options_(std::move(options)) {}
 
   Status start() {
-    // Motion JPEG: keep the camera's own bytes (see frame_source.h). The raw
-    // mode is a backend property; if the first frame is not JPEG after all,
-    // go back to the backend's decoding.
-    const int fcc = static_cast<int>(cap_->get(cv::CAP_PROP_FOURCC));
-    if (fcc == cv::VideoWriter::fourcc('M', 'J', 'P', 'G')) {
-      const std::string backend = cap_->getBackendName();
-      if (backend == "FFMPEG")
-        raw_jpeg_ = cap_->set(cv::CAP_PROP_FORMAT, -1);
-      else if (backend == "V4L2")
-        raw_jpeg_ = cap_->set(cv::CAP_PROP_CONVERT_RGB, 0);
+    // The format the camera (or the stand-in's file) delivers, against what was
+    // asked (frame_source.h). Motion JPEG: keep the camera's own bytes; YUYV with
+    // pixel_format "native": keep the camera's own pixels. Both are raw modes of
+    // the backend; if the first frame is not what the driver announced, JPEG goes
+    // back to the backend's decoding and YUYV is an error naming what came.
+    const std::string backend = cap_->getBackendName();
+    int delivered = static_cast<int>(cap_->get(cv::CAP_PROP_FOURCC));
+    if (backend == "FFMPEG" && delivered != cv::VideoWriter::fourcc('M', 'J', 'P', 'G')) {
+      // A stand-in's raw frames: the codec's pixel format says what the bytes are.
+      const int pix = static_cast<int>(cap_->get(cv::CAP_PROP_CODEC_PIXEL_FORMAT));
+      if (pix == cv::VideoWriter::fourcc('Y', 'U', 'Y', '2')) delivered = pix;
+    }
+    auto choice = negotiate_format(options_.fourcc, delivered, options_.pixel_format, desc_);
+    if (!choice) return Error{choice.error()};
+    const auto raw_mode = [&] {
+      if (backend == "FFMPEG") return cap_->set(cv::CAP_PROP_FORMAT, -1);
+      if (backend == "V4L2") return cap_->set(cv::CAP_PROP_CONVERT_RGB, 0);
+      return false;
+    };
+    if (choice->jpeg) raw_jpeg_ = raw_mode();
+    if (choice->yuyv) {
+      yuyv_w_ = static_cast<int>(cap_->get(cv::CAP_PROP_FRAME_WIDTH));
+      yuyv_h_ = static_cast<int>(cap_->get(cv::CAP_PROP_FRAME_HEIGHT));
+      if (yuyv_w_ <= 0 || yuyv_h_ <= 0 || yuyv_w_ % 2 != 0)
+        return Error{desc_ + ": delivers YUYV frames of " + size_str(yuyv_w_, yuyv_h_) +
+                     " (YUYV needs a positive, even width): ask the camera for another mode (--width/--height)"};
+      raw_yuyv_ = raw_mode();  // a backend without a raw mode converts to BGR, as before
     }
     t0_ = Clock::now();
     cv::Mat first;
-    if (!grab_retrieve(first) && raw_jpeg_ && !not_jpeg_.empty()) {
+    if (!grab_retrieve(first) && !bad_format_.empty()) return Error{desc_ + ": " + bad_format_};
+    if (first.empty() && raw_jpeg_ && !not_jpeg_.empty()) {
       // The backend accepted raw mode but does not deliver JPEG bytes.
-      const std::string backend = cap_->getBackendName();
       const bool back = backend == "FFMPEG" ? cap_->set(cv::CAP_PROP_FORMAT, 0)
                                             : cap_->set(cv::CAP_PROP_CONVERT_RGB, 1);
       raw_jpeg_ = false;
@@ -258,7 +278,8 @@ class LiveSource final : public FrameSource {
       if (!grab_retrieve(first)) first.release();
     }
     if (first.empty())
-      return Error{desc_ + ": opened, but delivers no frame (device busy or unsupported mode?)"};
+      return Error{desc_ + ": opened, but delivers no frame (device busy or unsupported mode? it announces " +
+                   fourcc_name(delivered) + "; ask for YUYV or MJPG with --camera-format)"};
     width_ = first.cols;
     height_ = first.rows;
     first_ = first;
@@ -299,12 +320,16 @@ class LiveSource final : public FrameSource {
       }
       if (!grab_retrieve(img)) {
         dropped_ += dropped;
+        if (!bad_format_.empty()) return Error{desc_ + ": frame " + std::to_string(index_) + ": " + bad_format_};
         return false;
       }
       t = static_cast<double>(file_pos_) / fps_;
       ++file_pos_;
     } else {
-      if (!grab_retrieve(img)) return false;  // camera stopped
+      if (!grab_retrieve(img)) {
+        if (!bad_format_.empty()) return Error{desc_ + ": frame " + std::to_string(index_) + ": " + bad_format_};
+        return false;  // camera stopped
+      }
       t = since_open();
       // A gap of more than 1.5 periods: the driver dropped frames.
       const double gap = t - last_time_, period = 1.0 / fps_;
@@ -333,7 +358,8 @@ class LiveSource final : public FrameSource {
   std::int64_t frame_count() const override { return -1; }
   std::int64_t dropped_total() const override { return dropped_; }
   std::string description() const override {
-    return desc_ + " (" + size_str(width_, height_) + ", " + fps_str(fps_) + " fps, live)";
+    return desc_ + " (" + size_str(width_, height_) + ", " + fps_str(fps_) + " fps, live" +
+           (raw_yuyv_ ? ", YUYV as the camera sent it" : raw_jpeg_ ? ", MJPG" : "") + ")";
   }
 
  private:
@@ -346,6 +372,7 @@ class LiveSource final : public FrameSource {
     cv::Mat m;
     for (int tries = 0;; ++tries) {
       if (!cap_->read(m) || m.empty()) return false;
+      if (raw_yuyv_) return take_yuyv(m, out);
       if (!raw_jpeg_) break;
       if (m.rows != 1 || m.type() != CV_8UC1 || m.total() < 4 || m.data[0] != 0xFF || m.data[1] != 0xD8) {
         not_jpeg_ = "raw frames are not JPEG (" + size_str(m.cols, m.rows) + ", type " + std::to_string(m.type()) + ")";
@@ -361,10 +388,34 @@ class LiveSource final : public FrameSource {
     out = to_bgr(m);
     return out.type() == CV_8UC3;
   }
+  // The camera's own YUYV bytes as one frame (CV_8UC2, W x H, owned: the backend
+  // reuses its buffer). The backend hands them as the frame or as one row of
+  // bytes; anything of another size is a bad frame (bad_format_ says which).
+  bool take_yuyv(const cv::Mat& m, cv::Mat& out) {
+    const std::size_t need = static_cast<std::size_t>(yuyv_w_) * static_cast<std::size_t>(yuyv_h_) * 2;
+    if (m.type() == CV_8UC2 && m.cols == yuyv_w_ && m.rows == yuyv_h_) {
+      out = m.clone();
+      return true;
+    }
+    if (m.type() == CV_8UC1 && m.isContinuous() && m.total() == need) {
+      out = m.reshape(2, yuyv_h_).clone();
+      return true;
+    }
+    bad_format_ = "announced YUYV " + size_str(yuyv_w_, yuyv_h_) + " (" + std::to_string(need) +
+                  " bytes a frame) but delivered " + std::to_string(m.total() * m.elemSize()) + " bytes (" +
+                  size_str(m.cols, m.rows) + ", type " + cv::typeToString(m.type()) +
+                  "): the driver does not send what it announces; try --camera-format bgr (the backend's "
+                  "conversion) or another mode";
+    return false;
+  }
   std::unique_ptr<cv::VideoCapture> cap_;
   std::string desc_;
   double fps_ = 30;
   bool pace_ = false;
+  FrameSourceOptions options_;
+  bool raw_yuyv_ = false;  // handing on the camera's own YUYV (see start())
+  int yuyv_w_ = 0, yuyv_h_ = 0;
+  std::string bad_format_;  // why the last raw frame was refused
   Clock::time_point t0_;
   cv::Mat first_, first_encoded_, encoded_;
   bool raw_jpeg_ = false;  // reading the camera's JPEG bytes (see start())
@@ -392,15 +443,134 @@ std::string FrameSourceOptions::validate() const {
     os << "fps = " << fps << " must be in [0, 1000] (0 = the camera's default)";
   else if (!std::isfinite(folder_fps) || folder_fps <= 0 || folder_fps > 1000)
     os << "folder_fps = " << folder_fps << " must be in (0, 1000]";
+  else if (pixel_format != "bgr" && pixel_format != "native")
+    os << "pixel_format = \"" << pixel_format << "\" must be \"bgr\" or \"native\" (the camera's own YUYV)";
+  else if (!fourcc.empty() && fourcc != "YUYV" && fourcc != "MJPG")
+    os << "fourcc = \"" << fourcc << "\" must be empty (the driver's choice), \"YUYV\" or \"MJPG\"";
   return os.str();
+}
+
+std::string fourcc_name(int fourcc) {
+  if (fourcc == 0) return "none";
+  std::string s;
+  for (int i = 0; i < 4; ++i) {
+    const char c = static_cast<char>((fourcc >> (8 * i)) & 0xff);
+    if (c < 32 || c > 126) {
+      std::ostringstream os;
+      os << "0x" << std::hex << static_cast<unsigned>(fourcc);
+      return os.str();
+    }
+    s += c;
+  }
+  return s;
+}
+
+Result<FormatChoice> negotiate_format(const std::string& requested, int delivered, const std::string& pixel_format,
+                                      const std::string& what) {
+  const int yuyv = cv::VideoWriter::fourcc('Y', 'U', 'Y', 'V'), yuy2 = cv::VideoWriter::fourcc('Y', 'U', 'Y', '2');
+  const int mjpg = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+  const bool is_yuyv = delivered == yuyv || delivered == yuy2;  // YUY2: the same bytes (Windows' name)
+  const bool is_mjpg = delivered == mjpg;
+  if (!requested.empty()) {
+    const bool ok = (requested == "YUYV" && is_yuyv) || (requested == "MJPG" && is_mjpg);
+    if (!ok)
+      return Error{what + ": asked for " + requested + " but it delivers " + fourcc_name(delivered) +
+                   " (the driver chose another format): list the camera's formats with `v4l2-ctl "
+                   "--list-formats-ext` and ask for one it has, or leave the format to the driver"};
+  }
+  FormatChoice c;
+  c.jpeg = is_mjpg;
+  c.yuyv = is_yuyv && pixel_format == "native";
+  return c;
+}
+
+cv::Mat frame_bgr(const cv::Mat& image) {
+  if (image.empty() || image.type() == CV_8UC3) return image;
+  cv::Mat out;
+  if (image.type() == CV_8UC2)
+    cv::cvtColor(image, out, cv::COLOR_YUV2BGR_YUYV);
+  else
+    out = to_bgr(image);
+  return out;
+}
+
+Status write_yuyv_avi(const std::string& path, const std::vector<cv::Mat>& frames, double fps) {
+  if (frames.empty()) return Error{path + ": no frames to write"};
+  std::size_t k = 0;
+  return write_yuyv_avi(
+      path,
+      [&](cv::Mat& f) {
+        if (k >= frames.size()) return false;
+        f = frames[k++];
+        return true;
+      },
+      fps);
+}
+
+Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&)>& next, double fps) {
+  if (!std::isfinite(fps) || fps <= 0 || fps > 1000) return Error{path + ": fps must be in (0, 1000]"};
+  cv::Mat f;
+  if (!next(f) || f.empty()) return Error{path + ": no frames to write"};
+  const int W = f.cols, H = f.rows;
+  const std::uint64_t frame_bytes = static_cast<std::uint64_t>(W) * H * 2;
+  const std::uint64_t hdrl = 4 + (8 + 56) + 8 + 4 + (8 + 56) + (8 + 40);
+  std::ofstream o(path, std::ios::binary);
+  if (!o) return Error{path + ": cannot create the file"};
+  const auto u32 = [&](std::uint64_t v) {
+    const std::uint32_t x = static_cast<std::uint32_t>(v);
+    const char b[4] = {char(x & 0xff), char((x >> 8) & 0xff), char((x >> 16) & 0xff), char((x >> 24) & 0xff)};
+    o.write(b, 4);
+  };
+  const auto u16 = [&](int v) {
+    const char b[2] = {char(v & 0xff), char((v >> 8) & 0xff)};
+    o.write(b, 2);
+  };
+  const auto tag = [&](const char* t) { o.write(t, 4); };
+  // The header with the counts left 0; patched once the frames are known (offsets below).
+  tag("RIFF"), u32(0), tag("AVI ");
+  tag("LIST"), u32(hdrl), tag("hdrl");
+  tag("avih"), u32(56);
+  u32(static_cast<std::uint32_t>(std::lround(1e6 / fps))), u32(static_cast<std::uint64_t>(frame_bytes * fps)), u32(0);
+  u32(0x10), u32(0) /* 48: frames */, u32(0), u32(1), u32(frame_bytes), u32(W), u32(H), u32(0), u32(0), u32(0), u32(0);
+  tag("LIST"), u32(4 + (8 + 56) + (8 + 40)), tag("strl");
+  tag("strh"), u32(56), tag("vids"), tag("YUY2"), u32(0), u16(0), u16(0), u32(0);
+  u32(1000), u32(static_cast<std::uint32_t>(std::lround(fps * 1000))), u32(0), u32(0) /* 140: length */,
+      u32(frame_bytes);
+  u32(0xFFFFFFFFu), u32(0), u16(0), u16(0), u16(W), u16(H);
+  tag("strf"), u32(40), u32(40), u32(W), u32(H), u16(1), u16(16), tag("YUY2"), u32(frame_bytes);
+  u32(0), u32(0), u32(0), u32(0);
+  tag("LIST"), u32(0) /* 216: movi size */, tag("movi");
+  std::uint32_t n = 0;
+  do {
+    if (f.type() != CV_8UC2 || f.cols != W || f.rows != H || W % 2 != 0)
+      return Error{path + ": frame " + std::to_string(n) + " is not YUYV (CV_8UC2) of " + size_str(W, H) +
+                   " with an even width"};
+    if (12 + 8 + hdrl + 12 + (n + 1) * (8 + frame_bytes) + 8 + 16 * (n + 1) >= 0xFFFFFFF0ull)
+      return Error{path + ": more than 4 GB of frames (one AVI 1.0 file): write fewer frames"};
+    tag("00db"), u32(frame_bytes);
+    for (int y = 0; y < H; ++y) o.write(reinterpret_cast<const char*>(f.ptr(y)), static_cast<std::streamsize>(W) * 2);
+    ++n;
+  } while (next(f) && !f.empty());
+  const std::uint64_t movi = 4 + n * (8 + frame_bytes);
+  tag("idx1"), u32(16 * n);
+  for (std::uint32_t i = 0; i < n; ++i) tag("00db"), u32(0x10), u32(4 + i * (8 + frame_bytes)), u32(frame_bytes);
+  const std::uint64_t riff = 4 + (8 + hdrl) + (8 + movi) + 8 + 16 * n;
+  o.seekp(4), u32(riff);
+  o.seekp(48), u32(n);
+  o.seekp(140), u32(n);
+  o.seekp(216), u32(movi);
+  o.close();
+  if (!o) return Error{path + ": write failed (disk full?)"};
+  return {};
 }
 
 Result<std::unique_ptr<FrameSource>> FrameSource::open_live(
     std::unique_ptr<cv::VideoCapture> capture, const std::string& description, double fps,
-    bool pace) {
+    bool pace, const FrameSourceOptions& options) {
   if (!capture || !capture->isOpened()) return Error{description + ": capture is not open"};
+  if (auto e = options.validate(); !e.empty()) return Error{"FrameSourceOptions: " + e};
   if (!std::isfinite(fps) || fps <= 0 || fps > 1000) fps = 30;  // driver did not say
-  auto s = std::make_unique<LiveSource>(std::move(capture), description, fps, pace);
+  auto s = std::make_unique<LiveSource>(std::move(capture), description, fps, pace, options);
   if (Status st = s->start(); !st) return Error{st.error()};
   return std::unique_ptr<FrameSource>(std::move(s));
 }
@@ -431,11 +601,14 @@ Result<std::unique_ptr<FrameSource>> FrameSource::open(const std::string& spec,
     if (!cap->isOpened())
       return Error{spec + ": cannot open the camera through V4L2 (busy, no permission, or not "
                           "a capture device)"};
+    if (options.fourcc.size() == 4)  // before the size: the modes a format has differ
+      cap->set(cv::CAP_PROP_FOURCC, cv::VideoWriter::fourcc(options.fourcc[0], options.fourcc[1],
+                                                            options.fourcc[2], options.fourcc[3]));
     if (options.width > 0) cap->set(cv::CAP_PROP_FRAME_WIDTH, options.width);
     if (options.height > 0) cap->set(cv::CAP_PROP_FRAME_HEIGHT, options.height);
     if (options.fps > 0) cap->set(cv::CAP_PROP_FPS, options.fps);
     const double fps = cap->get(cv::CAP_PROP_FPS);
-    return open_live(std::move(cap), "camera " + spec, fps > 0 ? fps : options.fps, false);
+    return open_live(std::move(cap), "camera " + spec, fps > 0 ? fps : options.fps, false, options);
   }
 
   // A file standing in for a live camera.
@@ -446,7 +619,7 @@ Result<std::unique_ptr<FrameSource>> FrameSource::open(const std::string& spec,
     if (!cap->isOpened())
       return Error{path + ": cannot open as a video (corrupt, or a format FFmpeg does not know)"};
     const double fps = cap->get(cv::CAP_PROP_FPS);
-    return open_live(std::move(cap), "live stand-in " + path, fps, true);
+    return open_live(std::move(cap), "live stand-in " + path, fps, true, options);
   }
 
   std::error_code ec;

@@ -299,5 +299,160 @@ TEST(FrameSource, LiveReaderOnAStandInVideo) {
   EXPECT_NE(closed.error().find("not open"), std::string::npos);
 }
 
+
+// YUYV frames as a UVC camera sends them: random bytes are valid YUYV; the first
+// row's luma carries the frame's number.
+std::vector<cv::Mat> yuyv_frames(int n, int w = 160, int h = 120) {
+  std::vector<cv::Mat> v;
+  cv::RNG rng(28);
+  for (int k = 0; k < n; ++k) {
+    cv::Mat m(h, w, CV_8UC2);
+    rng.fill(m, cv::RNG::UNIFORM, 16, 236);
+    for (int x = 0; x < 8; ++x) m.at<cv::Vec2b>(0, x)[0] = static_cast<std::uint8_t>(20 + 10 * k);
+    v.push_back(m);
+  }
+  return v;
+}
+
+// The camera's own format through capture (issue 28): a YUYV stand-in (an AVI of
+// raw YUY2 frames, read as the camera would deliver them) hands on its bytes
+// unchanged with pixel_format "native", and BGR by default; frame_bgr of the
+// native frame is OpenCV's conversion of exactly those bytes.
+TEST(FrameSource, YuyvStandInKeepsTheCamerasOwnPixels) {
+  const fs::path dir = test::temp_dir("fs_yuyv");
+  const fs::path v = dir / "cam_yuyv.avi";
+  const auto frames = yuyv_frames(6);
+  ASSERT_TRUE(write_yuyv_avi(v.string(), frames, 30).ok());
+  FrameSourceOptions native;
+  native.pixel_format = "native";
+  auto s = FrameSource::open("live:" + v.string(), native);
+  ASSERT_TRUE(s.ok()) << s.error();
+  EXPECT_EQ((*s)->width(), 160);
+  EXPECT_EQ((*s)->height(), 120);
+  Frame f;
+  int got = 0, dropped = 0;
+  for (;;) {
+    auto r = (*s)->read(f);
+    ASSERT_TRUE(r.ok()) << r.error();
+    if (!*r) break;
+    ASSERT_EQ(f.image.type(), CV_8UC2) << "frame " << got;
+    ASSERT_EQ(f.image.size(), cv::Size(160, 120));
+    EXPECT_TRUE(f.encoded.empty());
+    const int k = (f.image.at<cv::Vec2b>(0, 0)[0] - 20) / 10;
+    ASSERT_GE(k, 0);
+    ASSERT_LT(k, 6);
+    EXPECT_EQ(cv::norm(f.image, frames[static_cast<std::size_t>(k)], cv::NORM_INF), 0.0) << "frame " << k;
+    cv::Mat want;
+    cv::cvtColor(frames[static_cast<std::size_t>(k)], want, cv::COLOR_YUV2BGR_YUYV);
+    EXPECT_EQ(cv::norm(frame_bgr(f.image), want, cv::NORM_INF), 0.0);
+    dropped += f.dropped_before;
+    ++got;
+  }
+  EXPECT_GE(got, 1);
+  EXPECT_EQ(got + dropped, 6);
+
+  // The default: BGR, FFmpeg's conversion of the same bytes (within rounding).
+  auto b = FrameSource::open("live:" + v.string());
+  ASSERT_TRUE(b.ok()) << b.error();
+  auto r = (*b)->read(f);
+  ASSERT_TRUE(r.ok() && *r);
+  ASSERT_EQ(f.image.type(), CV_8UC3);
+  cv::Mat want;
+  cv::cvtColor(frames[0], want, cv::COLOR_YUV2BGR_YUYV);
+  cv::Mat diff;
+  cv::absdiff(f.image, want, diff);
+  EXPECT_LE(cv::mean(diff)[0], 2.0);
+  EXPECT_EQ(frame_bgr(f.image).data, f.image.data);  // BGR: a header, no copy
+}
+
+// Format negotiation against the stand-ins: what was asked against what the
+// "driver" (the stand-in's file) delivers, refused with both named.
+TEST(FrameSource, FormatNegotiationAgainstTheStandIns) {
+  const fs::path dir = test::temp_dir("fs_negotiate");
+  const fs::path yuyv = dir / "cam_yuyv.avi", mjpg = dir / "cam_mjpg.avi";
+  ASSERT_TRUE(write_yuyv_avi(yuyv.string(), yuyv_frames(3), 30).ok());
+  {
+    cv::VideoWriter w(mjpg.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 30, {160, 120});
+    ASSERT_TRUE(w.isOpened());
+    for (int k = 0; k < 3; ++k) w.write(make_frame(k));
+  }
+  FrameSourceOptions o;
+  o.fourcc = "MJPG";
+  auto bad = FrameSource::open("live:" + yuyv.string(), o);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("asked for MJPG but it delivers YUY2"), std::string::npos) << bad.error();
+  EXPECT_NE(bad.error().find("v4l2-ctl --list-formats-ext"), std::string::npos) << bad.error();
+  o.fourcc = "YUYV";
+  bad = FrameSource::open("live:" + mjpg.string(), o);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("asked for YUYV but it delivers MJPG"), std::string::npos) << bad.error();
+  // Asked and delivered: YUYV kept (native), MJPG with its bytes.
+  o.pixel_format = "native";
+  auto good = FrameSource::open("live:" + yuyv.string(), o);
+  ASSERT_TRUE(good.ok()) << good.error();
+  Frame f;
+  ASSERT_TRUE((*good)->read(f).ok());
+  EXPECT_EQ(f.image.type(), CV_8UC2);
+  o.fourcc = "MJPG";
+  good = FrameSource::open("live:" + mjpg.string(), o);
+  ASSERT_TRUE(good.ok()) << good.error();
+  ASSERT_TRUE((*good)->read(f).ok());
+  EXPECT_EQ(f.image.type(), CV_8UC3);  // decoded: OpenCV gives no planar YUV
+  EXPECT_FALSE(f.encoded.empty());
+
+  // The rule itself (a V4L2 camera goes through the same function).
+  const int YUYV = cv::VideoWriter::fourcc('Y', 'U', 'Y', 'V'), MJPG = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+  const int NV12 = cv::VideoWriter::fourcc('N', 'V', '1', '2');
+  auto c = negotiate_format("", YUYV, "native", "cam");
+  ASSERT_TRUE(c.ok());
+  EXPECT_TRUE(c->yuyv);
+  EXPECT_FALSE(c->jpeg);
+  c = negotiate_format("", YUYV, "bgr", "cam");
+  ASSERT_TRUE(c.ok());
+  EXPECT_FALSE(c->yuyv);
+  c = negotiate_format("", NV12, "native", "cam");  // another format: the backend's BGR
+  ASSERT_TRUE(c.ok());
+  EXPECT_FALSE(c->yuyv || c->jpeg);
+  c = negotiate_format("MJPG", MJPG, "native", "cam");
+  ASSERT_TRUE(c.ok());
+  EXPECT_TRUE(c->jpeg);
+  c = negotiate_format("YUYV", NV12, "native", "camera /dev/video2");
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.error().find("camera /dev/video2: asked for YUYV but it delivers NV12"), std::string::npos) << c.error();
+  EXPECT_EQ(fourcc_name(0), "none");
+  EXPECT_EQ(fourcc_name(0x01020304), "0x1020304");
+  // Options.
+  FrameSourceOptions v;
+  v.pixel_format = "yuv";
+  EXPECT_NE(v.validate().find("pixel_format = \"yuv\""), std::string::npos);
+  v = {};
+  v.fourcc = "H264";
+  EXPECT_NE(v.validate().find("fourcc = \"H264\""), std::string::npos);
+  EXPECT_FALSE(write_yuyv_avi((dir / "x.avi").string(), {cv::Mat(4, 3, CV_8UC2)}, 30).ok());  // odd width
+}
+
+// A camera whose frames are not what it announces: a clear error naming the
+// sizes, never a garbled image (the stand-in's header says 162 px wide, its
+// frames hold 160).
+TEST(FrameSource, YuyvFramesOfAnotherSizeAreRefused) {
+  const fs::path dir = test::temp_dir("fs_badyuyv");
+  const fs::path v = dir / "bad.avi";
+  ASSERT_TRUE(write_yuyv_avi(v.string(), yuyv_frames(3), 30).ok());
+  {
+    std::fstream io(v, std::ios::in | std::ios::out | std::ios::binary);
+    // BITMAPINFOHEADER biWidth: RIFF 12 + LIST hdrl 12 + avih 64 + LIST strl 12 + strh 64 + strf 8 + biSize 4.
+    io.seekp(176);
+    const char w[4] = {char(162), 0, 0, 0};
+    io.write(w, 4);
+  }
+  FrameSourceOptions native;
+  native.pixel_format = "native";
+  auto s = FrameSource::open("live:" + v.string(), native);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().find("announced YUYV 162x120 (38880 bytes a frame) but delivered 38400 bytes"),
+            std::string::npos)
+      << s.error();
+}
+
 }  // namespace
 }  // namespace dentar::ar

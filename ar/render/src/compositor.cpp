@@ -293,6 +293,29 @@ void main() {
 }
 )";
 
+// The camera's own YUYV 4:2:2 (issue 28) into the video texture: the frame is
+// uploaded as it came (2 bytes a pixel, one RGBA8 texel = Y0 U Y1 V of two
+// pixels) and converted here, in OpenCV's integer arithmetic for
+// COLOR_YUV2RGB_YUYV (BT.601, luma 16..235, 20-bit fixed point), so the GPU
+// path's video equals the CPU path's conversion.
+constexpr const char* kYuyvFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D u_yuyv;
+out vec4 o_rgba;
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  ivec4 t = ivec4(texelFetch(u_yuyv, ivec2(p.x >> 1, p.y), 0) * 255.0 + 0.5);
+  int y = max(((p.x & 1) == 0 ? t.r : t.b) - 16, 0) * 1220542;
+  int u = t.g - 128, v = t.a - 128;
+  int r = (y + 524288 + 1673527 * v) >> 20;
+  int g = (y + 524288 - 852492 * v - 409993 * u) >> 20;
+  int b = (y + 524288 + 2116026 * u) >> 20;
+  o_rgba = vec4(vec3(clamp(ivec3(r, g, b), 0, 255)) / 255.0, 1.0);
+}
+)";
+
 // The composite inside the overlay's rectangle (the viewport): the video
 // with the overlay (premultiplied) over it, its opacity times
 // (1 - foreground), the foreground feathered vertically here and quantised
@@ -585,6 +608,14 @@ struct GpuPath {
   int W = 0, H = 0;
   Texture map, r_color, r_tooth, r_albedo, fg, fgh, colsum, model[2];
   cv::Mat rgba;  // the frame converted for the upload, reused
+  Texture yuyv;        // a YUYV frame as it came (W/2 x H RGBA8), made on its first use
+  Program yuyv_p;      // kYuyvFragment
+  // YUYV converted by the shader (2 bytes a pixel uploaded), or on the CPU straight into the
+  // RGBA upload (one pass): the shader on a GPU, the CPU on a software rasteriser, where the
+  // shader's pass over every pixel measured slower (docs/BENCHMARKS.md, issue 28 session 17).
+  // DENTAR_YUYV_GL=shader|cpu overrides (tests, benches).
+  bool yuyv_shader = false;
+  std::unordered_map<GLuint, Framebuffer> video_fbs;  // video texture -> its framebuffer (YUYV pass)
   Framebuffer fb_resample, fb_fg, fb_fgh, fb_colsum, fb_model[2];
   Program resample, classify, feather, colsum_p, model_p, blend;
   int cur_model = 0;
@@ -1049,9 +1080,11 @@ static std::string check_video(const Compositor::Impl& im, const CompositeInput&
   const int W = im.camera.width, H = im.camera.height;
   if (in.video_bgr == nullptr || in.video_bgr->empty())
     return std::string("compose: the video frame is empty (a decoding error or the end of the footage)");
-  if (in.video_bgr->type() != CV_8UC3)
-    return std::string("compose: the video frame must be 8-bit BGR (CV_8UC3); got type " +
-                 std::to_string(in.video_bgr->type()));
+  if (in.video_bgr->type() != CV_8UC3 && in.video_bgr->type() != CV_8UC2)
+    return std::string("compose: the video frame must be 8-bit BGR (CV_8UC3) or the camera's YUYV (CV_8UC2); got " +
+                       cv::typeToString(in.video_bgr->type()));
+  if (in.video_bgr->type() == CV_8UC2 && in.video_bgr->cols % 2 != 0)
+    return std::string("compose: a YUYV frame must have an even width; got " + std::to_string(in.video_bgr->cols));
   if (in.video_bgr->cols != W || in.video_bgr->rows != H)
     return std::string("compose: the video frame is " + std::to_string(in.video_bgr->cols) + "x" +
                  std::to_string(in.video_bgr->rows) + " but the station camera is " +
@@ -1316,7 +1349,12 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
   im.sync(surface);
   out.timing.sync_ms = ms_since(t0);
 
-  in.video_bgr->copyTo(out.image);
+  // The output starts as the video: the camera's own YUYV is converted here, once
+  // (the copy the CPU path makes anyway), never before.
+  if (in.video_bgr->type() == CV_8UC2)
+    cv::cvtColor(*in.video_bgr, out.image, cv::COLOR_YUV2BGR_YUYV);
+  else
+    in.video_bgr->copyTo(out.image);
   out.tooth_visible = cv::Mat::zeros(H, W, CV_8UC1);
   if (!in.man_valid) {
     out.timing.total_ms = ms_since(t_start);
@@ -1371,7 +1409,7 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
 
     // ---- unknown foreground in the tooth's region ----
     t0 = Clock::now();
-    const cv::Mat video = (*in.video_bgr)(roi);
+    const cv::Mat video = out.image(roi);  // the video (BGR): the blend below writes into it after this
     cv::Mat tooth_cov;
     cv::extractChannel(ot, tooth_cov, 0);
     bool have_fg = false;
@@ -1453,7 +1491,8 @@ std::string Compositor::gpu_path_error() {
                {&g.feather, kFeatherFragment, "GPU compositing (feather)"},
                {&g.colsum_p, kColumnSumFragment, "GPU compositing (column sums)"},
                {&g.model_p, kModelFragment, "GPU compositing (model update)"},
-               {&g.blend, kBlendFragment, "GPU compositing (blend)"}};
+               {&g.blend, kBlendFragment, "GPU compositing (blend)"},
+               {&g.yuyv_p, kYuyvFragment, "GPU compositing (YUYV video)"}};
   const std::string post_vertex = full_screen_triangle_vertex_shader();
   for (auto& pr : progs) {
     auto r = link_program(post_vertex, pr.fs, pr.name);
@@ -1462,6 +1501,13 @@ std::string Compositor::gpu_path_error() {
       return g.error;
     }
     *pr.p = std::move(r).value();
+  }
+  {
+    const auto* r = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+    const std::string renderer = r != nullptr ? r : "";
+    g.yuyv_shader = renderer.find("llvmpipe") == std::string::npos && renderer.find("softpipe") == std::string::npos &&
+                    renderer.find("SWR") == std::string::npos;
+    if (const char* e = std::getenv("DENTAR_YUYV_GL"); e != nullptr && *e != '\0') g.yuyv_shader = std::string(e) == "shader";
   }
   // Output -> canvas positions (the CPU path's map before fixed-point conversion).
   std::vector<float> map(static_cast<std::size_t>(W) * H * 2);
@@ -1529,10 +1575,28 @@ Status Compositor::compose_gl(const volume::Surface& surface, const CompositeInp
   // the frame was measured slower than the whole CPU path).
   t0 = Clock::now();
   const GLuint video_tex = target.video_texture;
-  cv::cvtColor(*in.video_bgr, g.rgba, cv::COLOR_BGR2RGBA);
-  glBindTexture(GL_TEXTURE_2D, video_tex);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, g.rgba.data);
+  const bool yuyv = in.video_bgr->type() == CV_8UC2;
+  if (yuyv && !g.yuyv_shader) {
+    // One conversion, straight into the upload's layout (the BGR path's decode and
+    // its BGR-to-RGBA pass in one).
+    cv::cvtColor(*in.video_bgr, g.rgba, cv::COLOR_YUV2RGBA_YUYV);
+    glBindTexture(GL_TEXTURE_2D, video_tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, g.rgba.data);
+  } else if (yuyv) {
+    // The camera's own YUYV as it came (half the bytes, no CPU conversion); the
+    // shader pass below converts it into the video texture.
+    if (g.yuyv.id() == 0) g.yuyv = make_texture_2d(GL_RGBA8, W / 2, H);
+    const cv::Mat src = in.video_bgr->isContinuous() ? *in.video_bgr : in.video_bgr->clone();
+    glBindTexture(GL_TEXTURE_2D, g.yuyv.id());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W / 2, H, GL_RGBA, GL_UNSIGNED_BYTE, src.data);
+  } else {
+    cv::cvtColor(*in.video_bgr, g.rgba, cv::COLOR_BGR2RGBA);
+    glBindTexture(GL_TEXTURE_2D, video_tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, g.rgba.data);
+  }
   glBindTexture(GL_TEXTURE_2D, 0);
   out.timing.upload_ms = ms_since(t0);
 
@@ -1552,6 +1616,21 @@ Status Compositor::compose_gl(const volume::Surface& surface, const CompositeInp
   glDisable(GL_BLEND);
   glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
   glBindVertexArray(im.empty_vao.id());
+  if (yuyv && g.yuyv_shader) {
+    // 0. The YUYV frame into the video texture (every pixel: the window shows it).
+    auto fb = g.video_fbs.find(video_tex);
+    if (fb == g.video_fbs.end()) {
+      Framebuffer f;
+      if (std::string e = make_fb(f, {video_tex}, "video (YUYV)"); !e.empty()) return Error{"compose_gl: " + e};
+      fb = g.video_fbs.emplace(video_tex, std::move(f)).first;
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, fb->second.id());
+    glDrawBuffers(1, kAtt);
+    glViewport(0, 0, W, H);
+    glUseProgram(g.yuyv_p.id());
+    bind_tex(0, g.yuyv.id(), uloc(g.yuyv_p, "u_yuyv"));
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+  }
   const GLint r4[4] = {roi.x, roi.y, roi.x + roi.width, roi.y + roi.height};
   // Feathering: cv::GaussianBlur's kernel for 8-bit images (size
   // round(6 sigma + 1) | 1), applied as two 1-D passes.

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dentar/ar/compositor.h"
+#include "dentar/ar/frame_gray.h"
 #include "dentar/ar/gl_objects.h"
 #include "dentar/ar/synth.h"
 #include "composite_test_util.h"
@@ -153,6 +154,83 @@ TEST(CompositorGpuGl, MatchesTheCpuCompositeWithoutReadback) {
   EXPECT_NEAR(mg.y(), mc.y(), 1e-4);
   const Eigen::Vector2d seed(0.66 / 0.86, 0.55 / 0.86);
   EXPECT_GT((mc - seed).norm(), 0.01) << "the finger should have moved the model off its seed";
+}
+
+// Issue 28: the camera's own YUYV through both paths. The CPU path converts it once
+// into its output: the same composite as the BGR path given OpenCV's conversion of
+// the same bytes, and outside the overlay the camera's own pixels. The GPU path
+// uploads YUYV as it came and converts in a shader: its video is OpenCV's
+// conversion exactly, its composite the CPU path's within the GPU path's 2 levels.
+TEST(CompositorGpuGl, CameraYuyvGivesTheBgrPathsComposite) {
+  DENTAR_GL_TEST_CONTEXT();
+  const ToothFootage fo = footage_with_finger(3);
+  ASSERT_EQ(fo.error, "");
+  auto from_bgr = Compositor::create(fo.station);
+  auto from_yuyv = Compositor::create(fo.station);
+  auto gpu = Compositor::create(fo.station);
+  auto gpu_shader = Compositor::create(fo.station);
+  ASSERT_TRUE(from_bgr.ok() && from_yuyv.ok() && gpu.ok() && gpu_shader.ok());
+  // Both ways of the GPU path: YUYV converted on the CPU into the upload (llvmpipe's default)
+  // and in the shader (a GPU's); chosen when the path is set up.
+  ::setenv("DENTAR_YUYV_GL", "cpu", 1);
+  ASSERT_EQ(gpu->gpu_path_error(), "");
+  ::setenv("DENTAR_YUYV_GL", "shader", 1);
+  ASSERT_EQ(gpu_shader->gpu_path_error(), "");
+  ::unsetenv("DENTAR_YUYV_GL");
+  const Targets target = Targets::make(fo.station.calibration.camera);
+  const volume::Surface& tooth = *fo.tooth->surface;
+  int overlays = 0;
+  for (const auto& f : fo.frames) {
+    cv::Mat yuyv, bgr;
+    bgr_to_yuyv(f.image, yuyv);  // what a UVC camera sends for this scene
+    cv::cvtColor(yuyv, bgr, cv::COLOR_YUV2BGR_YUYV);  // the whole-frame BGR path's input
+    CompositeInput ib = truth_input(f), iy = truth_input(f);
+    ib.video_bgr = &bgr;
+    iy.video_bgr = &yuyv;
+    CompositeResult rb, ry, rg;
+    ASSERT_TRUE(from_bgr->compose(tooth, ib, rb).ok());
+    const Status sy = from_yuyv->compose(tooth, iy, ry);
+    ASSERT_TRUE(sy.ok()) << sy.error();
+    for (int way = 0; way < 2; ++way) {
+      Compositor& gc = way == 0 ? *gpu : *gpu_shader;
+      const Status sg = gc.compose_gl(tooth, iy, target.t, rg);
+      ASSERT_TRUE(sg.ok()) << sg.error();
+      ASSERT_EQ(ry.region, rb.region);
+      EXPECT_EQ(rg.region, rb.region);
+      if (rb.overlay_drawn) ++overlays;
+      cv::Mat outside = cv::Mat::ones(bgr.rows, bgr.cols, CV_8UC1);
+      if (!rb.region.empty()) outside(rb.region).setTo(0);
+      // CPU: the same pixels everywhere; outside the overlay the camera's own.
+      EXPECT_EQ(cv::norm(ry.image, rb.image, cv::NORM_INF), 0.0) << "frame " << f.truth.frame;
+      EXPECT_EQ(cv::norm(ry.tooth_visible, rb.tooth_visible, cv::NORM_INF), 0.0);
+      cv::Mat d;
+      cv::absdiff(ry.image, bgr, d);
+      cv::cvtColor(d, d, cv::COLOR_BGR2GRAY);
+      EXPECT_EQ(cv::countNonZero(d & outside), 0) << "frame " << f.truth.frame;
+      if (rb.overlay_drawn) EXPECT_GT(cv::countNonZero(d), 0);  // the overlay was blended inside
+      // GPU: the shader's conversion is OpenCV's.
+      const cv::Mat video = target.video_bgr();
+      EXPECT_EQ(cv::norm(video, bgr, cv::NORM_INF), 0.0) << "frame " << f.truth.frame;
+      const cv::Mat g = target.composite(video, rg.region);
+      double maxd = 0;
+      cv::absdiff(g, rb.image, d);
+      cv::minMaxLoc(d.reshape(1), nullptr, &maxd);
+      const double mean_region = rb.region.empty() ? 0.0 : cv::mean(d(rb.region))[0];
+      std::printf("[ yuyv ] frame %d, %s: GPU vs BGR path max %.0f, mean over the region %.3f\n", f.truth.frame, way == 0 ? "CPU conversion" : "shader", maxd,
+                  mean_region);
+      EXPECT_LE(maxd, 2) << "frame " << f.truth.frame;
+      EXPECT_LT(mean_region, 0.05) << "frame " << f.truth.frame;
+    }
+  }
+  EXPECT_GE(overlays, 4);
+  // A YUYV frame of odd width is refused with its reason.
+  cv::Mat odd(fo.station.calibration.camera.height, fo.station.calibration.camera.width - 1, CV_8UC2, cv::Scalar(128, 128));
+  CompositeInput io = truth_input(fo.frames[0]);
+  io.video_bgr = &odd;
+  CompositeResult r;
+  const Status so = from_yuyv->compose(tooth, io, r);
+  ASSERT_FALSE(so.ok());
+  EXPECT_NE(so.error().find("even width"), std::string::npos) << so.error();
 }
 
 // Issue 27: the expert's translucent tool and the tooth tint look the same on the live

@@ -48,7 +48,8 @@ class HudWindow {
   std::vector<int> take_presses();
   void inject_key(int glfw_key);  // a scripted press (test and benchmark drivers)
   bool held(int glfw_key) const;
-  // Uploads a BGR frame of the video size (others are ignored with no effect);
+  // Uploads a BGR frame, or the camera's own YUYV (CV_8UC2, converted once into the
+  // texture's layout), of the video size (others are ignored with no effect);
   // the window shows it from now on.
   void set_video(const cv::Mat& bgr);
   // A stereo pair's right eye (BGR, the video size; set after set_video): the

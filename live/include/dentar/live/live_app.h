@@ -41,6 +41,10 @@ struct LiveOptions {
   std::string camera = "camera:0";  // FrameSource spec (camera:N, /dev/videoN, live:PATH)
   int width = 0, height = 0;        // camera mode request (0 = driver default)
   double fps = 0;
+  // The camera's format (issue 28): "auto" (the driver's; YUYV is carried as the camera sent
+  // it, converted only where used), "yuyv" / "mjpg" (asked of the camera; refused, naming what
+  // it gives, when it cannot), "bgr" (the whole-frame BGR path: the backend converts every frame).
+  std::string camera_format = "auto";
   // Stereo (issue 28): the station's rig ("stereo") tracks from both eyes (StereoTracker), the
   // window shows the left eye. camera_right: the right eye's camera (two cameras; `camera` is
   // the left), one size and rate as the left; side_by_side: `camera` delivers both eyes in one

@@ -24,6 +24,19 @@
 // (V4L2 without conversion, FFmpeg in raw packet mode), kept in
 // Frame::encoded and decoded with cv::imdecode (libjpeg); when the driver does
 // not hand out JPEG bytes, the source falls back to the backend's decoding.
+// The camera's own format (issue 28, FrameSourceOptions::pixel_format "native"):
+// a camera (or stand-in) that delivers YUYV 4:2:2 hands its frames on as they
+// came, Frame::image CV_8UC2 (Y0 U Y1 V, BT.601, luma 16..235), with no colour
+// conversion on the capture thread; who needs BGR converts what it uses
+// (frame_bgr below, the compositor, the window's upload). A V4L2 camera is read
+// with the backend's conversion off; a stand-in is an AVI of raw YUY2 frames
+// (write_yuyv_avi), read as FFmpeg's raw packets. Motion JPEG is decoded to BGR
+// as before (OpenCV's imdecode gives no planar YUV), its bytes kept in
+// Frame::encoded. Any other format goes through the backend's conversion to BGR.
+// FrameSourceOptions::fourcc asks a camera for a format: the driver's answer is
+// checked (negotiate_format), and a camera that cannot give it is an error naming
+// what it gives; a stand-in is held to the same rule (its file's format is what
+// its "driver" offers).
 // Dropped frames: camera/live: a gap between consecutive frames longer than
 // 1.5 frame periods counts round(gap / period) - 1 frames; files: a frame
 // that fails to decode is counted (dropped_before of the next good frame)
@@ -37,9 +50,11 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <string>
+#include <vector>
 
 #include "dentar/volume/result.h"
 
@@ -55,11 +70,20 @@ struct FrameSourceOptions {
   int width = 0, height = 0;
   double fps = 0;
   double folder_fps = 30;  // timestamps of image folders, Hz
+  // Live sources: "bgr" (default) hands on BGR frames whatever the camera sends;
+  // "native" keeps the camera's own YUYV (Frame::image CV_8UC2, see above).
+  std::string pixel_format = "bgr";
+  // Live sources: the format asked of the camera, "" (the driver's default),
+  // "YUYV" or "MJPG"; a camera that does not deliver it is refused (the error
+  // names what it delivers).
+  std::string fourcc;
   std::string validate() const;  // empty when valid, else names the field
 };
 
 struct Frame {
-  cv::Mat image;  // CV_8UC3 BGR (gray files are converted)
+  // CV_8UC3 BGR (gray files are converted); with pixel_format "native" and a
+  // YUYV camera, CV_8UC2 YUYV as the camera sent it (frame_bgr converts).
+  cv::Mat image;
   std::int64_t index = 0;  // 0, 1, ... in delivery order (drops not counted)
   double time_s = 0;       // capture time, s (see above)
   int dropped_before = 0;  // frames lost between the previous frame and this one
@@ -77,6 +101,33 @@ struct Frame {
 // steady_clock now, s since its epoch (the clock of Frame::steady_s).
 double steady_now_s();
 
+// A frame's image as BGR: the image itself (a header, no copy) when it is BGR,
+// else converted once (YUYV: OpenCV's COLOR_YUV2BGR_YUYV, BT.601 limited range;
+// grey: replicated). Empty for an empty image.
+cv::Mat frame_bgr(const cv::Mat& image);
+
+// What a live source carries for a camera format, decided from what was asked
+// and what the driver (or the stand-in's file) delivers.
+struct FormatChoice {
+  bool yuyv = false;  // hand on the camera's own YUYV bytes (CV_8UC2)
+  bool jpeg = false;  // read the Motion JPEG bytes and decode them (Frame::encoded)
+};
+// requested: FrameSourceOptions::fourcc ("" none); delivered: the driver's FOURCC
+// (0 unknown); pixel_format: FrameSourceOptions::pixel_format. Error when a format
+// was asked and another is delivered; its message names both and what to do.
+Result<FormatChoice> negotiate_format(const std::string& requested, int delivered, const std::string& pixel_format,
+                                      const std::string& what);
+// "YUYV", "MJPG", ... ("none" for 0, hex for unprintable codes).
+std::string fourcc_name(int fourcc);
+
+// A stand-in for a YUYV camera: an AVI of uncompressed YUY2 frames (every frame
+// CV_8UC2, one size, even width), which `live:PATH` reads as the camera would
+// deliver them. Error names the file when it cannot be written.
+Status write_yuyv_avi(const std::string& path, const std::vector<cv::Mat>& yuyv_frames, double fps);
+// The same, streamed: `next` fills the next frame and returns false after the last
+// (a long 1080p stand-in never sits in memory whole).
+Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&)>& next, double fps);
+
 class FrameSource {
  public:
   static Result<std::unique_ptr<FrameSource>> open(const std::string& spec,
@@ -86,7 +137,8 @@ class FrameSource {
   // (needed when the capture is a file; a camera paces itself).
   static Result<std::unique_ptr<FrameSource>> open_live(std::unique_ptr<cv::VideoCapture> capture,
                                                         const std::string& description,
-                                                        double fps, bool pace);
+                                                        double fps, bool pace,
+                                                        const FrameSourceOptions& options = {});
   virtual ~FrameSource();
   // Next frame into `out`; false at the end of a file (never for a live
   // camera unless it stops delivering). Errors name the source and frame.

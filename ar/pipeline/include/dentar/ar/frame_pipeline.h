@@ -124,7 +124,9 @@ class ToothMeshes {
 };
 
 struct FrameInput {
-  const cv::Mat* image = nullptr;  // CV_8UC3 BGR, the station camera's size, as captured
+  // CV_8UC3 BGR, or the camera's own YUYV (CV_8UC2, issue 28: tracked from its luma and
+  // converted only by the compositor), the station camera's size, as captured.
+  const cv::Mat* image = nullptr;
   // Stereo (PipelineOptions::stereo): `image` is the left eye, this the right eye (the rig's
   // camera_right size). An eye lost this frame is null or empty (StereoSource's single-eye
   // frames): the bodies are fitted to the other eye alone, and with the left eye lost the

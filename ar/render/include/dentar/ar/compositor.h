@@ -172,7 +172,12 @@ struct ExpertTool {
 };
 
 struct CompositeInput {
-  const cv::Mat* video_bgr = nullptr;  // CV_8UC3, camera size, as captured (distorted)
+  // Camera size, as captured (distorted): CV_8UC3 BGR, or CV_8UC2 YUYV 4:2:2 as the
+  // camera sent it (issue 28; even width). YUYV: compose() converts it once into
+  // out.image (the copy it makes of any frame; OpenCV's COLOR_YUV2BGR_YUYV), and
+  // compose_gl uploads it as it came (2 bytes a pixel) and converts in a shader
+  // with the same integer arithmetic.
+  const cv::Mat* video_bgr = nullptr;
   bool man_valid = false;              // false: tracking lost, no overlay at all
   Eigen::Isometry3d T_cam_man = Eigen::Isometry3d::Identity();
   bool mirror_valid = false;
