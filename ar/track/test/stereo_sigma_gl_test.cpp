@@ -12,11 +12,13 @@
 // over-statement.
 //
 // Default suite: StereoSigma.HeldOutClip (12 frames of a seed no figure was
-// tuned on). `long` (whole binary, StereoSigma.InOneProcess): three held-out
+// tuned on) and StereoSigma.BlurFitBeatsPerCornerFitOnTheSameFrames (session
+// 17: the blur model in the bundle fit against each corner alone, 8 frames). `long` (whole binary, StereoSigma.InOneProcess): three held-out
 // seeds of 60 frames. DENTAR_SIGMA_SEEDS=a,b,c and DENTAR_SIGMA_FRAMES=N
 // choose the long run's footage, DENTAR_SIGMA_SHAPE_WEIGHT=w sets
 // BundlePoseOptions::shape_weight for both paths (the measurement of that
-// option; the bounds are the default's); DENTAR_SIGMA_PARTS=seed prints each frame's
+// option; the bounds are the default's), DENTAR_SIGMA_BLUR=s sets
+// BundlePoseOptions::blur_stretch_sigma_px the same way; DENTAR_SIGMA_PARTS=seed prints each frame's
 // corner errors split into the tags' centres and shapes (not asserted).
 #include <gtest/gtest.h>
 
