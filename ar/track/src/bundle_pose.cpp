@@ -13,7 +13,6 @@ namespace dentar::ar {
 
 namespace {
 
-using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
 // One kept corner: its point in the body frame, its undistorted pixel and
@@ -22,7 +21,45 @@ struct Corner {
   Eigen::Vector3d p_body;
   Eigen::Vector2d uv_px;
   int view = 0;
+  // How the corner moves with its view's blur stretch S = (Sxx, Sxy, Syy)
+  // (BundlePoseOptions::blur_stretch_sigma_px): d uv / d S, from the
+  // observed quad (blur_jacobians).
+  Eigen::Matrix<double, 2, 3> blur = Eigen::Matrix<double, 2, 3>::Zero();
 };
+
+// The blur model of one observed quad (4 corners in libapriltag's order):
+// each edge moves along its outward normal n by n^T S n / 2, and a corner
+// goes where its two moved edges meet, n1 . d = a1, n2 . d = a2. Linear in
+// S, so each corner's d uv / d S is fixed by the observed quad. A corner
+// whose two edges are nearly parallel (a degenerate quad) does not move.
+void blur_jacobians(Corner* q) {
+  Eigen::Vector2d m = Eigen::Vector2d::Zero();
+  for (int k = 0; k < 4; ++k) m += q[k].uv_px / 4;
+  Eigen::Vector2d n[4];  // n[e]: outward normal of the edge from corner e to e + 1
+  for (int e = 0; e < 4; ++e) {
+    const Eigen::Vector2d a = q[e].uv_px, b = q[(e + 1) % 4].uv_px;
+    Eigen::Vector2d nn(b.y() - a.y(), a.x() - b.x());
+    const double len = nn.norm();
+    if (!(len > 1e-9)) {
+      for (int k = 0; k < 4; ++k) q[k].blur.setZero();
+      return;
+    }
+    nn /= len;
+    if (nn.dot((a + b) / 2 - m) < 0) nn = -nn;
+    n[e] = nn;
+  }
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d& n1 = n[(k + 3) % 4];
+    const Eigen::Vector2d& n2 = n[k];
+    Eigen::Matrix2d N;
+    N << n1.transpose(), n2.transpose();
+    Eigen::Matrix<double, 2, 3> A;
+    A << n1.x() * n1.x(), 2 * n1.x() * n1.y(), n1.y() * n1.y(), n2.x() * n2.x(), 2 * n2.x() * n2.y(),
+        n2.y() * n2.y();
+    q[k].blur = std::abs(N.determinant()) < 0.2 ? Eigen::Matrix<double, 2, 3>::Zero()
+                                                 : Eigen::Matrix<double, 2, 3>(N.inverse() * A / 2);
+  }
+}
 
 struct Pinhole {
   double fx, fy, cx, cy;
@@ -80,9 +117,9 @@ void weight_shapes(double s, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
     for (int k = 0; k < 4; ++k) c += r.segment<2>(t + 2 * k) / 4;
     for (int k = 0; k < 4; ++k) r.segment<2>(t + 2 * k) = c + s * (r.segment<2>(t + 2 * k) - c);
     if (J) {
-      Eigen::Matrix<double, 2, 6> cj = Eigen::Matrix<double, 2, 6>::Zero();
-      for (int k = 0; k < 4; ++k) cj += J->block<2, 6>(t + 2 * k, 0) / 4;
-      for (int k = 0; k < 4; ++k) J->block<2, 6>(t + 2 * k, 0) = cj + s * (J->block<2, 6>(t + 2 * k, 0) - cj);
+      Eigen::MatrixXd cj = Eigen::MatrixXd::Zero(2, J->cols());
+      for (int k = 0; k < 4; ++k) cj += J->middleRows(t + 2 * k, 2) / 4;
+      for (int k = 0; k < 4; ++k) J->middleRows(t + 2 * k, 2) = cj + s * (J->middleRows(t + 2 * k, 2) - cj);
     }
   }
 }
@@ -176,6 +213,8 @@ std::string BundlePoseOptions::validate() const {
     return "outlier_ratio = " + std::to_string(outlier_ratio) + " must be >= 1";
   if (!std::isfinite(shape_weight) || shape_weight <= 0 || shape_weight > 1)
     return "shape_weight = " + std::to_string(shape_weight) + " must be in (0, 1]";
+  if (!std::isfinite(blur_stretch_sigma_px) || blur_stretch_sigma_px < 0)
+    return "blur_stretch_sigma_px = " + std::to_string(blur_stretch_sigma_px) + " must be finite and >= 0 (0 = off)";
   return {};
 }
 
@@ -285,6 +324,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
       for (int c = 0; c < 4; ++c, ++u)
         corners.push_back(Corner{t->corner(c), Eigen::Vector2d(undistorted[u].x, undistorted[u].y),
                                  static_cast<int>(v)});
+      if (options.blur_stretch_sigma_px > 0) blur_jacobians(&corners[corners.size() - 4]);
       tags.push_back(Obs{t, static_cast<int>(v)});
     }
   }
@@ -353,18 +393,40 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
     }
   }
 
-  // Levenberg-Marquardt on all corners.
+  // Levenberg-Marquardt on all corners. The parameters: the pose's 6, then
+  // with the blur model each view's stretch S (3 each, in `blur`).
   Eigen::Isometry3d T = seeds[chosen];
   BundlePose out;
   out.seed_rms_px = seed_rms[chosen];
+  const bool blur_on = options.blur_stretch_sigma_px > 0;
+  const Eigen::Index np = blur_on ? 6 + 3 * static_cast<Eigen::Index>(views.size()) : 6;
+  const double blur_prior = blur_on ? 1.0 / (options.blur_stretch_sigma_px * options.blur_stretch_sigma_px) : 0.0;
+  Eigen::VectorXd blur = Eigen::VectorXd::Zero(np - 6);
   Eigen::MatrixXd J;
   Eigen::VectorXd w;
-  // The fit's residuals: with BundlePoseOptions::shape_weight, each tag's shape part weighted.
-  auto residuals = [&](const Eigen::Isometry3d& T_rig_body, const std::vector<Corner>& cs,
-                       const std::vector<ViewGeom>& vs, Eigen::VectorXd& rr, Eigen::MatrixXd* JJ) {
+  // The fit's residuals: with the blur model each corner moved by its view's
+  // stretch; with BundlePoseOptions::shape_weight, each tag's shape part weighted.
+  auto residuals_s = [&](const Eigen::Isometry3d& T_rig_body, const Eigen::VectorXd& S,
+                         const std::vector<Corner>& cs, const std::vector<ViewGeom>& vs, Eigen::VectorXd& rr,
+                         Eigen::MatrixXd* JJ) {
     if (!residuals_raw(T_rig_body, cs, vs, rr, JJ)) return false;
+    if (blur_on) {
+      if (JJ) {
+        JJ->conservativeResize(Eigen::NoChange, np);
+        JJ->rightCols(np - 6).setZero();
+      }
+      for (std::size_t i = 0; i < cs.size(); ++i) {
+        const Eigen::Index row = static_cast<Eigen::Index>(2 * i), col = 3 * cs[i].view;
+        rr.segment<2>(row) += cs[i].blur * S.segment<3>(col);
+        if (JJ) JJ->block<2, 3>(row, 6 + col) = cs[i].blur;
+      }
+    }
     weight_shapes(options.shape_weight, rr, JJ);
     return true;
+  };
+  auto residuals = [&](const Eigen::Isometry3d& T_rig_body, const std::vector<Corner>& cs,
+                       const std::vector<ViewGeom>& vs, Eigen::VectorXd& rr, Eigen::MatrixXd* JJ) {
+    return residuals_s(T_rig_body, blur, cs, vs, rr, JJ);
   };
   // Prior weight of each residual: 1, or its tag's view-angle weight
   // (BundlePoseOptions::view_weight_from_rad) at the pose T.
@@ -379,29 +441,42 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
       pw.segment<8>(static_cast<Eigen::Index>(8 * ti)).setConstant(f * f);
     }
   };
+  // The robust cost plus the stretch's prior.
+  auto cost_of = [&](const Eigen::VectorXd& rr, const Eigen::VectorXd& S, Eigen::VectorXd& ww) {
+    return huber(rr, options.robust_px, pw, ww) + blur_prior * S.squaredNorm();
+  };
   const bool view_weighted = options.view_weight_from_rad > 0;
   if (view_weighted) set_view_weights(T);
   residuals(T, corners, geoms, r, &J);
-  const double kr = options.robust_px;
-  double cost = huber(r, kr, pw, w);
+  double cost = cost_of(r, blur, w);
   double lambda = 1e-3;
+  // The normal equations' matrix: the corners' J^T W J plus the stretch's prior.
+  auto normal_matrix = [&] {
+    Eigen::MatrixXd H = J.transpose() * w.asDiagonal() * J;
+    if (blur_on) H.diagonal().tail(np - 6).array() += blur_prior;
+    return H;
+  };
   auto levenberg_marquardt = [&] {
     for (int it = 0; it < options.max_iterations; ++it) {
       out.iterations += 1;
       // IRLS: the Huber weights of the current residuals.
-      const Mat6 H = J.transpose() * w.asDiagonal() * J;
-      const Vec6 g = J.transpose() * w.asDiagonal() * r;
-      Mat6 A = H;
+      const Eigen::MatrixXd H = normal_matrix();
+      Eigen::VectorXd g = J.transpose() * w.asDiagonal() * r;
+      if (blur_on) g.tail(np - 6) += blur_prior * blur;
+      Eigen::MatrixXd A = H;
       A.diagonal() += lambda * H.diagonal().cwiseMax(1e-12);
-      const Vec6 delta = A.ldlt().solve(-g);
+      const Eigen::VectorXd delta = A.ldlt().solve(-g);
       if (!delta.allFinite()) break;
-      const Eigen::Isometry3d T_try = apply_delta(delta, T);
+      const Eigen::Isometry3d T_try = apply_delta(delta.head<6>(), T);
+      const Eigen::VectorXd blur_try = blur + delta.tail(np - 6);
       Eigen::VectorXd r_try, w_try;
       Eigen::MatrixXd J_try;
       double cost_try = 0;
-      if (residuals(T_try, corners, geoms, r_try, &J_try) && (cost_try = huber(r_try, kr, pw, w_try)) < cost) {
+      if (residuals_s(T_try, blur_try, corners, geoms, r_try, &J_try) &&
+          (cost_try = cost_of(r_try, blur_try, w_try)) < cost) {
         const double gain = cost - cost_try;
         T = T_try;
+        blur = blur_try;
         r = std::move(r_try);
         J = std::move(J_try);
         w = std::move(w_try);
@@ -417,7 +492,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
   // Starts another pass from T (after the weights or the corners changed).
   auto restart = [&] {
     residuals(T, corners, geoms, r, &J);
-    cost = huber(r, kr, pw, w);
+    cost = cost_of(r, blur, w);
     lambda = 1e-3;
   };
   levenberg_marquardt();
@@ -477,6 +552,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
     const Eigen::VectorXd all_pw = pw, all_r = r, all_w = w;
     const Eigen::MatrixXd all_J = J;
     const Eigen::Isometry3d all_T = T;
+    const Eigen::VectorXd all_blur = blur;
     const double all_cost = cost;
     auto [kt, kc] = subset([&](std::size_t ti) { return ti != worst; });
     refit(std::move(kt), std::move(kc));
@@ -498,6 +574,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
       w = all_w;
       J = all_J;
       T = all_T;
+      blur = all_blur;
       cost = all_cost;
     }
   }
@@ -512,32 +589,44 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
   }
   out.views_used = static_cast<int>(std::count(view_used.begin(), view_used.end(), true));
   std::sort(out.tag_ids.begin(), out.tag_ids.end());
-  const double dof = static_cast<double>(r.size()) - 6;
-  const Mat6 H = J.transpose() * w.asDiagonal() * J;
-  Eigen::FullPivLU<Mat6> lu(H);
-  if (dof <= 0 || !lu.isInvertible())
+  const Eigen::MatrixXd H = normal_matrix();
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(H);
+  if (!lu.isInvertible())
+    return fail(BundlePoseStatus::kFailed,
+                who + "the fit is degenerate (singular normal equations)");
+  // All parameters' covariance per px^2; the pose's is its top-left block
+  // (the stretch marginalised out).
+  const Eigen::MatrixXd C_all = lu.inverse();
+  // Residual degrees of freedom: the rows less the parameters' effective
+  // count, tr(J^T W J H^-1) (6 without the blur model; the stretch, held by
+  // its prior, counts less than its 3 per view).
+  const double dof = static_cast<double>(r.size()) -
+                     (blur_on ? (J.transpose() * w.asDiagonal() * J * C_all).trace() : 6.0);
+  if (dof <= 0)
     return fail(BundlePoseStatus::kFailed,
                 who + "the fit is degenerate (singular normal equations)");
   for (Eigen::Index i = 0; i < w.size(); i += 2) out.downweighted += w(i) < pw(i) ? 1 : 0;
   // = sum r^2 without down-weighted corners; with view weights the noise of
   // a corner seen within view_weight_from_rad.
   const double wss = r.dot(w.asDiagonal() * r);
-  out.covariance_per_px2 = lu.inverse();
+  out.covariance_per_px2 = C_all.topLeftCorner<6, 6>();
   out.noise_px2 = wss / dof;
-  out.noise_dof = static_cast<int>(dof);
+  out.noise_dof = static_cast<int>(std::lround(dof));
   out.covariance = out.noise_px2 * out.covariance_per_px2;
+  if (blur_on)
+    for (std::size_t v = 0; v < views.size(); ++v) out.blur_stretch_px.push_back(blur.segment<3>(static_cast<Eigen::Index>(3 * v)));
   // Per-tag noise (sandwich): each tag's corners get their own noise
   // estimate, its residual sum over its residual degrees of freedom
   // (8 minus the tag's share of the 6 pose parameters, the trace of its
   // rows' hat matrix), floored below at 1e-4 of the mean (a tag that fits
   // exactly still has some noise).
   {
-    const Mat6& C = out.covariance_per_px2;
-    Mat6 meat = Mat6::Zero();
+    const Eigen::MatrixXd& C = C_all;
+    Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(np, np);
     const double mean = std::max(out.noise_px2, 1e-12);
     for (std::size_t t = 0; t < tags.size(); ++t) {
       const Eigen::Index r0 = static_cast<Eigen::Index>(8 * t);
-      const Eigen::Matrix<double, 8, 6> Jt = J.block<8, 6>(r0, 0);
+      const Eigen::MatrixXd Jt = J.middleRows(r0, 8);
       const Eigen::Matrix<double, 8, 1> wt = w.segment<8>(r0);
       const Eigen::Matrix<double, 8, 1> rt = r.segment<8>(r0);
       const double lev = (Jt * C * Jt.transpose() * wt.asDiagonal()).trace();
@@ -548,7 +637,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
       const double c = T_cam_tag.linear().col(2).dot(T_cam_tag.translation().normalized());
       out.tag_residuals.push_back({tags[t].t->id, ss, 8.0 - lev, std::acos(std::clamp(c, -1.0, 1.0)), tags[t].view});
     }
-    out.covariance_per_tag = C * meat * C;
+    out.covariance_per_tag = (C * meat * C).topLeftCorner<6, 6>();
   }
   if (!out.T_cam_body.matrix().allFinite() || !out.covariance_per_px2.allFinite())
     return fail(BundlePoseStatus::kFailed, who + "the refinement diverged");

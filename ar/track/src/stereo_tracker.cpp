@@ -272,7 +272,7 @@ struct StereoTracker::Impl {
     if (!tags_l.empty() || !tags_r.empty()) {
       BundlePose p = estimate_bundle_pose_views(
           b.bundle, {BundleView{&cam_l, Eigen::Isometry3d::Identity(), &tags_l}, BundleView{&cam_r, T_camr_caml, &tags_r}},
-          o.pose, prev);
+          track_rules::pose_options_for(o, &b == &mannequin), prev);
       if (&b == &mannequin) noise_ref = p;
       int rim_points = 0;
       if (&b == &mirror && o.stereo_mirror_rim && p.ok() && p.rms_px <= o.max_rms_px && mirror_radius_m > 0 &&

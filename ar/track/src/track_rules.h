@@ -11,6 +11,17 @@
 
 namespace dentar::ar::track_rules {
 
+// The bundle fit's options for one body: the blur model
+// (BundlePoseOptions::blur_stretch_sigma_px, issue 28 session 17) fits the
+// mannequin's many tags only; the mirror's and the pen's few small tags keep
+// each corner alone (three more parameters per eye would be most of what
+// one or two tags measure).
+inline BundlePoseOptions pose_options_for(const TrackerOptions& o, bool mannequin) {
+  BundlePoseOptions p = o.pose;
+  if (!mannequin) p.blur_stretch_sigma_px = 0;
+  return p;
+}
+
 template <class Body>
 void accept_measurement(Body& b, const Eigen::Isometry3d& T_cam_body_measured, double capture_s) {
   if (b.state == TrackState::kLost) {  // no velocity from a stale track

@@ -369,7 +369,7 @@ struct Tracker::Impl {
       if (b->state != TrackState::kLost)
         prev = o.filter_enabled && b->filter.initialised() ? b->filter.predict(d.capture_s)
                                                             : b->last_meas;
-      const BundlePose p = estimate_bundle_pose(b->bundle, camera, d.tags, o.pose, prev);
+      const BundlePose p = estimate_bundle_pose(b->bundle, camera, d.tags, track_rules::pose_options_for(o, b == &mannequin), prev);
       if (b == &mannequin) noise_ref = p;
       if (!(p.ok() && p.rms_px <= o.max_rms_px && precise_enough(*b, p))) continue;
       if (b->state == TrackState::kLost) {
@@ -620,7 +620,7 @@ struct Tracker::Impl {
                                                          : b.last_meas;
     bool measured = false;
     if (!tags.empty()) {
-      BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, o.pose, prev);
+      BundlePose p = estimate_bundle_pose(b.bundle, camera, tags, track_rules::pose_options_for(o, &b == &mannequin), prev);
       if (&b == &mannequin) noise_ref = p;
       if (&b == &mirror && o.mirror_rim_refine && p.ok() && p.rms_px <= o.max_rms_px &&
           mirror_radius_m > 0) {

@@ -16,6 +16,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "dentar/ar/bundle_pose.h"
 #include "dentar/ar/pose_filter.h"
 #include "dentar/ar/tag_detector.h"
 #include "dentar/ar/tracker.h"
@@ -136,6 +137,45 @@ TEST(RealPhoto, ViSPAprilTagImageIdsCornersAndPoses) {
   EXPECT_LT(worst_t_mm, 1.5);
   EXPECT_LT(worst_normal_deg, 5.0);
   EXPECT_LT(worst_rms, 0.5);
+
+  // The blur model (BundlePoseOptions::blur_stretch_sigma_px, issue 28
+  // session 17) on this still photo: the sheet as one rigid bundle (each
+  // tag's layout from its own one-tag bundle fit), fitted with and without
+  // the model. On a still image the stretch should stay small and the pose
+  // where it is.
+  TagBundle sheet;
+  sheet.name = "sheet";
+  sheet.family = TagFamilyId::kTag36h11;
+  for (const DetectedTag& t : list) {
+    TagBundle one;
+    one.name = "one tag";
+    one.family = t.family;
+    TagPlacement pl;
+    pl.id = t.id;
+    pl.size_m = 0.053;
+    one.tags = {pl};
+    const BundlePose p = estimate_bundle_pose(one, cam, {t});
+    ASSERT_TRUE(p.ok()) << p.message;
+    pl.T_parent_tag = p.T_cam_body;  // body = this photo's camera frame
+    sheet.tags.push_back(pl);
+  }
+  BundlePoseOptions blur;
+  blur.blur_stretch_sigma_px = 8;
+  const BundlePose plain_fit = estimate_bundle_pose(sheet, cam, list);
+  const BundlePose blur_fit = estimate_bundle_pose(sheet, cam, list, blur);
+  ASSERT_TRUE(plain_fit.ok() && blur_fit.ok()) << plain_fit.message << blur_fit.message;
+  ASSERT_EQ(blur_fit.blur_stretch_px.size(), 1u);
+  const Eigen::Vector3d S = blur_fit.blur_stretch_px[0];
+  const double moved_mm = (blur_fit.T_cam_body.translation() - plain_fit.T_cam_body.translation()).norm() * 1e3;
+  std::printf("[ photo ] sheet of %d tags as one bundle: rms %.3f px plain, %.3f px with the blur model; "
+              "stretch S (%.3f, %.3f, %.3f) px; pose moved %.3f mm; sigma tz %.3f -> %.3f mm\n",
+              plain_fit.tags_used, plain_fit.rms_px, blur_fit.rms_px, S(0), S(1), S(2), moved_mm,
+              std::sqrt(plain_fit.covariance(5, 5)) * 1e3, std::sqrt(blur_fit.covariance(5, 5)) * 1e3);
+  EXPECT_EQ(blur_fit.tags_used, 12);
+  // Measured 2026-11-28: S (0.009, -0.011, -0.004) px, moved 0.012 mm, rms
+  // 0.212 px both, sigma tz 0.115 -> 0.123 mm.
+  EXPECT_LT(S.cwiseAbs().maxCoeff(), 0.1);
+  EXPECT_LT(moved_mm, 0.1);
 }
 
 }  // namespace

@@ -108,6 +108,24 @@ struct BundlePoseOptions {
   // weighted fit then under-states it (docs/BENCHMARKS.md, issue 28
   // session 16).
   double shape_weight = 1.0;
+  // Motion blur in the fit (issue 28 session 17). Blur stretches every tag's
+  // outline in one view the same way: each edge moves along its outward
+  // normal n by n^T S n / 2 px, with S a symmetric 2x2 stretch (px) shared
+  // by all the tags one view sees in this frame (S = L d d^T for a blur of
+  // L px along the image direction d; a corner moves where its two shifted
+  // edges meet). With blur_stretch_sigma_px > 0 each view's S (3 numbers)
+  // is fitted jointly with the pose (both eyes share the pose, each eye its
+  // own S), with a zero-mean prior: each component of S costs as much as a
+  // corner residual of S / blur_stretch_sigma_px px. The covariances are
+  // the pose's, with the stretch marginalised out, and noise_px2's degrees
+  // of freedom lose the stretch's effective parameter count.
+  // 0 = off (each corner fitted alone, as before). Not the trackers'
+  // default: on `hard` it lowers the error on the same detections (tuning
+  // seed 5, stereo RMS 0.135 -> 0.098 mm in the fastest frames) but on
+  // held-out seeds the tracker drew fewer frames with a worse p95; the
+  // refused frames' corner error is not a shared stretch
+  // (docs/BENCHMARKS.md, issue 28 session 17). 8 is the value measured.
+  double blur_stretch_sigma_px = 0.0;
   std::string validate() const;  // empty when valid
 };
 
@@ -161,6 +179,10 @@ struct BundlePose {
     int view = 0;  // the view (index into estimate_bundle_pose_views' list) that saw it
   };
   std::vector<TagResidual> tag_residuals;  // in fit order (by view, then id)
+  // The fitted blur stretch S of each view (BundlePoseOptions::
+  // blur_stretch_sigma_px), (Sxx, Sxy, Syy) in px; one per view given
+  // (zero for a view that saw none of the bundle), empty when off.
+  std::vector<Eigen::Vector3d> blur_stretch_px;
   bool ok() const { return status == BundlePoseStatus::kOk; }
 };
 
