@@ -227,6 +227,10 @@ TEST(CliOffline, EmptyOrMissingFootageGivesAClearError) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--camera-response"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("gamma22"), std::string::npos) << r.out;
+  r = run_command(offline_on(clip(), out, "--stereo-mirror-rim maybe"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--stereo-mirror-rim"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("maybe"), std::string::npos) << r.out;
 }
 
 // A live recording's recording.json says how the live run tracked
@@ -252,6 +256,9 @@ TEST(CliOffline, RecordingWithBadTrackingFieldsIsRefused) {
   r = run_with(R"("camera_response": "linear", "mirror_rim": "yes")");
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.out.find("mirror_rim must be true or false"), std::string::npos) << r.out;
+  r = run_with(R"("stereo_mirror_rim": "on")");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("stereo_mirror_rim must be true or false"), std::string::npos) << r.out;
   expect_no_complete_report(out);
 }
 

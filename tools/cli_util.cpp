@@ -38,4 +38,11 @@ void add_tracker_image_options(CLI::App* sub, std::string& camera_response, bool
                 "Refine the mirror's pose from its rim ellipse in the image (issue 16; "
                 "docs/BENCHMARKS.md)");
 }
+
+void add_stereo_mirror_rim_option(CLI::App* sub, std::string& value) {
+  sub->add_option("--stereo-mirror-rim", value,
+                  "With two eyes: refine the mirror's joint fit from its rim ellipse in each eye (default on; "
+                  "off = the mirror's tags alone, session 15's stereo fit). Issue 28, docs/BENCHMARKS.md")
+      ->check(CLI::IsMember({"on", "off"}));
+}
 }  // namespace dentar::tools

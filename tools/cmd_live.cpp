@@ -30,6 +30,7 @@ void add_live(CLI::App& app, int& exit_code) {
     std::string discovery = "async";
     std::string camera_response;  // "" = auto (the station's)
     bool mirror_rim = false;
+    std::string stereo_mirror_rim;  // on|off, empty = the default
     bool no_score = false;
     std::string headset;  // --headset FILE
     std::vector<std::string> keys;  // --inject-key FRAME:KEY
@@ -143,6 +144,7 @@ void add_live(CLI::App& app, int& exit_code) {
   sub->add_flag("--no-wake-monitor", [c](std::int64_t) { c->o.wake_monitor = false; },
                 "do not attribute the engine's late wake-ups (summary engine.wake; docs/formats.md)");
   add_tracker_image_options(sub, c->camera_response, c->mirror_rim);
+  add_stereo_mirror_rim_option(sub, c->stereo_mirror_rim);
   sub->add_option("--discovery", c->discovery,
                   "full-frame tag search: async (off the frame path, default) or inline (in the frame that needs it)");
   sub->add_option("--background-cpu", c->o.background_cpu,
@@ -221,6 +223,7 @@ void add_live(CLI::App& app, int& exit_code) {
     }
     o.pipeline.tracker.discovery = c->discovery == "async" ? ar::DiscoveryMode::kAsync : ar::DiscoveryMode::kInline;
     o.pipeline.tracker.mirror_rim_refine = c->mirror_rim;
+    if (!c->stereo_mirror_rim.empty()) o.pipeline.tracker.stereo_mirror_rim = c->stereo_mirror_rim == "on";
     if (auto r = ar::parse_camera_response(c->camera_response.empty() ? "auto" : c->camera_response); !r) {
       print_error("live", "--camera-response: " + r.error());
       exit_code = 2;

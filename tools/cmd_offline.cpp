@@ -41,6 +41,7 @@ struct OfflineCli {
   double mirror_sigma_mm = 1.0;
   std::string camera_response;  // "" = the recording's, else auto|srgb|linear
   bool mirror_rim = false;
+  std::string stereo_mirror_rim;  // on|off, empty = the default (a recording: as recorded)
   std::size_t triangle_budget = 0;
   std::string exercise;  // scoring: exercise name or file ("" = recorded / by the tooth)
   bool no_score = false;
@@ -123,6 +124,10 @@ int run(const OfflineCli& c) {
   o.tracker.mirror_max_sigma_m = c.mirror_sigma_mm * 1e-3;
   o.tracker.mirror_rim_refine = c.mirror_rim;
   o.mirror_rim_given = c.mirror_rim;
+  if (!c.stereo_mirror_rim.empty()) {
+    o.tracker.stereo_mirror_rim = c.stereo_mirror_rim == "on";
+    o.stereo_mirror_rim_given = true;
+  }
   if (!c.camera_response.empty()) {
     auto r = ar::parse_camera_response(c.camera_response);
     if (!r) {
@@ -272,7 +277,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       "                         [--decimate D] [--no-roi] [--full-every N] [--no-filter]\n"
       "                         [--predict-ms MS] [--stale-ms MS] [--mirror-sigma-mm MM] [--no-occlusion]\n"
       "                         [--camera-response auto|srgb|linear] [--mirror-rim]\n"
-      "                         [--no-segmentation] [--no-mirror] [--triangle-budget N]\n"
+      "                         [--stereo-mirror-rim on|off] [--no-segmentation] [--no-mirror] [--triangle-budget N]\n"
       "                         [--exercise NAME|FILE] [--no-score]\n"
       "                         [--audio FILE.wav [--audio-mux] [--volume PCT] [--mute] [--drill-sample FILE]]");
   s->add_option("--footage", c->footage, "Video file, image folder or `dentar live --record` folder (default: generate built-in footage)");
@@ -323,6 +328,7 @@ void add_offline(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(0.0, 1000.0))
       ->capture_default_str();
   add_tracker_image_options(s, c->camera_response, c->mirror_rim);
+  add_stereo_mirror_rim_option(s, c->stereo_mirror_rim);
   s->add_option("--stale-ms", c->stale_ms, "Drop the overlay this long after tracking is lost")
       ->check(CLI::Range(0.0, 5000.0))
       ->capture_default_str();

@@ -35,6 +35,7 @@ struct TrackCli {
   int threads = 1;
   std::string camera_response;  // "" = auto
   bool mirror_rim = false;
+  std::string stereo_mirror_rim;  // on|off, empty = the default
   bool no_roi = false;
   int full_every = 15;
   bool no_filter = false;
@@ -205,6 +206,7 @@ int run(const TrackCli& c) {
   to.detector.decimation = c.decimate;
   to.detector.threads = c.threads;
   to.mirror_rim_refine = c.mirror_rim;
+  if (!c.stereo_mirror_rim.empty()) to.stereo_mirror_rim = c.stereo_mirror_rim == "on";
   if (auto r = ar::parse_camera_response(c.camera_response.empty() ? "auto" : c.camera_response); !r) {
     print_error("track", "--camera-response: " + r.error());
     return 2;
@@ -417,7 +419,7 @@ void add_track(CLI::App& app, int& exit_code) {
       "                       [--no-roi] [--full-every N] [--no-filter] [--stale-ms MS]\n"
       "                       [--display-delay-ms MS] [--scale-calib] [--max-frames N]\n"
       "                       [--tags --tag-size-mm S] [--width W --height H --fps F]\n"
-      "                       [--stereo [--input-right <left eye's partner>]]");
+      "                       [--stereo [--input-right <left eye's partner>] [--stereo-mirror-rim on|off]]");
   s->add_option("--input", c->input,
                 "Video file, image folder, camera:N, /dev/videoN, or live:VIDEO (a video played "
                 "as a live camera)")
@@ -434,6 +436,7 @@ void add_track(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1.0, 16.0))
       ->capture_default_str();
   add_tracker_image_options(s, c->camera_response, c->mirror_rim);
+  add_stereo_mirror_rim_option(s, c->stereo_mirror_rim);
   s->add_option("--threads", c->threads, "libapriltag threads")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();

@@ -30,6 +30,8 @@ void add_sound(CLI::App& app, int& exit_code);
 // --camera-response (auto|srgb|linear, parsed by the caller; left empty when not
 // given, so a replay can take the recording's) and --mirror-rim.
 void add_tracker_image_options(CLI::App* sub, std::string& camera_response, bool& mirror_rim);
+// --stereo-mirror-rim on|off (TrackerOptions::stereo_mirror_rim); `value` stays empty unless given.
+void add_stereo_mirror_rim_option(CLI::App* sub, std::string& value);
 
 // A number of at least `min`, with a message for people ("must be 0 or more, got -1"), not
 // CLI11's range with std::numeric_limits' 300-digit bound.

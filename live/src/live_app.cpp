@@ -755,6 +755,7 @@ Status start_recording(const LiveOptions& o, const ar::StationScene& st, const a
               {"camera", o.camera}, {"stylus", o.stylus}, {"discovery", discovery_name},
               {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
               {"mirror_rim", popt.tracker.mirror_rim_refine}, {"predict_ms", popt.predict_s * 1e3},
+              {"stereo_mirror_rim", popt.tracker.stereo_mirror_rim},
               {"complete", false}};
   if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
   // Stereo (issue 28): both eyes kept (frames_right/), replayed from both by `dentar offline`.

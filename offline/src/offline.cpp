@@ -572,6 +572,12 @@ struct Job {
         sum.warnings.push_back(std::string("the recording was tracked with the mirror rim refinement ") +
                                (rec.mirror_rim ? "on" : "off") + ", this replay has it " +
                                (o.tracker.mirror_rim_refine ? "on" : "off") + ": its poses are not the live run's");
+      if (!o.stereo_mirror_rim_given)
+        o.tracker.stereo_mirror_rim = rec.stereo_mirror_rim;
+      else if (o.tracker.stereo_mirror_rim != rec.stereo_mirror_rim)
+        sum.warnings.push_back(std::string("the recording was tracked with the stereo mirror rim ") +
+                               (rec.stereo_mirror_rim ? "on" : "off") + ", this replay has it " +
+                               (o.tracker.stereo_mirror_rim ? "on" : "off") + ": its poses are not the live run's");
     }
     return {};
   }

@@ -39,6 +39,11 @@ Result<Recording> read_recording(const fs::path& dir) {
     if (!j["mirror_rim"].is_boolean()) return Error{meta.string() + ": mirror_rim must be true or false"};
     rec.mirror_rim = j["mirror_rim"].get<bool>();
   }
+  if (j.contains("stereo_mirror_rim")) {
+    if (!j["stereo_mirror_rim"].is_boolean())
+      return Error{meta.string() + ": stereo_mirror_rim must be true or false"};
+    rec.stereo_mirror_rim = j["stereo_mirror_rim"].get<bool>();
+  }
   if (j.contains("predict_ms")) {
     if (!j["predict_ms"].is_number() || !(j["predict_ms"].get<double>() >= 0 && j["predict_ms"].get<double>() <= 500))
       return Error{meta.string() + ": predict_ms must be a number of milliseconds in 0..500"};

@@ -187,6 +187,7 @@ struct StereoTracker::Impl {
     const double noise2 = std::max(noise_px2(b, p), floor2);
     const bool srgb = o.detector.response == CameraResponse::kSrgb;
     MirrorRimOptions ro = o.mirror_rim;
+    ro.rim_effective_points = o.stereo_mirror_rim_effective_points;  // per eye
     // Tags from one eye only (the other sees none: the mirror at its frame's
     // edge): the depth is the one camera's, as in mono (offframe dev clip,
     // seed 1: a free depth moved such frames 1.4-2.1 mm along the line of
@@ -247,12 +248,18 @@ struct StereoTracker::Impl {
     b.unexplained_speed2 += (speed * speed - b.unexplained_speed2) / std::min(b.unexplained_n, 8);
   }
 
+  // TrackerOptions::mirror_prediction_sigma: the prediction's stated sigma at
+  // the gate point at time t_s.
+  double predicted_sigma(const RigBody& b, double t_s) const {
+    const double q = std::max(std::sqrt(b.unexplained_speed2), o.mirror_min_unexplained_speed_m_s);
+    const double age = std::max(0.0, t_s - b.last_meas_time_s);
+    return std::hypot(b.last_sigma_m, q * age);
+  }
+
   // TrackerOptions::mirror_prediction_sigma, on a predicted frame: the stated
   // sigma at display time; lost once it exceeds the gate.
   double predicted_sigma_or_lose(RigBody& b, double display_s) {
-    const double q = std::max(std::sqrt(b.unexplained_speed2), o.mirror_min_unexplained_speed_m_s);
-    const double age = std::max(0.0, display_s - b.last_meas_time_s);
-    const double sigma = std::hypot(b.last_sigma_m, q * age);
+    const double sigma = predicted_sigma(b, display_s);
     if (b.max_sigma_m > 0 && sigma > b.max_sigma_m) {
       b.state = TrackState::kLost;
       b.has_measurement = false;

@@ -166,6 +166,8 @@ std::string TrackerOptions::validate() const {
     os << "stale_limit_s = " << stale_limit_s << " must be in [0, 10] s";
   else if (auto e = mirror_rim.validate(); !e.empty())
     os << "mirror_rim." << e;
+  else if (!(std::isfinite(stereo_mirror_rim_effective_points) && stereo_mirror_rim_effective_points >= 1))
+    os << "stereo_mirror_rim_effective_points = " << stereo_mirror_rim_effective_points << " must be >= 1";
   else if (stereo_mirror_rim_min_tags < 1 || stereo_mirror_rim_min_tags > 100)
     os << "stereo_mirror_rim_min_tags = " << stereo_mirror_rim_min_tags << " must be in [1, 100]";
   else if (!(std::isfinite(mirror_min_unexplained_speed_m_s) && mirror_min_unexplained_speed_m_s >= 0))

@@ -86,6 +86,7 @@ struct OfflineOptions {
   // poses will not be the live run's).
   bool camera_response_given = false;
   bool mirror_rim_given = false;
+  bool stereo_mirror_rim_given = false;  // tracker.stereo_mirror_rim chosen by the caller (--stereo-mirror-rim)
   ar::CompositorOptions compositor;
   // A session trained in a mode (`dentar lesson run`): the expert's tool as a second,
   // translucent handpiece (frame_pipeline.h, ExpertStyle; draw = false: not drawn).

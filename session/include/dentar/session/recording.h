@@ -27,6 +27,8 @@ struct Recording {
   // recordings older than these fields: the defaults then, srgb and off).
   ar::CameraResponse camera_response = ar::CameraResponse::kSrgb;
   bool mirror_rim = false;
+  // TrackerOptions::stereo_mirror_rim of the live run (absent: on, its default since session 16).
+  bool stereo_mirror_rim = true;
   // Poses predicted this far past capture time (live --predict-ms; absent: 0), ms.
   double predict_ms = 0;
   // discovery "async": what the live tracker's full-frame search did at each
