@@ -137,7 +137,7 @@ mins = s["wall_s"] / 60
 print(f"| {sys.argv[2]} | {s['wall_s']:.0f} | {u['p50']:.0f} / {u['p99']:.0f} / {u['p999']:.0f} / {u['max']:.0f} | {e['missed_deadlines']} | "
       f"{e['missed_deadlines'] / mins:.2f} | {e['watchdog_trips']} | {e['jitter_us']['p99']:.0f} / {e['jitter_us']['max']:.0f} | "
       f"{w.get('held', '-')} | {w.get('cpu_halts_per_s', -1):.0f} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} | "
-      f"{s['displayed_fps']:.1f} | {s['removed_mm3']['total']:.2f} |")
+      f"{s['displayed_fps']:.1f} | {s['removed_mm3']['total']:.2f} | skipped periods {e.get('periods_skipped', '-')} |")
 # Session 17: the late wake-ups attributed (engine.wake, docs/formats.md), one row per run.
 a = e.get("wake", {})
 if a.get("available"):

@@ -343,23 +343,33 @@ void Engine::thread_main() {
   const double monitor_from_s = monitor_ ? monitor_->late_threshold_s() : 1e300;
   std::int64_t prev_end_ns = 0;
   const auto period_ns = static_cast<std::int64_t>(std::llround(1e9 / cfg_.rate_hz));
-  timespec next;
-  clock_gettime(CLOCK_MONOTONIC, &next);
-  auto advance = [&](timespec& t) {
-    t.tv_nsec += period_ns;
-    while (t.tv_nsec >= 1000000000L) {
-      t.tv_nsec -= 1000000000L;
-      ++t.tv_sec;
-    }
+  auto to_ns = [](const timespec& t) { return static_cast<std::int64_t>(t.tv_sec) * 1000000000LL + t.tv_nsec; };
+  auto from_ns = [](std::int64_t ns) {
+    timespec t;
+    t.tv_sec = static_cast<time_t>(ns / 1000000000LL);
+    t.tv_nsec = static_cast<long>(ns % 1000000000LL);
+    return t;
   };
-  advance(next);
+  // The deadline grid: t0 + k period. After a stall the loop never bursts to catch up (a burst
+  // replays the device's states back to back and turns one stall into several late steps that
+  // tripped the watchdog); it goes on at the next grid point, and the grid points that had no
+  // step are counted (EngineStats::periods_skipped). A wake-up more than a period late is one
+  // missed deadline; so is a step that ran past the next deadline (its own overrun): the step
+  // after it is measured against that deadline. The watchdog (consecutive missed deadlines)
+  // therefore trips when the loop cannot keep its rate, not after one stall that has passed.
+  timespec now0;
+  clock_gettime(CLOCK_MONOTONIC, &now0);
+  std::int64_t due_ns = to_ns(now0) + period_ns;  // the deadline this step is judged by
+  std::int64_t wake_ns = due_ns;                   // the grid point the loop sleeps to (>= due)
   while (!stop_.load(std::memory_order_acquire)) {
+    const timespec next = from_ns(wake_ns);
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR) {
     }
     timespec woke;
     clock_gettime(CLOCK_MONOTONIC, &woke);
-    const double late = static_cast<double>(woke.tv_sec - next.tv_sec) +
-                        1e-9 * static_cast<double>(woke.tv_nsec - next.tv_nsec);
+    const std::int64_t woke_ns = to_ns(woke);
+    double late = 1e-9 * static_cast<double>(woke_ns - due_ns);
+    if (wake_ns > due_ns && late <= dt_s_) late = dt_s_ * (1 + 1e-9);  // the previous step overran
     stats_.jitter.record(late);
     const std::uint64_t trips0 = stats_.watchdog_trips;
     if (!step(late, true)) {
@@ -369,25 +379,23 @@ void Engine::thread_main() {
     if (late > monitor_from_s) {
       // Into the monitor's preallocated ring: no allocation, lock or wait (wake_monitor.h).
       WakeEvent ev;
-      ev.deadline_ns = static_cast<std::int64_t>(next.tv_sec) * 1000000000LL + next.tv_nsec;
-      ev.late_ns = static_cast<std::int64_t>(late * 1e9);
+      ev.deadline_ns = due_ns;
+      ev.late_ns = woke_ns - due_ns;
       ev.prev_end_ns = prev_end_ns;
       ev.missed = late > dt_s_;
       ev.tripped = stats_.watchdog_trips != trips0;
       monitor_->push(ev);
     }
-    {
-      timespec end;
-      clock_gettime(CLOCK_MONOTONIC, &end);
-      prev_end_ns = static_cast<std::int64_t>(end.tv_sec) * 1000000000LL + end.tv_nsec;
-    }
-    advance(next);
-    // After a long stall, skip the missed periods instead of bursting to
-    // catch up (a burst would replay stale device states back to back).
-    if (late > 10 * 1e-9 * static_cast<double>(period_ns)) {
-      clock_gettime(CLOCK_MONOTONIC, &next);
-      advance(next);
-    }
+    timespec end;
+    clock_gettime(CLOCK_MONOTONIC, &end);
+    prev_end_ns = to_ns(end);
+    // The next deadline: the first grid point after the wake-up (the points a late wake-up
+    // passed are its own miss); the loop sleeps to the first grid point after the step's end.
+    const std::int64_t passed_at_wake = woke_ns > due_ns ? (woke_ns - due_ns) / period_ns : 0;
+    due_ns += (passed_at_wake + 1) * period_ns;
+    wake_ns = due_ns;
+    while (wake_ns <= prev_end_ns) wake_ns += period_ns;  // the step overran: judged at due_ns
+    stats_.periods_skipped += static_cast<std::uint64_t>(passed_at_wake + (wake_ns - due_ns) / period_ns);
   }
   device_->write_force(guard_.zero());  // leave the device at zero force
   running_.store(false, std::memory_order_release);

@@ -5,6 +5,7 @@
 #include <sched.h>
 
 #include <chrono>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <thread>
@@ -234,6 +235,78 @@ TEST(Engine, WakeMonitorAttributesEveryMissedDeadlineAndTrip) {
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
   (*u)->stop();
   EXPECT_FALSE((*u)->stats().wake.available);
+}
+
+}  // namespace
+}  // namespace dentar::haptics
+
+namespace dentar::haptics {
+namespace {
+
+// Wraps the simulated hand: read() busy-waits `stall_s` on the reads chosen by `stall_on`, so
+// the real-time loop meets a stall of known length (a stopped virtual CPU looks the same to it).
+class StallingDevice : public HapticDevice {
+ public:
+  StallingDevice(HapticDevice& inner, double stall_s, std::function<bool(std::uint64_t)> stall_on)
+      : inner_(inner), stall_s_(stall_s), stall_on_(std::move(stall_on)) {}
+  std::string name() const override { return "stalling " + inner_.name(); }
+  const DeviceLimits& limits() const override { return inner_.limits(); }
+  bool read(DeviceState& out) noexcept override {
+    if (stall_on_(reads_++)) {
+      const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(stall_s_);
+      while (std::chrono::steady_clock::now() < until) {
+      }
+    }
+    return inner_.read(out);
+  }
+  void write_force(const Eigen::Vector3d& f) noexcept override { inner_.write_force(f); }
+
+ private:
+  HapticDevice& inner_;
+  double stall_s_;
+  std::function<bool(std::uint64_t)> stall_on_;
+  std::uint64_t reads_ = 0;
+};
+
+EngineStats run_stalling(Rig& rig, double stall_s, std::function<bool(std::uint64_t)> stall_on, int ms) {
+  StallingDevice dev(*rig.device, stall_s, std::move(stall_on));
+  EngineConfig cfg = rig.engine->config();
+  auto e = Engine::create(cfg, dev, rig.tooth, rig.bur);
+  EXPECT_TRUE(e.ok()) << e.error();
+  auto engine = std::move(e).value();
+  EXPECT_TRUE(engine->start().ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+  engine->stop();
+  return engine->stats();
+}
+
+// Session 17: one stall of 6 ms (the steps 200, 400, 600 each stall once) is one missed
+// deadline, its grid points are skipped, not run back to back, and the watchdog does not trip
+// (it tripped on every 3-10 ms stall before: the catch-up burst counted as three misses).
+TEST(EngineLoop, OneStallIsOneMissAndNoTrip) {
+  Rig rig("press", "proxy", nullptr, 3.0, 5.0);
+  const EngineStats s = run_stalling(rig, 6e-3, [](std::uint64_t i) { return i == 200 || i == 400 || i == 600; }, 900);
+  ASSERT_GT(s.steps, 650u) << "the engine did not reach the stalls";
+  EXPECT_GE(s.missed_deadlines, 3u);  // each stall (plus what the machine adds)
+  EXPECT_GE(s.periods_skipped, 3u * 5u);
+  // Unloaded, exactly 3; a busy machine adds its own late wake-ups, but with SCHED_FIFO not
+  // three in a row. Without it (not granted here) a loaded machine can make runs of late
+  // wake-ups itself, so these two are asserted only where the loop is real-time.
+  if (s.realtime_granted) {
+    EXPECT_LE(s.missed_deadlines, 3u + s.steps / 50) << "periods skipped " << s.periods_skipped;
+    EXPECT_EQ(s.watchdog_trips, 0u) << "missed " << s.missed_deadlines;
+  }
+}
+
+// A step that always overruns its period (the loop cannot keep 1 kHz) is a missed deadline on
+// every step, and the watchdog trips: the zero force stays for what it is meant for.
+TEST(EngineLoop, PersistentOverrunTripsTheWatchdog) {
+  Rig rig("press", "proxy", nullptr, 3.0, 5.0);
+  const EngineStats s = run_stalling(rig, 1.6e-3, [](std::uint64_t i) { return i >= 100; }, 600);
+  ASSERT_GT(s.steps, 150u);
+  EXPECT_GE(s.watchdog_trips, 1u) << "missed " << s.missed_deadlines;
+  EXPECT_GE(s.missed_deadlines, (s.steps - 100) / 2) << "steps " << s.steps;
+  EXPECT_GE(s.periods_skipped, (s.steps - 100) / 2);
 }
 
 }  // namespace

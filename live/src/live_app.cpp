@@ -215,7 +215,7 @@ std::string LiveSummary::json() const {
                                 {"frames_pose_newest", frames_pose_newest}}},
       {"process_ms", {{"p50", process_p50_ms}, {"p99", process_p99_ms}}},
       {"stages_ms", nlohmann::json::object()},
-      {"engine", {{"steps", engine_steps}, {"missed_deadlines", missed_deadlines}, {"watchdog_trips", watchdog_trips},
+      {"engine", {{"steps", engine_steps}, {"missed_deadlines", missed_deadlines}, {"periods_skipped", periods_skipped}, {"watchdog_trips", watchdog_trips},
                   {"step_us", {{"p50", step_p50_us}, {"p99", step_p99_us}, {"p999", step_p999_us}, {"max", step_max_us}}},
                   {"jitter_us", {{"p99", jitter_p99_us}, {"max", jitter_max_us}}},
                   {"realtime_granted", realtime_granted}, {"cpu_pinned", cpu_pinned},
@@ -673,6 +673,7 @@ Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st
 void engine_figures(const haptics::EngineStats& es, LiveSummary& sum) {
   sum.engine_steps = es.steps;
   sum.missed_deadlines = es.missed_deadlines;
+  sum.periods_skipped = es.periods_skipped;
   sum.watchdog_trips = es.watchdog_trips;
   sum.step_p50_us = es.compute.percentile_s(0.5) * 1e6;
   sum.step_p99_us = es.compute.percentile_s(0.99) * 1e6;

@@ -38,8 +38,10 @@ struct EngineConfig {
   Eigen::Isometry3d T_tooth_dev = Eigen::Isometry3d::Identity();  // static, station calibration
   Eigen::Isometry3d T_sty_tip = Eigen::Isometry3d::Identity();    // static, pivot calibration
   std::uint8_t bur_id = 0;
-  // Watchdog: zero force after this many consecutive missed deadlines; force
-  // returns (ramped by the guard) after `watchdog_rearm_steps` good steps.
+  // Watchdog: zero force after this many consecutive missed deadlines (steps; after a stall the
+  // real-time loop does not burst to catch up, so one stall is one miss and the watchdog trips
+  // when the loop cannot keep its rate); force returns (ramped by the guard) after
+  // `watchdog_rearm_steps` good steps.
   int watchdog_missed_deadlines = 3;
   int watchdog_rearm_steps = 50;
   double max_force_rate_N_per_s = 2000.0;  // spike limit for the guard
@@ -83,7 +85,8 @@ struct HapticSnapshot {
 
 struct EngineStats {
   std::uint64_t steps = 0;
-  std::uint64_t missed_deadlines = 0;   // steps that started more than one period late
+  std::uint64_t missed_deadlines = 0;   // steps that started more than one period after their deadline
+  std::uint64_t periods_skipped = 0;    // real-time mode: 1 ms grid points with no step (stalls, overruns)
   std::uint64_t watchdog_trips = 0;
   std::uint64_t device_faults = 0;
   std::uint64_t guard_clamped = 0, guard_rate_limited = 0;

@@ -246,6 +246,7 @@ struct LiveSummary {
   std::int64_t frames_pose_at_exposure = 0, frames_pose_newest = 0;
   double process_p50_ms = 0, process_p99_ms = 0;
   std::uint64_t engine_steps = 0, missed_deadlines = 0, watchdog_trips = 0;
+  std::uint64_t periods_skipped = 0;  // engine grid points with no step (EngineStats::periods_skipped)
   double step_p50_us = 0, step_p99_us = 0, step_p999_us = 0, step_max_us = 0;
   double jitter_p99_us = 0, jitter_max_us = 0;
   bool realtime_granted = false, cpu_pinned = false, memory_locked = false;
