@@ -151,8 +151,14 @@ TEST(OfflineHash, GeneratedFootageRunIsUnchanged) {
   // Session 15 (issue 28): the compositor skips groups of tooth triangles that face away
   // from the eye, so frames.csv's `triangles` column is smaller (17534 -> ~12100 a frame);
   // every other column, the summary and the video are unchanged. Hash before: 4b1ec134c34b3e5f.
-  EXPECT_EQ(h.csv, "26839da1af8e7ec3") << "frames.csv changed";
-  EXPECT_EQ(h.summary, "aaf4d9ca67957246") << "summary.json changed: " << read_file(out / "summary.json");
+  // Session 17 (issue 28): a merged tracker change (which one was not isolated: the bundle fit
+  // gained the default-off blur stretch) moves the pose errors by <= 1e-9 mm / deg in the last printed digits
+  // (man_err, tip_err, tooth_err_px on frames 0-9; measured old and new binary on the same clip),
+  // every state, count and the video unchanged. The generator's frame-0 exposure fix changes
+  // this clip's video.mkv but none of the printed figures. Hashes before: 26839da1af8e7ec3,
+  // aaf4d9ca67957246.
+  EXPECT_EQ(h.csv, "a0f5e217e1d73f3e") << "frames.csv changed";
+  EXPECT_EQ(h.summary, "7ff8fde8499f8bf8") << "summary.json changed: " << read_file(out / "summary.json");
   EXPECT_EQ(h.video, "824393745507769d") << "composite.mkv frames changed";
 }
 
