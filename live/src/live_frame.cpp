@@ -177,13 +177,16 @@ class FrameThread {
     // The right camera silent (lost) for this frame, not just unpaired once.
     const double rl = right.last_frame_steady_s();
     right_silent_ = rl > 0 && left.steady_s - rl > silent_s;
-    if (right_silent_) right_silent_from_s_ = rl;
+    if (right_silent_) right_silent_from_s_ = rl, right_was_silent_ = true;
   }
 
   // A right-eye frame taken from its capture thread: the newest, and when it ends a silence
-  // (issue 28's fallback), the time the eye came back.
-  void take_right(ar::Frame&& r, double silent_s) {
-    if (right_last_s_ > 0 && r.steady_s - right_last_s_ > silent_s) right_back_s_ = right_first_back_s_ = r.steady_s;
+  // (issue 28's fallback), the time the eye came back. While the left camera is lost the
+  // right frames are taken by right_alone: a gap there is the left camera's loss (the right
+  // frames waited unread for 0.1 s), not the right eye's, so it is no return (may_return false).
+  void take_right(ar::Frame&& r, double silent_s, bool may_return = true) {
+    if (may_return && right_last_s_ > 0 && r.steady_s - right_last_s_ > silent_s)
+      right_back_s_ = right_first_back_s_ = r.steady_s;
     right_last_s_ = r.steady_s;
     right_pending_ = std::move(r);
   }
@@ -215,7 +218,7 @@ class FrameThread {
   bool right_alone(ar::CaptureThread& right, ar::Frame& f) {
     ar::Frame r;
     if (!right.wait_take(r, 0.02)) return false;
-    take_right(std::move(r), kSilentS);
+    take_right(std::move(r), kSilentS, false);
     f = std::move(right_pending_);
     right_pending_ = ar::Frame{};
     right_image_.release();
@@ -290,9 +293,14 @@ class FrameThread {
         fig_.stereo_fallback_wait_ms = pair_wait_ms_;
       }
     }
-    if (eyes == ar::FrameRecord::kEyesBoth && prev_eyes_ == ar::FrameRecord::kEyesLeft && right_back_s_ > 0) {
+    // Only after the right camera was lost (silent, as the mode switch sees it): the left
+    // camera's return or a slow loop (right frames taken > 0.1 s apart) is no right-eye return.
+    if (eyes == ar::FrameRecord::kEyesBoth && prev_eyes_ == ar::FrameRecord::kEyesLeft && right_back_s_ > 0 &&
+        right_was_silent_) {
+      right_was_silent_ = false;
       ++fig_.stereo_recoveries;
       fig_.stereo_recovery_ms_max = std::max(fig_.stereo_recovery_ms_max, (now - right_back_s_) * 1e3);
+      right_back_s_ = 0;  // counted: a later unpaired frame and pair is no second return
     }
     prev_eyes_ = eyes;
   }
@@ -496,6 +504,7 @@ class FrameThread {
   double last_time_s_ = 0, last_steady_s_ = 0, left_shift_s_ = 0;  // one_timeline
   double unpaired_from_s_ = 0;  // this frame lacks the right eye's partner: the right camera's last frame (steady s)
   bool right_silent_ = false;                     // pair_right: the right camera silent (lost)
+  bool right_was_silent_ = false;                 // ... since the last recovery counted
   double right_silent_from_s_ = 0, right_first_back_s_ = 0;  // its last frame; its first after a silence
   int mode_ = ar::FrameRecord::kEyesBoth;         // note_switch: the cameras delivering (kEyes*)
   int switch_eyes_ = -1;                          // this frame's switch (its eyes; -1 none)
