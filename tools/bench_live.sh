@@ -25,6 +25,11 @@
 #   tools/bench_live.sh wake [SECONDS]         the engine with the CPUs' wake-up latency held (default) and
 #                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
 #                                              alternating (PAIRS pairs, default 2)
+#   tools/bench_live.sh machine [SECONDS] [--stress]  session 18: the machine's own wake-up misses, the
+#                                              engine's rival: cyclictest (Debian package rt-tests) on the
+#                                              engine's CPU at its priority and period (SCHED_FIFO 80, 1 ms),
+#                                              nothing else of ours running; a wake-up > 1 ms late is what the
+#                                              engine counts as a missed deadline
 #
 # Environment: BUILD_DIR (default build), OUT (default out/bench_live), HEADSET (a headset profile:
 # latency's stereo rows drive --output sbs with it). Nothing is installed: without
@@ -343,5 +348,44 @@ PY
       [[ -n "${OLD_BIN:-}" ]] && eyes_row "old build, run $i" "$OLD_BIN"
     done
     ;;
-  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal|latency|engine5|memory5|wake|eyes [SECONDS] [--stress]" >&2; exit 2 ;;
+  machine)
+    command -v cyclictest >/dev/null || { echo "cyclictest is not installed (Debian package rt-tests: apt install rt-tests)" >&2; exit 1; }
+    cpu=$(($(nproc) - 1))  # the engine's default CPU: the last one
+    machine_row() {  # machine_row NAME: cyclictest for secs on the engine's CPU, histogram in us
+      mkdir -p "$out"
+      cyclictest -m -q -p 80 -a "$cpu" -t 1 -i 1000 -D "${secs}s" -h 20000 > "$out/$1.cyclictest" 2>&1 || true
+      python3 - "$out/$1.cyclictest" "$1" "$secs" <<'PY'
+import sys
+hist, over, mx, n = {}, 0, 0, 0
+for line in open(sys.argv[1]):
+    p = line.split()
+    if len(p) == 2 and p[0].isdigit():
+        hist[int(p[0])] = int(p[1]); n += int(p[1])
+    elif line.startswith("# Histogram Overflows:"):
+        over = int(p[3])
+    elif line.startswith("# Max Latencies:"):
+        mx = int(p[3])
+if n == 0:
+    print(f"| {sys.argv[2]} | cyclictest gave no histogram: see {sys.argv[1]} |"); sys.exit(0)
+late = lambda us: sum(c for k, c in hist.items() if k > us) + over
+def pct(q):
+    acc = 0
+    for k in sorted(hist):
+        acc += hist[k]
+        if acc >= q * (n + over): return k
+    return mx
+mins = float(sys.argv[3]) / 60
+print(f"| {sys.argv[2]} | {sys.argv[3]} | {n + over} | {pct(0.5)} / {pct(0.99)} / {pct(0.999)} / {mx} | "
+      f"{late(200)} | {late(1000)} | {late(1000) / mins:.2f} | {late(3000)} |")
+PY
+    }
+    echo "| run | s | wake-ups | latency p50 / p99 / p99.9 / max us | > 200 us | > 1 ms (a missed deadline) | per minute | > 3 ms |"
+    echo "|---|---|---|---|---|---|---|---|"
+    machine_row "cyclictest FIFO 80 on CPU $cpu, 1 ms"
+    if [[ $stress_on == 1 ]] && start_stress "$((secs + 20))"; then
+      machine_row "cyclictest FIFO 80 on CPU $cpu, 1 ms + stress"
+      stop_stress
+    fi
+    ;;
+  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal|latency|engine5|memory5|wake|eyes|machine [SECONDS] [--stress]" >&2; exit 2 ;;
 esac
