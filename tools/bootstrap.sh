@@ -44,8 +44,8 @@ packages=(
   # the sound track into the composite video (dentar offline --audio-mux).
   libopenal-dev libsndfile1-dev libavformat-dev libavcodec-dev libavutil-dev
 )
-# bench: VTK for the surface comparison; ffmpeg and stress for the live benchmarks.
-if [[ "$job" == bench ]]; then packages+=(libvtk9-dev ffmpeg stress); fi
+# bench: VTK for the surface comparison; ffmpeg, stress and rt-tests (cyclictest) for the live benchmarks.
+if [[ "$job" == bench ]]; then packages+=(libvtk9-dev ffmpeg stress rt-tests); fi
 
 missing=()
 for p in "${packages[@]}"; do
