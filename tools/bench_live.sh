@@ -22,6 +22,9 @@
 #                                              the right eye on its own thread against the frame thread, alternating
 #                                              and the window's rasteriser allowed on any CPU (PAIRS, default 3;
 #                                              OLD_BIN=another build as a fourth arm)
+#   tools/bench_live.sh warp [SECONDS]         issue 28 session 18: stereo 2x640x480 (two cameras) into the headset
+#                                              (HEADSET=), the pre-warp pass full (sessions 15-17) / exact (default) /
+#                                              mesh, DentAR and the bare passthrough viewer, alternating (PAIRS, default 2)
 #   tools/bench_live.sh wake [SECONDS]         the engine with the CPUs' wake-up latency held (default) and
 #                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
 #                                              alternating (PAIRS pairs, default 2)
@@ -277,6 +280,20 @@ case "$mode" in
       engine_row "stereo 2x1280x720, sim hand + stress"
       stop_stress
     fi
+    ;;
+  warp)
+    # Issue 28 session 18: the headset's pre-warp pass (--warp-pass), the same footage and
+    # binary, the arms one after another in each round; the display stage (take to swap) is
+    # where the pass's cost shows.
+    [[ -n "${HEADSET:-}" ]] || { echo "warp needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }
+    c=$(clip_stereo 640 480)
+    latency_header
+    for i in $(seq 1 "${PAIRS:-2}"); do
+      for w in full exact mesh; do
+        latency_pair "stereo 2x640x480, two cameras, warp $w, run $i" "$c" --camera live:"$c/camera_left.avi" \
+          --camera-right live:"$c/camera_right.avi" --output sbs --headset "$HEADSET" --warp-pass "$w"
+      done
+    done
     ;;
   wake)
     c720=$(clip 1280 720)

@@ -98,6 +98,13 @@ void add_live(CLI::App& app, int& exit_code) {
                   "0 = off (key L cycles off / inset / full)");
   sub->add_option("--loupe-view", c->o.loupe_view, "inset (picture in picture, default) or full (the whole eye view)")
       ->check(CLI::IsMember({"inset", "full"}));
+  sub->add_option("--warp-pass", c->o.warp_pass,
+                  "the headset's lens pre-warp pass (--output sbs): exact (default: the exact mapping, drawn only "
+                  "where the camera is seen), mesh (a grid's per-vertex warp: within 1 camera px at 16 px cells, 0.2 at 8; docs/headset.md), "
+                  "full (every pixel, as before), lut (a lookup texture)")
+      ->check(CLI::IsMember({"exact", "mesh", "full", "lut"}));
+  sub->add_option("--warp-cell-px", c->o.warp_cell_px, "the pre-warp grid's cell size, panel px (4..128, default 16)")
+      ->check(CLI::Range(4, 128));
   sub->add_option("--window-width", c->o.window_width, "window width (px, default: the camera's)");
   sub->add_option("--window-height", c->o.window_height, "window height (px)");
   sub->add_flag("--no-hud", c->no_hud, "video only, no HUD");

@@ -120,6 +120,122 @@ void BM_HeadsetOutput(benchmark::State& state) {
 }
 BENCHMARK(BM_HeadsetOutput)->DenseRange(0, 8)->Iterations(3)->Unit(benchmark::kMillisecond);
 
+// Issue 28 session 18: the pre-warp pass's designs on the same frames, as `dentar live --output
+// sbs` draws a stereo 2x640x480 pair (the bench's clip: synth's camera, fx = fy = 600 px)
+// into the Rift DK1's 1280x800 panel (a window of the panel's size). Arguments: pass (0 full,
+// the sessions 15-17 pass; 1 exact on the live cells; 2 mesh; 3 lookup texture), the grid's
+// cell size (panel px), loupe (0 off, 1 inset 3x). Counters as BM_HeadsetOutput, plus the
+// live cells' share of the two viewports and, for the mesh and the lookup, the warp's
+// largest error against the exact mapping over the panel (camera px and panel px, the worst
+// eye and channel; headset.h warp_grid_error / warp_lut_error).
+//   ./build/live/live_headset_bench --benchmark_filter=Warp
+void BM_HeadsetWarp(benchmark::State& state) {
+  if (!context() || !context()->make_current()) {
+    state.SkipWithError("no EGL context");
+    return;
+  }
+  const live::WarpPass pass = static_cast<live::WarpPass>(state.range(0));
+  const int cell = static_cast<int>(state.range(1));
+  const bool inset = state.range(2) != 0;
+  auto h = live::read_headset_profile("assets/headsets/oculus_rift_dk1.json");
+  if (!h) {
+    state.SkipWithError(h.error().c_str());
+    return;
+  }
+  calibration::CameraIntrinsics cam;
+  cam.width = 640, cam.height = 480, cam.fx = cam.fy = 600, cam.cx = 319.5, cam.cy = 239.5;
+  const int W = h->panel_w, H = h->panel_h;
+  auto out = live::make_sbs_output(true, *h, cam, true, &cam, pass, cell);
+  if (!out) {
+    state.SkipWithError(out.error().c_str());
+    return;
+  }
+  live::LoupeView l;
+  if (inset) l.mag = 3;
+  (*out)->set_loupe(l);
+  cv::Mat img(480, 640, CV_8UC4), img_r(480, 640, CV_8UC4);
+  cv::randu(img, 0, 255);
+  cv::randu(img_r, 0, 255);
+  GLuint tex[2] = {0, 0}, target = 0, fbo = 0;
+  glGenTextures(2, tex);
+  for (int e = 0; e < 2; ++e) {
+    glBindTexture(GL_TEXTURE_2D, tex[e]);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 640, 480, 0, GL_RGBA, GL_UNSIGNED_BYTE, (e ? img_r : img).data);
+  }
+  glGenTextures(1, &target);
+  glBindTexture(GL_TEXTURE_2D, target);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, W, H, 0, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
+  glGenFramebuffers(1, &fbo);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target, 0);
+  live::OutputFrame f;
+  f.video = tex[0], f.right_video = tex[1], f.tex_w = 640, f.tex_h = 480;
+  f.loupe_c[0][0] = f.loupe_c[1][0] = 330, f.loupe_c[0][1] = f.loupe_c[1][1] = 250;
+  for (int i = 0; i < 5; ++i) (*out)->draw(f, W, H);  // warm-up (shader compile, first draws, the grid)
+  glFinish();
+  auto cpu_ms = [] {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+  };
+  std::vector<double> ms, cpu;
+  for (auto _ : state) {
+    for (int i = 0; i < 30; ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = cpu_ms();
+      (*out)->draw(f, W, H);
+      glFinish();
+      cpu.push_back(cpu_ms() - c0);
+      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+  }
+  std::sort(ms.begin(), ms.end());
+  std::sort(cpu.begin(), cpu.end());
+  state.counters["p50_ms"] = ms[ms.size() / 2];
+  state.counters["p99_ms"] = ms[std::min(ms.size() - 1, ms.size() * 99 / 100)];
+  state.counters["cpu_p50_ms"] = cpu[cpu.size() / 2];
+  state.counters["cpu_p99_ms"] = cpu[std::min(cpu.size() - 1, cpu.size() * 99 / 100)];
+  // The grid's live share and the warp's error (CPU, the same mappings the output drew).
+  double live_share = 1, err_cam = 0, err_panel = 0;
+  const double c0[2] = {330, 250};
+  long vp_px = 0, live_px = 0;
+  for (int e = 0; e < 2; ++e) {
+    const live::EyeMapping m = live::make_eye_mapping(*h, e, cam, true, l, c0);
+    const int cols = (m.vp[2] + cell - 1) / cell, rows = (m.vp[3] + cell - 1) / cell;
+    const live::WarpGrid g = live::make_warp_grid(m, cols, rows);
+    vp_px += static_cast<long>(m.vp[2]) * m.vp[3];
+    live_px += static_cast<long>(g.live_cells()) * m.vp[2] * m.vp[3] / (cols * rows);
+    live::WarpError we;
+    if (pass == live::WarpPass::kMesh && !inset) we = live::warp_grid_error(g, m);
+    if (pass == live::WarpPass::kLut) we = live::warp_lut_error(m, true);
+    for (int ch = 0; ch < 3; ++ch) {
+      err_cam = std::max(err_cam, we.max_cam_px[ch]);
+      err_panel = std::max(err_panel, we.max_panel_px[ch]);
+    }
+  }
+  if (pass != live::WarpPass::kFull) live_share = double(live_px) / double(vp_px);
+  state.counters["live_share"] = live_share;
+  state.counters["err_cam_px"] = err_cam;
+  state.counters["err_panel_px"] = err_panel;
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  out->reset();
+  glDeleteFramebuffers(1, &fbo);
+  glDeleteTextures(1, &target);
+  glDeleteTextures(2, tex);
+}
+BENCHMARK(BM_HeadsetWarp)
+    ->Args({0, 16, 0})
+    ->Args({1, 16, 0})
+    ->Args({1, 32, 0})
+    ->Args({2, 8, 0})
+    ->Args({2, 16, 0})
+    ->Args({2, 32, 0})
+    ->Args({3, 16, 0})
+    ->Args({0, 16, 1})
+    ->Args({1, 16, 1})
+    ->Iterations(3)
+    ->Unit(benchmark::kMillisecond);
+
 // The loupe's centre per frame on the CPU: the tooth's centre projected with the
 // frame's pose (the station's distortion) and the deadband (headset.h LoupeCentre).
 void BM_LoupeCentre(benchmark::State& state) {

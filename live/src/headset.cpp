@@ -300,6 +300,176 @@ void render_eye_cpu(const cv::Mat& src, const EyeMapping& m, cv::Mat& panel) {
   }
 }
 
+int WarpGrid::live_cells() const {
+  int n = 0;
+  for (const std::uint8_t l : live) n += l;
+  return n;
+}
+
+WarpGrid make_warp_grid(const EyeMapping& m, int cols, int rows) {
+  WarpGrid g;
+  g.cols = std::max(1, cols);
+  g.rows = std::max(1, rows);
+  const int nx = g.cols + 1, ny = g.rows + 1;
+  g.xy.resize(static_cast<std::size_t>(2 * nx * ny));
+  g.uv.resize(static_cast<std::size_t>(6 * nx * ny));
+  g.live.assign(static_cast<std::size_t>(g.cols * g.rows), 0);
+  const double W = m.cam_w, H = m.cam_h;
+  // A point of the viewport in cell units (i, j) to panel px.
+  auto panel = [&](double i, double j, double& px, double& py) {
+    px = m.vp[0] + std::min(double(m.vp[2]), i * m.vp[2] / g.cols);
+    py = m.vp[1] + std::min(double(m.vp[3]), j * m.vp[3] / g.rows);
+  };
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const std::size_t k = static_cast<std::size_t>(j * nx + i);
+      double px = 0, py = 0;
+      panel(i, j, px, py);
+      g.xy[2 * k] = static_cast<float>(px);
+      g.xy[2 * k + 1] = static_cast<float>(py);
+      for (int ch = 0; ch < 3; ++ch) {
+        double u = 0, v = 0;
+        m.map(px, py, ch, u, v);
+        g.uv[6 * k + 2 * static_cast<std::size_t>(ch)] = static_cast<float>((u + 0.5) / W);
+        g.uv[6 * k + 2 * static_cast<std::size_t>(ch) + 1] = static_cast<float>((v + 0.5) / H);
+      }
+    }
+  if (m.loupe.mag > 0 && m.loupe.inset) {
+    std::fill(g.live.begin(), g.live.end(), std::uint8_t{1});
+    return g;
+  }
+  for (int j = 0; j < g.rows; ++j)
+    for (int i = 0; i < g.cols; ++i) {
+      bool seen = false;
+      for (int ch = 0; ch < 3 && !seen; ++ch) {
+        double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) {
+            double px = 0, py = 0, u = 0, v = 0;
+            panel(i + a / 2.0, j + b / 2.0, px, py);
+            m.map(px, py, ch, u, v);
+            u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+          }
+        const double gu = 0.5 * (u1 - u0) + 2, gv = 0.5 * (v1 - v0) + 2;
+        seen = u1 + gu >= -0.5 && u0 - gu <= W - 0.5 && v1 + gv >= -0.5 && v0 - gv <= H - 0.5;
+      }
+      g.live[static_cast<std::size_t>(j * g.cols + i)] = seen ? 1 : 0;
+    }
+  return g;
+}
+
+namespace {
+
+// The exact camera px of a panel point in channel ch and whether the pass shows the
+// camera there (render_eye_cpu's test: texture coordinates within [0, 1]).
+bool exact_seen(const EyeMapping& m, double px, double py, int ch, double& u, double& v) {
+  if (!m.map(px, py, ch, u, v)) return false;
+  return u >= -0.5 && u <= m.cam_w - 0.5 && v >= -0.5 && v <= m.cam_h - 0.5;
+}
+
+// A camera-px error (du, dv) at panel point (px, py) as a panel displacement: the mapping's
+// Jacobian there (central differences over +-0.25 px) inverted.
+double panel_displacement(const EyeMapping& m, double px, double py, int ch, double du, double dv) {
+  double ux0, vx0, ux1, vx1, uy0, vy0, uy1, vy1;
+  m.map(px - 0.25, py, ch, ux0, vx0);
+  m.map(px + 0.25, py, ch, ux1, vx1);
+  m.map(px, py - 0.25, ch, uy0, vy0);
+  m.map(px, py + 0.25, ch, uy1, vy1);
+  const double a = (ux1 - ux0) * 2, b = (uy1 - uy0) * 2, c = (vx1 - vx0) * 2, d = (vy1 - vy0) * 2;
+  const double det = a * d - b * c;
+  if (!(std::abs(det) > 1e-12)) return std::hypot(du, dv);
+  const double dx = (d * du - b * dv) / det, dy = (-c * du + a * dv) / det;
+  return std::hypot(dx, dy);
+}
+
+void finish(WarpError& e, std::vector<float>& errs) {
+  if (errs.empty()) return;
+  const auto k = errs.begin() + static_cast<std::ptrdiff_t>((errs.size() - 1) * 99 / 100);
+  std::nth_element(errs.begin(), k, errs.end());
+  e.p99_cam_px = *k;
+}
+
+}  // namespace
+
+WarpError warp_grid_error(const WarpGrid& g, const EyeMapping& m) {
+  WarpError e;
+  std::vector<float> errs;
+  const double cw = double(m.vp[2]) / g.cols, chh = double(m.vp[3]) / g.rows;
+  const int nx = g.cols + 1;
+  for (int y = 0; y < m.vp[3]; ++y)
+    for (int x = 0; x < m.vp[2]; ++x) {
+      const double lx = x + 0.5, ly = y + 0.5, px = m.vp[0] + lx, py = m.vp[1] + ly;
+      const int ci = std::min(g.cols - 1, static_cast<int>(lx / cw)), cj = std::min(g.rows - 1, static_cast<int>(ly / chh));
+      const double fx = lx / cw - ci, fy = ly / chh - cj;
+      const bool live = g.live[static_cast<std::size_t>(cj * g.cols + ci)] != 0;
+      bool any = false;
+      for (int ch = 0; ch < 3; ++ch) {
+        double u = 0, v = 0;
+        if (!exact_seen(m, px, py, ch, u, v)) continue;
+        any = true;
+        if (!live) continue;
+        // Two triangles a-b-c and b-d-c (a top-left, b top-right, c bottom-left, d bottom-right).
+        auto uv = [&](int i, int j, int comp) {
+          return double(g.uv[6 * static_cast<std::size_t>(j * nx + i) + 2 * static_cast<std::size_t>(ch) + static_cast<std::size_t>(comp)]);
+        };
+        double t[2];
+        for (int comp = 0; comp < 2; ++comp) {
+          const double a = uv(ci, cj, comp), b = uv(ci + 1, cj, comp), c = uv(ci, cj + 1, comp), d = uv(ci + 1, cj + 1, comp);
+          t[comp] = fx + fy <= 1 ? a + fx * (b - a) + fy * (c - a) : d + (1 - fx) * (c - d) + (1 - fy) * (b - d);
+        }
+        const double du = t[0] * m.cam_w - 0.5 - u, dv = t[1] * m.cam_h - 0.5 - v;
+        const double err = std::hypot(du, dv);
+        errs.push_back(static_cast<float>(err));
+        e.max_cam_px[ch] = std::max(e.max_cam_px[ch], err);
+        e.max_panel_px[ch] = std::max(e.max_panel_px[ch], panel_displacement(m, px, py, ch, du, dv));
+      }
+      e.pixels += any ? 1 : 0;
+      e.culled_seen += any && !live ? 1 : 0;
+    }
+  finish(e, errs);
+  return e;
+}
+
+std::vector<float> warp_lut(const EyeMapping& m, bool half) {
+  std::vector<float> lut(static_cast<std::size_t>(2 * m.vp[2] * m.vp[3]));
+  for (int y = 0; y < m.vp[3]; ++y)
+    for (int x = 0; x < m.vp[2]; ++x) {
+      const double dx = (x + 0.5 - m.lens_c[0]) / m.norm, dy = (y + 0.5 - m.lens_c[1]) / m.norm;
+      const double r2 = dx * dx + dy * dy, s = 1 + m.k1 * r2 + m.k2 * r2 * r2;
+      float a = static_cast<float>(dx * s), b = static_cast<float>(dy * s);
+      if (half) a = static_cast<float>(cv::float16_t(a)), b = static_cast<float>(cv::float16_t(b));
+      lut[2 * static_cast<std::size_t>(y * m.vp[2] + x)] = a;
+      lut[2 * static_cast<std::size_t>(y * m.vp[2] + x) + 1] = b;
+    }
+  return lut;
+}
+
+WarpError warp_lut_error(const EyeMapping& m, bool half) {
+  WarpError e;
+  std::vector<float> errs;
+  const std::vector<float> lut = warp_lut(m, half);
+  for (int y = 0; y < m.vp[3]; ++y)
+    for (int x = 0; x < m.vp[2]; ++x) {
+      const double px = m.vp[0] + x + 0.5, py = m.vp[1] + y + 0.5;
+      bool any = false;
+      for (int ch = 0; ch < 3; ++ch) {
+        double u = 0, v = 0;
+        if (!exact_seen(m, px, py, ch, u, v)) continue;
+        any = true;
+        const std::size_t k = 2 * static_cast<std::size_t>(y * m.vp[2] + x);
+        double lu = 0, lv = 0;
+        m.eye_to_camera(m.lens_c[0] + lut[k] * m.chroma[ch] * m.norm, m.lens_c[1] + lut[k + 1] * m.chroma[ch] * m.norm, lu, lv);
+        const double du = lu - u, dv = lv - v, err = std::hypot(du, dv);
+        errs.push_back(static_cast<float>(err));
+        e.max_cam_px[ch] = std::max(e.max_cam_px[ch], err);
+        e.max_panel_px[ch] = std::max(e.max_panel_px[ch], panel_displacement(m, px, py, ch, du, dv));
+      }
+      e.pixels += any ? 1 : 0;
+    }
+  finish(e, errs);
+  return e;
+}
+
 void LoupeCentre::update(bool valid, double u, double v) {
   if (!valid || !std::isfinite(u) || !std::isfinite(v)) return;  // hold
   if (!init_) {

@@ -1,6 +1,8 @@
 // dentar live: threads, engine, window and recording. See live_app.h.
 #include "dentar/live/live_app.h"
 
+#include "dentar/live/eye_output.h"
+
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <imgui.h>
@@ -152,6 +154,10 @@ std::string LiveOptions::validate() const {
   if (loupe_view != "inset" && loupe_view != "full") return "loupe_view = \"" + loupe_view + "\" must be inset or full";
   if (window_width < 0 || window_height < 0 || window_width > 8192 || window_height > 8192)
     return "window size must be within 0..8192";
+  if (WarpPass p; !parse_warp_pass(warp_pass, p))
+    return "warp_pass = \"" + warp_pass + "\" must be exact, mesh, full or lut";
+  if (warp_cell_px < 4 || warp_cell_px > 128)
+    return "warp_cell_px = " + std::to_string(warp_cell_px) + " must be in 4..128 panel px";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
   if (frames < 0) return "frames = " + std::to_string(frames) + " must be >= 0 (0 = no limit)";
   if (!(std::isfinite(camera_latency_ms) && camera_latency_ms <= 1000))

@@ -139,7 +139,10 @@ class DisplayLoop {
     const volume::VoxelVolume& vol = c_.run.volume();
     tooth_centre_ = vol.origin() + vol.spacing().cwiseProduct((vol.dims() - Eigen::Vector3i::Ones()).cast<double>() / 2);
     if (o.output == "mono" && o.loupe == 0) return;  // the window as before
-    auto out = o.output == "sbs" ? make_sbs_output(c_.hw.gles_egl(), *o.headset, cam_, stereo_, stereo_ ? &cam_right_ : nullptr)
+    WarpPass pass = WarpPass::kExact;
+    parse_warp_pass(o.warp_pass, pass);  // validated with the options
+    auto out = o.output == "sbs" ? make_sbs_output(c_.hw.gles_egl(), *o.headset, cam_, stereo_, stereo_ ? &cam_right_ : nullptr,
+                                                   pass, o.warp_cell_px)
                                  : make_mono_output(c_.hw.gles_egl(), cam_);
     if (!out) {
       c_.say("output " + o.output + ": " + out.error() + "; the mono window instead");

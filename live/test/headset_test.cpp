@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <filesystem>
@@ -252,5 +253,91 @@ TEST(Headset, LetterboxIsTheWindowMappingsViewport) {
     EXPECT_EQ(m.vp[1], l.y);
     EXPECT_EQ(m.vp[2], l.w);
     EXPECT_EQ(m.vp[3], l.h);
+  }
+}
+
+// Issue 28 session 18: the headset's pre-warp drawn over a grid (eye_output.h WarpPass).
+// The mesh's warp (texture coordinates linear over each cell's two triangles) against the
+// exact mapping on every pixel of the Rift DK1's eyes, the bench's 640x480 camera
+// (fx = 600 px), per channel: the sampled position's error in camera px and the same as a
+// displacement on the panel, within the stated tolerances (docs/headset.md) for 16 px cells
+// (the default) and 8 px cells; and the cull, checked on every pixel, drops only pixels that
+// show no camera in any channel.
+namespace {
+dentar::calibration::CameraIntrinsics bench_cam() {
+  dentar::calibration::CameraIntrinsics c;
+  c.width = 640, c.height = 480, c.fx = c.fy = 600, c.cx = 319.5, c.cy = 239.5;
+  return c;
+}
+}  // namespace
+
+TEST(Headset, WarpGridMatchesTheExactWarpWithinTolerance) {
+  auto h = read_headset_profile("assets/headsets/oculus_rift_dk1.json");
+  ASSERT_TRUE(h.ok()) << h.error();
+  const double c[2] = {330, 250};
+  struct Case {
+    int eye;
+    bool stereo;
+    double loupe;  // full view
+    int cell_px;
+    double tol_cam_px, tol_panel_px;
+  };
+  for (const Case k : {Case{0, true, 0, 16, 1.0, 0.4}, Case{1, true, 0, 16, 1.0, 0.4}, Case{0, false, 0, 16, 1.0, 0.4},
+                       Case{1, true, 3, 16, 1.2, 0.5}, Case{0, true, 0, 8, 0.2, 0.08}, Case{1, true, 3, 8, 0.3, 0.13}}) {
+    SCOPED_TRACE(::testing::Message() << "eye " << k.eye << (k.stereo ? " stereo" : " mono") << " loupe " << k.loupe
+                                      << " cells " << k.cell_px << " px");
+    LoupeView l;
+    l.mag = k.loupe, l.inset = false;
+    const EyeMapping m = make_eye_mapping(*h, k.eye, bench_cam(), k.stereo, l, c);
+    const int cols = 640 / k.cell_px, rows = 800 / k.cell_px;
+    const WarpGrid g = make_warp_grid(m, cols, rows);
+    ASSERT_EQ(g.xy.size(), 2u * (cols + 1) * (rows + 1));
+    const WarpError e = warp_grid_error(g, m);
+    EXPECT_EQ(e.culled_seen, 0) << "the cull dropped pixels that show the camera";
+    EXPECT_GT(e.pixels, 20000);
+    for (int ch = 0; ch < 3; ++ch) {
+      EXPECT_LT(e.max_cam_px[ch], k.tol_cam_px) << "channel " << ch;
+      EXPECT_LT(e.max_panel_px[ch], k.tol_panel_px) << "channel " << ch;
+      EXPECT_GT(e.max_cam_px[ch], k.tol_cam_px / 10) << "channel " << ch;  // a warp, not an affine map
+    }
+    // Without the loupe most of the eye shows no camera: the cull keeps under a third of the cells.
+    if (k.loupe == 0) {
+      EXPECT_LT(g.live_cells(), cols * rows / 3);
+      EXPECT_GT(g.live_cells(), cols * rows / 20);
+    }
+  }
+  LoupeView off;
+  const EyeMapping m = make_eye_mapping(*h, 0, bench_cam(), true, off, c);
+  // The check can fail: a 5x6 grid's warp is off by far more than the tolerance.
+  const WarpError coarse = warp_grid_error(make_warp_grid(m, 5, 6), m);
+  EXPECT_GT(std::max({coarse.max_cam_px[0], coarse.max_cam_px[1], coarse.max_cam_px[2]}), 4 * 1.0);
+  EXPECT_EQ(coarse.culled_seen, 0);
+  // The loupe's inset jumps at its border: every cell live.
+  LoupeView inset;
+  inset.mag = 3;
+  const WarpGrid gi = make_warp_grid(make_eye_mapping(*h, 0, bench_cam(), true, inset, c), 40, 50);
+  EXPECT_EQ(gi.live_cells(), 40 * 50);
+  // A cull that drops cells showing the camera is seen (a camera far wider than the view).
+  dentar::calibration::CameraIntrinsics wide = bench_cam();
+  wide.fx = wide.fy = 150;
+  const EyeMapping mw = make_eye_mapping(*h, 0, wide, true, off, c);
+  WarpGrid gw = make_warp_grid(mw, 40, 50);
+  std::fill(gw.live.begin(), gw.live.begin() + 40 * 5, std::uint8_t{0});
+  EXPECT_GT(warp_grid_error(gw, mw).culled_seen, 1000);
+}
+
+// The lookup texture's warp (WarpPass::kLut): exact at the pixel centres in float, within
+// the half float's rounding in RG16F.
+TEST(Headset, WarpLookupMatchesTheExactWarp) {
+  auto h = read_headset_profile("assets/headsets/oculus_rift_dk1.json");
+  ASSERT_TRUE(h.ok()) << h.error();
+  const double c[2] = {330, 250};
+  const EyeMapping m = make_eye_mapping(*h, 0, bench_cam(), true, {}, c);
+  const WarpError f = warp_lut_error(m, false), hf = warp_lut_error(m, true);
+  EXPECT_GT(f.pixels, 20000);
+  for (int ch = 0; ch < 3; ++ch) {
+    EXPECT_LT(f.max_cam_px[ch], 1e-3);
+    EXPECT_LT(hf.max_cam_px[ch], 0.5);
+    EXPECT_GT(hf.max_cam_px[ch], f.max_cam_px[ch]);
   }
 }

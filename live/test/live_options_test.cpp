@@ -19,6 +19,21 @@ TEST(LiveOptions, DisplayPathAutoGlOrCpuAndNothingElse) {
 }
 
 // Issue 28: two kinds of stereo head, not both at once; the right eye's stall hook needs it.
+// Issue 28 session 18: the headset's pre-warp pass and its grid's cell size.
+TEST(LiveOptions, WarpPassAndCellSize) {
+  LiveOptions o;
+  EXPECT_EQ(o.warp_pass, "exact");
+  for (const char* p : {"exact", "mesh", "full", "lut"}) {
+    o.warp_pass = p;
+    EXPECT_EQ(o.validate(), "") << p;
+  }
+  o.warp_pass = "fast";
+  EXPECT_NE(o.validate().find("warp_pass = \"fast\" must be exact, mesh, full or lut"), std::string::npos) << o.validate();
+  o.warp_pass = "exact";
+  o.warp_cell_px = 3;
+  EXPECT_NE(o.validate().find("warp_cell_px = 3 must be in 4..128"), std::string::npos) << o.validate();
+}
+
 TEST(LiveOptions, StereoIsTwoCamerasOrOneSideBySideNotBoth) {
   LiveOptions o;
   EXPECT_EQ(o.validate(), "");

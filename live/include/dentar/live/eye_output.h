@@ -38,6 +38,26 @@ struct OutputFrame {
   double loupe_c[2][2] = {{0, 0}, {0, 0}};
 };
 
+// Issue 28 session 18: how the side-by-side view's per-eye pass draws the lens pre-warp
+// (docs/headset.md "The pre-warp pass"; docs/BENCHMARKS.md "Issue 28 session 18 - the
+// headset window's display stage"). On llvmpipe the pass's cost is its fragments times
+// their texture taps; most of an eye's viewport shows no camera (black), so every pass but
+// kFull draws only the cells of a grid over the viewport where the camera may be seen
+// (headset.h WarpGrid: the cull is checked on every pixel), the rest is the clear's black.
+enum class WarpPass {
+  kFull,   // sessions 15-17: the exact mapping per fragment, one triangle over the whole viewport
+  kExact,  // the same fragment program over the live cells only: the same pixels as kFull (default)
+  kMesh,   // the live cells with per-vertex texture coordinates per channel (the exact mapping at the
+           // vertices, linear between): three plain taps per fragment; its error is warp_grid_error's.
+  // Every pass draws an eye with the loupe's inset on as kFull (the inset's mapping jumps at its
+  // border, and every cell would be live).
+  kLut,    // kExact with the pre-warp's polynomial read from a per-pixel lookup texture (RG16F,
+           // headset.h warp_lut; exact at a 1:1 window only)
+};
+const char* warp_pass_name(WarpPass p);
+// "full", "exact", "mesh", "lut"; false otherwise.
+bool parse_warp_pass(const std::string& s, WarpPass& p);
+
 class DisplayOutput {
  public:
   virtual ~DisplayOutput() = default;
@@ -61,8 +81,11 @@ Result<std::unique_ptr<DisplayOutput>> make_mono_output(bool gles, const calibra
 // `stereo` says which the driver expects (for its log; the frame decides).
 // cam_right: the right eye's camera of a stereo pair (the rig's camera_right; null: `cam`),
 // used for the right eye's mapping when the frame has right_video.
+// pass: the pre-warp's pass (above); cell_px: the grid's cell size in panel px (4..128; the
+// grid has ceil(viewport / cell_px) cells a side).
 Result<std::unique_ptr<DisplayOutput>> make_sbs_output(bool gles, const HeadsetProfile& profile,
                                                        const calibration::CameraIntrinsics& cam, bool stereo,
-                                                       const calibration::CameraIntrinsics* cam_right = nullptr);
+                                                       const calibration::CameraIntrinsics* cam_right = nullptr,
+                                                       WarpPass pass = WarpPass::kExact, int cell_px = 16);
 
 }  // namespace dentar::live

@@ -31,8 +31,10 @@
 
 #include <Eigen/Geometry>
 #include <array>
+#include <cstdint>
 #include <opencv2/core/mat.hpp>
 #include <string>
+#include <vector>
 
 #include "dentar/calibration/station.h"
 #include "dentar/volume/result.h"
@@ -123,6 +125,48 @@ EyeMapping make_window_mapping(int win_w, int win_h, const calibration::CameraIn
 // (BGR, panel size; the caller clears it) from `src` (BGR, camera size):
 // bilinear per channel, black outside the camera image.
 void render_eye_cpu(const cv::Mat& src, const EyeMapping& m, cv::Mat& panel);
+
+// Issue 28 session 18: the per-eye pass drawn over a grid of cells instead of one
+// triangle over the viewport (eye_output.h, WarpPass). The eye's viewport is cut into
+// cols x rows cells (two triangles each, split along the top-right to bottom-left
+// diagonal as GL draws them here); per vertex, its panel position and the camera pixel it
+// shows per channel (EyeMapping::map at the vertex). A cell is "live" when the camera's
+// image may be seen in some pixel of it in some channel; only live cells are drawn (the
+// rest of the viewport stays the clear's black, which is what the exact pass draws there).
+// Cull rule: the camera px of 9 points of the cell (corners, edge middles, centre) per
+// channel, their bounding box grown by half its size plus 2 px on every side, against the
+// image's texel area; the loupe's inset (its mapping jumps at the inset's border) makes
+// every cell live. warp_grid_error checks the rule on every pixel (culled_seen).
+struct WarpGrid {
+  int cols = 0, rows = 0;
+  std::vector<float> xy;   // per vertex (row-major, (rows+1) x (cols+1)): panel px, top-left origin
+  std::vector<float> uv;   // per vertex: R, G, B texture coordinates ((u + 0.5) / W, (v + 0.5) / H; row 0 = image top)
+  std::vector<std::uint8_t> live;  // per cell (row-major), 1 = drawn
+  int live_cells() const;
+};
+// cols, rows >= 1.
+WarpGrid make_warp_grid(const EyeMapping& m, int cols, int rows);
+
+// The grid's warp (texture coordinates interpolated linearly over each triangle, as GL
+// does) against the exact mapping, over every panel pixel centre of the viewport whose
+// exact camera pixel lies on the image (in that channel). Camera px: the sampled
+// position's error; panel px: the same error as a displacement on the panel (through the
+// mapping's local Jacobian). culled_seen: pixels of culled cells that show the camera in
+// some channel (the cull rule's failures; 0 when it holds).
+struct WarpError {
+  double max_cam_px[3] = {0, 0, 0}, max_panel_px[3] = {0, 0, 0};
+  double p99_cam_px = 0;  // all channels together
+  long pixels = 0, culled_seen = 0;
+};
+WarpError warp_grid_error(const WarpGrid& g, const EyeMapping& m);
+
+// The lookup-texture warp's values (WarpPass::kLut): per viewport pixel (row-major, row 0
+// = the viewport's top), the pre-warped lens coordinates d' = d (1 + k1 r^2 + k2 r^4) of
+// the pixel's centre (the green channel's; red and blue scale it by chroma). half: rounded
+// to IEEE half floats as an RG16F texture holds them.
+std::vector<float> warp_lut(const EyeMapping& m, bool half);
+// The lookup's error against the exact mapping, as warp_grid_error (culled_seen 0).
+WarpError warp_lut_error(const EyeMapping& m, bool half);
 
 // The loupe's centre on the tracked tooth: the tooth's centre projected with the
 // frame's pose, held in a deadband. The frame's own pose draws the frame's own

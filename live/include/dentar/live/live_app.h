@@ -85,6 +85,12 @@ struct LiveOptions {
   std::shared_ptr<const HeadsetProfile> headset;
   double loupe = 0;
   std::string loupe_view = "inset";
+  // Issue 28 session 18: the headset's pre-warp pass (eye_output.h WarpPass): "exact"
+  // (default: the exact mapping on the grid cells where the camera is seen), "mesh" (the
+  // grid's per-vertex warp), "full" (sessions 15-17: the exact mapping over every pixel),
+  // "lut" (a lookup texture); warp_cell_px: the grid's cell size, panel px (4..128).
+  std::string warp_pass = "exact";
+  int warp_cell_px = 16;
   int window_width = 0, window_height = 0;  // windowed size (0 = the camera's)
   bool hud = true;
   bool vsync = true;
