@@ -246,6 +246,10 @@ std::string LiveSummary::json() const {
                    {"gl_release_timeouts", gl_release_timeouts}}},
       {"station_health", {{"instructor_needed", instructor_needed}, {"items", station_health}}},
       {"warnings", warnings}};
+  if (!warp_pass.empty()) {  // session 18: which pre-warp pass drew the headset view
+    j["display"]["warp_pass"] = warp_pass;
+    j["display"]["warp_cell_px"] = warp_cell_px;
+  }
   if (stereo)
     j["stereo"] = {{"frames_both_eyes", stereo_both}, {"frames_left_eye_only", stereo_left_only},
                    {"frames_right_eye_composited", right_composited},

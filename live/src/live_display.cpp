@@ -153,6 +153,10 @@ class DisplayLoop {
     loupe_.inset = o.loupe_view == "inset";
     (*out)->set_loupe(loupe_);
     c_.hw.set_output(std::move(*out));
+    if (o.output == "sbs") {  // the pre-warp pass asked for (a loupe inset draws the whole viewport: full)
+      sum_.warp_pass = warp_pass_name(pass);
+      sum_.warp_cell_px = o.warp_cell_px;
+    }
     c_.say(o.output == "sbs" ? "output: side-by-side for headset \"" + o.headset->name + "\" (" +
                                    std::to_string(o.headset->panel_w) + "x" + std::to_string(o.headset->panel_h) +
                                    (stereo_ ? "), a stereo pair: each eye its own camera and composite" : ", one camera") +

@@ -211,6 +211,9 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
   // Session 17: the right eye ran on its own thread (the default for a stereo pair into the
   // headset), and the summary says where the frames' time went, the right eye's composite too.
   EXPECT_EQ(live["stereo"]["eye_threads"].get<int>(), 2) << live.dump();
+  // Session 18: the pre-warp pass that drew the view, named in the summary (default exact).
+  EXPECT_EQ(live["display"]["warp_pass"], "exact") << live["display"].dump();
+  EXPECT_EQ(live["display"]["warp_cell_px"].get<int>(), 16) << live["display"].dump();
   for (const char* stage : {"pickup", "track", "compose_left", "compose_right", "process_cpu", "display"})
     EXPECT_TRUE(live["stages_ms"].contains(stage)) << stage << ": " << live["stages_ms"].dump();
   r = run_command(kBin + " offline --stereo --eye both --footage " + (st / "video.mkv").string() + " --station " +

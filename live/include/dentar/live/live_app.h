@@ -311,6 +311,8 @@ struct LiveSummary {
   // what crossed between GPU and CPU over the run (compositor counters).
   std::string display_path, display_note;
   std::string display_requested;  // --display-path as given: auto, gl or cpu
+  std::string warp_pass;          // --output sbs: the headset pre-warp pass (--warp-pass); empty otherwise
+  int warp_cell_px = 0;           // its grid's cell size (px), with exact and mesh
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
   std::int64_t gl_frames_replaced = 0, gl_ready_timeouts = 0, gl_release_timeouts = 0;
   std::string json() const;
