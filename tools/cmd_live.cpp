@@ -127,7 +127,8 @@ void add_live(CLI::App& app, int& exit_code) {
                 "(no tracking, compositing or occlusion; nothing recorded)");
   sub->add_option("--eye-threads", c->o.eye_threads,
                   "a stereo pair into the headset (--output sbs): 2 (default) = the right eye's tracking and "
-                  "composite on a thread of its own, 1 = both eyes on the frame thread")
+                  "composite on a thread of its own (1, with a warning, when that thread gets no GL context), "
+                  "1 = both eyes on the frame thread")
       ->check(CLI::IsMember({1, 2}));
   sub->add_option("--eye-thread-cpu", c->o.eye_thread_cpu,
                   "where the right eye's thread may run: any (default; on the engine's CPU below it), engine "

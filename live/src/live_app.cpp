@@ -280,7 +280,8 @@ std::string LiveSummary::json() const {
   if (lesson_mode != 0) {
     nlohmann::json notes = nlohmann::json::array();
     for (const LessonNote& n : lesson_notes)
-      notes.push_back({{"time_s", n.time_s}, {"expert_s", n.expert_s}, {"run_s", n.run_s}, {"text", n.text}});
+      notes.push_back({{"time_s", n.time_s}, {"expert_s", n.expert_s}, {"expert_s_before", n.expert_s_before},
+                       {"run_s", n.run_s}, {"text", n.text}});
     j["lesson"]["notes_shown"] = notes;
     j["lesson"]["note_frames_in_view"] = lesson_note_frames;
   }
@@ -953,7 +954,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.note_missing_eye = ff.note_missing_eye;
   sum.right_composited = ff.right_composited;
   sum.stale_pairs_skipped = ff.stale_pairs_skipped;
-  sum.eye_threads = c.popt.eye_threads;
+  sum.eye_threads = ff.eye_threads > 0 ? ff.eye_threads : c.popt.eye_threads;  // after any fallback
+  if (!ff.eye_thread_note.empty()) sum.warnings.push_back("stereo: " + ff.eye_thread_note);
 
   sum.stereo_fallbacks = ff.stereo_fallbacks;
   sum.stereo_recoveries = ff.stereo_recoveries;
@@ -1013,7 +1015,7 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
     }
     for (const DisplayFigures::Note& n : df.notes) {
       const training::Annotation& a = l->lesson().annotations[static_cast<std::size_t>(n.annotation)];
-      sum.lesson_notes.push_back({a.time_s, n.expert_s, n.run_s, a.text});
+      sum.lesson_notes.push_back({a.time_s, n.expert_s, n.expert_s_before, n.run_s, a.text});
     }
     sum.follow_samples = static_cast<std::int64_t>(df.follow_m.size());
     if (!df.follow_m.empty()) {

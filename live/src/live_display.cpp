@@ -215,6 +215,7 @@ class DisplayLoop {
       if (snap.expert_time_s >= 0.5) fig_.follow_m.push_back(snap.follow_error_m);
       fig_.passes_expert_waiting += snap.expert_waiting ? 1 : 0;
       reach_notes(snap.expert_time_s);
+      prev_pass_expert_s_ = snap.expert_time_s;
     }
     HudWindow& hw = c_.hw;
     hw.poll();
@@ -324,7 +325,7 @@ class DisplayLoop {
     const auto& ann = l->lesson().annotations;
     for (; next_note_ < ann.size() && ann[next_note_].time_s <= expert_s; ++next_note_) {
       if (ann[next_note_].text.empty()) continue;
-      fig_.notes.push_back({static_cast<int>(next_note_), expert_s, now_s() - fig_.t_start});
+      fig_.notes.push_back({static_cast<int>(next_note_), expert_s, prev_pass_expert_s_, now_s() - fig_.t_start});
       if (session::Recorder* rec = c_.run.recorder()) {
         char b[96];
         std::snprintf(b, sizeof b, "lesson note at %.2f s (expert's clock %.2f s) on the HUD: ", ann[next_note_].time_s,
@@ -506,6 +507,7 @@ class DisplayLoop {
   std::vector<std::pair<std::int64_t, std::string>> shots_ = c_.o.screenshots;
   std::vector<std::pair<std::int64_t, int>> keys_ = c_.o.inject_keys;
   std::int64_t last_index_ = -1;
+  double prev_pass_expert_s_ = -1;  // the expert's clock at the previous pass (a lesson; -1 before the first)
   double stall_seen_at_ = -1;
   double prev_check_age_s_ = 0;  // the camera's silence at the previous window check, s
   double taken_s_ = 0;           // when the shown frame was taken from the frame thread (steady s)

@@ -61,6 +61,13 @@ class FrameThread {
     if (!egl_ || !egl_->make_current())
       return fail("headless rendering: " + (egl_ ? std::string("make_current failed") : egl_.error()));
     if (auto s = c_.run.create_pipeline(c_.st, c_.popt); !s) return fail(s.error());
+    // The right eye's own thread could not be made (no GL context for it): one eye thread.
+    fig_.eye_threads = c_.run.pipeline().options().eye_threads;
+    fig_.eye_thread_note = c_.run.pipeline().eye_thread_note();
+    if (!fig_.eye_thread_note.empty()) {
+      c_.say("warning: " + fig_.eye_thread_note);
+      if (session::Recorder* rec = c_.run.recorder()) rec->log("warning: " + fig_.eye_thread_note);
+    }
     if (use_gl_) {
       if (std::string e = c_.run.pipeline().compositor().gpu_path_error(); !e.empty()) {
         sh_.display_note = "the compositor's GPU path cannot run here: " + e;

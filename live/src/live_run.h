@@ -144,6 +144,9 @@ struct FrameFigures {
   std::int64_t note_both_eyes = 0, note_missing_eye = 0;
   std::int64_t right_composited = 0;  // stereo into the headset: frames with the right eye's own composite
   std::int64_t stale_pairs_skipped = 0;  // two cameras: pairs skipped for a newer one (freshest_pair.h)
+  // The pipeline's eye threads in use (0: no pipeline made) and why fewer than asked ("" none).
+  int eye_threads = 0;
+  std::string eye_thread_note;
   // Per-frame stage times, ms (the summary's stages_ms): pickup (capture to the frame thread),
   // pair_wait, mesh_sync, track, compose_left, compose_right (wall; concurrent with the left
   // eye's on the right eye's thread), process_cpu (the frame thread's own CPU per frame).
@@ -184,10 +187,11 @@ struct DisplayFigures {
   std::vector<double> follow_m;
   std::int64_t passes = 0, passes_expert_waiting = 0;
   // A lesson's text annotations shown on the HUD (with the HUD on), in the order the expert's
-  // clock reached them: the annotation, the expert's clock and the run's time (s) when shown.
+  // clock reached them: the annotation, the expert's clock and the run's time (s) when shown,
+  // and the expert's clock at the pass before (-1: none), when the note was not yet due.
   struct Note {
     int annotation = -1;
-    double expert_s = 0, run_s = 0;
+    double expert_s = 0, expert_s_before = -1, run_s = 0;
   };
   std::vector<Note> notes;
 };

@@ -389,6 +389,10 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
 // lesson whose pause point holds its note on show: the summary counts frames whose note went
 // into both eyes (and none where an eye anchored it without drawing it); the screenshot's HUD
 // text, eye by eye, is there and the same (the HUD is drawn at one place of each eye's view).
+// Session 18: run with the right eye's own GL context refused (the test hook
+// DENTAR_TEST_FAIL_EYE_CONTEXT, as a driver out of contexts): the run goes on with one eye
+// thread, says so in the summary's warnings and counts it in stereo.eye_threads, and both eyes
+// still get their composite (before: the pipeline was not made and the run stopped).
 TEST(HeadsetXvfb, HudAndLessonNoteInBothEyes) {
   REQUIRE_XVFB();
   const fs::path dir = dentar::test::temp_dir("headset_hud"), st = dir / "st", lesson = dir / "lesson";
@@ -402,7 +406,8 @@ TEST(HeadsetXvfb, HudAndLessonNoteInBothEyes) {
   const fs::path prof = dir / "headset.json";
   std::ofstream(prof) << profile_json(false).dump(2);
   const fs::path shot = dir / "shot.png";
-  r = run_command(xvfb(kBin + " live --stereo --camera live:" + (st / "video.mkv").string() + " --station " +
+  r = run_command("DENTAR_TEST_FAIL_EYE_CONTEXT=1 " +
+                  xvfb(kBin + " live --stereo --camera live:" + (st / "video.mkv").string() + " --station " +
                        (st / "station.json").string() + " --stylus sim --lesson " + lesson.string() +
                        " --mode 2 --output sbs --headset " + prof.string() +
                        " --display-path gl --quiet --loop --frames 6 --screenshot 4:" + shot.string() +
@@ -413,6 +418,14 @@ TEST(HeadsetXvfb, HudAndLessonNoteInBothEyes) {
   const auto& ls = live["stereo"];
   EXPECT_GT(ls["frames_note_both_eyes"].get<int>(), 0) << ls.dump();
   EXPECT_EQ(ls["frames_note_missing_in_an_eye"].get<int>(), 0) << ls.dump();
+  // The right eye's thread could not have its context: one eye thread, said and counted.
+  EXPECT_EQ(ls["eye_threads"].get<int>(), 1) << ls.dump();
+  EXPECT_GT(ls["frames_right_eye_composited"].get<int>(), 0) << ls.dump();
+  bool warned = false;
+  for (const auto& w : live["warnings"])
+    warned = warned || (w.get<std::string>().find("the right eye's own thread could not start") != std::string::npos &&
+                        w.get<std::string>().find("DENTAR_TEST_FAIL_EYE_CONTEXT") != std::string::npos);
+  EXPECT_TRUE(warned) << live["warnings"].dump();
   if (live["display"]["path"] != "gl")
     std::printf("[ note ] the GPU display path did not come up here (%s): the note went the CPU path anyway\n",
                 live["display"]["note"].get<std::string>().c_str());

@@ -13,6 +13,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <sstream>
 #include <string>
@@ -254,4 +256,62 @@ TEST(LiveStereoXvfb, TwoCamerasEachEyeLostAndBackRecordedAndReplayed) {
   r = run_command(kBin + " offline --footage " + bad.string() + " --out " + (t / "o_old").string() + " --quiet 2>&1");
   EXPECT_NE(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("recorded before `dentar live` kept the right eye"), std::string::npos) << r.out;
+
+  // Session 18: the left camera lost on the GPU display path (`--display-path gl`: the left
+  // eye's composite stays on the GPU, the right eye alone is the CPU path's). Every frame but
+  // the right eye's alone went the GPU way, before the loss and after the return; the window
+  // showed the right eye's own composite while the left was lost (its camera's frame, as
+  // recorded, with the overlay drawn), not the last GPU composite of the left eye.
+  const fs::path g = t / "gpu";
+  std::string shots;
+  for (int k = 4; k <= 30; ++k) shots += " --screenshot " + std::to_string(k) + ":" + (g / ("shot" + std::to_string(k) + ".png")).string();
+  fs::create_directories(g);
+  r = run_command(xvfb(kBin + " live --camera live:" + (t / "l.avi").string() + " --camera-right live:" +
+                       (t / "r.avi").string() + " --station " + (st / "station.json").string() + " --stylus replay:" +
+                       (st / "session.dlog").string() + " --record " + (g / "rec").string() +
+                       " --display-path gl --inject-stall 10:0.6 --no-hud --quiet --loop --frames 36 --no-score" + shots +
+                       " --summary " + (g / "live.json").string() + " 2>&1"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto gs = read_json(g / "live.json");
+  if (gs["display"]["path"] != "gl") {
+    // No EGL window here (the test's machine): the CPU path, asserted above.
+    std::printf("[ note ] the GPU display path did not come up (%s): not checked\n",
+                gs["display"]["note"].get<std::string>().c_str());
+    return;
+  }
+  std::printf("[ stereo gl ] %s\n", gs["stereo"].dump().c_str());
+  const int g_right = gs["stereo"]["frames_right_eye_only"].get<int>();
+  EXPECT_GE(g_right, 3) << gs["stereo"].dump();
+  EXPECT_EQ(gs["display"]["gpu_frames"].get<int>(), gs["frames"]["processed"].get<int>() - g_right) << gs.dump();
+  bool g_lost = false, g_back = false;
+  for (const auto& s : gs["stereo"]["switches"]) {
+    g_lost = g_lost || s["what"] == "left camera lost (" + lcam + ")";
+    g_back = g_back || (g_lost && s["what"] == "left camera back (" + lcam + ")");
+  }
+  EXPECT_TRUE(g_lost && g_back) << gs["stereo"].dump();
+  const auto gr = read_csv(g / "rec" / "frames.csv");
+  ASSERT_GT(gr.size(), 1u);
+  const int g_eyes = col(gr[0], "eyes");
+  ASSERT_GE(g_eyes, 0);
+  int g_compared = 0;
+  for (int k = 4; k <= 30 && static_cast<std::size_t>(k + 1) < gr.size(); ++k) {
+    const fs::path sp = g / ("shot" + std::to_string(k) + ".png");
+    if (gr[static_cast<std::size_t>(k + 1)][g_eyes] != "right" || !fs::exists(sp)) continue;
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%06d.jpg", k);
+    const cv::Mat shot = cv::imread(sp.string()), raw = cv::imread((g / "rec" / "frames" / name).string());
+    ASSERT_FALSE(raw.empty()) << name;
+    ASSERT_EQ(shot.size(), raw.size()) << sp;
+    cv::Mat d, gray;
+    cv::absdiff(shot, raw, d);
+    cv::cvtColor(d, gray, cv::COLOR_BGR2GRAY);
+    const cv::Mat over = gray > 24;
+    const double changed = cv::countNonZero(over) / static_cast<double>(gray.total());
+    // The overlay (the tooth and bur, drawn small) changed the picture; nothing else did.
+    EXPECT_GT(cv::countNonZero(over), 100) << "frame " << k << ": no overlay on the right eye's frame";
+    EXPECT_LT(changed, 0.05) << "frame " << k << ": the window is not the right eye's frame";
+    EXPECT_LT(cv::mean(d, ~over)[0], 2.0) << "frame " << k;
+    ++g_compared;
+  }
+  EXPECT_GT(g_compared, 0) << "no screenshot of a frame from the right eye alone";
 }

@@ -901,8 +901,15 @@ TEST(LiveXvfb, LessonModeTwoRunsIsRecordedScoredAndReplays) {
   ASSERT_EQ(l["notes_shown"].size(), 2u) << l.dump();
   EXPECT_EQ(l["notes_shown"][0]["text"], "Enter at the central pit") << l.dump();
   EXPECT_NEAR(l["notes_shown"][0]["time_s"].get<double>(), 0.3, 1e-9) << l.dump();
-  EXPECT_GE(l["notes_shown"][0]["expert_s"].get<double>(), 0.3) << l.dump();
-  EXPECT_LT(l["notes_shown"][0]["expert_s"].get<double>(), 0.5) << l.dump();  // the display loop runs at >= 30 Hz
+  // Shown at the first display pass that saw the expert's clock at or past the note: the pass
+  // before saw it not yet due (-1: there was none). (Session 18: this asserted expert_s < 0.5 s,
+  // a bound on the display loop's pace in wall time: CI at load ~36 showed it 0.8 s late.)
+  for (const auto& n : l["notes_shown"]) {
+    EXPECT_GE(n["expert_s"].get<double>(), n["time_s"].get<double>()) << n.dump();
+    EXPECT_LT(n["expert_s_before"].get<double>(), n["time_s"].get<double>()) << "a pass saw it due unshown " << n.dump();
+  }
+  std::printf("[ lesson ] note at 0.3 s shown at the expert's %.3f s (the pass before: %.3f s)\n",
+              l["notes_shown"][0]["expert_s"].get<double>(), l["notes_shown"][0]["expert_s_before"].get<double>());
   EXPECT_EQ(l["notes_shown"][1]["text"], "pause") << l.dump();  // `lesson make --pause`'s own text
   EXPECT_NEAR(l["notes_shown"][1]["expert_s"].get<double>(), 0.8, 0.01) << l.dump();  // shown while the clock held
   // And in the AR view beside the tooth, in the frames while a note was on show (the

@@ -294,6 +294,7 @@ class LiveSource final : public FrameSource {
     cv::Mat img;
     double t = 0;
     int dropped = 0;
+    std::int64_t seq = 0;  // the frame's number in the stream, drops counted (Frame::index)
     if (!first_.empty()) {
       img = first_;
       first_.release();
@@ -324,6 +325,7 @@ class LiveSource final : public FrameSource {
         return false;
       }
       t = static_cast<double>(file_pos_) / fps_;
+      seq = file_pos_;  // the stand-in's frame in its file
       ++file_pos_;
     } else {
       if (!grab_retrieve(img)) {
@@ -335,6 +337,7 @@ class LiveSource final : public FrameSource {
       const double gap = t - last_time_, period = 1.0 / fps_;
       if (last_time_ >= 0 && gap > 1.5 * period)
         dropped = static_cast<int>(std::lround(gap / period)) - 1;
+      seq = stream_pos_ + dropped;
     }
     if (img.cols != width_ || img.rows != height_)
       return Error{desc_ + ": frame " + std::to_string(index_) + " is " +
@@ -346,7 +349,9 @@ class LiveSource final : public FrameSource {
     out.image = img;
     out.encoded = std::move(encoded_);
     encoded_ = cv::Mat();
-    out.index = index_++;
+    ++index_;
+    stream_pos_ = seq + 1;
+    out.index = seq;
     out.time_s = t;
     out.dropped_before = dropped;
     out.steady_s = std::chrono::duration<double>(t0_.time_since_epoch()).count() + t;
@@ -423,6 +428,7 @@ class LiveSource final : public FrameSource {
   double first_time_ = 0, last_time_ = -1;
   int width_ = 0, height_ = 0;
   std::int64_t index_ = 0, file_pos_ = 0, dropped_ = 0;
+  std::int64_t stream_pos_ = 0;  // the next frame's number in the stream (a camera's: drops counted by the gaps)
 };
 
 }  // namespace

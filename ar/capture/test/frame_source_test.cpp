@@ -268,6 +268,9 @@ TEST(FrameSource, LiveReaderOnAStandInVideo) {
     EXPECT_EQ(code, last_code + 1 + f.dropped_before) << "frame " << got;
     EXPECT_GT(f.time_s, last_t);
     EXPECT_NEAR(f.time_s, code / 30.0, 1e-9);  // the stand-in's capture time
+    // Its number is the frame's in the file, the dropped ones counted (session 18: it was the
+    // count delivered, so a recording's source_index named the wrong footage frame after a drop).
+    EXPECT_EQ(f.index, code) << "frame " << got;
     last_code = code;
     last_t = f.time_s;
     dropped += f.dropped_before;

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdlib>
 #include <exception>
 #include <limits>
 #include <optional>
@@ -71,7 +72,12 @@ class EyeWorker {
   void main(const std::function<void()>& init) {
     pthread_setname_np(pthread_self(), "dentar-eye-r");
     if (init) init();
-    auto egl = EglContext::create();
+    // Test hook (session 18): DENTAR_TEST_FAIL_EYE_CONTEXT=1 refuses this thread's context, as a
+    // driver out of contexts would: the pipeline falls back to one eye thread (create()).
+    const char* refuse = std::getenv("DENTAR_TEST_FAIL_EYE_CONTEXT");
+    auto egl = refuse != nullptr && *refuse != '\0' && std::string(refuse) != "0"
+                   ? Result<EglContext>(Error{"refused by the test hook DENTAR_TEST_FAIL_EYE_CONTEXT"})
+                   : EglContext::create();
     {
       std::lock_guard<std::mutex> lock(m_);
       started_ = true;
@@ -256,11 +262,20 @@ Result<std::unique_ptr<FramePipeline>> FramePipeline::create(const StationScene&
     p->station_right_ = station;
     p->station_right_.calibration.camera = station.stereo.camera_right;
     std::optional<Result<Compositor>> c;
+    std::optional<Result<std::unique_ptr<EyeWorker>>> w;
     if (options.eye_threads == 2) {
-      // Its own thread and GL context: the compositor is made (and later used) there.
-      auto w = EyeWorker::start(options.eye_thread_init);
-      if (!w) return Error{"FramePipeline (eye_threads = 2): " + w.error()};
-      p->worker_ = std::move(*w);
+      // Its own thread and GL context: the compositor is made (and later used) there. A thread
+      // whose context cannot be made (a driver out of contexts): both eyes on this thread, as
+      // eye_threads = 1 (the same pixels), said in eye_thread_note().
+      w.emplace(EyeWorker::start(options.eye_thread_init));
+      if (!*w) {
+        p->eye_thread_note_ = "the right eye's own thread could not start (" + w->error() +
+                              "): both eyes on one thread (eye_threads 1)";
+        p->options_.eye_threads = 1;
+      }
+    }
+    if (w && *w) {
+      p->worker_ = std::move(**w);
       if (auto s = p->worker_->run([&] { c.emplace(Compositor::create(p->station_right_, options.compositor)); }); !s)
         return Error{"compositor (right eye): " + s.error()};
       EyeWorker* wk = p->worker_.get();

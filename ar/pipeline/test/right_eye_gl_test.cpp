@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <opencv2/core.hpp>
 
 #include "dentar/ar/camera_model.h"
@@ -270,12 +271,70 @@ TEST(RightEyeGl, RightEyeThreadGivesTheSerialPixels) {
   }
   EXPECT_EQ(right_compared, kFrames - 1);
   EXPECT_GE(overlays, kFrames - 3) << "the comparison must cover drawn overlays";
+  EXPECT_EQ((*threaded)->eye_threads(), 2);
+  EXPECT_EQ((*threaded)->eye_thread_note(), "");
   // The option is checked.
   PipelineOptions bad = threaded_o;
   bad.eye_threads = 3;
   auto b = FramePipeline::create(st, bad);
   ASSERT_FALSE(b.ok());
   EXPECT_NE(b.error().find("eye_threads = 3"), std::string::npos) << b.error();
+}
+
+// Session 18: the right eye's thread needs a GL context of its own; when it cannot have one (a
+// driver out of contexts; here the test hook DENTAR_TEST_FAIL_EYE_CONTEXT), the pipeline is
+// made all the same with both eyes on the caller's thread, says why, and draws the right eye
+// as eye_threads = 1 does (before: create() failed and `dentar live` stopped).
+TEST(RightEyeGl, EyeThreadWithoutItsContextFallsBackToOne) {
+  DENTAR_GL_TEST_CONTEXT();
+  const StereoClip& c = clip();
+  ASSERT_TRUE(c.gen != nullptr);
+  const StationScene& st = c.gen->station();
+  auto vol = molar(st.tooth_voxel_m);
+  ToothMeshes meshes(vol);
+  PipelineOptions serial_o, threaded_o;
+  serial_o.stereo = threaded_o.stereo = true;
+  threaded_o.eye_threads = 2;
+  ASSERT_EQ(setenv("DENTAR_TEST_FAIL_EYE_CONTEXT", "1", 1), 0);
+  auto fallen = FramePipeline::create(st, threaded_o);
+  unsetenv("DENTAR_TEST_FAIL_EYE_CONTEXT");
+  ASSERT_TRUE(fallen.ok()) << fallen.error();
+  EXPECT_EQ((*fallen)->eye_threads(), 1);
+  EXPECT_EQ((*fallen)->options().eye_threads, 1);
+  const std::string note = (*fallen)->eye_thread_note();
+  EXPECT_NE(note.find("the right eye's own thread could not start"), std::string::npos) << note;
+  EXPECT_NE(note.find("DENTAR_TEST_FAIL_EYE_CONTEXT"), std::string::npos) << note;
+  auto serial = FramePipeline::create(st, serial_o);
+  ASSERT_TRUE(serial.ok()) << serial.error();
+  EXPECT_EQ((*serial)->eye_thread_note(), "");
+  ASSERT_TRUE((*serial)->warm_up(meshes).ok());
+  ASSERT_TRUE((*fallen)->warm_up(meshes).ok());
+  haptics::HapticSnapshot snap{};
+  int overlays = 0;
+  for (int i = 0; i < 1; ++i) {  // one frame: the clip and two pipelines are the test's cost
+    SCOPED_TRACE("frame " + std::to_string(i));
+    const StereoSynthFrame& f = c.frames[static_cast<std::size_t>(i)];
+    const Eigen::Matrix4d m = f.left.truth.T_dev_sty.matrix();
+    for (int k = 0; k < 16; ++k) snap.T_dev_sty[k] = m(k % 4, k / 4);
+    FrameInput in;
+    in.image = &f.left.image;
+    in.right_image = &f.right.image;
+    in.index = i;
+    in.capture_time_s = i / 30.0;
+    in.haptic = &snap;
+    in.stylus_valid = true;
+    CompositeResult out_s, right_s, out_f, right_f;
+    FrameRecord r_s, r_f;
+    ASSERT_TRUE((*serial)->process(in, meshes, out_s, r_s, &right_s).ok());
+    const Status sf = (*fallen)->process(in, meshes, out_f, r_f, &right_f);
+    ASSERT_TRUE(sf.ok()) << sf.error();
+    EXPECT_TRUE(r_f.right.composited);
+    ASSERT_FALSE(right_f.image.empty());
+    EXPECT_EQ(cv::norm(out_f.image, out_s.image, cv::NORM_INF), 0.0) << "left eye";
+    EXPECT_EQ(cv::norm(right_f.image, right_s.image, cv::NORM_INF), 0.0) << "right eye";
+    overlays += r_f.right.overlay ? 1 : 0;
+  }
+  EXPECT_GT(overlays, 0) << "the comparison must cover a drawn overlay";
 }
 
 }  // namespace

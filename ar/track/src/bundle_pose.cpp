@@ -27,38 +27,11 @@ struct Corner {
   Eigen::Matrix<double, 2, 3> blur = Eigen::Matrix<double, 2, 3>::Zero();
 };
 
-// The blur model of one observed quad (4 corners in libapriltag's order):
-// each edge moves along its outward normal n by n^T S n / 2, and a corner
-// goes where its two moved edges meet, n1 . d = a1, n2 . d = a2. Linear in
-// S, so each corner's d uv / d S is fixed by the observed quad. A corner
-// whose two edges are nearly parallel (a degenerate quad) does not move.
+// The blur model of one observed quad (quad_blur_model, bundle_pose.h): each
+// corner's d uv / d S, fixed by the observed quad.
 void blur_jacobians(Corner* q) {
-  Eigen::Vector2d m = Eigen::Vector2d::Zero();
-  for (int k = 0; k < 4; ++k) m += q[k].uv_px / 4;
-  Eigen::Vector2d n[4];  // n[e]: outward normal of the edge from corner e to e + 1
-  for (int e = 0; e < 4; ++e) {
-    const Eigen::Vector2d a = q[e].uv_px, b = q[(e + 1) % 4].uv_px;
-    Eigen::Vector2d nn(b.y() - a.y(), a.x() - b.x());
-    const double len = nn.norm();
-    if (!(len > 1e-9)) {
-      for (int k = 0; k < 4; ++k) q[k].blur.setZero();
-      return;
-    }
-    nn /= len;
-    if (nn.dot((a + b) / 2 - m) < 0) nn = -nn;
-    n[e] = nn;
-  }
-  for (int k = 0; k < 4; ++k) {
-    const Eigen::Vector2d& n1 = n[(k + 3) % 4];
-    const Eigen::Vector2d& n2 = n[k];
-    Eigen::Matrix2d N;
-    N << n1.transpose(), n2.transpose();
-    Eigen::Matrix<double, 2, 3> A;
-    A << n1.x() * n1.x(), 2 * n1.x() * n1.y(), n1.y() * n1.y(), n2.x() * n2.x(), 2 * n2.x() * n2.y(),
-        n2.y() * n2.y();
-    q[k].blur = std::abs(N.determinant()) < 0.2 ? Eigen::Matrix<double, 2, 3>::Zero()
-                                                 : Eigen::Matrix<double, 2, 3>(N.inverse() * A / 2);
-  }
+  const QuadBlurModel m = quad_blur_model({q[0].uv_px, q[1].uv_px, q[2].uv_px, q[3].uv_px});
+  for (int k = 0; k < 4; ++k) q[k].blur = m.d_corner_d_S[static_cast<std::size_t>(k)];
 }
 
 struct Pinhole {
@@ -642,6 +615,39 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
   if (!out.T_cam_body.matrix().allFinite() || !out.covariance_per_px2.allFinite())
     return fail(BundlePoseStatus::kFailed, who + "the refinement diverged");
   out.status = BundlePoseStatus::kOk;
+  return out;
+}
+
+QuadBlurModel quad_blur_model(const std::array<Eigen::Vector2d, 4>& q) {
+  QuadBlurModel out;
+  for (auto& J : out.d_corner_d_S) J.setZero();
+  for (auto& n : out.edge_normal) n.setZero();
+  Eigen::Vector2d m = Eigen::Vector2d::Zero();
+  for (int k = 0; k < 4; ++k) m += q[static_cast<std::size_t>(k)] / 4;
+  std::array<Eigen::Vector2d, 4> n;  // n[e]: outward normal of the edge from corner e to e + 1
+  for (std::size_t e = 0; e < 4; ++e) {
+    const Eigen::Vector2d a = q[e], b = q[(e + 1) % 4];
+    Eigen::Vector2d nn(b.y() - a.y(), a.x() - b.x());
+    const double len = nn.norm();
+    if (!(len > 1e-9)) {
+      out.degenerate = true;
+      return out;
+    }
+    nn /= len;
+    if (nn.dot((a + b) / 2 - m) < 0) nn = -nn;
+    n[e] = nn;
+  }
+  out.edge_normal = n;
+  for (std::size_t k = 0; k < 4; ++k) {
+    const Eigen::Vector2d& n1 = n[(k + 3) % 4];
+    const Eigen::Vector2d& n2 = n[k];
+    Eigen::Matrix2d N;
+    N << n1.transpose(), n2.transpose();
+    Eigen::Matrix<double, 2, 3> A;
+    A << n1.x() * n1.x(), 2 * n1.x() * n1.y(), n1.y() * n1.y(), n2.x() * n2.x(), 2 * n2.x() * n2.y(),
+        n2.y() * n2.y();
+    if (std::abs(N.determinant()) >= 0.2) out.d_corner_d_S[k] = N.inverse() * A / 2;
+  }
   return out;
 }
 

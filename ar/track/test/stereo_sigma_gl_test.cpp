@@ -326,24 +326,11 @@ TEST(StereoSigma, BlurFitBeatsPerCornerFitOnTheSameFrames) {
             m += it->second->corners_px[k] / 4;
           }
           if (c.norm() > 5) continue;
-          Eigen::Vector2d n[4];
-          for (int q = 0; q < 4; ++q) {
-            const Eigen::Vector2d a = it->second->corners_px[q], b = it->second->corners_px[(q + 1) % 4];
-            Eigen::Vector2d nn(b.y() - a.y(), a.x() - b.x());
-            nn.normalize();
-            if (nn.dot((a + b) / 2 - m) < 0) nn = -nn;
-            n[q] = nn;
-          }
+          // The fit's own blur model of the true quad (bundle_pose.h).
+          const QuadBlurModel qb = quad_blur_model(it->second->corners_px);
+          const auto& n = qb.edge_normal;
           Eigen::Matrix<double, 8, 3> Bt;
-          for (int k = 0; k < 4; ++k) {
-            const Eigen::Vector2d& n1 = n[(k + 3) % 4];
-            const Eigen::Vector2d& n2 = n[k];
-            Eigen::Matrix2d N;
-            N << n1.transpose(), n2.transpose();
-            Eigen::Matrix<double, 2, 3> A;
-            A << n1.x() * n1.x(), 2 * n1.x() * n1.y(), n1.y() * n1.y(), n2.x() * n2.x(), 2 * n2.x() * n2.y(), n2.y() * n2.y();
-            Bt.block<2, 3>(2 * k, 0) = N.inverse() * A / 2;
-          }
+          for (std::size_t k = 0; k < 4; ++k) Bt.block<2, 3>(2 * static_cast<int>(k), 0) = qb.d_corner_d_S[k];
           // Remove each tag's mean from the model columns too (the centre is free).
           for (int col = 0; col < 3; ++col) {
             Eigen::Vector2d mc = Eigen::Vector2d::Zero();

@@ -302,7 +302,9 @@ struct LiveSummary {
   int lesson_pauses_taken = 0, lesson_pauses_resumed_by_button = 0, lesson_pauses_resumed_by_key = 0;
   double lesson_paused_s = 0;
   struct LessonNote {
-    double time_s = 0, expert_s = 0, run_s = 0;
+    // The annotation's time, the expert's clock when shown and at the display pass before (-1:
+    // none; the note was not due then), the run's time when shown; s.
+    double time_s = 0, expert_s = 0, expert_s_before = -1, run_s = 0;
     std::string text;
   };
   std::vector<LessonNote> lesson_notes;

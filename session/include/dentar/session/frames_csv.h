@@ -41,7 +41,8 @@ Result<TrackState> parse_state(const std::string& name);
 // stereo the layout is the mono one, byte for byte.
 std::string recording_csv_header(bool stereo = false);  // with its newline
 // One row: `index` the recording's frame number, `steady_s` the capture
-// clock, `source_index` the camera's frame number.
+// clock, `source_index` the camera's frame number (ar::Frame::index: its frames dropped
+// counted; a live: stand-in's frame in its file).
 std::string recording_csv_row(const ar::FrameRecord& r, std::int64_t index, double steady_s,
                               std::int64_t source_index, bool stereo = false);
 

@@ -84,7 +84,12 @@ struct Frame {
   // CV_8UC3 BGR (gray files are converted); with pixel_format "native" and a
   // YUYV camera, CV_8UC2 YUYV as the camera sent it (frame_bgr converts).
   cv::Mat image;
-  std::int64_t index = 0;  // 0, 1, ... in delivery order (drops not counted)
+  // The frame's number. Video files and folders: 0, 1, ... in delivery order (an undecodable
+  // frame is not counted). Camera and live: the frame's number in the stream since the source
+  // was opened, the frames it dropped counted (dropped_before): a live: stand-in's frame in its
+  // file (time_s = index / fps), a camera's by its gaps; a reopened source (a looped stand-in, a
+  // camera back) counts from 0 again. Recordings keep it as frames.csv source_index.
+  std::int64_t index = 0;
   double time_s = 0;       // capture time, s (see above)
   int dropped_before = 0;  // frames lost between the previous frame and this one
   // std::chrono::steady_clock time of the capture, s since that clock's

@@ -77,6 +77,10 @@ struct PipelineOptions {
   int eye_threads = 1;
   // Called once on the worker thread before its GL context is made (CPU affinity: llvmpipe's
   // rasteriser threads inherit the mask); may be empty.
+  // When the worker's headless context cannot be made (session 18), create() does not fail: the
+  // pipeline runs both eyes on the caller's thread, options().eye_threads becomes 1 and
+  // FramePipeline::eye_thread_note() says why. Test hook: the environment variable
+  // DENTAR_TEST_FAIL_EYE_CONTEXT=1 refuses the worker's context.
   std::function<void()> eye_thread_init;
   std::string validate() const;  // empty, or names the field
 };
@@ -256,6 +260,10 @@ class FramePipeline {
   Compositor& compositor() { return compositor_; }
   const StationScene& station() const { return station_; }
   const PipelineOptions& options() const { return options_; }
+  // Stereo: the eye threads in use (1 or 2; options().eye_threads after any fallback), and why
+  // a second one asked for is not running ("" when it is, or was not asked for).
+  int eye_threads() const { return worker_ ? 2 : 1; }
+  const std::string& eye_thread_note() const { return eye_thread_note_; }
   // The last processed frame's tag detections (full-image OpenCV px): for checks that look
   // at single tags (live station health: did a mannequin tag move?). Valid until the next process().
   const std::vector<DetectedTag>& last_detections() const { return last_tags_; }
@@ -275,6 +283,7 @@ class FramePipeline {
   // eye_threads == 2: the right eye's tracking and compositor run (and its compositor's GL
   // objects live) on this worker's thread and context.
   std::unique_ptr<EyeWorker> worker_;
+  std::string eye_thread_note_;  // why eye_threads = 2 fell back to 1 ("" otherwise)
   Status track_stereo(const FrameInput& in, FrameRecord& r);
   // One eye's view: its image, compositor, station (its camera) and T_eye_rig (identity for
   // the left eye and mono; T_camr_rig for the right eye).

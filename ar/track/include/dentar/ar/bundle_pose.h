@@ -42,6 +42,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -214,5 +215,19 @@ struct BundleView {
 BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector<BundleView>& views,
                                       const BundlePoseOptions& options = {},
                                       const std::optional<Eigen::Isometry3d>& T_rig_body_prev = {});
+
+// The blur model of one tag's quad as the fit uses it (BundlePoseOptions::blur_stretch_sigma_px):
+// each edge moves along its outward normal n by n^T S n / 2 px, S = (Sxx, Sxy, Syy) the view's
+// stretch, and a corner goes where its two moved edges meet. Linear in S: d_corner_d_S[k] is
+// corner k's d uv / d S (px per px). corners_px: the 4 corners in libapriltag's order (any
+// pixel convention: only differences count). A corner whose two edges are nearly parallel
+// (|det| of their normals < 0.2) gets a zero Jacobian; a quad with an edge shorter than 1e-9 px
+// is degenerate: all zero (normals zero too). Pure function, any thread.
+struct QuadBlurModel {
+  std::array<Eigen::Vector2d, 4> edge_normal;  // [e]: outward unit normal of the edge from corner e to e + 1
+  std::array<Eigen::Matrix<double, 2, 3>, 4> d_corner_d_S;
+  bool degenerate = false;
+};
+QuadBlurModel quad_blur_model(const std::array<Eigen::Vector2d, 4>& corners_px);
 
 }  // namespace dentar::ar
