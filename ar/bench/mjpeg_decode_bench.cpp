@@ -27,8 +27,8 @@
 // repetitions, its median and p99 over the runs; and per run, frame_p50_ms and
 // frame_p99_ms, the median and p99 of the frames' own thread CPU times
 // (CLOCK_THREAD_CPUTIME_ID around each iteration). Run:
-//   build/ar/ar_mjpeg_decode_bench --benchmark_repetitions=15 --benchmark_min_time=0.2 \
-//       --benchmark_report_aggregates_only=true
+//   build/ar/ar_mjpeg_decode_bench --benchmark_repetitions=15 --benchmark_min_time=0.2
+//       --benchmark_report_aggregates_only=true   (one line)
 #include <benchmark/benchmark.h>
 
 #include <turbojpeg.h>
