@@ -24,6 +24,8 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libopencv-dev libopencv-contrib-dev libapriltag-dev libvisp-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libusb-1.0-0-dev
+  # Motion JPEG cameras: decoded with TurboJPEG (libjpeg-turbo 2.1) directly.
+  libturbojpeg0-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev zlib1g-dev libsqlite3-dev
   # Real photographs for tests (provenance in tests/README-data.md): OpenCV's

@@ -65,8 +65,9 @@ void add_live(CLI::App& app, int& exit_code) {
                 "--camera delivers side-by-side stereo frames (left eye | right eye), as passthrough headsets do; "
                 "the station needs its rig");
   sub->add_option("--camera-format", c->o.camera_format,
-                  "auto (the driver's format; YUYV carried as the camera sent it), yuyv or mjpg (asked of the "
-                  "camera), bgr (every frame converted to BGR on capture, the whole-frame path)")
+                  "auto (the driver's format; YUYV carried as the camera sent it, Motion JPEG decoded to its own "
+                  "YUV planes and carried as YUYV), yuyv or mjpg (asked of the camera), bgr (every frame converted "
+                  "to BGR on capture, the whole-frame path)")
       ->check(CLI::IsMember({"auto", "yuyv", "mjpg", "bgr"}));
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
   sub->add_option("--height", c->o.height, "requested camera height (px)")->check(at_least(0));

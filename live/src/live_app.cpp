@@ -211,7 +211,8 @@ std::string LiveSummary::json() const {
   nlohmann::json j = {
       {"frames", {{"captured", frames_captured}, {"processed", frames_processed}, {"displayed", frames_displayed},
                   {"dropped_source", dropped_source}, {"dropped_consumer", dropped_consumer},
-                  {"camera_reopens", camera_reopens}}},
+                  {"camera_reopens", camera_reopens}, {"corrupt_jpeg", corrupt_frames},
+                  {"last_corrupt_jpeg", last_corrupt}}},
       {"wall_s", wall_s},
       {"stop_reason", stop_reason},
       {"displayed_fps", displayed_fps},
@@ -768,6 +769,7 @@ Status start_recording(const LiveOptions& o, const ar::StationScene& st, const a
               {"camera_response", ar::camera_response_name(popt.tracker.detector.response)},
               {"mirror_rim", popt.tracker.mirror_rim_refine}, {"predict_ms", popt.predict_s * 1e3},
               {"stereo_mirror_rim", popt.tracker.stereo_mirror_rim},
+              {"jpeg_decode", o.camera_format == "bgr" ? "bgr" : "yuyv"},
               {"complete", false}};
   if (!o.exercise.empty()) rec_meta["exercise"] = o.exercise;
   // Stereo (issue 28): both eyes kept (frames_right/), replayed from both by `dentar offline`.
@@ -971,6 +973,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.dropped_source = capture.dropped_source();
   sum.dropped_consumer = capture.dropped_consumer();
   sum.camera_reopens = capture.reopens();
+  sum.corrupt_frames = capture.corrupt();
+  sum.last_corrupt = capture.last_corrupt();
   sum.displayed_fps = sum.wall_s > 0 ? df.displayed / sum.wall_s : 0;
   sum.latency_p50_ms = percentile(df.latency_ms, 0.5);
   sum.latency_p99_ms = percentile(df.latency_ms, 0.99);

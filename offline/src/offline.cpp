@@ -604,7 +604,10 @@ struct Job {
     } else if (auto e = check_stereo_inputs(o); !e.empty()) {
       return fail("offline: " + e);
     }
-    auto opened = FrameSource::open(o.footage, {});
+    // A live recording of a Motion JPEG camera: its frames decoded as the live run decoded them.
+    FrameSourceOptions fso;
+    if (rec.present && rec.jpeg_decode == "yuyv") fso.pixel_format = "native";
+    auto opened = FrameSource::open(o.footage, fso);
     if (!opened) return fail("offline: " + opened.error());
     src = std::move(*opened);
     FrameSource& source = *src;
@@ -798,8 +801,9 @@ struct Job {
     for (const char* ext : {".jpg", ".png", ".ppm"}) {
       const fs::path p = rec_right_dir / (stem + std::string(ext));
       if (!fs::exists(p)) continue;
-      right_image = cv::imread(p.string(), cv::IMREAD_COLOR);
-      if (right_image.empty()) return fail("offline: " + p.string() + ": cannot be decoded as an image");
+      auto img = read_frame_image(p.string(), rec.jpeg_decode == "yuyv" ? "native" : "bgr");
+      if (!img) return fail("offline: " + img.error());
+      right_image = std::move(*img);
       if (right_image.cols != st.calibration.camera.width || right_image.rows != st.calibration.camera.height)
         return fail("offline: " + p.string() + " is " + std::to_string(right_image.cols) + "x" +
                     std::to_string(right_image.rows) + ", not the rig's eye size " +

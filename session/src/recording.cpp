@@ -44,6 +44,11 @@ Result<Recording> read_recording(const fs::path& dir) {
       return Error{meta.string() + ": stereo_mirror_rim must be true or false"};
     rec.stereo_mirror_rim = j["stereo_mirror_rim"].get<bool>();
   }
+  if (j.contains("jpeg_decode")) {
+    if (!j["jpeg_decode"].is_string() || (j["jpeg_decode"] != "yuyv" && j["jpeg_decode"] != "bgr"))
+      return Error{meta.string() + ": jpeg_decode must be the string \"yuyv\" or \"bgr\""};
+    rec.jpeg_decode = j["jpeg_decode"].get<std::string>();
+  }
   if (j.contains("predict_ms")) {
     if (!j["predict_ms"].is_number() || !(j["predict_ms"].get<double>() >= 0 && j["predict_ms"].get<double>() <= 500))
       return Error{meta.string() + ": predict_ms must be a number of milliseconds in 0..500"};

@@ -37,5 +37,21 @@ TEST(Recording, PredictMsIsReadBackAndZeroWhenAbsent) {
   }
 }
 
+// Issue 28 session 18: how the live run decoded a Motion JPEG camera's frames, so the replay
+// decodes the recording's .jpg files the same way; older recordings decoded to BGR.
+TEST(Recording, JpegDecodeIsReadBackAndBgrWhenAbsent) {
+  auto r = read_recording(write_recording("rec_jpeg", R"(, "jpeg_decode": "yuyv")"));
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ(r->jpeg_decode, "yuyv");
+  auto old = read_recording(write_recording("rec_jpeg_old", ""));
+  ASSERT_TRUE(old) << old.error();
+  EXPECT_EQ(old->jpeg_decode, "bgr");
+  for (const char* bad : {R"(, "jpeg_decode": "rgb")", R"(, "jpeg_decode": 1)"}) {
+    auto b = read_recording(write_recording("rec_jpeg_bad", bad));
+    ASSERT_FALSE(b) << bad;
+    EXPECT_NE(b.error().find("jpeg_decode"), std::string::npos) << b.error();
+  }
+}
+
 }  // namespace
 }  // namespace dentar::session

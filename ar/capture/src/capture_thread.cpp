@@ -35,6 +35,11 @@ void CaptureThread::set_status(const std::string& s) {
   status_ = s;
 }
 
+std::string CaptureThread::last_corrupt() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return last_corrupt_;
+}
+
 std::string CaptureThread::status() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return status_;
@@ -73,9 +78,15 @@ void CaptureThread::main() {
     }
     Frame f;
     auto got = source_->read(f);
+    if (const std::int64_t c = corrupt_before_ + source_->corrupt_total(); c != corrupt_.load()) {
+      corrupt_.store(c);
+      std::lock_guard<std::mutex> lock(mutex_);
+      last_corrupt_ = source_->last_corrupt();
+    }
     if (!got || !*got) {
       set_status(got ? source_->description() + ": stopped delivering (end of stream or unplugged)"
                      : got.error());
+      corrupt_before_ += source_->corrupt_total();
       source_.reset();
       if (!options_.reopen) {
         ended_.store(true);

@@ -1,11 +1,14 @@
 #include "dentar/ar/frame_source.h"
 
+#include "dentar/ar/mjpeg_decoder.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -42,6 +45,27 @@ cv::Mat to_bgr(const cv::Mat& m) {
   else
     m.convertTo(out, CV_8U);  // 16-bit etc.: caller checks the type again
   return out;
+}
+
+bool is_jpeg_name(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".jpg" || ext == ".jpeg";
+}
+
+// read_frame_image with a decoder the caller keeps (a folder reuses one for all its files).
+Result<cv::Mat> read_image(const std::string& path, const std::string& pixel_format, MjpegDecoder& jpeg) {
+  if (pixel_format == "native" && is_jpeg_name(path)) {
+    std::ifstream in(path, std::ios::binary);
+    std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in && !in.eof()) return Error{path + ": cannot be read"};
+    cv::Mat m;
+    if (!jpeg.decode(bytes.data(), bytes.size(), MjpegOutput::kYuyv, m)) return Error{path + ": " + jpeg.why()};
+    return m;
+  }
+  cv::Mat m = cv::imread(path, cv::IMREAD_COLOR);
+  if (m.empty()) return Error{path + ": cannot be decoded as an image"};
+  return m;
 }
 
 // ---- video file ----
@@ -148,10 +172,11 @@ class VideoFileSource final : public FrameSource {
 // ---- image folder ----
 class FolderSource final : public FrameSource {
  public:
-  static Result<std::unique_ptr<FrameSource>> open(const std::string& dir, double fps) {
+  static Result<std::unique_ptr<FrameSource>> open(const std::string& dir, double fps, const std::string& pixel_format) {
     auto s = std::unique_ptr<FolderSource>(new FolderSource);
     s->dir_ = dir;
     s->fps_ = fps;
+    s->pixel_format_ = pixel_format;
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       if (!e.is_regular_file()) continue;
@@ -184,7 +209,8 @@ class FolderSource final : public FrameSource {
   Result<bool> read(Frame& out) override {
     int failed = 0;
     for (; pos_ < files_.size(); ++pos_) {
-      cv::Mat m = cv::imread(files_[pos_], cv::IMREAD_COLOR);
+      auto r = read_image(files_[pos_], pixel_format_, jpeg_);
+      cv::Mat m = r ? *r : cv::Mat();
       if (m.empty()) {
         if (++failed > kMaxConsecutiveFailures)
           return Error{files_[pos_] + ": more than " + std::to_string(kMaxConsecutiveFailures) +
@@ -222,6 +248,8 @@ class FolderSource final : public FrameSource {
 
  private:
   std::string dir_;
+  std::string pixel_format_ = "bgr";  // "native": .jpg files decoded as a live MJPG source does
+  MjpegDecoder jpeg_;
   std::vector<std::string> files_;
   std::size_t pos_ = 0;
   double fps_ = 30;
@@ -256,7 +284,11 @@ class LiveSource final : public FrameSource {
       if (backend == "V4L2") return cap_->set(cv::CAP_PROP_CONVERT_RGB, 0);
       return false;
     };
-    if (choice->jpeg) raw_jpeg_ = raw_mode();
+    if (choice->jpeg) {
+      raw_jpeg_ = raw_mode();
+      jpeg_out_ = options_.pixel_format == "native" ? MjpegOutput::kYuyv : MjpegOutput::kBgr;
+      jpeg_ = MjpegDecoder(options_.jpeg_fast_dct);
+    }
     if (choice->yuyv) {
       yuyv_w_ = static_cast<int>(cap_->get(cv::CAP_PROP_FRAME_WIDTH));
       yuyv_h_ = static_cast<int>(cap_->get(cv::CAP_PROP_FRAME_HEIGHT));
@@ -267,6 +299,7 @@ class LiveSource final : public FrameSource {
     }
     t0_ = Clock::now();
     cv::Mat first;
+    corrupt_skipped_ = 0;
     if (!grab_retrieve(first) && !bad_format_.empty()) return Error{desc_ + ": " + bad_format_};
     if (first.empty() && raw_jpeg_ && !not_jpeg_.empty()) {
       // The backend accepted raw mode but does not deliver JPEG bytes.
@@ -282,11 +315,13 @@ class LiveSource final : public FrameSource {
                    fourcc_name(delivered) + "; ask for YUYV or MJPG with --camera-format)"};
     width_ = first.cols;
     height_ = first.rows;
+    started_ = true;
     first_ = first;
     first_encoded_ = std::move(encoded_);
     encoded_ = cv::Mat();
+    first_corrupt_ = corrupt_skipped_;
     first_time_ = pace_ ? 0.0 : since_open();
-    file_pos_ = 1;
+    file_pos_ = 1 + first_corrupt_;
     return {};
   }
 
@@ -295,12 +330,16 @@ class LiveSource final : public FrameSource {
     double t = 0;
     int dropped = 0;
     std::int64_t seq = 0;  // the frame's number in the stream, drops counted (Frame::index)
+    corrupt_skipped_ = 0;
     if (!first_.empty()) {
       img = first_;
       first_.release();
       encoded_ = std::move(first_encoded_);
       first_encoded_ = cv::Mat();
       t = first_time_;
+      dropped = first_corrupt_;  // corrupt JPEGs before the first good one
+      seq = dropped;             // ... which were the stream's first frames
+      first_corrupt_ = 0;
     } else if (pace_) {
       // The "camera" exposes frame k at k / fps after open. Wait for the
       // next one, or skip those that went by while the consumer was busy.
@@ -319,7 +358,11 @@ class LiveSource final : public FrameSource {
           ++dropped;
         }
       }
-      if (!grab_retrieve(img)) {
+      const bool got = grab_retrieve(img);
+      // Corrupt JPEGs skipped on the way were frames of the stand-in: dropped, and its clock moves on.
+      dropped += corrupt_skipped_;
+      file_pos_ += corrupt_skipped_;
+      if (!got) {
         dropped_ += dropped;
         if (!bad_format_.empty()) return Error{desc_ + ": frame " + std::to_string(index_) + ": " + bad_format_};
         return false;
@@ -329,14 +372,17 @@ class LiveSource final : public FrameSource {
       ++file_pos_;
     } else {
       if (!grab_retrieve(img)) {
+        dropped_ += corrupt_skipped_;
         if (!bad_format_.empty()) return Error{desc_ + ": frame " + std::to_string(index_) + ": " + bad_format_};
         return false;  // camera stopped
       }
       t = since_open();
-      // A gap of more than 1.5 periods: the driver dropped frames.
+      // A gap of more than 1.5 periods: the driver dropped frames. A corrupt JPEG
+      // skipped here is one of them (the larger count of the two, not their sum).
       const double gap = t - last_time_, period = 1.0 / fps_;
       if (last_time_ >= 0 && gap > 1.5 * period)
         dropped = static_cast<int>(std::lround(gap / period)) - 1;
+      dropped = std::max(dropped, corrupt_skipped_);
       seq = stream_pos_ + dropped;
     }
     if (img.cols != width_ || img.rows != height_)
@@ -364,31 +410,51 @@ class LiveSource final : public FrameSource {
   std::int64_t dropped_total() const override { return dropped_; }
   std::string description() const override {
     return desc_ + " (" + size_str(width_, height_) + ", " + fps_str(fps_) + " fps, live" +
-           (raw_yuyv_ ? ", YUYV as the camera sent it" : raw_jpeg_ ? ", MJPG" : "") + ")";
+           (raw_yuyv_ ? ", YUYV as the camera sent it"
+            : raw_jpeg_ ? (jpeg_out_ == MjpegOutput::kYuyv ? ", MJPG decoded to YUYV" : ", MJPG decoded to BGR")
+                        : "") +
+           (raw_jpeg_ && jpeg_.fast_dct() ? ", fast IDCT" : "") + ")";
   }
+  std::int64_t corrupt_total() const override { return corrupt_total_; }
+  std::string last_corrupt() const override { return last_corrupt_; }
 
  private:
   double since_open() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
-  // The next frame as BGR (and, in raw JPEG mode, its bytes in encoded_).
-  // false: no frame (end, unplugged), or raw bytes that are not JPEG
-  // (not_jpeg_ says why). A JPEG that does not decode is skipped and
-  // counted as dropped, as a camera's corrupt frame would be.
+  // The next frame (and, in raw JPEG mode, its bytes in encoded_): BGR, or
+  // the camera's own YUYV, or a JPEG decoded by MjpegDecoder (YUYV with
+  // pixel_format "native", else BGR). false: no frame (end, unplugged), raw
+  // bytes that are not JPEG on the first frame (not_jpeg_ says why), or more
+  // than kMaxConsecutiveFailures corrupt JPEGs in a row (bad_format_). A JPEG
+  // that does not decode (corrupt, truncated on the bus) is skipped and counted
+  // (corrupt_skipped_ for this read, corrupt_total_), as a camera's lost frame.
   bool grab_retrieve(cv::Mat& out) {
     cv::Mat m;
     for (int tries = 0;; ++tries) {
       if (!cap_->read(m) || m.empty()) return false;
       if (raw_yuyv_) return take_yuyv(m, out);
       if (!raw_jpeg_) break;
-      if (m.rows != 1 || m.type() != CV_8UC1 || m.total() < 4 || m.data[0] != 0xFF || m.data[1] != 0xD8) {
+      if (!started_ &&
+          (m.rows != 1 || m.type() != CV_8UC1 || m.total() < 4 || m.data[0] != 0xFF || m.data[1] != 0xD8)) {
         not_jpeg_ = "raw frames are not JPEG (" + size_str(m.cols, m.rows) + ", type " + std::to_string(m.type()) + ")";
         return false;
       }
       encoded_ = m.clone();  // the backend reuses its buffer
-      out = cv::imdecode(encoded_, cv::IMREAD_COLOR);
-      if (!out.empty() && out.type() == CV_8UC3) return true;
+      if (encoded_.rows != 1) encoded_ = encoded_.reshape(1, 1);
+      if (jpeg_.decode(encoded_, jpeg_out_, out)) {
+        if (!started_) jpeg_.expect_size(out.cols, out.rows);  // later frames of another size are damaged
+        started_ = true;
+        return true;
+      }
+      last_corrupt_ = jpeg_.why();
+      out = cv::Mat();
       encoded_ = cv::Mat();
-      ++dropped_;
-      if (tries >= kMaxConsecutiveFailures) return false;
+      ++corrupt_skipped_;
+      ++corrupt_total_;
+      if (tries >= kMaxConsecutiveFailures) {
+        bad_format_ = std::to_string(tries + 1) + " frames in a row are not decodable JPEG (the last: " +
+                      last_corrupt_ + "): the camera's stream is damaged (USB bandwidth? cable?)";
+        return false;
+      }
     }
     out = to_bgr(m);
     return out.type() == CV_8UC3;
@@ -425,6 +491,13 @@ class LiveSource final : public FrameSource {
   cv::Mat first_, first_encoded_, encoded_;
   bool raw_jpeg_ = false;  // reading the camera's JPEG bytes (see start())
   std::string not_jpeg_;
+  MjpegDecoder jpeg_;                          // the camera's JPEG frames (mjpeg_decoder.h)
+  MjpegOutput jpeg_out_ = MjpegOutput::kBgr;   // kYuyv with pixel_format "native"
+  bool started_ = false;                       // the first frame was taken
+  int corrupt_skipped_ = 0;                    // corrupt JPEGs skipped by the last grab_retrieve
+  int first_corrupt_ = 0;                      // ... before the first frame (start())
+  std::int64_t corrupt_total_ = 0;
+  std::string last_corrupt_;
   double first_time_ = 0, last_time_ = -1;
   int width_ = 0, height_ = 0;
   std::int64_t index_ = 0, file_pos_ = 0, dropped_ = 0;
@@ -434,6 +507,11 @@ class LiveSource final : public FrameSource {
 }  // namespace
 
 FrameSource::~FrameSource() = default;
+
+Result<cv::Mat> read_frame_image(const std::string& path, const std::string& pixel_format) {
+  MjpegDecoder jpeg;
+  return read_image(path, pixel_format, jpeg);
+}
 
 double steady_now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -513,12 +591,21 @@ Status write_yuyv_avi(const std::string& path, const std::vector<cv::Mat>& frame
       fps);
 }
 
-Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&)>& next, double fps) {
+namespace {
+
+// An AVI 1.0 file of one video stream (`fourcc`, `bitcount` bits a pixel, W x H)
+// whose frames are chunks of bytes: next(bytes) fills the next frame's bytes and
+// returns true, false after the last, or an error naming the frame. Chunks of odd
+// size are padded to an even size (RIFF); idx1 holds each frame's offset and size.
+// chunk: "00db" (uncompressed frames) or "00dc" (compressed).
+Status write_avi(const std::string& path, int W, int H, const char* fourcc, int bitcount, const char* chunk, double fps,
+                 const std::function<Result<bool>(std::vector<std::uint8_t>&, std::uint32_t)>& next) {
   if (!std::isfinite(fps) || fps <= 0 || fps > 1000) return Error{path + ": fps must be in (0, 1000]"};
-  cv::Mat f;
-  if (!next(f) || f.empty()) return Error{path + ": no frames to write"};
-  const int W = f.cols, H = f.rows;
-  const std::uint64_t frame_bytes = static_cast<std::uint64_t>(W) * H * 2;
+  std::vector<std::uint8_t> f;
+  auto got = next(f, 0);
+  if (!got) return Error{got.error()};
+  if (!*got) return Error{path + ": no frames to write"};
+  const std::uint64_t nominal = static_cast<std::uint64_t>(W) * H * static_cast<std::uint64_t>(bitcount) / 8;
   const std::uint64_t hdrl = 4 + (8 + 56) + 8 + 4 + (8 + 56) + (8 + 40);
   std::ofstream o(path, std::ios::binary);
   if (!o) return Error{path + ": cannot create the file"};
@@ -536,30 +623,33 @@ Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&
   tag("RIFF"), u32(0), tag("AVI ");
   tag("LIST"), u32(hdrl), tag("hdrl");
   tag("avih"), u32(56);
-  u32(static_cast<std::uint32_t>(std::lround(1e6 / fps))), u32(static_cast<std::uint64_t>(frame_bytes * fps)), u32(0);
-  u32(0x10), u32(0) /* 48: frames */, u32(0), u32(1), u32(frame_bytes), u32(W), u32(H), u32(0), u32(0), u32(0), u32(0);
+  u32(static_cast<std::uint32_t>(std::lround(1e6 / fps))), u32(static_cast<std::uint64_t>(nominal * fps)), u32(0);
+  u32(0x10), u32(0) /* 48: frames */, u32(0), u32(1), u32(nominal), u32(W), u32(H), u32(0), u32(0), u32(0), u32(0);
   tag("LIST"), u32(4 + (8 + 56) + (8 + 40)), tag("strl");
-  tag("strh"), u32(56), tag("vids"), tag("YUY2"), u32(0), u16(0), u16(0), u32(0);
-  u32(1000), u32(static_cast<std::uint32_t>(std::lround(fps * 1000))), u32(0), u32(0) /* 140: length */,
-      u32(frame_bytes);
+  tag("strh"), u32(56), tag("vids"), tag(fourcc), u32(0), u16(0), u16(0), u32(0);
+  u32(1000), u32(static_cast<std::uint32_t>(std::lround(fps * 1000))), u32(0), u32(0) /* 140: length */, u32(nominal);
   u32(0xFFFFFFFFu), u32(0), u16(0), u16(0), u16(W), u16(H);
-  tag("strf"), u32(40), u32(40), u32(W), u32(H), u16(1), u16(16), tag("YUY2"), u32(frame_bytes);
+  tag("strf"), u32(40), u32(40), u32(W), u32(H), u16(1), u16(bitcount), tag(fourcc), u32(nominal);
   u32(0), u32(0), u32(0), u32(0);
   tag("LIST"), u32(0) /* 216: movi size */, tag("movi");
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> index;  // offset from "movi", size
+  std::uint64_t movi = 4;
   std::uint32_t n = 0;
   do {
-    if (f.type() != CV_8UC2 || f.cols != W || f.rows != H || W % 2 != 0)
-      return Error{path + ": frame " + std::to_string(n) + " is not YUYV (CV_8UC2) of " + size_str(W, H) +
-                   " with an even width"};
-    if (12 + 8 + hdrl + 12 + (n + 1) * (8 + frame_bytes) + 8 + 16 * (n + 1) >= 0xFFFFFFF0ull)
+    const std::uint64_t padded = (f.size() + 1) & ~std::uint64_t{1};
+    if (12 + 8 + hdrl + 12 + movi + 8 + padded + 8 + 16 * (n + 1) >= 0xFFFFFFF0ull)
       return Error{path + ": more than 4 GB of frames (one AVI 1.0 file): write fewer frames"};
-    tag("00db"), u32(frame_bytes);
-    for (int y = 0; y < H; ++y) o.write(reinterpret_cast<const char*>(f.ptr(y)), static_cast<std::streamsize>(W) * 2);
+    index.emplace_back(movi, static_cast<std::uint32_t>(f.size()));
+    tag(chunk), u32(f.size());
+    o.write(reinterpret_cast<const char*>(f.data()), static_cast<std::streamsize>(f.size()));
+    if (padded != f.size()) o.put('\0');
+    movi += 8 + padded;
     ++n;
-  } while (next(f) && !f.empty());
-  const std::uint64_t movi = 4 + n * (8 + frame_bytes);
+    got = next(f, n);
+    if (!got) return Error{got.error()};
+  } while (*got);
   tag("idx1"), u32(16 * n);
-  for (std::uint32_t i = 0; i < n; ++i) tag("00db"), u32(0x10), u32(4 + i * (8 + frame_bytes)), u32(frame_bytes);
+  for (const auto& [off, size] : index) tag(chunk), u32(0x10), u32(off), u32(size);
   const std::uint64_t riff = 4 + (8 + hdrl) + (8 + movi) + 8 + 16 * n;
   o.seekp(4), u32(riff);
   o.seekp(48), u32(n);
@@ -568,6 +658,38 @@ Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&
   o.close();
   if (!o) return Error{path + ": write failed (disk full?)"};
   return {};
+}
+
+}  // namespace
+
+Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&)>& next, double fps) {
+  cv::Mat f;
+  if (!next(f) || f.empty()) return Error{path + ": no frames to write"};
+  const int W = f.cols, H = f.rows;
+  bool first = true;
+  return write_avi(path, W, H, "YUY2", 16, "00db", fps, [&](std::vector<std::uint8_t>& bytes, std::uint32_t n) -> Result<bool> {
+    if (!first && (!next(f) || f.empty())) return false;
+    first = false;
+    if (f.type() != CV_8UC2 || f.cols != W || f.rows != H || W % 2 != 0)
+      return Error{path + ": frame " + std::to_string(n) + " is not YUYV (CV_8UC2) of " + size_str(W, H) +
+                   " with an even width"};
+    bytes.resize(static_cast<std::size_t>(W) * H * 2);
+    for (int y = 0; y < H; ++y)
+      std::memcpy(bytes.data() + static_cast<std::size_t>(y) * W * 2, f.ptr(y), static_cast<std::size_t>(W) * 2);
+    return true;
+  });
+}
+
+Status write_mjpeg_avi(const std::string& path, const std::vector<std::vector<std::uint8_t>>& jpegs, int width,
+                       int height, double fps) {
+  if (jpegs.empty()) return Error{path + ": no frames to write"};
+  if (width <= 0 || height <= 0 || width > 65535 || height > 65535)
+    return Error{path + ": frame size " + size_str(width, height) + " must be positive and below 65536"};
+  return write_avi(path, width, height, "MJPG", 24, "00dc", fps, [&](std::vector<std::uint8_t>& bytes, std::uint32_t n) -> Result<bool> {
+    if (n >= jpegs.size()) return false;
+    bytes = jpegs[n];
+    return true;
+  });
 }
 
 Result<std::unique_ptr<FrameSource>> FrameSource::open_live(
@@ -632,7 +754,7 @@ Result<std::unique_ptr<FrameSource>> FrameSource::open(const std::string& spec,
   if (!fs::exists(spec, ec))
     return Error{spec + ": no such file or folder (give a video file, an image folder, "
                         "camera:N or /dev/videoN)"};
-  if (fs::is_directory(spec, ec)) return FolderSource::open(spec, options.folder_fps);
+  if (fs::is_directory(spec, ec)) return FolderSource::open(spec, options.folder_fps, options.pixel_format);
   if (!fs::is_regular_file(spec, ec)) return Error{spec + ": not a regular file or folder"};
   if (fs::file_size(spec, ec) == 0) return Error{spec + ": empty file (0 bytes), not a video"};
   return VideoFileSource::open(spec);

@@ -219,6 +219,9 @@ bool StereoSource::read(StereoFrame& out, double timeout_s) {
     Frame f;
     if (!take(*left_, f, timeout_s)) return false;
     const int w = f.image.cols / 2;
+    // YUYV (a YUYV device, or a Motion JPEG one decoded to YUYV) splits on whole pixel
+    // pairs only: eyes of odd width are converted to BGR first.
+    if (f.image.type() == CV_8UC2 && w % 2 != 0) f.image = frame_bgr(f.image);
     Frame l = f, r = f;
     l.image = f.image(cv::Rect(0, 0, w, f.image.rows)).clone();
     r.image = f.image(cv::Rect(w, 0, w, f.image.rows)).clone();

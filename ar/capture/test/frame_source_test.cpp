@@ -400,8 +400,15 @@ TEST(FrameSource, FormatNegotiationAgainstTheStandIns) {
   good = FrameSource::open("live:" + mjpg.string(), o);
   ASSERT_TRUE(good.ok()) << good.error();
   ASSERT_TRUE((*good)->read(f).ok());
-  EXPECT_EQ(f.image.type(), CV_8UC3);  // decoded: OpenCV gives no planar YUV
+  EXPECT_EQ(f.image.type(), CV_8UC2);  // decoded to YUYV from the JPEG's planes (session 18)
   EXPECT_FALSE(f.encoded.empty());
+  EXPECT_NE((*good)->description().find("MJPG decoded to YUYV"), std::string::npos) << (*good)->description();
+  o.pixel_format = "bgr";  // the whole-frame BGR path: straight to BGR, as cv::imdecode would
+  good = FrameSource::open("live:" + mjpg.string(), o);
+  ASSERT_TRUE(good.ok()) << good.error();
+  ASSERT_TRUE((*good)->read(f).ok());
+  EXPECT_EQ(f.image.type(), CV_8UC3);
+  EXPECT_EQ(cv::norm(f.image, cv::imdecode(f.encoded, cv::IMREAD_COLOR), cv::NORM_INF), 0.0);
 
   // The rule itself (a V4L2 camera goes through the same function).
   const int YUYV = cv::VideoWriter::fourcc('Y', 'U', 'Y', 'V'), MJPG = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');

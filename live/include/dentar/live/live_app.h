@@ -230,6 +230,9 @@ struct LiveSummary {
   double stereo_fallback_ms_max = -1, stereo_fallback_frame_ms = -1, stereo_fallback_wait_ms = -1;
   double stereo_recovery_ms_max = -1;
   std::int64_t dropped_source = 0, dropped_consumer = 0, camera_reopens = 0;
+  // Motion JPEG frames dropped as corrupt or truncated (part of dropped_source), and why the last was.
+  std::int64_t corrupt_frames = 0;
+  std::string last_corrupt;
   double wall_s = 0, displayed_fps = 0;
   // Why the run ended: "window closed", "SIGINT", "SIGTERM", "time limit",
   // "frame limit" or "footage ended" (as recording.json's stop_reason).

@@ -29,6 +29,10 @@ struct Recording {
   bool mirror_rim = false;
   // TrackerOptions::stereo_mirror_rim of the live run (absent: on, its default since session 16).
   bool stereo_mirror_rim = true;
+  // How the live run decoded a Motion JPEG camera's frames (recording.json "jpeg_decode",
+  // session 18): "yuyv" (the JPEG's planes as YUYV, live --camera-format auto/mjpg) or "bgr"
+  // (absent: "bgr", as every run before it). The replay decodes frames/*.jpg the same way.
+  std::string jpeg_decode = "bgr";
   // Poses predicted this far past capture time (live --predict-ms; absent: 0), ms.
   double predict_ms = 0;
   // discovery "async": what the live tracker's full-frame search did at each

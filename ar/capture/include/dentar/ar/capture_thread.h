@@ -58,6 +58,10 @@ class CaptureThread {
   std::int64_t dropped_consumer() const { return dropped_consumer_.load(); }  // replaced before taken
   std::int64_t dropped_source() const { return dropped_source_.load(); }      // reported by the source
   std::int64_t reopens() const { return reopens_.load(); }
+  // Motion JPEG frames the source refused as corrupt or truncated (part of
+  // dropped_source), over every reopen, and the last one's reason ("" none).
+  std::int64_t corrupt() const { return corrupt_.load(); }
+  std::string last_corrupt() const;
   bool ended() const { return ended_.load(); }  // the source ended and will not be reopened
   std::string status() const;                   // "" when all is well, else why not
   int width() const { return width_; }
@@ -86,6 +90,9 @@ class CaptureThread {
   double time_offset_ = 0, last_time_s_ = 0;  // capture thread: Frame::time_s across reopens
   std::atomic<double> last_steady_s_{0};
   std::atomic<std::int64_t> delivered_{0}, dropped_consumer_{0}, dropped_source_{0}, reopens_{0};
+  std::atomic<std::int64_t> corrupt_{0};
+  std::int64_t corrupt_before_ = 0;  // corrupt frames of the sources before a reopen (capture thread)
+  std::string last_corrupt_;         // under mutex_
   std::atomic<bool> stop_{false}, ended_{false};
   std::thread thread_;
 };

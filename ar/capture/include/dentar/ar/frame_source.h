@@ -22,17 +22,25 @@
 //     is grabbed.
 // Motion JPEG cameras and stand-ins: the compressed frame is read as it came
 // (V4L2 without conversion, FFmpeg in raw packet mode), kept in
-// Frame::encoded and decoded with cv::imdecode (libjpeg); when the driver does
-// not hand out JPEG bytes, the source falls back to the backend's decoding.
+// Frame::encoded and decoded with TurboJPEG (MjpegDecoder, mjpeg_decoder.h;
+// session 18, before: cv::imdecode); when the driver does not hand out JPEG
+// bytes, the source falls back to the backend's decoding. A JPEG frame that
+// does not decode (corrupt, cut short on the bus) is skipped and counted as
+// dropped (Frame::dropped_before, dropped_total) and in corrupt_total(), its
+// reason in last_corrupt(); more than 10 in a row end the stream with an error
+// naming the last reason.
 // The camera's own format (issue 28, FrameSourceOptions::pixel_format "native"):
 // a camera (or stand-in) that delivers YUYV 4:2:2 hands its frames on as they
 // came, Frame::image CV_8UC2 (Y0 U Y1 V, BT.601, luma 16..235), with no colour
 // conversion on the capture thread; who needs BGR converts what it uses
 // (frame_bgr below, the compositor, the window's upload). A V4L2 camera is read
 // with the backend's conversion off; a stand-in is an AVI of raw YUY2 frames
-// (write_yuyv_avi), read as FFmpeg's raw packets. Motion JPEG is decoded to BGR
-// as before (OpenCV's imdecode gives no planar YUV), its bytes kept in
-// Frame::encoded. Any other format goes through the backend's conversion to BGR.
+// (write_yuyv_avi), read as FFmpeg's raw packets. Motion JPEG with "native" is
+// decoded to the JPEG's own Y'CbCr planes and handed on as YUYV (CV_8UC2, the
+// same limited-range layout: mjpeg_decoder.h), so the tracker reads its luma and
+// the compositor converts only what it draws, as for a YUYV camera; with "bgr"
+// it is decoded straight to BGR. Its bytes are kept in Frame::encoded either way.
+// Any other format goes through the backend's conversion to BGR.
 // FrameSourceOptions::fourcc asks a camera for a format: the driver's answer is
 // checked (negotiate_format), and a camera that cannot give it is an error naming
 // what it gives; a stand-in is held to the same rule (its file's format is what
@@ -71,8 +79,14 @@ struct FrameSourceOptions {
   double fps = 0;
   double folder_fps = 30;  // timestamps of image folders, Hz
   // Live sources: "bgr" (default) hands on BGR frames whatever the camera sends;
-  // "native" keeps the camera's own YUYV (Frame::image CV_8UC2, see above).
+  // "native" keeps the camera's own YUYV (Frame::image CV_8UC2, see above) and
+  // hands on Motion JPEG as YUYV from the JPEG's planes. Image folders: "native"
+  // decodes their .jpg/.jpeg files as a live source does (read_frame_image), so a
+  // live recording of a Motion JPEG camera replays from the same pixels.
   std::string pixel_format = "bgr";
+  // Motion JPEG: libjpeg-turbo's fast integer IDCT (TJFLAG_FASTDCT) instead of the
+  // accurate one (docs/BENCHMARKS.md, session 18: its cost in pixel error).
+  bool jpeg_fast_dct = false;
   // Live sources: the format asked of the camera, "" (the driver's default),
   // "YUYV" or "MJPG"; a camera that does not deliver it is refused (the error
   // names what it delivers).
@@ -98,10 +112,16 @@ struct Frame {
   double steady_s = 0;
   // The camera's own Motion JPEG bytes of this frame (1xN CV_8UC1, owned),
   // when the source delivers MJPG (a UVC webcam at 720p, an MJPG stand-in);
-  // empty otherwise. `image` is cv::imdecode of exactly these bytes, so a
-  // recording that stores them (not a re-encoding) replays bit for bit.
+  // empty otherwise. `image` is exactly these bytes decoded (MjpegDecoder: BGR,
+  // or YUYV with pixel_format "native"), so a recording that stores them (not a
+  // re-encoding) replays bit for bit when decoded the same way (read_frame_image).
   cv::Mat encoded;
 };
+
+// One image file as a frame: BGR (cv::imread), except a .jpg/.jpeg file with
+// pixel_format "native", which is decoded as a live Motion JPEG source decodes
+// (MjpegDecoder, YUYV when the JPEG allows it). Error names the file and why.
+Result<cv::Mat> read_frame_image(const std::string& path, const std::string& pixel_format = "bgr");
 
 // steady_clock now, s since its epoch (the clock of Frame::steady_s).
 double steady_now_s();
@@ -132,6 +152,12 @@ Status write_yuyv_avi(const std::string& path, const std::vector<cv::Mat>& yuyv_
 // The same, streamed: `next` fills the next frame and returns false after the last
 // (a long 1080p stand-in never sits in memory whole).
 Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&)>& next, double fps);
+// A stand-in for a Motion JPEG camera: an AVI whose frames are exactly these bytes
+// (normally JPEGs of width x height; corrupt or truncated ones are written as given,
+// which is what the tests of a camera's damaged frames need). `live:PATH` reads them
+// raw, as a UVC camera's. Error names the file when it cannot be written.
+Status write_mjpeg_avi(const std::string& path, const std::vector<std::vector<std::uint8_t>>& jpegs, int width,
+                       int height, double fps);
 
 class FrameSource {
  public:
@@ -153,6 +179,10 @@ class FrameSource {
   virtual double fps() const = 0;                 // nominal, Hz
   virtual std::int64_t frame_count() const = 0;   // -1 unknown (camera)
   virtual std::int64_t dropped_total() const = 0;
+  // Motion JPEG frames refused by the decoder (counted in dropped_total too), and
+  // the last one's reason ("" none). 0 / "" for sources without JPEG frames.
+  virtual std::int64_t corrupt_total() const { return 0; }
+  virtual std::string last_corrupt() const { return {}; }
   virtual std::string description() const = 0;  // "video file x.mkv (640x480, 30 fps)"
 };
 
