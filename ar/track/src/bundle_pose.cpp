@@ -25,13 +25,19 @@ struct Corner {
   // (BundlePoseOptions::blur_stretch_sigma_px): d uv / d S, from the
   // observed quad (blur_jacobians).
   Eigen::Matrix<double, 2, 3> blur = Eigen::Matrix<double, 2, 3>::Zero();
+  // How it moves with its tag's outline offset e (BundlePoseOptions::
+  // tag_outline_sigma): d uv / d e = blur * (2, 0, 2), every edge out by e.
+  Eigen::Vector2d outline = Eigen::Vector2d::Zero();
 };
 
 // The blur model of one observed quad (quad_blur_model, bundle_pose.h): each
 // corner's d uv / d S, fixed by the observed quad.
 void blur_jacobians(Corner* q) {
   const QuadBlurModel m = quad_blur_model({q[0].uv_px, q[1].uv_px, q[2].uv_px, q[3].uv_px});
-  for (int k = 0; k < 4; ++k) q[k].blur = m.d_corner_d_S[static_cast<std::size_t>(k)];
+  for (int k = 0; k < 4; ++k) {
+    q[k].blur = m.d_corner_d_S[static_cast<std::size_t>(k)];
+    q[k].outline = q[k].blur * Eigen::Vector3d(2, 0, 2);  // every edge out by e: S = diag(2e, 2e)
+  }
 }
 
 struct Pinhole {
@@ -188,6 +194,8 @@ std::string BundlePoseOptions::validate() const {
     return "shape_weight = " + std::to_string(shape_weight) + " must be in (0, 1]";
   if (!std::isfinite(blur_stretch_sigma_px) || blur_stretch_sigma_px < 0)
     return "blur_stretch_sigma_px = " + std::to_string(blur_stretch_sigma_px) + " must be finite and >= 0 (0 = off)";
+  if (!std::isfinite(tag_outline_sigma) || tag_outline_sigma < 0 || tag_outline_sigma > 100)
+    return "tag_outline_sigma = " + std::to_string(tag_outline_sigma) + " must be in [0, 100] (0 = off)";
   return {};
 }
 
@@ -297,7 +305,8 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
       for (int c = 0; c < 4; ++c, ++u)
         corners.push_back(Corner{t->corner(c), Eigen::Vector2d(undistorted[u].x, undistorted[u].y),
                                  static_cast<int>(v)});
-      if (options.blur_stretch_sigma_px > 0) blur_jacobians(&corners[corners.size() - 4]);
+      if (options.blur_stretch_sigma_px > 0 || options.tag_outline_sigma > 0)
+        blur_jacobians(&corners[corners.size() - 4]);
       tags.push_back(Obs{t, static_cast<int>(v)});
     }
   }
@@ -586,6 +595,24 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
   out.noise_px2 = wss / dof;
   out.noise_dof = static_cast<int>(std::lround(dof));
   out.covariance = out.noise_px2 * out.covariance_per_px2;
+  // BundlePoseOptions::tag_outline_sigma: what a common outline offset per tag observation
+  // (sigma k x the corner noise, along u = d corners / d offset) adds to the estimate's
+  // covariance: C (sum_t k^2 g_t g_t^T / pw_t) C, g_t = J_t^T W_t u_t (the sandwich's extra
+  // part; the fit itself keeps each corner alone).
+  if (options.tag_outline_sigma > 0) {
+    const double k2 = options.tag_outline_sigma * options.tag_outline_sigma;
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(np, np);
+    for (std::size_t t = 0; t < tags.size(); ++t) {
+      const Eigen::Index r0 = static_cast<Eigen::Index>(8 * t);
+      Eigen::Matrix<double, 8, 1> u;
+      for (std::size_t c = 0; c < 4; ++c)
+        u.segment<2>(static_cast<Eigen::Index>(2 * c)) = corners[4 * t + c].outline;
+      const double pwt = std::max(pw(r0), 1e-12);
+      const Eigen::VectorXd g = J.middleRows(r0, 8).transpose() * (w.segment<8>(r0).asDiagonal() * u);
+      G += (k2 / pwt) * g * g.transpose();
+    }
+    out.outline_covariance_per_px2 = (C_all * G * C_all).topLeftCorner<6, 6>();
+  }
   if (blur_on)
     for (std::size_t v = 0; v < views.size(); ++v) out.blur_stretch_px.push_back(blur.segment<3>(static_cast<Eigen::Index>(3 * v)));
   // Per-tag noise (sandwich): each tag's corners get their own noise

@@ -277,14 +277,27 @@ struct StereoTracker::Impl {
       prev = o.filter_enabled && b.filter.initialised() ? b.filter.predict(capture_s) : b.last_meas;
     bool measured = false;
     if (!tags_l.empty() || !tags_r.empty()) {
+      BundlePoseOptions po = track_rules::pose_options_for(o, &b == &mannequin);
+      if (&b == &mirror) po.tag_outline_sigma = o.stereo_mirror_outline_sigma;
       BundlePose p = estimate_bundle_pose_views(
           b.bundle, {BundleView{&cam_l, Eigen::Isometry3d::Identity(), &tags_l}, BundleView{&cam_r, T_camr_caml, &tags_r}},
-          track_rules::pose_options_for(o, &b == &mannequin), prev);
+          po, prev);
       if (&b == &mannequin) noise_ref = p;
       int rim_points = 0;
       if (&b == &mirror && o.stereo_mirror_rim && p.ok() && p.rms_px <= o.max_rms_px && mirror_radius_m > 0 &&
           distinct_tags(p) >= o.stereo_mirror_rim_min_tags)
         rim_points = refine_rim_both_eyes(p, b);
+      // TrackerOptions::stereo_mirror_outline_sigma: a fit whose tags one eye alone saw
+      // states the error a common outline offset of each tag observation makes in its depth
+      // (the rim keeps that depth: refine_rim_both_eyes); the pose is the fit's either way.
+      // Two eyes' fits are left as they are: adding the tags-only fit's outline part to a
+      // rim-refined two-eye covariance hid good frames (issue 28 session 18, `mirror` 6:
+      // 48 -> 27 drawn).
+      if (&b == &mirror && po.tag_outline_sigma > 0 && p.ok() && p.views_used == 1) {
+        p.covariance_per_tag += p.outline_covariance_per_px2 * noise_px2(b, p);
+        p.covariance_per_px2 += p.outline_covariance_per_px2;
+        p.covariance = p.covariance_per_px2 * p.noise_px2;
+      }
       if (p.ok() && p.rms_px <= o.max_rms_px && precise_enough(b, p)) {
         measured = true;
         BodyTrack& t = out.track;

@@ -170,6 +170,9 @@ std::string TrackerOptions::validate() const {
     os << "stereo_mirror_rim_effective_points = " << stereo_mirror_rim_effective_points << " must be >= 1";
   else if (stereo_mirror_rim_min_tags < 1 || stereo_mirror_rim_min_tags > 100)
     os << "stereo_mirror_rim_min_tags = " << stereo_mirror_rim_min_tags << " must be in [1, 100]";
+  else if (!(std::isfinite(stereo_mirror_outline_sigma) && stereo_mirror_outline_sigma >= 0 &&
+             stereo_mirror_outline_sigma <= 100))
+    os << "stereo_mirror_outline_sigma = " << stereo_mirror_outline_sigma << " must be in [0, 100] (0 = off)";
   else if (!(std::isfinite(mirror_min_unexplained_speed_m_s) && mirror_min_unexplained_speed_m_s >= 0))
     os << "mirror_min_unexplained_speed_m_s = " << mirror_min_unexplained_speed_m_s << " must be finite and >= 0";
   else if (discovery != DiscoveryMode::kInline && !predicted_regions)

@@ -58,6 +58,25 @@ Footage make_hard(int seed, int frames) {
   Footage f;
   SynthOptions o = synth_preset(SynthPreset::kHard);
   o.frames = frames;
+  // DENTAR_SIGMA_SYNTH=key=value,...: the footage with one effect changed, for the corner
+  // error's causes (issue 28 session 18): subframes=N (blur_subframes), blur=0 (no motion
+  // blur), noise=0 (no read or shot noise), jumps=0 (no exposure jumps), occluders=N.
+  if (const char* v = std::getenv("DENTAR_SIGMA_SYNTH")) {
+    std::stringstream ss(v);
+    std::string kv;
+    while (std::getline(ss, kv, ',')) {
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) continue;
+      const std::string k = kv.substr(0, eq);
+      const int x = std::atoi(kv.c_str() + eq + 1);
+      if (k == "subframes") o.blur_subframes = x;
+      if (k == "blur") o.motion_blur = x != 0;
+      if (k == "noise" && x == 0) o.read_noise_dn = o.shot_noise_gain = 0;
+      if (k == "jumps") o.exposure_jumps = x != 0;
+      if (k == "occluders") o.tag_occluders = x;
+      if (k == "shutter") o.shutter_fraction = x / 100.0;
+    }
+  }
   o.seed = static_cast<std::uint64_t>(seed);
   o.bur_samples = 1000;
   StationScene st = default_station_scene();
@@ -522,12 +541,39 @@ TEST(StereoSigma, CornerErrorParts) {
   const Iso T_camr_caml = fo.station.stereo.T_caml_camr.inverse();
   std::printf("| frame | deg/s | corner RMS px (per axis): all / centre / shape | pose error mm: actual / from centres "
               "/ from shapes | stated sigma mm | Mahalanobis^2 |\n|---|---|---|---|---|---|\n");
+  // Pooled over the measured frames, fast (>= 100 deg/s) and slow: the shape error split
+  // along / across each tag's image motion (its true corners' mean shift from the previous
+  // frame of the same eye), and the tags' own size (side px).
+  struct Pool {
+    double ss_along = 0, ss_across = 0, ss_shape = 0, ss_centre = 0, ss_all = 0;
+    int corners = 0, tags_n = 0;
+    std::vector<double> err_mm, shape_mm;
+  } pool[2];
+  std::map<int, Eigen::Vector2d> prev_centre[2];  // tag id -> its true centre in the previous frame, per eye
+  double small_ss = 0, large_ss = 0;
+  int small_n = 0, large_n = 0;
   for (const StereoSynthFrame& s : fo.frames) {
     const double t = s.left.truth.time_s;
     auto f = tr->track(s.left.image, s.right.image, t, t);
     ASSERT_TRUE(f.ok()) << f.error();
     const BodyTrack& m = f->mannequin.track;
+    std::map<int, Eigen::Vector2d> now_centre[2];
+    for (int e = 0; e < 2; ++e)
+      for (const TagTruth& x : (e == 0 ? s.left.truth : s.right.truth).tags) {
+        if (x.on_mirror) continue;
+        Eigen::Vector2d c = Eigen::Vector2d::Zero();
+        for (const auto& q : x.corners_px) c += q / 4;
+        now_centre[e][x.id] = c;
+      }
+    struct Restore {
+      std::map<int, Eigen::Vector2d>* to;
+      std::map<int, Eigen::Vector2d>* from;
+      ~Restore() {
+        for (int e = 0; e < 2; ++e) to[e] = from[e];
+      }
+    } restore{prev_centre, now_centre};
     if (!m.measured) continue;
+    Pool& pl = pool[s.left.truth.camera_speed_deg_s >= 100 ? 1 : 0];
     double ss_all = 0, ss_c = 0, ss_s = 0;
     int tags = 0;
     std::vector<DetectedTag> centre_only[2], shape_only[2];
@@ -545,6 +591,26 @@ TEST(StereoSigma, CornerErrorParts) {
           c += err[k] / 4;
         }
         if (c.norm() > 5) continue;  // a mirror tag of the same id
+        {
+          auto pv = prev_centre[e].find(d.id);
+          Eigen::Vector2d dir(1, 0);
+          const bool moving = pv != prev_centre[e].end() && (now_centre[e][d.id] - pv->second).norm() > 0.5;
+          if (moving) dir = (now_centre[e][d.id] - pv->second).normalized();
+          for (std::size_t k = 0; k < 4; ++k) {
+            const Eigen::Vector2d sh = err[k] - c;
+            if (moving) {
+              pl.ss_along += std::pow(sh.dot(dir), 2);
+              pl.ss_across += std::pow(sh.x() * dir.y() - sh.y() * dir.x(), 2);
+            }
+            pl.ss_shape += sh.squaredNorm() / 2;
+            pl.ss_centre += c.squaredNorm() / 2;
+            pl.ss_all += err[k].squaredNorm() / 2;
+            (it->second->side_px < 20 ? small_ss : large_ss) += sh.squaredNorm() / 2;
+          }
+          (it->second->side_px < 20 ? small_n : large_n) += 4;
+          pl.corners += moving ? 4 : 0;
+          ++pl.tags_n;
+        }
         DetectedTag dc = d, ds = d;
         for (std::size_t k = 0; k < 4; ++k) {
           ss_all += err[k].squaredNorm();
@@ -567,10 +633,26 @@ TEST(StereoSigma, CornerErrorParts) {
     };
     const double n = std::max(1, 8 * tags);  // per corner and axis: centre x4 (a mean of 4), shape x4/3 (6 of 8 dof)
     const Check c = check(m, s.left.truth.T_cam_man, s.left.truth.camera_speed_deg_s);
+    const double from_shape = fit_err(shape_only);
+    pl.err_mm.push_back(c.err_mm);
+    pl.shape_mm.push_back(from_shape);
     std::printf("| %d | %.0f | %.2f / %.2f / %.2f | %.3f / %.3f / %.3f | %.3f | %.2f |\n", s.left.truth.frame,
                 c.speed_deg_s, std::sqrt(ss_all / n), std::sqrt(ss_c / n * 4), std::sqrt(ss_s / n * 4 / 3), c.err_mm,
-                fit_err(centre_only), fit_err(shape_only), c.sigma_mm, c.maha2);
+                fit_err(centre_only), from_shape, c.sigma_mm, c.maha2);
   }
+  std::printf("\n| frames | measured | corner RMS px per axis: all / centre / shape | shape along / across the image "
+              "motion px | mannequin error p50 / p95 mm | from shapes alone p50 / p95 mm |\n|---|---|---|---|---|---|\n");
+  for (int k = 0; k < 2; ++k) {
+    const Pool& pl = pool[k];
+    const double n = std::max(1, 4 * pl.tags_n), nm = std::max(1, pl.corners);
+    std::printf("| %s | %zu | %.3f / %.3f / %.3f | %.3f / %.3f | %.3f / %.3f | %.3f / %.3f |\n",
+                k ? "fast (>= 100 deg/s)" : "slow", pl.err_mm.size(), std::sqrt(pl.ss_all / n),
+                std::sqrt(pl.ss_centre / n), std::sqrt(pl.ss_shape / n), std::sqrt(pl.ss_along / nm),
+                std::sqrt(pl.ss_across / nm), pct(pl.err_mm, 0.5), pct(pl.err_mm, 0.95), pct(pl.shape_mm, 0.5),
+                pct(pl.shape_mm, 0.95));
+  }
+  std::printf("shape RMS px per axis by tag side: < 20 px %.3f (%d corners), >= 20 px %.3f (%d)\n",
+              std::sqrt(small_ss / std::max(1, small_n)), small_n, std::sqrt(large_ss / std::max(1, large_n)), large_n);
 }
 
 }  // namespace

@@ -127,6 +127,23 @@ struct BundlePoseOptions {
   // refused frames' corner error is not a shared stretch
   // (docs/BENCHMARKS.md, issue 28 session 17). 8 is the value measured.
   double blur_stretch_sigma_px = 0.0;
+  // A tag's outline offset (issue 28 session 18): the four edges of one tag
+  // as one view sees it move outward along their normals by one common
+  // offset e (px; a corner goes where its two moved edges meet, the blur
+  // model's S = 2 e I), from the edge threshold, blur or a small tag's
+  // corner refinement. e grows or shrinks the tag in the image, which one
+  // camera reads as depth: four corners with independent noise average
+  // such an error away, a common offset does not. With
+  // tag_outline_sigma = k > 0 the fit still takes each corner alone, and
+  // BundlePose::outline_covariance_per_px2 is what an offset of k times the
+  // corner noise per tag observation adds to its covariance (a sandwich:
+  // the corners' predicted covariance noise^2 (I + k^2 u u^T), u = d corners
+  // / d e from the observed quad). Two views see depth across each other
+  // and gain little; one view's depth from a few small tags gains the error
+  // such an offset makes. (Fitting with that covariance, generalised least
+  // squares, was measured on the stereo mirror and made it worse:
+  // docs/BENCHMARKS.md, issue 28 session 18.) 0 = off (zero).
+  double tag_outline_sigma = 0.0;
   std::string validate() const;  // empty when valid
 };
 
@@ -169,6 +186,11 @@ struct BundlePose {
   // grazing tags are noisier than large frontal ones (docs/BENCHMARKS.md,
   // issue 16), and one shared noise spreads their noise over the good tags.
   Eigen::Matrix<double, 6, 6> covariance_per_tag = Eigen::Matrix<double, 6, 6>::Zero();
+  // BundlePoseOptions::tag_outline_sigma: the covariance (per px^2 of corner
+  // noise, as covariance_per_px2) that a common outline offset per tag
+  // observation adds; not included in the covariances above (add it, times
+  // the corner noise, where the stated error should carry it). Zero when off.
+  Eigen::Matrix<double, 6, 6> outline_covariance_per_px2 = Eigen::Matrix<double, 6, 6>::Zero();
   // Each used tag's share of the residual: its weighted residual sum (px^2),
   // its residual degrees of freedom (8 minus its leverage; they add up to
   // noise_dof) and its view angle at the optimum (between its normal and the

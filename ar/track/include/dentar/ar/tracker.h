@@ -248,6 +248,19 @@ struct TrackerOptions {
   // one-tag frames refined with the rim were the whole tail (up to 2.4 mm,
   // 4 deg off, stating 0.3 mm), the two- and three-tag frames <= 0.64 mm.
   int stereo_mirror_rim_min_tags = 2;
+  // StereoTracker only: a mirror fit whose tags one eye alone saw states
+  // (and is gated on) the depth error that a common outline offset of each
+  // tag observation makes, of this many times the corner noise
+  // (BundlePoseOptions::tag_outline_sigma; the pose itself is unchanged).
+  // One eye reads the depth of the mirror's few small tags from their size,
+  // which such an offset moves; two eyes read it from their disparity, and
+  // their fits are left as they are. Measured on development seeds 1-4
+  // (`standard`): outline offset RMS 0.57x the rest of the corner error, so
+  // 0.6 is the measured value. Held out (seeds 5-7): it removes `offframe`
+  // 6's one-eye tail (mirror p95 2.087 -> 0.427 mm) and changes no other
+  // clip: on by default since session 18 (docs/BENCHMARKS.md, issue 28
+  // session 18); 0 turns it off.
+  double stereo_mirror_outline_sigma = 0.6;
   // StereoTracker only: a mirror drawn from the filter's prediction states
   // an error that grows with the prediction's age,
   //   sigma(age) = sqrt(sigma_last^2 + (q * age)^2),
