@@ -48,6 +48,33 @@ calibration::CameraIntrinsics cam720() {
   return c;
 }
 
+// 30 draws an iteration, each finished (glFinish): wall and process CPU ms p50 / p99 as counters.
+// Process CPU includes llvmpipe's rasteriser threads: the pass's whole cost.
+void time_draws(benchmark::State& state, live::DisplayOutput& out, const live::OutputFrame& f, int W, int H) {
+  auto cpu_ms = [] {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+  };
+  std::vector<double> ms, cpu;
+  for (auto _ : state) {
+    for (int i = 0; i < 30; ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = cpu_ms();
+      out.draw(f, W, H);
+      glFinish();
+      cpu.push_back(cpu_ms() - c0);
+      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+  }
+  std::sort(ms.begin(), ms.end());
+  std::sort(cpu.begin(), cpu.end());
+  state.counters["p50_ms"] = ms[ms.size() / 2];
+  state.counters["p99_ms"] = ms[std::min(ms.size() - 1, ms.size() * 99 / 100)];
+  state.counters["cpu_p50_ms"] = cpu[cpu.size() / 2];
+  state.counters["cpu_p99_ms"] = cpu[std::min(cpu.size() - 1, cpu.size() * 99 / 100)];
+}
+
 void BM_HeadsetOutput(benchmark::State& state) {
   if (!context() || !context()->make_current()) {
     state.SkipWithError("no EGL context");
@@ -89,28 +116,7 @@ void BM_HeadsetOutput(benchmark::State& state) {
   f.loupe_c[0][0] = f.loupe_c[1][0] = 700, f.loupe_c[0][1] = f.loupe_c[1][1] = 400;
   for (int i = 0; i < 5; ++i) (*out)->draw(f, W, H);  // warm-up (shader compile, first draws)
   glFinish();
-  auto cpu_ms = [] {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-  };
-  std::vector<double> ms, cpu;
-  for (auto _ : state) {
-    for (int i = 0; i < 30; ++i) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const double c0 = cpu_ms();
-      (*out)->draw(f, W, H);
-      glFinish();
-      cpu.push_back(cpu_ms() - c0);
-      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    }
-  }
-  std::sort(ms.begin(), ms.end());
-  std::sort(cpu.begin(), cpu.end());
-  state.counters["p50_ms"] = ms[ms.size() / 2];
-  state.counters["p99_ms"] = ms[std::min(ms.size() - 1, ms.size() * 99 / 100)];
-  state.counters["cpu_p50_ms"] = cpu[cpu.size() / 2];
-  state.counters["cpu_p99_ms"] = cpu[std::min(cpu.size() - 1, cpu.size() * 99 / 100)];
+  time_draws(state, **out, f, W, H);
   state.counters["panel_mpx"] = W * H / 1e6;
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   out->reset();
@@ -173,28 +179,7 @@ void BM_HeadsetWarp(benchmark::State& state) {
   f.loupe_c[0][0] = f.loupe_c[1][0] = 330, f.loupe_c[0][1] = f.loupe_c[1][1] = 250;
   for (int i = 0; i < 5; ++i) (*out)->draw(f, W, H);  // warm-up (shader compile, first draws, the grid)
   glFinish();
-  auto cpu_ms = [] {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-  };
-  std::vector<double> ms, cpu;
-  for (auto _ : state) {
-    for (int i = 0; i < 30; ++i) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const double c0 = cpu_ms();
-      (*out)->draw(f, W, H);
-      glFinish();
-      cpu.push_back(cpu_ms() - c0);
-      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    }
-  }
-  std::sort(ms.begin(), ms.end());
-  std::sort(cpu.begin(), cpu.end());
-  state.counters["p50_ms"] = ms[ms.size() / 2];
-  state.counters["p99_ms"] = ms[std::min(ms.size() - 1, ms.size() * 99 / 100)];
-  state.counters["cpu_p50_ms"] = cpu[cpu.size() / 2];
-  state.counters["cpu_p99_ms"] = cpu[std::min(cpu.size() - 1, cpu.size() * 99 / 100)];
+  time_draws(state, **out, f, W, H);
   // The grid's live share and the warp's error (CPU, the same mappings the output drew).
   double live_share = 1, err_cam = 0, err_panel = 0;
   const double c0[2] = {330, 250};
