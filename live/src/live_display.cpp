@@ -1,12 +1,9 @@
-#include <sstream>
-#include <map>
-#include <filesystem>
-#include <sys/resource.h>
 // dentar live's display loop (main thread): the window, the HUD and the stop
 // conditions. See live_run.h.
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <imgui.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,17 +11,20 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 #include <opencv2/imgcodecs.hpp>
 
 #include "dentar/ar/frame_source.h"
 #include "dentar/ar/note_label.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/live/eye_output.h"
+#include "dentar/live/redraw_policy.h"
 #include "dentar/session/frames_csv.h"
 #include "dentar/session/recorder.h"
 #include "dentar/volume/material.h"
-#include "dentar/live/redraw_policy.h"
 #include "live_run.h"
 
 namespace dentar::live {
