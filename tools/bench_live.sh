@@ -25,6 +25,9 @@
 #   tools/bench_live.sh warp [SECONDS]         issue 28 session 18: stereo 2x640x480 (two cameras) into the headset
 #                                              (HEADSET=), the pre-warp pass full (sessions 15-17) / exact (default) /
 #                                              mesh, DentAR and the bare passthrough viewer, alternating (PAIRS, default 2)
+#   tools/bench_live.sh idle [SECONDS]         issue 28 session 19: stereo into the headset (HEADSET=), the window
+#                                              redrawn at every wake without a new frame (--idle-redraw-ms 0) against
+#                                              the default (HUD at 10 Hz), alternating (PAIRS, default 2); CPU per frame
 #   tools/bench_live.sh wake [SECONDS]         the engine with the CPUs' wake-up latency held (default) and
 #                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
 #                                              alternating (PAIRS pairs, default 2)
@@ -292,6 +295,39 @@ case "$mode" in
       for w in full exact mesh; do
         latency_pair "stereo 2x640x480, two cameras, warp $w, run $i" "$c" --camera live:"$c/camera_left.avi" \
           --camera-right live:"$c/camera_right.avi" --output sbs --headset "$HEADSET" --warp-pass "$w"
+      done
+    done
+    ;;
+  idle)
+    # Issue 28 session 19: the window's redraw without a new frame, every wake (--idle-redraw-ms 0,
+    # sessions 13-18) against the HUD's 10 Hz (default), the same binary and footage, alternating:
+    # stereo 2x1280x720 (two cameras and one side-by-side camera) and 2x640x480 (two cameras),
+    # into the headset view (HEADSET=). Latency, and the summary's CPU per frame shown (cpu, ms).
+    [[ -n "${HEADSET:-}" ]] || { echo "idle needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }
+    s720=$(clip_stereo 1280 720); s480=$(clip_stereo 640 480)
+    echo "| run | capture to swap p50 / p99 ms | fps | dropped source / consumer | CPU ms a frame shown: process / main (display) / window+headless rasterisers / frame / right eye / capture L+R | idle draws / skipped | display stage p50 ms |"
+    echo "|---|---|---|---|---|---|---|"
+    for i in $(seq 1 "${PAIRS:-2}"); do
+      for w in 0 100; do
+        for row in "2x1280x720 two cameras|$s720|--camera live:$s720/camera_left.avi --camera-right live:$s720/camera_right.avi" \
+                   "2x1280x720 side by side|$s720|--camera live:$s720/camera.avi --stereo" \
+                   "2x640x480 two cameras|$s480|--camera live:$s480/camera_left.avi --camera-right live:$s480/camera_right.avi"; do
+          IFS='|' read -r rn c cam <<<"$row"
+          n="$rn, idle redraw $w ms, run $i"
+          # shellcheck disable=SC2086
+          live_json "$n" --station "$c/station.json" --stylus replay:"$c/session.dlog" $cam --output sbs \
+            --headset "$HEADSET" --idle-redraw-ms "$w"
+          python3 - "$out/$n.json" "$n" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); f = s["frames"]; d = s["display"]; c = s.get("cpu", {}); t = c.get("threads_ms_per_frame", {})
+main = sum(v for k, v in t.items() if k == "dentar" or (k.startswith("dentar_") and "disk" not in k))
+g = lambda k: t.get(k, 0.0)
+print(f"| {sys.argv[2]} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} | {s['displayed_fps']:.1f} | "
+      f"{f['dropped_source']} / {f['dropped_consumer']} | {c.get('process_ms_per_frame', 0):.1f} / {main:.1f} / {g('llvmpipe-0'):.1f} / "
+      f"{g('dentar-frame'):.1f} / {g('dentar-eye-r'):.1f} / {g('dentar-cap-l') + g('dentar-cap-r'):.1f} | "
+      f"{d.get('idle_draws', '-')} / {d.get('idle_skipped', '-')} | {s['stages_ms'].get('display', {}).get('p50', 0):.1f} |")
+PY
+        done
       done
     done
     ;;

@@ -106,6 +106,11 @@ void add_live(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"exact", "mesh", "full", "lut"}));
   sub->add_option("--warp-cell-px", c->o.warp_cell_px, "the pre-warp grid's cell size, panel px (4..128, default 16)")
       ->check(CLI::Range(4, 128));
+  sub->add_option("--idle-redraw-ms", c->o.idle_redraw_ms,
+                  "without a new camera frame, redraw the window (the HUD) at most this often, ms (0..1000, "
+                  "default 100; 0: at every wake of the display loop, ~30 ms, as before); a camera going quiet "
+                  "and a key press are drawn at once")
+      ->check(CLI::Range(0.0, 1000.0));
   sub->add_option("--window-width", c->o.window_width, "window width (px, default: the camera's)");
   sub->add_option("--window-height", c->o.window_height, "window height (px)");
   sub->add_flag("--no-hud", c->no_hud, "video only, no HUD");

@@ -315,6 +315,7 @@ __attribute__((noinline)) void prefault_stack(std::size_t bytes) {
 }  // namespace
 
 void Engine::thread_main() {
+  pthread_setname_np(pthread_self(), "dentar-engine");  // apart from the main thread in per-thread CPU figures
   if (cfg_.cpu >= 0) {
     cpu_set_t set;
     CPU_ZERO(&set);

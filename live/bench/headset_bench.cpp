@@ -50,7 +50,10 @@ calibration::CameraIntrinsics cam720() {
 
 // 30 draws an iteration, each finished (glFinish): wall and process CPU ms p50 / p99 as counters.
 // Process CPU includes llvmpipe's rasteriser threads: the pass's whole cost.
-void time_draws(benchmark::State& state, live::DisplayOutput& out, const live::OutputFrame& f, int W, int H) {
+// move_centre: the loupe's centre moved a little before each draw, as the live display loop
+// sets it from each frame's tracked tooth (loupe on or off).
+void time_draws(benchmark::State& state, live::DisplayOutput& out, live::OutputFrame f, int W, int H,
+                bool move_centre = false) {
   auto cpu_ms = [] {
     timespec t{};
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
@@ -59,6 +62,8 @@ void time_draws(benchmark::State& state, live::DisplayOutput& out, const live::O
   std::vector<double> ms, cpu;
   for (auto _ : state) {
     for (int i = 0; i < 30; ++i) {
+      if (move_centre)
+        for (auto& c : f.loupe_c) c[0] += (i % 2 ? 0.25 : -0.25), c[1] += (i % 2 ? -0.125 : 0.125);
       const auto t0 = std::chrono::steady_clock::now();
       const double c0 = cpu_ms();
       out.draw(f, W, H);
@@ -134,6 +139,9 @@ BENCHMARK(BM_HeadsetOutput)->DenseRange(0, 8)->Iterations(3)->Unit(benchmark::kM
 // live cells' share of the two viewports and, for the mesh and the lookup, the warp's
 // largest error against the exact mapping over the panel (camera px and panel px, the worst
 // eye and channel; headset.h warp_grid_error / warp_lut_error).
+// Session 19: a fourth argument, the camera (1: 640x480, fx 600; 2: 1280x720, fx 1200, the
+// same field of view), and a fifth: 1 moves the loupe's centre by a fraction of a pixel before
+// each draw, as the live display loop sets it from every frame's tracked tooth.
 //   ./build/live/live_headset_bench --benchmark_filter=Warp
 void BM_HeadsetWarp(benchmark::State& state) {
   if (!context() || !context()->make_current()) {
@@ -143,13 +151,17 @@ void BM_HeadsetWarp(benchmark::State& state) {
   const live::WarpPass pass = static_cast<live::WarpPass>(state.range(0));
   const int cell = static_cast<int>(state.range(1));
   const bool inset = state.range(2) != 0;
+  const int k = state.range(3) == 2 ? 2 : 1;  // camera: 640x480 or 1280x720 (same field of view)
+  const bool moving = state.range(4) != 0;
+  const int cw = k == 2 ? 1280 : 640, ch = k == 2 ? 720 : 480;
   auto h = live::read_headset_profile("assets/headsets/oculus_rift_dk1.json");
   if (!h) {
     state.SkipWithError(h.error().c_str());
     return;
   }
   calibration::CameraIntrinsics cam;
-  cam.width = 640, cam.height = 480, cam.fx = cam.fy = 600, cam.cx = 319.5, cam.cy = 239.5;
+  cam.width = cw, cam.height = ch, cam.fx = cam.fy = 600 * (k == 2 ? 2 : 1), cam.cx = (cw - 1) / 2.0,
+  cam.cy = (ch - 1) / 2.0;
   const int W = h->panel_w, H = h->panel_h;
   auto out = live::make_sbs_output(true, *h, cam, true, &cam, pass, cell);
   if (!out) {
@@ -159,14 +171,14 @@ void BM_HeadsetWarp(benchmark::State& state) {
   live::LoupeView l;
   if (inset) l.mag = 3;
   (*out)->set_loupe(l);
-  cv::Mat img(480, 640, CV_8UC4), img_r(480, 640, CV_8UC4);
+  cv::Mat img(ch, cw, CV_8UC4), img_r(ch, cw, CV_8UC4);
   cv::randu(img, 0, 255);
   cv::randu(img_r, 0, 255);
   GLuint tex[2] = {0, 0}, target = 0, fbo = 0;
   glGenTextures(2, tex);
   for (int e = 0; e < 2; ++e) {
     glBindTexture(GL_TEXTURE_2D, tex[e]);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 640, 480, 0, GL_RGBA, GL_UNSIGNED_BYTE, (e ? img_r : img).data);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, cw, ch, 0, GL_RGBA, GL_UNSIGNED_BYTE, (e ? img_r : img).data);
   }
   glGenTextures(1, &target);
   glBindTexture(GL_TEXTURE_2D, target);
@@ -175,14 +187,14 @@ void BM_HeadsetWarp(benchmark::State& state) {
   glBindFramebuffer(GL_FRAMEBUFFER, fbo);
   glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target, 0);
   live::OutputFrame f;
-  f.video = tex[0], f.right_video = tex[1], f.tex_w = 640, f.tex_h = 480;
-  f.loupe_c[0][0] = f.loupe_c[1][0] = 330, f.loupe_c[0][1] = f.loupe_c[1][1] = 250;
+  f.video = tex[0], f.right_video = tex[1], f.tex_w = cw, f.tex_h = ch;
+  f.loupe_c[0][0] = f.loupe_c[1][0] = 330 * k, f.loupe_c[0][1] = f.loupe_c[1][1] = 250 * k;
   for (int i = 0; i < 5; ++i) (*out)->draw(f, W, H);  // warm-up (shader compile, first draws, the grid)
   glFinish();
-  time_draws(state, **out, f, W, H);
+  time_draws(state, **out, f, W, H, moving);
   // The grid's live share and the warp's error (CPU, the same mappings the output drew).
   double live_share = 1, err_cam = 0, err_panel = 0;
-  const double c0[2] = {330, 250};
+  const double c0[2] = {330.0 * k, 250.0 * k};
   long vp_px = 0, live_px = 0;
   for (int e = 0; e < 2; ++e) {
     const live::EyeMapping m = live::make_eye_mapping(*h, e, cam, true, l, c0);
@@ -209,15 +221,18 @@ void BM_HeadsetWarp(benchmark::State& state) {
   glDeleteTextures(2, tex);
 }
 BENCHMARK(BM_HeadsetWarp)
-    ->Args({0, 16, 0})
-    ->Args({1, 16, 0})
-    ->Args({1, 32, 0})
-    ->Args({2, 8, 0})
-    ->Args({2, 16, 0})
-    ->Args({2, 32, 0})
-    ->Args({3, 16, 0})
-    ->Args({0, 16, 1})
-    ->Args({1, 16, 1})
+    ->Args({0, 16, 0, 1, 0})
+    ->Args({1, 16, 0, 1, 0})
+    ->Args({1, 32, 0, 1, 0})
+    ->Args({2, 8, 0, 1, 0})
+    ->Args({2, 16, 0, 1, 0})
+    ->Args({2, 32, 0, 1, 0})
+    ->Args({3, 16, 0, 1, 0})
+    ->Args({0, 16, 1, 1, 0})
+    ->Args({1, 16, 1, 1, 0})
+    ->Args({1, 16, 0, 1, 1})
+    ->Args({1, 16, 0, 2, 0})
+    ->Args({1, 16, 0, 2, 1})
     ->Iterations(3)
     ->Unit(benchmark::kMillisecond);
 

@@ -130,13 +130,24 @@ GLuint compile(GLenum type, const std::string& src, std::string& err) {
   return s;
 }
 
-// What a mapping's grid depends on (EyeMapping's numbers, the grid's size).
-std::vector<double> grid_key(const EyeMapping& m, int cols, int rows) {
+}  // namespace
+
+// What a mapping's grid depends on (EyeMapping's numbers, the grid's size). The loupe's
+// fields only while it is on: with the loupe off (mag <= 0) eye_to_camera never reads them,
+// and the display loop moves the loupe's centre with the tracked tooth on every frame
+// (loupe on or off), which remade both eyes' grids on every frame (issue 28 session 19's
+// profile: ~1.4 ms CPU a drawn frame at 2x1280x720).
+std::vector<double> warp_grid_key(const EyeMapping& m, int cols, int rows) {
+  const bool loupe = m.loupe.mag > 0;
+  auto l = [&](double v) { return loupe ? v : 0.0; };
   return {double(m.vp[0]), double(m.vp[1]), double(m.vp[2]), double(m.vp[3]), m.lens_c[0], m.lens_c[1], m.norm, m.k1, m.k2,
           m.chroma[0], m.chroma[1], m.chroma[2], m.f_eye[0], m.f_eye[1], m.shift_tan, m.f_cam[0], m.f_cam[1], m.c_cam[0],
-          m.c_cam[1], double(m.cam_w), double(m.cam_h), m.loupe.mag, m.loupe.inset ? 1.0 : 0.0, m.loupe.inset_cx,
-          m.loupe.inset_cy, m.loupe.inset_w, m.loupe.inset_h, m.loupe_c[0], m.loupe_c[1], double(cols), double(rows)};
+          m.c_cam[1], double(m.cam_w), double(m.cam_h), l(m.loupe.mag), l(m.loupe.inset ? 1.0 : 0.0), l(m.loupe.inset_cx),
+          l(m.loupe.inset_cy), l(m.loupe.inset_w), l(m.loupe.inset_h), l(m.loupe_c[0]), l(m.loupe_c[1]), double(cols),
+          double(rows)};
 }
+
+namespace {
 
 // The GL pass of one EyeMapping, and the composed source texture of the GPU path.
 class EyePass {
@@ -204,7 +215,8 @@ class EyePass {
   // Draws m into the bound draw framebuffer (fb_h px high), the panel placed at
   // (off_x, off_y) (top-left) with `scale` framebuffer px per panel px.
   // scissor: only inside the loupe's inset (the mono window's loupe over the blit).
-  // slot: which eye's grid and lookup texture (kept between frames while m is unchanged).
+  // slot: which eye's grid and lookup texture (kept between frames while m is unchanged):
+  // 0-1 the eyes of a stereo pair, 2-3 the eyes of the mono view.
   void draw(GLuint tex, const EyeMapping& m, int fb_h, double off_x, double off_y, double scale, bool inset_only = false,
             int slot = 0) {
     const int x = static_cast<int>(std::lround(off_x + m.vp[0] * scale));
@@ -271,7 +283,7 @@ class EyePass {
       glBindVertexArray(vao_);
       glDrawArrays(GL_TRIANGLES, 0, 3);
     } else {
-      Slot& s = slot_[std::clamp(slot, 0, 1)];
+      Slot& s = slot_[std::clamp(slot, 0, kSlots - 1)];
       update_grid(s, m);
       // Panel px to clip coordinates in this viewport (the unrounded placement, as u_d).
       glUniform4f(loc("u_pos"), float(2 * scale / w), float(-2 * scale / h), float(2 * (off_x - x) / w - 1),
@@ -296,7 +308,9 @@ class EyePass {
   }
 
   // The live cells drawn in the last draw of eye `slot` (tests, benchmark).
-  int live_cells(int slot) const { return slot_[std::clamp(slot, 0, 1)].count / 6; }
+  int live_cells(int slot) const { return slot_[std::clamp(slot, 0, kSlots - 1)].count / 6; }
+  // How many times an eye's grid was made (the first draw of each eye, then a mapping changed).
+  std::int64_t grid_builds() const { return grid_builds_; }
 
  private:
   // Program kinds (bits 2-3 of a program's index; bit 0 WARP, bit 1 INSET).
@@ -358,8 +372,9 @@ class EyePass {
 
   void update_grid(Slot& s, const EyeMapping& m) {
     const int cols = std::max(1, (m.vp[2] + cell_px_ - 1) / cell_px_), rows = std::max(1, (m.vp[3] + cell_px_ - 1) / cell_px_);
-    std::vector<double> key = grid_key(m, cols, rows);
+    std::vector<double> key = warp_grid_key(m, cols, rows);
     if (s.vao && key == s.key) return;
+    ++grid_builds_;
     const WarpGrid g = make_warp_grid(m, cols, rows);
     const int nx = g.cols + 1, nv = nx * (g.rows + 1);
     std::vector<float> v(static_cast<std::size_t>(8 * nv));
@@ -417,11 +432,17 @@ class EyePass {
   }
 
   bool gles_ = true;
+  std::int64_t grid_builds_ = 0;
   WarpPass pass_ = WarpPass::kFull;
   int cell_px_ = 16;
   GLuint prog_[16] = {};  // by WARP (bit 0), INSET (bit 1) and kind (bits 2-3)
   GLuint vao_ = 0;        // kFull's attribute-less triangle
-  Slot slot_[2];
+  // Each eye's grid as a stereo pair's eye (slots 0, 1) and as the mono view's (2, 3): a pair
+  // whose right eye is missing for a frame (unpaired, or its camera silent) draws the mono
+  // view, and back; one slot per eye remade both grids at every switch (session 19: a third
+  // of the frames under load).
+  static constexpr int kSlots = 4;
+  Slot slot_[kSlots];
   GLuint fbo_[2] = {0, 0};  // read (video / overlay) and draw (composed texture)
   GLuint comp_tex_ = 0;
   int comp_w_ = 0, comp_h_ = 0;
@@ -451,6 +472,7 @@ class MonoOutput final : public DisplayOutput {
     if (read_fbo_) glDeleteFramebuffers(1, &read_fbo_);
   }
   const char* kind() const override { return "mono"; }
+  std::int64_t warp_grid_builds() const override { return pass_.grid_builds(); }
   void set_loupe(const LoupeView& l) override { loupe_ = l; }
   void set_prewarp(bool) override {}
   int eye_rects(int fbw, int fbh, int tw, int th, PanelRect rects[2]) const override {
@@ -527,6 +549,7 @@ class SbsOutput final : public DisplayOutput {
   }
   Status init(bool gles) { return pass_.init(gles, warp_pass_, cell_px_); }
   const char* kind() const override { return "sbs"; }
+  std::int64_t warp_grid_builds() const override { return pass_.grid_builds(); }
   void set_loupe(const LoupeView& l) override { loupe_ = l; }
   void set_prewarp(bool on) override { prewarp_ = on; }
 
@@ -546,7 +569,7 @@ class SbsOutput final : public DisplayOutput {
     const bool stereo = f.right_video != 0;
     for (int e = 0; e < 2; ++e) {
       const EyeMapping m = make_eye_mapping(h_, e, e == 1 && stereo ? cam_r : cam, stereo, loupe_, f.loupe_c[e], prewarp_);
-      pass_.draw(e == 1 && stereo ? f.right_video : left, m, fbh, ox, oy, s, false, e);
+      pass_.draw(e == 1 && stereo ? f.right_video : left, m, fbh, ox, oy, s, false, e + (stereo ? 0 : 2));
     }
     glViewport(0, 0, fbw, fbh);
   }

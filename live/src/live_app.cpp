@@ -158,6 +158,8 @@ std::string LiveOptions::validate() const {
     return "warp_pass = \"" + warp_pass + "\" must be exact, mesh, full or lut";
   if (warp_cell_px < 4 || warp_cell_px > 128)
     return "warp_cell_px = " + std::to_string(warp_cell_px) + " must be in 4..128 panel px";
+  if (!(std::isfinite(idle_redraw_ms) && idle_redraw_ms >= 0 && idle_redraw_ms <= 1000))
+    return "idle_redraw_ms = " + std::to_string(idle_redraw_ms) + " must be in 0..1000 ms (0: redraw at every wake)";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
   if (frames < 0) return "frames = " + std::to_string(frames) + " must be >= 0 (0 = no limit)";
   if (!(std::isfinite(camera_latency_ms) && camera_latency_ms <= 1000))
@@ -244,9 +246,13 @@ std::string LiveSummary::json() const {
       {"display", {{"path", display_path}, {"requested", display_requested}, {"note", display_note}, {"gpu_frames", gpu_frames},
                    {"readback_px", readback_px}, {"cpu_blend_px", cpu_blend_px},
                    {"gl_frames_replaced", gl_frames_replaced}, {"gl_ready_timeouts", gl_ready_timeouts},
-                   {"gl_release_timeouts", gl_release_timeouts}}},
+                   {"gl_release_timeouts", gl_release_timeouts}, {"idle_draws", idle_draws},
+                   {"idle_skipped", idle_skipped}, {"warp_grid_builds", warp_grid_builds}}},
       {"station_health", {{"instructor_needed", instructor_needed}, {"items", station_health}}},
       {"warnings", warnings}};
+  if (cpu_frames > 0)  // session 19: CPU per frame shown
+    j["cpu"] = {{"window_s", cpu_window_s}, {"frames", cpu_frames}, {"process_ms_per_frame", cpu_process_ms_per_frame},
+                {"threads_ms_per_frame", cpu_threads_ms_per_frame}};
   if (!warp_pass.empty()) {  // session 18: which pre-warp pass drew the headset view
     j["display"]["warp_pass"] = warp_pass;
     j["display"]["warp_cell_px"] = warp_cell_px;
@@ -976,6 +982,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.corrupt_frames = capture.corrupt();
   sum.last_corrupt = capture.last_corrupt();
   sum.displayed_fps = sum.wall_s > 0 ? df.displayed / sum.wall_s : 0;
+  sum.idle_draws = df.idle_draws;
+  sum.idle_skipped = df.idle_skipped;
   sum.latency_p50_ms = percentile(df.latency_ms, 0.5);
   sum.latency_p99_ms = percentile(df.latency_ms, 0.99);
   sum.latency_max_ms = df.latency_ms.empty() ? 0 : *std::max_element(df.latency_ms.begin(), df.latency_ms.end());
@@ -1173,7 +1181,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cto.reopen = o.loop || o.camera.rfind("live:", 0) != 0;  // footage ends (unless looped); a camera comes back
   cto.stall_after_frames = o.stall_after_frames;
   cto.stall_s = o.stall_s;
-  cto.thread_init = bg.to_engine_cpu;
+  // Named for the summary's CPU per thread (session 19).
+  cto.thread_init = [init = bg.to_engine_cpu] {
+    pthread_setname_np(pthread_self(), "dentar-cap-l");
+    if (init) init();
+  };
   ar::CaptureThread capture(std::move(*src2), o.camera, scr->so, cto);
   // Stereo with two cameras (issue 28): the right eye on its own capture thread; the frame
   // thread pairs its newest frame with each left frame by capture time.
@@ -1189,6 +1201,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     cto_r.reopen = o.loop || o.camera_right.rfind("live:", 0) != 0;
     cto_r.stall_after_frames = o.stall_right_after_frames;
     cto_r.stall_s = o.stall_right_s;
+    cto_r.thread_init = [init = bg.to_engine_cpu] {
+      pthread_setname_np(pthread_self(), "dentar-cap-r");
+      if (init) init();
+    };
     capture_right = std::make_unique<ar::CaptureThread>(std::move(*src_r), o.camera_right, scr->so, cto_r);
   }
   const std::string stylus_desc = o.device.empty() ? "stylus " + o.stylus : "device " + pedal_device.name();

@@ -3,6 +3,7 @@
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <imgui.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,13 +11,17 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 #include <opencv2/imgcodecs.hpp>
 
 #include "dentar/ar/frame_source.h"
 #include "dentar/ar/note_label.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/live/eye_output.h"
+#include "dentar/live/redraw_policy.h"
 #include "dentar/session/frames_csv.h"
 #include "dentar/session/recorder.h"
 #include "dentar/volume/material.h"
@@ -38,6 +43,43 @@ double rss_mb() {
   return static_cast<double>(rss) * static_cast<double>(sysconf(_SC_PAGESIZE)) / 1e6;
 }
 
+CpuSnapshot cpu_snapshot() {
+  CpuSnapshot c;
+  const double tick_ms = 1e3 / static_cast<double>(sysconf(_SC_CLK_TCK));
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  c.process_ms = (ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) * 1e3 + (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec) * 1e-3;
+  std::error_code ec;
+  for (const auto& d : std::filesystem::directory_iterator("/proc/self/task", ec)) {
+    std::ifstream fc(d.path() / "comm"), fs(d.path() / "stat");
+    std::string name, stat;
+    if (!std::getline(fc, name) || !std::getline(fs, stat)) continue;  // the thread ended meanwhile
+    // stat: "tid (comm) state ..." with utime and stime the 14th and 15th fields; comm may hold spaces.
+    const std::size_t close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream rest(stat.substr(close + 2));
+    std::string field;
+    double ut = 0, st = 0;
+    for (int i = 3; i <= 15 && rest >> field; ++i) {
+      if (i == 14) ut = std::atof(field.c_str());
+      if (i == 15) st = std::atof(field.c_str());
+    }
+    c.threads.push_back({std::atol(d.path().filename().c_str()), name, (ut + st) * tick_ms});
+  }
+  return c;
+}
+
+std::map<std::string, double> cpu_per_name_ms(const CpuSnapshot& a, const CpuSnapshot& b) {
+  std::map<std::string, double> out;
+  for (const auto& t : b.threads) {
+    double before = 0;
+    for (const auto& u : a.threads)
+      if (u.tid == t.tid) before = u.ms;
+    out[t.name] += t.ms - before;
+  }
+  return out;
+}
+
 namespace {
 
 double now_s() { return ar::steady_now_s(); }
@@ -52,7 +94,17 @@ class DisplayLoop {
     fig_.stop_reason = "window closed";
     fps_t0_ = fig_.t_start;
     setup_output();
+    redraw_.idle_period_s = c_.o.idle_redraw_ms / 1e3;
     while (!stop_now()) frame();
+    sum_.warp_grid_builds = c_.hw.output().warp_grid_builds();
+    if (cpu_from_displayed_ >= 0 && fig_.displayed > cpu_from_displayed_) {  // session 19: CPU per frame shown
+      const CpuSnapshot end = cpu_snapshot();
+      const double n = static_cast<double>(fig_.displayed - cpu_from_displayed_);
+      sum_.cpu_window_s = now_s() - cpu_from_s_;
+      sum_.cpu_frames = fig_.displayed - cpu_from_displayed_;
+      sum_.cpu_process_ms_per_frame = (end.process_ms - cpu_from_.process_ms) / n;
+      for (const auto& [name, ms] : cpu_per_name_ms(cpu_from_, end)) sum_.cpu_threads_ms_per_frame[name] = ms / n;
+    }
     return std::move(fig_);
   }
 
@@ -242,6 +294,16 @@ class DisplayLoop {
     const bool stalled = cur_.index >= 0 && age > 0.15;
     if (stalled && stall_seen_at_ < 0) stall_seen_at_ = now_s();
     if (!stalled) stall_seen_at_ = -1;
+    // Issue 28 session 19 (redraw_policy.h): a wake without a new frame redraws only what must
+    // change at once (the stall state, a key) or the HUD at its idle rate; the pre-warp over a
+    // frame already shown is not drawn again.
+    if (!redraw_due(redraw_, fresh, stalled != drawn_stalled_, !keys.empty(), now_s() - last_swap_s_)) {
+      ++fig_.idle_skipped;
+      prev_check_age_s_ = age;
+      return;
+    }
+    if (!fresh) ++fig_.idle_draws;
+    drawn_stalled_ = stalled;
     const cv::Mat& img = stalled ? cur_.raw : cur_.composite;
     if (fresh && new_slot >= 0) {
       // The composite on the GPU: wait for its fence, then draw from it.
@@ -268,6 +330,7 @@ class DisplayLoop {
     const auto shot = fresh ? std::find_if(shots_.begin(), shots_.end(), [&](const auto& x) { return x.first == cur_.index; })
                             : shots_.end();
     const cv::Mat px = hw.end_frame(shot != shots_.end());
+    last_swap_s_ = now_s();
     if (shown_slot_ >= 0) sh_.ring->release(shown_slot_);  // the producer may draw into it once this completes
     if (shot != shots_.end()) {
       cv::imwrite(shot->second, px);
@@ -389,6 +452,11 @@ class DisplayLoop {
     }
     prev_check_age_s_ = age;
     if (sum_.rss_warm_mb == 0 && t_swap - fig_.t_start >= 10.0) sum_.rss_warm_mb = rss_mb();
+    if (cpu_from_displayed_ < 0 && t_swap - fig_.t_start >= kCpuWarmS) {  // the CPU figures count from here
+      cpu_from_ = cpu_snapshot();
+      cpu_from_s_ = t_swap;
+      cpu_from_displayed_ = fig_.displayed;
+    }
     if (t_swap - fps_t0_ >= 1.0) {
       if (t_swap - fig_.t_start >= 60.0) {
         const double r = rss_mb();
@@ -509,6 +577,15 @@ class DisplayLoop {
   std::int64_t last_index_ = -1;
   double prev_pass_expert_s_ = -1;  // the expert's clock at the previous pass (a lesson; -1 before the first)
   double stall_seen_at_ = -1;
+  // The summary's CPU per frame shown (session 19): from the first swap kCpuWarmS after the
+  // start (set-up and the first tag discovery left out) to the end.
+  static constexpr double kCpuWarmS = 5.0;
+  CpuSnapshot cpu_from_;
+  double cpu_from_s_ = 0;
+  std::int64_t cpu_from_displayed_ = -1;
+  RedrawPolicy redraw_;           // when a wake without a new frame redraws (redraw_policy.h)
+  bool drawn_stalled_ = false;    // the stall state of the last frame drawn
+  double last_swap_s_ = -1e9;     // the last swap (steady s)
   double prev_check_age_s_ = 0;  // the camera's silence at the previous window check, s
   double taken_s_ = 0;           // when the shown frame was taken from the frame thread (steady s)
   double fps_t0_ = 0, fps_now_ = 0;

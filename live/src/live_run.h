@@ -181,6 +181,9 @@ struct DisplayFigures {
   // Per frame shown: hand-over to the display loop's take (wait), take to swap (display), ms.
   StageTimes to_display_ms, display_ms;
   std::int64_t displayed = 0;
+  // Wakes of the loop without a new frame: redrawn (the stall state, a key, the HUD's idle
+  // refresh) and not redrawn (redraw_policy.h).
+  std::int64_t idle_draws = 0, idle_skipped = 0;
   // A lesson: the student's tip against the expert's at each pass of the loop (>= 30 Hz,
   // whatever the camera's rate) after the expert's first 0.5 s, m; passes while the expert
   // waited for the student.
@@ -201,5 +204,21 @@ DisplayFigures display_loop(const LiveContext& c, LiveShared& sh, const DisplayI
 
 double percentile(std::vector<double> v, double q);
 double rss_mb();
+
+// The process's CPU time (getrusage: every thread, ended ones too) and each live thread's
+// (/proc/self/task: tid, name, user + system), ms. Session 19: the summary's CPU per frame.
+struct CpuSnapshot {
+  struct Thread {
+    long tid = 0;
+    std::string name;
+    double ms = 0;
+  };
+  double process_ms = 0;
+  std::vector<Thread> threads;
+};
+CpuSnapshot cpu_snapshot();
+// CPU between two snapshots summed per thread name (a thread born after `a` counts from 0;
+// one ended before `b` is left out: only the process figure holds it), ms.
+std::map<std::string, double> cpu_per_name_ms(const CpuSnapshot& a, const CpuSnapshot& b);
 
 }  // namespace dentar::live

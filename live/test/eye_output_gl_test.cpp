@@ -330,3 +330,64 @@ TEST(EyeOutputGl, WarpPassesMatchTheFullPass) {
   EXPECT_TRUE(parse_warp_pass("mesh", p) && p == WarpPass::kMesh);
   glDeleteTextures(1, &tex);
 }
+
+// Issue 28 session 19: the display loop moves the loupe's centre on every frame, loupe on or
+// off, and a stereo pair turns into the mono view for a frame whose right eye is missing.
+// Each eye's pre-warp grid is kept while its mapping is unchanged (the loupe's centre does
+// not change it while the loupe is off) and kept for both views: drawn through one output
+// over many such frames, every frame gives the pixels a new output gives for that frame
+// alone (NORM_INF = 0), and the grids are made once per eye and view. With the loupe on,
+// its centre does change the mapping: the grid is remade, and the pixels follow.
+TEST(EyeOutputGl, WarpGridKeptWhileTheLoupeIsOffAndRemadeWhenItMatters) {
+  DENTAR_GL_TEST_CONTEXT();
+  const cv::Mat left = test_image(640, 480);
+  cv::Mat right;
+  cv::flip(left, right, 1);
+  const GLuint tl = upload(left), tr = upload(right);
+  const HeadsetProfile h = profile(true);
+  auto make = [&](const LoupeView& l) {
+    auto out = make_sbs_output(true, h, cam640(), true, nullptr, WarpPass::kExact, 16);
+    EXPECT_TRUE(out.ok()) << out.error();
+    (*out)->set_loupe(l);
+    return std::move(*out);
+  };
+  auto frame = [&](int i) {
+    OutputFrame f;
+    f.video = tl, f.tex_w = 640, f.tex_h = 480;
+    f.right_video = i % 3 == 2 ? 0 : tr;  // every third frame without the right eye: the mono view
+    for (int e = 0; e < 2; ++e) f.loupe_c[e][0] = 300 + 7.5 * i + e, f.loupe_c[e][1] = 250 - 3.25 * i;
+    return f;
+  };
+  for (const double mag : {0.0, 2.5}) {
+    SCOPED_TRACE(::testing::Message() << "loupe " << mag);
+    LoupeView l;
+    l.mag = mag, l.inset = false;
+    auto kept = make(l);
+    EXPECT_EQ(kept->warp_grid_builds(), 0);
+    const int n = 6;
+    for (int i = 0; i < n; ++i) {
+      const OutputFrame f = frame(i);
+      const cv::Mat a = draw_and_read(*kept, f, h.panel_w, h.panel_h);
+      auto fresh = make(l);
+      const cv::Mat b = draw_and_read(*fresh, f, h.panel_w, h.panel_h);
+      EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0) << "frame " << i;
+      EXPECT_GT(cv::mean(a)[1], 5) << "frame " << i;  // not blank
+    }
+    if (mag == 0)  // both eyes, stereo and mono: 4 grids, whatever the centre did
+      EXPECT_EQ(kept->warp_grid_builds(), 4);
+    else  // the full loupe's mapping follows the centre: every draw of every eye
+      EXPECT_EQ(kept->warp_grid_builds(), 2 * n);
+  }
+  // The key itself: the centre counts only with the loupe on.
+  const double c0[2] = {300, 250}, c1[2] = {310, 240};
+  LoupeView off, on;
+  on.mag = 3, on.inset = false;
+  EXPECT_EQ(warp_grid_key(make_eye_mapping(h, 0, cam640(), true, off, c0), 40, 38),
+            warp_grid_key(make_eye_mapping(h, 0, cam640(), true, off, c1), 40, 38));
+  EXPECT_NE(warp_grid_key(make_eye_mapping(h, 0, cam640(), true, on, c0), 40, 38),
+            warp_grid_key(make_eye_mapping(h, 0, cam640(), true, on, c1), 40, 38));
+  EXPECT_NE(warp_grid_key(make_eye_mapping(h, 0, cam640(), true, off, c0), 40, 38),
+            warp_grid_key(make_eye_mapping(h, 0, cam640(), false, off, c0), 40, 38));
+  glDeleteTextures(1, &tl);
+  glDeleteTextures(1, &tr);
+}

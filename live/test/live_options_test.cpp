@@ -1,6 +1,8 @@
 // LiveOptions checks and the display-path choice by renderer name.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "dentar/live/live_app.h"
 
 namespace dentar::live {
@@ -32,6 +34,15 @@ TEST(LiveOptions, WarpPassAndCellSize) {
   o.warp_pass = "exact";
   o.warp_cell_px = 3;
   EXPECT_NE(o.validate().find("warp_cell_px = 3 must be in 4..128"), std::string::npos) << o.validate();
+  o.warp_cell_px = 16;
+  // Session 19: the idle redraw's period.
+  EXPECT_EQ(o.idle_redraw_ms, 100);
+  o.idle_redraw_ms = 0;
+  EXPECT_EQ(o.validate(), "");
+  for (const double bad : {-1.0, 1500.0, std::nan("")}) {
+    o.idle_redraw_ms = bad;
+    EXPECT_NE(o.validate().find("idle_redraw_ms = "), std::string::npos) << bad;
+  }
 }
 
 TEST(LiveOptions, StereoIsTwoCamerasOrOneSideBySideNotBoth) {

@@ -17,8 +17,10 @@
 // EGL context (tests, the benchmark). Draws into the bound draw framebuffer.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "dentar/live/headset.h"
 #include "dentar/volume/result.h"
@@ -71,7 +73,14 @@ class DisplayOutput {
   // viewport of the side-by-side panel (2). Returns the count. The HUD and the GPU path's
   // note label are placed through it (HudWindow).
   virtual int eye_rects(int fb_w, int fb_h, int tex_w, int tex_h, PanelRect rects[2]) const = 0;
+  // How many times an eye's pre-warp grid was made (exact, mesh and lut passes): once per eye,
+  // then only when its mapping changes (warp_grid_key). The live summary reports it.
+  virtual std::int64_t warp_grid_builds() const { return 0; }
 };
+
+// What an eye's pre-warp grid depends on: the mapping's numbers and the grid's size; the
+// loupe's fields (magnification, inset, centre) only while the loupe is on (mag > 0).
+std::vector<double> warp_grid_key(const EyeMapping& m, int cols, int rows);
 
 // The mono window; `gles`: the context is OpenGL ES (shader version line).
 // cam: the intrinsics of the composite's size (the loupe's mapping).

@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <map>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -91,6 +92,10 @@ struct LiveOptions {
   // "lut" (a lookup texture); warp_cell_px: the grid's cell size, panel px (4..128).
   std::string warp_pass = "exact";
   int warp_cell_px = 16;
+  // Session 19 (redraw_policy.h): the window's redraw without a new frame (the HUD's refresh
+  // while no frame comes), ms, 0..1000; 0 redraws at every wake of the loop (~30 ms), as
+  // sessions 13-18 did.
+  double idle_redraw_ms = 100;
   int window_width = 0, window_height = 0;  // windowed size (0 = the camera's)
   bool hud = true;
   bool vsync = true;
@@ -320,6 +325,14 @@ struct LiveSummary {
   int warp_cell_px = 0;           // its grid's cell size (px), with exact and mesh
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
   std::int64_t gl_frames_replaced = 0, gl_ready_timeouts = 0, gl_release_timeouts = 0;
+  // Session 19: the window's draws without a new frame and the wakes it skipped
+  // (redraw_policy.h), and how many times an eye's pre-warp grid was made (eye_output.h).
+  std::int64_t idle_draws = 0, idle_skipped = 0, warp_grid_builds = 0;
+  // Session 19: CPU per frame shown, from 5 s after the start to the end: the process's
+  // (every thread) and per thread name (threads alive at the end), ms; the window, s.
+  double cpu_window_s = 0, cpu_process_ms_per_frame = 0;
+  std::int64_t cpu_frames = 0;
+  std::map<std::string, double> cpu_threads_ms_per_frame;
   std::string json() const;
 };
 
