@@ -1,6 +1,7 @@
 // Outcome scoring on hand-made volumes with known answers, and the
 // exercise parser's errors.
 #include "dentar/training/outcome.h"
+#include "dentar/volume/procedural_tooth.h"
 
 #include <gtest/gtest.h>
 
@@ -286,6 +287,36 @@ TEST(Exercise, ParserErrorsNameFileAndField) {
   expect_err(replace("\"voxel_mm\":0.2}", "\"voxel_mm\":0.2,\"pulp_roof_mm\":-2}"), "tooth.pulp_roof_mm");
   expect_err(replace("\"kind\":\"molar\",\"voxel_mm\":0.2}", "\"kind\":\"incisor\",\"voxel_mm\":0.2,\"pulp_roof_mm\":1}"),
              "only a molar");
+}
+
+// Session logs recorded before session 18 describe their molar without "pulp_roof_mm" and were
+// cut on the old tooth (roof at 0.45 x the crown height): make_start_tooth rebuilds that one when
+// the log's starting hash is its hash, the adult default when it is the default's, and leaves any
+// other mismatch to the caller (the default tooth, whose hash then differs).
+TEST(Exercise, StartToothOfALogRecordedBeforeTheAdultPulp) {
+  const std::string desc = "{\"kind\":\"molar\",\"voxel_mm\":0.3}";
+  auto now = make_tooth(desc);
+  ASSERT_TRUE(now.ok()) << now.error();
+  volume::MolarParams p;
+  p.voxel_mm = 0.3;
+  p.pulp_roof_mm = volume::kLegacyMolarPulpRoofFraction * p.crown_height_mm;
+  auto old = volume::make_molar(p);
+  ASSERT_TRUE(old.ok()) << old.error();
+  ASSERT_NE(now->content_hash(), old->content_hash());
+  auto a = make_start_tooth(desc, old->content_hash());
+  ASSERT_TRUE(a.ok()) << a.error();
+  EXPECT_EQ(a->content_hash(), old->content_hash());
+  auto b = make_start_tooth(desc, now->content_hash());
+  ASSERT_TRUE(b.ok()) << b.error();
+  EXPECT_EQ(b->content_hash(), now->content_hash());
+  auto c = make_start_tooth(desc, 12345);
+  ASSERT_TRUE(c.ok()) << c.error();
+  EXPECT_EQ(c->content_hash(), now->content_hash());
+  // A log that names its roof gets that roof, whatever its hash.
+  auto d = make_start_tooth("{\"kind\":\"molar\",\"voxel_mm\":0.3,\"pulp_roof_mm\":0.8}", old->content_hash());
+  ASSERT_TRUE(d.ok()) << d.error();
+  EXPECT_EQ(d->content_hash(), now->content_hash());
+  EXPECT_FALSE(make_start_tooth("{\"kind\":\"molar\",\"voxel_mm\":0.3,\"pulp_roof_mm\":-1}", 0).ok());
 }
 
 }  // namespace
