@@ -95,7 +95,7 @@ Result<Recording> open_recording(const std::string& input, const std::string& ex
                  rec.exercise.name + "' is for tooth kind '" + tooth_kind(rec.exercise.tooth_json) + "'" +
                  " (choose an exercise for this tooth with --exercise)"};
   if (rec.title.empty()) rec.title = rec.exercise.title.empty() ? rec.exercise.name : rec.exercise.title;
-  auto start = training::make_tooth(setup->tooth_json);
+  auto start = training::make_start_tooth(setup->tooth_json, setup->volume_hash_start);
   if (!start) return Error{rec.log_path + ": cannot rebuild the session's tooth (header field 'tooth'): " + start.error()};
   auto track = training::decode_session(*log, rec.log_path);
   if (!track) return Error{track.error()};

@@ -9,12 +9,13 @@
 
 namespace dentar::session {
 
-Result<volume::VoxelVolume> tooth_from_header(const std::string& tooth_json, const std::string& log_path) {
+Result<volume::VoxelVolume> tooth_from_header(const std::string& tooth_json, std::uint64_t start_hash,
+                                              const std::string& log_path) {
   auto j = nlohmann::json::parse(tooth_json, nullptr, false);
   if (j.is_discarded() || !j.is_object() || !j.contains("voxel_mm") || !j["voxel_mm"].is_number())
     return Error{log_path + ": header field tooth = " + tooth_json +
                  " does not describe a tooth this build can rebuild ({\"kind\": \"molar\"|\"incisor\", \"voxel_mm\": ...})"};
-  auto v = training::make_tooth(tooth_json);
+  auto v = training::make_start_tooth(tooth_json, start_hash);
   if (!v) return Error{log_path + ": header field tooth: " + v.error()};
   return v;
 }
@@ -56,7 +57,7 @@ Result<std::unique_ptr<Run>> Run::from_session_log(SessionLogSetup log, const ar
                                                    const std::string& station_name) {
   std::unique_ptr<Run> run(new Run);
   const haptics::SessionSetup& setup = log.setup;
-  auto tooth = tooth_from_header(setup.tooth_json, log.path);
+  auto tooth = tooth_from_header(setup.tooth_json, setup.volume_hash_start, log.path);
   if (!tooth) return Error{tooth.error()};
   run->volume_.emplace(std::move(*tooth));
   if (run->volume_->content_hash() != setup.volume_hash_start)

@@ -476,6 +476,19 @@ Result<volume::VoxelVolume> make_tooth(const std::string& tooth_json) {
   return Error{"tooth description: unknown kind '" + kind + "' (molar, incisor)"};
 }
 
+Result<volume::VoxelVolume> make_start_tooth(const std::string& tooth_json, std::uint64_t start_hash) {
+  auto t = make_tooth(tooth_json);
+  if (!t || t->content_hash() == start_hash) return t;
+  json j = json::parse(tooth_json, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || j.value("kind", std::string()) != "molar" || j.contains("pulp_roof_mm"))
+    return t;
+  volume::MolarParams p;
+  j["pulp_roof_mm"] = volume::kLegacyMolarPulpRoofFraction * p.crown_height_mm;
+  auto legacy = make_tooth(j.dump());
+  if (legacy && legacy->content_hash() == start_hash) return legacy;
+  return t;
+}
+
 std::vector<float> distance_to_air_m(const volume::VoxelVolume& vol) {
   const Eigen::Vector3i d = vol.dims();
   const std::size_t n = static_cast<std::size_t>(vol.geometry().voxel_count());

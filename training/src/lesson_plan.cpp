@@ -57,7 +57,7 @@ const PastSession* last_following(const std::vector<PastSession>& h) {
 Status replay_follow_error(const haptics::SessionLog& log, const haptics::SessionSetup& setup,
                            const std::string& name, PastSession& s) {
   const haptics::TrainingSetup& t = *setup.training;
-  auto vol = make_tooth(setup.tooth_json);
+  auto vol = make_start_tooth(setup.tooth_json, setup.volume_hash_start);
   if (!vol) return Error{name + ": tooth: " + vol.error()};
   if (vol->content_hash() != setup.volume_hash_start)
     return Error{name + ": the rebuilt tooth does not match the log's volume_hash_start"};

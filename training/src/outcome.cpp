@@ -3,12 +3,18 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 namespace dentar::training {
 namespace {
 
 using volume::kIsoDensity;
+
+// Issue 25, session 19: a formed access wall earns its points in full from this share of its span.
+constexpr double kFullShare = 0.9;
+// ... and the pulpal floor its points in full from this share of the floor reached (below).
+constexpr double kFloorFullReach = 0.9;
 
 bool open_at(const volume::VoxelVolume& v, const Eigen::Vector3d& p) {
   const Eigen::Vector3d q = (p - v.origin()).cwiseQuotient(v.spacing());
@@ -91,18 +97,47 @@ double line_of_sight(const volume::VoxelVolume& cut, const Eigen::Vector3d& from
 }
 
 WallProfile wall_profile(const volume::VoxelVolume& cut, const Eigen::Vector3d& axis, const Eigen::Vector3d& dir,
-                         double z0, double z1) {
+                         double z0, double z1, const volume::VoxelVolume* start) {
   WallProfile w;
   const double h = cut.spacing().minCoeff();
   const double step = 0.25 * h;
-  for (double z = z0; z <= z1 + 1e-12; z += cut.spacing().z()) {
-    const Eigen::Vector3d c(axis.x(), axis.y(), z);
-    if (!open_at(cut, c)) continue;
+  std::vector<double> levels;
+  for (double z = z0; z <= z1 + 1e-12; z += cut.spacing().z()) levels.push_back(z);
+  // Which levels are measured. Without the starting tooth: every level whose axis voxel is open.
+  // With it (issue 25, session 19): only the levels opened from the opening down without a gap.
+  // Walking down the axis from the top level, a level counts when its axis voxel is open now and
+  // was either outside the tooth (the space above the occlusal surface, as before), or removed by
+  // the bur (denser before), or is the pulp chamber's own space (pulp, open before any cut)
+  // directly under a counted level: once the bur has broken through the roof at the axis, the
+  // chamber below the break is reached. The first level that is none of these ends the walls:
+  // uncut dentin (the roof, a ledge) or a chamber not yet broken into. (The untouched chamber used
+  // to count as open space, so a cut that never reached it had its walls "formed" over the
+  // chamber's span and their slopes fitted through the chamber's side.)
+  std::vector<char> use(levels.size(), 0);
+  if (!start) {
+    for (std::size_t q = 0; q < levels.size(); ++q) use[q] = open_at(cut, {axis.x(), axis.y(), levels[q]});
+  } else {
+    for (std::size_t q = levels.size(); q-- > 0;) {
+      const Eigen::Vector3d c(axis.x(), axis.y(), levels[q]);
+      const Eigen::Vector3d g = (c - start->origin()).cwiseQuotient(start->spacing());
+      const int i = static_cast<int>(std::lround(g.x())), j = static_cast<int>(std::lround(g.y())),
+                k = static_cast<int>(std::lround(g.z()));
+      const std::uint8_t d0 = start->density(i, j, k), d1 = cut.density(i, j, k);
+      if (d1 >= kIsoDensity) break;
+      const bool outside = d0 == 0, removed = d1 < d0;
+      const bool chamber = d0 < kIsoDensity && start->material(i, j, k) == volume::Material::kPulp;
+      if (!(outside || removed || chamber)) break;  // a chamber level here lies under the break
+      use[q] = 1;
+    }
+  }
+  for (std::size_t q = 0; q < levels.size(); ++q) {
+    if (!use[q]) continue;
+    const Eigen::Vector3d c(axis.x(), axis.y(), levels[q]);
     double s = 0;
     const double max_s = 0.02;  // 20 mm
     while (s < max_s && open_at(cut, c + (s + step) * dir)) s += step;
     if (s >= max_s) continue;  // no wall in that direction at this level
-    w.z_m.push_back(z);
+    w.z_m.push_back(levels[q]);
     w.extent_m.push_back(s + 0.5 * h);  // the wall surface lies half a voxel past the last open centre
   }
   const std::size_t n = w.z_m.size();
@@ -138,7 +173,7 @@ namespace {
 // earns points/4 when its divergence lies in the ideal range, less linearly to 0 at zero_beyond_deg
 // outside it; a wall the cavity does not reach over half the measured height earns nothing. An
 // untouched tooth has no cavity (the axis point is solid at every level) and so no wall.
-Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& cut) {
+Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& start, const volume::VoxelVolume& cut) {
   Criterion c;
   c.name = "wall taper";
   c.unit = "deg mean distance outside the ideal taper";
@@ -150,7 +185,7 @@ Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& cu
   std::string parts;
   double off_sum = 0;
   for (const auto& w : walls) {
-    const WallProfile p = wall_profile(cut, t.axis_point_m, w.dir, t.from_z_m, t.to_z_m);
+    const WallProfile p = wall_profile(cut, t.axis_point_m, w.dir, t.from_z_m, t.to_z_m, &start);
     const double covered = p.z_m.size() >= 2 ? p.z_m.back() - p.z_m.front() : 0;
     std::string part = std::string(w.name) + " ";
     if (covered < 0.5 * height) {
@@ -382,8 +417,9 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     // 2-5. Axial walls.
     const struct { const char* name; Eigen::Vector3d dir; } walls[4] = {
         {"mesial wall", {-1, 0, 0}}, {"distal wall", {1, 0, 0}}, {"buccal wall", {0, -1, 0}}, {"palatal wall", {0, 1, 0}}};
+    const double span = a.opening_z_m - a.walls_from_z_m;
     for (const auto& w : walls) {
-      const WallProfile p = wall_profile(cut, a.axis_point_m, w.dir, a.walls_from_z_m, a.opening_z_m);
+      const WallProfile p = wall_profile(cut, a.axis_point_m, w.dir, a.walls_from_z_m, a.opening_z_m, &start);
       Criterion c;
       c.name = w.name;
       c.value = p.divergence_deg;
@@ -425,6 +461,20 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
         c.detail = fmt(c.score) + " of 3: divergence " + fmt(p.divergence_deg, 1) + " deg, smoothness RMS " +
                    fmt(p.rms_mm) + " mm: 3 points " + why + ".";
       }
+      // A formed wall earns its points for the part of the span it covers (issue 25, session 19:
+      // a cut that stopped part way has not formed the rest): full from 90 % of the span (the
+      // voxel layers at its two ends), in proportion below.
+      if (covered >= needed) {
+        const double share = std::clamp(covered / (kFullShare * span), 0.0, 1.0);
+        const double quality = c.score;
+        c.score = quality * share;
+        if (share < 1.0)
+          c.detail = fmt(c.score) + " of 3: the wall spans " + fmt(covered * 1e3) + " of the " + fmt(span * 1e3) +
+                     " mm from the opening down (full points from 90 %), so " + fmt(quality) + " x " + fmt(share) +
+                     ". Its shape: " + c.detail;
+        else
+          c.detail += " It spans " + fmt(covered * 1e3) + " of the " + fmt(span * 1e3) + " mm from the opening down.";
+      }
       o.criteria.push_back(c);
     }
     // 6. Floor integrity: material removed below the pulpal floor level.
@@ -452,6 +502,28 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
                 if (start.density(i + n[0], j + n[1], k + n[2]) == 0) perf_below = true;
               if (perf_below) break;
             }
+    // 6. How much of the floor the access reached: the access outline's footprint at the floor (the
+    // columns holding a target voxel between floor_z and floor_z + 0.5 mm), and of it the columns
+    // open from above the tooth straight down to within 0.5 mm of floor_z (cut, or the chamber's
+    // own space under a removed roof).
+    int foot = 0, reached = 0;
+    {
+      const double slab = 0.5e-3;
+      const int k0 = std::max(0, static_cast<int>(std::ceil((a.floor_z_m - start.origin().z()) / start.spacing().z() - 1e-9)));
+      const int k1 = std::min(d.z() - 1, static_cast<int>(std::floor((a.floor_z_m + slab - start.origin().z()) / start.spacing().z() + 1e-9)));
+      for (int j = 0; j < d.y(); ++j)
+        for (int i = 0; i < d.x(); ++i) {
+          bool in = false;
+          for (int k = k0; k <= k1 && !in; ++k) in = (m.bits[m.index(i, j, k)] & m.target_bits) != 0;
+          if (!in) continue;
+          ++foot;
+          int k = d.z() - 1;
+          while (k >= 0 && cut.density(i, j, k) < kIsoDensity) --k;
+          if (k < k1) ++reached;  // open down to (below) the slab's top layer
+        }
+    }
+    const double reach = foot > 0 ? static_cast<double>(reached) / foot : 0.0;
+    const double share = std::clamp(reach / kFloorFullReach, 0.0, 1.0);
     Criterion fl;
     fl.name = "pulpal floor";
     fl.value = below;
@@ -474,6 +546,19 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       fl.detail = fmt(fl.score) + " of 3: " + fmt(below, 3) +
                   " mm3 of dentin removed below the floor level; 3 points less 3 for every mm3 (none left at 1 mm3).";
     }
+    if (!perf_below && chamber_open) {
+      // The floor pays only for the part of it the access reached (issue 25, session 19: a session
+      // that stopped with one sight line clear used to earn all 3 points for a floor it never
+      // opened). The detail's first figure is then the final score.
+      const double intact = fl.score;
+      fl.score = intact * share;
+      const std::string what = fl.detail.substr(fl.detail.find(" of 3: ") + 7);
+      const bool whole = fl.score == std::floor(fl.score);
+      fl.detail = (continuous || !whole ? fmt(fl.score) : std::to_string(static_cast<int>(fl.score))) + " of 3: " +
+                  fmt(100 * reach, 0) + " % of the floor reached (the access outline's " +
+                  "footprint open from above to within 0.5 mm of the floor level; full points from " +
+                  fmt(100 * kFloorFullReach, 0) + " %), times " + fmt(intact) + " for its integrity: " + what;
+    }
     o.criteria.push_back(fl);
     o.max_points = 18;
     for (const auto& c : o.criteria) o.earned_points += c.score;
@@ -481,7 +566,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     o.max_points = ex.max_points();
     for (const auto& r : o.regions) o.earned_points += r.points;
     if (ex.wall_taper) {
-      o.criteria.push_back(wall_taper_criterion(*ex.wall_taper, cut));
+      o.criteria.push_back(wall_taper_criterion(*ex.wall_taper, start, cut));
       o.earned_points += o.criteria.back().score;
     }
   }

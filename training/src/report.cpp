@@ -353,7 +353,7 @@ Result<std::vector<ComparisonRow>> generated_comparison(const Exercise& ex, cons
     if (!log) return Error{log.error()};
     auto setup = haptics::parse_session_header(log->header_json);
     if (!setup) return Error{t.session_path + ": " + setup.error()};
-    auto start = make_tooth(setup->tooth_json);
+    auto start = make_start_tooth(setup->tooth_json, setup->volume_hash_start);
     if (!start) return Error{start.error()};
     volume::VoxelVolume cut = start->clone();
     if (auto rp = haptics::replay_session(*log, cut); !rp) return Error{t.session_path + ": replay: " + rp.error()};
@@ -463,7 +463,7 @@ Result<ScoreSummary> score_session(const ScoreOptions& o) {
   }
   sum.exercise_name = ex->name;
   sum.exercise_title = ex->title.empty() ? ex->name : ex->title;
-  auto start = make_tooth(setup->tooth_json);
+  auto start = make_start_tooth(setup->tooth_json, setup->volume_hash_start);
   if (!start) return Error{log_path + ": cannot rebuild the session's tooth: " + start.error()};
   volume::VoxelVolume cut = start->clone();
   auto rep = haptics::replay_session(*log, cut);

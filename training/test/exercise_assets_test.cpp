@@ -63,7 +63,11 @@ TEST(ExerciseAssets, MolarAccessOpeningIdealCutScoresHigh) {
   EXPECT_FALSE(o->perforation);
   auto none = score_outcome(l.ex, l.masks, l.start, l.start);
   ASSERT_TRUE(none.ok());
-  EXPECT_LE(none->points, 3);  // only an intact floor
+  // An untouched tooth: no orifice seen, no wall cut, no floor reached (it once earned the intact
+  // floor's 3 points; the walls are measured only where cut since issue 25 session 19).
+  EXPECT_EQ(none->points, 0.0);
+  for (const auto& c : none->criteria) EXPECT_EQ(c.score, 0.0) << c.name << ": " << c.detail;
+  EXPECT_FALSE(none->complete);
 }
 
 TEST(ExerciseAssets, ClassOneCavity) {

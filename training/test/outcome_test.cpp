@@ -1,6 +1,7 @@
 // Outcome scoring on hand-made volumes with known answers, and the
 // exercise parser's errors.
 #include "dentar/training/outcome.h"
+#include "dentar/volume/procedural_tooth.h"
 
 #include <gtest/gtest.h>
 
@@ -286,6 +287,36 @@ TEST(Exercise, ParserErrorsNameFileAndField) {
   expect_err(replace("\"voxel_mm\":0.2}", "\"voxel_mm\":0.2,\"pulp_roof_mm\":-2}"), "tooth.pulp_roof_mm");
   expect_err(replace("\"kind\":\"molar\",\"voxel_mm\":0.2}", "\"kind\":\"incisor\",\"voxel_mm\":0.2,\"pulp_roof_mm\":1}"),
              "only a molar");
+}
+
+// Session logs recorded before session 18 describe their molar without "pulp_roof_mm" and were
+// cut on the old tooth (roof at 0.45 x the crown height): make_start_tooth rebuilds that one when
+// the log's starting hash is its hash, the adult default when it is the default's, and leaves any
+// other mismatch to the caller (the default tooth, whose hash then differs).
+TEST(Exercise, StartToothOfALogRecordedBeforeTheAdultPulp) {
+  const std::string desc = "{\"kind\":\"molar\",\"voxel_mm\":0.3}";
+  auto now = make_tooth(desc);
+  ASSERT_TRUE(now.ok()) << now.error();
+  volume::MolarParams p;
+  p.voxel_mm = 0.3;
+  p.pulp_roof_mm = volume::kLegacyMolarPulpRoofFraction * p.crown_height_mm;
+  auto old = volume::make_molar(p);
+  ASSERT_TRUE(old.ok()) << old.error();
+  ASSERT_NE(now->content_hash(), old->content_hash());
+  auto a = make_start_tooth(desc, old->content_hash());
+  ASSERT_TRUE(a.ok()) << a.error();
+  EXPECT_EQ(a->content_hash(), old->content_hash());
+  auto b = make_start_tooth(desc, now->content_hash());
+  ASSERT_TRUE(b.ok()) << b.error();
+  EXPECT_EQ(b->content_hash(), now->content_hash());
+  auto c = make_start_tooth(desc, 12345);
+  ASSERT_TRUE(c.ok()) << c.error();
+  EXPECT_EQ(c->content_hash(), now->content_hash());
+  // A log that names its roof gets that roof, whatever its hash.
+  auto d = make_start_tooth("{\"kind\":\"molar\",\"voxel_mm\":0.3,\"pulp_roof_mm\":0.8}", old->content_hash());
+  ASSERT_TRUE(d.ok()) << d.error();
+  EXPECT_EQ(d->content_hash(), now->content_hash());
+  EXPECT_FALSE(make_start_tooth("{\"kind\":\"molar\",\"voxel_mm\":0.3,\"pulp_roof_mm\":-1}", 0).ok());
 }
 
 }  // namespace
@@ -690,6 +721,7 @@ TEST(OutcomeCases, AccessOpeningUntouchedCompleteOverPreparedExposedPerforated) 
   EXPECT_FALSE(ro.complete);
   EXPECT_TRUE(has(ro.completion, "orifice cannot be seen")) << ro.completion;
   EXPECT_EQ(ro.criteria[5].score, 0) << ro.criteria[5].detail;
+  for (int w = 1; w <= 4; ++w) EXPECT_EQ(ro.criteria[w].score, 0) << ro.criteria[w].detail;  // session 19
   // Over-prepared floor: gouged 1.5 mm below it.
   VoxelVolume gouge = c.ideal();
   carve(gouge, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 1.0 && p.z() >= 1.5; });
@@ -708,6 +740,64 @@ TEST(OutcomeCases, AccessOpeningUntouchedCompleteOverPreparedExposedPerforated) 
   for (const auto& p : pe.penalties) charged |= p.name == "perforation" && p.points == 9.0;
   EXPECT_TRUE(charged);
   EXPECT_NEAR(pe.points, std::max(0.0, pe.earned_points - 9.0), 1e-9);
+}
+
+// Issue 25, session 19: no access points that were not earned. The walls are measured only over the
+// levels the bur opened, contiguously from the opening down (the untouched chamber is not open
+// space: it used to count as such, so a cut that never reached it had its walls "formed" over the
+// chamber's span), and the floor pays only for the part of it the access reached.
+TEST(OutcomeCases, AccessWallsAndFloorCountOnlyWhatWasCut) {
+  const AccessCase c;
+  const AccessGeometry& a = *c.ex.access;
+  // A cut that stops 1 mm above the chamber's roof (z 4.0): no wall level at or under the roof.
+  VoxelVolume above = c.start.clone();
+  carve(above, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.5 && p.z() >= 5.0; });
+  const WallProfile old_rule = wall_profile(above, a.axis_point_m, {-1, 0, 0}, a.walls_from_z_m, a.opening_z_m);
+  ASSERT_FALSE(old_rule.z_m.empty());
+  EXPECT_LT(old_rule.z_m.front(), 4.05e-3);  // the defect: the untouched chamber counted as open
+  const WallProfile cut_only =
+      wall_profile(above, a.axis_point_m, {-1, 0, 0}, a.walls_from_z_m, a.opening_z_m, &c.start);
+  ASSERT_FALSE(cut_only.z_m.empty());
+  EXPECT_GT(cut_only.z_m.front(), 4.95e-3);
+  EXPECT_NEAR(cut_only.z_m.back(), 9.5e-3, 1e-9);
+  // Its walls reach 4.5 of the 6.5 mm span: formed, but paid for what they span only.
+  const OutcomeScores ab = c.score(above);
+  for (int w = 1; w <= 4; ++w) {
+    EXPECT_GT(ab.criteria[w].score, 0.0) << ab.criteria[w].detail;
+    EXPECT_LT(ab.criteria[w].score, 3.0 * 4.6 / (0.9 * 6.5)) << ab.criteria[w].detail;
+    EXPECT_TRUE(has(ab.criteria[w].detail, "4.50 of the 6.50 mm")) << ab.criteria[w].detail;
+  }
+  // Stopping 3 mm above the roof: 2.5 of 6.5 mm, not formed (with the chamber counted it spanned 6.4).
+  VoxelVolume shallow = c.start.clone();
+  carve(shallow, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.5 && p.z() >= 7.0; });
+  const OutcomeScores sh = c.score(shallow);
+  for (int w = 1; w <= 4; ++w) {
+    EXPECT_EQ(sh.criteria[w].score, 0.0) << sh.criteria[w].detail;
+    EXPECT_TRUE(has(sh.criteria[w].detail, "not formed")) << sh.criteria[w].detail;
+  }
+  EXPECT_EQ(sh.points, 0.0);
+  // Broken through the roof on the axis: the chamber below the break is reached, its levels count.
+  VoxelVolume broken = above.clone();
+  carve(broken, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.5 && p.z() >= 3.95; });
+  const WallProfile br = wall_profile(broken, a.axis_point_m, {-1, 0, 0}, a.walls_from_z_m, a.opening_z_m, &c.start);
+  ASSERT_FALSE(br.z_m.empty());
+  EXPECT_NEAR(br.z_m.front(), 3.1e-3, 1e-9);  // the chamber's lowest level
+  EXPECT_NEAR(br.extent_m.front(), 1.45e-3, 0.05e-3);  // to the chamber's side (1.4 mm, + half a voxel)
+  // The floor: a narrow shaft (r 0.6 mm) onto orifice A opens the chamber and clears sight lines,
+  // with nothing removed below the floor: it used to earn the floor's 3 points; the floor it
+  // reached is the shaft's footprint, a few % of the outline's.
+  VoxelVolume shaft = c.start.clone();
+  carve(shaft, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 4, p.y() - 5) <= 0.6 && p.z() >= 3.95; });
+  const OutcomeScores sf = c.score(shaft);
+  ASSERT_GT(sf.criteria[0].value, 0.0) << sf.criteria[0].detail;  // the chamber is open
+  EXPECT_EQ(sf.criteria[5].value, 0.0);                             // nothing removed below the floor
+  EXPECT_LT(sf.criteria[5].score, 0.3) << sf.criteria[5].detail;
+  EXPECT_TRUE(has(sf.criteria[5].detail, "of the floor reached")) << sf.criteria[5].detail;
+  EXPECT_FALSE(sf.complete);
+  // The ideal access reaches the whole floor: full marks (the test above checks all 18 points).
+  const OutcomeScores id = c.score(c.ideal());
+  EXPECT_EQ(id.criteria[5].score, 3.0) << id.criteria[5].detail;
+  EXPECT_TRUE(has(id.criteria[5].detail, "100 % of the floor reached")) << id.criteria[5].detail;
 }
 
 TEST(OutcomeCases, AccessOpeningFlaredOutlineIsMeasuredAndChargedOnlyWithARate) {

@@ -1,7 +1,8 @@
 // Procedural maxillary first molar built from signed distance functions (mm).
 // Anatomy (typical textbook values): crown 10 x 11 mm, crown height ~7 mm,
 // four cusps, enamel ~1.5 mm occlusally thinning to 0 at the cervical line,
-// a pulp chamber at the cervical level with four horns toward the cusps, and
+// an adult pulp chamber (roof 0.8 mm above the cervical line, 6.2 mm under the
+// cusp tips: MolarParams::pulp_roof_mm) with four horns toward the cusps, and
 // three roots (mesiobuccal, distobuccal, palatal) with one canal each.
 #include "dentar/volume/procedural_tooth.h"
 
@@ -29,7 +30,7 @@ std::string MolarParams::validate() const {
   check("root_length_mm", root_length_mm, 6, 20);
   check("cusp_height_mm", cusp_height_mm, 0.3, 3);
   check("pulp_horn_mm", pulp_horn_mm, 0, 2.5);
-  if (pulp_roof_mm >= 0) check("pulp_roof_mm", pulp_roof_mm, 0, crown_height_mm - 1.0);
+  check("pulp_roof_mm", pulp_roof_mm, 0, crown_height_mm - 1.0);
   check("canal_radius_mm", canal_radius_mm, 0.1, 0.6);
   check("margin_mm", margin_mm, 0, 5);
   return os.str();
@@ -129,7 +130,7 @@ class Molar {
 
   // Pulp (chamber + horns + canals), negative inside, mm.
   double pulp(const V3& q) const {
-    const double roof = p_.pulp_roof_mm >= 0 ? p_.pulp_roof_mm : 0.45 * p_.crown_height_mm;  // chamber roof height
+    const double roof = p_.pulp_roof_mm;  // chamber roof height above the cervical line
     const V3 c(0, 0, roof - 1.0);
     const V3 e = (q - c).cwiseQuotient(V3(0.3 * a_, 0.3 * b_, 1.0));
     double d = (e.norm() - 1.0) * std::min(0.3 * a_, 1.0);

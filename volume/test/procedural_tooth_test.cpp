@@ -108,9 +108,11 @@ TEST(ProceduralMolar, PulpIsEnclosedByDentinWithHornsAndCanals) {
   EXPECT_GT(pulp, 1000);
   EXPECT_EQ(pulp_next_to_air, 0);
   EXPECT_EQ(pulp_next_to_enamel, 0);
-  // Horns rise above the chamber roof toward the cusps, staying under enamel.
-  EXPECT_GT(top_z, 3.5e-3);
-  EXPECT_LT(top_z, 5.5e-3);
+  // Horns rise above the chamber roof (0.8 mm, the adult default since session 18) toward the
+  // cusps by at least 1 mm, their tips under 3 mm (2.28 mm at 0.08 mm voxels; before the adult
+  // roof this test asked 3.5-5.5 mm of the old model's horns, 4.6 mm).
+  EXPECT_GT(top_z, MolarParams{}.pulp_roof_mm * 1e-3 + 1.0e-3);
+  EXPECT_LT(top_z, 3.0e-3);
   // Three roots, each with a canal: count connected tooth regions and pulp
   // regions in the slice 6 mm below the cervical line.
   const int k = voxel_of(v, {0, 0, -6e-3}).z();
@@ -144,9 +146,10 @@ TEST(ProceduralMolar, PulpIsEnclosedByDentinWithHornsAndCanals) {
   EXPECT_EQ(count_regions([&](int i, int j) { return v.material(i, j, k) == Material::kPulp; }), 3);
 }
 
-// pulp_roof_mm moves the chamber and its horns; the default keeps the model's shape (roof at
-// 0.45 x the crown height). The adult roof (Deutsch & Musikant 2004: at the cervical line,
-// about 6 mm below the cusp tips) puts the horn tips under 3 mm, below a class I floor at 3.9 mm.
+// pulp_roof_mm moves the chamber and its horns. The default is the adult roof (session 18:
+// Deutsch & Musikant 2004, 6.24 mm under the buccal cusp tip, at the cementoenamel junction in
+// 98 %; docs/conventions.md): its horn tips stay under 3 mm, 1.5 mm and more below a class I
+// floor at 3.9 mm. The pre-session-18 roof (0.45 x the crown height) reached 4.58 mm.
 TEST(ProceduralMolar, PulpRoofHeightMovesTheChamberAndItsHorns) {
   auto top = [](const VoxelVolume& v) {
     double z = -1;
@@ -158,22 +161,26 @@ TEST(ProceduralMolar, PulpRoofHeightMovesTheChamberAndItsHorns) {
   };
   MolarParams p;
   p.voxel_mm = 0.2;
+  EXPECT_DOUBLE_EQ(p.pulp_roof_mm, 0.8);
   auto a = make_molar(p);
-  p.pulp_roof_mm = 0.45 * p.crown_height_mm;
+  p.pulp_roof_mm = 0.8;
   auto b = make_molar(p);
-  p.pulp_roof_mm = 1.0;
+  p.pulp_roof_mm = kLegacyMolarPulpRoofFraction * p.crown_height_mm;
   auto c = make_molar(p);
   ASSERT_TRUE(a.ok() && b.ok() && c.ok());
-  EXPECT_EQ(a->content_hash(), b->content_hash());  // < 0 is the old shape, to the bit
+  EXPECT_EQ(a->content_hash(), b->content_hash());  // the default is the roof at 0.8 mm, to the bit
+  EXPECT_NE(a->content_hash(), c->content_hash());
   const double za = top(*a), zc = top(*c);
-  std::printf("highest pulp voxel centre: %.2f mm (model), %.2f mm (roof at 1.0 mm)\n", za * 1e3, zc * 1e3);
-  EXPECT_GT(za, 4.0e-3) << "the model's horns reach above a class I floor at 3.9 mm";
-  EXPECT_LT(zc, 3.0e-3);
-  EXPECT_NEAR(za - zc, 2.15e-3, 0.3e-3);  // the roof moved down 2.15 mm, the horns with it
-  p.pulp_roof_mm = 6.5;  // above crown height - 1
-  auto bad = make_molar(p);
-  ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().find("pulp_roof_mm"), std::string::npos) << bad.error();
+  std::printf("highest pulp voxel centre: %.2f mm (adult default), %.2f mm (before session 18)\n", za * 1e3, zc * 1e3);
+  EXPECT_LT(za, 3.0e-3) << "the adult horns stay under 3 mm";
+  EXPECT_GT(zc, 4.0e-3) << "the old model's horns reached above a class I floor at 3.9 mm";
+  EXPECT_NEAR(zc - za, 2.35e-3, 0.3e-3);  // the roof moved down 2.35 mm, the horns with it
+  for (const double bad_roof : {6.5, -1.0}) {  // above crown height - 1; below the cervical line
+    p.pulp_roof_mm = bad_roof;
+    auto bad = make_molar(p);
+    ASSERT_FALSE(bad.ok()) << bad_roof;
+    EXPECT_NE(bad.error().find("pulp_roof_mm"), std::string::npos) << bad.error();
+  }
 }
 
 TEST(ProceduralMolar, SparseStorageBeatsDenseArray) {

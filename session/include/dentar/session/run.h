@@ -49,9 +49,12 @@ struct SessionLogSetup {
 };
 // Reads `path` and parses its header. Errors name the file and the field.
 Result<SessionLogSetup> read_session_setup(const std::string& path);
-// The tooth a header's "tooth" describes (training::make_tooth: the
-// procedural molar or incisor). `log_path` names the file in messages.
-Result<volume::VoxelVolume> tooth_from_header(const std::string& tooth_json, const std::string& log_path);
+// The tooth a header's "tooth" describes (training::make_start_tooth: the
+// procedural molar or incisor; a molar logged before session 18 gets its old pulp
+// when `start_hash`, the header's volume_hash_start, says so). `log_path` names the
+// file in messages.
+Result<volume::VoxelVolume> tooth_from_header(const std::string& tooth_json, std::uint64_t start_hash,
+                                              const std::string& log_path);
 
 class Run {
  public:

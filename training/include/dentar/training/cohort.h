@@ -17,8 +17,9 @@
 namespace dentar::training {
 
 // Bumped whenever the generated sessions change (cached expert references
-// are keyed by it).
-inline constexpr int kCohortGeneratorVersion = 5;
+// are keyed by it). 6 (session 18): the molar's adult pulp (MolarParams::pulp_roof_mm) and the
+// access opening's chamber coordinates moved with it; the generator's code is v5's.
+inline constexpr int kCohortGeneratorVersion = 6;
 
 struct SkillParams {
   double tremor_mm = 0.02;     // amplitude of a 9-11 Hz tremor on the hand's target, x and y

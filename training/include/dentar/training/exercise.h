@@ -194,8 +194,15 @@ Result<Exercise> load_named_exercise(const std::string& name_or_path);
 std::string builtin_exercise_dir();
 
 // Builds a tooth from its description (session header "tooth" object or an
-// exercise's): kinds "molar" and "incisor" with optional "voxel_mm".
+// exercise's): kinds "molar" and "incisor" with optional "voxel_mm"; a molar with optional
+// "pulp_roof_mm" (absent: MolarParams's adult default).
 Result<volume::VoxelVolume> make_tooth(const std::string& tooth_json);
+// The tooth a session log started from: make_tooth, and when its content hash is not
+// `start_hash` and the log describes a molar without "pulp_roof_mm", the molar as it was before
+// session 18 (roof at volume::kLegacyMolarPulpRoofFraction x the crown height) if that one has
+// the hash. Logs recorded before the adult pulp became the default keep replaying and scoring on
+// the tooth they were cut on. Any other mismatch is left to the caller's hash check.
+Result<volume::VoxelVolume> make_start_tooth(const std::string& tooth_json, std::uint64_t start_hash);
 
 // One bit per region (bit r = regions[r]) for every voxel of the starting
 // volume, x fastest. At most 32 regions.

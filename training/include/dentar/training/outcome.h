@@ -92,14 +92,19 @@ double spearman_rho(const std::vector<double>& a, const std::vector<double>& b);
 
 // Wall profile used by the access criteria (exposed for tests): cavity extent
 // (m) from the axis point along `dir` (unit, horizontal) at each level z in
-// [z0, z1], one per voxel layer where the axis voxel is open.
+// [z0, z1], one per voxel layer where the axis voxel is open. With the
+// starting tooth (`start`, as the scores use it), only the layers opened
+// contiguously from z1 down: outside the tooth, removed by the bur, or the
+// pulp chamber's own space under them (reached once the roof is broken at
+// the axis); the untouched chamber is not a cut (docs/formats.md).
 struct WallProfile {
   std::vector<double> z_m, extent_m;
   double divergence_deg = 0;  // atan of d(extent)/dz: > 0 opens toward occlusal
   double rms_mm = 0;          // residual of the straight-line fit
 };
 WallProfile wall_profile(const volume::VoxelVolume& cut, const Eigen::Vector3d& axis_point_m,
-                         const Eigen::Vector3d& dir, double z0_m, double z1_m);
+                         const Eigen::Vector3d& dir, double z0_m, double z1_m,
+                         const volume::VoxelVolume* start = nullptr);
 // Fraction (0..1) of sight rays from `from_m` within `cone_deg` of +z that
 // reach z >= top_z_m through open voxels (density < iso) of `cut`.
 double line_of_sight(const volume::VoxelVolume& cut, const Eigen::Vector3d& from_m, double top_z_m,
