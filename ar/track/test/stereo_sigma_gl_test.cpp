@@ -214,6 +214,20 @@ PathRun run_path(const Footage& fo, bool stereo) {
       drawn = a->mannequin.track;
       measured = b->mannequin.track;
       r.ms.push_back(a->total_ms);
+      // DENTAR_SIGMA_REFUSED=1: each frame the gate refuses (or the gated tracker does not draw),
+      // what the ungated fit saw (issue 28 session 19: why frames are refused).
+      if (std::getenv("DENTAR_SIGMA_REFUSED") && (measured.sigma_m * 1e3 > gate_mm || drawn.state == TrackState::kLost)) {
+        int truth_l = 0, truth_r = 0;
+        for (const TagTruth& tt : s.left.truth.tags) truth_l += !tt.on_mirror && tt.in_image && tt.visible_fraction > 0.9;
+        for (const TagTruth& tt : s.right.truth.tags) truth_r += !tt.on_mirror && tt.in_image && tt.visible_fraction > 0.9;
+        std::printf("refused? frame %d %.0f deg/s: drawn %s, ungated %s err %.3f mm sigma %.3f mm rms %.2f px tags %d "
+                    "(eyes %d; left fit %d, right fit %d; truth visible L %d R %d) rejected %d\n",
+                    s.left.truth.frame, s.left.truth.camera_speed_deg_s, drawn.state == TrackState::kLost ? "no" : "yes",
+                    measured.measured ? "measured" : "not measured",
+                    measured.measured ? trans_mm(measured.T_cam_body_measured, s.left.truth.T_cam_man) : NAN,
+                    measured.sigma_m * 1e3, measured.rms_px, measured.tags_used, b->mannequin.views_used,
+                    b->left.mannequin.tags_used, b->right.mannequin.tags_used, truth_l, truth_r, measured.rejected_id);
+      }
     } else {
       auto a = mg->track(s.left.image, t, t);
       auto b = mo->track(s.left.image, t, t);
