@@ -19,7 +19,10 @@
 // BundlePoseOptions::shape_weight for both paths (the measurement of that
 // option; the bounds are the default's), DENTAR_SIGMA_BLUR=s sets
 // BundlePoseOptions::blur_stretch_sigma_px the same way; DENTAR_SIGMA_PARTS=seed prints each frame's
-// corner errors split into the tags' centres and shapes (not asserted).
+// corner errors split into the tags' centres and shapes (not asserted). Session 19:
+// DENTAR_SIGMA_MOTION=k[,m] (BundlePoseOptions::motion_blur_k with the footage's exposure time;
+// ",m": the mannequin only), DENTAR_SIGMA_CORNER_SIGMA=px (its sigma across the motion),
+// DENTAR_SIGMA_STEREO_ONLY=1 (no mono rows), DENTAR_SIGMA_REFUSED=1 (each refused frame's fit).
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>

@@ -156,7 +156,12 @@ struct BundlePoseOptions {
   // across-motion noise, so the stated error carries the longer axis).
   // A corner without motion (m = 0, a still frame, no motion given) keeps
   // the weight 1: the fit is the isotropic one to the bit. rms_px is the
-  // whitened residual's RMS. 0 = off.
+  // whitened residual's RMS. 0 = off. Not the trackers' default: on `hard`
+  // (k = 0.05 chosen on seed 5: drawn 56 -> 57 / 60, p95 0.403 -> 0.374 mm)
+  // held-out seeds 11-13 drew 127 -> 128 / 180 frames with a worse p95
+  // (0.721 -> 0.772 mm); the refused frames are fits to a few of the
+  // visible tags, millimetres off, which no corner weighting mends
+  // (docs/BENCHMARKS.md, issue 28 session 19).
   double motion_blur_k = 0.0;
   double motion_corner_sigma_px = 0.15;
   std::string validate() const;  // empty when valid
