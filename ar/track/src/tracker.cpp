@@ -173,6 +173,8 @@ std::string TrackerOptions::validate() const {
   else if (!(std::isfinite(stereo_mirror_outline_sigma) && stereo_mirror_outline_sigma >= 0 &&
              stereo_mirror_outline_sigma <= 100))
     os << "stereo_mirror_outline_sigma = " << stereo_mirror_outline_sigma << " must be in [0, 100] (0 = off)";
+  else if (!(std::isfinite(exposure_s) && exposure_s >= 0 && exposure_s <= 1))
+    os << "exposure_s = " << exposure_s << " must be in [0, 1] s (0 = unknown)";
   else if (!(std::isfinite(mirror_min_unexplained_speed_m_s) && mirror_min_unexplained_speed_m_s >= 0))
     os << "mirror_min_unexplained_speed_m_s = " << mirror_min_unexplained_speed_m_s << " must be finite and >= 0";
   else if (discovery != DiscoveryMode::kInline && !predicted_regions)

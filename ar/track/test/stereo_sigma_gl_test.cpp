@@ -19,13 +19,17 @@
 // BundlePoseOptions::shape_weight for both paths (the measurement of that
 // option; the bounds are the default's), DENTAR_SIGMA_BLUR=s sets
 // BundlePoseOptions::blur_stretch_sigma_px the same way; DENTAR_SIGMA_PARTS=seed prints each frame's
-// corner errors split into the tags' centres and shapes (not asserted).
+// corner errors split into the tags' centres and shapes (not asserted). Session 19:
+// DENTAR_SIGMA_MOTION=k[,m] (BundlePoseOptions::motion_blur_k with the footage's exposure time;
+// ",m": the mannequin only), DENTAR_SIGMA_CORNER_SIGMA=px (its sigma across the motion),
+// DENTAR_SIGMA_STEREO_ONLY=1 (no mono rows), DENTAR_SIGMA_REFUSED=1 (each refused frame's fit).
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <map>
 #include <random>
 #include <sstream>
@@ -53,6 +57,7 @@ struct Footage {
   StationScene station;
   std::vector<StereoSynthFrame> frames;
   std::string error;
+  double exposure_s = 0;  // the generator's exposure time, 0 = no motion blur
 };
 Footage make_hard(int seed, int frames) {
   Footage f;
@@ -79,6 +84,7 @@ Footage make_hard(int seed, int frames) {
   }
   o.seed = static_cast<std::uint64_t>(seed);
   o.bur_samples = 1000;
+  f.exposure_s = o.motion_blur ? o.shutter_fraction / o.fps : 0.0;
   StationScene st = default_station_scene();
   st.stereo = make_stereo_rig(st.calibration.camera, 0.063);
   auto g = StereoSynthGenerator::create(st, o);
@@ -170,6 +176,14 @@ PathRun run_path(const Footage& fo, bool stereo) {
   TrackerOptions gated;
   if (const char* w = std::getenv("DENTAR_SIGMA_SHAPE_WEIGHT")) gated.pose.shape_weight = std::atof(w);
   if (const char* w = std::getenv("DENTAR_SIGMA_BLUR")) gated.pose.blur_stretch_sigma_px = std::atof(w);
+  // DENTAR_SIGMA_MOTION=k[,mannequin]: BundlePoseOptions::motion_blur_k (issue 28 session 19)
+  // with the footage's exposure time; ",m" applies it to the mannequin only.
+  if (const char* w = std::getenv("DENTAR_SIGMA_MOTION")) {
+    gated.pose.motion_blur_k = std::atof(w);
+    gated.exposure_s = fo.exposure_s;
+    gated.motion_blur_mannequin_only = std::strchr(w, 'm') != nullptr;
+  }
+  if (const char* w = std::getenv("DENTAR_SIGMA_CORNER_SIGMA")) gated.pose.motion_corner_sigma_px = std::atof(w);
   TrackerOptions open = gated;
   open.mannequin_max_sigma_m = 0;
   const double gate_mm = gated.mannequin_max_sigma_m * 1e3;
@@ -203,6 +217,20 @@ PathRun run_path(const Footage& fo, bool stereo) {
       drawn = a->mannequin.track;
       measured = b->mannequin.track;
       r.ms.push_back(a->total_ms);
+      // DENTAR_SIGMA_REFUSED=1: each frame the gate refuses (or the gated tracker does not draw),
+      // what the ungated fit saw (issue 28 session 19: why frames are refused).
+      if (std::getenv("DENTAR_SIGMA_REFUSED") && (measured.sigma_m * 1e3 > gate_mm || drawn.state == TrackState::kLost)) {
+        int truth_l = 0, truth_r = 0;
+        for (const TagTruth& tt : s.left.truth.tags) truth_l += !tt.on_mirror && tt.in_image && tt.visible_fraction > 0.9;
+        for (const TagTruth& tt : s.right.truth.tags) truth_r += !tt.on_mirror && tt.in_image && tt.visible_fraction > 0.9;
+        std::printf("refused? frame %d %.0f deg/s: drawn %s, ungated %s err %.3f mm sigma %.3f mm rms %.2f px tags %d "
+                    "(eyes %d; left fit %d, right fit %d; truth visible L %d R %d) rejected %d\n",
+                    s.left.truth.frame, s.left.truth.camera_speed_deg_s, drawn.state == TrackState::kLost ? "no" : "yes",
+                    measured.measured ? "measured" : "not measured",
+                    measured.measured ? trans_mm(measured.T_cam_body_measured, s.left.truth.T_cam_man) : NAN,
+                    measured.sigma_m * 1e3, measured.rms_px, measured.tags_used, b->mannequin.views_used,
+                    b->left.mannequin.tags_used, b->right.mannequin.tags_used, truth_l, truth_r, measured.rejected_id);
+      }
     } else {
       auto a = mg->track(s.left.image, t, t);
       auto b = mo->track(s.left.image, t, t);
@@ -236,6 +264,26 @@ void print_row(const std::string& seed, const char* path, const PathRun& r) {
   std::printf("| %s | %s | %d / %d (%.1f %%) | %.3f / %.3f | %s | %s | %s | %.2f | %.0f |\n", seed.c_str(), path, r.drawn,
               r.frames, 100.0 * r.drawn / std::max(1, r.frames), pct(r.err_mm, 0.5), pct(r.err_mm, 0.95),
               frac(r.all).c_str(), frac(r.fast).c_str(), frac(r.refused).c_str(), r.all.mean_maha2(), pct(r.ms, 0.5));
+  // Why frames are refused (issue 28 session 19): the ungated tracker's measured frames whose
+  // stated sigma is above the gate, their actual error against the stated one, and the
+  // accepted ones' for comparison.
+  std::vector<double> ref_err, ref_sig, acc_err, acc_sig;
+  int ref_small = 0;
+  const double gate_mm = TrackerOptions{}.mannequin_max_sigma_m * 1e3;
+  for (const Check& c : r.checks) {
+    if (c.sigma_mm > gate_mm) {
+      ref_err.push_back(c.err_mm);
+      ref_sig.push_back(c.sigma_mm);
+      ref_small += c.err_mm <= 0.4;
+    } else {
+      acc_err.push_back(c.err_mm);
+      acc_sig.push_back(c.sigma_mm);
+    }
+  }
+  std::printf("|  | %s: stated sigma > gate: %zu frames, actual err p50 / p95 %.3f / %.3f mm (%d <= 0.4 mm), stated sigma p50 %.3f mm; "
+              "below: %zu frames, err p50 / p95 %.3f / %.3f, sigma p50 %.3f |\n",
+              path, ref_err.size(), pct(ref_err, 0.5), pct(ref_err, 0.95), ref_small, pct(ref_sig, 0.5), acc_err.size(),
+              pct(acc_err, 0.5), pct(acc_err, 0.95), pct(acc_sig, 0.5));
   std::fflush(stdout);
 }
 
@@ -495,7 +543,8 @@ TEST(StereoSigma, CoverageOnHeldOutSeeds) {
   while (std::getline(ss, seed, ',')) {
     const Footage fo = make_hard(std::atoi(seed.c_str()), frames);
     ASSERT_TRUE(fo.error.empty()) << fo.error;
-    const PathRun m = run_path(fo, false);
+    // DENTAR_SIGMA_STEREO_ONLY=1: the stereo path alone (the motion model is the stereo tracker's).
+    const PathRun m = std::getenv("DENTAR_SIGMA_STEREO_ONLY") ? PathRun{} : run_path(fo, false);
     const PathRun s = run_path(fo, true);
     print_row(seed, "mono (left eye)", m);
     print_row(seed, "stereo", s);
@@ -518,7 +567,7 @@ TEST(StereoSigma, CoverageOnHeldOutSeeds) {
   if (pooled_s.refused.n >= 5) {
     EXPECT_GE(pooled_s.refused.frac(), 0.75);
   }
-  EXPECT_GE(pooled_m.all.frac(), 0.85);
+  if (!std::getenv("DENTAR_SIGMA_STEREO_ONLY")) EXPECT_GE(pooled_m.all.frac(), 0.85);
 }
 
 // Each frame's corner errors (detected - true, the mannequin's tags in both

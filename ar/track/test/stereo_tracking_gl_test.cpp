@@ -40,6 +40,7 @@ struct StereoFootage {
   StationScene station;  // as rendered, with its rig
   std::vector<StereoSynthFrame> frames;
   std::string error;
+  double exposure_s = 0;  // the generator's exposure time (motion blur), 0 = rendered without
 };
 
 StereoFootage make_stereo_footage(SynthPreset preset, int frames, int w, int h, double baseline_m = 0.063,
@@ -51,6 +52,7 @@ StereoFootage make_stereo_footage(SynthPreset preset, int frames, int w, int h, 
   o.height = h;
   o.seed = seed;
   o.bur_samples = 1000;
+  f.exposure_s = o.motion_blur ? o.shutter_fraction / o.fps : 0.0;
   StationScene st = default_station_scene();
   st.stereo = make_stereo_rig(st.calibration.camera, baseline_m);
   auto g = StereoSynthGenerator::create(st, o);
@@ -687,6 +689,22 @@ TEST(StereoTracking, BenchmarkTable) {
           if (first) print_mirror_row(name.c_str(), seed, "mono", v.mono);
           first = false;
           const std::string what = "stereo, outline " + k;
+          print_mirror_row(name.c_str(), seed, what.c_str(), v.stereo);
+          std::fflush(stdout);
+        }
+        continue;
+      }
+      if (const char* ks = std::getenv("DENTAR_STEREO_MOTION")) {
+        // BundlePoseOptions::motion_blur_k (issue 28 session 19): each k on the same frames, the
+        // footage's exposure time as the generator states it; one stereo row each (0 = off).
+        std::stringstream ksl(ks);
+        std::string k;
+        while (std::getline(ksl, k, ',')) {
+          TrackerOptions ok = opt;
+          ok.pose.motion_blur_k = std::atof(k.c_str());
+          ok.exposure_s = fo.exposure_s;
+          const Pair v = run_both(fo, ok, false);
+          const std::string what = "stereo, motion k " + k;
           print_mirror_row(name.c_str(), seed, what.c_str(), v.stereo);
           std::fflush(stdout);
         }

@@ -261,6 +261,15 @@ struct TrackerOptions {
   // clip: on by default since session 18 (docs/BENCHMARKS.md, issue 28
   // session 18); 0 turns it off.
   double stereo_mirror_outline_sigma = 0.6;
+  // StereoTracker only: the camera's exposure time (s), as the camera or the
+  // footage states it; with pose.motion_blur_k > 0 each tag corner's image
+  // motion over the exposure (its shift from the same eye's previous frame,
+  // times exposure_s / the frame gap; none when that frame is more than
+  // 0.1 s back or did not see the tag) weights its residual along the motion
+  // (BundlePoseOptions::motion_blur_k). 0 = unknown: no motion model.
+  double exposure_s = 0.0;
+  // Which bodies get that model: true = the mannequin only, false = every body.
+  bool motion_blur_mannequin_only = false;
   // StereoTracker only: a mirror drawn from the filter's prediction states
   // an error that grows with the prediction's age,
   //   sigma(age) = sqrt(sigma_last^2 + (q * age)^2),
