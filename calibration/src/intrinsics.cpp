@@ -4,6 +4,7 @@
 #include <cmath>
 #include <ctime>
 #include <iomanip>
+#include <limits>
 #include <numbers>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -11,6 +12,7 @@
 #include <random>
 #include <sstream>
 
+#include "dentar/calibration/chessboard_grid.h"
 #include "intrinsics_detail.h"
 
 namespace dentar::calibration {
@@ -152,8 +154,10 @@ namespace {
 // (robust ordering, blur and perspective) and cornerSubPix places the corners. Its window is
 // kept inside the squares: half-width 0.4x the smallest corner spacing in the view, at most 11
 // px (OpenCV's sample uses 11 at any size) and at least 2; a corner the refinement moves
-// farther than half that window (it slid to another edge) keeps the sector-based position.
-void refine_sector_corners(const cv::Mat& img, const ChessboardSpec& spec, std::vector<cv::Point2f>& corners) {
+// farther than half that window (it slid to another edge) keeps the finder's position. The
+// classic finder's fallback is refined the same way: OpenCV's fixed 11 px window slides a whole
+// column of left02.jpg's corners 2-8 px onto the board's edge (calibration session 19).
+void refine_corners_in_squares(const cv::Mat& img, const ChessboardSpec& spec, std::vector<cv::Point2f>& corners) {
   double spacing = 1e9;
   for (int r = 0; r < spec.rows; ++r)
     for (int c = 0; c < spec.cols; ++c) {
@@ -169,7 +173,44 @@ void refine_sector_corners(const cv::Mat& img, const ChessboardSpec& spec, std::
     if (std::isfinite(refined[i].x) && std::isfinite(refined[i].y) && cv::norm(refined[i] - corners[i]) <= 0.5 * half)
       corners[i] = refined[i];
 }
+
+std::string grid_text(const GridSmoothness& g) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(2) << "corner (row " << g.row << ", column " << g.col << ") is "
+     << g.worst_px << " px off the line of its two neighbours along the " << (g.along_row ? "row" : "column")
+     << ", " << g.worst_ratio << " of their half-distance (a smooth grid stays within " << kMaxGridSecondDifference
+     << ")";
+  return os.str();
+}
 }  // namespace
+
+GridSmoothness chessboard_grid_smoothness(const std::vector<Eigen::Vector2d>& p, int cols, int rows) {
+  GridSmoothness g;
+  if (cols < 1 || rows < 1 || p.size() != static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows)) {
+    g.worst_ratio = std::numeric_limits<double>::infinity();
+    return g;
+  }
+  auto at = [&](int r, int c) -> const Eigen::Vector2d& { return p[static_cast<std::size_t>(r * cols + c)]; };
+  auto check = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& m, const Eigen::Vector2d& b, int r, int c,
+                   bool along_row) {
+    const double off = (a - 2 * m + b).norm(), half = 0.5 * (b - a).norm();
+    // A corner on top of its neighbours (half = 0) or a non-finite corner is not a grid.
+    const double ratio = half > 1e-9 && std::isfinite(off) ? off / half : std::numeric_limits<double>::infinity();
+    if (!(ratio <= g.worst_ratio)) {
+      g.worst_ratio = ratio;
+      g.worst_px = off;
+      g.row = r;
+      g.col = c;
+      g.along_row = along_row;
+    }
+  };
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      if (c > 0 && c + 1 < cols) check(at(r, c - 1), at(r, c), at(r, c + 1), r, c, true);
+      if (r > 0 && r + 1 < rows) check(at(r - 1, c), at(r, c), at(r + 1, c), r, c, false);
+    }
+  return g;
+}
 
 Result<BoardView> detect_chessboard(const std::uint8_t* gray, int width, int height,
                                     int stride_bytes, const ChessboardSpec& spec,
@@ -180,28 +221,63 @@ Result<BoardView> detect_chessboard(const std::uint8_t* gray, int width, int hei
   const cv::Mat img(height, width, CV_8UC1, const_cast<std::uint8_t*>(gray),
                     static_cast<std::size_t>(stride_bytes));
   const cv::Size pattern(spec.cols, spec.rows);
+  const std::size_t n = static_cast<std::size_t>(spec.cols * spec.rows);
+  auto smoothness = [&](const std::vector<cv::Point2f>& c) {
+    std::vector<Eigen::Vector2d> p;
+    for (const auto& q : c) p.emplace_back(q.x, q.y);
+    return chessboard_grid_smoothness(p, spec.cols, spec.rows);
+  };
+  // OpenCV's sector-based finder can return a board with a whole column 26-38 px off the grid
+  // (right02.jpg and right04.jpg of opencv-doc with one grey level of noise: calibration session
+  // 19). Such a board is never returned: the classic finder is tried instead, and a view where
+  // neither gives a smooth grid is refused with the reason.
   std::vector<cv::Point2f> corners;
   bool found = false;
+  std::string rough;  // why a board the finders returned was not used
   try {
-    if (spec.detector != ChessboardDetector::kClassic)
+    if (spec.detector != ChessboardDetector::kClassic) {
       found = cv::findChessboardCornersSB(img, pattern, corners,
                                           cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY);
-    if (found && spec.detector == ChessboardDetector::kSectorBased) refine_sector_corners(img, spec, corners);
+      if (found && corners.size() == n) {
+        if (spec.detector == ChessboardDetector::kSectorBased) refine_corners_in_squares(img, spec, corners);
+        if (const GridSmoothness g = smoothness(corners); !g.smooth()) {
+          rough = "the sector-based finder's board is not a smooth grid: " + grid_text(g);
+          found = false;
+        }
+      } else {
+        found = false;
+      }
+    }
     if (!found) {
       corners.clear();
       found = cv::findChessboardCorners(
           img, pattern, corners, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
-      if (found)
-        cv::cornerSubPix(img, corners, cv::Size(11, 11), cv::Size(-1, -1),
-                         cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+      if (found && corners.size() == n) {
+        if (spec.detector == ChessboardDetector::kClassic)
+          cv::cornerSubPix(img, corners, cv::Size(11, 11), cv::Size(-1, -1),
+                           cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+        else
+          refine_corners_in_squares(img, spec, corners);
+        if (const GridSmoothness g = smoothness(corners); !g.smooth()) {
+          rough += std::string(rough.empty() ? "" : "; ") + "the classic finder's board is not a smooth grid: " +
+                   grid_text(g);
+          found = false;
+        }
+      } else {
+        found = false;
+      }
     }
   } catch (const cv::Exception& e) {
     return Error{name + ": chessboard detection failed: " + e.err};
   }
-  if (!found || corners.size() != static_cast<std::size_t>(spec.cols * spec.rows)) {
+  if (!found) {
     std::ostringstream os;
-    os << "board not found in " << name << " (looked for " << spec.cols << "x" << spec.rows
-       << " inner corners): check --board, that the whole board is in view, sharp and evenly lit";
+    if (!rough.empty())
+      os << name << " refused: " << rough << " (looked for " << spec.cols << "x" << spec.rows
+         << " inner corners); retake the photo with the whole board sharp and evenly lit";
+    else
+      os << "board not found in " << name << " (looked for " << spec.cols << "x" << spec.rows
+         << " inner corners): check --board, that the whole board is in view, sharp and evenly lit";
     return Error{os.str()};
   }
   BoardView v;

@@ -1,0 +1,28 @@
+// The smoothness check detect_chessboard (intrinsics.h) applies to a chessboard's corners before
+// it returns them: a board whose corners are not a smooth grid is never returned; the other
+// OpenCV finder is tried, and when neither gives a smooth grid the error is "<name> refused: ..."
+// naming the corner and the figures (calibration session 19, docs/BENCHMARKS.md).
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace dentar::calibration {
+
+// How far a chessboard's corners are from a smooth grid: the largest second difference along a
+// row or a column, |p[k-1] - 2 p[k] + p[k+1]|, over the half-distance |p[k+1] - p[k-1]| / 2 of the
+// two neighbours (dimensionless; perspective and lens distortion keep it small, a corner or a
+// column placed on the wrong square makes it ~0.5-2). Points row-major, cols x rows.
+struct GridSmoothness {
+  double worst_ratio = 0;  // infinity when the points are not cols x rows or degenerate
+  double worst_px = 0;     // that second difference, px
+  int row = -1, col = -1;  // the corner where it is largest
+  bool along_row = true;
+  bool smooth() const;
+};
+// The bound detect_chessboard applies, measured on OpenCV's 26 real photos with noise and on
+// generated views (docs/BENCHMARKS.md, calibration session 19).
+inline constexpr double kMaxGridSecondDifference = 0.35;
+inline bool GridSmoothness::smooth() const { return worst_ratio <= kMaxGridSecondDifference; }
+GridSmoothness chessboard_grid_smoothness(const std::vector<Eigen::Vector2d>& points, int cols, int rows);
+}  // namespace dentar::calibration
