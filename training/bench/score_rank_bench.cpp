@@ -13,6 +13,7 @@
 //                                            [--flare-free-deg D] [--flare-deg-per-point S]
 //                                            [--seeds 2,3,4,5] [--bootstrap 2000] [--components 1]
 //                                            [--pulp-full-mm D] [--pulp-min-fraction F] [--leftover 1] [--replay 1]
+//                                            [--taper-reach-full-pct P]
 // --exercise takes a built-in name or an exercise file (its sessions go in DIR/<its name>_<level>).
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
@@ -29,6 +30,7 @@
 // 17) instead of the tooth the generator's engine left (the same voxels: the two give identical
 // scores on seed 2 of every exercise, docs/BENCHMARKS.md "Issue 25 session 17"; the replay
 // doubled a session's CPU time).
+// --taper-reach-full-pct P: the wall taper's outline_reach_full_pct (0: off; session 19).
 // --taper-points P: the exercise's wall taper (it must have one) is worth P
 // points and its graded regions the rest of the exercise's total.
 #include <unistd.h>
@@ -254,6 +256,7 @@ int main(int argc, char** argv) {
   double zone_rate = -1;            // --access-zone-rate: the same
   std::string access_points;        // --access-points bands|continuous: the same
   double taper_points = -1;         // --taper-points: the wall taper's points (the regions keep the rest)
+  double taper_reach = -1;          // --taper-reach-full-pct: the wall taper's outline reach for full points
   std::vector<std::uint64_t> seeds; // --seeds: several cohorts, pooled at the end
   int bootstrap = 2000;
   int components = 0;               // --components 1: per-criterion rho against skill
@@ -279,6 +282,7 @@ int main(int argc, char** argv) {
     else if (a == "--access-zone-rate") zone_rate = std::atof(v.c_str());
     else if (a == "--access-points") access_points = v;
     else if (a == "--taper-points") taper_points = std::atof(v.c_str());
+    else if (a == "--taper-reach-full-pct") taper_reach = std::atof(v.c_str());
     else if (a == "--flare-free-deg") flare_free = std::atof(v.c_str());
     else if (a == "--flare-deg-per-point") flare_step = std::atof(v.c_str());
     else if (a == "--bootstrap") bootstrap = std::atoi(v.c_str());
@@ -329,6 +333,13 @@ int main(int argc, char** argv) {
     if (flare_step > 0) ex->access_flare_deg_per_point = flare_step;
     if (pulp_full_mm >= 0) ex->pulp_exposure_full_mm = pulp_full_mm;
     if (pulp_min_fraction >= 0) ex->pulp_exposure_min_fraction = pulp_min_fraction;
+    if (taper_reach >= 0) {
+      if (!ex->wall_taper) {
+        std::fprintf(stderr, "score_rank_bench: --taper-reach-full-pct: %s has no wall_taper\n", name.c_str());
+        return 2;
+      }
+      ex->wall_taper->outline_reach_full_pct = taper_reach;
+    }
     if (taper_points >= 0) {
       if (!ex->wall_taper) {
         std::fprintf(stderr, "score_rank_bench: --taper-points: %s has no wall_taper\n", name.c_str());

@@ -399,7 +399,8 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
           !get_number(c, w, "to_z_mm", path, tz, true, -100, 100) ||
           !get_number(c, w, "ideal_min_deg", path, t.ideal_min_deg, false, -45, 45) ||
           !get_number(c, w, "ideal_max_deg", path, t.ideal_max_deg, false, -45, 45) ||
-          !get_number(c, w, "zero_beyond_deg", path, t.zero_beyond_deg, false, 0.1, 90))
+          !get_number(c, w, "zero_beyond_deg", path, t.zero_beyond_deg, false, 0.1, 90) ||
+          !get_number(c, w, "outline_reach_full_pct", path, t.outline_reach_full_pct, false, 0, 100))
         return Error{c.err};
       if (tz <= fz) return Error{name + ": field 'outcome.wall_taper.to_z_mm': must be above from_z_mm"};
       if (t.ideal_max_deg < t.ideal_min_deg)

@@ -173,7 +173,27 @@ namespace {
 // earns points/4 when its divergence lies in the ideal range, less linearly to 0 at zero_beyond_deg
 // outside it; a wall the cavity does not reach over half the measured height earns nothing. An
 // untouched tooth has no cavity (the axis point is solid at every level) and so no wall.
-Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& start, const volume::VoxelVolume& cut) {
+// The target outline's distance from `c` along `dir` (a layer of the wall taper): the target voxels of
+// the masks walked in quarter-voxel steps from c, plus half a voxel (where the outline's surface lies,
+// as a wall's extent is measured); 0 when c is not in the target.
+double outline_distance(const RegionMasks& m, const volume::VoxelVolume& v, const Eigen::Vector3d& c,
+                        const Eigen::Vector3d& dir) {
+  const auto in_target = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d q = (p - v.origin()).cwiseQuotient(v.spacing());
+    const int i = static_cast<int>(std::lround(q.x())), j = static_cast<int>(std::lround(q.y())),
+              k = static_cast<int>(std::lround(q.z()));
+    if (i < 0 || j < 0 || k < 0 || i >= m.dims.x() || j >= m.dims.y() || k >= m.dims.z()) return false;
+    return (m.bits[m.index(i, j, k)] & m.target_bits) != 0;
+  };
+  if (!in_target(c)) return 0;
+  const double h = v.spacing().minCoeff(), step = 0.25 * h;
+  double s = 0;
+  while (s < 0.02 && in_target(c + (s + step) * dir)) s += step;
+  return s + 0.5 * h;
+}
+
+Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& start, const RegionMasks& m,
+                               const volume::VoxelVolume& cut) {
   Criterion c;
   c.name = "wall taper";
   c.unit = "deg mean distance outside the ideal taper";
@@ -194,13 +214,33 @@ Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& st
     } else {
       const double d = p.divergence_deg;
       const double off = d < t.ideal_min_deg ? t.ideal_min_deg - d : d > t.ideal_max_deg ? d - t.ideal_max_deg : 0.0;
-      const double pts = each * std::clamp(1.0 - off / t.zero_beyond_deg, 0.0, 1.0);
+      double pts = each * std::clamp(1.0 - off / t.zero_beyond_deg, 0.0, 1.0);
+      // Outline reach (session 19): the wall's mean reach toward the target outline over the measured
+      // layers (a layer it does not reach counts 0); its points scale with reach / the full reach.
+      std::string reach_part;
+      if (t.outline_reach_full_pct > 0) {
+        double sum = 0;
+        int layers = 0;
+        std::size_t q = 0;
+        for (double z = t.from_z_m; z <= t.to_z_m + 1e-12; z += cut.spacing().z()) {
+          const Eigen::Vector3d c0(t.axis_point_m.x(), t.axis_point_m.y(), z);
+          const double o = outline_distance(m, cut, c0, w.dir);
+          while (q < p.z_m.size() && p.z_m[q] < z - 1e-9) ++q;
+          if (o <= 0) continue;  // the axis point is outside the target here: no outline to reach
+          ++layers;
+          if (q < p.z_m.size() && std::abs(p.z_m[q] - z) < 1e-9) sum += std::min(1.0, p.extent_m[q] / o);
+        }
+        const double reach = layers > 0 ? sum / layers : 0.0;
+        const double f = std::clamp(100.0 * reach / t.outline_reach_full_pct, 0.0, 1.0);
+        if (f < 1.0) reach_part = " x " + fmt(100 * reach, 0) + " % reach of the outline";
+        pts *= f;
+      }
       c.score += pts;
       off_sum += std::min(off, t.zero_beyond_deg);
       part += fmt(d, 1) + " deg" +
               (off > 0 ? std::string(d < t.ideal_min_deg ? " (converging " : " (diverging ") + fmt(off, 1) + " deg too much)"
                        : "") +
-              ", " + fmt(pts);
+              reach_part + ", " + fmt(pts);
     }
     parts += (parts.empty() ? "" : "; ") + part;
   }
@@ -208,7 +248,11 @@ Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& st
   c.detail = fmt(c.score) + " of " + fmt(t.points, 0) + ": the walls' taper (divergence toward occlusal, > 0 opens) " +
              parts + "; each wall earns " + fmt(each) + " between " + fmt(t.ideal_min_deg, 0) + " and " +
              fmt(t.ideal_max_deg, 0) + " deg (parallel to slightly converging occlusally, for retention), less " +
-             "linearly to 0 at " + fmt(t.zero_beyond_deg, 0) + " deg outside that range.";
+             "linearly to 0 at " + fmt(t.zero_beyond_deg, 0) + " deg outside that range" +
+             (t.outline_reach_full_pct > 0
+                  ? ", in proportion to how far it reaches toward the outline (full at " + fmt(t.outline_reach_full_pct, 0) +
+                        " %: a wall not cut out to the outline is not the finished wall)."
+                  : ".");
   return c;
 }
 
@@ -566,7 +610,7 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     o.max_points = ex.max_points();
     for (const auto& r : o.regions) o.earned_points += r.points;
     if (ex.wall_taper) {
-      o.criteria.push_back(wall_taper_criterion(*ex.wall_taper, start, cut));
+      o.criteria.push_back(wall_taper_criterion(*ex.wall_taper, start, m, cut));
       o.earned_points += o.criteria.back().score;
     }
   }

@@ -903,6 +903,41 @@ TEST(OutcomeCases, WallTaperGradesEachWallAgainstTheIdealRange) {
   EXPECT_EQ(c.score(c.well(2.0, 9.2)).criteria[0].score, 0.0);
 }
 
+// Issue 25 (session 19): with outline_reach_full_pct, a wall earns its taper points in proportion to how
+// far it reaches toward the target's outline (the well's r 2 mm), full at that reach: a cavity not cut
+// out to its outline does not earn the taper of walls it has not cut.
+TEST(OutcomeCases, WallTaperIsEarnedOnlyAsFarAsTheOutlineIsReached) {
+  TaperCase c;
+  c.ex.wall_taper->outline_reach_full_pct = 90;
+  // Untouched: still 0.
+  const OutcomeScores un = c.score(c.start);
+  EXPECT_EQ(un.criteria[0].score, 0.0);
+  EXPECT_EQ(un.points, 0.0);
+  // The complete cavity (the whole well, parallel walls): its walls reach the outline, full marks.
+  const OutcomeScores full = c.score(c.well(2.0, 6.0));
+  EXPECT_NEAR(full.criteria[0].score, 4.0, 1e-9) << full.criteria[0].detail;
+  EXPECT_NEAR(full.points, 8.0, 0.02);
+  EXPECT_FALSE(has(full.criteria[0].detail, "reach of the outline")) << full.criteria[0].detail;
+  // An unfinished outline: a parallel-walled well of r 1 mm, full depth. Without the rule its walls
+  // earn the whole 4 points; with it each wall reaches about half way (1.0 of 2.0 mm, each measured to
+  // the surface half a voxel past the last open / target voxel centre): 4 x 0.5 / 0.9.
+  const VoxelVolume narrow = c.well(1.0, 6.0);
+  const OutcomeScores nr = c.score(narrow);
+  EXPECT_NEAR(nr.criteria[0].score, 4.0 * 0.5 / 0.9, 0.25) << nr.criteria[0].detail;
+  EXPECT_TRUE(has(nr.criteria[0].detail, "reach of the outline")) << nr.criteria[0].detail;
+  EXPECT_FALSE(nr.complete) << nr.completion;
+  TaperCase off;  // the rule before session 19: the same walls earn everything
+  EXPECT_NEAR(off.score(narrow).criteria[0].score, 4.0, 1e-9);
+  // The region's points do not change with the rule: only the taper moved.
+  EXPECT_NEAR(nr.regions[0].points, off.score(narrow).regions[0].points, 1e-12);
+  // Reached out to the outline but only two thirds of the measured height (z 7.5 up; 6.5-9.5 measured):
+  // a layer not reached counts 0, reach 2/3: 4 x (2/3) / 0.9.
+  const OutcomeScores shallow = c.score(c.well(2.0, 7.5));
+  EXPECT_NEAR(shallow.criteria[0].score, 4.0 * (2.0 / 3.0) / 0.9, 0.25) << shallow.criteria[0].detail;
+  // Never more than the rule before gives.
+  EXPECT_LE(shallow.criteria[0].score, off.score(c.well(2.0, 7.5)).criteria[0].score + 1e-12);
+}
+
 // Continuous access points: each criterion falls with what it measures, between the bands' thresholds.
 TEST(OutcomeCases, ContinuousAccessPointsFallWithTheDeviation) {
   AccessCase c;
@@ -976,6 +1011,11 @@ TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
   err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":4.0"), "outcome.wall_taper.to_z_mm");
   err(rep("\"points\":3,", ""), "outcome.wall_taper.points");
   err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"ideal_min_deg\":5"), "outcome.wall_taper.ideal_max_deg");
+  err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"outline_reach_full_pct\":101"), "outcome.wall_taper.outline_reach_full_pct");
+  EXPECT_EQ(ok->wall_taper->outline_reach_full_pct, 0.0);  // absent: not applied
+  auto reach = parse_exercise(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"outline_reach_full_pct\":90"), "t.json");
+  ASSERT_TRUE(reach.ok()) << reach.error();
+  EXPECT_EQ(reach->wall_taper->outline_reach_full_pct, 90.0);
   err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"access_points\":\"continuous\","),
       "outcome.access_points");
   err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"flare_free_deg\":5,"), "outcome.flare_free_deg");

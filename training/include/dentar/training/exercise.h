@@ -100,6 +100,14 @@ struct WallTaper {
   double from_z_m = 0, to_z_m = 0;
   double ideal_min_deg = -5, ideal_max_deg = 2;
   double zero_beyond_deg = 10;
+  // Outline reach (outcome field "wall_taper.outline_reach_full_pct", issue 25 session 19): a wall
+  // earns its taper points in proportion to how far it reaches toward the target's outline, full at
+  // this percentage or more. Its reach is the mean over the measured layers of min(1, the wall's
+  // distance from the axis point / the target outline's in the same direction), a layer where the
+  // cavity does not reach counting 0: a wall not cut out to the outline is not yet the wall the
+  // preparation needs, and its taper cannot be judged as that wall's. 0: not applied (the rule
+  // before session 19).
+  double outline_reach_full_pct = 0;
 };
 
 struct Exercise {
