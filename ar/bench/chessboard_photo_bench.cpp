@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "dentar/ar/calib_board.h"
+#include "dentar/calibration/chessboard_grid.h"
 #include "dentar/calibration/intrinsics.h"
 
 namespace fs = std::filesystem;
@@ -41,21 +42,6 @@ double quantile(std::vector<double> v, double q) {
   const double x = q * static_cast<double>(v.size() - 1);
   const std::size_t i = static_cast<std::size_t>(x);
   return i + 1 < v.size() ? v[i] + (x - i) * (v[i + 1] - v[i]) : v[i];
-}
-
-double homography_rms(const calibration::BoardView& v) {
-  std::vector<cv::Point2f> o, i;
-  for (std::size_t k = 0; k < v.image_points.size(); ++k) {
-    o.emplace_back(static_cast<float>(v.object_points[k].x()), static_cast<float>(v.object_points[k].y()));
-    i.emplace_back(static_cast<float>(v.image_points[k].x()), static_cast<float>(v.image_points[k].y()));
-  }
-  const cv::Mat H = cv::findHomography(o, i, 0);
-  if (H.empty()) return NAN;
-  std::vector<cv::Point2f> p;
-  cv::perspectiveTransform(o, p, H);
-  double ss = 0;
-  for (std::size_t k = 0; k < p.size(); ++k) ss += std::pow(cv::norm(p[k] - i[k]), 2);
-  return std::sqrt(ss / static_cast<double>(p.size()));
 }
 
 // Largest |p[k-1] - 2 p[k] + p[k+1]| / (|p[k+1] - p[k-1]| / 2) along the rows and the columns.
@@ -159,7 +145,7 @@ int main(int argc, char** argv) {
           continue;
         }
         ++found;
-        const double h = homography_rms(*v), s = second_difference(*v, 9, 6);
+        const double h = calibration::board_homography_rms_px(*v), s = second_difference(*v, 9, 6);
         const double a11 = ref_ok ? max_nearest(*v, ref) : NAN;
         const double a = ref_ok ? max_nearest(*v, ref_in) : NAN;
         const bool is_bad = ref_ok && a > 3;  // a corner 3 px from every classic corner
@@ -210,7 +196,7 @@ int main(int argc, char** argv) {
         auto v = calibration::detect_chessboard(img.data, img.cols, img.rows, static_cast<int>(img.step), spec, "sim");
         if (!v) continue;
         ++sfound;
-        sh.push_back(homography_rms(*v));
+        sh.push_back(calibration::board_homography_rms_px(*v));
         sd.push_back(second_difference(*v, 9, 6));
         const auto truth = ar::project_board_points(bs, k, sess.T_cam_board[i]);
         double worst = 0;

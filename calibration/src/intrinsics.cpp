@@ -602,4 +602,20 @@ std::vector<Eigen::Isometry3d> plan_board_poses_in_region(const CameraIntrinsics
   return out;
 }
 
+double board_homography_rms_px(const BoardView& v) {
+  std::vector<cv::Point2f> o, i;
+  for (std::size_t k = 0; k < v.image_points.size(); ++k) {
+    o.emplace_back(static_cast<float>(v.object_points[k].x()), static_cast<float>(v.object_points[k].y()));
+    i.emplace_back(static_cast<float>(v.image_points[k].x()), static_cast<float>(v.image_points[k].y()));
+  }
+  if (o.size() < 4) return NAN;
+  const cv::Mat H = cv::findHomography(o, i, 0);
+  if (H.empty()) return NAN;
+  std::vector<cv::Point2f> p;
+  cv::perspectiveTransform(o, p, H);
+  double ss = 0;
+  for (std::size_t k = 0; k < p.size(); ++k) ss += std::pow(cv::norm(p[k] - i[k]), 2);
+  return std::sqrt(ss / static_cast<double>(p.size()));
+}
+
 }  // namespace dentar::calibration

@@ -47,6 +47,8 @@
 
 #include "dentar/ar/bundle_pose.h"
 #include "dentar/ar/calib_board.h"
+#include "dentar/calibration/chessboard_grid.h"
+#include "swarm_photos.h"
 #include "dentar/ar/frame_gray.h"
 #include "dentar/ar/mjpeg_decoder.h"
 #include "dentar/ar/pose_filter.h"
@@ -442,21 +444,11 @@ std::optional<Case> swarm_case(const char* stem) {
   Case c;
   c.name = std::string(stem).substr(0, 11);
   c.ref_kind = "libapriltag";
-  std::ifstream in(kSwarm / (std::string(stem) + ".txt"));
-  if (!in || !fs::exists(kSwarm / (std::string(stem) + ".jpg"))) return std::nullopt;
-  std::string line;
-  while (std::getline(in, line)) {
-    // "0, (x0 y0), (x1 y1), (x2 y2), (x3 y3)", libapriltag's convention (+0.5 px).
-    for (char& ch : line)
-      if (ch == ',' || ch == '(' || ch == ')') ch = ' ';
-    std::istringstream ls(line);
-    int id;
-    double v[8];
-    if (!(ls >> id >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6] >> v[7])) continue;
+  if (!fs::exists(kSwarm / (std::string(stem) + ".jpg"))) return std::nullopt;
+  for (const auto& s : test::read_swarm_refs(kSwarm / (std::string(stem) + ".txt"))) {
     Ref r;
-    r.id = id;
-    for (int i = 0; i < 4; ++i)
-      r.corners[static_cast<std::size_t>(i)] = Eigen::Vector2d(v[2 * i] - 0.5, v[2 * i + 1] - 0.5);
+    r.id = s.id;
+    r.corners = s.corners;
     c.refs.push_back(r);
   }
   if (c.refs.empty()) return std::nullopt;
@@ -615,23 +607,6 @@ TEST(MjpegRealPhoto, ViSPRendersAsAUvcCamera) {
   expect_within_bounds("ViSP renders", w, 0.25);
 }
 
-// RMS distance of a board's corners to the best homography of its object points, px: lens
-// distortion leaves ~1-2 px on these views; a misplaced column of corners 5-7 px.
-double homography_rms_px(const calibration::BoardView& v) {
-  std::vector<cv::Point2f> o, i;
-  for (std::size_t k = 0; k < v.image_points.size(); ++k) {
-    o.emplace_back(static_cast<float>(v.object_points[k].x()), static_cast<float>(v.object_points[k].y()));
-    i.emplace_back(static_cast<float>(v.image_points[k].x()), static_cast<float>(v.image_points[k].y()));
-  }
-  const cv::Mat H = cv::findHomography(o, i, 0);
-  if (H.empty()) return NAN;
-  std::vector<cv::Point2f> p;
-  cv::perspectiveTransform(o, p, H);
-  double ss = 0;
-  for (std::size_t k = 0; k < p.size(); ++k) ss += std::pow(cv::norm(p[k] - i[k]), 2);
-  return std::sqrt(ss / static_cast<double>(p.size()));
-}
-
 // The chessboard's inner corners (calibration::detect_chessboard, the camera step's finder) on the
 // old and the new grey. The finder may start the 9x6 grid at either end: corners are matched to
 // the nearest of the other view's. Where the two disagree, the old grey is given uniform
@@ -684,13 +659,13 @@ void run_chessboards(const std::vector<std::string>& names, bool reencode) {
           auto c = det->detect(noisy, name);
           if (!c.ok())
             ++lost;
-          else if (homography_rms_px(*c) > 3)
+          else if (calibration::board_homography_rms_px(*c) > 3)
             ++bad;
         }
         std::printf("  [ board ] %s: corners old-new p50 %.4f max %.2f px, new-Y max %.2f px; homography rms old %.2f, "
                     "new %.2f px; the old grey + {-1,0,1} noise, 8 draws: %d boards with rms > 3 px, %d not found\n",
-                    name.c_str(), quantile(d, 0.5), quantile(d, 1.0), quantile(dy, 1.0), homography_rms_px(*a),
-                    homography_rms_px(*b), bad, lost);
+                    name.c_str(), quantile(d, 0.5), quantile(d, 1.0), quantile(dy, 1.0), calibration::board_homography_rms_px(*a),
+                    calibration::board_homography_rms_px(*b), bad, lost);
       }
       diff.insert(diff.end(), d.begin(), d.end());
     }

@@ -61,6 +61,7 @@
 #include "dentar/ar/pose_filter.h"
 #include "dentar/ar/tag_detector.h"
 #include "dentar/ar/tracker.h"
+#include "swarm_photos.h"
 
 namespace dentar::ar {
 namespace {
@@ -792,21 +793,10 @@ std::vector<PhotoRef> load_swarmathon() {
     PhotoRef p;
     p.name = stem;
     p.gray = cv::imread((kSwarm / (std::string(stem) + ".jpg")).string(), cv::IMREAD_GRAYSCALE);
-    std::ifstream in(kSwarm / (std::string(stem) + ".txt"));
-    if (p.gray.empty() || !in) continue;
-    std::string line;
-    while (std::getline(in, line)) {
-      // "0, (x0 y0), (x1 y1), (x2 y2), (x3 y3)", libapriltag's convention (+0.5 px).
-      for (char& ch : line)
-        if (ch == ',' || ch == '(' || ch == ')') ch = ' ';
-      std::istringstream ls(line);
-      int id;
-      double v[8];
-      if (!(ls >> id >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6] >> v[7])) continue;
-      Corners k;
-      for (int i = 0; i < 4; ++i) k[i] = Eigen::Vector2d(v[2 * i] - 0.5, v[2 * i + 1] - 0.5);
-      p.refs.push_back(k);
-    }
+    if (p.gray.empty()) continue;
+    const auto refs = test::read_swarm_refs(kSwarm / (std::string(stem) + ".txt"));
+    if (refs.empty()) continue;
+    for (const auto& r : refs) p.refs.push_back(r.corners);
     out.push_back(std::move(p));
   }
   return out;

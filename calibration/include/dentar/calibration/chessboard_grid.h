@@ -25,4 +25,10 @@ struct GridSmoothness {
 inline constexpr double kMaxGridSecondDifference = 0.35;
 inline bool GridSmoothness::smooth() const { return worst_ratio <= kMaxGridSecondDifference; }
 GridSmoothness chessboard_grid_smoothness(const std::vector<Eigen::Vector2d>& points, int cols, int rows);
+
+struct BoardView;  // intrinsics.h
+// RMS distance of a board's image points to the best plane homography of its object points, px
+// (no lens model: distortion leaves ~1-2 px on OpenCV's sample views; a column of corners on the
+// wrong square 5-7 px). NaN when no homography fits. For benches and tests that judge a finder.
+double board_homography_rms_px(const BoardView& v);
 }  // namespace dentar::calibration
