@@ -157,8 +157,14 @@ TEST(OfflineHash, GeneratedFootageRunIsUnchanged) {
   // every state, count and the video unchanged. The generator's frame-0 exposure fix changes
   // this clip's video.mkv but none of the printed figures. Hashes before: 26839da1af8e7ec3,
   // aaf4d9ca67957246.
-  EXPECT_EQ(h.csv, "a0f5e217e1d73f3e") << "frames.csv changed";
-  EXPECT_EQ(h.summary, "7ff8fde8499f8bf8") << "summary.json changed: " << read_file(out / "summary.json");
+  // Session 19 (issue 25): the molar's pulp is an adult's by default, so the clip's tooth (made by
+  // `dentar synth` with this build) has another inner surface: the `triangles` column (12117 ->
+  // 11758 on frame 0) and the summary's volume_hash move, nothing else (old clip and binary against
+  // new, checked); on a clip made with the old tooth both builds print the same 40 non-timing
+  // columns, and the video is unchanged.
+  // Hashes before: a0f5e217e1d73f3e, 7ff8fde8499f8bf8.
+  EXPECT_EQ(h.csv, "e5aac77d9319736a") << "frames.csv changed";
+  EXPECT_EQ(h.summary, "59e99620bc1db68c") << "summary.json changed: " << read_file(out / "summary.json");
   EXPECT_EQ(h.video, "824393745507769d") << "composite.mkv frames changed";
 }
 
