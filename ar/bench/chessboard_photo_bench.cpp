@@ -114,15 +114,11 @@ int main(int argc, char** argv) {
       if (ref_ok) {
         ref_in.clear();
         cv::findChessboardCorners(g, cv::Size(9, 6), ref_in, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
-        double spacing = 1e9;
-        for (int r = 0; r < 6; ++r)
-          for (int c = 0; c < 9; ++c) {
-            if (c + 1 < 9) spacing = std::min(spacing, static_cast<double>(cv::norm(ref_in[r * 9 + c + 1] - ref_in[r * 9 + c])));
-            if (r + 1 < 6) spacing = std::min(spacing, static_cast<double>(cv::norm(ref_in[(r + 1) * 9 + c] - ref_in[r * 9 + c])));
-          }
-        const int half = std::clamp(static_cast<int>(0.4 * spacing), 2, 11);
-        cv::cornerSubPix(g, ref_in, cv::Size(half, half), cv::Size(-1, -1),
-                         cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+        std::vector<Eigen::Vector2d> p;
+        for (const cv::Point2f& q : ref_in) p.emplace_back(q.x, q.y);
+        calibration::refine_chessboard_corners(g.data, g.cols, g.rows, static_cast<int>(g.step), 9, 6, p);
+        for (std::size_t i = 0; i < ref_in.size(); ++i)
+          ref_in[i] = cv::Point2f(static_cast<float>(p[i].x()), static_cast<float>(p[i].y()));
       }
       cv::RNG rng(1000 + n + (side[0] == 'r') * 100);
       for (int d = 0; d <= draws; ++d) {

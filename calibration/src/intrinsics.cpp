@@ -158,20 +158,12 @@ namespace {
 // classic finder's fallback is refined the same way: OpenCV's fixed 11 px window slides a whole
 // column of left02.jpg's corners 2-8 px onto the board's edge (calibration session 19).
 void refine_corners_in_squares(const cv::Mat& img, const ChessboardSpec& spec, std::vector<cv::Point2f>& corners) {
-  double spacing = 1e9;
-  for (int r = 0; r < spec.rows; ++r)
-    for (int c = 0; c < spec.cols; ++c) {
-      const cv::Point2f& p = corners[static_cast<std::size_t>(r * spec.cols + c)];
-      if (c + 1 < spec.cols) spacing = std::min(spacing, static_cast<double>(cv::norm(corners[r * spec.cols + c + 1] - p)));
-      if (r + 1 < spec.rows) spacing = std::min(spacing, static_cast<double>(cv::norm(corners[(r + 1) * spec.cols + c] - p)));
-    }
-  const int half = std::clamp(static_cast<int>(0.4 * spacing), 2, 11);
-  std::vector<cv::Point2f> refined = corners;
-  cv::cornerSubPix(img, refined, cv::Size(half, half), cv::Size(-1, -1),
-                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+  std::vector<Eigen::Vector2d> p;
+  p.reserve(corners.size());
+  for (const cv::Point2f& q : corners) p.emplace_back(q.x, q.y);
+  refine_chessboard_corners(img.data, img.cols, img.rows, static_cast<int>(img.step), spec.cols, spec.rows, p);
   for (std::size_t i = 0; i < corners.size(); ++i)
-    if (std::isfinite(refined[i].x) && std::isfinite(refined[i].y) && cv::norm(refined[i] - corners[i]) <= 0.5 * half)
-      corners[i] = refined[i];
+    corners[i] = cv::Point2f(static_cast<float>(p[i].x()), static_cast<float>(p[i].y()));
 }
 
 std::string grid_text(const GridSmoothness& g) {
@@ -183,6 +175,32 @@ std::string grid_text(const GridSmoothness& g) {
   return os.str();
 }
 }  // namespace
+
+int refine_chessboard_corners(const std::uint8_t* gray, int width, int height, int stride_bytes, int cols, int rows,
+                              std::vector<Eigen::Vector2d>& points) {
+  if (gray == nullptr || width < 1 || height < 1 || stride_bytes < width || cols < 1 || rows < 1 ||
+      points.size() != static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows))
+    return 0;
+  const cv::Mat img(height, width, CV_8UC1, const_cast<std::uint8_t*>(gray), static_cast<std::size_t>(stride_bytes));
+  double spacing = 1e9;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      const Eigen::Vector2d& p = points[static_cast<std::size_t>(r * cols + c)];
+      if (c + 1 < cols) spacing = std::min(spacing, (points[static_cast<std::size_t>(r * cols + c + 1)] - p).norm());
+      if (r + 1 < rows) spacing = std::min(spacing, (points[static_cast<std::size_t>((r + 1) * cols + c)] - p).norm());
+    }
+  const int half = std::clamp(static_cast<int>(0.4 * spacing), 2, 11);
+  std::vector<cv::Point2f> refined;
+  refined.reserve(points.size());
+  for (const Eigen::Vector2d& p : points) refined.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+  cv::cornerSubPix(img, refined, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2d q(refined[i].x, refined[i].y);
+    if (q.allFinite() && (q - points[i]).norm() <= 0.5 * half) points[i] = q;
+  }
+  return half;
+}
 
 GridSmoothness chessboard_grid_smoothness(const std::vector<Eigen::Vector2d>& p, int cols, int rows) {
   GridSmoothness g;

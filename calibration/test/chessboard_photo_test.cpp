@@ -62,6 +62,38 @@ TEST(ChessboardGrid, SmoothGridPassesAndAShiftedColumnOrCornerIsCaught) {
   EXPECT_FALSE(chessboard_grid_smoothness(nan, 9, 6).smooth());
 }
 
+// The shared in-square refinement (detect_chessboard, the photo test and bench): a drawn board's
+// inner corners lie on pixel edges, at (x0 - 0.5 + c s, y0 - 0.5 + r s).
+TEST(ChessboardGrid, RefineMovesCornersOntoTheSaddleAndKeepsOnesThatWouldSlide) {
+  const int s = 30, x0 = 60, y0 = 50, cols = 9, rows = 6;
+  cv::Mat img(y0 * 2 + s * (rows + 1), x0 * 2 + s * (cols + 1), CV_8UC1, cv::Scalar(255));
+  for (int r = -1; r <= rows; ++r)
+    for (int c = -1; c <= cols; ++c)
+      if (((r + c) & 1) == 0) cv::rectangle(img, cv::Rect(x0 + c * s, y0 + r * s, s, s), cv::Scalar(0), cv::FILLED);
+  cv::GaussianBlur(img, img, cv::Size(5, 5), 1.0);
+  std::vector<Eigen::Vector2d> truth, p;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) truth.emplace_back(x0 - 0.5 + c * s, y0 - 0.5 + r * s);
+  for (const auto& t : truth) p.push_back(t + Eigen::Vector2d(1.6, -1.2));
+  p[13] = truth[13] + Eigen::Vector2d(7, 7);  // 9.9 px: beyond half the window, must not snap back
+  const auto before = p;
+  // Smallest spacing: corner 13 to the one below it, |(-5.4, 21.8)| = 22.5 px: half-window 8 px.
+  EXPECT_EQ(refine_chessboard_corners(img.data, img.cols, img.rows, static_cast<int>(img.step), cols, rows, p), 8);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (i == 13) continue;
+    EXPECT_LT((p[i] - truth[i]).norm(), 0.1) << "corner " << i;
+  }
+  EXPECT_GT((p[13] - truth[13]).norm(), 5.0) << "corner 13 moved more than half the window";
+  // Wrong count or no image: nothing changed, 0 returned.
+  auto short_list = std::vector<Eigen::Vector2d>(before.begin(), before.end() - 1);
+  const auto short_copy = short_list;
+  EXPECT_EQ(refine_chessboard_corners(img.data, img.cols, img.rows, static_cast<int>(img.step), cols, rows, short_list), 0);
+  EXPECT_EQ(short_list, short_copy);
+  auto q = before;
+  EXPECT_EQ(refine_chessboard_corners(nullptr, img.cols, img.rows, static_cast<int>(img.step), cols, rows, q), 0);
+  EXPECT_EQ(q, before);
+}
+
 // right02.jpg and right04.jpg with one grey level of uniform noise (8 draws of cv::RNG(7), as in
 // ar/track/test/mjpeg_real_photo_test.cpp): before session 19 the sector-based finder returned a
 // board with a whole column 26-38 px off on 1 and 5 of them (OpenCV 4.6, Debian 12). The finder
@@ -80,17 +112,12 @@ TEST(ChessboardPhotos, NoisyRight02AndRight04GiveTheClassicFindersBoard) {
     cv::cvtColor(bgr, g, cv::COLOR_BGR2GRAY);
     std::vector<cv::Point2f> ref;
     ASSERT_TRUE(cv::findChessboardCorners(g, cv::Size(9, 6), ref, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE));
-    // Refined with the window inside the squares (0.4 x the smallest spacing, at most 11 px):
-    // OpenCV's fixed 11 px window moves right02's corners 4.4 px (calibration session 19).
-    double spacing = 1e9;
-    for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 9; ++c) {
-        if (c + 1 < 9) spacing = std::min(spacing, static_cast<double>(cv::norm(ref[r * 9 + c + 1] - ref[r * 9 + c])));
-        if (r + 1 < 6) spacing = std::min(spacing, static_cast<double>(cv::norm(ref[(r + 1) * 9 + c] - ref[r * 9 + c])));
-      }
-    const int half = std::clamp(static_cast<int>(0.4 * spacing), 2, 11);
-    cv::cornerSubPix(g, ref, cv::Size(half, half), cv::Size(-1, -1),
-                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+    // Refined with the window inside the squares, as detect_chessboard refines: OpenCV's fixed
+    // 11 px window moves right02's corners 4.4 px (calibration session 19).
+    std::vector<Eigen::Vector2d> p;
+    for (const cv::Point2f& q : ref) p.emplace_back(q.x, q.y);
+    ASSERT_GT(refine_chessboard_corners(g.data, g.cols, g.rows, static_cast<int>(g.step), 9, 6, p), 0) << name;
+    for (std::size_t i = 0; i < ref.size(); ++i) ref[i] = cv::Point2f(static_cast<float>(p[i].x()), static_cast<float>(p[i].y()));
     cv::RNG rng(7);
     for (int d = 1; d <= 8; ++d) {
       cv::Mat n(g.size(), CV_16S), sum, noisy;

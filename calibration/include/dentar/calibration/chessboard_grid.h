@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <vector>
 
 namespace dentar::calibration {
@@ -25,6 +26,15 @@ struct GridSmoothness {
 inline constexpr double kMaxGridSecondDifference = 0.35;
 inline bool GridSmoothness::smooth() const { return worst_ratio <= kMaxGridSecondDifference; }
 GridSmoothness chessboard_grid_smoothness(const std::vector<Eigen::Vector2d>& points, int cols, int rows);
+
+// The sub-pixel placement detect_chessboard gives the finders' corners (intrinsics.cpp has why):
+// cv::cornerSubPix with a half-window of 0.4x the smallest corner spacing, 2..11 px, so the
+// window stays inside the squares; a corner the refinement moves farther than half that window
+// (it slid to another edge) keeps its position. gray: 8-bit, stride in bytes; points row-major,
+// cols x rows, px, refined in place. Returns the half-window used (px), or 0 when the points are
+// not cols x rows or the image is empty (nothing is changed then).
+int refine_chessboard_corners(const std::uint8_t* gray, int width, int height, int stride_bytes, int cols, int rows,
+                              std::vector<Eigen::Vector2d>& points);
 
 struct BoardView;  // intrinsics.h
 // RMS distance of a board's image points to the best plane homography of its object points, px
