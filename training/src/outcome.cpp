@@ -411,6 +411,13 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
         s.points = std::clamp(R.points * reg_rem[r] / reg_vol[r] - price * reg_over[r], 0.0, R.points);
       if (reg_rem[r] <= 0 && reg_over[r] <= 0) {
         s.why = "nothing of this region was removed.";
+      } else if (R.points <= 0) {
+        // A region without points of its own (the access opening's: its criteria score it). The sum
+        // read "(0 x 96.9 % = 0.00 points), nothing cut beyond it" beside 5.48 mm3 of
+        // over-preparation on the same page (issue 25, session 20): such a region is not charged
+        // for a zone, so it says nothing about what was cut beyond it.
+        s.why = fmt(s.coverage_pct, 0) + " % of the region removed; the region carries no points of its own (the "
+                "exercise's criteria score the preparation).";
       } else {
         // The sum is written with the figures it is made of, to 2 decimals (issue 25, session 20:
         // at 1 decimal "5.9 points, less 0.3 ... = 5.5 points" did not add up for a reader).

@@ -763,6 +763,12 @@ TEST(OutcomeCases, AccessOpeningUntouchedCompleteOverPreparedExposedPerforated) 
   EXPECT_EQ(go.criteria[5].score, 0);
   EXPECT_TRUE(has(go.criteria[5].detail, "below the floor level")) << go.criteria[5].detail;
   EXPECT_LE(go.points, 15.0);
+  // The access region carries no points: its sentence says so, and does not say that nothing was
+  // cut beyond it while the outcome reports over-preparation (session 20, the live default).
+  ASSERT_EQ(go.regions.size(), 1u);
+  EXPECT_GT(go.overprep_mm3, 0.1);
+  EXPECT_FALSE(has(go.regions[0].why, "nothing cut beyond it")) << go.regions[0].why;
+  EXPECT_TRUE(has(go.regions[0].why, "carries no points of its own")) << go.regions[0].why;
   // Perforated: through the floor and out of the bottom face.
   VoxelVolume through = c.ideal();
   carve(through, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.5; });
