@@ -411,16 +411,28 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
         s.points = std::clamp(R.points * reg_rem[r] / reg_vol[r] - price * reg_over[r], 0.0, R.points);
       if (reg_rem[r] <= 0 && reg_over[r] <= 0) {
         s.why = "nothing of this region was removed.";
+      } else if (R.points <= 0) {
+        // A region without points of its own (the access opening's: its criteria score it). The sum
+        // read "(0 x 96.9 % = 0.00 points), nothing cut beyond it" beside 5.48 mm3 of
+        // over-preparation on the same page (issue 25, session 20): such a region is not charged
+        // for a zone, so it says nothing about what was cut beyond it.
+        s.why = fmt(s.coverage_pct, 0) + " % of the region removed; the region carries no points of its own (the "
+                "exercise's criteria score the preparation).";
       } else {
+        // The sum is written with the figures it is made of, to 2 decimals (issue 25, session 20:
+        // at 1 decimal "5.9 points, less 0.3 ... = 5.5 points" did not add up for a reader).
+        const double gross = R.points * s.coverage_pct / 100;
+        const double charge = price * reg_over[r];
         s.why = fmt(s.coverage_pct, 0) + " % of the region removed (" + fmt(R.points, 0) + " x " +
-                fmt(s.coverage_pct, 0) + " % = " + fmt(R.points * s.coverage_pct / 100, 1) + " points)" +
-                (reg_over[r] > 0 ? ", less " + fmt(price * reg_over[r], 1) + " for " + fmt(reg_over[r]) +
+                fmt(s.coverage_pct, 1) + " % = " + fmt(gross) + " points)" +
+                (reg_over[r] > 0 ? ", less " + fmt(charge) + " for " + fmt(reg_over[r]) +
                                        " mm3 cut too far beyond it (within " + fmt(R.zone_mm, 1) + " mm, " +
                                        fmt(price, 3) +
                                        (ex.overprep_exercise_price ? " points per mm3, the exercise's price)"
                                                                    : " points per mm3 of this region)")
                                  : ", nothing cut beyond it") +
-                " = " + fmt(s.points, 1) + " points.";
+                " = " + fmt(s.points) + " points" +
+                (gross - charge < 0 ? " (a region's points do not go below 0)." : ".");
       }
       o.regions.push_back(s);
     } else if (R.role == RegionRole::kForbidden) {
@@ -662,7 +674,10 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
         {"over-reduction", c,
          fmt(o.beyond_zone_mm3) + " mm3 of sound tooth was cut away beyond the tolerance around the outline (" + zones +
              "); this exercise charges " + fmt(per_mm3, 3) + " points per mm3 (" + fmt(ex.over_reduction_rate, 2) +
-             " x what a mm3 of target left standing costs): " + fmt(c, 1) + " points."});
+             // The price's own figures (issue 25, session 20): "what a mm3 of target left standing costs"
+             // read as 0.579 beside the class I cavity's 0.405 per mm3 (its 7 of the 10 points).
+             " x the exercise's " + fmt(o.max_points, 0) + " points over its " + fmt(o.target_mm3) +
+             " mm3 of target): " + fmt(c, 1) + " points."});
   }
   if (access && ex.access_zone_rate > 0 && o.access_zone_mm3 > 0 && o.target_mm3 > 0) {
     double access_zone = 0;

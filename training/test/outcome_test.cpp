@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <regex>
 #include <string>
 
 namespace dentar::training {
@@ -479,6 +481,31 @@ TEST(OutcomeCases, GradedRegionCompleteHalfAndOverPrepared) {
   EXPECT_TRUE(has(wide.regions[0].why, "cut too far beyond it")) << wide.regions[0].why;
 }
 
+// Issue 25, session 20: a region's sentence is a sum a reader can check. At 1 decimal the live
+// class I default read "(7 x 84 % = 5.9 points), less 0.3 for 0.86 mm3 ... = 5.5 points".
+TEST(OutcomeCases, RegionSentenceAddsUpToItsPoints) {
+  const Cases c;
+  const std::regex sum_re(R"(\(\d+ x ([0-9.]+) % = ([0-9.]+) points\)(, less ([0-9.]+) for)?.* = ([0-9.]+) points)");
+  int with_charge = 0;
+  // Complete, half deep, 0.5 mm too wide, 0.3 mm too wide and half deep.
+  for (const auto& [r, z0] : {std::pair{2.0, 6.0}, {2.0, 8.0}, {2.5, 6.0}, {2.3, 7.0}}) {
+    const OutcomeScores o = c.score(c.well(r, z0));
+    ASSERT_EQ(o.regions.size(), 1u);
+    const RegionScore& g = o.regions[0];
+    std::smatch mm;
+    ASSERT_TRUE(std::regex_search(g.why, mm, sum_re)) << g.why;
+    const double cov = std::stod(mm[1]), gross = std::stod(mm[2]), total = std::stod(mm[5]);
+    const double charge = mm[4].matched ? std::stod(mm[4]) : 0.0;
+    with_charge += mm[4].matched ? 1 : 0;
+    EXPECT_NEAR(cov, g.coverage_pct, 0.051) << g.why;
+    EXPECT_NEAR(gross, g.max_points * g.coverage_pct / 100, 0.0051) << g.why;
+    EXPECT_NEAR(total, g.points, 0.0051) << g.why;
+    // The written terms give the written result (to the last digit's rounding).
+    EXPECT_NEAR(std::max(0.0, gross - charge), total, 0.0151) << g.why;
+  }
+  EXPECT_GE(with_charge, 2);
+}
+
 TEST(OutcomeCases, PulpExposureAndPerforationCostWhatTheExerciseSays) {
   Cases c;
   // Exposed: the well taken 0.6 mm into the pulp sphere's top (z 5.8 mm).
@@ -612,6 +639,13 @@ TEST(OutcomeCases, ToleranceAndOverReductionChargeOnlyWhatIsBeyondThem) {
   EXPECT_EQ(charged.penalties[0].name, "over-reduction");
   EXPECT_NEAR(charged.penalties[0].points, std::min(4.0, 4.0 / charged.target_mm3 * charged.beyond_zone_mm3), 1e-9);
   EXPECT_TRUE(has(charged.penalties[0].why, "beyond the tolerance")) << charged.penalties[0].why;
+  // The price is said with its own figures (the exercise's points over its target), not as "what a
+  // mm3 of target left standing costs", which a region's own price per mm3 can contradict.
+  char target_txt[32];
+  std::snprintf(target_txt, sizeof target_txt, "%.2f", charged.target_mm3);
+  EXPECT_TRUE(has(charged.penalties[0].why, std::string("x the exercise's 4 points over its ") + target_txt +
+                                                " mm3 of target"))
+      << charged.penalties[0].why;
   EXPECT_EQ(charged.points, 0.0);  // 18 mm3 beyond a 50 mm3 target: the zone's excess already took the rest
   // A small gouge 1.5 mm outside the zone (a 0.5 mm bore, 1 mm deep, at r 4 mm).
   VoxelVolume spot = c.well(2.0, 6.0);
@@ -729,6 +763,12 @@ TEST(OutcomeCases, AccessOpeningUntouchedCompleteOverPreparedExposedPerforated) 
   EXPECT_EQ(go.criteria[5].score, 0);
   EXPECT_TRUE(has(go.criteria[5].detail, "below the floor level")) << go.criteria[5].detail;
   EXPECT_LE(go.points, 15.0);
+  // The access region carries no points: its sentence says so, and does not say that nothing was
+  // cut beyond it while the outcome reports over-preparation (session 20, the live default).
+  ASSERT_EQ(go.regions.size(), 1u);
+  EXPECT_GT(go.overprep_mm3, 0.1);
+  EXPECT_FALSE(has(go.regions[0].why, "nothing cut beyond it")) << go.regions[0].why;
+  EXPECT_TRUE(has(go.regions[0].why, "carries no points of its own")) << go.regions[0].why;
   // Perforated: through the floor and out of the bottom face.
   VoxelVolume through = c.ideal();
   carve(through, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.5; });
