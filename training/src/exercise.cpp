@@ -326,6 +326,15 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
         if (!get_string(c, o["orifices"][i], "name", path, f.name, true) ||
             !get_vec3_mm(c, o["orifices"][i], "position_mm", path, f.position_m))
           return Error{c.err};
+        if (o["orifices"][i].contains("canal_axis")) {
+          Eigen::Vector3d ax;
+          if (!get_vec3_mm(c, o["orifices"][i], "canal_axis", path, ax, 1.0)) return Error{c.err};
+          if (!(ax.norm() > 1e-9) || !(ax.normalized().z() > 0.1))
+            return Error{name + ": field '" + path + "canal_axis': must point toward occlusal (a direction with z > 0.1 "
+                         "after normalising; the axis from the orifice up the straight-line path), got [" +
+                         std::to_string(ax.x()) + ", " + std::to_string(ax.y()) + ", " + std::to_string(ax.z()) + "]"};
+          f.canal_axis = ax.normalized();
+        }
         a.orifices.push_back(f);
       }
       double oz = 0, fz = 0;

@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <sstream>
 
+#include <Eigen/Geometry>
+
 namespace dentar::training {
 namespace {
 
@@ -15,6 +17,12 @@ using volume::kIsoDensity;
 constexpr double kFullShare = 0.9;
 // ... and the pulpal floor its points in full from this share of the floor reached (below).
 constexpr double kFloorFullReach = 0.9;
+// Issue 25, session 20: the straight-line access criterion (continuous access points). Each file
+// path starts on a disk of this radius around the orifice (an ISO size 40 file's 0.40 mm tip)...
+constexpr double kFileRadius = 0.2e-3;
+// ... and the paths' share clear, and the chamber's roof removed, each earn in full from 90 %.
+constexpr double kStraightFull = 0.9;
+constexpr double kRoofFull = 0.9;
 
 bool open_at(const volume::VoxelVolume& v, const Eigen::Vector3d& p) {
   const Eigen::Vector3d q = (p - v.origin()).cwiseQuotient(v.spacing());
@@ -94,6 +102,56 @@ double line_of_sight(const volume::VoxelVolume& cut, const Eigen::Vector3d& from
   for (int ring = 1; ring <= 2; ++ring)
     for (int a = 0; a < 8; ++a) cast(cone * ring / 2.0, a * M_PI / 4.0);
   return static_cast<double>(clear) / rays;
+}
+
+double straight_line_access(const volume::VoxelVolume& cut, const Eigen::Vector3d& orifice, const Eigen::Vector3d& axis_up,
+                            double top_z, double radius, double cone_deg) {
+  const Eigen::Vector3d u = axis_up.normalized();
+  if (!(u.z() > 0.1)) return 0.0;  // a canal axis must rise toward the opening
+  // Two unit vectors across the axis.
+  const Eigen::Vector3d e1 = (std::abs(u.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()).cross(u).normalized();
+  const Eigen::Vector3d e2 = u.cross(e1);
+  const double step = 0.5 * cut.spacing().minCoeff();
+  const double tilt = cone_deg * M_PI / 180.0;
+  int rays = 0, clear = 0;
+  for (int o = 0; o < 9; ++o) {
+    const double ao = (o - 1) * M_PI / 4.0;
+    const Eigen::Vector3d from = o == 0 ? orifice : Eigen::Vector3d(orifice + radius * (std::cos(ao) * e1 + std::sin(ao) * e2));
+    for (int t = 0; t < 9; ++t) {
+      const double at = (t - 1) * M_PI / 4.0;
+      const Eigen::Vector3d d = t == 0 ? u
+                                       : Eigen::Vector3d(std::cos(tilt) * u +
+                                                         std::sin(tilt) * (std::cos(at) * e1 + std::sin(at) * e2));
+      ++rays;
+      if (d.z() <= 0 || !open_at(cut, from)) continue;
+      bool ok = true;
+      for (double s = step;; s += step) {
+        const Eigen::Vector3d p = from + s * d;
+        if (p.z() >= top_z) break;
+        if (!open_at(cut, p)) { ok = false; break; }
+      }
+      clear += ok;
+    }
+  }
+  return static_cast<double>(clear) / rays;
+}
+
+double roof_removed(const volume::VoxelVolume& start, const volume::VoxelVolume& cut, double from_z) {
+  const Eigen::Vector3i d = start.dims();
+  const int k0 = std::max(0, static_cast<int>(std::ceil((from_z - start.origin().z()) / start.spacing().z() - 1e-9)));
+  int foot = 0, open = 0;
+  for (int j = 0; j < d.y(); ++j)
+    for (int i = 0; i < d.x(); ++i) {
+      int top = -1;
+      for (int k = d.z() - 1; k >= k0; --k)
+        if (start.density(i, j, k) > 0 && start.material(i, j, k) == volume::Material::kPulp) { top = k; break; }
+      if (top < 0) continue;
+      ++foot;
+      int k = d.z() - 1;
+      while (k > top && cut.density(i, j, k) < kIsoDensity) --k;
+      if (k == top) ++open;
+    }
+  return foot > 0 ? static_cast<double>(open) / foot : 0.0;
 }
 
 WallProfile wall_profile(const volume::VoxelVolume& cut, const Eigen::Vector3d& axis, const Eigen::Vector3d& dir,
@@ -462,13 +520,37 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
                                 " % of the sight lines from the canal orifices to the opening are clear (" + det +
                                 "); 3 needs 90 %, 2 needs 60 %, 1 needs 30 %."});
     } else {
-      // 3 points at 90 % of the sight lines clear, falling linearly to 0 with none clear (the
-      // bands' thresholds, 60 % for 2 and 30 % for 1, lie on the line).
-      const double vs = 3.0 * std::clamp(vis / 0.9, 0.0, 1.0);
-      o.criteria.push_back({"canal orifices visible", vs, 100 * vis, "% of sight lines",
-                            fmt(vs) + " of 3: " + fmt(100 * vis, 0) +
-                                " % of the sight lines from the canal orifices to the opening are clear (" + det +
-                                "); 3 points at 90 % or more, 1 point less for every 30 % fewer."});
+      // Straight-line access (issue 25, session 20). The sight lines above (a 10 deg cone around +z
+      // from each orifice) are clear once a hole lies over each orifice, which a novice's partial
+      // unroofing also gives: they hardly separated skill (pooled rank correlation 0.380). What an
+      // endodontist grades is a file entering each canal along its axis without touching a wall
+      // or a shelf, with the chamber's roof removed completely. So the criterion is the product of
+      //   s: the share of file paths clear from each orifice along its canal's axis, widened
+      //      occlusally by the sight cone (straight_line_access), averaged over the orifices, and
+      //   r: the share of the chamber's footprint (chamber and horns, from the orifices' level up)
+      //      with no dentin left over it (roof_removed),
+      // 3 x min(1, s / 0.9) x min(1, r / 0.9): a roof shelf over an orifice or a horn costs in
+      // proportion, even where the paths are clear; an untouched tooth has neither (0).
+      double low = a.orifices.front().position_m.z(), sl = 0;
+      std::string sdet;
+      for (const auto& f : a.orifices) {
+        low = std::min(low, f.position_m.z());
+        const double v = straight_line_access(cut, f.position_m, f.canal_axis, a.opening_z_m, kFileRadius,
+                                              a.sight_cone_deg);
+        sl += v;
+        sdet += (sdet.empty() ? "" : ", ") + f.name + " " + fmt(100 * v, 0) + " %";
+      }
+      sl /= static_cast<double>(a.orifices.size());
+      const double roof = roof_removed(start, cut, low);
+      const double fs = std::clamp(sl / kStraightFull, 0.0, 1.0), fr = std::clamp(roof / kRoofFull, 0.0, 1.0);
+      const double vs = 3.0 * fs * fr;
+      o.criteria.push_back(
+          {"straight-line access", vs, 100 * sl, "% of file paths",
+           fmt(vs) + " of 3: " + fmt(100 * sl, 0) + " % of the file paths from the canal orifices along their canals' " +
+               "axes (widened " + fmt(a.sight_cone_deg, 0) + " deg occlusally) reach the opening clear (" + sdet +
+               "), and " + fmt(100 * roof, 0) + " % of the pulp chamber's roof and horns is removed; 3 x min(1, " +
+               fmt(100 * sl, 0) + " / 90) x min(1, " + fmt(100 * roof, 0) + " / 90). (Sight lines straight up from " +
+               "the orifices: " + fmt(100 * vis, 0) + " % clear: " + det + ".)"});
     }
     // 2-5. Axial walls.
     const struct { const char* name; Eigen::Vector3d dir; } walls[4] = {

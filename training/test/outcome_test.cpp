@@ -1024,6 +1024,47 @@ TEST(OutcomeCases, ContinuousAccessPointsFallWithTheDeviation) {
   for (int w = 1; w <= 4; ++w) EXPECT_LT(c.score(flared).criteria[w].score, 1.01);
 }
 
+// Issue 25, session 20: the continuous orifice criterion grades straight-line access. A partial
+// unroofing (two holes through the chamber's roof, one over each orifice) clears every sight line
+// straight up from the orifices, which the old criterion paid in full (3 of 3), but leaves the roof
+// as shelves over the chamber: it earns in proportion to the roof removed. The ideal access 3,
+// untouched 0; a file path along a canal axis tilted past the opening's side is blocked.
+TEST(OutcomeCases, StraightLineAccessPaysARemovedRoofNotSightLines) {
+  AccessCase c;
+  c.ex.access_points = AccessPoints::kContinuous;
+  const AccessGeometry& a = *c.ex.access;
+  EXPECT_EQ(c.score(c.start).criteria[0].score, 0.0);
+  EXPECT_EQ(roof_removed(c.start, c.start, 3.2e-3), 0.0);
+  const OutcomeScores id = c.score(c.ideal());
+  EXPECT_EQ(id.criteria[0].name, "straight-line access");
+  EXPECT_EQ(id.criteria[0].score, 3.0) << id.criteria[0].detail;
+  EXPECT_EQ(roof_removed(c.start, c.ideal(), 3.2e-3), 1.0);
+  // The access cut down to 0.5 mm above the chamber (roof 4.0..4.5 mm left), then a hole of r 0.9 mm
+  // through the roof over each orifice.
+  VoxelVolume partial = c.start.clone();
+  carve(partial, [](const Eigen::Vector3d& p) {
+    return (std::hypot(p.x() - 5, p.y() - 5) <= 2.5 && p.z() >= 4.5) ||
+           ((std::hypot(p.x() - 4, p.y() - 5) <= 0.9 || std::hypot(p.x() - 6, p.y() - 5) <= 0.9) && p.z() >= 3.95);
+  });
+  for (const auto& f : a.orifices) EXPECT_EQ(line_of_sight(partial, f.position_m, a.opening_z_m, 10), 1.0) << f.name;
+  const double roof = roof_removed(c.start, partial, 3.2e-3);
+  EXPECT_GT(roof, 0.3);
+  EXPECT_LT(roof, 0.8);
+  const OutcomeScores pa = c.score(partial);
+  EXPECT_NEAR(pa.criteria[0].score, 3.0 * roof / 0.9, 0.05) << pa.criteria[0].detail;  // the paths clear
+  EXPECT_LT(pa.criteria[0].score, id.criteria[0].score - 0.5);
+  EXPECT_TRUE(has(pa.criteria[0].detail, "% of the pulp chamber's roof and horns is removed")) << pa.criteria[0].detail;
+  EXPECT_TRUE(has(pa.criteria[0].detail, "Sight lines straight up from the orifices: 100 % clear")) << pa.criteria[0].detail;
+  // A file path along a canal axis tilted 40 deg toward -x from orifice A leaves the r 2.5 mm access
+  // through its side: blocked where the vertical paths are clear.
+  const Eigen::Vector3d tilted(-std::sin(40 * M_PI / 180), 0, std::cos(40 * M_PI / 180));
+  EXPECT_EQ(straight_line_access(c.ideal(), a.orifices[0].position_m, Eigen::Vector3d::UnitZ(), a.opening_z_m, 0.2e-3, 0),
+            1.0);
+  EXPECT_EQ(straight_line_access(c.ideal(), a.orifices[0].position_m, tilted, a.opening_z_m, 0.2e-3, 0), 0.0);
+  EXPECT_EQ(straight_line_access(c.start, a.orifices[0].position_m, Eigen::Vector3d::UnitZ(), a.opening_z_m, 0.2e-3, 10),
+            0.0);
+}
+
 TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
   const std::string graded = R"({"format":"dentar-exercise","version":1,"name":"t","procedure":"p",
     "tooth":{"kind":"molar","voxel_mm":0.2},"bur":{"shape":"sphere","radius_mm":0.5},"time_limit_s":60,
@@ -1076,6 +1117,20 @@ TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
   tapered.replace(tapered.find("\"access_points\""), 0,
                   "\"wall_taper\":{\"points\":1,\"axis_point_mm\":[0,0,0],\"from_z_mm\":1,\"to_z_mm\":2},");
   err(tapered, "outcome.wall_taper");
+  // A canal axis (session 20) is normalised; one that does not rise toward occlusal is refused, named.
+  const auto axis = [&](const std::string& v) {
+    std::string j = access;
+    const std::string at = "\"position_mm\":[0,0,1]";
+    j.replace(j.find(at), at.size(), at + ",\"canal_axis\":" + v);
+    return j;
+  };
+  auto ax = parse_exercise(axis("[0,3,4]"), "t.json");
+  ASSERT_TRUE(ax.ok()) << ax.error();
+  EXPECT_NEAR((ax->access->orifices[0].canal_axis - Eigen::Vector3d(0, 0.6, 0.8)).norm(), 0.0, 1e-12);
+  EXPECT_EQ(ac->access->orifices[0].canal_axis, Eigen::Vector3d::UnitZ());
+  err(axis("[0,1,-1]"), "outcome.orifices[0].canal_axis");
+  err(axis("[0,0,0]"), "outcome.orifices[0].canal_axis");
+  err(axis("[0,1]"), "outcome.orifices[0].canal_axis");
 }
 
 }  // namespace

@@ -67,6 +67,10 @@ struct ExerciseStep {
 struct Orifice {
   std::string name;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  // The canal's axis at the orifice, a unit vector toward occlusal (outcome
+  // field "canal_axis", issue 25 session 20): the straight line a file takes
+  // into the canal. Absent: +z.
+  Eigen::Vector3d canal_axis = Eigen::Vector3d::UnitZ();
 };
 
 // Access-opening geometry (outcome kind "access_opening").

@@ -109,5 +109,21 @@ WallProfile wall_profile(const volume::VoxelVolume& cut, const Eigen::Vector3d& 
 // reach z >= top_z_m through open voxels (density < iso) of `cut`.
 double line_of_sight(const volume::VoxelVolume& cut, const Eigen::Vector3d& from_m, double top_z_m,
                      double cone_deg);
+// Straight-line access to one canal (issue 25, session 20): the share (0..1) of
+// file paths that reach z >= top_z_m through open voxels of `cut`. The paths
+// start on the orifice's disk (its centre and 8 points at radius_m around it,
+// across `axis_up`) and run occlusally along the canal's axis `axis_up` and
+// along 8 directions tilted cone_deg from it (81 paths): a file that enters
+// the canal along its axis, widened occlusally, without touching a wall or a
+// dentin shelf left over the orifice. An origin in solid tooth is a blocked path.
+double straight_line_access(const volume::VoxelVolume& cut, const Eigen::Vector3d& orifice_m,
+                            const Eigen::Vector3d& axis_up, double top_z_m, double radius_m, double cone_deg);
+// The pulp chamber's roof removed (issue 25, session 20): of the chamber's
+// footprint (voxel columns holding a pulp voxel of `start` at or above
+// from_z_m: the chamber and its horns, not the canals below), the share whose
+// column is open in `cut` from its highest starting pulp voxel to the top of
+// the volume. 0 for an untouched tooth; a roof or dentin shelf left over any
+// part of the chamber or a horn keeps those columns closed.
+double roof_removed(const volume::VoxelVolume& start, const volume::VoxelVolume& cut, double from_z_m);
 
 }  // namespace dentar::training
