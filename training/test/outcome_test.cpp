@@ -1142,6 +1142,8 @@ TEST(Exercise, OutlineExtensionFieldsAreCheckedAndNamed) {
   err(R"({"points":4,"from_region":"a","axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7,"ideal_mm":0.6})",
       "ideal_mm");
   err(R"({"points":4,"axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7})", "outcome.outline_extension.from_region");
+  err(R"({"points":4,"from_region":"a","axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7,"overprep_price":"x"})",
+      "'outcome.outline_extension.overprep_price': 'x' is not a price");
 }
 
 }  // namespace
