@@ -418,6 +418,51 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
       t.to_z_m = tz * 1e-3;
       ex.wall_taper = t;
     }
+    if (o.contains("outline_extension")) {
+      const json& w = o["outline_extension"];
+      const std::string path = "outcome.outline_extension.";
+      if (!w.is_object()) return Error{name + ": field 'outcome.outline_extension': must be an object"};
+      if (ex.outcome != OutcomeKind::kGradedRegions)
+        return Error{name + ": field 'outcome.outline_extension': only a graded_regions outcome takes it"};
+      OutlineExtension t;
+      double fz = 0, tz = 0, margin = 0.5, ideal = 0.25, acc = 0.5, mod = 1.0;
+      if (!get_number(c, w, "points", path, t.points, true, 0, 1000) ||
+          !get_string(c, w, "from_region", path, t.from_region, true) ||
+          !get_vec3_mm(c, w, "axis_point_mm", path, t.axis_point_m) ||
+          !get_number(c, w, "from_z_mm", path, fz, true, -100, 100) ||
+          !get_number(c, w, "to_z_mm", path, tz, true, -100, 100) ||
+          !get_number(c, w, "end_margin_mm", path, margin, false, 0, 10) ||
+          !get_number(c, w, "ideal_mm", path, ideal, false, 0, 10) ||
+          !get_number(c, w, "acceptable_mm", path, acc, false, 0, 10) ||
+          !get_number(c, w, "modification_mm", path, mod, false, 0, 10) ||
+          !get_number(c, w, "accept_fraction", path, t.accept_fraction, false, 0, 1) ||
+          !get_number(c, w, "modify_fraction", path, t.modify_fraction, false, 0, 1))
+        return Error{c.err};
+      std::string price = "region";
+      if (!get_string(c, w, "overprep_price", path, price, false)) return Error{c.err};
+      if (price != "region" && price != "coverage")
+        return Error{name + ": field 'outcome.outline_extension.overprep_price': '" + price +
+                     "' is not a price (\"region\", the default, or \"coverage\")"};
+      t.price_follows_coverage = price == "coverage";
+      if (tz <= fz) return Error{name + ": field 'outcome.outline_extension.to_z_mm': must be above from_z_mm"};
+      if (!(ideal <= acc && acc <= mod))
+        return Error{name + ": fields 'outcome.outline_extension.ideal_mm' / 'acceptable_mm' / 'modification_mm': must "
+                     "not decrease (" + std::to_string(ideal) + ", " + std::to_string(acc) + ", " + std::to_string(mod) + ")"};
+      const Region* r = ex.region(t.from_region);
+      if (!r || r->role != RegionRole::kTarget)
+        return Error{name + ": field 'outcome.outline_extension.from_region': '" + t.from_region +
+                     "' is not a target region of this exercise"};
+      if (r->points < t.points)
+        return Error{name + ": field 'outcome.outline_extension.points': " + std::to_string(t.points) +
+                     " is more than region '" + t.from_region + "' has (" + std::to_string(r->points) + ")"};
+      t.from_z_m = fz * 1e-3;
+      t.to_z_m = tz * 1e-3;
+      t.end_margin_m = margin * 1e-3;
+      t.ideal_m = ideal * 1e-3;
+      t.acceptable_m = acc * 1e-3;
+      t.modification_m = mod * 1e-3;
+      ex.outline_extension = t;
+    }
   }
   bool any_target = false;
   for (const auto& r : ex.regions) any_target |= r.role == RegionRole::kTarget;

@@ -314,6 +314,111 @@ Criterion wall_taper_criterion(const WallTaper& t, const volume::VoxelVolume& st
   return c;
 }
 
+// Outline extension (issue 25, session 20): see OutlineExtension (exercise.h) and docs/formats.md.
+Criterion outline_extension_criterion(const OutlineExtension& t, const volume::VoxelVolume& start,
+                                      const RegionMasks& m, const volume::VoxelVolume& cut) {
+  Criterion c;
+  c.name = "outline extension";
+  c.unit = "mm mean |distance| of the cut outline from the target outline";
+  c.max_score = t.points;
+  const struct { const char* name; Eigen::Vector3d dir, across; } walls[4] = {
+      {"mesial", {-1, 0, 0}, {0, 1, 0}}, {"distal", {1, 0, 0}, {0, 1, 0}},
+      {"buccal", {0, -1, 0}, {1, 0, 0}}, {"palatal", {0, 1, 0}, {1, 0, 0}}};
+  const double h = start.spacing().minCoeff(), step = 0.25 * h;
+  const auto voxel = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d q = (p - start.origin()).cwiseQuotient(start.spacing());
+    return Eigen::Vector3i(static_cast<int>(std::lround(q.x())), static_cast<int>(std::lround(q.y())),
+                           static_cast<int>(std::lround(q.z())));
+  };
+  const auto opened = [&](const Eigen::Vector3i& v) {  // solid in the starting tooth, open now
+    return start.density(v.x(), v.y(), v.z()) >= kIsoDensity && cut.density(v.x(), v.y(), v.z()) < kIsoDensity;
+  };
+  const auto in_target = [&](const Eigen::Vector3i& v) {
+    if ((v.array() < 0).any() || (v.array() >= m.dims.array()).any()) return false;
+    return (m.bits[m.index(v.x(), v.y(), v.z())] & m.target_bits) != 0;
+  };
+  const auto along = [&](const Eigen::Vector3i& v, const Eigen::Vector3d& c0, const Eigen::Vector3d& dir) {
+    return (start.voxel_center(v.x(), v.y(), v.z()) - c0).dot(dir);
+  };
+  const double each = t.points / 4.0;
+  const double search = 1.5e-3;  // past the outline: beyond the modification band either way
+  std::string parts;
+  double abs_sum = 0;
+  int abs_n = 0;
+  for (const auto& w : walls) {
+    std::vector<double> d;  // signed distances (m) over the wall's length and height
+    for (double z = t.from_z_m; z <= t.to_z_m + 1e-12; z += start.spacing().z()) {
+      const Eigen::Vector3d a(t.axis_point_m.x(), t.axis_point_m.y(), z);
+      const double lo = outline_distance(m, start, a, -w.across), hi = outline_distance(m, start, a, w.across);
+      if (lo <= 0 || hi <= 0) continue;  // the axis is outside the target at this level
+      const double u0 = -(lo - 0.5 * h) + t.end_margin_m, u1 = (hi - 0.5 * h) - t.end_margin_m;
+      std::vector<double> us;
+      if (u1 < u0) us.push_back(0.5 * (u0 + u1));
+      else
+        for (double u = u0; u <= u1 + 1e-12; u += h) us.push_back(u);
+      for (const double u : us) {
+        // Along the ray, in voxels: the last target voxel from c0 on (the target outline lies half a voxel
+        // past its centre) and the farthest voxel the cut opened (the cut outline likewise), each as its
+        // centre's distance along the ray, so that a wall a whole number of voxels off measures exactly.
+        const Eigen::Vector3d c0 = a + u * w.across;
+        if (!in_target(voxel(c0))) continue;
+        Eigen::Vector3i last = voxel(c0);
+        int n = 1;
+        for (; n * step < 0.02; ++n) {
+          const Eigen::Vector3i v = voxel(c0 + n * step * w.dir);
+          if (!in_target(v)) break;
+          last = v;
+        }
+        const double o = along(last, c0, w.dir) + 0.5 * h;
+        if (start.density(last.x(), last.y(), last.z()) < kIsoDensity) continue;  // the outline is above the tooth here
+        double e = -1;
+        for (int q = 0; q * step <= o + search; ++q) {
+          const Eigen::Vector3i v = voxel(c0 + q * step * w.dir);
+          if (opened(v)) e = std::max(e, along(v, c0, w.dir) + 0.5 * h);
+        }
+        d.push_back((e > 0 ? e : 0.0) - o);
+      }
+    }
+    std::string part = std::string(w.name) + " wall ";
+    if (d.empty()) {
+      part += "not measured (the target's outline lies outside the tooth between the levels), 0";
+      parts += (parts.empty() ? "" : "; ") + part;
+      continue;
+    }
+    int n[4] = {0, 0, 0, 0};  // ideal, acceptable, modification, unacceptable
+    double worst = 0;
+    for (const double x : d) {
+      const double ax = std::abs(x);
+      n[ax <= t.ideal_m + 1e-9 ? 0 : ax <= t.acceptable_m + 1e-9 ? 1 : ax <= t.modification_m + 1e-9 ? 2 : 3]++;
+      if (ax > std::abs(worst)) worst = x;
+      abs_sum += ax;
+      ++abs_n;
+    }
+    std::vector<double> sorted = d;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    const double median = sorted[sorted.size() / 2];
+    const double N = static_cast<double>(d.size());
+    const double grade = (n[0] + t.accept_fraction * n[1] + t.modify_fraction * n[2]) / N;
+    const double pts = each * grade;
+    c.score += pts;
+    const auto side = [](double x) { return x < 0 ? " short of" : x > 0 ? " past" : " on"; };
+    part += "median " + fmt(std::abs(median) * 1e3) + " mm" + side(median) + " the outline, worst " +
+            fmt(std::abs(worst) * 1e3) + " mm" + side(worst) + " it; of its length " + fmt(100 * n[0] / N, 0) +
+            " % within " + fmt(t.ideal_m * 1e3) + " mm, " + fmt(100 * n[1] / N, 0) + " % within " +
+            fmt(t.acceptable_m * 1e3) + ", " + fmt(100 * n[2] / N, 0) + " % within " + fmt(t.modification_m * 1e3) +
+            ", " + fmt(100 * n[3] / N, 0) + " % beyond: " + fmt(pts) + " of " + fmt(each);
+    parts += (parts.empty() ? "" : "; ") + part;
+  }
+  c.value = abs_n > 0 ? 1e3 * abs_sum / abs_n : 0.0;
+  c.detail = fmt(c.score) + " of " + fmt(t.points, 0) + ": the cut outline against the target outline, per wall " +
+             "(between " + fmt(t.from_z_m * 1e3, 1) + " and " + fmt(t.to_z_m * 1e3, 1) + " mm): " + parts +
+             ". Each wall earns " + fmt(each) + " x the mean grade of its length: 1 within " + fmt(t.ideal_m * 1e3) +
+             " mm of the outline either way (ideal), " + fmt(t.accept_fraction) + " within " +
+             fmt(t.acceptable_m * 1e3) + " (acceptable), " + fmt(t.modify_fraction) + " within " +
+             fmt(t.modification_m * 1e3) + " (needs modification), 0 beyond; short and past are judged alike.";
+  return c;
+}
+
 }  // namespace
 
 Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, const volume::VoxelVolume& start,
@@ -464,9 +569,17 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       s.overprep_mm3 = reg_over[r];
       s.max_points = R.points;
       // Points per mm3 cut too far: this region's own (the default) or the exercise's (overprep_price "exercise").
-      const double price = ex.overprep_exercise_price ? exercise_price : reg_vol[r] > 0 ? R.points / reg_vol[r] : 0;
+      const double price0 = ex.overprep_exercise_price ? exercise_price : reg_vol[r] > 0 ? R.points / reg_vol[r] : 0;
+      // Outline extension (session 20): its points come out of this region's coverage share; the
+      // region's price of a mm3 cut too far stays its own points' (depth costs unchanged).
+      const double oe = ex.outline_extension && ex.outline_extension->from_region == R.name
+                            ? ex.outline_extension->points : 0.0;
+      const double cov_points = R.points - oe;
+      s.max_points = cov_points;
+      const double price =
+          oe > 0 && ex.outline_extension->price_follows_coverage && reg_vol[r] > 0 ? cov_points / reg_vol[r] : price0;
       if (R.points > 0 && reg_vol[r] > 0)
-        s.points = std::clamp(R.points * reg_rem[r] / reg_vol[r] - price * reg_over[r], 0.0, R.points);
+        s.points = std::clamp(cov_points * reg_rem[r] / reg_vol[r] - price * reg_over[r], 0.0, cov_points);
       if (reg_rem[r] <= 0 && reg_over[r] <= 0) {
         s.why = "nothing of this region was removed.";
       } else if (R.points <= 0) {
@@ -479,10 +592,11 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       } else {
         // The sum is written with the figures it is made of, to 2 decimals (issue 25, session 20:
         // at 1 decimal "5.9 points, less 0.3 ... = 5.5 points" did not add up for a reader).
-        const double gross = R.points * s.coverage_pct / 100;
+        const double gross = cov_points * s.coverage_pct / 100;
         const double charge = price * reg_over[r];
-        s.why = fmt(s.coverage_pct, 0) + " % of the region removed (" + fmt(R.points, 0) + " x " +
-                fmt(s.coverage_pct, 1) + " % = " + fmt(gross) + " points)" +
+        s.why = fmt(s.coverage_pct, 0) + " % of the region removed (" + fmt(cov_points, 0) + " x " +
+                fmt(s.coverage_pct, 1) + " % = " + fmt(gross) + " points" +
+                (oe > 0 ? "; its other " + fmt(oe, 0) + " points are the outline extension's" : "") + ")" +
                 (reg_over[r] > 0 ? ", less " + fmt(charge) + " for " + fmt(reg_over[r]) +
                                        " mm3 cut too far beyond it (within " + fmt(R.zone_mm, 1) + " mm, " +
                                        fmt(price, 3) +
@@ -705,6 +819,10 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     for (const auto& r : o.regions) o.earned_points += r.points;
     if (ex.wall_taper) {
       o.criteria.push_back(wall_taper_criterion(*ex.wall_taper, start, m, cut));
+      o.earned_points += o.criteria.back().score;
+    }
+    if (ex.outline_extension) {
+      o.criteria.push_back(outline_extension_criterion(*ex.outline_extension, start, m, cut));
       o.earned_points += o.criteria.back().score;
     }
   }

@@ -1135,3 +1135,111 @@ TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
 
 }  // namespace
 }  // namespace dentar::training
+
+namespace dentar::training {
+namespace {
+
+// Outline extension in mm (issue 25, session 20). Target: a box x 3-7, y 4-6 mm from z 6 mm up through
+// the block's top (10 mm), 7 points of which the outline extension takes 4 (1 per wall), measured from
+// z 6.5 to 9.5 mm with the rubric's bands 0.25 / 0.5 / 1.0 mm.
+struct ExtensionCase {
+  VoxelVolume start = block();
+  Exercise ex;
+  RegionMasks masks;
+  ExtensionCase() {
+    ex.source = "box.json";
+    ex.regions = {Region{"box", RegionRole::kTarget, {box({3, 4, 6}, {7, 6, 11})}, 7.0, 0.8},
+                  Region{"top", RegionRole::kEntry, {box({-1, -1, 9.85}, {11, 11, 11})}, 0, 1}};
+    OutlineExtension t;
+    t.points = 4;
+    t.from_region = "box";
+    t.axis_point_m = Eigen::Vector3d(5, 5, 0) * 1e-3;
+    t.from_z_m = 6.5e-3;
+    t.to_z_m = 9.5e-3;
+    ex.outline_extension = t;
+    auto m = build_masks(ex, start);
+    EXPECT_TRUE(m.ok()) << m.error();
+    masks = *m;
+  }
+  // The box cut with its mesial (-x) wall at x0 and the rest on the outline.
+  VoxelVolume cut(double x0) const {
+    VoxelVolume v = start.clone();
+    carve(v, [&](const Eigen::Vector3d& p) {
+      return p.x() >= x0 - 1e-9 && p.x() <= 7 + 1e-9 && p.y() >= 4 - 1e-9 && p.y() <= 6 + 1e-9 && p.z() >= 6 - 1e-9;
+    });
+    return v;
+  }
+  OutcomeScores score(const VoxelVolume& v) const {
+    auto o = score_outcome(ex, masks, start, v);
+    EXPECT_TRUE(o.ok()) << o.error();
+    return *o;
+  }
+};
+
+TEST(OutcomeCases, OutlineExtensionJudgesShortAndPastByTheSameDistance) {
+  ExtensionCase c;
+  EXPECT_EQ(c.ex.max_points(), 7.0);
+  // Untouched: every wall is short by the whole outline (beyond 1 mm): 0, and the total 0.
+  const OutcomeScores un = c.score(c.start);
+  ASSERT_EQ(un.criteria.size(), 1u);
+  EXPECT_EQ(un.criteria[0].name, "outline extension");
+  EXPECT_EQ(un.criteria[0].score, 0.0) << un.criteria[0].detail;
+  EXPECT_EQ(un.points, 0.0);
+  // The ideal box: every wall on the outline, 4 of 4, and the region's coverage share 3 of 3: 7 of 7.
+  const OutcomeScores id = c.score(c.cut(3.0));
+  EXPECT_NEAR(id.criteria[0].score, 4.0, 1e-9) << id.criteria[0].detail;
+  EXPECT_NEAR(id.regions[0].points, 3.0, 0.02) << id.regions[0].why;
+  EXPECT_NEAR(id.points, 7.0, 0.02);
+  EXPECT_TRUE(id.complete) << id.completion;
+  // The mesial wall 0.5 mm short of the outline over its whole length: acceptable (0.85 of its 1).
+  const OutcomeScores sh = c.score(c.cut(3.5));
+  EXPECT_NEAR(sh.criteria[0].score, 3.85, 1e-9) << sh.criteria[0].detail;
+  EXPECT_TRUE(has(sh.criteria[0].detail, "mesial wall median 0.50 mm short of the outline")) << sh.criteria[0].detail;
+  // The mesial wall 0.5 mm past the outline: the same distance, the same points.
+  const OutcomeScores ov = c.score(c.cut(2.5));
+  EXPECT_NEAR(ov.criteria[0].score, sh.criteria[0].score, 1e-9) << ov.criteria[0].detail;
+  EXPECT_TRUE(has(ov.criteria[0].detail, "mesial wall median 0.50 mm past the outline")) << ov.criteria[0].detail;
+  // 1.5 mm short: beyond the modification band, the mesial wall earns nothing; the buccal and palatal
+  // walls are not cut where their outline runs from x 3.5 to 4.4 mm (10 of their 31 samples, x 3.5-6.5
+  // in 0.1 mm steps): each earns 21/31.
+  const OutcomeScores sh15 = c.score(c.cut(4.5));
+  EXPECT_NEAR(sh15.criteria[0].score, 1.0 + 2.0 * 21.0 / 31.0, 1e-9) << sh15.criteria[0].detail;
+  EXPECT_TRUE(has(sh15.criteria[0].detail, "mesial wall median 1.50 mm short of the outline")) << sh15.criteria[0].detail;
+  // The volume terms still differ: the short box left target standing, the long one cut past it.
+  EXPECT_LT(sh.regions[0].coverage_pct, 100.0);
+  EXPECT_GT(ov.regions[0].overprep_mm3, 0.0);
+}
+
+TEST(Exercise, OutlineExtensionFieldsAreCheckedAndNamed) {
+  const auto text = [](const std::string& oe) {
+    return R"({"format":"dentar-exercise","version":1,"name":"t","procedure":"p",
+    "tooth":{"kind":"molar","voxel_mm":0.2},"bur":{"shape":"sphere","radius_mm":0.5},"time_limit_s":60,
+    "regions":[{"name":"a","role":"target","points":7,"all":[{"shape":"sphere","center_mm":[0,0,5],"radius_mm":1}]}],
+    "steps":[{"name":"s1","region":"a"}],
+    "outcome":{"kind":"graded_regions","outline_extension":)" + oe + "}}";
+  };
+  auto ok = parse_exercise(text(R"({"points":4,"from_region":"a","axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7})"),
+                           "t.json");
+  ASSERT_TRUE(ok.ok()) << ok.error();
+  ASSERT_TRUE(ok->outline_extension.has_value());
+  EXPECT_EQ(ok->max_points(), 7.0);  // taken from the region's 7
+  EXPECT_NEAR(ok->outline_extension->acceptable_m, 0.5e-3, 1e-12);
+  auto err = [&](const std::string& oe, const std::string& needle) {
+    auto r = parse_exercise(text(oe), "t.json");
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(has(r.error(), needle)) << r.error();
+    EXPECT_TRUE(has(r.error(), "t.json")) << r.error();
+  };
+  err(R"({"points":4,"from_region":"b","axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7})",
+      "'outcome.outline_extension.from_region': 'b' is not a target region");
+  err(R"({"points":8,"from_region":"a","axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7})",
+      "outcome.outline_extension.points");
+  err(R"({"points":4,"from_region":"a","axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7,"ideal_mm":0.6})",
+      "ideal_mm");
+  err(R"({"points":4,"axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7})", "outcome.outline_extension.from_region");
+  err(R"({"points":4,"from_region":"a","axis_point_mm":[0,0,0],"from_z_mm":4.2,"to_z_mm":5.7,"overprep_price":"x"})",
+      "'outcome.outline_extension.overprep_price': 'x' is not a price");
+}
+
+}  // namespace
+}  // namespace dentar::training

@@ -114,6 +114,32 @@ struct WallTaper {
   double outline_reach_full_pct = 0;
 };
 
+// Graded regions: outline extension in millimetres (outcome field "outline_extension", issue 25
+// session 20). Each axial wall (mesial -x, distal +x, buccal -y, palatal/lingual +y) is measured
+// along its length (the target outline's extent across the wall, less end_margin at each end, in
+// voxel steps) at every voxel layer between from_z and to_z where the target's outline lies in the
+// starting tooth: the signed distance (m) of the cut outline (the farthest voxel the cut opened
+// along the ray from the axis, searched to 1.5 mm past the outline) from the target outline,
+// negative short of it (under-extended), positive past it (over-extended). Each sample is graded on
+// the rubric's bands: |d| <= ideal: 1, <= acceptable: accept_fraction, <= modification:
+// modify_fraction, beyond: 0; a wall earns points/4 x the mean grade of its samples. The points are
+// taken from the target region `from_region`'s volume coverage share (its coverage earns
+// region points - points); the region's price of a mm3 cut too far is unchanged.
+struct OutlineExtension {
+  double points = 0;
+  std::string from_region;
+  Eigen::Vector3d axis_point_m = Eigen::Vector3d::Zero();
+  double from_z_m = 0, to_z_m = 0;
+  double end_margin_m = 0.5e-3;
+  double ideal_m = 0.25e-3, acceptable_m = 0.5e-3, modification_m = 1.0e-3;
+  double accept_fraction = 0.85, modify_fraction = 0.62;
+  // "overprep_price": "region" (default): a mm3 cut too far in the region's zone costs the region's
+  // declared points over its volume, as without this criterion; "coverage": the price of its coverage
+  // share (region points - points), so a mm3 left and a mm3 cut too far cost the same again (the cut too
+  // far below the floor as well: a comparison rule, session 20).
+  bool price_follows_coverage = false;
+};
+
 struct Exercise {
   std::string source;  // file name (messages)
   std::string name, title, procedure;
@@ -132,6 +158,7 @@ struct Exercise {
   // "flare_deg_per_point"; defaults 25 and 10, the bands' over-flare threshold and step).
   double access_flare_free_deg = 25, access_flare_deg_per_point = 10;
   std::optional<WallTaper> wall_taper;  // graded regions only; its points count in max_points()
+  std::optional<OutlineExtension> outline_extension;  // graded regions only; points taken from a region's
   // What the exercise charges (outcome fields "pulp_exposure_points",
   // "perforation_points"; points subtracted from the total, which never
   // goes below 0). Negative = all the exercise's points (the default: an
