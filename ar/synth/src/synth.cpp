@@ -95,6 +95,9 @@ SynthOptions synth_preset(SynthPreset p) {
     o.look_at_jitter_m = 0.03;
     o.motion_blur = true;
     o.shutter_fraction = 0.7;
+    // A real exposure's continuous blur (issue 28 session 20): 5 fixed sub-frames stepped a
+    // 40 px blur into 5 ghosts 10 px apart and cost detections a camera would make.
+    o.blur_step_px = 1.0;
     o.read_noise_dn = 3.0;
     o.shot_noise_gain = 0.08;
     o.exposure_variation = 0.15;
@@ -235,6 +238,11 @@ std::string SynthOptions::validate() const {
     os << "shutter fraction must be in [0.01, 1]";
   else if (blur_subframes < 3 || blur_subframes > 31 || blur_subframes % 2 == 0)
     os << "blur subframes = " << blur_subframes << " must be odd, 3..31";
+  else if (blur_step_px != 0 && !in(blur_step_px, 0.25, 10))
+    os << "blur step = " << blur_step_px << " px must be 0 (fixed sub-frames) or in [0.25, 10]";
+  else if (blur_subframes_max < blur_subframes || blur_subframes_max > 127 || blur_subframes_max % 2 == 0)
+    os << "blur subframes max = " << blur_subframes_max << " must be odd, blur subframes (" << blur_subframes
+       << ")..127";
   else if (!in(exposure_variation, 0, 0.5))
     os << "exposure variation must be in [0, 0.5]";
   else if (!in(exposure, 0.05, 4.0))
@@ -561,6 +569,7 @@ struct SynthGenerator::Impl {
     return s;
   }
   bool surface_dirty = true;
+  int last_subframes = 1;  // the sub-frames of the last exposure rendered (1: no motion blur)
 
   // Scene light under the camera model: the slow drift times the jumps, which persist (a lamp
   // switched, a shadow) instead of settling as the classic model's do; the AE answers them.
@@ -569,6 +578,45 @@ struct SynthGenerator::Impl {
     for (const auto& [tj, a] : exposure_jumps)
       if (t >= tj) g *= 1.0 + a;
     return opt.exposure * std::clamp(g, 0.2, 5.0);
+  }
+
+  // The number of sub-frames for the exposure [tc - e/2, tc + e/2]: blur_subframes, or with
+  // blur_step_px > 0 enough (odd, bounded) that no tag corner moves more than blur_step_px
+  // between two sub-frames. The path is measured on 16 steps of the head's and the mirror's
+  // motion (pure functions of time: the haptic engine is not run).
+  int blur_subframe_count(double tc, double exposure) const {
+    const int K0 = opt.blur_subframes;
+    if (opt.blur_step_px <= 0) return K0;
+    const auto& c = station.calibration;
+    constexpr int kSteps = 16;
+    std::vector<std::optional<Eigen::Vector2d>> prev;
+    std::vector<double> path;
+    for (int j = 0; j <= kSteps; ++j) {
+      const double ts = tc + (static_cast<double>(j) / kSteps - 0.5) * exposure;
+      const Iso T_cam_man = (T_man_cam(ts) * opt.T_rig_eye).inverse();
+      const Iso T_cam_mtag = T_cam_man * T_man_mir(ts) * c.T_mtag_mir.inverse();
+      std::size_t n = 0;
+      for (const auto& g : tags) {
+        const Iso T_cam_tag = (g.on_mirror ? T_cam_mtag : T_cam_man) * g.placement->T_parent_tag;
+        const double h = 0.5 * g.placement->size_m;
+        static constexpr double kS[4][2] = {{-1, 1}, {1, 1}, {1, -1}, {-1, -1}};
+        for (int k = 0; k < 4; ++k, ++n) {
+          const std::optional<Eigen::Vector2d> px = camera->project(T_cam_tag * V3d(kS[k][0] * h, kS[k][1] * h, 0));
+          if (j == 0) {
+            prev.push_back(px);
+            path.push_back(0);
+            continue;
+          }
+          if (px && prev[n]) path[n] += (*px - *prev[n]).norm();
+          prev[n] = px;
+        }
+      }
+    }
+    double longest = 0;
+    for (double l : path) longest = std::max(longest, l);
+    int K = static_cast<int>(std::ceil(longest / opt.blur_step_px)) + 1;
+    if (K % 2 == 0) ++K;
+    return std::clamp(K, K0, opt.blur_subframes_max);
   }
 
   // One exposure in linear light centred at tc: with motion blur, sub-frames across the
@@ -581,8 +629,9 @@ struct SynthGenerator::Impl {
       read_video_linear(out);
       return;
     }
-    const int K = opt.blur_subframes;
     const double exposure = opt.shutter_fraction / opt.fps;
+    const int K = blur_subframe_count(tc, exposure);
+    last_subframes = K;
     out.create(station.calibration.camera.height, station.calibration.camera.width, CV_32FC3);
     out.setTo(cv::Scalar::all(0));
     for (int j = 0; j < K; ++j) {
@@ -1229,8 +1278,9 @@ Status SynthGenerator::next(SynthFrame& out) {
     glare = im.add_glare(out.image, mid, t);
     im.ae_update(out.image, im.frame);
   } else if (im.opt.motion_blur) {
-    const int K = im.opt.blur_subframes;
     const double exposure = im.opt.shutter_fraction / im.opt.fps;
+    const int K = im.blur_subframe_count(t, exposure);
+    im.last_subframes = K;
     // The sensor integrates light: sub-frames are averaged in linear light
     // (generator v2; v1 averaged the encoded values).
     cv::Mat acc(H, W, CV_32FC3, cv::Scalar::all(0)), lin;
@@ -1300,6 +1350,7 @@ Status SynthGenerator::next(SynthFrame& out) {
   tr.defocus_px = blur_px;
   tr.ae_steps = im.ae_steps;
   tr.camera_speed_deg_s = im.camera_speed(t) * 180.0 / M_PI;
+  tr.blur_subframes = im.opt.motion_blur ? im.last_subframes : 1;
   tr.hand_crossing = mid.finger_in_front;
   tr.glare = glare;
 
@@ -1534,6 +1585,9 @@ Result<SynthSummary> run_synth(const StationScene& station, const SynthOptions& 
   meta["distortion"] = o.distortion;
   meta["motion_blur"] = o.motion_blur;
   meta["shutter_fraction"] = o.shutter_fraction;
+  meta["blur_step_px"] = o.blur_step_px;
+  meta["blur_subframes"] = o.blur_subframes;
+  meta["blur_subframes_max"] = o.blur_subframes_max;
   meta["read_noise_dn"] = o.read_noise_dn;
   meta["shot_noise_gain"] = o.shot_noise_gain;
   meta["exposure_variation"] = o.exposure_variation;

@@ -142,6 +142,10 @@ std::string TrackerOptions::validate() const {
     os << "roi_decimation = " << roi_decimation << " must be in [1, 16]";
   else if (!std::isfinite(roi_decimate_above_px) || roi_decimate_above_px < 0)
     os << "roi_decimate_above_px = " << roi_decimate_above_px << " must be >= 0";
+  else if (deblur_iterations < 1 || deblur_iterations > 100)
+    os << "deblur_iterations = " << deblur_iterations << " must be in 1..100";
+  else if (!std::isfinite(deblur_shutter_fraction) || deblur_shutter_fraction <= 0 || deblur_shutter_fraction > 1)
+    os << "deblur_shutter_fraction = " << deblur_shutter_fraction << " must be in (0, 1]";
   else if (roi_decimation_max < 0 || roi_decimation_max > 8)
     os << "roi_decimation_max = " << roi_decimation_max << " must be in 0..8 (0 = off)";
   else if (!finite_positive(max_rms_px))
@@ -575,6 +579,80 @@ struct Tracker::Impl {
     return {};
   }
   int second_looks = 0;  // boxes searched again in the frame being processed
+
+  // TrackerOptions::deblur_look: b's tags predicted in view and missing from `tags`, searched
+  // for once more in a crop with the predicted motion blur deconvolved; found ones are added.
+  Status deblur_look(const Body& b, double capture_s, double frame_dt_s, std::vector<DetectedTag>& tags,
+                     int& looks, int& found) {
+    if (b.state == TrackState::kLost || b.bundle.tags.empty()) return {};
+    const bool filt = o.filter_enabled && b.filter.initialised();
+    const Eigen::Isometry3d T_pred = filt ? b.filter.predict(capture_s) : b.last_meas;
+    const Eigen::Isometry3d T_prev = filt ? b.filter.predict(capture_s - frame_dt_s) : b.last_meas;
+    const double exposure_ratio = o.exposure_s > 0 ? std::min(1.0, o.exposure_s / frame_dt_s) : o.deblur_shutter_fraction;
+    std::vector<DetectedTag> more;
+    for (const TagPlacement& t : b.bundle.tags) {
+      bool have = false;
+      for (const DetectedTag& d : tags) have = have || (d.family == b.bundle.family && d.id == t.id);
+      if (have) continue;
+      const Eigen::Isometry3d T_cam_tag = T_pred * t.T_parent_tag;
+      const Eigen::Vector3d c = T_cam_tag.translation();
+      if (!(c.z() > 0.01) || T_cam_tag.linear().col(2).dot(c.normalized()) < 0.12) continue;
+      std::array<Eigen::Vector2d, 4> px;
+      bool ok = true;
+      for (int k = 0; k < 4 && ok; ++k) {
+        auto p = model.project(T_pred * t.corner(k));
+        ok = p.has_value();
+        if (ok) px[k] = *p;
+      }
+      auto p_now = model.project(T_pred * t.T_parent_tag.translation());
+      auto p_prev = model.project(T_prev * t.T_parent_tag.translation());
+      if (!ok || !p_now || !p_prev) continue;
+      const Eigen::Vector2d step = *p_now - *p_prev;  // predicted image motion per frame
+      const Eigen::Vector2d blur = step * exposure_ratio;
+      if (blur.norm() < 2.0) continue;
+      double area2 = 0;
+      for (int k = 0; k < 4; ++k) area2 += px[k].x() * px[(k + 1) % 4].y() - px[(k + 1) % 4].x() * px[k].y();
+      const double side = std::sqrt(std::abs(area2) / 2);
+      if (side < 8) continue;  // too small to decode
+      const double reach = step.norm() + o.roi_min_margin_px;  // the prediction's error
+      const double margin = (outer_extent + o.roi_margin) * side + 0.5 * blur.norm() + reach;
+      double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+      for (const auto& p : px) {
+        x0 = std::min(x0, p.x());
+        y0 = std::min(y0, p.y());
+        x1 = std::max(x1, p.x());
+        y1 = std::max(y1, p.y());
+      }
+      cv::Rect rect(static_cast<int>(std::floor(x0 - margin)), static_cast<int>(std::floor(y0 - margin)), 0, 0);
+      rect.width = static_cast<int>(std::ceil(x1 + margin)) + 1 - rect.x;
+      rect.height = static_cast<int>(std::ceil(y1 + margin)) + 1 - rect.y;
+      rect &= cv::Rect(0, 0, camera.width, camera.height);
+      if (rect.width < 16 || rect.height < 16) continue;
+      if (Status s = detector->set_decimation(1.0); !s) return s;
+      const cv::Mat crop = gray.region(rect)(rect);
+      ++looks;
+      auto r = detector->detect_deblurred(crop, blur, o.deblur_iterations);
+      if (!r) return Error{r.error()};
+      for (DetectedTag& d : *r) {
+        if (d.family != b.bundle.family || d.id != t.id) continue;
+        Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+        for (auto& q : d.corners_px) {
+          q += Eigen::Vector2d(rect.x, rect.y);
+          centre += 0.25 * q;
+        }
+        if ((centre - *p_now).norm() > reach + 0.5 * blur.norm()) continue;  // not where predicted
+        more.push_back(d);
+        ++found;
+        break;
+      }
+    }
+    if (more.empty()) return {};
+    tags.insert(tags.end(), more.begin(), more.end());
+    std::sort(tags.begin(), tags.end(), [](const DetectedTag& a, const DetectedTag& b) {
+      return a.family != b.family ? a.family < b.family : a.id < b.id;
+    });
+    return {};
+  }
   // The mirror's tags get no second look: its small tags found on the linear
   // copy made its ungated pose worse (p95 1.85 -> 3.25 mm on `standard`,
   // docs/BENCHMARKS.md issue 24 session 11).
@@ -915,6 +993,9 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
   } else if (!off_path) {
     ++m.frames_since_full;
   }
+  if (m.o.deblur_look && !off_path)
+    if (Status s = m.deblur_look(m.mannequin, capture_time_s, frame_dt, tags, f.deblur_looks, f.deblur_found); !s)
+      return Error{s.error()};
   f.timing.detect_ms = ms_since(t_det);
   f.full_frame = full;
   f.tags_detected = static_cast<int>(tags.size());

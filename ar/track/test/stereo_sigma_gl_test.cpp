@@ -65,7 +65,7 @@ Footage make_hard(int seed, int frames) {
   o.frames = frames;
   // DENTAR_SIGMA_SYNTH=key=value,...: the footage with one effect changed, for the corner
   // error's causes (issue 28 session 18): subframes=N (blur_subframes), blur=0 (no motion
-  // blur), noise=0 (no read or shot noise), jumps=0 (no exposure jumps), occluders=N.
+  // blur), step=PX (blur_step_px; 0 = the fixed count, session 20), maxsub=N, noise=0 (no read or shot noise), jumps=0 (no exposure jumps), occluders=N.
   if (const char* v = std::getenv("DENTAR_SIGMA_SYNTH")) {
     std::stringstream ss(v);
     std::string kv;
@@ -75,6 +75,8 @@ Footage make_hard(int seed, int frames) {
       const std::string k = kv.substr(0, eq);
       const int x = std::atoi(kv.c_str() + eq + 1);
       if (k == "subframes") o.blur_subframes = x;
+      if (k == "step") o.blur_step_px = std::atof(kv.c_str() + eq + 1);  // 0: fixed sub-frames
+      if (k == "maxsub") o.blur_subframes_max = x;
       if (k == "blur") o.motion_blur = x != 0;
       if (k == "noise" && x == 0) o.read_noise_dn = o.shot_noise_gain = 0;
       if (k == "jumps") o.exposure_jumps = x != 0;
@@ -160,7 +162,29 @@ struct PathRun {
   std::vector<double> ms;      // tracking per frame (both eyes for stereo)
   std::vector<Check> checks;   // every measured frame of the ungated tracker
   Coverage all, fast, refused;  // fast: >= 100 deg/s; refused: stated sigma above the default gate
+  // The gated tracker's mannequin detections in both eyes against the generator's truth (issue 28
+  // session 20): tags detected, tags the truth shows (in the image, > 90 % visible), detections
+  // whose largest corner error is over 2 px (a wrong corner set), each detection's largest
+  // corner error; deblur looks and tags they found.
+  int det = 0, shown = 0, wrong = 0, deblur_looks = 0, deblur_found = 0;
+  std::vector<double> corner_err_px;
 };
+
+// Counts one eye's mannequin detections against its truth (PathRun's fields).
+void add_detections(PathRun& r, const TrackFrame& f, const FrameTruth& truth) {
+  r.deblur_looks += f.deblur_looks;
+  r.deblur_found += f.deblur_found;
+  for (const TagTruth& tt : truth.tags) r.shown += !tt.on_mirror && tt.in_image && tt.visible_fraction > 0.9;
+  for (const DetectedTag& d : f.tags)
+    for (const TagTruth& tt : truth.tags) {
+      if (tt.on_mirror || tt.id != d.id) continue;
+      double e = 0;
+      for (int k = 0; k < 4; ++k) e = std::max(e, (d.corners_px[k] - tt.corners_px[k]).norm());
+      ++r.det;
+      r.wrong += e > 2.0;
+      r.corner_err_px.push_back(e);
+    }
+}
 
 void add_checks(PathRun& r, const Check& c, double gate_mm) {
   r.checks.push_back(c);
@@ -184,6 +208,13 @@ PathRun run_path(const Footage& fo, bool stereo) {
     gated.motion_blur_mannequin_only = std::strchr(w, 'm') != nullptr;
   }
   if (const char* w = std::getenv("DENTAR_SIGMA_CORNER_SIGMA")) gated.pose.motion_corner_sigma_px = std::atof(w);
+  // DENTAR_SIGMA_DEBLUR=iterations[,e]: TrackerOptions::deblur_look (issue 28 session 20); ",e" gives
+  // the trackers the footage's exposure time (else deblur_shutter_fraction), 0 = off.
+  if (const char* w = std::getenv("DENTAR_SIGMA_DEBLUR")) {
+    gated.deblur_iterations = std::max(1, std::atoi(w));
+    gated.deblur_look = std::atoi(w) > 0;
+    if (std::strchr(w, 'e') != nullptr) gated.exposure_s = fo.exposure_s;
+  }
   TrackerOptions open = gated;
   open.mannequin_max_sigma_m = 0;
   const double gate_mm = gated.mannequin_max_sigma_m * 1e3;
@@ -216,6 +247,8 @@ PathRun run_path(const Footage& fo, bool stereo) {
       if (!a || !b) return r;
       drawn = a->mannequin.track;
       measured = b->mannequin.track;
+      add_detections(r, a->left, s.left.truth);
+      add_detections(r, a->right, s.right.truth);
       r.ms.push_back(a->total_ms);
       // DENTAR_SIGMA_REFUSED=1: each frame the gate refuses (or the gated tracker does not draw),
       // what the ungated fit saw (issue 28 session 19: why frames are refused).
@@ -280,6 +313,10 @@ void print_row(const std::string& seed, const char* path, const PathRun& r) {
       acc_sig.push_back(c.sigma_mm);
     }
   }
+  std::printf("|  | %s: mannequin detections %d of %d shown (both eyes), corner error max per tag p50 / p95 %.2f / %.2f px, "
+              "over 2 px: %d; deblur looks %d, found %d |\n",
+              path, r.det, r.shown, pct(r.corner_err_px, 0.5), pct(r.corner_err_px, 0.95), r.wrong, r.deblur_looks,
+              r.deblur_found);
   std::printf("|  | %s: stated sigma > gate: %zu frames, actual err p50 / p95 %.3f / %.3f mm (%d <= 0.4 mm), stated sigma p50 %.3f mm; "
               "below: %zu frames, err p50 / p95 %.3f / %.3f, sigma p50 %.3f |\n",
               path, ref_err.size(), pct(ref_err, 0.5), pct(ref_err, 0.95), ref_small, pct(ref_sig, 0.5), acc_err.size(),

@@ -47,7 +47,11 @@ namespace dentar::ar {
 //    edges where the truth says in linear light (docs/BENCHMARKS.md, issue
 //    16 third part). Gain, vignetting and noise act on the encoded values
 //    as before.
-inline constexpr int kSynthGeneratorVersion = 2;
+// 3 (2026-11-29): `hard` renders its motion blur with sub-frames that follow
+//    the motion (blur_step_px 1: no tag corner moves more than 1 px between
+//    two, 5..63) instead of 5 fixed ones; the other presets' pixels are
+//    unchanged (blur_step_px 0). Issue 28 session 20.
+inline constexpr int kSynthGeneratorVersion = 3;
 
 // The failure-mode presets (hand ... offframe) each add one way tracking
 // fails to an otherwise `standard` scene (glare: to `mirror`), so that an
@@ -124,7 +128,15 @@ struct SynthOptions {
   double vignetting = 0.2;           // brightness loss at the image corners (0..0.9)
   bool motion_blur = false;          // average sub-frames over the exposure time
   double shutter_fraction = 0.5;     // exposure time / frame period (motion blur)
-  int blur_subframes = 5;            // odd, >= 3
+  int blur_subframes = 5;            // odd, >= 3; with blur_step_px > 0 the fewest
+  // Sub-frames that follow the motion (issue 28 session 20): > 0 renders each exposure with
+  // enough sub-frames that no tag corner (mannequin or mirror, projected through the lens) moves
+  // more than blur_step_px between two of them, at least blur_subframes and at most
+  // blur_subframes_max (odd); the count is chosen per exposure from the head's and mirror's
+  // path (occluders and the finger are not measured). 0 = always blur_subframes (a fixed count
+  // steps a fast motion's blur into blur_subframes ghosts; a real exposure integrates it).
+  double blur_step_px = 0.0;         // px, 0 or [0.25, 10]
+  int blur_subframes_max = 63;       // odd, blur_subframes..127
   double exposure = 1.0;             // base exposure gain (lowlight: 0.3), 0.05..4
   double exposure_variation = 0.05;  // slow auto-exposure drift, relative amplitude
   bool exposure_jumps = false;       // occasional sudden +-25 % gain steps, settling in 0.5 s
@@ -230,6 +242,9 @@ struct FrameTruth {
   int ae_steps = 0;          // camera model: auto-exposure steps taken so far
   // Camera angular speed at time_s (|rotation rate| of T_man_cam, deg/s).
   double camera_speed_deg_s = 0;
+  // Sub-frames averaged into this frame's exposure (1 = no motion blur; the middle band's with a
+  // rolling shutter).
+  int blur_subframes = 1;
   bool hand_crossing = false;   // the crossing finger is in front of the tooth's region
   bool glare = false;           // a glare spot was drawn on the mirror
 };

@@ -140,6 +140,18 @@ struct TrackerOptions {
   // (docs/BENCHMARKS.md issue 24 session 11: `hard` 48 -> 65 % drawn).
   // Costs only where a tag is missing (up to 2x detection on lost frames).
   bool linear_second_look = true;
+  // Issue 28 session 20: a third look for each of the mannequin's tags predicted in view (facing
+  // the camera) that neither search found, when its predicted image motion blurs it by at least
+  // 2 px: a crop around the tag's predicted square (its cells, roi_margin, the prediction's
+  // one-frame motion and half the blur) searched at decimation 1 with the blur deconvolved
+  // (TagDetector::detect_deblurred, deblur_iterations Richardson-Lucy steps). The blur = the
+  // tag centre's predicted image motion per frame x exposure_s / the frame gap (exposure_s 0:
+  // x deblur_shutter_fraction). Only that tag's own id is accepted from the crop, and only
+  // with its centre inside the crop's prediction margin. Predicted-region and full-frame paths
+  // alike; not off the path (discovery).
+  bool deblur_look = false;
+  int deblur_iterations = 12;             // 1..100
+  double deblur_shutter_fraction = 0.5;   // exposure / frame period when exposure_s = 0, (0, 1]
   // Measurements whose reprojection RMS exceeds this are rejected (px).
   double max_rms_px = 3.0;
   // Measurements whose position uncertainty (sqrt of the trace of the
@@ -339,6 +351,8 @@ struct TrackFrame {
   // Searches repeated in linear light this frame (TrackerOptions::linear_second_look):
   // regions plus the whole frame, 0 when every expected tag was found.
   int second_looks = 0;
+  // TrackerOptions::deblur_look: tags searched for with the blur deconvolved, and found.
+  int deblur_looks = 0, deblur_found = 0;
   std::vector<DetectedTag> tags;  // all detections, full-image OpenCV pixels
   BodyTrack mannequin, mirror;
   BodyTrack pen;  // lost unless options.track_pen
