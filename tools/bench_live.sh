@@ -28,6 +28,9 @@
 #   tools/bench_live.sh idle [SECONDS]         issue 28 session 19: stereo into the headset (HEADSET=), the window
 #                                              redrawn at every wake without a new frame (--idle-redraw-ms 0) against
 #                                              the default (HUD at 10 Hz), alternating (PAIRS, default 2); CPU per frame
+#   tools/bench_live.sh decode [SECONDS]       issue 28 session 20: stereo 2x1280x720 into the headset (HEADSET=),
+#                                              Motion JPEG decoded for every frame against on demand, alternating
+#                                              (PAIRS, default 2); CPU and decodes per frame shown
 #   tools/bench_live.sh wake [SECONDS]         the engine with the CPUs' wake-up latency held (default) and
 #                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
 #                                              alternating (PAIRS pairs, default 2)
@@ -326,6 +329,41 @@ print(f"| {sys.argv[2]} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']
       f"{f['dropped_source']} / {f['dropped_consumer']} | {c.get('process_ms_per_frame', 0):.1f} / {main:.1f} / {g('llvmpipe-0'):.1f} / "
       f"{g('dentar-frame'):.1f} / {g('dentar-eye-r'):.1f} / {g('dentar-cap-l') + g('dentar-cap-r'):.1f} | "
       f"{d.get('idle_draws', '-')} / {d.get('idle_skipped', '-')} | {s['stages_ms'].get('display', {}).get('p50', 0):.1f} |")
+PY
+        done
+      done
+    done
+    ;;
+  decode)
+    # Issue 28 session 20: Motion JPEG decoded for every captured frame (--jpeg-decode every-frame,
+    # sessions 18-19) against only the frames the frame thread takes (on-demand, default), the same
+    # binary and footage, alternating: stereo 2x1280x720 two cameras and side by side into the
+    # headset view (HEADSET=). CPU per frame shown (summary cpu) and decodes per frame shown.
+    [[ -n "${HEADSET:-}" ]] || { echo "decode needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }
+    s720=$(clip_stereo 1280 720)
+    echo "| run | fps shown | CPU ms a frame shown: process / capture L+R / frame / right eye | decodes a frame shown (L+R) | skipped undecoded L / R | dropped source / consumer / right eye | frames left eye only / both | corrupt JPEG | capture to swap p50 / p99 ms |"
+    echo "|---|---|---|---|---|---|---|---|---|"
+    for i in $(seq 1 "${PAIRS:-2}"); do
+      for m in every-frame on-demand; do
+        for row in "2x1280x720 two cameras|$s720|--camera live:$s720/camera_left.avi --camera-right live:$s720/camera_right.avi" \
+                   "2x1280x720 side by side|$s720|--camera live:$s720/camera.avi --stereo"; do
+          IFS='|' read -r rn c cam <<<"$row"
+          n="$rn, decode $m, run $i"
+          # shellcheck disable=SC2086
+          live_json "$n" --station "$c/station.json" --stylus replay:"$c/session.dlog" $cam --output sbs \
+            --headset "$HEADSET" --jpeg-decode "$m"
+          python3 - "$out/$n.json" "$n" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); f = s["frames"]; st = s.get("stereo", {}); c = s.get("cpu", {}); t = c.get("threads_ms_per_frame", {})
+g = lambda k: t.get(k, 0.0)
+dec = f.get("jpeg_decodes", 0) + st.get("right_eye_jpeg_decodes", 0)
+shown = max(1, f["displayed"])
+print(f"| {sys.argv[2]} | {s['displayed_fps']:.1f} | {c.get('process_ms_per_frame', 0):.1f} / "
+      f"{g('dentar-cap-l') + g('dentar-cap-r'):.1f} / {g('dentar-frame'):.1f} / {g('dentar-eye-r'):.1f} | "
+      f"{dec / shown:.2f} ({dec} / {f['displayed']}) | {f.get('jpeg_skipped_undecoded', '-')} / "
+      f"{st.get('right_eye_jpeg_skipped_undecoded', '-')} | {f['dropped_source']} / {f['dropped_consumer']} / "
+      f"{st.get('right_eye_dropped', '-')} | {st.get('frames_left_eye_only', '-')} / {st.get('frames_both_eyes', '-')} | "
+      f"{f.get('corrupt_jpeg', 0)} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} |")
 PY
         done
       done

@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 #include <vector>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "commands.h"
@@ -235,23 +236,41 @@ std::string write_webcam_video(const std::filesystem::path& dir, double fps, boo
   struct Out {
     std::string path;
     cv::Rect crop;
-    cv::VideoWriter w;
   };
   std::vector<Out> outs;
   const cv::Rect whole(0, 0, f.cols, f.rows), left(0, 0, f.cols / 2, f.rows), right(f.cols / 2, 0, f.cols / 2, f.rows);
-  outs.push_back({(dir / "camera.avi").string(), whole, {}});
+  outs.push_back({(dir / "camera.avi").string(), whole});
   if (stereo) {
-    outs.push_back({(dir / "camera_left.avi").string(), left, {}});
-    outs.push_back({(dir / "camera_right.avi").string(), right, {}});
+    outs.push_back({(dir / "camera_left.avi").string(), left});
+    outs.push_back({(dir / "camera_right.avi").string(), right});
   }
-  for (Out& o : outs) {
-    o.w.open(o.path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, o.crop.size());
-    if (!o.w.isOpened()) return o.path + ": cannot write (check the folder's permissions and free space)";
-    o.w.set(cv::VIDEOWRITER_PROP_QUALITY, 90);
+  // Each frame a JPEG from libjpeg (cv::imencode, quality 90, 4:2:0) in our own AVI writer.
+  // Session 20: OpenCV's built-in MJPEG writer (CAP_OPENCV_MJPEG, sessions 17-19) left the
+  // entropy data of ~3 % of its frames short (libjpeg: "premature end of data segment"), so
+  // the live stand-ins counted good footage as corrupt camera frames (docs/BENCHMARKS.md).
+  for (const Out& o : outs) {
+    cv::VideoCapture src(in_path, cv::CAP_FFMPEG);
+    if (!src.isOpened()) return in_path + ": cannot read the footage back";
+    std::string err;
+    auto s = ar::write_mjpeg_avi(
+        o.path,
+        [&](std::vector<std::uint8_t>& bytes) {
+          cv::Mat g;
+          if (!src.read(g) || g.empty()) return false;
+          if (g.cols != f.cols || g.rows != f.rows) {
+            err = in_path + ": a frame of another size";
+            return false;
+          }
+          if (!cv::imencode(".jpg", g(o.crop), bytes, {cv::IMWRITE_JPEG_QUALITY, 90})) {
+            err = o.path + ": JPEG encoding failed (OpenCV imencode)";
+            return false;
+          }
+          return true;
+        },
+        o.crop.width, o.crop.height, fps);
+    if (!err.empty()) return err;
+    if (!s) return s.error();
   }
-  do
-    for (Out& o : outs) o.w.write(f(o.crop));
-  while (in.read(f) && !f.empty());
   return {};
 }
 

@@ -158,6 +158,8 @@ std::string LiveOptions::validate() const {
     return "warp_pass = \"" + warp_pass + "\" must be exact, mesh, full or lut";
   if (warp_cell_px < 4 || warp_cell_px > 128)
     return "warp_cell_px = " + std::to_string(warp_cell_px) + " must be in 4..128 panel px";
+  if (jpeg_decode != "on-demand" && jpeg_decode != "every-frame")
+    return "jpeg_decode = \"" + jpeg_decode + "\" must be on-demand or every-frame";
   if (!(std::isfinite(idle_redraw_ms) && idle_redraw_ms >= 0 && idle_redraw_ms <= 1000))
     return "idle_redraw_ms = " + std::to_string(idle_redraw_ms) + " must be in 0..1000 ms (0: redraw at every wake)";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
@@ -214,7 +216,8 @@ std::string LiveSummary::json() const {
       {"frames", {{"captured", frames_captured}, {"processed", frames_processed}, {"displayed", frames_displayed},
                   {"dropped_source", dropped_source}, {"dropped_consumer", dropped_consumer},
                   {"camera_reopens", camera_reopens}, {"corrupt_jpeg", corrupt_frames},
-                  {"last_corrupt_jpeg", last_corrupt}}},
+                  {"last_corrupt_jpeg", last_corrupt}, {"jpeg_decode", jpeg_decode},
+                  {"jpeg_decodes", jpeg_decodes}, {"jpeg_skipped_undecoded", jpeg_skipped_undecoded}}},
       {"wall_s", wall_s},
       {"stop_reason", stop_reason},
       {"displayed_fps", displayed_fps},
@@ -261,6 +264,8 @@ std::string LiveSummary::json() const {
     j["stereo"] = {{"frames_both_eyes", stereo_both}, {"frames_left_eye_only", stereo_left_only},
                    {"frames_right_eye_composited", right_composited},
                    {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens},
+                   {"right_eye_jpeg_decodes", right_jpeg_decodes},
+                   {"right_eye_jpeg_skipped_undecoded", right_jpeg_skipped_undecoded},
                    {"fallbacks", stereo_fallbacks}, {"recoveries", stereo_recoveries},
                    {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_frame_ms", stereo_fallback_frame_ms},
                    {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max},
@@ -405,6 +410,7 @@ Result<StationCamera> open_station_and_camera(const LiveOptions& o, LiveSummary&
     return Error{"live: --camera-format " + o.camera_format + ": must be auto, yuyv, mjpg or bgr"};
   so.pixel_format = o.camera_format == "bgr" ? "bgr" : "native";
   so.fourcc = o.camera_format == "yuyv" ? "YUYV" : o.camera_format == "mjpg" ? "MJPG" : "";
+  so.defer_jpeg_decode = o.jpeg_decode == "on-demand";
   auto src = ar::FrameSource::open(o.camera, so);
   if (!src) {
     const bool is_cam = o.camera.rfind("camera:", 0) == 0 || o.camera.rfind("/dev/video", 0) == 0;
@@ -981,6 +987,9 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.camera_reopens = capture.reopens();
   sum.corrupt_frames = capture.corrupt();
   sum.last_corrupt = capture.last_corrupt();
+  sum.jpeg_decodes = capture.decodes();
+  sum.jpeg_skipped_undecoded = capture.skipped_undecoded();
+  sum.jpeg_decode = c.o.jpeg_decode;
   sum.displayed_fps = sum.wall_s > 0 ? df.displayed / sum.wall_s : 0;
   sum.idle_draws = df.idle_draws;
   sum.idle_skipped = df.idle_skipped;
@@ -1251,6 +1260,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   if (capture_right) {
     sum.right_eye_dropped = capture_right->dropped_source() + capture_right->dropped_consumer();
     sum.right_eye_reopens = capture_right->reopens();
+    sum.right_jpeg_decodes = capture_right->decodes();
+    sum.right_jpeg_skipped_undecoded = capture_right->skipped_undecoded();
   }
   if (auto s = run->close_session_log(); !s) sum.warnings.push_back("session log: " + s.error());
   fill_summary(ctx, capture, sh.processed.load(), ff, df, comp, iso, bg, sum);

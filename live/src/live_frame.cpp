@@ -166,13 +166,22 @@ class FrameThread {
     const double silent_s = 0.1;
     const auto t_enter = Clock::now();
     ar::Frame r;
-    if (right.wait_take(r, 0)) take_right(std::move(r), silent_s);  // the newest (latest wins)
+    // Session 20: a right frame too old to pair with `left` is passed over in its capture
+    // thread, never decoded (decode on demand); its time still counts as the eye's last seen.
+    const double oldest = left.steady_s - half;
+    double passed = 0;
+    const bool got = right.wait_take_since(r, 0, oldest, &passed);  // the newest (latest wins)
+    if (passed > 0) note_right_time(passed, silent_s);
+    if (got) take_right(std::move(r), silent_s);
     const auto deadline = Clock::now() + std::chrono::duration<double>(half);
-    while (right_pending_.image.empty() || right_pending_.steady_s < left.steady_s - half) {
+    while (right_pending_.image.empty() || right_pending_.steady_s < oldest) {
       const double last = right.last_frame_steady_s();
       if (last <= 0 || left.steady_s - last > silent_s) break;  // lost (or not started): do not wait
       const double left_s = std::chrono::duration<double>(deadline - Clock::now()).count();
-      if (left_s <= 0 || !right.wait_take(r, left_s)) break;
+      if (left_s <= 0) break;
+      const bool more = right.wait_take_since(r, left_s, oldest, &passed);
+      if (passed > 0) note_right_time(passed, silent_s);
+      if (!more) break;
       take_right(std::move(r), silent_s);
     }
     right_image_.release();
@@ -195,10 +204,14 @@ class FrameThread {
   // right frames are taken by right_alone: a gap there is the left camera's loss (the right
   // frames waited unread for 0.1 s), not the right eye's, so it is no return (may_return false).
   void take_right(ar::Frame&& r, double silent_s, bool may_return = true) {
-    if (may_return && right_last_s_ > 0 && r.steady_s - right_last_s_ > silent_s)
-      right_back_s_ = right_first_back_s_ = r.steady_s;
-    right_last_s_ = r.steady_s;
+    note_right_time(r.steady_s, silent_s, may_return);
     right_pending_ = std::move(r);
+  }
+  // A right-eye frame seen at capture time s (taken, or passed over undecoded as too old).
+  void note_right_time(double s, double silent_s, bool may_return = true) {
+    if (s <= right_last_s_) return;
+    if (may_return && right_last_s_ > 0 && s - right_last_s_ > silent_s) right_back_s_ = right_first_back_s_ = s;
+    right_last_s_ = s;
   }
 
   // Two cameras (issue 28): the left camera silent for kSilentS while the right one delivers

@@ -1,6 +1,8 @@
 #include "dentar/ar/capture_thread.h"
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 
 namespace dentar::ar {
 
@@ -11,6 +13,11 @@ CaptureThread::CaptureThread(std::unique_ptr<FrameSource> source, std::string sp
   height_ = source_->height();
   fps_ = source_->fps();
   description_ = source_->description();
+  jpeg_out_ = source_options_.pixel_format == "native" ? MjpegOutput::kYuyv : MjpegOutput::kBgr;
+  capture_decoder_ = MjpegDecoder(source_options_.jpeg_fast_dct);
+  take_decoder_ = MjpegDecoder(source_options_.jpeg_fast_dct);
+  capture_decoder_.expect_size(width_, height_);  // later frames of another size are damaged
+  take_decoder_.expect_size(width_, height_);
 }
 
 CaptureThread::~CaptureThread() { stop(); }
@@ -46,13 +53,61 @@ std::string CaptureThread::status() const {
 }
 
 bool CaptureThread::wait_take(Frame& out, double timeout_s) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return slot_full_ || stop_.load(); });
-  if (!slot_full_) return false;
-  out = std::move(slot_);
-  slot_ = Frame{};
-  slot_full_ = false;
+  return wait_take_since(out, timeout_s, -std::numeric_limits<double>::infinity());
+}
+
+bool CaptureThread::decode(MjpegDecoder& dec, Frame& f) {
+  cv::Mat img;
+  if (!dec.decode(f.encoded, jpeg_out_, img)) return false;
+  f.image = std::move(img);
   return true;
+}
+
+void CaptureThread::count_decode(bool ok, const MjpegDecoder& dec) {
+  decodes_.fetch_add(1);
+  if (ok) {
+    if (bad_in_row_ > kMaxBadInRow) status_.clear();  // the stream decodes again
+    bad_in_row_ = 0;
+    return;
+  }
+  decode_corrupt_.fetch_add(1);
+  dropped_source_.fetch_add(1);  // a frame lost, as when the source refuses it
+  last_corrupt_ = dec.why();
+  if (++bad_in_row_ > kMaxBadInRow)
+    status_ = std::to_string(bad_in_row_) + " frames in a row are not decodable JPEG (the last: " + last_corrupt_ +
+              "): the camera's stream is damaged (USB bandwidth? cable?)";
+}
+
+bool CaptureThread::wait_take_since(Frame& out, double timeout_s, double min_steady_s, double* passed_s) {
+  if (passed_s != nullptr) *passed_s = 0;
+  std::unique_lock<std::mutex> lock(mutex_);
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(std::max(0.0, timeout_s)));
+  for (;;) {
+    consumer_waiting_ = true;  // a packet arriving now is decoded on the capture thread, for us
+    cv_.wait_until(lock, deadline, [&] { return slot_full_ || stop_.load(); });
+    consumer_waiting_ = false;
+    if (!slot_full_) return false;
+    Frame f = std::move(slot_);
+    slot_ = Frame{};
+    slot_full_ = false;
+    if (f.steady_s < min_steady_s) {  // too old for the caller: passed over
+      dropped_consumer_.fetch_add(1);
+      if (frame_undecoded(f)) skipped_undecoded_.fetch_add(1);
+      if (passed_s != nullptr) *passed_s = std::max(*passed_s, f.steady_s);
+      continue;
+    }
+    if (frame_undecoded(f)) {  // decode on take, on this (the consumer's) thread
+      lock.unlock();
+      const bool ok = decode(take_decoder_, f);
+      lock.lock();
+      count_decode(ok, take_decoder_);
+      if (!ok) continue;  // dropped and counted: the next one, within the time left
+    }
+    out = std::move(f);
+    return true;
+  }
 }
 
 void CaptureThread::main() {
@@ -79,6 +134,8 @@ void CaptureThread::main() {
     Frame f;
     auto got = source_->read(f);
     if (const std::int64_t c = corrupt_before_ + source_->corrupt_total(); c != corrupt_.load()) {
+      // Without deferral the source decoded (and refused) these; with it, it only checked them.
+      if (!source_options_.defer_jpeg_decode) decodes_.fetch_add(c - corrupt_.load());
       corrupt_.store(c);
       std::lock_guard<std::mutex> lock(mutex_);
       last_corrupt_ = source_->last_corrupt();
@@ -99,14 +156,26 @@ void CaptureThread::main() {
     f.time_s += time_offset_;
     last_time_s_ = f.time_s;
     dropped_source_.fetch_add(f.dropped_before);
+    if (!frame_undecoded(f) && !f.encoded.empty()) decodes_.fetch_add(1);  // decoded by the source
     if (options_.stall_after_frames > 0 && count == options_.stall_after_frames)
       stall_until = f.steady_s + options_.stall_s;
     if (stall_until > 0 && f.steady_s < stall_until) continue;  // the stall test hook
     last_steady_s_.store(f.steady_s, std::memory_order_release);
     delivered_.fetch_add(1);
     {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (slot_full_) dropped_consumer_.fetch_add(1);
+      std::unique_lock<std::mutex> lock(mutex_);
+      if (frame_undecoded(f) && consumer_waiting_ && !slot_full_) {
+        // The consumer is waiting for this very frame: decode it here, off its thread.
+        lock.unlock();
+        const bool ok = decode(capture_decoder_, f);
+        lock.lock();
+        count_decode(ok, capture_decoder_);
+        if (!ok) continue;  // dropped and counted; the consumer waits for the next
+      }
+      if (slot_full_) {
+        dropped_consumer_.fetch_add(1);
+        if (frame_undecoded(slot_)) skipped_undecoded_.fetch_add(1);
+      }
       slot_ = std::move(f);
       slot_full_ = true;
     }

@@ -385,7 +385,7 @@ class LiveSource final : public FrameSource {
       dropped = std::max(dropped, corrupt_skipped_);
       seq = stream_pos_ + dropped;
     }
-    if (img.cols != width_ || img.rows != height_)
+    if (!img.empty() && (img.cols != width_ || img.rows != height_))  // empty: JPEG bytes not decoded yet
       return Error{desc_ + ": frame " + std::to_string(index_) + " is " +
                    size_str(img.cols, img.rows) + " but the stream started at " +
                    size_str(width_, height_)};
@@ -413,7 +413,8 @@ class LiveSource final : public FrameSource {
            (raw_yuyv_ ? ", YUYV as the camera sent it"
             : raw_jpeg_ ? (jpeg_out_ == MjpegOutput::kYuyv ? ", MJPG decoded to YUYV" : ", MJPG decoded to BGR")
                         : "") +
-           (raw_jpeg_ && jpeg_.fast_dct() ? ", fast IDCT" : "") + ")";
+           (raw_jpeg_ && jpeg_.fast_dct() ? ", fast IDCT" : "") +
+           (raw_jpeg_ && options_.defer_jpeg_decode ? ", decoded when taken" : "") + ")";
   }
   std::int64_t corrupt_total() const override { return corrupt_total_; }
   std::string last_corrupt() const override { return last_corrupt_; }
@@ -440,7 +441,14 @@ class LiveSource final : public FrameSource {
       }
       encoded_ = m.clone();  // the backend reuses its buffer
       if (encoded_.rows != 1) encoded_ = encoded_.reshape(1, 1);
-      if (jpeg_.decode(encoded_, jpeg_out_, out)) {
+      if (started_ && options_.defer_jpeg_decode) {
+        // Handed on undecoded: only the checks that need no pixels (markers, header, size);
+        // the consumer decodes the frames it takes (CaptureThread, session 20).
+        if (jpeg_.check(encoded_)) {
+          out = cv::Mat();
+          return true;
+        }
+      } else if (jpeg_.decode(encoded_, jpeg_out_, out)) {
         if (!started_) jpeg_.expect_size(out.cols, out.rows);  // later frames of another size are damaged
         started_ = true;
         return true;
@@ -690,6 +698,14 @@ Status write_mjpeg_avi(const std::string& path, const std::vector<std::vector<st
     bytes = jpegs[n];
     return true;
   });
+}
+
+Status write_mjpeg_avi(const std::string& path, const std::function<bool(std::vector<std::uint8_t>&)>& next, int width,
+                       int height, double fps) {
+  if (width <= 0 || height <= 0 || width > 65535 || height > 65535)
+    return Error{path + ": frame size " + size_str(width, height) + " must be positive and below 65536"};
+  return write_avi(path, width, height, "MJPG", 24, "00dc", fps,
+                   [&](std::vector<std::uint8_t>& bytes, std::uint32_t) -> Result<bool> { return next(bytes); });
 }
 
 Result<std::unique_ptr<FrameSource>> FrameSource::open_live(

@@ -165,21 +165,33 @@ bool MjpegDecoder::decode(const cv::Mat& bytes, MjpegOutput output, cv::Mat& out
   return decode(bytes.data, bytes.total(), output, out);
 }
 
-bool MjpegDecoder::decode(const std::uint8_t* data, std::size_t size, MjpegOutput output, cv::Mat& out) {
+bool MjpegDecoder::check(const std::uint8_t* data, std::size_t size) {
   // A frame cut short on the bus (checked first: a cut inside the header is a truncation too).
   if (data != nullptr && size >= 2 && data[0] == 0xFF && data[1] == 0xD8 && !jpeg_has_end_marker(data, size)) {
-    out = cv::Mat();
     why_ = "truncated JPEG: no end-of-image marker (FF D9) after " + std::to_string(size) + " bytes";
     return false;
   }
-  if (!header(data, size, header_)) {
-    out = cv::Mat();
-    return false;
-  }
+  if (!header(data, size, header_)) return false;
   if (expect_w_ > 0 && (header_.width != expect_w_ || header_.height != expect_h_)) {
-    out = cv::Mat();
     why_ = "JPEG of " + std::to_string(header_.width) + "x" + std::to_string(header_.height) + " px in a stream of " +
            std::to_string(expect_w_) + "x" + std::to_string(expect_h_) + " (a damaged header?)";
+    return false;
+  }
+  return true;
+}
+
+bool MjpegDecoder::check(const cv::Mat& bytes) {
+  if (bytes.empty() || bytes.type() != CV_8UC1 || !bytes.isContinuous() || (bytes.rows != 1 && bytes.cols != 1)) {
+    why_ = "JPEG bytes must be one continuous row or column of CV_8UC1 (got " + cv::typeToString(bytes.type()) + " " +
+           std::to_string(bytes.cols) + "x" + std::to_string(bytes.rows) + ")";
+    return false;
+  }
+  return check(bytes.data, bytes.total());
+}
+
+bool MjpegDecoder::decode(const std::uint8_t* data, std::size_t size, MjpegOutput output, cv::Mat& out) {
+  if (!check(data, size)) {
+    out = cv::Mat();
     return false;
   }
   const int w = header_.width, h = header_.height;

@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <opencv2/imgcodecs.hpp>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -102,6 +104,146 @@ TEST(CaptureThread, ReopensASourceThatEnded) {
   EXPECT_GE(cap->reopens(), 1) << "an ended stand-in camera is opened again";
   EXPECT_FALSE(cap->ended());
   cap->stop();
+}
+
+// ---- decode on demand (issue 28, session 20) ----
+
+using Bytes = std::vector<std::uint8_t>;
+
+// 60 JPEG frames of 320x240 (libjpeg via cv::imencode), each with its index drawn in;
+// frames `bad` have their entropy data cut in half with the end marker kept (a packet
+// that passes the header checks and fails only when decoded, as the session-19
+// stand-in's frames did).
+std::vector<Bytes> make_jpegs(const std::vector<int>& bad = {}) {
+  std::vector<Bytes> out;
+  for (int i = 0; i < 60; ++i) {
+    cv::Mat f(240, 320, CV_8UC3, cv::Scalar(30 + i, 60, 90));
+    cv::putText(f, std::to_string(i), {40, 160}, cv::FONT_HERSHEY_SIMPLEX, 3, {255, 255, 255}, 5);
+    Bytes b;
+    EXPECT_TRUE(cv::imencode(".jpg", f, b, {cv::IMWRITE_JPEG_QUALITY, 85}));
+    if (std::find(bad.begin(), bad.end(), i) != bad.end()) {
+      b.resize(b.size() * 2 / 3);
+      b.push_back(0xFF), b.push_back(0xD9);
+    }
+    out.push_back(std::move(b));
+  }
+  return out;
+}
+
+std::string write_stand_in(const std::string& name, const std::vector<Bytes>& jpegs) {
+  const std::string p = (dentar::test::temp_dir("capture_thread") / name).string();
+  EXPECT_TRUE(write_mjpeg_avi(p, jpegs, 320, 240, 30).ok());
+  return p;
+}
+
+struct DemandRun {
+  int taken = 0;
+  std::int64_t decodes = 0, skipped_undecoded = 0, delivered = 0, dropped_consumer = 0, corrupt = 0;
+  std::string last_corrupt;
+};
+
+// A consumer that takes a frame, then is busy for `busy_ms` (slower than the 30 fps
+// stand-in when busy_ms > 33). Every frame taken is checked against the file: its
+// bytes are the packet its index names, its pixels that packet decoded (the eager
+// decode of the same bytes), its capture time the packet's (index / fps exactly).
+DemandRun run_consumer(const std::string& avi, bool defer, int busy_ms) {
+  FrameSourceOptions so;
+  so.pixel_format = "native";
+  so.defer_jpeg_decode = defer;
+  const std::string spec = "live:" + avi;
+  auto src = FrameSource::open(spec, so);
+  EXPECT_TRUE(src.ok()) << src.error();
+  if (!src.ok()) return {};
+  EXPECT_EQ((*src)->description().find("decoded when taken") != std::string::npos, defer) << (*src)->description();
+  CaptureThreadOptions o;
+  o.reopen = false;
+  CaptureThread cap(std::move(*src), spec, so, o);
+  EXPECT_EQ(cap.decode_on_demand(), defer);
+  // The reference: every packet of the file and its eager decode, read unpaced.
+  std::vector<cv::Mat> packets, images;
+  {
+    FrameSourceOptions eager = so;
+    eager.defer_jpeg_decode = false;
+    auto ref = FrameSource::open_live(std::make_unique<cv::VideoCapture>(avi, cv::CAP_FFMPEG), avi, 30, false, eager);
+    EXPECT_TRUE(ref.ok()) << ref.error();
+    // Read unpaced, every packet in file order (an unpaced reader numbers frames by its own
+    // clock's gaps, so the count is the frame's number here; a refused packet keeps its place).
+    Frame f;
+    std::int64_t refused = 0;
+    while (ref.ok()) {
+      auto r = (*ref)->read(f);
+      if (!r.ok() || !*r) break;
+      for (; refused < (*ref)->corrupt_total(); ++refused) packets.emplace_back(), images.emplace_back();
+      packets.push_back(f.encoded.clone());
+      images.push_back(f.image.clone());
+    }
+  }
+  cap.start();
+  DemandRun run;
+  Frame f;
+  for (;;) {
+    if (!cap.wait_take(f, 0.2)) {
+      if (cap.ended()) break;
+      continue;
+    }
+    ++run.taken;
+    EXPECT_EQ(f.image.type(), CV_8UC2);
+    EXPECT_EQ(f.time_s, static_cast<double>(f.index) / 30.0) << "the capture time is the packet's";
+    if (f.index >= 0 && f.index < static_cast<std::int64_t>(images.size()) &&
+        packets[f.index].size() == f.encoded.size()) {
+      EXPECT_EQ(cv::norm(f.encoded, packets[f.index], cv::NORM_INF), 0.0) << "frame " << f.index << "'s bytes";
+      EXPECT_EQ(cv::norm(f.image, images[f.index], cv::NORM_INF), 0.0) << "frame " << f.index << "'s pixels";
+    } else {
+      ADD_FAILURE() << "frame " << f.index << " taken, but the file's packet of that number is another size";
+    }
+    if (busy_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(busy_ms));
+  }
+  run.decodes = cap.decodes();
+  run.skipped_undecoded = cap.skipped_undecoded();
+  run.delivered = cap.delivered();
+  run.dropped_consumer = cap.dropped_consumer();
+  run.corrupt = cap.corrupt();
+  run.last_corrupt = cap.last_corrupt();
+  std::printf("[ demand ] defer %d busy %d ms: taken %d, decodes %lld, skipped undecoded %lld, delivered %lld, "
+              "corrupt %lld\n",
+              defer, busy_ms, run.taken, static_cast<long long>(run.decodes),
+              static_cast<long long>(run.skipped_undecoded), static_cast<long long>(run.delivered),
+              static_cast<long long>(run.corrupt));
+  return run;
+}
+
+// The camera captures faster than the consumer takes: with decode on demand only the
+// frames taken are decoded (+1: the first, which the source decodes to learn the size),
+// every replaced packet is dropped undecoded; the eager way decodes every frame delivered.
+TEST(CaptureThreadDecodeOnDemand, SlowConsumerDecodesOnlyWhatItTakes) {
+  const std::string avi = write_stand_in("demand.avi", make_jpegs());
+  const DemandRun on = run_consumer(avi, true, 100);
+  EXPECT_GE(on.taken, 8);
+  EXPECT_LE(on.decodes, on.taken + 1);
+  EXPECT_GT(on.skipped_undecoded, 0);
+  EXPECT_EQ(on.delivered, on.taken + on.dropped_consumer);
+  // Every replaced packet was still undecoded, but for the first frame (decoded by the source).
+  EXPECT_GE(on.skipped_undecoded, on.dropped_consumer - 1);
+  EXPECT_EQ(on.corrupt, 0);
+  const DemandRun eager = run_consumer(avi, false, 100);
+  EXPECT_EQ(eager.decodes, eager.delivered);
+  EXPECT_GT(eager.decodes, eager.taken + 1) << "the eager way decodes frames no one takes";
+  EXPECT_EQ(eager.skipped_undecoded, 0);
+}
+
+// A consumer waiting for every frame: each is decoded once, as it arrives (on the capture
+// thread), and a packet that passes the header checks but does not decode is dropped and
+// counted with its reason, the next good one delivered.
+TEST(CaptureThreadDecodeOnDemand, FastConsumerAndACorruptPacket) {
+  const std::string avi = write_stand_in("demand_bad.avi", make_jpegs({10, 11, 30}));
+  const DemandRun on = run_consumer(avi, true, 0);
+  EXPECT_GE(on.taken, 30);  // a loaded machine may skip some; most are taken
+  EXPECT_LE(on.decodes, on.taken + 1 + on.corrupt);
+  EXPECT_GE(on.corrupt, 1);  // the three cut ones, unless the paced source skipped past them
+  EXPECT_LE(on.corrupt, 3);
+  if (on.corrupt > 0) {
+    EXPECT_NE(on.last_corrupt.find("premature end"), std::string::npos) << on.last_corrupt;
+  }
 }
 
 }  // namespace

@@ -46,6 +46,10 @@ struct LiveOptions {
   // it, converted only where used), "yuyv" / "mjpg" (asked of the camera; refused, naming what
   // it gives, when it cannot), "bgr" (the whole-frame BGR path: the backend converts every frame).
   std::string camera_format = "auto";
+  // Motion JPEG cameras (session 20): "on-demand" (default: a frame is decoded only when the
+  // frame thread takes it; frames replaced unseen are never decoded, capture_thread.h) or
+  // "every-frame" (every captured frame decoded on its capture thread, sessions 18-19).
+  std::string jpeg_decode = "on-demand";
   // Stereo (issue 28): the station's rig ("stereo") tracks from both eyes (StereoTracker), the
   // window shows the left eye. camera_right: the right eye's camera (two cameras; `camera` is
   // the left), one size and rate as the left; side_by_side: `camera` delivers both eyes in one
@@ -237,6 +241,11 @@ struct LiveSummary {
   std::int64_t dropped_source = 0, dropped_consumer = 0, camera_reopens = 0;
   // Motion JPEG frames dropped as corrupt or truncated (part of dropped_source), and why the last was.
   std::int64_t corrupt_frames = 0;
+  // Session 20: Motion JPEG decodes (tries) of the (left) camera and the right eye's camera, and
+  // the packets dropped before anyone took them without being decoded; jpeg_decode's mode.
+  std::int64_t jpeg_decodes = 0, jpeg_skipped_undecoded = 0;
+  std::int64_t right_jpeg_decodes = 0, right_jpeg_skipped_undecoded = 0;
+  std::string jpeg_decode;
   std::string last_corrupt;
   double wall_s = 0, displayed_fps = 0;
   // Why the run ended: "window closed", "SIGINT", "SIGTERM", "time limit",

@@ -9,8 +9,21 @@
 // for a while) is visible to the consumer through last_frame_steady_s().
 // Capture times (Frame::time_s) stay monotonic across a reopen.
 //
-// Threads: one capture thread inside; take()/wait_take()/status() from any
-// one consumer thread.
+// Decode on demand (issue 28, session 20; FrameSourceOptions::defer_jpeg_decode):
+// a Motion JPEG source hands on its packets undecoded, and the slot holds the
+// newest packet. A packet replaced before anyone took it is dropped without being
+// decoded (skipped_undecoded). A packet is decoded only for a consumer: on the
+// capture thread when the consumer is already waiting in wait_take as it arrives
+// (the decode stays off the consumer's thread, as before), else on the consumer's
+// thread inside wait_take, when it takes the packet. So decodes() <= frames taken
+// + 1 (a consumer that stops waiting while its frame is being decoded), whatever
+// the rates. The capture time (Frame::time_s, steady_s) is the packet's, never the
+// decode's. A packet that does not decode is dropped and counted (corrupt(),
+// dropped_source()) and wait_take goes on to the next one; 11 in a row set status().
+// Other sources (YUYV, BGR, files) and a source without deferral: as before.
+//
+// Threads: one capture thread inside; wait_take()/status() from any one consumer
+// thread (the decode on take uses a decoder of its own).
 #pragma once
 
 #include <atomic>
@@ -23,6 +36,7 @@
 #include <thread>
 
 #include "dentar/ar/frame_source.h"
+#include "dentar/ar/mjpeg_decoder.h"
 
 namespace dentar::ar {
 
@@ -52,6 +66,12 @@ class CaptureThread {
   // The newest frame not taken yet; false when there is none. Waits up to
   // timeout_s for one.
   bool wait_take(Frame& out, double timeout_s);
+  // The same, but only a frame captured at or after min_steady_s (steady clock, s):
+  // an older one in the slot is dropped (counted in dropped_consumer, and in
+  // skipped_undecoded when it was not decoded) and the wait goes on. A stereo
+  // pairing takes the partner it can use without decoding the ones it cannot.
+  // passed_s (optional): the newest passed-over frame's capture time, 0 if none.
+  bool wait_take_since(Frame& out, double timeout_s, double min_steady_s, double* passed_s = nullptr);
   // steady_clock time (s) of the newest frame delivered, 0 before the first.
   double last_frame_steady_s() const { return last_steady_s_.load(std::memory_order_acquire); }
   std::int64_t delivered() const { return delivered_.load(); }
@@ -60,8 +80,15 @@ class CaptureThread {
   std::int64_t reopens() const { return reopens_.load(); }
   // Motion JPEG frames the source refused as corrupt or truncated (part of
   // dropped_source), over every reopen, and the last one's reason ("" none).
-  std::int64_t corrupt() const { return corrupt_.load(); }
+  std::int64_t corrupt() const { return corrupt_.load() + decode_corrupt_.load(); }
   std::string last_corrupt() const;
+  // Motion JPEG decodes made for this thread's frames (tries, the failed ones too),
+  // either way: every delivered frame without decode on demand, else only the
+  // frames taken (see above). Packets replaced or passed over before anyone took
+  // them, never decoded (decode on demand only).
+  std::int64_t decodes() const { return decodes_.load(); }
+  std::int64_t skipped_undecoded() const { return skipped_undecoded_.load(); }
+  bool decode_on_demand() const { return source_options_.defer_jpeg_decode; }
   bool ended() const { return ended_.load(); }  // the source ended and will not be reopened
   std::string status() const;                   // "" when all is well, else why not
   int width() const { return width_; }
@@ -72,6 +99,9 @@ class CaptureThread {
  private:
   void main();
   void set_status(const std::string& s);
+  // Decodes an undecoded frame in place with `dec`; false: refused (counted). No lock held.
+  bool decode(MjpegDecoder& dec, Frame& f);
+  void count_decode(bool ok, const MjpegDecoder& dec);  // under mutex_
 
   std::unique_ptr<FrameSource> source_;
   std::string spec_;
@@ -90,9 +120,17 @@ class CaptureThread {
   double time_offset_ = 0, last_time_s_ = 0;  // capture thread: Frame::time_s across reopens
   std::atomic<double> last_steady_s_{0};
   std::atomic<std::int64_t> delivered_{0}, dropped_consumer_{0}, dropped_source_{0}, reopens_{0};
-  std::atomic<std::int64_t> corrupt_{0};
+  std::atomic<std::int64_t> corrupt_{0};  // refused by the sources (their corrupt_total)
   std::int64_t corrupt_before_ = 0;  // corrupt frames of the sources before a reopen (capture thread)
   std::string last_corrupt_;         // under mutex_
+  // Decode on demand: the consumer is inside wait_take (under mutex_); one decoder
+  // per thread (capture thread, consumer); consecutive failed decodes (under mutex_).
+  bool consumer_waiting_ = false;
+  MjpegDecoder capture_decoder_, take_decoder_;
+  MjpegOutput jpeg_out_ = MjpegOutput::kBgr;
+  int bad_in_row_ = 0;
+  static constexpr int kMaxBadInRow = 10;  // more in a row: status() says the stream is damaged
+  std::atomic<std::int64_t> decodes_{0}, skipped_undecoded_{0}, decode_corrupt_{0};
   std::atomic<bool> stop_{false}, ended_{false};
   std::thread thread_;
 };

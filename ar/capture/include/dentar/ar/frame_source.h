@@ -87,6 +87,13 @@ struct FrameSourceOptions {
   // Motion JPEG: libjpeg-turbo's fast integer IDCT (TJFLAG_FASTDCT) instead of the
   // accurate one (docs/BENCHMARKS.md, session 18: its cost in pixel error).
   bool jpeg_fast_dct = false;
+  // Motion JPEG live sources (session 20): hand on each frame after the first
+  // undecoded: Frame::image empty, Frame::encoded the camera's bytes, checked
+  // only for what needs no pixels (MjpegDecoder::check: markers, header, size);
+  // whoever takes the frame decodes it (CaptureThread decodes the frames its
+  // consumer takes, so a frame replaced unseen costs no decode). A frame that then fails to decode is the taker's to drop and count.
+  // Off: every frame is decoded on the reader's thread (sessions 18-19).
+  bool defer_jpeg_decode = false;
   // Live sources: the format asked of the camera, "" (the driver's default),
   // "YUYV" or "MJPG"; a camera that does not deliver it is refused (the error
   // names what it delivers).
@@ -123,6 +130,10 @@ struct Frame {
 // (MjpegDecoder, YUYV when the JPEG allows it). Error names the file and why.
 Result<cv::Mat> read_frame_image(const std::string& path, const std::string& pixel_format = "bgr");
 
+// A Motion JPEG frame handed on undecoded (FrameSourceOptions::defer_jpeg_decode):
+// bytes in Frame::encoded, no image yet.
+inline bool frame_undecoded(const Frame& f) { return f.image.empty() && !f.encoded.empty(); }
+
 // steady_clock now, s since its epoch (the clock of Frame::steady_s).
 double steady_now_s();
 
@@ -157,6 +168,9 @@ Status write_yuyv_avi(const std::string& path, const std::function<bool(cv::Mat&
 // which is what the tests of a camera's damaged frames need). `live:PATH` reads them
 // raw, as a UVC camera's. Error names the file when it cannot be written.
 Status write_mjpeg_avi(const std::string& path, const std::vector<std::vector<std::uint8_t>>& jpegs, int width,
+                       int height, double fps);
+// The same, streamed: `next` fills the next frame's bytes and returns false after the last.
+Status write_mjpeg_avi(const std::string& path, const std::function<bool(std::vector<std::uint8_t>&)>& next, int width,
                        int height, double fps);
 
 class FrameSource {

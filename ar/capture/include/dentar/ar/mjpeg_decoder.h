@@ -68,6 +68,12 @@ class MjpegDecoder {
   // the frame is refused, `out` is left empty and why() says why.
   bool decode(const std::uint8_t* data, std::size_t size, MjpegOutput output, cv::Mat& out);
   bool decode(const cv::Mat& bytes, MjpegOutput output, cv::Mat& out);  // 1xN / Nx1 CV_8UC1
+  // The checks decode() makes before any pixel, without decoding: the start and
+  // end-of-image markers, the header, and the expected size (expect_size). A frame
+  // that passes can still fail decode() (corrupt entropy data); one that fails
+  // would fail decode() with the same why(). Costs a header parse (microseconds).
+  bool check(const std::uint8_t* data, std::size_t size);
+  bool check(const cv::Mat& bytes);  // 1xN / Nx1 CV_8UC1
   // Only the header (no pixels). false on a header that does not parse (why()).
   bool header(const std::uint8_t* data, std::size_t size, JpegHeader& h);
 
