@@ -239,9 +239,12 @@ TEST(CompositorRegionGl, KeepYuyvGivesTheSameCompositeAndConvertsOnlyTheRegion) 
   ASSERT_EQ(fo.frames.size(), 2u);
   CompositorOptions whole_o;
   whole_o.region_path = false;
+  // One compositor per way: the segmenter's foreground model adapts from frame to frame.
   auto region = Compositor::create(fo.station);
+  auto keeping = Compositor::create(fo.station);
   auto whole = Compositor::create(fo.station, whole_o);
   ASSERT_TRUE(region.ok()) << region.error();
+  ASSERT_TRUE(keeping.ok()) << keeping.error();
   ASSERT_TRUE(whole.ok()) << whole.error();
   const int W = fo.station.calibration.camera.width, H = fo.station.calibration.camera.height;
   CompositeResult kept, conv;  // reused across frames, as the live loop does
@@ -259,7 +262,7 @@ TEST(CompositorRegionGl, KeepYuyvGivesTheSameCompositeAndConvertsOnlyTheRegion) 
     ASSERT_TRUE(whole->compose(*fo.tooth->surface, in, w).ok());
     ASSERT_TRUE(region->compose(*fo.tooth->surface, in, conv).ok());
     in.keep_yuyv = true;
-    ASSERT_TRUE(region->compose(*fo.tooth->surface, in, kept).ok());
+    ASSERT_TRUE(keeping->compose(*fo.tooth->surface, in, kept).ok());
     ASSERT_TRUE(kept.overlay_drawn);
     // The frame itself, not a copy; the patch holds the region, from an even column.
     ASSERT_EQ(kept.image.type(), CV_8UC2);
@@ -310,7 +313,7 @@ TEST(CompositorRegionGl, KeepYuyvGivesTheSameCompositeAndConvertsOnlyTheRegion) 
   in.video_bgr = &yuyv;
   CompositeResult fresh;
   ASSERT_TRUE(region->compose(*fo.tooth->surface, in, conv).ok());
-  ASSERT_TRUE(region->compose(*fo.tooth->surface, in, fresh).ok());
+  ASSERT_TRUE(whole->compose(*fo.tooth->surface, in, fresh).ok());  // the rival's, its model at the same frames
   EXPECT_EQ(conv.image.data, img_data);
   EXPECT_EQ(conv.tooth_visible.data, vis_data);
   EXPECT_EQ(cv::norm(conv.image, fresh.image, cv::NORM_INF), 0.0);
