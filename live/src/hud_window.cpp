@@ -159,19 +159,39 @@ void HudWindow::inject_key(int key) { presses_.push_back(key); }
 bool HudWindow::held(int key) const { return held_.count(key) > 0; }
 
 // The upload's one conversion: BGR, or the camera's own YUYV (issue 28: a bare
-// passthrough or a stalled camera's raw frame) straight to the texture's layout.
-static void to_upload(const cv::Mat& img, bool gles, cv::Mat& out) {
+// passthrough, a stalled camera's raw frame, or a keep_yuyv composite's video) straight to
+// the texture's layout; a keep_yuyv composite's patch converted over it (session 20: the
+// frame path no longer converts the whole frame to BGR for this one copy).
+std::string upload_pixels(const cv::Mat& img, const cv::Mat& patch, const cv::Rect& patch_rect, bool gles,
+                          cv::Mat& out) {
+  if (img.type() != CV_8UC3 && img.type() != CV_8UC2)
+    return "upload: the frame must be BGR (CV_8UC3) or YUYV (CV_8UC2); got " + cv::typeToString(img.type());
+  if (!patch.empty()) {
+    if (patch.type() != CV_8UC3)
+      return "upload: the composite's patch must be BGR (CV_8UC3); got " + cv::typeToString(patch.type());
+    if (patch.size() != patch_rect.size() || (patch_rect & cv::Rect(0, 0, img.cols, img.rows)) != patch_rect)
+      return "upload: the composite's patch (" + std::to_string(patch.cols) + "x" + std::to_string(patch.rows) +
+             ") does not fit its rectangle (" + std::to_string(patch_rect.x) + ", " + std::to_string(patch_rect.y) +
+             ", " + std::to_string(patch_rect.width) + "x" + std::to_string(patch_rect.height) + ") in the " +
+             std::to_string(img.cols) + "x" + std::to_string(img.rows) + " frame";
+  }
   if (img.type() == CV_8UC2)
     cv::cvtColor(img, out, gles ? cv::COLOR_YUV2RGBA_YUYV : cv::COLOR_YUV2BGRA_YUYV);
   else
     cv::cvtColor(img, out, gles ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
+  if (!patch.empty()) {
+    cv::Mat dst = out(patch_rect);
+    cv::cvtColor(patch, dst, gles ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
+    if (dst.data != out(patch_rect).data) return "upload: the patch's conversion did not write in place";
+  }
+  return {};
 }
 
-void HudWindow::set_video(const cv::Mat& bgr) {
+void HudWindow::set_video(const cv::Mat& bgr, const cv::Mat& patch, const cv::Rect& patch_rect) {
   if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || (bgr.type() != CV_8UC3 && bgr.type() != CV_8UC2))
     return;
   // SIMD; the buffer is kept between frames.
-  to_upload(bgr, gles_, bgra_);
+  if (!upload_pixels(bgr, patch, patch_rect, gles_, bgra_).empty()) return;
   glBindTexture(GL_TEXTURE_2D, tex_);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, bgra_.cols, bgra_.rows, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,
@@ -179,7 +199,7 @@ void HudWindow::set_video(const cv::Mat& bgr) {
   frame_video_ = 0;
 }
 
-void HudWindow::set_video_right(const cv::Mat& bgr) {
+void HudWindow::set_video_right(const cv::Mat& bgr, const cv::Mat& patch, const cv::Rect& patch_rect) {
   right_ = false;
   if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || (bgr.type() != CV_8UC3 && bgr.type() != CV_8UC2))
     return;
@@ -190,7 +210,7 @@ void HudWindow::set_video_right(const cv::Mat& bgr) {
     glBindTexture(GL_TEXTURE_2D, t);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex_w_, tex_h_, 0, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
   }
-  to_upload(bgr, gles_, bgra_right_);
+  if (!upload_pixels(bgr, patch, patch_rect, gles_, bgra_right_).empty()) return;
   glBindTexture(GL_TEXTURE_2D, tex_right_);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, tex_w_, tex_h_, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,

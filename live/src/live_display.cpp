@@ -147,6 +147,10 @@ class DisplayLoop {
     Shown& shown = sh_.shown;
     cv::swap(cur_.composite, shown.composite);
     cv::swap(cur_.composite_right, shown.composite_right);
+    cv::swap(cur_.patch, shown.patch);
+    cv::swap(cur_.patch_right, shown.patch_right);
+    cur_.patch_rect = shown.patch_rect;
+    cur_.patch_rect_right = shown.patch_rect_right;
     cur_.raw_right = shown.raw_right;
     cur_.gpu = shown.gpu;
     if (cur_.gpu) new_slot = sh_.ring->take();
@@ -313,12 +317,16 @@ class DisplayLoop {
       shown_slot_ = new_slot;
     }
     if (!img.empty() && (fresh || stalled)) {
-      hw.set_video(img);
+      if (stalled) hw.set_video(img);
+      else hw.set_video(img, cur_.patch, cur_.patch_rect);
       shown_slot_ = -1;
     }
     // The right eye of a stereo pair (the headset's view): its own composite, or its raw
     // frame while the camera is silent; none (an eye missing, or mono): both eyes see `img`.
-    if (stereo_ && (fresh || stalled)) hw.set_video_right(stalled ? cur_.raw_right : cur_.composite_right);
+    if (stereo_ && (fresh || stalled)) {
+      if (stalled) hw.set_video_right(cur_.raw_right);
+      else hw.set_video_right(cur_.composite_right, cur_.patch_right, cur_.patch_rect_right);
+    }
     hw.begin_frame();
     // The GPU path's composite never reaches the CPU: the note's label is drawn over it here.
     // Its layout is the mono letterbox; a headset view shows the CPU composite's label only.

@@ -4,7 +4,9 @@
 #include <sched.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <exception>
+#include <string>
 #include <thread>
 
 #include "dentar/ar/egl_context.h"
@@ -407,6 +409,9 @@ class FrameThread {
     const bool gl = use_gl_ && !right_only_ && !(note_on && o.output == "sbs");
     const int slot = gl ? sh_.ring->acquire() : -1;
     if (gl) in.gl_target = sh_.ring->target(slot);
+    // The CPU path's composites go to the window's upload, which converts the camera's
+    // YUYV itself: the frame path converts only the overlay's region (session 20).
+    in.keep_yuyv = !gl && keep_yuyv_;
     std::string err;
     try {
       if (auto s = c_.run.pipeline().process(in, c_.run.meshes(), cres_, rec_, want_right_ ? &cres_right_ : nullptr); !s)
@@ -467,8 +472,14 @@ class FrameThread {
       shown.gpu = slot >= 0 && err.empty();
       // The right eye (a stereo pair for the headset): its composite, or none (mono).
       shown.raw_right = want_right_ ? right_image_ : cv::Mat();
-      if (err.empty() && want_right_ && rec_.right.composited) cv::swap(cres_right_.image, shown.composite_right);
-      else shown.composite_right.release();
+      if (err.empty() && want_right_ && rec_.right.composited) {
+        cv::swap(cres_right_.image, shown.composite_right);
+        cv::swap(cres_right_.patch, shown.patch_right);
+        shown.patch_rect_right = cres_right_.patch_rect;
+      } else {
+        shown.composite_right.release();
+        shown.patch_right.release();
+      }
       // Buffers change hands, never copied (2.7 MB a 720p frame): the
       // compositor's, the shown slot and the display's each own one.
       // GPU path: the texture is published (fence) under the same lock as
@@ -476,9 +487,15 @@ class FrameThread {
       if (shown.gpu) {
         sh_.ring->publish(slot, processed, cres_.region.x, cres_.region.y, cres_.region.width, cres_.region.height);
         shown.composite.release();
+        shown.patch.release();
       } else if (err.empty()) {
         cv::swap(cres_.image, shown.composite);
+        cv::swap(cres_.patch, shown.patch);
+        shown.patch_rect = cres_.patch_rect;
       } else {
+        // Released first: the buffer may be a camera frame another holder still reads (keep_yuyv).
+        shown.composite.release();
+        shown.patch.release();
         f.image.copyTo(shown.composite);
       }
       shown.index = processed;
@@ -511,6 +528,12 @@ class FrameThread {
   FrameFigures& fig_;
   Result<ar::EglContext> egl_ = Error{"not made"};
   bool use_gl_ = false;
+  // Session 20: the CPU composites stay YUYV outside the overlay (FrameInput::keep_yuyv);
+  // DENTAR_KEEP_YUYV=0 converts the whole frame as before (the A/B arm of the bench).
+  const bool keep_yuyv_ = [] {
+    const char* e = std::getenv("DENTAR_KEEP_YUYV");
+    return e == nullptr || std::string(e) != "0";
+  }();
   ar::CompositeResult cres_, cres_right_;  // cres_right_: the right eye's (want_right_)
   ar::FrameRecord rec_;
   bool want_right_ = false;  // stereo pipeline and the headset's output: composite the right eye too

@@ -65,6 +65,11 @@ struct Shown {
   // A stereo pair for the headset (issue 28): the right eye's composite (always the CPU
   // path's) and its raw frame; empty: mono (both eyes shown the one composite).
   cv::Mat composite_right, raw_right;
+  // Issue 28 session 20: a keep_yuyv composite (ar::CompositeResult::patch): the composite
+  // above is the camera's YUYV frame and these the BGR overlay inside their rectangles
+  // (empty: none); the window converts both in its upload.
+  cv::Mat patch, patch_right;
+  cv::Rect patch_rect, patch_rect_right;
   bool gpu = false;
   std::int64_t index = -1;  // recording index (frames processed)
   double steady_s = 0;      // capture time

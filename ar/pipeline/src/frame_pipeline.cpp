@@ -473,6 +473,8 @@ Status FramePipeline::process(const FrameInput& in, ToothMeshes& meshes, Composi
       }
     } else {
       right_out->image.release();
+      right_out->patch.release();
+      right_out->patch_rect = cv::Rect();
       right_out->tooth_visible.release();
       right_out->overlay_drawn = right_out->mirror_drawn = right_out->expert_drawn = false;
       right_out->region = cv::Rect();
@@ -490,6 +492,7 @@ Status FramePipeline::compose_eye(const EyeView& eye, const CompositeInput& rig,
   ci.video_bgr = eye.image;
   ci.T_cam_man = eye.T_eye_rig * rig.T_cam_man;
   ci.T_cam_mtag = eye.T_eye_rig * rig.T_cam_mtag;
+  ci.keep_yuyv = in.keep_yuyv && (in.note == nullptr || in.note->empty());
   if (auto cs = eye.gl_target.video_texture != 0 ? eye.compositor->compose_gl(meshes.display(), ci, eye.gl_target, out)
                                                  : eye.compositor->compose(meshes.display(), ci, out);
       !cs)
@@ -508,7 +511,7 @@ Status FramePipeline::compose_eye(const EyeView& eye, const CompositeInput& rig,
     if (const auto c = tooth_centre_px(*eye.station, ci.T_cam_man)) {
       er.note_anchored = true;
       er.note_anchor_px = *c;
-      if (!out.image.empty()) {
+      if (!out.image.empty() && out.image.type() == CV_8UC3) {
         draw_note_label(out.image, layout_note_label(*in.note, *c, out.image.size()));
         er.note_drawn = true;
       }

@@ -1344,19 +1344,38 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
   if (std::string e = check_video(im, in); !e.empty()) return Error{e};
   const CompositorOptions& o = im.opt;
   CompositeResult out;
+  // Issue 28 session 20: the previous result's frame-size buffers are drawn into again when
+  // the caller holds them alone (the live loop hands them round: frame thread, window), not
+  // allocated anew: 2.7 + 0.9 MB a 720p frame and eye were fresh pages every frame (the
+  // frame thread's page faults in session 19's profile). Shared buffers are never written.
+  const auto sole = [](const cv::Mat& m, int rows, int cols, int type) {
+    return m.u != nullptr && m.u->refcount == 1 && m.rows == rows && m.cols == cols && m.type() == type &&
+           m.data == m.datastart && m.isContinuous();
+  };
+  const bool keep = in.keep_yuyv && in.video_bgr->type() == CV_8UC2;
+  if (!keep && sole(result.image, H, W, CV_8UC3)) out.image = std::move(result.image);
+  if (sole(result.tooth_visible, H, W, CV_8UC1)) out.tooth_visible = std::move(result.tooth_visible);
+  if (keep && result.patch.u != nullptr && result.patch.u->refcount == 1) out.patch = std::move(result.patch);
 
   auto t0 = Clock::now();
   im.sync(surface);
   out.timing.sync_ms = ms_since(t0);
 
   // The output starts as the video: the camera's own YUYV is converted here, once
-  // (the copy the CPU path makes anyway), never before.
-  if (in.video_bgr->type() == CV_8UC2)
+  // (the copy the CPU path makes anyway), never before; keep_yuyv: not at all outside
+  // the overlay (the frame itself is the output there, its buffer shared).
+  if (keep)
+    out.image = *in.video_bgr;
+  else if (in.video_bgr->type() == CV_8UC2)
     cv::cvtColor(*in.video_bgr, out.image, cv::COLOR_YUV2BGR_YUYV);
   else
     in.video_bgr->copyTo(out.image);
-  out.tooth_visible = cv::Mat::zeros(H, W, CV_8UC1);
+  if (out.tooth_visible.empty())
+    out.tooth_visible = cv::Mat::zeros(H, W, CV_8UC1);
+  else
+    out.tooth_visible.setTo(0);
   if (!in.man_valid) {
+    out.patch.release();
     out.timing.total_ms = ms_since(t_start);
     result = std::move(out);
     return {};
@@ -1389,6 +1408,20 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
   const cv::Rect roi = im.output_rect(croi);
   out.region = roi;
   double blend_ms = 0;
+  // The video under the overlay, BGR: the output's own pixels, or (keep_yuyv) the patch:
+  // the region's YUYV converted from an even column (a pixel pair shares its chroma), as
+  // the whole frame's conversion gives them.
+  cv::Mat base;
+  if (keep && !roi.empty()) {
+    const int x0 = roi.x & ~1, x1 = std::min(W, (roi.x + roi.width + 1) & ~1);
+    out.patch_rect = cv::Rect(x0, roi.y, x1 - x0, roi.height);
+    cv::cvtColor((*in.video_bgr)(out.patch_rect), out.patch, cv::COLOR_YUV2BGR_YUYV);
+    base = out.patch(cv::Rect(roi.x - x0, 0, roi.width, roi.height));
+  } else if (keep) {
+    out.patch.release();
+  } else if (!roi.empty()) {
+    base = out.image(roi);
+  }
   if (!roi.empty()) {
     for (cv::Mat* m : {&im.o_color, &im.o_tooth, &im.o_albedo})
       if (m->rows != H || m->cols != W) m->create(H, W, CV_8UC4);
@@ -1409,7 +1442,7 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
 
     // ---- unknown foreground in the tooth's region ----
     t0 = Clock::now();
-    const cv::Mat video = out.image(roi);  // the video (BGR): the blend below writes into it after this
+    const cv::Mat video = base;  // the video (BGR): the blend below writes into it after this
     cv::Mat tooth_cov;
     cv::extractChannel(ot, tooth_cov, 0);
     bool have_fg = false;
@@ -1429,7 +1462,7 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
 
     // ---- blend: out = video (1 - a (1 - f)) + rgb (1 - f), rgb premultiplied ----
     t0 = Clock::now();
-    cv::Mat dst = out.image(roi), vis = out.tooth_visible(roi);
+    cv::Mat dst = base, vis = out.tooth_visible(roi);
     for (int v = 0; v < roi.height; ++v) {
       const auto* c = oc.ptr<cv::Vec4b>(v);
       const auto* tc = tooth_cov.ptr<std::uint8_t>(v);
@@ -1457,6 +1490,19 @@ Status Compositor::compose(const volume::Surface& surface, const CompositeInput&
   out.timing.total_ms = ms_since(t_start);
   result = std::move(out);
   return {};
+}
+
+void composite_bgr(const CompositeResult& r, cv::Mat& bgr) {
+  if (r.image.empty()) {
+    bgr.release();
+    return;
+  }
+  if (r.image.type() != CV_8UC2) {
+    r.image.copyTo(bgr);
+    return;
+  }
+  cv::cvtColor(r.image, bgr, cv::COLOR_YUV2BGR_YUYV);
+  if (!r.patch.empty()) r.patch.copyTo(bgr(r.patch_rect));
 }
 
 // ---- the GPU path ------------------------------------------------------------------

@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dentar/ar/compositor.h"
+#include "dentar/ar/frame_gray.h"
 #include "dentar/ar/gl_objects.h"
 #include "dentar/ar/synth.h"
 #include "composite_test_util.h"
@@ -215,6 +216,108 @@ TEST(CompositorRegionGl, LevelOfDetailInAngleKeepsTheOutlineAtEveryResolution) {
       }
     }
   }
+}
+
+}  // namespace
+}  // namespace dentar::ar
+
+namespace dentar::ar {
+namespace {
+
+// Issue 28 session 20: CompositeInput::keep_yuyv. The composite of a YUYV frame stays the
+// camera's frame outside the overlay (out.image shares its buffer: nothing converted) and
+// the BGR patch inside patch_rect holds the overlay: composite_bgr() of it is the
+// whole-frame conversion's composite (keep_yuyv = false) and the whole-frame path's,
+// pixel for pixel. And compose() draws into the previous result's buffers only when the
+// caller holds them alone: a composite still held elsewhere is never overwritten.
+TEST(CompositorRegionGl, KeepYuyvGivesTheSameCompositeAndConvertsOnlyTheRegion) {
+  DENTAR_GL_TEST_CONTEXT();
+  SynthOptions so = synth_preset(SynthPreset::kStandard);
+  so.frames = 9;
+  test::ToothFootage fo = test::tooth_footage(default_station_scene(), so, 8);
+  ASSERT_EQ(fo.error, "");
+  ASSERT_EQ(fo.frames.size(), 2u);
+  CompositorOptions whole_o;
+  whole_o.region_path = false;
+  // One compositor per way: the segmenter's foreground model adapts from frame to frame.
+  auto region = Compositor::create(fo.station);
+  auto keeping = Compositor::create(fo.station);
+  auto whole = Compositor::create(fo.station, whole_o);
+  ASSERT_TRUE(region.ok()) << region.error();
+  ASSERT_TRUE(keeping.ok()) << keeping.error();
+  ASSERT_TRUE(whole.ok()) << whole.error();
+  const int W = fo.station.calibration.camera.width, H = fo.station.calibration.camera.height;
+  CompositeResult kept, conv;  // reused across frames, as the live loop does
+  cv::Mat held_conv, held_conv_copy, held_vis, held_vis_copy;
+  int k = 0;
+  for (auto& f : fo.frames) {
+    SCOPED_TRACE("frame " + std::to_string(f.truth.frame));
+    if (k++ == 0)
+      if (const auto fi = test::finger_across_tooth(f.mask, 0, 100)) paint_synthetic_finger(f.image, *fi);
+    cv::Mat yuyv;
+    bgr_to_yuyv(f.image, yuyv);
+    CompositeInput in = test::truth_input(f);
+    in.video_bgr = &yuyv;
+    CompositeResult w;
+    ASSERT_TRUE(whole->compose(*fo.tooth->surface, in, w).ok());
+    ASSERT_TRUE(region->compose(*fo.tooth->surface, in, conv).ok());
+    in.keep_yuyv = true;
+    ASSERT_TRUE(keeping->compose(*fo.tooth->surface, in, kept).ok());
+    ASSERT_TRUE(kept.overlay_drawn);
+    // The frame itself, not a copy; the patch holds the region, from an even column.
+    ASSERT_EQ(kept.image.type(), CV_8UC2);
+    EXPECT_EQ(kept.image.data, yuyv.data);
+    ASSERT_FALSE(kept.patch.empty());
+    EXPECT_EQ(kept.patch.type(), CV_8UC3);
+    EXPECT_EQ(kept.patch.size(), kept.patch_rect.size());
+    EXPECT_EQ(kept.patch_rect & kept.region, kept.region);
+    EXPECT_EQ(kept.patch_rect.x % 2, 0);
+    EXPECT_EQ(kept.patch_rect.width % 2, 0);
+    EXPECT_LE(kept.patch_rect.width, kept.region.width + 2);
+    EXPECT_EQ(kept.region, conv.region);
+    EXPECT_LT(kept.patch_rect.area(), W * H / 10);
+    cv::Mat full;
+    composite_bgr(kept, full);
+    EXPECT_EQ(cv::norm(full, conv.image, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(full, w.image, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(kept.tooth_visible, conv.tooth_visible, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(kept.tooth_visible, w.tooth_visible, cv::NORM_INF), 0.0);
+    EXPECT_EQ(kept.tooth_px, w.tooth_px);
+    cv::Mat video;
+    cv::cvtColor(yuyv, video, cv::COLOR_YUV2BGR_YUYV);
+    EXPECT_GT(cv::norm(full(kept.region), video(kept.region), cv::NORM_INF), 0.0) << "no overlay in the patch";
+    // A BGR result is its own whole frame.
+    cv::Mat same;
+    composite_bgr(conv, same);
+    EXPECT_EQ(cv::norm(same, conv.image, cv::NORM_INF), 0.0);
+    // The previous frame's composite, still held here: untouched by this frame's compose.
+    if (!held_conv.empty()) {
+      EXPECT_EQ(cv::norm(held_conv, held_conv_copy, cv::NORM_INF), 0.0) << "a held composite was drawn over";
+      EXPECT_EQ(cv::norm(held_vis, held_vis_copy, cv::NORM_INF), 0.0) << "a held mask was drawn over";
+      EXPECT_NE(conv.image.data, held_conv.data);
+    }
+    held_conv = conv.image;
+    held_conv_copy = conv.image.clone();
+    held_vis = conv.tooth_visible;
+    held_vis_copy = conv.tooth_visible.clone();
+  }
+  // Held alone, the buffers are drawn into again (no new frame-size allocation), with the
+  // same pixels as a new result's.
+  held_conv.release();
+  held_vis.release();
+  const unsigned char* img_data = conv.image.data;
+  const unsigned char* vis_data = conv.tooth_visible.data;
+  cv::Mat yuyv;
+  bgr_to_yuyv(fo.frames.back().image, yuyv);
+  CompositeInput in = test::truth_input(fo.frames.back());
+  in.video_bgr = &yuyv;
+  CompositeResult fresh;
+  ASSERT_TRUE(region->compose(*fo.tooth->surface, in, conv).ok());
+  ASSERT_TRUE(whole->compose(*fo.tooth->surface, in, fresh).ok());  // the rival's, its model at the same frames
+  EXPECT_EQ(conv.image.data, img_data);
+  EXPECT_EQ(conv.tooth_visible.data, vis_data);
+  EXPECT_EQ(cv::norm(conv.image, fresh.image, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(conv.tooth_visible, fresh.tooth_visible, cv::NORM_INF), 0.0);
 }
 
 }  // namespace

@@ -28,6 +28,13 @@ struct GLFWwindow;
 
 namespace dentar::live {
 
+// The window's upload of one frame (set_video): `img` (BGR, or the camera's YUYV) in the
+// texture's layout (gles: RGBA, else BGRA; `out` reused), and a BGR `patch` (empty: none)
+// over it inside patch_rect. Empty string, or why not (nothing written: a patch that is not
+// BGR, not patch_rect's size, or not inside the frame).
+std::string upload_pixels(const cv::Mat& img, const cv::Mat& patch, const cv::Rect& patch_rect, bool gles,
+                          cv::Mat& out);
+
 class DisplayOutput;
 
 class HudWindow {
@@ -51,11 +58,14 @@ class HudWindow {
   // Uploads a BGR frame, or the camera's own YUYV (CV_8UC2, converted once into the
   // texture's layout), of the video size (others are ignored with no effect);
   // the window shows it from now on.
-  void set_video(const cv::Mat& bgr);
+  // patch, patch_rect (issue 28 session 20): a keep_yuyv composite (ar::CompositeResult):
+  // the camera's YUYV frame, and the BGR composite inside patch_rect drawn over it, each
+  // converted once into the upload (no whole-frame BGR made on the frame path).
+  void set_video(const cv::Mat& bgr, const cv::Mat& patch = {}, const cv::Rect& patch_rect = {});
   // A stereo pair's right eye (BGR, the video size; set after set_video): the
   // headset's output shows it to the right eye (eye_output.h). An empty image
-  // goes back to mono (both eyes from set_video's frame).
-  void set_video_right(const cv::Mat& bgr);
+  // goes back to mono (both eyes from set_video's frame). patch: as set_video's.
+  void set_video_right(const cv::Mat& bgr, const cv::Mat& patch = {}, const cv::Rect& patch_rect = {});
   // Shows, from now on, a frame from a context sharing with this window's
   // (the caller has waited for its fence): the video (RGBA8 texture of the
   // video size) and, inside region (x0, y0, x1, y1; image px), the composite

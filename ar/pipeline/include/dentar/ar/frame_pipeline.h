@@ -154,6 +154,11 @@ struct FrameInput {
   // (note_label.h) when the tooth is drawn (mannequin tracking or predicted); into the CPU
   // composite only (the GPU path's window draws rec.note_anchor_px's layout itself).
   const std::string* note = nullptr;
+  // Issue 28 session 20: the CPU composites of a YUYV video stay YUYV outside the overlay
+  // (CompositeInput::keep_yuyv: out.image is the camera's frame, out.patch the composite
+  // inside out.patch_rect), for a consumer that converts on its own upload (the live
+  // window). Not with a note on show (its label is drawn into a BGR composite).
+  bool keep_yuyv = false;
 };
 
 // One eye's composite as FramePipeline::process drew it (issue 28, session 16: the right

@@ -189,6 +189,14 @@ struct CompositeInput {
   // recording drills). (1, 1, 1) = the material colours.
   ExpertTool expert;
   Eigen::Vector3f tooth_tint = Eigen::Vector3f::Ones();
+  // Issue 28 session 20: compose() with a YUYV video keeps the camera's frame outside the
+  // overlay. out.image = the camera's YUYV frame itself (its buffer shared, not copied:
+  // never write into it), out.patch = the BGR composite inside out.patch_rect (the overlay's
+  // region widened to even columns, so YUYV's pairs convert whole); nothing outside it is
+  // converted. composite_bgr() gives the whole BGR frame (the same pixels as keep_yuyv =
+  // false); the live window converts the rest in its upload (HudWindow::set_video). Ignored
+  // for BGR video and by compose_gl.
+  bool keep_yuyv = false;
 };
 
 // Wall-clock time of each stage of compose(), ms.
@@ -213,7 +221,12 @@ struct GlFrameTarget {
 };
 
 struct CompositeResult {
-  cv::Mat image;          // CV_8UC3 BGR composite, camera size
+  cv::Mat image;          // CV_8UC3 BGR composite, camera size (CV_8UC2: keep_yuyv, see patch)
+  // CompositeInput::keep_yuyv with a YUYV video: the BGR composite inside patch_rect (which
+  // holds `region`, widened to even columns); empty when nothing was drawn. Outside it the
+  // composite is `image`'s YUYV converted (COLOR_YUV2BGR_YUYV).
+  cv::Mat patch;
+  cv::Rect patch_rect;
   cv::Mat tooth_visible;  // CV_8UC1 0..255: the directly seen virtual tooth after occlusion (soft)
   bool overlay_drawn = false;  // man_valid and something was drawn
   bool mirror_drawn = false;   // the reflection pass ran
@@ -232,6 +245,11 @@ struct CompositeResult {
   CompositeTimings timing;
 };
 
+// The whole BGR composite of `r` (camera size) into `bgr`: `r.image` itself when it is BGR;
+// a keep_yuyv result's YUYV converted with its patch over it (the same pixels as compose()
+// with keep_yuyv = false). Empty `r.image`: `bgr` released.
+void composite_bgr(const CompositeResult& r, cv::Mat& bgr);
+
 class Compositor {
  public:
   // Needs a current EGL context. Camera: station.calibration.camera. Errors
@@ -245,7 +263,9 @@ class Compositor {
   // Composites one frame. Syncs the tooth from `surface` first (only chunks
   // whose mesh version changed). Errors: no/empty video frame, wrong type,
   // frame size != camera size (a station file for another camera), GL
-  // errors. On error `out` is left unchanged.
+  // errors. On error `out` is left unchanged (but for a GL error after the draw: then
+  // its frame-size buffers, which compose() reuses when `out` alone holds them, may be
+  // taken or overwritten).
   Status compose(const volume::Surface& surface, const CompositeInput& in, CompositeResult& out);
   // The GPU path (see above): composites into `target` (GlFrameTarget).
   // Same errors as compose(), plus gpu_path_error()'s and unusable targets.
