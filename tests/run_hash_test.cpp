@@ -207,7 +207,12 @@ TEST(OfflineHash, LiveRecordingReplayIsUnchanged) {
   // Session 15: the `triangles` column only (see above). Hash before: 84e6ce1f4739eaaa.
   EXPECT_EQ(h.csv, "e8d8bb61825e976c") << "frames.csv changed";
   EXPECT_EQ(h.summary, "5ee57606c83bbd8d") << "summary.json changed: " << read_file(out / "summary.json");
-  EXPECT_EQ(h.video, "5c4d758cec5d2c79") << "composite.mkv frames changed";
+  // Session 20 (issue 28): `dentar synth --webcam` writes its MJPG with libjpeg (OpenCV's writer
+  // left ~3 % of frames short), so the frames this test takes from camera.avi have other JPEG
+  // pixels: the video moves, frames.csv and summary.json do not. Checked: edb1cc2's binary and
+  // this one give the same composite frames (ffmpeg framemd5) on the same new clip. Hash before:
+  // 5c4d758cec5d2c79.
+  EXPECT_EQ(h.video, "d54f77c29defff8f") << "composite.mkv frames changed";
   // The replay cuts the tooth the live run cut.
   EXPECT_EQ(nlohmann::json::parse(read_file(out / "summary.json"))["volume_hash"],
             nlohmann::json::parse(read_file(rec / "recording.json"))["volume_hash"]);
