@@ -336,7 +336,7 @@ PY
     ;;
   decode)
     # Issue 28 session 20: Motion JPEG decoded for every captured frame (--jpeg-decode every-frame,
-    # sessions 18-19) against only the frames the frame thread takes (on-demand, default), the same
+    # sessions 18-19 and the default) against only the frames the frame thread takes (on-demand), the same
     # binary and footage, alternating: stereo 2x1280x720 two cameras and side by side into the
     # headset view (HEADSET=). CPU per frame shown (summary cpu) and decodes per frame shown.
     [[ -n "${HEADSET:-}" ]] || { echo "decode needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }

@@ -46,10 +46,12 @@ struct LiveOptions {
   // it, converted only where used), "yuyv" / "mjpg" (asked of the camera; refused, naming what
   // it gives, when it cannot), "bgr" (the whole-frame BGR path: the backend converts every frame).
   std::string camera_format = "auto";
-  // Motion JPEG cameras (session 20): "on-demand" (default: a frame is decoded only when the
-  // frame thread takes it; frames replaced unseen are never decoded, capture_thread.h) or
-  // "every-frame" (every captured frame decoded on its capture thread, sessions 18-19).
-  std::string jpeg_decode = "on-demand";
+  // Motion JPEG cameras (session 20): "every-frame" (default: every captured frame decoded on its
+  // capture thread, as sessions 18-19) or "on-demand" (a frame is decoded only when the frame
+  // thread takes it; frames replaced unseen are never decoded, capture_thread.h). On-demand saves
+  // CPU on a loaded machine but, quiet, puts the decode on the frame path: mono 1080p capture to
+  // swap p50 73-89 -> 102-105 ms, consumer drops 1-4 -> 81-83 (docs/BENCHMARKS.md, session 20 lead).
+  std::string jpeg_decode = "every-frame";
   // Stereo (issue 28): the station's rig ("stereo") tracks from both eyes (StereoTracker), the
   // window shows the left eye. camera_right: the right eye's camera (two cameras; `camera` is
   // the left), one size and rate as the left; side_by_side: `camera` delivers both eyes in one
