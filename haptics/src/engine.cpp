@@ -433,6 +433,8 @@ std::string Engine::header_json(const std::string& tooth_description_json) const
               {"reference_force_N", cfg_.cut.reference_force_N},
               {"max_effective_force_N", cfg_.cut.max_effective_force_N},
               {"min_force_N", cfg_.cut.min_force_N}};
+  // Written only when on, so sessions cut without it keep their header bytes.
+  if (cfg_.cut.sample_jitter) j["cut"]["sample_jitter"] = true;
   const auto& b = bur_->params;
   j["bur"] = {{"id", cfg_.bur_id},
               {"shape", std::string(volume::bur_shape_name(b.shape))},

@@ -78,6 +78,10 @@ Result<SessionSetup> parse_session_header(const std::string& text) {
       !get(dev, "max_force_N", s.limits.max_force_N, err) ||
       !get(dev, "max_stiffness_N_per_m", s.limits.max_stiffness_N_per_m, err))
     return fail();
+  if (cut.contains("sample_jitter")) {  // optional: absent in sessions before session 20 (= false)
+    if (!cut["sample_jitter"].is_boolean()) return Error{"session header: cut.sample_jitter must be true or false"};
+    e.cut.sample_jitter = cut["sample_jitter"].get<bool>();
+  }
   std::vector<double> wmin, wmax;
   if (!get(dev, "workspace_min_m", wmin, err) || !get(dev, "workspace_max_m", wmax, err))
     return fail();

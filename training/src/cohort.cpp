@@ -721,6 +721,7 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
       cfg.T_tooth_dev = station.T_tooth_dev;
       cfg.T_sty_tip = station.T_sty_tip;
       cfg.try_realtime = false;
+      cfg.cut.sample_jitter = opt.sample_jitter;
       std::string header;
       {
         auto probe = haptics::Engine::create(cfg, **dev, vol, *bur, nullptr);

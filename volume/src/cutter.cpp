@@ -52,9 +52,19 @@ CutResult Cutter::step(const BurSamples& bur, const Eigen::Isometry3d& T_tooth_t
   const Eigen::Vector3d inv_s = g.spacing.cwiseInverse();
   const Eigen::Matrix3f M = (inv_s.asDiagonal() * T_tooth_tip.linear()).cast<float>();
   // +0.5 so that floor() rounds to the nearest voxel centre.
+  Eigen::Vector3d t = T_tooth_tip.translation();
+  if (params_.sample_jitter) {
+    // R3 sequence (fractional parts of n * (1/phi3, 1/phi3^2, 1/phi3^3)),
+    // centred: an offset in [-s/2, s/2)^3 for the mean sample spacing s.
+    const double n = static_cast<double>(step_index % 1000003u);
+    const double s = std::cbrt(bur.sample_volume_m3);
+    Eigen::Vector3d u(0.5 + n * 0.8191725133961645, 0.5 + n * 0.6710436067037893,
+                      0.5 + n * 0.5497004779019703);
+    for (int a = 0; a < 3; ++a) u(a) -= std::floor(u(a));
+    t += T_tooth_tip.linear() * ((u - Eigen::Vector3d::Constant(0.5)) * s);
+  }
   const Eigen::Vector3f b =
-      (inv_s.cwiseProduct(T_tooth_tip.translation() - g.origin) + Eigen::Vector3d::Constant(0.5))
-          .cast<float>();
+      (inv_s.cwiseProduct(t - g.origin) + Eigen::Vector3d::Constant(0.5)).cast<float>();
 
   // Density units each sample removes per material this step. A sample
   // stands for sample_volume of bur, so the per-voxel rate does not depend on

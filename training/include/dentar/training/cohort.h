@@ -75,6 +75,8 @@ struct CohortOptions {
   std::uint64_t seed = 1;
   double voxel_mm = 0.15;  // coarser than the exercise's tooth, for speed
   int bur_samples = 1000;
+  // The cutter's CutParams::sample_jitter for the generated sessions (off: the cohorts so far).
+  bool sample_jitter = false;
   // Called after each engine session (not with kinematics_only) with the tooth as the engine
   // left it: the cut a replay of the session's log gives (the same voxels, shown on the score
   // rank bench's seeds), so a caller that scores sessions need not replay them. Runs on the

@@ -25,6 +25,15 @@ struct CutParams {
   double max_effective_force_N = 4.0;
   // Forces below this remove nothing (the bur rests on the surface).
   double min_force_N = 0.05;
+  // Shift the bur's samples each step by a different sub-spacing offset (a
+  // low-discrepancy sequence over a cube one mean sample spacing wide, in the
+  // tip frame), so that over a few steps every voxel under the bur is cut,
+  // not only the voxels a sample lands in. Without it a bur held still (or
+  // swept along one line) removes only the voxels hit by its fixed samples,
+  // so the cut rate depends on the voxel size against the sample spacing
+  // (docs/BENCHMARKS.md, "Haptics session 20 - cut rate against voxel size").
+  // Off by default: the sessions generated so far were cut without it.
+  bool sample_jitter = false;
 
   std::string validate() const;
 };
