@@ -5,9 +5,12 @@
 // against the voxel grid. Prints removed mm^3/s, depth mm/s, mean force and
 // penetration (second half of each run). Deterministic: no timing.
 //   ./build/haptics/haptics_cut_rate_bench [--seconds 0.4] [--force 1]
+//       [--samples 500,2000] [--voxels-mm 0.15,0.1,0.075] [--jitter both|on|off]
 #include <cstdio>
 #include <cstdlib>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "../test/cut_rate.h"
 
@@ -15,12 +18,59 @@ using namespace dentar;
 
 int main(int argc, char** argv) {
   double seconds = 0.4, force = 1.0;
+  std::vector<int> sample_counts{500, 2000};
+  std::vector<double> voxels_m{0.15e-3, 0.1e-3, 0.075e-3};
+  std::vector<bool> jitters{false, true};
+  // Comma-separated list of positive numbers; false on anything else.
+  auto parse_list = [](const std::string& text, std::vector<double>& out) {
+    out.clear();
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      char* end = nullptr;
+      const double v = std::strtod(item.c_str(), &end);
+      if (item.empty() || *end != '\0' || !(v > 0)) return false;
+      out.push_back(v);
+    }
+    return !out.empty();
+  };
+  if (argc % 2 == 0) {
+    std::fprintf(stderr, "option %s has no value\n", argv[argc - 1]);
+    return 2;
+  }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
+    std::vector<double> list;
     if (a == "--seconds") seconds = std::atof(argv[i + 1]);
     else if (a == "--force") force = std::atof(argv[i + 1]);
-    else {
-      std::fprintf(stderr, "unknown option %s (use --seconds S --force N)\n", a.c_str());
+    else if (a == "--samples") {
+      if (!parse_list(argv[i + 1], list)) {
+        std::fprintf(stderr, "--samples %s: expected counts like 500,2000,10000\n", argv[i + 1]);
+        return 2;
+      }
+      sample_counts.clear();
+      for (double v : list) sample_counts.push_back(static_cast<int>(v));
+    } else if (a == "--voxels-mm") {
+      if (!parse_list(argv[i + 1], list)) {
+        std::fprintf(stderr, "--voxels-mm %s: expected sizes like 0.15,0.1\n", argv[i + 1]);
+        return 2;
+      }
+      voxels_m.clear();
+      for (double v : list) voxels_m.push_back(v * 1e-3);
+    } else if (a == "--jitter") {
+      const std::string v = argv[i + 1];
+      if (v == "both") jitters = {false, true};
+      else if (v == "on") jitters = {true};
+      else if (v == "off") jitters = {false};
+      else {
+        std::fprintf(stderr, "--jitter %s: expected both, on or off\n", v.c_str());
+        return 2;
+      }
+    } else {
+      std::fprintf(stderr,
+                   "unknown option %s (use --seconds S --force N --samples A,B --voxels-mm X,Y "
+                   "--jitter both|on|off)\n",
+                   a.c_str());
       return 2;
     }
   }
@@ -28,16 +78,19 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--seconds must be in (0.01, 60), --force in (0, 10)\n");
     return 2;
   }
-  for (bool jitter : {false, true}) {
+  for (bool jitter : jitters) {
   std::printf("\nsample_jitter %s\n", jitter ? "on" : "off (main)");
   volume::CutParams cut;
   cut.sample_jitter = jitter;
-  std::printf("bur       samples material voxel_mm  mm3_s  depth_mm_s  depth_mm  force_N  pen_mm  max_force_N\n");
-  for (int samples : {500, 2000}) {
+  std::printf("bur       samples material voxel_mm  mm3_s  depth_mm_s  depth_mm  force_N  pen_mm  max_force_N  overlap_mm3\n");
+  for (int samples : sample_counts) {
     auto bur = volume::sample_bur(volume::BurParams::cone(0.4, 0.6, 6.0), samples);
-    if (!bur) return 1;
+    if (!bur) {
+      std::fprintf(stderr, "%s\n", bur.error().c_str());
+      return 2;
+    }
     for (auto m : {volume::Material::kDentin, volume::Material::kEnamel})
-      for (double h : {0.15e-3, 0.1e-3, 0.075e-3}) {
+      for (double h : voxels_m) {
         haptics::cut_rate::PressResult sum;
         double mx = 0;
         const double phases[4][2] = {{0.0, 0.0}, {0.25, 0.5}, {0.5, 0.25}, {0.75, 0.75}};
@@ -55,11 +108,12 @@ int main(int argc, char** argv) {
           sum.depth_mm += r.depth_mm / 4;
           sum.mean_force_N += r.mean_force_N / 4;
           sum.mean_penetration_mm += r.mean_penetration_mm / 4;
+          sum.mean_overlap_mm3 += r.mean_overlap_mm3 / 4;
           mx = std::max(mx, r.max_force_N);
         }
-        std::printf("cone0.4/0.6 %5d %-8s %6.3f  %7.3f  %9.3f  %8.3f  %7.3f  %6.3f  %7.3f\n", samples,
+        std::printf("cone0.4/0.6 %5d %-8s %6.3f  %7.3f  %9.3f  %8.3f  %7.3f  %6.3f  %7.3f  %7.4f\n", samples,
                     m == volume::Material::kDentin ? "dentin" : "enamel", h * 1e3, sum.rate_mm3_s,
-                    sum.depth_rate_mm_s, sum.depth_mm, sum.mean_force_N, sum.mean_penetration_mm, mx);
+                    sum.depth_rate_mm_s, sum.depth_mm, sum.mean_force_N, sum.mean_penetration_mm, mx, sum.mean_overlap_mm3);
       }
   }
   }

@@ -33,6 +33,7 @@ struct PressResult {
   double mean_force_N = 0;         // |force| the model returned, second half
   double mean_penetration_mm = 0;  // the model's penetration (proxy - device), second half
   double max_force_N = 0;
+  double mean_overlap_mm3 = 0;     // samples in solid x sample volume, second half: the bur's cutting volume
   bool finite = true;
 };
 
@@ -75,7 +76,7 @@ inline PressResult press(const Press& p, const volume::BurSamples& bur,
   const double dt = 1e-3;
   const int steps = static_cast<int>(std::lround(p.seconds / dt));
   const int half = steps / 2;
-  double removed_half = 0, depth_half = 0, fsum = 0, psum = 0;
+  double removed_half = 0, depth_half = 0, fsum = 0, psum = 0, osum = 0;
   for (int s = 0; s < steps; ++s) {
     // Step 0 places the device at the free start (the proxy starts only there).
     if (s > 0) dev = proxy + (p.force_N / k) * down;
@@ -89,7 +90,7 @@ inline PressResult press(const Press& p, const volume::BurSamples& bur,
     dev_prev = dev;
     const ForceOutput out = model->compute(in);
     if (!out.force_N.allFinite()) r.finite = false;
-    cutter.step(bur, out.T_tooth_tip_cut, out.force_N.norm(), dt);
+    const volume::CutResult cr = cutter.step(bur, out.T_tooth_tip_cut, out.force_N.norm(), dt);
     proxy = out.T_tooth_tip_display.translation();
     const double f = out.force_N.norm();
     r.max_force_N = std::max(r.max_force_N, f);
@@ -100,6 +101,7 @@ inline PressResult press(const Press& p, const volume::BurSamples& bur,
     if (s >= half) {
       fsum += f;
       psum += out.penetration_m * 1e3;
+      osum += cr.samples_in_solid * bur.sample_volume_m3 * 1e9;
     }
   }
   const double t2 = (steps - half) * dt;
@@ -109,6 +111,7 @@ inline PressResult press(const Press& p, const volume::BurSamples& bur,
   r.depth_rate_mm_s = (r.depth_mm - depth_half) / t2;
   r.mean_force_N = fsum / (steps - half);
   r.mean_penetration_mm = psum / (steps - half);
+  r.mean_overlap_mm3 = osum / (steps - half);
   return r;
 }
 
