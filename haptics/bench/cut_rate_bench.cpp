@@ -6,8 +6,10 @@
 // penetration (second half of each run). Deterministic: no timing.
 //   ./build/haptics/haptics_cut_rate_bench [--seconds 0.4] [--force 1]
 //       [--samples 500,2000] [--voxels-mm 0.15,0.1,0.075] [--jitter both|on|off]
+//       [--model-samples N]   (the force model constrains with its own N-sample bur; 0 = the cutter's)
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -21,6 +23,7 @@ int main(int argc, char** argv) {
   std::vector<int> sample_counts{500, 2000};
   std::vector<double> voxels_m{0.15e-3, 0.1e-3, 0.075e-3};
   std::vector<bool> jitters{false, true};
+  int model_samples = 0;
   // Comma-separated list of positive numbers; false on anything else.
   auto parse_list = [](const std::string& text, std::vector<double>& out) {
     out.clear();
@@ -42,6 +45,7 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     std::vector<double> list;
     if (a == "--seconds") seconds = std::atof(argv[i + 1]);
+    else if (a == "--model-samples") model_samples = std::atoi(argv[i + 1]);
     else if (a == "--force") force = std::atof(argv[i + 1]);
     else if (a == "--samples") {
       if (!parse_list(argv[i + 1], list)) {
@@ -78,6 +82,16 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--seconds must be in (0.01, 60), --force in (0, 10)\n");
     return 2;
   }
+  std::optional<volume::BurSamples> model_bur;
+  if (model_samples != 0) {
+    auto mb = volume::sample_bur(volume::BurParams::cone(0.4, 0.6, 6.0), model_samples);
+    if (!mb) {
+      std::fprintf(stderr, "--model-samples: %s\n", mb.error().c_str());
+      return 2;
+    }
+    model_bur = std::move(*mb);
+    std::printf("force model constrains with its own %d-sample bur\n", model_samples);
+  }
   for (bool jitter : jitters) {
   std::printf("\nsample_jitter %s\n", jitter ? "on" : "off (main)");
   volume::CutParams cut;
@@ -102,7 +116,7 @@ int main(int argc, char** argv) {
           p.seconds = seconds;
           p.grid_phase = ph[0];
           p.lateral_phase = ph[1];
-          const auto r = haptics::cut_rate::press(p, *bur, cut);
+          const auto r = haptics::cut_rate::press(p, *bur, cut, model_bur ? &*model_bur : nullptr);
           sum.rate_mm3_s += r.rate_mm3_s / 4;
           sum.depth_rate_mm_s += r.depth_rate_mm_s / 4;
           sum.depth_mm += r.depth_mm / 4;

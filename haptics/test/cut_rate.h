@@ -56,13 +56,16 @@ inline volume::VoxelVolume make_slab(double h, volume::Material m, double phase)
   return v;
 }
 
+// model_bur: the samples the force model constrains with (default: the cutter's own `bur`).
 inline PressResult press(const Press& p, const volume::BurSamples& bur,
-                         const volume::CutParams& cut = {}) {
+                         const volume::CutParams& cut = {},
+                         const volume::BurSamples* model_bur = nullptr) {
+  const volume::BurSamples& mbur = model_bur ? *model_bur : bur;
   PressResult r;
   volume::VoxelVolume vol = make_slab(p.voxel_m, p.material, p.grid_phase);
   const DeviceLimits limits{};
   ForceModelParams fp;
-  auto model = std::move(make_force_model("proxy", fp, limits, bur.size())).value();
+  auto model = std::move(make_force_model("proxy", fp, limits, mbur.size())).value();
   volume::Cutter cutter(vol, cut);
   const double k = 0.8 * limits.max_stiffness_N_per_m *
                    fp.proxy.material_stiffness_scale[static_cast<std::size_t>(p.material)];
@@ -82,7 +85,7 @@ inline PressResult press(const Press& p, const volume::BurSamples& bur,
     if (s > 0) dev = proxy + (p.force_N / k) * down;
     ForceInput in;
     in.volume = &vol;
-    in.bur = &bur;
+    in.bur = &mbur;
     T.translation() = dev;
     in.T_tooth_tip = T;
     in.velocity_m_per_s = (dev - dev_prev) / dt;
