@@ -52,7 +52,7 @@ struct DemoOptions {
   std::string exercise;
   bool bur_given = false;  // --bur on the command line (overrides the exercise's bur)
   bool no_score = false;
-  bool sample_jitter = false;  // CutParams::sample_jitter
+  bool sample_jitter = true;  // CutParams::sample_jitter: on since session 21 (--no-sample-jitter: off)
   SoundCli sound;  // issue 29: the drill's sound (live playback, --audio render)
 };
 
@@ -335,7 +335,7 @@ void add_demo(CLI::App& app, int& exit_code) {
       "(simulated hand, scripted pedal), write the session log and the cut mesh, replay the log and check the hash;\n"
       "then score the session (score.json, score.html; see dentar score).\n"
       "Synopsis: dentar demo [--model proxy|seed] [--bur SHAPE] [--samples N] [--seconds S]\n"
-      "                      [--simulated] [--out DIR] [--exercise NAME|FILE] [--no-score] [--sample-jitter]\n"
+      "                      [--simulated] [--out DIR] [--exercise NAME|FILE] [--no-score] [--no-sample-jitter]\n"
       "                      [--audio FILE.wav] [--audio-device NAME] [--volume PCT] [--mute]\n"
       "                      [--drill-sample FILE]\n"
       "In real time (not --simulated) the drill's sound plays through the audio device while the\n"
@@ -370,9 +370,10 @@ void add_demo(CLI::App& app, int& exit_code) {
   c->add_option("--exercise", o->exercise,
                 "Exercise drilled and scored: its tooth, its bur and an expert pass through its steps\n"
                 "(default: the molar's scripted access, scored as molar_access_opening)");
-  c->add_flag("--sample-jitter", o->sample_jitter,
-             "Shift the bur's samples by a sub-spacing offset each step (the cut rate then no longer "
-             "depends on the voxel size; docs/BENCHMARKS.md, haptics session 20)");
+  c->add_flag("--sample-jitter,!--no-sample-jitter", o->sample_jitter,
+             "Shift the bur's samples by a sub-spacing offset each step, the default (the cut rate then no "
+             "longer depends on the voxel size; docs/BENCHMARKS.md, haptics sessions 20 and 21); "
+             "--no-sample-jitter cuts with the fixed samples, as sessions before session 21");
   c->add_flag("--no-score", o->no_score, "Do not score the session (score.json, score.html)");
   c->add_option("--audio", o->sound.audio, "Also render the session's drill sound to this WAV file (docs/sound.md)");
   add_sound_options(c, o->sound, true);

@@ -586,6 +586,10 @@ Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st
   PenDevice*& pen = ss.pen;
   haptics::EngineConfig& cfg = ss.cfg;
   cfg.model = o.model;
+  // The station drills with the sample jitter on (session 21): without it a bur whose samples are
+  // sparser than the tooth's voxels stalls when held still (0.000 mm3/s at 0.1 mm voxels with 500
+  // samples, docs/BENCHMARKS.md "Haptics session 21"). A replayed log keeps its header's cutter.
+  cfg.cut.sample_jitter = true;
   cfg.T_tooth_dev = st.calibration.T_tooth_dev();
   cfg.T_sty_tip = st.calibration.T_sty_tip;
   std::string& tooth_desc = ss.tooth_desc;
