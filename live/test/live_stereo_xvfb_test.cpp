@@ -51,7 +51,13 @@ int col(const std::vector<std::string>& header, const std::string& name) {
   return -1;
 }
 
-// The side-by-side clip's eyes as two Motion JPEG files (a UVC webcam's format), 30 fps.
+// The side-by-side clip's eyes as two Motion JPEG files (a UVC webcam's format), 30 fps. The
+// clip's frames are written kRepeats times over (as the stand-in's --loop would play them): the
+// stand-in reopens its file at each end, and a 4-frame file reopened every 133 ms under load
+// (session 21: load 15-18, the reopen's open and seek > 0.1 s) made a camera look lost (silent
+// for 0.1 s) on its own: the GPU run below had the right eye "silent" 21 frames, one frame of
+// the right eye alone and no switch. Once every ~1 s leaves the injected stalls the only ones.
+constexpr int kRepeats = 8;
 void write_eyes(const fs::path& sbs, const fs::path& left, const fs::path& right) {
   cv::VideoCapture in(sbs.string());
   ASSERT_TRUE(in.isOpened()) << sbs;
@@ -63,10 +69,11 @@ void write_eyes(const fs::path& sbs, const fs::path& left, const fs::path& right
   cv::VideoWriter L(left.string(), cv::CAP_FFMPEG, mjpg, 30, cv::Size(w, h));
   cv::VideoWriter R(right.string(), cv::CAP_FFMPEG, mjpg, 30, cv::Size(w, h));
   ASSERT_TRUE(L.isOpened() && R.isOpened());
-  for (const cv::Mat& m : f) {
-    L.write(m(cv::Rect(0, 0, w, h)));
-    R.write(m(cv::Rect(w, 0, w, h)));
-  }
+  for (int rep = 0; rep < kRepeats; ++rep)
+    for (const cv::Mat& m : f) {
+      L.write(m(cv::Rect(0, 0, w, h)));
+      R.write(m(cv::Rect(w, 0, w, h)));
+    }
 }
 
 }  // namespace
