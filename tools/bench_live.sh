@@ -31,6 +31,10 @@
 #   tools/bench_live.sh decode [SECONDS]       issue 28 session 20: stereo 2x1280x720 into the headset (HEADSET=),
 #                                              Motion JPEG decoded for every frame against on demand, alternating
 #                                              (PAIRS, default 2); CPU and decodes per frame shown
+#   tools/bench_live.sh yuyv [SECONDS]         session 21 (session 20's A/B, then DENTAR_KEEP_YUYV=0|1): stereo
+#                                              2x1280x720 side by side into the headset (HEADSET=), CPU display path,
+#                                              --cpu-display-yuyv keep (default) against convert, alternating
+#                                              (PAIRS, default 2); CPU per frame shown and capture to swap
 #   tools/bench_live.sh wake [SECONDS]         the engine with the CPUs' wake-up latency held (default) and
 #                                              not (--cpu-wake-latency-us -1), GL and CPU display paths,
 #                                              alternating (PAIRS pairs, default 2)
@@ -369,6 +373,27 @@ PY
       done
     done
     ;;
+  yuyv)
+    # Session 20 measured this A/B with the environment switch DENTAR_KEEP_YUYV=0|1; since session 21
+    # it is the option --cpu-display-yuyv keep|convert (the variable is gone).
+    [[ -n "${HEADSET:-}" ]] || { echo "yuyv needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }
+    s720=$(clip_stereo 1280 720)
+    echo "| run | fps shown | CPU ms a frame shown: process / frame | capture to swap p50 / p99 ms | dropped source / consumer |"
+    echo "|---|---|---|---|---|"
+    for i in $(seq 1 "${PAIRS:-2}"); do
+      for m in keep convert; do
+        n="2x1280x720 side by side, cpu-display-yuyv $m, run $i"
+        live_json "$n" --station "$s720/station.json" --stylus replay:"$s720/session.dlog" --camera live:"$s720/camera.avi" \
+          --stereo --output sbs --headset "$HEADSET" --display-path cpu --cpu-display-yuyv "$m"
+        python3 - "$out/$n.json" "$n" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1])); f = s["frames"]; c = s.get("cpu", {}); t = c.get("threads_ms_per_frame", {})
+print(f"| {sys.argv[2]} | {s['displayed_fps']:.1f} | {c.get('process_ms_per_frame', 0):.1f} / {t.get('dentar-frame', 0):.1f} | "
+      f"{s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} | {f['dropped_source']} / {f['dropped_consumer']} |")
+PY
+      done
+    done
+    ;;
   wake)
     c720=$(clip 1280 720)
     engine_header
@@ -478,5 +503,5 @@ PY
       stop_stress
     fi
     ;;
-  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal|latency|engine5|memory5|wake|eyes|machine [SECONDS] [--stress]" >&2; exit 2 ;;
+  *) echo "usage: tools/bench_live.sh table|engine|memory|discovery|display|rehearsal|latency|engine5|memory5|warp|idle|decode|yuyv|wake|eyes|machine [SECONDS] [--stress]" >&2; exit 2 ;;
 esac

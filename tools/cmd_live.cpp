@@ -74,6 +74,11 @@ void add_live(CLI::App& app, int& exit_code) {
                   "or on-demand (a frame is decoded only when the frame thread takes it; frames replaced before "
                   "that are never decoded: less CPU on a loaded machine, more latency on a quiet one)")
       ->check(CLI::IsMember({"on-demand", "every-frame"}));
+  sub->add_option("--cpu-display-yuyv", c->o.cpu_display_yuyv,
+                  "a YUYV camera on the CPU display path: keep (default: the composite stays YUYV outside the "
+                  "overlay, only the overlay's patch is converted) or convert (the whole frame converted to BGR, "
+                  "as before session 20)")
+      ->check(CLI::IsMember({"keep", "convert"}));
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
   sub->add_option("--height", c->o.height, "requested camera height (px)")->check(at_least(0));
   sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(at_least(0));

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <new>
@@ -274,9 +275,10 @@ TEST_F(HdStandin, NaNAndPoseJumpAreFaults) {
   ASSERT_TRUE(d);
   DeviceState st;
   ASSERT_TRUE(wait_for([&] { return d->read(st); }));
-  // NaN for 200 servo ticks: the test reads every 0.2 ms, and 200 ms covers
-  // a reader held off by a loaded machine under TSan (20 ticks did not).
-  inject(3, ticks() + 3, 200);
+  // NaN for one servo tick: the servo judges every sample and latches it
+  // (session 21), so a reader held off by a loaded machine cannot miss it
+  // (before, the NaN had to last 200 ticks for a reader under TSan to see it).
+  inject(3, ticks() + 3, 1);
   ASSERT_TRUE(read_until_fault(*d, st));
   EXPECT_EQ(d->faults().latest(), DeviceFault::kNonFinite);
   EXPECT_NE(d->status().find("NaN"), std::string::npos) << d->status();
@@ -294,6 +296,33 @@ TEST_F(HdStandin, NaNAndPoseJumpAreFaults) {
   const double said_mm = std::atof(s.c_str() + at + 13);
   EXPECT_NEAR(said_mm, 8.0, 0.25) << s;
   EXPECT_NE(s.find(" mm in one reading"), std::string::npos) << s;
+}
+
+// Session 21 (failed 1 in 100 under `stress -c 2` before): jumps are judged between the device's
+// own samples, 1 ms apart, not between readings. A reader held off for 30 ms while the stylus
+// moves at 0.31 m/s (a 10 mm circle at 5 Hz: >= 9 mm of chord between the readings) sees no
+// jump; judged between readings it was a false 5 mm fault, and an 8 mm jump read 10 ticks late
+// was measured as 7.7 mm.
+TEST_F(HdStandin, AReaderHeldOffSeesNoJumpFromTheStylusMotion) {
+  set_motion(0, 0, 0, 10, 5);
+  auto d = open_ok();
+  ASSERT_TRUE(d);
+  DeviceState st;
+  ASSERT_TRUE(wait_for([&] { return d->read(st); }));
+  // Gaps with a real move of more than the 5 mm limit between two readings (the test's premise;
+  // a loaded machine may also hold the servo off, or stall it past the stale limit: a stall is
+  // another fault, and the gap then counts only if the stylus still moved > 5 mm).
+  int big_gaps = 0;
+  for (int i = 0; i < 40 && big_gaps < 5; ++i) {
+    const Eigen::Vector3d before = st.T_dev_sty.translation();
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    d->read(st);
+    EXPECT_NE(d->faults().latest(), DeviceFault::kPoseJump) << d->status();
+    if (!st.fault && (st.T_dev_sty.translation() - before).norm() > 5e-3) ++big_gaps;
+    if (st.fault) wait_for([&] { return d->read(st); });  // a stall: wait until it clears
+  }
+  EXPECT_GE(big_gaps, 1) << "the stylus never moved > 5 mm between two readings";
+  EXPECT_EQ(d->faults().last_jump_m(), 0.0) << d->status();
 }
 
 TEST_F(HdStandin, LateServoTickIsAStall) {

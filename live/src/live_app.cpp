@@ -160,6 +160,8 @@ std::string LiveOptions::validate() const {
     return "warp_cell_px = " + std::to_string(warp_cell_px) + " must be in 4..128 panel px";
   if (jpeg_decode != "on-demand" && jpeg_decode != "every-frame")
     return "jpeg_decode = \"" + jpeg_decode + "\" must be on-demand or every-frame";
+  if (cpu_display_yuyv != "keep" && cpu_display_yuyv != "convert")
+    return "cpu_display_yuyv = \"" + cpu_display_yuyv + "\" must be keep or convert";
   if (!(std::isfinite(idle_redraw_ms) && idle_redraw_ms >= 0 && idle_redraw_ms <= 1000))
     return "idle_redraw_ms = " + std::to_string(idle_redraw_ms) + " must be in 0..1000 ms (0: redraw at every wake)";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
@@ -246,7 +248,7 @@ std::string LiveSummary::json() const {
                   {"growth_after_60s", rss_60s_mb > 0 ? rss_end_mb - rss_60s_mb : 0.0}}},
       {"overlay_hidden_ms_after_stall", overlay_hidden_ms_after_stall},
       {"stall_previous_check_ms", stall_previous_check_ms},
-      {"display", {{"path", display_path}, {"requested", display_requested}, {"note", display_note}, {"gpu_frames", gpu_frames},
+      {"display", {{"path", display_path}, {"requested", display_requested}, {"cpu_display_yuyv", cpu_display_yuyv}, {"note", display_note}, {"gpu_frames", gpu_frames},
                    {"readback_px", readback_px}, {"cpu_blend_px", cpu_blend_px},
                    {"gl_frames_replaced", gl_frames_replaced}, {"gl_ready_timeouts", gl_ready_timeouts},
                    {"gl_release_timeouts", gl_release_timeouts}, {"idle_draws", idle_draws},
@@ -944,6 +946,7 @@ void report_display_path(const LiveOptions& o, bool gpu_display, bool want_gl, c
   if (want_gl && !gpu_display) sum.warnings.push_back("display: GPU path unavailable, CPU path used: " + display_note);
   sum.display_path = gpu_display ? "gl" : "cpu";
   sum.display_requested = o.display_path;
+  sum.cpu_display_yuyv = o.cpu_display_yuyv;
   sum.display_note = display_note;
 }
 

@@ -463,6 +463,14 @@ class FrameThread {
     sh_.processed.store(processed + 1);
   }
 
+  // One eye's CPU composite to the shown slot: the image and the overlay patch change hands
+  // (swapped, never copied), the patch's rectangle is copied.
+  static void hand_over_composite(ar::CompositeResult& from, cv::Mat& image, cv::Mat& patch, cv::Rect& rect) {
+    cv::swap(from.image, image);
+    cv::swap(from.patch, patch);
+    rect = from.patch_rect;
+  }
+
   // The frame to the window (LiveShared::shown).
   void hand_over(ar::Frame& f, int slot, const std::string& err, std::int64_t processed, const std::string* note) {
     {
@@ -473,9 +481,7 @@ class FrameThread {
       // The right eye (a stereo pair for the headset): its composite, or none (mono).
       shown.raw_right = want_right_ ? right_image_ : cv::Mat();
       if (err.empty() && want_right_ && rec_.right.composited) {
-        cv::swap(cres_right_.image, shown.composite_right);
-        cv::swap(cres_right_.patch, shown.patch_right);
-        shown.patch_rect_right = cres_right_.patch_rect;
+        hand_over_composite(cres_right_, shown.composite_right, shown.patch_right, shown.patch_rect_right);
       } else {
         shown.composite_right.release();
         shown.patch_right.release();
@@ -489,9 +495,7 @@ class FrameThread {
         shown.composite.release();
         shown.patch.release();
       } else if (err.empty()) {
-        cv::swap(cres_.image, shown.composite);
-        cv::swap(cres_.patch, shown.patch);
-        shown.patch_rect = cres_.patch_rect;
+        hand_over_composite(cres_, shown.composite, shown.patch, shown.patch_rect);
       } else {
         // Released first: the buffer may be a camera frame another holder still reads (keep_yuyv).
         shown.composite.release();
@@ -529,11 +533,8 @@ class FrameThread {
   Result<ar::EglContext> egl_ = Error{"not made"};
   bool use_gl_ = false;
   // Session 20: the CPU composites stay YUYV outside the overlay (FrameInput::keep_yuyv);
-  // DENTAR_KEEP_YUYV=0 converts the whole frame as before (the A/B arm of the bench).
-  const bool keep_yuyv_ = [] {
-    const char* e = std::getenv("DENTAR_KEEP_YUYV");
-    return e == nullptr || std::string(e) != "0";
-  }();
+  // --cpu-display-yuyv convert converts the whole frame as before (the A/B arm of the bench).
+  const bool keep_yuyv_ = c_.o.cpu_display_yuyv != "convert";
   ar::CompositeResult cres_, cres_right_;  // cres_right_: the right eye's (want_right_)
   ar::FrameRecord rec_;
   bool want_right_ = false;  // stereo pipeline and the headset's output: composite the right eye too

@@ -405,12 +405,15 @@ TEST(HeadsetXvfb, HudAndLessonNoteInBothEyes) {
   ASSERT_EQ(r.code, 0) << r.out;
   const fs::path prof = dir / "headset.json";
   std::ofstream(prof) << profile_json(false).dump(2);
-  const fs::path shot = dir / "shot.png";
+  // Session 21: frames 4..7 asked for, the first shown compared (a loaded machine's window may
+  // skip frame 4 for a newer one and write no shot4.png; as LiveXvfb's 928b6df).
+  std::string shots;
+  for (int k = 4; k <= 7; ++k) shots += " --screenshot " + std::to_string(k) + ":" + (dir / ("shot" + std::to_string(k) + ".png")).string();
   r = run_command("DENTAR_TEST_FAIL_EYE_CONTEXT=1 " +
                   xvfb(kBin + " live --stereo --camera live:" + (st / "video.mkv").string() + " --station " +
                        (st / "station.json").string() + " --stylus sim --lesson " + lesson.string() +
                        " --mode 2 --output sbs --headset " + prof.string() +
-                       " --display-path gl --quiet --loop --frames 6 --screenshot 4:" + shot.string() +
+                       " --display-path gl --quiet --loop --frames 8" + shots +
                        " --no-score --summary " + (dir / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto live = read_json(dir / "live.json");
@@ -433,6 +436,10 @@ TEST(HeadsetXvfb, HudAndLessonNoteInBothEyes) {
   // The HUD's top lines, eye by eye (each eye's viewport 640x600; the HUD 12 % in from its
   // top-left corner): bright text pixels (the HUD's background darkens the video behind it
   // below them), present in each eye and at the same places.
+  fs::path shot;
+  for (int k = 4; k <= 7 && shot.empty(); ++k)
+    if (fs::exists(dir / ("shot" + std::to_string(k) + ".png"))) shot = dir / ("shot" + std::to_string(k) + ".png");
+  ASSERT_FALSE(shot.empty()) << "the window showed none of frames 4..7";
   const cv::Mat s = cv::imread(shot.string());
   ASSERT_EQ(s.cols, 1280) << shot;
   ASSERT_EQ(s.rows, 600) << shot;

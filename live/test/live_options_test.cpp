@@ -20,6 +20,18 @@ TEST(LiveOptions, DisplayPathAutoGlOrCpuAndNothingElse) {
   EXPECT_NE(o.validate().find("must be auto, gl or cpu"), std::string::npos) << o.validate();
 }
 
+// Session 21: the CPU display path's YUYV handling is an option (was DENTAR_KEEP_YUYV): keep by
+// default, convert as the A/B arm, anything else refused naming the value.
+TEST(LiveOptions, CpuDisplayYuyvKeepOrConvert) {
+  LiveOptions o;
+  EXPECT_EQ(o.cpu_display_yuyv, "keep");
+  EXPECT_EQ(o.validate(), "");
+  o.cpu_display_yuyv = "convert";
+  EXPECT_EQ(o.validate(), "");
+  o.cpu_display_yuyv = "0";
+  EXPECT_NE(o.validate().find("cpu_display_yuyv = \"0\" must be keep or convert"), std::string::npos) << o.validate();
+}
+
 // Issue 28: two kinds of stereo head, not both at once; the right eye's stall hook needs it.
 // Issue 28 session 18: the headset's pre-warp pass and its grid's cell size.
 TEST(LiveOptions, WarpPassAndCellSize) {

@@ -51,7 +51,13 @@ int col(const std::vector<std::string>& header, const std::string& name) {
   return -1;
 }
 
-// The side-by-side clip's eyes as two Motion JPEG files (a UVC webcam's format), 30 fps.
+// The side-by-side clip's eyes as two Motion JPEG files (a UVC webcam's format), 30 fps. The
+// clip's frames are written kRepeats times over (as the stand-in's --loop would play them): the
+// stand-in reopens its file at each end, and a 4-frame file reopened every 133 ms under load
+// (session 21: load 15-18, the reopen's open and seek > 0.1 s) made a camera look lost (silent
+// for 0.1 s) on its own: the GPU run below had the right eye "silent" 21 frames, one frame of
+// the right eye alone and no switch. Once every ~1 s leaves the injected stalls the only ones.
+constexpr int kRepeats = 8;
 void write_eyes(const fs::path& sbs, const fs::path& left, const fs::path& right) {
   cv::VideoCapture in(sbs.string());
   ASSERT_TRUE(in.isOpened()) << sbs;
@@ -63,10 +69,11 @@ void write_eyes(const fs::path& sbs, const fs::path& left, const fs::path& right
   cv::VideoWriter L(left.string(), cv::CAP_FFMPEG, mjpg, 30, cv::Size(w, h));
   cv::VideoWriter R(right.string(), cv::CAP_FFMPEG, mjpg, 30, cv::Size(w, h));
   ASSERT_TRUE(L.isOpened() && R.isOpened());
-  for (const cv::Mat& m : f) {
-    L.write(m(cv::Rect(0, 0, w, h)));
-    R.write(m(cv::Rect(w, 0, w, h)));
-  }
+  for (int rep = 0; rep < kRepeats; ++rep)
+    for (const cv::Mat& m : f) {
+      L.write(m(cv::Rect(0, 0, w, h)));
+      R.write(m(cv::Rect(w, 0, w, h)));
+    }
 }
 
 }  // namespace
@@ -80,10 +87,15 @@ TEST(LiveStereoXvfb, TwoCamerasEachEyeLostAndBackRecordedAndReplayed) {
   if (r.code != 0 && !std::getenv("DENTAR_REQUIRE_GL")) GTEST_SKIP() << "dentar synth failed (no headless EGL?): " << r.out;
   ASSERT_EQ(r.code, 0) << r.out;
   write_eyes(st / "video.mkv", t / "l.avi", t / "r.avi");
+  // The two stalls are apart by 1.0 s of the cameras' time (the right eye quiet from its frame
+  // 12 for 0.8 s, the left from its frame 66): session 21 found them 0.2 s apart (left frame 42)
+  // and under load (stress -c 2) the right camera, started later and reopened late, came back
+  // only as the left went quiet: the run switched from the left eye alone straight to the right
+  // eye alone, with no pair and so no "right camera back" between (1 failure in 1 run).
   r = run_command(xvfb(kBin + " live --camera live:" + (t / "l.avi").string() + " --camera-right live:" +
                        (t / "r.avi").string() + " --station " + (st / "station.json").string() + " --stylus replay:" +
                        (st / "session.dlog").string() + " --record " + rec.string() +
-                       " --inject-stall-right 12:0.8 --inject-stall 42:0.8 --no-hud --loop --frames 66 --no-score --summary " +
+                       " --inject-stall-right 12:0.8 --inject-stall 66:0.8 --no-hud --loop --frames 90 --no-score --summary " +
                        (t / "live.json").string() + " 2>&1"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto live = read_json(t / "live.json");

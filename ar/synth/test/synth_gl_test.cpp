@@ -147,10 +147,15 @@ TEST(Synth, HardPresetHasSmallAndGrazingTags) {
   EXPECT_GT(o.tag_occluders, 0);
   auto g = make(o);
   ASSERT_TRUE(g);
-  int small_tags = 0, grazing = 0, occluded = 0;
+  int small_tags = 0, grazing = 0, occluded = 0, most_subframes = 0;
   for (int i = 0; i < o.frames; ++i) {
     SynthFrame f;
     ASSERT_TRUE(g->next(f).ok());
+    // Sub-frames follow the motion (issue 28 session 20): odd, within [blur_subframes, max].
+    EXPECT_EQ(f.truth.blur_subframes % 2, 1);
+    EXPECT_GE(f.truth.blur_subframes, o.blur_subframes);
+    EXPECT_LE(f.truth.blur_subframes, o.blur_subframes_max);
+    most_subframes = std::max(most_subframes, f.truth.blur_subframes);
     for (const auto& t : f.truth.tags) {
       if (t.on_mirror) continue;
       small_tags += t.side_px < 20 ? 1 : 0;
@@ -158,8 +163,8 @@ TEST(Synth, HardPresetHasSmallAndGrazingTags) {
       occluded += t.visible_fraction < 0.8 && t.view_angle_rad < 60 * M_PI / 180 ? 1 : 0;
     }
   }
-  std::printf("[ synth ] hard: %d tags < 20 px, %d at >= 70 deg, %d occluded\n", small_tags,
-              grazing, occluded);
+  std::printf("[ synth ] hard: %d tags < 20 px, %d at >= 70 deg, %d occluded; most sub-frames %d\n", small_tags,
+              grazing, occluded, most_subframes);
   EXPECT_GT(small_tags, 0);
   EXPECT_GT(grazing, 0);
   EXPECT_GT(occluded, 0);
@@ -192,6 +197,16 @@ TEST(Synth, OptionErrorsNameTheOption) {
   g = SynthGenerator::create(default_station_scene(), o);
   ASSERT_FALSE(g.ok());
   EXPECT_NE(g.error().find("subframes"), std::string::npos) << g.error();
+  o = SynthOptions{};
+  o.blur_step_px = 0.1;
+  g = SynthGenerator::create(default_station_scene(), o);
+  ASSERT_FALSE(g.ok());
+  EXPECT_NE(g.error().find("blur step"), std::string::npos) << g.error();
+  o = SynthOptions{};
+  o.blur_subframes_max = 3;  // below blur_subframes (5)
+  g = SynthGenerator::create(default_station_scene(), o);
+  ASSERT_FALSE(g.ok());
+  EXPECT_NE(g.error().find("subframes max"), std::string::npos) << g.error();
 }
 
 // ---- the command line ------------------------------------------------------------

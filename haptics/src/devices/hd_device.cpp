@@ -154,6 +154,10 @@ struct ServoState {
   HDerror last_error;
   int last_internal;
   std::uint64_t error_seq;  // errors seen so far (sticky, so read() cannot miss one)
+  // Session 21: samples with NaN/Inf and pose jumps, judged tick to tick by the servo (sticky
+  // as errors are); jump_m: the latest jump, m.
+  std::uint64_t nonfinite_seq, jump_seq;
+  double jump_m;
   std::uint64_t tick;
   double stamp_s;           // CLOCK_MONOTONIC at the tick
 };
@@ -211,8 +215,12 @@ struct HdDevice::Impl {
   unsigned calibration = kHdCalibrationOk;
   int cal_style = 0;
   std::uint64_t ticks_since_error = 1u << 30;
+  std::uint64_t nonfinite_seq = 0, jump_seq = 0;
+  double jump_m = 0;
+  bool have_prev = false;
+  double prev_mm[3] = {0, 0, 0};  // the last finite sample's position
   // Engine-thread only.
-  std::uint64_t seen_error_seq = 0;
+  std::uint64_t seen_error_seq = 0, seen_nonfinite_seq = 0, seen_jump_seq = 0;
 
   static HDCallbackCode servo(void* user) noexcept {
     auto* self = static_cast<Impl*>(user);
@@ -228,6 +236,27 @@ struct HdDevice::Impl {
     a.hdGetDoublev(kHdCurrentTransform, s.T_mm);
     a.hdGetDoublev(kHdCurrentVelocity, s.v_mm_s);
     a.hdGetIntegerv(kHdCurrentButtons, &s.buttons);
+    // NaN and pose jumps are judged here, sample to sample (1 ms apart), and latched like errors:
+    // an engine read held off for several ticks (a loaded machine) neither misses a short NaN
+    // burst nor counts the stylus's own motion over its gap as a jump (session 21: a reader 10
+    // ticks late measured an 8 mm jump as 7.7 mm; at 0.5 m/s a 10 ms gap is a false 5 mm jump).
+    bool finite = std::isfinite(s.v_mm_s[0]) && std::isfinite(s.v_mm_s[1]) && std::isfinite(s.v_mm_s[2]);
+    for (const double x : s.T_mm) finite = finite && std::isfinite(x);
+    if (!finite) {
+      ++nonfinite_seq;
+    } else {
+      const double* p = s.T_mm + 12;
+      if (have_prev) {
+        const double dx = p[0] - prev_mm[0], dy = p[1] - prev_mm[1], dz = p[2] - prev_mm[2];
+        const double d_m = 1e-3 * std::sqrt(dx * dx + dy * dy + dz * dz);
+        if (d_m > opts.max_pose_jump_m) {
+          ++jump_seq;
+          jump_m = d_m;
+        }
+      }
+      for (int i = 0; i < 3; ++i) prev_mm[i] = p[i];
+      have_prev = true;
+    }
     // Calibration: checked at start and every 0.25 s; an automatic update is
     // done here, a manual one (inkwell) waits for the user.
     if (tick % 250 == 0) {
@@ -264,6 +293,9 @@ struct HdDevice::Impl {
     s.last_error = last_error;
     s.last_internal = last_internal;
     s.error_seq = error_seq;
+    s.nonfinite_seq = nonfinite_seq;
+    s.jump_seq = jump_seq;
+    s.jump_m = jump_m;
     s.tick = ++tick;
     s.stamp_s = now;
     state.store(s);
@@ -373,6 +405,7 @@ Result<std::unique_ptr<HdDevice>> HdDevice::open(const DeviceOpenOptions& o) {
   drain_errors(a);
 
   d->monitor_.configure(o);
+  d->monitor_.jumps_judged_by_backend();  // the servo, tick to tick (servo_tick)
   ForceCmd zero{};
   zero.stamp_s = -1e9;  // stale: the servo sends zero until the engine writes
   m.force.store(zero);
@@ -440,12 +473,20 @@ bool HdDevice::read(DeviceState& out) noexcept {
   const double now = detail::monotonic_s();
   DeviceFault ext = DeviceFault::kNone;
   int code = 0;
+  double jump_m = 0;
   if (s.tick == 0 || now - s.stamp_s > m.opts.stale_limit_s) {
     ext = DeviceFault::kStalled;
   } else if (s.error_seq != m.seen_error_seq) {
     m.seen_error_seq = s.error_seq;
     code = static_cast<int>(s.last_error);
     ext = hd_error_means_unplugged(s.last_error) ? DeviceFault::kUnplugged : DeviceFault::kRuntimeError;
+  } else if (s.nonfinite_seq != m.seen_nonfinite_seq) {
+    m.seen_nonfinite_seq = s.nonfinite_seq;
+    ext = DeviceFault::kNonFinite;
+  } else if (s.jump_seq != m.seen_jump_seq) {
+    m.seen_jump_seq = s.jump_seq;
+    ext = DeviceFault::kPoseJump;
+    jump_m = s.jump_m;
   } else if (s.calibration != kHdCalibrationOk && !m.opts.allow_uncalibrated) {
     ext = DeviceFault::kNotCalibrated;
   }
@@ -456,7 +497,7 @@ bool HdDevice::read(DeviceState& out) noexcept {
   out.velocity_m_per_s = 1e-3 * Eigen::Vector3d(s.v_mm_s[0], s.v_mm_s[1], s.v_mm_s[2]);
   out.time_s = s.stamp_s - m.t0_s;  // the servo tick's time, s since open
   out.buttons = (s.buttons & 1 ? kButtonPrimary : 0u) | (s.buttons & 2 ? kButtonSecondary : 0u);
-  const bool ok = monitor_.check(out.T_dev_sty, out.velocity_m_per_s, ext, code);
+  const bool ok = monitor_.check(out.T_dev_sty, out.velocity_m_per_s, ext, code, jump_m);
   out.fault = !ok;
   return ok;
 }

@@ -37,12 +37,13 @@ const char* device_fault_advice(DeviceFault f) {
 }
 
 bool FaultMonitor::check(const Eigen::Isometry3d& T, const Eigen::Vector3d& v, DeviceFault external,
-                         int runtime_error) noexcept {
+                         int runtime_error, double jump_m) noexcept {
   DeviceFault f = external;
   const Eigen::Vector3d p = T.translation();
   const bool finite = T.matrix().allFinite() && v.allFinite();
+  if (f == DeviceFault::kPoseJump) jump_m_.store(jump_m, std::memory_order_release);
   if (f == DeviceFault::kNone && !finite) f = DeviceFault::kNonFinite;
-  if (f == DeviceFault::kNone && have_prev_) {
+  if (f == DeviceFault::kNone && have_prev_ && reading_jumps_) {
     const double d = (p - prev_).norm();
     if (d > max_jump_m_) {
       f = DeviceFault::kPoseJump;

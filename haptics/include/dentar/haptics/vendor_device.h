@@ -76,11 +76,17 @@ class FaultMonitor {
     max_jump_m_ = o.max_pose_jump_m;
     clear_steps_ = o.fault_clear_steps;
   }
+  // Before use: the backend judges pose jumps itself, between the device's consecutive samples
+  // (HD: the servo thread, tick to tick), and passes them in as `external` kPoseJump with the
+  // jump. Without it, jumps are judged between readings, which also counts the stylus's own
+  // motion over a reader's gap (a reader held off 10 ticks sees 10 ticks of motion).
+  void jumps_judged_by_backend() { reading_jumps_ = false; }
   // Haptic thread: one reading. `external` is a fault the backend detected
-  // (runtime error, stall, unplug); kNone if none. Returns true when the
-  // reading may be used (no fault now and none pending clearance).
+  // (runtime error, stall, unplug, and with jumps_judged_by_backend() a NaN sample or a pose
+  // jump of `jump_m` between samples it saw); kNone if none. Returns true when the reading may
+  // be used (no fault now and none pending clearance).
   bool check(const Eigen::Isometry3d& T_dev_sty, const Eigen::Vector3d& v, DeviceFault external,
-             int runtime_error = 0) noexcept;
+             int runtime_error = 0, double jump_m = 0) noexcept;
   DeviceFault latest() const noexcept { return static_cast<DeviceFault>(latest_.load(std::memory_order_acquire)); }
   bool faulted() const noexcept { return faulted_.load(std::memory_order_acquire); }
   int runtime_error() const noexcept { return runtime_error_.load(std::memory_order_acquire); }
@@ -91,6 +97,7 @@ class FaultMonitor {
   double max_jump_m_ = 0.005;
   int clear_steps_ = 100;
   bool have_prev_ = false;
+  bool reading_jumps_ = true;
   Eigen::Vector3d prev_ = Eigen::Vector3d::Zero();
   int good_ = 0;
   std::atomic<std::uint8_t> latest_{0};

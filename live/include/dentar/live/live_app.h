@@ -52,6 +52,11 @@ struct LiveOptions {
   // CPU on a loaded machine but, quiet, puts the decode on the frame path: mono 1080p capture to
   // swap p50 73-89 -> 102-105 ms, consumer drops 1-4 -> 81-83 (docs/BENCHMARKS.md, session 20 lead).
   std::string jpeg_decode = "every-frame";
+  // The CPU display path's composites of a YUYV camera (session 20, an option since session 21):
+  // "keep" (default: the frame stays YUYV outside the overlay, only the overlay's patch is BGR;
+  // ar::FrameInput::keep_yuyv) or "convert" (the whole frame converted to BGR, as before session
+  // 20: the bench's A/B arm). Was the environment variable DENTAR_KEEP_YUYV=0|1.
+  std::string cpu_display_yuyv = "keep";
   // Stereo (issue 28): the station's rig ("stereo") tracks from both eyes (StereoTracker), the
   // window shows the left eye. camera_right: the right eye's camera (two cameras; `camera` is
   // the left), one size and rate as the left; side_by_side: `camera` delivers both eyes in one
@@ -332,6 +337,7 @@ struct LiveSummary {
   // what crossed between GPU and CPU over the run (compositor counters).
   std::string display_path, display_note;
   std::string display_requested;  // --display-path as given: auto, gl or cpu
+  std::string cpu_display_yuyv;   // --cpu-display-yuyv: keep or convert
   std::string warp_pass;          // --output sbs: the headset pre-warp pass (--warp-pass); empty otherwise
   int warp_cell_px = 0;           // its grid's cell size (px), with exact and mesh
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
