@@ -51,6 +51,9 @@ struct LiveOptions {
   // thread takes it; frames replaced unseen are never decoded, capture_thread.h). On-demand saves
   // CPU on a loaded machine but, quiet, puts the decode on the frame path: mono 1080p capture to
   // swap p50 73-89 -> 102-105 ms, consumer drops 1-4 -> 81-83 (docs/BENCHMARKS.md, session 20 lead).
+  // Session 21: "eager": the newest packet decoded on the capture side as soon as nothing decoded
+  // waits (never one superseded before its decode started); the frame thread never decodes
+  // (CaptureThreadOptions::eager_decode, capture_thread.h).
   std::string jpeg_decode = "every-frame";
   // Stereo (issue 28): the station's rig ("stereo") tracks from both eyes (StereoTracker), the
   // window shows the left eye. camera_right: the right eye's camera (two cameras; `camera` is
@@ -261,6 +264,7 @@ struct LiveSummary {
   // display (take to swap). Stereo: stale pairs skipped (freshest_pair.h) and the eye threads.
   std::vector<std::tuple<std::string, double, double>> stage_ms;
   std::int64_t stale_pairs_skipped = 0;
+  std::int64_t stale_pairs_untaken = 0;  // session 21: stale pairings that took no right frame (peeked)
   int eye_threads = 1;
   // Latency compensation (LiveOptions::camera_latency_ms): the latency used, ms; where it came
   // from ("measured" (the station file), "option", "assumed", "off", "pen"); frames drawn with the
