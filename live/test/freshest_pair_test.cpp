@@ -33,7 +33,7 @@ struct ScriptedCamera {
     ++taken;
     return true;
   }
-  double newest_steady_s() const { return full ? slot.steady_s : 0; }  // a peek: takes nothing
+  double ready_steady_s() const { return full ? slot.steady_s : 0; }  // a peek: takes nothing
   int taken = 0;
 };
 

@@ -53,6 +53,11 @@ double CaptureThread::newest_steady_s() const {
   return s;
 }
 
+double CaptureThread::ready_steady_s() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return slot_full_ ? slot_.steady_s : 0;
+}
+
 bool CaptureThread::wait_ready(double timeout_s, double min_steady_s) {
   std::unique_lock<std::mutex> lock(mutex_);
   const auto deadline = std::chrono::steady_clock::now() +

@@ -92,6 +92,10 @@ class CaptureThread {
   // decoded, being decoded or a packet still undecoded; 0 when there is none. Takes and decodes
   // nothing: a stereo pairing can see that a newer frame is there before it takes a partner.
   double newest_steady_s() const;
+  // The capture time of the frame a take would return now without waiting (decoded, or an
+  // undecoded packet on demand); 0 when none. The freshest-pair rule's peek: the same frames
+  // as a take with timeout 0 (a packet still being decoded eagerly is not waiting yet).
+  double ready_steady_s() const;
   // Waits up to timeout_s until the frame a take would return now was captured at or after
   // min_steady_s (steady clock, s), without taking it; false: none by then (or stopping).
   bool wait_ready(double timeout_s, double min_steady_s);
