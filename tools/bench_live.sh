@@ -340,34 +340,40 @@ PY
     ;;
   decode)
     # Issue 28 session 20: Motion JPEG decoded for every captured frame (--jpeg-decode every-frame,
-    # sessions 18-19 and the default) against only the frames the frame thread takes (on-demand), the same
-    # binary and footage, alternating: stereo 2x1280x720 two cameras and side by side into the
-    # headset view (HEADSET=). CPU per frame shown (summary cpu) and decodes per frame shown.
+    # sessions 18-19) against only the frames the frame thread takes (on-demand); session 21: eager
+    # (the newest packet decoded on the capture side once the previous one was taken). The same
+    # binary and footage, alternating (MODES=, default all three): stereo 2x1280x720 two cameras and
+    # side by side into the headset view (HEADSET=), and mono 1920x1080 (ROWS=: two, sbs, mono).
+    # CPU per frame shown (summary cpu), decodes per frame shown, the frame thread's pickup.
     [[ -n "${HEADSET:-}" ]] || { echo "decode needs HEADSET=a headset profile (assets/headsets/...)" >&2; exit 2; }
-    s720=$(clip_stereo 1280 720)
-    echo "| run | fps shown | CPU ms a frame shown: process / capture L+R / frame / right eye | decodes a frame shown (L+R) | skipped undecoded L / R | dropped source / consumer / right eye | frames left eye only / both | corrupt JPEG | capture to swap p50 / p99 ms |"
-    echo "|---|---|---|---|---|---|---|---|---|"
+    s720=$(clip_stereo 1280 720); m1080=$(clip 1920 1080)
+    echo "| run | fps shown | CPU ms a frame shown: process / capture L+R / frame / right eye | decodes a frame shown L + R | skipped undecoded L / R | dropped source / consumer / right eye | stale pairs skipped / untaken | frames left eye only / both | corrupt JPEG | pickup p50 / p99 ms | capture to swap p50 / p99 ms |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|"
     for i in $(seq 1 "${PAIRS:-2}"); do
-      for m in every-frame on-demand; do
-        for row in "2x1280x720 two cameras|$s720|--camera live:$s720/camera_left.avi --camera-right live:$s720/camera_right.avi" \
-                   "2x1280x720 side by side|$s720|--camera live:$s720/camera.avi --stereo"; do
-          IFS='|' read -r rn c cam <<<"$row"
+      for m in ${MODES:-every-frame on-demand eager}; do
+        for row in "2x1280x720 two cameras|$s720|two|--camera live:$s720/camera_left.avi --camera-right live:$s720/camera_right.avi --output sbs --headset $HEADSET" \
+                   "2x1280x720 side by side|$s720|sbs|--camera live:$s720/camera.avi --stereo --output sbs --headset $HEADSET" \
+                   "mono 1920x1080|$m1080|mono|--camera live:$m1080/camera.avi"; do
+          IFS='|' read -r rn c key cam <<<"$row"
+          [[ " ${ROWS:-two sbs mono} " == *" $key "* ]] || continue
           n="$rn, decode $m, run $i"
           # shellcheck disable=SC2086
-          live_json "$n" --station "$c/station.json" --stylus replay:"$c/session.dlog" $cam --output sbs \
-            --headset "$HEADSET" --jpeg-decode "$m"
+          live_json "$n" --station "$c/station.json" --stylus replay:"$c/session.dlog" $cam --jpeg-decode "$m"
           python3 - "$out/$n.json" "$n" <<'PY'
 import json, sys
 s = json.load(open(sys.argv[1])); f = s["frames"]; st = s.get("stereo", {}); c = s.get("cpu", {}); t = c.get("threads_ms_per_frame", {})
 g = lambda k: t.get(k, 0.0)
-dec = f.get("jpeg_decodes", 0) + st.get("right_eye_jpeg_decodes", 0)
+dl, dr = f.get("jpeg_decodes", 0), st.get("right_eye_jpeg_decodes", 0)
 shown = max(1, f["displayed"])
+pk = s["stages_ms"].get("pickup", {})
 print(f"| {sys.argv[2]} | {s['displayed_fps']:.1f} | {c.get('process_ms_per_frame', 0):.1f} / "
       f"{g('dentar-cap-l') + g('dentar-cap-r'):.1f} / {g('dentar-frame'):.1f} / {g('dentar-eye-r'):.1f} | "
-      f"{dec / shown:.2f} ({dec} / {f['displayed']}) | {f.get('jpeg_skipped_undecoded', '-')} / "
-      f"{st.get('right_eye_jpeg_skipped_undecoded', '-')} | {f['dropped_source']} / {f['dropped_consumer']} / "
-      f"{st.get('right_eye_dropped', '-')} | {st.get('frames_left_eye_only', '-')} / {st.get('frames_both_eyes', '-')} | "
-      f"{f.get('corrupt_jpeg', 0)} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} |")
+      f"{(dl + dr) / shown:.2f} = {dl / shown:.2f} + {dr / shown:.2f} ({dl} + {dr} / {f['displayed']}) | "
+      f"{f.get('jpeg_skipped_undecoded', '-')} / {st.get('right_eye_jpeg_skipped_undecoded', '-')} | "
+      f"{f['dropped_source']} / {f['dropped_consumer']} / {st.get('right_eye_dropped', '-')} | "
+      f"{st.get('stale_pairs_skipped', '-')} / {st.get('stale_pairs_untaken', '-')} | "
+      f"{st.get('frames_left_eye_only', '-')} / {st.get('frames_both_eyes', '-')} | {f.get('corrupt_jpeg', 0)} | "
+      f"{pk.get('p50', 0):.1f} / {pk.get('p99', 0):.1f} | {s['latency_ms']['p50']:.1f} / {s['latency_ms']['p99']:.1f} |")
 PY
         done
       done

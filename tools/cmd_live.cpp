@@ -70,10 +70,12 @@ void add_live(CLI::App& app, int& exit_code) {
                   "to BGR on capture, the whole-frame path)")
       ->check(CLI::IsMember({"auto", "yuyv", "mjpg", "bgr"}));
   sub->add_option("--jpeg-decode", c->o.jpeg_decode,
-                  "Motion JPEG cameras: every-frame (default: each captured frame decoded on its capture thread) "
+                  "Motion JPEG cameras: every-frame (each captured frame decoded on its capture thread) "
                   "or on-demand (a frame is decoded only when the frame thread takes it; frames replaced before "
-                  "that are never decoded: less CPU on a loaded machine, more latency on a quiet one)")
-      ->check(CLI::IsMember({"on-demand", "every-frame"}));
+                  "that are never decoded: less CPU on a loaded machine, more latency on a quiet one) or eager "
+                  "(default: the newest packet decoded on the capture side as soon as the frame thread took the "
+                  "previous one; packets superseded before that are never decoded, and the frame thread never decodes)")
+      ->check(CLI::IsMember({"eager", "on-demand", "every-frame"}));
   sub->add_option("--cpu-display-yuyv", c->o.cpu_display_yuyv,
                   "a YUYV camera on the CPU display path: keep (default: the composite stays YUYV outside the "
                   "overlay, only the overlay's patch is converted) or convert (the whole frame converted to BGR, "

@@ -158,8 +158,8 @@ std::string LiveOptions::validate() const {
     return "warp_pass = \"" + warp_pass + "\" must be exact, mesh, full or lut";
   if (warp_cell_px < 4 || warp_cell_px > 128)
     return "warp_cell_px = " + std::to_string(warp_cell_px) + " must be in 4..128 panel px";
-  if (jpeg_decode != "on-demand" && jpeg_decode != "every-frame")
-    return "jpeg_decode = \"" + jpeg_decode + "\" must be on-demand or every-frame";
+  if (jpeg_decode != "eager" && jpeg_decode != "on-demand" && jpeg_decode != "every-frame")
+    return "jpeg_decode = \"" + jpeg_decode + "\" must be eager, on-demand or every-frame";
   if (cpu_display_yuyv != "keep" && cpu_display_yuyv != "convert")
     return "cpu_display_yuyv = \"" + cpu_display_yuyv + "\" must be keep or convert";
   if (!(std::isfinite(idle_redraw_ms) && idle_redraw_ms >= 0 && idle_redraw_ms <= 1000))
@@ -214,12 +214,17 @@ std::string LiveOptions::validate() const {
 std::string LiveSummary::json() const {
   char hash[20];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(volume_hash));
+  // Session 21: a camera's Motion JPEG decodes per frame shown (0 when none was shown).
+  const auto per_shown = [this](std::int64_t n) {
+    return frames_displayed > 0 ? static_cast<double>(n) / static_cast<double>(frames_displayed) : 0.0;
+  };
   nlohmann::json j = {
       {"frames", {{"captured", frames_captured}, {"processed", frames_processed}, {"displayed", frames_displayed},
                   {"dropped_source", dropped_source}, {"dropped_consumer", dropped_consumer},
                   {"camera_reopens", camera_reopens}, {"corrupt_jpeg", corrupt_frames},
                   {"last_corrupt_jpeg", last_corrupt}, {"jpeg_decode", jpeg_decode},
-                  {"jpeg_decodes", jpeg_decodes}, {"jpeg_skipped_undecoded", jpeg_skipped_undecoded}}},
+                  {"jpeg_decodes", jpeg_decodes}, {"jpeg_skipped_undecoded", jpeg_skipped_undecoded},
+                  {"jpeg_decodes_per_frame_shown", per_shown(jpeg_decodes)}}},
       {"wall_s", wall_s},
       {"stop_reason", stop_reason},
       {"displayed_fps", displayed_fps},
@@ -268,10 +273,12 @@ std::string LiveSummary::json() const {
                    {"right_eye_dropped", right_eye_dropped}, {"right_eye_reopens", right_eye_reopens},
                    {"right_eye_jpeg_decodes", right_jpeg_decodes},
                    {"right_eye_jpeg_skipped_undecoded", right_jpeg_skipped_undecoded},
+                   {"right_eye_jpeg_decodes_per_frame_shown", per_shown(right_jpeg_decodes)},
                    {"fallbacks", stereo_fallbacks}, {"recoveries", stereo_recoveries},
                    {"fallback_ms_max", stereo_fallback_ms_max}, {"fallback_frame_ms", stereo_fallback_frame_ms},
                    {"fallback_wait_ms", stereo_fallback_wait_ms}, {"recovery_ms_max", stereo_recovery_ms_max},
-                   {"stale_pairs_skipped", stale_pairs_skipped}, {"eye_threads", eye_threads}};
+                   {"stale_pairs_skipped", stale_pairs_skipped},
+                   {"stale_pairs_untaken", stale_pairs_untaken}, {"eye_threads", eye_threads}};
   if (stereo) {  // issue 28, session 17: either camera lost and back, timed to the frame drawn
     j["stereo"]["frames_right_eye_only"] = stereo_right_only;
     j["stereo"]["frames_note_both_eyes"] = note_both_eyes;
@@ -412,7 +419,7 @@ Result<StationCamera> open_station_and_camera(const LiveOptions& o, LiveSummary&
     return Error{"live: --camera-format " + o.camera_format + ": must be auto, yuyv, mjpg or bgr"};
   so.pixel_format = o.camera_format == "bgr" ? "bgr" : "native";
   so.fourcc = o.camera_format == "yuyv" ? "YUYV" : o.camera_format == "mjpg" ? "MJPG" : "";
-  so.defer_jpeg_decode = o.jpeg_decode == "on-demand";
+  so.defer_jpeg_decode = o.jpeg_decode == "on-demand" || o.jpeg_decode == "eager";
   auto src = ar::FrameSource::open(o.camera, so);
   if (!src) {
     const bool is_cam = o.camera.rfind("camera:", 0) == 0 || o.camera.rfind("/dev/video", 0) == 0;
@@ -975,6 +982,7 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   sum.note_missing_eye = ff.note_missing_eye;
   sum.right_composited = ff.right_composited;
   sum.stale_pairs_skipped = ff.stale_pairs_skipped;
+  sum.stale_pairs_untaken = ff.stale_pairs_untaken;
   sum.eye_threads = ff.eye_threads > 0 ? ff.eye_threads : c.popt.eye_threads;  // after any fallback
   if (!ff.eye_thread_note.empty()) sum.warnings.push_back("stereo: " + ff.eye_thread_note);
 
@@ -1197,6 +1205,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cto.reopen = o.loop || o.camera.rfind("live:", 0) != 0;  // footage ends (unless looped); a camera comes back
   cto.stall_after_frames = o.stall_after_frames;
   cto.stall_s = o.stall_s;
+  cto.eager_decode = o.jpeg_decode == "eager";  // session 21: the newest packet, on the capture side
   // Named for the summary's CPU per thread (session 19).
   cto.thread_init = [init = bg.to_engine_cpu] {
     pthread_setname_np(pthread_self(), "dentar-cap-l");

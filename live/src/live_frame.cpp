@@ -128,7 +128,8 @@ class FrameThread {
         } else if (right != nullptr) {
           // Freshest pair wins (freshest_pair.h): never a pair gone stale while it was made.
           const auto t_pair = Clock::now();
-          fig_.stale_pairs_skipped += take_freshest_pair(capture, f, [&](ar::Frame& l) { pair_right(*right, l); });
+          fig_.stale_pairs_skipped += take_freshest_pair(
+              capture, f, [&](ar::Frame& l, const auto& stale) { pair_right(*right, l, stale); });
           fig_.stage_ms["pair_wait"].add(std::chrono::duration<double, std::milli>(Clock::now() - t_pair).count());
         }
         process_frame(f);
@@ -163,7 +164,10 @@ class FrameThread {
   // Two cameras (issue 28): the right eye's frame captured with `left` (within half a frame
   // period, waiting up to that long for it), else none: the single-view path. A right eye
   // silent for 0.1 s is not waited for (StereoSource's rule), so a lost eye costs no time.
-  void pair_right(ar::CaptureThread& right, const ar::Frame& left) {
+  // Session 21: `stale()` true: a newer left frame waits (peeked, not taken) and this pair will
+  // be skipped (freshest_pair.h): take no right frame for it.
+  template <class Stale>
+  void pair_right(ar::CaptureThread& right, const ar::Frame& left, const Stale& stale) {
     const double half = 0.5 / (right.fps() > 0 ? right.fps() : 30.0);
     const double silent_s = 0.1;
     const auto t_enter = Clock::now();
@@ -172,16 +176,29 @@ class FrameThread {
     // thread, never decoded (decode on demand); its time still counts as the eye's last seen.
     const double oldest = left.steady_s - half;
     double passed = 0;
-    const bool got = right.wait_take_since(r, 0, oldest, &passed);  // the newest (latest wins)
+    const bool give_up = stale();  // peeked: a newer left frame is already waiting
+    if (give_up) ++fig_.stale_pairs_untaken;
+    const bool got = !give_up && right.wait_take_since(r, 0, oldest, &passed);  // the newest (latest wins)
     if (passed > 0) note_right_time(passed, silent_s);
     if (got) take_right(std::move(r), silent_s);
     const auto deadline = Clock::now() + std::chrono::duration<double>(half);
-    while (right_pending_.image.empty() || right_pending_.steady_s < oldest) {
+    while (!give_up && (right_pending_.image.empty() || right_pending_.steady_s < oldest)) {
+      if (stale()) {  // a newer left frame came while this one waited for its partner
+        ++fig_.stale_pairs_untaken;
+        break;
+      }
       const double last = right.last_frame_steady_s();
       if (last <= 0 || left.steady_s - last > silent_s) break;  // lost (or not started): do not wait
       const double left_s = std::chrono::duration<double>(deadline - Clock::now()).count();
       if (left_s <= 0) break;
-      const bool more = right.wait_take_since(r, left_s, oldest, &passed);
+      // Session 21: wait for the partner without taking it; once there, take it only if this
+      // pair is still the freshest (a newer left frame may have come meanwhile).
+      if (!right.wait_ready(left_s, oldest)) break;
+      if (stale()) {
+        ++fig_.stale_pairs_untaken;
+        break;
+      }
+      const bool more = right.wait_take_since(r, 0, oldest, &passed);
       if (passed > 0) note_right_time(passed, silent_s);
       if (!more) break;
       take_right(std::move(r), silent_s);

@@ -149,6 +149,7 @@ struct FrameFigures {
   std::int64_t note_both_eyes = 0, note_missing_eye = 0;
   std::int64_t right_composited = 0;  // stereo into the headset: frames with the right eye's own composite
   std::int64_t stale_pairs_skipped = 0;  // two cameras: pairs skipped for a newer one (freshest_pair.h)
+  std::int64_t stale_pairs_untaken = 0;  // session 21: of those, pairings that stopped before taking a right frame (peek)
   // The pipeline's eye threads in use (0: no pipeline made) and why fewer than asked ("" none).
   int eye_threads = 0;
   std::string eye_thread_note;

@@ -29,12 +29,71 @@ void CaptureThread::start() {
     if (options_.thread_init) options_.thread_init();
     main();
   });
+  if (decode_eager())
+    decode_thread_ = std::thread([this] {
+      if (options_.thread_init) options_.thread_init();  // the capture's name and CPUs
+      decode_main();
+    });
 }
 
 void CaptureThread::stop() {
   stop_.store(true);
+  { std::lock_guard<std::mutex> lock(mutex_); }  // a waiter has checked stop_ or is waiting: no lost wake
   cv_.notify_all();
+  decode_cv_.notify_all();
   if (thread_.joinable()) thread_.join();
+  if (decode_thread_.joinable()) decode_thread_.join();
+}
+
+double CaptureThread::newest_steady_s() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  double s = decoding_steady_s_;
+  if (slot_full_) s = std::max(s, slot_.steady_s);
+  if (pending_full_) s = std::max(s, pending_.steady_s);
+  return s;
+}
+
+double CaptureThread::ready_steady_s() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return slot_full_ ? slot_.steady_s : 0;
+}
+
+bool CaptureThread::wait_ready(double timeout_s, double min_steady_s) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(std::max(0.0, timeout_s)));
+  consumer_waiting_ = true;  // on demand: a packet arriving now is decoded on the capture thread
+  const bool ok = cv_.wait_until(lock, deadline, [&] {
+    return stop_.load() || (slot_full_ && slot_.steady_s >= min_steady_s);
+  });
+  consumer_waiting_ = false;
+  return ok && !stop_.load();
+}
+
+void CaptureThread::decode_main() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (;;) {
+    decode_cv_.wait(lock, [&] { return stop_.load() || (pending_full_ && !slot_full_); });
+    if (stop_.load()) return;
+    Frame f = std::move(pending_);  // the newest packet: nothing superseded it before this start
+    pending_ = Frame{};
+    pending_full_ = false;
+    decoding_steady_s_ = f.steady_s;
+    lock.unlock();
+    const bool ok = decode(capture_decoder_, f);
+    lock.lock();
+    decoding_steady_s_ = 0;
+    count_decode(ok, capture_decoder_);
+    if (!ok) continue;  // dropped and counted; the consumer waits for the next
+    if (slot_full_) {   // only a frame the source decoded itself (a reopened source's first)
+      dropped_consumer_.fetch_add(1);
+      if (slot_.steady_s >= f.steady_s) continue;  // the newer one stays
+    }
+    slot_ = std::move(f);
+    slot_full_ = true;
+    cv_.notify_one();
+  }
 }
 
 void CaptureThread::set_status(const std::string& s) {
@@ -92,6 +151,7 @@ bool CaptureThread::wait_take_since(Frame& out, double timeout_s, double min_ste
     Frame f = std::move(slot_);
     slot_ = Frame{};
     slot_full_ = false;
+    if (pending_full_) decode_cv_.notify_one();  // eager: the newest packet, now
     if (f.steady_s < min_steady_s) {  // too old for the caller: passed over
       dropped_consumer_.fetch_add(1);
       if (frame_undecoded(f)) skipped_undecoded_.fetch_add(1);
@@ -162,6 +222,30 @@ void CaptureThread::main() {
     if (stall_until > 0 && f.steady_s < stall_until) continue;  // the stall test hook
     last_steady_s_.store(f.steady_s, std::memory_order_release);
     delivered_.fetch_add(1);
+    if (decode_eager()) {
+      bool wake = false;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (pending_full_) {  // superseded before its decode started: never decoded
+          dropped_consumer_.fetch_add(1);
+          skipped_undecoded_.fetch_add(1);
+        }
+        if (frame_undecoded(f)) {
+          pending_ = std::move(f);
+          pending_full_ = true;
+          wake = !slot_full_;
+        } else {  // decoded by the source (a (re)opened source's first frame): to the slot
+          pending_ = Frame{};
+          pending_full_ = false;
+          if (slot_full_) dropped_consumer_.fetch_add(1);
+          slot_ = std::move(f);
+          slot_full_ = true;
+        }
+      }
+      if (wake) decode_cv_.notify_one();
+      else cv_.notify_one();
+      continue;
+    }
     {
       std::unique_lock<std::mutex> lock(mutex_);
       if (frame_undecoded(f) && consumer_waiting_ && !slot_full_) {

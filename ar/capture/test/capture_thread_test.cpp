@@ -146,7 +146,7 @@ struct DemandRun {
 // stand-in when busy_ms > 33). Every frame taken is checked against the file: its
 // bytes are the packet its index names, its pixels that packet decoded (the eager
 // decode of the same bytes), its capture time the packet's (index / fps exactly).
-DemandRun run_consumer(const std::string& avi, bool defer, int busy_ms) {
+DemandRun run_consumer(const std::string& avi, bool defer, int busy_ms, bool eager = false) {
   FrameSourceOptions so;
   so.pixel_format = "native";
   so.defer_jpeg_decode = defer;
@@ -157,8 +157,10 @@ DemandRun run_consumer(const std::string& avi, bool defer, int busy_ms) {
   EXPECT_EQ((*src)->description().find("decoded when taken") != std::string::npos, defer) << (*src)->description();
   CaptureThreadOptions o;
   o.reopen = false;
+  o.eager_decode = eager;
   CaptureThread cap(std::move(*src), spec, so, o);
-  EXPECT_EQ(cap.decode_on_demand(), defer);
+  EXPECT_EQ(cap.decode_on_demand(), defer && !eager);
+  EXPECT_EQ(cap.decode_eager(), defer && eager);
   // The reference: every packet of the file and its eager decode, read unpaced.
   std::vector<cv::Mat> packets, images;
   {
@@ -198,15 +200,16 @@ DemandRun run_consumer(const std::string& avi, bool defer, int busy_ms) {
     }
     if (busy_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(busy_ms));
   }
+  cap.stop();  // the counters settled (an eager decode under way finishes)
   run.decodes = cap.decodes();
   run.skipped_undecoded = cap.skipped_undecoded();
   run.delivered = cap.delivered();
   run.dropped_consumer = cap.dropped_consumer();
   run.corrupt = cap.corrupt();
   run.last_corrupt = cap.last_corrupt();
-  std::printf("[ demand ] defer %d busy %d ms: taken %d, decodes %lld, skipped undecoded %lld, delivered %lld, "
+  std::printf("[ demand ] defer %d eager %d busy %d ms: taken %d, decodes %lld, skipped undecoded %lld, delivered %lld, "
               "corrupt %lld\n",
-              defer, busy_ms, run.taken, static_cast<long long>(run.decodes),
+              defer, eager, busy_ms, run.taken, static_cast<long long>(run.decodes),
               static_cast<long long>(run.skipped_undecoded), static_cast<long long>(run.delivered),
               static_cast<long long>(run.corrupt));
   return run;
@@ -225,10 +228,43 @@ TEST(CaptureThreadDecodeOnDemand, SlowConsumerDecodesOnlyWhatItTakes) {
   // Every replaced packet was still undecoded, but for the first frame (decoded by the source).
   EXPECT_GE(on.skipped_undecoded, on.dropped_consumer - 1);
   EXPECT_EQ(on.corrupt, 0);
-  const DemandRun eager = run_consumer(avi, false, 100);
-  EXPECT_EQ(eager.decodes, eager.delivered);
-  EXPECT_GT(eager.decodes, eager.taken + 1) << "the eager way decodes frames no one takes";
-  EXPECT_EQ(eager.skipped_undecoded, 0);
+  const DemandRun every = run_consumer(avi, false, 100);
+  EXPECT_EQ(every.decodes, every.delivered);
+  EXPECT_GT(every.decodes, every.taken + 1) << "every-frame decodes frames no one takes";
+  EXPECT_EQ(every.skipped_undecoded, 0);
+}
+
+// Session 21, eager newest-packet decode: a camera faster than the consumer. The capture side
+// decodes only the newest packet, and only once the previous decoded frame was taken: decodes
+// <= taken + 1; a decoded frame is never replaced, so every packet dropped before anyone took
+// it was dropped undecoded (a superseded packet is never decoded); each frame taken is its
+// packet's bytes, pixels and capture time (run_consumer checks each one).
+TEST(CaptureThreadEagerDecode, FasterCameraDecodesOnlyTheNewestPacketPerTake) {
+  const std::string avi = write_stand_in("eager.avi", make_jpegs());
+  const DemandRun e = run_consumer(avi, true, 100, true);
+  EXPECT_GE(e.taken, 8);
+  EXPECT_LE(e.decodes, e.taken + 1);
+  EXPECT_GT(e.skipped_undecoded, 0);
+  EXPECT_EQ(e.dropped_consumer, e.skipped_undecoded) << "a frame dropped after its decode: a decode wasted";
+  // Every packet is taken, dropped undecoded, or (at most two) still waiting when the file ended.
+  EXPECT_GE(e.delivered - e.taken - e.dropped_consumer, 0);
+  EXPECT_LE(e.delivered - e.taken - e.dropped_consumer, 2);
+  EXPECT_EQ(e.corrupt, 0);
+}
+
+// Eager, a consumer waiting for every frame: each packet decoded once as it arrives, on the
+// capture side; a packet that passes the header checks but does not decode is dropped and
+// counted with its reason, the next good one delivered.
+TEST(CaptureThreadEagerDecode, FastConsumerAndACorruptPacket) {
+  const std::string avi = write_stand_in("eager_bad.avi", make_jpegs({10, 11, 30}));
+  const DemandRun e = run_consumer(avi, true, 0, true);
+  EXPECT_GE(e.taken, 30);
+  EXPECT_LE(e.decodes, e.taken + 1 + e.corrupt);
+  EXPECT_GE(e.corrupt, 1);
+  EXPECT_LE(e.corrupt, 3);
+  if (e.corrupt > 0) {
+    EXPECT_NE(e.last_corrupt.find("premature end"), std::string::npos) << e.last_corrupt;
+  }
 }
 
 // A consumer waiting for every frame: each is decoded once, as it arrives (on the capture

@@ -46,12 +46,17 @@ struct LiveOptions {
   // it, converted only where used), "yuyv" / "mjpg" (asked of the camera; refused, naming what
   // it gives, when it cannot), "bgr" (the whole-frame BGR path: the backend converts every frame).
   std::string camera_format = "auto";
-  // Motion JPEG cameras (session 20): "every-frame" (default: every captured frame decoded on its
+  // Motion JPEG cameras (session 20): "every-frame" (every captured frame decoded on its
   // capture thread, as sessions 18-19) or "on-demand" (a frame is decoded only when the frame
   // thread takes it; frames replaced unseen are never decoded, capture_thread.h). On-demand saves
   // CPU on a loaded machine but, quiet, puts the decode on the frame path: mono 1080p capture to
   // swap p50 73-89 -> 102-105 ms, consumer drops 1-4 -> 81-83 (docs/BENCHMARKS.md, session 20 lead).
-  std::string jpeg_decode = "every-frame";
+  // Session 21: "eager": the newest packet decoded on the capture side as soon as nothing decoded
+  // waits (never one superseded before its decode started); the frame thread never decodes
+  // (CaptureThreadOptions::eager_decode, capture_thread.h). The default since session 21: the
+  // frame thread's CPU per frame shown as with every-frame, decodes per frame shown as on demand
+  // (docs/BENCHMARKS.md, "Issue 28 session 21 — eager decode and peek pairing"; under load).
+  std::string jpeg_decode = "eager";
   // The CPU display path's composites of a YUYV camera (session 20, an option since session 21):
   // "keep" (default: the frame stays YUYV outside the overlay, only the overlay's patch is BGR;
   // ar::FrameInput::keep_yuyv) or "convert" (the whole frame converted to BGR, as before session
@@ -266,6 +271,7 @@ struct LiveSummary {
   // display (take to swap). Stereo: stale pairs skipped (freshest_pair.h) and the eye threads.
   std::vector<std::tuple<std::string, double, double>> stage_ms;
   std::int64_t stale_pairs_skipped = 0;
+  std::int64_t stale_pairs_untaken = 0;  // session 21: stale pairings that took no right frame (peeked)
   int eye_threads = 1;
   // Latency compensation (LiveOptions::camera_latency_ms): the latency used, ms; where it came
   // from ("measured" (the station file), "option", "assumed", "off", "pen"); frames drawn with the

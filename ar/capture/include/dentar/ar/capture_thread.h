@@ -22,6 +22,19 @@
 // dropped_source()) and wait_take goes on to the next one; 11 in a row set status().
 // Other sources (YUYV, BGR, files) and a source without deferral: as before.
 //
+// Eager newest-packet decode (issue 28, session 21; CaptureThreadOptions::eager_decode, with a
+// deferring source): the capture side keeps the newest undecoded packet and decodes it as soon
+// as nothing decoded is waiting (at once when the slot is empty, else the moment the consumer
+// takes the decoded frame), on a decode thread of the capture (thread_init runs on it too, so it
+// carries the capture thread's name and CPUs: the summary counts its CPU as the capture's). The
+// capture thread itself cannot do it: it blocks in the camera's read, which a take cannot wake.
+// A packet superseded before its decode started is never decoded (skipped_undecoded); a decode
+// once started finishes and its frame is delivered. The consumer never decodes: wait_take takes
+// the decoded frame at once when one is ready, else waits for the one being decoded. So
+// decodes() <= frames taken + 1 (+ the first frame, which the source decodes to learn the size).
+// A decoded frame waiting is never replaced: a consumer slower than the camera takes the frame
+// decoded after its previous take (up to one of its own periods old), not the newest packet.
+//
 // Threads: one capture thread inside; wait_take()/status() from any one consumer
 // thread (the decode on take uses a decoder of its own).
 #pragma once
@@ -50,6 +63,9 @@ struct CaptureThreadOptions {
   double stall_s = 0;
   // Called once on the capture thread before it reads (CPU affinity); may be empty.
   std::function<void()> thread_init;
+  // With a source that defers its Motion JPEG decode (FrameSourceOptions::defer_jpeg_decode):
+  // decode the newest packet eagerly on the capture side (see above) instead of on demand.
+  bool eager_decode = false;
 };
 
 class CaptureThread {
@@ -72,6 +88,17 @@ class CaptureThread {
   // pairing takes the partner it can use without decoding the ones it cannot.
   // passed_s (optional): the newest passed-over frame's capture time, 0 if none.
   bool wait_take_since(Frame& out, double timeout_s, double min_steady_s, double* passed_s = nullptr);
+  // Peek (session 21): the capture time (steady clock, s) of the newest frame not taken yet,
+  // decoded, being decoded or a packet still undecoded; 0 when there is none. Takes and decodes
+  // nothing: a stereo pairing can see that a newer frame is there before it takes a partner.
+  double newest_steady_s() const;
+  // The capture time of the frame a take would return now without waiting (decoded, or an
+  // undecoded packet on demand); 0 when none. The freshest-pair rule's peek: the same frames
+  // as a take with timeout 0 (a packet still being decoded eagerly is not waiting yet).
+  double ready_steady_s() const;
+  // Waits up to timeout_s until the frame a take would return now was captured at or after
+  // min_steady_s (steady clock, s), without taking it; false: none by then (or stopping).
+  bool wait_ready(double timeout_s, double min_steady_s);
   // steady_clock time (s) of the newest frame delivered, 0 before the first.
   double last_frame_steady_s() const { return last_steady_s_.load(std::memory_order_acquire); }
   std::int64_t delivered() const { return delivered_.load(); }
@@ -88,7 +115,8 @@ class CaptureThread {
   // them, never decoded (decode on demand only).
   std::int64_t decodes() const { return decodes_.load(); }
   std::int64_t skipped_undecoded() const { return skipped_undecoded_.load(); }
-  bool decode_on_demand() const { return source_options_.defer_jpeg_decode; }
+  bool decode_on_demand() const { return source_options_.defer_jpeg_decode && !options_.eager_decode; }
+  bool decode_eager() const { return source_options_.defer_jpeg_decode && options_.eager_decode; }
   bool ended() const { return ended_.load(); }  // the source ended and will not be reopened
   std::string status() const;                   // "" when all is well, else why not
   int width() const { return width_; }
@@ -98,6 +126,7 @@ class CaptureThread {
 
  private:
   void main();
+  void decode_main();  // eager decode: the newest packet, when nothing decoded waits
   void set_status(const std::string& s);
   // Decodes an undecoded frame in place with `dec`; false: refused (counted). No lock held.
   bool decode(MjpegDecoder& dec, Frame& f);
@@ -131,8 +160,14 @@ class CaptureThread {
   int bad_in_row_ = 0;
   static constexpr int kMaxBadInRow = 10;  // more in a row: status() says the stream is damaged
   std::atomic<std::int64_t> decodes_{0}, skipped_undecoded_{0}, decode_corrupt_{0};
+  // Eager decode (under mutex_): the newest undecoded packet; the capture time of the one being
+  // decoded (0: none); decode_cv_ wakes the decode thread (a packet came, the slot was emptied).
+  Frame pending_;
+  bool pending_full_ = false;
+  double decoding_steady_s_ = 0;
+  std::condition_variable decode_cv_;
   std::atomic<bool> stop_{false}, ended_{false};
-  std::thread thread_;
+  std::thread thread_, decode_thread_;
 };
 
 }  // namespace dentar::ar
