@@ -1354,7 +1354,8 @@ TEST(OutcomeCases, CutPastTheWallsAndBelowTheFloorArePricedByTheirOwnCriteria) {
   const OutcomeScores spast = s.score(s.cut(2.5, 6.0));
   const double price = 7.0 / sid.regions[0].volume_mm3;
   EXPECT_NEAR(spast.regions[0].points, 5.0 - price * spast.regions[0].past_walls_mm3, 0.02) << spast.regions[0].why;
-  EXPECT_TRUE(has(spast.regions[0].why, "mm3 cut too far past its walls")) << spast.regions[0].why;
+  EXPECT_TRUE(has(spast.regions[0].why, "less 0.85 for 4.20 mm3 cut too far past its walls")) << spast.regions[0].why;
+  EXPECT_TRUE(has(spast.regions[0].why, "= 4.15 points.")) << spast.regions[0].why;
   EXPECT_TRUE(has(spast.regions[0].why, "0.00 mm3 below the floor is judged by the floor depth")) << spast.regions[0].why;
   EXPECT_NEAR(criterion(spast, "floor depth")->score, 2.0, 1e-9);
 }
