@@ -463,6 +463,48 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
       t.modification_m = mod * 1e-3;
       ex.outline_extension = t;
     }
+    if (o.contains("floor_depth")) {
+      const json& w = o["floor_depth"];
+      const std::string path = "outcome.floor_depth.";
+      if (!w.is_object()) return Error{name + ": field 'outcome.floor_depth': must be an object"};
+      if (ex.outcome != OutcomeKind::kGradedRegions)
+        return Error{name + ": field 'outcome.floor_depth': only a graded_regions outcome takes it"};
+      FloorDepth t;
+      double margin = 0.5, ideal = 0.25, acc = 0.5, mod = 1.0;
+      if (!get_number(c, w, "points", path, t.points, true, 0, 1000) ||
+          !get_string(c, w, "from_region", path, t.from_region, true) ||
+          !get_number(c, w, "margin_mm", path, margin, false, 0, 10) ||
+          !get_number(c, w, "ideal_mm", path, ideal, false, 0, 10) ||
+          !get_number(c, w, "acceptable_mm", path, acc, false, 0, 10) ||
+          !get_number(c, w, "modification_mm", path, mod, false, 0, 10) ||
+          !get_number(c, w, "accept_fraction", path, t.accept_fraction, false, 0, 1) ||
+          !get_number(c, w, "modify_fraction", path, t.modify_fraction, false, 0, 1))
+        return Error{c.err};
+      std::string grading = "bands";
+      if (!get_string(c, w, "grading", path, grading, false)) return Error{c.err};
+      if (grading != "bands" && grading != "continuous")
+        return Error{name + ": field 'outcome.floor_depth.grading': '" + grading +
+                     "' is not a grading (\"bands\", the default, or \"continuous\")"};
+      t.continuous = grading == "continuous";
+      if (!(ideal <= acc && acc <= mod) || (t.continuous && mod <= ideal))
+        return Error{name + ": fields 'outcome.floor_depth.ideal_mm' / 'acceptable_mm' / 'modification_mm': must "
+                     "not decrease (" + std::to_string(ideal) + ", " + std::to_string(acc) + ", " + std::to_string(mod) + ")"};
+      const Region* r = ex.region(t.from_region);
+      if (!r || r->role != RegionRole::kTarget)
+        return Error{name + ": field 'outcome.floor_depth.from_region': '" + t.from_region +
+                     "' is not a target region of this exercise"};
+      const double oe = ex.outline_extension && ex.outline_extension->from_region == t.from_region
+                            ? ex.outline_extension->points : 0.0;
+      if (r->points < t.points + oe)
+        return Error{name + ": field 'outcome.floor_depth.points': " + std::to_string(t.points) +
+                     (oe > 0 ? " and the outline extension's " + std::to_string(oe) + " are" : " is") +
+                     " more than region '" + t.from_region + "' has (" + std::to_string(r->points) + ")"};
+      t.margin_m = margin * 1e-3;
+      t.ideal_m = ideal * 1e-3;
+      t.acceptable_m = acc * 1e-3;
+      t.modification_m = mod * 1e-3;
+      ex.floor_depth = t;
+    }
   }
   bool any_target = false;
   for (const auto& r : ex.regions) any_target |= r.role == RegionRole::kTarget;

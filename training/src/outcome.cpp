@@ -419,6 +419,93 @@ Criterion outline_extension_criterion(const OutlineExtension& t, const volume::V
   return c;
 }
 
+// Floor depth (issue 25, session 21): see FloorDepth (exercise.h) and docs/formats.md.
+Criterion floor_depth_criterion(const FloorDepth& t, std::size_t region, const volume::VoxelVolume& start,
+                                const RegionMasks& m, const volume::VoxelVolume& cut) {
+  Criterion c;
+  c.name = "floor depth";
+  c.unit = "mm mean |distance| of the cut floor from the target floor";
+  c.max_score = t.points;
+  const Eigen::Vector3i d = m.dims;
+  const double hz = start.spacing().z();
+  const auto in_r = [&](int i, int j, int k) { return (m.bits[m.index(i, j, k)] >> region & 1u) != 0; };
+  // Per column: the lowest voxel of the region (-1: none).
+  std::vector<int> low(static_cast<std::size_t>(d.x()) * d.y(), -1);
+  for (int j = 0; j < d.y(); ++j)
+    for (int i = 0; i < d.x(); ++i)
+      for (int k = 0; k < d.z(); ++k)
+        if (in_r(i, j, k)) {
+          low[static_cast<std::size_t>(i) + static_cast<std::size_t>(d.x()) * j] = k;
+          break;
+        }
+  const auto low_at = [&](int i, int j) {
+    if (i < 0 || j < 0 || i >= d.x() || j >= d.y()) return -1;
+    return low[static_cast<std::size_t>(i) + static_cast<std::size_t>(d.x()) * j];
+  };
+  const int nx = static_cast<int>(std::lround(t.margin_m / start.spacing().x()));
+  const int ny = static_cast<int>(std::lround(t.margin_m / start.spacing().y()));
+  const int search = static_cast<int>(std::ceil(1.5e-3 / hz - 1e-9));
+  std::vector<double> e;  // signed: > 0 below the target floor, < 0 short of it
+  for (int j = 0; j < d.y(); ++j)
+    for (int i = 0; i < d.x(); ++i) {
+      const int k0 = low_at(i, j);
+      if (k0 < 0) continue;
+      if (low_at(i - nx, j) < 0 || low_at(i + nx, j) < 0 || low_at(i, j - ny) < 0 || low_at(i, j + ny) < 0) continue;
+      if (start.density(i, j, k0) < kIsoDensity) continue;  // the floor lies outside the tooth here
+      const double floor = start.voxel_center(i, j, k0).z() - 0.5 * hz;
+      int lowest = -1, top = -1;
+      for (int k = std::max(0, k0 - search); k < d.z(); ++k) {
+        const bool solid = start.density(i, j, k) >= kIsoDensity;
+        if (solid) top = k;
+        if (lowest < 0 && solid && cut.density(i, j, k) < kIsoDensity) lowest = k;
+      }
+      // The cut floor: the bottom face of the lowest opened voxel; nothing opened: the tooth's top.
+      const double cut_floor = lowest >= 0 ? start.voxel_center(i, j, lowest).z() - 0.5 * hz
+                                           : start.voxel_center(i, j, top).z() + 0.5 * hz;
+      e.push_back(floor - cut_floor);
+    }
+  if (e.empty()) {
+    c.detail = "0 of " + fmt(t.points, 0) + ": the floor was not measured (no column of the target's floor lies in the tooth).";
+    return c;
+  }
+  int n[4] = {0, 0, 0, 0};  // ideal, acceptable, modification, unacceptable
+  int deep = 0, shallow = 0;
+  double abs_sum = 0, deepest = 0, linear = 0;
+  for (const double x : e) {
+    const double ax = std::abs(x);
+    const int b = ax <= t.ideal_m + 1e-9 ? 0 : ax <= t.acceptable_m + 1e-9 ? 1 : ax <= t.modification_m + 1e-9 ? 2 : 3;
+    n[b]++;
+    linear += std::clamp(1.0 - (ax - t.ideal_m) / std::max(1e-12, t.modification_m - t.ideal_m), 0.0, 1.0);
+    if (b > 0) (x > 0 ? deep : shallow)++;
+    deepest = std::max(deepest, x);
+    abs_sum += ax;
+  }
+  std::vector<double> sorted = e;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  const double N = static_cast<double>(e.size());
+  const double grade = t.continuous ? linear / N : (n[0] + t.accept_fraction * n[1] + t.modify_fraction * n[2]) / N;
+  c.score = t.points * grade;
+  c.value = 1e3 * abs_sum / N;
+  const auto side = [](double x) { return x > 0 ? " below" : x < 0 ? " short of" : " on"; };
+  c.detail = fmt(c.score) + " of " + fmt(t.points, 0) + ": the cut floor against the target floor over " +
+             std::to_string(e.size()) + " columns of its footprint (" + fmt(t.margin_m * 1e3) +
+             " mm in from the outline): median " + fmt(std::abs(median) * 1e3) + " mm" + side(median) +
+             " it, deepest " + fmt(std::max(0.0, deepest) * 1e3) + " mm below it; of the floor " +
+             fmt(100 * n[0] / N, 0) + " % within " + fmt(t.ideal_m * 1e3) + " mm, " + fmt(100 * n[1] / N, 0) +
+             " % within " + fmt(t.acceptable_m * 1e3) + ", " + fmt(100 * n[2] / N, 0) + " % within " +
+             fmt(t.modification_m * 1e3) + ", " + fmt(100 * n[3] / N, 0) + " % beyond (" + fmt(100 * deep / N, 0) +
+             " % too deep, " + fmt(100 * shallow / N, 0) + " % too shallow, past " + fmt(t.ideal_m * 1e3) +
+             " mm). It earns " + fmt(t.points, 0) + " x the mean grade of the floor: 1 within " + fmt(t.ideal_m * 1e3) +
+             " mm of the target floor either way (ideal), " +
+             (t.continuous ? "falling linearly to 0 at " + fmt(t.modification_m * 1e3) + " mm"
+                           : fmt(t.accept_fraction) + " within " + fmt(t.acceptable_m * 1e3) + " (acceptable), " +
+                                 fmt(t.modify_fraction) + " within " + fmt(t.modification_m * 1e3) +
+                                 " (needs modification), 0 beyond") +
+             "; too deep and too shallow are judged alike.";
+  return c;
+}
+
 }  // namespace
 
 Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, const volume::VoxelVolume& start,
@@ -439,6 +526,9 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
   }
   const std::size_t nr = ex.regions.size();
   std::vector<double> reg_vol(nr, 0), reg_rem(nr, 0), reg_over(nr, 0);
+  // Floor depth (session 21): each region's floor level (its lowest voxel's bottom face, m) and the
+  // part of its cut too far that lies below it.
+  std::vector<double> reg_floor(nr, 1e9), reg_over_below(nr, 0);
   bool need_dist = false;
   for (const auto& r : ex.regions)
     for (const auto& p : r.all) need_dist |= p.kind == PrimitiveKind::kShell;
@@ -467,6 +557,17 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
   };
   const AccessGeometry* access = ex.outcome == OutcomeKind::kAccessOpening && ex.access ? &*ex.access : nullptr;
   const Eigen::Vector3i d = start.dims();
+  std::size_t floor_region = nr;  // the floor depth's region (nr: none)
+  if (ex.floor_depth)
+    for (std::size_t r = 0; r < nr; ++r)
+      if (ex.regions[r].name == ex.floor_depth->from_region) floor_region = r;
+  if (floor_region < nr) {
+    for (int k = 0; k < d.z() && reg_floor[floor_region] > 1e8; ++k)
+      for (int j = 0; j < d.y(); ++j)
+        for (int i = 0; i < d.x(); ++i)
+          if (m.bits[m.index(i, j, k)] >> floor_region & 1u)
+            reg_floor[floor_region] = std::min(reg_floor[floor_region], start.voxel_center(i, j, k).z() - 0.5 * start.spacing().z());
+  }
   static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   for (int k = 0; k < d.z(); ++k)
     for (int j = 0; j < d.y(); ++j)
@@ -515,7 +616,10 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
           } else if (who) {
             const double share = rem / std::popcount(who);
             for (std::size_t r = 0; r < nr; ++r)
-              if (who >> r & 1u) reg_over[r] += share;
+              if (who >> r & 1u) {
+                reg_over[r] += share;
+                if (start.voxel_center(i, j, k).z() < reg_floor[r]) reg_over_below[r] += share;
+              }
           } else if (mat != static_cast<std::size_t>(volume::Material::kPulp) &&
                      !(access && start.voxel_center(i, j, k).z() < access->floor_z_m)) {
             // Beyond every zone: over-reduction (pulp has its own cost, the
@@ -572,14 +676,22 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       const double price0 = ex.overprep_exercise_price ? exercise_price : reg_vol[r] > 0 ? R.points / reg_vol[r] : 0;
       // Outline extension (session 20): its points come out of this region's coverage share; the
       // region's price of a mm3 cut too far stays its own points' (depth costs unchanged).
-      const double oe = ex.outline_extension && ex.outline_extension->from_region == R.name
-                            ? ex.outline_extension->points : 0.0;
-      const double cov_points = R.points - oe;
+      const bool has_oe = ex.outline_extension && ex.outline_extension->from_region == R.name;
+      const double oe = has_oe ? ex.outline_extension->points : 0.0;
+      // Floor depth (session 21): its points come out of the coverage share too, and the cut too far is
+      // split at the region's floor: below it the floor depth's, past the walls the outline extension's
+      // (when there is one), neither then priced by volume.
+      const bool split = r == floor_region;
+      const double fd = split ? ex.floor_depth->points : 0.0;
+      const double cov_points = R.points - oe - fd;
       s.max_points = cov_points;
+      s.below_floor_mm3 = split ? reg_over_below[r] : 0.0;
+      s.past_walls_mm3 = split ? reg_over[r] - reg_over_below[r] : 0.0;
+      const double charged_mm3 = !split ? reg_over[r] : has_oe ? 0.0 : s.past_walls_mm3;
       const double price =
           oe > 0 && ex.outline_extension->price_follows_coverage && reg_vol[r] > 0 ? cov_points / reg_vol[r] : price0;
       if (R.points > 0 && reg_vol[r] > 0)
-        s.points = std::clamp(cov_points * reg_rem[r] / reg_vol[r] - price * reg_over[r], 0.0, cov_points);
+        s.points = std::clamp(cov_points * reg_rem[r] / reg_vol[r] - price * charged_mm3, 0.0, cov_points);
       if (reg_rem[r] <= 0 && reg_over[r] <= 0) {
         s.why = "nothing of this region was removed.";
       } else if (R.points <= 0) {
@@ -593,16 +705,27 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
         // The sum is written with the figures it is made of, to 2 decimals (issue 25, session 20:
         // at 1 decimal "5.9 points, less 0.3 ... = 5.5 points" did not add up for a reader).
         const double gross = cov_points * s.coverage_pct / 100;
-        const double charge = price * reg_over[r];
+        const double charge = price * charged_mm3;
+        std::string others;
+        if (oe > 0 && fd > 0) others = "; its other " + fmt(oe + fd, 0) + " points are the outline extension's " + fmt(oe, 0) +
+                                       " and the floor depth's " + fmt(fd, 0);
+        else if (oe > 0) others = "; its other " + fmt(oe, 0) + " points are the outline extension's";
+        else if (fd > 0) others = "; its other " + fmt(fd, 0) + " points are the floor depth's";
+        // Split (session 21): say where the cut too far lies and which criterion judges each part.
+        std::string judged;
+        if (split && reg_over[r] > 0)
+          judged = "; of what was cut beyond it (within " + fmt(R.zone_mm, 1) + " mm), " + fmt(s.below_floor_mm3) +
+                   " mm3 below the floor is judged by the floor depth" +
+                   (has_oe ? " and " + fmt(s.past_walls_mm3) + " mm3 past the walls by the outline extension, in mm, not by volume"
+                           : ", in mm, not by volume");
         s.why = fmt(s.coverage_pct, 0) + " % of the region removed (" + fmt(cov_points, 0) + " x " +
-                fmt(s.coverage_pct, 1) + " % = " + fmt(gross) + " points" +
-                (oe > 0 ? "; its other " + fmt(oe, 0) + " points are the outline extension's" : "") + ")" +
-                (reg_over[r] > 0 ? ", less " + fmt(charge) + " for " + fmt(reg_over[r]) +
-                                       " mm3 cut too far beyond it (within " + fmt(R.zone_mm, 1) + " mm, " +
-                                       fmt(price, 3) +
+                fmt(s.coverage_pct, 1) + " % = " + fmt(gross) + " points" + others + ")" + judged +
+                (charged_mm3 > 0 ? ", less " + fmt(charge) + " for " + fmt(charged_mm3) +
+                                       (split ? " mm3 cut too far past its walls (within " : " mm3 cut too far beyond it (within ") +
+                                       fmt(R.zone_mm, 1) + " mm, " + fmt(price, 3) +
                                        (ex.overprep_exercise_price ? " points per mm3, the exercise's price)"
                                                                    : " points per mm3 of this region)")
-                                 : ", nothing cut beyond it") +
+                 : reg_over[r] > 0 ? "" : ", nothing cut beyond it") +
                 " = " + fmt(s.points) + " points" +
                 (gross - charge < 0 ? " (a region's points do not go below 0)." : ".");
       }
@@ -823,6 +946,10 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     }
     if (ex.outline_extension) {
       o.criteria.push_back(outline_extension_criterion(*ex.outline_extension, start, m, cut));
+      o.earned_points += o.criteria.back().score;
+    }
+    if (floor_region < nr) {
+      o.criteria.push_back(floor_depth_criterion(*ex.floor_depth, floor_region, start, m, cut));
       o.earned_points += o.criteria.back().score;
     }
   }

@@ -166,8 +166,12 @@ TEST(CohortOutcome, ClassICavityTotalsRankASeededSmallCohortBySkill) {
   for (std::size_t i = 0; i < total.size(); ++i) {
     if (skill[i] != 1.0) continue;
     for (std::size_t j = 0; j < total.size(); ++j) {
-      if (skill[j] == 0.0) EXPECT_GT(total[i], total[j] + 3.0) << "expert " << i << " against novice " << j;
-      if (skill[j] < 1.0) EXPECT_GE(total[i], total[j]) << "expert " << i << " against skill " << skill[j];
+      if (skill[j] == 0.0) {
+        EXPECT_GT(total[i], total[j] + 3.0) << "expert " << i << " against novice " << j;
+      }
+      if (skill[j] < 1.0) {
+        EXPECT_GE(total[i], total[j]) << "expert " << i << " against skill " << skill[j];
+      }
     }
   }
 }

@@ -77,12 +77,20 @@ TEST(ExerciseAssets, ClassOneCavity) {
   EXPECT_NEAR(o->points, 10.0, 1e-6);
   EXPECT_FALSE(o->pulp_exposed);
   // The box's walls are parallel: the wall taper (issue 25, session 14) gives all its 3 points.
-  ASSERT_EQ(o->criteria.size(), 1u);
+  ASSERT_EQ(o->criteria.size(), 2u);
   EXPECT_EQ(o->criteria[0].name, "wall taper");
   EXPECT_NEAR(o->criteria[0].score, 3.0, 1e-9) << o->criteria[0].detail;
+  // Its floor lies on the target floor in every column (issue 25, session 21): the floor depth's 3 of 3,
+  // and the cavity region's coverage the other 4 of its 7.
+  EXPECT_EQ(o->criteria[1].name, "floor depth");
+  EXPECT_NEAR(o->criteria[1].score, 3.0, 1e-9) << o->criteria[1].detail;
+  ASSERT_EQ(o->regions.size(), 1u);
+  EXPECT_NEAR(o->regions[0].points, 4.0, 1e-6) << o->regions[0].why;
   auto none = score_outcome(l.ex, l.masks, l.start, l.start);
   ASSERT_TRUE(none.ok());
   EXPECT_EQ(none->points, 0.0);
+  ASSERT_EQ(none->criteria.size(), 2u);
+  EXPECT_EQ(none->criteria[1].score, 0.0) << none->criteria[1].detail;
   EXPECT_FALSE(none->complete);
 }
 

@@ -1243,3 +1243,149 @@ TEST(Exercise, OutlineExtensionFieldsAreCheckedAndNamed) {
 
 }  // namespace
 }  // namespace dentar::training
+
+namespace dentar::training {
+namespace {
+
+// Past the walls and below the floor (issue 25, session 21). The box target of the outline-extension
+// case (x 3-7, y 4-6 mm, floor at z 6 mm, 7 points, zone 0.8 mm) with a floor depth of 2 points
+// (graded continuously: 1 within 0.25 mm of the floor, 0 at 1.0 mm) and, in the full split, an outline
+// extension of 2 points (bands 0.25 / 0.5 / 1.0): the region keeps 3 (coverage). Without the outline
+// extension (the shipped class I rule) the cut past the walls keeps the region's volume price.
+struct SplitCase {
+  VoxelVolume start = block();
+  Exercise ex;
+  RegionMasks masks;
+  explicit SplitCase(bool with_outline) {
+    ex.source = "box.json";
+    ex.regions = {Region{"box", RegionRole::kTarget, {box({3, 4, 6}, {7, 6, 11})}, 7.0, 0.8},
+                  Region{"top", RegionRole::kEntry, {box({-1, -1, 9.85}, {11, 11, 11})}, 0, 1}};
+    if (with_outline) {
+      OutlineExtension t;
+      t.points = 2;
+      t.from_region = "box";
+      t.axis_point_m = Eigen::Vector3d(5, 5, 0) * 1e-3;
+      t.from_z_m = 6.5e-3;
+      t.to_z_m = 9.5e-3;
+      ex.outline_extension = t;
+    }
+    FloorDepth f;
+    f.points = 2;
+    f.from_region = "box";
+    f.continuous = true;
+    ex.floor_depth = f;
+    auto m = build_masks(ex, start);
+    EXPECT_TRUE(m.ok()) << m.error();
+    masks = *m;
+  }
+  // The box cut with its mesial (-x) wall at x0 and its floor at z0, the rest on the outline.
+  VoxelVolume cut(double x0, double z0) const {
+    VoxelVolume v = start.clone();
+    carve(v, [&](const Eigen::Vector3d& p) {
+      return p.x() >= x0 - 1e-9 && p.x() <= 7 + 1e-9 && p.y() >= 4 - 1e-9 && p.y() <= 6 + 1e-9 && p.z() >= z0 - 1e-9;
+    });
+    return v;
+  }
+  OutcomeScores score(const VoxelVolume& v) const {
+    auto o = score_outcome(ex, masks, start, v);
+    EXPECT_TRUE(o.ok()) << o.error();
+    return *o;
+  }
+};
+
+const Criterion* criterion(const OutcomeScores& o, const std::string& name) {
+  for (const auto& c : o.criteria)
+    if (c.name == name) return &c;
+  return nullptr;
+}
+
+TEST(OutcomeCases, CutPastTheWallsAndBelowTheFloorArePricedByTheirOwnCriteria) {
+  const SplitCase c(true);
+  EXPECT_EQ(c.ex.max_points(), 7.0);
+  // Untouched: 0 everywhere (the floor is short by the whole cavity's depth, 4 mm).
+  const OutcomeScores un = c.score(c.start);
+  ASSERT_NE(criterion(un, "floor depth"), nullptr);
+  EXPECT_EQ(criterion(un, "floor depth")->score, 0.0) << criterion(un, "floor depth")->detail;
+  EXPECT_EQ(un.points, 0.0);
+  // The ideal box: the floor depth 2 of 2, the outline 2 of 2, the region 3 of 3: 7 of 7.
+  const OutcomeScores id = c.score(c.cut(3.0, 6.0));
+  EXPECT_NEAR(criterion(id, "floor depth")->score, 2.0, 1e-9) << criterion(id, "floor depth")->detail;
+  EXPECT_NEAR(criterion(id, "outline extension")->score, 2.0, 1e-9);
+  EXPECT_NEAR(id.regions[0].points, 3.0, 0.02) << id.regions[0].why;
+  EXPECT_NEAR(id.points, 7.0, 0.02);
+  EXPECT_TRUE(id.complete) << id.completion;
+  // 0.5 mm too deep over the whole floor: every column 0.5 mm below it, graded 1 - 0.25 / 0.75; the
+  // 4.3 mm3 below the floor is the floor depth's, not priced by volume (the region keeps 3); the walls 2.
+  const OutcomeScores deep = c.score(c.cut(3.0, 5.5));
+  const Criterion* fd = criterion(deep, "floor depth");
+  EXPECT_NEAR(fd->score, 2.0 * (1.0 - 0.25 / 0.75), 1e-9) << fd->detail;
+  EXPECT_TRUE(has(fd->detail, "median 0.50 mm below it")) << fd->detail;
+  EXPECT_TRUE(has(fd->detail, "100 % too deep")) << fd->detail;
+  EXPECT_NEAR(criterion(deep, "outline extension")->score, 2.0, 1e-9);
+  // In voxels: the box's 41 x 21 columns (x 3-7, y 4-6 mm inclusive) x 5 layers (z 5.5-5.9) of 0.001 mm3.
+  EXPECT_NEAR(deep.regions[0].below_floor_mm3, 41 * 21 * 5 * 1e-3, 1e-6);
+  EXPECT_NEAR(deep.regions[0].past_walls_mm3, 0.0, 1e-9);
+  EXPECT_NEAR(deep.regions[0].points, 3.0, 0.02) << deep.regions[0].why;
+  EXPECT_TRUE(has(deep.regions[0].why, "4.30 mm3 below the floor is judged by the floor depth")) << deep.regions[0].why;
+  // 0.5 mm past the mesial wall, floor on target: the outline extension's mesial wall acceptable
+  // (0.85 of its 0.5), the floor depth 2 of 2, the 4.2 mm3 past the wall not priced by volume.
+  const OutcomeScores past = c.score(c.cut(2.5, 6.0));
+  EXPECT_NEAR(criterion(past, "outline extension")->score, 2.0 - 0.5 * 0.15, 1e-9)
+      << criterion(past, "outline extension")->detail;
+  EXPECT_NEAR(criterion(past, "floor depth")->score, 2.0, 1e-9) << criterion(past, "floor depth")->detail;
+  // 5 x 21 columns (x 2.5-2.9, y 4-6 mm) x 40 layers (z 6-9.9) of 0.001 mm3.
+  EXPECT_NEAR(past.regions[0].past_walls_mm3, 5 * 21 * 40 * 1e-3, 1e-6);
+  EXPECT_NEAR(past.regions[0].below_floor_mm3, 0.0, 1e-9);
+  EXPECT_NEAR(past.regions[0].points, 3.0, 0.02) << past.regions[0].why;
+  EXPECT_TRUE(has(past.regions[0].why, "4.20 mm3 past the walls by the outline extension")) << past.regions[0].why;
+  // Each fault costs only its own criterion.
+  EXPECT_LT(deep.points, id.points);
+  EXPECT_LT(past.points, id.points);
+
+  // The shipped class I rule (no outline extension): the region keeps 5 and the cut past the walls
+  // keeps its volume price (the region's 7 points over its volume, per mm3), the cut below the floor
+  // does not.
+  const SplitCase s(false);
+  const OutcomeScores sid = s.score(s.cut(3.0, 6.0));
+  EXPECT_NEAR(sid.points, 7.0, 0.02);
+  const OutcomeScores sdeep = s.score(s.cut(3.0, 5.5));
+  EXPECT_NEAR(sdeep.regions[0].points, 5.0, 0.02) << sdeep.regions[0].why;
+  EXPECT_NEAR(sdeep.points, 5.0 + 2.0 * (1.0 - 0.25 / 0.75), 0.02);
+  const OutcomeScores spast = s.score(s.cut(2.5, 6.0));
+  const double price = 7.0 / sid.regions[0].volume_mm3;
+  EXPECT_NEAR(spast.regions[0].points, 5.0 - price * spast.regions[0].past_walls_mm3, 0.02) << spast.regions[0].why;
+  EXPECT_TRUE(has(spast.regions[0].why, "less 0.85 for 4.20 mm3 cut too far past its walls")) << spast.regions[0].why;
+  EXPECT_TRUE(has(spast.regions[0].why, "= 4.15 points.")) << spast.regions[0].why;
+  EXPECT_TRUE(has(spast.regions[0].why, "0.00 mm3 below the floor is judged by the floor depth")) << spast.regions[0].why;
+  EXPECT_NEAR(criterion(spast, "floor depth")->score, 2.0, 1e-9);
+}
+
+TEST(Exercise, FloorDepthFieldsAreCheckedAndNamed) {
+  const auto text = [](const std::string& fd) {
+    return R"({"format":"dentar-exercise","version":1,"name":"t","procedure":"p",
+    "tooth":{"kind":"molar","voxel_mm":0.2},"bur":{"shape":"sphere","radius_mm":0.5},"time_limit_s":60,
+    "regions":[{"name":"a","role":"target","points":7,"all":[{"shape":"sphere","center_mm":[0,0,5],"radius_mm":1}]}],
+    "steps":[{"name":"s1","region":"a"}],
+    "outcome":{"kind":"graded_regions","floor_depth":)" + fd + "}}";
+  };
+  auto ok = parse_exercise(text(R"({"points":3,"from_region":"a","grading":"continuous"})"), "t.json");
+  ASSERT_TRUE(ok.ok()) << ok.error();
+  ASSERT_TRUE(ok->floor_depth.has_value());
+  EXPECT_TRUE(ok->floor_depth->continuous);
+  EXPECT_EQ(ok->max_points(), 7.0);
+  EXPECT_NEAR(ok->floor_depth->modification_m, 1.0e-3, 1e-12);
+  auto err = [&](const std::string& fd, const std::string& needle) {
+    auto r = parse_exercise(text(fd), "t.json");
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(has(r.error(), needle)) << r.error();
+    EXPECT_TRUE(has(r.error(), "t.json")) << r.error();
+  };
+  err(R"({"points":3,"from_region":"b"})", "'outcome.floor_depth.from_region': 'b' is not a target region");
+  err(R"({"points":8,"from_region":"a"})", "outcome.floor_depth.points");
+  err(R"({"points":3})", "outcome.floor_depth.from_region");
+  err(R"({"points":3,"from_region":"a","ideal_mm":0.6})", "ideal_mm");
+  err(R"({"points":3,"from_region":"a","grading":"x"})", "'outcome.floor_depth.grading': 'x' is not a grading");
+}
+
+}  // namespace
+}  // namespace dentar::training

@@ -140,6 +140,31 @@ struct OutlineExtension {
   bool price_follows_coverage = false;
 };
 
+// Graded regions: the floor's depth in millimetres (outcome field "floor_depth", issue 25 session
+// 21). The target floor is the bottom face of the region's lowest voxel in each voxel column of the
+// region's footprint; the columns sampled are those whose neighbours margin in from the outline
+// (along x and y) are in the footprint too. Per column, the signed distance (m) of the cut floor (the
+// bottom face of the lowest voxel the cut opened in that column, searched to 1.5 mm below the target
+// floor; the top of the starting tooth when none was opened) from the target floor: positive below
+// it (too deep), negative short of it (too shallow). Each column graded on the rubric's bands as the
+// outline extension's samples (|d| <= ideal: 1, <= acceptable: accept_fraction, <= modification:
+// modify_fraction, beyond: 0); the criterion earns points x the mean grade. Its points come out of
+// `from_region`'s coverage share, as the outline extension's do. With it, the region's cut too far
+// within its zone is split at the region's floor level (its lowest voxel's bottom face): below it
+// ("below the floor") is judged by this criterion, not priced by volume; above it ("past the
+// walls") by the outline extension when the exercise has one from the same region, else priced by
+// volume as before.
+struct FloorDepth {
+  double points = 0;
+  std::string from_region;
+  double margin_m = 0.5e-3;
+  double ideal_m = 0.25e-3, acceptable_m = 0.5e-3, modification_m = 1.0e-3;
+  double accept_fraction = 0.85, modify_fraction = 0.62;
+  // "grading": "bands" (default, above) or "continuous": a column's grade falls linearly from 1 at
+  // ideal to 0 at modification (so 0.3 and 0.45 mm too deep are not the same grade).
+  bool continuous = false;
+};
+
 struct Exercise {
   std::string source;  // file name (messages)
   std::string name, title, procedure;
@@ -159,6 +184,7 @@ struct Exercise {
   double access_flare_free_deg = 25, access_flare_deg_per_point = 10;
   std::optional<WallTaper> wall_taper;  // graded regions only; its points count in max_points()
   std::optional<OutlineExtension> outline_extension;  // graded regions only; points taken from a region's
+  std::optional<FloorDepth> floor_depth;  // graded regions only; points taken from a region's (session 21)
   // What the exercise charges (outcome fields "pulp_exposure_points",
   // "perforation_points"; points subtracted from the total, which never
   // goes below 0). Negative = all the exercise's points (the default: an

@@ -16,6 +16,9 @@ struct RegionScore {
   double removed_mm3 = 0;    // removed inside it
   double coverage_pct = 0;   // 100 * removed / volume
   double overprep_mm3 = 0;   // removed in its zone (region grown by zone_mm) outside every target
+  // With the exercise's floor_depth on this region (session 21), overprep_mm3 split at the region's
+  // floor level: below it, and above it (past the walls). 0 otherwise.
+  double below_floor_mm3 = 0, past_walls_mm3 = 0;
   double points = 0, max_points = 0;
   std::string why;  // one sentence: how the points were reached (report)
 };
