@@ -28,24 +28,7 @@ struct Corner {
   // How it moves with its tag's outline offset e (BundlePoseOptions::
   // tag_outline_sigma): d uv / d e = blur * (2, 0, 2), every edge out by e.
   Eigen::Vector2d outline = Eigen::Vector2d::Zero();
-  // BundlePoseOptions::motion_blur_k: the whitening of this corner's residual,
-  // L = I - (1 - s) d d^T (d the unit image motion, s = sigma_across /
-  // sigma_along), so that L r has the across-motion noise in both axes.
-  // Identity (moving = false) for a corner without motion.
-  Eigen::Matrix2d whiten = Eigen::Matrix2d::Identity();
-  bool moving = false;
 };
-
-// BundlePoseOptions::motion_blur_k: L for a corner moving m px over the exposure.
-void set_motion_whitening(Corner& c, const Eigen::Vector2d& m_px, double k, double sigma_px) {
-  const double len = m_px.norm();
-  if (!(k > 0) || !(len > 0) || !std::isfinite(len)) return;
-  const Eigen::Vector2d d = m_px / len;
-  const double a = k * len;
-  const double s = sigma_px / std::sqrt(sigma_px * sigma_px + a * a);
-  c.whiten = Eigen::Matrix2d::Identity() - (1 - s) * d * d.transpose();
-  c.moving = true;
-}
 
 // The blur model of one observed quad (quad_blur_model, bundle_pose.h): each
 // corner's d uv / d S, fixed by the observed quad.
@@ -88,7 +71,6 @@ bool residuals_raw(const Eigen::Isometry3d& T_rig_body, const std::vector<Corner
     const double iz = 1.0 / p.z();
     r(2 * i) = k.fx * p.x() * iz + k.cx - corners[i].uv_px.x();
     r(2 * i + 1) = k.fy * p.y() * iz + k.cy - corners[i].uv_px.y();
-    if (corners[i].moving) r.segment<2>(2 * i) = corners[i].whiten * r.segment<2>(2 * i);
     if (J) {
       Eigen::Matrix<double, 2, 3> du_dp;
       du_dp << k.fx * iz, 0, -k.fx * p.x() * iz * iz, 0, k.fy * iz, -k.fy * p.y() * iz * iz;
@@ -97,7 +79,6 @@ bool residuals_raw(const Eigen::Isometry3d& T_rig_body, const std::vector<Corner
       const Eigen::Vector3d q = p_rig - T_rig_body.translation();
       Eigen::Matrix3d skew;
       skew << 0, -q.z(), q.y(), q.z(), 0, -q.x(), -q.y(), q.x(), 0;
-      if (corners[i].moving) du_dp = corners[i].whiten * du_dp;
       J->block<2, 3>(2 * i, 0) = -du_dp * skew;
       J->block<2, 3>(2 * i, 3) = du_dp;
     }
@@ -215,10 +196,6 @@ std::string BundlePoseOptions::validate() const {
     return "blur_stretch_sigma_px = " + std::to_string(blur_stretch_sigma_px) + " must be finite and >= 0 (0 = off)";
   if (!std::isfinite(tag_outline_sigma) || tag_outline_sigma < 0 || tag_outline_sigma > 100)
     return "tag_outline_sigma = " + std::to_string(tag_outline_sigma) + " must be in [0, 100] (0 = off)";
-  if (!std::isfinite(motion_blur_k) || motion_blur_k < 0 || motion_blur_k > 100)
-    return "motion_blur_k = " + std::to_string(motion_blur_k) + " must be in [0, 100] (0 = off)";
-  if (!std::isfinite(motion_corner_sigma_px) || motion_corner_sigma_px <= 0 || motion_corner_sigma_px > 100)
-    return "motion_corner_sigma_px = " + std::to_string(motion_corner_sigma_px) + " must be in (0, 100]";
   return {};
 }
 
@@ -330,14 +307,6 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
                                  static_cast<int>(v)});
       if (options.blur_stretch_sigma_px > 0 || options.tag_outline_sigma > 0)
         blur_jacobians(&corners[corners.size() - 4]);
-      if (options.motion_blur_k > 0 && views[v].corner_motion_px != nullptr) {
-        const auto m = views[v].corner_motion_px->find(id);
-        if (m != views[v].corner_motion_px->end())
-          for (int c = 0; c < 4; ++c)
-            set_motion_whitening(corners[corners.size() - 4 + static_cast<std::size_t>(c)],
-                                 m->second[static_cast<std::size_t>(c)], options.motion_blur_k,
-                                 options.motion_corner_sigma_px);
-      }
       tags.push_back(Obs{t, static_cast<int>(v)});
     }
   }
@@ -430,7 +399,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
       }
       for (std::size_t i = 0; i < cs.size(); ++i) {
         const Eigen::Index row = static_cast<Eigen::Index>(2 * i), col = 3 * cs[i].view;
-        const Eigen::Matrix<double, 2, 3> Bi = cs[i].moving ? Eigen::Matrix<double, 2, 3>(cs[i].whiten * cs[i].blur) : cs[i].blur;
+        const Eigen::Matrix<double, 2, 3>& Bi = cs[i].blur;
         rr.segment<2>(row) += Bi * S.segment<3>(col);
         if (JJ) JJ->block<2, 3>(row, 6 + col) = Bi;
       }
@@ -638,7 +607,7 @@ BundlePose estimate_bundle_pose_views(const TagBundle& bundle, const std::vector
       const Eigen::Index r0 = static_cast<Eigen::Index>(8 * t);
       Eigen::Matrix<double, 8, 1> u;
       for (std::size_t c = 0; c < 4; ++c)
-        u.segment<2>(static_cast<Eigen::Index>(2 * c)) = corners[4 * t + c].whiten * corners[4 * t + c].outline;
+        u.segment<2>(static_cast<Eigen::Index>(2 * c)) = corners[4 * t + c].outline;
       const double pwt = std::max(pw(r0), 1e-12);
       const Eigen::VectorXd g = J.middleRows(r0, 8).transpose() * (w.segment<8>(r0).asDiagonal() * u);
       G += (k2 / pwt) * g * g.transpose();

@@ -89,43 +89,6 @@ struct StereoTracker::Impl {
   bool motion_frame = false;                        // this frame's left image is in `motion`
   bool left_missing = false, right_missing = false;  // the eye had no image last frame
   StereoTracker::EyeRunner run_eyes;                 // empty: the eyes one after the other
-  // TrackerOptions::exposure_s with pose.motion_blur_k: each eye's previous
-  // detections and their capture time (has_prev false: none), and this
-  // frame's corner motions over the exposure (px, by tag id).
-  struct EyeHistory {
-    std::vector<DetectedTag> tags;
-    double time_s = 0;
-    bool has_prev = false;
-    std::map<int, std::array<Eigen::Vector2d, 4>> motion;
-  };
-  EyeHistory hist_l, hist_r;
-
-  bool motion_model_on() const { return o.exposure_s > 0 && o.pose.motion_blur_k > 0; }
-  // This frame's corner motions from the eye's previous frame, then this frame kept.
-  void note_eye_motion(EyeHistory& h, const std::vector<DetectedTag>& tags, bool have_image, double t_s) {
-    h.motion.clear();
-    if (!motion_model_on()) return;
-    const double dt = t_s - h.time_s;
-    if (have_image && h.has_prev && dt > 1e-4 && dt <= 0.1) {
-      for (const DetectedTag& d : tags) {
-        for (const DetectedTag& q : h.tags) {
-          if (q.id != d.id || q.family != d.family) continue;
-          std::array<Eigen::Vector2d, 4> mv;
-          bool ok = true;
-          for (std::size_t c = 0; c < 4; ++c) {
-            mv[c] = (d.corners_px[c] - q.corners_px[c]) * (o.exposure_s / dt);
-            ok = ok && mv[c].allFinite();
-          }
-          if (ok) h.motion[d.id] = mv;
-          break;
-        }
-      }
-    }
-    h.tags = tags;
-    h.time_s = t_s;
-    h.has_prev = have_image;
-  }
-
   double noise_px2(const RigBody& b, const BundlePose& p) const {
     if (!o.pool_noise || &b == &mannequin || !noise_ref) return p.noise_px2;
     return pooled_noise_px2(p, &*noise_ref, o.pool_comparable_tags);
@@ -317,11 +280,9 @@ struct StereoTracker::Impl {
     if (!tags_l.empty() || !tags_r.empty()) {
       BundlePoseOptions po = track_rules::pose_options_for(o, &b == &mannequin);
       if (&b == &mirror) po.tag_outline_sigma = o.stereo_mirror_outline_sigma;
-      const bool motion = motion_model_on() && (&b == &mannequin || !o.motion_blur_mannequin_only);
-      if (!motion) po.motion_blur_k = 0;
       BundlePose p = estimate_bundle_pose_views(
-          b.bundle, {BundleView{&cam_l, Eigen::Isometry3d::Identity(), &tags_l, motion ? &hist_l.motion : nullptr},
-                     BundleView{&cam_r, T_camr_caml, &tags_r, motion ? &hist_r.motion : nullptr}},
+          b.bundle, {BundleView{&cam_l, Eigen::Isometry3d::Identity(), &tags_l},
+                     BundleView{&cam_r, T_camr_caml, &tags_r}},
           po, prev);
       if (&b == &mannequin) noise_ref = p;
       int rim_points = 0;
@@ -440,8 +401,6 @@ void StereoTracker::reset() {
   impl_->left->reset();
   impl_->right->reset();
   impl_->left_missing = impl_->right_missing = false;
-  impl_->hist_l = {};
-  impl_->hist_r = {};
   for (RigBody* b : {&impl_->mannequin, &impl_->mirror, &impl_->pen}) {
     b->filter.reset();
     b->has_measurement = false;
@@ -499,8 +458,6 @@ Result<StereoTrackFrame> StereoTracker::track(const cv::Mat& left, const cv::Mat
   // prediction is not checked against the image (the stale limit still applies).
   m.motion_frame = !left.empty() && m.o.max_prediction_turn_rad > 0;
   if (m.motion_frame) m.motion.set_frame_from_image(left);  // decimated: frame_gray.h
-  m.note_eye_motion(m.hist_l, f.left.tags, !left.empty(), capture_time_s);
-  m.note_eye_motion(m.hist_r, f.right.tags, !right.empty(), capture_time_s);
   m.noise_ref.reset();
   m.image_l = left;
   m.image_r = right;

@@ -472,69 +472,6 @@ Result<std::vector<DetectedTag>> TagDetector::detect_in_linear_light(const cv::M
   return run(gray, linear_);
 }
 
-Result<std::vector<DetectedTag>> TagDetector::detect_deblurred(const cv::Mat& gray, const Eigen::Vector2d& blur_px,
-                                                               int iterations) {
-  if (!detector_) return Error{"TagDetector::detect_deblurred: detector was moved from"};
-  if (!blur_px.allFinite() || blur_px.norm() > 200)
-    return Error{"TagDetector::detect_deblurred: blur = (" + std::to_string(blur_px.x()) + ", " +
-                 std::to_string(blur_px.y()) + ") px must be finite and at most 200 px long"};
-  if (iterations < 1 || iterations > 100)
-    return Error{"TagDetector::detect_deblurred: iterations = " + std::to_string(iterations) +
-                 " must be in 1..100"};
-  if (gray.empty() || gray.type() != CV_8UC1 || gray.dims != 2 || gray.cols < 8 || gray.rows < 8 ||
-      blur_px.norm() < 1.0)
-    return detect(gray);
-  // The kernel: the segment from -blur/2 to +blur/2, sampled every 1/8 px and splatted
-  // bilinearly (symmetric about its centre, so convolution = correlation = filter2D).
-  const double L = blur_px.norm();
-  const int rx = static_cast<int>(std::ceil(0.5 * std::abs(blur_px.x()))) + 1;
-  const int ry = static_cast<int>(std::ceil(0.5 * std::abs(blur_px.y()))) + 1;
-  cv::Mat k(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0));
-  const int n = static_cast<int>(std::ceil(8 * L)) + 1;
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector2d p = (static_cast<double>(i) / (n - 1) - 0.5) * blur_px + Eigen::Vector2d(rx, ry);
-    const int x = static_cast<int>(std::floor(p.x())), y = static_cast<int>(std::floor(p.y()));
-    const double fx = p.x() - x, fy = p.y() - y;
-    k.at<float>(y, x) += static_cast<float>((1 - fx) * (1 - fy));
-    k.at<float>(y, x + 1) += static_cast<float>(fx * (1 - fy));
-    k.at<float>(y + 1, x) += static_cast<float>((1 - fx) * fy);
-    k.at<float>(y + 1, x + 1) += static_cast<float>(fx * fy);
-  }
-  k /= cv::sum(k)[0];
-  cv::Mat kf;
-  cv::flip(k, kf, -1);
-  // Linear light (0..255 scale), floored away from 0 for the ratio.
-  cv::Mat obs(gray.size(), CV_32F);
-  for (int v = 0; v < gray.rows; ++v) {
-    const std::uint8_t* g = gray.ptr<std::uint8_t>(v);
-    float* o = obs.ptr<float>(v);
-    for (int u = 0; u < gray.cols; ++u) o[u] = std::max(0.5f, static_cast<float>(to_linear_[g[u]]));
-  }
-  cv::Mat est = obs.clone(), conv, ratio;
-  for (int it = 0; it < iterations; ++it) {
-    cv::filter2D(est, conv, -1, k, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
-    cv::max(conv, 1e-3, conv);
-    cv::divide(obs, conv, ratio);
-    cv::filter2D(ratio, ratio, -1, kf, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
-    est = est.mul(ratio);
-  }
-  // Back to grey codes through the response (the nearest code).
-  cv::Mat deb(gray.size(), CV_8U);
-  for (int v = 0; v < gray.rows; ++v) {
-    const float* e = est.ptr<float>(v);
-    std::uint8_t* d = deb.ptr<std::uint8_t>(v);
-    for (int u = 0; u < gray.cols; ++u) {
-      const auto it = std::lower_bound(to_linear_.begin(), to_linear_.end(), static_cast<double>(e[u]));
-      int i = static_cast<int>(it - to_linear_.begin());
-      if (i > 0 && (i == 256 || e[u] - to_linear_[static_cast<std::size_t>(i - 1)] <
-                                    to_linear_[static_cast<std::size_t>(i)] - e[u]))
-        --i;
-      d[u] = static_cast<std::uint8_t>(std::clamp(i, 0, 255));
-    }
-  }
-  return run(deb, deb);
-}
-
 Result<std::vector<DetectedTag>> TagDetector::run(const cv::Mat& gray, const cv::Mat& search) {
   image_u8_t im{search.cols, search.rows, static_cast<int32_t>(search.step[0]), search.data};
   zarray_t* found = apriltag_detector_detect(detector_.get(), &im);

@@ -19,6 +19,7 @@
 #include "dentar/ar/frame_gray.h"
 #include "dentar/ar/image_motion.h"
 #include "dentar/ar/pose_uncertainty.h"
+#include "dentar/ar/tag_edge_fit.h"
 #include "dentar/calibration/camera_file.h"
 #include "track_rules.h"
 
@@ -142,10 +143,14 @@ std::string TrackerOptions::validate() const {
     os << "roi_decimation = " << roi_decimation << " must be in [1, 16]";
   else if (!std::isfinite(roi_decimate_above_px) || roi_decimate_above_px < 0)
     os << "roi_decimate_above_px = " << roi_decimate_above_px << " must be >= 0";
-  else if (deblur_iterations < 1 || deblur_iterations > 100)
-    os << "deblur_iterations = " << deblur_iterations << " must be in 1..100";
-  else if (!std::isfinite(deblur_shutter_fraction) || deblur_shutter_fraction <= 0 || deblur_shutter_fraction > 1)
-    os << "deblur_shutter_fraction = " << deblur_shutter_fraction << " must be in (0, 1]";
+  else if (!(std::isfinite(edge_fit_min_side_px) && edge_fit_min_side_px >= 4 && edge_fit_min_side_px <= 1000))
+    os << "edge_fit_min_side_px = " << edge_fit_min_side_px << " must be in [4, 1000] px";
+  else if (!(std::isfinite(edge_fit_max_reach_sides) && edge_fit_max_reach_sides > 0 && edge_fit_max_reach_sides <= 10))
+    os << "edge_fit_max_reach_sides = " << edge_fit_max_reach_sides << " must be in (0, 10] (times the tag side)";
+  else if (!(std::isfinite(edge_fit_max_reproj_px) && edge_fit_max_reproj_px > 0 && edge_fit_max_reproj_px <= 10))
+    os << "edge_fit_max_reproj_px = " << edge_fit_max_reproj_px << " must be in (0, 10] px";
+  else if (auto e = edge_fit_border.validate(); !e.empty())
+    os << "edge_fit_border." << e;
   else if (roi_decimation_max < 0 || roi_decimation_max > 8)
     os << "roi_decimation_max = " << roi_decimation_max << " must be in 0..8 (0 = off)";
   else if (!finite_positive(max_rms_px))
@@ -177,8 +182,6 @@ std::string TrackerOptions::validate() const {
   else if (!(std::isfinite(stereo_mirror_outline_sigma) && stereo_mirror_outline_sigma >= 0 &&
              stereo_mirror_outline_sigma <= 100))
     os << "stereo_mirror_outline_sigma = " << stereo_mirror_outline_sigma << " must be in [0, 100] (0 = off)";
-  else if (!(std::isfinite(exposure_s) && exposure_s >= 0 && exposure_s <= 1))
-    os << "exposure_s = " << exposure_s << " must be in [0, 1] s (0 = unknown)";
   else if (!(std::isfinite(mirror_min_unexplained_speed_m_s) && mirror_min_unexplained_speed_m_s >= 0))
     os << "mirror_min_unexplained_speed_m_s = " << mirror_min_unexplained_speed_m_s << " must be finite and >= 0";
   else if (discovery != DiscoveryMode::kInline && !predicted_regions)
@@ -356,6 +359,10 @@ struct Tracker::Impl {
   // has data bits and a dark ring outside it (0.4), tag36h11 a white ring
   // (0.125). The quad search needs all of it inside the crop.
   double outer_extent = 0.4;
+  // The border square's ring just inside its edge is white, the one outside black (reversed-border
+  // families: tagStandard41h12); else black inside, white outside (tag36h11).
+  bool reversed_border = true;
+  int border_cells = 5;  // cells along the border square's side (TagFamily::width_at_border)
   bool have_last_capture = false;
   double last_capture_s = 0;
   // The frame's grey levels, converted only where they are read (frame_gray.h):
@@ -428,6 +435,72 @@ struct Tracker::Impl {
     return unexplained / camera.fx <= o.max_prediction_turn_rad;
   }
 
+  // One tag at a body pose T_cam_body: its four corners projected (distorted px, libapriltag's
+  // order), the square's side (sqrt of its area, px) and its corners' bounding box padded by
+  // side_frac x side + pad_px, plus mx (my) along x (y), and clipped to the image,
+  // [x0, x1) x [y0, y1). nullopt when
+  // the tag does not face the camera (its z points into the tag) or grazes it, or a corner
+  // does not project. The predicted regions and the edge fit both use it.
+  struct PredictedTag {
+    std::array<Eigen::Vector2d, 4> px;
+    double side_px = 0;
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  };
+  std::optional<PredictedTag> predicted_tag_box(const Eigen::Isometry3d& T_cam_body, const TagPlacement& t,
+                                                double side_frac, double pad_px, double mx, double my) const {
+    const Eigen::Isometry3d T_cam_tag = T_cam_body * t.T_parent_tag;
+    const Eigen::Vector3d c = T_cam_tag.translation();
+    if (!(c.z() > 0.01) || T_cam_tag.linear().col(2).dot(c.normalized()) < 0.12) return std::nullopt;
+    PredictedTag out;
+    for (int k = 0; k < 4; ++k) {
+      auto p = model.project(T_cam_body * t.corner(k));
+      if (!p) return std::nullopt;
+      out.px[static_cast<std::size_t>(k)] = *p;
+    }
+    double area2 = 0;
+    for (std::size_t k = 0; k < 4; ++k) {
+      const Eigen::Vector2d& a = out.px[k];
+      const Eigen::Vector2d& bq = out.px[(k + 1) % 4];
+      area2 += a.x() * bq.y() - bq.x() * a.y();
+    }
+    out.side_px = std::sqrt(std::abs(area2) / 2);
+    const double margin = side_frac * out.side_px + pad_px;
+    double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+    for (const auto& p : out.px) {
+      x0 = std::min(x0, p.x());
+      y0 = std::min(y0, p.y());
+      x1 = std::max(x1, p.x());
+      y1 = std::max(y1, p.y());
+    }
+    out.x0 = std::max(0, static_cast<int>(std::floor(x0 - margin - mx)));
+    out.y0 = std::max(0, static_cast<int>(std::floor(y0 - margin - my)));
+    out.x1 = std::min(camera.width, static_cast<int>(std::ceil(x1 + margin + mx)) + 1);
+    out.y1 = std::min(camera.height, static_cast<int>(std::ceil(y1 + margin + my)) + 1);
+    return out;
+  }
+
+  // How far the prediction of tag t's centre may be off (px) and along which direction: the
+  // image motion since b's last measurement plus (1 + frames since it) x one frame's motion
+  // (T_prev = the prediction one frame earlier).
+  std::pair<double, Eigen::Vector2d> predicted_motion(const Body& b, const Eigen::Isometry3d& T_pred,
+                                                      const Eigen::Isometry3d& T_prev, const TagPlacement& t) const {
+    const double grow = 1.0 + b.frames_since_meas;
+    double motion = 0;
+    Eigen::Vector2d dir = Eigen::Vector2d::Zero();
+    auto p_now = model.project(T_pred * t.T_parent_tag.translation());
+    auto p_last = model.project(b.last_meas * t.T_parent_tag.translation());
+    auto p_prev = model.project(T_prev * t.T_parent_tag.translation());
+    if (p_now && p_last) {
+      motion += (*p_now - *p_last).norm();
+      dir += *p_now - *p_last;
+    }
+    if (p_now && p_prev) {
+      motion += grow * (*p_now - *p_prev).norm();
+      dir += grow * (*p_now - *p_prev);
+    }
+    return {motion, dir};
+  }
+
   // Boxes around `b`'s tags at its predicted pose; false when the body has
   // no usable prediction (then only a full frame can find it).
   bool add_regions(const Body& b, double capture_s, double frame_dt_s, std::vector<Box>& boxes) {
@@ -438,46 +511,12 @@ struct Tracker::Impl {
     // which is what the prediction may be wrong by.
     const Eigen::Isometry3d T_prev =
         filt ? b.filter.predict(capture_s - frame_dt_s) : b.last_meas;
-    const double grow = 1.0 + b.frames_since_meas;
     for (const TagPlacement& t : b.bundle.tags) {
-      const Eigen::Isometry3d T_cam_tag = T_pred * t.T_parent_tag;
-      const Eigen::Vector3d c = T_cam_tag.translation();
-      // Facing the camera (tag z points into the tag) and not grazing.
-      if (!(c.z() > 0.01) || T_cam_tag.linear().col(2).dot(c.normalized()) < 0.12) continue;
-      std::array<Eigen::Vector2d, 4> px;
-      bool ok = true;
-      for (int k = 0; k < 4 && ok; ++k) {
-        auto p = model.project(T_pred * t.corner(k));
-        ok = p.has_value();
-        if (ok) px[k] = *p;
-      }
-      if (!ok) continue;
-      double area2 = 0;
-      for (int k = 0; k < 4; ++k) {
-        const Eigen::Vector2d& a = px[k];
-        const Eigen::Vector2d& bq = px[(k + 1) % 4];
-        area2 += a.x() * bq.y() - bq.x() * a.y();
-      }
-      const double side = std::sqrt(std::abs(area2) / 2);
       // The padding for the prediction's error: the motion since the last
       // measurement plus (1 + frames since it) x one frame's motion, as an
       // ellipse with that semi-axis along the motion and roi_motion_across
       // of it across; (mx, my) = its bounding box's half sides.
-      double motion = 0;
-      Eigen::Vector2d dir = Eigen::Vector2d::Zero();
-      {
-        auto p_now = model.project(T_pred * t.T_parent_tag.translation());
-        auto p_last = model.project(b.last_meas * t.T_parent_tag.translation());
-        auto p_prev = model.project(T_prev * t.T_parent_tag.translation());
-        if (p_now && p_last) {
-          motion += (*p_now - *p_last).norm();
-          dir += *p_now - *p_last;
-        }
-        if (p_now && p_prev) {
-          motion += grow * (*p_now - *p_prev).norm();
-          dir += grow * (*p_now - *p_prev);
-        }
-      }
+      const auto [motion, dir] = predicted_motion(b, T_pred, T_prev, t);
       double mx = motion, my = motion;
       if (const double n = dir.norm(); o.roi_motion_across < 1 && n > 1e-9) {
         const Eigen::Vector2d u = dir / n;
@@ -485,19 +524,15 @@ struct Tracker::Impl {
         mx = motion * std::hypot(u.x(), c * u.y());
         my = motion * std::hypot(u.y(), c * u.x());
       }
-      const double margin = (outer_extent + o.roi_margin) * side + o.roi_min_margin_px;
-      double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
-      for (const auto& p : px) {
-        x0 = std::min(x0, p.x());
-        y0 = std::min(y0, p.y());
-        x1 = std::max(x1, p.x());
-        y1 = std::max(y1, p.y());
-      }
+      const std::optional<PredictedTag> pt =
+          predicted_tag_box(T_pred, t, outer_extent + o.roi_margin, o.roi_min_margin_px, mx, my);
+      if (!pt) continue;
       Box box;
-      box.x0 = std::max(0, static_cast<int>(std::floor(x0 - margin - mx)));
-      box.y0 = std::max(0, static_cast<int>(std::floor(y0 - margin - my)));
-      box.x1 = std::min(camera.width, static_cast<int>(std::ceil(x1 + margin + mx)) + 1);
-      box.y1 = std::min(camera.height, static_cast<int>(std::ceil(y1 + margin + my)) + 1);
+      box.x0 = pt->x0;
+      box.y0 = pt->y0;
+      box.x1 = pt->x1;
+      box.y1 = pt->y1;
+      const double side = pt->side_px;
       box.min_side_px = side;
       box.tags.emplace_back(static_cast<int>(b.bundle.family), t.id);
       if (box.x1 - box.x0 < 16 || box.y1 - box.y0 < 16) continue;  // (almost) off the image
@@ -580,76 +615,97 @@ struct Tracker::Impl {
   }
   int second_looks = 0;  // boxes searched again in the frame being processed
 
-  // TrackerOptions::deblur_look: b's tags predicted in view and missing from `tags`, searched
-  // for once more in a crop with the predicted motion blur deconvolved; found ones are added.
-  Status deblur_look(const Body& b, double capture_s, double frame_dt_s, std::vector<DetectedTag>& tags,
-                     int& looks, int& found) {
+  // TrackerOptions::edge_fit: b's tags predicted in view and missing from `tags`, their border
+  // squares fitted to the image's edges around the predicted corners (fit_tag_border, which
+  // refuses a square with another predicted or decoded square within its reach), then (c): a
+  // pose fitted to the frame's decoded tags of b (at least one) and the fitted squares must put
+  // each fitted square within edge_fit_max_reproj_px RMS. Accepted squares join `tags`
+  // (DetectedTag::edge_fit). Counts in f (TrackFrame::edge_fit_*).
+  Status edge_fit_look(const Body& b, double capture_s, double frame_dt_s, std::vector<DetectedTag>& tags,
+                       TrackFrame& f) {
     if (b.state == TrackState::kLost || b.bundle.tags.empty()) return {};
     const bool filt = o.filter_enabled && b.filter.initialised();
     const Eigen::Isometry3d T_pred = filt ? b.filter.predict(capture_s) : b.last_meas;
     const Eigen::Isometry3d T_prev = filt ? b.filter.predict(capture_s - frame_dt_s) : b.last_meas;
-    const double exposure_ratio = o.exposure_s > 0 ? std::min(1.0, o.exposure_s / frame_dt_s) : o.deblur_shutter_fraction;
-    std::vector<DetectedTag> more;
-    for (const TagPlacement& t : b.bundle.tags) {
-      bool have = false;
-      for (const DetectedTag& d : tags) have = have || (d.family == b.bundle.family && d.id == t.id);
-      if (have) continue;
-      const Eigen::Isometry3d T_cam_tag = T_pred * t.T_parent_tag;
-      const Eigen::Vector3d c = T_cam_tag.translation();
-      if (!(c.z() > 0.01) || T_cam_tag.linear().col(2).dot(c.normalized()) < 0.12) continue;
+    auto have = [&](TagFamilyId fam, int id) {
+      for (const DetectedTag& d : tags)
+        if (d.family == fam && d.id == id) return true;
+      return false;
+    };
+    int decoded = 0;
+    for (const TagPlacement& t : b.bundle.tags) decoded += have(b.bundle.family, t.id);
+    if (decoded < 1) return {};
+    // Every square predicted in view (every body) and every decoded one, for the ambiguity test.
+    struct Square {
+      const Body* body;
+      int id;
       std::array<Eigen::Vector2d, 4> px;
-      bool ok = true;
-      for (int k = 0; k < 4 && ok; ++k) {
-        auto p = model.project(T_pred * t.corner(k));
-        ok = p.has_value();
-        if (ok) px[k] = *p;
-      }
-      auto p_now = model.project(T_pred * t.T_parent_tag.translation());
-      auto p_prev = model.project(T_prev * t.T_parent_tag.translation());
-      if (!ok || !p_now || !p_prev) continue;
-      const Eigen::Vector2d step = *p_now - *p_prev;  // predicted image motion per frame
-      const Eigen::Vector2d blur = step * exposure_ratio;
-      if (blur.norm() < 2.0) continue;
-      double area2 = 0;
-      for (int k = 0; k < 4; ++k) area2 += px[k].x() * px[(k + 1) % 4].y() - px[(k + 1) % 4].x() * px[k].y();
-      const double side = std::sqrt(std::abs(area2) / 2);
-      if (side < 8) continue;  // too small to decode
-      const double reach = step.norm() + o.roi_min_margin_px;  // the prediction's error
-      const double margin = (outer_extent + o.roi_margin) * side + 0.5 * blur.norm() + reach;
-      double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
-      for (const auto& p : px) {
-        x0 = std::min(x0, p.x());
-        y0 = std::min(y0, p.y());
-        x1 = std::max(x1, p.x());
-        y1 = std::max(y1, p.y());
-      }
-      cv::Rect rect(static_cast<int>(std::floor(x0 - margin)), static_cast<int>(std::floor(y0 - margin)), 0, 0);
-      rect.width = static_cast<int>(std::ceil(x1 + margin)) + 1 - rect.x;
-      rect.height = static_cast<int>(std::ceil(y1 + margin)) + 1 - rect.y;
-      rect &= cv::Rect(0, 0, camera.width, camera.height);
-      if (rect.width < 16 || rect.height < 16) continue;
-      if (Status s = detector->set_decimation(1.0); !s) return s;
-      const cv::Mat crop = gray.region(rect)(rect);
-      ++looks;
-      auto r = detector->detect_deblurred(crop, blur, o.deblur_iterations);
-      if (!r) return Error{r.error()};
-      for (DetectedTag& d : *r) {
-        if (d.family != b.bundle.family || d.id != t.id) continue;
-        Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-        for (auto& q : d.corners_px) {
-          q += Eigen::Vector2d(rect.x, rect.y);
-          centre += 0.25 * q;
-        }
-        if ((centre - *p_now).norm() > reach + 0.5 * blur.norm()) continue;  // not where predicted
-        more.push_back(d);
-        ++found;
-        break;
-      }
+    };
+    std::vector<Square> squares;
+    for (const Body* ob : {&mannequin, &mirror, &pen}) {
+      if (ob->state == TrackState::kLost || ob->bundle.tags.empty()) continue;
+      const bool f2 = o.filter_enabled && ob->filter.initialised();
+      const Eigen::Isometry3d Tp = f2 ? ob->filter.predict(capture_s) : ob->last_meas;
+      for (const TagPlacement& t : ob->bundle.tags)
+        if (auto pt = predicted_tag_box(Tp, t, 0.0, 0.0, 0.0, 0.0)) squares.push_back({ob, t.id, pt->px});
     }
-    if (more.empty()) return {};
-    tags.insert(tags.end(), more.begin(), more.end());
-    std::sort(tags.begin(), tags.end(), [](const DetectedTag& a, const DetectedTag& b) {
-      return a.family != b.family ? a.family < b.family : a.id < b.id;
+    std::vector<DetectedTag> cands;
+    for (const TagPlacement& t : b.bundle.tags) {
+      if (have(b.bundle.family, t.id)) continue;
+      const double reach = predicted_motion(b, T_pred, T_prev, t).first + o.roi_min_margin_px;
+      const std::optional<PredictedTag> pt = predicted_tag_box(T_pred, t, outer_extent, reach + 3, 0.0, 0.0);
+      if (!pt || pt->side_px < o.edge_fit_min_side_px) continue;
+      if (reach > o.edge_fit_max_reach_sides * pt->side_px) continue;  // too unsure to pick an edge
+      ++f.edge_fit_tried;
+      std::vector<std::array<Eigen::Vector2d, 4>> others;
+      for (const Square& q : squares)
+        if (!(q.body == &b && q.id == t.id)) others.push_back(q.px);
+      for (const DetectedTag& d : tags) others.push_back(d.corners_px);
+      const cv::Mat& g = gray.region(cv::Rect(pt->x0, pt->y0, pt->x1 - pt->x0, pt->y1 - pt->y0));
+      const TagEdgeFit fit = fit_tag_border(g, pt->px, reversed_border, border_cells, reach, outer_extent, others, o.edge_fit_border,
+                                          &detector->to_linear());
+      if (fit.status == TagEdgeFitStatus::kBadInput) return Error{"Tracker: " + fit.message};
+      if (fit.status != TagEdgeFitStatus::kFitted) {
+        ++f.edge_fit_refused[static_cast<std::size_t>(fit.status) - 1];
+        continue;
+      }
+      DetectedTag d;
+      d.family = b.bundle.family;
+      d.id = t.id;
+      d.edge_fit = true;
+      d.corners_px = fit.corners_px;
+      cands.push_back(d);
+    }
+    if (cands.empty()) return {};
+    // (c) the pose with them: each fitted square within the gate under the joint fit.
+    std::vector<DetectedTag> all = tags;
+    all.insert(all.end(), cands.begin(), cands.end());
+    const BundlePose p = estimate_bundle_pose(b.bundle, camera, all, track_rules::pose_options_for(o, &b == &mannequin),
+                                              std::optional<Eigen::Isometry3d>(T_pred));
+    if (!p.ok() || p.rms_px > o.max_rms_px) {
+      f.edge_fit_refused[3] += static_cast<int>(cands.size());
+      return {};
+    }
+    for (const DetectedTag& d : cands) {
+      const TagPlacement* tp = nullptr;
+      for (const TagPlacement& t : b.bundle.tags)
+        if (t.id == d.id) tp = &t;
+      double ss = 0;
+      bool ok = tp != nullptr && p.rejected_id != d.id;
+      for (int k = 0; k < 4 && ok; ++k) {
+        auto q = model.project(p.T_cam_body * tp->corner(k));
+        ok = q.has_value();
+        if (ok) ss += (*q - d.corners_px[static_cast<std::size_t>(k)]).squaredNorm();
+      }
+      if (!ok || std::sqrt(ss / 4) > o.edge_fit_max_reproj_px) {
+        ++f.edge_fit_refused[3];
+        continue;
+      }
+      tags.push_back(d);
+      ++f.edge_fit_accepted;
+    }
+    std::sort(tags.begin(), tags.end(), [](const DetectedTag& x, const DetectedTag& y) {
+      return x.family != y.family ? x.family < y.family : x.id < y.id;
     });
     return {};
   }
@@ -803,6 +859,8 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
   m.detector.emplace(std::move(det).value());
   {
     const TagFamily fam = TagFamily::create(station.family);
+    m.reversed_border = fam.raw() == nullptr || fam.reversed_border();
+    m.border_cells = fam.raw() == nullptr ? 5 : fam.width_at_border();
     m.outer_extent = fam.raw() == nullptr ? 0.5
                                           : 0.5 * (fam.total_width() - fam.width_at_border()) /
                                                     double(fam.width_at_border());
@@ -993,9 +1051,8 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
   } else if (!off_path) {
     ++m.frames_since_full;
   }
-  if (m.o.deblur_look && !off_path)
-    if (Status s = m.deblur_look(m.mannequin, capture_time_s, frame_dt, tags, f.deblur_looks, f.deblur_found); !s)
-      return Error{s.error()};
+  if (m.o.edge_fit && !off_path)
+    if (Status s = m.edge_fit_look(m.mannequin, capture_time_s, frame_dt, tags, f); !s) return Error{s.error()};
   f.timing.detect_ms = ms_since(t_det);
   f.full_frame = full;
   f.tags_detected = static_cast<int>(tags.size());

@@ -20,9 +20,8 @@
 // option; the bounds are the default's), DENTAR_SIGMA_BLUR=s sets
 // BundlePoseOptions::blur_stretch_sigma_px the same way; DENTAR_SIGMA_PARTS=seed prints each frame's
 // corner errors split into the tags' centres and shapes (not asserted). Session 19:
-// DENTAR_SIGMA_MOTION=k[,m] (BundlePoseOptions::motion_blur_k with the footage's exposure time;
-// ",m": the mannequin only), DENTAR_SIGMA_CORNER_SIGMA=px (its sigma across the motion),
 // DENTAR_SIGMA_STEREO_ONLY=1 (no mono rows), DENTAR_SIGMA_REFUSED=1 (each refused frame's fit).
+// Session 21: DENTAR_SIGMA_EDGE=1 (TrackerOptions::edge_fit).
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
@@ -165,15 +164,18 @@ struct PathRun {
   // The gated tracker's mannequin detections in both eyes against the generator's truth (issue 28
   // session 20): tags detected, tags the truth shows (in the image, > 90 % visible), detections
   // whose largest corner error is over 2 px (a wrong corner set), each detection's largest
-  // corner error; deblur looks and tags they found.
-  int det = 0, shown = 0, wrong = 0, deblur_looks = 0, deblur_found = 0;
-  std::vector<double> corner_err_px;
+  // corner error; edge fits (session 21): tried, accepted, refused by reason, and the accepted
+  // squares' largest corner error against the truth and how many are over 2 px (false accepts).
+  int det = 0, shown = 0, wrong = 0, edge_tried = 0, edge_accepted = 0, edge_wrong = 0;
+  std::array<int, 4> edge_refused{};
+  std::vector<double> corner_err_px, edge_err_px;
 };
 
 // Counts one eye's mannequin detections against its truth (PathRun's fields).
 void add_detections(PathRun& r, const TrackFrame& f, const FrameTruth& truth) {
-  r.deblur_looks += f.deblur_looks;
-  r.deblur_found += f.deblur_found;
+  r.edge_tried += f.edge_fit_tried;
+  r.edge_accepted += f.edge_fit_accepted;
+  for (std::size_t k = 0; k < 4; ++k) r.edge_refused[k] += f.edge_fit_refused[k];
   for (const TagTruth& tt : truth.tags) r.shown += !tt.on_mirror && tt.in_image && tt.visible_fraction > 0.9;
   for (const DetectedTag& d : f.tags)
     for (const TagTruth& tt : truth.tags) {
@@ -183,6 +185,10 @@ void add_detections(PathRun& r, const TrackFrame& f, const FrameTruth& truth) {
       ++r.det;
       r.wrong += e > 2.0;
       r.corner_err_px.push_back(e);
+      if (d.edge_fit) {
+        r.edge_err_px.push_back(e);
+        r.edge_wrong += e > 2.0;
+      }
     }
 }
 
@@ -200,21 +206,8 @@ PathRun run_path(const Footage& fo, bool stereo) {
   TrackerOptions gated;
   if (const char* w = std::getenv("DENTAR_SIGMA_SHAPE_WEIGHT")) gated.pose.shape_weight = std::atof(w);
   if (const char* w = std::getenv("DENTAR_SIGMA_BLUR")) gated.pose.blur_stretch_sigma_px = std::atof(w);
-  // DENTAR_SIGMA_MOTION=k[,mannequin]: BundlePoseOptions::motion_blur_k (issue 28 session 19)
-  // with the footage's exposure time; ",m" applies it to the mannequin only.
-  if (const char* w = std::getenv("DENTAR_SIGMA_MOTION")) {
-    gated.pose.motion_blur_k = std::atof(w);
-    gated.exposure_s = fo.exposure_s;
-    gated.motion_blur_mannequin_only = std::strchr(w, 'm') != nullptr;
-  }
-  if (const char* w = std::getenv("DENTAR_SIGMA_CORNER_SIGMA")) gated.pose.motion_corner_sigma_px = std::atof(w);
-  // DENTAR_SIGMA_DEBLUR=iterations[,e]: TrackerOptions::deblur_look (issue 28 session 20); ",e" gives
-  // the trackers the footage's exposure time (else deblur_shutter_fraction), 0 = off.
-  if (const char* w = std::getenv("DENTAR_SIGMA_DEBLUR")) {
-    gated.deblur_iterations = std::max(1, std::atoi(w));
-    gated.deblur_look = std::atoi(w) > 0;
-    if (std::strchr(w, 'e') != nullptr) gated.exposure_s = fo.exposure_s;
-  }
+  // DENTAR_SIGMA_EDGE=1: TrackerOptions::edge_fit (issue 28 session 21), 0 = off.
+  if (const char* w = std::getenv("DENTAR_SIGMA_EDGE")) gated.edge_fit = std::atoi(w) > 0;
   TrackerOptions open = gated;
   open.mannequin_max_sigma_m = 0;
   const double gate_mm = gated.mannequin_max_sigma_m * 1e3;
@@ -314,9 +307,11 @@ void print_row(const std::string& seed, const char* path, const PathRun& r) {
     }
   }
   std::printf("|  | %s: mannequin detections %d of %d shown (both eyes), corner error max per tag p50 / p95 %.2f / %.2f px, "
-              "over 2 px: %d; deblur looks %d, found %d |\n",
-              path, r.det, r.shown, pct(r.corner_err_px, 0.5), pct(r.corner_err_px, 0.95), r.wrong, r.deblur_looks,
-              r.deblur_found);
+              "over 2 px: %d; edge fits tried %d, accepted %d (corner error max per tag p50 / p95 / max %.2f / %.2f / %.2f px, "
+              "over 2 px: %d), refused ambiguous %d, no edges %d, off prediction %d, inconsistent %d |\n",
+              path, r.det, r.shown, pct(r.corner_err_px, 0.5), pct(r.corner_err_px, 0.95), r.wrong, r.edge_tried,
+              r.edge_accepted, pct(r.edge_err_px, 0.5), pct(r.edge_err_px, 0.95), pct(r.edge_err_px, 1.0), r.edge_wrong,
+              r.edge_refused[0], r.edge_refused[1], r.edge_refused[2], r.edge_refused[3]);
   std::printf("|  | %s: stated sigma > gate: %zu frames, actual err p50 / p95 %.3f / %.3f mm (%d <= 0.4 mm), stated sigma p50 %.3f mm; "
               "below: %zu frames, err p50 / p95 %.3f / %.3f, sigma p50 %.3f |\n",
               path, ref_err.size(), pct(ref_err, 0.5), pct(ref_err, 0.95), ref_small, pct(ref_sig, 0.5), acc_err.size(),

@@ -694,22 +694,6 @@ TEST(StereoTracking, BenchmarkTable) {
         }
         continue;
       }
-      if (const char* ks = std::getenv("DENTAR_STEREO_MOTION")) {
-        // BundlePoseOptions::motion_blur_k (issue 28 session 19): each k on the same frames, the
-        // footage's exposure time as the generator states it; one stereo row each (0 = off).
-        std::stringstream ksl(ks);
-        std::string k;
-        while (std::getline(ksl, k, ',')) {
-          TrackerOptions ok = opt;
-          ok.pose.motion_blur_k = std::atof(k.c_str());
-          ok.exposure_s = fo.exposure_s;
-          const Pair v = run_both(fo, ok, false);
-          const std::string what = "stereo, motion k " + k;
-          print_mirror_row(name.c_str(), seed, what.c_str(), v.stereo);
-          std::fflush(stdout);
-        }
-        continue;
-      }
       if (std::getenv("DENTAR_STEREO_COMPARE") != nullptr) {
         // The defaults and the variant (the options above) on the same frames, one row each.
         const Pair d = run_both(fo, TrackerOptions{});

@@ -145,25 +145,6 @@ struct BundlePoseOptions {
   // squares, was measured on the stereo mirror and made it worse:
   // docs/BENCHMARKS.md, issue 28 session 18.) 0 = off (zero).
   double tag_outline_sigma = 0.0;
-  // Motion blur along each corner's image motion (issue 28 session 19). In a
-  // fast turn a corner's error lies along its tag's image motion (session 18,
-  // `hard`: 0.314 px along against 0.174 px across). With motion_blur_k = k > 0
-  // and a view's BundleView::corner_motion_px (each corner's image motion
-  // over the exposure, m px), that corner's residual is weighted by the
-  // anisotropic covariance sigma_across = motion_corner_sigma_px,
-  // sigma_along^2 = sigma_across^2 + (k |m|)^2 (the fit whitened by it; the
-  // residual noise noise_px2 and the covariances are then in units of the
-  // across-motion noise, so the stated error carries the longer axis).
-  // A corner without motion (m = 0, a still frame, no motion given) keeps
-  // the weight 1: the fit is the isotropic one to the bit. rms_px is the
-  // whitened residual's RMS. 0 = off. Not the trackers' default: on `hard`
-  // (k = 0.05 chosen on seed 5: drawn 56 -> 57 / 60, p95 0.403 -> 0.374 mm)
-  // held-out seeds 11-13 drew 127 -> 128 / 180 frames with a worse p95
-  // (0.721 -> 0.772 mm); the refused frames are fits to a few of the
-  // visible tags, millimetres off, which no corner weighting mends
-  // (docs/BENCHMARKS.md, issue 28 session 19).
-  double motion_blur_k = 0.0;
-  double motion_corner_sigma_px = 0.15;
   std::string validate() const;  // empty when valid
 };
 
@@ -247,10 +228,6 @@ struct BundleView {
   const calibration::CameraIntrinsics* camera = nullptr;
   Eigen::Isometry3d T_view_rig = Eigen::Isometry3d::Identity();
   const std::vector<DetectedTag>* detections = nullptr;
-  // BundlePoseOptions::motion_blur_k: each tag's corners' image motion over
-  // this view's exposure (px, libapriltag's corner order; velocity times the
-  // exposure time), by tag id. Tags not in the map, or nullptr: no motion.
-  const std::map<int, std::array<Eigen::Vector2d, 4>>* corner_motion_px = nullptr;
 };
 // The bundle's pose in the rig frame (BundlePose::T_cam_body is T_rig_body,
 // its covariances in `rig`) from every view's corners at once. One view with

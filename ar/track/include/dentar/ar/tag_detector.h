@@ -98,6 +98,9 @@ struct DetectedTag {
   // OpenCV pixel convention, libapriltag's corner order (see station_scene.h:
   // tag-frame corners (-s/2,+s/2), (+s/2,+s/2), (+s/2,-s/2), (-s/2,-s/2)).
   std::array<Eigen::Vector2d, 4> corners_px;
+  // Not decoded: the tracker's model-based edge fit placed this border square where the
+  // tag's prediction said (TrackerOptions::edge_fit); hamming and decision_margin are 0.
+  bool edge_fit = false;
 };
 
 // Owns one libapriltag detector and its families. Move-only.
@@ -133,15 +136,9 @@ class TagDetector {
   // (docs/BENCHMARKS.md, issue 24 session 11). Error when the response is
   // linear (the image already is), or as detect().
   Result<std::vector<DetectedTag>> detect_in_linear_light(const cv::Mat& gray);
-  // The same search on a copy of `gray` with a linear motion blur taken out (issue 28 session
-  // 20): `blur_px` is the image motion over the exposure (px, the blur's length and direction,
-  // centred on the exposure's middle); the copy is deconvolved in linear light (from the
-  // response) by `iterations` Richardson-Lucy steps with that line as the kernel, encoded back,
-  // searched, and the corners are refit on it. For a crop around one tag the tracker predicted
-  // and missed, not a first search. |blur_px| under 1 px: detect(gray). Errors as detect(); a
-  // non-finite blur, a blur over 200 px or iterations outside 1..100 are refused naming them.
-  Result<std::vector<DetectedTag>> detect_deblurred(const cv::Mat& gray, const Eigen::Vector2d& blur_px,
-                                                    int iterations);
+
+  // The response's grey level -> linear light table (0..255 scale; identity for kLinear).
+  const std::array<double, 256>& to_linear() const { return to_linear_; }
 
  private:
   TagDetector() = default;

@@ -54,6 +54,7 @@
 #include "dentar/ar/pose_filter.h"
 #include "dentar/ar/station_scene.h"
 #include "dentar/ar/tag_detector.h"
+#include "dentar/ar/tag_edge_fit.h"
 #include "dentar/calibration/station.h"
 #include "dentar/volume/result.h"
 
@@ -140,18 +141,26 @@ struct TrackerOptions {
   // (docs/BENCHMARKS.md issue 24 session 11: `hard` 48 -> 65 % drawn).
   // Costs only where a tag is missing (up to 2x detection on lost frames).
   bool linear_second_look = true;
-  // Issue 28 session 20: a third look for each of the mannequin's tags predicted in view (facing
-  // the camera) that neither search found, when its predicted image motion blurs it by at least
-  // 2 px: a crop around the tag's predicted square (its cells, roi_margin, the prediction's
-  // one-frame motion and half the blur) searched at decimation 1 with the blur deconvolved
-  // (TagDetector::detect_deblurred, deblur_iterations Richardson-Lucy steps). The blur = the
-  // tag centre's predicted image motion per frame x exposure_s / the frame gap (exposure_s 0:
-  // x deblur_shutter_fraction). Only that tag's own id is accepted from the crop, and only
-  // with its centre inside the crop's prediction margin. Predicted-region and full-frame paths
-  // alike; not off the path (discovery).
-  bool deblur_look = false;
-  int deblur_iterations = 12;             // 1..100
-  double deblur_shutter_fraction = 0.5;   // exposure / frame period when exposure_s = 0, (0, 1]
+  // Issue 28 session 21 (off by default): the model-based edge fit. For each of the
+  // mannequin's tags predicted facing the camera that no search decoded, the tag's border
+  // square is fitted to the image's edges around its predicted corners: along each side's
+  // outward normal, within the prediction's reach (the tag centre's predicted image motion
+  // since the last measurement plus (1 + frames since) x one frame's, plus
+  // roi_min_margin_px), the side's offset where the border's edge (its known polarity) is
+  // strongest over the whole side, then each sample's edge at the middle of its blurred
+  // ramp (the centroid of the gradient's lobe), a line per side and the corners where the
+  // lines meet. Accepted only when (a) no other tag's predicted square (any body) and no
+  // decoded tag lies within the reach, (b) each side's line fits within edge_fit_max_rms_px
+  // and the square's shape (less its shift) within edge_fit_max_shape_px of the predicted
+  // one, the shift within the reach, (c) the frame has at least one decoded tag of the
+  // mannequin and the pose fitted to them and the fitted squares puts each fitted square
+  // within edge_fit_max_reproj_px RMS (and not out by the outlier test). Fitted squares
+  // join the tags (DetectedTag::edge_fit). Not off the path (discovery).
+  bool edge_fit = false;
+  double edge_fit_min_side_px = 12.0;    // predicted side below this: not tried
+  double edge_fit_max_reach_sides = 1.0;  // reach above this x the side: not tried
+  double edge_fit_max_reproj_px = 1.0;    // the fitted square under the pose with it (RMS)
+  TagEdgeFitOptions edge_fit_border;      // the square's fit (tag_edge_fit.h): edges, rms, shape
   // Measurements whose reprojection RMS exceeds this are rejected (px).
   double max_rms_px = 3.0;
   // Measurements whose position uncertainty (sqrt of the trace of the
@@ -273,15 +282,6 @@ struct TrackerOptions {
   // clip: on by default since session 18 (docs/BENCHMARKS.md, issue 28
   // session 18); 0 turns it off.
   double stereo_mirror_outline_sigma = 0.6;
-  // StereoTracker only: the camera's exposure time (s), as the camera or the
-  // footage states it; with pose.motion_blur_k > 0 each tag corner's image
-  // motion over the exposure (its shift from the same eye's previous frame,
-  // times exposure_s / the frame gap; none when that frame is more than
-  // 0.1 s back or did not see the tag) weights its residual along the motion
-  // (BundlePoseOptions::motion_blur_k). 0 = unknown: no motion model.
-  double exposure_s = 0.0;
-  // Which bodies get that model: true = the mannequin only, false = every body.
-  bool motion_blur_mannequin_only = false;
   // StereoTracker only: a mirror drawn from the filter's prediction states
   // an error that grows with the prediction's age,
   //   sigma(age) = sqrt(sigma_last^2 + (q * age)^2),
@@ -351,8 +351,12 @@ struct TrackFrame {
   // Searches repeated in linear light this frame (TrackerOptions::linear_second_look):
   // regions plus the whole frame, 0 when every expected tag was found.
   int second_looks = 0;
-  // TrackerOptions::deblur_look: tags searched for with the blur deconvolved, and found.
-  int deblur_looks = 0, deblur_found = 0;
+  // TrackerOptions::edge_fit: the mannequin's undecoded tags tried, accepted, and refused by
+  // reason: [0] ambiguous (another square within reach), [1] no edges (a side without enough
+  // edge points or over edge_fit_max_rms_px), [2] off the prediction (shift or shape),
+  // [3] inconsistent with the pose fit.
+  int edge_fit_tried = 0, edge_fit_accepted = 0;
+  std::array<int, 4> edge_fit_refused{};
   std::vector<DetectedTag> tags;  // all detections, full-image OpenCV pixels
   BodyTrack mannequin, mirror;
   BodyTrack pen;  // lost unless options.track_pen
