@@ -1139,6 +1139,11 @@ TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
   err(rep("\"points\":3,", ""), "outcome.wall_taper.points");
   err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"ideal_min_deg\":5"), "outcome.wall_taper.ideal_max_deg");
   err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"outline_reach_full_pct\":101"), "outcome.wall_taper.outline_reach_full_pct");
+  // Session 21: the access opening's free margin outside the outline, checked and named.
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"access_zone_free_mm\":-0.1,"),
+      "outcome.access_zone_free_mm");
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"access_zone_free_mm\":\"x\","),
+      "outcome.access_zone_free_mm");
   EXPECT_EQ(ok->wall_taper->outline_reach_full_pct, 0.0);  // absent: not applied
   auto reach = parse_exercise(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"outline_reach_full_pct\":90"), "t.json");
   ASSERT_TRUE(reach.ok()) << reach.error();
