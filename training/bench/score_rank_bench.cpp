@@ -8,7 +8,7 @@
 // one table (docs/BENCHMARKS.md, "Issue 25: scores and feedback").
 //   build/training/training_score_rank_bench [--levels 5] [--subjects 3] [--voxel-mm 0.15] [--seed 1]
 //                                            [--exercise NAME|FILE.json]... [--keep DIR] [--over-reduction-rate X] [--tolerance-mm T]
-//                                            [--overprep-price exercise|region] [--access-zone-rate R]
+//                                            [--overprep-price exercise|region] [--access-zone-rate R] [--access-zone-free-mm F]
 //                                            [--access-points bands|continuous] [--taper-points P]
 //                                            [--flare-free-deg D] [--flare-deg-per-point S]
 //                                            [--seeds 2,3,4,5] [--bootstrap 2000] [--components 1]
@@ -254,6 +254,7 @@ int main(int argc, char** argv) {
   double over_rate = -1, tol = -1;  // --over-reduction-rate: overrides the exercises' (comparison runs)
   std::string price;                // --overprep-price exercise|region: the same
   double zone_rate = -1;            // --access-zone-rate: the same
+  double zone_free = -1;            // --access-zone-free-mm: the same
   std::string access_points;        // --access-points bands|continuous: the same
   double taper_points = -1;         // --taper-points: the wall taper's points (the regions keep the rest)
   double taper_reach = -1;          // --taper-reach-full-pct: the wall taper's outline reach for full points
@@ -281,6 +282,7 @@ int main(int argc, char** argv) {
     else if (a == "--tolerance-mm") tol = std::atof(v.c_str());
     else if (a == "--overprep-price") price = v;
     else if (a == "--access-zone-rate") zone_rate = std::atof(v.c_str());
+    else if (a == "--access-zone-free-mm") zone_free = std::atof(v.c_str());
     else if (a == "--access-points") access_points = v;
     else if (a == "--taper-points") taper_points = std::atof(v.c_str());
     else if (a == "--taper-reach-full-pct") taper_reach = std::atof(v.c_str());
@@ -335,6 +337,7 @@ int main(int argc, char** argv) {
     if (tol >= 0) ex->tolerance_mm = tol;
     if (!price.empty()) ex->overprep_exercise_price = price == "exercise";
     if (zone_rate >= 0) ex->access_zone_rate = zone_rate;
+    if (zone_free >= 0) ex->access_zone_free_mm = zone_free;
     if (!access_points.empty())
       ex->access_points = access_points == "continuous" ? AccessPoints::kContinuous : AccessPoints::kBands;
     if (flare_free >= 0) ex->access_flare_free_deg = flare_free;
@@ -510,6 +513,20 @@ int main(int argc, char** argv) {
                    " over " + std::to_string(r.overprep_mm3).substr(0, 5) + ")";
         for (const auto& c : sc->criteria) parts += " [" + c.name + " " + std::to_string(c.score).substr(0, 4) + " " + std::to_string(c.value).substr(0, 6) + "]";
         for (const auto& [fn, fv] : sc->forbidden_by_region) parts += " {" + fn + " " + std::to_string(fv).substr(0, 5) + "}";
+        if (ex->outcome == OutcomeKind::kAccessOpening) {
+          char b[64];
+          std::snprintf(b, sizeof b, " <zone %.3f target %.3f bands", sc->access_zone_mm3, sc->target_mm3);
+          parts += b;
+          for (double v : sc->access_zone_by_band_mm3) std::snprintf(b, sizeof b, " %.3f", v), parts += b;
+          parts += " ; overext mean";
+          for (double v : sc->wall_overextension_mean_mm) std::snprintf(b, sizeof b, " %.3f", v), parts += b;
+          parts += " max";
+          for (double v : sc->wall_overextension_max_mm) std::snprintf(b, sizeof b, " %.3f", v), parts += b;
+          double pc = 0;
+          for (const auto& p : sc->penalties) pc += p.points;
+          std::snprintf(b, sizeof b, " ; earned %.4f costs %.4f>", sc->earned_points, pc);
+          parts += b;
+        }
         std::fprintf(stderr, "%s skill %.2f %s: %s (earned %.1f), coverage %.0f %%, over-prep %.2f mm3 (beyond zones %.2f), forbidden %.2f mm3%s; %s |%s\n",
                      name.c_str(), 1.0 - sep, t.subject.c_str(), sc->headline().c_str(), sc->earned_points,
                      sc->target_coverage_pct, sc->overprep_mm3, sc->beyond_zone_mm3, sc->forbidden_mm3, costs.c_str(), sc->completion.c_str(),

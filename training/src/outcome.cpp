@@ -630,7 +630,26 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
               near = R.role == RegionRole::kTarget && R.points <= 0 && in_zone(r, i, j, k, id, R.zone_mm * 1e-3);
             }
             if (!near) o.beyond_zone_mm3 += rem;
-            else if (access) o.access_zone_mm3 += rem;
+            else if (access) {
+              o.access_zone_mm3 += rem;
+              // How far outside the access outline (its target regions without points).
+              int band = -1;
+              for (std::size_t r = 0; r < nr && band < 0; ++r) {
+                const Region& R = ex.regions[r];
+                if (R.role != RegionRole::kTarget || R.points > 0) continue;
+                const int n = static_cast<int>(std::ceil(R.zone_mm / 0.05 - 1e-9));
+                for (int q = 1; q <= n; ++q)
+                  if (in_zone(r, i, j, k, id, std::min(R.zone_mm, 0.05 * q) * 1e-3)) {
+                    band = q - 1;
+                    break;
+                  }
+              }
+              if (band >= 0) {
+                if (o.access_zone_by_band_mm3.size() <= static_cast<std::size_t>(band))
+                  o.access_zone_by_band_mm3.resize(static_cast<std::size_t>(band) + 1, 0.0);
+                o.access_zone_by_band_mm3[static_cast<std::size_t>(band)] += rem;
+              }
+            }
           }
         }
         if (bits & m.forbidden_bits) o.forbidden_mm3 += rem;
@@ -793,6 +812,32 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     const struct { const char* name; Eigen::Vector3d dir; } walls[4] = {
         {"mesial wall", {-1, 0, 0}}, {"distal wall", {1, 0, 0}}, {"buccal wall", {0, -1, 0}}, {"palatal wall", {0, 1, 0}}};
     const double span = a.opening_z_m - a.walls_from_z_m;
+    {
+      // Over-extension past the access outline (issue 25, session 21): 32 directions around the
+      // axis, each wall's quarter (mesial -x, distal +x, buccal -y, palatal +y) 8 of them; at every
+      // measured level of each direction, max(0, the cavity's extent - the outline's), mm.
+      constexpr int kDirs = 32;
+      for (int q = 0; q < kDirs; ++q) {
+        const double ang = 2 * M_PI * (q + 0.5) / kDirs;
+        const Eigen::Vector3d dir(std::cos(ang), std::sin(ang), 0);
+        // Quarter: distal (+x) 0, palatal (+y) 1, mesial (-x) 2, buccal (-y) 3 -> M D B P order.
+        const int quarter = static_cast<int>(std::floor(std::fmod(ang + M_PI / 4, 2 * M_PI) / (M_PI / 2)));
+        static const int to_wall[4] = {1, 3, 0, 2};
+        const std::size_t wi = static_cast<std::size_t>(to_wall[quarter]);
+        const WallProfile p = wall_profile(cut, a.axis_point_m, dir, a.walls_from_z_m, a.opening_z_m, &start);
+        for (std::size_t l = 0; l < p.z_m.size(); ++l) {
+          const double od =
+              outline_distance(m, start, Eigen::Vector3d(a.axis_point_m.x(), a.axis_point_m.y(), p.z_m[l]), dir);
+          if (od <= 0) continue;
+          const double e = std::max(0.0, p.extent_m[l] - od) * 1e3;
+          o.wall_overextension_mean_mm[wi] += e;
+          o.wall_overextension_max_mm[wi] = std::max(o.wall_overextension_max_mm[wi], e);
+          o.wall_overextension_levels[wi] += 1;
+        }
+      }
+      for (std::size_t wi = 0; wi < 4; ++wi)
+        if (o.wall_overextension_levels[wi] > 0) o.wall_overextension_mean_mm[wi] /= o.wall_overextension_levels[wi];
+    }
     for (const auto& w : walls) {
       const WallProfile p = wall_profile(cut, a.axis_point_m, w.dir, a.walls_from_z_m, a.opening_z_m, &start);
       Criterion c;
@@ -1007,17 +1052,38 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
              " mm3 of target): " + fmt(c, 1) + " points."});
   }
   if (access && ex.access_zone_rate > 0 && o.access_zone_mm3 > 0 && o.target_mm3 > 0) {
+    // Over-extended outline (issue 25, session 21: shipped at rate 1 with 0.15 mm free). Tooth cut
+    // away outside the access outline weakens the walls and cannot be undone: an endodontist marks
+    // an over-extended access down however good its walls' shape. What lies more than
+    // access_zone_free_mm outside the outline costs rate x (the exercise's points over the access
+    // target's volume) per mm3, what a mm3 of the access left standing would cost.
     double access_zone = 0;
     for (const auto& R : ex.regions)
       if (R.role == RegionRole::kTarget) access_zone = std::max(access_zone, R.zone_mm);
+    double charged = 0;
+    for (std::size_t q = 0; q < o.access_zone_by_band_mm3.size(); ++q)
+      if (0.05 * static_cast<double>(q) >= ex.access_zone_free_mm - 1e-9) charged += o.access_zone_by_band_mm3[q];
+    o.access_zone_charged_mm3 = charged;
     const double per_mm3 = ex.access_zone_rate * o.max_points / o.target_mm3;
-    const double c = std::min(o.max_points, per_mm3 * o.access_zone_mm3);
-    o.penalties.push_back(
-        {"over-extended outline", c,
-         fmt(o.access_zone_mm3) + " mm3 of sound tooth above the floor was cut away outside the access outline (within " +
-             "its " + fmt(access_zone, 1) + " mm zone); this exercise charges " +
-             fmt(per_mm3, 3) + " points per mm3 (" + fmt(ex.access_zone_rate, 2) +
-             " x what a mm3 of the access left standing would cost): " + fmt(c, 1) + " points."});
+    const double c = std::min(o.max_points, per_mm3 * charged);
+    // Where: each wall's over-extension past the outline, mm (a quarter of 32 directions each).
+    static const char* kWall[4] = {"mesial", "distal", "buccal", "palatal"};
+    std::string where;
+    for (std::size_t w = 0; w < 4; ++w)
+      if (o.wall_overextension_max_mm[w] > ex.access_zone_free_mm + 1e-9)
+        where += (where.empty() ? "" : ", ") + std::string(kWall[w]) + " up to " + fmt(o.wall_overextension_max_mm[w]) +
+                 " mm (mean " + fmt(o.wall_overextension_mean_mm[w]) + ")";
+    if (charged > 0)
+      o.penalties.push_back(
+          {"over-extended outline", c,
+           fmt(charged) + " mm3 of sound tooth above the floor was cut away more than " + fmt(ex.access_zone_free_mm) +
+               " mm outside the access outline (within its " + fmt(access_zone, 1) + " mm zone" +
+               (o.access_zone_mm3 - charged > 0.005 ? "; " + fmt(o.access_zone_mm3 - charged) + " mm3 nearer, not charged"
+                                                    : "") +
+               ")" + (where.empty() ? "" : ", the walls past the outline: " + where) +
+               "; an over-extended access weakens the tooth; this exercise charges " + fmt(per_mm3, 3) +
+               " points per mm3 (" + fmt(ex.access_zone_rate, 2) + " x its " + fmt(o.max_points, 0) +
+               " points over the access's " + fmt(o.target_mm3) + " mm3): " + fmt(c) + " points."});
   }
   double cost = 0;
   for (const auto& p : o.penalties) cost += p.points;

@@ -311,7 +311,7 @@ Result<std::vector<ComparisonRow>> generated_comparison(const Exercise& ex, cons
      << '_' << ex.complete_coverage_pct << '_' << ex.complete_orifice_sight << '_' << ex.over_reduction_rate << '_' << ex.tolerance_mm;
   // Session 12's options, only when set (the shipped exercises keep their cached scores).
   if (ex.overprep_exercise_price) sk << "_exercise_price";
-  if (ex.access_zone_rate > 0) sk << "_access_zone_" << ex.access_zone_rate;
+  if (ex.access_zone_rate > 0) sk << "_access_zone_" << ex.access_zone_rate << '_' << ex.access_zone_free_mm;
   if (ex.pulp_exposure_full_mm > 0) sk << "_pulp_" << ex.pulp_exposure_full_mm << '_' << ex.pulp_exposure_min_fraction;
   std::uint64_t h = 1469598103934665603ull;  // FNV-1a of the whole key: a file name
   for (unsigned char c : sk.str()) h = (h ^ c) * 1099511628211ull;

@@ -864,6 +864,52 @@ TEST(OutcomeCases, AccessOpeningFlaredOutlineIsMeasuredAndChargedOnlyWithARate) 
   EXPECT_NEAR(charged.points, std::max(0.0, free.points - cost), 1e-9);
 }
 
+// Issue 25, session 21: tooth cut away outside the access outline costs its price per mm3 beyond the
+// free margin (the shipped molar: rate 1, 0.15 mm), said in its sentence; the walls' shape criteria
+// do not see a gouge between the four wall directions, so the score falls by exactly that price.
+TEST(OutcomeCases, AccessGougeOutsideTheOutlineCostsItsStatedPrice) {
+  AccessCase c;
+  c.ex.access_zone_rate = 1;
+  c.ex.access_zone_free_mm = 0.15;
+  const OutcomeScores un = c.score(c.start);
+  EXPECT_EQ(un.points, 0.0);
+  EXPECT_TRUE(un.penalties.empty());
+  const OutcomeScores id = c.score(c.ideal());
+  EXPECT_NEAR(id.points, 18.0, 1e-9);
+  EXPECT_EQ(id.access_zone_charged_mm3, 0.0);
+  for (const auto& p : id.penalties) EXPECT_NE(p.name, "over-extended outline") << p.why;
+  // A gouge 0.5 mm past the outline at 45 deg (between the distal and palatal walls), z 6 mm up.
+  VoxelVolume gouge = c.ideal();
+  const double g = 5 + 2.5 * std::sqrt(0.5);
+  carve(gouge, [g](const Eigen::Vector3d& p) { return std::hypot(p.x() - g, p.y() - g) <= 0.5 && p.z() >= 6.0; });
+  const OutcomeScores go = c.score(gouge);
+  EXPECT_NEAR(go.earned_points, id.earned_points, 1e-9) << "the walls' shape criteria do not see it";
+  EXPECT_GT(go.access_zone_charged_mm3, 0.5);
+  EXPECT_LT(go.access_zone_charged_mm3, go.access_zone_mm3) << "what lies within 0.15 mm is not charged";
+  const double per_mm3 = 18.0 / go.target_mm3;
+  double cost = -1;
+  for (const auto& p : go.penalties)
+    if (p.name == "over-extended outline") {
+      cost = p.points;
+      char want[64];
+      std::snprintf(want, sizeof want, "%.2f mm3 of sound tooth above the floor", go.access_zone_charged_mm3);
+      EXPECT_TRUE(has(p.why, want)) << p.why;
+      EXPECT_TRUE(has(p.why, "more than 0.15 mm outside the access outline")) << p.why;
+      std::snprintf(want, sizeof want, "charges %.3f points per mm3", per_mm3);
+      EXPECT_TRUE(has(p.why, want)) << p.why;
+      std::snprintf(want, sizeof want, ": %.2f points.", p.points);
+      EXPECT_TRUE(has(p.why, want)) << p.why;
+      EXPECT_TRUE(has(p.why, "distal up to") || has(p.why, "palatal up to")) << p.why;
+    }
+  EXPECT_NEAR(cost, per_mm3 * go.access_zone_charged_mm3, 1e-9);
+  EXPECT_GT(cost, 0.05);
+  EXPECT_NEAR(go.points, id.points - cost, 1e-9);
+  EXPECT_LT(go.points, id.points);
+  // Free margin 0 charges the whole zone removal (session 12's rule).
+  c.ex.access_zone_free_mm = 0;
+  EXPECT_NEAR(c.score(gouge).access_zone_charged_mm3, go.access_zone_mm3, 1e-9);
+}
+
 }  // namespace
 }  // namespace dentar::training
 
@@ -1093,6 +1139,11 @@ TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
   err(rep("\"points\":3,", ""), "outcome.wall_taper.points");
   err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"ideal_min_deg\":5"), "outcome.wall_taper.ideal_max_deg");
   err(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"outline_reach_full_pct\":101"), "outcome.wall_taper.outline_reach_full_pct");
+  // Session 21: the access opening's free margin outside the outline, checked and named.
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"access_zone_free_mm\":-0.1,"),
+      "outcome.access_zone_free_mm");
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"access_zone_free_mm\":\"x\","),
+      "outcome.access_zone_free_mm");
   EXPECT_EQ(ok->wall_taper->outline_reach_full_pct, 0.0);  // absent: not applied
   auto reach = parse_exercise(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"outline_reach_full_pct\":90"), "t.json");
   ASSERT_TRUE(reach.ok()) << reach.error();

@@ -228,6 +228,10 @@ struct Exercise {
   // volume) per mm3 (outcome field "access_zone_rate"; 0, the default: only
   // the walls' divergence sees it).
   double access_zone_rate = 0;
+  // Access opening: of that removal, what lies within this distance (mm) outside the outline is
+  // not charged (outcome field "access_zone_free_mm", default 0; issue 25 session 21): the margin a
+  // finished outline's wall leaves in the voxel grid and the bur's own roundness.
+  double access_zone_free_mm = 0;
   // A finished preparation removes at least this % of the target (outcome
   // field "complete_coverage_pct"); below it the score is marked incomplete.
   double complete_coverage_pct = 80;

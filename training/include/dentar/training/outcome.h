@@ -59,6 +59,18 @@ struct OutcomeScores {
   // target but within a target's zone_mm, above floor_z (the walls flared
   // wider than the outline); charged with the exercise's access_zone_rate.
   double access_zone_mm3 = 0;
+  // access_zone_mm3 by its distance outside the access outline (the smallest growth of the
+  // access target, in 0.05 mm steps, that reaches the voxel): [q] holds what lies within
+  // (0.05 q, 0.05 (q + 1)] mm (issue 25, session 21).
+  std::vector<double> access_zone_by_band_mm3;
+  // Of access_zone_mm3: what the exercise charges (beyond its access_zone_free_mm; 0 when not charged).
+  double access_zone_charged_mm3 = 0;
+  // Access opening: each axial wall's over-extension past the access outline (mesial, distal,
+  // buccal, palatal: a quarter of 32 directions around the axis each), over the measured levels of
+  // its directions: the mean of max(0, the cavity's extent from the axis - the outline's) and its
+  // largest value, mm (issue 25, session 21).
+  std::array<double, 4> wall_overextension_mean_mm{}, wall_overextension_max_mm{};
+  std::array<int, 4> wall_overextension_levels{};  // direction-levels measured per wall
   double forbidden_mm3 = 0;  // removed inside forbidden regions
   std::vector<std::pair<std::string, double>> forbidden_by_region;  // name, mm3
   bool pulp_exposed = false;     // the bur entered the pulp: pulp tissue was removed (pulp_removed_mm3 > 0)
