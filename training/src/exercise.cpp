@@ -49,6 +49,36 @@ bool get_string(Ctx& c, const json& j, const std::string& key, const std::string
   return true;
 }
 
+// The rubric's bands shared by outline_extension and floor_depth: ideal / acceptable /
+// modification in mm at the file (m in T), with their grades. `strict`: the top band must be
+// wider than the ideal one (continuous grading divides by their difference). Empty: ok.
+template <class T>
+std::string read_bands(Ctx& c, const json& w, const std::string& name, const std::string& path, T& t, bool strict) {
+  double ideal = 0.25, acc = 0.5, mod = 1.0;
+  if (!get_number(c, w, "ideal_mm", path, ideal, false, 0, 10) ||
+      !get_number(c, w, "acceptable_mm", path, acc, false, 0, 10) ||
+      !get_number(c, w, "modification_mm", path, mod, false, 0, 10) ||
+      !get_number(c, w, "accept_fraction", path, t.accept_fraction, false, 0, 1) ||
+      !get_number(c, w, "modify_fraction", path, t.modify_fraction, false, 0, 1))
+    return c.err;
+  if (!(ideal <= acc && acc <= mod) || (strict && mod <= ideal))
+    return name + ": fields '" + path + "ideal_mm' / 'acceptable_mm' / 'modification_mm': must not decrease (" +
+           std::to_string(ideal) + ", " + std::to_string(acc) + ", " + std::to_string(mod) + ")";
+  t.ideal_m = ideal * 1e-3;
+  t.acceptable_m = acc * 1e-3;
+  t.modification_m = mod * 1e-3;
+  return "";
+}
+
+// A criterion's `from_region`: a target region of the exercise, or an error naming the field.
+const Region* target_region(const Exercise& ex, const std::string& name, const std::string& path,
+                            const std::string& region, std::string& err) {
+  const Region* r = ex.region(region);
+  if (!r || r->role != RegionRole::kTarget)
+    err = name + ": field '" + path + "from_region': '" + region + "' is not a target region of this exercise";
+  return err.empty() ? r : nullptr;
+}
+
 bool get_vec3_mm(Ctx& c, const json& j, const std::string& key, const std::string& path,
                  Eigen::Vector3d& out_m, double scale = 1e-3) {
   if (!j.contains(key)) return c.fail(path + key, "missing (an array of 3 numbers)");
@@ -426,18 +456,13 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
       if (ex.outcome != OutcomeKind::kGradedRegions)
         return Error{name + ": field 'outcome.outline_extension': only a graded_regions outcome takes it"};
       OutlineExtension t;
-      double fz = 0, tz = 0, margin = 0.5, ideal = 0.25, acc = 0.5, mod = 1.0;
+      double fz = 0, tz = 0, margin = 0.5;
       if (!get_number(c, w, "points", path, t.points, true, 0, 1000) ||
           !get_string(c, w, "from_region", path, t.from_region, true) ||
           !get_vec3_mm(c, w, "axis_point_mm", path, t.axis_point_m) ||
           !get_number(c, w, "from_z_mm", path, fz, true, -100, 100) ||
           !get_number(c, w, "to_z_mm", path, tz, true, -100, 100) ||
-          !get_number(c, w, "end_margin_mm", path, margin, false, 0, 10) ||
-          !get_number(c, w, "ideal_mm", path, ideal, false, 0, 10) ||
-          !get_number(c, w, "acceptable_mm", path, acc, false, 0, 10) ||
-          !get_number(c, w, "modification_mm", path, mod, false, 0, 10) ||
-          !get_number(c, w, "accept_fraction", path, t.accept_fraction, false, 0, 1) ||
-          !get_number(c, w, "modify_fraction", path, t.modify_fraction, false, 0, 1))
+          !get_number(c, w, "end_margin_mm", path, margin, false, 0, 10))
         return Error{c.err};
       std::string price = "region";
       if (!get_string(c, w, "overprep_price", path, price, false)) return Error{c.err};
@@ -446,22 +471,15 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
                      "' is not a price (\"region\", the default, or \"coverage\")"};
       t.price_follows_coverage = price == "coverage";
       if (tz <= fz) return Error{name + ": field 'outcome.outline_extension.to_z_mm': must be above from_z_mm"};
-      if (!(ideal <= acc && acc <= mod))
-        return Error{name + ": fields 'outcome.outline_extension.ideal_mm' / 'acceptable_mm' / 'modification_mm': must "
-                     "not decrease (" + std::to_string(ideal) + ", " + std::to_string(acc) + ", " + std::to_string(mod) + ")"};
-      const Region* r = ex.region(t.from_region);
-      if (!r || r->role != RegionRole::kTarget)
-        return Error{name + ": field 'outcome.outline_extension.from_region': '" + t.from_region +
-                     "' is not a target region of this exercise"};
+      std::string err = read_bands(c, w, name, path, t, false);
+      const Region* r = err.empty() ? target_region(ex, name, path, t.from_region, err) : nullptr;
+      if (!err.empty()) return Error{err};
       if (r->points < t.points)
         return Error{name + ": field 'outcome.outline_extension.points': " + std::to_string(t.points) +
                      " is more than region '" + t.from_region + "' has (" + std::to_string(r->points) + ")"};
       t.from_z_m = fz * 1e-3;
       t.to_z_m = tz * 1e-3;
       t.end_margin_m = margin * 1e-3;
-      t.ideal_m = ideal * 1e-3;
-      t.acceptable_m = acc * 1e-3;
-      t.modification_m = mod * 1e-3;
       ex.outline_extension = t;
     }
     if (o.contains("floor_depth")) {
@@ -471,15 +489,10 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
       if (ex.outcome != OutcomeKind::kGradedRegions)
         return Error{name + ": field 'outcome.floor_depth': only a graded_regions outcome takes it"};
       FloorDepth t;
-      double margin = 0.5, ideal = 0.25, acc = 0.5, mod = 1.0;
+      double margin = 0.5;
       if (!get_number(c, w, "points", path, t.points, true, 0, 1000) ||
           !get_string(c, w, "from_region", path, t.from_region, true) ||
-          !get_number(c, w, "margin_mm", path, margin, false, 0, 10) ||
-          !get_number(c, w, "ideal_mm", path, ideal, false, 0, 10) ||
-          !get_number(c, w, "acceptable_mm", path, acc, false, 0, 10) ||
-          !get_number(c, w, "modification_mm", path, mod, false, 0, 10) ||
-          !get_number(c, w, "accept_fraction", path, t.accept_fraction, false, 0, 1) ||
-          !get_number(c, w, "modify_fraction", path, t.modify_fraction, false, 0, 1))
+          !get_number(c, w, "margin_mm", path, margin, false, 0, 10))
         return Error{c.err};
       std::string grading = "bands";
       if (!get_string(c, w, "grading", path, grading, false)) return Error{c.err};
@@ -487,13 +500,9 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
         return Error{name + ": field 'outcome.floor_depth.grading': '" + grading +
                      "' is not a grading (\"bands\", the default, or \"continuous\")"};
       t.continuous = grading == "continuous";
-      if (!(ideal <= acc && acc <= mod) || (t.continuous && mod <= ideal))
-        return Error{name + ": fields 'outcome.floor_depth.ideal_mm' / 'acceptable_mm' / 'modification_mm': must "
-                     "not decrease (" + std::to_string(ideal) + ", " + std::to_string(acc) + ", " + std::to_string(mod) + ")"};
-      const Region* r = ex.region(t.from_region);
-      if (!r || r->role != RegionRole::kTarget)
-        return Error{name + ": field 'outcome.floor_depth.from_region': '" + t.from_region +
-                     "' is not a target region of this exercise"};
+      std::string err = read_bands(c, w, name, path, t, t.continuous);
+      const Region* r = err.empty() ? target_region(ex, name, path, t.from_region, err) : nullptr;
+      if (!err.empty()) return Error{err};
       const double oe = ex.outline_extension && ex.outline_extension->from_region == t.from_region
                             ? ex.outline_extension->points : 0.0;
       if (r->points < t.points + oe)
@@ -501,9 +510,6 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
                      (oe > 0 ? " and the outline extension's " + std::to_string(oe) + " are" : " is") +
                      " more than region '" + t.from_region + "' has (" + std::to_string(r->points) + ")"};
       t.margin_m = margin * 1e-3;
-      t.ideal_m = ideal * 1e-3;
-      t.acceptable_m = acc * 1e-3;
-      t.modification_m = mod * 1e-3;
       ex.floor_depth = t;
     }
   }
