@@ -70,6 +70,25 @@ std::string read_bands(Ctx& c, const json& w, const std::string& name, const std
   return "";
 }
 
+// A form criterion's coverage share (session 22): "coverage_full_pct" and "coverage_share".
+template <class T>
+bool read_coverage_share(Ctx& c, const json& w, const std::string& name, const std::string& path, T& t, std::string& err) {
+  if (!get_number(c, w, "coverage_full_pct", path, t.coverage_full_pct, false, 0, 100)) return false;
+  std::string mode = "scale";
+  if (!get_string(c, w, "coverage_share", path, mode, false)) return false;
+  if (mode != "scale" && mode != "cap") {
+    err = name + ": field '" + path + "coverage_share': '" + mode +
+          "' is not a rule (\"scale\", the default: points x the coverage share; \"cap\": at most that)";
+    return false;
+  }
+  if (w.contains("coverage_share") && t.coverage_full_pct <= 0) {
+    err = name + ": field '" + path + "coverage_share': needs '" + path + "coverage_full_pct' above 0";
+    return false;
+  }
+  t.coverage_cap = mode == "cap";
+  return true;
+}
+
 // A criterion's `from_region`: a target region of the exercise, or an error naming the field.
 const Region* target_region(const Exercise& ex, const std::string& name, const std::string& path,
                             const std::string& region, std::string& err) {
@@ -407,6 +426,13 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
                      "\"exercise\": the exercise's points per mm3 of target in every region)"};
       ex.overprep_exercise_price = pv == "exercise";
     }
+    if (o.contains("overflow_cost")) {
+      if (!o["overflow_cost"].is_boolean())
+        return Error{name + ": field 'outcome.overflow_cost': must be true or false"};
+      if (ex.outcome != OutcomeKind::kGradedRegions)
+        return Error{name + ": field 'outcome.overflow_cost': only a graded_regions outcome takes it"};
+      ex.overflow_cost = o["overflow_cost"].get<bool>();
+    }
     if (o.contains("access_points")) {
       const auto& v = o["access_points"];
       const std::string pv = v.is_string() ? v.get<std::string>() : v.dump();
@@ -442,6 +468,7 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
           !get_number(c, w, "zero_beyond_deg", path, t.zero_beyond_deg, false, 0.1, 90) ||
           !get_number(c, w, "outline_reach_full_pct", path, t.outline_reach_full_pct, false, 0, 100))
         return Error{c.err};
+      if (std::string e; !read_coverage_share(c, w, name, path, t, e)) return Error{e.empty() ? c.err : e};
       if (tz <= fz) return Error{name + ": field 'outcome.wall_taper.to_z_mm': must be above from_z_mm"};
       if (t.ideal_max_deg < t.ideal_min_deg)
         return Error{name + ": field 'outcome.wall_taper.ideal_max_deg': must not be below ideal_min_deg"};
@@ -500,6 +527,7 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
         return Error{name + ": field 'outcome.floor_depth.grading': '" + grading +
                      "' is not a grading (\"bands\", the default, or \"continuous\")"};
       t.continuous = grading == "continuous";
+      if (std::string e; !read_coverage_share(c, w, name, path, t, e)) return Error{e.empty() ? c.err : e};
       std::string err = read_bands(c, w, name, path, t, t.continuous);
       const Region* r = err.empty() ? target_region(ex, name, path, t.from_region, err) : nullptr;
       if (!err.empty()) return Error{err};

@@ -419,6 +419,29 @@ Criterion outline_extension_criterion(const OutlineExtension& t, const volume::V
   return c;
 }
 
+// A form criterion's coverage share (issue 25, session 22; WallTaper / FloorDepth coverage_full_pct):
+// the taper of the walls and the depth of the floor are the finished cavity's; a preparation that
+// removed only part of the target made only part of that form, so the criterion earns its points in
+// proportion to the coverage, full from `full_pct` ("scale"), or at most that share ("cap"). The
+// detail's first figure stays the final score; the measured grade and the share follow it.
+void apply_coverage_share(Criterion& c, double full_pct, bool cap, double coverage_pct, const std::string& of_what) {
+  if (full_pct <= 0) return;
+  const double f = std::clamp(coverage_pct / full_pct, 0.0, 1.0);
+  if (f >= 1.0) return;
+  const double measured = c.score;
+  c.score = cap ? std::min(measured, c.max_score * f) : measured * f;
+  const std::string head = fmt(c.max_score, 0) + ": ";
+  const std::size_t at = c.detail.find(head);
+  const std::string what = at == std::string::npos ? c.detail : c.detail.substr(at + head.size());
+  const std::string share = fmt(coverage_pct, 0) + " % of " + of_what + " removed (the finished form's points in full from " +
+                            fmt(full_pct, 0) + " %: the form of an unfinished cavity is the form of part of it)";
+  c.detail = fmt(c.score) + " of " + head + share +
+             (cap ? ", so at most " + fmt(c.max_score) + " x " + fmt(f) + " = " + fmt(c.max_score * f) + " of the " +
+                        fmt(measured) + " measured: "
+                  : ", so " + fmt(measured) + " measured x " + fmt(f) + ": ") +
+             what;
+}
+
 // Floor depth (issue 25, session 21): see FloorDepth (exercise.h) and docs/formats.md.
 Criterion floor_depth_criterion(const FloorDepth& t, std::size_t region, const volume::VoxelVolume& start,
                                 const RegionMasks& m, const volume::VoxelVolume& cut) {
@@ -529,6 +552,10 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
   // Floor depth (session 21): each region's floor level (its lowest voxel's bottom face, m) and the
   // part of its cut too far that lies below it.
   std::vector<double> reg_floor(nr, 1e9), reg_over_below(nr, 0);
+  // Session 22 (overflow_cost): what the regions' cut too far cost beyond their coverage's points.
+  double overflow_points = 0, overflow_mm3 = 0;
+  bool overflow_split = false;
+  std::string overflow_what;
   bool need_dist = false;
   for (const auto& r : ex.regions)
     for (const auto& p : r.all) need_dist |= p.kind == PrimitiveKind::kShell;
@@ -711,6 +738,18 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
           oe > 0 && ex.outline_extension->price_follows_coverage && reg_vol[r] > 0 ? cov_points / reg_vol[r] : price0;
       if (R.points > 0 && reg_vol[r] > 0)
         s.points = std::clamp(cov_points * reg_rem[r] / reg_vol[r] - price * charged_mm3, 0.0, cov_points);
+      // Overflow (session 22): the charge the region's coverage could not pay.
+      double overflow = 0;
+      if (ex.overflow_cost && R.points > 0 && reg_vol[r] > 0)
+        overflow = std::max(0.0, price * charged_mm3 - cov_points * reg_rem[r] / reg_vol[r]);
+      if (overflow > 0) {
+        overflow_points += overflow;
+        overflow_mm3 += charged_mm3;
+        overflow_split |= split;
+        overflow_what += (overflow_what.empty() ? "" : "; ") + R.name + ": " + fmt(charged_mm3) + " mm3 at " +
+                         fmt(price, 3) + " points per mm3 = " + fmt(price * charged_mm3) + ", of which its coverage paid " +
+                         fmt(price * charged_mm3 - overflow);
+      }
       if (reg_rem[r] <= 0 && reg_over[r] <= 0) {
         s.why = "nothing of this region was removed.";
       } else if (R.points <= 0) {
@@ -746,7 +785,11 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
                                                                    : " points per mm3 of this region)")
                  : reg_over[r] > 0 ? "" : ", nothing cut beyond it") +
                 " = " + fmt(s.points) + " points" +
-                (gross - charge < 0 ? " (a region's points do not go below 0)." : ".");
+                (gross - charge < 0 ? (overflow > 0 ? " (a region's points do not go below 0; the other " + fmt(overflow) +
+                                                          " are charged below, as " +
+                                                          (split ? "over-extended outline)." : "cut too far).")
+                                                    : " (a region's points do not go below 0).")
+                                    : ".");
       }
       o.regions.push_back(s);
     } else if (R.role == RegionRole::kForbidden) {
@@ -987,6 +1030,8 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     for (const auto& r : o.regions) o.earned_points += r.points;
     if (ex.wall_taper) {
       o.criteria.push_back(wall_taper_criterion(*ex.wall_taper, start, m, cut));
+      apply_coverage_share(o.criteria.back(), ex.wall_taper->coverage_full_pct, ex.wall_taper->coverage_cap,
+                           o.target_coverage_pct, "the target");
       o.earned_points += o.criteria.back().score;
     }
     if (ex.outline_extension) {
@@ -995,6 +1040,11 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     }
     if (floor_region < nr) {
       o.criteria.push_back(floor_depth_criterion(*ex.floor_depth, floor_region, start, m, cut));
+      double cov = o.target_coverage_pct;
+      for (const auto& r : o.regions)
+        if (r.name == ex.floor_depth->from_region) cov = r.coverage_pct;
+      apply_coverage_share(o.criteria.back(), ex.floor_depth->coverage_full_pct, ex.floor_depth->coverage_cap, cov,
+                           "region " + ex.floor_depth->from_region);
       o.earned_points += o.criteria.back().score;
     }
   }
@@ -1032,6 +1082,13 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     o.penalties.push_back({"perforation", c,
                            "the cut opened the tooth to the outside away from the entry surface (" +
                                fmt(o.perforation_mm3, 3) + " mm3); this exercise charges " + fmt(c, 1) + " points for it."});
+  }
+  if (overflow_points > 0) {
+    o.penalties.push_back(
+        {overflow_split ? "over-extended outline" : "cut too far", overflow_points,
+         fmt(overflow_mm3) + (overflow_split ? " mm3 cut too far past the walls" : " mm3 cut too far") +
+             " (within the zone) cost more than the region's coverage earned (" + overflow_what +
+             "); the rest is a cost of the whole preparation, not dropped: " + fmt(overflow_points) + " points."});
   }
   // Over-reduction: sound tooth cut away beyond the tolerance around the
   // outline, at the exercise's price per mm3 of target (issue 25, session 11).

@@ -1438,5 +1438,161 @@ TEST(Exercise, FloorDepthFieldsAreCheckedAndNamed) {
   err(R"({"points":3,"from_region":"a","grading":"x"})", "'outcome.floor_depth.grading': 'x' is not a grading");
 }
 
+
+// Issue 25 session 22: the class I rule on a hand-made box (x 3-7, y 4-6 mm, floor z 6; 10 points:
+// the region's coverage 4, the floor depth 3, the wall taper 3), the form criteria capped by the
+// coverage share (full from the finished 80 %) and the region's cut too far charged in full.
+struct ClassICase {
+  VoxelVolume start = block();
+  Exercise ex;
+  RegionMasks masks;
+  explicit ClassICase(bool shipped) {
+    ex.source = "box.json";
+    ex.regions = {Region{"box", RegionRole::kTarget, {box({3, 4, 6}, {7, 6, 11})}, 7.0, 0.8},
+                  Region{"top", RegionRole::kEntry, {box({-1, -1, 9.85}, {11, 11, 11})}, 0, 1}};
+    ex.over_reduction_rate = 1;
+    WallTaper w;
+    w.points = 3;
+    w.axis_point_m = Eigen::Vector3d(5, 5, 0) * 1e-3;
+    w.from_z_m = 6.5e-3;
+    w.to_z_m = 9.5e-3;
+    w.outline_reach_full_pct = 90;
+    FloorDepth f;
+    f.points = 3;
+    f.from_region = "box";
+    f.continuous = true;
+    if (shipped) {
+      w.coverage_full_pct = f.coverage_full_pct = 80;
+      w.coverage_cap = f.coverage_cap = true;
+      ex.overflow_cost = true;
+    }
+    ex.wall_taper = w;
+    ex.floor_depth = f;
+    auto m = build_masks(ex, start);
+    EXPECT_TRUE(m.ok()) << m.error();
+    masks = *m;
+  }
+  // The box cut between x0 and x1 and y0 and y1 (by default its width, 4-6) down to the floor z0.
+  VoxelVolume cut(double x0, double x1, double z0, double y0 = 4, double y1 = 6) const {
+    VoxelVolume v = start.clone();
+    carve(v, [&](const Eigen::Vector3d& p) {
+      return p.x() >= x0 - 1e-9 && p.x() <= x1 + 1e-9 && p.y() >= y0 - 1e-9 && p.y() <= y1 + 1e-9 && p.z() >= z0 - 1e-9;
+    });
+    return v;
+  }
+  OutcomeScores score(const VoxelVolume& v) const {
+    auto o = score_outcome(ex, masks, start, v);
+    EXPECT_TRUE(o.ok()) << o.error();
+    return *o;
+  }
+};
+
+std::string fmt2(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f", x);
+  return b;
+}
+
+TEST(OutcomeCases, IncompleteBoxEarnsNoMoreThanItsShare) {
+  const ClassICase c(true);
+  EXPECT_EQ(c.ex.max_points(), 10.0);
+  const OutcomeScores un = c.score(c.start);
+  EXPECT_EQ(un.points, 0.0);
+  EXPECT_EQ(criterion(un, "floor depth")->score, 0.0);
+  EXPECT_EQ(criterion(un, "wall taper")->score, 0.0);
+  const OutcomeScores id = c.score(c.cut(3, 7, 6));
+  EXPECT_NEAR(id.points, 10.0, 0.02);
+  EXPECT_TRUE(id.complete) << id.completion;
+  // Half the outline reached (the middle 2 of the box's 4 mm, x 4-6, its full width and depth):
+  // walls vertical and floor on target where reached.
+  const OutcomeScores half = c.score(c.cut(4, 6, 6));
+  const double cov = half.target_coverage_pct;
+  EXPECT_NEAR(cov, 100.0 * 21 / 41, 0.5);
+  EXPECT_FALSE(half.complete) << half.completion;
+  const double share = cov / c.ex.complete_coverage_pct;  // of a finished preparation's form
+  const Criterion* fd = criterion(half, "floor depth");
+  const Criterion* wt = criterion(half, "wall taper");
+  // Each form criterion earns at most its points x the share (the shipped rule before this session:
+  // the taper 2.33 and the floor 2.03 of 3 here, both above 3 x 0.64 = 1.92).
+  EXPECT_LE(fd->score, 3.0 * share + 1e-9) << fd->detail;
+  EXPECT_LE(wt->score, 3.0 * share + 1e-9) << wt->detail;
+  EXPECT_NEAR(wt->score, 3.0 * share, 1e-6) << wt->detail;  // its walls are perfect: capped
+  EXPECT_TRUE(has(wt->detail, std::to_string(static_cast<int>(std::lround(cov))) + " % of the target removed"))
+      << wt->detail;
+  EXPECT_TRUE(has(wt->detail, "so at most 3.00 x 0.64 = 1.92 of the")) << wt->detail;
+  EXPECT_TRUE(has(wt->detail, "1.92 of 3: ")) << wt->detail;
+  EXPECT_LT(half.points, id.points - 3.0);
+  EXPECT_LE(half.points, id.points * share + 1e-9);
+  double sum = 0;
+  for (const auto& r : half.regions) sum += r.points;
+  for (const auto& q : half.criteria) sum += q.score;
+  EXPECT_NEAR(half.earned_points, sum, 1e-9);
+  // Without the cap (the rule before): the same half box earns more than its share of the form.
+  const ClassICase before(false);
+  const OutcomeScores bh = before.score(before.cut(4, 6, 6));
+  EXPECT_GT(criterion(bh, "wall taper")->score, 3.0 * share + 0.2) << criterion(bh, "wall taper")->detail;
+  EXPECT_GT(bh.points, half.points + 0.2);
+  EXPECT_NEAR(before.score(before.cut(3, 7, 6)).points, 10.0, 0.02);
+}
+
+TEST(OutcomeCases, CutPastTheWallsBeyondTheRegionsPointsIsCharged) {
+  // 0.7 mm past every wall at full depth (within the 0.8 mm zone, so no over-reduction): 42.6 mm3
+  // past the walls at the region's 7 points over its 34.4 mm3, more than its coverage's 4 points.
+  const ClassICase c(true), before(false);
+  const VoxelVolume wide = c.cut(2.3, 7.7, 6, 3.3, 6.7);
+  const OutcomeScores o = c.score(wide), b = before.score(wide);
+  ASSERT_EQ(o.regions.size(), 1u);
+  EXPECT_EQ(o.regions[0].points, 0.0) << o.regions[0].why;
+  const double price = 7.0 / o.regions[0].volume_mm3;
+  const double overflow = price * o.regions[0].past_walls_mm3 - 4.0 * o.regions[0].coverage_pct / 100;
+  ASSERT_GT(overflow, 0.1) << o.regions[0].why;
+  const Penalty* p = nullptr;
+  for (const auto& q : o.penalties)
+    if (q.name == "over-extended outline") p = &q;
+  ASSERT_NE(p, nullptr);
+  EXPECT_NEAR(p->points, overflow, 1e-6) << p->why;
+  EXPECT_TRUE(has(o.regions[0].why, "the other " + fmt2(overflow) + " are charged below, as over-extended outline"))
+      << o.regions[0].why;
+  EXPECT_TRUE(has(p->why, fmt2(overflow) + " points.")) << p->why;
+  // The rule before: the same region stops at 0 and the rest is dropped.
+  for (const auto& q : b.penalties) EXPECT_NE(q.name, "over-extended outline");
+  EXPECT_NEAR(o.points, std::max(0.0, b.points - overflow), 1e-6);
+  double cost = 0;
+  for (const auto& q : o.penalties) cost += q.points;
+  EXPECT_NEAR(o.points, std::max(0.0, o.earned_points - cost), 1e-9);
+}
+
+TEST(Exercise, CoverageShareAndOverflowFieldsAreCheckedAndNamed) {
+  const auto text = [](const std::string& extra) {
+    return R"({"format":"dentar-exercise","version":1,"name":"t","procedure":"p",
+    "tooth":{"kind":"molar","voxel_mm":0.2},"bur":{"shape":"sphere","radius_mm":0.5},"time_limit_s":60,
+    "regions":[{"name":"a","role":"target","points":7,"all":[{"shape":"sphere","center_mm":[0,0,5],"radius_mm":1}]}],
+    "steps":[{"name":"s1","region":"a"}],
+    "outcome":{"kind":"graded_regions")" + extra + "}}";
+  };
+  auto ok = parse_exercise(text(R"(,"overflow_cost":true,"floor_depth":{"points":3,"from_region":"a","coverage_full_pct":80,"coverage_share":"cap"},
+    "wall_taper":{"points":3,"axis_point_mm":[0,0,0],"from_z_mm":4,"to_z_mm":5,"coverage_full_pct":70})"), "t.json");
+  ASSERT_TRUE(ok.ok()) << ok.error();
+  EXPECT_TRUE(ok->overflow_cost);
+  EXPECT_EQ(ok->floor_depth->coverage_full_pct, 80);
+  EXPECT_TRUE(ok->floor_depth->coverage_cap);
+  EXPECT_EQ(ok->wall_taper->coverage_full_pct, 70);
+  EXPECT_FALSE(ok->wall_taper->coverage_cap);
+  auto err = [&](const std::string& extra, const std::string& needle) {
+    auto r = parse_exercise(text(extra), "t.json");
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(has(r.error(), needle)) << r.error();
+    EXPECT_TRUE(has(r.error(), "t.json")) << r.error();
+  };
+  err(R"(,"overflow_cost":1)", "'outcome.overflow_cost': must be true or false");
+  err(R"(,"floor_depth":{"points":3,"from_region":"a","coverage_full_pct":120})", "outcome.floor_depth.coverage_full_pct");
+  err(R"(,"floor_depth":{"points":3,"from_region":"a","coverage_full_pct":80,"coverage_share":"all"})",
+      "'outcome.floor_depth.coverage_share': 'all' is not a rule");
+  err(R"(,"floor_depth":{"points":3,"from_region":"a","coverage_share":"cap"})",
+      "'outcome.floor_depth.coverage_share': needs 'outcome.floor_depth.coverage_full_pct' above 0");
+  err(R"(,"wall_taper":{"points":3,"axis_point_mm":[0,0,0],"from_z_mm":4,"to_z_mm":5,"coverage_share":"x","coverage_full_pct":50})",
+      "'outcome.wall_taper.coverage_share': 'x' is not a rule");
+}
+
 }  // namespace
 }  // namespace dentar::training

@@ -112,6 +112,13 @@ struct WallTaper {
   // preparation needs, and its taper cannot be judged as that wall's. 0: not applied (the rule
   // before session 19).
   double outline_reach_full_pct = 0;
+  // Coverage share (field "coverage_full_pct", issue 25 session 22): a criterion judged on the
+  // finished form earns its points in proportion to how much of the target the preparation removed,
+  // full at this coverage (%) or more: points x min(1, coverage / coverage_full_pct), or, with
+  // "coverage_share": "cap", at most that many (the measured grade kept when it is lower). An
+  // unfinished preparation's form is the form of part of the cavity. 0 (default): not applied.
+  double coverage_full_pct = 0;
+  bool coverage_cap = false;
 };
 
 // Graded regions: outline extension in millimetres (outcome field "outline_extension", issue 25
@@ -163,6 +170,13 @@ struct FloorDepth {
   // "grading": "bands" (default, above) or "continuous": a column's grade falls linearly from 1 at
   // ideal to 0 at modification (so 0.3 and 0.45 mm too deep are not the same grade).
   bool continuous = false;
+  // Coverage share (field "coverage_full_pct", issue 25 session 22): a criterion judged on the
+  // finished form earns its points in proportion to how much of the target the preparation removed,
+  // full at this coverage (%) or more: points x min(1, coverage / coverage_full_pct), or, with
+  // "coverage_share": "cap", at most that many (the measured grade kept when it is lower). An
+  // unfinished preparation's form is the form of part of the cavity. 0 (default): not applied.
+  double coverage_full_pct = 0;
+  bool coverage_cap = false;
 };
 
 struct Exercise {
@@ -223,6 +237,12 @@ struct Exercise {
   // measured on generated sessions, not shipped: no real or new-user incisor
   // session exists to show it on (docs/BENCHMARKS.md).
   bool overprep_exercise_price = false;
+  // Graded regions (outcome field "overflow_cost", issue 25 session 22): what a region's cut too far
+  // costs at its price beyond the points its coverage earned is charged to the whole preparation
+  // (the cost "over-extended outline" when the floor depth splits the region's cut, else "cut too
+  // far"), instead of stopping at the region's 0. false (default): a region's points stop at 0 and
+  // the rest of its charge is dropped (the rule before).
+  bool overflow_cost = false;
   // Access opening: tooth cut away outside the access outline but within its
   // zone (above the floor) costs rate x (18 points over the access target's
   // volume) per mm3 (outcome field "access_zone_rate"; 0, the default: only
