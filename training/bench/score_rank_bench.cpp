@@ -14,6 +14,12 @@
 //                                            [--seeds 2,3,4,5] [--bootstrap 2000] [--components 1]
 //                                            [--pulp-full-mm D] [--pulp-min-fraction F] [--leftover 1] [--replay 1]
 //                                            [--taper-reach-full-pct P] [--sample-jitter 0|1]
+//                                            [--wall-overext-rate R] [--wall-overext-free-mm F] [--wall-overext-pct P]
+//                                            [--dump-walls FILE]
+// --wall-overext-rate R, --wall-overext-free-mm F, --wall-overext-pct P: the access opening's
+// wall_overextension_points_per_mm / _free_mm / _percentile (session 22). --dump-walls FILE: every
+// session's wall direction-levels (exercise, seed, skill, subject, earned, costs, total, then
+// a line P of the penalties, name|points;, then wall dir z_mm e_mm outline_mm per sample) appended to FILE, for recomputing candidate rules.
 // --exercise takes a built-in name or an exercise file (its sessions go in DIR/<its name>_<level>).
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
@@ -255,6 +261,8 @@ int main(int argc, char** argv) {
   std::string price;                // --overprep-price exercise|region: the same
   double zone_rate = -1;            // --access-zone-rate: the same
   double zone_free = -1;            // --access-zone-free-mm: the same
+  double wo_rate = -1, wo_free = -1, wo_pct = -1;  // --wall-overext-rate / -free-mm / -pct: the same
+  std::string dump_walls;           // --dump-walls FILE
   std::string access_points;        // --access-points bands|continuous: the same
   double taper_points = -1;         // --taper-points: the wall taper's points (the regions keep the rest)
   double taper_reach = -1;          // --taper-reach-full-pct: the wall taper's outline reach for full points
@@ -284,6 +292,10 @@ int main(int argc, char** argv) {
     else if (a == "--access-zone-rate") zone_rate = std::atof(v.c_str());
     else if (a == "--access-zone-free-mm") zone_free = std::atof(v.c_str());
     else if (a == "--access-points") access_points = v;
+    else if (a == "--wall-overext-rate") wo_rate = std::atof(v.c_str());
+    else if (a == "--wall-overext-free-mm") wo_free = std::atof(v.c_str());
+    else if (a == "--wall-overext-pct") wo_pct = std::atof(v.c_str());
+    else if (a == "--dump-walls") dump_walls = v;
     else if (a == "--taper-points") taper_points = std::atof(v.c_str());
     else if (a == "--taper-reach-full-pct") taper_reach = std::atof(v.c_str());
     else if (a == "--flare-free-deg") flare_free = std::atof(v.c_str());
@@ -338,6 +350,9 @@ int main(int argc, char** argv) {
     if (!price.empty()) ex->overprep_exercise_price = price == "exercise";
     if (zone_rate >= 0) ex->access_zone_rate = zone_rate;
     if (zone_free >= 0) ex->access_zone_free_mm = zone_free;
+    if (wo_rate >= 0) ex->wall_overextension_points_per_mm = wo_rate;
+    if (wo_free >= 0) ex->wall_overextension_free_mm = wo_free;
+    if (wo_pct >= 0) ex->wall_overextension_percentile = wo_pct;
     if (!access_points.empty())
       ex->access_points = access_points == "continuous" ? AccessPoints::kContinuous : AccessPoints::kBands;
     if (flare_free >= 0) ex->access_flare_free_deg = flare_free;
@@ -500,6 +515,17 @@ int main(int argc, char** argv) {
         auto sc = score_outcome(*ex, *masks, *start, cut);
         if (!sc) return std::fprintf(stderr, "%s\n", sc.error().c_str()), 1;
         rows.push_back({1.0 - sep, *sc, 0});
+        if (!dump_walls.empty()) {
+          std::ofstream f(dump_walls, std::ios::app);
+          double pc = 0;
+          for (const auto& p : sc->penalties) pc += p.points;
+          f << "S " << name << ' ' << seed << ' ' << 1.0 - sep << ' ' << t.subject << ' ' << sc->earned_points << ' ' << pc
+            << ' ' << sc->points << ' ' << sc->complete << '\n' << "P";
+          for (const auto& p : sc->penalties) f << ' ' << p.name << '|' << p.points << ';';
+          f << '\n';
+          for (const auto& w : sc->wall_overextension_samples)
+            f << w.wall << ' ' << w.dir << ' ' << w.z_m * 1e3 << ' ' << w.e_mm << ' ' << w.outline_mm << '\n';
+        }
         if (leftover) {
           char tag[96];
           std::snprintf(tag, sizeof tag, "%s skill %.2f %s", name.c_str(), 1.0 - sep, t.subject.c_str());

@@ -39,6 +39,16 @@ std::string fmt(double x, int prec = 2) {
   return os.str();
 }
 
+// The p-th percentile (0..100) of v, linear between the order statistics (0 for no values).
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double x = std::clamp(p, 0.0, 100.0) / 100.0 * static_cast<double>(v.size() - 1);
+  const std::size_t i = static_cast<std::size_t>(std::floor(x));
+  if (i + 1 >= v.size()) return v.back();
+  return v[i] + (x - static_cast<double>(i)) * (v[i + 1] - v[i]);
+}
+
 int band(double v, double t3, double t2, double t1) {  // higher is better
   return v >= t3 ? 3 : v >= t2 ? 2 : v >= t1 ? 1 : 0;
 }
@@ -876,10 +886,32 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
           o.wall_overextension_mean_mm[wi] += e;
           o.wall_overextension_max_mm[wi] = std::max(o.wall_overextension_max_mm[wi], e);
           o.wall_overextension_levels[wi] += 1;
+          o.wall_overextension_samples.push_back({static_cast<int>(wi), q, p.z_m[l], e, od * 1e3});
         }
       }
       for (std::size_t wi = 0; wi < 4; ++wi)
         if (o.wall_overextension_levels[wi] > 0) o.wall_overextension_mean_mm[wi] /= o.wall_overextension_levels[wi];
+      // Session 22: each wall's over-extension as a robust statistic (a percentile of its
+      // direction-levels, linear between order statistics: one voxel column's value moves it by a
+      // share of a step, not by the step), and the length along the outline it spans past the free
+      // margin (each direction's arc times its share of levels beyond it).
+      for (std::size_t wi = 0; wi < 4; ++wi) {
+        std::vector<double> e;
+        std::array<int, kDirs> n{}, beyond{};
+        std::array<double, kDirs> arc{};
+        for (const auto& s : o.wall_overextension_samples)
+          if (s.wall == static_cast<int>(wi)) {
+            e.push_back(s.e_mm);
+            n[static_cast<std::size_t>(s.dir)] += 1;
+            arc[static_cast<std::size_t>(s.dir)] += 2 * M_PI / kDirs * s.outline_mm;
+            if (s.e_mm > ex.wall_overextension_free_mm + 1e-9) beyond[static_cast<std::size_t>(s.dir)] += 1;
+          }
+        o.wall_overextension_mm[wi] = percentile(e, ex.wall_overextension_percentile);
+        for (int q = 0; q < kDirs; ++q)
+          if (n[static_cast<std::size_t>(q)] > 0)
+            o.wall_overextension_length_mm[wi] += arc[static_cast<std::size_t>(q)] / n[static_cast<std::size_t>(q)] *
+                                                  beyond[static_cast<std::size_t>(q)] / n[static_cast<std::size_t>(q)];
+      }
     }
     for (const auto& w : walls) {
       const WallProfile p = wall_profile(cut, a.axis_point_m, w.dir, a.walls_from_z_m, a.opening_z_m, &start);
@@ -1141,6 +1173,33 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
                "; an over-extended access weakens the tooth; this exercise charges " + fmt(per_mm3, 3) +
                " points per mm3 (" + fmt(ex.access_zone_rate, 2) + " x its " + fmt(o.max_points, 0) +
                " points over the access's " + fmt(o.target_mm3) + " mm3): " + fmt(c) + " points."});
+  }
+  if (access && ex.wall_overextension_points_per_mm > 0) {
+    // Over-extended walls (issue 25, session 22): an endodontist reads an over-extended access by how
+    // far each wall lies past the outline, in mm, as class I's outline extension is graded. Each wall
+    // costs points_per_mm x (its over-extension - the free margin), its over-extension the
+    // exercise's percentile of its direction-levels (docs/formats.md "Over-extended access walls").
+    static const char* kWallName[4] = {"mesial", "distal", "buccal", "palatal"};
+    for (std::size_t w = 0; w < 4; ++w) {
+      // Priced as reported, to 0.01 mm, so that the sentence's product is its points.
+      const double shown = std::round(100 * o.wall_overextension_mm[w]) / 100;
+      const double over = shown - ex.wall_overextension_free_mm;
+      if (over <= 1e-9 || o.wall_overextension_levels[w] == 0) continue;
+      const double raw = ex.wall_overextension_points_per_mm * over;
+      const double c = std::min(o.max_points, raw);
+      o.penalties.push_back(
+          {std::string(kWallName[w]) + " wall over-extended", c,
+           std::string(kWallName[w]) + " wall over-extended " + fmt(shown) + " mm past the access outline over " +
+               fmt(o.wall_overextension_length_mm[w], 1) + " mm of its length (percentile " +
+               fmt(ex.wall_overextension_percentile, 0) + " of its " + std::to_string(o.wall_overextension_levels[w]) +
+               " direction-levels, mean " +
+               fmt(o.wall_overextension_mean_mm[w]) + ", largest " + fmt(o.wall_overextension_max_mm[w]) +
+               " mm); an over-extended wall weakens the tooth; this exercise charges " +
+               fmt(ex.wall_overextension_points_per_mm, 2) + " points per mm past " +
+               fmt(ex.wall_overextension_free_mm) + " mm: " + fmt(ex.wall_overextension_points_per_mm, 2) + " x " +
+               fmt(over) + " = " + fmt(raw) + " points" +
+               (raw > c ? " (at most the exercise's " + fmt(o.max_points, 0) + ": " + fmt(c) + ")." : ".")});
+    }
   }
   double cost = 0;
   for (const auto& p : o.penalties) cost += p.points;

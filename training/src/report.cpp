@@ -312,6 +312,9 @@ Result<std::vector<ComparisonRow>> generated_comparison(const Exercise& ex, cons
   // Session 12's options, only when set (the shipped exercises keep their cached scores).
   if (ex.overprep_exercise_price) sk << "_exercise_price";
   if (ex.access_zone_rate > 0) sk << "_access_zone_" << ex.access_zone_rate << '_' << ex.access_zone_free_mm;
+  if (ex.wall_overextension_points_per_mm > 0)
+    sk << "_wall_overext_" << ex.wall_overextension_points_per_mm << '_' << ex.wall_overextension_free_mm << '_'
+       << ex.wall_overextension_percentile;
   if (ex.pulp_exposure_full_mm > 0) sk << "_pulp_" << ex.pulp_exposure_full_mm << '_' << ex.pulp_exposure_min_fraction;
   std::uint64_t h = 1469598103934665603ull;  // FNV-1a of the whole key: a file name
   for (unsigned char c : sk.str()) h = (h ^ c) * 1099511628211ull;

@@ -685,15 +685,30 @@ TEST(OutcomeCases, ThePartialVolumeSkinOverATargetIsTarget) {
 }
 
 // The access opening's six criteria, same cases.
+// A block of dentin of about 10 mm a side at h_mm voxels (session 22: the same hand-made cuts at 0.1 and
+// 0.15 mm), origin at its corner voxel.
+VoxelVolume block_mm(double h_mm) {
+  const int n = static_cast<int>(std::lround(10.0 / h_mm));
+  volume::VolumeGeometry g;
+  g.dims = Eigen::Vector3i(n, n, n);
+  g.spacing = Eigen::Vector3d::Constant(h_mm * 1e-3);
+  g.origin = Eigen::Vector3d::Zero();
+  VoxelVolume v(g);
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) v.set(i, j, k, 200, Material::kDentin);
+  return v;
+}
+
 struct AccessCase {
-  VoxelVolume start = block();
+  VoxelVolume start;
   Exercise ex;
   RegionMasks m;
-  AccessCase() {
+  explicit AccessCase(double h_mm = 0.1) : start(block_mm(h_mm)) {
     // A pulp chamber (box 3.6..6.4 x 3.6..6.4 x 3.1..4 mm) under the access.
-    for (int k = 0; k < 100; ++k)
-      for (int j = 0; j < 100; ++j)
-        for (int i = 0; i < 100; ++i) {
+    for (int k = 0; k < start.dims().z(); ++k)
+      for (int j = 0; j < start.dims().y(); ++j)
+        for (int i = 0; i < start.dims().x(); ++i) {
           const Eigen::Vector3d p = start.voxel_center(i, j, k) * 1e3;
           if (std::abs(p.x() - 5) <= 1.4 && std::abs(p.y() - 5) <= 1.4 && p.z() >= 3.1 && p.z() <= 4.0)
             start.set(i, j, k, 70, Material::kPulp);
@@ -908,6 +923,80 @@ TEST(OutcomeCases, AccessGougeOutsideTheOutlineCostsItsStatedPrice) {
   // Free margin 0 charges the whole zone removal (session 12's rule).
   c.ex.access_zone_free_mm = 0;
   EXPECT_NEAR(c.score(gouge).access_zone_charged_mm3, go.access_zone_mm3, 1e-9);
+}
+
+// Issue 25, session 22: each wall's over-extension past the access outline in mm, a percentile of
+// its direction-levels, priced per mm past the free margin, one penalty and sentence per wall; the
+// same hand-made cut at 0.1 and 0.15 mm voxels prices within the stated tolerance.
+struct WallCase : AccessCase {
+  explicit WallCase(double h_mm) : AccessCase(h_mm) {
+    ex.wall_overextension_points_per_mm = 6;
+    ex.wall_overextension_free_mm = 0.3;
+    ex.wall_overextension_percentile = 95;
+  }
+  // The ideal access plus the mesial wall (-x, the quarter 135..225 deg around the axis) cut
+  // `over_mm` past the outline over the wall's whole height.
+  VoxelVolume mesial_over(double over_mm) const {
+    VoxelVolume c = ideal();
+    carve(c, [over_mm](const Eigen::Vector3d& p) {
+      const double dx = p.x() - 5, dy = p.y() - 5;
+      return p.z() >= 3.05 && std::hypot(dx, dy) <= 2.5 + over_mm && dx < 0 && std::abs(dy) <= -dx;
+    });
+    return c;
+  }
+};
+
+const Penalty* penalty(const OutcomeScores& o, const std::string& name) {
+  for (const auto& p : o.penalties)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+TEST(OutcomeCases, AccessWallOverExtendedInMmCostsItsPriceAtBothVoxelSizes) {
+  // The stated tolerance between 0.1 and 0.15 mm voxels: 0.1 mm (0.6 points at 6 per mm). Measured (session
+  // 22): 0.675 mm at 0.1 mm voxels, 0.600 at 0.15. A percentile near the top of a wall's direction-levels
+  // takes the upper tail of the grid's quantisation (the cut's and the outline's voxel faces meet a ray
+  // up to about 0.7 voxel apart, the same at every level of a vertical wall).
+  constexpr double kTolMm = 0.1;
+  double cost_at[2] = {-1, -1}, mm_at[2] = {-1, -1};
+  const double sizes[2] = {0.1, 0.15};
+  for (int s = 0; s < 2; ++s) {
+    SCOPED_TRACE(sizes[s]);
+    const WallCase c(sizes[s]);
+    const OutcomeScores un = c.score(c.start);
+    EXPECT_EQ(un.points, 0.0);
+    EXPECT_EQ(penalty(un, "mesial wall over-extended"), nullptr);
+    const OutcomeScores id = c.score(c.ideal());
+    EXPECT_NEAR(id.points, 18.0, 1e-9);
+    for (std::size_t w = 0; w < 4; ++w) EXPECT_LE(id.wall_overextension_mm[w], 0.3) << w;
+    for (const auto& p : id.penalties) EXPECT_EQ(p.name.find("over-extended"), std::string::npos) << p.why;
+    const OutcomeScores ov = c.score(c.mesial_over(0.6));
+    EXPECT_NEAR(ov.earned_points, id.earned_points, 1e-9) << "the walls' shape criteria do not change";
+    // The mesial wall lies 0.6 mm past the outline over its quarter of the outline (2 pi 2.5 / 4 = 3.9 mm).
+    EXPECT_NEAR(ov.wall_overextension_mm[0], 0.6, 0.1);
+    EXPECT_GT(ov.wall_overextension_length_mm[0], 3.0);
+    EXPECT_LT(ov.wall_overextension_length_mm[0], 4.5);
+    for (std::size_t w = 1; w < 4; ++w) EXPECT_LE(ov.wall_overextension_mm[w], 0.3) << w;
+    const Penalty* p = penalty(ov, "mesial wall over-extended");
+    ASSERT_NE(p, nullptr);
+    const double over = std::round(100 * ov.wall_overextension_mm[0]) / 100;
+    EXPECT_NEAR(p->points, 6 * (over - 0.3), 1e-9);
+    char want[160];
+    std::snprintf(want, sizeof want, "mesial wall over-extended %.2f mm past the access outline over %.1f mm of its length",
+                  over, ov.wall_overextension_length_mm[0]);
+    EXPECT_TRUE(has(p->why, want)) << p->why;
+    std::snprintf(want, sizeof want, "6.00 points per mm past 0.30 mm: 6.00 x %.2f = %.2f points.", over - 0.3, p->points);
+    EXPECT_TRUE(has(p->why, want)) << p->why;
+    ASSERT_EQ(ov.penalties.size(), id.penalties.size() + 1) << "only the mesial wall is charged";
+    EXPECT_NEAR(ov.points, id.points - p->points, 1e-9);
+    EXPECT_LT(ov.points, id.points - 1.0);
+    cost_at[s] = p->points;
+    mm_at[s] = ov.wall_overextension_mm[0];
+  }
+  EXPECT_NEAR(mm_at[0], mm_at[1], kTolMm);
+  EXPECT_NEAR(cost_at[0], cost_at[1], 6 * kTolMm + 1e-9);
+  EXPECT_NEAR(cost_at[0], 6 * 0.3, 6 * 0.1);
+  EXPECT_NEAR(cost_at[1], 6 * 0.3, 6 * 0.1);
 }
 
 }  // namespace
@@ -1144,6 +1233,13 @@ TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
       "outcome.access_zone_free_mm");
   err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"access_zone_free_mm\":\"x\","),
       "outcome.access_zone_free_mm");
+  // Session 22: the walls' over-extension in mm.
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"wall_overextension_points_per_mm\":-1,"),
+      "outcome.wall_overextension_points_per_mm");
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"wall_overextension_free_mm\":[0.3],"),
+      "outcome.wall_overextension_free_mm");
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"wall_overextension_percentile\":40,"),
+      "outcome.wall_overextension_percentile");
   EXPECT_EQ(ok->wall_taper->outline_reach_full_pct, 0.0);  // absent: not applied
   auto reach = parse_exercise(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"outline_reach_full_pct\":90"), "t.json");
   ASSERT_TRUE(reach.ok()) << reach.error();

@@ -252,6 +252,15 @@ struct Exercise {
   // not charged (outcome field "access_zone_free_mm", default 0; issue 25 session 21): the margin a
   // finished outline's wall leaves in the voxel grid and the bur's own roundness.
   double access_zone_free_mm = 0;
+  // Access opening (issue 25, session 22): each axial wall's over-extension past the access outline
+  // in mm costs this many points per mm beyond wall_overextension_free_mm, one penalty per wall
+  // (outcome field "wall_overextension_points_per_mm", 0-100, default 0: measured and reported
+  // only). The wall's over-extension is a robust statistic of its columns, not one voxel column's:
+  // the wall_overextension_percentile (50-100, default 90) of max(0, the cavity's extent - the
+  // outline's) over the wall's 8 directions x its measured levels (docs/formats.md).
+  double wall_overextension_points_per_mm = 0;
+  double wall_overextension_free_mm = 0.3;   // outcome field "wall_overextension_free_mm", 0-5
+  double wall_overextension_percentile = 90; // outcome field "wall_overextension_percentile", 50-100
   // A finished preparation removes at least this % of the target (outcome
   // field "complete_coverage_pct"); below it the score is marked incomplete.
   double complete_coverage_pct = 80;

@@ -71,6 +71,19 @@ struct OutcomeScores {
   // largest value, mm (issue 25, session 21).
   std::array<double, 4> wall_overextension_mean_mm{}, wall_overextension_max_mm{};
   std::array<int, 4> wall_overextension_levels{};  // direction-levels measured per wall
+  // Session 22: each wall's over-extension as the exercise's wall_overextension_percentile of its
+  // direction-levels' values (mm; the mean and max above are the same values' mean and largest), and
+  // the length along the outline over which the wall lies more than wall_overextension_free_mm past
+  // it (mm: each direction's arc at the outline, 2 pi / 32 x the outline's distance from the axis,
+  // times the share of its levels beyond the free margin; the over-extended area over the height).
+  std::array<double, 4> wall_overextension_mm{}, wall_overextension_length_mm{};
+  // Every direction-level measured (wall 0..3 M D B P, direction 0..31, level z m, over-extension mm,
+  // the outline's distance from the axis mm): for benchmarks and tests.
+  struct WallSample {
+    int wall = 0, dir = 0;
+    double z_m = 0, e_mm = 0, outline_mm = 0;
+  };
+  std::vector<WallSample> wall_overextension_samples;
   double forbidden_mm3 = 0;  // removed inside forbidden regions
   std::vector<std::pair<std::string, double>> forbidden_by_region;  // name, mm3
   bool pulp_exposed = false;     // the bur entered the pulp: pulp tissue was removed (pulp_removed_mm3 > 0)
