@@ -284,6 +284,7 @@ std::string LiveSummary::json() const {
     j["stereo"]["frames_note_both_eyes"] = note_both_eyes;
     j["stereo"]["frames_note_missing_in_an_eye"] = note_missing_eye;
     j["stereo"]["mode_switches"] = eye_switches.size();
+    j["stereo"]["switches_dropped"] = eye_switches_dropped;
     auto& sw = j["stereo"]["switches"] = nlohmann::json::array();
     for (const EyeSwitch& e : eye_switches) sw.push_back({{"what", e.what}, {"eyes", e.eyes}, {"drawn_ms", e.drawn_ms}, {"frame_ms", e.frame_ms}});
   }

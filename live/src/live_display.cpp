@@ -162,9 +162,9 @@ class DisplayLoop {
     cur_.rec = shown.rec;
     cur_.error = shown.error;
     cur_.note.swap(shown.note);
-    cur_.switch_eyes = shown.switch_eyes;
-    cur_.switch_from_s = shown.switch_from_s;
-    cur_.switch_what = shown.switch_what;
+    cur_.switches.append(shown.switches);  // kept until drawn (figures_after_swap)
+    shown.switches.clear();
+    shown.switches.reset_dropped();
     cur_.unpaired_from_s = shown.unpaired_from_s;
     sh_.shown_new = false;
     return true;
@@ -436,15 +436,23 @@ class DisplayLoop {
       unpaired_swap_s_ = t_swap;
       unpaired_frame_ms_ = (t_swap - cur_.steady_s) * 1e3;
     }
-    if (fresh && cur_.index != last_index_ && cur_.switch_eyes >= 0 && cur_.switch_from_s > 0) {
-      // A camera lost or back (two cameras): from its capture time to the swap of the first
-      // frame drawn in the new mode (the right camera lost: the first frame without it).
-      const int e = cur_.switch_eyes;
-      const bool earlier = e == ar::FrameRecord::kEyesLeft && unpaired_from_s_ == cur_.switch_from_s;
-      sum_.eye_switches.push_back({cur_.switch_what,
-                                   e == ar::FrameRecord::kEyesBoth ? "both" : e == ar::FrameRecord::kEyesLeft ? "left" : "right",
-                                   ((earlier ? unpaired_swap_s_ : t_swap) - cur_.switch_from_s) * 1e3,
-                                   earlier ? unpaired_frame_ms_ : (t_swap - cur_.steady_s) * 1e3});
+    if (fresh && cur_.index != last_index_) {
+      // Cameras lost or back (two cameras; every one queued since the last frame taken): from
+      // its capture time to the swap of the first frame drawn in the new mode (the right
+      // camera lost: the first frame without it).
+      for (int i = 0; i < cur_.switches.size(); ++i) {
+        const EyeSwitchEvent& sw = cur_.switches[i];
+        const int e = sw.eyes;
+        const bool earlier = sw.kind == EyeSwitchKind::kRightLost && unpaired_from_s_ == sw.from_s;
+        sum_.eye_switches.push_back({eye_switch_what(sw.kind, c_.o.camera, c_.o.camera_right),
+                                     e == ar::FrameRecord::kEyesBoth ? "both" : e == ar::FrameRecord::kEyesLeft ? "left" : "right",
+                                     sw.from_s <= 0 ? -1.0  // no capture time to time it from: listed, not timed
+                                                    : ((earlier ? unpaired_swap_s_ : t_swap) - sw.from_s) * 1e3,
+                                     earlier ? unpaired_frame_ms_ : (t_swap - cur_.steady_s) * 1e3});
+      }
+      sum_.eye_switches_dropped += cur_.switches.dropped();
+      cur_.switches.clear();
+      cur_.switches.reset_dropped();
     }
     if (fresh && cur_.index != last_index_) {
       fig_.latency_ms.push_back((t_swap - cur_.steady_s) * 1e3);

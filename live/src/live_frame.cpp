@@ -11,6 +11,7 @@
 
 #include "dentar/ar/egl_context.h"
 #include "dentar/haptics/engine.h"
+#include "dentar/live/eye_switches.h"
 #include "dentar/live/freshest_pair.h"
 #include "dentar/training/lesson.h"
 #include "live_run.h"
@@ -173,14 +174,14 @@ class FrameThread {
     const auto t_enter = Clock::now();
     ar::Frame r;
     // Session 20: a right frame too old to pair with `left` is passed over in its capture
-    // thread, never decoded (decode on demand); its time still counts as the eye's last seen.
+    // thread, never decoded (decode on demand). Session 22: the eye's last-seen time and its
+    // returns are the capture thread's (every frame the camera delivered: note_right_seen).
     const double oldest = left.steady_s - half;
-    double passed = 0;
     const bool give_up = stale();  // peeked: a newer left frame is already waiting
     if (give_up) ++fig_.stale_pairs_untaken;
-    const bool got = !give_up && right.wait_take_since(r, 0, oldest, &passed);  // the newest (latest wins)
-    if (passed > 0) note_right_time(passed, silent_s);
-    if (got) take_right(std::move(r), silent_s);
+    note_right_seen(right);
+    const bool got = !give_up && right.wait_take_since(r, 0, oldest);  // the newest (latest wins)
+    if (got) take_right(right, std::move(r));
     const auto deadline = Clock::now() + std::chrono::duration<double>(half);
     while (!give_up && (right_pending_.image.empty() || right_pending_.steady_s < oldest)) {
       if (stale()) {  // a newer left frame came while this one waited for its partner
@@ -198,10 +199,10 @@ class FrameThread {
         ++fig_.stale_pairs_untaken;
         break;
       }
-      const bool more = right.wait_take_since(r, 0, oldest, &passed);
-      if (passed > 0) note_right_time(passed, silent_s);
+      const bool more = right.wait_take_since(r, 0, oldest);
+      note_right_seen(right);
       if (!more) break;
-      take_right(std::move(r), silent_s);
+      take_right(right, std::move(r));
     }
     right_image_.release();
     right_encoded_.release();
@@ -218,19 +219,23 @@ class FrameThread {
     if (right_silent_) right_silent_from_s_ = rl, right_was_silent_ = true;
   }
 
-  // A right-eye frame taken from its capture thread: the newest, and when it ends a silence
-  // (issue 28's fallback), the time the eye came back. While the left camera is lost the
-  // right frames are taken by right_alone: a gap there is the left camera's loss (the right
-  // frames waited unread for 0.1 s), not the right eye's, so it is no return (may_return false).
-  void take_right(ar::Frame&& r, double silent_s, bool may_return = true) {
-    note_right_time(r.steady_s, silent_s, may_return);
+  // A right-eye frame taken from its capture thread: the newest.
+  void take_right(const ar::CaptureThread& right, ar::Frame&& r) {
+    note_right_seen(right);
     right_pending_ = std::move(r);
   }
-  // A right-eye frame seen at capture time s (taken, or passed over undecoded as too old).
-  void note_right_time(double s, double silent_s, bool may_return = true) {
-    if (s <= right_last_s_) return;
-    if (may_return && right_last_s_ > 0 && s - right_last_s_ > silent_s) right_back_s_ = right_first_back_s_ = s;
-    right_last_s_ = s;
+  // The right eye's last-seen time and, when a silence (issue 28's fallback) ended, the time
+  // the eye came back: the capture thread's, which sees every frame the camera delivered
+  // (session 22; they were the frames this thread took or passed over, so a frame skipped
+  // undecoded or left waiting counted for neither, and a slow loop taking the eye's frames
+  // > 0.1 s apart, or the left camera's loss leaving them unread, looked like a silence).
+  void note_right_seen(const ar::CaptureThread& right) {
+    right_last_s_ = std::max(right_last_s_, right.last_frame_steady_s());
+    const double back = right.last_silence().first_after_s;
+    if (back > right_silence_seen_s_) {
+      right_silence_seen_s_ = back;
+      right_back_s_ = right_first_back_s_ = back;
+    }
   }
 
   // Two cameras (issue 28): the left camera silent for kSilentS while the right one delivers
@@ -260,7 +265,7 @@ class FrameThread {
   bool right_alone(ar::CaptureThread& right, ar::Frame& f) {
     ar::Frame r;
     if (!right.wait_take(r, 0.02)) return false;
-    take_right(std::move(r), kSilentS, false);
+    take_right(right, std::move(r));
     f = std::move(right_pending_);
     right_pending_ = ar::Frame{};
     right_image_.release();
@@ -276,34 +281,33 @@ class FrameThread {
 
   // Two cameras: a camera lost (silent for kSilentS: the left one in check_left_lost, the right
   // one in pair_right) or back changes the run's mode; the first frame drawn in the new mode
-  // (its eyes those of the mode) gives the window the time the switch is measured from
-  // (Shown::switch_from_s): the lost camera's last frame, or the returning camera's first frame
+  // (its eyes those of the mode) gives the window the switches it is timed from
+  // (Shown::switches): the lost camera's last frame, or the returning camera's first frame
   // back, to this frame's swap. A single frame without a partner (pairing skew) is no switch.
+  // Session 22: each camera's change is its own switch (left only straight to right only: the
+  // right camera back and the left one lost), queued (eye_switches.h) until drawn.
   void note_switch(int eyes, double capture_steady_s) {
-    switch_eyes_ = -1;
+    frame_switches_.clear();
     if (c_.o.camera_right.empty()) return;
     using FR = ar::FrameRecord;
     const int mode = left_lost_ ? FR::kEyesRight : right_silent_ ? FR::kEyesLeft : FR::kEyesBoth;
     if (mode != mode_) {
-      if (mode == FR::kEyesLeft) {
-        switch_from_s_ = right_silent_from_s_;
-        switch_what_ = "right camera lost (" + c_.o.camera_right + ")";
-        say_eye(switch_what_ + ": no frame for " +
-                std::to_string(std::lround((ar::steady_now_s() - right_silent_from_s_) * 1e3)) +
-                " ms; tracking and drawing from the left eye (" + c_.o.camera + ") alone until it returns");
-      } else if (mode == FR::kEyesRight) {
-        switch_from_s_ = left_last_s_;
-        switch_what_ = "left camera lost (" + c_.o.camera + ")";
-      } else if (mode_ == FR::kEyesLeft) {
-        switch_from_s_ = right_first_back_s_ > 0 ? right_first_back_s_ : right_pair_s_;
-        switch_what_ = "right camera back (" + c_.o.camera_right + ")";
-        say_eye(switch_what_ + ": both eyes again");
-      } else {
-        switch_from_s_ = left_back_s_;
-        switch_what_ = "left camera back (" + c_.o.camera + ")";
+      const EyeSwitchTimes t{left_last_s_, left_back_s_, right_silent_from_s_,
+                             right_first_back_s_ > 0 ? right_first_back_s_ : right_pair_s_};
+      const int first = pending_switches_.size();
+      eye_switches_between(mode_, mode, t, pending_switches_);
+      for (int i = first; i < pending_switches_.size(); ++i) {  // the left camera's are said where found
+        const EyeSwitchEvent& e = pending_switches_[i];
+        if (e.kind == EyeSwitchKind::kRightLost)
+          say_eye(eye_switch_what(e.kind, c_.o.camera, c_.o.camera_right) + ": no frame for " +
+                  std::to_string(std::lround((ar::steady_now_s() - right_silent_from_s_) * 1e3)) +
+                  " ms; tracking and drawing from the left eye (" + c_.o.camera + ") alone until it returns");
+        else if (e.kind == EyeSwitchKind::kRightBack)
+          say_eye(eye_switch_what(e.kind, c_.o.camera, c_.o.camera_right) +
+                  (mode == FR::kEyesBoth ? std::string(": both eyes again")
+                                         : ": the right eye alone while the left camera (" + c_.o.camera + ") is lost"));
       }
       mode_ = mode;
-      switch_pending_ = true;
     }
     // The first frame captured after the right eye's last one, without a partner (the right
     // camera may be going silent): the window keeps its swap time, the switch's own if the
@@ -312,9 +316,10 @@ class FrameThread {
     if (const ar::CaptureThread* rc = sh_.capture_right.load();
         rc != nullptr && mode_ == FR::kEyesBoth && eyes == FR::kEyesLeft && capture_steady_s > rc->last_frame_steady_s())
       unpaired_from_s_ = rc->last_frame_steady_s();
-    if (switch_pending_ && eyes == mode_) {
-      switch_eyes_ = eyes;
-      switch_pending_ = false;
+    if (!pending_switches_.empty() && eyes == mode_) {  // drawn in its mode: to the window with this frame
+      frame_switches_.append(pending_switches_);
+      pending_switches_.clear();
+      pending_switches_.reset_dropped();
     }
   }
 
@@ -524,16 +529,14 @@ class FrameThread {
       shown.handed_s = ar::steady_now_s();
       shown.rec = rec_;
       shown.error = err;
-      // A camera lost or back (note_switch): timed to the swap of the first frame the window
-      // draws in the new mode (a switch frame replaced before the window took it passes its
-      // switch on to the frame replacing it).
+      // Cameras lost or back (note_switch): timed to the swap of the first frame the window
+      // draws in the new mode. Queued: switches on a frame replaced before the window took it
+      // stay for the frame replacing it, beside its own (the window empties the queue).
       const bool untaken = sh_.shown_new;
-      if (err.empty() && switch_eyes_ >= 0) {
-        shown.switch_eyes = switch_eyes_;
-        shown.switch_from_s = switch_from_s_;
-        shown.switch_what = switch_what_;
-      } else if (!untaken || shown.switch_eyes != rec_.eyes) {
-        shown.switch_eyes = -1;
+      if (err.empty() && (!frame_switches_.empty() || frame_switches_.dropped() > 0)) {
+        shown.switches.append(frame_switches_);
+        frame_switches_.clear();
+        frame_switches_.reset_dropped();
       }
       if (err.empty() && unpaired_from_s_ > 0) shown.unpaired_from_s = unpaired_from_s_;
       else if (!untaken) shown.unpaired_from_s = 0;
@@ -559,6 +562,7 @@ class FrameThread {
   cv::Mat right_encoded_;     // two cameras: its camera's JPEG bytes (empty: none)
   ar::Frame right_pending_;   // two cameras: the right eye's newest frame not yet used
   double right_last_s_ = 0, right_back_s_ = 0;  // the right eye's newest frame, its first after a silence (steady s)
+  double right_silence_seen_s_ = 0;             // the newest silence's end already noted (CaptureThread::last_silence)
   int prev_eyes_ = 0;                           // the eyes of the frame before
   double pair_wait_ms_ = 0;                     // this frame's wait for the right eye's partner
   // Two cameras, the left one lost (issue 28, session 17): the right eye's frames alone.
@@ -571,10 +575,8 @@ class FrameThread {
   bool right_was_silent_ = false;                 // ... since the last recovery counted
   double right_silent_from_s_ = 0, right_first_back_s_ = 0;  // its last frame; its first after a silence
   int mode_ = ar::FrameRecord::kEyesBoth;         // note_switch: the cameras delivering (kEyes*)
-  int switch_eyes_ = -1;                          // this frame's switch (its eyes; -1 none)
-  bool switch_pending_ = false;                   // a switch not yet drawn in its mode
-  double switch_from_s_ = 0;
-  std::string switch_what_;
+  EyeSwitchQueue pending_switches_;  // switches not yet drawn in their mode
+  EyeSwitchQueue frame_switches_;    // this frame's, for the window (hand_over)
 };
 
 }  // namespace

@@ -27,6 +27,7 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/haptics/device.h"
 #include "dentar/haptics/pedal.h"
+#include "dentar/live/eye_switches.h"
 #include "dentar/live/hud_window.h"
 #include "dentar/live/live_app.h"
 #include "dentar/live/pen_device.h"
@@ -77,13 +78,13 @@ struct Shown {
   ar::FrameRecord rec;
   std::string error;
   std::string note;  // a lesson's note given with the frame (rec.note_anchored: the GPU path draws it)
-  // Two cameras (issue 28): the first frame after a camera was lost or came back: its eyes
-  // (rec.eyes; -1: no switch), what happened ("left camera lost (SPEC)" ...) and the capture
-  // time the switch is timed from (the lost camera's last frame, or the returning camera's
-  // first frame back; steady s): the window times it to this frame's swap.
-  int switch_eyes = -1;
-  double switch_from_s = 0;
-  std::string switch_what;
+  // Two cameras (issue 28): the cameras lost or back since the window last took a frame
+  // (eye_switches.h; session 22: a queue, where one slot lost a switch on a frame the window
+  // never took): what happened, the eyes of the mode switched to and the capture time the switch
+  // is timed from (the lost camera's last frame, or the returning camera's first frame back;
+  // steady s). The window times each to the swap of the frame it takes them with, empties the
+  // queue and adds its dropped() count to the summary.
+  EyeSwitchQueue switches;
   // A frame from the left eye alone while both cameras were delivering (the right one may be
   // going silent): the right camera's last frame (steady s), else 0. When that camera is found
   // lost (no frame for 0.1 s) the switch is timed to the first such frame's swap.

@@ -138,15 +138,17 @@ TEST(LiveStereoXvfb, TwoCamerasEachEyeLostAndBackRecordedAndReplayed) {
   int left_lost = -1, left_back = -1, right_lost = -1, right_back = -1;
   for (int i = 0; i < static_cast<int>(sw.size()); ++i) {
     const std::string what = sw[i]["what"], eyes = sw[i]["eyes"];
-    const auto first = [&](int& at, const std::string& w, const char* want_eyes, bool after) {
+    const auto first = [&](int& at, const std::string& w, const char* want_eyes, bool after, const char* or_eyes = "") {
       if (what != w || at >= 0 || !after) return;
       at = i;
-      EXPECT_EQ(eyes, want_eyes) << sw.dump();
+      EXPECT_TRUE(eyes == want_eyes || eyes == or_eyes) << sw.dump();
     };
     first(left_lost, "left camera lost (" + lcam + ")", "right", true);
     first(left_back, "left camera back (" + lcam + ")", "both", left_lost >= 0);
     first(right_lost, "right camera lost (" + rcam + ")", "left", true);
-    first(right_back, "right camera back (" + rcam + ")", "both", right_lost >= 0);
+    // Session 22: the right camera back while the left one is lost (a loaded machine: left only
+    // straight to right only) is its own switch, drawn with the right eye alone.
+    first(right_back, "right camera back (" + rcam + ")", "both", right_lost >= 0, "right");
   }
   ASSERT_GE(left_lost, 0) << sw.dump();
   ASSERT_GT(left_back, left_lost) << sw.dump();
@@ -157,9 +159,12 @@ TEST(LiveStereoXvfb, TwoCamerasEachEyeLostAndBackRecordedAndReplayed) {
     EXPECT_GT(drawn, 0);
     EXPECT_LE(frame, drawn);
     // As above: the 200 ms whole when the frame itself went from capture to swap in < 100 ms.
-    if (frame < 100) EXPECT_LE(drawn, 200) << sw[i].dump();
-    else if (drawn > 200) std::printf("[ note ] %s drawn after %.0f ms, %.0f ms of it the frame's own (loaded machine)\n",
-                                      sw[i]["what"].get<std::string>().c_str(), drawn, frame);
+    if (frame < 100) {
+      EXPECT_LE(drawn, 200) << sw[i].dump();
+    } else if (drawn > 200) {
+      std::printf("[ note ] %s drawn after %.0f ms, %.0f ms of it the frame's own (loaded machine)\n",
+                  sw[i]["what"].get<std::string>().c_str(), drawn, frame);
+    }
   }
   for (const int i : {left_back, right_back}) EXPECT_LE(sw[i]["drawn_ms"].get<double>(), 1000) << sw[i].dump();
   // The recovery figure is the right camera's return, timed from the same first frame back as

@@ -6,6 +6,7 @@
 
 #include <charconv>
 #include <chrono>
+#include <cstdio>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -52,8 +53,10 @@ class SqliteDb final : public Db {
       ~Fin() { sqlite3_finalize(s); }
     } fin{st};
     for (std::size_t i = 0; i < params.size(); ++i) {
-      const std::string n = "$" + std::to_string(i + 1);
-      const int idx = sqlite3_bind_parameter_index(st, n.c_str());
+      // "$N" formatted in place: `"$" + std::to_string(..)` drew GCC 12's false -Wrestrict (bug 105329).
+      char n[24];
+      std::snprintf(n, sizeof n, "$%zu", i + 1);
+      const int idx = sqlite3_bind_parameter_index(st, n);
       if (idx == 0) continue;  // parameter not used by this statement
       const int rc = params[i] ? sqlite3_bind_text(st, idx, params[i]->data(), static_cast<int>(params[i]->size()),
                                                    SQLITE_TRANSIENT)

@@ -345,6 +345,9 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", ex.error().c_str());
       return 2;
     }
+    // The file scored (a built-in name: DENTAR_ASSETS, else the source tree's, never the
+    // working directory's): a run from another checkout says which copy it used.
+    std::printf("# exercise %s: %s\n", name.c_str(), ex->source.c_str());
     if (over_rate >= 0) ex->over_reduction_rate = over_rate;
     if (tol >= 0) ex->tolerance_mm = tol;
     if (!price.empty()) ex->overprep_exercise_price = price == "exercise";

@@ -559,10 +559,11 @@ Result<Exercise> load_exercise(const std::string& path) {
   return parse_exercise(ss.str(), path);
 }
 
+// DENTAR_ASSETS, else the source tree's assets (compiled in). Session 22: no longer the
+// working directory's assets/exercises first: a command started elsewhere silently used
+// another copy of the exercises (score_rank_bench from a worktree scored main's).
 std::string builtin_exercise_dir() {
-  if (const char* e = std::getenv("DENTAR_ASSETS")) return std::string(e) + "/exercises";
-  for (const char* cand : {"assets/exercises", "../assets/exercises", "../../assets/exercises"})
-    if (std::filesystem::is_directory(cand)) return cand;
+  if (const char* e = std::getenv("DENTAR_ASSETS"); e != nullptr && *e != '\0') return std::string(e) + "/exercises";
   return std::string(DENTAR_ASSETS_DIR) + "/exercises";
 }
 

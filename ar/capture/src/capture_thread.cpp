@@ -45,12 +45,9 @@ void CaptureThread::stop() {
   if (decode_thread_.joinable()) decode_thread_.join();
 }
 
-double CaptureThread::newest_steady_s() const {
+CaptureThread::Silence CaptureThread::last_silence() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  double s = decoding_steady_s_;
-  if (slot_full_) s = std::max(s, slot_.steady_s);
-  if (pending_full_) s = std::max(s, pending_.steady_s);
-  return s;
+  return silence_;
 }
 
 double CaptureThread::ready_steady_s() const {
@@ -220,6 +217,10 @@ void CaptureThread::main() {
     if (options_.stall_after_frames > 0 && count == options_.stall_after_frames)
       stall_until = f.steady_s + options_.stall_s;
     if (stall_until > 0 && f.steady_s < stall_until) continue;  // the stall test hook
+    if (const double prev = last_steady_s_.load(std::memory_order_relaxed); prev > 0 && f.steady_s - prev > options_.silence_s) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      silence_ = {prev, f.steady_s};
+    }
     last_steady_s_.store(f.steady_s, std::memory_order_release);
     delivered_.fetch_add(1);
     if (decode_eager()) {

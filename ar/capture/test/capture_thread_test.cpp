@@ -91,6 +91,32 @@ TEST(CaptureThread, StallHookDeliversNothingThenResumes) {
   EXPECT_LT(max_gap, 0.65);
 }
 
+// Session 22: a silence (no frame delivered for more than silence_s) is seen on the capture
+// thread, frame by frame, whatever the consumer takes: here it takes nothing at all, as a
+// stereo pairing that passes a right eye's frames over or leaves them waiting. (The frame
+// thread timed the right eye's silences from the frames it took or passed over: frames it
+// never saw made gaps that were not there.) silence_s 0.3: a loaded machine's held-off read
+// (tenths of a second) is not taken for the 0.5 s stall.
+TEST(CaptureThread, SilenceIsSeenWithoutAnyTake) {
+  CaptureThreadOptions o;
+  o.reopen = false;
+  o.stall_after_frames = 30;
+  o.stall_s = 0.5;
+  o.silence_s = 0.3;
+  auto cap = open(o);
+  EXPECT_EQ(cap->last_silence().first_after_s, 0.0);
+  cap->start();
+  const auto t0 = std::chrono::steady_clock::now();
+  while (!cap->ended() && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(cap->ended());
+  const CaptureThread::Silence s = cap->last_silence();
+  ASSERT_GT(s.first_after_s, 0.0) << "the stall was not seen";
+  EXPECT_GE(s.first_after_s - s.last_before_s, 0.45);  // the stall hook's 0.5 s, less a frame
+  EXPECT_GE(cap->last_frame_steady_s(), s.first_after_s);  // every frame delivered counts as seen
+  EXPECT_GT(cap->delivered(), 5);
+}
+
 TEST(CaptureThread, ReopensASourceThatEnded) {
   CaptureThreadOptions o;
   o.reopen = true;

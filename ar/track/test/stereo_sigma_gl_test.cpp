@@ -599,7 +599,9 @@ TEST(StereoSigma, CoverageOnHeldOutSeeds) {
   if (pooled_s.refused.n >= 5) {
     EXPECT_GE(pooled_s.refused.frac(), 0.75);
   }
-  if (!std::getenv("DENTAR_SIGMA_STEREO_ONLY")) EXPECT_GE(pooled_m.all.frac(), 0.85);
+  if (!std::getenv("DENTAR_SIGMA_STEREO_ONLY")) {
+    EXPECT_GE(pooled_m.all.frac(), 0.85);
+  }
 }
 
 // Each frame's corner errors (detected - true, the mannequin's tags in both

@@ -58,7 +58,16 @@ struct State {
   int cal_style = 1 << 1;  // HD_CALIBRATION_AUTO
   double centre[3] = {0, 0, 0}, amp = 10, freq = 0.5;
   std::vector<Injection> faults;
-  std::vector<HDErrorInfo> errors;
+  // HD's error stack, one per thread (each error is read by the thread whose call raised it:
+  // the opener's in HdDevice::open, the servo's in its callback). Session 22: one stack for the
+  // process let a running device's servo callback, draining its errors every tick, take a second
+  // open's HD_DEVICE_ALREADY_INITIATED before the opener read it when the opener was held off
+  // (stress -c 2 beside two runs: 1 failure in 3 of SecondOpenSaysAnotherProgramHoldsIt).
+  struct Err {
+    HDErrorInfo info;
+    std::thread::id by;
+  };
+  std::vector<Err> errors;
   std::vector<double> forces;  // 3 per tick
   std::vector<Callback> callbacks;
   HDSchedulerHandle next_handle = 1;
@@ -79,7 +88,9 @@ State& S() {
   return *s;
 }
 
-void push_error(State& s, HDerror e, int internal = 0) { s.errors.push_back({e, internal, 0}); }
+void push_error(State& s, HDerror e, int internal = 0) {
+  s.errors.push_back({{e, internal, 0}, std::this_thread::get_id()});
+}
 
 // One servo tick's device update (mutex held).
 void update_device(State& s, long t) {
@@ -185,9 +196,11 @@ void hdMakeCurrentDevice(HHD) {}
 HDErrorInfo hdGetError() {
   State& s = S();
   std::lock_guard<std::mutex> l(s.mu);
-  if (s.errors.empty()) return {0, 0, 0};
-  const HDErrorInfo e = s.errors.front();
-  s.errors.erase(s.errors.begin());
+  const auto it = std::find_if(s.errors.begin(), s.errors.end(),
+                               [](const State::Err& e) { return e.by == std::this_thread::get_id(); });
+  if (it == s.errors.end()) return {0, 0, 0};
+  const HDErrorInfo e = it->info;
+  s.errors.erase(it);
   return e;
 }
 const char* hdGetErrorString(HDerror e) {

@@ -241,6 +241,9 @@ struct LiveSummary {
     double drawn_ms = 0, frame_ms = 0;
   };
   std::vector<EyeSwitch> eye_switches;
+  // Switches the frame thread could not queue for the window (eye_switches.h: more than 8
+  // between two frames the window took): counted, so a missing one is never silent.
+  std::int64_t eye_switches_dropped = 0;
 
   // Two cameras: the right eye lost (a run of single-view frames begun) and back (pairs again
   // after its silence of > 0.1 s); the longest time from its last frame to the first

@@ -282,8 +282,9 @@ struct Exercise {
 // Parses an exercise; every error names the file (`name`) and the field.
 Result<Exercise> parse_exercise(const std::string& json_text, const std::string& name);
 Result<Exercise> load_exercise(const std::string& path);
-// The exercises shipped in assets/exercises (name without .json). The
-// assets folder is found beside the source tree, or through DENTAR_ASSETS.
+// The exercises shipped in assets/exercises (name without .json): in $DENTAR_ASSETS when set,
+// else in the source tree's assets (compiled in); never the working directory's (session 22).
+// Exercise::source is the file read.
 Result<Exercise> load_builtin_exercise(const std::string& name);
 // An exercise as the command line, a lesson or a replay names it: a path when it contains
 // ".json" or a '/', else a built-in name (load_builtin_exercise, whose error lists the names).

@@ -66,6 +66,8 @@ struct CaptureThreadOptions {
   // With a source that defers its Motion JPEG decode (FrameSourceOptions::defer_jpeg_decode):
   // decode the newest packet eagerly on the capture side (see above) instead of on demand.
   bool eager_decode = false;
+  // A gap between two delivered frames longer than this is a silence (last_silence()), s.
+  double silence_s = 0.1;
 };
 
 class CaptureThread {
@@ -88,10 +90,6 @@ class CaptureThread {
   // pairing takes the partner it can use without decoding the ones it cannot.
   // passed_s (optional): the newest passed-over frame's capture time, 0 if none.
   bool wait_take_since(Frame& out, double timeout_s, double min_steady_s, double* passed_s = nullptr);
-  // Peek (session 21): the capture time (steady clock, s) of the newest frame not taken yet,
-  // decoded, being decoded or a packet still undecoded; 0 when there is none. Takes and decodes
-  // nothing: a stereo pairing can see that a newer frame is there before it takes a partner.
-  double newest_steady_s() const;
   // The capture time of the frame a take would return now without waiting (decoded, or an
   // undecoded packet on demand); 0 when none. The freshest-pair rule's peek: the same frames
   // as a take with timeout 0 (a packet still being decoded eagerly is not waiting yet).
@@ -99,8 +97,19 @@ class CaptureThread {
   // Waits up to timeout_s until the frame a take would return now was captured at or after
   // min_steady_s (steady clock, s), without taking it; false: none by then (or stopping).
   bool wait_ready(double timeout_s, double min_steady_s);
-  // steady_clock time (s) of the newest frame delivered, 0 before the first.
+  // steady_clock time (s) of the newest frame delivered, 0 before the first. Every frame the
+  // camera delivered counts, taken or not (passed over, replaced, never decoded): the camera's
+  // last-seen time, whatever the consumer takes.
   double last_frame_steady_s() const { return last_steady_s_.load(std::memory_order_acquire); }
+  // Session 22: the capture time (steady s) of the newest frame delivered after a silence of
+  // more than CaptureThreadOptions::silence_s (no frame delivered), and the last frame before
+  // that silence; 0, 0 before any. Seen on the capture thread, frame by frame: a consumer that
+  // takes few frames (a stereo pairing passing over, eager decode skipping packets) sees no
+  // silence that was not there, and misses none that was.
+  struct Silence {
+    double last_before_s = 0, first_after_s = 0;
+  };
+  Silence last_silence() const;
   std::int64_t delivered() const { return delivered_.load(); }
   std::int64_t dropped_consumer() const { return dropped_consumer_.load(); }  // replaced before taken
   std::int64_t dropped_source() const { return dropped_source_.load(); }      // reported by the source
@@ -148,6 +157,7 @@ class CaptureThread {
 
   double time_offset_ = 0, last_time_s_ = 0;  // capture thread: Frame::time_s across reopens
   std::atomic<double> last_steady_s_{0};
+  Silence silence_;  // under mutex_
   std::atomic<std::int64_t> delivered_{0}, dropped_consumer_{0}, dropped_source_{0}, reopens_{0};
   std::atomic<std::int64_t> corrupt_{0};  // refused by the sources (their corrupt_total)
   std::int64_t corrupt_before_ = 0;  // corrupt frames of the sources before a reopen (capture thread)
