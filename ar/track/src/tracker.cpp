@@ -155,6 +155,8 @@ std::string TrackerOptions::validate() const {
     os << "edge_fit_border." << e;
   else if (!(std::isfinite(pattern_fit_exposure_s) && pattern_fit_exposure_s >= 0 && pattern_fit_exposure_s <= 1))
     os << "pattern_fit_exposure_s = " << pattern_fit_exposure_s << " must be in [0, 1] s (0: half the frame interval)";
+  else if (!(std::isfinite(pattern_fit_max_reproj_px) && pattern_fit_max_reproj_px > 0 && pattern_fit_max_reproj_px <= 10))
+    os << "pattern_fit_max_reproj_px = " << pattern_fit_max_reproj_px << " must be in (0, 10] px";
   else if (auto e2 = pattern_fit_cells.validate(); !e2.empty())
     os << "pattern_fit_cells." << e2;
   else if (roi_decimation_max < 0 || roi_decimation_max > 8)
@@ -763,7 +765,7 @@ struct Tracker::Impl {
         ok = q.has_value();
         if (ok) ss += (*q - d.corners_px[static_cast<std::size_t>(k)]).squaredNorm();
       }
-      if (!ok || std::sqrt(ss / 4) > o.edge_fit_max_reproj_px) {
+      if (!ok || std::sqrt(ss / 4) > (d.pattern_fit ? o.pattern_fit_max_reproj_px : o.edge_fit_max_reproj_px)) {
         refuse(d);
         continue;
       }

@@ -224,6 +224,7 @@ PathRun run_path(const Footage& fo, bool stereo) {
   // DENTAR_SIGMA_PATTERN=1: TrackerOptions::pattern_fit (session 22) over the footage's exposure.
   if (const char* w = std::getenv("DENTAR_SIGMA_PATTERN")) gated.pattern_fit = std::atoi(w) > 0;
   if (gated.pattern_fit) gated.pattern_fit_exposure_s = fo.exposure_s;
+  if (const char* w = std::getenv("DENTAR_SIGMA_PATTERN_REPROJ")) gated.pattern_fit_max_reproj_px = std::atof(w);
   TrackerOptions open = gated;
   open.mannequin_max_sigma_m = 0;
   const double gate_mm = gated.mannequin_max_sigma_m * 1e3;

@@ -172,10 +172,12 @@ struct TrackerOptions {
   // decoded tag overlapping the fitted area (cells plus the blur; the reach is not part of
   // it: the known code tells tags apart, see the cell check), the fit's correlation and cell
   // check (tag_pattern_fit.h), shift within the reach, shape within the options' bound, then
-  // edge_fit_max_reproj_px under the pose with the frame's decoded tags (at least one).
+  // pattern_fit_max_reproj_px under the pose with the frame's decoded tags (at least one).
   bool pattern_fit = false;
   // The exposure time the blur is predicted over (s); 0 = half the frame interval.
   double pattern_fit_exposure_s = 0.0;
+  // The pattern-fitted square under the pose with it (RMS px), gate (d) above.
+  double pattern_fit_max_reproj_px = 1.0;
   TagPatternFitOptions pattern_fit_cells;  // the fit's own options (tag_pattern_fit.h)
   // Measurements whose reprojection RMS exceeds this are rejected (px).
   double max_rms_px = 3.0;
