@@ -4,6 +4,7 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <condition_variable>
 #include <fstream>
 #include <map>
@@ -15,6 +16,7 @@
 #include <sstream>
 #include <utility>
 
+#include "dentar/ar/apriltags.h"
 #include "dentar/ar/camera_model.h"
 #include "dentar/ar/frame_gray.h"
 #include "dentar/ar/image_motion.h"
@@ -151,6 +153,12 @@ std::string TrackerOptions::validate() const {
     os << "edge_fit_max_reproj_px = " << edge_fit_max_reproj_px << " must be in (0, 10] px";
   else if (auto e = edge_fit_border.validate(); !e.empty())
     os << "edge_fit_border." << e;
+  else if (!(std::isfinite(pattern_fit_exposure_s) && pattern_fit_exposure_s >= 0 && pattern_fit_exposure_s <= 1))
+    os << "pattern_fit_exposure_s = " << pattern_fit_exposure_s << " must be in [0, 1] s (0: half the frame interval)";
+  else if (!(std::isfinite(pattern_fit_max_reproj_px) && pattern_fit_max_reproj_px > 0 && pattern_fit_max_reproj_px <= 10))
+    os << "pattern_fit_max_reproj_px = " << pattern_fit_max_reproj_px << " must be in (0, 10] px";
+  else if (auto e2 = pattern_fit_cells.validate(); !e2.empty())
+    os << "pattern_fit_cells." << e2;
   else if (roi_decimation_max < 0 || roi_decimation_max > 8)
     os << "roi_decimation_max = " << roi_decimation_max << " must be in 0..8 (0 = off)";
   else if (!finite_positive(max_rms_px))
@@ -363,6 +371,9 @@ struct Tracker::Impl {
   // families: tagStandard41h12); else black inside, white outside (tag36h11).
   bool reversed_border = true;
   int border_cells = 5;  // cells along the border square's side (TagFamily::width_at_border)
+  // TrackerOptions::pattern_fit: the mannequin's family (its codes' cells) and each tag's cells.
+  std::optional<TagFamily> pattern_family;
+  std::map<int, cv::Mat> pattern_cells;
   bool have_last_capture = false;
   double last_capture_s = 0;
   // The frame's grey levels, converted only where they are read (frame_gray.h):
@@ -656,34 +667,91 @@ struct Tracker::Impl {
       const std::optional<PredictedTag> pt = predicted_tag_box(T_pred, t, outer_extent, reach + 3, 0.0, 0.0);
       if (!pt || pt->side_px < o.edge_fit_min_side_px) continue;
       if (reach > o.edge_fit_max_reach_sides * pt->side_px) continue;  // too unsure to pick an edge
-      ++f.edge_fit_tried;
       std::vector<std::array<Eigen::Vector2d, 4>> others;
       for (const Square& q : squares)
         if (!(q.body == &b && q.id == t.id)) others.push_back(q.px);
       for (const DetectedTag& d : tags) others.push_back(d.corners_px);
-      const cv::Mat& g = gray.region(cv::Rect(pt->x0, pt->y0, pt->x1 - pt->x0, pt->y1 - pt->y0));
-      const TagEdgeFit fit = fit_tag_border(g, pt->px, reversed_border, border_cells, reach, outer_extent, others, o.edge_fit_border,
-                                          &detector->to_linear());
-      if (fit.status == TagEdgeFitStatus::kBadInput) return Error{"Tracker: " + fit.message};
-      if (fit.status != TagEdgeFitStatus::kFitted) {
+      if (o.edge_fit) {
+        ++f.edge_fit_tried;
+        const cv::Mat& g = gray.region(cv::Rect(pt->x0, pt->y0, pt->x1 - pt->x0, pt->y1 - pt->y0));
+        const TagEdgeFit fit = fit_tag_border(g, pt->px, reversed_border, border_cells, reach, outer_extent, others,
+                                              o.edge_fit_border, &detector->to_linear());
+        if (fit.status == TagEdgeFitStatus::kBadInput) return Error{"Tracker: " + fit.message};
+        if (fit.status == TagEdgeFitStatus::kFitted) {
+          DetectedTag d;
+          d.family = b.bundle.family;
+          d.id = t.id;
+          d.edge_fit = true;
+          d.corners_px = fit.corners_px;
+          cands.push_back(d);
+          continue;
+        }
         ++f.edge_fit_refused[static_cast<std::size_t>(fit.status) - 1];
-        continue;
       }
-      DetectedTag d;
-      d.family = b.bundle.family;
-      d.id = t.id;
-      d.edge_fit = true;
-      d.corners_px = fit.corners_px;
-      cands.push_back(d);
+      if (o.pattern_fit && pattern_family) {
+        // The blur: each corner's image path over the exposure, the filter's poses at its ends.
+        const double e = o.pattern_fit_exposure_s > 0 ? o.pattern_fit_exposure_s : 0.5 * frame_dt_s;
+        std::array<Eigen::Vector2d, 4> blur;  // Eigen's vectors start uninitialised
+        for (auto& v : blur) v.setZero();
+        double blur_len = 0;
+        if (filt) {
+          const Eigen::Isometry3d T_a = b.filter.predict(capture_s - 0.5 * e), T_b = b.filter.predict(capture_s + 0.5 * e);
+          bool ok = true;
+          for (int k = 0; k < 4 && ok; ++k) {
+            auto qa = model.project(T_a * t.corner(k));
+            auto qb = model.project(T_b * t.corner(k));
+            ok = qa && qb;
+            if (ok) blur[static_cast<std::size_t>(k)] = *qb - *qa;
+          }
+          if (!ok)
+            for (auto& v : blur) v.setZero();
+          for (const auto& v : blur) blur_len = std::max(blur_len, v.norm());
+        }
+        const std::optional<PredictedTag> pr =
+            predicted_tag_box(T_pred, t, outer_extent + 1.0 / border_cells, reach + 0.5 * blur_len + 4, 0.0, 0.0);
+        if (!pr) continue;
+        auto it = pattern_cells.find(t.id);
+        if (it == pattern_cells.end()) {
+          if (t.id < 0 || t.id >= pattern_family->code_count())
+            return Error{"Tracker: the mannequin's tag id " + std::to_string(t.id) + " is not a code of its family"};
+          it = pattern_cells.emplace(t.id, pattern_family->cells(t.id)).first;
+        }
+        ++f.pattern_fit_tried;
+        timespec c0{}, c1{};
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
+        const cv::Mat& g = gray.region(cv::Rect(pr->x0, pr->y0, pr->x1 - pr->x0, pr->y1 - pr->y0));
+        const TagPatternFit fit = fit_tag_pattern(g, it->second, pattern_family->border_start(), pattern_family->width_at_border(),
+                                                  pt->px, blur, reach, outer_extent, others, o.pattern_fit_cells,
+                                                  &detector->to_linear());
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
+        f.pattern_fit_ms += 1e3 * double(c1.tv_sec - c0.tv_sec) + 1e-6 * double(c1.tv_nsec - c0.tv_nsec);
+        if (fit.status == TagPatternFitStatus::kBadInput) return Error{"Tracker: " + fit.message};
+        if (fit.status != TagPatternFitStatus::kFitted) {
+          ++f.pattern_fit_refused[static_cast<std::size_t>(fit.status) - 1];
+          continue;
+        }
+        DetectedTag d;
+        d.family = b.bundle.family;
+        d.id = t.id;
+        d.pattern_fit = true;
+        d.corners_px = fit.corners_px;
+        cands.push_back(d);
+      }
     }
     if (cands.empty()) return {};
+    auto refuse = [&](const DetectedTag& d) {
+      if (d.pattern_fit)
+        ++f.pattern_fit_refused[4];
+      else
+        ++f.edge_fit_refused[3];
+    };
     // (c) the pose with them: each fitted square within the gate under the joint fit.
     std::vector<DetectedTag> all = tags;
     all.insert(all.end(), cands.begin(), cands.end());
     const BundlePose p = estimate_bundle_pose(b.bundle, camera, all, track_rules::pose_options_for(o, &b == &mannequin),
                                               std::optional<Eigen::Isometry3d>(T_pred));
     if (!p.ok() || p.rms_px > o.max_rms_px) {
-      f.edge_fit_refused[3] += static_cast<int>(cands.size());
+      for (const DetectedTag& d : cands) refuse(d);
       return {};
     }
     for (const DetectedTag& d : cands) {
@@ -697,12 +765,12 @@ struct Tracker::Impl {
         ok = q.has_value();
         if (ok) ss += (*q - d.corners_px[static_cast<std::size_t>(k)]).squaredNorm();
       }
-      if (!ok || std::sqrt(ss / 4) > o.edge_fit_max_reproj_px) {
-        ++f.edge_fit_refused[3];
+      if (!ok || std::sqrt(ss / 4) > (d.pattern_fit ? o.pattern_fit_max_reproj_px : o.edge_fit_max_reproj_px)) {
+        refuse(d);
         continue;
       }
       tags.push_back(d);
-      ++f.edge_fit_accepted;
+      ++(d.pattern_fit ? f.pattern_fit_accepted : f.edge_fit_accepted);
     }
     std::sort(tags.begin(), tags.end(), [](const DetectedTag& x, const DetectedTag& y) {
       return x.family != y.family ? x.family < y.family : x.id < y.id;
@@ -861,6 +929,7 @@ Result<Tracker> Tracker::create(const StationScene& station, const TrackerOption
     const TagFamily fam = TagFamily::create(station.family);
     m.reversed_border = fam.raw() == nullptr || fam.reversed_border();
     m.border_cells = fam.raw() == nullptr ? 5 : fam.width_at_border();
+    if (options.pattern_fit && fam.raw() != nullptr) m.pattern_family.emplace(TagFamily::create(station.family));
     m.outer_extent = fam.raw() == nullptr ? 0.5
                                           : 0.5 * (fam.total_width() - fam.width_at_border()) /
                                                     double(fam.width_at_border());
@@ -1051,7 +1120,7 @@ Result<TrackFrame> Tracker::track(const cv::Mat& image, double capture_time_s,
   } else if (!off_path) {
     ++m.frames_since_full;
   }
-  if (m.o.edge_fit && !off_path)
+  if ((m.o.edge_fit || m.o.pattern_fit) && !off_path)
     if (Status s = m.edge_fit_look(m.mannequin, capture_time_s, frame_dt, tags, f); !s) return Error{s.error()};
   f.timing.detect_ms = ms_since(t_det);
   f.full_frame = full;

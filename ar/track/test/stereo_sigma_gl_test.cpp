@@ -21,7 +21,8 @@
 // BundlePoseOptions::blur_stretch_sigma_px the same way; DENTAR_SIGMA_PARTS=seed prints each frame's
 // corner errors split into the tags' centres and shapes (not asserted). Session 19:
 // DENTAR_SIGMA_STEREO_ONLY=1 (no mono rows), DENTAR_SIGMA_REFUSED=1 (each refused frame's fit).
-// Session 21: DENTAR_SIGMA_EDGE=1 (TrackerOptions::edge_fit).
+// Session 21: DENTAR_SIGMA_EDGE=1 (TrackerOptions::edge_fit). Session 22: DENTAR_SIGMA_PATTERN=1
+// (TrackerOptions::pattern_fit, over the footage's exposure time).
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
@@ -169,6 +170,11 @@ struct PathRun {
   int det = 0, shown = 0, wrong = 0, edge_tried = 0, edge_accepted = 0, edge_wrong = 0;
   std::array<int, 4> edge_refused{};
   std::vector<double> corner_err_px, edge_err_px;
+  // Pattern fits (session 22): tried, accepted, refused by reason, accepted squares' largest
+  // corner error and how many over 2 px, thread CPU ms per stereo frame (both eyes).
+  int pat_tried = 0, pat_accepted = 0, pat_wrong = 0;
+  std::array<int, 5> pat_refused{};
+  std::vector<double> pat_err_px, pat_ms;
 };
 
 // Counts one eye's mannequin detections against its truth (PathRun's fields).
@@ -176,6 +182,9 @@ void add_detections(PathRun& r, const TrackFrame& f, const FrameTruth& truth) {
   r.edge_tried += f.edge_fit_tried;
   r.edge_accepted += f.edge_fit_accepted;
   for (std::size_t k = 0; k < 4; ++k) r.edge_refused[k] += f.edge_fit_refused[k];
+  r.pat_tried += f.pattern_fit_tried;
+  r.pat_accepted += f.pattern_fit_accepted;
+  for (std::size_t k = 0; k < 5; ++k) r.pat_refused[k] += f.pattern_fit_refused[k];
   for (const TagTruth& tt : truth.tags) r.shown += !tt.on_mirror && tt.in_image && tt.visible_fraction > 0.9;
   for (const DetectedTag& d : f.tags)
     for (const TagTruth& tt : truth.tags) {
@@ -188,6 +197,10 @@ void add_detections(PathRun& r, const TrackFrame& f, const FrameTruth& truth) {
       if (d.edge_fit) {
         r.edge_err_px.push_back(e);
         r.edge_wrong += e > 2.0;
+      }
+      if (d.pattern_fit) {
+        r.pat_err_px.push_back(e);
+        r.pat_wrong += e > 2.0;
       }
     }
 }
@@ -208,6 +221,10 @@ PathRun run_path(const Footage& fo, bool stereo) {
   if (const char* w = std::getenv("DENTAR_SIGMA_BLUR")) gated.pose.blur_stretch_sigma_px = std::atof(w);
   // DENTAR_SIGMA_EDGE=1: TrackerOptions::edge_fit (issue 28 session 21), 0 = off.
   if (const char* w = std::getenv("DENTAR_SIGMA_EDGE")) gated.edge_fit = std::atoi(w) > 0;
+  // DENTAR_SIGMA_PATTERN=1: TrackerOptions::pattern_fit (session 22) over the footage's exposure.
+  if (const char* w = std::getenv("DENTAR_SIGMA_PATTERN")) gated.pattern_fit = std::atoi(w) > 0;
+  if (gated.pattern_fit) gated.pattern_fit_exposure_s = fo.exposure_s;
+  if (const char* w = std::getenv("DENTAR_SIGMA_PATTERN_REPROJ")) gated.pattern_fit_max_reproj_px = std::atof(w);
   TrackerOptions open = gated;
   open.mannequin_max_sigma_m = 0;
   const double gate_mm = gated.mannequin_max_sigma_m * 1e3;
@@ -243,6 +260,7 @@ PathRun run_path(const Footage& fo, bool stereo) {
       add_detections(r, a->left, s.left.truth);
       add_detections(r, a->right, s.right.truth);
       r.ms.push_back(a->total_ms);
+      r.pat_ms.push_back(a->left.pattern_fit_ms + a->right.pattern_fit_ms);
       // DENTAR_SIGMA_REFUSED=1: each frame the gate refuses (or the gated tracker does not draw),
       // what the ungated fit saw (issue 28 session 19: why frames are refused).
       if (std::getenv("DENTAR_SIGMA_REFUSED") && (measured.sigma_m * 1e3 > gate_mm || drawn.state == TrackState::kLost)) {
@@ -312,6 +330,13 @@ void print_row(const std::string& seed, const char* path, const PathRun& r) {
               path, r.det, r.shown, pct(r.corner_err_px, 0.5), pct(r.corner_err_px, 0.95), r.wrong, r.edge_tried,
               r.edge_accepted, pct(r.edge_err_px, 0.5), pct(r.edge_err_px, 0.95), pct(r.edge_err_px, 1.0), r.edge_wrong,
               r.edge_refused[0], r.edge_refused[1], r.edge_refused[2], r.edge_refused[3]);
+  if (r.pat_tried > 0)
+    std::printf("|  | %s: pattern fits tried %d, accepted %d (corner error max per tag p50 / p95 / max %.2f / %.2f / %.2f px, "
+                "over 2 px: %d), refused overlap %d, no fit %d, wrong cells %d, off prediction %d, inconsistent %d; "
+                "pattern fit thread CPU ms per stereo frame p50 / p95 / max %.2f / %.2f / %.2f |\n",
+                path, r.pat_tried, r.pat_accepted, pct(r.pat_err_px, 0.5), pct(r.pat_err_px, 0.95), pct(r.pat_err_px, 1.0),
+                r.pat_wrong, r.pat_refused[0], r.pat_refused[1], r.pat_refused[2], r.pat_refused[3], r.pat_refused[4],
+                pct(r.pat_ms, 0.5), pct(r.pat_ms, 0.95), pct(r.pat_ms, 1.0));
   std::printf("|  | %s: stated sigma > gate: %zu frames, actual err p50 / p95 %.3f / %.3f mm (%d <= 0.4 mm), stated sigma p50 %.3f mm; "
               "below: %zu frames, err p50 / p95 %.3f / %.3f, sigma p50 %.3f |\n",
               path, ref_err.size(), pct(ref_err, 0.5), pct(ref_err, 0.95), ref_small, pct(ref_sig, 0.5), acc_err.size(),

@@ -36,6 +36,15 @@ namespace {
 using Iso = Eigen::Isometry3d;
 using namespace test;
 
+// Issue 28 session 22: DENTAR_STEREO_EDGE_FIT=1 (TrackerOptions::edge_fit) and
+// DENTAR_STEREO_PATTERN_FIT=1 (TrackerOptions::pattern_fit), 0 = off, applied to every
+// tracker this file creates: the default tests' bounds checked with the fits on.
+TrackerOptions with_env(TrackerOptions o) {
+  if (const char* v = std::getenv("DENTAR_STEREO_EDGE_FIT")) o.edge_fit = std::atoi(v) > 0;
+  if (const char* v = std::getenv("DENTAR_STEREO_PATTERN_FIT")) o.pattern_fit = std::atoi(v) > 0;
+  return o;
+}
+
 struct StereoFootage {
   StationScene station;  // as rendered, with its rig
   std::vector<StereoSynthFrame> frames;
@@ -159,9 +168,9 @@ Pair run_both(const StereoFootage& fo, const TrackerOptions& opt = {}, bool with
   Pair p;
   StationScene mono_st = fo.station;
   mono_st.stereo = StereoRig{};
-  auto mono = Tracker::create(mono_st, opt);
+  auto mono = Tracker::create(mono_st, with_env(opt));
   EXPECT_TRUE(mono.ok()) << (mono.ok() ? "" : mono.error());
-  auto st = StereoTracker::create(fo.station, opt);
+  auto st = StereoTracker::create(fo.station, with_env(opt));
   EXPECT_TRUE(st.ok()) << (st.ok() ? "" : st.error());
   if (!mono || !st) return p;
   const CameraModel cam(fo.station.calibration.camera);
@@ -174,7 +183,7 @@ Pair run_both(const StereoFootage& fo, const TrackerOptions& opt = {}, bool with
   if (per_frame) {
     TrackerOptions to = opt;
     to.stereo_mirror_rim = false;
-    auto t = StereoTracker::create(fo.station, to);
+    auto t = StereoTracker::create(fo.station, with_env(to));
     if (t) tags_only.emplace(std::move(t).value());
   }
   for (const StereoSynthFrame& s : fo.frames) {
@@ -323,7 +332,7 @@ TEST(StereoTracking, StandardClipMirrorWithinTheGoal) {
   ASSERT_TRUE(fo.error.empty()) << fo.error;
   auto run = [&](const TrackerOptions& o) {
     dentar::ar::Run r;
-    auto st = StereoTracker::create(fo.station, o);
+    auto st = StereoTracker::create(fo.station, with_env(o));
     EXPECT_TRUE(st.ok()) << (st.ok() ? "" : st.error());
     if (!st) return r;
     ScoreContext sc;
@@ -388,7 +397,7 @@ TEST(StereoTracking, HiddenMirrorIsDrawnOnlyWhileItsStatedErrorCoversIt) {
     // alone already drops the mirror in the first hidden frame, so the rule
     // under test is seen by itself.
     o.max_prediction_drift_m = 0;
-    auto st = StereoTracker::create(fo.station, o);
+    auto st = StereoTracker::create(fo.station, with_env(o));
     ASSERT_TRUE(st.ok()) << st.error();
     bool was_predicted = false;
     for (std::size_t i = 0; i < fo.frames.size(); ++i) {
@@ -443,7 +452,7 @@ TEST(StereoTracking, OneBlindEyeFallsBackToTheSingleView) {
   DENTAR_GL_TEST_CONTEXT();
   const StereoFootage& fo = mirror_clip();
   ASSERT_TRUE(fo.error.empty()) << fo.error;
-  auto st = StereoTracker::create(fo.station);
+  auto st = StereoTracker::create(fo.station, with_env({}));
   ASSERT_TRUE(st.ok()) << st.error();
   const cv::Mat grey(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
   // Frames 8-9 the right eye is lost (no image: StereoSource's left-only frames), frame 11 the
@@ -534,7 +543,7 @@ TEST(StereoTracking, MirrorCornerParts) {
     TrackerOptions open;
     open.mirror_max_sigma_m = 0;
     open.mannequin_max_sigma_m = 0;
-    auto tr = StereoTracker::create(fo.station, open);
+    auto tr = StereoTracker::create(fo.station, with_env(open));
     ASSERT_TRUE(tr.ok()) << tr.error();
     const TagBundle mb = mirror_bundle(fo.station);
     std::map<int, bool> on_mirror;

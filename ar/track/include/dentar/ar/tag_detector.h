@@ -101,6 +101,8 @@ struct DetectedTag {
   // Not decoded: the tracker's model-based edge fit placed this border square where the
   // tag's prediction said (TrackerOptions::edge_fit); hamming and decision_margin are 0.
   bool edge_fit = false;
+  // Not decoded: the tracker's cell-pattern fit placed it (TrackerOptions::pattern_fit).
+  bool pattern_fit = false;
 };
 
 // Owns one libapriltag detector and its families. Move-only.

@@ -55,6 +55,7 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/ar/tag_detector.h"
 #include "dentar/ar/tag_edge_fit.h"
+#include "dentar/ar/tag_pattern_fit.h"
 #include "dentar/calibration/station.h"
 #include "dentar/volume/result.h"
 
@@ -161,6 +162,23 @@ struct TrackerOptions {
   double edge_fit_max_reach_sides = 1.0;  // reach above this x the side: not tried
   double edge_fit_max_reproj_px = 1.0;    // the fitted square under the pose with it (RMS)
   TagEdgeFitOptions edge_fit_border;      // the square's fit (tag_edge_fit.h): edges, rms, shape
+  // Issue 28 session 22 (off by default): the cell-pattern fit (tag_pattern_fit.h). For
+  // each of the mannequin's tags predicted facing the camera that no search decoded (and,
+  // with edge_fit on, that the edge fit did not accept), the tag's known cells are rendered
+  // blurred along its predicted motion over the exposure (the filter's pose at capture -
+  // exposure/2 and + exposure/2, each corner's image path) and its four corners refined by
+  // Gauss-Newton on the photometric error in linear light, brightness and contrast free.
+  // Accepted with the edge fit's gates: no other tag's predicted square (any body) or
+  // decoded tag overlapping the fitted area (cells plus the blur; the reach is not part of
+  // it: the known code tells tags apart, see the cell check), the fit's correlation and cell
+  // check (tag_pattern_fit.h), shift within the reach, shape within the options' bound, then
+  // pattern_fit_max_reproj_px under the pose with the frame's decoded tags (at least one).
+  bool pattern_fit = false;
+  // The exposure time the blur is predicted over (s); 0 = half the frame interval.
+  double pattern_fit_exposure_s = 0.0;
+  // The pattern-fitted square under the pose with it (RMS px), gate (d) above.
+  double pattern_fit_max_reproj_px = 1.0;
+  TagPatternFitOptions pattern_fit_cells;  // the fit's own options (tag_pattern_fit.h)
   // Measurements whose reprojection RMS exceeds this are rejected (px).
   double max_rms_px = 3.0;
   // Measurements whose position uncertainty (sqrt of the trace of the
@@ -357,6 +375,12 @@ struct TrackFrame {
   // [3] inconsistent with the pose fit.
   int edge_fit_tried = 0, edge_fit_accepted = 0;
   std::array<int, 4> edge_fit_refused{};
+  // TrackerOptions::pattern_fit: tried, accepted, refused by reason: [0] overlapping another
+  // square, [1] no fit (too few pixels, no contrast, diverged), [2] the cell check or the
+  // correlation, [3] off the prediction (shift or shape), [4] inconsistent with the pose fit.
+  int pattern_fit_tried = 0, pattern_fit_accepted = 0;
+  std::array<int, 5> pattern_fit_refused{};
+  double pattern_fit_ms = 0;  // thread CPU time in the pattern fit this frame (ms)
   std::vector<DetectedTag> tags;  // all detections, full-image OpenCV pixels
   BodyTrack mannequin, mirror;
   BodyTrack pen;  // lost unless options.track_pen
