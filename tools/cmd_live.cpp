@@ -81,6 +81,11 @@ void add_live(CLI::App& app, int& exit_code) {
                   "overlay, only the overlay's patch is converted) or convert (the whole frame converted to BGR, "
                   "as before session 20)")
       ->check(CLI::IsMember({"keep", "convert"}));
+  sub->add_option("--display-texture", c->o.display_texture,
+                  "the headset view's camera textures (CPU display path): auto (default: half size when the "
+                  "loupe is off and a half-size texel still covers at most one window pixel at the lens centre), "
+                  "full (the camera's size) or half (each eye's frame box-averaged 2x2 before the upload)")
+      ->check(CLI::IsMember({"auto", "full", "half"}));
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
   sub->add_option("--height", c->o.height, "requested camera height (px)")->check(at_least(0));
   sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(at_least(0));

@@ -160,6 +160,8 @@ std::string LiveOptions::validate() const {
     return "warp_cell_px = " + std::to_string(warp_cell_px) + " must be in 4..128 panel px";
   if (jpeg_decode != "eager" && jpeg_decode != "on-demand" && jpeg_decode != "every-frame")
     return "jpeg_decode = \"" + jpeg_decode + "\" must be eager, on-demand or every-frame";
+  if (display_texture != "auto" && display_texture != "full" && display_texture != "half")
+    return "display_texture = \"" + display_texture + "\" must be auto, full or half";
   if (cpu_display_yuyv != "keep" && cpu_display_yuyv != "convert")
     return "cpu_display_yuyv = \"" + cpu_display_yuyv + "\" must be keep or convert";
   if (!(std::isfinite(idle_redraw_ms) && idle_redraw_ms >= 0 && idle_redraw_ms <= 1000))
@@ -266,6 +268,9 @@ std::string LiveSummary::json() const {
   if (!warp_pass.empty()) {  // session 18: which pre-warp pass drew the headset view
     j["display"]["warp_pass"] = warp_pass;
     j["display"]["warp_cell_px"] = warp_cell_px;
+    j["display"]["texture"] = display_texture;
+    j["display"]["texture_scale"] = display_texture_scale;
+    if (display_texture_ratio > 0) j["display"]["texture_camera_px_per_window_px"] = display_texture_ratio;
   }
   if (stereo)
     j["stereo"] = {{"frames_both_eyes", stereo_both}, {"frames_left_eye_only", stereo_left_only},
@@ -1019,6 +1024,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   for (const auto& [name, t] : {std::pair<const char*, const StageTimes*>{"to_display", &df.to_display_ms},
                                 {"display", &df.display_ms}})
     if (t->n > 0) sum.stage_ms.emplace_back(name, t->percentile(0.5), t->percentile(0.99));
+  for (const auto& [name, t] : df.display_parts_ms)
+    if (t.n > 0) sum.stage_ms.emplace_back(name, t.percentile(0.5), t.percentile(0.99));
   engine_figures(es, sum);
   sum.isolation_note = iso + es.realtime_note + (bg.note.empty() ? std::string() : "; " + bg.note);
   sum.volume_hash = c.run.volume().content_hash();
