@@ -157,6 +157,11 @@ void add_live(CLI::App& app, int& exit_code) {
                   "where the right eye's thread may run: any (default; on the engine's CPU below it), engine "
                   "(only beside the engine), frame (the frame thread's CPUs)")
       ->check(CLI::IsMember({"any", "engine", "frame"}));
+  sub->add_option("--capture-right-cpu", c->o.capture_right_cpu,
+                  "two cameras: where the right camera's capture and decode may run: engine (default; beside the "
+                  "engine, as the left camera's: the two decodes share a core), frame (the frame thread's CPUs: "
+                  "the decodes on different cores), any")
+      ->check(CLI::IsMember({"engine", "frame", "any"}));
   sub->add_option("--window-raster-cpu", c->o.window_raster_cpu,
                   "where the window's GL rasteriser (llvmpipe; the headset's pre-warp) may run: frame (default; off "
                   "the engine's CPU), any (the engine's CPU too, below it), auto (any with --output sbs)")

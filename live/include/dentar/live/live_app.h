@@ -147,6 +147,11 @@ struct LiveOptions {
   // as the capture threads), or "frame" (the frame thread's CPUs, off the engine's).
   int eye_threads = 2;
   std::string eye_thread_cpu = "any";
+  // Issue 28 session 22: where the right camera's capture thread (and, eager, its decode) may
+  // run with two cameras: "engine" (default: beside the engine, as the left camera's, so the two
+  // eyes' decodes share one core), "frame" (the frame thread's CPUs: the two decodes on
+  // different cores) or "any" (every CPU; on the engine's below its SCHED_FIFO).
+  std::string capture_right_cpu = "engine";
   // Where the window's GL rasteriser (llvmpipe: one thread per display, made when the window
   // opens; it draws the headset's pre-warp pass) may run: "frame" (the frame thread's CPUs, off
   // the engine's; the default), "any" (the engine's CPU too, below its SCHED_FIFO), "auto" (any
@@ -356,6 +361,7 @@ struct LiveSummary {
   // the last frame shown (1 full, 2 half; 0 not the CPU path's headset view).
   std::string display_texture;
   int display_texture_scale = 0;
+  std::string capture_right_cpu;  // two cameras: --capture-right-cpu (session 22)
   double display_texture_ratio = 0;  // auto: camera px per window px at the lens centre (0: not computed)
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
   std::int64_t gl_frames_replaced = 0, gl_ready_timeouts = 0, gl_release_timeouts = 0;
