@@ -81,6 +81,11 @@ void add_live(CLI::App& app, int& exit_code) {
                   "overlay, only the overlay's patch is converted) or convert (the whole frame converted to BGR, "
                   "as before session 20)")
       ->check(CLI::IsMember({"keep", "convert"}));
+  sub->add_option("--display-texture", c->o.display_texture,
+                  "the headset view's camera textures (CPU display path): auto (default: half size when the "
+                  "loupe is off and a half-size texel still covers at most one window pixel at the lens centre), "
+                  "full (the camera's size) or half (each eye's frame box-averaged 2x2 before the upload)")
+      ->check(CLI::IsMember({"auto", "full", "half"}));
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
   sub->add_option("--height", c->o.height, "requested camera height (px)")->check(at_least(0));
   sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(at_least(0));
@@ -152,6 +157,11 @@ void add_live(CLI::App& app, int& exit_code) {
                   "where the right eye's thread may run: any (default; on the engine's CPU below it), engine "
                   "(only beside the engine), frame (the frame thread's CPUs)")
       ->check(CLI::IsMember({"any", "engine", "frame"}));
+  sub->add_option("--capture-right-cpu", c->o.capture_right_cpu,
+                  "two cameras: where the right camera's capture and decode may run: engine (default; beside the "
+                  "engine, as the left camera's: the two decodes share a core), frame (the frame thread's CPUs: "
+                  "the decodes on different cores), any")
+      ->check(CLI::IsMember({"engine", "frame", "any"}));
   sub->add_option("--window-raster-cpu", c->o.window_raster_cpu,
                   "where the window's GL rasteriser (llvmpipe; the headset's pre-warp) may run: frame (default; off "
                   "the engine's CPU), any (the engine's CPU too, below it), auto (any with --output sbs)")

@@ -151,16 +151,19 @@ void BM_HeadsetWarp(benchmark::State& state) {
   const live::WarpPass pass = static_cast<live::WarpPass>(state.range(0));
   const int cell = static_cast<int>(state.range(1));
   const bool inset = state.range(2) != 0;
-  const int k = state.range(3) == 2 ? 2 : 1;  // camera: 640x480 or 1280x720 (same field of view)
+  const int k = state.range(3) >= 2 ? 2 : 1;  // camera: 640x480 or 1280x720 (same field of view)
   const bool moving = state.range(4) != 0;
-  const int cw = k == 2 ? 1280 : 640, ch = k == 2 ? 720 : 480;
+  // Session 22: camera 3 = the 1280x720 camera's texture at half size (640x360, fx 600): what
+  // a half-size upload would sample.
+  const bool half = state.range(3) == 3;
+  const int cw = k == 2 && !half ? 1280 : 640, ch = k == 2 ? (half ? 360 : 720) : 480;
   auto h = live::read_headset_profile("assets/headsets/oculus_rift_dk1.json");
   if (!h) {
     state.SkipWithError(h.error().c_str());
     return;
   }
   calibration::CameraIntrinsics cam;
-  cam.width = cw, cam.height = ch, cam.fx = cam.fy = 600 * (k == 2 ? 2 : 1), cam.cx = (cw - 1) / 2.0,
+  cam.width = cw, cam.height = ch, cam.fx = cam.fy = 600 * (k == 2 && !half ? 2 : 1), cam.cx = (cw - 1) / 2.0,
   cam.cy = (ch - 1) / 2.0;
   const int W = h->panel_w, H = h->panel_h;
   auto out = live::make_sbs_output(true, *h, cam, true, &cam, pass, cell);
@@ -233,6 +236,12 @@ BENCHMARK(BM_HeadsetWarp)
     ->Args({1, 16, 0, 1, 1})
     ->Args({1, 16, 0, 2, 0})
     ->Args({1, 16, 0, 2, 1})
+    // Session 22: the 1280x720 camera (the 2x720p row) through full, mesh 8 / 16 and the lookup.
+    ->Args({0, 16, 0, 2, 0})
+    ->Args({2, 8, 0, 2, 0})
+    ->Args({2, 16, 0, 2, 0})
+    ->Args({1, 16, 0, 3, 0})
+    ->Args({2, 8, 0, 3, 0})
     ->Iterations(3)
     ->Unit(benchmark::kMillisecond);
 

@@ -17,13 +17,50 @@
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
 
+#include <time.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace dentar::live {
+
+const char* DisplayProfile::name(int p) {
+  static const char* n[] = {"convert_left", "upload_left", "convert_right", "upload_right", "warp", "hud", "swap"};
+  return p >= 0 && p < kParts ? n[p] : "?";
+}
+
+double thread_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+namespace {
+// One part of the profile: from construction to done() (a glFinish first when gl).
+struct PartTimer {
+  DisplayProfile& p;
+  int part;
+  double w0 = 0, c0 = 0;
+  PartTimer(DisplayProfile& pr, int pt) : p(pr), part(pt) {
+    if (!p.on) return;
+    w0 = static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                 std::chrono::steady_clock::now().time_since_epoch()).count()) * 1e-6;
+    c0 = thread_cpu_ms();
+  }
+  void done(bool gl) {
+    if (!p.on) return;
+    if (gl) glFinish();
+    const double w1 = static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                              std::chrono::steady_clock::now().time_since_epoch()).count()) * 1e-6;
+    p.wall_ms[part] = w1 - w0;
+    p.cpu_ms[part] = thread_cpu_ms() - c0;
+  }
+};
+}  // namespace
 
 Result<std::unique_ptr<HudWindow>> HudWindow::open(const std::string& title, int video_w, int video_h, int win_w,
                                                    int win_h, int display, bool vsync, bool gles_egl) {
@@ -126,10 +163,11 @@ HudWindow::~HudWindow() {
     GLuint t = tex_;
     glDeleteTextures(1, &t);
   }
-  if (tex_right_) {
-    GLuint t = tex_right_;
-    glDeleteTextures(1, &t);
-  }
+  for (unsigned tx : {tex_right_, tex_half_, tex_half_right_})
+    if (tx) {
+      GLuint t = tx;
+      glDeleteTextures(1, &t);
+    }
   if (win_) glfwDestroyWindow(win_);
   glfwTerminate();
 }
@@ -187,15 +225,43 @@ std::string upload_pixels(const cv::Mat& img, const cv::Mat& patch, const cv::Re
   return {};
 }
 
+namespace {
+// A video texture of w x h in the window's layout (BGRA; RGBA with GLES), linear filtering.
+unsigned make_video_texture(int w, int h, bool gles) {
+  GLuint t = 0;
+  glGenTextures(1, &t);
+  glBindTexture(GL_TEXTURE_2D, t);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, w, h, 0, gles ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
+  return t;
+}
+
+// The converted frame at the upload's scale: itself, or box-averaged 2x2 into `half`.
+const cv::Mat& at_scale(const cv::Mat& full, int scale, cv::Mat& half) {
+  if (scale != 2) return full;
+  cv::resize(full, half, cv::Size(full.cols / 2, full.rows / 2), 0, 0, cv::INTER_AREA);
+  return half;
+}
+}  // namespace
+
 void HudWindow::set_video(const cv::Mat& bgr, const cv::Mat& patch, const cv::Rect& patch_rect) {
   if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || (bgr.type() != CV_8UC3 && bgr.type() != CV_8UC2))
     return;
   // SIMD; the buffer is kept between frames.
+  PartTimer conv(prof_, DisplayProfile::kConvertLeft);
   if (!upload_pixels(bgr, patch, patch_rect, gles_, bgra_).empty()) return;
-  glBindTexture(GL_TEXTURE_2D, tex_);
+  scale_ = want_scale_;
+  const cv::Mat& px = at_scale(bgra_, scale_, half_);
+  conv.done(false);
+  PartTimer up(prof_, DisplayProfile::kUploadLeft);
+  if (scale_ == 2 && tex_half_ == 0) tex_half_ = make_video_texture(tex_w_ / 2, tex_h_ / 2, gles_);
+  glBindTexture(GL_TEXTURE_2D, scale_ == 2 ? tex_half_ : tex_);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, bgra_.cols, bgra_.rows, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,
-                  bgra_.data);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, px.cols, px.rows, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, px.data);
+  up.done(true);
   frame_video_ = 0;
 }
 
@@ -210,11 +276,16 @@ void HudWindow::set_video_right(const cv::Mat& bgr, const cv::Mat& patch, const 
     glBindTexture(GL_TEXTURE_2D, t);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex_w_, tex_h_, 0, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
   }
+  PartTimer conv(prof_, DisplayProfile::kConvertRight);
   if (!upload_pixels(bgr, patch, patch_rect, gles_, bgra_right_).empty()) return;
-  glBindTexture(GL_TEXTURE_2D, tex_right_);
+  const cv::Mat& px = at_scale(bgra_right_, scale_, half_right_);  // the left eye's scale
+  conv.done(false);
+  PartTimer up(prof_, DisplayProfile::kUploadRight);
+  if (scale_ == 2 && tex_half_right_ == 0) tex_half_right_ = make_video_texture(tex_w_ / 2, tex_h_ / 2, gles_);
+  glBindTexture(GL_TEXTURE_2D, scale_ == 2 ? tex_half_right_ : tex_right_);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, tex_w_, tex_h_, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE,
-                  bgra_right_.data);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, px.cols, px.rows, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, px.data);
+  up.done(true);
   right_ = true;
 }
 
@@ -270,16 +341,24 @@ void HudWindow::begin_frame() {
   int fbw = 0, fbh = 0;
   glfwGetFramebufferSize(win_, &fbw, &fbh);
   OutputFrame f;
-  f.video = frame_video_ != 0 ? frame_video_ : tex_;
+  // The set_video textures at their scale (session 22); the GPU path's frames at the video's size.
+  const bool half = frame_video_ == 0 && scale_ == 2;
+  f.video = frame_video_ != 0 ? frame_video_ : half ? tex_half_ : tex_;
   f.overlay = frame_video_ != 0 ? frame_overlay_ : 0;
-  f.right_video = right_ ? tex_right_ : 0;
+  f.right_video = right_ ? (half ? tex_half_right_ : tex_right_) : 0;
   for (int i = 0; i < 4; ++i) f.region[i] = frame_region_[i];
-  f.tex_w = tex_w_;
-  f.tex_h = tex_h_;
-  for (int e = 0; e < 2; ++e)
-    for (int i = 0; i < 2; ++i) f.loupe_c[e][i] = loupe_c_[e][i];
+  f.tex_w = half ? tex_w_ / 2 : tex_w_;
+  f.tex_h = half ? tex_h_ / 2 : tex_h_;
+  for (int e = 0; e < 2; ++e)  // camera px (OpenCV) of the texture's size
+    for (int i = 0; i < 2; ++i) f.loupe_c[e][i] = half ? (loupe_c_[e][i] + 0.5) / 2 - 0.5 : loupe_c_[e][i];
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+  PartTimer warp(prof_, DisplayProfile::kWarp);
   output_->draw(f, fbw, fbh);
+  warp.done(true);
+  hud_w0_ = prof_.on ? static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                               std::chrono::steady_clock::now().time_since_epoch()).count()) * 1e-6
+                     : 0;
+  hud_c0_ = prof_.on ? thread_cpu_ms() : 0;
   glViewport(0, 0, fbw, fbh);
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
@@ -289,6 +368,13 @@ void HudWindow::begin_frame() {
 cv::Mat HudWindow::end_frame(bool capture) {
   ImGui::Render();
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+  if (prof_.on) {  // the HUD: from begin_frame's end (ImGui's widgets built by the caller) to here
+    glFinish();
+    prof_.wall_ms[DisplayProfile::kHud] = static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                              std::chrono::steady_clock::now().time_since_epoch()).count()) * 1e-6 -
+                                          hud_w0_;
+    prof_.cpu_ms[DisplayProfile::kHud] = thread_cpu_ms() - hud_c0_;
+  }
   cv::Mat px;
   if (capture) {
     int fbw = 0, fbh = 0;
@@ -305,7 +391,9 @@ cv::Mat HudWindow::end_frame(bool capture) {
     }
     cv::flip(px, px, 0);
   }
+  PartTimer swap(prof_, DisplayProfile::kSwap);
   glfwSwapBuffers(win_);
+  swap.done(false);
   return px;
 }
 

@@ -160,6 +160,8 @@ std::string LiveOptions::validate() const {
     return "warp_cell_px = " + std::to_string(warp_cell_px) + " must be in 4..128 panel px";
   if (jpeg_decode != "eager" && jpeg_decode != "on-demand" && jpeg_decode != "every-frame")
     return "jpeg_decode = \"" + jpeg_decode + "\" must be eager, on-demand or every-frame";
+  if (display_texture != "auto" && display_texture != "full" && display_texture != "half")
+    return "display_texture = \"" + display_texture + "\" must be auto, full or half";
   if (cpu_display_yuyv != "keep" && cpu_display_yuyv != "convert")
     return "cpu_display_yuyv = \"" + cpu_display_yuyv + "\" must be keep or convert";
   if (!(std::isfinite(idle_redraw_ms) && idle_redraw_ms >= 0 && idle_redraw_ms <= 1000))
@@ -174,6 +176,8 @@ std::string LiveOptions::validate() const {
   if (engine_cpu < -2 || engine_cpu > 1023) return "engine_cpu must be -2 (last CPU), -1 (none) or a CPU index";
   if (stall_after_frames < 0 || !(stall_s >= 0)) return "stall hook values must be >= 0";
   if (eye_threads != 1 && eye_threads != 2) return "eye_threads = " + std::to_string(eye_threads) + " must be 1 or 2";
+  if (capture_right_cpu != "any" && capture_right_cpu != "engine" && capture_right_cpu != "frame")
+    return "capture_right_cpu = \"" + capture_right_cpu + "\" must be any, engine or frame";
   if (eye_thread_cpu != "any" && eye_thread_cpu != "engine" && eye_thread_cpu != "frame")
     return "eye_thread_cpu = \"" + eye_thread_cpu + "\" must be any, engine or frame";
   if (window_raster_cpu != "any" && window_raster_cpu != "frame" && window_raster_cpu != "auto")
@@ -266,6 +270,9 @@ std::string LiveSummary::json() const {
   if (!warp_pass.empty()) {  // session 18: which pre-warp pass drew the headset view
     j["display"]["warp_pass"] = warp_pass;
     j["display"]["warp_cell_px"] = warp_cell_px;
+    j["display"]["texture"] = display_texture;
+    j["display"]["texture_scale"] = display_texture_scale;
+    if (display_texture_ratio > 0) j["display"]["texture_camera_px_per_window_px"] = display_texture_ratio;
   }
   if (stereo)
     j["stereo"] = {{"frames_both_eyes", stereo_both}, {"frames_left_eye_only", stereo_left_only},
@@ -285,6 +292,7 @@ std::string LiveSummary::json() const {
     j["stereo"]["frames_note_missing_in_an_eye"] = note_missing_eye;
     j["stereo"]["mode_switches"] = eye_switches.size();
     j["stereo"]["switches_dropped"] = eye_switches_dropped;
+    if (!capture_right_cpu.empty()) j["stereo"]["capture_right_cpu"] = capture_right_cpu;  // session 22
     auto& sw = j["stereo"]["switches"] = nlohmann::json::array();
     for (const EyeSwitch& e : eye_switches) sw.push_back({{"what", e.what}, {"eyes", e.eyes}, {"drawn_ms", e.drawn_ms}, {"frame_ms", e.frame_ms}});
   }
@@ -955,6 +963,7 @@ void report_display_path(const LiveOptions& o, bool gpu_display, bool want_gl, c
   sum.display_path = gpu_display ? "gl" : "cpu";
   sum.display_requested = o.display_path;
   sum.cpu_display_yuyv = o.cpu_display_yuyv;
+  if (!o.camera_right.empty()) sum.capture_right_cpu = o.capture_right_cpu;
   sum.display_note = display_note;
 }
 
@@ -1020,6 +1029,8 @@ void fill_summary(const LiveContext& c, const ar::CaptureThread& capture, std::i
   for (const auto& [name, t] : {std::pair<const char*, const StageTimes*>{"to_display", &df.to_display_ms},
                                 {"display", &df.display_ms}})
     if (t->n > 0) sum.stage_ms.emplace_back(name, t->percentile(0.5), t->percentile(0.99));
+  for (const auto& [name, t] : df.display_parts_ms)
+    if (t.n > 0) sum.stage_ms.emplace_back(name, t.percentile(0.5), t.percentile(0.99));
   engine_figures(es, sum);
   sum.isolation_note = iso + es.realtime_note + (bg.note.empty() ? std::string() : "; " + bg.note);
   sum.volume_hash = c.run.volume().content_hash();
@@ -1227,9 +1238,18 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     cto_r.reopen = o.loop || o.camera_right.rfind("live:", 0) != 0;
     cto_r.stall_after_frames = o.stall_right_after_frames;
     cto_r.stall_s = o.stall_right_s;
-    cto_r.thread_init = [init = bg.to_engine_cpu] {
+    // Session 22 (--capture-right-cpu): beside the engine as the left camera's (default), or on
+    // the frame thread's CPUs (the mask this thread was made with), or on any.
+    cto_r.thread_init = [init = bg.to_engine_cpu, where = o.capture_right_cpu, ncpu] {
       pthread_setname_np(pthread_self(), "dentar-cap-r");
-      if (init) init();
+      if (where == "engine" && init) {
+        init();
+      } else if (where == "any" && init) {
+        cpu_set_t all;
+        CPU_ZERO(&all);
+        for (int c = 0; c < ncpu; ++c) CPU_SET(c, &all);
+        pthread_setaffinity_np(pthread_self(), sizeof all, &all);
+      }
     };
     capture_right = std::make_unique<ar::CaptureThread>(std::move(*src_r), o.camera_right, scr->so, cto_r);
   }

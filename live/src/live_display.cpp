@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -21,6 +22,7 @@
 #include "dentar/ar/note_label.h"
 #include "dentar/haptics/engine.h"
 #include "dentar/live/eye_output.h"
+#include "dentar/live/hud_window.h"
 #include "dentar/live/redraw_policy.h"
 #include "dentar/session/frames_csv.h"
 #include "dentar/session/recorder.h"
@@ -94,9 +96,12 @@ class DisplayLoop {
     fig_.stop_reason = "window closed";
     fps_t0_ = fig_.t_start;
     setup_output();
+    if (const char* e = std::getenv("DENTAR_DISPLAY_PROFILE"); e != nullptr && std::string(e) == "1")
+      c_.hw.set_profile(true);
     redraw_.idle_period_s = c_.o.idle_redraw_ms / 1e3;
     while (!stop_now()) frame();
     sum_.warp_grid_builds = c_.hw.output().warp_grid_builds();
+    if (!sum_.display_texture.empty()) sum_.display_texture_scale = c_.hw.upload_scale();
     if (cpu_from_displayed_ >= 0 && fig_.displayed > cpu_from_displayed_) {  // session 19: CPU per frame shown
       const CpuSnapshot end = cpu_snapshot();
       const double n = static_cast<double>(fig_.displayed - cpu_from_displayed_);
@@ -212,12 +217,42 @@ class DisplayLoop {
     if (o.output == "sbs") {  // the pre-warp pass asked for (a loupe inset draws the whole viewport: full)
       sum_.warp_pass = warp_pass_name(pass);
       sum_.warp_cell_px = o.warp_cell_px;
+      sum_.display_texture = o.display_texture;
+      choose_texture_scale();
     }
     c_.say(o.output == "sbs" ? "output: side-by-side for headset \"" + o.headset->name + "\" (" +
                                    std::to_string(o.headset->panel_w) + "x" + std::to_string(o.headset->panel_h) +
                                    (stereo_ ? "), a stereo pair: each eye its own camera and composite" : ", one camera") +
                                    "; keys: W pre-warp on/off, L loupe off/inset/full"
                              : std::string("output: mono window with the loupe; key L: loupe off/inset/full"));
+  }
+
+  // Issue 28 session 22 (--display-texture): the headset view's camera textures at half size
+  // when asked, or (auto) when the loupe is off and a half-size texel still covers at most one
+  // window pixel at each lens centre. There the panel is densest: the pre-warp shrinks the
+  // picture away from the centre, so elsewhere a window pixel covers more camera pixels, never
+  // fewer. The loupe magnifies the camera's full resolution: full size while it is on.
+  void choose_texture_scale() {
+    const LiveOptions& o = c_.o;
+    if (o.output != "sbs" || std::string(c_.hw.output().kind()) != "sbs" || gpu_display_) return;
+    int scale = 1;
+    if (o.display_texture == "half") {
+      scale = 2;
+    } else if (o.display_texture == "auto" && loupe_.mag <= 0) {
+      float rects[2][4];
+      const int n = c_.hw.eye_rects(rects);
+      const double c0[2] = {0, 0};
+      double ratio = 1e9;  // camera px per window px at the lens centre, the smallest over the eyes and axes
+      for (int e = 0; e < 2 && n == 2; ++e) {
+        const EyeMapping m = make_eye_mapping(*o.headset, e, e == 1 && stereo_ ? cam_right_ : cam_, stereo_, {}, c0, true);
+        const double win_per_panel = rects[e][2] / std::max(1, m.vp[2]);
+        for (int a = 0; a < 2; ++a) ratio = std::min(ratio, m.f_cam[a] / (m.f_eye[a] * win_per_panel));
+      }
+      if (n == 2 && ratio >= 2.0) scale = 2;
+      texture_ratio_ = n == 2 ? ratio : 0;
+      sum_.display_texture_ratio = texture_ratio_;
+    }
+    c_.hw.set_upload_scale(scale);
   }
 
   // The loupe's centre from this frame's mannequin pose (headset.h LoupeCentre);
@@ -237,6 +272,7 @@ class DisplayLoop {
           if (auto out = make_mono_output(c_.hw.gles_egl(), cam_)) c_.hw.set_output(std::move(*out)), mono_loupe_ = true;
         }
         c_.hw.output().set_loupe(loupe_);
+        choose_texture_scale();
       }
     }
     if (!fresh) return;
@@ -265,6 +301,9 @@ class DisplayLoop {
   void frame() {
     int new_slot = -1;
     const bool fresh = take_shown(new_slot);
+    DisplayProfile& prof = c_.hw.profile();
+    if (prof.on) prof.clear();
+    const double cpu0 = prof.on ? thread_cpu_ms() : 0;
     if (const haptics::HapticSnapshot snap = engine_.snapshot(); snap.mode != 0) {
       // A lesson: how closely the student follows the expert.
       ++fig_.passes;
@@ -343,6 +382,20 @@ class DisplayLoop {
     if (shot != shots_.end()) {
       cv::imwrite(shot->second, px);
       shots_.erase(shot);
+    }
+    if (prof.on && fresh && cur_.index != last_index_) {
+      double parts = 0, parts_cpu = 0;
+      for (int p = 0; p < DisplayProfile::kParts; ++p) {
+        if (prof.wall_ms[p] < 0) continue;
+        fig_.display_parts_ms[std::string("disp_") + DisplayProfile::name(p)].add(prof.wall_ms[p]);
+        fig_.display_parts_ms[std::string("disp_") + DisplayProfile::name(p) + "_cpu"].add(prof.cpu_ms[p]);
+        parts += prof.wall_ms[p];
+        parts_cpu += prof.cpu_ms[p];
+      }
+      const double cpu = thread_cpu_ms() - cpu0;
+      fig_.display_parts_ms["disp_total_cpu"].add(cpu);
+      fig_.display_parts_ms["disp_other_cpu"].add(std::max(0.0, cpu - parts_cpu));
+      fig_.display_parts_ms["disp_other"].add(std::max(0.0, (now_s() - taken_s_) * 1e3 - parts));
     }
     figures_after_swap(fresh, stalled, age, last_frame_s);
   }
@@ -615,6 +668,7 @@ class DisplayLoop {
   LoupeView loupe_{};
   LoupeCentre loupe_c_, loupe_cr_;  // the loupe's centre per eye (loupe_cr_: a stereo pair's right eye)
   bool prewarp_ = true, mono_loupe_ = false;
+  double texture_ratio_ = 0;  // camera px per window px at the lens centre (choose_texture_scale; 0 not computed)
   bool stereo_ = false;  // a stereo rig: the right eye gets its own composite in the headset's view
   calibration::CameraIntrinsics cam_right_;  // the rig's right eye (stereo_)
   Eigen::Isometry3d T_camr_rig_ = Eigen::Isometry3d::Identity();

@@ -187,6 +187,9 @@ struct DisplayFigures {
   std::vector<double> latency_ms;
   // Per frame shown: hand-over to the display loop's take (wait), take to swap (display), ms.
   StageTimes to_display_ms, display_ms;
+  // DENTAR_DISPLAY_PROFILE=1 (hud_window.h DisplayProfile): the display stage's parts per frame
+  // shown, "disp_<part>" wall and "disp_<part>_cpu" the display thread's CPU, ms.
+  std::map<std::string, StageTimes> display_parts_ms;
   std::int64_t displayed = 0;
   // Wakes of the loop without a new frame: redrawn (the stall state, a key, the HUD's idle
   // refresh) and not redrawn (redraw_policy.h).

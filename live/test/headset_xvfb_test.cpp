@@ -214,6 +214,11 @@ TEST(HeadsetXvfb, StereoPairEachEyeMatchesItsOfflineComposite) {
   // Session 18: the pre-warp pass that drew the view, named in the summary (default exact).
   EXPECT_EQ(live["display"]["warp_pass"], "exact") << live["display"].dump();
   EXPECT_EQ(live["display"]["warp_cell_px"].get<int>(), 16) << live["display"].dump();
+  // Session 22: --display-texture auto keeps this 640x480 camera's textures full size (its pixels
+  // are not twice as fine as this panel's at the lens centre), the choice named in the summary.
+  EXPECT_EQ(live["display"]["texture"], "auto") << live["display"].dump();
+  EXPECT_EQ(live["display"]["texture_scale"].get<int>(), 1) << live["display"].dump();
+  EXPECT_LT(live["display"]["texture_camera_px_per_window_px"].get<double>(), 2.0) << live["display"].dump();
   for (const char* stage : {"pickup", "track", "compose_left", "compose_right", "process_cpu", "display"})
     EXPECT_TRUE(live["stages_ms"].contains(stage)) << stage << ": " << live["stages_ms"].dump();
   r = run_command(kBin + " offline --stereo --eye both --footage " + (st / "video.mkv").string() + " --station " +

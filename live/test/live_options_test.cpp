@@ -32,6 +32,28 @@ TEST(LiveOptions, CpuDisplayYuyvKeepOrConvert) {
   EXPECT_NE(o.validate().find("cpu_display_yuyv = \"0\" must be keep or convert"), std::string::npos) << o.validate();
 }
 
+// Session 22: the headset view's camera textures and the right camera's CPUs, bad values refused by name.
+TEST(LiveOptions, DisplayTextureAndCaptureRightCpu) {
+  LiveOptions o;
+  EXPECT_EQ(o.display_texture, "auto");
+  EXPECT_EQ(o.capture_right_cpu, "engine");
+  for (const char* t : {"auto", "full", "half"}) {
+    o.display_texture = t;
+    EXPECT_EQ(o.validate(), "") << t;
+  }
+  o.display_texture = "quarter";
+  EXPECT_NE(o.validate().find("display_texture = \"quarter\" must be auto, full or half"), std::string::npos)
+      << o.validate();
+  o.display_texture = "auto";
+  for (const char* c : {"engine", "frame", "any"}) {
+    o.capture_right_cpu = c;
+    EXPECT_EQ(o.validate(), "") << c;
+  }
+  o.capture_right_cpu = "1";
+  EXPECT_NE(o.validate().find("capture_right_cpu = \"1\" must be any, engine or frame"), std::string::npos)
+      << o.validate();
+}
+
 // Issue 28: two kinds of stereo head, not both at once; the right eye's stall hook needs it.
 // Issue 28 session 18: the headset's pre-warp pass and its grid's cell size.
 TEST(LiveOptions, WarpPassAndCellSize) {

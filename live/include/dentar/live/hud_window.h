@@ -37,6 +37,22 @@ std::string upload_pixels(const cv::Mat& img, const cv::Mat& patch, const cv::Re
 
 class DisplayOutput;
 
+// Issue 28 session 22: where one drawn frame's display stage goes (DENTAR_DISPLAY_PROFILE=1,
+// a profiling hook: each GL part is closed by a glFinish, so the parts do not overlap and the
+// run is slower than without it). Wall ms and the calling thread's CPU ms (with
+// LP_NUM_THREADS=0 llvmpipe rasterises on the calling thread, so the CPU column holds the
+// rasteriser's work too); -1: not done in this frame.
+struct DisplayProfile {
+  enum Part { kConvertLeft, kUploadLeft, kConvertRight, kUploadRight, kWarp, kHud, kSwap, kParts };
+  static const char* name(int p);
+  bool on = false;
+  double wall_ms[kParts], cpu_ms[kParts];
+  void clear() {
+    for (int i = 0; i < kParts; ++i) wall_ms[i] = cpu_ms[i] = -1;
+  }
+};
+double thread_cpu_ms();  // CLOCK_THREAD_CPUTIME_ID, ms
+
 class HudWindow {
  public:
   // video_w x video_h: the texture size (the camera's); win_w/win_h 0 = the video's; display
@@ -98,8 +114,20 @@ class HudWindow {
   void begin_frame();
   // Renders the HUD and swaps; with `capture`, returns the window's pixels (BGR) first.
   cv::Mat end_frame(bool capture = false);
+  // Issue 28 session 22: the scale of the uploads from set_video / set_video_right: 1 (the
+  // camera's size) or 2 (each frame box-averaged 2x2 into a texture of half the size, a
+  // quarter of the bytes converted, copied and sampled; the output's mapping scales the
+  // intrinsics to the texture's size). An odd video size keeps 1. Takes effect at the next
+  // set_video; the GPU path's frames (set_frame) are not scaled.
+  void set_upload_scale(int s) { want_scale_ = s == 2 && tex_w_ % 2 == 0 && tex_h_ % 2 == 0 ? 2 : 1; }
+  int upload_scale() const { return scale_; }
+  // The display stage's profile (DisplayProfile): on/off, and the last frame's parts.
+  void set_profile(bool on) { prof_.on = on, prof_.clear(); }
+  DisplayProfile& profile() { return prof_; }
 
  private:
+  DisplayProfile prof_;
+  double hud_w0_ = 0, hud_c0_ = 0;  // the profile's HUD part started (begin_frame's end)
   HudWindow() = default;
   static void on_key(GLFWwindow* w, int key, int scancode, int action, int mods);
   GLFWwindow* win_ = nullptr;
@@ -114,6 +142,11 @@ class HudWindow {
   std::string note_;
   int tex_w_ = 0, tex_h_ = 0;
   cv::Mat bgra_, bgra_right_;  // upload buffers, reused
+  // Session 22: the half-size uploads' buffers and textures (made on first use), the scale asked
+  // for and the scale of the textures now shown (the right eye follows the left's).
+  cv::Mat half_, half_right_;
+  unsigned tex_half_ = 0, tex_half_right_ = 0;
+  int want_scale_ = 1, scale_ = 1;
   bool imgui_ = false;
   std::vector<int> presses_;
   std::set<int> held_;

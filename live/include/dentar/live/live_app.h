@@ -108,6 +108,12 @@ struct LiveOptions {
   // "lut" (a lookup texture); warp_cell_px: the grid's cell size, panel px (4..128).
   std::string warp_pass = "exact";
   int warp_cell_px = 16;
+  // Issue 28 session 22: the headset view's camera textures (CPU display path): "full" (the
+  // camera's size), "half" (each eye's frame box-averaged 2x2 before the upload: a quarter of
+  // the bytes converted, copied and sampled), "auto" (half when the loupe is off and a
+  // half-size texel still covers no more than one window pixel at the lens centre, the
+  // panel's densest point; full otherwise).
+  std::string display_texture = "auto";
   // Session 19 (redraw_policy.h): the window's redraw without a new frame (the HUD's refresh
   // while no frame comes), ms, 0..1000; 0 redraws at every wake of the loop (~30 ms), as
   // sessions 13-18 did.
@@ -141,6 +147,11 @@ struct LiveOptions {
   // as the capture threads), or "frame" (the frame thread's CPUs, off the engine's).
   int eye_threads = 2;
   std::string eye_thread_cpu = "any";
+  // Issue 28 session 22: where the right camera's capture thread (and, eager, its decode) may
+  // run with two cameras: "engine" (default: beside the engine, as the left camera's, so the two
+  // eyes' decodes share one core), "frame" (the frame thread's CPUs: the two decodes on
+  // different cores) or "any" (every CPU; on the engine's below its SCHED_FIFO).
+  std::string capture_right_cpu = "engine";
   // Where the window's GL rasteriser (llvmpipe: one thread per display, made when the window
   // opens; it draws the headset's pre-warp pass) may run: "frame" (the frame thread's CPUs, off
   // the engine's; the default), "any" (the engine's CPU too, below its SCHED_FIFO), "auto" (any
@@ -349,6 +360,12 @@ struct LiveSummary {
   std::string cpu_display_yuyv;   // --cpu-display-yuyv: keep or convert
   std::string warp_pass;          // --output sbs: the headset pre-warp pass (--warp-pass); empty otherwise
   int warp_cell_px = 0;           // its grid's cell size (px), with exact and mesh
+  // Session 22: the headset view's camera texture (--display-texture) and the scale used at
+  // the last frame shown (1 full, 2 half; 0 not the CPU path's headset view).
+  std::string display_texture;
+  int display_texture_scale = 0;
+  std::string capture_right_cpu;  // two cameras: --capture-right-cpu (session 22)
+  double display_texture_ratio = 0;  // auto: camera px per window px at the lens centre (0: not computed)
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
   std::int64_t gl_frames_replaced = 0, gl_ready_timeouts = 0, gl_release_timeouts = 0;
   // Session 19: the window's draws without a new frame and the wakes it skipped
