@@ -8,6 +8,7 @@
 
 #include "commands.h"
 #include "db_util.h"
+#include "dentar/volume/bur.h"
 #include "dentar/ar/station_scene.h"
 #include "dentar/ar/stereo_source.h"
 #include "dentar/haptics/replay.h"
@@ -81,6 +82,10 @@ void add_live(CLI::App& app, int& exit_code) {
                   "overlay, only the overlay's patch is converted) or convert (the whole frame converted to BGR, "
                   "as before session 20)")
       ->check(CLI::IsMember({"keep", "convert"}));
+  sub->add_option("--bur-samples", c->o.bur_samples,
+                  "the bur's sample count (default 10000, or a lesson's own; 1..100000); written to the session "
+                  "header's bur.samples. The cut does not depend on it (the overlap cutter, session 22)")
+      ->check(CLI::Range(volume::kMinBurSamples, volume::kMaxBurSamples));
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
   sub->add_option("--height", c->o.height, "requested camera height (px)")->check(at_least(0));
   sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(at_least(0));
