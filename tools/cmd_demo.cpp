@@ -53,6 +53,7 @@ struct DemoOptions {
   bool bur_given = false;  // --bur on the command line (overrides the exercise's bur)
   bool no_score = false;
   bool sample_jitter = true;  // CutParams::sample_jitter: on since session 21 (--no-sample-jitter: off)
+  bool overlap_cut = true;    // haptics::use_overlap_cut: on since session 22 (--no-overlap-cut: off)
   SoundCli sound;  // issue 29: the drill's sound (live playback, --audio render)
 };
 
@@ -171,6 +172,7 @@ int run_demo(const DemoOptions& o) {
   EngineConfig cfg;
   cfg.model = o.model;
   cfg.cut.sample_jitter = o.sample_jitter;
+  if (o.overlap_cut) haptics::use_overlap_cut(cfg);
   cfg.T_tooth_dev = station.T_tooth_dev;
   cfg.T_sty_tip = station.T_sty_tip;
   // The header is written before the engine runs; a throwaway engine on the
@@ -374,6 +376,10 @@ void add_demo(CLI::App& app, int& exit_code) {
              "Shift the bur's samples by a sub-spacing offset each step, the default (the cut rate then no "
              "longer depends on the voxel size; docs/BENCHMARKS.md, haptics sessions 20 and 21); "
              "--no-sample-jitter cuts with the fixed samples, as sessions before session 21");
+  c->add_flag("--overlap-cut,!--no-overlap-cut", o->overlap_cut,
+             "Cut by the bur's overlap with each voxel and constrain the proxy with the bur's shape, the "
+             "default (the cut rate does not depend on --samples; docs/BENCHMARKS.md, haptics session 22); "
+             "--no-overlap-cut cuts with the bur's samples, as sessions before session 22");
   c->add_flag("--no-score", o->no_score, "Do not score the session (score.json, score.html)");
   c->add_option("--audio", o->sound.audio, "Also render the session's drill sound to this WAV file (docs/sound.md)");
   add_sound_options(c, o->sound, true);

@@ -8,6 +8,7 @@
 
 #include "commands.h"
 #include "db_util.h"
+#include "dentar/volume/bur.h"
 #include "dentar/ar/station_scene.h"
 #include "dentar/ar/stereo_source.h"
 #include "dentar/haptics/replay.h"
@@ -86,6 +87,10 @@ void add_live(CLI::App& app, int& exit_code) {
                   "loupe is off and a half-size texel still covers at most one window pixel at the lens centre), "
                   "full (the camera's size) or half (each eye's frame box-averaged 2x2 before the upload)")
       ->check(CLI::IsMember({"auto", "full", "half"}));
+  sub->add_option("--bur-samples", c->o.bur_samples,
+                  "the bur's sample count (default 10000, or a lesson's own; 1..100000); written to the session "
+                  "header's bur.samples. The cut does not depend on it (the overlap cutter, session 22)")
+      ->check(CLI::Range(volume::kMinBurSamples, volume::kMaxBurSamples));
   sub->add_option("--width", c->o.width, "requested camera width (px)")->check(at_least(0));
   sub->add_option("--height", c->o.height, "requested camera height (px)")->check(at_least(0));
   sub->add_option("--fps", c->o.fps, "requested camera rate (Hz)")->check(at_least(0));

@@ -7,6 +7,8 @@
 //   ./build/haptics/haptics_cut_rate_bench [--seconds 0.4] [--force 1]
 //       [--samples 500,2000] [--voxels-mm 0.15,0.1,0.075] [--jitter both|on|off]
 //       [--model-samples N]   (the force model constrains with its own N-sample bur; 0 = the cutter's)
+//       [--cutter samples|overlap] [--constraint samples|shape]   (session 22: CutParams::overlap,
+//       ProxyParams::shape_constraint; default samples/samples = main's pairing)
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -24,6 +26,7 @@ int main(int argc, char** argv) {
   std::vector<double> voxels_m{0.15e-3, 0.1e-3, 0.075e-3};
   std::vector<bool> jitters{false, true};
   int model_samples = 0;
+  bool overlap = false, shape = false;
   // Comma-separated list of positive numbers; false on anything else.
   auto parse_list = [](const std::string& text, std::vector<double>& out) {
     out.clear();
@@ -61,6 +64,15 @@ int main(int argc, char** argv) {
       }
       voxels_m.clear();
       for (double v : list) voxels_m.push_back(v * 1e-3);
+    } else if (a == "--cutter" || a == "--constraint") {
+      const std::string v = argv[i + 1];
+      const bool on = v == (a == "--cutter" ? "overlap" : "shape");
+      if (!on && v != "samples") {
+        std::fprintf(stderr, "%s %s: expected samples or %s\n", a.c_str(), v.c_str(),
+                     a == "--cutter" ? "overlap" : "shape");
+        return 2;
+      }
+      (a == "--cutter" ? overlap : shape) = on;
     } else if (a == "--jitter") {
       const std::string v = argv[i + 1];
       if (v == "both") jitters = {false, true};
@@ -73,7 +85,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "unknown option %s (use --seconds S --force N --samples A,B --voxels-mm X,Y "
-                   "--jitter both|on|off)\n",
+                   "--jitter both|on|off --cutter samples|overlap --constraint samples|shape)\n",
                    a.c_str());
       return 2;
     }
@@ -93,9 +105,14 @@ int main(int argc, char** argv) {
     std::printf("force model constrains with its own %d-sample bur\n", model_samples);
   }
   for (bool jitter : jitters) {
-  std::printf("\nsample_jitter %s\n", jitter ? "on" : "off (main)");
+  std::printf("\nsample_jitter %s, cutter %s, constraint %s\n", jitter ? "on" : "off (main)",
+              overlap ? "overlap" : "samples", shape ? "shape" : "samples");
   volume::CutParams cut;
   cut.sample_jitter = jitter;
+  cut.overlap = overlap;
+  // The overlap cutter at its calibrated rate (haptics::use_overlap_cut).
+  if (overlap) cut.base_rate_per_s = volume::kOverlapBaseRatePerS;
+  std::printf("base_rate_per_s %.0f\n", cut.base_rate_per_s);
   std::printf("bur       samples material voxel_mm  mm3_s  depth_mm_s  depth_mm  force_N  pen_mm  max_force_N  overlap_mm3\n");
   for (int samples : sample_counts) {
     auto bur = volume::sample_bur(volume::BurParams::cone(0.4, 0.6, 6.0), samples);
@@ -116,6 +133,7 @@ int main(int argc, char** argv) {
           p.seconds = seconds;
           p.grid_phase = ph[0];
           p.lateral_phase = ph[1];
+          p.shape_constraint = shape;
           const auto r = haptics::cut_rate::press(p, *bur, cut, model_bur ? &*model_bur : nullptr);
           sum.rate_mm3_s += r.rate_mm3_s / 4;
           sum.depth_rate_mm_s += r.depth_rate_mm_s / 4;

@@ -57,7 +57,8 @@ struct Session {
   std::unique_ptr<SimulatedDevice> device;
   std::unique_ptr<Engine> engine;
   Session(const std::string& model, const BurParams& bp, int samples, const std::string& script,
-          double force_N, double seconds, double hand_k, TrainingMode* training = nullptr) {
+          double force_N, double seconds, double hand_k, TrainingMode* training = nullptr,
+          bool overlap_cut = false) {
     bur = std::move(volume::sample_bur(bp, samples)).value();
     const Station st = default_station();
     HandParams hand;
@@ -70,6 +71,7 @@ struct Session {
     cfg.T_tooth_dev = st.T_tooth_dev;
     cfg.T_sty_tip = st.T_sty_tip;
     cfg.training = training;
+    if (overlap_cut) use_overlap_cut(cfg);
     engine = std::move(Engine::create(cfg, *device, tooth, bur)).value();
   }
 };
@@ -123,6 +125,42 @@ void BM_EngineStep(benchmark::State& state) {
 BENCHMARK(BM_EngineStep)
     ->ArgsProduct({{0, 1, 2, 3}, {1000, 3000, 10000, 30000}, {0, 1}})
     ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
+
+// Session 22: BM_EngineStep's proxy access session with the sample cutter (cutter 0, main's
+// pairing) or the overlap cutter with the shape-constrained proxy (cutter 1,
+// use_overlap_cut), each step's thread CPU time (the tail without the scheduler's preemption).
+// Args: shape (2 capsule, 3 cone), samples, cutter.
+void BM_EngineStepCutter(benchmark::State& state) {
+  const bool overlap = state.range(2) != 0;
+  EngineStats total;
+  double removed = 0;
+  std::vector<double> cpu_us;
+  cpu_us.reserve(static_cast<std::size_t>(state.max_iterations) * 4000);
+  for (auto _ : state) {
+    state.PauseTiming();
+    Session s("proxy", bur_of(static_cast<int>(state.range(0))), static_cast<int>(state.range(1)), "access",
+              2.5, 0.0, kFingerRestStiffness_N_per_m, nullptr, overlap);
+    s.engine->run_steps(400);
+    state.ResumeTiming();
+    for (int k = 0; k < 4000; ++k) {
+      const double c0 = thread_cpu_s();
+      s.engine->run_steps(1);
+      cpu_us.push_back((thread_cpu_s() - c0) * 1e6);
+    }
+    state.PauseTiming();
+    total = s.engine->stats();
+    removed = s.engine->cutter().metrics().removed_total_mm3;
+    state.ResumeTiming();
+  }
+  report(state, total);
+  report_cpu(state, cpu_us);
+  state.counters["removed_mm3"] = removed;
+  state.SetLabel(overlap ? "overlap" : "samples");
+}
+BENCHMARK(BM_EngineStepCutter)
+    ->ArgsProduct({{2, 3}, {1000, 10000}, {0, 1}})
+    ->Iterations(3)
     ->Unit(benchmark::kMillisecond);
 
 // The expert: the same access session, recorded from the engine's snapshots.

@@ -435,6 +435,9 @@ std::string Engine::header_json(const std::string& tooth_description_json) const
               {"min_force_N", cfg_.cut.min_force_N}};
   // Written only when on, so sessions cut without it keep their header bytes.
   if (cfg_.cut.sample_jitter) j["cut"]["sample_jitter"] = true;
+  // Session 22, likewise written only when on.
+  if (cfg_.cut.overlap) j["cut"]["overlap"] = true;
+  if (pp.shape_constraint) j["proxy"]["shape_constraint"] = true;
   const auto& b = bur_->params;
   j["bur"] = {{"id", cfg_.bur_id},
               {"shape", std::string(volume::bur_shape_name(b.shape))},

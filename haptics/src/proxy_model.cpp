@@ -55,9 +55,9 @@ class ProxyModel final : public ForceModel {
       : p_(p),
         k_(p.stiffness_N_per_m > 0 ? p.stiffness_N_per_m : 0.8 * limits.max_stiffness_N_per_m),
         max_samples_(max_samples),
-        shell_(max_samples),
-        pen_(max_samples),
-        active_(max_samples) {}
+        shell_(std::max(max_samples, kMaxShellSamples)),
+        pen_(std::max(max_samples, kMaxShellSamples)),
+        active_(std::max(max_samples, kMaxShellSamples)) {}
 
   std::string_view name() const override { return "proxy"; }
 
@@ -260,6 +260,15 @@ class ProxyModel final : public ForceModel {
         shell_params_.length_m == bur.params.length_m &&
         shell_params_.tip_radius_m == bur.params.tip_radius_m)
       return;
+    if (p_.shape_constraint) {
+      shape_shell(bur.params, 0.5 * h);
+      base_vol_ = nullptr;
+      shell_bur_ = &bur;
+      shell_size_ = bur.size();
+      shell_h_ = h;
+      shell_params_ = bur.params;
+      return;
+    }
     // Mean sample spacing: cube root of the volume each sample stands for.
     const double spacing = std::cbrt(bur.sample_volume_m3);
     const double thickness = std::clamp(2.0 * spacing, 0.5 * h, h);
@@ -286,6 +295,39 @@ class ProxyModel final : public ForceModel {
     shell_size_ = bur.size();
     shell_h_ = h;
     shell_params_ = bur.params;
+  }
+
+  // The constraint shell from the bur's shape alone: points of a Halton
+  // sequence (bases 2, 3, 5) over the bur's tip-frame box that lie within
+  // `thickness` inside its surface, the first kMaxShellSamples of them. The
+  // sequence is uniform, so they are spread evenly over the shell; the same
+  // bur shape and voxel size give the same points whatever the bur's sample
+  // count. Never allocates (shell_ holds kMaxShellSamples). About 17k
+  // candidates for the exercise's cone at 0.1 mm: once per bur.
+  void shape_shell(const volume::BurParams& b, double thickness) noexcept {
+    const double R = b.radius_m;
+    const double z0 = -(b.shape == volume::BurShape::kSphere ? 2.0 * R : b.length_m);
+    shell_count_ = 0;
+    shell_radius_ = 0;
+    constexpr std::uint32_t kMaxCandidates = 1u << 21;
+    for (std::uint32_t i = 1; i < kMaxCandidates && shell_count_ < kMaxShellSamples; ++i) {
+      const Eigen::Vector3d p((2.0 * radical_inverse(i, 2) - 1.0) * R,
+                              (2.0 * radical_inverse(i, 3) - 1.0) * R, z0 * radical_inverse(i, 5));
+      const double d = b.signed_distance(p);
+      if (d > 0 || d <= -thickness) continue;
+      shell_[shell_count_++] = p.cast<float>();
+      shell_radius_ = std::max(shell_radius_, p.norm());
+    }
+  }
+  static double radical_inverse(std::uint32_t i, std::uint32_t base) noexcept {
+    const double inv = 1.0 / base;
+    double f = inv, r = 0.0;
+    while (i > 0) {
+      r += f * (i % base);
+      i /= base;
+      f *= inv;
+    }
+    return r;
   }
 
   // Checks the constraint samples at pose (R, x): the active list when every

@@ -82,6 +82,16 @@ Result<SessionSetup> parse_session_header(const std::string& text) {
     if (!cut["sample_jitter"].is_boolean()) return Error{"session header: cut.sample_jitter must be true or false"};
     e.cut.sample_jitter = cut["sample_jitter"].get<bool>();
   }
+  // Optional since session 22 (absent = false).
+  if (cut.contains("overlap")) {
+    if (!cut["overlap"].is_boolean()) return Error{"session header: cut.overlap must be true or false"};
+    e.cut.overlap = cut["overlap"].get<bool>();
+  }
+  if (proxy.contains("shape_constraint")) {
+    if (!proxy["shape_constraint"].is_boolean())
+      return Error{"session header: proxy.shape_constraint must be true or false"};
+    pp.shape_constraint = proxy["shape_constraint"].get<bool>();
+  }
   std::vector<double> wmin, wmax;
   if (!get(dev, "workspace_min_m", wmin, err) || !get(dev, "workspace_max_m", wmax, err))
     return fail();

@@ -23,6 +23,7 @@ struct Press {
   double seconds = 1.0;
   double grid_phase = 0.0;  // surface offset against the voxel grid, in voxels [0, 1)
   double lateral_phase = 0.0;  // bur axis offset against the grid, in voxels
+  bool shape_constraint = false;  // ProxyParams::shape_constraint
 };
 
 struct PressResult {
@@ -33,7 +34,7 @@ struct PressResult {
   double mean_force_N = 0;         // |force| the model returned, second half
   double mean_penetration_mm = 0;  // the model's penetration (proxy - device), second half
   double max_force_N = 0;
-  double mean_overlap_mm3 = 0;     // samples in solid x sample volume, second half: the bur's cutting volume
+  double mean_overlap_mm3 = 0;     // CutResult::overlap_m3 (samples: in solid x sample volume), second half
   bool finite = true;
 };
 
@@ -65,6 +66,7 @@ inline PressResult press(const Press& p, const volume::BurSamples& bur,
   volume::VoxelVolume vol = make_slab(p.voxel_m, p.material, p.grid_phase);
   const DeviceLimits limits{};
   ForceModelParams fp;
+  fp.proxy.shape_constraint = p.shape_constraint;
   auto model = std::move(make_force_model("proxy", fp, limits, mbur.size())).value();
   volume::Cutter cutter(vol, cut);
   const double k = 0.8 * limits.max_stiffness_N_per_m *
@@ -104,7 +106,7 @@ inline PressResult press(const Press& p, const volume::BurSamples& bur,
     if (s >= half) {
       fsum += f;
       psum += out.penetration_m * 1e3;
-      osum += cr.samples_in_solid * bur.sample_volume_m3 * 1e9;
+      osum += cr.overlap_m3 * 1e9;
     }
   }
   const double t2 = (steps - half) * dt;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "cut_rate.h"
+#include "dentar/haptics/engine.h"
 
 namespace dentar::haptics {
 namespace {
@@ -67,6 +68,67 @@ TEST(CutRate, JitteredCutIsDeterministic) {
   cut_rate::Press p;
   p.seconds = 0.2;
   const auto a = cut_rate::press(p, *bur, cut), b = cut_rate::press(p, *bur, cut);
+  EXPECT_EQ(a.removed_mm3, b.removed_mm3);
+  EXPECT_EQ(a.depth_mm, b.depth_mm);
+}
+
+// Session 22: a still bur at 1 N for 0.5 s at the station's 0.1 mm voxels,
+// the bur cut into 1000 and 10000 samples. `pairing`: use_overlap_cut (the
+// overlap cutter and the shape-constrained proxy), else main's sample cutter
+// with the sample jitter (as `dentar live` drilled in session 21).
+double removed_still(volume::Material m, int samples, bool pairing, double* max_force) {
+  auto bur = volume::sample_bur(volume::BurParams::cone(0.4, 0.6, 6.0), samples);
+  EXPECT_TRUE(bur.ok());
+  EngineConfig cfg;
+  cfg.cut.sample_jitter = true;
+  if (pairing) use_overlap_cut(cfg);
+  cut_rate::Press p;
+  p.voxel_m = 0.1e-3;
+  p.material = m;
+  p.force_N = 1.0;
+  p.seconds = 0.5;
+  p.grid_phase = 0.25;
+  p.lateral_phase = 0.5;
+  p.shape_constraint = cfg.model_params.proxy.shape_constraint;
+  const cut_rate::PressResult r = cut_rate::press(p, *bur, cfg.cut);
+  EXPECT_TRUE(r.finite);
+  *max_force = std::max(*max_force, r.max_force_N);
+  return r.removed_mm3;
+}
+
+TEST(CutRate, StillBurRemovesTheSameVolumeAtAnySampleCount) {
+  for (auto m : {volume::Material::kEnamel, volume::Material::kDentin}) {
+    double fmax = 0;
+    const double sparse = removed_still(m, 1000, true, &fmax);
+    const double dense = removed_still(m, 10000, true, &fmax);
+    SCOPED_TRACE(std::string(m == volume::Material::kEnamel ? "enamel" : "dentin") + ": " +
+                 std::to_string(sparse) + " mm3 at 1000 samples, " + std::to_string(dense) + " at 10000");
+    EXPECT_GT(dense, 0.2);  // it cuts (enamel ~0.35 mm3, dentin ~2.5)
+    EXPECT_GT(sparse, 0.85 * dense);
+    EXPECT_LT(sparse, 1.15 * dense);
+    EXPECT_LT(fmax, 3.3);
+  }
+}
+
+TEST(CutRate, MainsSampleCutterCutsFasterWithFewerSamples) {
+  // Documents what the pairing removes (session 21: the proxy sinks into the
+  // holes its own sparse samples cut): 1000 samples remove far more than 10000.
+  double fmax = 0;
+  const double sparse = removed_still(volume::Material::kDentin, 1000, false, &fmax);
+  const double dense = removed_still(volume::Material::kDentin, 10000, false, &fmax);
+  EXPECT_GT(sparse, 1.5 * dense) << sparse << " mm3 at 1000 samples, " << dense << " at 10000";
+}
+
+TEST(CutRate, OverlapCutIsDeterministic) {
+  auto bur = volume::sample_bur(volume::BurParams::cone(0.4, 0.6, 6.0), 1000);
+  ASSERT_TRUE(bur.ok());
+  EngineConfig cfg;
+  use_overlap_cut(cfg);
+  cut_rate::Press p;
+  p.seconds = 0.2;
+  p.shape_constraint = true;
+  const auto a = cut_rate::press(p, *bur, cfg.cut), b = cut_rate::press(p, *bur, cfg.cut);
+  EXPECT_GT(a.removed_mm3, 0.0);
   EXPECT_EQ(a.removed_mm3, b.removed_mm3);
   EXPECT_EQ(a.depth_mm, b.depth_mm);
 }

@@ -164,6 +164,11 @@ std::string LiveOptions::validate() const {
     return "display_texture = \"" + display_texture + "\" must be auto, full or half";
   if (cpu_display_yuyv != "keep" && cpu_display_yuyv != "convert")
     return "cpu_display_yuyv = \"" + cpu_display_yuyv + "\" must be keep or convert";
+  if (bur_samples != 0 && (bur_samples < volume::kMinBurSamples || bur_samples > volume::kMaxBurSamples))
+    return "bur_samples = " + std::to_string(bur_samples) + " must be 0 (the default) or in 1.." +
+           std::to_string(volume::kMaxBurSamples);
+  if (bur_samples != 0 && stylus.rfind("replay:", 0) == 0)
+    return "bur_samples = " + std::to_string(bur_samples) + ": a replayed log keeps its header's bur.samples";
   if (!(std::isfinite(idle_redraw_ms) && idle_redraw_ms >= 0 && idle_redraw_ms <= 1000))
     return "idle_redraw_ms = " + std::to_string(idle_redraw_ms) + " must be in 0..1000 ms (0: redraw at every wake)";
   if (!(std::isfinite(seconds) && seconds >= 0)) return "seconds must be >= 0";
@@ -574,7 +579,9 @@ Result<StylusSetup> lesson_stylus(const LiveOptions& o, const ar::StationScene& 
   if (!t) return Error{"live: --lesson " + o.lesson + ": tooth " + ss.tooth_desc + ": " + t.error()};
   ss.vol.emplace(std::move(*t));
   ss.bur_params = (*lesson)->bur();
-  ss.bur_samples = (*lesson)->bur_samples();
+  ss.bur_samples = o.bur_samples > 0 ? o.bur_samples : (*lesson)->bur_samples();
+  // Lessons drill as live does (session 22): the overlap cutter, sample-count independent.
+  haptics::use_overlap_cut(ss.cfg);
   if (!ss.device) {  // the simulated student
     auto d = session::make_lesson_student(ss.cfg.T_tooth_dev, ss.cfg.T_sty_tip, (*lesson)->expert_start());
     if (!d) return Error{"live: --lesson: " + d.error()};
@@ -608,6 +615,11 @@ Result<StylusSetup> make_stylus(const LiveOptions& o, const ar::StationScene& st
   // sparser than the tooth's voxels stalls when held still (0.000 mm3/s at 0.1 mm voxels with 500
   // samples, docs/BENCHMARKS.md "Haptics session 21"). A replayed log keeps its header's cutter.
   cfg.cut.sample_jitter = true;
+  // Session 22: cut by overlap volume with the shape-constrained proxy, so the cut rate does not
+  // depend on the bur's sample count (the jitter is then unused; docs/BENCHMARKS.md "Haptics
+  // session 22").
+  haptics::use_overlap_cut(cfg);
+  if (o.bur_samples > 0) bur_samples = o.bur_samples;
   cfg.T_tooth_dev = st.calibration.T_tooth_dev();
   cfg.T_sty_tip = st.calibration.T_sty_tip;
   std::string& tooth_desc = ss.tooth_desc;

@@ -13,7 +13,7 @@
 //                                            [--flare-free-deg D] [--flare-deg-per-point S]
 //                                            [--seeds 2,3,4,5] [--bootstrap 2000] [--components 1]
 //                                            [--pulp-full-mm D] [--pulp-min-fraction F] [--leftover 1] [--replay 1]
-//                                            [--taper-reach-full-pct P] [--sample-jitter 0|1]
+//                                            [--taper-reach-full-pct P] [--sample-jitter 0|1] [--overlap-cut 0|1]
 //                                            [--wall-overext-rate R] [--wall-overext-free-mm F] [--wall-overext-pct P]
 //                                            [--dump-walls FILE]
 // --wall-overext-rate R, --wall-overext-free-mm F, --wall-overext-pct P: the access opening's
@@ -272,6 +272,7 @@ int main(int argc, char** argv) {
   int leftover = 0;                 // --leftover 1: where each session left target material and cut past it
   int replay = 0;                   // --replay 1: replay fresh sessions' logs instead of taking the engine's cut
   int sample_jitter = 0;            // --sample-jitter 1: generate with CutParams::sample_jitter (session 21)
+  int overlap_cut = 0;              // --overlap-cut 1: generate with haptics::use_overlap_cut (session 22)
   double pulp_full_mm = -1, pulp_min_fraction = -1;  // --pulp-full-mm, --pulp-min-fraction: graded pulp exposure
   double flare_free = -1, flare_step = -1;  // --flare-free-deg, --flare-deg-per-point: continuous access walls
   if (argc % 2 == 0) {
@@ -310,6 +311,13 @@ int main(int argc, char** argv) {
         return 2;
       }
       sample_jitter = v == "1";
+    }
+    else if (a == "--overlap-cut") {
+      if (v != "0" && v != "1") {
+        std::fprintf(stderr, "score_rank_bench: --overlap-cut %s: expected 0 or 1\n", v.c_str());
+        return 2;
+      }
+      overlap_cut = v == "1";
     }
     else if (a == "--pulp-full-mm") pulp_full_mm = std::atof(v.c_str());
     else if (a == "--pulp-min-fraction") pulp_min_fraction = std::atof(v.c_str());
@@ -449,6 +457,7 @@ int main(int argc, char** argv) {
       co.voxel_mm = voxel_mm;
       co.bur_samples = 500;
       co.sample_jitter = sample_jitter != 0;
+      co.overlap_cut = overlap_cut != 0;
       co.seed = seed * 1000 + static_cast<std::uint64_t>(l);
       const std::string d = sdir + "/" + ex->name + "_" + std::to_string(l);
       const auto t0 = std::chrono::steady_clock::now();

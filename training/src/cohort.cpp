@@ -722,6 +722,7 @@ Result<std::vector<CohortTrial>> generate_cohort(const Exercise& ex, const Cohor
       cfg.T_sty_tip = station.T_sty_tip;
       cfg.try_realtime = false;
       cfg.cut.sample_jitter = opt.sample_jitter;
+      if (opt.overlap_cut) haptics::use_overlap_cut(cfg);
       std::string header;
       {
         auto probe = haptics::Engine::create(cfg, **dev, vol, *bur, nullptr);

@@ -45,6 +45,11 @@ CutResult Cutter::step(const BurSamples& bur, const Eigen::Isometry3d& T_tooth_t
   if (!std::isfinite(force_N) || !std::isfinite(dt_s) || dt_s <= 0 ||
       !T_tooth_tip.matrix().allFinite())
     return res;
+  if (params_.overlap) {
+    const double f = std::min(force_N, params_.max_effective_force_N);
+    const bool cutting = f >= params_.min_force_N && f > 0;
+    return step_overlap(bur.params, T_tooth_tip, f, cutting, dt_s, step_index);
+  }
 
   const VolumeGeometry& g = vol_->geometry();
   // Map tip-frame metres straight to continuous voxel coordinates:
@@ -103,6 +108,7 @@ CutResult Cutter::step(const BurSamples& bur, const Eigen::Isometry3d& T_tooth_t
     std::uint8_t& d = c->density[li];
     if (mat == 0 || d == 0) continue;
     ++res.samples_in_solid;
+    res.overlap_m3 += bur.sample_volume_m3;
     if (mat == static_cast<std::uint8_t>(Material::kPulp)) {
       res.touched_pulp = true;
       if (cutting && !exposure_)
@@ -122,6 +128,125 @@ CutResult Cutter::step(const BurSamples& bur, const Eigen::Isometry3d& T_tooth_t
     // A changed voxel moves vertices of cells down to lo-1 and, through the
     // gradient, normals of cells down to lo-2 and up to hi+1.
     vol_->mark_dirty_box(lo - Eigen::Vector3i::Constant(2), hi + Eigen::Vector3i::Constant(1));
+    for (int m = 0; m < kMaxMaterials; ++m)
+      removed_total_[static_cast<std::size_t>(m)] += res.removed[static_cast<std::size_t>(m)];
+  }
+  return res;
+}
+
+// The overlap cutter. Visits the voxels whose centre lies within half a voxel
+// of the bur (coarse to fine: 16^3 chunks, then 4^3 blocks, each skipped when
+// the bur's signed distance at its centre proves it is out of reach, or taken
+// whole when it proves it is inside), and lowers each solid voxel's density by
+// share x base_rate x force factor x material rate x dt, share = the part of
+// the voxel inside the bur (linear in the signed distance across one voxel:
+// exact for a plane through the voxel along an axis, and the shares of a
+// voxel grid sum to the bur's volume). No sample is involved, so the count the
+// bur is sampled at does not change what it removes.
+CutResult Cutter::step_overlap(const BurParams& bp, const Eigen::Isometry3d& T_tooth_tip,
+                               double f, bool cutting, double dt_s,
+                               std::uint64_t step_index) noexcept {
+  CutResult res;
+  const VolumeGeometry& g = vol_->geometry();
+  const double h = std::cbrt(vol_->voxel_volume_m3());
+  const double inv_h = 1.0 / h;
+  // Tip-frame position of voxel (i, j, k)'s centre: c0 + i ax + j ay + k az.
+  const Eigen::Matrix3d Rt = T_tooth_tip.linear().transpose();
+  const Eigen::Vector3d c0 = Rt * (g.origin - T_tooth_tip.translation());
+  const Eigen::Vector3d ax = Rt.col(0) * g.spacing.x(), ay = Rt.col(1) * g.spacing.y(),
+                        az = Rt.col(2) * g.spacing.z();
+
+  // Voxel index range: centres within 0.5 h of the bur's tip-frame box.
+  const double r = bp.radius_m + 0.5 * h;
+  const double z_lo = -(bp.shape == BurShape::kSphere ? 2.0 * bp.radius_m : bp.length_m) - 0.5 * h;
+  const double z_hi = 0.5 * h;
+  Eigen::Vector3d vmin = Eigen::Vector3d::Constant(1e300), vmax = Eigen::Vector3d::Constant(-1e300);
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d p_tip((c & 1) ? r : -r, (c & 2) ? r : -r, (c & 4) ? z_hi : z_lo);
+    const Eigen::Vector3d v =
+        (T_tooth_tip * p_tip - g.origin).cwiseQuotient(g.spacing);  // continuous voxel index
+    vmin = vmin.cwiseMin(v);
+    vmax = vmax.cwiseMax(v);
+  }
+  Eigen::Vector3i lo, hi;
+  for (int a = 0; a < 3; ++a) {
+    lo(a) = std::max(0, static_cast<int>(std::ceil(vmin(a))));
+    hi(a) = std::min(g.dims(a) - 1, static_cast<int>(std::floor(vmax(a))));
+    if (lo(a) > hi(a)) return res;
+  }
+
+  // Density units a voxel wholly inside the bur loses this step, per material,
+  // 16 fractional bits.
+  std::array<double, kMaxMaterials> amount_fx{};
+  if (cutting)
+    for (int m = 1; m < kMaxMaterials; ++m)
+      amount_fx[static_cast<std::size_t>(m)] =
+          std::min(params_.base_rate_per_s * (f / params_.reference_force_N) * dt_s *
+                       material_info(m).removal_rate * 65536.0,
+                   255.0 * 65536.0);
+  const double voxel_m3 = vol_->voxel_volume_m3();
+  const double chunk_reach = 0.5 * h + 0.5 * (15.0 * g.spacing).norm();
+  const double block_reach = 0.5 * h + 0.5 * (3.0 * g.spacing).norm();
+  const std::uint32_t step_phase = static_cast<std::uint32_t>(step_index) * 0x632BE5ABu;
+  Eigen::Vector3i clo(g.dims), chi(-1, -1, -1);
+
+  for (int ck = lo.z() >> 4; ck <= hi.z() >> 4; ++ck)
+    for (int cj = lo.y() >> 4; cj <= hi.y() >> 4; ++cj)
+      for (int ci = lo.x() >> 4; ci <= hi.x() >> 4; ++ci) {
+        const int cid = vol_->chunk_id(ci, cj, ck);
+        VoxelVolume::Chunk* c = vol_->chunk(cid);
+        if (!c) continue;  // absent chunk: all air
+        const Eigen::Vector3d cc = c0 + (16.0 * ci + 7.5) * ax + (16.0 * cj + 7.5) * ay + (16.0 * ck + 7.5) * az;
+        if (bp.signed_distance(cc) >= chunk_reach) continue;
+        for (int bk = 0; bk < 16; bk += 4)
+          for (int bj = 0; bj < 16; bj += 4)
+            for (int bi = 0; bi < 16; bi += 4) {
+              const int i0 = std::max(16 * ci + bi, lo.x()), i1 = std::min(16 * ci + bi + 3, hi.x());
+              const int j0 = std::max(16 * cj + bj, lo.y()), j1 = std::min(16 * cj + bj + 3, hi.y());
+              const int k0 = std::max(16 * ck + bk, lo.z()), k1 = std::min(16 * ck + bk + 3, hi.z());
+              if (i0 > i1 || j0 > j1 || k0 > k1) continue;
+              const Eigen::Vector3d bc = c0 + (16.0 * ci + bi + 1.5) * ax +
+                                         (16.0 * cj + bj + 1.5) * ay + (16.0 * ck + bk + 1.5) * az;
+              const double bd = bp.signed_distance(bc);
+              if (bd >= block_reach) continue;
+              const bool whole = bd <= -block_reach;  // every voxel wholly inside
+              for (int k = k0; k <= k1; ++k)
+                for (int j = j0; j <= j1; ++j)
+                  for (int i = i0; i <= i1; ++i) {
+                    const auto li = static_cast<std::size_t>(chunk_local_index(i & 15, j & 15, k & 15));
+                    const std::uint8_t mat = c->material[li];
+                    std::uint8_t& d = c->density[li];
+                    if (mat == 0 || d == 0) continue;
+                    double share = 1.0;
+                    if (!whole) {
+                      const double sd = bp.signed_distance(c0 + i * ax + j * ay + k * az);
+                      share = std::clamp(0.5 - sd * inv_h, 0.0, 1.0);
+                      if (share <= 0.0) continue;
+                    }
+                    ++res.samples_in_solid;
+                    res.overlap_m3 += share * voxel_m3;
+                    if (mat == static_cast<std::uint8_t>(Material::kPulp)) {
+                      res.touched_pulp = true;
+                      if (cutting && !exposure_)
+                        exposure_ = PulpExposure{step_index, vol_->voxel_center(i, j, k)};
+                    }
+                    const std::uint32_t dither =
+                        (static_cast<std::uint32_t>(li) * 0x9E3779B9u +
+                         static_cast<std::uint32_t>(cid) * 0x85EBCA6Bu + step_phase) >> 16;
+                    const std::uint32_t units =
+                        (static_cast<std::uint32_t>(amount_fx[mat & (kMaxMaterials - 1)] * share) + dither) >> 16;
+                    if (units == 0) continue;
+                    const std::uint8_t removed = static_cast<std::uint8_t>(std::min<std::uint32_t>(units, d));
+                    d = static_cast<std::uint8_t>(d - removed);
+                    if (d == 0) c->material[li] = 0;
+                    res.removed[mat & (kMaxMaterials - 1)] += removed;
+                    clo = clo.cwiseMin(Eigen::Vector3i(i, j, k));
+                    chi = chi.cwiseMax(Eigen::Vector3i(i, j, k));
+                  }
+            }
+      }
+  if (chi.x() >= 0) {
+    vol_->mark_dirty_box(clo - Eigen::Vector3i::Constant(2), chi + Eigen::Vector3i::Constant(1));
     for (int m = 0; m < kMaxMaterials; ++m)
       removed_total_[static_cast<std::size_t>(m)] += res.removed[static_cast<std::size_t>(m)];
   }

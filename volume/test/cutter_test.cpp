@@ -112,6 +112,43 @@ TEST(Cutter, MarksDirtyEveryChunkWhoseSurfaceMayChange) {
   for (int id : ids) EXPECT_LE(v.chunk_coords(id).x(), 1);
 }
 
+// Session 22: the overlap cutter removes from each voxel the bur's share of it,
+// so a still bur removes what the densest sample cutter removes (30000
+// samples, no proxy here), and a bur wholly inside solid removes its own volume.
+TEST(Cutter, OverlapCutRemovesTheBursShareOfEachVoxel) {
+  auto many = sample_bur(BurParams::sphere(0.8), 30000), few = sample_bur(BurParams::sphere(0.8), 10);
+  ASSERT_TRUE(many.ok() && few.ok());
+  CutParams slow;
+  slow.base_rate_per_s = 1000.0;
+  CutParams over = slow;
+  over.overlap = true;
+  VoxelVolume a = block(Material::kDentin), b = block(Material::kDentin), c = block(Material::kDentin);
+  Cutter ca(a, slow), cb(b, over), cc(c, over);
+  std::uint64_t ra = 0, rb = 0, rc = 0;
+  for (int s = 0; s < 30; ++s) {
+    const Eigen::Isometry3d T = pose_down({3.23e-3, 3.17e-3, 4.27e-3});
+    ra += ca.step(*many, T, 1.0, 1e-3).total_removed();
+    rb += cb.step(*many, T, 1.0, 1e-3).total_removed();
+    rc += cc.step(*few, T, 1.0, 1e-3).total_removed();
+  }
+  ASSERT_GT(ra, 0u);
+  EXPECT_NEAR(static_cast<double>(rb) / static_cast<double>(ra), 1.0, 0.03);
+  EXPECT_EQ(rb, rc);  // the sample count plays no part
+  EXPECT_EQ(a.content_hash() == b.content_hash(), false);  // different cutters, same amount
+
+  // Wholly inside (sphere centre 2 mm below the surface): 1000 units/s x 10 ms
+  // = 10 units from every voxel of the sphere's 2.14 mm^3.
+  VoxelVolume d = block(Material::kDentin);
+  Cutter cd(d, over);
+  std::uint64_t rd = 0;
+  for (int s = 0; s < 10; ++s) rd += cd.step(*few, pose_down({3.2e-3, 3.2e-3, 2.0e-3}), 1.0, 1e-3).total_removed();
+  const double sphere_voxels = 4.0 / 3.0 * M_PI * 0.8 * 0.8 * 0.8 / 1e-3;  // mm^3 / (0.1 mm)^3
+  EXPECT_NEAR(static_cast<double>(rd) / (10.0 * sphere_voxels), 1.0, 0.03);
+  const double full = material_info(Material::kDentin).full_density;
+  const double sphere_mm3 = 4.0 / 3.0 * M_PI * 0.512;
+  EXPECT_NEAR(cd.metrics().removed_total_mm3 / (10.0 / full * sphere_mm3), 1.0, 0.03);
+}
+
 TEST(Cutter, DeterministicBitIdenticalVolumeForTheSameSequence) {
   MolarParams p;
   p.voxel_mm = 0.15;

@@ -63,6 +63,16 @@ struct EngineConfig {
   std::string validate() const;  // empty when valid, else names the field
 };
 
+// The session-22 cutter/proxy pairing, the same for every sample count: cut by
+// overlap volume (volume::CutParams::overlap) at kOverlapBaseRatePerS, and
+// constrain the proxy with the bur's shape (ProxyParams::shape_constraint).
+inline void use_overlap_cut(EngineConfig& cfg) {
+  cfg.cut.overlap = true;
+  cfg.cut.base_rate_per_s = volume::kOverlapBaseRatePerS;
+  cfg.model_params.proxy.shape_constraint = true;
+}
+
+
 // What graphics reads (lock-free). Plain data.
 struct HapticSnapshot {
   std::uint64_t step = 0;        // index of the step that published this (0-based)

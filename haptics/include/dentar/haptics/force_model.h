@@ -80,6 +80,14 @@ struct ProxyParams {
   double stiffness_N_per_m = 0.0;  // 0: 0.8 x the device's max stable stiffness; never above it
   double damping_N_s_per_m = 1.5;  // on the device-proxy relative velocity, in contact only
   double max_cut_depth_m = 1e-4;   // how far past the proxy the cutter may reach
+  // Constrain with a shell sampled from the bur's shape (its signed distance,
+  // up to 2048 points within half a voxel of the surface, the same whatever
+  // the bur's sample count) instead of with the bur's own samples. With the
+  // own samples a sparse bur's constraint has gaps the solid reaches into,
+  // so the proxy sinks deeper and cuts faster the fewer samples the bur has
+  // (docs/BENCHMARKS.md, "Haptics session 21/22"). Pairs with
+  // volume::CutParams::overlap. Off by default here (sessions so far).
+  bool shape_constraint = false;
   // Largest proxy move per substep, in voxels (< 0.5 so it cannot step over
   // a one-voxel wall), and substeps per haptic step.
   double max_substep_voxels = 0.25;

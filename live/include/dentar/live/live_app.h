@@ -62,6 +62,10 @@ struct LiveOptions {
   // ar::FrameInput::keep_yuyv) or "convert" (the whole frame converted to BGR, as before session
   // 20: the bench's A/B arm). Was the environment variable DENTAR_KEEP_YUYV=0|1.
   std::string cpu_display_yuyv = "keep";
+  // The bur's sample count (--bur-samples, session 22): 0 = the default (10000, or a lesson's
+  // own count); else 1..100000 (volume::kMaxBurSamples). With the overlap cutter the count
+  // changes only the seed force model and the header, not the cut. A replayed log keeps its own.
+  int bur_samples = 0;
   // Stereo (issue 28): the station's rig ("stereo") tracks from both eyes (StereoTracker), the
   // window shows the left eye. camera_right: the right eye's camera (two cameras; `camera` is
   // the left), one size and rate as the left; side_by_side: `camera` delivers both eyes in one

@@ -77,6 +77,9 @@ struct CohortOptions {
   int bur_samples = 1000;
   // The cutter's CutParams::sample_jitter for the generated sessions (off: the cohorts so far).
   bool sample_jitter = false;
+  // Session 22: cut by overlap volume with the shape-constrained proxy (haptics::use_overlap_cut),
+  // so the generated sessions cut the same whatever bur_samples is.
+  bool overlap_cut = false;
   // Called after each engine session (not with kinematics_only) with the tooth as the engine
   // left it: the cut a replay of the session's log gives (the same voxels, shown on the score
   // rank bench's seeds), so a caller that scores sessions need not replay them. Runs on the

@@ -16,6 +16,13 @@
 
 namespace dentar::volume {
 
+// base_rate_per_s for the overlap cutter (CutParams::overlap), calibrated so
+// that the exercise's cone bur held still at 1 N cuts a 0.15 mm block as fast
+// as the sample cutter with the cohorts' 1000 samples did (haptics_cut_rate_bench:
+// dentin 7.03 against 6.91 mm3/s, enamel 0.892 against 0.896; at 6000 the
+// overlap cutter gives 3.28 / 0.377; docs/BENCHMARKS.md "Haptics session 22").
+inline constexpr double kOverlapBaseRatePerS = 11000.0;
+
 struct CutParams {
   // Density units (0..255) removed per second from a voxel fully under the
   // bur, for a material of removal_rate 1 (dentin) at the reference force.
@@ -34,6 +41,15 @@ struct CutParams {
   // (docs/BENCHMARKS.md, "Haptics session 20 - cut rate against voxel size").
   // Off by default: the sessions generated so far were cut without it.
   bool sample_jitter = false;
+  // Cut by overlap volume instead of by samples: every voxel the bur overlaps
+  // loses base_rate x (its share inside the bur) x material rate x force
+  // factor, the share estimated from the bur's exact signed distance at the
+  // voxel centre (clamp(0.5 - d / h, 0, 1), h = cbrt(voxel volume)). The
+  // removal is then a property of the bur's shape and the force, not of how
+  // many samples stand for it (docs/BENCHMARKS.md, "Haptics session 22").
+  // sample_jitter is ignored when on. Off by default here: CutParams{} keeps
+  // the sample cutter for code that has not chosen.
+  bool overlap = false;
 
   std::string validate() const;
 };
@@ -42,8 +58,9 @@ struct CutParams {
 // 255 and multiply by the voxel volume for a volume.
 struct CutResult {
   std::array<std::uint32_t, kMaxMaterials> removed{};  // density units per material
-  std::uint32_t samples_in_solid = 0;  // samples that landed in non-air voxels
-  bool touched_pulp = false;           // a sample landed in a pulp voxel
+  std::uint32_t samples_in_solid = 0;  // samples (overlap: voxels) that landed in non-air voxels
+  bool touched_pulp = false;           // a sample (overlap: an overlapped voxel) is pulp
+  double overlap_m3 = 0.0;  // bur volume inside non-air voxels this step (samples: count x sample volume)
   std::uint64_t total_removed() const;
 };
 
@@ -76,6 +93,9 @@ class Cutter {
   CutMetrics metrics() const;
 
  private:
+  CutResult step_overlap(const BurParams& bur, const Eigen::Isometry3d& T_tooth_tip, double f,
+                         bool cutting, double dt_s, std::uint64_t step_index) noexcept;
+
   VoxelVolume* vol_;
   CutParams params_;
   std::uint64_t step_ = 0;
