@@ -36,7 +36,10 @@ std::string fmt(double x, int prec = 2) {
   os.setf(std::ios::fixed);
   os.precision(prec);
   os << x;
-  return os.str();
+  std::string r = os.str();
+  // A value that rounds to zero prints as 0, not -0.0 (a wall at -0.04 deg read "-0.0 deg").
+  if (r.size() > 1 && r[0] == '-' && r.find_first_not_of("0.", 1) == std::string::npos) r.erase(0, 1);
+  return r;
 }
 
 // The p-th percentile (0..100) of v, linear between the order statistics (0 for no values).
