@@ -430,30 +430,41 @@ TEST_P(LiveSignal, StopsCleanlyAndRecordingReplays) {
   const fs::path c = clip();
   const fs::path t = dentar::test::temp_dir(sig == SIGINT ? "live_sigint" : "live_sigterm");
   const fs::path rec = t / "rec";
-  // xvfb-run forwards nothing: start Xvfb ourselves and signal dentar itself.
-  const std::string disp = sig == SIGINT ? ":91" : ":92";
+  // xvfb-run forwards nothing: start Xvfb ourselves and signal dentar itself. Xvfb picks a free
+  // display and writes its number once it accepts connections (-displayfd): a fixed number
+  // collided with any other X server on it, and a fixed 0.7 s sleep was a guess at a loaded
+  // machine's start-up.
+  int dfd[2];
+  ASSERT_EQ(pipe(dfd), 0);
   pid_t xpid = 0;
   {
-    std::vector<std::string> a = {"Xvfb", disp, "-screen", "0", "1280x1024x24", "-nolisten", "tcp"};
+    std::vector<std::string> a = {"Xvfb", "-displayfd", std::to_string(dfd[1]), "-screen", "0", "1280x1024x24",
+                                  "-nolisten", "tcp"};
     std::vector<char*> argv;
     for (auto& s : a) argv.push_back(s.data());
     argv.push_back(nullptr);
     ASSERT_EQ(posix_spawnp(&xpid, "Xvfb", nullptr, nullptr, argv.data(), environ), 0);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  close(dfd[1]);
+  std::string disp = ":";
+  for (char ch; read(dfd[0], &ch, 1) == 1 && ch != '\n';) disp += ch;  // EOF: Xvfb exited
+  close(dfd[0]);
+  ASSERT_GT(disp.size(), 1u) << "Xvfb wrote no display number (it exited)";
   pid_t pid = 0;
   {
     setenv("DISPLAY", disp.c_str(), 1);
     std::vector<std::string> a = {kBin, "live", "--camera", "live:" + (c / "video.mkv").string(), "--station",
                                   (c / "station.json").string(), "--stylus", "replay:" + (c / "session.dlog").string(),
-                                  "--record", rec.string(), "--quiet"};
+                                  "--record", rec.string(), "--quiet", "--loop"};
     std::vector<char*> argv;
     for (auto& s : a) argv.push_back(s.data());
     argv.push_back(nullptr);
     ASSERT_EQ(posix_spawn(&pid, kBin.c_str(), nullptr, nullptr, argv.data(), environ), 0);
   }
   // Mid-run: once a few frames are recorded (a loaded machine takes longer
-  // to set up), at most 30 s.
+  // to set up), at most 30 s. The footage loops, so only the signal ends the run: played once,
+  // the 2 s clip (real-time paced from the camera's start, as a camera) could end before the
+  // window and pipeline were up on a loaded machine ("footage ended", session 22 at load 20-30).
   for (int i = 0; i < 300; ++i) {
     std::ifstream f(rec / "frames.csv");
     int lines = 0;
