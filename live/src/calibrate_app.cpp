@@ -792,7 +792,7 @@ class StepRun {
       if (s.valid && (s.buttons & ~last_buttons) != 0) take = true;
       last_buttons = s.valid ? s.buttons : 0;
       if (step == "camera") camera_tick(take);
-      else if (step == "pivot") pivot_tick(take, fresh);
+      else if (step == "pivot") pivot_tick(take, fresh, s.valid ? s.t_s : -1e300);
       else touch_tick(take, fresh, now);
       draw_hud(s, now);
       const cv::Mat px = win.end_frame(step_done && !o.screenshot_dir.empty());
@@ -836,15 +836,21 @@ class StepRun {
     if (cam->done()) step_done = true;
   }
 
-  void pivot_tick(bool take, const std::vector<Poller::Sample>& fresh) {
+  // `newest_s`: the device time of the newest sample when the press was seen. Session 23: the
+  // poses are collected from it on. `fresh` holds every sample since the window's last pass (up
+  // to 3 s): on a loaded machine a pass came seconds after the last, and the poses of the stylus
+  // still arriving at the divot before the press went into the fit; the tip was never known to
+  // 0.2 mm and the step never ended (CI at load 28: pivot not passed in 400 s).
+  void pivot_tick(bool take, const std::vector<Poller::Sample>& fresh, double newest_s) {
     if (take) {  // the tip is seated: (re)start collecting
       pivot = cal::LivePivot();
       collecting = true;
+      collect_from_s = newest_s;
       say("pivot: collecting poses");
     }
     if (collecting)
       for (const auto& x : fresh)
-        if (x.valid) pivot.add(x.T_dev_sty);
+        if (x.valid && x.t_s >= collect_from_s) pivot.add(x.T_dev_sty);
     if (pivot.done()) step_done = true;
   }
 
@@ -1180,6 +1186,7 @@ class StepRun {
   Plan plan;
   cal::LivePivot pivot;
   bool collecting = false;
+  double collect_from_s = -1e300;  // pivot: device time of the press (poses from it on)
   std::string what;
   cal::LiveTouches touches{"", 0};
   std::vector<Eigen::Vector3d> mirror_mtag;  // mirror: the touches in the mirror tag's frame
