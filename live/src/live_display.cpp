@@ -498,7 +498,10 @@ class DisplayLoop {
         const int e = sw.eyes;
         const bool earlier = sw.kind == EyeSwitchKind::kRightLost && unpaired_from_s_ == sw.from_s;
         sum_.eye_switches.push_back({eye_switch_what(sw.kind, c_.o.camera, c_.o.camera_right),
-                                     e == ar::FrameRecord::kEyesBoth ? "both" : e == ar::FrameRecord::kEyesLeft ? "left" : "right",
+                                     e == ar::FrameRecord::kEyesBoth   ? "both"
+                                     : e == ar::FrameRecord::kEyesLeft ? "left"
+                                     : e == ar::FrameRecord::kEyesRight ? "right"
+                                                                        : "none",  // kEyesNone: neither camera
                                      sw.from_s <= 0 ? -1.0  // no capture time to time it from: listed, not timed
                                                     : ((earlier ? unpaired_swap_s_ : t_swap) - sw.from_s) * 1e3,
                                      earlier ? unpaired_frame_ms_ : (t_swap - cur_.steady_s) * 1e3});

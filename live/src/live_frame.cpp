@@ -291,14 +291,45 @@ class FrameThread {
     if (c_.o.camera_right.empty()) return;
     using FR = ar::FrameRecord;
     const int mode = left_lost_ ? FR::kEyesRight : right_silent_ ? FR::kEyesLeft : FR::kEyesBoth;
-    if (mode != mode_) {
-      const EyeSwitchTimes t{left_last_s_, left_back_s_, right_silent_from_s_,
-                             right_first_back_s_ > 0 ? right_first_back_s_ : right_pair_s_};
+    // Session 23: the right eye alone (the left camera lost) and its camera silent and back in
+    // between (a silence begun after the left camera's last frame, not yet seen): neither camera
+    // delivered, then the right one again; the mode is the same, the right camera's loss and
+    // return are switches (eye_switches_between's right_gap) and the return a recovery.
+    bool right_gap = false;
+    double gap_last_s = 0, gap_back_s = 0;
+    if (const ar::CaptureThread* rc = sh_.capture_right.load();
+        rc != nullptr && mode == FR::kEyesRight && mode_ == FR::kEyesRight && right_only_) {
+      const ar::CaptureThread::Silence sil = rc->last_silence();
+      if (sil.first_after_s > right_gap_seen_s_ && sil.last_before_s >= left_last_s_) {
+        right_gap = true;
+        gap_last_s = sil.last_before_s;
+        gap_back_s = sil.first_after_s;
+        right_gap_seen_s_ = sil.first_after_s;
+      }
+    }
+    if (mode != mode_ || right_gap) {
+      const EyeSwitchTimes t{left_last_s_, left_back_s_, right_gap ? gap_last_s : right_silent_from_s_,
+                             right_gap ? gap_back_s
+                                       : right_first_back_s_ > 0 ? right_first_back_s_ : right_pair_s_};
       const int first = pending_switches_.size();
-      eye_switches_between(mode_, mode, t, pending_switches_);
+      eye_switches_between(mode_, mode, t, pending_switches_, right_gap);
+      // Every right camera's return is a recovery (the summary's recoveries: its "right camera
+      // back" switches). Pairs again (eyes both) are timed in count_fallback, with the
+      // composite; a return to the right eye alone here.
+      const int back = right_camera_returns(pending_switches_, first);
+      fig_.stereo_recoveries += back;
+      if (back > 0 && mode == FR::kEyesRight) {
+        fig_.stereo_recovery_ms_max = std::max(fig_.stereo_recovery_ms_max, (ar::steady_now_s() - t.right_back_s) * 1e3);
+        right_was_silent_ = false;
+        right_back_s_ = 0;
+      }
       for (int i = first; i < pending_switches_.size(); ++i) {  // the left camera's are said where found
         const EyeSwitchEvent& e = pending_switches_[i];
-        if (e.kind == EyeSwitchKind::kRightLost)
+        if (e.kind == EyeSwitchKind::kRightLost && right_gap)
+          say_eye(eye_switch_what(e.kind, c_.o.camera, c_.o.camera_right) + ": no frame for " +
+                  std::to_string(std::lround((gap_back_s - gap_last_s) * 1e3)) +
+                  " ms while the left camera (" + c_.o.camera + ") was lost: neither camera delivered");
+        else if (e.kind == EyeSwitchKind::kRightLost)
           say_eye(eye_switch_what(e.kind, c_.o.camera, c_.o.camera_right) + ": no frame for " +
                   std::to_string(std::lround((ar::steady_now_s() - right_silent_from_s_) * 1e3)) +
                   " ms; tracking and drawing from the left eye (" + c_.o.camera + ") alone until it returns");
@@ -344,8 +375,7 @@ class FrameThread {
     // camera's return or a slow loop (right frames taken > 0.1 s apart) is no right-eye return.
     if (eyes == ar::FrameRecord::kEyesBoth && prev_eyes_ == ar::FrameRecord::kEyesLeft && right_back_s_ > 0 &&
         right_was_silent_) {
-      right_was_silent_ = false;
-      ++fig_.stereo_recoveries;
+      right_was_silent_ = false;  // counted with its "right camera back" switch (note_switch)
       fig_.stereo_recovery_ms_max = std::max(fig_.stereo_recovery_ms_max, (now - right_back_s_) * 1e3);
       right_back_s_ = 0;  // counted: a later unpaired frame and pair is no second return
     }
@@ -574,6 +604,7 @@ class FrameThread {
   bool right_silent_ = false;                     // pair_right: the right camera silent (lost)
   bool right_was_silent_ = false;                 // ... since the last recovery counted
   double right_silent_from_s_ = 0, right_first_back_s_ = 0;  // its last frame; its first after a silence
+  double right_gap_seen_s_ = 0;  // the right camera's last silence while the left was lost, seen (its end)
   int mode_ = ar::FrameRecord::kEyesBoth;         // note_switch: the cameras delivering (kEyes*)
   EyeSwitchQueue pending_switches_;  // switches not yet drawn in their mode
   EyeSwitchQueue frame_switches_;    // this frame's, for the window (hand_over)

@@ -80,8 +80,19 @@ struct EyeSwitchTimes {
   double left_last_s = 0, left_back_s = 0;    // the left camera's last frame before its loss; its first back
   double right_last_s = 0, right_back_s = 0;  // the same for the right camera
 };
-inline int eye_switches_between(int from, int to, const EyeSwitchTimes& t, EyeSwitchQueue& out) {
+// Session 23: `right_gap`, with the mode the right eye alone before and after (from == to ==
+// kEyesRight): the right camera went silent and came back while the left one was lost (no camera
+// delivered between). That is two switches too: the right camera lost (eyes kEyesNone: neither
+// camera delivers) and back (eyes right alone), timed from t.right_last_s and t.right_back_s.
+constexpr int kEyesNone = 0;
+inline int eye_switches_between(int from, int to, const EyeSwitchTimes& t, EyeSwitchQueue& out,
+                                bool right_gap = false) {
   constexpr int kLeft = 1, kRight = 2;  // ar::FrameRecord::kEyesLeft / kEyesRight
+  if (from == kRight && to == kRight && right_gap) {
+    int n = out.push({EyeSwitchKind::kRightLost, kEyesNone, t.right_last_s});
+    n += out.push({EyeSwitchKind::kRightBack, kRight, t.right_back_s});
+    return n;
+  }
   if (from == to) return 0;
   const bool left_was_lost = from == kRight, left_lost = to == kRight;
   const bool right_was_lost = from == kLeft, right_lost = to == kLeft;
@@ -90,6 +101,15 @@ inline int eye_switches_between(int from, int to, const EyeSwitchTimes& t, EyeSw
   if (left_was_lost && !left_lost) n += out.push({EyeSwitchKind::kLeftBack, to, t.left_back_s});
   if (!right_was_lost && right_lost) n += out.push({EyeSwitchKind::kRightLost, to, t.right_last_s});
   if (!left_was_lost && left_lost) n += out.push({EyeSwitchKind::kLeftLost, to, t.left_last_s});
+  return n;
+}
+
+// The summary's stereo.recoveries (session 23): the right camera's returns, each "right camera
+// back" switch among q[first..]: pairs again (eyes both), or the right eye alone while the left
+// camera is lost (eyes right; until session 22 these were listed as switches but not counted).
+inline int right_camera_returns(const EyeSwitchQueue& q, int first = 0) {
+  int n = 0;
+  for (int i = first; i < q.size(); ++i) n += q[i].kind == EyeSwitchKind::kRightBack ? 1 : 0;
   return n;
 }
 
