@@ -178,8 +178,14 @@ TEST(StyleCohort, SkillLdaScalesByTheWithinClassSdAndBeatsChance) {
     for (const auto& f : v) ss += (f - m).cwiseAbs2();
   }
   const Eigen::VectorXd within = (ss / (16.0 - 2.0)).cwiseSqrt();
-  for (Eigen::Index k = 0; k < nf; ++k)
-    if (within(k) > 1e-12) EXPECT_NEAR(model->scaler.std(k), within(k), 1e-9 * std::max(1.0, within(k))) << k;
+  // A feature constant within both classes carries nothing: the scaler keeps it at 1 (no
+  // division by zero); every other feature is scaled by its pooled within-class spread.
+  for (Eigen::Index k = 0; k < nf; ++k) {
+    if (within(k) > 1e-12)
+      EXPECT_NEAR(model->scaler.std(k), within(k), 1e-9 * std::max(1.0, within(k))) << k;
+    else
+      EXPECT_EQ(model->scaler.std(k), 1.0) << "feature " << k << " is constant within the classes";
+  }
   auto r = cross_validate(c.trials, c.names, o, CvMode::kSubject);
   ASSERT_TRUE(r.ok()) << r.error();
   std::cerr << "skill-lda, leave one person out: " << r->correct << "/" << r->n << "\n";
