@@ -186,16 +186,26 @@ TEST(LiveXvfb, WindowMatchesOfflineAndRecordingReplays) {
     // A pose the engine had made when the frame was drawn (the newest is haptic_steps - 1), and
     // on some frames an older one than the newest (33 steps at 1 kHz; fewer when the loaded
     // engine misses deadlines, so no number is asserted).
-    int drawn_at_exposure = 0, older = 0;
+    // Session 23: an older pose can only be seen while the engine still steps. The replayed
+    // session is 2 s from the engine's start; at load 23 the pipeline came up after it had
+    // ended (haptic_steps 1967 from the second frame on, every pose the last one): counted, and
+    // the check holds on the frames processed while it stepped.
+    double h_last = 0;
+    for (std::size_t i = 1; i < lr.size(); ++i) h_last = std::max(h_last, std::stod(lr[i][hs]));
+    int drawn_at_exposure = 0, older = 0, while_stepping = 0;
     for (std::size_t i = 1; i < lr.size(); ++i) {
       const double p = std::stod(lr[i][ps]), h = std::stod(lr[i][hs]);
       if (p < 0) continue;
       ++drawn_at_exposure;
       EXPECT_LE(p, h - 1) << "row " << i;
       if (p < h - 2) ++older;
+      if (h < h_last) ++while_stepping;
     }
     EXPECT_GT(drawn_at_exposure, static_cast<int>(lr.size()) / 2);
-    EXPECT_GT(older, 0);
+    std::printf("[ poses ] %d frames drawn at exposure, %d while the replay stepped, %d of them an older pose\n",
+                drawn_at_exposure, while_stepping, older);
+    EXPECT_TRUE(older > 0 || while_stepping == 0)
+        << "frames drawn while the engine stepped, none with a pose older than the newest";
   }
 
   // The window showed the composite of frame k (the first of 8..16 shown): compare with the
@@ -473,10 +483,22 @@ TEST_P(LiveSignal, StopsCleanlyAndRecordingReplays) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   kill(pid, sig);
+  // The footage loops: only the signal ends the run. Bounded: a run that ignores it is killed
+  // and named (finalising the recording is real work, so the bound is generous for a loaded
+  // machine; quiet it takes well under a second).
   int status = 0;
-  waitpid(pid, &status, 0);
+  bool exited = false;
+  for (int i = 0; i < 1200 && !exited; ++i) {
+    exited = waitpid(pid, &status, WNOHANG) == pid;
+    if (!exited) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (!exited) {
+    kill(pid, SIGKILL);
+    waitpid(pid, &status, 0);
+  }
   kill(xpid, SIGTERM);
   waitpid(xpid, nullptr, 0);
+  ASSERT_TRUE(exited) << "dentar live was still running 120 s after the signal (killed)";
   ASSERT_TRUE(WIFEXITED(status)) << "dentar live did not exit by itself after the signal";
   EXPECT_EQ(WEXITSTATUS(status), 0);
   const auto meta = read_json(rec / "recording.json");
