@@ -1170,10 +1170,6 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     double access_zone = 0;
     for (const auto& R : ex.regions)
       if (R.role == RegionRole::kTarget) access_zone = std::max(access_zone, R.zone_mm);
-    double charged = 0;
-    for (std::size_t q = 0; q < o.access_zone_by_band_mm3.size(); ++q)
-      if (0.05 * static_cast<double>(q) >= ex.access_zone_free_mm - 1e-9) charged += o.access_zone_by_band_mm3[q];
-    o.access_zone_charged_mm3 = charged;  // the walls' own, less their slivers, below
     const double per_mm3 = ex.access_zone_rate * o.max_points / o.target_mm3;
     // Session 23: one penalty per wall, the wall's own mm3 past the free margin (the voxels in its
     // quarter around the axis), so that a local gouge costs by its size and the sentences add up to
@@ -1209,9 +1205,9 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
                (raw > c ? " (the charges together at most the exercise's " + fmt(o.max_points, 0) + ": " + fmt(c) + ")."
                         : ".")});
     }
+    // The whole charge: the walls' own (what lies past the margin, less the walls' slivers).
     o.access_zone_charged_mm3 = 0;
     for (double v : o.access_zone_charged_by_wall_mm3) o.access_zone_charged_mm3 += v;
-    (void)charged;
   }
   if (access && ex.under_extension_rate > 0 && o.target_mm3 > 0 &&
       o.target_coverage_pct < ex.under_extension_full_pct - 1e-9) {
