@@ -19,7 +19,10 @@
 // --wall-overext-rate R, --wall-overext-free-mm F, --wall-overext-pct P: the access opening's
 // wall_overextension_points_per_mm / _free_mm / _percentile (session 22). --dump-walls FILE: every
 // session's wall direction-levels (exercise, seed, skill, subject, earned, costs, total, then
-// a line P of the penalties, name|points;, then wall dir z_mm e_mm outline_mm per sample) appended to FILE, for recomputing candidate rules.
+// a line P of the penalties, name|points;, a line X (session 23: coverage %, target mm3, mm3 removed below
+// the floor, floor perforated 0/1, each wall's charged mm3 M D B P, each wall's area past the free margin
+// mm2, each criterion's score), then wall dir z_mm e_mm outline_mm per sample) appended to FILE, for
+// recomputing candidate rules.
 // --exercise takes a built-in name or an exercise file (its sessions go in DIR/<its name>_<level>).
 // --keep DIR keeps every generated session and its replayed cut volume in DIR
 // and reuses them when present, so a change of the criteria is re-scored in
@@ -534,6 +537,14 @@ int main(int argc, char** argv) {
           f << "S " << name << ' ' << seed << ' ' << 1.0 - sep << ' ' << t.subject << ' ' << sc->earned_points << ' ' << pc
             << ' ' << sc->points << ' ' << sc->complete << '\n' << "P";
           for (const auto& p : sc->penalties) f << ' ' << p.name << '|' << p.points << ';';
+          f << '\n';
+          // Session 23: coverage %, target mm3, removed below the floor mm3, floor perforated, each
+          // wall's charged mm3 (M D B P) and its area past the free margin mm2, and earned by criterion.
+          f << "X " << sc->target_coverage_pct << ' ' << sc->target_mm3 << ' ' << sc->floor_below_mm3 << ' '
+            << sc->floor_perforated;
+          for (double v : sc->access_zone_charged_by_wall_mm3) f << ' ' << v;
+          for (double v : sc->wall_overextended_area_mm2) f << ' ' << v;
+          for (const auto& c : sc->criteria) f << ' ' << c.score;
           f << '\n';
           for (const auto& w : sc->wall_overextension_samples)
             f << w.wall << ' ' << w.dir << ' ' << w.z_m * 1e3 << ' ' << w.e_mm << ' ' << w.outline_mm << '\n';

@@ -413,6 +413,9 @@ Result<Exercise> parse_exercise(const std::string& text, const std::string& name
         !get_number(c, o, "wall_overextension_points_per_mm", "outcome.", ex.wall_overextension_points_per_mm, false, 0, 100) ||
         !get_number(c, o, "wall_overextension_free_mm", "outcome.", ex.wall_overextension_free_mm, false, 0, 5) ||
         !get_number(c, o, "wall_overextension_percentile", "outcome.", ex.wall_overextension_percentile, false, 50, 100) ||
+        !get_number(c, o, "under_extension_rate", "outcome.", ex.under_extension_rate, false, 0, 100) ||
+        !get_number(c, o, "under_extension_full_pct", "outcome.", ex.under_extension_full_pct, false, 0, 100) ||
+        !get_number(c, o, "floor_overflow_rate", "outcome.", ex.floor_overflow_rate, false, 0, 100) ||
         !get_number(c, o, "pulp_exposure_full_mm", "outcome.", ex.pulp_exposure_full_mm, false, 0, 20) ||
         !get_number(c, o, "pulp_exposure_min_fraction", "outcome.", ex.pulp_exposure_min_fraction, false, 0, 1))
       return Error{c.err};

@@ -17,6 +17,8 @@ using volume::kIsoDensity;
 constexpr double kFullShare = 0.9;
 // ... and the pulpal floor its points in full from this share of the floor reached (below).
 constexpr double kFloorFullReach = 0.9;
+// The floor's integrity reaches 0 at this much dentin removed below the floor level (mm3).
+constexpr double kFloorZeroMm3 = 1.0;
 // Issue 25, session 20: the straight-line access criterion (continuous access points). Each file
 // path starts on a disk of this radius around the orifice (an ISO size 40 file's 0.40 mm tip)...
 constexpr double kFileRadius = 0.2e-3;
@@ -688,6 +690,16 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
                 if (o.access_zone_by_band_mm3.size() <= static_cast<std::size_t>(band))
                   o.access_zone_by_band_mm3.resize(static_cast<std::size_t>(band) + 1, 0.0);
                 o.access_zone_by_band_mm3[static_cast<std::size_t>(band)] += rem;
+                // Session 23: and by wall, the voxel's quarter around the access axis (the walls'
+                // directions' quarters: distal +x, palatal +y, mesial -x, buccal -y).
+                const Eigen::Vector3d pc = start.voxel_center(i, j, k);
+                double ang = std::atan2(pc.y() - access->axis_point_m.y(), pc.x() - access->axis_point_m.x());
+                if (ang < 0) ang += 2 * M_PI;
+                const int quarter = static_cast<int>(std::floor(std::fmod(ang + M_PI / 4, 2 * M_PI) / (M_PI / 2))) & 3;
+                static const int to_wall[4] = {1, 3, 0, 2};
+                auto& wb = o.access_zone_by_wall_band_mm3[static_cast<std::size_t>(to_wall[quarter])];
+                if (wb.size() <= static_cast<std::size_t>(band)) wb.resize(static_cast<std::size_t>(band) + 1, 0.0);
+                wb[static_cast<std::size_t>(band)] += rem;
               }
             }
           }
@@ -910,6 +922,10 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
             if (s.e_mm > ex.wall_overextension_free_mm + 1e-9) beyond[static_cast<std::size_t>(s.dir)] += 1;
           }
         o.wall_overextension_mm[wi] = percentile(e, ex.wall_overextension_percentile);
+        // Session 23: the wall's area lying more than access_zone_free_mm past the outline (mm2).
+        for (const auto& s : o.wall_overextension_samples)
+          if (s.wall == static_cast<int>(wi) && s.e_mm > ex.access_zone_free_mm + 1e-9)
+            o.wall_overextended_area_mm2[wi] += 2 * M_PI / kDirs * s.outline_mm * start.spacing().z() * 1e3;
         for (int q = 0; q < kDirs; ++q)
           if (n[static_cast<std::size_t>(q)] > 0)
             o.wall_overextension_length_mm[wi] += arc[static_cast<std::size_t>(q)] / n[static_cast<std::size_t>(q)] *
@@ -1020,6 +1036,8 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
           if (k < k1) ++reached;  // open down to (below) the slab's top layer
         }
     }
+    o.floor_below_mm3 = below;
+    o.floor_perforated = perf_below;
     const double reach = foot > 0 ? static_cast<double>(reached) / foot : 0.0;
     const double share = std::clamp(reach / kFloorFullReach, 0.0, 1.0);
     Criterion fl;
@@ -1034,13 +1052,13 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
       fl.detail = "0 of 3: the pulp chamber was not opened (no clear sight line from any orifice), so there is no "
                   "floor to judge yet.";
     } else if (!continuous) {
-      fl.score = below < 0.05 ? 3 : below < 0.3 ? 2 : below < 1.0 ? 1 : 0;
+      fl.score = below < 0.05 ? 3 : below < 0.3 ? 2 : below < kFloorZeroMm3 ? 1 : 0;
       fl.detail = std::to_string(static_cast<int>(fl.score)) + " of 3: " + fmt(below, 3) +
                   " mm3 of dentin removed below the floor level; 3 needs less than 0.05 mm3, 2 less than 0.3, 1 less "
                   "than 1.0.";
     } else {
       // 3 points less 3 per mm3 removed below the floor: nothing left at the bands' 1.0 mm3.
-      fl.score = 3.0 * std::clamp(1.0 - below / 1.0, 0.0, 1.0);
+      fl.score = 3.0 * std::clamp(1.0 - below / kFloorZeroMm3, 0.0, 1.0);
       fl.detail = fmt(fl.score) + " of 3: " + fmt(below, 3) +
                   " mm3 of dentin removed below the floor level; 3 points less 3 for every mm3 (none left at 1 mm3).";
     }
@@ -1152,30 +1170,86 @@ Result<OutcomeScores> score_outcome(const Exercise& ex, const RegionMasks& m, co
     double access_zone = 0;
     for (const auto& R : ex.regions)
       if (R.role == RegionRole::kTarget) access_zone = std::max(access_zone, R.zone_mm);
-    double charged = 0;
-    for (std::size_t q = 0; q < o.access_zone_by_band_mm3.size(); ++q)
-      if (0.05 * static_cast<double>(q) >= ex.access_zone_free_mm - 1e-9) charged += o.access_zone_by_band_mm3[q];
-    o.access_zone_charged_mm3 = charged;
     const double per_mm3 = ex.access_zone_rate * o.max_points / o.target_mm3;
-    const double c = std::min(o.max_points, per_mm3 * charged);
-    // Where: each wall's over-extension past the outline, mm (a quarter of 32 directions each).
+    // Session 23: one penalty per wall, the wall's own mm3 past the free margin (the voxels in its
+    // quarter around the axis), so that a local gouge costs by its size and the sentences add up to
+    // the whole charge; each names the wall's area past the margin and how far past it reaches.
     static const char* kWall[4] = {"mesial", "distal", "buccal", "palatal"};
-    std::string where;
-    for (std::size_t w = 0; w < 4; ++w)
-      if (o.wall_overextension_max_mm[w] > ex.access_zone_free_mm + 1e-9)
-        where += (where.empty() ? "" : ", ") + std::string(kWall[w]) + " up to " + fmt(o.wall_overextension_max_mm[w]) +
-                 " mm (mean " + fmt(o.wall_overextension_mean_mm[w]) + ")";
-    if (charged > 0)
+    double left = o.max_points;  // the charges together cost at most the exercise's points
+    for (std::size_t w = 0; w < 4; ++w) {
+      double cw = 0, all = 0;
+      const auto& wb = o.access_zone_by_wall_band_mm3[w];
+      for (std::size_t q = 0; q < wb.size(); ++q) {
+        all += wb[q];
+        if (0.05 * static_cast<double>(q) >= ex.access_zone_free_mm - 1e-9) cw += wb[q];
+      }
+      // Less than 0.005 mm3 (a voxel's sliver, "0.00 mm3" in its sentence) is not charged.
+      if (cw < 0.005) cw = 0;
+      o.access_zone_charged_by_wall_mm3[w] = cw;
+      if (cw <= 0) continue;
+      const double raw = per_mm3 * cw;
+      const double c = std::min(left, raw);
+      left -= c;
       o.penalties.push_back(
-          {"over-extended outline", c,
-           fmt(charged) + " mm3 of sound tooth above the floor was cut away more than " + fmt(ex.access_zone_free_mm) +
-               " mm outside the access outline (within its " + fmt(access_zone, 1) + " mm zone" +
-               (o.access_zone_mm3 - charged > 0.005 ? "; " + fmt(o.access_zone_mm3 - charged) + " mm3 nearer, not charged"
-                                                    : "") +
-               ")" + (where.empty() ? "" : ", the walls past the outline: " + where) +
-               "; an over-extended access weakens the tooth; this exercise charges " + fmt(per_mm3, 3) +
+          {std::string("over-extended outline, ") + kWall[w] + " wall", c,
+           std::string(kWall[w]) + " wall: " + fmt(cw) + " mm3 of sound tooth above the floor was cut away more than " +
+               fmt(ex.access_zone_free_mm) + " mm outside the access outline (within its " + fmt(access_zone, 1) +
+               " mm zone" + (all - cw > 0.005 ? "; " + fmt(all - cw) + " mm3 nearer, not charged" : "") + "), over " +
+               fmt(o.wall_overextended_area_mm2[w], 1) + " mm2 of the wall, up to " +
+               fmt(o.wall_overextension_max_mm[w]) + " mm past the outline (mean depth past the margin " +
+               fmt(o.wall_overextended_area_mm2[w] > 0.05 ? cw / o.wall_overextended_area_mm2[w] : 0.0) +
+               " mm); an over-extended access weakens the tooth; this exercise charges " + fmt(per_mm3, 3) +
                " points per mm3 (" + fmt(ex.access_zone_rate, 2) + " x its " + fmt(o.max_points, 0) +
-               " points over the access's " + fmt(o.target_mm3) + " mm3): " + fmt(c) + " points."});
+               " points over the access's " + fmt(o.target_mm3) + " mm3): " + fmt(per_mm3, 3) + " x " + fmt(cw) +
+               " = " + fmt(raw) + " points" +
+               (raw > c ? " (the charges together at most the exercise's " + fmt(o.max_points, 0) + ": " + fmt(c) + ")."
+                        : ".")});
+    }
+    // The whole charge: the walls' own (what lies past the margin, less the walls' slivers).
+    o.access_zone_charged_mm3 = 0;
+    for (double v : o.access_zone_charged_by_wall_mm3) o.access_zone_charged_mm3 += v;
+  }
+  if (access && ex.under_extension_rate > 0 && o.target_mm3 > 0 &&
+      o.target_coverage_pct < ex.under_extension_full_pct - 1e-9) {
+    // The access left standing (issue 25, session 23): the walls and the floor earn by the span and
+    // the footprint they reach, but nothing measured an outline that stops short of the access's
+    // outline; an endodontist marks an under-extended access (a roof or dentin left over the
+    // chamber's corners, files bent around it) as surely as an over-extended one. What is left of
+    // the access target below the exercise's full share costs what a mm3 cut outside it costs.
+    const double short_mm3 = (ex.under_extension_full_pct - o.target_coverage_pct) / 100 * o.target_mm3;
+    const double per_mm3 = ex.under_extension_rate * o.max_points / o.target_mm3;
+    const double raw = per_mm3 * short_mm3;
+    const double c = std::min(o.max_points, raw);
+    o.penalties.push_back(
+        {"under-extended access", c,
+         fmt(100 - o.target_coverage_pct, 0) + " % of the access (" +
+             fmt((100 - o.target_coverage_pct) / 100 * o.target_mm3) + " mm3 of " + fmt(o.target_mm3) +
+             " mm3) was left standing, " + fmt(short_mm3) + " mm3 more than the " +
+             fmt(100 - ex.under_extension_full_pct, 0) + " % a finished access may leave (full from " +
+             fmt(ex.under_extension_full_pct, 0) + " % removed); an under-extended access leaves dentin over the " +
+             "chamber and bends the files; this exercise charges " + fmt(per_mm3, 3) + " points per mm3 (" +
+             fmt(ex.under_extension_rate, 2) + " x its " + fmt(o.max_points, 0) + " points over the access's " +
+             fmt(o.target_mm3) + " mm3): " + fmt(per_mm3, 3) + " x " + fmt(short_mm3) + " = " + fmt(raw) + " points" +
+             (raw > c ? " (at most the exercise's " + fmt(o.max_points, 0) + ")." : ".")});
+  }
+  if (access && ex.floor_overflow_rate > 0 && o.target_mm3 > 0 && !o.floor_perforated &&
+      o.floor_below_mm3 > kFloorZeroMm3 + 1e-9) {
+    // The floor gouged past its criterion (issue 25, session 23): the floor's integrity reaches 0 at
+    // 1 mm3 removed below the floor level, and removal below the floor is not counted as cut outside
+    // the access, so 7 mm3 gouged into the furcation cost what 1 mm3 did. What lies past that 1 mm3
+    // costs what sound tooth cut outside the outline costs.
+    const double past = o.floor_below_mm3 - kFloorZeroMm3;
+    const double per_mm3 = ex.floor_overflow_rate * o.max_points / o.target_mm3;
+    const double raw = per_mm3 * past;
+    const double c = std::min(o.max_points, raw);
+    o.penalties.push_back(
+        {"floor gouged", c,
+         fmt(o.floor_below_mm3) + " mm3 of dentin was removed below the pulpal floor level, " + fmt(past) +
+             " mm3 past the " + fmt(kFloorZeroMm3, 0) + " mm3 at which the floor's integrity reaches 0; a gouged " +
+             "floor risks the furcation; this exercise charges " + fmt(per_mm3, 3) + " points per mm3 (" +
+             fmt(ex.floor_overflow_rate, 2) + " x its " + fmt(o.max_points, 0) + " points over the access's " +
+             fmt(o.target_mm3) + " mm3): " + fmt(per_mm3, 3) + " x " + fmt(past) + " = " + fmt(raw) + " points" +
+             (raw > c ? " (at most the exercise's " + fmt(o.max_points, 0) + ")." : ".")});
   }
   if (access && ex.wall_overextension_points_per_mm > 0) {
     // Over-extended walls (issue 25, session 22): an endodontist reads an over-extended access by how

@@ -866,15 +866,18 @@ TEST(OutcomeCases, AccessOpeningFlaredOutlineIsMeasuredAndChargedOnlyWithARate) 
   EXPECT_GT(free.access_zone_mm3, 30.0);
   EXPECT_LT(free.access_zone_mm3, 55.0);
   EXPECT_EQ(free.beyond_zone_mm3, 0.0);
-  for (const auto& p : free.penalties) EXPECT_NE(p.name, "over-extended outline") << "rate 0 (shipped): reported only";
+  for (const auto& p : free.penalties) EXPECT_EQ(p.name.find("over-extended outline"), std::string::npos) << "rate 0: reported only";
   c.ex.access_zone_rate = 1;
   const OutcomeScores charged = c.score(flared);
-  double cost = -1;
+  double cost = 0;
+  int walls = 0;
   for (const auto& p : charged.penalties)
-    if (p.name == "over-extended outline") {
-      cost = p.points;
+    if (p.name.rfind("over-extended outline, ", 0) == 0) {
+      cost += p.points;
+      ++walls;
       EXPECT_TRUE(has(p.why, "outside the access outline")) << p.why;
     }
+  EXPECT_EQ(walls, 4) << "a ring all round: every wall pays its own part";
   EXPECT_NEAR(cost, std::min(18.0, 18.0 / charged.target_mm3 * charged.access_zone_mm3), 1e-9);
   EXPECT_NEAR(charged.points, std::max(0.0, free.points - cost), 1e-9);
 }
@@ -892,7 +895,7 @@ TEST(OutcomeCases, AccessGougeOutsideTheOutlineCostsItsStatedPrice) {
   const OutcomeScores id = c.score(c.ideal());
   EXPECT_NEAR(id.points, 18.0, 1e-9);
   EXPECT_EQ(id.access_zone_charged_mm3, 0.0);
-  for (const auto& p : id.penalties) EXPECT_NE(p.name, "over-extended outline") << p.why;
+  for (const auto& p : id.penalties) EXPECT_EQ(p.name.find("over-extended outline"), std::string::npos) << p.why;
   // A gouge 0.5 mm past the outline at 45 deg (between the distal and palatal walls), z 6 mm up.
   VoxelVolume gouge = c.ideal();
   const double g = 5 + 2.5 * std::sqrt(0.5);
@@ -902,27 +905,43 @@ TEST(OutcomeCases, AccessGougeOutsideTheOutlineCostsItsStatedPrice) {
   EXPECT_GT(go.access_zone_charged_mm3, 0.5);
   EXPECT_LT(go.access_zone_charged_mm3, go.access_zone_mm3) << "what lies within 0.15 mm is not charged";
   const double per_mm3 = 18.0 / go.target_mm3;
-  double cost = -1;
-  for (const auto& p : go.penalties)
-    if (p.name == "over-extended outline") {
-      cost = p.points;
-      char want[64];
-      std::snprintf(want, sizeof want, "%.2f mm3 of sound tooth above the floor", go.access_zone_charged_mm3);
-      EXPECT_TRUE(has(p.why, want)) << p.why;
-      EXPECT_TRUE(has(p.why, "more than 0.15 mm outside the access outline")) << p.why;
-      std::snprintf(want, sizeof want, "charges %.3f points per mm3", per_mm3);
-      EXPECT_TRUE(has(p.why, want)) << p.why;
-      std::snprintf(want, sizeof want, ": %.2f points.", p.points);
-      EXPECT_TRUE(has(p.why, want)) << p.why;
-      EXPECT_TRUE(has(p.why, "distal up to") || has(p.why, "palatal up to")) << p.why;
+  // Session 23: one penalty per wall the gouge reaches (it straddles the distal and palatal quarters),
+  // each its own wall's mm3 at the price; together the whole charge.
+  double cost = 0;
+  static const char* kWall[4] = {"mesial", "distal", "buccal", "palatal"};
+  for (std::size_t w = 0; w < 4; ++w) {
+    const Penalty* p = nullptr;
+    for (const auto& q : go.penalties)
+      if (q.name == std::string("over-extended outline, ") + kWall[w] + " wall") p = &q;
+    if (w == 0 || w == 2) {
+      EXPECT_EQ(p, nullptr) << kWall[w];
+      continue;
     }
+    ASSERT_NE(p, nullptr) << kWall[w];
+    cost += p->points;
+    const double mm3 = go.access_zone_charged_by_wall_mm3[w];
+    EXPECT_GT(mm3, 0.1) << kWall[w];
+    EXPECT_NEAR(p->points, per_mm3 * mm3, 1e-9);
+    char want[128];
+    std::snprintf(want, sizeof want, "%s wall: %.2f mm3 of sound tooth above the floor", kWall[w], mm3);
+    EXPECT_TRUE(has(p->why, want)) << p->why;
+    EXPECT_TRUE(has(p->why, "more than 0.15 mm outside the access outline")) << p->why;
+    std::snprintf(want, sizeof want, "charges %.3f points per mm3", per_mm3);
+    EXPECT_TRUE(has(p->why, want)) << p->why;
+    std::snprintf(want, sizeof want, ": %.3f x %.2f = %.2f points.", per_mm3, mm3, p->points);
+    EXPECT_TRUE(has(p->why, want)) << p->why;
+    EXPECT_TRUE(has(p->why, " mm2 of the wall, up to ")) << p->why;
+  }
+  EXPECT_NEAR(go.access_zone_charged_by_wall_mm3[1] + go.access_zone_charged_by_wall_mm3[3], go.access_zone_charged_mm3,
+              1e-9);
   EXPECT_NEAR(cost, per_mm3 * go.access_zone_charged_mm3, 1e-9);
   EXPECT_GT(cost, 0.05);
   EXPECT_NEAR(go.points, id.points - cost, 1e-9);
   EXPECT_LT(go.points, id.points);
   // Free margin 0 charges the whole zone removal (session 12's rule).
   c.ex.access_zone_free_mm = 0;
-  EXPECT_NEAR(c.score(gouge).access_zone_charged_mm3, go.access_zone_mm3, 1e-9);
+  // (less a wall's sliver under 0.005 mm3, not charged: session 23)
+  EXPECT_NEAR(c.score(gouge).access_zone_charged_mm3, go.access_zone_mm3, 0.02);
 }
 
 // Issue 25, session 22: each wall's over-extension past the access outline in mm, a percentile of
@@ -997,6 +1016,135 @@ TEST(OutcomeCases, AccessWallOverExtendedInMmCostsItsPriceAtBothVoxelSizes) {
   EXPECT_NEAR(cost_at[0], cost_at[1], 6 * kTolMm + 1e-9);
   EXPECT_NEAR(cost_at[0], 6 * 0.3, 6 * 0.1);
   EXPECT_NEAR(cost_at[1], 6 * 0.3, 6 * 0.1);
+}
+
+// Issue 25, session 23: the over-extended outline priced per wall by its volume past the free margin
+// (its depth past the margin integrated over the wall's length and height), so that a local gouge
+// costs by its size: the same hand-made cut at 0.1 and 0.15 mm voxels within the stated tolerance.
+TEST(OutcomeCases, AccessOverExtendedWallCostsItsVolumeAtBothVoxelSizes) {
+  // Stated tolerance: 15 % of the mesial wall's charged volume between the two voxel sizes (a cut
+  // face and the free margin's 0.05 mm bands each fall within half a voxel: at 0.15 mm voxels
+  // +-0.075 mm on 0.45 mm past the margin). Measured at the commit: see docs/BENCHMARKS.md.
+  constexpr double kTolRel = 0.15;
+  double mm3_at[2] = {-1, -1}, cost_at[2] = {-1, -1};
+  const double sizes[2] = {0.1, 0.15};
+  for (int s = 0; s < 2; ++s) {
+    SCOPED_TRACE(sizes[s]);
+    WallCase c(sizes[s]);
+    c.ex.wall_overextension_points_per_mm = 0;  // the session 22 rule off: the volume per wall alone
+    c.ex.access_zone_rate = 1;
+    c.ex.access_zone_free_mm = 0.15;
+    EXPECT_EQ(c.score(c.start).points, 0.0);
+    const OutcomeScores id = c.score(c.ideal());
+    EXPECT_NEAR(id.points, 18.0, 1e-9);
+    for (const auto& p : id.penalties) EXPECT_EQ(p.name.find("over-extended"), std::string::npos) << p.why;
+    const OutcomeScores ov = c.score(c.mesial_over(0.6));
+    EXPECT_NEAR(ov.earned_points, id.earned_points, 1e-9);
+    // The mesial quarter ring 2.65..3.1 mm from the axis, z 3.05..10 mm: pi / 4 (3.1^2 - 2.65^2) x 6.95
+    // = 14.1 mm3 past the margin (2.5..2.65 mm nearer, not charged).
+    const double want = M_PI / 4 * (3.1 * 3.1 - 2.65 * 2.65) * 6.95;
+    EXPECT_NEAR(ov.access_zone_charged_by_wall_mm3[0], want, kTolRel * want);
+    // The other walls: at most the voxels on the quarter's 45 deg edges (0.31 mm3 at 0.15 mm voxels).
+    for (std::size_t w = 1; w < 4; ++w) EXPECT_LT(ov.access_zone_charged_by_wall_mm3[w], 0.05 * want) << w;
+    const Penalty* p = penalty(ov, "over-extended outline, mesial wall");
+    ASSERT_NE(p, nullptr);
+    const double per_mm3 = 18.0 / ov.target_mm3;
+    EXPECT_NEAR(p->points, per_mm3 * ov.access_zone_charged_by_wall_mm3[0], 1e-9);
+    // Its area past the margin: the quarter's arc at the outline (2 pi 2.5 / 4 = 3.9 mm) over the
+    // measured height (3.0..9.5 mm: 6.5 mm): about 25.5 mm2.
+    EXPECT_NEAR(ov.wall_overextended_area_mm2[0], 3.93 * 6.5, 0.2 * 3.93 * 6.5);
+    EXPECT_TRUE(has(p->why, "mesial wall: ")) << p->why;
+    EXPECT_TRUE(has(p->why, " mm2 of the wall, up to 0.")) << p->why;
+    double charged = 0;
+    for (const auto& q : ov.penalties)
+      if (q.name.rfind("over-extended outline, ", 0) == 0) charged += q.points;
+    EXPECT_NEAR(ov.points, id.points - charged, 1e-9) << "the sentences add up to the charge";
+    mm3_at[s] = ov.access_zone_charged_by_wall_mm3[0];
+    cost_at[s] = p->points;
+    // A local gouge of the same depth over a sixth of the wall's height costs about a sixth as much.
+    VoxelVolume local = c.ideal();
+    carve(local, [](const Eigen::Vector3d& q) {
+      const double dx = q.x() - 5, dy = q.y() - 5;
+      return q.z() >= 7.0 && q.z() <= 8.15 && std::hypot(dx, dy) <= 3.1 && dx < 0 && std::abs(dy) <= -dx;
+    });
+    const OutcomeScores lo = c.score(local);
+    const Penalty* lp = penalty(lo, "over-extended outline, mesial wall");
+    ASSERT_NE(lp, nullptr);
+    EXPECT_NEAR(lp->points / p->points, 1.15 / 6.95, 0.06);
+  }
+  EXPECT_NEAR(mm3_at[0], mm3_at[1], kTolRel * mm3_at[0]);
+  EXPECT_NEAR(cost_at[0], cost_at[1], kTolRel * cost_at[0]);
+  std::printf("[ session 23 ] mesial wall 0.6 mm past: %.3f mm3 -> %.3f points at 0.1 mm, %.3f mm3 -> %.3f at 0.15 mm\n",
+              mm3_at[0], cost_at[0], mm3_at[1], cost_at[1]);
+}
+
+// Issue 25, session 23: the access left standing below the exercise's full share costs the
+// over-extension's price per mm3; the floor gouged past the 1 mm3 its integrity covers costs the same
+// (not when it is perforated: the perforation prices that).
+TEST(OutcomeCases, AccessLeftStandingAndFloorGougedCostTheirStatedPrice) {
+  AccessCase c;
+  c.ex.under_extension_rate = 1;
+  c.ex.under_extension_full_pct = 90;
+  c.ex.floor_overflow_rate = 1;
+  const OutcomeScores un = c.score(c.start);
+  EXPECT_EQ(un.points, 0.0);
+  EXPECT_FALSE(un.complete);
+  const OutcomeScores id = c.score(c.ideal());
+  EXPECT_NEAR(id.points, 18.0, 1e-9);
+  EXPECT_GE(id.target_coverage_pct, 90.0);
+  EXPECT_EQ(penalty(id, "under-extended access"), nullptr);
+  EXPECT_EQ(penalty(id, "floor gouged"), nullptr);
+  // Stopped short of the outline: r 2.0 of the 2.5 mm outline, the whole depth.
+  VoxelVolume shortc = c.start.clone();
+  carve(shortc, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 2.0 && p.z() >= 3.05; });
+  const OutcomeScores sh = c.score(shortc);
+  ASSERT_LT(sh.target_coverage_pct, 80.0);
+  const Penalty* u = penalty(sh, "under-extended access");
+  ASSERT_NE(u, nullptr);
+  const double per_mm3 = 18.0 / sh.target_mm3;
+  const double short_mm3 = (90 - sh.target_coverage_pct) / 100 * sh.target_mm3;
+  EXPECT_NEAR(u->points, per_mm3 * short_mm3, 1e-9);
+  char want[128];
+  std::snprintf(want, sizeof want, "%.3f x %.2f = %.2f points.", per_mm3, short_mm3, u->points);
+  EXPECT_TRUE(has(u->why, want)) << u->why;
+  EXPECT_TRUE(has(u->why, "full from 90 % removed")) << u->why;
+  EXPECT_NEAR(sh.points, std::max(0.0, sh.earned_points - u->points), 1e-9);
+  c.ex.under_extension_rate = 0;
+  EXPECT_EQ(penalty(c.score(shortc), "under-extended access"), nullptr) << "rate 0: not charged";
+  c.ex.under_extension_rate = 1;
+  // The floor gouged: a shaft r 0.8 mm from the floor (z 3) 1 mm down: about 2.0 mm3 below it.
+  VoxelVolume gouge = c.ideal();
+  carve(gouge, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.8 && p.z() >= 2.0; });
+  const OutcomeScores go = c.score(gouge);
+  ASSERT_FALSE(go.perforation);
+  EXPECT_NEAR(go.floor_below_mm3, M_PI * 0.64 * 1.0, 0.3);
+  EXPECT_EQ(go.criteria[5].score, 0.0) << go.criteria[5].detail;
+  const Penalty* f = penalty(go, "floor gouged");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NEAR(f->points, per_mm3 * (go.floor_below_mm3 - 1.0), 1e-9);
+  std::snprintf(want, sizeof want, "%.3f x %.2f = %.2f points.", per_mm3, go.floor_below_mm3 - 1.0, f->points);
+  EXPECT_TRUE(has(f->why, want)) << f->why;
+  std::string all;
+  for (std::size_t k = 0; k < go.criteria.size(); ++k)
+    all += go.criteria[k].name + " " + std::to_string(go.criteria[k].score) + " (ideal " + std::to_string(id.criteria[k].score) + "); ";
+  for (const auto& q : go.penalties) all += q.name + " -" + std::to_string(q.points) + "; ";
+  // (The band-scored walls of this case also see the shaft: their points are the criteria's.)
+  EXPECT_LE(go.earned_points, id.earned_points - 3.0 + 1e-9) << all;
+  EXPECT_NEAR(go.points, std::max(0.0, go.earned_points - f->points), 1e-9) << "the price past 1 mm3: " << all;
+  // Less than 1 mm3 below the floor (r 0.5 mm, 1 mm down: 0.79 mm3): the floor criterion's alone.
+  VoxelVolume small = c.ideal();
+  carve(small, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.5 && p.z() >= 2.0; });
+  const OutcomeScores sm = c.score(small);
+  ASSERT_FALSE(sm.perforation);
+  EXPECT_LT(sm.floor_below_mm3, 1.0);
+  EXPECT_EQ(penalty(sm, "floor gouged"), nullptr);
+  // Perforated through the floor: the perforation's 9 points, no floor-gouged charge beside it.
+  VoxelVolume through = c.ideal();
+  carve(through, [](const Eigen::Vector3d& p) { return std::hypot(p.x() - 5, p.y() - 5) <= 0.5; });
+  const OutcomeScores pe = c.score(through);
+  ASSERT_TRUE(pe.perforation);
+  EXPECT_EQ(penalty(pe, "floor gouged"), nullptr);
+  EXPECT_NE(penalty(pe, "perforation"), nullptr);
 }
 
 }  // namespace
@@ -1240,6 +1388,13 @@ TEST(Exercise, AccessPointsAndWallTaperFieldsAreCheckedAndNamed) {
       "outcome.wall_overextension_free_mm");
   err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"wall_overextension_percentile\":40,"),
       "outcome.wall_overextension_percentile");
+  // Session 23: the access left standing and the floor gouged past its criterion.
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"under_extension_rate\":-1,"),
+      "outcome.under_extension_rate");
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"under_extension_full_pct\":120,"),
+      "outcome.under_extension_full_pct");
+  err(rep("\"kind\":\"graded_regions\",", "\"kind\":\"graded_regions\",\"floor_overflow_rate\":\"x\","),
+      "outcome.floor_overflow_rate");
   EXPECT_EQ(ok->wall_taper->outline_reach_full_pct, 0.0);  // absent: not applied
   auto reach = parse_exercise(rep("\"to_z_mm\":5.7", "\"to_z_mm\":5.7,\"outline_reach_full_pct\":90"), "t.json");
   ASSERT_TRUE(reach.ok()) << reach.error();

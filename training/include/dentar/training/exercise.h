@@ -261,6 +261,19 @@ struct Exercise {
   double wall_overextension_points_per_mm = 0;
   double wall_overextension_free_mm = 0.3;   // outcome field "wall_overextension_free_mm", 0-5
   double wall_overextension_percentile = 90; // outcome field "wall_overextension_percentile", 50-100
+  // Access opening (issue 25, session 23): the access left standing. Of the access target, what is
+  // left below under_extension_full_pct % coverage costs under_extension_rate x (the exercise's
+  // points over the access target's volume) per mm3, the price a mm3 cut outside the outline pays
+  // (outcome fields "under_extension_rate", 0-100, default 0: not charged; "under_extension_full_pct",
+  // 0-100, default 90: the share from which the walls and the floor earn in full).
+  double under_extension_rate = 0;
+  double under_extension_full_pct = 90;
+  // Access opening (issue 25, session 23): dentin removed below the pulpal floor level past the
+  // 1 mm3 at which the floor's integrity reaches 0 costs floor_overflow_rate x (the exercise's
+  // points over the access target's volume) per mm3 (outcome field "floor_overflow_rate", 0-100,
+  // default 0: the floor criterion's 0 is the whole charge). Not charged when the floor is perforated
+  // (the perforation's points price it).
+  double floor_overflow_rate = 0;
   // A finished preparation removes at least this % of the target (outcome
   // field "complete_coverage_pct"); below it the score is marked incomplete.
   double complete_coverage_pct = 80;

@@ -84,6 +84,16 @@ struct OutcomeScores {
     double z_m = 0, e_mm = 0, outline_mm = 0;
   };
   std::vector<WallSample> wall_overextension_samples;
+  // Session 23: of access_zone_mm3, by wall (M D B P: the voxel's quarter around the access axis, as
+  // the walls' directions) and by band as access_zone_by_band_mm3; and each wall's area lying more than
+  // access_zone_free_mm past the outline (mm2: each direction-level beyond it counts its arc at the
+  // outline, 2 pi / 32 x the outline's distance from the axis, times the voxel's height).
+  std::array<std::vector<double>, 4> access_zone_by_wall_band_mm3;
+  std::array<double, 4> access_zone_charged_by_wall_mm3{}, wall_overextended_area_mm2{};
+  // Access opening: tooth (not pulp) removed below the pulpal floor level (the floor criterion's
+  // value), and whether the floor is perforated.
+  double floor_below_mm3 = 0;
+  bool floor_perforated = false;
   double forbidden_mm3 = 0;  // removed inside forbidden regions
   std::vector<std::pair<std::string, double>> forbidden_by_region;  // name, mm3
   bool pulp_exposed = false;     // the bur entered the pulp: pulp tissue was removed (pulp_removed_mm3 > 0)
