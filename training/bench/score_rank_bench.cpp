@@ -40,9 +40,6 @@
 // scores on seed 2 of every exercise, docs/BENCHMARKS.md "Issue 25 session 17"; the replay
 // doubled a session's CPU time).
 // --taper-reach-full-pct P: the wall taper's outline_reach_full_pct (0: off; session 19).
-// --overlap-cut 0|1: the sessions are cut by overlap (haptics::use_overlap_cut, as `dentar live`)
-// with 1, the default since session 23 (CohortOptions::overlap_cut); 0: by the bur's samples, as
-// every cohort before session 23 (the anchors /tmp/h31c1*, /tmp/h31ao were cut so).
 // --taper-points P: the exercise's wall taper (it must have one) is worth P
 // points and its graded regions the rest of the exercise's total.
 #include <unistd.h>
@@ -278,7 +275,7 @@ int main(int argc, char** argv) {
   int leftover = 0;                 // --leftover 1: where each session left target material and cut past it
   int replay = 0;                   // --replay 1: replay fresh sessions' logs instead of taking the engine's cut
   int sample_jitter = 0;            // --sample-jitter 1: generate with CutParams::sample_jitter (session 21)
-  int overlap_cut = 1;              // --overlap-cut 0: generate with the sample cutter (the default before session 23)
+  int overlap_cut = 0;              // --overlap-cut 1: generate with haptics::use_overlap_cut (session 22)
   double pulp_full_mm = -1, pulp_min_fraction = -1;  // --pulp-full-mm, --pulp-min-fraction: graded pulp exposure
   double flare_free = -1, flare_step = -1;  // --flare-free-deg, --flare-deg-per-point: continuous access walls
   if (argc % 2 == 0) {

@@ -95,15 +95,15 @@ TEST(CohortOutcome, MolarAccessOpeningExpertsScoreHighNovicesLower) {
   // the adult pulp, the access 2.35 mm deeper) 16.4 and 17.3, novices 4.9 and 7.5; session 19's
   // scoring (walls only where cut, the floor paid for the share reached: the experts reach 72 and
   // 88 % of it) 15.8 and 17.2, novices 2.8 and 5.4. The bounds (15.3 of 18, a 2.7 gap) hold.
-  // Session 23 (cohorts cut by overlap, generator v7): experts 17.1 and 17.5, novices 1.3 and 4.5
-  // (main's sample cutter on the same scripts: 15.9 and 17.3, 1.5 and 5.0); bounds unchanged.
+  // Session 23, measured with overlap_cut on (not the default: docs/BENCHMARKS.md): experts 17.1
+  // and 17.5, novices 1.3 and 4.5 (the sample cutter on the same scripts: 15.9 and 17.3, 1.5 and 5.0).
   expect_gap(generate_and_score("molar_access_opening", 2, 2, 0.2, 5), 0.85, 0.15);
 }
 
 TEST(CohortOutcome, IncisorPartialCrownExpertsScoreHighNovicesLower) {
   // Generator v4 measured 11.9 vs 6.3 of 16, v5 12.1 vs 7.0 (the seed: 14.4 vs 8.4;
-  // docs/BENCHMARKS.md); v7 (session 23, cut by overlap) 12.35 vs 7.00 (the sample cutter on the
-  // same scripts: 12.09 vs 6.97).
+  // docs/BENCHMARKS.md); with overlap_cut on (session 23, not the default) 12.35 vs 7.00 (the
+  // sample cutter on the same scripts: 12.09 vs 6.97).
   expect_gap(generate_and_score("incisor_partial_crown", 1, 1, 0.2, 5), 0.6, 0.2);
 }
 
@@ -118,8 +118,8 @@ TEST(CohortOutcome, IncisorPartialCrownExpertsScoreHighNovicesLower) {
 // stood 0.15-0.3 mm beside the cavity's walls at its floor. Session 18 made the molar's pulp an
 // adult's by default (roof 0.8 mm above the cervical line): no session of this cohort reaches the
 // pulp and seed 1 ranks at 0.960 (was 0.840; the pulp-uncharged figure it printed). The bound is
-// kept at 0.70: seeds 2-4 were not re-measured on the adult tooth at this size. Session 23 (cut by
-// overlap, generator v7): seed 1 still 0.960.
+// kept at 0.70: seeds 2-4 were not re-measured on the adult tooth at this size. Session 23, with
+// overlap_cut on (not the default): seed 1 still 0.960.
 TEST(CohortOutcome, ClassICavityTotalsRankASeededSmallCohortBySkill) {
   auto ex = load_builtin_exercise("molar_class1_cavity");
   ASSERT_TRUE(ex.ok()) << ex.error();

@@ -36,10 +36,6 @@ const Cohort& cohort() {
     o.trials = 2;
     o.voxel_mm = 0.2;
     o.bur_samples = 500;
-    // The bur-sample cutter (the default up to generator v6): these tests read the hand's steps and
-    // motion, not the cut, and the overlap cutter (the default since session 23) costs 2.8-4.4x the
-    // CPU to generate (docs/BENCHMARKS.md, "Issue 25 session 23"); the sessions are v6's.
-    o.overlap_cut = false;
     // One folder per process: ctest runs these tests as parallel processes.
     const std::string dir = dentar::test::temp_dir("cohort").string();
     std::filesystem::remove_all(dir);
@@ -184,7 +180,6 @@ TEST(Cohort, AutomaticStepsOnTheThirteenStepIncisorPreparation) {
   o.voxel_mm = 0.2;
   o.bur_samples = 500;
   o.seed = 5;
-  o.overlap_cut = false;  // the steps, not the cut: the sample cutter, as in cohort() above
   const std::string dir = dentar::test::temp_dir("incisor_cohort").string();
   std::filesystem::remove_all(dir);
   auto t = generate_cohort(*ex, o, dir);

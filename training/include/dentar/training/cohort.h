@@ -18,10 +18,8 @@ namespace dentar::training {
 
 // Bumped whenever the generated sessions change (cached expert references
 // are keyed by it). 6 (session 18): the molar's adult pulp (MolarParams::pulp_roof_mm) and the
-// access opening's chamber coordinates moved with it; the generator's code is v5's. 7 (session 23):
-// the sessions are cut by overlap (CohortOptions::overlap_cut on by default), as `dentar live`,
-// lessons and `dentar demo` cut since session 22.
-inline constexpr int kCohortGeneratorVersion = 7;
+// access opening's chamber coordinates moved with it; the generator's code is v5's.
+inline constexpr int kCohortGeneratorVersion = 6;
 
 struct SkillParams {
   double tremor_mm = 0.02;     // amplitude of a 9-11 Hz tremor on the hand's target, x and y
@@ -80,10 +78,8 @@ struct CohortOptions {
   // The cutter's CutParams::sample_jitter for the generated sessions (off: the cohorts so far).
   bool sample_jitter = false;
   // Session 22: cut by overlap volume with the shape-constrained proxy (haptics::use_overlap_cut),
-  // so the generated sessions cut the same whatever bur_samples is. On by default since session 23
-  // (generator v7): the cohorts, and every rank correlation measured on them, cut as `dentar live`
-  // does; false: the bur's samples cut (CutParams' sample cutter), as every cohort before v7.
-  bool overlap_cut = true;
+  // so the generated sessions cut the same whatever bur_samples is.
+  bool overlap_cut = false;
   // Called after each engine session (not with kinematics_only) with the tooth as the engine
   // left it: the cut a replay of the session's log gives (the same voxels, shown on the score
   // rank bench's seeds), so a caller that scores sessions need not replay them. Runs on the
