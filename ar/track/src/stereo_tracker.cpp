@@ -287,8 +287,23 @@ struct StereoTracker::Impl {
       if (&b == &mannequin) noise_ref = p;
       int rim_points = 0;
       if (&b == &mirror && o.stereo_mirror_rim && p.ok() && p.rms_px <= o.max_rms_px && mirror_radius_m > 0 &&
-          distinct_tags(p) >= o.stereo_mirror_rim_min_tags)
+          (o.stereo_mirror_rim_count_sightings ? p.tags_used : distinct_tags(p)) >= o.stereo_mirror_rim_min_tags) {
+        // TrackerOptions::stereo_mirror_rim_one_tag_chi2: with one distinct tag the rim's two-fold
+        // tilt can pick the wrong branch; its centre must stay within the tags' own stated error.
+        const bool one_tag = distinct_tags(p) < 2;
+        const BundlePose p_tags = one_tag ? p : BundlePose{};
         rim_points = refine_rim_both_eyes(p, b);
+        if (one_tag && rim_points > 0 && o.stereo_mirror_rim_one_tag_chi2 > 0) {
+          const Eigen::Matrix3d C = point_covariance(
+              covariance_with_noise(p_tags, noise_px2(b, p_tags), o.sigma_floor_px), p_tags.T_cam_body, b.gate_point);
+          const Eigen::Vector3d d = p.T_cam_body * b.gate_point - p_tags.T_cam_body * b.gate_point;
+          const double m2 = d.dot(C.ldlt().solve(d));
+          if (!(m2 <= o.stereo_mirror_rim_one_tag_chi2)) {
+            p = p_tags;
+            rim_points = 0;
+          }
+        }
+      }
       // TrackerOptions::stereo_mirror_outline_sigma: a fit whose tags one eye alone saw
       // states the error a common outline offset of each tag observation makes in its depth
       // (the rim keeps that depth: refine_rim_both_eyes); the pose is the fit's either way.

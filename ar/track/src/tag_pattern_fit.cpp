@@ -36,6 +36,37 @@ bool cell_homography(const Corners& q, int b0, int wb, Eigen::Matrix3d& G) {
   return true;
 }
 
+// cell_homography and the derivative of its 8 entries h (G = [h0 h1 h2; h3 h4 h5; h6 h7 1])
+// with respect to the 8 corner coordinates (column 2k: x of corner k, 2k + 1: its y): from
+// A(q) h = rhs, dh = -A^-1 (dA/dq_j) h, and dA/dq_j touches only rows 2k and 2k + 1.
+bool cell_homography_d(const Corners& q, int b0, int wb, Eigen::Matrix3d& G, Eigen::Matrix<double, 8, 8>& dh) {
+  const double lo = b0, hi = b0 + wb;
+  const double X[4] = {lo, hi, hi, lo}, Y[4] = {hi, hi, lo, lo};
+  Eigen::Matrix<double, 8, 8> A;
+  Eigen::Matrix<double, 8, 1> rhs;
+  for (int k = 0; k < 4; ++k) {
+    const double x = q[static_cast<std::size_t>(k)].x(), y = q[static_cast<std::size_t>(k)].y();
+    A.row(2 * k) << x, y, 1, 0, 0, 0, -X[k] * x, -X[k] * y;
+    A.row(2 * k + 1) << 0, 0, 0, x, y, 1, -Y[k] * x, -Y[k] * y;
+    rhs(2 * k) = X[k];
+    rhs(2 * k + 1) = Y[k];
+  }
+  Eigen::FullPivLU<Eigen::Matrix<double, 8, 8>> lu(A);
+  if (!lu.isInvertible()) return false;
+  const Eigen::Matrix<double, 8, 1> h = lu.solve(rhs);
+  if (!h.allFinite()) return false;
+  G << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1.0;
+  Eigen::Matrix<double, 8, 8> E = Eigen::Matrix<double, 8, 8>::Zero();  // column j: (dA/dq_j) h
+  for (int k = 0; k < 4; ++k) {
+    E(2 * k, 2 * k) = h(0) - X[k] * h(6);
+    E(2 * k + 1, 2 * k) = h(3) - Y[k] * h(6);
+    E(2 * k, 2 * k + 1) = h(1) - X[k] * h(7);
+    E(2 * k + 1, 2 * k + 1) = h(4) - Y[k] * h(7);
+  }
+  dh = -lu.solve(E);
+  return dh.allFinite();
+}
+
 double side_of(const Corners& q) {
   double area2 = 0;
   for (std::size_t k = 0; k < 4; ++k) area2 += q[k].x() * q[(k + 1) % 4].y() - q[(k + 1) % 4].x() * q[k].y();
@@ -89,6 +120,19 @@ struct Model {
     const float* r1 = tex.ptr<float>(iv + 1) + iu;
     return (1 - fv) * ((1 - fu) * r0[0] + fu * r0[1]) + fv * ((1 - fu) * r1[0] + fu * r1[1]);
   }
+  // at() and its derivative in cell coordinates (of the bilinear interpolant; zero where clamped).
+  double at_d(double X, double Y, double& dX, double& dY) const {
+    const double u_raw = (X + 0.5) * kTexPerCell - 0.5, v_raw = (Y + 0.5) * kTexPerCell - 0.5;
+    const double u = std::clamp(u_raw, 0.0, tex.cols - 1.001), v = std::clamp(v_raw, 0.0, tex.rows - 1.001);
+    const int iu = static_cast<int>(u), iv = static_cast<int>(v);
+    const double fu = u - iu, fv = v - iv;
+    const float* r0 = tex.ptr<float>(iv) + iu;
+    const float* r1 = tex.ptr<float>(iv + 1) + iu;
+    const double top = (1 - fu) * r0[0] + fu * r0[1], bot = (1 - fu) * r1[0] + fu * r1[1];
+    dX = u == u_raw ? kTexPerCell * ((1 - fv) * (r0[1] - r0[0]) + fv * (r1[1] - r1[0])) : 0.0;
+    dY = v == v_raw ? kTexPerCell * (bot - top) : 0.0;
+    return (1 - fv) * top + fv * bot;
+  }
   double time_of(int s, int S_) const { return S_ == 1 ? 0.0 : -0.5 + static_cast<double>(s) / (S_ - 1); }
   // The homographies of the S_ subsample times for corners c. false: degenerate.
   bool homographies(const Corners& c, int S_, std::vector<Eigen::Matrix3d>& Gs) const {
@@ -115,6 +159,42 @@ struct Model {
         acc += at(h.x() / h.z(), h.y() / h.z());
       }
       m[i] = acc * inv;
+    }
+    return true;
+  }
+  // eval() and the model's derivative with respect to the 8 corner coordinates, analytic (the
+  // homography's derivative, the pattern's bilinear gradient): J row i = d m_i / d c.
+  bool eval_jacobian(const Corners& c, int S_, const std::vector<Eigen::Vector2d>& px, std::vector<double>& m,
+                     Eigen::MatrixXd& J) const {
+    std::vector<Eigen::Matrix3d> Gs(static_cast<std::size_t>(S_));
+    std::vector<Eigen::Matrix<double, 8, 8>> dhs(static_cast<std::size_t>(S_));
+    for (int s = 0; s < S_; ++s) {
+      const double t = time_of(s, S_);
+      Corners q;
+      for (std::size_t k = 0; k < 4; ++k) q[k] = c[k] + t * blur[k];
+      if (!cell_homography_d(q, b0, wb, Gs[static_cast<std::size_t>(s)], dhs[static_cast<std::size_t>(s)])) return false;
+    }
+    m.assign(px.size(), 0.0);
+    J.setZero(static_cast<Eigen::Index>(px.size()), 8);
+    const double inv = 1.0 / S_;
+    for (std::size_t i = 0; i < px.size(); ++i) {
+      double acc = 0;
+      Eigen::Matrix<double, 1, 8> row = Eigen::Matrix<double, 1, 8>::Zero();
+      const double x = px[i].x(), y = px[i].y();
+      for (std::size_t s = 0; s < Gs.size(); ++s) {
+        const Eigen::Vector3d h = Gs[s] * Eigen::Vector3d(x, y, 1.0);
+        if (!(std::abs(h.z()) > 1e-12)) return false;
+        const double iz = 1.0 / h.z(), X = h.x() * iz, Y = h.y() * iz;
+        double gX = 0, gY = 0;
+        acc += at_d(X, Y, gX, gY);
+        // d(value)/dh: gX dX/dh + gY dY/dh.
+        Eigen::Matrix<double, 1, 8> dv;
+        dv << gX * x * iz, gX * y * iz, gX * iz, gY * x * iz, gY * y * iz, gY * iz, -(gX * X + gY * Y) * x * iz,
+            -(gX * X + gY * Y) * y * iz;
+        row.noalias() += dv * dhs[s];
+      }
+      m[i] = acc * inv;
+      J.row(static_cast<Eigen::Index>(i)) = row * inv;
     }
     return true;
   }
@@ -387,6 +467,10 @@ TagPatternFit fit_tag_pattern(const cv::Mat& gray, const cv::Mat& cells, int bor
   constexpr double kH = 0.2;  // px, the finite difference step
   int it = 0;
   std::vector<double> mp, mtry;
+  Eigen::MatrixXd Jm;  // the model's analytic derivative (TagPatternFitOptions::numeric_jacobian off)
+  // The last normal matrix J^T W J (corners, a, b) and its pixel count: the corners' stated sigma.
+  Eigen::Matrix<double, 10, 10> H_last = Eigen::Matrix<double, 10, 10>::Zero();
+  std::size_t N_last = 0;
   for (; it < o.max_iterations; ++it) {
     // Re-choose the pixels when the corners moved a third of a cell from where they were chosen.
     double moved = 0;
@@ -402,14 +486,22 @@ TagPatternFit fit_tag_pattern(const cv::Mat& gray, const cv::Mat& cells, int bor
     }
     const std::size_t N = px.size();
     Eigen::MatrixXd J(static_cast<Eigen::Index>(N), 10);
-    for (int j = 0; j < 8; ++j) {
-      Corners cp = c;
-      cp[static_cast<std::size_t>(j / 2)][j % 2] += kH;
-      if (!M.eval(cp, M.S, px, mp)) {
+    if (o.numeric_jacobian) {
+      for (int j = 0; j < 8; ++j) {
+        Corners cp = c;
+        cp[static_cast<std::size_t>(j / 2)][j % 2] += kH;
+        if (!M.eval(cp, M.S, px, mp)) {
+          r.status = TagPatternFitStatus::kNoFit;
+          return r;
+        }
+        for (std::size_t i = 0; i < N; ++i) J(static_cast<Eigen::Index>(i), j) = b * (mp[i] - m[i]) / kH;
+      }
+    } else {
+      if (!M.eval_jacobian(c, M.S, px, mp, Jm)) {
         r.status = TagPatternFitStatus::kNoFit;
         return r;
       }
-      for (std::size_t i = 0; i < N; ++i) J(static_cast<Eigen::Index>(i), j) = b * (mp[i] - m[i]) / kH;
+      J.leftCols<8>() = b * Jm;
     }
     Eigen::VectorXd res(static_cast<Eigen::Index>(N)), sw(static_cast<Eigen::Index>(N));
     for (std::size_t i = 0; i < N; ++i) {
@@ -422,6 +514,8 @@ TagPatternFit fit_tag_pattern(const cv::Mat& gray, const cv::Mat& cells, int bor
     const Eigen::MatrixXd Jw = sw.asDiagonal() * J;
     const Eigen::Matrix<double, 10, 10> H = J.transpose() * Jw;
     const Eigen::Matrix<double, 10, 1> gvec = Jw.transpose() * res;
+    H_last = H;
+    N_last = N;
     const double c0 = cost(y, m, w, a, b);
     bool improved = false;
     Eigen::Matrix<double, 10, 1> d = Eigen::Matrix<double, 10, 1>::Zero();
@@ -469,6 +563,14 @@ TagPatternFit fit_tag_pattern(const cv::Mat& gray, const cv::Mat& cells, int bor
   r.brightness = a;
   r.contrast = b;
   r.correlation = corr;
+  // The corners' stated sigma: the weighted residual variance times the inverse normal
+  // matrix of the last step (TagPatternFit::corner_sigma_px; pixels taken as independent).
+  if (N_last > 10 && N_last == px.size()) {
+    const double s2 = cost(y, m, w, a, b) / static_cast<double>(N_last - 10);
+    const Eigen::Matrix<double, 10, 10> C = H_last.ldlt().solve(Eigen::Matrix<double, 10, 10>::Identity());
+    const double tr = C.diagonal().head<8>().sum();
+    if (C.allFinite() && tr > 0) r.corner_sigma_px = std::sqrt(s2 * tr / 8);
+  }
   if (!(b > 0)) {
     r.status = TagPatternFitStatus::kNoFit;
     return r;

@@ -187,6 +187,8 @@ std::string TrackerOptions::validate() const {
     os << "stereo_mirror_rim_effective_points = " << stereo_mirror_rim_effective_points << " must be >= 1";
   else if (stereo_mirror_rim_min_tags < 1 || stereo_mirror_rim_min_tags > 100)
     os << "stereo_mirror_rim_min_tags = " << stereo_mirror_rim_min_tags << " must be in [1, 100]";
+  else if (!(std::isfinite(stereo_mirror_rim_one_tag_chi2) && stereo_mirror_rim_one_tag_chi2 >= 0))
+    os << "stereo_mirror_rim_one_tag_chi2 = " << stereo_mirror_rim_one_tag_chi2 << " must be finite and >= 0 (0 = off)";
   else if (!(std::isfinite(stereo_mirror_outline_sigma) && stereo_mirror_outline_sigma >= 0 &&
              stereo_mirror_outline_sigma <= 100))
     os << "stereo_mirror_outline_sigma = " << stereo_mirror_outline_sigma << " must be in [0, 100] (0 = off)";
@@ -647,30 +649,58 @@ struct Tracker::Impl {
     for (const TagPlacement& t : b.bundle.tags) decoded += have(b.bundle.family, t.id);
     if (decoded < 1) return {};
     // Every square predicted in view (every body) and every decoded one, for the ambiguity test.
-    struct Square {
-      const Body* body;
-      int id;
-      std::array<Eigen::Vector2d, 4> px;
-    };
-    std::vector<Square> squares;
+    // Built once per frame: `others` holds every square, own[k] = (id, index) for b's own
+    // squares; a tag's own square is moved out of the list for its fits and back after (the
+    // fits' overlap tests do not depend on the order).
+    std::vector<std::array<Eigen::Vector2d, 4>> others;
+    std::vector<std::pair<int, std::size_t>> own;
     for (const Body* ob : {&mannequin, &mirror, &pen}) {
       if (ob->state == TrackState::kLost || ob->bundle.tags.empty()) continue;
       const bool f2 = o.filter_enabled && ob->filter.initialised();
       const Eigen::Isometry3d Tp = f2 ? ob->filter.predict(capture_s) : ob->last_meas;
       for (const TagPlacement& t : ob->bundle.tags)
-        if (auto pt = predicted_tag_box(Tp, t, 0.0, 0.0, 0.0, 0.0)) squares.push_back({ob, t.id, pt->px});
+        if (auto pt = predicted_tag_box(Tp, t, 0.0, 0.0, 0.0, 0.0)) {
+          if (ob == &b) own.emplace_back(t.id, others.size());
+          others.push_back(pt->px);
+        }
     }
+    for (const DetectedTag& d : tags) others.push_back(d.corners_px);
     std::vector<DetectedTag> cands;
+    auto candidate = [&](int id, bool pattern, const std::array<Eigen::Vector2d, 4>& corners) {
+      DetectedTag d;
+      d.family = b.bundle.family;
+      d.id = id;
+      (pattern ? d.pattern_fit : d.edge_fit) = true;
+      d.corners_px = corners;
+      cands.push_back(d);
+    };
     for (const TagPlacement& t : b.bundle.tags) {
       if (have(b.bundle.family, t.id)) continue;
       const double reach = predicted_motion(b, T_pred, T_prev, t).first + o.roi_min_margin_px;
       const std::optional<PredictedTag> pt = predicted_tag_box(T_pred, t, outer_extent, reach + 3, 0.0, 0.0);
       if (!pt || pt->side_px < o.edge_fit_min_side_px) continue;
       if (reach > o.edge_fit_max_reach_sides * pt->side_px) continue;  // too unsure to pick an edge
-      std::vector<std::array<Eigen::Vector2d, 4>> others;
-      for (const Square& q : squares)
-        if (!(q.body == &b && q.id == t.id)) others.push_back(q.px);
-      for (const DetectedTag& d : tags) others.push_back(d.corners_px);
+      // This tag's own square out of `others` for its fits (swapped back at the end of the pass).
+      const auto mine = std::find_if(own.begin(), own.end(), [&](const auto& k) { return k.first == t.id; });
+      const bool has_own = mine != own.end();
+      const std::size_t own_at = has_own ? mine->second : 0;
+      std::array<Eigen::Vector2d, 4> own_px;
+      if (has_own) {
+        std::swap(others[own_at], others.back());
+        own_px = others.back();
+        others.pop_back();
+      }
+      struct PutBack {
+        std::vector<std::array<Eigen::Vector2d, 4>>& v;
+        bool on;
+        std::size_t at;
+        const std::array<Eigen::Vector2d, 4>& px;
+        ~PutBack() {
+          if (!on) return;
+          v.push_back(px);
+          std::swap(v[at], v.back());
+        }
+      } put_back{others, has_own, own_at, own_px};
       if (o.edge_fit) {
         ++f.edge_fit_tried;
         const cv::Mat& g = gray.region(cv::Rect(pt->x0, pt->y0, pt->x1 - pt->x0, pt->y1 - pt->y0));
@@ -678,12 +708,7 @@ struct Tracker::Impl {
                                               o.edge_fit_border, &detector->to_linear());
         if (fit.status == TagEdgeFitStatus::kBadInput) return Error{"Tracker: " + fit.message};
         if (fit.status == TagEdgeFitStatus::kFitted) {
-          DetectedTag d;
-          d.family = b.bundle.family;
-          d.id = t.id;
-          d.edge_fit = true;
-          d.corners_px = fit.corners_px;
-          cands.push_back(d);
+          candidate(t.id, false, fit.corners_px);
           continue;
         }
         ++f.edge_fit_refused[static_cast<std::size_t>(fit.status) - 1];
@@ -730,12 +755,7 @@ struct Tracker::Impl {
           ++f.pattern_fit_refused[static_cast<std::size_t>(fit.status) - 1];
           continue;
         }
-        DetectedTag d;
-        d.family = b.bundle.family;
-        d.id = t.id;
-        d.pattern_fit = true;
-        d.corners_px = fit.corners_px;
-        cands.push_back(d);
+        candidate(t.id, true, fit.corners_px);
       }
     }
     if (cands.empty()) return {};

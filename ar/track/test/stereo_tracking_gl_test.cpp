@@ -667,6 +667,10 @@ TEST(StereoTracking, BenchmarkTable) {
   // DENTAR_STEREO_RIM_MIN_TAGS=N (stereo_mirror_rim_min_tags).
   if (const char* v = std::getenv("DENTAR_STEREO_RIM_EFF")) opt.stereo_mirror_rim_effective_points = std::atof(v);
   if (const char* v = std::getenv("DENTAR_STEREO_RIM_MIN_TAGS")) opt.stereo_mirror_rim_min_tags = std::atoi(v);
+  // DENTAR_STEREO_RIM_SIGHTINGS=0|1 (stereo_mirror_rim_count_sightings).
+  if (const char* v = std::getenv("DENTAR_STEREO_RIM_SIGHTINGS")) opt.stereo_mirror_rim_count_sightings = std::atoi(v) != 0;
+  // DENTAR_STEREO_RIM_ONE_TAG_CHI2=x (stereo_mirror_rim_one_tag_chi2; 0 = no check).
+  if (const char* v = std::getenv("DENTAR_STEREO_RIM_ONE_TAG_CHI2")) opt.stereo_mirror_rim_one_tag_chi2 = std::atof(v);
   std::vector<std::uint64_t> seeds;
   {
     std::stringstream ss(std::getenv("DENTAR_STEREO_SEEDS") ? std::getenv("DENTAR_STEREO_SEEDS") : "5");

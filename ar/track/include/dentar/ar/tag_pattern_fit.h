@@ -11,11 +11,11 @@
 //
 // The fit: the corners' mean shift searched on a grid over +-reach (decimated pixels, fewer
 // subsamples), then Gauss-Newton (Levenberg-Marquardt damping) on the 8 corner coordinates
-// and a, b, the Jacobian by forward differences of the model (0.2 px), Huber weights against
+// and a, b, the Jacobian analytic (numeric_jacobian: forward differences), Huber weights against
 // occluders. Gauss-Newton of our own rather than Ceres or cv::findTransformECC: ECC fits a
 // warp of one template without blur (the blur here moves with the corners and differs per
 // corner) and has no brightness offset; Ceres would add a dependency for a 10-parameter
-// problem whose Jacobian is the model's finite differences either way.
+// problem.
 //
 // Then the cell check: with the fitted corners fixed, every cell's albedo is fitted freely
 // (each cell's blurred footprint a basis image, a ridge toward mid-grey so that cells the
@@ -50,6 +50,10 @@ struct TagPatternFitOptions {
   int min_right_cells = 12;         // confident cells with the code: fewer refuses
   double max_shape_px = 2.0;        // the fitted square's shape (less its shift) against the prediction
   int min_pixels = 60;              // pixels in the fit
+  // The Gauss-Newton Jacobian: false = analytic (the homography's derivative in the corners
+  // and the pattern's gradient; session 23), true = forward differences of the model (0.2 px,
+  // 8 more model evaluations a step; session 22's).
+  bool numeric_jacobian = false;
   std::string validate() const;     // empty when valid, else names the field
 };
 
@@ -71,6 +75,11 @@ struct TagPatternFit {
   int right_cells = 0, wrong_cells = 0;         // confident cells with / against the code
   int pixels = 0, iterations = 0;
   double shift_px = 0, shape_px = 0;  // against the prediction
+  // The fitted corners' stated sigma (px, RMS over the 8 coordinates): the fit's weighted
+  // residual variance times its inverse normal matrix, as if pixels were independent. 0 when
+  // the fit stopped before a full step. Compared with the corner errors of rendered tags in
+  // CornerBias.PatternFitFindsTagsTheDetectorMissesAndRefusesAWrongId.
+  double corner_sigma_px = 0;
   std::string message;                // kBadInput: what was wrong
 };
 
