@@ -11,21 +11,23 @@
 
 namespace dentar::volume::detail {
 
-// Distance from (rho, z) to the segment a-b in the half plane.
-inline double seg_dist(double px, double pz, double ax, double az, double bx, double bz) {
+// Squared distance from (rho, z) to the segment a-b in the half plane.
+inline double seg_dist2(double px, double pz, double ax, double az, double bx, double bz) {
   const double dx = bx - ax, dz = bz - az;
   const double len2 = dx * dx + dz * dz;
   double t = len2 > 0 ? ((px - ax) * dx + (pz - az) * dz) / len2 : 0.0;
   t = std::clamp(t, 0.0, 1.0);
   const double ex = px - (ax + t * dx), ez = pz - (az + t * dz);
-  return std::sqrt(ex * ex + ez * ez);
+  return ex * ex + ez * ez;
 }
 
 // Signed distance to the solid of revolution of the trapezoid with radius
 // r0 at z=0 and r1 at z=-L (rho >= 0). Exact: the profile is convex.
+// One square root of the smallest square: the same bits as the smallest of
+// three roots (sqrt is correctly rounded, so monotonic).
 inline double frustum_sdf(double rho, double z, double r0, double r1, double L) {
-  const double d = std::min({seg_dist(rho, z, 0, 0, r0, 0), seg_dist(rho, z, r0, 0, r1, -L),
-                             seg_dist(rho, z, r1, -L, 0, -L)});
+  const double d = std::sqrt(std::min({seg_dist2(rho, z, 0, 0, r0, 0), seg_dist2(rho, z, r0, 0, r1, -L),
+                                       seg_dist2(rho, z, r1, -L, 0, -L)}));
   const double r_at_z = r0 + (r1 - r0) * (-z / L);
   const bool inside = z <= 0 && z >= -L && rho <= r_at_z;
   return inside ? -d : d;

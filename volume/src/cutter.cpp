@@ -228,6 +228,14 @@ CutResult Cutter::step_overlap(const BurParams& bp, const Eigen::Isometry3d& T_t
               const int j0 = std::max(y0, lo.y()), j1 = std::min(y0 + 3, hi.y());
               const int k0 = std::max(z0, lo.z()), k1 = std::min(z0 + 3, hi.z());
               if (i0 > i1 || j0 > j1 || k0 > k1) continue;
+              // No solid voxel in the block's part in range: nothing to do, no distance.
+              bool any_solid = false;
+              for (int k = k0; k <= k1 && !any_solid; ++k)
+                for (int j = j0; j <= j1 && !any_solid; ++j) {
+                  const std::uint8_t* row = c->material.data() + chunk_local_index(i0 & 15, j & 15, k & 15);
+                  for (int i = 0; i <= i1 - i0; ++i) any_solid = any_solid || row[i] != 0;
+                }
+              if (!any_solid) continue;
               const Eigen::Vector3d bc = c0 + (16.0 * ci + bi + 1.5) * ax +
                                          (16.0 * cj + bj + 1.5) * ay + (16.0 * ck + bk + 1.5) * az;
               const double bd = detail::bur_signed_distance(bp, bc);
