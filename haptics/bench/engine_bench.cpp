@@ -58,7 +58,7 @@ struct Session {
   std::unique_ptr<Engine> engine;
   Session(const std::string& model, const BurParams& bp, int samples, const std::string& script,
           double force_N, double seconds, double hand_k, TrainingMode* training = nullptr,
-          bool overlap_cut = false) {
+          bool overlap_cut = false, bool sample_jitter = false) {
     bur = std::move(volume::sample_bur(bp, samples)).value();
     const Station st = default_station();
     HandParams hand;
@@ -72,6 +72,7 @@ struct Session {
     cfg.T_sty_tip = st.T_sty_tip;
     cfg.training = training;
     if (overlap_cut) use_overlap_cut(cfg);
+    cfg.cut.sample_jitter = sample_jitter;
     engine = std::move(Engine::create(cfg, *device, tooth, bur)).value();
   }
 };
@@ -130,36 +131,50 @@ BENCHMARK(BM_EngineStep)
 // Session 22: BM_EngineStep's proxy access session with the sample cutter (cutter 0, main's
 // pairing) or the overlap cutter with the shape-constrained proxy (cutter 1,
 // use_overlap_cut), each step's thread CPU time (the tail without the scheduler's preemption).
+// Session 23: cutter 2 = the sample cutter with sample_jitter (the fixed-sample stall
+// removed; what separates the sample count's effect on removal); the removal per material
+// and the mean force over the timed steps beside it.
 // Args: shape (2 capsule, 3 cone), samples, cutter.
 void BM_EngineStepCutter(benchmark::State& state) {
-  const bool overlap = state.range(2) != 0;
+  const bool overlap = state.range(2) == 1;
+  const bool jitter = state.range(2) == 2;
   EngineStats total;
-  double removed = 0;
+  double removed = 0, enamel = 0, dentin = 0, force_sum = 0;
+  std::size_t force_n = 0;
   std::vector<double> cpu_us;
   cpu_us.reserve(static_cast<std::size_t>(state.max_iterations) * 4000);
   for (auto _ : state) {
     state.PauseTiming();
     Session s("proxy", bur_of(static_cast<int>(state.range(0))), static_cast<int>(state.range(1)), "access",
-              2.5, 0.0, kFingerRestStiffness_N_per_m, nullptr, overlap);
+              2.5, 0.0, kFingerRestStiffness_N_per_m, nullptr, overlap, jitter);
     s.engine->run_steps(400);
     state.ResumeTiming();
     for (int k = 0; k < 4000; ++k) {
       const double c0 = thread_cpu_s();
       s.engine->run_steps(1);
       cpu_us.push_back((thread_cpu_s() - c0) * 1e6);
+      const HapticSnapshot h = s.engine->snapshot();
+      force_sum += std::hypot(h.force_dev_N[0], h.force_dev_N[1], h.force_dev_N[2]);
+      ++force_n;
     }
     state.PauseTiming();
     total = s.engine->stats();
-    removed = s.engine->cutter().metrics().removed_total_mm3;
+    const volume::CutMetrics m = s.engine->cutter().metrics();
+    removed = m.removed_total_mm3;
+    enamel = m.removed_mm3[static_cast<std::size_t>(volume::Material::kEnamel)];
+    dentin = m.removed_mm3[static_cast<std::size_t>(volume::Material::kDentin)];
     state.ResumeTiming();
   }
   report(state, total);
   report_cpu(state, cpu_us);
   state.counters["removed_mm3"] = removed;
-  state.SetLabel(overlap ? "overlap" : "samples");
+  state.counters["enamel_mm3"] = enamel;
+  state.counters["dentin_mm3"] = dentin;
+  state.counters["mean_force_N"] = force_n ? force_sum / static_cast<double>(force_n) : 0.0;
+  state.SetLabel(overlap ? "overlap" : jitter ? "samples+jitter" : "samples");
 }
 BENCHMARK(BM_EngineStepCutter)
-    ->ArgsProduct({{2, 3}, {1000, 10000}, {0, 1}})
+    ->ArgsProduct({{2, 3}, {1000, 10000}, {0, 1, 2}})
     ->Iterations(3)
     ->Unit(benchmark::kMillisecond);
 

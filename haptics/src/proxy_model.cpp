@@ -33,11 +33,18 @@
 //     ever lies in solid above the iso level (tested for every shape).
 //  3. Active list: a full pass over the shell at a base pose records the
 //     samples whose interpolation cell holds any non-air voxel. A sample
-//     whose cell is all air and which then moves by at most kActiveReach
-//     (0.17 voxel) can reach at most 1-(1-0.17)^3 = 0.428 of a full voxel's
-//     density, i.e. <= 109 < the constraint level (115.5): it cannot
-//     penetrate. So while every shell sample stays within 0.17 voxel of the base pose (across
-//     steps), only the active list is checked. Cutting only removes
+//     whose cell is all air and which then moves by a distance of at most
+//     kActiveReach (0.29 voxel) keeps at least prod_a (1 - |d_a|) of its
+//     trilinear weight on that cell's (air) corners, at least
+//     (1 - 0.29/sqrt(3))^3 = 0.577 (the worst direction is the diagonal), so
+//     it reads at most 0.423 of a full voxel's density, <= 108 < the
+//     constraint level (115.5): it cannot penetrate. So while every shell
+//     sample stays within 0.29 voxel of where it was at the base pose (across
+//     steps; bounded by the shell's centre's move plus the rotation's change
+//     times the shell's radius about that centre), only the active list is
+//     checked. Either way the evaluation's result is the same bits (the
+//     samples left out contribute nothing; the rest are visited in the same
+//     order): the list only saves reading air. Cutting only removes
 //     material, which keeps the list conservative; a new volume object or
 //     reset() rebuilds it.
 #include <algorithm>
@@ -224,9 +231,11 @@ class ProxyModel final : public ForceModel {
   static constexpr int kMaxEvaluationsPerStep = 3;
   static constexpr std::size_t kMaxShellSamples = 2048;
   static constexpr double kSurfaceMargin = 0.02;  // voxels, after a projection
-  // Voxels; see the header comment: 255 (1 - (1 - 0.17)^3) = 109 stays
-  // under the constraint level kIso (115.5).
-  static constexpr double kActiveReach = 0.17;
+  // Voxels (a distance); see the header comment: 255 (1 - (1 - 0.29 / sqrt 3)^3)
+  // = 108 stays under the constraint level kIso (115.5); the bound allows up to
+  // 0.315. Session 22 used 0.17 with the shell's radius about the tip: the
+  // same results, a full pass on most steps while cutting.
+  static constexpr double kActiveReach = 0.29;
   // The constraint level sits a little below the surface iso level: the
   // proxy keeps a skin of about 0.05 voxel (at a dentin/air gradient of
   // ~200 units per voxel) off the surface, which covers what the solid can
@@ -262,6 +271,7 @@ class ProxyModel final : public ForceModel {
       return;
     if (p_.shape_constraint) {
       shape_shell(bur.params, 0.5 * h);
+      shell_extent();
       base_vol_ = nullptr;
       shell_bur_ = &bur;
       shell_size_ = bur.size();
@@ -273,7 +283,6 @@ class ProxyModel final : public ForceModel {
     const double spacing = std::cbrt(bur.sample_volume_m3);
     const double thickness = std::clamp(2.0 * spacing, 0.5 * h, h);
     shell_count_ = 0;
-    shell_radius_ = 0;
     std::size_t in_shell = 0;
     for (const Eigen::Vector3f& p : bur.points_m)
       in_shell += bur.params.signed_distance(p.cast<double>()) > -thickness ? 1 : 0;
@@ -288,13 +297,27 @@ class ProxyModel final : public ForceModel {
     for (const Eigen::Vector3f& p : bur.points_m)
       if (bur.params.signed_distance(p.cast<double>()) > -thickness && seen++ % stride == 0) {
         shell_[shell_count_++] = p;
-        shell_radius_ = std::max(shell_radius_, static_cast<double>(p.norm()));
       }
+    shell_extent();
     base_vol_ = nullptr;
     shell_bur_ = &bur;
     shell_size_ = bur.size();
     shell_h_ = h;
     shell_params_ = bur.params;
+  }
+
+  // The shell's centre (on the axis, midway along its z range) and its radius
+  // about that centre: the active list's reach test.
+  void shell_extent() noexcept {
+    double z_lo = 0, z_hi = 0;
+    for (std::size_t a = 0; a < shell_count_; ++a) {
+      z_lo = std::min(z_lo, static_cast<double>(shell_[a].z()));
+      z_hi = std::max(z_hi, static_cast<double>(shell_[a].z()));
+    }
+    shell_centre_ = Eigen::Vector3d(0, 0, 0.5 * (z_lo + z_hi));
+    shell_radius_ = 0;
+    for (std::size_t a = 0; a < shell_count_; ++a)
+      shell_radius_ = std::max(shell_radius_, (shell_[a].cast<double>() - shell_centre_).norm());
   }
 
   // The constraint shell from the bur's shape alone: points of a Halton
@@ -308,7 +331,6 @@ class ProxyModel final : public ForceModel {
     const double R = b.radius_m;
     const double z0 = -(b.shape == volume::BurShape::kSphere ? 2.0 * R : b.length_m);
     shell_count_ = 0;
-    shell_radius_ = 0;
     constexpr std::uint32_t kMaxCandidates = 1u << 21;
     for (std::uint32_t i = 1; i < kMaxCandidates && shell_count_ < kMaxShellSamples; ++i) {
       const Eigen::Vector3d p((2.0 * radical_inverse(i, 2) - 1.0) * R,
@@ -316,7 +338,6 @@ class ProxyModel final : public ForceModel {
       const double d = b.signed_distance(p);
       if (d > 0 || d <= -thickness) continue;
       shell_[shell_count_++] = p.cast<float>();
-      shell_radius_ = std::max(shell_radius_, p.norm());
     }
   }
   static double radical_inverse(std::uint32_t i, std::uint32_t base) noexcept {
@@ -341,10 +362,12 @@ class ProxyModel final : public ForceModel {
     const VoxelMap map = VoxelMap::make(vol.geometry(), T);
     const Eigen::Vector3f inv_s = vol.spacing().cwiseInverse().cast<float>();
     const double reach_m = kActiveReach * vol.spacing().minCoeff();
-    // |(R - R0) q + (x - x0)| <= ||R - R0||_F |q| + |x - x0| for every sample q.
+    // With q = c + e (c the shell's centre, |e| <= shell_radius_):
+    // |(R - R0) q + (x - x0)| <= |(R - R0) c + (x - x0)| + ||R - R0||_F shell_radius_.
     const bool use_active =
         base_vol_ == &vol &&
-        (R - base_R_).norm() * shell_radius_ + (x - base_x_).norm() <= reach_m;
+        ((R - base_R_) * shell_centre_ + (x - base_x_)).norm() + (R - base_R_).norm() * shell_radius_ <=
+            reach_m;
     if (!use_active) {
       base_vol_ = &vol;
       base_R_ = R;
@@ -427,7 +450,8 @@ class ProxyModel final : public ForceModel {
   const volume::BurSamples* shell_bur_ = nullptr;
   std::size_t shell_size_ = 0;
   double shell_h_ = 0;
-  double shell_radius_ = 0;  // largest |q| over shell samples (m)
+  Eigen::Vector3d shell_centre_ = Eigen::Vector3d::Zero();  // tip frame (m)
+  double shell_radius_ = 0;  // largest |q - shell_centre_| over shell samples (m)
   volume::BurParams shell_params_;
 
   // Active list (indices into shell_) and the base pose it was built at.

@@ -19,8 +19,9 @@
 namespace dentar::haptics {
 namespace {
 
-TEST(EngineConcurrency, HapticThreadLoggerAndSnapshotReadersRunTogether) {
+void threads_run_together(bool overlap_cut) {
   test::ScriptedRig rig(0.2, 2000);
+  if (overlap_cut) use_overlap_cut(rig.cfg);
   const volume::VoxelVolume start = rig.tooth.clone();
   rig.cfg.watchdog_missed_deadlines = 1000000;  // sanitizer slowness is not a fault here
   const auto dir = test::temp_dir("engine_tsan");
@@ -68,6 +69,10 @@ TEST(EngineConcurrency, HapticThreadLoggerAndSnapshotReadersRunTogether) {
   ASSERT_TRUE(r.ok()) << r.error();
   EXPECT_EQ(r->volume_hash, rig.tooth.content_hash());
 }
+
+TEST(EngineConcurrency, HapticThreadLoggerAndSnapshotReadersRunTogether) { threads_run_together(false); }
+// The overlap cutter and the shape-constrained proxy (use_overlap_cut, `dentar live`'s).
+TEST(EngineConcurrency, WithTheOverlapCutTheThreadsRunTogether) { threads_run_together(true); }
 
 }  // namespace
 }  // namespace dentar::haptics

@@ -15,7 +15,10 @@
 #include "dentar/haptics/scripts.h"
 #include "dentar/haptics/simulated_device.h"
 #include "dentar/volume/procedural_tooth.h"
+#include "scripted_rig.h"
 #include "testutil.h"
+
+#include "alloc_counter.h"  // counts this thread's heap allocations
 
 namespace dentar::haptics {
 namespace {
@@ -307,6 +310,25 @@ TEST(EngineLoop, PersistentOverrunTripsTheWatchdog) {
   EXPECT_GE(s.watchdog_trips, 1u) << "missed " << s.missed_deadlines;
   EXPECT_GE(s.missed_deadlines, (s.steps - 100) / 2) << "steps " << s.steps;
   EXPECT_GE(s.periods_skipped, (s.steps - 100) / 2);
+}
+
+// Session 23: the 1 kHz step allocates nothing with either cutter: the sample cutter
+// with the sample-constrained proxy, and the overlap cutter with the shape-constrained
+// proxy (use_overlap_cut, what `dentar live` drills with), while it cuts.
+TEST(Engine, CuttingStepsAllocateNothingWithEitherCutter) {
+  for (const bool overlap : {false, true}) {
+    SCOPED_TRACE(overlap ? "overlap cutter" : "sample cutter");
+    test::ScriptedRig rig(0.2, 1000);
+    rig.cfg.model = "proxy";
+    if (overlap) use_overlap_cut(rig.cfg);
+    auto engine = rig.engine();
+    ASSERT_EQ(engine->run_steps(300), 300u);  // the approach; the shell and lists are built
+    const double before_mm3 = engine->cutter().metrics().removed_total_mm3;
+    const long before = test::this_thread_allocations();
+    ASSERT_EQ(engine->run_steps(600), 600u);
+    EXPECT_EQ(test::this_thread_allocations() - before, 0);
+    EXPECT_GT(engine->cutter().metrics().removed_total_mm3, before_mm3);  // it did cut
+  }
 }
 
 }  // namespace

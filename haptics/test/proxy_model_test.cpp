@@ -119,11 +119,21 @@ struct Driver {
 
 class ProxyShapes : public ::testing::TestWithParam<BurShape> {};
 
-TEST_P(ProxyShapes, PushDownStaysOnSurfaceAndForceGrowsWithDepth) {
+// The properties below hold for both constraints: the bur's own samples
+// (ProxyParams{}, the default) and the shape shell (shape_constraint, session 22:
+// what `dentar live`, lessons and the demo drill with). "No cutting sample in
+// solid" is checked on the bur's cutting samples in both.
+ProxyParams with_shape_constraint() {
+  ProxyParams p;
+  p.shape_constraint = true;
+  return p;
+}
+
+void push_down_stays_on_surface(BurShape shape, const ProxyParams& pp) {
   const VoxelVolume vol = half_space();
-  const auto bur = volume::sample_bur(bur_of(GetParam()), 10000);
+  const auto bur = volume::sample_bur(bur_of(shape), 10000);
   ASSERT_TRUE(bur.ok());
-  auto m = make_proxy();
+  auto m = make_proxy(pp);
   const double k = 0.8 * DeviceLimits{}.max_stiffness_N_per_m * 0.85;  // dentin scale
   Driver d{*m, vol, *bur, down_at({0, 0, 0.5e-3}), {}};
   d.hold(1);
@@ -149,12 +159,18 @@ TEST_P(ProxyShapes, PushDownStaysOnSurfaceAndForceGrowsWithDepth) {
     EXPECT_NEAR(o.T_tooth_tip_cut.translation().z(), proxy_z - reach, 1e-12);
   }
 }
+TEST_P(ProxyShapes, PushDownStaysOnSurfaceAndForceGrowsWithDepth) {
+  push_down_stays_on_surface(GetParam(), {});
+}
+TEST_P(ProxyShapes, ShapeConstraintPushDownStaysOnSurfaceAndForceGrowsWithDepth) {
+  push_down_stays_on_surface(GetParam(), with_shape_constraint());
+}
 
-TEST_P(ProxyShapes, NeverPenetratesWhileRotatingAndSliding) {
+void never_penetrates_while_rotating_and_sliding(BurShape shape, const ProxyParams& pp) {
   const VoxelVolume vol = half_space();
-  const auto bur = volume::sample_bur(bur_of(GetParam()), 3000);
+  const auto bur = volume::sample_bur(bur_of(shape), 3000);
   ASSERT_TRUE(bur.ok());
-  auto m = make_proxy();
+  auto m = make_proxy(pp);
   Driver d{*m, vol, *bur, down_at({0, 0, 0.5e-3}), {}};
   d.hold(1);
   double worst = 0;
@@ -172,18 +188,24 @@ TEST_P(ProxyShapes, NeverPenetratesWhileRotatingAndSliding) {
   EXPECT_LE(worst, 127.5 + 1e-3);
   EXPECT_TRUE(d.last.in_contact);
 }
+TEST_P(ProxyShapes, NeverPenetratesWhileRotatingAndSliding) {
+  never_penetrates_while_rotating_and_sliding(GetParam(), {});
+}
+TEST_P(ProxyShapes, ShapeConstraintNeverPenetratesWhileRotatingAndSliding) {
+  never_penetrates_while_rotating_and_sliding(GetParam(), with_shape_constraint());
+}
 
 INSTANTIATE_TEST_SUITE_P(AllBurs, ProxyShapes,
                          ::testing::Values(BurShape::kSphere, BurShape::kCylinder,
                                            BurShape::kCapsule, BurShape::kCone),
                          [](const auto& i) { return std::string(volume::bur_shape_name(i.param)); });
 
-TEST(ProxyModel, NeverPenetratesTheMolar) {
+void never_penetrates_the_molar(const ProxyParams& pp, int samples) {
   auto vol = volume::make_molar({.voxel_mm = 0.15});
   ASSERT_TRUE(vol.ok());
-  const auto bur = volume::sample_bur(BurParams::capsule(0.5, 3.0), 3000);
+  const auto bur = volume::sample_bur(BurParams::capsule(0.5, 3.0), samples);
   ASSERT_TRUE(bur.ok());
-  auto m = make_proxy();
+  auto m = make_proxy(pp);
   // Above the occlusal surface, then down 1.5 mm into it, then a sweep.
   Eigen::Isometry3d T = down_at({-1.0e-3, 0.5e-3, 9.0e-3});
   Driver d{*m, *vol, *bur, T, {}};
@@ -202,8 +224,15 @@ TEST(ProxyModel, NeverPenetratesTheMolar) {
   EXPECT_TRUE(touched);
   EXPECT_LE(worst, 127.5 + 1e-3);
 }
+TEST(ProxyModel, NeverPenetratesTheMolar) { never_penetrates_the_molar({}, 3000); }
+// The shape shell at the cohorts' 1000 samples and `dentar live`'s 10000: the
+// constraint is the same, the cutting samples checked differ.
+TEST(ProxyModel, ShapeConstraintNeverPenetratesTheMolar) {
+  never_penetrates_the_molar(with_shape_constraint(), 1000);
+  never_penetrates_the_molar(with_shape_constraint(), 10000);
+}
 
-TEST(ProxyModel, NoPopThroughThinWall) {
+void no_pop_through_thin_wall(const ProxyParams& pp) {
   // A 0.5 mm dentin wall (|x| <= 0.25 mm); the device is pushed 5 mm through it.
   const VoxelVolume vol =
       make_block([](const Eigen::Vector3d& p) { return std::abs(p.x()) <= 0.25e-3 + 1e-9; });
@@ -211,7 +240,7 @@ TEST(ProxyModel, NoPopThroughThinWall) {
     const auto bur = volume::sample_bur(bur_of(s), 3000);
     ASSERT_TRUE(bur.ok());
     for (int steps : {500, 50}) {  // 10 mm/s and 100 mm/s (one voxel per step)
-      auto m = make_proxy();
+      auto m = make_proxy(pp);
       // Sphere: centre at y=z=0, moving +x. Cylinder: vertical, side first.
       const double x0 = -1.5e-3;
       Eigen::Isometry3d T = down_at({x0, 0, s == BurShape::kSphere ? -0.5e-3 : -1.5e-3});
@@ -231,6 +260,8 @@ TEST(ProxyModel, NoPopThroughThinWall) {
     }
   }
 }
+TEST(ProxyModel, NoPopThroughThinWall) { no_pop_through_thin_wall({}); }
+TEST(ProxyModel, ShapeConstraintNoPopThroughThinWall) { no_pop_through_thin_wall(with_shape_constraint()); }
 
 TEST(ProxyModel, SlidesAlongTheSurface) {
   const VoxelVolume vol = half_space();
@@ -406,10 +437,11 @@ TEST(ProxyModel, StartingInsideGivesZeroUntilWithdrawn) {
 }
 
 TEST(ProxyModel, ComputeDoesNotAllocate) {
+  for (const ProxyParams& pp : {ProxyParams{}, with_shape_constraint()}) {
   const VoxelVolume vol = half_space();
   const auto bur = volume::sample_bur(BurParams::capsule(0.5, 3.0), 10000);
   ASSERT_TRUE(bur.ok());
-  auto m = make_proxy();
+  auto m = make_proxy(pp);
   ForceInput in;
   in.volume = &vol;
   in.bur = &*bur;
@@ -419,8 +451,9 @@ TEST(ProxyModel, ComputeDoesNotAllocate) {
     in.T_tooth_tip = down_at({0.001e-3 * i, 0, 0.2e-3 - 0.001e-3 * i});
     sink += m->compute(in).force_N.z();
   }
-  EXPECT_EQ(dentar::test::this_thread_allocations() - before, 0);
+  EXPECT_EQ(dentar::test::this_thread_allocations() - before, 0) << pp.shape_constraint;
   EXPECT_GT(sink, 0);
+  }
 }
 
 TEST(ProxyModel, ValidatesParameters) {

@@ -1,5 +1,7 @@
 #include "dentar/volume/bur.h"
 
+#include "bur_sdf.h"
+
 #include <algorithm>
 #include <utility>
 #include <cmath>
@@ -104,44 +106,8 @@ double BurParams::tip_region_length_m() const {
   return 0;
 }
 
-namespace {
-// Distance from (rho, z) to the segment a-b in the half plane.
-double seg_dist(double px, double pz, double ax, double az, double bx, double bz) {
-  const double dx = bx - ax, dz = bz - az;
-  const double len2 = dx * dx + dz * dz;
-  double t = len2 > 0 ? ((px - ax) * dx + (pz - az) * dz) / len2 : 0.0;
-  t = std::clamp(t, 0.0, 1.0);
-  const double ex = px - (ax + t * dx), ez = pz - (az + t * dz);
-  return std::sqrt(ex * ex + ez * ez);
-}
-
-// Signed distance to the solid of revolution of the trapezoid with radius
-// r0 at z=0 and r1 at z=-L (rho >= 0). Exact: the profile is convex.
-double frustum_sdf(double rho, double z, double r0, double r1, double L) {
-  const double d = std::min({seg_dist(rho, z, 0, 0, r0, 0), seg_dist(rho, z, r0, 0, r1, -L),
-                             seg_dist(rho, z, r1, -L, 0, -L)});
-  const double r_at_z = r0 + (r1 - r0) * (-z / L);
-  const bool inside = z <= 0 && z >= -L && rho <= r_at_z;
-  return inside ? -d : d;
-}
-}  // namespace
-
 double BurParams::signed_distance(const Eigen::Vector3d& p) const {
-  const double rho = std::hypot(p.x(), p.y());
-  switch (shape) {
-    case BurShape::kSphere: return (p - Eigen::Vector3d(0, 0, -radius_m)).norm() - radius_m;
-    case BurShape::kCylinder: return frustum_sdf(rho, p.z(), radius_m, radius_m, length_m);
-    case BurShape::kCone: return frustum_sdf(rho, p.z(), tip_radius_m, radius_m, length_m);
-    case BurShape::kCapsule: {
-      // Union of the hemisphere-ended part: a sphere at z=-r and a cylinder
-      // from z=-r to z=-L. min() of the two is exact outside the union.
-      const double ds = (p - Eigen::Vector3d(0, 0, -radius_m)).norm() - radius_m;
-      const double dc =
-          frustum_sdf(rho, p.z() + radius_m, radius_m, radius_m, length_m - radius_m);
-      return std::min(ds, dc);
-    }
-  }
-  return 1.0;
+  return detail::bur_signed_distance(*this, p);
 }
 
 namespace {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "bur_sdf.h"
+
 namespace dentar::volume {
 
 std::string CutParams::validate() const {
@@ -36,6 +38,38 @@ double units_to_voxels(std::uint64_t units, int m) {
 Cutter::Cutter(VoxelVolume& volume, const CutParams& params) : vol_(&volume), params_(params) {
   const auto sums = volume.density_sum_by_material();
   for (int m = 1; m < kMaxMaterials; ++m) original_units_ += units_to_voxels(sums[static_cast<std::size_t>(m)], m);
+}
+
+inline void Cutter::cut_voxel(CutResult& res, VoxelVolume::Chunk& c, std::size_t li,
+                              std::uint8_t mat, int i, int j, int k, double overlap_m3,
+                              std::uint32_t amount_fx, std::uint32_t dither, bool cutting,
+                              std::uint64_t step_index, Eigen::Vector3i& lo,
+                              Eigen::Vector3i& hi) noexcept {
+  ++res.samples_in_solid;
+  res.overlap_m3 += overlap_m3;
+  if (mat == static_cast<std::uint8_t>(Material::kPulp)) {
+    res.touched_pulp = true;
+    if (cutting && !exposure_) exposure_ = PulpExposure{step_index, vol_->voxel_center(i, j, k)};
+  }
+  const std::uint32_t units = (amount_fx + dither) >> 16;
+  if (units == 0) return;
+  std::uint8_t& d = c.density[li];
+  const std::uint8_t removed = static_cast<std::uint8_t>(std::min<std::uint32_t>(units, d));
+  d = static_cast<std::uint8_t>(d - removed);
+  if (d == 0) c.material[li] = 0;  // fully removed: becomes air
+  res.removed[mat & (kMaxMaterials - 1)] += removed;
+  lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+  hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+}
+
+inline void Cutter::finish_step(const CutResult& res, const Eigen::Vector3i& lo,
+                                const Eigen::Vector3i& hi) noexcept {
+  if (hi.x() < 0) return;
+  // A changed voxel moves vertices of cells down to lo-1 and, through the
+  // gradient, normals of cells down to lo-2 and up to hi+1.
+  vol_->mark_dirty_box(lo - Eigen::Vector3i::Constant(2), hi + Eigen::Vector3i::Constant(1));
+  for (int m = 0; m < kMaxMaterials; ++m)
+    removed_total_[static_cast<std::size_t>(m)] += res.removed[static_cast<std::size_t>(m)];
 }
 
 CutResult Cutter::step(const BurSamples& bur, const Eigen::Isometry3d& T_tooth_tip,
@@ -105,32 +139,12 @@ CutResult Cutter::step(const BurSamples& bur, const Eigen::Isometry3d& T_tooth_t
     if (!c) continue;  // absent chunk: all air
     const auto li = static_cast<std::size_t>(chunk_local_index(i & 15, j & 15, k & 15));
     const std::uint8_t mat = c->material[li];
-    std::uint8_t& d = c->density[li];
-    if (mat == 0 || d == 0) continue;
-    ++res.samples_in_solid;
-    res.overlap_m3 += bur.sample_volume_m3;
-    if (mat == static_cast<std::uint8_t>(Material::kPulp)) {
-      res.touched_pulp = true;
-      if (cutting && !exposure_)
-        exposure_ = PulpExposure{step_index, vol_->voxel_center(i, j, k)};
-    }
+    if (mat == 0 || c->density[li] == 0) continue;
     const std::uint32_t dither = (static_cast<std::uint32_t>(s) * 0x9E3779B9u + step_phase) >> 16;
-    const std::uint32_t units = (amount_fx[mat & (kMaxMaterials - 1)] + dither) >> 16;
-    if (units == 0) continue;
-    const std::uint8_t removed = static_cast<std::uint8_t>(std::min<std::uint32_t>(units, d));
-    d = static_cast<std::uint8_t>(d - removed);
-    if (d == 0) c->material[li] = 0;  // fully removed: becomes air
-    res.removed[mat & (kMaxMaterials - 1)] += removed;
-    lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
-    hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+    cut_voxel(res, *c, li, mat, i, j, k, bur.sample_volume_m3,
+              amount_fx[mat & (kMaxMaterials - 1)], dither, cutting, step_index, lo, hi);
   }
-  if (hi.x() >= 0) {
-    // A changed voxel moves vertices of cells down to lo-1 and, through the
-    // gradient, normals of cells down to lo-2 and up to hi+1.
-    vol_->mark_dirty_box(lo - Eigen::Vector3i::Constant(2), hi + Eigen::Vector3i::Constant(1));
-    for (int m = 0; m < kMaxMaterials; ++m)
-      removed_total_[static_cast<std::size_t>(m)] += res.removed[static_cast<std::size_t>(m)];
-  }
+  finish_step(res, lo, hi);
   return res;
 }
 
@@ -187,6 +201,14 @@ CutResult Cutter::step_overlap(const BurParams& bp, const Eigen::Isometry3d& T_t
   const double voxel_m3 = vol_->voxel_volume_m3();
   const double chunk_reach = 0.5 * h + 0.5 * (15.0 * g.spacing).norm();
   const double block_reach = 0.5 * h + 0.5 * (3.0 * g.spacing).norm();
+  // 2^3 sub-blocks of a block the bur's surface passes through: every voxel centre lies
+  // within half the sub-block's diagonal of its centre, and the signed distance is
+  // 1-Lipschitz, so a sub-block centre further than pair_reach outside the bur proves
+  // each voxel's share 0 (the per-voxel path would skip it) and one further than
+  // pair_reach inside proves each share exactly 1 (the clamp's value). The margin (a
+  // millionth of a voxel) covers the rounding of the two centres, so either way the
+  // voxel gets the bits the per-voxel path would give it.
+  const double pair_reach = 0.5 * h + 0.5 * g.spacing.norm() + 1e-6 * h;
   const std::uint32_t step_phase = static_cast<std::uint32_t>(step_index) * 0x632BE5ABu;
   Eigen::Vector3i clo(g.dims), chi(-1, -1, -1);
 
@@ -197,59 +219,66 @@ CutResult Cutter::step_overlap(const BurParams& bp, const Eigen::Isometry3d& T_t
         VoxelVolume::Chunk* c = vol_->chunk(cid);
         if (!c) continue;  // absent chunk: all air
         const Eigen::Vector3d cc = c0 + (16.0 * ci + 7.5) * ax + (16.0 * cj + 7.5) * ay + (16.0 * ck + 7.5) * az;
-        if (bp.signed_distance(cc) >= chunk_reach) continue;
+        if (detail::bur_signed_distance(bp, cc) >= chunk_reach) continue;
         for (int bk = 0; bk < 16; bk += 4)
           for (int bj = 0; bj < 16; bj += 4)
             for (int bi = 0; bi < 16; bi += 4) {
-              const int i0 = std::max(16 * ci + bi, lo.x()), i1 = std::min(16 * ci + bi + 3, hi.x());
-              const int j0 = std::max(16 * cj + bj, lo.y()), j1 = std::min(16 * cj + bj + 3, hi.y());
-              const int k0 = std::max(16 * ck + bk, lo.z()), k1 = std::min(16 * ck + bk + 3, hi.z());
+              const int x0 = 16 * ci + bi, y0 = 16 * cj + bj, z0 = 16 * ck + bk;  // block origin
+              const int i0 = std::max(x0, lo.x()), i1 = std::min(x0 + 3, hi.x());
+              const int j0 = std::max(y0, lo.y()), j1 = std::min(y0 + 3, hi.y());
+              const int k0 = std::max(z0, lo.z()), k1 = std::min(z0 + 3, hi.z());
               if (i0 > i1 || j0 > j1 || k0 > k1) continue;
+              // No solid voxel in the block's part in range: nothing to do, no distance.
+              bool any_solid = false;
+              for (int k = k0; k <= k1 && !any_solid; ++k)
+                for (int j = j0; j <= j1 && !any_solid; ++j) {
+                  const std::uint8_t* row = c->material.data() + chunk_local_index(i0 & 15, j & 15, k & 15);
+                  for (int i = 0; i <= i1 - i0; ++i) any_solid = any_solid || row[i] != 0;
+                }
+              if (!any_solid) continue;
               const Eigen::Vector3d bc = c0 + (16.0 * ci + bi + 1.5) * ax +
                                          (16.0 * cj + bj + 1.5) * ay + (16.0 * ck + bk + 1.5) * az;
-              const double bd = bp.signed_distance(bc);
+              const double bd = detail::bur_signed_distance(bp, bc);
               if (bd >= block_reach) continue;
               const bool whole = bd <= -block_reach;  // every voxel wholly inside
+              // Sub-block classes, found at the first solid voxel of each: -1 not yet,
+              // 0 out of reach, 1 wholly inside, 2 per voxel. The voxels are still
+              // visited in the same order (the first pulp exposure and the overlap sum
+              // depend on it).
+              std::int8_t pair_class[8] = {-1, -1, -1, -1, -1, -1, -1, -1};
               for (int k = k0; k <= k1; ++k)
                 for (int j = j0; j <= j1; ++j)
                   for (int i = i0; i <= i1; ++i) {
                     const auto li = static_cast<std::size_t>(chunk_local_index(i & 15, j & 15, k & 15));
                     const std::uint8_t mat = c->material[li];
-                    std::uint8_t& d = c->density[li];
-                    if (mat == 0 || d == 0) continue;
+                    if (mat == 0 || c->density[li] == 0) continue;
                     double share = 1.0;
                     if (!whole) {
-                      const double sd = bp.signed_distance(c0 + i * ax + j * ay + k * az);
-                      share = std::clamp(0.5 - sd * inv_h, 0.0, 1.0);
-                      if (share <= 0.0) continue;
-                    }
-                    ++res.samples_in_solid;
-                    res.overlap_m3 += share * voxel_m3;
-                    if (mat == static_cast<std::uint8_t>(Material::kPulp)) {
-                      res.touched_pulp = true;
-                      if (cutting && !exposure_)
-                        exposure_ = PulpExposure{step_index, vol_->voxel_center(i, j, k)};
+                      const int sx = (i - x0) >> 1, sy = (j - y0) >> 1, sz = (k - z0) >> 1;
+                      std::int8_t& pc = pair_class[sx + 2 * sy + 4 * sz];
+                      if (pc < 0) {
+                        const Eigen::Vector3d pcen = c0 + (x0 + 2.0 * sx + 0.5) * ax +
+                                                     (y0 + 2.0 * sy + 0.5) * ay + (z0 + 2.0 * sz + 0.5) * az;
+                        const double pd = detail::bur_signed_distance(bp, pcen);
+                        pc = pd >= pair_reach ? 0 : pd <= -pair_reach ? 1 : 2;
+                      }
+                      if (pc == 0) continue;
+                      if (pc == 2) {
+                        const double sd = detail::bur_signed_distance(bp, c0 + i * ax + j * ay + k * az);
+                        share = std::clamp(0.5 - sd * inv_h, 0.0, 1.0);
+                        if (share <= 0.0) continue;
+                      }
                     }
                     const std::uint32_t dither =
                         (static_cast<std::uint32_t>(li) * 0x9E3779B9u +
                          static_cast<std::uint32_t>(cid) * 0x85EBCA6Bu + step_phase) >> 16;
-                    const std::uint32_t units =
-                        (static_cast<std::uint32_t>(amount_fx[mat & (kMaxMaterials - 1)] * share) + dither) >> 16;
-                    if (units == 0) continue;
-                    const std::uint8_t removed = static_cast<std::uint8_t>(std::min<std::uint32_t>(units, d));
-                    d = static_cast<std::uint8_t>(d - removed);
-                    if (d == 0) c->material[li] = 0;
-                    res.removed[mat & (kMaxMaterials - 1)] += removed;
-                    clo = clo.cwiseMin(Eigen::Vector3i(i, j, k));
-                    chi = chi.cwiseMax(Eigen::Vector3i(i, j, k));
+                    cut_voxel(res, *c, li, mat, i, j, k, share * voxel_m3,
+                              static_cast<std::uint32_t>(amount_fx[mat & (kMaxMaterials - 1)] * share),
+                              dither, cutting, step_index, clo, chi);
                   }
             }
       }
-  if (chi.x() >= 0) {
-    vol_->mark_dirty_box(clo - Eigen::Vector3i::Constant(2), chi + Eigen::Vector3i::Constant(1));
-    for (int m = 0; m < kMaxMaterials; ++m)
-      removed_total_[static_cast<std::size_t>(m)] += res.removed[static_cast<std::size_t>(m)];
-  }
+  finish_step(res, clo, chi);
   return res;
 }
 

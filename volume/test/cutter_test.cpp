@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <random>
 
 #include "dentar/volume/procedural_tooth.h"
@@ -147,6 +148,138 @@ TEST(Cutter, OverlapCutRemovesTheBursShareOfEachVoxel) {
   const double full = material_info(Material::kDentin).full_density;
   const double sphere_mm3 = 4.0 / 3.0 * M_PI * 0.512;
   EXPECT_NEAR(cd.metrics().removed_total_mm3 / (10.0 / full * sphere_mm3), 1.0, 0.03);
+}
+
+// Session 23: the overlap rule evaluated at every voxel of the bur's index box, with no
+// coarse level (no chunk, block or sub-block skipped or taken whole), in the cutter's
+// visiting order (chunks, 4^3 blocks, voxels: the first pulp exposure and the overlap
+// sum depend on it). The cutter's culling must give exactly these bits.
+struct BruteOverlap {
+  VoxelVolume* vol;
+  CutParams p;
+  std::uint64_t step = 0;
+  std::optional<PulpExposure> exposure{};
+  std::uint64_t full = 0, part = 0;  // voxels cut with share 1, with share in (0, 1)
+  CutResult cut(const BurParams& bp, const Eigen::Isometry3d& T, double force_N, double dt) {
+    CutResult res;
+    const std::uint64_t si = step++;
+    const double f = std::min(force_N, p.max_effective_force_N);
+    const bool cutting = f >= p.min_force_N && f > 0;
+    const VolumeGeometry& g = vol->geometry();
+    const double h = std::cbrt(vol->voxel_volume_m3()), inv_h = 1.0 / h;
+    const Eigen::Matrix3d Rt = T.linear().transpose();
+    const Eigen::Vector3d c0 = Rt * (g.origin - T.translation());
+    const Eigen::Vector3d ax = Rt.col(0) * g.spacing.x(), ay = Rt.col(1) * g.spacing.y(),
+                          az = Rt.col(2) * g.spacing.z();
+    const double r = bp.radius_m + 0.5 * h;
+    const double z_lo = -(bp.shape == BurShape::kSphere ? 2.0 * bp.radius_m : bp.length_m) - 0.5 * h;
+    Eigen::Vector3d vmin = Eigen::Vector3d::Constant(1e300), vmax = Eigen::Vector3d::Constant(-1e300);
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d q((c & 1) ? r : -r, (c & 2) ? r : -r, (c & 4) ? 0.5 * h : z_lo);
+      const Eigen::Vector3d v = (T * q - g.origin).cwiseQuotient(g.spacing);
+      vmin = vmin.cwiseMin(v);
+      vmax = vmax.cwiseMax(v);
+    }
+    Eigen::Vector3i lo, hi;
+    for (int a = 0; a < 3; ++a) {
+      lo(a) = std::max(0, static_cast<int>(std::ceil(vmin(a))));
+      hi(a) = std::min(g.dims(a) - 1, static_cast<int>(std::floor(vmax(a))));
+      if (lo(a) > hi(a)) return res;
+    }
+    std::array<double, kMaxMaterials> amount{};
+    if (cutting)
+      for (int m = 1; m < kMaxMaterials; ++m)
+        amount[static_cast<std::size_t>(m)] = std::min(
+            p.base_rate_per_s * (f / p.reference_force_N) * dt * material_info(m).removal_rate * 65536.0,
+            255.0 * 65536.0);
+    const std::uint32_t phase = static_cast<std::uint32_t>(si) * 0x632BE5ABu;
+    for (int ck = lo.z() >> 4; ck <= hi.z() >> 4; ++ck)
+      for (int cj = lo.y() >> 4; cj <= hi.y() >> 4; ++cj)
+        for (int ci = lo.x() >> 4; ci <= hi.x() >> 4; ++ci) {
+          const int cid = vol->chunk_id(ci, cj, ck);
+          VoxelVolume::Chunk* c = vol->chunk(cid);
+          if (!c) continue;
+          for (int bk = 0; bk < 16; bk += 4)
+            for (int bj = 0; bj < 16; bj += 4)
+              for (int bi = 0; bi < 16; bi += 4)
+                for (int k = std::max(16 * ck + bk, lo.z()); k <= std::min(16 * ck + bk + 3, hi.z()); ++k)
+                  for (int j = std::max(16 * cj + bj, lo.y()); j <= std::min(16 * cj + bj + 3, hi.y()); ++j)
+                    for (int i = std::max(16 * ci + bi, lo.x()); i <= std::min(16 * ci + bi + 3, hi.x()); ++i) {
+                      const auto li = static_cast<std::size_t>(chunk_local_index(i & 15, j & 15, k & 15));
+                      const std::uint8_t mat = c->material[li];
+                      std::uint8_t& d = c->density[li];
+                      if (mat == 0 || d == 0) continue;
+                      const double sd = bp.signed_distance(c0 + i * ax + j * ay + k * az);
+                      const double share = std::clamp(0.5 - sd * inv_h, 0.0, 1.0);
+                      if (share <= 0.0) continue;
+                      ++(share == 1.0 ? full : part);
+                      ++res.samples_in_solid;
+                      res.overlap_m3 += share * vol->voxel_volume_m3();
+                      if (mat == static_cast<std::uint8_t>(Material::kPulp)) {
+                        res.touched_pulp = true;
+                        if (cutting && !exposure) exposure = PulpExposure{si, vol->voxel_center(i, j, k)};
+                      }
+                      const std::uint32_t dither = (static_cast<std::uint32_t>(li) * 0x9E3779B9u +
+                                                    static_cast<std::uint32_t>(cid) * 0x85EBCA6Bu + phase) >> 16;
+                      const std::uint32_t units =
+                          (static_cast<std::uint32_t>(amount[mat & (kMaxMaterials - 1)] * share) + dither) >> 16;
+                      const auto removed = static_cast<std::uint8_t>(std::min<std::uint32_t>(units, d));
+                      d = static_cast<std::uint8_t>(d - removed);
+                      if (d == 0) c->material[li] = 0;
+                      res.removed[mat & (kMaxMaterials - 1)] += removed;
+                    }
+        }
+    return res;
+  }
+};
+
+TEST(Cutter, OverlapCutsTheSameBitsAsEveryVoxelEvaluated) {
+  // Every shape, tilted, drilled down from above the crown through to the pulp of a
+  // 0.15 mm molar (voxels wholly and partly inside the bur, air, enamel, dentin and
+  // pulp all occur), jittered and tilted differently each step, now and then below
+  // the cutting force.
+  MolarParams mp;
+  mp.voxel_mm = 0.15;
+  auto tooth = make_molar(mp);
+  ASSERT_TRUE(tooth.ok());
+  for (const BurParams& bp : {BurParams::capsule(0.5, 3.0), BurParams::cone(0.2, 0.5, 3.0),
+                              BurParams::sphere(1.2), BurParams::cylinder(0.45, 2.5)}) {
+    SCOPED_TRACE(std::string(bur_shape_name(bp.shape)));
+    VoxelVolume a = tooth->clone(), b = tooth->clone();
+    auto bur = sample_bur(bp, 100);
+    ASSERT_TRUE(bur.ok());
+    CutParams over;
+    over.overlap = true;
+    over.base_rate_per_s = 20000.0;
+    Cutter cutter(a, over);
+    BruteOverlap brute{&b, over};
+    std::mt19937 rng(23);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::uint64_t removed = 0;
+    bool pulp = false;
+    for (int s = 0; s < 250; ++s) {
+      Eigen::Isometry3d T = pose_down({-1.1e-3 + 2e-4 * u(rng), 1.2e-3 + 2e-4 * u(rng), 7.5e-3 - 2.4e-5 * s});
+      T.linear() = T.linear() * Eigen::AngleAxisd(0.25 * u(rng), Eigen::Vector3d(u(rng), u(rng), 0.3).normalized());
+      const double force = s % 50 == 7 ? 0.01 : 2.0 + u(rng);
+      const CutResult x = cutter.step(*bur, T, force, 1e-3);
+      const CutResult y = brute.cut(bp, T, force, 1e-3);
+      ASSERT_EQ(x.removed, y.removed) << "step " << s;
+      ASSERT_EQ(x.samples_in_solid, y.samples_in_solid) << "step " << s;
+      ASSERT_EQ(x.touched_pulp, y.touched_pulp) << "step " << s;
+      ASSERT_EQ(x.overlap_m3, y.overlap_m3) << "step " << s;
+      removed += x.total_removed();
+      pulp = pulp || x.touched_pulp;
+    }
+    EXPECT_EQ(a.content_hash(), b.content_hash());
+    EXPECT_GT(removed, 100000u);
+    EXPECT_GT(brute.full, 5000u);  // voxels the coarse levels may take whole
+    EXPECT_GT(brute.part, 5000u);  // and ones they must leave to the per-voxel distance
+    EXPECT_TRUE(pulp);
+    const CutMetrics m = cutter.metrics();
+    ASSERT_TRUE(m.pulp_exposure.has_value() && brute.exposure.has_value());
+    EXPECT_EQ(m.pulp_exposure->step, brute.exposure->step);
+    EXPECT_EQ(m.pulp_exposure->position_m, brute.exposure->position_m);
+  }
 }
 
 TEST(Cutter, DeterministicBitIdenticalVolumeForTheSameSequence) {

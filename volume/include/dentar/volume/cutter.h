@@ -95,6 +95,18 @@ class Cutter {
  private:
   CutResult step_overlap(const BurParams& bur, const Eigen::Isometry3d& T_tooth_tip, double f,
                          bool cutting, double dt_s, std::uint64_t step_index) noexcept;
+  // One solid voxel (material mat != 0, density > 0) under the bur, the same for both
+  // cutters: counts it (overlap_m3 of bur in it), notes pulp touched and the first
+  // exposure, removes (amount_fx + dither) >> 16 density units (16 fractional bits;
+  // each cutter keeps its own dither hash), turns an emptied voxel into air and grows
+  // the changed box [lo, hi].
+  void cut_voxel(CutResult& res, VoxelVolume::Chunk& c, std::size_t li, std::uint8_t mat, int i,
+                 int j, int k, double overlap_m3, std::uint32_t amount_fx, std::uint32_t dither,
+                 bool cutting, std::uint64_t step_index, Eigen::Vector3i& lo,
+                 Eigen::Vector3i& hi) noexcept;
+  // The end of a step: marks the changed box dirty (with the mesher's margins) and
+  // adds the step's removal to the totals. Nothing when nothing changed (hi.x() < 0).
+  void finish_step(const CutResult& res, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi) noexcept;
 
   VoxelVolume* vol_;
   CutParams params_;
