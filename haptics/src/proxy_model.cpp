@@ -185,7 +185,6 @@ class ProxyModel final : public ForceModel {
     const double stretch_m = stretch.norm();
     if (stretch_m < 1e-9 && !contact) {  // free again
       has_normal_ = false;
-    n_planes_ = 0;
       n_planes_ = 0;
     }
     age_planes();
