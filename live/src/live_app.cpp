@@ -184,6 +184,8 @@ std::string LiveOptions::validate() const {
   if (eye_threads != 1 && eye_threads != 2) return "eye_threads = " + std::to_string(eye_threads) + " must be 1 or 2";
   if (capture_right_cpu != "any" && capture_right_cpu != "engine" && capture_right_cpu != "frame")
     return "capture_right_cpu = \"" + capture_right_cpu + "\" must be any, engine or frame";
+  if (display_half_convert != "direct" && display_half_convert != "box")
+    return "display_half_convert = \"" + display_half_convert + "\" must be direct or box";
   if (CpuLayout lay; !cpu_layout.empty())
     if (std::string e = parse_cpu_layout(cpu_layout, 0, lay); !e.empty()) return e;
   if (eye_thread_cpu != "any" && eye_thread_cpu != "engine" && eye_thread_cpu != "frame")
@@ -281,6 +283,7 @@ std::string LiveSummary::json() const {
     j["display"]["warp_cell_px"] = warp_cell_px;
     j["display"]["texture"] = display_texture;
     j["display"]["texture_scale"] = display_texture_scale;
+    if (!display_half_convert.empty()) j["display"]["half_convert"] = display_half_convert;  // session 23
     if (display_texture_ratio > 0) j["display"]["texture_camera_px_per_window_px"] = display_texture_ratio;
   }
   if (stereo)
