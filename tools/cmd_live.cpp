@@ -167,6 +167,10 @@ void add_live(CLI::App& app, int& exit_code) {
                   "engine, as the left camera's: the two decodes share a core), frame (the frame thread's CPUs: "
                   "the decodes on different cores), any")
       ->check(CLI::IsMember({"engine", "frame", "any"}));
+  sub->add_option("--display-half-convert", c->o.display_half_convert,
+                  "half-size camera textures of a YUYV camera: direct (default; converted at half size) or box "
+                  "(converted at full size, then averaged 2x2: the session 22 path)")
+      ->check(CLI::IsMember({"direct", "box"}));
   sub->add_option("--cpu-layout", c->o.cpu_layout,
                   "each thread's CPUs by hand (measuring placement): ROLE=CPUS,... with roles engine, frame, eye, "
                   "capture (capture-l, capture-r), display, raster (the window's GL rasteriser), mesher and CPUS "
