@@ -1144,7 +1144,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
   // Issue 28 session 23: the threads' CPUs by hand (cpu_layout.h), checked against this machine.
   CpuLayout lay;
-  if (std::string e = parse_cpu_layout(o.cpu_layout, ncpu, lay); !e.empty()) return Error{"live: --" + e};
+  if (std::string e = parse_cpu_layout(o.cpu_layout, ncpu, lay); !e.empty())
+    return Error{"live: --cpu-layout" + e.substr(std::string("cpu_layout").size())};
   using CL = CpuLayout;
   if (lay.set(CL::kEngine)) cfg.cpu = lay.of(CL::kEngine)[0];
   if (!lay.empty() && cfg.cpu >= 0) {
