@@ -167,6 +167,15 @@ void add_live(CLI::App& app, int& exit_code) {
                   "engine, as the left camera's: the two decodes share a core), frame (the frame thread's CPUs: "
                   "the decodes on different cores), any")
       ->check(CLI::IsMember({"engine", "frame", "any"}));
+  sub->add_option("--display-half-convert", c->o.display_half_convert,
+                  "half-size camera textures of a YUYV camera: direct (default; converted at half size) or box "
+                  "(converted at full size, then averaged 2x2: the session 22 path)")
+      ->check(CLI::IsMember({"direct", "box"}));
+  sub->add_option("--cpu-layout", c->o.cpu_layout,
+                  "each thread's CPUs by hand (measuring placement): ROLE=CPUS,... with roles engine, frame, eye, "
+                  "capture (capture-l, capture-r), display, raster (the window's GL rasteriser), mesher and CPUS "
+                  "such as 0, 0-1, 0+2 or all; a role not named keeps its default (e.g. "
+                  "engine=1,frame=0,eye=0,capture=1,display=0,raster=0)");
   sub->add_option("--window-raster-cpu", c->o.window_raster_cpu,
                   "where the window's GL rasteriser (llvmpipe; the headset's pre-warp) may run: frame (default; off "
                   "the engine's CPU), any (the engine's CPU too, below it), auto (any with --output sbs)")

@@ -122,7 +122,7 @@ struct Args {
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "ar_frame_cost_bench: %s\nusage: ar_frame_cost_bench [--frames N] [--sizes WxH,...] "
-               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,pixel,roidec,whole] [--gl] [--repeat R] [--truth-poses] "
+               "[--preset standard|hard|mirror] [--seed S] [--csv FILE] [--paths region,main,angular,pixel,roidec,whole,native,nomirror,nophantoms,noseg,coarse,full,before23,tripx,tripx2,cell5,drawbuf,refl] [--gl] [--repeat R] [--truth-poses] "
                "[--yuyv] [--stereo] [--outline] [--rounds R]\n",
                why.c_str());
   std::exit(2);
@@ -165,7 +165,8 @@ Args parse(int argc, char** argv) {
       a.paths = split(val());
       for (const auto& p : a.paths)
         if (p != "region" && p != "whole" && p != "main" && p != "angular" && p != "pixel" && p != "roidec" &&
-            p != "native")
+            p != "native" && p != "nomirror" && p != "nophantoms" && p != "coarse" && p != "full" && p != "noseg" &&
+            p != "before23" && p != "tripx" && p != "tripx2" && p != "cell5" && p != "drawbuf" && p != "refl")
           usage("--paths: '" + p + "' is not region, main, angular, pixel, roidec, whole or native");
       if (a.paths.empty()) usage("--paths is empty");
     } else if (k == "--repeat") {
@@ -347,6 +348,30 @@ int run(const Args& a) {
       if (p == "pixel") po.compositor.lod_reference_width_px = 0;
       // roidec: the region path with the tag search's decimation following the tags' size.
       if (p == "roidec") po.tracker.roi_decimation_max = 4;
+      // Session 23, the composite's passes by ablation (the region path without one of them):
+      // nomirror (no reflection), nophantoms (no depth phantoms), noseg (no segmentation),
+      // coarse (the coarsest level of detail always), full (the full mesh always).
+      if (p == "nomirror") po.compositor.mirror = false;
+      if (p == "nophantoms") po.compositor.phantoms = false;
+      if (p == "noseg") po.compositor.segmentation = false;
+      if (p == "coarse") po.compositor.lod_max_error_px = 100;
+      if (p == "full") po.compositor.lod_max_error_px = 0;
+      // before23: the region path as before session 23 (every mannequin part in the region
+      // drawn in both views, attachments switched by glDrawBuffers); tripx / tripx2: the level also coarsened while a triangle covers
+      // < 1 / < 2 px (CompositorOptions::lod_min_triangle_px).
+      if (p == "before23") {
+        po.compositor.phantom_depth_cull = false;
+        po.compositor.phantom_facing_cull = false;
+        po.compositor.attachment_masks = false;
+      }
+      if (p == "tripx") po.compositor.lod_min_triangle_px = 1;
+      if (p == "tripx2") po.compositor.lod_min_triangle_px = 2;
+      // cell5: the mannequin's culling parts 5 mm (default 10 mm).
+      if (p == "cell5") po.compositor.phantom_cell_m = 0.005;
+      // drawbuf: the attachments switched by glDrawBuffers (before session 23).
+      if (p == "drawbuf") po.compositor.attachment_masks = false;
+      // refl: the reflection at its own level of detail (CompositorOptions::reflection_lod).
+      if (p == "refl") po.compositor.reflection_lod = true;
       auto pipe = FramePipeline::create(station, po);
       if (!pipe) {
         std::fprintf(stderr, "ar_frame_cost_bench: %s\n", pipe.error().c_str());

@@ -28,7 +28,9 @@
 #include <vector>
 
 #include "dentar/ar/egl_context.h"
+#include "dentar/ar/frame_gray.h"
 #include "dentar/live/eye_output.h"
+#include "dentar/live/hud_window.h"
 
 namespace {
 
@@ -265,5 +267,29 @@ void BM_LoupeCentre(benchmark::State& state) {
 BENCHMARK(BM_LoupeCentre)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
+
+// Issue 28 session 23: one eye's half-size texture from a 1280x720 YUYV composite with a 200x160
+// overlay patch: arg 0 = the full-size upload conversion then the 2x2 mean (session 22's path),
+// 1 = upload_pixels_half (straight from the YUYV). CPU per eye frame.
+void BM_UploadHalf(benchmark::State& state) {
+  const bool direct = state.range(0) == 1;
+  cv::Mat scene(720, 1280, CV_8UC3), yuyv;
+  cv::randu(scene, 0, 256);
+  cv::GaussianBlur(scene, scene, cv::Size(0, 0), 2.0);  // camera-like, not pure noise
+  dentar::ar::bgr_to_yuyv(scene, yuyv);
+  cv::Mat patch(160, 200, CV_8UC3, cv::Scalar(30, 200, 90));
+  const cv::Rect rect(611, 301, 200, 160);
+  cv::Mat full, half;
+  for (auto _ : state) {
+    if (direct) {
+      dentar::live::upload_pixels_half(yuyv, patch, rect, false, half);
+    } else {
+      dentar::live::upload_pixels(yuyv, patch, rect, false, full);
+      cv::resize(full, half, cv::Size(640, 360), 0, 0, cv::INTER_AREA);
+    }
+    benchmark::DoNotOptimize(half.data);
+  }
+}
+BENCHMARK(BM_UploadHalf)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

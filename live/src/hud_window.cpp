@@ -226,6 +226,16 @@ std::string upload_pixels(const cv::Mat& img, const cv::Mat& patch, const cv::Re
 }
 
 namespace {
+// The mean of two rows, rounded up (one byte each; vectorises to one average instruction).
+void mean_rows(const std::uint8_t* __restrict a, const std::uint8_t* __restrict b, std::uint8_t* __restrict d, int n) {
+  for (int i = 0; i < n; ++i) d[i] = static_cast<std::uint8_t>((a[i] + b[i] + 1) >> 1);
+}
+// The mean of each horizontal pair of 4-byte pixels, rounded up.
+void mean_pairs(const std::uint8_t* __restrict s, std::uint8_t* __restrict d, int out_px) {
+  for (int p = 0; p < out_px; ++p)
+    for (int c = 0; c < 4; ++c) d[4 * p + c] = static_cast<std::uint8_t>((s[8 * p + c] + s[8 * p + 4 + c] + 1) >> 1);
+}
+
 // A video texture of w x h in the window's layout (BGRA; RGBA with GLES), linear filtering.
 unsigned make_video_texture(int w, int h, bool gles) {
   GLuint t = 0;
@@ -247,14 +257,68 @@ const cv::Mat& at_scale(const cv::Mat& full, int scale, cv::Mat& half) {
 }
 }  // namespace
 
+namespace {
+cv::Mat& half_rows_scratch() {
+  thread_local cv::Mat m;
+  return m;
+}
+cv::Mat& half_conv_scratch() {
+  thread_local cv::Mat m;
+  return m;
+}
+}  // namespace
+
+std::string upload_pixels_half(const cv::Mat& img, const cv::Mat& patch, const cv::Rect& patch_rect, bool gles,
+                               cv::Mat& out) {
+  if (img.type() != CV_8UC2 || img.cols % 2 != 0 || img.rows % 2 != 0)
+    return "upload at half size: the frame must be YUYV (CV_8UC2) of even width and height; got " +
+           cv::typeToString(img.type()) + " " + std::to_string(img.cols) + "x" + std::to_string(img.rows);
+  if (!patch.empty() && (patch.type() != CV_8UC3 || patch.size() != patch_rect.size() ||
+                         (patch_rect & cv::Rect(0, 0, img.cols, img.rows)) != patch_rect)) {
+    cv::Mat none;
+    return upload_pixels(img, patch, patch_rect, gles, none);  // its error names what is wrong
+  }
+  const int w = img.cols / 2, h = img.rows / 2;
+  // The two rows of each texel averaged in the YUYV (a pixel pair keeps its shared chroma),
+  // converted at full width (OpenCV's SIMD conversion, half the full frame's pixels), then each
+  // pixel pair averaged: a quarter of the bytes of converting the whole frame first.
+  cv::Mat& rows = half_rows_scratch();
+  rows.create(h, img.cols, CV_8UC2);
+  for (int y = 0; y < h; ++y)
+    mean_rows(img.ptr<std::uint8_t>(2 * y), img.ptr<std::uint8_t>(2 * y + 1), rows.ptr<std::uint8_t>(y), img.cols * 2);
+  cv::Mat& conv = half_conv_scratch();
+  cv::cvtColor(rows, conv, gles ? cv::COLOR_YUV2RGBA_YUYV : cv::COLOR_YUV2BGRA_YUYV);
+  out.create(h, w, CV_8UC4);
+  for (int y = 0; y < h; ++y) mean_pairs(conv.ptr<std::uint8_t>(y), out.ptr<std::uint8_t>(y), w);
+  if (!patch.empty() && !patch_rect.empty()) {
+    // The patch's texels as the full-size path gives them: its rectangle grown to even bounds,
+    // converted at full size with the patch over it, then the 2x2 mean.
+    const int x0 = patch_rect.x & ~1, y0 = patch_rect.y & ~1;
+    const int x1 = std::min(img.cols, (patch_rect.x + patch_rect.width + 1) & ~1);
+    const int y1 = std::min(img.rows, (patch_rect.y + patch_rect.height + 1) & ~1);
+    const cv::Rect even(x0, y0, x1 - x0, y1 - y0);
+    cv::Mat full;
+    cv::cvtColor(img(even), full, gles ? cv::COLOR_YUV2RGBA_YUYV : cv::COLOR_YUV2BGRA_YUYV);
+    cv::Mat dst = full(patch_rect - even.tl());
+    cv::cvtColor(patch, dst, gles ? cv::COLOR_BGR2RGBA : cv::COLOR_BGR2BGRA);
+    cv::Mat half_dst = out(cv::Rect(x0 / 2, y0 / 2, even.width / 2, even.height / 2));
+    cv::resize(full, half_dst, half_dst.size(), 0, 0, cv::INTER_AREA);
+  }
+  return {};
+}
+
 void HudWindow::set_video(const cv::Mat& bgr, const cv::Mat& patch, const cv::Rect& patch_rect) {
   if (bgr.empty() || bgr.cols != tex_w_ || bgr.rows != tex_h_ || (bgr.type() != CV_8UC3 && bgr.type() != CV_8UC2))
     return;
   // SIMD; the buffer is kept between frames.
   PartTimer conv(prof_, DisplayProfile::kConvertLeft);
-  if (!upload_pixels(bgr, patch, patch_rect, gles_, bgra_).empty()) return;
   scale_ = want_scale_;
-  const cv::Mat& px = at_scale(bgra_, scale_, half_);
+  // Session 23: a half-size texture of the camera's YUYV converted at half size, straight.
+  const bool direct = scale_ == 2 && bgr.type() == CV_8UC2 && half_direct_;
+  if (direct ? !upload_pixels_half(bgr, patch, patch_rect, gles_, half_).empty()
+             : !upload_pixels(bgr, patch, patch_rect, gles_, bgra_).empty())
+    return;
+  const cv::Mat& px = direct ? half_ : at_scale(bgra_, scale_, half_);
   conv.done(false);
   PartTimer up(prof_, DisplayProfile::kUploadLeft);
   if (scale_ == 2 && tex_half_ == 0) tex_half_ = make_video_texture(tex_w_ / 2, tex_h_ / 2, gles_);
@@ -277,8 +341,11 @@ void HudWindow::set_video_right(const cv::Mat& bgr, const cv::Mat& patch, const 
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex_w_, tex_h_, 0, gles_ ? GL_RGBA : GL_BGRA, GL_UNSIGNED_BYTE, nullptr);
   }
   PartTimer conv(prof_, DisplayProfile::kConvertRight);
-  if (!upload_pixels(bgr, patch, patch_rect, gles_, bgra_right_).empty()) return;
-  const cv::Mat& px = at_scale(bgra_right_, scale_, half_right_);  // the left eye's scale
+  const bool direct = scale_ == 2 && bgr.type() == CV_8UC2 && half_direct_;  // the left eye's scale
+  if (direct ? !upload_pixels_half(bgr, patch, patch_rect, gles_, half_right_).empty()
+             : !upload_pixels(bgr, patch, patch_rect, gles_, bgra_right_).empty())
+    return;
+  const cv::Mat& px = direct ? half_right_ : at_scale(bgra_right_, scale_, half_right_);
   conv.done(false);
   PartTimer up(prof_, DisplayProfile::kUploadRight);
   if (scale_ == 2 && tex_half_right_ == 0) tex_half_right_ = make_video_texture(tex_w_ / 2, tex_h_ / 2, gles_);

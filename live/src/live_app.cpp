@@ -1,6 +1,7 @@
 // dentar live: threads, engine, window and recording. See live_app.h.
 #include "dentar/live/live_app.h"
 
+#include "dentar/live/cpu_layout.h"
 #include "dentar/live/eye_output.h"
 
 #define GLFW_INCLUDE_NONE
@@ -183,6 +184,10 @@ std::string LiveOptions::validate() const {
   if (eye_threads != 1 && eye_threads != 2) return "eye_threads = " + std::to_string(eye_threads) + " must be 1 or 2";
   if (capture_right_cpu != "any" && capture_right_cpu != "engine" && capture_right_cpu != "frame")
     return "capture_right_cpu = \"" + capture_right_cpu + "\" must be any, engine or frame";
+  if (display_half_convert != "direct" && display_half_convert != "box")
+    return "display_half_convert = \"" + display_half_convert + "\" must be direct or box";
+  if (CpuLayout lay; !cpu_layout.empty())
+    if (std::string e = parse_cpu_layout(cpu_layout, 0, lay); !e.empty()) return e;
   if (eye_thread_cpu != "any" && eye_thread_cpu != "engine" && eye_thread_cpu != "frame")
     return "eye_thread_cpu = \"" + eye_thread_cpu + "\" must be any, engine or frame";
   if (window_raster_cpu != "any" && window_raster_cpu != "frame" && window_raster_cpu != "auto")
@@ -272,11 +277,13 @@ std::string LiveSummary::json() const {
   if (cpu_frames > 0)  // session 19: CPU per frame shown
     j["cpu"] = {{"window_s", cpu_window_s}, {"frames", cpu_frames}, {"process_ms_per_frame", cpu_process_ms_per_frame},
                 {"threads_ms_per_frame", cpu_threads_ms_per_frame}};
+    if (!cpu_layout.empty()) j["cpu"]["layout"] = cpu_layout;  // session 23
   if (!warp_pass.empty()) {  // session 18: which pre-warp pass drew the headset view
     j["display"]["warp_pass"] = warp_pass;
     j["display"]["warp_cell_px"] = warp_cell_px;
     j["display"]["texture"] = display_texture;
     j["display"]["texture_scale"] = display_texture_scale;
+    if (!display_half_convert.empty()) j["display"]["half_convert"] = display_half_convert;  // session 23
     if (display_texture_ratio > 0) j["display"]["texture_camera_px_per_window_px"] = display_texture_ratio;
   }
   if (stereo)
@@ -1135,6 +1142,25 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   haptics::EngineConfig& cfg = ss.cfg;
   const int ncpu = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
   cfg.cpu = o.engine_cpu == -2 ? (ncpu > 1 ? ncpu - 1 : -1) : o.engine_cpu;
+  // Issue 28 session 23: the threads' CPUs by hand (cpu_layout.h), checked against this machine.
+  CpuLayout lay;
+  if (std::string e = parse_cpu_layout(o.cpu_layout, ncpu, lay); !e.empty())
+    return Error{"live: --cpu-layout" + e.substr(std::string("cpu_layout").size())};
+  using CL = CpuLayout;
+  if (lay.set(CL::kEngine)) cfg.cpu = lay.of(CL::kEngine)[0];
+  if (!lay.empty() && cfg.cpu >= 0) {
+    // A thread placed on the engine's CPU must be one the engine preempts (place_background's rule).
+    for (int r = CL::kFrame; r < CL::kRoles; ++r) {
+      const auto& cpus = lay.of(static_cast<CL::Role>(r));
+      if (std::find(cpus.begin(), cpus.end(), cfg.cpu) == cpus.end()) continue;
+      std::string why = "--no-realtime";
+      if (!o.realtime || !haptics::realtime_available(cfg.realtime_priority, &why))
+        return Error{std::string("live: --cpu-layout: ") + CL::name(static_cast<CL::Role>(r)) +
+                     " shares the engine's CPU " + std::to_string(cfg.cpu) + ", but the engine cannot run SCHED_FIFO (" +
+                     why + "): it could not preempt that thread"};
+    }
+  }
+  sum.cpu_layout = lay.text();
   cfg.try_realtime = o.realtime;
   cfg.monitor_wakes = o.wake_monitor;
   // ---- isolation: everything but the engine off its core; memory locked ----
@@ -1157,7 +1183,9 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   if (bg.to_engine_cpu) popt.tracker.discovery_thread_init = bg.to_engine_cpu;
   // Issue 28 (session 17): a stereo pair into the headset, the right eye on a thread of its own.
   popt.eye_threads = popt.stereo && o.output == "sbs" ? o.eye_threads : 1;
-  if (o.eye_thread_cpu == "engine") {
+  if (lay.set(CL::kEye)) {
+    popt.eye_thread_init = [cpus = lay.of(CL::kEye)] { pin_this_thread(cpus); };
+  } else if (o.eye_thread_cpu == "engine") {
     popt.eye_thread_init = bg.to_engine_cpu;  // empty (not beside the engine): the frame thread's CPUs
   } else if (o.eye_thread_cpu == "any" && bg.to_engine_cpu) {  // only where the FIFO engine preempts it
     popt.eye_thread_init = [ncpu] {
@@ -1185,9 +1213,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // mask (only where the FIFO engine preempts it), the main thread's mask restored after.
   cpu_set_t main_mask;
   const bool raster_any = o.window_raster_cpu == "any" || (o.window_raster_cpu == "auto" && o.output == "sbs");
-  const bool widen = raster_any && bg.to_engine_cpu &&
+  const bool widen = (lay.set(CL::kRaster) || (raster_any && bg.to_engine_cpu)) &&
                      pthread_getaffinity_np(pthread_self(), sizeof main_mask, &main_mask) == 0;
-  if (widen) {
+  if (widen && lay.set(CL::kRaster)) {
+    pin_this_thread(lay.of(CL::kRaster));  // --cpu-layout raster=: the rasteriser inherits it
+  } else if (widen) {
     cpu_set_t all;
     CPU_ZERO(&all);
     for (int cpu = 0; cpu < ncpu; ++cpu) CPU_SET(cpu, &all);
@@ -1201,7 +1231,7 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   const auto comp = compensation(o, st);
   const LiveContext ctx{o, st, popt, *run, health, hw, engine_device, pedal, key_pedal, ss.pen, ss.pedal_from_device,
                         scr->eye_w, scr->eye_h, dc.want_gl, bg.to_engine_cpu, comp.first, say,
-                        lesson_pauses ? &*lesson_pauses : nullptr};
+                        lesson_pauses ? &*lesson_pauses : nullptr, lay};
   LiveShared sh;
   // The display path is settled on the frame thread (the shared context is made there).
   if (!dc.want_gl) sh.display_note = dc.auto_note.empty() ? "--display-path cpu" : dc.auto_note;
@@ -1231,9 +1261,10 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   cto.stall_s = o.stall_s;
   cto.eager_decode = o.jpeg_decode == "eager";  // session 21: the newest packet, on the capture side
   // Named for the summary's CPU per thread (session 19).
-  cto.thread_init = [init = bg.to_engine_cpu] {
+  cto.thread_init = [init = bg.to_engine_cpu, cpus = lay.of(CL::kCaptureLeft)] {
     pthread_setname_np(pthread_self(), "dentar-cap-l");
-    if (init) init();
+    if (!cpus.empty()) pin_this_thread(cpus);  // --cpu-layout capture-l=
+    else if (init) init();
   };
   ar::CaptureThread capture(std::move(*src2), o.camera, scr->so, cto);
   // Stereo with two cameras (issue 28): the right eye on its own capture thread; the frame
@@ -1252,9 +1283,11 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
     cto_r.stall_s = o.stall_right_s;
     // Session 22 (--capture-right-cpu): beside the engine as the left camera's (default), or on
     // the frame thread's CPUs (the mask this thread was made with), or on any.
-    cto_r.thread_init = [init = bg.to_engine_cpu, where = o.capture_right_cpu, ncpu] {
+    cto_r.thread_init = [init = bg.to_engine_cpu, where = o.capture_right_cpu, ncpu, cpus = lay.of(CL::kCaptureRight)] {
       pthread_setname_np(pthread_self(), "dentar-cap-r");
-      if (where == "engine" && init) {
+      if (!cpus.empty()) {
+        pin_this_thread(cpus);  // --cpu-layout capture-r=
+      } else if (where == "engine" && init) {
         init();
       } else if (where == "any" && init) {
         cpu_set_t all;
@@ -1284,6 +1317,8 @@ Result<LiveSummary> run_live(const LiveOptions& o) {
   // The drill's sound reads the snapshot on its own thread (off the engine's CPU, as this one).
   std::shared_ptr<void> sound;
   if (o.start_sound) sound = o.start_sound([&engine] { return engine.snapshot(); });
+  // --cpu-layout display= (session 23): the main thread last, so no thread made above inherits it.
+  if (lay.set(CL::kDisplay)) pin_this_thread(lay.of(CL::kDisplay));
   DisplayInputs din{capture, hud_sound_line(static_cast<bool>(o.start_sound), sound != nullptr, o.sound_muted, o.sound_detail),
                     grant_message(o, cfg, engine, sum, iso, discovery_name, bg)};
   say("camera " + capture.description() + "; " + stylus_desc + "; pedal " + pedal.name());

@@ -218,6 +218,7 @@ class DisplayLoop {
       sum_.warp_pass = warp_pass_name(pass);
       sum_.warp_cell_px = o.warp_cell_px;
       sum_.display_texture = o.display_texture;
+      sum_.display_half_convert = o.display_half_convert;
       choose_texture_scale();
     }
     c_.say(o.output == "sbs" ? "output: side-by-side for headset \"" + o.headset->name + "\" (" +
@@ -253,6 +254,7 @@ class DisplayLoop {
       sum_.display_texture_ratio = texture_ratio_;
     }
     c_.hw.set_upload_scale(scale);
+    c_.hw.set_half_direct(o.display_half_convert == "direct");
   }
 
   // The loupe's centre from this frame's mannequin pose (headset.h LoupeCentre);

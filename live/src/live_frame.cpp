@@ -86,9 +86,10 @@ class FrameThread {
     // A stereo rig into the headset's side-by-side view: each eye its own composite.
     want_right_ = c_.run.pipeline().stereo() && c_.o.output == "sbs";
     sh_.gl_path.store(use_gl_);
-    c_.run.meshes().start_mesher(1.0 / 120.0, [init = c_.to_engine_cpu] {
+    c_.run.meshes().start_mesher(1.0 / 120.0, [init = c_.to_engine_cpu, cpus = c_.layout.of(CpuLayout::kMesher)] {
       pthread_setname_np(pthread_self(), "dentar-mesher");
-      if (init) init();
+      if (!cpus.empty()) pin_this_thread(cpus);  // --cpu-layout mesher=
+      else if (init) init();
     });
     sh_.pipeline_ready.store(1);
     return true;
@@ -614,6 +615,7 @@ class FrameThread {
 
 void frame_thread_main(const LiveContext& c, LiveShared& sh, FrameFigures& fig) {
   pthread_setname_np(pthread_self(), "dentar-frame");  // the summary's CPU per thread (session 19)
+  pin_this_thread(c.layout.of(CpuLayout::kFrame));      // --cpu-layout frame= (session 23; none: inherited)
   FrameThread t(c, sh, fig);
   if (!t.open()) {
     t.close();

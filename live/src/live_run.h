@@ -27,6 +27,7 @@
 #include "dentar/ar/station_scene.h"
 #include "dentar/haptics/device.h"
 #include "dentar/haptics/pedal.h"
+#include "dentar/live/cpu_layout.h"
 #include "dentar/live/eye_switches.h"
 #include "dentar/live/hud_window.h"
 #include "dentar/live/live_app.h"
@@ -57,6 +58,7 @@ struct LiveContext {
   double comp_latency_s = 0;  // latency compensation (issue 24); 0 = the newest pose
   std::function<void(const std::string&)> say;
   session::LessonPauseDevice* lesson_pauses = nullptr;  // a lesson: its pause points (the engine's device)
+  const CpuLayout& layout;  // --cpu-layout (session 23): the frame thread and mesher pin themselves by it
 };
 
 // What the frame thread hands the window: the newest composite and its raw

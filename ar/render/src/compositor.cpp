@@ -1,14 +1,17 @@
 #include "dentar/ar/compositor.h"
 
-#include <GLES3/gl3.h>
+#include <GLES3/gl32.h>
 
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <opencv2/imgproc.hpp>
 #include <cstring>
+#include <cstdio>
+#include <cstdlib>
 #include <initializer_list>
 #include <sstream>
 #include <unordered_map>
@@ -385,6 +388,43 @@ Box box_of(const scene::Mesh& m) {
   return b;
 }
 
+// The normal cone of a mesh's faces: every face's unit normal (from its winding:
+// counter-clockwise seen from outside, so outward) lies within half_angle of axis.
+// valid = false when there is no face or no cone narrower than 80 degrees (a piece
+// that curves round): such a mesh is never culled by facing.
+struct NormalCone {
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  double half_angle = M_PI;
+  bool valid = false;
+};
+
+// Unit face normal of triangle t (by its winding), or zero when degenerate.
+Eigen::Vector3d face_normal(const scene::Mesh& m, std::size_t t) {
+  const Eigen::Vector3d a = m.vertices[m.indices[t]].position_m.cast<double>();
+  const Eigen::Vector3d b = m.vertices[m.indices[t + 1]].position_m.cast<double>();
+  const Eigen::Vector3d d = m.vertices[m.indices[t + 2]].position_m.cast<double>();
+  const Eigen::Vector3d n = (b - a).cross(d - a);
+  const double len = n.norm();
+  return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
+}
+
+// The normal cone of triangles [t0, t1) (index positions / 3) of m.
+NormalCone normal_cone(const scene::Mesh& m, std::size_t t0, std::size_t t1) {
+  NormalCone c;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t t = t0; t < t1; ++t) sum += face_normal(m, 3 * t);  // degenerate: zero, covers no pixel
+  if (!(sum.norm() > 1e-9)) return c;
+  c.axis = sum.normalized();
+  double cos_min = 1;
+  for (std::size_t t = t0; t < t1; ++t) {
+    const Eigen::Vector3d n = face_normal(m, 3 * t);
+    if (!n.isZero()) cos_min = std::min(cos_min, n.dot(c.axis));
+  }
+  c.half_angle = std::acos(std::clamp(cos_min, -1.0, 1.0));
+  c.valid = c.half_angle < 80.0 * M_PI / 180.0;
+  return c;
+}
+
 // A phantom mesh with its triangles grouped by position (cubes of `cell`
 // metres by triangle centroid), each group with its box: groups outside the
 // overlay's region are not drawn (the mannequin is ~50k triangles, of which
@@ -394,22 +434,32 @@ struct ClusteredMesh {
   struct Part {
     Box box;
     GLsizei first = 0, count = 0;  // indices
+    NormalCone cone;               // its faces' normals (session 23: the facing test)
   };
   std::vector<Part> parts;
   Box box;
 };
 
 ClusteredMesh cluster_phantom(const scene::Mesh& m, float cell) {
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> groups;
+  std::map<std::uint64_t, std::vector<std::uint32_t>> groups;  // ordered: facing, then z, y, x
   for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
     const Eigen::Vector3f c = (m.vertices[m.indices[t]].position_m +
                                m.vertices[m.indices[t + 1]].position_m +
                                m.vertices[m.indices[t + 2]].position_m) /
                               3.0f;
     const Eigen::Vector3i q = (c / cell).array().floor().cast<int>();
-    const std::uint64_t key = (static_cast<std::uint64_t>(q.x() + 100000) & 0x1fffff) |
-                              ((static_cast<std::uint64_t>(q.y() + 100000) & 0x1fffff) << 21) |
-                              ((static_cast<std::uint64_t>(q.z() + 100000) & 0x1fffff) << 42);
+    // Session 23: also by the axis the face turns to (6 ways, as the tooth's groups), so
+    // each part has a narrow normal cone and the parts that all turn away from the eye are
+    // not drawn (back-face culling would drop them after their vertex work); the facing
+    // axis is the key's top bits, so a view's parts of one facing lie in runs.
+    const Eigen::Vector3d fn = face_normal(m, t);
+    int axis = 0;
+    fn.cwiseAbs().maxCoeff(&axis);
+    const auto facing = static_cast<std::uint64_t>(2 * axis + (fn[axis] < 0 ? 1 : 0));
+    const std::uint64_t key = (static_cast<std::uint64_t>(q.x() + 100000) & 0x3ffff) |
+                              ((static_cast<std::uint64_t>(q.y() + 100000) & 0x3ffff) << 18) |
+                              ((static_cast<std::uint64_t>(q.z() + 100000) & 0x3ffff) << 36) |
+                              (facing << 54);
     auto& g = groups[key];
     g.insert(g.end(), {m.indices[t], m.indices[t + 1], m.indices[t + 2]});
   }
@@ -423,6 +473,8 @@ ClusteredMesh cluster_phantom(const scene::Mesh& m, float cell) {
     for (std::uint32_t i : idx) p.box.add(m.vertices[i].position_m);
     out.box.add(p.box);
     sorted.indices.insert(sorted.indices.end(), idx.begin(), idx.end());
+    p.cone = normal_cone(sorted, static_cast<std::size_t>(p.first) / 3,
+                         static_cast<std::size_t>(p.first + p.count) / 3);
     out.parts.push_back(p);
   }
   out.gpu = scene::upload(sorted);
@@ -489,42 +541,6 @@ Eigen::Vector3f material_rgb(int label) {
   return Eigen::Vector3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
 }
 
-// The normal cone of a mesh's faces: every face's unit normal (from its winding:
-// counter-clockwise seen from outside, so outward) lies within half_angle of axis.
-// valid = false when there is no face or no cone narrower than 80 degrees (a piece
-// that curves round): such a mesh is never culled by facing.
-struct NormalCone {
-  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
-  double half_angle = M_PI;
-  bool valid = false;
-};
-
-// Unit face normal of triangle t (by its winding), or zero when degenerate.
-Eigen::Vector3d face_normal(const scene::Mesh& m, std::size_t t) {
-  const Eigen::Vector3d a = m.vertices[m.indices[t]].position_m.cast<double>();
-  const Eigen::Vector3d b = m.vertices[m.indices[t + 1]].position_m.cast<double>();
-  const Eigen::Vector3d d = m.vertices[m.indices[t + 2]].position_m.cast<double>();
-  const Eigen::Vector3d n = (b - a).cross(d - a);
-  const double len = n.norm();
-  return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
-}
-
-// The normal cone of triangles [t0, t1) (index positions / 3) of m.
-NormalCone normal_cone(const scene::Mesh& m, std::size_t t0, std::size_t t1) {
-  NormalCone c;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (std::size_t t = t0; t < t1; ++t) sum += face_normal(m, 3 * t);  // degenerate: zero, covers no pixel
-  if (!(sum.norm() > 1e-9)) return c;
-  c.axis = sum.normalized();
-  double cos_min = 1;
-  for (std::size_t t = t0; t < t1; ++t) {
-    const Eigen::Vector3d n = face_normal(m, 3 * t);
-    if (!n.isZero()) cos_min = std::min(cos_min, n.dot(c.axis));
-  }
-  c.half_angle = std::acos(std::clamp(cos_min, -1.0, 1.0));
-  c.valid = c.half_angle < 80.0 * M_PI / 180.0;
-  return c;
-}
 
 // A chunk's triangles grouped by the direction their faces turn to (the largest
 // component of the face normal: +x, -x, +y, -y, +z, -z; each group's normals lie
@@ -674,6 +690,13 @@ std::string CompositorOptions::validate() const {
   } else if (!(std::isfinite(lod_reference_width_px) && lod_reference_width_px >= 0 &&
                lod_reference_width_px <= 16384)) {
     os << "lod_reference_width_px = " << lod_reference_width_px << " must be in [0, 16384] (0 = off)";
+  } else if (!(std::isfinite(lod_min_triangle_px) && lod_min_triangle_px >= 0 && lod_min_triangle_px <= 100)) {
+    os << "lod_min_triangle_px = " << lod_min_triangle_px << " must be in [0, 100] (0 = off)";
+  } else if (!(std::isfinite(lod_triangle_max_error_px) && lod_triangle_max_error_px >= 0 &&
+               lod_triangle_max_error_px <= 100)) {
+    os << "lod_triangle_max_error_px = " << lod_triangle_max_error_px << " must be in [0, 100]";
+  } else if (!(std::isfinite(phantom_cell_m) && phantom_cell_m >= 0.002 && phantom_cell_m <= 0.1)) {
+    os << "phantom_cell_m = " << phantom_cell_m << " must be in [0.002, 0.1] m";
   } else if (lod_cell_voxels.size() > 4) {
     os << "lod_cell_voxels has " << lod_cell_voxels.size() << " levels; at most 4";
   } else if (!(std::isfinite(feather_px) && feather_px >= 0 && feather_px <= 20)) {
@@ -735,11 +758,13 @@ struct Compositor::Impl {
     std::vector<scene::GpuMesh> levels;
     std::vector<std::size_t> tris;
     std::vector<double> error_m;  // per level, see cluster_mesh
+    std::vector<double> area_m2;  // per level: its triangles' total area
     std::vector<FacingGroups> groups;  // per level: its triangles by facing
   };
   std::vector<GpuChunk> chunks;
   std::vector<std::size_t> level_tris;  // totals per level
   std::vector<double> level_error_m;    // largest per level
+  std::vector<double> level_area_m2;    // totals per level
   scene::Mesh scratch_mesh;
   volume::ChunkMesh scratch_coarse;
   MeshLodScratch scratch_lod;
@@ -770,6 +795,7 @@ struct Compositor::Impl {
       g.levels.clear();
       g.tris.assign(static_cast<std::size_t>(L), 0);
       g.error_m.assign(static_cast<std::size_t>(L), 0.0);
+      g.area_m2.assign(static_cast<std::size_t>(L), 0.0);
       g.groups.assign(static_cast<std::size_t>(L), FacingGroups{});
       g.box = Box{};
       if (cm.empty()) continue;
@@ -782,15 +808,25 @@ struct Compositor::Impl {
               cluster_mesh(cm, opt.lod_cell_voxels[static_cast<std::size_t>(l - 1)],
                            scratch_mesh, scratch_coarse, scratch_lod);
         g.tris[static_cast<std::size_t>(l)] = scratch_mesh.indices.size() / 3;
+        double area = 0;
+        for (std::size_t t = 0; t + 2 < scratch_mesh.indices.size(); t += 3) {
+          const Eigen::Vector3f& a = scratch_mesh.vertices[scratch_mesh.indices[t]].position_m;
+          const Eigen::Vector3f& b = scratch_mesh.vertices[scratch_mesh.indices[t + 1]].position_m;
+          const Eigen::Vector3f& c = scratch_mesh.vertices[scratch_mesh.indices[t + 2]].position_m;
+          area += 0.5 * static_cast<double>((b - a).cross(c - a).norm());
+        }
+        g.area_m2[static_cast<std::size_t>(l)] = area;
         g.groups[static_cast<std::size_t>(l)] = group_by_facing(scratch_mesh);
         g.levels.push_back(scene::upload(scratch_mesh));
       }
     }
     level_tris.assign(static_cast<std::size_t>(L), 0);
     level_error_m.assign(static_cast<std::size_t>(L), 0.0);
+    level_area_m2.assign(static_cast<std::size_t>(L), 0.0);
     for (const GpuChunk& g : chunks)
       for (std::size_t l = 0; l < g.tris.size(); ++l) {
         level_tris[l] += g.tris[l];
+        level_area_m2[l] += g.area_m2[l];
         level_error_m[l] = std::max(level_error_m[l], g.error_m[l]);
       }
   }
@@ -809,16 +845,44 @@ struct Compositor::Impl {
   }
 
   // Draws the parts of a clustered phantom whose screen box overlaps `view`.
+  // With cull_facing_away and phantom_facing_cull (session 23), parts whose faces all turn away from the eye are not
+  // drawn either (the same pixels: back-face culling drops them); consecutive drawn parts are
+  // one draw. T_cam_obj may hold a reflection (the eye is then the camera's mirror image).
+  // max_z (session 23, the reflected pass): parts wholly farther from the eye than this
+  // (camera z, m) are not drawn: a depth-only phantom there can hide nothing drawn nearer.
   void draw_clustered(const ClusteredMesh& m, const Eigen::Affine3d& T_cam_obj,
-                      const PxRect& view) const {
+                      const PxRect& view, double max_z = std::numeric_limits<double>::infinity()) const {
     set_pose(T_cam_obj);
     glBindVertexArray(m.gpu.vao.id());
+    const bool facing = opt.cull_facing_away && opt.phantom_facing_cull;
+    const Eigen::Vector3d eye = T_cam_obj.inverse() * Eigen::Vector3d::Zero();
+    GLsizei run_first = 0, run_count = 0;
+    const auto flush = [&] {
+      if (run_count == 0) return;
+      glDrawElements(GL_TRIANGLES, run_count, GL_UNSIGNED_INT,
+                     reinterpret_cast<const void*>(static_cast<std::size_t>(run_first) * sizeof(std::uint32_t)));
+      run_count = 0;
+    };
     for (const auto& p : m.parts) {
-      if (!project_box(p.box, T_cam_obj, this->view.pinhole, opt.near_m).overlaps(view)) continue;
-      glDrawElements(GL_TRIANGLES, p.count, GL_UNSIGNED_INT,
-                     reinterpret_cast<const void*>(static_cast<std::size_t>(p.first) *
-                                                   sizeof(std::uint32_t)));
+      bool skip = !project_box(p.box, T_cam_obj, this->view.pinhole, opt.near_m).overlaps(view);
+      if (!skip && facing) {
+        const Eigen::Vector3d lo = p.box.lo.cast<double>(), hi = p.box.hi.cast<double>();
+        skip = faces_away(p.cone, 0.5 * (lo + hi), 0.5 * (hi - lo).norm(), eye);
+      }
+      if (!skip && max_z < std::numeric_limits<double>::infinity()) {
+        double z_min = std::numeric_limits<double>::infinity();
+        for (int c = 0; c < 8; ++c) z_min = std::min(z_min, (T_cam_obj * p.box.corner(c).cast<double>()).z());
+        skip = z_min > max_z;
+      }
+      if (skip) {
+        flush();
+        continue;
+      }
+      if (run_count > 0 && run_first + run_count != p.first) flush();
+      if (run_count == 0) run_first = p.first;
+      run_count += p.count;
     }
+    flush();
   }
 
   // Draws the tooth's chunks at `level` whose screen box overlaps `view`
@@ -953,6 +1017,7 @@ Status Compositor::set_options(const CompositorOptions& o) {
   keep.bur = impl_->opt.bur;
   keep.handpiece = impl_->opt.handpiece;
   keep.lod_cell_voxels = impl_->opt.lod_cell_voxels;
+  keep.phantom_cell_m = impl_->opt.phantom_cell_m;
   keep.near_m = impl_->opt.near_m;
   keep.far_m = impl_->opt.far_m;
   impl_->opt = keep;
@@ -1040,7 +1105,7 @@ Result<Compositor> Compositor::create(const StationScene& station, const Composi
   // Phantom and instrument meshes (the generator's builders: same shapes).
   {
     const scene::Mesh man = scene::mannequin_mesh(station.mannequin);
-    im.mannequin = cluster_phantom(man, 0.01f);
+    im.mannequin = cluster_phantom(man, static_cast<float>(o.phantom_cell_m));
     scene::Mesh hp, b;
     hp.add(make_handpiece_mesh(o.bur, o.handpiece), Eigen::Isometry3f::Identity(),
            {0.62f, 0.64f, 0.68f});
@@ -1105,6 +1170,18 @@ static std::string check_video(const Compositor::Impl& im, const CompositeInput&
 static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, CompositeResult& out,
                      bool finish) {
   const CompositorOptions& o = im.opt;
+  // Which attachments the next draws write. Session 23 (attachment_masks): all three stay
+  // draw buffers and the others' writes are masked (glColorMaski): a change of draw buffers
+  // is a change of framebuffer state, which makes llvmpipe flush the queued scene (bin,
+  // rasterise, wait for its threads) ~10 times a frame; a write mask is not.
+  const auto db = [&](bool color, bool tooth, bool albedo) {
+    if (!o.attachment_masks) {
+      draw_buffers(color, tooth, albedo);
+      return;
+    }
+    const bool on[3] = {color, tooth, albedo};
+    for (GLuint i = 0; i < 3; ++i) glColorMaski(i, on[i], on[i], on[i], on[i]);
+  };
   const calibration::StationCalibration& cal = im.station.calibration;
   // Poses (cam frame, metres).
   const Eigen::Isometry3d T_cam_tooth = in.T_cam_man * cal.T_man_tooth;
@@ -1118,14 +1195,16 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
   // The face is seen from its reflecting side when the camera (origin) is on +z of `mir`.
   const bool reflect = o.mirror && mirror_known && n_mir.dot(-p_mir) > 0 && p_mir.z() > o.near_m;
 
-  // Level of detail: footprint first, then the budget.
+  // Level of detail: footprint first, then the budget. level_at(T): the level for the tooth
+  // seen through T (cam from tooth; the reflected view's T holds the mirror's reflection, so
+  // its centre lies at the virtual image's distance, the camera-mirror-tooth path).
   Box tooth_box;
   for (const auto& g : im.chunks) tooth_box.add(g.box);
-  int level = 0;
   const int L = im.levels();
-  if (!tooth_box.empty()) {
-    const Eigen::Vector3d c =
-        T_cam_tooth * (0.5 * (tooth_box.lo + tooth_box.hi).cast<double>());
+  const auto level_at = [&](const Eigen::Affine3d& T) {
+    int level = 0;
+    if (tooth_box.empty()) return level;
+    const Eigen::Vector3d c = T * (0.5 * (tooth_box.lo + tooth_box.hi).cast<double>());
     const double m_per_px = std::max(c.z(), o.near_m) / im.view.pinhole.fx;
     // The budget in px of this frame: the same angle at every width above the reference.
     const double budget_px =
@@ -1136,10 +1215,25 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
       for (int l = 1; l < L; ++l)
         if (im.level_error_m[static_cast<std::size_t>(l)] / m_per_px <= budget_px)
           level = l;
+    // Session 23: triangles per pixel. A closed surface of area A shows A/4 of it projected
+    // on average (Cauchy) through about half its triangles, so a level's mean triangle covers
+    // ~ A / (2 n m_per_px^2) px. Coarser while that is under lod_min_triangle_px and the
+    // next level's error is within lod_triangle_max_error_px (px of this frame).
+    if (o.lod_min_triangle_px > 0)
+      while (level + 1 < L) {
+        const auto li = static_cast<std::size_t>(level);
+        const double n = static_cast<double>(im.level_tris[li]);
+        const double px_per_tri = n > 0 ? im.level_area_m2[li] / (2.0 * n * m_per_px * m_per_px) : 1e30;
+        if (!(px_per_tri < o.lod_min_triangle_px)) break;
+        if (im.level_error_m[li + 1] / m_per_px > o.lod_triangle_max_error_px) break;
+        ++level;
+      }
     if (o.triangle_budget > 0)
       while (level + 1 < L && im.level_tris[static_cast<std::size_t>(level)] > o.triangle_budget)
         ++level;
-  }
+    return level;
+  };
+  const int level = level_at(Eigen::Affine3d(T_cam_tooth.matrix()));
   out.lod_level = level;
 
   // Canvas region of everything drawn in colour.
@@ -1172,7 +1266,7 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
   // surface alone (LEQUAL) blended over what is there (premultiplied "over"). Leaves depth
   // writes on, blending off, the tint white, alpha 1 and the colour attachment only.
   const auto draw_expert = [&](const Eigen::Affine3d& A_exp, float alpha, GLenum depth_func) {
-    draw_buffers(false, false, false);
+    db(false, false, false);
     if (!in.expert.depth_tested) {
       // Overlaid: depth to far first (in the scissor, and in the mirror's stencil there), so
       // only the ghost's own surfaces compete. Nothing drawn after it needs the old depth:
@@ -1191,7 +1285,7 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     }
     im.draw_mesh(im.handpiece, A_exp);
     im.draw_mesh(im.bur, A_exp);
-    draw_buffers(true, false, false);
+    db(true, false, false);
     glDepthFunc(GL_LEQUAL);
     glDepthMask(GL_FALSE);
     glEnable(GL_BLEND);
@@ -1253,9 +1347,9 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     const Eigen::Affine3d A_mtag(in.T_cam_mtag.matrix());
     // 1. Phantoms: depth; the mannequin also leaves its albedo for the segmenter.
     if (o.phantoms) {
-      draw_buffers(false, false, true);
+      db(false, false, true);
       im.draw_clustered(im.mannequin, A_man, croi_px);
-      draw_buffers(false, false, false);
+      db(false, false, false);
       if (stylus) im.draw_mesh(im.handpiece, A_tip);
       if (mirror_known) {
         im.draw_mesh(im.mirror_body, A_mir);
@@ -1265,7 +1359,7 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     }
     // 2. Mirror reflection inside the visible part of the face.
     if (reflect) {
-      draw_buffers(false, false, false);
+      db(false, false, false);
       glEnable(GL_STENCIL_TEST);
       glStencilFunc(GL_ALWAYS, 1, 0xFF);
       glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
@@ -1291,23 +1385,40 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
       glUniform4f(im.u.plane, static_cast<float>(plane.x()), static_cast<float>(plane.y()),
                   static_cast<float>(plane.z()), static_cast<float>(plane.w()));
       glFrontFace(GL_CW);  // the reflection reverses the winding
-      if (o.phantoms) im.draw_clustered(im.mannequin, M * A_man, mirror_rect);
-      draw_buffers(true, false, false);
+      // Session 23: the reflected mannequin is depth only (no albedo: the segmenter reads the
+      // direct view's); a part wholly behind everything the reflection draws in colour hides
+      // nothing, so it is not drawn (phantom_depth_cull; the same pixels).
+      double refl_far = std::numeric_limits<double>::infinity();
+      if (o.phantom_depth_cull && !(expert && in.expert.depth_tested)) {
+        refl_far = -std::numeric_limits<double>::infinity();
+        const auto far_of = [&](const Box& b, const Eigen::Affine3d& T) {
+          for (int c = 0; c < 8; ++c) refl_far = std::max(refl_far, (T * b.corner(c).cast<double>()).z());
+        };
+        far_of(tooth_box, M * Eigen::Affine3d(T_cam_tooth.matrix()));
+        if (bur) far_of(im.bur_box, M * A_tip);
+      }
+      if (o.phantoms) im.draw_clustered(im.mannequin, M * A_man, mirror_rect, refl_far);
+      db(true, false, false);
       const float a = static_cast<float>(o.mirror_reflectance);
       glUniform1f(im.u.alpha, a);
       tooth_tint(true);
-      im.draw_tooth(M * Eigen::Affine3d(T_cam_tooth.matrix()), level, mirror_rect, &plane, out);
+      const Eigen::Affine3d A_refl = M * Eigen::Affine3d(T_cam_tooth.matrix());
+      // Session 23: the reflection's own level (its virtual image lies farther than the
+      // tooth: the same error in px allows a coarser mesh); reflection_lod = false: the
+      // direct view's level (before session 23).
+      im.draw_tooth(A_refl, o.reflection_lod ? std::max(level, level_at(A_refl)) : level, mirror_rect,
+                    &plane, out);
       tooth_tint(false);
       if (bur) im.draw_mesh(im.bur, M * A_tip);
       glUniform1f(im.u.alpha, 1.0f);
       if (expert) {
         draw_expert(M * Eigen::Affine3d(T_cam_exp.matrix()), a * static_cast<float>(in.expert.opacity), GL_LEQUAL);
-        draw_buffers(true, false, false);
+        db(true, false, false);
       }
       glFrontFace(GL_CCW);
       glUniform4f(im.u.plane, 0, 0, 0, 1);
       // The face's own depth back inside the stencil: it hides what is behind it.
-      draw_buffers(false, false, false);
+      db(false, false, false);
       glDepthFunc(GL_ALWAYS);
       im.draw_mesh(im.mirror_face, A_mir);
       glDepthFunc(GL_LEQUAL);
@@ -1316,7 +1427,7 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     }
     // 3. The tooth (coverage 1) and the bur (coverage 0: it hides the tooth).
     glDepthFunc(GL_LESS);
-    draw_buffers(true, true, false);
+    db(true, true, false);
     glUniform1f(im.u.tooth, 1.0f);
     tooth_tint(true);
     im.draw_tooth(Eigen::Affine3d(T_cam_tooth.matrix()), level, canvas_all, nullptr, out);
@@ -1330,6 +1441,7 @@ static cv::Rect draw_canvas(Compositor::Impl& im, const CompositeInput& in, Comp
     glBindVertexArray(0);
     glUseProgram(0);
     glDisable(GL_SCISSOR_TEST);
+    if (o.attachment_masks) glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);  // every buffer writable again
     if (finish) glFinish();
   }
   out.timing.render_ms = ms_since(t0);

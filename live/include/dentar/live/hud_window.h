@@ -34,6 +34,15 @@ namespace dentar::live {
 // BGR, not patch_rect's size, or not inside the frame).
 std::string upload_pixels(const cv::Mat& img, const cv::Mat& patch, const cv::Rect& patch_rect, bool gles,
                           cv::Mat& out);
+// Issue 28 session 23: the same at half size (the headset's half-size textures), straight from
+// the camera's YUYV: each texel from its 2x2 block's luma mean and its two rows' chroma mean
+// (a YUYV pixel pair shares its chroma), converted once (BT.601 limited range, OpenCV's
+// fixed-point coefficients), so the 3/4 of the frame's pixels that the half-size texture never
+// shows are not converted first (upload_pixels then a 2x2 box mean did). Inside the patch's
+// texels (its rectangle grown to even bounds) the pixels are exactly upload_pixels' then the
+// box mean. `img` must be YUYV of even width and height; else the error (nothing written).
+std::string upload_pixels_half(const cv::Mat& img, const cv::Mat& patch, const cv::Rect& patch_rect, bool gles,
+                               cv::Mat& out);
 
 class DisplayOutput;
 
@@ -120,6 +129,9 @@ class HudWindow {
   // intrinsics to the texture's size). An odd video size keeps 1. Takes effect at the next
   // set_video; the GPU path's frames (set_frame) are not scaled.
   void set_upload_scale(int s) { want_scale_ = s == 2 && tex_w_ % 2 == 0 && tex_h_ % 2 == 0 ? 2 : 1; }
+  // Session 23: a half-size texture of a YUYV frame converted at half size straight
+  // (upload_pixels_half, default) or, false, converted at full size then box-averaged (session 22).
+  void set_half_direct(bool direct) { half_direct_ = direct; }
   int upload_scale() const { return scale_; }
   // The display stage's profile (DisplayProfile): on/off, and the last frame's parts.
   void set_profile(bool on) { prof_.on = on, prof_.clear(); }
@@ -147,6 +159,7 @@ class HudWindow {
   cv::Mat half_, half_right_;
   unsigned tex_half_ = 0, tex_half_right_ = 0;
   int want_scale_ = 1, scale_ = 1;
+  bool half_direct_ = true;
   bool imgui_ = false;
   std::vector<int> presses_;
   std::set<int> held_;

@@ -156,6 +156,14 @@ struct LiveOptions {
   // eyes' decodes share one core), "frame" (the frame thread's CPUs: the two decodes on
   // different cores) or "any" (every CPU; on the engine's below its SCHED_FIFO).
   std::string capture_right_cpu = "engine";
+  // Issue 28 session 23 (--cpu-layout, cpu_layout.h): each thread's CPUs given by hand,
+  // "ROLE=CPUS,..." (roles engine, frame, eye, capture, capture-l, capture-r, display, raster,
+  // mesher); a role named replaces its default and the options above for it; "" = the defaults.
+  std::string cpu_layout;
+  // Issue 28 session 23: the half-size camera textures (--display-texture) of a YUYV frame:
+  // "direct" (default: converted at half size from the YUYV, hud_window.h upload_pixels_half) or
+  // "box" (converted at full size, then the 2x2 mean: session 22's; the A/B arm).
+  std::string display_half_convert = "direct";
   // Where the window's GL rasteriser (llvmpipe: one thread per display, made when the window
   // opens; it draws the headset's pre-warp pass) may run: "frame" (the frame thread's CPUs, off
   // the engine's; the default), "any" (the engine's CPU too, below its SCHED_FIFO), "auto" (any
@@ -368,7 +376,9 @@ struct LiveSummary {
   // the last frame shown (1 full, 2 half; 0 not the CPU path's headset view).
   std::string display_texture;
   int display_texture_scale = 0;
+  std::string display_half_convert;  // --display-half-convert (session 23), with a headset view's textures
   std::string capture_right_cpu;  // two cameras: --capture-right-cpu (session 22)
+  std::string cpu_layout;         // --cpu-layout as applied (session 23; "" = the defaults)
   double display_texture_ratio = 0;  // auto: camera px per window px at the lens centre (0: not computed)
   std::int64_t gpu_frames = 0, readback_px = 0, cpu_blend_px = 0;
   std::int64_t gl_frames_replaced = 0, gl_ready_timeouts = 0, gl_release_timeouts = 0;

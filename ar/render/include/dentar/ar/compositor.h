@@ -36,6 +36,10 @@
 // (lod_max_error_px) and then the triangle budget. Chunks whose box misses the view (or, for the
 // reflection, the mirror disc's screen box or the mirror's front side) are
 // not drawn. All tooth materials are drawn opaque in their material colours.
+// Phantom parts (the mannequin in cells of 1 cm, by the axis their faces turn to) are not
+// drawn when their screen box misses the region, when all their faces turn away from the eye
+// (cull_facing_away), or in the reflection when they lie wholly behind what it draws in colour
+// (phantom_depth_cull).
 //
 // A second tool (issue 27, the expert's tool of a lesson; CompositeInput::expert): the
 // bur and the handpiece at T_cam_exp = T_cam_man * T_man_tooth * T_tooth_exp, drawn after
@@ -121,6 +125,21 @@ struct CompositorOptions {
   // to, each group with its normal cone; back-face culling would drop every one of those
   // triangles after the vertex work). Same pixels either way (tested).
   bool cull_facing_away = true;
+  // Issue 28 session 23: in the mirror's reflection the mannequin is a depth-only phantom: its
+  // parts wholly farther than everything the reflection draws in colour (the tooth's and the
+  // bur's boxes) hide nothing and are not drawn. Same pixels either way (tested). Off when
+  // the expert's tool is depth-tested (it is drawn there too).
+  bool phantom_depth_cull = true;
+  // Issue 28 session 23: with cull_facing_away, the mannequin's parts whose faces all turn
+  // away from the eye are not drawn either (as the tooth's groups; the same pixels).
+  bool phantom_facing_cull = true;
+  // The mannequin's parts for culling: cubes of this edge (m; by triangle centroid, and by
+  // facing). Fixed at create().
+  double phantom_cell_m = 0.01;
+  // Issue 28 session 23: the canvas passes switch which attachments they write by write
+  // masks (glColorMaski), not by glDrawBuffers (a framebuffer change: llvmpipe flushes its
+  // queued work at each). Same pixels (tested). false = glDrawBuffers (before session 23).
+  bool attachment_masks = true;
   // Most tooth triangles to draw per view (direct and reflected each); the
   // level of detail is coarsened until the tooth fits. 0 = no limit.
   std::size_t triangle_budget = 0;
@@ -136,6 +155,20 @@ struct CompositorOptions {
   // Measured (docs/BENCHMARKS.md, "Issue 28 session 16"): the drawn outline's
   // distance to the full mesh's stays within its 640x480 value at 1920x1080.
   double lod_reference_width_px = 640;
+  // Issue 28 session 23: the reflected tooth gets its own level of detail by the same error
+  // budget at its virtual image's distance (camera to mirror to tooth: farther than the
+  // tooth, so coarser, never finer than the direct view's). false (default) = the direct
+  // view's level in the mirror too. Off by default: on the bench's footage it never chose
+  // another level (docs/BENCHMARKS.md, issue 28 session 23).
+  bool reflection_lod = false;
+  // Issue 28 session 23: triangles per pixel. After the error budget above, the level is
+  // coarsened while its mean triangle would cover fewer than this many px on screen (the
+  // level's total area A over its n triangles: ~A / (2 n) projected, a closed surface's mean)
+  // and the next level's error is at most lod_triangle_max_error_px px of this frame. Every
+  // level is made from the current volume's chunk meshes (re-made when a chunk changes), so
+  // a cut shows at every level. 0 = off (the error budget alone, before session 23).
+  double lod_min_triangle_px = 0;
+  double lod_triangle_max_error_px = 4;
   // Cluster cell of the coarser levels (1, 2, ...), voxels, increasing, each
   // dividing the chunk size 16.
   std::vector<int> lod_cell_voxels = {2, 4, 8};
