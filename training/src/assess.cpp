@@ -388,6 +388,15 @@ bool to_mat(const json& j, Eigen::MatrixXd& m) {
   }
   return true;
 }
+// A member of an object, or null when it is absent or `o` is no object:
+// nlohmann's const operator[] is undefined for a missing key (it read past the
+// map in the fuzz replay under valgrind, session 23).
+const json& member(const json& o, const char* key) {
+  static const json kNull;
+  if (!o.is_object()) return kNull;
+  const auto it = o.find(key);
+  return it == o.end() ? kNull : *it;
+}
 bool to_vec(const json& j, Eigen::VectorXd& v) {
   if (!j.is_array() || j.empty()) return false;
   v.resize(static_cast<Eigen::Index>(j.size()));
@@ -456,37 +465,41 @@ Result<SkillModel> model_from_json(const std::string& text, const std::string& n
   } catch (const json::exception& e) {
     return Error{name + ": " + e.what()};
   }
-  if (!to_vec(j["scaler"]["mean"], m.scaler.mean) || !to_vec(j["scaler"]["std"], m.scaler.std) ||
+  if (!to_vec(member(member(j, "scaler"), "mean"), m.scaler.mean) ||
+      !to_vec(member(member(j, "scaler"), "std"), m.scaler.std) ||
       m.scaler.mean.size() != m.scaler.std.size() || (m.scaler.std.array() <= 0).any())
     return bad("scaler");
   if (m.method == Method::kDiscreteHmm) {
     Eigen::MatrixXd c;
-    if (!to_mat(j["codebook"], c) || c.cols() != m.scaler.mean.size()) return bad("codebook");
+    if (!to_mat(member(j, "codebook"), c) || c.cols() != m.scaler.mean.size()) return bad("codebook");
     m.codebook.centroids = c;
   }
   if (!j.contains("models") || !j["models"].is_array() || j["models"].size() != m.labels.size()) return bad("models");
   for (std::size_t i = 0; i < m.labels.size(); ++i) {
-    const json& mj = j["models"][i];
+    const json& mj = j["models"][i];  // an array of labels.size(), checked above
     const std::string f = "models[" + std::to_string(i) + "]";
     if (m.method == Method::kDiscreteHmm) {
       DiscreteHmm h;
       Eigen::MatrixXd A, B;
-      if (!to_vec(mj["pi"], h.pi) || !to_mat(mj["A"], A) || !to_mat(mj["B"], B)) return bad(f);
+      if (!to_vec(member(mj, "pi"), h.pi) || !to_mat(member(mj, "A"), A) || !to_mat(member(mj, "B"), B)) return bad(f);
       h.A = A;
       h.B = B;
-      h.floor = mj.value("floor", 1e-4);
+      const json& fl = member(mj, "floor");
+      if (!fl.is_null() && !fl.is_number()) return bad(f + ".floor");
+      h.floor = fl.is_null() ? 1e-4 : fl.get<double>();
       if (std::string why = h.validate(); !why.empty()) return Error{name + ": " + f + ": " + why};
       if (h.symbols() != m.codebook.centroids.rows()) return Error{name + ": " + f + ": B has the wrong number of symbols"};
       m.dhmm.push_back(h);
     } else if (is_summary(m.method)) {
       Eigen::VectorXd c;
-      if (!to_vec(mj["centroid"], c) || c.size() != m.scaler.mean.size()) return bad(f + ".centroid");
+      if (!to_vec(member(mj, "centroid"), c) || c.size() != m.scaler.mean.size()) return bad(f + ".centroid");
       if (m.centroids.rows() == 0) m.centroids.resize(static_cast<Eigen::Index>(m.labels.size()), c.size());
       m.centroids.row(static_cast<Eigen::Index>(i)) = c.transpose();
     } else if (m.method == Method::kGaussianHmm) {
       GaussianHmm g;
       Eigen::MatrixXd A, mu, var;
-      if (!to_vec(mj["pi"], g.pi) || !to_mat(mj["A"], A) || !to_mat(mj["mean"], mu) || !to_mat(mj["var"], var)) return bad(f);
+      if (!to_vec(member(mj, "pi"), g.pi) || !to_mat(member(mj, "A"), A) || !to_mat(member(mj, "mean"), mu) ||
+          !to_mat(member(mj, "var"), var)) return bad(f);
       g.A = A;
       g.mean = mu;
       g.var = var;
@@ -495,8 +508,9 @@ Result<SkillModel> model_from_json(const std::string& text, const std::string& n
       m.ghmm.push_back(g);
     } else {
       std::vector<Sequence> tpl;
-      if (!mj.contains("templates") || !mj["templates"].is_array() || mj["templates"].empty()) return bad(f + ".templates");
-      for (const auto& tj : mj["templates"]) {
+      const json& tj_all = member(mj, "templates");
+      if (!tj_all.is_array() || tj_all.empty()) return bad(f + ".templates");
+      for (const auto& tj : tj_all) {
         Eigen::MatrixXd t;
         if (!to_mat(tj, t) || t.cols() != m.scaler.mean.size()) return bad(f + ".templates");
         tpl.push_back(t);
